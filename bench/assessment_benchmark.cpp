@@ -1,0 +1,96 @@
+// Terrain assessment time per stage and memory on the shared reference maps and a built-in
+// scene, at several resolutions. Run with --benchmark_repetitions=5 (the default below) and
+// read the median rows. Maps are looked up in $STRATA_MAPS_DIR (default ../shared/maps
+// relative to the working directory).
+
+#include <benchmark/benchmark.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+
+#include "offline/map_source.hpp"
+#include "strata/terrain_model.hpp"
+
+namespace {
+
+std::string MapsDir() {
+  const char* env = std::getenv("STRATA_MAPS_DIR");
+  return env != nullptr ? env : "../shared/maps";
+}
+
+void BM_Load(benchmark::State& state, const std::string& source) {
+  for (auto _ : state) {
+    auto cloud = strata::offline::LoadMapSource(source);
+    if (!cloud) {
+      state.SkipWithError(cloud.error().message.c_str());
+      return;
+    }
+    benchmark::DoNotOptimize(cloud->points.data());
+  }
+}
+
+void BM_Assess(benchmark::State& state, const std::string& source, double resolution_m) {
+  auto cloud = strata::offline::LoadMapSource(source);
+  if (!cloud) {
+    state.SkipWithError(cloud.error().message.c_str());
+    return;
+  }
+  strata::AssessmentConfig config;
+  config.grid.resolution_m = resolution_m;
+  strata::AssessmentTimings sum;
+  std::size_t memory = 0;
+  std::int64_t cells = 0;
+  for (auto _ : state) {
+    auto model = strata::TerrainModel::Assess(cloud->points, config);
+    if (!model) {
+      state.SkipWithError(model.error().message.c_str());
+      return;
+    }
+    const auto& t = (*model)->summary().timings;
+    sum.ground_filter_s += t.ground_filter_s;
+    sum.esdf_s += t.esdf_s;
+    sum.field_s += t.field_s;
+    memory = (*model)->MemoryBytes();
+    cells = (*model)->grid().CellCount();
+  }
+  const double n = static_cast<double>(state.iterations());
+  state.counters["vgf_s"] = sum.ground_filter_s / n;
+  state.counters["esdf_s"] = sum.esdf_s / n;
+  state.counters["field_s"] = sum.field_s / n;
+  state.counters["memory_MB"] = memory / 1.0e6;
+  state.counters["cells"] = static_cast<double>(cells);
+  state.counters["bytes_per_cell"] = static_cast<double>(memory) / static_cast<double>(cells);
+}
+
+void RegisterAll() {
+  const std::string dir = MapsDir();
+  const std::pair<std::string, std::string> maps[] = {
+      {"scene20.2", dir + "/scene20.2.pcd"},
+      {"spiral0.3_2", dir + "/spiral0.3_2.pcd"},
+  };
+  for (const auto& [name, path] : maps) {
+    if (!std::filesystem::exists(path)) continue;
+    benchmark::RegisterBenchmark(("Load/" + name).c_str(), BM_Load, path)
+        ->Unit(benchmark::kMillisecond)->Repetitions(5)->ReportAggregatesOnly(true);
+    for (const double r : {0.1, 0.2, 0.3}) {
+      benchmark::RegisterBenchmark(("Assess/" + name + "/" + std::to_string(r).substr(0, 3)).c_str(),
+                                   BM_Assess, path, r)
+          ->Unit(benchmark::kMillisecond)->Repetitions(5)->ReportAggregatesOnly(true)
+          ->UseRealTime();
+    }
+  }
+  benchmark::RegisterBenchmark("Assess/two_level_ramp/0.1", BM_Assess,
+                               std::string("scene:two_level_ramp"), 0.1)
+      ->Unit(benchmark::kMillisecond)->Repetitions(5)->ReportAggregatesOnly(true)->UseRealTime();
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  RegisterAll();
+  benchmark::Initialize(&argc, argv);
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}

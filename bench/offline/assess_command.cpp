@@ -1,0 +1,138 @@
+#include "offline/assess_command.hpp"
+
+#include <chrono>
+#include <cstdio>
+#include <numbers>
+#include <optional>
+
+#include <nlohmann/json.hpp>
+
+#include "offline/map_source.hpp"
+#include "strata/terrain_model.hpp"
+
+namespace strata::offline {
+namespace {
+
+struct AssessArgs {
+  std::string map;
+  AssessmentConfig config;
+  bool json = false;
+};
+
+std::optional<double> ParseNumber(const std::string& text) {
+  try {
+    std::size_t used = 0;
+    const double v = std::stod(text, &used);
+    if (used == text.size()) return v;
+  } catch (const std::exception&) {
+  }
+  return std::nullopt;
+}
+
+// Returns an error message, or nothing when the arguments parsed.
+std::optional<std::string> ParseArgs(const std::vector<std::string>& args, AssessArgs* out) {
+  for (std::size_t i = 0; i < args.size(); ++i) {
+    const std::string& a = args[i];
+    if (a == "--json") {
+      out->json = true;
+      continue;
+    }
+    if (a == "--resolution" || a == "--radius" || a == "--max-tilt-deg" || a == "--threads") {
+      if (i + 1 >= args.size()) return a + " needs a value";
+      const std::optional<double> v = ParseNumber(args[++i]);
+      if (!v) return a + " needs a number, got '" + args[i] + "'";
+      if (a == "--resolution") out->config.grid.resolution_m = *v;
+      if (a == "--radius") out->config.ground.radius_m = *v;
+      if (a == "--max-tilt-deg") out->config.ground.max_tilt_rad = *v * std::numbers::pi / 180;
+      if (a == "--threads") out->config.num_threads = static_cast<int>(*v);
+      continue;
+    }
+    if (a.starts_with("--")) return "unknown option " + a;
+    if (!out->map.empty()) return "more than one MAP given ('" + out->map + "', '" + a + "')";
+    out->map = a;
+  }
+  if (out->map.empty()) return "MAP is missing";
+  return std::nullopt;
+}
+
+nlohmann::json SummaryJson(const std::string& map, const LoadedCloud& cloud, double load_s,
+                           const TerrainModel& model) {
+  const AssessmentSummary& s = model.summary();
+  const GridGeometry& g = model.grid();
+  const AssessmentTimings& t = s.timings;
+  return {
+      {"map", map},
+      {"points",
+       {{"raw", cloud.raw_point_count},
+        {"dropped_nonfinite", cloud.dropped_nonfinite},
+        {"input", s.input_points},
+        {"valid_ground", s.valid_ground_points}}},
+      {"grid",
+       {{"size", {g.size.x(), g.size.y(), g.size.z()}},
+        {"cells", g.CellCount()},
+        {"resolution_m", g.resolution_m},
+        {"origin_m", {g.origin_m.x(), g.origin_m.y(), g.origin_m.z()}}}},
+      {"surfaces", {{"total", s.surface_count}, {"valid", s.valid_surface_count}}},
+      {"memory_bytes", model.MemoryBytes()},
+      {"seconds",
+       {{"load", load_s},
+        {"ground_filter", t.ground_filter_s},
+        {"esdf", t.esdf_s},
+        {"field", t.field_s},
+        {"total", load_s + t.total_s}}},
+  };
+}
+
+void PrintHuman(const nlohmann::json& j) {
+  const auto& p = j["points"];
+  const auto& g = j["grid"];
+  const auto& s = j["seconds"];
+  std::printf("map            %s\n", j["map"].get<std::string>().c_str());
+  std::printf("points         %zu raw, %zu dropped (non-finite), %zu valid ground\n",
+              p["raw"].get<std::size_t>(), p["dropped_nonfinite"].get<std::size_t>(),
+              p["valid_ground"].get<std::size_t>());
+  std::printf("grid           %d x %d x %d cells at %.3f m (%lld cells)\n",
+              g["size"][0].get<int>(), g["size"][1].get<int>(), g["size"][2].get<int>(),
+              g["resolution_m"].get<double>(), g["cells"].get<long long>());
+  std::printf("surfaces       %zu, of which %zu valid ground\n",
+              j["surfaces"]["total"].get<std::size_t>(), j["surfaces"]["valid"].get<std::size_t>());
+  std::printf("memory         %.1f MB (%zu bytes)\n",
+              j["memory_bytes"].get<std::size_t>() / 1.0e6, j["memory_bytes"].get<std::size_t>());
+  std::printf("seconds        load %.3f, ground filter %.3f, esdf %.3f, field %.3f, total %.3f\n",
+              s["load"].get<double>(), s["ground_filter"].get<double>(),
+              s["esdf"].get<double>(), s["field"].get<double>(), s["total"].get<double>());
+}
+
+}  // namespace
+
+int RunAssess(const std::vector<std::string>& args) {
+  AssessArgs parsed;
+  if (const auto problem = ParseArgs(args, &parsed)) {
+    std::fprintf(stderr, "strata-offline assess: %s\n", problem->c_str());
+    return 2;
+  }
+  const auto start = std::chrono::steady_clock::now();
+  Expected<LoadedCloud> cloud = LoadMapSource(parsed.map);
+  const double load_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  if (!cloud) {
+    std::fprintf(stderr, "strata-offline assess: %s: %s\n", ErrorCodeName(cloud.error().code),
+                 cloud.error().message.c_str());
+    return 1;
+  }
+  auto model = TerrainModel::Assess(cloud->points, parsed.config);
+  if (!model) {
+    std::fprintf(stderr, "strata-offline assess: %s: %s\n", ErrorCodeName(model.error().code),
+                 model.error().message.c_str());
+    return 1;
+  }
+  const nlohmann::json summary = SummaryJson(parsed.map, *cloud, load_s, **model);
+  if (parsed.json) {
+    std::printf("%s\n", summary.dump(2).c_str());
+  } else {
+    PrintHuman(summary);
+  }
+  return 0;
+}
+
+}  // namespace strata::offline

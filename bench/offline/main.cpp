@@ -1,0 +1,32 @@
+// strata-offline: the planner's command-line front end for work without a server.
+
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "offline/assess_command.hpp"
+
+namespace {
+
+constexpr const char* kUsage =
+    "usage: strata-offline COMMAND [ARGS]\n"
+    "\n"
+    "commands:\n"
+    "  assess MAP [--resolution M] [--radius M] [--max-tilt-deg D] [--threads N] [--json]\n"
+    "      Terrain assessment of MAP: a .pcd/.ply/.bt/.ot file or a built-in scene\n"
+    "      (scene:NAME or scene:NAME:SEED; NAME is stairs_ramp_room, two_level_ramp or\n"
+    "      uneven_terrain). Prints point counts, grid, memory and seconds per stage.\n";
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const std::vector<std::string> args(argv + 1, argv + argc);
+  if (args.empty() || args[0] == "-h" || args[0] == "--help") {
+    std::fputs(kUsage, args.empty() ? stderr : stdout);
+    return args.empty() ? 2 : 0;
+  }
+  const std::vector<std::string> rest(args.begin() + 1, args.end());
+  if (args[0] == "assess") return strata::offline::RunAssess(rest);
+  std::fprintf(stderr, "strata-offline: unknown command '%s'\n\n%s", args[0].c_str(), kUsage);
+  return 2;
+}

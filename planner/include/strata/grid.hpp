@@ -1,0 +1,70 @@
+#pragma once
+/// A regular 3D grid over the map and a dense scalar field on it with trilinear interpolation.
+/// Cell (ix, iy, iz) spans [origin + i·r, origin + (i+1)·r) on each axis; values live at cell
+/// centres. Storage is x-fastest, so one horizontal layer is contiguous.
+
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "strata/status.hpp"
+
+namespace strata {
+
+/// Placement and size of the grid.
+struct GridGeometry {
+  Eigen::Vector3d origin_m = Eigen::Vector3d::Zero();  ///< Min corner of cell (0,0,0) [m].
+  double resolution_m = 0.2;                           ///< Cell edge [m], > 0.
+  Eigen::Vector3i size = Eigen::Vector3i::Zero();      ///< Cells per axis [-], >= 1.
+
+  std::int64_t CellCount() const {
+    return std::int64_t{size.x()} * size.y() * size.z();
+  }
+  std::int64_t LayerCellCount() const { return std::int64_t{size.x()} * size.y(); }
+  std::int64_t Index(int ix, int iy, int iz) const {
+    return ix + std::int64_t{size.x()} * (iy + std::int64_t{size.y()} * iz);
+  }
+  std::int64_t Index(const Eigen::Vector3i& c) const { return Index(c.x(), c.y(), c.z()); }
+  bool Contains(const Eigen::Vector3i& c) const {
+    return (c.array() >= 0).all() && (c.array() < size.array()).all();
+  }
+  /// The cell holding p (may lie outside the grid; check with Contains).
+  Eigen::Vector3i CellOf(const Eigen::Vector3d& p) const {
+    return ((p - origin_m) / resolution_m).array().floor().cast<int>();
+  }
+  Eigen::Vector3d CellCenter(const Eigen::Vector3i& c) const {
+    return origin_m + (c.cast<double>().array() + 0.5).matrix() * resolution_m;
+  }
+};
+
+/// A grid covering `bounds` grown by `padding_m` on every side. Fails with kResourceExhausted
+/// when it would need more than `max_cells` cells (e.g. absurd coordinates), and with
+/// kInvalidInput for an empty box or a non-positive resolution.
+Expected<GridGeometry> MakeGridGeometry(const Eigen::AlignedBox3d& bounds, double resolution_m,
+                                        double padding_m, std::int64_t max_cells);
+
+/// Dense float values at cell centres, sampled by trilinear interpolation.
+class ScalarGrid {
+ public:
+  ScalarGrid() = default;
+  ScalarGrid(const GridGeometry& geometry, std::vector<float> values);
+
+  const GridGeometry& geometry() const { return geometry_; }
+  const std::vector<float>& values() const { return values_; }
+  float at(int ix, int iy, int iz) const { return values_[geometry_.Index(ix, iy, iz)]; }
+
+  /// Trilinear interpolation of the centre values at p. Outside the hull of cell centres the
+  /// position is clamped onto it (the gradient's clamped components are then zero). When
+  /// `gradient` is non-null it receives the exact gradient of the interpolant [unit/m].
+  double Sample(const Eigen::Vector3d& p, Eigen::Vector3d* gradient = nullptr) const;
+
+  std::size_t MemoryBytes() const { return values_.capacity() * sizeof(float); }
+
+ private:
+  GridGeometry geometry_;
+  std::vector<float> values_;
+};
+
+}  // namespace strata

@@ -1,0 +1,31 @@
+#pragma once
+/// Valid Ground Filter (paper Sec. III, eq. 1, Alg. 1, Fig. 2; DESIGN.md §5).
+
+#include <cstdint>
+#include <vector>
+
+#include "strata/point_cloud.hpp"
+#include "strata/terrain_config.hpp"
+
+namespace strata {
+
+/// Marks the points a robot can stand on. A point p is valid when every neighbour q within
+/// distance `radius_m` of p that lies above p does so at an elevation angle
+/// atan((q_z − p_z) / ‖q_xy − p_xy‖) below `max_tilt_rad`: nothing overhead within r (the
+/// paper's point D), no wall beside it (B), no slope steeper than θ rising from it (C).
+/// With config.height_tolerance_m = ε > 0 the test is atan((q_z − p_z − ε) / ‖q_xy − p_xy‖) < θ
+/// for neighbours with q_z − p_z > ε, so millimetre noise on flat ground does not count.
+///
+/// This is the rule the paper's text and figure describe. Eq. 1 as printed computes the angle
+/// as atan((p_z − q_z)/…), which is negative for the neighbours above it is meant to test, and
+/// Alg. 1 as printed tests the neighbours below and adds p on the first one that passes; both
+/// are slips, so neither is followed literally.
+///
+/// Neighbours come from a kd-tree (PCL's FLANN); points are processed in parallel with
+/// `num_threads` threads (0 = every core). Returns one flag per point (1 = valid ground).
+/// Precondition: config.Validate() is ok and every point is finite.
+std::vector<std::uint8_t> FilterValidGround(const PointCloud& cloud,
+                                            const GroundFilterConfig& config,
+                                            int num_threads = 0);
+
+}  // namespace strata

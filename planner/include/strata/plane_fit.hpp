@@ -1,0 +1,28 @@
+#pragma once
+/// Local plane fit for the safety penalty field (paper Sec. IV): RANSAC, then least squares on
+/// the inliers.
+
+#include <span>
+
+#include <Eigen/Core>
+
+namespace strata {
+
+/// A fitted plane.
+struct PlaneFit {
+  Eigen::Vector3d center_m = Eigen::Vector3d::Zero();  ///< Centroid of the inliers p_c [m].
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();   ///< Unit normal, n_z >= 0.
+  double tilt_rad = 0.0;  ///< φ = angle(normal, z), folded so that φ = min(φ, π − φ) [rad].
+  int inlier_count = 0;   ///< Points within the inlier distance of the plane.
+};
+
+/// Fits a plane to `points` (at least 3). RANSAC (PCL's sample consensus, at most
+/// `ransac_iterations` hypotheses, inlier band ±`inlier_distance_m`) picks the dominant plane,
+/// then a least-squares fit on its inliers refines it. When the least-squares plane of all
+/// points already holds every point within the band there is no outlier to reject, so RANSAC
+/// is skipped: on clean floors and ramps (most patches) the fit costs one 3×3 eigensolve.
+/// Returns inlier_count = 0 for fewer than 3 points or a degenerate (collinear) patch.
+PlaneFit FitLocalPlane(std::span<const Eigen::Vector3f> points, double inlier_distance_m,
+                       int ransac_iterations);
+
+}  // namespace strata

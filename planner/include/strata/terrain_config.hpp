@@ -1,0 +1,70 @@
+#pragma once
+/// Parameters of terrain assessment, one struct per stage. Every field documents its unit and
+/// valid range; Validate() names the first bad field.
+
+#include <cstdint>
+#include <numbers>
+
+#include "strata/status.hpp"
+
+namespace strata {
+
+/// Valid Ground Filter (paper Sec. III, eq. 1; DESIGN.md §5).
+struct GroundFilterConfig {
+  /// Neighbourhood radius r [m], > 0. At least the radius of the sphere enclosing the robot.
+  double radius_m = 0.3;
+  /// Steepest slope θ the robot may stand on [rad], in (0, π/2).
+  double max_tilt_rad = 20.0 * std::numbers::pi / 180.0;
+  /// Height noise tolerated [m], >= 0: a neighbour above blocks p only when it rises more than
+  /// tan(θ)·(horizontal distance) + this. Keeps sensor noise on a flat floor from rejecting it;
+  /// 0 gives the paper's rule exactly.
+  double height_tolerance_m = 0.02;
+
+  Status Validate() const;
+};
+
+/// The 3D grid the ESDF and the safety penalty field live on.
+struct GridConfig {
+  double resolution_m = 0.2;  ///< Cell edge r_g [m], in [0.02, 5].
+  /// Margin added around the cloud's bounds [m], >= 0; room above the top surface for the
+  /// robot's body and for the optimiser to push against.
+  double padding_m = 1.0;
+  /// Largest grid accepted [cells], > 0. Dense fields cost about 9 bytes per cell.
+  std::int64_t max_cells = 300'000'000;
+
+  Status Validate() const;
+};
+
+/// Safety penalty field S and its diffusion S' (paper Sec. IV).
+struct FieldConfig {
+  double weight_tilt = 1.0;          ///< λ_f, weight of φ² [1/rad²], >= 0.
+  double weight_pose_change = 1.0;   ///< λ_m, weight of sqrt(‖∇H‖) [-], >= 0.
+  /// Diffusion distance t of the cone kernel [m], >= 0 (0 disables diffusion: S' = S).
+  double diffusion_distance_m = 0.4;
+  /// Radius of the neighbourhood used for the local plane fit [m], > 0.
+  double plane_fit_radius_m = 0.35;
+  /// A point within this distance of a candidate plane is a RANSAC inlier [m], > 0.
+  double plane_inlier_distance_m = 0.05;
+  /// RANSAC iterations per patch that is not already a clean plane [-], >= 1.
+  int plane_ransac_iterations = 64;
+  /// Cap on ‖∇H‖ [1/m]; also the value used where a neighbour has no surface below, so a
+  /// void (a wall's inside, a drop into nothing) gets the largest pose-change penalty, > 0.
+  double max_pose_gradient_per_m = 25.0;
+
+  Status Validate() const;
+  /// Penalty where no surface lies below: λ_f (π/2)² + λ_m sqrt(max ‖∇H‖).
+  double VoidPenalty() const;
+};
+
+/// Everything terrain assessment needs.
+struct AssessmentConfig {
+  GroundFilterConfig ground;
+  GridConfig grid;
+  FieldConfig field;
+  /// Worker threads for the parallel stages [-], >= 0; 0 uses every core.
+  int num_threads = 0;
+
+  Status Validate() const;
+};
+
+}  // namespace strata

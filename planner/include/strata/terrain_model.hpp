@@ -1,0 +1,94 @@
+#pragma once
+/// The result of terrain assessment (paper Secs. III–IV): immutable once built and shared
+/// read-only by every planning request on the map.
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <span>
+
+#include <Eigen/Core>
+
+#include "strata/grid.hpp"
+#include "strata/point_cloud.hpp"
+#include "strata/status.hpp"
+#include "strata/surface_map.hpp"
+#include "strata/terrain_config.hpp"
+
+namespace strata {
+
+/// Wall-clock seconds spent in each assessment stage.
+struct AssessmentTimings {
+  double ground_filter_s = 0;  ///< Valid Ground Filter.
+  double esdf_s = 0;           ///< Grid geometry, occupancy and signed distance field.
+  double field_s = 0;          ///< Surfaces, plane fits, S and its diffusion S'.
+  double total_s = 0;          ///< All of the above (excludes loading the file).
+};
+
+/// Counts and figures reported for an assessed map.
+struct AssessmentSummary {
+  std::size_t input_points = 0;         ///< Finite points assessed.
+  std::size_t valid_ground_points = 0;  ///< Points kept by the Valid Ground Filter (M^s).
+  std::size_t surface_count = 0;        ///< Column surfaces (levels) of any kind.
+  std::size_t valid_surface_count = 0;  ///< Column surfaces holding valid ground.
+  Eigen::AlignedBox3d cloud_bounds_m;   ///< Bounding box of the input points [m].
+  AssessmentTimings timings;
+};
+
+/// An assessed map: ESDF d, safety penalty field S', and the surfaces of every column.
+class TerrainModel {
+ public:
+  /// Assesses `cloud` (finite points, e.g. from LoadPointCloud or SanitizeCloud). Fails with
+  /// kInvalidConfig naming the bad field, kInvalidInput for an empty cloud, or
+  /// kResourceExhausted when the grid would exceed config.grid.max_cells.
+  static Expected<std::shared_ptr<const TerrainModel>> Assess(const PointCloud& cloud,
+                                                              const AssessmentConfig& config);
+
+  const AssessmentConfig& config() const { return config_; }
+  const GridGeometry& grid() const { return surfaces_.geometry(); }
+  const AssessmentSummary& summary() const { return summary_; }
+  const SurfaceMap& surfaces() const { return surfaces_; }
+  const ScalarGrid& distance_field() const { return esdf_; }
+  const ScalarGrid& safety_field() const { return safety_; }
+
+  /// Signed distance to the nearest obstacle d(p) [m], trilinear; gradient optional [-].
+  double Distance(const Eigen::Vector3d& p, Eigen::Vector3d* gradient = nullptr) const {
+    return esdf_.Sample(p, gradient);
+  }
+  /// Diffused safety penalty S'(p) [-], trilinear; gradient optional [1/m].
+  double SafetyPenalty(const Eigen::Vector3d& p, Eigen::Vector3d* gradient = nullptr) const {
+    return safety_.Sample(p, gradient);
+  }
+
+  /// The surfaces (levels) in the column holding p's x and y, lowest first; empty outside.
+  std::span<const ColumnSurface> LevelsAt(const Eigen::Vector3d& p) const;
+
+  /// The surface p projects down onto (the highest one at or below p's cell), if any.
+  const ColumnSurface* SurfaceBelow(const Eigen::Vector3d& p) const;
+
+  /// Height of the valid ground directly below p [m], or nothing when p is inside an
+  /// obstacle, outside the grid, or above a surface that is not valid ground.
+  std::optional<double> GroundHeightBelow(const Eigen::Vector3d& p) const;
+
+  /// True when grid cell `cell` holds the point `reference_height_m` above a valid surface of
+  /// its column whose tilt is within the ground filter's θ and whose clearance is at least
+  /// `body_height_m`: a robot can stand there with its reference point in this cell.
+  bool IsTraversable(const Eigen::Vector3i& cell, double reference_height_m,
+                     double body_height_m) const;
+
+  /// Bytes held by the model (fields and surfaces), not counting the object itself.
+  std::size_t MemoryBytes() const {
+    return esdf_.MemoryBytes() + safety_.MemoryBytes() + surfaces_.MemoryBytes();
+  }
+
+ private:
+  TerrainModel() = default;
+
+  AssessmentConfig config_;
+  AssessmentSummary summary_;
+  SurfaceMap surfaces_;
+  ScalarGrid esdf_;
+  ScalarGrid safety_;
+};
+
+}  // namespace strata

@@ -1,0 +1,89 @@
+#include "strata/plane_fit.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/Eigenvalues>
+#include <pcl/point_types.h>
+#include <pcl/sample_consensus/ransac.h>
+#include <pcl/sample_consensus/sac_model_plane.h>
+
+namespace strata {
+namespace {
+
+// Least-squares plane through the points selected by `take`: the normal is the eigenvector of
+// the covariance with the smallest eigenvalue. Returns false when the points are collinear.
+template <typename Take>
+bool LeastSquaresPlane(std::span<const Eigen::Vector3f> points, Take take, PlaneFit* fit) {
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  int count = 0;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    if (!take(i)) continue;
+    sum += points[i].cast<double>();
+    ++count;
+  }
+  if (count < 3) return false;
+  const Eigen::Vector3d centroid = sum / count;
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    if (!take(i)) continue;
+    const Eigen::Vector3d d = points[i].cast<double>() - centroid;
+    covariance += d * d.transpose();
+  }
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver;
+  solver.computeDirect(covariance);
+  const Eigen::Vector3d eigenvalues = solver.eigenvalues();
+  // Collinear (or coincident) points: the two largest spreads dominate a zero middle one.
+  if (eigenvalues(1) <= 1e-12 * std::max(1.0, eigenvalues(2))) return false;
+  Eigen::Vector3d normal = solver.eigenvectors().col(0).normalized();
+  if (normal.z() < 0) normal = -normal;
+  fit->center_m = centroid;
+  fit->normal = normal;
+  // |n_z| folds φ and π − φ together, as the paper asks.
+  fit->tilt_rad = std::acos(std::clamp(normal.z(), 0.0, 1.0));
+  fit->inlier_count = count;
+  return true;
+}
+
+double MaxResidual(std::span<const Eigen::Vector3f> points, const PlaneFit& fit) {
+  double worst = 0.0;
+  for (const auto& p : points) {
+    worst = std::max(worst, std::abs(fit.normal.dot(p.cast<double>() - fit.center_m)));
+  }
+  return worst;
+}
+
+}  // namespace
+
+PlaneFit FitLocalPlane(std::span<const Eigen::Vector3f> points, double inlier_distance_m,
+                       int ransac_iterations) {
+  PlaneFit fit;
+  fit.inlier_count = 0;
+  if (points.size() < 3) return fit;
+  const auto all = [](std::size_t) { return true; };
+  if (!LeastSquaresPlane(points, all, &fit)) {
+    fit.inlier_count = 0;
+    return fit;
+  }
+  if (MaxResidual(points, fit) <= inlier_distance_m) return fit;
+
+  auto cloud = std::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
+  cloud->resize(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) (*cloud)[i].getVector3fMap() = points[i];
+  // PCL seeds the model's sampler with a fixed value unless asked otherwise: deterministic.
+  auto model = std::make_shared<pcl::SampleConsensusModelPlane<pcl::PointXYZ>>(cloud);
+  pcl::RandomSampleConsensus<pcl::PointXYZ> ransac(model, inlier_distance_m);
+  ransac.setMaxIterations(ransac_iterations);
+  if (!ransac.computeModel()) return fit;  // Keep the all-points fit.
+  pcl::Indices inliers;
+  ransac.getInliers(inliers);
+  std::vector<std::uint8_t> is_inlier(points.size(), 0);
+  for (const auto i : inliers) is_inlier[i] = 1;
+  PlaneFit refined;
+  if (LeastSquaresPlane(points, [&](std::size_t i) { return is_inlier[i] != 0; }, &refined)) {
+    return refined;
+  }
+  return fit;
+}
+
+}  // namespace strata

@@ -1,0 +1,189 @@
+#include "strata/surface_map.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+#include <omp.h>
+
+#include "strata/plane_fit.hpp"
+
+namespace strata {
+namespace {
+
+// The cloud regrouped by column, each column sorted by height, so that runs and plane-fit
+// neighbourhoods are contiguous scans instead of tree queries.
+struct ColumnSortedCloud {
+  std::vector<std::uint32_t> begin;  // Per column, offset into points; size columns + 1.
+  std::vector<Eigen::Vector3f> points;
+  std::vector<std::uint8_t> valid;
+};
+
+int ClampedLayer(const GridGeometry& g, float z) {
+  const int layer = static_cast<int>(std::floor((z - g.origin_m.z()) / g.resolution_m));
+  return std::clamp(layer, 0, g.size.z() - 1);
+}
+
+ColumnSortedCloud SortByColumn(const GridGeometry& g, const PointCloud& cloud,
+                               const std::vector<std::uint8_t>& valid_ground, int threads) {
+  const std::int64_t columns = g.LayerCellCount();
+  std::vector<std::uint32_t> column_of(cloud.size());
+  ColumnSortedCloud out;
+  out.begin.assign(columns + 1, 0);
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    const Eigen::Vector3i c = g.CellOf(cloud[i].cast<double>());
+    const int ix = std::clamp(c.x(), 0, g.size.x() - 1);
+    const int iy = std::clamp(c.y(), 0, g.size.y() - 1);
+    column_of[i] = static_cast<std::uint32_t>(ix + g.size.x() * std::int64_t{iy});
+    ++out.begin[column_of[i] + 1];
+  }
+  for (std::int64_t c = 0; c < columns; ++c) out.begin[c + 1] += out.begin[c];
+  std::vector<std::uint32_t> next(out.begin.begin(), out.begin.end() - 1);
+  std::vector<std::uint32_t> order(cloud.size());
+  for (std::size_t i = 0; i < cloud.size(); ++i) order[next[column_of[i]]++] = i;
+
+#pragma omp parallel for schedule(dynamic, 1024) num_threads(threads)
+  for (std::int64_t c = 0; c < columns; ++c) {
+    std::sort(order.begin() + out.begin[c], order.begin() + out.begin[c + 1],
+              [&](std::uint32_t a, std::uint32_t b) { return cloud[a].z() < cloud[b].z(); });
+  }
+  out.points.resize(cloud.size());
+  out.valid.resize(cloud.size());
+  for (std::size_t k = 0; k < order.size(); ++k) {
+    out.points[k] = cloud[order[k]];
+    out.valid[k] = valid_ground[order[k]];
+  }
+  return out;
+}
+
+// Calls emit(run) for every run of vertically adjacent occupied cells in one sorted column.
+template <typename Emit>
+void ForEachRun(const GridGeometry& g, const ColumnSortedCloud& sorted, std::int64_t column,
+                Emit emit) {
+  const std::uint32_t first = sorted.begin[column];
+  const std::uint32_t last = sorted.begin[column + 1];
+  std::uint32_t run_start = first;
+  while (run_start < last) {
+    int top = ClampedLayer(g, sorted.points[run_start].z());
+    const int bottom = top;
+    std::uint32_t k = run_start + 1;
+    for (; k < last; ++k) {
+      const int layer = ClampedLayer(g, sorted.points[k].z());
+      if (layer > top + 1) break;
+      top = std::max(top, layer);
+    }
+    ColumnSurface s;
+    s.bottom_layer = bottom;
+    s.top_layer = top;
+    float highest = -std::numeric_limits<float>::infinity();
+    float highest_valid = highest;
+    for (std::uint32_t j = k; j-- > run_start;) {
+      if (ClampedLayer(g, sorted.points[j].z()) != top) break;
+      highest = std::max(highest, sorted.points[j].z());
+      if (sorted.valid[j]) highest_valid = std::max(highest_valid, sorted.points[j].z());
+    }
+    s.valid = std::isfinite(highest_valid);
+    s.ground_z_m = s.valid ? highest_valid : highest;
+    // The next run's lowest point caps the clearance; set by the caller once it is known.
+    s.clearance_m = std::numeric_limits<float>::infinity();
+    emit(s, sorted.points[run_start].z());
+    run_start = k;
+  }
+}
+
+// Gathers the points within `radius` of `centre` from the columns around (ix, iy).
+void GatherNeighbourhood(const GridGeometry& g, const ColumnSortedCloud& sorted, int ix, int iy,
+                         const Eigen::Vector3f& centre, float radius,
+                         std::vector<Eigen::Vector3f>* out) {
+  out->clear();
+  const int reach = static_cast<int>(std::ceil(radius / g.resolution_m));
+  const float radius_sq = radius * radius;
+  for (int y = std::max(0, iy - reach); y <= std::min(g.size.y() - 1, iy + reach); ++y) {
+    for (int x = std::max(0, ix - reach); x <= std::min(g.size.x() - 1, ix + reach); ++x) {
+      const std::int64_t c = x + g.size.x() * std::int64_t{y};
+      const auto begin = sorted.points.begin() + sorted.begin[c];
+      const auto end = sorted.points.begin() + sorted.begin[c + 1];
+      auto it = std::lower_bound(begin, end, centre.z() - radius,
+                                 [](const Eigen::Vector3f& p, float z) { return p.z() < z; });
+      for (; it != end && it->z() <= centre.z() + radius; ++it) {
+        if ((*it - centre).squaredNorm() <= radius_sq) out->push_back(*it);
+      }
+    }
+  }
+}
+
+}  // namespace
+
+SurfaceMap SurfaceMap::Build(const GridGeometry& geometry, const PointCloud& cloud,
+                             const std::vector<std::uint8_t>& valid_ground,
+                             const FieldConfig& field, int num_threads) {
+  if (num_threads <= 0) num_threads = omp_get_num_procs();
+  const GridGeometry& g = geometry;
+  const std::int64_t columns = g.LayerCellCount();
+  const ColumnSortedCloud sorted = SortByColumn(g, cloud, valid_ground, num_threads);
+
+  SurfaceMap map;
+  map.geometry_ = geometry;
+  map.column_begin_.assign(columns + 1, 0);
+#pragma omp parallel for schedule(dynamic, 1024) num_threads(num_threads)
+  for (std::int64_t c = 0; c < columns; ++c) {
+    std::uint32_t runs = 0;
+    ForEachRun(g, sorted, c, [&](const ColumnSurface&, float) { ++runs; });
+    map.column_begin_[c + 1] = runs;
+  }
+  for (std::int64_t c = 0; c < columns; ++c) map.column_begin_[c + 1] += map.column_begin_[c];
+  map.surfaces_.resize(map.column_begin_.back());
+
+  const float fit_radius = static_cast<float>(field.plane_fit_radius_m);
+#pragma omp parallel num_threads(num_threads)
+  {
+    std::vector<Eigen::Vector3f> patch;
+#pragma omp for schedule(dynamic, 256)
+    for (std::int64_t c = 0; c < columns; ++c) {
+      ColumnSurface* out = map.surfaces_.data() + map.column_begin_[c];
+      ColumnSurface* previous = nullptr;
+      ForEachRun(g, sorted, c, [&](const ColumnSurface& s, float run_min_z) {
+        if (previous != nullptr) previous->clearance_m = run_min_z - previous->ground_z_m;
+        *out = s;
+        previous = out++;
+      });
+      const int ix = static_cast<int>(c % g.size.x());
+      const int iy = static_cast<int>(c / g.size.x());
+      const Eigen::Vector3d centre_xy = g.CellCenter({ix, iy, 0});
+      for (ColumnSurface* s = map.surfaces_.data() + map.column_begin_[c]; s != out; ++s) {
+        const Eigen::Vector3f centre(static_cast<float>(centre_xy.x()),
+                                     static_cast<float>(centre_xy.y()), s->ground_z_m);
+        GatherNeighbourhood(g, sorted, ix, iy, centre, fit_radius, &patch);
+        const PlaneFit fit = FitLocalPlane(patch, field.plane_inlier_distance_m,
+                                           field.plane_ransac_iterations);
+        if (fit.inlier_count >= 3) {
+          s->tilt_rad = static_cast<float>(fit.tilt_rad);
+          s->plane_center_z_m = static_cast<float>(fit.center_m.z());
+        } else {
+          // A lone point or a thin edge: nothing to stand on, so the steepest tilt.
+          s->tilt_rad = static_cast<float>(std::numbers::pi / 2);
+          s->plane_center_z_m = s->ground_z_m;
+        }
+      }
+    }
+  }
+  return map;
+}
+
+std::size_t SurfaceMap::valid_surface_count() const {
+  return static_cast<std::size_t>(
+      std::count_if(surfaces_.begin(), surfaces_.end(), [](const auto& s) { return s.valid; }));
+}
+
+const ColumnSurface* SurfaceMap::SurfaceBelow(int ix, int iy, int iz) const {
+  const ColumnSurface* below = nullptr;
+  for (const ColumnSurface& s : Column(ix, iy)) {
+    if (s.bottom_layer > iz) break;
+    if (s.top_layer > iz) return nullptr;  // Inside this run's obstacle.
+    below = &s;
+  }
+  return below;
+}
+
+}  // namespace strata

@@ -1,0 +1,111 @@
+#include "strata/terrain_model.hpp"
+
+#include <chrono>
+#include <cmath>
+
+#include "strata/esdf.hpp"
+#include "strata/ground_filter.hpp"
+#include "strata/safety_field.hpp"
+
+namespace strata {
+namespace {
+
+class Stopwatch {
+ public:
+  double Lap() {
+    const auto now = std::chrono::steady_clock::now();
+    const double s = std::chrono::duration<double>(now - last_).count();
+    last_ = now;
+    return s;
+  }
+
+ private:
+  std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
+};
+
+std::vector<std::uint8_t> OccupancyOf(const GridGeometry& g, const PointCloud& cloud) {
+  std::vector<std::uint8_t> occupied(g.CellCount(), 0);
+  for (const Eigen::Vector3f& p : cloud) {
+    const Eigen::Vector3i c = g.CellOf(p.cast<double>()).cwiseMax(0).cwiseMin(
+        g.size - Eigen::Vector3i::Ones());
+    occupied[g.Index(c)] = 1;
+  }
+  return occupied;
+}
+
+}  // namespace
+
+Expected<std::shared_ptr<const TerrainModel>> TerrainModel::Assess(
+    const PointCloud& cloud, const AssessmentConfig& config) {
+  if (Status s = config.Validate(); !s) return s.error();
+  if (cloud.empty()) {
+    return Error{ErrorCode::kInvalidInput, "the point cloud is empty: nothing to assess"};
+  }
+  Stopwatch total;
+  Stopwatch stage;
+  std::shared_ptr<TerrainModel> model(new TerrainModel());
+  model->config_ = config;
+  AssessmentSummary& summary = model->summary_;
+  summary.input_points = cloud.size();
+  for (const Eigen::Vector3f& p : cloud) summary.cloud_bounds_m.extend(p.cast<double>());
+
+  const std::vector<std::uint8_t> valid =
+      FilterValidGround(cloud, config.ground, config.num_threads);
+  for (const std::uint8_t v : valid) summary.valid_ground_points += v;
+  summary.timings.ground_filter_s = stage.Lap();
+
+  Expected<GridGeometry> geometry =
+      MakeGridGeometry(summary.cloud_bounds_m, config.grid.resolution_m, config.grid.padding_m,
+                       config.grid.max_cells);
+  if (!geometry) return geometry.error();
+  model->esdf_ = BuildSignedDistanceField(*geometry, OccupancyOf(*geometry, cloud));
+  summary.timings.esdf_s = stage.Lap();
+
+  model->surfaces_ =
+      SurfaceMap::Build(*geometry, cloud, valid, config.field, config.num_threads);
+  model->safety_ = DiffuseSafetyPenalty(
+      ComputeSafetyPenalty(model->surfaces_, config.field, config.num_threads), config.field,
+      config.num_threads);
+  summary.surface_count = model->surfaces_.surface_count();
+  summary.valid_surface_count = model->surfaces_.valid_surface_count();
+  summary.timings.field_s = stage.Lap();
+  summary.timings.total_s = total.Lap();
+  return std::shared_ptr<const TerrainModel>(std::move(model));
+}
+
+std::span<const ColumnSurface> TerrainModel::LevelsAt(const Eigen::Vector3d& p) const {
+  const Eigen::Vector3i c = grid().CellOf(p);
+  if (c.x() < 0 || c.y() < 0 || c.x() >= grid().size.x() || c.y() >= grid().size.y()) return {};
+  return surfaces_.Column(c.x(), c.y());
+}
+
+const ColumnSurface* TerrainModel::SurfaceBelow(const Eigen::Vector3d& p) const {
+  const Eigen::Vector3i c = grid().CellOf(p);
+  if (c.x() < 0 || c.y() < 0 || c.x() >= grid().size.x() || c.y() >= grid().size.y() ||
+      c.z() < 0) {
+    return nullptr;
+  }
+  return surfaces_.SurfaceBelow(c.x(), c.y(), std::min(c.z(), grid().size.z() - 1));
+}
+
+std::optional<double> TerrainModel::GroundHeightBelow(const Eigen::Vector3d& p) const {
+  const ColumnSurface* s = SurfaceBelow(p);
+  if (s == nullptr || !s->valid) return std::nullopt;
+  return s->ground_z_m;
+}
+
+bool TerrainModel::IsTraversable(const Eigen::Vector3i& cell, double reference_height_m,
+                                 double body_height_m) const {
+  const GridGeometry& g = grid();
+  if (!g.Contains(cell)) return false;
+  const double cell_bottom = g.origin_m.z() + cell.z() * g.resolution_m;
+  const double cell_top = cell_bottom + g.resolution_m;
+  for (const ColumnSurface& s : surfaces_.Column(cell.x(), cell.y())) {
+    const double reference_z = s.ground_z_m + reference_height_m;
+    if (reference_z < cell_bottom || reference_z >= cell_top) continue;
+    return s.valid && s.tilt_rad <= config_.ground.max_tilt_rad && s.clearance_m >= body_height_m;
+  }
+  return false;
+}
+
+}  // namespace strata

@@ -1,0 +1,193 @@
+#include "strata/safety_field.hpp"
+
+#include <cmath>
+#include <numbers>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "strata/plane_fit.hpp"
+#include "strata/terrain_model.hpp"
+
+namespace strata {
+namespace {
+
+constexpr double kDeg = std::numbers::pi / 180.0;
+
+// A square patch of the plane z = tan(slope)·(x cos(heading) + y sin(heading)), with jitter.
+PointCloud InclinedPatch(double slope_rad, double heading_rad, double half_extent_m,
+                         double spacing_m, double jitter_m, std::uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> jitter(-jitter_m, jitter_m);
+  PointCloud cloud;
+  for (double x = -half_extent_m; x <= half_extent_m; x += spacing_m) {
+    for (double y = -half_extent_m; y <= half_extent_m; y += spacing_m) {
+      const double px = x + jitter(rng);
+      const double py = y + jitter(rng);
+      const double along = px * std::cos(heading_rad) + py * std::sin(heading_rad);
+      cloud.emplace_back(px, py, std::tan(slope_rad) * along + jitter(rng));
+    }
+  }
+  return cloud;
+}
+
+TEST(ConeKernel, MatchesThePapersFormula) {
+  for (const auto& [t, r] : {std::pair{0.4, 0.2}, {0.5, 0.2}, {0.3, 0.1}, {0.25, 0.3}}) {
+    const Eigen::MatrixXd a = ConeKernel(t, r);
+    const int m = 2 * static_cast<int>(std::ceil(t / r)) + 1;
+    ASSERT_EQ(a.rows(), m);
+    ASSERT_EQ(a.cols(), m);
+    for (int i = 0; i < m; ++i) {
+      for (int j = 0; j < m; ++j) {
+        const double c = (m - 1) / 2.0;
+        const double expected =
+            std::max(0.0, 1.0 - r * std::sqrt((i - c) * (i - c) + (j - c) * (j - c)) / t);
+        EXPECT_DOUBLE_EQ(a(i, j), expected) << "t " << t << " r " << r << " (" << i << "," << j << ")";
+      }
+    }
+    EXPECT_DOUBLE_EQ(a((m - 1) / 2, (m - 1) / 2), 1.0);
+  }
+  EXPECT_EQ(ConeKernel(0.0, 0.2).size(), 1);
+}
+
+TEST(DiffuseSafetyPenalty, SpreadsAnImpulseAsTheNormalisedCone) {
+  GridGeometry g;
+  g.resolution_m = 0.2;
+  g.size = {15, 13, 3};
+  std::vector<float> values(g.CellCount(), 0.0f);
+  values[g.Index(7, 6, 1)] = 1.0f;
+  FieldConfig field;
+  field.diffusion_distance_m = 0.5;
+  const ScalarGrid diffused = DiffuseSafetyPenalty(ScalarGrid(g, values), field, 2);
+  const Eigen::MatrixXd a = ConeKernel(0.5, 0.2);
+  const int half = static_cast<int>(a.rows() / 2);
+  for (int iy = 0; iy < g.size.y(); ++iy) {
+    for (int ix = 0; ix < g.size.x(); ++ix) {
+      const int i = ix - 7 + half;
+      const int j = iy - 6 + half;
+      const double expected =
+          (i >= 0 && j >= 0 && i < a.rows() && j < a.cols()) ? a(i, j) / a.sum() : 0.0;
+      EXPECT_NEAR(diffused.at(ix, iy, 1), expected, 1e-6) << ix << "," << iy;
+      EXPECT_EQ(diffused.at(ix, iy, 0), 0.0f);  // Layers do not mix.
+    }
+  }
+}
+
+TEST(FitLocalPlane, RecoversKnownSlopeWithinHalfADegree) {
+  for (std::uint32_t seed = 1; seed <= 10; ++seed) {
+    const double slope = (4.0 * seed) * kDeg;
+    const double heading = 0.6 * seed;
+    const PointCloud patch = InclinedPatch(slope, heading, 0.35, 0.05, 0.004, seed);
+    const PlaneFit fit = FitLocalPlane(patch, 0.05, 64);
+    ASSERT_GE(fit.inlier_count, 3);
+    EXPECT_NEAR(fit.tilt_rad, slope, 0.5 * kDeg) << "slope " << slope / kDeg << " deg";
+    EXPECT_GE(fit.normal.z(), 0.0);
+  }
+}
+
+TEST(FitLocalPlane, RansacIgnoresAWallBesideTheFloor) {
+  PointCloud patch = InclinedPatch(0.0, 0.0, 0.35, 0.05, 0.002, 4);
+  // A wall face at x = 0.2 rising 0.35 m: a third of the points, none on the floor's plane.
+  for (double y = -0.35; y <= 0.35; y += 0.05) {
+    for (double z = 0.06; z <= 0.35; z += 0.05) patch.emplace_back(0.2, y, z);
+  }
+  const PlaneFit fit = FitLocalPlane(patch, 0.03, 64);
+  EXPECT_LT(fit.tilt_rad, 1.0 * kDeg);
+  EXPECT_NEAR(fit.center_m.z(), 0.0, 0.01);
+}
+
+TEST(FitLocalPlane, TooFewOrCollinearPointsGiveNoFit) {
+  EXPECT_EQ(FitLocalPlane(PointCloud{{0, 0, 0}, {1, 0, 0}}, 0.05, 10).inlier_count, 0);
+  EXPECT_EQ(FitLocalPlane(PointCloud{{0, 0, 0}, {1, 0, 0}, {2, 0, 0}, {3, 0, 0}}, 0.05, 10)
+                .inlier_count, 0);
+}
+
+// Two floors, z = 0 for x < 0 and z = step for x >= 0, 4 × 4 m, sampled every 5 cm.
+PointCloud StepCloud(double step_m) {
+  PointCloud cloud;
+  for (double x = -2.0; x < 2.0; x += 0.05) {
+    for (double y = -2.0; y < 2.0; y += 0.05) cloud.emplace_back(x, y, x < 0 ? 0.0 : step_m);
+  }
+  return cloud;
+}
+
+std::shared_ptr<const TerrainModel> Assess(const PointCloud& cloud, double resolution_m) {
+  AssessmentConfig config;
+  config.grid.resolution_m = resolution_m;
+  auto model = TerrainModel::Assess(cloud, config);
+  EXPECT_TRUE(model.ok()) << model.error().message;
+  return model.ok() ? *model : nullptr;
+}
+
+TEST(SafetyPenalty, StepEdgeGivesALargePoseChangeTerm) {
+  const auto model = Assess(StepCloud(0.3), 0.1);
+  ASSERT_TRUE(model);
+  const GridGeometry& g = model->grid();
+  const FieldConfig& field = model->config().field;
+  const int iy = g.CellOf({0, 0, 0}).y();
+  // Half a metre above the high floor: every column projects onto a floor.
+  const int iz = g.CellOf({0, 0, 0.8}).z();
+  const int edge_x = g.CellOf({0.01, 0, 0}).x();
+  const double at_edge = PoseGradientNorm(model->surfaces(), field, edge_x, iy, iz);
+  const double far_low = PoseGradientNorm(model->surfaces(), field, g.CellOf({-1, 0, 0}).x(), iy, iz);
+  const double far_high = PoseGradientNorm(model->surfaces(), field, g.CellOf({1, 0, 0}).x(), iy, iz);
+  // A 0.3 m jump over one or two cells: ‖∇H‖ ≥ 0.3 / (2 r).
+  EXPECT_GE(at_edge, 0.3 / (2 * 0.1) - 1e-6);
+  EXPECT_LT(far_low, 0.05);
+  EXPECT_LT(far_high, 0.05);
+  const double s_edge = model->SafetyPenalty(g.CellCenter({edge_x, iy, iz}));
+  const double s_flat = model->SafetyPenalty(g.CellCenter({g.CellOf({-1, 0, 0}).x(), iy, iz}));
+  EXPECT_GT(s_edge, 10 * s_flat + 0.1);
+}
+
+TEST(SafetyPenalty, TiltTermFollowsTheSlope) {
+  for (const double slope_deg : {5.0, 15.0, 25.0}) {
+    const auto model = Assess(InclinedPatch(slope_deg * kDeg, 0.3, 3.0, 0.05, 0.0, 1), 0.1);
+    ASSERT_TRUE(model);
+    const ColumnSurface* s = model->SurfaceBelow({0.0, 0.0, 1.5});
+    ASSERT_NE(s, nullptr);
+    EXPECT_NEAR(s->tilt_rad, slope_deg * kDeg, 0.5 * kDeg);
+    // Away from the patch's edge, S' on the slope is λ_f φ² plus a small pose-change term.
+    const double penalty = model->SafetyPenalty({0.0, 0.0, 0.35});
+    const double tilt_term = model->config().field.weight_tilt * std::pow(slope_deg * kDeg, 2);
+    EXPECT_GE(penalty, 0.9 * tilt_term);
+    EXPECT_LT(penalty, tilt_term + 0.8);
+  }
+}
+
+TEST(SafetyPenalty, GradientMatchesFiniteDifferences) {
+  const auto model = Assess(StepCloud(0.25), 0.1);
+  ASSERT_TRUE(model);
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> xy(-1.5, 1.5);
+  std::uniform_real_distribution<double> z(0.1, 0.9);
+  const double h = 1e-5;
+  int checked = 0;
+  for (int k = 0; k < 200; ++k) {
+    const Eigen::Vector3d p(xy(rng), xy(rng), z(rng));
+    Eigen::Vector3d gradient;
+    model->SafetyPenalty(p, &gradient);
+    for (int axis = 0; axis < 3; ++axis) {
+      Eigen::Vector3d step = Eigen::Vector3d::Zero();
+      step[axis] = h;
+      const double numeric =
+          (model->SafetyPenalty(p + step) - model->SafetyPenalty(p - step)) / (2 * h);
+      EXPECT_NEAR(gradient[axis], numeric, 1e-4 * std::max(1.0, std::abs(numeric)))
+          << "axis " << axis << " at " << p.transpose();
+    }
+    checked += gradient.norm() > 1e-3;
+  }
+  EXPECT_GT(checked, 20);  // The points must include places where S' actually varies.
+}
+
+TEST(SafetyPenalty, VoidBelowGetsTheVoidPenalty) {
+  const auto model = Assess(StepCloud(0.0), 0.2);
+  ASSERT_TRUE(model);
+  // Below the floor nothing supports the robot.
+  const double below = model->SafetyPenalty(model->grid().CellCenter(
+      model->grid().CellOf({0, 0, -0.6})));
+  EXPECT_NEAR(below, model->config().field.VoidPenalty(), 1e-4);
+}
+
+}  // namespace
+}  // namespace strata

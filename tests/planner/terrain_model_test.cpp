@@ -1,0 +1,179 @@
+#include "strata/terrain_model.hpp"
+
+#include <cmath>
+#include <filesystem>
+#include <limits>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "strata/cloud_io.hpp"
+#include "strata/scenes.hpp"
+
+namespace strata {
+namespace {
+
+using ::testing::HasSubstr;
+
+class TwoLevelModel : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    AssessmentConfig config;
+    config.grid.resolution_m = 0.1;
+    auto model = TerrainModel::Assess(GenerateTwoLevelRamp(/*seed=*/5), config);
+    ASSERT_TRUE(model.ok()) << model.error().message;
+    model_ = new std::shared_ptr<const TerrainModel>(*model);
+  }
+  static void TearDownTestSuite() { delete model_; }
+  const TerrainModel& model() const { return **model_; }
+
+  static std::shared_ptr<const TerrainModel>* model_;
+  TwoLevelRampLayout layout_ = GetTwoLevelRampLayout();
+};
+std::shared_ptr<const TerrainModel>* TwoLevelModel::model_ = nullptr;
+
+TEST_F(TwoLevelModel, ColumnUnderTheDeckHasTwoValidLevels) {
+  const Eigen::Vector3d goal = layout_.goal_example_m;
+  std::vector<double> valid_heights;
+  for (const ColumnSurface& s : model().LevelsAt(goal)) {
+    if (s.valid) valid_heights.push_back(s.ground_z_m);
+  }
+  ASSERT_EQ(valid_heights.size(), 2u);
+  EXPECT_NEAR(valid_heights[0], layout_.floor_z_m, 0.02);
+  EXPECT_NEAR(valid_heights[1], layout_.deck_z_m, 0.02);
+}
+
+TEST_F(TwoLevelModel, GroundBelowDependsOnTheLevelThePointIsOn) {
+  Eigen::Vector3d p = layout_.goal_example_m;
+  p.z() = layout_.floor_z_m + 1.0;  // Under the deck.
+  ASSERT_TRUE(model().GroundHeightBelow(p).has_value());
+  EXPECT_NEAR(*model().GroundHeightBelow(p), layout_.floor_z_m, 0.02);
+  p.z() = layout_.deck_z_m + 0.5;  // On the deck.
+  ASSERT_TRUE(model().GroundHeightBelow(p).has_value());
+  EXPECT_NEAR(*model().GroundHeightBelow(p), layout_.deck_z_m, 0.02);
+  const ColumnSurface* floor = model().SurfaceBelow({p.x(), p.y(), layout_.floor_z_m + 1.0});
+  ASSERT_NE(floor, nullptr);
+  // Clearance under the deck: up to the slab's underside.
+  EXPECT_NEAR(floor->clearance_m, layout_.deck_underside_z_m - layout_.floor_z_m, 0.06);
+}
+
+TEST_F(TwoLevelModel, TraversabilityRespectsBodyHeightAndLevels) {
+  const GridGeometry& g = model().grid();
+  const double reference = 0.3;
+  Eigen::Vector3d under_deck = layout_.goal_example_m;
+  under_deck.z() = layout_.floor_z_m + reference;
+  EXPECT_TRUE(model().IsTraversable(g.CellOf(under_deck), reference, 1.0));
+  // A body taller than the room under the deck does not fit.
+  EXPECT_FALSE(model().IsTraversable(g.CellOf(under_deck), reference, 3.5));
+  Eigen::Vector3d on_deck = layout_.goal_example_m;
+  on_deck.z() = layout_.deck_z_m + reference;
+  EXPECT_TRUE(model().IsTraversable(g.CellOf(on_deck), reference, 3.5));
+  // Floating between the levels is not standing anywhere.
+  Eigen::Vector3d mid_air = layout_.goal_example_m;
+  mid_air.z() = 1.5;
+  EXPECT_FALSE(model().IsTraversable(g.CellOf(mid_air), reference, 1.0));
+}
+
+TEST_F(TwoLevelModel, RampIsValidGroundAndWallsAreNot) {
+  const double mid_x = 0.5 * (layout_.ramp_x_min_m + layout_.ramp_x_max_m);
+  const double mid_y = 0.5 * (layout_.ramp_y_min_m + layout_.ramp_y_max_m);
+  const double ramp_z =
+      layout_.floor_z_m + (mid_x - layout_.ramp_x_min_m) * std::tan(layout_.ramp_slope_rad);
+  const auto ground = model().GroundHeightBelow({mid_x, mid_y, ramp_z + 0.3});
+  ASSERT_TRUE(ground.has_value());
+  EXPECT_NEAR(*ground, ramp_z, 0.05);
+  const ColumnSurface* ramp = model().SurfaceBelow({mid_x, mid_y, ramp_z + 0.3});
+  EXPECT_NEAR(ramp->tilt_rad, layout_.ramp_slope_rad, 0.5 * M_PI / 180);
+
+  // Next to the outer wall (x = 0) the floor is not valid within the filter radius.
+  const auto by_wall = model().GroundHeightBelow({0.05, 3.0, 0.3});
+  EXPECT_FALSE(by_wall.has_value());
+}
+
+TEST_F(TwoLevelModel, DistanceFieldKnowsWhereTheDeckIs) {
+  Eigen::Vector3d p = layout_.goal_example_m;
+  p.z() = layout_.deck_underside_z_m - 0.5;
+  Eigen::Vector3d gradient;
+  const double d = model().Distance(p, &gradient);
+  EXPECT_NEAR(d, 0.5, 0.1);
+  EXPECT_LT(gradient.z(), -0.5);  // Moving up approaches the slab.
+}
+
+TEST_F(TwoLevelModel, ReportsSummaryAndMemory) {
+  const AssessmentSummary& s = model().summary();
+  EXPECT_GT(s.valid_ground_points, s.input_points / 3);
+  EXPECT_LT(s.valid_ground_points, s.input_points);
+  EXPECT_GT(s.valid_surface_count, 0u);
+  EXPECT_GT(s.timings.total_s, 0.0);
+  EXPECT_GE(s.timings.total_s,
+            s.timings.ground_filter_s + s.timings.esdf_s + s.timings.field_s - 1e-9);
+  const auto cells = static_cast<std::size_t>(model().grid().CellCount());
+  // Two float fields per cell plus sparse surfaces.
+  EXPECT_GE(model().MemoryBytes(), 8 * cells);
+  EXPECT_LT(model().MemoryBytes(), 12 * cells);
+}
+
+TEST(TerrainModel, RefusesAnEmptyCloud) {
+  auto model = TerrainModel::Assess({}, AssessmentConfig{});
+  ASSERT_FALSE(model.ok());
+  EXPECT_EQ(model.error().code, ErrorCode::kInvalidInput);
+}
+
+TEST(TerrainModel, RefusesAnInvalidConfigNamingTheField) {
+  AssessmentConfig config;
+  config.grid.resolution_m = 0;
+  auto model = TerrainModel::Assess({{0, 0, 0}}, config);
+  ASSERT_FALSE(model.ok());
+  EXPECT_EQ(model.error().code, ErrorCode::kInvalidConfig);
+  EXPECT_THAT(model.error().message, HasSubstr("grid.resolution_m"));
+}
+
+TEST(TerrainModel, RefusesAGridOfTerabytes) {
+  // Two points 50 km apart: at 0.1 m the grid would have ~10^14 cells.
+  auto model = TerrainModel::Assess({{0, 0, 0}, {5.0e4f, 5.0e4f, 10.0f}}, [] {
+    AssessmentConfig c;
+    c.grid.resolution_m = 0.1;
+    return c;
+  }());
+  ASSERT_FALSE(model.ok());
+  EXPECT_EQ(model.error().code, ErrorCode::kResourceExhausted);
+}
+
+// The shared reference maps: valid ground is the floors and ramps, not walls.
+class SharedMap : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(SharedMap, AssessesWithSensibleNumbers) {
+  const std::string path = std::string(STRATA_SHARED_MAPS_DIR) + "/" + GetParam();
+  if (!std::filesystem::exists(path)) GTEST_SKIP() << path << " is absent; shared maps not found";
+  auto cloud = LoadPointCloud(path);
+  ASSERT_TRUE(cloud.ok()) << cloud.error().message;
+  AssessmentConfig config;
+  config.grid.resolution_m = 0.2;
+  auto model = TerrainModel::Assess(cloud->points, config);
+  ASSERT_TRUE(model.ok()) << model.error().message;
+  const TerrainModel& m = **model;
+  const AssessmentSummary& s = m.summary();
+  EXPECT_GT(s.valid_ground_points, s.input_points / 4);
+  EXPECT_LT(s.valid_ground_points, s.input_points);
+  // Valid surfaces are level enough to stand on (a little above θ for patches at edges).
+  int steep = 0;
+  int valid = 0;
+  const GridGeometry& g = m.grid();
+  for (int iy = 0; iy < g.size.y(); ++iy) {
+    for (int ix = 0; ix < g.size.x(); ++ix) {
+      for (const ColumnSurface& surface : m.surfaces().Column(ix, iy)) {
+        if (!surface.valid) continue;
+        ++valid;
+        steep += surface.tilt_rad > config.ground.max_tilt_rad;
+      }
+    }
+  }
+  ASSERT_GT(valid, 1000);
+  EXPECT_LT(steep, valid / 10);
+}
+
+INSTANTIATE_TEST_SUITE_P(ReferenceMaps, SharedMap,
+                         ::testing::Values("scene20.2.pcd", "spiral0.3_2.pcd"));
+
+}  // namespace
+}  // namespace strata
