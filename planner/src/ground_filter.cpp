@@ -2,11 +2,44 @@
 
 #include <cmath>
 
+#include <flann/algorithms/dist.h>
+#include <flann/algorithms/kdtree_single_index.h>
 #include <omp.h>
-#include <pcl/kdtree/kdtree_flann.h>
-#include <pcl/point_types.h>
 
 namespace strata {
+namespace {
+
+// Receives the kd-tree's neighbours of one point p as the search finds them and applies the
+// rule to each; the first neighbour that blocks p ends the search (worstDist() < 0 prunes every
+// remaining branch). This is FLANN's own result-set hook: no neighbour list is ever built.
+class ElevationCheck final : public flann::ResultSet<float> {
+ public:
+  ElevationCheck(const PointCloud& cloud, const Eigen::Vector3f& p, float radius_sq,
+                 double tan_tilt, double tolerance)
+      : cloud_(cloud), p_(p), radius_sq_(radius_sq), tan_tilt_(tan_tilt), tolerance_(tolerance) {}
+
+  bool full() const override { return blocked_; }
+  float worstDist() const override { return blocked_ ? -1.0f : radius_sq_; }
+  void addPoint(float /*squared_distance*/, size_t index) override {
+    const Eigen::Vector3f& q = cloud_[index];
+    const double rise = double{q.z()} - p_.z() - tolerance_;
+    if (rise <= 0.0) return;  // Only what lies above p can block it.
+    // atan(rise / dxy) < θ  <=>  rise < tan(θ)·dxy for rise > 0, dxy >= 0 and θ < π/2.
+    const double dxy = std::hypot(double{q.x()} - p_.x(), double{q.y()} - p_.y());
+    if (!(rise < tan_tilt_ * dxy)) blocked_ = true;
+  }
+  bool blocked() const { return blocked_; }
+
+ private:
+  const PointCloud& cloud_;
+  const Eigen::Vector3f& p_;
+  const float radius_sq_;
+  const double tan_tilt_;
+  const double tolerance_;
+  bool blocked_ = false;
+};
+
+}  // namespace
 
 std::vector<std::uint8_t> FilterValidGround(const PointCloud& cloud,
                                             const GroundFilterConfig& config,
@@ -15,42 +48,24 @@ std::vector<std::uint8_t> FilterValidGround(const PointCloud& cloud,
   std::vector<std::uint8_t> valid(cloud.size(), 0);
   if (n == 0) return valid;
 
-  auto pcl_cloud = std::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
-  pcl_cloud->resize(cloud.size());
-  for (std::int64_t i = 0; i < n; ++i) {
-    (*pcl_cloud)[i].getVector3fMap() = cloud[i];
-  }
-  // Unsorted results: the rule needs every neighbour, not the nearest first.
-  pcl::KdTreeFLANN<pcl::PointXYZ> tree(/*sorted=*/false);
-  tree.setInputCloud(pcl_cloud);
+  // PointCloud is contiguous xyz floats: FLANN indexes it in place.
+  static_assert(sizeof(Eigen::Vector3f) == 3 * sizeof(float));
+  const flann::Matrix<float> points(const_cast<float*>(cloud.front().data()), cloud.size(), 3);
+  flann::KDTreeSingleIndex<flann::L2_Simple<float>> tree(
+      points, flann::KDTreeSingleIndexParams(/*leaf_max_size=*/15));
+  tree.buildIndex();
 
-  // atan(dz / dxy) < θ  <=>  dz < tan(θ)·dxy for dz > 0, dxy >= 0 (θ < π/2), without atan.
   const double tan_tilt = std::tan(config.max_tilt_rad);
-  const double tolerance = config.height_tolerance_m;
-  const double radius = config.radius_m;
+  const auto radius_sq = static_cast<float>(config.radius_m * config.radius_m);
+  const flann::SearchParams params(flann::FLANN_CHECKS_UNLIMITED, /*eps=*/0.0f,
+                                   /*sorted=*/false);
   if (num_threads <= 0) num_threads = omp_get_num_procs();
 
-#pragma omp parallel num_threads(num_threads)
-  {
-    pcl::Indices neighbours;
-    std::vector<float> sq_distances;
-#pragma omp for schedule(dynamic, 256)
-    for (std::int64_t i = 0; i < n; ++i) {
-      const Eigen::Vector3f& p = cloud[i];
-      tree.radiusSearch((*pcl_cloud)[i], radius, neighbours, sq_distances);
-      bool ok = true;
-      for (const auto j : neighbours) {
-        const Eigen::Vector3f& q = cloud[j];
-        const double dz = double{q.z()} - p.z() - tolerance;
-        if (dz <= 0.0) continue;  // Only what lies above p can block it.
-        const double dxy = std::hypot(double{q.x()} - p.x(), double{q.y()} - p.y());
-        if (!(dz < tan_tilt * dxy)) {
-          ok = false;
-          break;
-        }
-      }
-      valid[i] = ok ? 1 : 0;
-    }
+#pragma omp parallel for schedule(dynamic, 1024) num_threads(num_threads)
+  for (std::int64_t i = 0; i < n; ++i) {
+    ElevationCheck check(cloud, cloud[i], radius_sq, tan_tilt, config.height_tolerance_m);
+    tree.findNeighbors(check, cloud[i].data(), params);
+    valid[i] = check.blocked() ? 0 : 1;
   }
   return valid;
 }

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numeric>
 
 #include <Eigen/Eigenvalues>
 #include <pcl/point_types.h>
@@ -55,35 +56,60 @@ double MaxResidual(std::span<const Eigen::Vector3f> points, const PlaneFit& fit)
 
 }  // namespace
 
-PlaneFit FitLocalPlane(std::span<const Eigen::Vector3f> points, double inlier_distance_m,
-                       int ransac_iterations) {
+struct LocalPlaneFitter::Ransac {
+  std::shared_ptr<pcl::PointCloud<pcl::PointXYZ>> cloud =
+      std::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
+  // PCL seeds the model's sampler with a fixed value unless asked otherwise: deterministic.
+  std::shared_ptr<pcl::SampleConsensusModelPlane<pcl::PointXYZ>> model;
+  std::unique_ptr<pcl::RandomSampleConsensus<pcl::PointXYZ>> sac;
+  pcl::Indices all;
+  pcl::Indices inliers;
+  std::vector<std::uint8_t> is_inlier;
+};
+
+LocalPlaneFitter::LocalPlaneFitter(double inlier_distance_m, int ransac_iterations)
+    : inlier_distance_m_(inlier_distance_m), ransac_(std::make_unique<Ransac>()) {
+  ransac_->cloud->resize(3);
+  ransac_->model = std::make_shared<pcl::SampleConsensusModelPlane<pcl::PointXYZ>>(ransac_->cloud);
+  ransac_->sac = std::make_unique<pcl::RandomSampleConsensus<pcl::PointXYZ>>(ransac_->model,
+                                                                             inlier_distance_m);
+  ransac_->sac->setMaxIterations(ransac_iterations);
+}
+
+LocalPlaneFitter::~LocalPlaneFitter() = default;
+
+PlaneFit LocalPlaneFitter::Fit(std::span<const Eigen::Vector3f> points) {
   PlaneFit fit;
-  fit.inlier_count = 0;
   if (points.size() < 3) return fit;
   const auto all = [](std::size_t) { return true; };
   if (!LeastSquaresPlane(points, all, &fit)) {
     fit.inlier_count = 0;
     return fit;
   }
-  if (MaxResidual(points, fit) <= inlier_distance_m) return fit;
+  if (MaxResidual(points, fit) <= inlier_distance_m_) return fit;
 
-  auto cloud = std::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
-  cloud->resize(points.size());
-  for (std::size_t i = 0; i < points.size(); ++i) (*cloud)[i].getVector3fMap() = points[i];
-  // PCL seeds the model's sampler with a fixed value unless asked otherwise: deterministic.
-  auto model = std::make_shared<pcl::SampleConsensusModelPlane<pcl::PointXYZ>>(cloud);
-  pcl::RandomSampleConsensus<pcl::PointXYZ> ransac(model, inlier_distance_m);
-  ransac.setMaxIterations(ransac_iterations);
-  if (!ransac.computeModel()) return fit;  // Keep the all-points fit.
-  pcl::Indices inliers;
-  ransac.getInliers(inliers);
-  std::vector<std::uint8_t> is_inlier(points.size(), 0);
-  for (const auto i : inliers) is_inlier[i] = 1;
+  Ransac& r = *ransac_;
+  r.cloud->resize(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) (*r.cloud)[i].getVector3fMap() = points[i];
+  // setInputCloud keeps the old index list once one exists, so hand over the new one too.
+  r.model->setInputCloud(r.cloud);
+  r.all.resize(points.size());
+  std::iota(r.all.begin(), r.all.end(), 0);
+  r.model->setIndices(r.all);
+  if (!r.sac->computeModel()) return fit;  // Keep the all-points fit.
+  r.sac->getInliers(r.inliers);
+  r.is_inlier.assign(points.size(), 0);
+  for (const auto i : r.inliers) r.is_inlier[i] = 1;
   PlaneFit refined;
-  if (LeastSquaresPlane(points, [&](std::size_t i) { return is_inlier[i] != 0; }, &refined)) {
+  if (LeastSquaresPlane(points, [&](std::size_t i) { return r.is_inlier[i] != 0; }, &refined)) {
     return refined;
   }
   return fit;
+}
+
+PlaneFit FitLocalPlane(std::span<const Eigen::Vector3f> points, double inlier_distance_m,
+                       int ransac_iterations) {
+  return LocalPlaneFitter(inlier_distance_m, ransac_iterations).Fit(points);
 }
 
 }  // namespace strata

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 
 #include <omp.h>
 
@@ -87,12 +88,26 @@ ScalarGrid ComputeSafetyPenalty(const SurfaceMap& surfaces, const FieldConfig& f
 
 #pragma omp parallel num_threads(num_threads)
   {
-    // One layer of projected poses at a time, so each column's surfaces are looked up once.
+    // Each thread sweeps a contiguous block of layers upwards, keeping per column how many of
+    // its surfaces lie at or below the current layer, so every projection is O(1) amortised.
     std::vector<PoseSample> layer(static_cast<std::size_t>(nx) * ny);
-#pragma omp for schedule(dynamic, 1)
+    std::vector<std::uint32_t> passed(static_cast<std::size_t>(nx) * ny, 0);
+#pragma omp for schedule(static)
     for (int iz = 0; iz < g.size.z(); ++iz) {
       for (int iy = 0; iy < ny; ++iy) {
-        for (int ix = 0; ix < nx; ++ix) layer[ix + nx * iy] = PoseAt(surfaces, ix, iy, iz);
+        for (int ix = 0; ix < nx; ++ix) {
+          const std::size_t c = ix + static_cast<std::size_t>(nx) * iy;
+          const std::span<const ColumnSurface> column = surfaces.Column(ix, iy);
+          std::size_t k = passed[c];
+          while (k < column.size() && column[k].top_layer <= iz) ++k;
+          passed[c] = static_cast<std::uint32_t>(k);
+          const bool inside = k < column.size() && column[k].bottom_layer <= iz;
+          if (k == 0 || inside) {
+            layer[c] = {};
+          } else {
+            layer[c] = {true, column[k - 1].plane_center_z_m, column[k - 1].tilt_rad};
+          }
+        }
       }
       float* out = values.data() + g.Index(0, 0, iz);
       for (int iy = 0; iy < ny; ++iy) {
@@ -135,6 +150,8 @@ ScalarGrid DiffuseSafetyPenalty(const ScalarGrid& penalty, const FieldConfig& fi
       if (kernel(i, j) > 0) taps.push_back({i - half, j - half, static_cast<float>(kernel(i, j))});
     }
   }
+  float total_weight = 0;
+  for (const Tap& t : taps) total_weight += t.weight;
   const int nx = g.size.x();
   const int ny = g.size.y();
   const std::vector<float>& in = penalty.values();
@@ -150,10 +167,8 @@ ScalarGrid DiffuseSafetyPenalty(const ScalarGrid& penalty, const FieldConfig& fi
         float sum = 0;
         float weight = 0;
         if (interior_y && ix >= half && ix + half < nx) {
-          for (const Tap& t : taps) {
-            sum += t.weight * layer[(ix + t.dx) + nx * (iy + t.dy)];
-            weight += t.weight;
-          }
+          for (const Tap& t : taps) sum += t.weight * layer[(ix + t.dx) + nx * (iy + t.dy)];
+          weight = total_weight;
         } else {
           for (const Tap& t : taps) {
             const int x = ix + t.dx;

@@ -92,9 +92,10 @@ void ForEachRun(const GridGeometry& g, const ColumnSortedCloud& sorted, std::int
   }
 }
 
-// Gathers the points within `radius` of `centre` from the columns around (ix, iy).
+// Gathers the points of the vertical cylinder (horizontal `radius`, `half_height` above and
+// below) around `centre` from the columns around (ix, iy).
 void GatherNeighbourhood(const GridGeometry& g, const ColumnSortedCloud& sorted, int ix, int iy,
-                         const Eigen::Vector3f& centre, float radius,
+                         const Eigen::Vector3f& centre, float radius, float half_height,
                          std::vector<Eigen::Vector3f>* out) {
   out->clear();
   const int reach = static_cast<int>(std::ceil(radius / g.resolution_m));
@@ -104,10 +105,10 @@ void GatherNeighbourhood(const GridGeometry& g, const ColumnSortedCloud& sorted,
       const std::int64_t c = x + g.size.x() * std::int64_t{y};
       const auto begin = sorted.points.begin() + sorted.begin[c];
       const auto end = sorted.points.begin() + sorted.begin[c + 1];
-      auto it = std::lower_bound(begin, end, centre.z() - radius,
+      auto it = std::lower_bound(begin, end, centre.z() - half_height,
                                  [](const Eigen::Vector3f& p, float z) { return p.z() < z; });
-      for (; it != end && it->z() <= centre.z() + radius; ++it) {
-        if ((*it - centre).squaredNorm() <= radius_sq) out->push_back(*it);
+      for (; it != end && it->z() <= centre.z() + half_height; ++it) {
+        if ((*it - centre).head<2>().squaredNorm() <= radius_sq) out->push_back(*it);
       }
     }
   }
@@ -136,9 +137,11 @@ SurfaceMap SurfaceMap::Build(const GridGeometry& geometry, const PointCloud& clo
   map.surfaces_.resize(map.column_begin_.back());
 
   const float fit_radius = static_cast<float>(field.plane_fit_radius_m);
+  const float fit_half_height = static_cast<float>(field.plane_fit_half_height_m);
 #pragma omp parallel num_threads(num_threads)
   {
     std::vector<Eigen::Vector3f> patch;
+    LocalPlaneFitter fitter(field.plane_inlier_distance_m, field.plane_ransac_iterations);
 #pragma omp for schedule(dynamic, 256)
     for (std::int64_t c = 0; c < columns; ++c) {
       ColumnSurface* out = map.surfaces_.data() + map.column_begin_[c];
@@ -154,9 +157,8 @@ SurfaceMap SurfaceMap::Build(const GridGeometry& geometry, const PointCloud& clo
       for (ColumnSurface* s = map.surfaces_.data() + map.column_begin_[c]; s != out; ++s) {
         const Eigen::Vector3f centre(static_cast<float>(centre_xy.x()),
                                      static_cast<float>(centre_xy.y()), s->ground_z_m);
-        GatherNeighbourhood(g, sorted, ix, iy, centre, fit_radius, &patch);
-        const PlaneFit fit = FitLocalPlane(patch, field.plane_inlier_distance_m,
-                                           field.plane_ransac_iterations);
+        GatherNeighbourhood(g, sorted, ix, iy, centre, fit_radius, fit_half_height, &patch);
+        const PlaneFit fit = fitter.Fit(patch);
         if (fit.inlier_count >= 3) {
           s->tilt_rad = static_cast<float>(fit.tilt_rad);
           s->plane_center_z_m = static_cast<float>(fit.center_m.z());

@@ -52,6 +52,9 @@ Status FieldConfig::Validate() const {
   if (!InOpen(plane_fit_radius_m, 0.0, 10.0)) {
     return Bad("field.plane_fit_radius_m", plane_fit_radius_m, "in (0, 10) m");
   }
+  if (!InOpen(plane_fit_half_height_m, 0.0, 10.0)) {
+    return Bad("field.plane_fit_half_height_m", plane_fit_half_height_m, "in (0, 10) m");
+  }
   if (!InOpen(plane_inlier_distance_m, 0.0, 10.0)) {
     return Bad("field.plane_inlier_distance_m", plane_inlier_distance_m, "in (0, 10) m");
   }

@@ -21,7 +21,7 @@ namespace strata {
 /// Alg. 1 as printed tests the neighbours below and adds p on the first one that passes; both
 /// are slips, so neither is followed literally.
 ///
-/// Neighbours come from a kd-tree (PCL's FLANN); points are processed in parallel with
+/// Neighbours come from a kd-tree (FLANN, the one PCL wraps); points are processed in parallel with
 /// `num_threads` threads (0 = every core). Returns one flag per point (1 = valid ground).
 /// Precondition: config.Validate() is ok and every point is finite.
 std::vector<std::uint8_t> FilterValidGround(const PointCloud& cloud,

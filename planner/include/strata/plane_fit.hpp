@@ -2,6 +2,7 @@
 /// Local plane fit for the safety penalty field (paper Sec. IV): RANSAC, then least squares on
 /// the inliers.
 
+#include <memory>
 #include <span>
 
 #include <Eigen/Core>
@@ -16,12 +17,29 @@ struct PlaneFit {
   int inlier_count = 0;   ///< Points within the inlier distance of the plane.
 };
 
-/// Fits a plane to `points` (at least 3). RANSAC (PCL's sample consensus, at most
-/// `ransac_iterations` hypotheses, inlier band ±`inlier_distance_m`) picks the dominant plane,
-/// then a least-squares fit on its inliers refines it. When the least-squares plane of all
-/// points already holds every point within the band there is no outlier to reject, so RANSAC
-/// is skipped: on clean floors and ramps (most patches) the fit costs one 3×3 eigensolve.
-/// Returns inlier_count = 0 for fewer than 3 points or a degenerate (collinear) patch.
+/// Fits planes to local patches. RANSAC (PCL's sample consensus, at most `ransac_iterations`
+/// hypotheses, inlier band ±`inlier_distance_m`) picks the dominant plane, then a
+/// least-squares fit on its inliers refines it. When the least-squares plane of all points
+/// already holds every point within the band there is no outlier to reject, so RANSAC is
+/// skipped: on clean floors and ramps (most patches) a fit costs one 3×3 eigensolve.
+/// One fitter keeps its RANSAC machinery between fits; use one per thread.
+class LocalPlaneFitter {
+ public:
+  LocalPlaneFitter(double inlier_distance_m, int ransac_iterations);
+  ~LocalPlaneFitter();
+  LocalPlaneFitter(const LocalPlaneFitter&) = delete;
+  LocalPlaneFitter& operator=(const LocalPlaneFitter&) = delete;
+
+  /// Fits `points`; inlier_count = 0 for fewer than 3 points or a degenerate (collinear) patch.
+  PlaneFit Fit(std::span<const Eigen::Vector3f> points);
+
+ private:
+  struct Ransac;  // PCL types stay out of this header.
+  double inlier_distance_m_;
+  std::unique_ptr<Ransac> ransac_;
+};
+
+/// One-off convenience: LocalPlaneFitter(inlier_distance_m, ransac_iterations).Fit(points).
 PlaneFit FitLocalPlane(std::span<const Eigen::Vector3f> points, double inlier_distance_m,
                        int ransac_iterations);
 

@@ -34,7 +34,8 @@ class SurfaceMap {
 
   /// Extracts the surfaces of `cloud` (all points, finite, inside `geometry`) on `geometry`,
   /// marking as valid those whose top cell holds a point with `valid_ground[i] != 0`, and fits
-  /// each surface's local plane with the points within field.plane_fit_radius_m of it.
+  /// each surface's local plane with the points of the cylinder of radius
+  /// field.plane_fit_radius_m and half-height field.plane_fit_half_height_m around it.
   static SurfaceMap Build(const GridGeometry& geometry, const PointCloud& cloud,
                           const std::vector<std::uint8_t>& valid_ground,
                           const FieldConfig& field, int num_threads);

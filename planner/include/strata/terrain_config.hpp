@@ -41,8 +41,12 @@ struct FieldConfig {
   double weight_pose_change = 1.0;   ///< λ_m, weight of sqrt(‖∇H‖) [-], >= 0.
   /// Diffusion distance t of the cone kernel [m], >= 0 (0 disables diffusion: S' = S).
   double diffusion_distance_m = 0.4;
-  /// Radius of the neighbourhood used for the local plane fit [m], > 0.
+  /// Horizontal radius of the neighbourhood used for the local plane fit [m], > 0.
   double plane_fit_radius_m = 0.35;
+  /// Half-height of that neighbourhood around the ground height [m], > 0. Keeps a slab's
+  /// underside (and whatever hangs above) out of its top surface's fit; a slope up to θ
+  /// (tan 20° · 0.35 m = 0.13 m) still fits inside.
+  double plane_fit_half_height_m = 0.15;
   /// A point within this distance of a candidate plane is a RANSAC inlier [m], > 0.
   double plane_inlier_distance_m = 0.05;
   /// RANSAC iterations per patch that is not already a clean plane [-], >= 1.
