@@ -15,17 +15,20 @@ constexpr float kInf = std::numeric_limits<float>::infinity();
 // each strided row read brings in a full line that is used entirely.
 constexpr int kBlockWidth = 16;
 
-// Exactness of the envelopes below, which work in float: for integer inputs (the field's
-// squared distances in cells) every f + q² and difference is an exact float integer while it
-// stays below 2^24, i.e. for lines shorter than ~4096 cells. A non-integer intersection of two
-// parabolas then lies at least 1/(2n) from any integer, far more than the rounding of the
-// quotient, so rounding never changes which parabola wins at a sample; an intersection at an
-// integer is a tie, where either parabola gives the same value.
+// Below this many cells the transform takes well under a millisecond on one core, less than
+// waking a team of threads (and much less on a loaded machine), so it runs serially.
+constexpr std::int64_t kMinCellsForThreads = std::int64_t{1} << 16;
 
 // Felzenszwalb–Huttenlocher lower envelope of the parabolas (q − p)² + f[p] over the sites
-// with finite f[p], for the general strided API.
+// with finite f[p], for the general strided API, in float. For integer-valued f (squared
+// distances in cells) it is exact while f + n² < 2^24: every h = f + q² and difference is then
+// an exact float, and a non-integer intersection of two parabolas lies at least 1/(2n) from any
+// integer, more than the quotient's rounding (half an ulp of s < n), so rounding never changes
+// which parabola wins at a sample; an intersection at an integer is a tie, where either
+// parabola gives the same value.
 void LowerEnvelopeStrided(const float* f, float* out, int n, std::int64_t stride, int* v,
                           float* z) {
+  if (n <= 0) return;
   int k = -1;  // Index of the rightmost parabola in the envelope.
   for (int q = 0; q < n; ++q) {
     const float fq = f[q * stride];
@@ -90,8 +93,8 @@ class Envelope {
     int k = k_;
     // Pop parabola k while it is nowhere strictly lowest: its intersection with q is at or
     // left of its intersection with parabola k − 1.
-    while (k >= 1 && (hq - h_[k]) * (v_[k] - v_[k - 1]) <=
-                         (h_[k] - h_[k - 1]) * std::int64_t{q - v_[k]}) {
+    while (k >= 1 &&
+           (hq - h_[k]) * (v_[k] - v_[k - 1]) <= (h_[k] - h_[k - 1]) * std::int64_t{q - v_[k]}) {
       --k;
     }
     ++k;
@@ -199,7 +202,6 @@ bool TransformOccupancyRow(const std::uint8_t* occupied, float* out, int n) {
 
 void SquaredDistanceTransform1D(const float* f, float* out, int n, std::int64_t stride,
                                 int* scratch_v, float* scratch_z) {
-  if (n <= 0) return;
   LowerEnvelopeStrided(f, out, n, stride, scratch_v, scratch_z);
 }
 
@@ -220,7 +222,7 @@ ScalarGrid BuildSignedDistanceField(const GridGeometry& geometry,
   float* const d = field.data();
   const std::uint8_t* const occ = occupied.data();
 
-#pragma omp parallel
+#pragma omp parallel if (geometry.CellCount() >= kMinCellsForThreads)
   {
     // Per-thread scratch: a gathered block of columns (input and output) and the envelope.
     std::vector<float> block_in(static_cast<std::size_t>(kBlockWidth) * longest_line);

@@ -39,30 +39,32 @@ std::vector<float> Transform1D(const std::vector<float>& f) {
   return out;
 }
 
-// Signed distance at every cell centre from its definition, by O(N²) search: a free cell
+// Signed distance at every cell centre from its definition, by exhaustive search: a free cell
 // gets the distance to the nearest occupied centre, an occupied cell the resolution minus the
 // distance to the nearest free centre, and a missing other class counts as the grid diagonal.
+// O(free · occupied) time.
 std::vector<double> BruteForceField(const GridGeometry& g, const std::vector<std::uint8_t>& occ) {
   const double r = g.resolution_m;
   const double diagonal = g.size.cast<double>().norm() * r;
-  std::vector<Eigen::Vector3i> cells;
+  std::vector<Eigen::Vector3i> by_class[2];
   for (int iz = 0; iz < g.size.z(); ++iz) {
     for (int iy = 0; iy < g.size.y(); ++iy) {
-      for (int ix = 0; ix < g.size.x(); ++ix) cells.emplace_back(ix, iy, iz);
+      for (int ix = 0; ix < g.size.x(); ++ix) {
+        by_class[occ[g.Index(ix, iy, iz)] != 0 ? 1 : 0].emplace_back(ix, iy, iz);
+      }
     }
   }
-  std::vector<double> out(cells.size());
-  for (const Eigen::Vector3i& c : cells) {
-    const bool occupied = occ[g.Index(c)] != 0;
-    std::int64_t best = std::numeric_limits<std::int64_t>::max();
-    for (const Eigen::Vector3i& o : cells) {
-      if ((occ[g.Index(o)] != 0) == occupied) continue;
-      best = std::min<std::int64_t>(best, (o - c).squaredNorm());
+  std::vector<double> out(static_cast<std::size_t>(g.CellCount()));
+  for (const int cls : {0, 1}) {
+    for (const Eigen::Vector3i& c : by_class[cls]) {
+      std::int64_t best = std::numeric_limits<std::int64_t>::max();
+      for (const Eigen::Vector3i& o : by_class[1 - cls]) {
+        best = std::min<std::int64_t>(best, (o - c).squaredNorm());
+      }
+      const double distance =
+          best == std::numeric_limits<std::int64_t>::max() ? diagonal : std::sqrt(double(best)) * r;
+      out[g.Index(c)] = cls == 1 ? r - distance : distance;
     }
-    const double distance =
-        best == std::numeric_limits<std::int64_t>::max() ? diagonal
-                                                          : std::sqrt(double(best)) * r;
-    out[g.Index(c)] = occupied ? r - distance : distance;
   }
   return out;
 }
@@ -191,10 +193,30 @@ TEST(BuildSignedDistanceFieldTest, MatchesBruteForceOnRandomGrids) {
   for (const double density : {0.0, 0.002, 0.02, 0.1, 0.3, 0.7, 0.98, 1.0}) {
     for (int repeat = 0; repeat < 2; ++repeat) {
       std::mt19937 rng(++seed);
-      ExpectFieldMatchesBruteForce(g, RandomOccupancy(g, density, rng),
-                                   "density " + std::to_string(density) + " seed " +
-                                       std::to_string(seed));
+      ExpectFieldMatchesBruteForce(
+          g, RandomOccupancy(g, density, rng),
+          "density " + std::to_string(density) + " seed " + std::to_string(seed));
     }
+  }
+}
+
+TEST(BuildSignedDistanceFieldTest, MatchesBruteForceOnGridsBigEnoughForThreads) {
+  // Large enough to take the parallel path; sparse or dense so the brute force stays quick.
+  const GridGeometry g = MakeGeometry({70, 50, 24}, 0.2);
+  ASSERT_GE(g.CellCount(), std::int64_t{1} << 16);
+  int seed = 400;
+  for (const double density : {0.0, 0.01, 0.99, 1.0}) {
+    std::mt19937 rng(++seed);
+    std::vector<std::uint8_t> occ = RandomOccupancy(g, density, rng);
+    if (density == 0.01) {
+      // A solid block too, so some occupied cells lie deep inside.
+      for (int iz = 5; iz < 11; ++iz) {
+        for (int iy = 10; iy < 20; ++iy) {
+          for (int ix = 20; ix < 32; ++ix) occ[g.Index(ix, iy, iz)] = 1;
+        }
+      }
+    }
+    ExpectFieldMatchesBruteForce(g, occ, "density " + std::to_string(density));
   }
 }
 
@@ -209,9 +231,8 @@ TEST(BuildSignedDistanceFieldTest, MatchesBruteForceOnThinAndOddShapes) {
     for (const double density : {0.0, 0.01, 0.05, 0.5, 1.0}) {
       ExpectFieldMatchesBruteForce(g, RandomOccupancy(g, density, rng),
                                    "size " + std::to_string(size.x()) + "x" +
-                                       std::to_string(size.y()) + "x" +
-                                       std::to_string(size.z()) + " density " +
-                                       std::to_string(density));
+                                       std::to_string(size.y()) + "x" + std::to_string(size.z()) +
+                                       " density " + std::to_string(density));
     }
   }
 }
@@ -222,7 +243,7 @@ TEST(BuildSignedDistanceFieldTest, MatchesBruteForceOnStructuredScenes) {
   std::vector<std::uint8_t> occ(static_cast<std::size_t>(g.CellCount()), 0);
   for (int iy = 0; iy < 23; ++iy) {
     for (int ix = 0; ix < 29; ++ix) {
-      occ[g.Index(ix, iy, 2)] = 1;                      // Floor.
+      occ[g.Index(ix, iy, 2)] = 1;                           // Floor.
       if (ix > 10 && iy < 15) occ[g.Index(ix, iy, 12)] = 1;  // Overhang.
     }
   }
@@ -232,11 +253,41 @@ TEST(BuildSignedDistanceFieldTest, MatchesBruteForceOnStructuredScenes) {
   ExpectFieldMatchesBruteForce(g, occ, "slabs and walls");
 }
 
+TEST(BuildSignedDistanceFieldTest, MatchesDirectScanAlongLongLines) {
+  // Too big for the brute force, but with a few obstacles the nearest one is found by a
+  // direct scan. Lines of 3000 cells reach squared distances of ~9e6 cells², where a float
+  // intersection test would lose the precision it needs.
+  for (const Eigen::Vector3i& size :
+       {Eigen::Vector3i(3000, 3, 2), Eigen::Vector3i(2, 3000, 3), Eigen::Vector3i(3, 2, 3000)}) {
+    const GridGeometry g = MakeGeometry(size, 0.1);
+    std::vector<std::uint8_t> occ(static_cast<std::size_t>(g.CellCount()), 0);
+    const std::vector<Eigen::Vector3i> obstacles = {Eigen::Vector3i::Zero(),
+                                                    (size - Eigen::Vector3i::Ones()) / 3,
+                                                    size - Eigen::Vector3i::Ones()};
+    for (const Eigen::Vector3i& o : obstacles) occ[g.Index(o)] = 1;
+    const ScalarGrid field = BuildSignedDistanceField(g, occ);
+    for (int iz = 0; iz < size.z(); ++iz) {
+      for (int iy = 0; iy < size.y(); ++iy) {
+        for (int ix = 0; ix < size.x(); ++ix) {
+          const Eigen::Vector3i c(ix, iy, iz);
+          std::int64_t best = std::numeric_limits<std::int64_t>::max();
+          for (const Eigen::Vector3i& o : obstacles) {
+            best = std::min<std::int64_t>(best, (o - c).squaredNorm());
+          }
+          // An obstacle's nearest free cell is a face neighbour: value r − r = 0.
+          const double expected = best == 0 ? 0.0 : std::sqrt(double(best)) * g.resolution_m;
+          ASSERT_NEAR(field.at(ix, iy, iz), expected, 1e-5 * std::max(1.0, expected))
+              << "cell " << c.transpose();
+        }
+      }
+    }
+  }
+}
+
 TEST(BuildSignedDistanceFieldTest, EmptyAndFullGridsUseTheDiagonal) {
   const GridGeometry g = MakeGeometry({7, 5, 3}, 0.2);
   const double diagonal = g.size.cast<double>().norm() * g.resolution_m;
-  const ScalarGrid empty =
-      BuildSignedDistanceField(g, std::vector<std::uint8_t>(g.CellCount(), 0));
+  const ScalarGrid empty = BuildSignedDistanceField(g, std::vector<std::uint8_t>(g.CellCount(), 0));
   for (const float v : empty.values()) EXPECT_NEAR(v, diagonal, 1e-6);
   const ScalarGrid full = BuildSignedDistanceField(g, std::vector<std::uint8_t>(g.CellCount(), 1));
   for (const float v : full.values()) EXPECT_NEAR(v, g.resolution_m - diagonal, 1e-6);

@@ -74,8 +74,8 @@ TEST(GridGeometryTest, CellOfAndCellCenterRoundTrip) {
   // A point lies in the cell whose centre is within half a cell of it.
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   for (int trial = 0; trial < 1000; ++trial) {
-    const Eigen::Vector3d p = g.origin_m + Eigen::Vector3d(unit(rng) * 8.0, unit(rng) * 6.0,
-                                                           unit(rng) * 4.0);
+    const Eigen::Vector3d p =
+        g.origin_m + Eigen::Vector3d(unit(rng) * 8.0, unit(rng) * 6.0, unit(rng) * 4.0);
     const Eigen::Vector3i c = g.CellOf(p);
     ASSERT_TRUE(g.Contains(c));
     EXPECT_LE((g.CellCenter(c) - p).cwiseAbs().maxCoeff(), 0.5 * g.resolution_m + 1e-12);

@@ -13,8 +13,8 @@
 namespace strata::test_util {
 
 /// ∇f(x) by central differences: g_i = (f(x + h·e_i) − f(x − h·e_i)) / (2h). h > 0.
-inline Eigen::VectorXd NumericalGradient(
-    const std::function<double(const Eigen::VectorXd&)>& f, const Eigen::VectorXd& x, double h) {
+inline Eigen::VectorXd NumericalGradient(const std::function<double(const Eigen::VectorXd&)>& f,
+                                         const Eigen::VectorXd& x, double h) {
   Eigen::VectorXd gradient(x.size());
   Eigen::VectorXd probe = x;
   for (Eigen::Index i = 0; i < x.size(); ++i) {
