@@ -9,6 +9,8 @@
 #include <pcl/sample_consensus/ransac.h>
 #include <pcl/sample_consensus/sac_model_plane.h>
 
+#include "pcl_quiet_internal.hpp"
+
 namespace strata {
 namespace {
 
@@ -69,6 +71,7 @@ struct LocalPlaneFitter::Ransac {
 
 LocalPlaneFitter::LocalPlaneFitter(double inlier_distance_m, int ransac_iterations)
     : inlier_distance_m_(inlier_distance_m), ransac_(std::make_unique<Ransac>()) {
+  internal::SilencePclConsole();
   ransac_->cloud->resize(3);
   ransac_->model = std::make_shared<pcl::SampleConsensusModelPlane<pcl::PointXYZ>>(ransac_->cloud);
   ransac_->sac = std::make_unique<pcl::RandomSampleConsensus<pcl::PointXYZ>>(ransac_->model,

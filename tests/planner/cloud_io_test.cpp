@@ -3,15 +3,12 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <cstdint>
-#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <limits>
 #include <random>
-#include <sstream>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -21,7 +18,8 @@
 
 // The round trips write their fixtures with PCL's own writers.
 #if !__has_include(<pcl/io/pcd_io.h>)
-#error "cloud_io_test needs PCL headers: target_include_directories(cloud_io_test PRIVATE ${PCL_INCLUDE_DIRS})"
+#error "cloud_io_test needs PCL's headers: in tests/planner/CMakeLists.txt add \
+target_include_directories(cloud_io_test PRIVATE ${PCL_INCLUDE_DIRS})"
 #endif
 #include <octomap/ColorOcTree.h>
 #include <octomap/OcTree.h>
@@ -141,8 +139,9 @@ class CloudIoTest : public ::testing::Test {
   // An OcTree with a few occupied voxels far apart (so nothing is pruned) and one free voxel.
   static octomap::OcTree SmallTree(std::vector<Eigen::Vector3f>* occupied_centres) {
     octomap::OcTree tree(0.1);
-    for (const auto& p : {octomap::point3d(1.02f, 2.04f, 0.33f), octomap::point3d(-3.0f, 0.5f, 1.2f),
-                          octomap::point3d(10.0f, -7.3f, 2.2f), octomap::point3d(0.0f, 0.0f, -4.5f)}) {
+    const octomap::point3d points[] = {{1.02f, 2.04f, 0.33f}, {-3.0f, 0.5f, 1.2f},
+                                       {10.0f, -7.3f, 2.2f}, {0.0f, 0.0f, -4.5f}};
+    for (const auto& p : points) {
       tree.updateNode(p, true);
       const octomap::point3d c = tree.keyToCoord(tree.coordToKey(p));
       occupied_centres->emplace_back(c.x(), c.y(), c.z());
@@ -417,7 +416,8 @@ TEST_F(CloudIoTest, HugeDeclaredCountsFailWithoutAllocating) {
   CloudLoadLimits unlimited;
   unlimited.max_points = std::numeric_limits<std::size_t>::max();
   ExpectError(Write("binary.pcd", PcdHeader("WIDTH 0\nHEIGHT 0", 4'000'000'000, "binary") + record),
-              ErrorCode::kMapLoadFailed, "but the body holds 16 bytes (truncated file?)", unlimited);
+              ErrorCode::kMapLoadFailed, "but the body holds 16 bytes (truncated file?)",
+              unlimited);
   ExpectError(Write("ascii.pcd", PcdHeader("WIDTH 0\nHEIGHT 0", 4'000'000'000, "ascii") +
                                      "1 2 3 4\n"),
               ErrorCode::kMapLoadFailed, "holds 1 lines of values (truncated file?)", unlimited);
@@ -517,19 +517,27 @@ TEST_F(CloudIoTest, MutatedFilesNeverCrash) {
 }
 
 TEST_F(CloudIoTest, LoadingNeverPrints) {
+  std::vector<Eigen::Vector3f> occupied;
+  octomap::OcTree tree = SmallTree(&occupied);
+  ASSERT_TRUE(tree.write(PathFor("good.ot")));
+  ASSERT_TRUE(tree.writeBinary(PathFor("good.bt")));  // Prints " done." itself.
   const std::string paths[] = {
+      PathFor("good.ot"),
+      PathFor("good.bt"),
       Write("noise.pcd", "VERSION 0.7\nFIELDS x\nDATA ascii\n1\n"),
       Write("short.ply", "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\n"
-                         "property float y\nproperty float z\nend_header\n1 2 3\n4 5\n"),
+                         "property float y\nproperty float z\nend_header\n1 2 3\n4 55555\n"),
       Write("bad.bt", "# Octomap OcTree binary file\nid OcTree\nsize 9\nres 0.1\ndata\n\xff"),
       Write("bad.ot", "# Octomap OcTree file\nid Weird\nsize 1\nres 0.1\ndata\n"),
       Write("ok.pcd", PcdHeader("WIDTH 0\nHEIGHT 0", 1, "ascii") + "1 2 3 4\n"),
   };
   ::testing::internal::CaptureStderr();
   ::testing::internal::CaptureStdout();
-  for (const std::string& path : paths) (void)LoadPointCloud(path);
+  int loaded = 0;
+  for (const std::string& path : paths) loaded += LoadPointCloud(path).ok();
   const std::string out = ::testing::internal::GetCapturedStdout();
   const std::string err = ::testing::internal::GetCapturedStderr();
+  EXPECT_EQ(loaded, 3);
   EXPECT_EQ(out, "");
   EXPECT_EQ(err, "");
 }
@@ -541,7 +549,10 @@ class SharedMapsTest : public ::testing::Test {
   }
   static void ExpectMap(const std::string& name, std::size_t count, const Eigen::Vector3f& min,
                         const Eigen::Vector3f& max) {
-    if (!fs::exists(MapPath(name))) GTEST_SKIP() << MapPath(name) << " is absent";
+    if (!fs::exists(MapPath(name))) {
+      GTEST_SKIP() << MapPath(name) << " is absent: the shared reference maps live in "
+                   << "../shared/maps beside the repository";
+    }
     Expected<LoadedCloud> cloud = LoadPointCloud(MapPath(name));
     ASSERT_TRUE(cloud.ok()) << cloud.error().message;
     EXPECT_EQ(cloud->points.size(), count);

@@ -29,11 +29,16 @@ struct LoadedCloud {
 /// missing, unreadable, empty, truncated, not a point cloud, lacks x/y/z fields, or promises
 /// more points than it holds; with kResourceExhausted when it exceeds `limits`; with
 /// kInvalidInput when a coordinate is beyond limits.max_abs_coordinate_m. PCD headers that say
-/// WIDTH 0 HEIGHT 0 with POINTS set (as real-world exporters write) are accepted.
+/// WIDTH 0 HEIGHT 0 with POINTS set (as real-world exporters write) are accepted. A file whose
+/// points are all NaN/Inf fails with kMapLoadFailed; invalid `limits` with kInvalidConfig.
+/// OctoMap files give one point per occupied voxel at the tree's resolution (a pruned leaf gives
+/// every voxel it covers), and limits.max_points also bounds the number of tree nodes read.
 Expected<LoadedCloud> LoadPointCloud(const std::string& path, const CloudLoadLimits& limits = {});
 
 /// Drops non-finite points and rejects coordinates beyond `max_abs_coordinate_m`, the same
 /// sanitising LoadPointCloud applies; for clouds that arrive from elsewhere (uploads, scenes).
+/// Fails with kResourceExhausted above limits.max_points, kInvalidInput for a coordinate beyond
+/// the limit or when no finite point remains, kInvalidConfig for invalid `limits`.
 Expected<LoadedCloud> SanitizeCloud(PointCloud raw, const CloudLoadLimits& limits = {});
 
 }  // namespace strata
