@@ -4,5 +4,5 @@
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 build_dir=${STRATA_BUILD_DIR:-$root/build}
-"$root/scripts/build.sh" strata-offline
+"$root/scripts/build.sh" --target strata-offline
 exec "$build_dir/bench/strata-offline" assess "${@:-scene:two_level_ramp}"
