@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numeric>
 
 #include <Eigen/Eigenvalues>
 #include <pcl/point_types.h>
@@ -61,22 +60,15 @@ double MaxResidual(std::span<const Eigen::Vector3f> points, const PlaneFit& fit)
 struct LocalPlaneFitter::Ransac {
   std::shared_ptr<pcl::PointCloud<pcl::PointXYZ>> cloud =
       std::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
-  // PCL seeds the model's sampler with a fixed value unless asked otherwise: deterministic.
-  std::shared_ptr<pcl::SampleConsensusModelPlane<pcl::PointXYZ>> model;
-  std::unique_ptr<pcl::RandomSampleConsensus<pcl::PointXYZ>> sac;
-  pcl::Indices all;
   pcl::Indices inliers;
   std::vector<std::uint8_t> is_inlier;
 };
 
 LocalPlaneFitter::LocalPlaneFitter(double inlier_distance_m, int ransac_iterations)
-    : inlier_distance_m_(inlier_distance_m), ransac_(std::make_unique<Ransac>()) {
+    : inlier_distance_m_(inlier_distance_m),
+      ransac_iterations_(ransac_iterations),
+      ransac_(std::make_unique<Ransac>()) {
   internal::SilencePclConsole();
-  ransac_->cloud->resize(3);
-  ransac_->model = std::make_shared<pcl::SampleConsensusModelPlane<pcl::PointXYZ>>(ransac_->cloud);
-  ransac_->sac = std::make_unique<pcl::RandomSampleConsensus<pcl::PointXYZ>>(ransac_->model,
-                                                                             inlier_distance_m);
-  ransac_->sac->setMaxIterations(ransac_iterations);
 }
 
 LocalPlaneFitter::~LocalPlaneFitter() = default;
@@ -94,13 +86,13 @@ PlaneFit LocalPlaneFitter::Fit(std::span<const Eigen::Vector3f> points) {
   Ransac& r = *ransac_;
   r.cloud->resize(points.size());
   for (std::size_t i = 0; i < points.size(); ++i) (*r.cloud)[i].getVector3fMap() = points[i];
-  // setInputCloud keeps the old index list once one exists, so hand over the new one too.
-  r.model->setInputCloud(r.cloud);
-  r.all.resize(points.size());
-  std::iota(r.all.begin(), r.all.end(), 0);
-  r.model->setIndices(r.all);
-  if (!r.sac->computeModel()) return fit;  // Keep the all-points fit.
-  r.sac->getInliers(r.inliers);
+  // A fresh model per patch: PCL seeds its sampler with a fixed value at construction, so every
+  // patch gets the same random sequence whichever thread fits it, and the map is reproducible.
+  auto model = std::make_shared<pcl::SampleConsensusModelPlane<pcl::PointXYZ>>(r.cloud);
+  pcl::RandomSampleConsensus<pcl::PointXYZ> sac(model, inlier_distance_m_);
+  sac.setMaxIterations(ransac_iterations_);
+  if (!sac.computeModel()) return fit;  // Keep the all-points fit.
+  sac.getInliers(r.inliers);
   r.is_inlier.assign(points.size(), 0);
   for (const auto i : r.inliers) r.is_inlier[i] = 1;
   PlaneFit refined;

@@ -177,3 +177,27 @@ INSTANTIATE_TEST_SUITE_P(ReferenceMaps, SharedMap,
 
 }  // namespace
 }  // namespace strata
+
+namespace strata {
+namespace {
+
+TEST(TerrainModel, AssessmentIsReproducibleWhateverTheThreads) {
+  const PointCloud cloud = GenerateStairsRampRoom(/*seed=*/9, /*spacing_m=*/0.05);
+  AssessmentConfig config;
+  config.grid.resolution_m = 0.1;
+  std::vector<float> reference;
+  for (const int threads : {1, 2, 2, 1}) {
+    config.num_threads = threads;
+    auto model = TerrainModel::Assess(cloud, config);
+    ASSERT_TRUE(model.ok()) << model.error().message;
+    const std::vector<float>& field = (*model)->safety_field().values();
+    if (reference.empty()) {
+      reference = field;
+      continue;
+    }
+    EXPECT_EQ(field, reference) << "threads " << threads;
+  }
+}
+
+}  // namespace
+}  // namespace strata

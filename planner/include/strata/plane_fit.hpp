@@ -22,7 +22,8 @@ struct PlaneFit {
 /// least-squares fit on its inliers refines it. When the least-squares plane of all points
 /// already holds every point within the band there is no outlier to reject, so RANSAC is
 /// skipped: on clean floors and ramps (most patches) a fit costs one 3×3 eigensolve.
-/// One fitter keeps its RANSAC machinery between fits; use one per thread.
+/// One fitter keeps its buffers between fits; use one per thread. Results do not depend on
+/// which fitter (thread) fits a patch.
 class LocalPlaneFitter {
  public:
   LocalPlaneFitter(double inlier_distance_m, int ransac_iterations);
@@ -34,8 +35,9 @@ class LocalPlaneFitter {
   PlaneFit Fit(std::span<const Eigen::Vector3f> points);
 
  private:
-  struct Ransac;  // PCL types stay out of this header.
+  struct Ransac;  // Buffers; PCL types stay out of this header.
   double inlier_distance_m_;
+  int ransac_iterations_;
   std::unique_ptr<Ransac> ransac_;
 };
 
