@@ -8,6 +8,13 @@ const char* ErrorCodeName(ErrorCode code) {
     case ErrorCode::kInvalidConfig: return "INVALID_CONFIG";
     case ErrorCode::kMapLoadFailed: return "MAP_LOAD_FAILED";
     case ErrorCode::kResourceExhausted: return "RESOURCE_EXHAUSTED";
+    case ErrorCode::kStartOffGround: return "START_OFF_GROUND";
+    case ErrorCode::kGoalOffGround: return "GOAL_OFF_GROUND";
+    case ErrorCode::kGoalUnreachable: return "GOAL_UNREACHABLE";
+    case ErrorCode::kNoPath: return "NO_PATH";
+    case ErrorCode::kDeadlineExceeded: return "DEADLINE_EXCEEDED";
+    case ErrorCode::kCancelled: return "CANCELLED";
+    case ErrorCode::kSearchBudgetExhausted: return "SEARCH_BUDGET_EXHAUSTED";
   }
   return "UNKNOWN";
 }

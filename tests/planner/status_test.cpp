@@ -16,7 +16,11 @@ using ::testing::HasSubstr;
 TEST(Status, CodeNamesAreDistinctUpperSnakeCase) {
   std::set<std::string> names;
   for (const ErrorCode code : {ErrorCode::kInvalidInput, ErrorCode::kInvalidConfig,
-                               ErrorCode::kMapLoadFailed, ErrorCode::kResourceExhausted}) {
+                               ErrorCode::kMapLoadFailed, ErrorCode::kResourceExhausted,
+                               ErrorCode::kStartOffGround, ErrorCode::kGoalOffGround,
+                               ErrorCode::kGoalUnreachable, ErrorCode::kNoPath,
+                               ErrorCode::kDeadlineExceeded, ErrorCode::kCancelled,
+                               ErrorCode::kSearchBudgetExhausted}) {
     const std::string name = ErrorCodeName(code);
     EXPECT_TRUE(names.insert(name).second) << name;
     EXPECT_EQ(name.find_first_not_of("ABCDEFGHIJKLMNOPQRSTUVWXYZ_"), std::string::npos) << name;

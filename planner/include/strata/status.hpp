@@ -14,6 +14,13 @@ enum class ErrorCode {
   kInvalidConfig,      ///< A configuration field is out of its documented range.
   kMapLoadFailed,      ///< A map file cannot be read or is not a well-formed point cloud.
   kResourceExhausted,  ///< The request would exceed a size or memory limit.
+  kStartOffGround,     ///< No traversable ground within tolerance of the start.
+  kGoalOffGround,      ///< No traversable ground within tolerance of the goal.
+  kGoalUnreachable,    ///< Start and goal lie in different connected components.
+  kNoPath,             ///< The search found no path (defensive; components agreed).
+  kDeadlineExceeded,   ///< The time budget or the caller's deadline ran out.
+  kCancelled,          ///< The caller cancelled the request (should_stop returned true).
+  kSearchBudgetExhausted,  ///< The search used its expansion budget without reaching the goal.
 };
 
 /// Stable UPPER_SNAKE_CASE name of a code, e.g. "MAP_LOAD_FAILED".

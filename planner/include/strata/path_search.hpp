@@ -1,0 +1,64 @@
+#pragma once
+/// Front end of the planner: A* over the near-surface cells of a SurfaceGraph (26-connected,
+/// admissible heuristic, clearance-aware cost), with an expansion and time budget and a
+/// should_stop callable for deadlines and cancellation. Every failure names its reason.
+
+#include <functional>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "strata/status.hpp"
+#include "strata/surface_graph.hpp"
+
+namespace strata {
+
+/// A* settings. Validate() names the first bad field.
+struct SearchConfig {
+  /// Most nodes the search may expand [-], >= 1. Reaching it fails with
+  /// kSearchBudgetExhausted.
+  int max_expansions = 2'000'000;
+  /// Wall-clock budget of one search [s], > 0. Exceeding it fails with kDeadlineExceeded.
+  double time_budget_s = 1.0;
+  /// Extra cost of a move whose clearance is 0, relative to its length [-], >= 0.
+  double clearance_weight = 2.0;
+  /// Obstacle distance below which moves cost extra [m], > 0. Keep it below the reference
+  /// height: the ground itself is an obstacle, so open ground has d ≈ reference height.
+  double clearance_margin_m = 0.2;
+
+  Status Validate() const;
+};
+
+/// A path over graph nodes.
+struct PathResult {
+  std::vector<Eigen::Vector3d> points_m;  ///< Reference points, start to goal [m].
+  std::vector<int> nodes;                 ///< The graph nodes of points_m.
+  double length_m = 0;                    ///< Euclidean 3D length of the polyline [m].
+  double cost = 0;                        ///< Sum of EdgeCost along the path [m].
+  int expansions = 0;                     ///< Nodes expanded by the search [-].
+};
+
+/// Work done by a search, filled on success and failure alike.
+struct SearchStats {
+  int expansions = 0;      ///< Nodes expanded [-].
+  double elapsed_s = 0;    ///< Wall-clock time [s].
+};
+
+/// Cost of moving between adjacent nodes a and b: the Euclidean 3D length between their
+/// reference points times 1 + w · max(0, margin − c) / margin, with c the smaller clearance
+/// of the two. Never below the length, so the Euclidean distance heuristic is admissible.
+double EdgeCost(const SurfaceGraph& graph, int a, int b, const SearchConfig& config);
+
+/// Cheapest path from start_node to goal_node (e.g. SnapResult::node). Fails with:
+/// kInvalidConfig (bad config), kInvalidInput (node out of range), kGoalUnreachable (the
+/// nodes are in different components; decided before any expansion), kCancelled
+/// (should_stop returned true), kDeadlineExceeded (time_budget_s ran out),
+/// kSearchBudgetExhausted (max_expansions reached), kNoPath (open set emptied; defensive).
+/// should_stop and the clock are checked before the first expansion and every 1024 after.
+/// `should_stop` may be empty. `stats`, when non-null, receives the work done.
+Expected<PathResult> SearchPath(const SurfaceGraph& graph, int start_node, int goal_node,
+                                const SearchConfig& config,
+                                const std::function<bool()>& should_stop,
+                                SearchStats* stats = nullptr);
+
+}  // namespace strata

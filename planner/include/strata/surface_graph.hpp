@@ -1,0 +1,156 @@
+#pragma once
+/// The traversable space of an assessed map as a graph of near-surface cells, built once per
+/// (TerrainModel, TraversabilityParams) and shared read-only by every search on it (the server
+/// caches one per robot profile). Start/goal snapping onto it lives here too.
+
+#include <cmath>
+#include <cstdint>
+#include <numbers>
+#include <span>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "strata/status.hpp"
+#include "strata/terrain_model.hpp"
+
+namespace strata {
+
+/// What the robot needs to stand somewhere. Every field documents its unit and valid range;
+/// Validate() names the first bad field.
+struct TraversabilityParams {
+  /// Height of the trajectory's reference point above the ground [m], in (0, body_height_m].
+  double reference_height_m = 0.3;
+  /// Free height the body needs above the ground [m], > 0 and finite.
+  double body_height_m = 0.5;
+  /// Steepest surface the robot stands on [rad], in (0, π/2); at most the map's ground
+  /// filter θ (AssessmentConfig::ground.max_tilt_rad), since steeper ground is not valid.
+  double max_tilt_rad = 20.0 * std::numbers::pi / 180.0;
+  /// Largest ground height change between horizontally neighbouring cells [m], >= 0, finite.
+  double max_step_m = 0.1;
+
+  Status Validate() const;
+};
+
+/// Near-surface cells and their connectivity.
+///
+/// Nodes: for every column (ix, iy) and every surface s of it that is valid ground, has
+/// tilt <= max_tilt_rad and clearance >= body_height_m, and whose reference point (column
+/// centre x, y, s.ground_z + reference_height) lies inside the grid: one node, the grid cell
+/// holding that reference point. Nodes are stored column by column (x fastest), each column's
+/// nodes lowest first.
+///
+/// Edges (undirected): node a in column (ix, iy) and node b in one of the 8 horizontally
+/// neighbouring columns (|dx|, |dy| <= 1, not both 0) are adjacent iff
+/// |ground_z(a) - ground_z(b)| <= max_step_m. Nodes of the same column are never adjacent.
+/// When max_step_m < the grid resolution the two reference cells are at most one layer
+/// apart, so this is 26-connectivity of the grid restricted to near-surface cells, with the
+/// step rule deciding which of the (at most two) candidate cells of a neighbour column joins.
+///
+/// Connected components are labelled at build, so reachability is an O(1) query.
+class SurfaceGraph {
+ public:
+  /// Builds the graph; it keeps a reference to `model`, which must outlive it. Fails with kInvalidConfig naming the bad field of `params`, or when
+  /// params.max_tilt_rad exceeds the map's ground filter θ (naming both values).
+  static Expected<SurfaceGraph> Build(const TerrainModel& model,
+                                      const TraversabilityParams& params);
+
+  const TerrainModel& model() const { return *model_; }
+  const TraversabilityParams& params() const { return params_; }
+  const GridGeometry& grid() const { return model_->grid(); }
+
+  int node_count() const { return static_cast<int>(nodes_.size()); }
+  int component_count() const { return component_count_; }
+  /// Connected component label of `node`, in [0, component_count()).
+  int component(int node) const { return components_[node]; }
+
+  /// Reference point of `node` [m]: column centre x, y; ground height + reference_height_m.
+  Eigen::Vector3d position(int node) const {
+    const Node& n = nodes_[node];
+    const GridGeometry& g = grid();
+    return {g.origin_m.x() + (n.ix + 0.5) * g.resolution_m,
+            g.origin_m.y() + (n.iy + 0.5) * g.resolution_m, static_cast<double>(n.reference_z_m)};
+  }
+  /// Ground height under `node` [m].
+  double ground_z(int node) const {
+    return static_cast<double>(nodes_[node].reference_z_m) - params_.reference_height_m;
+  }
+  /// Grid cell holding the node's reference point.
+  Eigen::Vector3i cell(int node) const { return grid().CellOf(position(node)); }
+  /// Column of `node`.
+  Eigen::Vector2i column(int node) const { return {nodes_[node].ix, nodes_[node].iy}; }
+  /// Index of the node's surface among the valid surfaces of its column, 0 = lowest.
+  int level(int node) const { return nodes_[node].level; }
+  /// Obstacle distance d at the reference point (TerrainModel::Distance) [m].
+  double clearance(int node) const { return nodes_[node].clearance_m; }
+
+  /// Node indices of column (ix, iy), lowest first; empty outside the grid.
+  std::span<const std::int32_t> ColumnNodes(int ix, int iy) const {
+    const GridGeometry& g = grid();
+    if (ix < 0 || iy < 0 || ix >= g.size.x() || iy >= g.size.y()) return {};
+    const auto c = static_cast<std::size_t>(ix + std::int64_t{g.size.x()} * iy);
+    return {column_nodes_.data() + column_begin_[c], column_nodes_.data() + column_begin_[c + 1]};
+  }
+
+  /// Calls f(neighbour_node) for every node adjacent to `node` (see the class comment).
+  template <typename F>
+  void ForEachNeighbor(int node, F&& f) const {
+    const Node& n = nodes_[node];
+    for (int dy = -1; dy <= 1; ++dy) {
+      for (int dx = -1; dx <= 1; ++dx) {
+        if (dx == 0 && dy == 0) continue;
+        for (const std::int32_t m : ColumnNodes(n.ix + dx, n.iy + dy)) {
+          if (std::abs(nodes_[m].reference_z_m - n.reference_z_m) <= step_limit_) f(int{m});
+        }
+      }
+    }
+  }
+
+  /// Bytes held by the graph, not counting the object itself.
+  std::size_t MemoryBytes() const {
+    return nodes_.capacity() * sizeof(Node) + column_begin_.capacity() * sizeof(std::uint32_t) +
+           column_nodes_.capacity() * sizeof(std::int32_t) +
+           components_.capacity() * sizeof(std::int32_t);
+  }
+
+ private:
+  struct Node {
+    std::int32_t ix, iy;
+    std::int16_t surface_index;  // Index in SurfaceMap::Column(ix, iy).
+    std::int16_t level;          // Among the column's valid surfaces, 0 = lowest.
+    float reference_z_m;
+    float clearance_m;
+  };
+
+  SurfaceGraph() = default;
+
+  const TerrainModel* model_ = nullptr;
+  TraversabilityParams params_;
+  float step_limit_ = 0;  // max_step_m as compared in float.
+  std::vector<Node> nodes_;
+  std::vector<std::uint32_t> column_begin_;  // Columns + 1 offsets into column_nodes_.
+  std::vector<std::int32_t> column_nodes_;
+  std::vector<std::int32_t> components_;
+  int component_count_ = 0;
+};
+
+/// Where a 3D start or goal lands on the graph.
+struct SnapResult {
+  int node = -1;                                          ///< Graph node snapped to.
+  Eigen::Vector3d position_m = Eigen::Vector3d::Zero();  ///< Its reference point [m].
+  /// Index of the node's surface among the valid surfaces of its column, 0 = lowest.
+  int level = 0;
+  double distance_m = 0;  ///< 3D distance from the query point to position_m [m].
+};
+
+/// Snaps `p` onto the graph. First choice: p's own column, at the level p's z points at (the
+/// highest node whose ground is at or below p.z + half a cell), if within `tolerance_m` in 3D.
+/// Otherwise the node within tolerance_m (3D, reference point) that minimises the distance,
+/// with a strong preference for nodes whose ground lies below p.z.
+/// Fails with kInvalidInput for a non-finite p or tolerance < 0, and with `off_ground_code`
+/// (kStartOffGround or kGoalOffGround) when no node is within tolerance; the message names p,
+/// the tolerance, and the nearest node anywhere on the map.
+Expected<SnapResult> SnapToSurface(const SurfaceGraph& graph, const Eigen::Vector3d& p,
+                                   double tolerance_m, ErrorCode off_ground_code);
+
+}  // namespace strata

@@ -1,0 +1,239 @@
+#include "strata/minco.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+
+namespace strata {
+namespace {
+
+constexpr int kCoeffs = Minco3::kPieceCoefficients;
+// Both bandwidths of A(T) in the row order below (GCOPTER's): the widest rows are a joint's
+// jerk/snap continuity (up to the next piece's c3/c4: upper 6) and its acceleration continuity
+// (from this piece's c2: lower 6).
+constexpr int kBandwidth = 6;
+
+// Within joint i's six rows (starting at 6i + 3), the derivative order each row constrains at
+// the end of piece i. Jerk and snap continuity come first so that every diagonal entry is a
+// structural non-zero (6, 24, T⁵, −1, −1, −2): LU without pivoting then never meets a zero.
+constexpr std::array<int, 6> kJointRowOrder = {3, 4, 0, 0, 1, 2};
+// Offset within the joint block of the row p_i(T_i) = q_i (the others are continuity rows).
+constexpr int kWaypointRow = 2;
+
+// d^order/dt^order of t^k, for k = 0..5, at t: k!/(k−order)! t^(k−order).
+std::array<double, kCoeffs> BasisDerivative(double t, int order) {
+  std::array<double, kCoeffs> basis{};
+  for (int k = order; k < kCoeffs; ++k) {
+    double factor = 1.0;
+    for (int m = k - order + 1; m <= k; ++m) factor *= m;
+    basis[k] = factor * std::pow(t, k - order);
+  }
+  return basis;
+}
+
+}  // namespace
+
+void BandedSystem::Reset(int n, int lower, int upper) {
+  n_ = n;
+  lower_ = lower;
+  upper_ = upper;
+  data_.assign(static_cast<std::size_t>(n) * (lower + upper + 1), 0.0);
+}
+
+void BandedSystem::Factorize() {
+  for (int k = 0; k < n_; ++k) {
+    const int i_max = std::min(k + lower_, n_ - 1);
+    const int j_max = std::min(k + upper_, n_ - 1);
+    const double pivot = (*this)(k, k);
+    for (int i = k + 1; i <= i_max; ++i) (*this)(i, k) /= pivot;
+    for (int j = k + 1; j <= j_max; ++j) {
+      const double u = (*this)(k, j);
+      if (u == 0.0) continue;
+      for (int i = k + 1; i <= i_max; ++i) (*this)(i, j) -= (*this)(i, k) * u;
+    }
+  }
+}
+
+void BandedSystem::Solve(Eigen::MatrixXd* b) const {
+  Eigen::MatrixXd& x = *b;
+  for (int j = 0; j < n_; ++j) {  // L y = b, L unit lower.
+    const int i_max = std::min(j + lower_, n_ - 1);
+    for (int i = j + 1; i <= i_max; ++i) x.row(i) -= (*this)(i, j) * x.row(j);
+  }
+  for (int j = n_ - 1; j >= 0; --j) {  // U x = y.
+    x.row(j) /= (*this)(j, j);
+    for (int i = std::max(0, j - upper_); i < j; ++i) x.row(i) -= (*this)(i, j) * x.row(j);
+  }
+}
+
+void BandedSystem::SolveTransposed(Eigen::MatrixXd* b) const {
+  Eigen::MatrixXd& x = *b;
+  for (int j = 0; j < n_; ++j) {  // Uᵀ z = b, Uᵀ lower.
+    x.row(j) /= (*this)(j, j);
+    const int i_max = std::min(j + upper_, n_ - 1);
+    for (int i = j + 1; i <= i_max; ++i) x.row(i) -= (*this)(j, i) * x.row(j);
+  }
+  for (int j = n_ - 1; j >= 0; --j) {  // Lᵀ x = z, Lᵀ unit upper.
+    for (int i = std::max(0, j - lower_); i < j; ++i) x.row(i) -= (*this)(j, i) * x.row(j);
+  }
+}
+
+void Minco3::SetConditions(const Eigen::MatrixXd& head_pva, const Eigen::MatrixXd& tail_pva,
+                           int piece_count) {
+  dim_ = static_cast<int>(head_pva.rows());
+  piece_count_ = piece_count;
+  head_pva_ = head_pva;
+  tail_pva_ = tail_pva;
+  durations_ = Eigen::VectorXd::Ones(piece_count);
+  coefficients_ = Eigen::MatrixXd::Zero(kCoeffs * piece_count, dim_);
+}
+
+void Minco3::SetParameters(const Eigen::MatrixXd& waypoints, const Eigen::VectorXd& durations) {
+  const int m = piece_count_;
+  const int n = kCoeffs * m;
+  durations_ = durations;
+  system_.Reset(n, kBandwidth, kBandwidth);
+  Eigen::MatrixXd& b = coefficients_;
+  b.setZero(n, dim_);
+
+  // Head: p, p', p'' of piece 0 at t = 0 are c0, c1, 2 c2.
+  system_(0, 0) = 1.0;
+  system_(1, 1) = 1.0;
+  system_(2, 2) = 2.0;
+  b.topRows(3) = head_pva_.transpose();
+
+  for (int i = 0; i + 1 < m; ++i) {
+    const int row0 = kCoeffs * i + 3;
+    const int col = kCoeffs * i;
+    const int next_col = col + kCoeffs;
+    for (int r = 0; r < kCoeffs; ++r) {
+      const int order = kJointRowOrder[r];
+      const std::array<double, kCoeffs> basis = BasisDerivative(durations_[i], order);
+      for (int k = order; k < kCoeffs; ++k) system_(row0 + r, col + k) = basis[k];
+      if (r == kWaypointRow) {
+        b.row(row0 + r) = waypoints.col(i).transpose();
+      } else {
+        // −p_{i+1}^{(order)}(0) = −order! · c_{i+1, order}.
+        system_(row0 + r, next_col + order) = -BasisDerivative(0.0, order)[order];
+      }
+    }
+  }
+
+  // Tail: p, p', p'' of the last piece at its end.
+  const int last_col = kCoeffs * (m - 1);
+  for (int order = 0; order < 3; ++order) {
+    const std::array<double, kCoeffs> basis = BasisDerivative(durations_[m - 1], order);
+    for (int k = order; k < kCoeffs; ++k) system_(n - 3 + order, last_col + k) = basis[k];
+  }
+  b.bottomRows(3) = tail_pva_.transpose();
+
+  system_.Factorize();
+  system_.Solve(&coefficients_);
+}
+
+int Minco3::LocatePiece(double t, double* local_t) const {
+  t = std::max(t, 0.0);
+  int piece = 0;
+  while (piece + 1 < piece_count_ && t > durations_[piece]) {
+    t -= durations_[piece];
+    ++piece;
+  }
+  *local_t = std::min(t, durations_[piece]);
+  return piece;
+}
+
+Eigen::VectorXd Minco3::PieceDerivative(int piece, double t, int order) const {
+  const std::array<double, kCoeffs> basis = BasisDerivative(t, order);
+  const Eigen::Map<const Eigen::Matrix<double, kCoeffs, 1>> beta(basis.data());
+  return coefficients_.middleRows<kCoeffs>(kCoeffs * piece).transpose() * beta;
+}
+
+Eigen::VectorXd Minco3::Evaluate(double t, int order) const {
+  double local_t = 0.0;
+  const int piece = LocatePiece(t, &local_t);
+  return PieceDerivative(piece, local_t, order);
+}
+
+double Minco3::JerkEnergy(Eigen::MatrixXd* grad_c, Eigen::VectorXd* grad_T) const {
+  const int m = piece_count_;
+  if (grad_c != nullptr && (grad_c->rows() != kCoeffs * m || grad_c->cols() != dim_)) {
+    grad_c->setZero(kCoeffs * m, dim_);
+  }
+  if (grad_T != nullptr && grad_T->size() != m) grad_T->setZero(m);
+
+  double energy = 0.0;
+  for (int i = 0; i < m; ++i) {
+    const double t1 = durations_[i];
+    const double t2 = t1 * t1;
+    const double t3 = t2 * t1;
+    const double t4 = t3 * t1;
+    const double t5 = t4 * t1;
+    const auto c3 = coefficients_.row(kCoeffs * i + 3);
+    const auto c4 = coefficients_.row(kCoeffs * i + 4);
+    const auto c5 = coefficients_.row(kCoeffs * i + 5);
+    const double c33 = c3.squaredNorm();
+    const double c34 = c3.dot(c4);
+    const double c44 = c4.squaredNorm();
+    const double c35 = c3.dot(c5);
+    const double c45 = c4.dot(c5);
+    const double c55 = c5.squaredNorm();
+    // ∫₀ᵀ ‖6c₃ + 24c₄t + 60c₅t²‖² dt (DESIGN §5).
+    energy += 36.0 * c33 * t1 + 144.0 * c34 * t2 + 192.0 * c44 * t3 + 240.0 * c35 * t3 +
+              720.0 * c45 * t4 + 720.0 * c55 * t5;
+    if (grad_c != nullptr) {
+      grad_c->row(kCoeffs * i + 3) += 72.0 * t1 * c3 + 144.0 * t2 * c4 + 240.0 * t3 * c5;
+      grad_c->row(kCoeffs * i + 4) += 144.0 * t2 * c3 + 384.0 * t3 * c4 + 720.0 * t4 * c5;
+      grad_c->row(kCoeffs * i + 5) += 240.0 * t3 * c3 + 720.0 * t4 * c4 + 1440.0 * t5 * c5;
+    }
+    if (grad_T != nullptr) {
+      // d/dT ∫₀ᵀ ‖jerk‖² = ‖jerk(T)‖².
+      (*grad_T)[i] += 36.0 * c33 + 288.0 * c34 * t1 + 576.0 * c44 * t2 + 720.0 * c35 * t2 +
+                      2880.0 * c45 * t3 + 3600.0 * c55 * t4;
+    }
+  }
+  return energy;
+}
+
+void Minco3::PropagateGradient(const Eigen::MatrixXd& grad_c, const Eigen::VectorXd& grad_T,
+                               Eigen::MatrixXd* grad_waypoints,
+                               Eigen::VectorXd* grad_durations) const {
+  const int m = piece_count_;
+  const int n = kCoeffs * m;
+  // A c = b(q) gives dc = A⁻¹(db − dA·c), so dJ = Gᵀ(db − dA·c) with Aᵀ G = ∂J/∂c.
+  Eigen::MatrixXd adjoint = grad_c;
+  system_.SolveTransposed(&adjoint);
+
+  grad_waypoints->resize(dim_, m - 1);
+  *grad_durations = grad_T;
+  for (int i = 0; i + 1 < m; ++i) {
+    const int row0 = kCoeffs * i + 3;
+    grad_waypoints->col(i) = adjoint.row(row0 + kWaypointRow).transpose();
+    // Joint i's rows hold p_i^{(order)}(T_i), whose T-derivative is p_i^{(order+1)}(T_i).
+    for (int r = 0; r < kCoeffs; ++r) {
+      (*grad_durations)[i] -=
+          adjoint.row(row0 + r).dot(PieceDerivative(i, durations_[i], kJointRowOrder[r] + 1));
+    }
+  }
+  for (int order = 0; order < 3; ++order) {
+    (*grad_durations)[m - 1] -=
+        adjoint.row(n - 3 + order).dot(PieceDerivative(m - 1, durations_[m - 1], order + 1));
+  }
+}
+
+double DurationFromTau(double tau) {
+  if (tau > 0.0) return (0.5 * tau + 1.0) * tau + 1.0;
+  return 1.0 / ((0.5 * tau - 1.0) * tau + 1.0);
+}
+
+double TauFromDuration(double duration) {
+  if (duration > 1.0) return std::sqrt(2.0 * duration - 1.0) - 1.0;
+  return 1.0 - std::sqrt(2.0 / duration - 1.0);
+}
+
+double DurationGradient(double tau) {
+  if (tau > 0.0) return tau + 1.0;
+  const double denominator = (0.5 * tau - 1.0) * tau + 1.0;
+  return (1.0 - tau) / (denominator * denominator);
+}
+
+}  // namespace strata

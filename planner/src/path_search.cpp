@@ -1,0 +1,159 @@
+#include "strata/path_search.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <queue>
+#include <string>
+
+namespace strata {
+namespace {
+
+Error BadConfig(const char* field, double value, const char* range) {
+  char buf[256];
+  std::snprintf(buf, sizeof(buf), "search.%s = %g is out of range: must be %s", field, value,
+                range);
+  return Error{ErrorCode::kInvalidConfig, buf};
+}
+
+std::string FormatPoint(const Eigen::Vector3d& p) {
+  char buf[128];
+  std::snprintf(buf, sizeof(buf), "(%.2f, %.2f, %.2f)", p.x(), p.y(), p.z());
+  return buf;
+}
+
+}  // namespace
+
+Status SearchConfig::Validate() const {
+  if (max_expansions < 1) return BadConfig("max_expansions", max_expansions, ">= 1");
+  if (!(std::isfinite(time_budget_s) && time_budget_s > 0)) {
+    return BadConfig("time_budget_s", time_budget_s, "> 0 and finite");
+  }
+  if (!(std::isfinite(clearance_weight) && clearance_weight >= 0)) {
+    return BadConfig("clearance_weight", clearance_weight, ">= 0 and finite");
+  }
+  if (!(std::isfinite(clearance_margin_m) && clearance_margin_m > 0)) {
+    return BadConfig("clearance_margin_m", clearance_margin_m, "> 0 and finite");
+  }
+  return Status::Ok();
+}
+
+double EdgeCost(const SurfaceGraph& graph, int a, int b, const SearchConfig& config) {
+  const double length = (graph.position(a) - graph.position(b)).norm();
+  const double c = std::min(graph.clearance(a), graph.clearance(b));
+  const double shortfall = std::max(0.0, config.clearance_margin_m - c);
+  return length * (1.0 + config.clearance_weight * shortfall / config.clearance_margin_m);
+}
+
+Expected<PathResult> SearchPath(const SurfaceGraph& graph, int start_node, int goal_node,
+                                const SearchConfig& config,
+                                const std::function<bool()>& should_stop, SearchStats* stats) {
+  using Clock = std::chrono::steady_clock;
+  const Clock::time_point t0 = Clock::now();
+  int expansions = 0;
+  const auto finish = [&]() {
+    if (stats != nullptr) {
+      stats->expansions = expansions;
+      stats->elapsed_s = std::chrono::duration<double>(Clock::now() - t0).count();
+    }
+  };
+  const auto fail = [&](ErrorCode code, std::string message) -> Expected<PathResult> {
+    finish();
+    return Error{code, std::move(message)};
+  };
+
+  if (Status s = config.Validate(); !s.ok()) return fail(s.error().code, s.error().message);
+  const int n = graph.node_count();
+  if (start_node < 0 || start_node >= n || goal_node < 0 || goal_node >= n) {
+    char buf[160];
+    std::snprintf(buf, sizeof(buf), "start node %d or goal node %d is outside [0, %d)",
+                  start_node, goal_node, n);
+    return fail(ErrorCode::kInvalidInput, buf);
+  }
+  const Eigen::Vector3d goal_p = graph.position(goal_node);
+  const Eigen::Vector3d start_p = graph.position(start_node);
+  if (graph.component(start_node) != graph.component(goal_node)) {
+    return fail(ErrorCode::kGoalUnreachable,
+                "goal " + FormatPoint(goal_p) + " m is not connected to start " +
+                    FormatPoint(start_p) +
+                    " m over traversable ground (they lie in different connected components)");
+  }
+
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  std::vector<double> g_cost(n, kInf);
+  std::vector<std::int32_t> parent(n, -1);
+  std::vector<std::uint8_t> closed(n, 0);
+  struct Entry {
+    double f;
+    double g;
+    int node;
+    bool operator>(const Entry& o) const { return f > o.f; }
+  };
+  std::priority_queue<Entry, std::vector<Entry>, std::greater<>> open;
+  g_cost[start_node] = 0;
+  open.push({(start_p - goal_p).norm(), 0.0, start_node});
+  const auto deadline = t0 + std::chrono::duration_cast<Clock::duration>(
+                                 std::chrono::duration<double>(config.time_budget_s));
+
+  while (!open.empty()) {
+    const Entry top = open.top();
+    open.pop();
+    if (closed[top.node] || top.g > g_cost[top.node]) continue;  // Stale entry.
+    if (top.node == goal_node) {
+      PathResult result;
+      for (int v = goal_node; v >= 0; v = parent[v]) result.nodes.push_back(v);
+      std::reverse(result.nodes.begin(), result.nodes.end());
+      for (std::size_t i = 0; i < result.nodes.size(); ++i) {
+        result.points_m.push_back(graph.position(result.nodes[i]));
+        if (i > 0) result.length_m += (result.points_m[i] - result.points_m[i - 1]).norm();
+      }
+      result.cost = g_cost[goal_node];
+      result.expansions = expansions;
+      finish();
+      return result;
+    }
+    if (expansions % 1024 == 0) {
+      if (should_stop && should_stop()) {
+        char buf[96];
+        std::snprintf(buf, sizeof(buf), " m was cancelled after %d expansions", expansions);
+        return fail(ErrorCode::kCancelled, "search from " + FormatPoint(start_p) + " m to " +
+                                               FormatPoint(goal_p) + buf);
+      }
+      if (Clock::now() > deadline) {
+        char buf[128];
+        std::snprintf(buf, sizeof(buf), " m exceeded its time budget of %g s after %d expansions",
+                      config.time_budget_s, expansions);
+        return fail(ErrorCode::kDeadlineExceeded, "search from " + FormatPoint(start_p) +
+                                                      " m to " + FormatPoint(goal_p) + buf);
+      }
+    }
+    if (expansions >= config.max_expansions) {
+      char buf[160];
+      std::snprintf(buf, sizeof(buf),
+                    " m used its budget of %d expansions (search.max_expansions) without "
+                    "reaching the goal",
+                    config.max_expansions);
+      return fail(ErrorCode::kSearchBudgetExhausted,
+                  "search from " + FormatPoint(start_p) + " m to " + FormatPoint(goal_p) + buf);
+    }
+    closed[top.node] = 1;
+    ++expansions;
+    graph.ForEachNeighbor(top.node, [&](int m) {
+      if (closed[m]) return;
+      const double g = top.g + EdgeCost(graph, top.node, m, config);
+      if (g < g_cost[m]) {
+        g_cost[m] = g;
+        parent[m] = top.node;
+        open.push({g + (graph.position(m) - goal_p).norm(), g, m});
+      }
+    });
+  }
+  char buf[96];
+  std::snprintf(buf, sizeof(buf), " m after %d expansions", expansions);
+  return fail(ErrorCode::kNoPath, "no path found from " + FormatPoint(start_p) + " m to " +
+                                      FormatPoint(goal_p) + buf);
+}
+
+}  // namespace strata

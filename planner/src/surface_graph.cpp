@@ -1,0 +1,198 @@
+#include "strata/surface_graph.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <string>
+
+namespace strata {
+namespace {
+
+Error BadParam(const char* field, double value, const char* range) {
+  char buf[256];
+  std::snprintf(buf, sizeof(buf), "traversability.%s = %g is out of range: must be %s", field,
+                value, range);
+  return Error{ErrorCode::kInvalidConfig, buf};
+}
+
+std::string FormatPoint(const Eigen::Vector3d& p) {
+  char buf[128];
+  std::snprintf(buf, sizeof(buf), "(%.2f, %.2f, %.2f)", p.x(), p.y(), p.z());
+  return buf;
+}
+
+}  // namespace
+
+Status TraversabilityParams::Validate() const {
+  if (!(std::isfinite(body_height_m) && body_height_m > 0)) {
+    return BadParam("body_height_m", body_height_m, "> 0 and finite");
+  }
+  if (!(reference_height_m > 0 && reference_height_m <= body_height_m)) {
+    return BadParam("reference_height_m", reference_height_m, "in (0, body_height_m]");
+  }
+  if (!(max_tilt_rad > 0 && max_tilt_rad < std::numbers::pi / 2)) {
+    return BadParam("max_tilt_rad", max_tilt_rad, "in (0, pi/2)");
+  }
+  if (!(std::isfinite(max_step_m) && max_step_m >= 0)) {
+    return BadParam("max_step_m", max_step_m, ">= 0 and finite");
+  }
+  return Status::Ok();
+}
+
+Expected<SurfaceGraph> SurfaceGraph::Build(const TerrainModel& model,
+                                           const TraversabilityParams& params) {
+  if (Status s = params.Validate(); !s.ok()) return s.error();
+  const double map_tilt = model.config().ground.max_tilt_rad;
+  if (params.max_tilt_rad > map_tilt) {
+    char buf[256];
+    std::snprintf(buf, sizeof(buf),
+                  "traversability.max_tilt_rad = %g exceeds the map's ground filter "
+                  "ground.max_tilt_rad = %g: steeper ground was never marked valid",
+                  params.max_tilt_rad, map_tilt);
+    return Error{ErrorCode::kInvalidConfig, buf};
+  }
+
+  SurfaceGraph graph;
+  graph.model_ = &model;
+  graph.params_ = params;
+  graph.step_limit_ = static_cast<float>(params.max_step_m);
+  const GridGeometry& g = model.grid();
+  const SurfaceMap& surfaces = model.surfaces();
+  const std::int64_t columns = g.LayerCellCount();
+  graph.column_begin_.assign(static_cast<std::size_t>(columns) + 1, 0);
+  const double z_min = g.origin_m.z();
+  const double z_max = z_min + g.size.z() * g.resolution_m;
+
+  for (int iy = 0; iy < g.size.y(); ++iy) {
+    for (int ix = 0; ix < g.size.x(); ++ix) {
+      const std::span<const ColumnSurface> column = surfaces.Column(ix, iy);
+      int level = 0;
+      for (std::size_t k = 0; k < column.size(); ++k) {
+        const ColumnSurface& s = column[k];
+        if (!s.valid) continue;
+        const int this_level = level++;
+        const double reference_z = s.ground_z_m + params.reference_height_m;
+        if (s.tilt_rad > params.max_tilt_rad || s.clearance_m < params.body_height_m ||
+            reference_z < z_min || reference_z >= z_max) {
+          continue;
+        }
+        const Eigen::Vector3d p(g.origin_m.x() + (ix + 0.5) * g.resolution_m,
+                                g.origin_m.y() + (iy + 0.5) * g.resolution_m, reference_z);
+        graph.column_nodes_.push_back(static_cast<std::int32_t>(graph.nodes_.size()));
+        graph.nodes_.push_back(Node{ix, iy, static_cast<std::int16_t>(k),
+                                    static_cast<std::int16_t>(this_level),
+                                    static_cast<float>(reference_z),
+                                    static_cast<float>(model.Distance(p))});
+      }
+      graph.column_begin_[ix + std::int64_t{g.size.x()} * iy + 1] =
+          static_cast<std::uint32_t>(graph.column_nodes_.size());
+    }
+  }
+
+  // Component labels by breadth-first search; the queue is the label array's visit order.
+  const int n = graph.node_count();
+  graph.components_.assign(n, -1);
+  std::vector<std::int32_t> queue;
+  queue.reserve(n);
+  for (int seed = 0; seed < n; ++seed) {
+    if (graph.components_[seed] >= 0) continue;
+    const int label = graph.component_count_++;
+    queue.clear();
+    queue.push_back(seed);
+    graph.components_[seed] = label;
+    for (std::size_t head = 0; head < queue.size(); ++head) {
+      graph.ForEachNeighbor(queue[head], [&](int m) {
+        if (graph.components_[m] < 0) {
+          graph.components_[m] = label;
+          queue.push_back(m);
+        }
+      });
+    }
+  }
+  return graph;
+}
+
+Expected<SnapResult> SnapToSurface(const SurfaceGraph& graph, const Eigen::Vector3d& p,
+                                   double tolerance_m, ErrorCode off_ground_code) {
+  const char* what = off_ground_code == ErrorCode::kStartOffGround  ? "start"
+                     : off_ground_code == ErrorCode::kGoalOffGround ? "goal"
+                                                                    : "point";
+  if (!p.allFinite()) {
+    return Error{ErrorCode::kInvalidInput,
+                 std::string(what) + " " + FormatPoint(p) + " m is not finite"};
+  }
+  if (!(std::isfinite(tolerance_m) && tolerance_m >= 0)) {
+    char buf[128];
+    std::snprintf(buf, sizeof(buf), "snap tolerance %g m must be finite and >= 0", tolerance_m);
+    return Error{ErrorCode::kInvalidInput, buf};
+  }
+  const GridGeometry& g = graph.grid();
+  const double r = g.resolution_m;
+  const double slack = 0.5 * r;
+  const auto make = [&](int node) {
+    const Eigen::Vector3d pos = graph.position(node);
+    return SnapResult{node, pos, graph.level(node), (pos - p).norm()};
+  };
+
+  // 1. p's own column, at the level its z points at.
+  const Eigen::Vector3i c = g.CellOf(p);
+  {
+    int chosen = -1;
+    for (const std::int32_t m : graph.ColumnNodes(c.x(), c.y())) {
+      if (graph.ground_z(m) <= p.z() + slack) chosen = m;  // Lowest first: keep the highest.
+    }
+    if (chosen >= 0 && (graph.position(chosen) - p).norm() <= tolerance_m) return make(chosen);
+  }
+
+  // 2. Columns within tolerance, ring by ring. Score = 3D distance, plus a penalty larger
+  // than any in-tolerance distance for ground above p, so ground below always wins.
+  const double above_penalty = 2.0 * tolerance_m + r;
+  const int max_ring = static_cast<int>(std::ceil(tolerance_m / r)) + 1;
+  int best = -1;
+  double best_score = std::numeric_limits<double>::infinity();
+  for (int ring = 0; ring <= max_ring; ++ring) {
+    // Columns of this ring lie at least (ring - 1) · r horizontally from p.
+    if (best >= 0 && best_score <= (ring - 1) * r) break;
+    for (int dy = -ring; dy <= ring; ++dy) {
+      const bool edge_row = std::abs(dy) == ring;
+      for (int dx = -ring; dx <= ring; dx += edge_row ? 1 : 2 * std::max(ring, 1)) {
+        for (const std::int32_t m : graph.ColumnNodes(c.x() + dx, c.y() + dy)) {
+          const double d = (graph.position(m) - p).norm();
+          if (d > tolerance_m) continue;
+          const double score = d + (graph.ground_z(m) > p.z() + slack ? above_penalty : 0.0);
+          if (score < best_score) {
+            best_score = score;
+            best = m;
+          }
+        }
+        if (ring == 0) break;
+      }
+    }
+  }
+  if (best >= 0) return make(best);
+
+  // 3. Nothing within tolerance: name the nearest node anywhere (a linear scan, only on
+  // this failure path).
+  int nearest = -1;
+  double nearest_d = std::numeric_limits<double>::infinity();
+  for (int m = 0; m < graph.node_count(); ++m) {
+    const double d = (graph.position(m) - p).norm();
+    if (d < nearest_d) {
+      nearest_d = d;
+      nearest = m;
+    }
+  }
+  char buf[96];
+  std::snprintf(buf, sizeof(buf), " m has no traversable ground within %.2f m", tolerance_m);
+  std::string message = std::string(what) + " " + FormatPoint(p) + buf;
+  if (nearest >= 0) {
+    std::snprintf(buf, sizeof(buf), " (%.2f m away)", nearest_d);
+    message += "; the nearest is " + FormatPoint(graph.position(nearest)) + " m" + buf;
+  } else {
+    message += "; the map has no traversable ground for these traversability parameters";
+  }
+  return Error{off_ground_code, message};
+}
+
+}  // namespace strata

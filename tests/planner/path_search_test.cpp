@@ -1,0 +1,318 @@
+#include "strata/path_search.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <queue>
+#include <random>
+#include <vector>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "strata/scenes.hpp"
+#include "strata/surface_graph.hpp"
+#include "strata/terrain_model.hpp"
+
+namespace strata {
+namespace {
+
+using ::testing::HasSubstr;
+
+std::shared_ptr<const TerrainModel> AssessScene(const PointCloud& cloud) {
+  AssessmentConfig config;
+  config.grid.resolution_m = 0.1;
+  auto model = TerrainModel::Assess(cloud, config);
+  EXPECT_TRUE(model.ok()) << model.error().message;
+  return model.ok() ? *model : nullptr;
+}
+
+// Plain Dijkstra over the same graph and edge costs: the reference for A*.
+std::vector<double> Dijkstra(const SurfaceGraph& graph, int source, const SearchConfig& config) {
+  std::vector<double> dist(graph.node_count(), std::numeric_limits<double>::infinity());
+  using Item = std::pair<double, int>;
+  std::priority_queue<Item, std::vector<Item>, std::greater<>> queue;
+  dist[source] = 0;
+  queue.push({0.0, source});
+  while (!queue.empty()) {
+    const auto [d, v] = queue.top();
+    queue.pop();
+    if (d > dist[v]) continue;
+    graph.ForEachNeighbor(v, [&](int m) {
+      const double nd = d + EdgeCost(graph, v, m, config);
+      if (nd < dist[m]) {
+        dist[m] = nd;
+        queue.push({nd, m});
+      }
+    });
+  }
+  return dist;
+}
+
+bool AreNeighbors(const SurfaceGraph& graph, int a, int b) {
+  bool found = false;
+  graph.ForEachNeighbor(a, [&](int m) { found = found || m == b; });
+  return found;
+}
+
+class TwoLevel : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    model_ = new std::shared_ptr<const TerrainModel>(AssessScene(GenerateTwoLevelRamp(5)));
+    ASSERT_NE(*model_, nullptr);
+    auto graph = SurfaceGraph::Build(**model_, TraversabilityParams{});
+    ASSERT_TRUE(graph.ok()) << graph.error().message;
+    graph_ = new SurfaceGraph(*std::move(graph));
+  }
+  static void TearDownTestSuite() {
+    delete graph_;
+    delete model_;
+  }
+  const TerrainModel& model() const { return **model_; }
+  const SurfaceGraph& graph() const { return *graph_; }
+  int Snap(const Eigen::Vector3d& p) const {
+    auto s = SnapToSurface(graph(), p, 1.0, ErrorCode::kStartOffGround);
+    EXPECT_TRUE(s.ok()) << s.error().message;
+    return s.ok() ? s->node : -1;
+  }
+
+  static std::shared_ptr<const TerrainModel>* model_;
+  static SurfaceGraph* graph_;
+  TwoLevelRampLayout layout_ = GetTwoLevelRampLayout();
+  TraversabilityParams params_;
+};
+std::shared_ptr<const TerrainModel>* TwoLevel::model_ = nullptr;
+SurfaceGraph* TwoLevel::graph_ = nullptr;
+
+TEST_F(TwoLevel, BuildRejectsBadParamsNamingTheField) {
+  TraversabilityParams p;
+  p.max_tilt_rad = model().config().ground.max_tilt_rad + 0.1;
+  auto g = SurfaceGraph::Build(model(), p);
+  ASSERT_FALSE(g.ok());
+  EXPECT_EQ(g.error().code, ErrorCode::kInvalidConfig);
+  EXPECT_THAT(g.error().message, HasSubstr("max_tilt_rad"));
+  EXPECT_THAT(g.error().message, HasSubstr("ground.max_tilt_rad"));
+  p = {};
+  p.body_height_m = -1;
+  g = SurfaceGraph::Build(model(), p);
+  ASSERT_FALSE(g.ok());
+  EXPECT_THAT(g.error().message, HasSubstr("body_height_m"));
+  SearchConfig c;
+  c.clearance_margin_m = 0;
+  ASSERT_FALSE(c.Validate().ok());
+  EXPECT_THAT(c.Validate().error().message, HasSubstr("clearance_margin_m"));
+}
+
+TEST_F(TwoLevel, EveryNodeIsTraversableAndEdgesRespectTheStep) {
+  ASSERT_GT(graph().node_count(), 1000);
+  for (int v = 0; v < graph().node_count(); v += 7) {
+    EXPECT_TRUE(model().IsTraversable(graph().cell(v), params_.reference_height_m,
+                                      params_.body_height_m))
+        << v;
+    graph().ForEachNeighbor(v, [&](int m) {
+      EXPECT_LE(std::abs(graph().ground_z(m) - graph().ground_z(v)), params_.max_step_m + 1e-6);
+      EXPECT_LE((graph().cell(m) - graph().cell(v)).cwiseAbs().maxCoeff(), 1);
+      EXPECT_TRUE(AreNeighbors(graph(), m, v));  // Undirected.
+      EXPECT_EQ(graph().component(m), graph().component(v));
+    });
+  }
+}
+
+TEST_F(TwoLevel, SnapPicksTheLevelTheHeightPointsAt) {
+  Eigen::Vector3d p = layout_.start_example_m;
+  p.z() = layout_.floor_z_m + 0.5;
+  auto s = SnapToSurface(graph(), p, 1.0, ErrorCode::kStartOffGround);
+  ASSERT_TRUE(s.ok()) << s.error().message;
+  EXPECT_EQ(s->level, 0);
+  EXPECT_NEAR(s->position_m.z(), layout_.floor_z_m + params_.reference_height_m, 0.03);
+  EXPECT_NEAR(s->distance_m, (s->position_m - p).norm(), 1e-9);
+
+  p = layout_.goal_example_m;
+  p.z() = layout_.deck_z_m + 0.5;
+  s = SnapToSurface(graph(), p, 1.0, ErrorCode::kGoalOffGround);
+  ASSERT_TRUE(s.ok()) << s.error().message;
+  EXPECT_EQ(s->level, 1);
+  EXPECT_NEAR(s->position_m.z(), layout_.deck_z_m + params_.reference_height_m, 0.03);
+
+  p.z() = 1.0;  // Under the deck, between the levels (0.7 m above the floor's reference).
+  s = SnapToSurface(graph(), p, 1.0, ErrorCode::kGoalOffGround);
+  ASSERT_TRUE(s.ok()) << s.error().message;
+  EXPECT_EQ(s->level, 0);
+  EXPECT_NEAR(s->position_m.z(), layout_.floor_z_m + params_.reference_height_m, 0.03);
+}
+
+TEST_F(TwoLevel, SnapFarOutsideNamesTheNearestValidPoint) {
+  const Eigen::Vector3d p(layout_.room_x_max_m + 5.0, 3.0, 0.0);
+  auto s = SnapToSurface(graph(), p, 1.0, ErrorCode::kGoalOffGround);
+  ASSERT_FALSE(s.ok());
+  EXPECT_EQ(s.error().code, ErrorCode::kGoalOffGround);
+  EXPECT_THAT(s.error().message, HasSubstr("goal (25.00, 3.00, 0.00) m"));
+  EXPECT_THAT(s.error().message, HasSubstr("within 1.00 m"));
+  EXPECT_THAT(s.error().message, HasSubstr("the nearest is ("));
+
+  s = SnapToSurface(graph(), Eigen::Vector3d(std::nan(""), 1, 1), 1.0,
+                    ErrorCode::kStartOffGround);
+  ASSERT_FALSE(s.ok());
+  EXPECT_EQ(s.error().code, ErrorCode::kInvalidInput);
+}
+
+TEST_F(TwoLevel, AStarMatchesDijkstra) {
+  const int start = Snap(layout_.start_example_m);
+  ASSERT_GE(start, 0);
+  std::vector<int> component;
+  for (int v = 0; v < graph().node_count(); ++v) {
+    if (graph().component(v) == graph().component(start)) component.push_back(v);
+  }
+  std::mt19937 rng(42);
+  const SearchConfig config;
+  for (int trial = 0; trial < 6; ++trial) {
+    const int a = component[rng() % component.size()];
+    const std::vector<double> dist = Dijkstra(graph(), a, config);
+    for (int k = 0; k < 4; ++k) {
+      const int b = component[rng() % component.size()];
+      auto path = SearchPath(graph(), a, b, config, {});
+      ASSERT_TRUE(path.ok()) << path.error().message;
+      EXPECT_NEAR(path->cost, dist[b], 1e-9 * std::max(1.0, dist[b]));
+      double cost = 0;
+      for (std::size_t i = 1; i < path->nodes.size(); ++i) {
+        cost += EdgeCost(graph(), path->nodes[i - 1], path->nodes[i], config);
+      }
+      EXPECT_NEAR(cost, path->cost, 1e-9 * std::max(1.0, cost));
+      EXPECT_GE(path->cost, path->length_m - 1e-9);
+    }
+  }
+}
+
+TEST_F(TwoLevel, FloorToDeckClimbsTheRampOnValidGround) {
+  const int start = Snap(layout_.start_example_m);
+  const int goal = Snap(layout_.goal_example_m + Eigen::Vector3d(0, 0, 0.3));
+  ASSERT_GE(start, 0);
+  ASSERT_GE(goal, 0);
+  ASSERT_EQ(graph().level(goal), 1);
+  auto path = SearchPath(graph(), start, goal, SearchConfig{}, [] { return false; });
+  ASSERT_TRUE(path.ok()) << path.error().message;
+  const auto& pts = path->points_m;
+  ASSERT_GE(pts.size(), 2u);
+  EXPECT_EQ(pts.front(), graph().position(start));
+  EXPECT_EQ(pts.back(), graph().position(goal));
+  EXPECT_GT(path->expansions, 0);
+
+  double last_ramp_z = -1e9;
+  int ramp_points = 0;
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    if (i > 0) EXPECT_TRUE(AreNeighbors(graph(), path->nodes[i - 1], path->nodes[i])) << i;
+    const auto ground = model().GroundHeightBelow(pts[i]);
+    ASSERT_TRUE(ground.has_value()) << i;
+    EXPECT_NEAR(*ground, pts[i].z() - params_.reference_height_m, 1e-4) << i;
+    const ColumnSurface* s = model().SurfaceBelow(pts[i]);
+    ASSERT_NE(s, nullptr);
+    EXPECT_GE(s->clearance_m, params_.body_height_m) << i;
+    const bool over_ramp = pts[i].x() > layout_.ramp_x_min_m + 0.2 &&
+                           pts[i].x() < layout_.ramp_x_max_m - 0.2 &&
+                           pts[i].y() > layout_.ramp_y_min_m && pts[i].y() < layout_.ramp_y_max_m;
+    const bool between_levels =
+        *ground > layout_.floor_z_m + 0.3 && *ground < layout_.deck_z_m - 0.3;
+    if (between_levels) {
+      // Columns straddling the ramp's sides may hold its edge.
+      const bool near_ramp = pts[i].x() > layout_.ramp_x_min_m - 0.15 &&
+                             pts[i].x() < layout_.ramp_x_max_m + 0.15 &&
+                             pts[i].y() > layout_.ramp_y_min_m - 0.15 &&
+                             pts[i].y() < layout_.ramp_y_max_m + 0.15;
+      EXPECT_TRUE(near_ramp) << "point " << i << " " << pts[i].transpose()
+                             << " between the levels but off the ramp";
+    }
+    if (over_ramp && between_levels) {
+      ++ramp_points;
+      EXPECT_GE(pts[i].z(), last_ramp_z - 0.05) << i;  // Rises monotonically, up to noise.
+      last_ramp_z = pts[i].z();
+    }
+  }
+  EXPECT_GT(ramp_points, 10);
+}
+
+TEST_F(TwoLevel, CancelDeadlineAndBudgetAreNamed) {
+  const int start = Snap(layout_.start_example_m);
+  const int goal = Snap(layout_.goal_example_m + Eigen::Vector3d(0, 0, 0.3));
+  ASSERT_GE(start, 0);
+  ASSERT_GE(goal, 0);
+  auto r = SearchPath(graph(), start, goal, SearchConfig{}, [] { return true; });
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().code, ErrorCode::kCancelled);
+
+  SearchConfig config;
+  config.max_expansions = 10;
+  SearchStats stats;
+  r = SearchPath(graph(), start, goal, config, {}, &stats);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().code, ErrorCode::kSearchBudgetExhausted);
+  EXPECT_THAT(r.error().message, HasSubstr("10 expansions"));
+  EXPECT_EQ(stats.expansions, 10);
+
+  config = {};
+  config.time_budget_s = 1e-9;
+  r = SearchPath(graph(), start, goal, config, {});
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().code, ErrorCode::kDeadlineExceeded);
+  EXPECT_THAT(r.error().message, HasSubstr("1e-09 s"));
+}
+
+TEST_F(TwoLevel, TinyStepMakesTheDeckUnreachableWithoutSearching) {
+  TraversabilityParams p;
+  p.max_step_m = 0.012;  // The 12° ramp rises 0.021 m per cell.
+  auto g = SurfaceGraph::Build(model(), p);
+  ASSERT_TRUE(g.ok()) << g.error().message;
+  auto start = SnapToSurface(*g, layout_.start_example_m, 1.0, ErrorCode::kStartOffGround);
+  auto goal = SnapToSurface(*g, layout_.goal_example_m + Eigen::Vector3d(0, 0, 0.3), 1.0,
+                            ErrorCode::kGoalOffGround);
+  ASSERT_TRUE(start.ok()) << start.error().message;
+  ASSERT_TRUE(goal.ok()) << goal.error().message;
+  int stop_calls = 0;
+  SearchStats stats;
+  stats.expansions = -1;
+  auto r = SearchPath(*g, start->node, goal->node, SearchConfig{},
+                      [&] { return ++stop_calls < 0; }, &stats);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().code, ErrorCode::kGoalUnreachable);
+  EXPECT_THAT(r.error().message, HasSubstr("goal ("));
+  EXPECT_THAT(r.error().message, HasSubstr("start ("));
+  EXPECT_EQ(stats.expansions, 0);
+  EXPECT_EQ(stop_calls, 0);
+}
+
+TEST(StairsRampRoom, FloorToLandingTakesTheRampNotTheStairs) {
+  const auto model = AssessScene(GenerateStairsRampRoom(3, 0.05));
+  ASSERT_NE(model, nullptr);
+  const StairsRampLayout L = GetStairsRampLayout();
+  const TraversabilityParams params;
+  auto graph = SurfaceGraph::Build(*model, params);
+  ASSERT_TRUE(graph.ok()) << graph.error().message;
+  const double stairs_x = 0.5 * (L.stairs_x_min_m + L.stairs_x_max_m);
+  // In front of the stairs, and on the landing right above them: the straight line is the
+  // stairs, whose 0.15 m risers exceed max_step_m.
+  auto start = SnapToSurface(*graph, {stairs_x, L.stairs_y_min_m - 1.0, 0.0}, 0.5,
+                             ErrorCode::kStartOffGround);
+  auto goal = SnapToSurface(*graph, {stairs_x, 0.5 * (L.landing_y_min_m + L.room_y_max_m),
+                                     L.landing_z_m + 0.2},
+                            0.5, ErrorCode::kGoalOffGround);
+  ASSERT_TRUE(start.ok()) << start.error().message;
+  ASSERT_TRUE(goal.ok()) << goal.error().message;
+  EXPECT_NEAR(goal->position_m.z(), L.landing_z_m + params.reference_height_m, 0.03);
+  auto path = SearchPath(*graph, start->node, goal->node, SearchConfig{}, {});
+  ASSERT_TRUE(path.ok()) << path.error().message;
+  int on_ramp = 0;
+  for (const Eigen::Vector3d& p : path->points_m) {
+    const bool over_stairs = p.x() > L.stairs_x_min_m + 0.1 && p.x() < L.stairs_x_max_m - 0.1 &&
+                             p.y() > L.stairs_y_min_m + 0.1 && p.y() < L.stairs_y_max_m - 0.1;
+    EXPECT_FALSE(over_stairs) << p.transpose();
+    // Columns straddling the ramp's side edges hold its surface too: widen by a cell.
+    const bool over_ramp = p.x() > L.ramp_x_min_m - 0.1 && p.x() < L.ramp_x_max_m + 0.1 &&
+                           p.y() > L.ramp_y_min_m + 0.5 && p.y() < L.ramp_y_max_m - 0.5;
+    if (over_ramp) ++on_ramp;
+    EXPECT_TRUE(model->GroundHeightBelow(p).has_value()) << p.transpose();
+  }
+  EXPECT_GT(on_ramp, 10);
+}
+
+}  // namespace
+}  // namespace strata
