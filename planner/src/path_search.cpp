@@ -7,21 +7,13 @@
 #include <limits>
 #include <queue>
 #include <string>
+#include "format_internal.hpp"
 
 namespace strata {
 namespace {
 
 Error BadConfig(const char* field, double value, const char* range) {
-  char buf[256];
-  std::snprintf(buf, sizeof(buf), "search.%s = %g is out of range: must be %s", field, value,
-                range);
-  return Error{ErrorCode::kInvalidConfig, buf};
-}
-
-std::string FormatPoint(const Eigen::Vector3d& p) {
-  char buf[128];
-  std::snprintf(buf, sizeof(buf), "(%.2f, %.2f, %.2f)", p.x(), p.y(), p.z());
-  return buf;
+  return internal::OutOfRange(std::string("search.") + field, value, range);
 }
 
 }  // namespace
@@ -76,8 +68,8 @@ Expected<PathResult> SearchPath(const SurfaceGraph& graph, int start_node, int g
   const Eigen::Vector3d start_p = graph.position(start_node);
   if (graph.component(start_node) != graph.component(goal_node)) {
     return fail(ErrorCode::kGoalUnreachable,
-                "goal " + FormatPoint(goal_p) + " m is not connected to start " +
-                    FormatPoint(start_p) +
+                "goal " + internal::FormatPoint(goal_p) + " m is not connected to start " +
+                    internal::FormatPoint(start_p) +
                     " m over traversable ground (they lie in different connected components)");
   }
 
@@ -118,15 +110,15 @@ Expected<PathResult> SearchPath(const SurfaceGraph& graph, int start_node, int g
       if (should_stop && should_stop()) {
         char buf[96];
         std::snprintf(buf, sizeof(buf), " m was cancelled after %d expansions", expansions);
-        return fail(ErrorCode::kCancelled, "search from " + FormatPoint(start_p) + " m to " +
-                                               FormatPoint(goal_p) + buf);
+        return fail(ErrorCode::kCancelled, "search from " + internal::FormatPoint(start_p) + " m to " +
+                                               internal::FormatPoint(goal_p) + buf);
       }
       if (Clock::now() > deadline) {
         char buf[128];
         std::snprintf(buf, sizeof(buf), " m exceeded its time budget of %g s after %d expansions",
                       config.time_budget_s, expansions);
-        return fail(ErrorCode::kDeadlineExceeded, "search from " + FormatPoint(start_p) +
-                                                      " m to " + FormatPoint(goal_p) + buf);
+        return fail(ErrorCode::kDeadlineExceeded, "search from " + internal::FormatPoint(start_p) +
+                                                      " m to " + internal::FormatPoint(goal_p) + buf);
       }
     }
     if (expansions >= config.max_expansions) {
@@ -136,7 +128,7 @@ Expected<PathResult> SearchPath(const SurfaceGraph& graph, int start_node, int g
                     "reaching the goal",
                     config.max_expansions);
       return fail(ErrorCode::kSearchBudgetExhausted,
-                  "search from " + FormatPoint(start_p) + " m to " + FormatPoint(goal_p) + buf);
+                  "search from " + internal::FormatPoint(start_p) + " m to " + internal::FormatPoint(goal_p) + buf);
     }
     closed[top.node] = 1;
     ++expansions;
@@ -152,8 +144,8 @@ Expected<PathResult> SearchPath(const SurfaceGraph& graph, int start_node, int g
   }
   char buf[96];
   std::snprintf(buf, sizeof(buf), " m after %d expansions", expansions);
-  return fail(ErrorCode::kNoPath, "no path found from " + FormatPoint(start_p) + " m to " +
-                                      FormatPoint(goal_p) + buf);
+  return fail(ErrorCode::kNoPath, "no path found from " + internal::FormatPoint(start_p) + " m to " +
+                                      internal::FormatPoint(goal_p) + buf);
 }
 
 }  // namespace strata

@@ -5,21 +5,13 @@
 #include <cstdio>
 #include <limits>
 #include <string>
+#include "format_internal.hpp"
 
 namespace strata {
 namespace {
 
 Error BadParam(const char* field, double value, const char* range) {
-  char buf[256];
-  std::snprintf(buf, sizeof(buf), "traversability.%s = %g is out of range: must be %s", field,
-                value, range);
-  return Error{ErrorCode::kInvalidConfig, buf};
-}
-
-std::string FormatPoint(const Eigen::Vector3d& p) {
-  char buf[128];
-  std::snprintf(buf, sizeof(buf), "(%.2f, %.2f, %.2f)", p.x(), p.y(), p.z());
-  return buf;
+  return internal::OutOfRange(std::string("traversability.") + field, value, range);
 }
 
 }  // namespace
@@ -120,7 +112,7 @@ Expected<SnapResult> SnapToSurface(const SurfaceGraph& graph, const Eigen::Vecto
                                                                     : "point";
   if (!p.allFinite()) {
     return Error{ErrorCode::kInvalidInput,
-                 std::string(what) + " " + FormatPoint(p) + " m is not finite"};
+                 std::string(what) + " " + internal::FormatPoint(p) + " m is not finite"};
   }
   if (!(std::isfinite(tolerance_m) && tolerance_m >= 0)) {
     char buf[128];
@@ -185,10 +177,10 @@ Expected<SnapResult> SnapToSurface(const SurfaceGraph& graph, const Eigen::Vecto
   }
   char buf[96];
   std::snprintf(buf, sizeof(buf), " m has no traversable ground within %.2f m", tolerance_m);
-  std::string message = std::string(what) + " " + FormatPoint(p) + buf;
+  std::string message = std::string(what) + " " + internal::FormatPoint(p) + buf;
   if (nearest >= 0) {
     std::snprintf(buf, sizeof(buf), " (%.2f m away)", nearest_d);
-    message += "; the nearest is " + FormatPoint(graph.position(nearest)) + " m" + buf;
+    message += "; the nearest is " + internal::FormatPoint(graph.position(nearest)) + " m" + buf;
   } else {
     message += "; the map has no traversable ground for these traversability parameters";
   }

@@ -1,5 +1,7 @@
 #include "strata/terrain_config.hpp"
 
+#include "format_internal.hpp"
+
 #include <cmath>
 #include <numbers>
 #include <string>
@@ -8,8 +10,7 @@ namespace strata {
 namespace {
 
 Status Bad(const std::string& field, double value, const std::string& range) {
-  return Error{ErrorCode::kInvalidConfig,
-               field + " = " + std::to_string(value) + " is out of range; it must be " + range};
+  return internal::OutOfRange(field, value, range);
 }
 
 bool InOpen(double v, double lo, double hi) { return std::isfinite(v) && v > lo && v < hi; }
