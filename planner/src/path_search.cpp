@@ -7,6 +7,7 @@
 #include <limits>
 #include <queue>
 #include <string>
+
 #include "format_internal.hpp"
 
 namespace strata {

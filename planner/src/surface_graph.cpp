@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <limits>
 #include <string>
+
 #include "format_internal.hpp"
 
 namespace strata {
