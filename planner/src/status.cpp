@@ -15,6 +15,8 @@ const char* ErrorCodeName(ErrorCode code) {
     case ErrorCode::kDeadlineExceeded: return "DEADLINE_EXCEEDED";
     case ErrorCode::kCancelled: return "CANCELLED";
     case ErrorCode::kSearchBudgetExhausted: return "SEARCH_BUDGET_EXHAUSTED";
+    case ErrorCode::kProfileMismatch: return "PROFILE_MISMATCH";
+    case ErrorCode::kOptimizationFailed: return "OPTIMIZATION_FAILED";
   }
   return "UNKNOWN";
 }

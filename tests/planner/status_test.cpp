@@ -20,7 +20,8 @@ TEST(Status, CodeNamesAreDistinctUpperSnakeCase) {
                                ErrorCode::kStartOffGround, ErrorCode::kGoalOffGround,
                                ErrorCode::kGoalUnreachable, ErrorCode::kNoPath,
                                ErrorCode::kDeadlineExceeded, ErrorCode::kCancelled,
-                               ErrorCode::kSearchBudgetExhausted}) {
+                               ErrorCode::kSearchBudgetExhausted, ErrorCode::kProfileMismatch,
+                               ErrorCode::kOptimizationFailed}) {
     const std::string name = ErrorCodeName(code);
     EXPECT_TRUE(names.insert(name).second) << name;
     EXPECT_EQ(name.find_first_not_of("ABCDEFGHIJKLMNOPQRSTUVWXYZ_"), std::string::npos) << name;

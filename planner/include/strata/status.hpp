@@ -21,6 +21,8 @@ enum class ErrorCode {
   kDeadlineExceeded,   ///< The time budget or the caller's deadline ran out.
   kCancelled,          ///< The caller cancelled the request (should_stop returned true).
   kSearchBudgetExhausted,  ///< The search used its expansion budget without reaching the goal.
+  kProfileMismatch,    ///< The robot profile needs terrain assessed with other parameters.
+  kOptimizationFailed,  ///< The optimised trajectory failed verification (first violation named).
 };
 
 /// Stable UPPER_SNAKE_CASE name of a code, e.g. "MAP_LOAD_FAILED".

@@ -1,0 +1,115 @@
+#pragma once
+/// The whole planning pipeline for one request: snap start and goal, search (A*), optimise
+/// (MINCO + L-BFGS), verify. A PlanningMap wraps an assessed TerrainModel and caches one
+/// SurfaceGraph per robot traversability, so concurrent requests on one map share everything
+/// read-only; Plan itself keeps no state between calls.
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <tuple>
+
+#include <Eigen/Core>
+
+#include "strata/path_search.hpp"
+#include "strata/robot_profile.hpp"
+#include "strata/status.hpp"
+#include "strata/surface_graph.hpp"
+#include "strata/terrain_model.hpp"
+#include "strata/trajectory.hpp"
+#include "strata/trajectory_optimizer.hpp"
+#include "strata/trajectory_verifier.hpp"
+
+namespace strata {
+
+/// An assessed map ready for planning. Thread-safe: any number of Plan calls may share one.
+class PlanningMap {
+ public:
+  explicit PlanningMap(std::shared_ptr<const TerrainModel> model);
+  const TerrainModel& model() const { return *model_; }
+  const std::shared_ptr<const TerrainModel>& model_ptr() const { return model_; }
+  /// The graph for `params`, built on first use (the first caller builds, others wait) and
+  /// kept for the map's lifetime. Fails as SurfaceGraph::Build does.
+  Expected<std::shared_ptr<const SurfaceGraph>> Graph(const TraversabilityParams& params) const;
+  /// Bytes held by the model and the cached graphs.
+  std::size_t MemoryBytes() const;
+
+ private:
+  using GraphKey = std::tuple<double, double, double, double>;
+  std::shared_ptr<const TerrainModel> model_;
+  mutable std::mutex mutex_;
+  mutable std::map<GraphKey, std::shared_ptr<const SurfaceGraph>> graphs_;
+};
+
+/// Per-request options. Validate() names the first bad field.
+struct PlanOptions {
+  /// Wall-clock budget of the whole plan [s], > 0. Running out fails with kDeadlineExceeded.
+  double time_budget_s = 2.0;
+  /// How far start and goal may be from traversable ground (3D, to the reference point) [m].
+  double snap_tolerance_m = 1.0;
+  SearchConfig search;          ///< A* settings (its time budget is capped by the plan's).
+  OptimizerConfig optimizer;    ///< Weights, thresholds, L-BFGS settings.
+  VerifierConfig verifier;      ///< Tolerances of the final check.
+  /// Optimisations to try before giving up [-], >= 1. After a failed verification the next
+  /// attempt doubles the safety, ground and feasibility weights and halves the piece length.
+  int max_attempts = 3;
+  Status Validate() const;
+};
+
+struct PlanRequest {
+  RobotState start;
+  RobotState goal;
+  RobotProfile profile;
+  PlanOptions options;
+};
+
+/// Wall-clock seconds per stage of one plan.
+struct PlanTimings {
+  double snap_s = 0;      ///< Graph lookup (or build, first time per profile) and snapping.
+  double search_s = 0;    ///< A*.
+  double optimize_s = 0;  ///< MINCO + L-BFGS (all attempts).
+  double verify_s = 0;    ///< Dense verification (all attempts).
+  double total_s = 0;
+};
+
+/// Figures of a successful plan (paper Table 2 and the verification's extremes).
+struct PlanStats {
+  double length_m = 0;      ///< Arc length of the reference point's path [m].
+  double duration_s = 0;    ///< Total duration [s].
+  /// Mean curvature κ_m [1/m]: the mean of ‖p′×p″‖/‖p′‖³ over uniform time samples (paper
+  /// Table 2), over the samples where the speed exceeds 1 cm/s.
+  double mean_curvature_per_m = 0;
+  double max_speed_horizontal_mps = 0;
+  double max_speed_vertical_mps = 0;
+  double max_accel_horizontal_mps2 = 0;
+  double max_accel_vertical_mps2 = 0;
+  double min_obstacle_distance_m = 0;  ///< Smallest ESDF d at the reference point [m].
+  double max_ground_offset_m = 0;      ///< Largest |z − (ground + reference height)| [m].
+  double max_tilt_rad = 0;             ///< Steepest ground under the trajectory [rad].
+  double min_body_height_m = 0;        ///< Lowest commanded body height [m] (active only).
+  double min_headroom_m = 0;           ///< Smallest ceiling clearance − body height [m].
+  int pieces = 0;                      ///< MINCO pieces M.
+  int search_expansions = 0;           ///< A* expansions.
+  int optimizer_iterations = 0;        ///< L-BFGS iterations (all attempts).
+  int optimizer_attempts = 0;          ///< Optimisations run (a failed verification retries).
+  int verified_samples = 0;            ///< Samples checked by verification.
+  PlanTimings timings;
+};
+
+struct PlanResult {
+  Trajectory trajectory;
+  SnapResult start;        ///< Where the start snapped, and its level.
+  SnapResult goal;         ///< Where the goal snapped, and its level.
+  PathResult path;         ///< The A* path the trajectory was initialised from.
+  PlanStats stats;
+};
+
+/// Plans one request on `map`. `should_stop` (may be empty) is polled throughout; returning
+/// true fails the plan with kCancelled. Failures: kInvalidInput (non-finite state),
+/// kInvalidConfig, kProfileMismatch, kStartOffGround / kGoalOffGround (with the nearest valid
+/// point), kGoalUnreachable (in milliseconds, from the components), kDeadlineExceeded,
+/// kCancelled, kSearchBudgetExhausted, kOptimizationFailed (naming the first violation).
+Expected<PlanResult> Plan(const PlanningMap& map, const PlanRequest& request,
+                          const std::function<bool()>& should_stop = {});
+
+}  // namespace strata

@@ -1,0 +1,39 @@
+#pragma once
+/// The planner's output: a piecewise-quintic trajectory a robot can follow without the map.
+///
+/// Frame: the map's frame (the point cloud's coordinates), metres and seconds. Piece i covers
+/// global time [Σ_{k<i} T_k, Σ_{k<=i} T_k]; with local time t ∈ [0, T_i] its value on axis a is
+///   p_{i,a}(t) = Σ_{k=0..5} coefficients(k, a) · t^k     (lowest order first).
+/// Axes 0, 1, 2 are x, y, z of the reference point (ground height + the profile's
+/// reference_height_m). For active-height robots axis 3 is the commanded body height above
+/// the ground [m]. Position, velocity and acceleration are continuous across pieces (C⁴).
+#include <vector>
+
+#include <Eigen/Core>
+
+namespace strata {
+
+class Minco3;
+
+struct TrajectoryPiece {
+  double duration_s = 0;                                      ///< T_i [s], > 0.
+  Eigen::Matrix<double, 6, Eigen::Dynamic> coefficients;      ///< 6 × dimension, see above.
+};
+
+struct Trajectory {
+  int dimension = 3;  ///< 3 (x, y, z) or 4 (x, y, z, body height).
+  std::vector<TrajectoryPiece> pieces;
+
+  /// Copies the pieces of an optimised MINCO trajectory.
+  static Trajectory FromMinco(const Minco3& minco);
+
+  double TotalDuration() const;
+  /// The `order`-th time derivative (0..5) at global time t [s], clamped to
+  /// [0, TotalDuration()]. Precondition: at least one piece.
+  Eigen::VectorXd Evaluate(double t, int order) const;
+  Eigen::VectorXd Position(double t) const { return Evaluate(t, 0); }
+  Eigen::VectorXd Velocity(double t) const { return Evaluate(t, 1); }
+  Eigen::VectorXd Acceleration(double t) const { return Evaluate(t, 2); }
+};
+
+}  // namespace strata

@@ -1,0 +1,64 @@
+#pragma once
+/// The last gate before a plan is returned: the trajectory is sampled densely and every sample
+/// is checked against the map and the robot's limits. A trajectory that fails is reported
+/// with its first violation, never returned as success.
+#include <string>
+
+#include "strata/robot_profile.hpp"
+#include "strata/status.hpp"
+#include "strata/terrain_model.hpp"
+#include "strata/trajectory.hpp"
+
+namespace strata {
+
+/// Verification settings. Validate() names the first bad field.
+struct VerifierConfig {
+  /// Largest distance between consecutive samples along the path [m], > 0.
+  double max_sample_spacing_m = 0.02;
+  /// Largest |z − (ground + reference height)| allowed [m], > 0. The ground is the smoothed
+  /// plane-fit height (SampleGround); half a cell of slack covers the grid's quantisation.
+  double ground_tolerance_m = 0.1;
+  /// Smallest ESDF distance at the reference point [m], >= 0 (the reference point is never
+  /// inside an obstacle; walls are kept away by the ground filter radius).
+  double min_obstacle_distance_m = 0.05;
+  /// Speed and acceleration may exceed the profile's bounds by this fraction, >= 0.
+  double limit_tolerance = 0.01;
+  Status Validate() const;
+};
+
+/// What verification measured over all samples (extremes; filled even on failure up to the
+/// first violation).
+struct VerificationReport {
+  int samples = 0;
+  double max_speed_horizontal_mps = 0;
+  double max_speed_vertical_mps = 0;
+  double max_accel_horizontal_mps2 = 0;
+  double max_accel_vertical_mps2 = 0;
+  double min_obstacle_distance_m = 0;
+  double max_ground_offset_m = 0;
+  double max_tilt_rad = 0;
+  double min_body_height_m = 0;
+  double min_headroom_m = 0;
+};
+
+/// Checks every sample (spacing <= max_sample_spacing_m in 3D, and both ends): the column
+/// under the reference point holds a valid surface with tilt <= profile.max_tilt_rad and a
+/// ceiling clearance of at least the body height (commanded for active-height robots, else
+/// body_height_m); z within ground_tolerance_m of ground + reference height; ESDF distance
+/// >= min_obstacle_distance_m; horizontal/vertical speed and acceleration within the bounds
+/// (+ limit_tolerance); body height within [min, max] (+ limit_tolerance) for active-height
+/// robots. Fails with kOptimizationFailed naming the first violation: time, position, the
+/// quantity, its value and its bound.
+Status VerifyTrajectory(const TerrainModel& model, const RobotProfile& profile,
+                        const Trajectory& trajectory, const VerifierConfig& config,
+                        VerificationReport* report);
+
+/// Mean curvature κ_m [1/m] (paper Table 2): the mean of ‖p′×p″‖/‖p′‖³ of the x, y, z path
+/// over `samples` uniform time samples, skipping samples slower than 1 cm/s (where the
+/// curvature of a stopping robot is undefined). 0 for an empty trajectory.
+double MeanCurvature(const Trajectory& trajectory, int samples = 1000);
+
+/// Arc length of the x, y, z path [m], by adaptive sampling (<= 1 cm of motion per step).
+double PathLength(const Trajectory& trajectory);
+
+}  // namespace strata

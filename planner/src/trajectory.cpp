@@ -1,0 +1,48 @@
+#include "strata/trajectory.hpp"
+
+#include <algorithm>
+#include <cassert>
+
+#include "strata/minco.hpp"
+
+namespace strata {
+
+Trajectory Trajectory::FromMinco(const Minco3& minco) {
+  Trajectory trajectory;
+  trajectory.dimension = minco.dim();
+  trajectory.pieces.resize(static_cast<std::size_t>(minco.piece_count()));
+  for (int i = 0; i < minco.piece_count(); ++i) {
+    TrajectoryPiece& piece = trajectory.pieces[static_cast<std::size_t>(i)];
+    piece.duration_s = minco.durations()(i);
+    piece.coefficients = minco.coefficients().middleRows(Minco3::kPieceCoefficients * i,
+                                                         Minco3::kPieceCoefficients);
+  }
+  return trajectory;
+}
+
+double Trajectory::TotalDuration() const {
+  double total = 0;
+  for (const TrajectoryPiece& piece : pieces) total += piece.duration_s;
+  return total;
+}
+
+Eigen::VectorXd Trajectory::Evaluate(double t, int order) const {
+  assert(!pieces.empty() && order >= 0 && order <= 5);
+  std::size_t i = 0;
+  t = std::max(t, 0.0);
+  while (i + 1 < pieces.size() && t > pieces[i].duration_s) {
+    t -= pieces[i].duration_s;
+    ++i;
+  }
+  t = std::min(t, pieces[i].duration_s);
+  // Horner on the order-th derivative: Σ_{k>=order} k!/(k-order)! c_k t^(k-order).
+  Eigen::VectorXd value = Eigen::VectorXd::Zero(dimension);
+  for (int k = 5; k >= order; --k) {
+    double factor = 1;
+    for (int f = k; f > k - order; --f) factor *= f;
+    value = value * t + factor * pieces[i].coefficients.row(k).transpose();
+  }
+  return value;
+}
+
+}  // namespace strata

@@ -1,0 +1,1 @@
+#include "strata/trajectory_costs.hpp"
