@@ -1,12 +1,11 @@
 #include "offline/assess_command.hpp"
 
-#include <chrono>
 #include <cstdio>
-#include <numbers>
 #include <optional>
 
 #include <nlohmann/json.hpp>
 
+#include "offline/assessment_options.hpp"
 #include "offline/map_source.hpp"
 #include "strata/terrain_model.hpp"
 
@@ -19,16 +18,6 @@ struct AssessArgs {
   bool json = false;
 };
 
-std::optional<double> ParseNumber(const std::string& text) {
-  try {
-    std::size_t used = 0;
-    const double v = std::stod(text, &used);
-    if (used == text.size()) return v;
-  } catch (const std::exception&) {
-  }
-  return std::nullopt;
-}
-
 // Returns an error message, or nothing when the arguments parsed.
 std::optional<std::string> ParseArgs(const std::vector<std::string>& args, AssessArgs* out) {
   for (std::size_t i = 0; i < args.size(); ++i) {
@@ -37,14 +26,8 @@ std::optional<std::string> ParseArgs(const std::vector<std::string>& args, Asses
       out->json = true;
       continue;
     }
-    if (a == "--resolution" || a == "--radius" || a == "--max-tilt-deg" || a == "--threads") {
-      if (i + 1 >= args.size()) return a + " needs a value";
-      const std::optional<double> v = ParseNumber(args[++i]);
-      if (!v) return a + " needs a number, got '" + args[i] + "'";
-      if (a == "--resolution") out->config.grid.resolution_m = *v;
-      if (a == "--radius") out->config.ground.radius_m = *v;
-      if (a == "--max-tilt-deg") out->config.ground.max_tilt_rad = *v * std::numbers::pi / 180;
-      if (a == "--threads") out->config.num_threads = static_cast<int>(*v);
+    if (IsAssessmentOption(a)) {
+      if (auto problem = TakeAssessmentOption(args, &i, &out->config)) return problem;
       continue;
     }
     if (a.starts_with("--")) return "unknown option " + a;
@@ -55,16 +38,16 @@ std::optional<std::string> ParseArgs(const std::vector<std::string>& args, Asses
   return std::nullopt;
 }
 
-nlohmann::json SummaryJson(const std::string& map, const LoadedCloud& cloud, double load_s,
-                           const TerrainModel& model) {
+nlohmann::json SummaryJson(const std::string& source, const AssessedMap& map) {
+  const TerrainModel& model = *map.model;
   const AssessmentSummary& s = model.summary();
   const GridGeometry& g = model.grid();
   const AssessmentTimings& t = s.timings;
   return {
-      {"map", map},
+      {"map", source},
       {"points",
-       {{"raw", cloud.raw_point_count},
-        {"dropped_nonfinite", cloud.dropped_nonfinite},
+       {{"raw", map.raw_point_count},
+        {"dropped_nonfinite", map.dropped_nonfinite},
         {"input", s.input_points},
         {"valid_ground", s.valid_ground_points}}},
       {"grid",
@@ -75,11 +58,11 @@ nlohmann::json SummaryJson(const std::string& map, const LoadedCloud& cloud, dou
       {"surfaces", {{"total", s.surface_count}, {"valid", s.valid_surface_count}}},
       {"memory_bytes", model.MemoryBytes()},
       {"seconds",
-       {{"load", load_s},
+       {{"load", map.load_s},
         {"ground_filter", t.ground_filter_s},
         {"esdf", t.esdf_s},
         {"field", t.field_s},
-        {"total", load_s + t.total_s}}},
+        {"total", map.load_s + t.total_s}}},
   };
 }
 
@@ -111,22 +94,13 @@ int RunAssess(const std::vector<std::string>& args) {
     std::fprintf(stderr, "strata-offline assess: %s\n", problem->c_str());
     return 2;
   }
-  const auto start = std::chrono::steady_clock::now();
-  Expected<LoadedCloud> cloud = LoadMapSource(parsed.map);
-  const double load_s =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  if (!cloud) {
-    std::fprintf(stderr, "strata-offline assess: %s: %s\n", ErrorCodeName(cloud.error().code),
-                 cloud.error().message.c_str());
+  Expected<AssessedMap> map = LoadAndAssess(parsed.map, parsed.config);
+  if (!map) {
+    std::fprintf(stderr, "strata-offline assess: %s: %s\n", ErrorCodeName(map.error().code),
+                 map.error().message.c_str());
     return 1;
   }
-  auto model = TerrainModel::Assess(cloud->points, parsed.config);
-  if (!model) {
-    std::fprintf(stderr, "strata-offline assess: %s: %s\n", ErrorCodeName(model.error().code),
-                 model.error().message.c_str());
-    return 1;
-  }
-  const nlohmann::json summary = SummaryJson(parsed.map, *cloud, load_s, **model);
+  const nlohmann::json summary = SummaryJson(parsed.map, *map);
   if (parsed.json) {
     std::printf("%s\n", summary.dump(2).c_str());
   } else {

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "offline/assess_command.hpp"
+#include "offline/plan_command.hpp"
 
 namespace {
 
@@ -15,7 +16,13 @@ constexpr const char* kUsage =
     "  assess MAP [--resolution M] [--radius M] [--max-tilt-deg D] [--threads N] [--json]\n"
     "      Terrain assessment of MAP: a .pcd/.ply/.bt/.ot file or a built-in scene\n"
     "      (scene:NAME or scene:NAME:SEED; NAME is stairs_ramp_room, two_level_ramp or\n"
-    "      uneven_terrain). Prints point counts, grid, memory and seconds per stage.\n";
+    "      uneven_terrain). Prints point counts, grid, memory and seconds per stage.\n"
+    "  plan MAP --start X,Y,Z --goal X,Y,Z [--robot NAME] [--time-budget S] [--json]\n"
+    "       [--svg FILE] [--resolution M] [--radius M] [--max-tilt-deg D] [--threads N]\n"
+    "      Assesses MAP as assess does, then plans a trajectory from start to goal [m] for\n"
+    "      a built-in robot (differential, the default, or biped) within S seconds\n"
+    "      (default 2). Prints where start and goal snapped, the plan's figures and its\n"
+    "      pieces; --svg also draws the plan (top view and side view) into FILE.\n";
 
 }  // namespace
 
@@ -27,6 +34,7 @@ int main(int argc, char** argv) {
   }
   const std::vector<std::string> rest(args.begin() + 1, args.end());
   if (args[0] == "assess") return strata::offline::RunAssess(rest);
+  if (args[0] == "plan") return strata::offline::RunPlan(rest);
   std::fprintf(stderr, "strata-offline: unknown command '%s'\n\n%s", args[0].c_str(), kUsage);
   return 2;
 }

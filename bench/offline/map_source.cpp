@@ -1,6 +1,7 @@
 #include "offline/map_source.hpp"
 
 #include <charconv>
+#include <chrono>
 
 #include "strata/scenes.hpp"
 
@@ -25,6 +26,20 @@ Expected<LoadedCloud> LoadMapSource(const std::string& source) {
   Expected<PointCloud> cloud = GenerateScene(name, seed);
   if (!cloud) return cloud.error();
   return SanitizeCloud(std::move(cloud).value());
+}
+
+Expected<AssessedMap> LoadAndAssess(const std::string& source, const AssessmentConfig& config) {
+  const auto start = std::chrono::steady_clock::now();
+  Expected<LoadedCloud> cloud = LoadMapSource(source);
+  if (!cloud) return cloud.error();
+  AssessedMap map;
+  map.load_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  map.raw_point_count = cloud->raw_point_count;
+  map.dropped_nonfinite = cloud->dropped_nonfinite;
+  auto model = TerrainModel::Assess(cloud->points, config);
+  if (!model) return model.error();
+  map.model = std::move(model).value();
+  return map;
 }
 
 }  // namespace strata::offline

@@ -15,17 +15,22 @@ namespace {
 class ElevationCheck final : public flann::ResultSet<float> {
  public:
   ElevationCheck(const PointCloud& cloud, const Eigen::Vector3f& p, float radius_sq,
-                 double tan_tilt, double tolerance)
-      : cloud_(cloud), p_(p), radius_sq_(radius_sq), tan_tilt_(tan_tilt), tolerance_(tolerance) {}
+                 double tan_tilt, double tolerance, double step)
+      : cloud_(cloud), p_(p), radius_sq_(radius_sq), tan_tilt_(tan_tilt), tolerance_(tolerance),
+        step_(step) {}
 
   bool full() const override { return blocked_; }
   float worstDist() const override { return blocked_ ? -1.0f : radius_sq_; }
   void addPoint(float /*squared_distance*/, size_t index) override {
     const Eigen::Vector3f& q = cloud_[index];
-    const double rise = double{q.z()} - p_.z() - tolerance_;
+    const double raw_rise = double{q.z()} - p_.z();
+    const double rise = raw_rise - tolerance_;
     if (rise <= 0.0) return;  // Only what lies above p can block it.
-    // atan(rise / dxy) < θ  <=>  rise < tan(θ)·dxy for rise > 0, dxy >= 0 and θ < π/2.
     const double dxy = std::hypot(double{q.x()} - p_.x(), double{q.y()} - p_.y());
+    // A one-step riser beside p (not a wall over it) is a step of the staircase a voxelised
+    // map makes of every slope.
+    if (raw_rise <= step_ && dxy >= 0.5 * step_) return;
+    // atan(rise / dxy) < θ  <=>  rise < tan(θ)·dxy for rise > 0, dxy >= 0 and θ < π/2.
     if (!(rise < tan_tilt_ * dxy)) blocked_ = true;
   }
   bool blocked() const { return blocked_; }
@@ -36,6 +41,7 @@ class ElevationCheck final : public flann::ResultSet<float> {
   const float radius_sq_;
   const double tan_tilt_;
   const double tolerance_;
+  const double step_;
   bool blocked_ = false;
 };
 
@@ -43,7 +49,7 @@ class ElevationCheck final : public flann::ResultSet<float> {
 
 std::vector<std::uint8_t> FilterValidGround(const PointCloud& cloud,
                                             const GroundFilterConfig& config,
-                                            int num_threads) {
+                                            int num_threads, double step_tolerance_m) {
   const auto n = static_cast<std::int64_t>(cloud.size());
   std::vector<std::uint8_t> valid(cloud.size(), 0);
   if (n == 0) return valid;
@@ -63,7 +69,8 @@ std::vector<std::uint8_t> FilterValidGround(const PointCloud& cloud,
 
 #pragma omp parallel for schedule(dynamic, 1024) num_threads(num_threads)
   for (std::int64_t i = 0; i < n; ++i) {
-    ElevationCheck check(cloud, cloud[i], radius_sq, tan_tilt, config.height_tolerance_m);
+    ElevationCheck check(cloud, cloud[i], radius_sq, tan_tilt, config.height_tolerance_m,
+                         step_tolerance_m);
     tree.findNeighbors(check, cloud[i].data(), params);
     valid[i] = check.blocked() ? 0 : 1;
   }

@@ -1,1 +1,257 @@
 #include "strata/planner.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <string>
+
+#include "format_internal.hpp"
+
+namespace strata {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double SecondsSince(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+// One should_stop for every stage: the caller's cancellation and the plan's own deadline,
+// remembering which fired so the failure names the right reason.
+class StopCondition {
+ public:
+  StopCondition(const std::function<bool()>& caller, Clock::time_point deadline)
+      : caller_(caller), deadline_(deadline) {}
+
+  bool operator()() {
+    if (caller_ && caller_()) cancelled_ = true;
+    if (!cancelled_ && Clock::now() >= deadline_) expired_ = true;
+    return cancelled_ || expired_;
+  }
+  std::function<bool()> AsFunction() { return [this] { return (*this)(); }; }
+  double RemainingSeconds() const {
+    return std::chrono::duration<double>(deadline_ - Clock::now()).count();
+  }
+  // The error for a stage that stopped on our request.
+  Error Reason(double budget_s, const char* stage) const {
+    if (cancelled_) return Error{ErrorCode::kCancelled, std::string("plan cancelled during ") + stage};
+    char buf[200];
+    std::snprintf(buf, sizeof(buf),
+                  "the plan's time budget of %.3f s ran out during %s; allow more time "
+                  "(options.time_budget_s or the call's deadline)",
+                  budget_s, stage);
+    return Error{ErrorCode::kDeadlineExceeded, buf};
+  }
+  bool stopped() const { return cancelled_ || expired_; }
+
+ private:
+  const std::function<bool()>& caller_;
+  Clock::time_point deadline_;
+  bool cancelled_ = false;
+  bool expired_ = false;
+};
+
+Status CheckFinite(const Eigen::Vector3d& v, const char* field) {
+  if (v.allFinite()) return Status::Ok();
+  return Error{ErrorCode::kInvalidInput,
+               std::string(field) + " must be finite, got " + internal::FormatPoint(v)};
+}
+
+Status CheckState(const RobotState& state, const char* name) {
+  const std::string prefix(name);
+  if (Status s = CheckFinite(state.position_m, (prefix + ".position_m").c_str()); !s) return s;
+  if (Status s = CheckFinite(state.velocity_mps, (prefix + ".velocity_mps").c_str()); !s) return s;
+  return CheckFinite(state.acceleration_mps2, (prefix + ".acceleration_mps2").c_str());
+}
+
+// Where the trajectory starts or ends: the requested x, y on the ground when they lie in the
+// snapped node's column (the robot is where it says), else the node's reference point.
+Eigen::Vector3d BoundaryPosition(const SurfaceGraph& graph, const SnapResult& snap,
+                                 const Eigen::Vector3d& requested) {
+  const Eigen::Vector3d node = snap.position_m;
+  const Eigen::Vector3d candidate(requested.x(), requested.y(), node.z());
+  if (graph.grid().CellOf(candidate).head<2>() != graph.cell(snap.node).head<2>()) return node;
+  GroundSample ground;
+  const double h_ref = graph.params().reference_height_m;
+  if (!SampleGround(graph.model(), candidate, h_ref, 0, &ground)) return node;
+  return {requested.x(), requested.y(), ground.height_m + h_ref};
+}
+
+CostParams MakeCostParams(const RobotProfile& profile, const OptimizerConfig& config) {
+  CostParams p;
+  p.safety_threshold = config.safety_threshold;
+  p.distance_threshold_m = config.distance_threshold_m;
+  p.edge_margin_m = config.edge_margin_m;
+  p.reference_height_m = profile.reference_height_m;
+  p.max_speed_horizontal_mps = config.limit_margin * profile.max_speed_horizontal_mps;
+  p.max_speed_vertical_mps = config.limit_margin * profile.max_speed_vertical_mps;
+  p.max_accel_horizontal_mps2 = config.limit_margin * profile.max_accel_horizontal_mps2;
+  p.max_accel_vertical_mps2 = config.limit_margin * profile.max_accel_vertical_mps2;
+  p.active_height = profile.active_height;
+  p.body_height_min_m = profile.active_height ? profile.body_height_min_m : profile.body_height_m;
+  p.body_height_max_m = profile.active_height ? profile.body_height_max_m : profile.body_height_m;
+  p.body_height_preferred_m = profile.body_height_m;
+  p.headroom_m = profile.headroom_m;
+  p.samples_per_piece = config.samples_per_piece;
+  return p;
+}
+
+void FillStats(const Trajectory& trajectory, const VerificationReport& v, PlanStats* stats) {
+  stats->length_m = PathLength(trajectory);
+  stats->duration_s = trajectory.TotalDuration();
+  stats->mean_curvature_per_m = MeanCurvature(trajectory);
+  stats->max_speed_horizontal_mps = v.max_speed_horizontal_mps;
+  stats->max_speed_vertical_mps = v.max_speed_vertical_mps;
+  stats->max_accel_horizontal_mps2 = v.max_accel_horizontal_mps2;
+  stats->max_accel_vertical_mps2 = v.max_accel_vertical_mps2;
+  stats->min_obstacle_distance_m = v.min_obstacle_distance_m;
+  stats->max_ground_offset_m = v.max_ground_offset_m;
+  stats->max_tilt_rad = v.max_tilt_rad;
+  stats->min_body_height_m = v.min_body_height_m;
+  stats->min_headroom_m = v.min_headroom_m;
+  stats->pieces = static_cast<int>(trajectory.pieces.size());
+  stats->verified_samples = v.samples;
+}
+
+}  // namespace
+
+PlanningMap::PlanningMap(std::shared_ptr<const TerrainModel> model) : model_(std::move(model)) {}
+
+Expected<std::shared_ptr<const SurfaceGraph>> PlanningMap::Graph(
+    const TraversabilityParams& params) const {
+  const GraphKey key{params.reference_height_m, params.body_height_m, params.max_tilt_rad,
+                     params.max_step_m};
+  // Held while building: concurrent first requests for one profile build the graph once.
+  std::lock_guard lock(mutex_);
+  if (auto it = graphs_.find(key); it != graphs_.end()) return it->second;
+  Expected<SurfaceGraph> graph = SurfaceGraph::Build(*model_, params);
+  if (!graph) return graph.error();
+  auto shared = std::make_shared<const SurfaceGraph>(std::move(graph).value());
+  graphs_.emplace(key, shared);
+  return shared;
+}
+
+std::size_t PlanningMap::MemoryBytes() const {
+  std::lock_guard lock(mutex_);
+  std::size_t bytes = model_->MemoryBytes();
+  for (const auto& [key, graph] : graphs_) bytes += graph->MemoryBytes();
+  return bytes;
+}
+
+Status PlanOptions::Validate() const {
+  if (!(std::isfinite(time_budget_s) && time_budget_s > 0)) {
+    return internal::OutOfRange("options.time_budget_s", time_budget_s, "> 0 and finite");
+  }
+  if (!(std::isfinite(snap_tolerance_m) && snap_tolerance_m >= 0)) {
+    return internal::OutOfRange("options.snap_tolerance_m", snap_tolerance_m, ">= 0 and finite");
+  }
+  if (max_attempts < 1) return internal::OutOfRange("options.max_attempts", max_attempts, ">= 1");
+  if (Status s = search.Validate(); !s) return s;
+  if (Status s = optimizer.Validate(); !s) return s;
+  return verifier.Validate();
+}
+
+Expected<PlanResult> Plan(const PlanningMap& map, const PlanRequest& request,
+                          const std::function<bool()>& should_stop) {
+  const Clock::time_point start_time = Clock::now();
+  const PlanOptions& options = request.options;
+  const RobotProfile& profile = request.profile;
+  if (Status s = CheckState(request.start, "start"); !s) return s.error();
+  if (Status s = CheckState(request.goal, "goal"); !s) return s.error();
+  if (Status s = profile.Validate(); !s) return s.error();
+  if (Status s = options.Validate(); !s) return s.error();
+  if (Status s = CheckProfileFitsMap(profile, map.model().config()); !s) return s.error();
+  const auto deadline = start_time + std::chrono::duration_cast<Clock::duration>(
+                                         std::chrono::duration<double>(options.time_budget_s));
+  StopCondition stop(should_stop, deadline);
+
+  PlanResult result;
+  PlanStats& stats = result.stats;
+
+  // Snap.
+  Clock::time_point stage = Clock::now();
+  Expected<std::shared_ptr<const SurfaceGraph>> graph_or = map.Graph(profile.Traversability());
+  if (!graph_or) return graph_or.error();
+  const SurfaceGraph& graph = **graph_or;
+  Expected<SnapResult> start = SnapToSurface(graph, request.start.position_m,
+                                             options.snap_tolerance_m, ErrorCode::kStartOffGround);
+  if (!start) return start.error();
+  Expected<SnapResult> goal = SnapToSurface(graph, request.goal.position_m,
+                                            options.snap_tolerance_m, ErrorCode::kGoalOffGround);
+  if (!goal) return goal.error();
+  result.start = *start;
+  result.goal = *goal;
+  stats.timings.snap_s = SecondsSince(stage);
+
+  // Search.
+  stage = Clock::now();
+  SearchConfig search = options.search;
+  search.time_budget_s = std::max(1e-6, std::min(search.time_budget_s, stop.RemainingSeconds()));
+  SearchStats search_stats;
+  Expected<PathResult> path =
+      SearchPath(graph, start->node, goal->node, search, stop.AsFunction(), &search_stats);
+  stats.timings.search_s = SecondsSince(stage);
+  stats.search_expansions = search_stats.expansions;
+  if (!path) {
+    if (stop.stopped()) return stop.Reason(options.time_budget_s, "the path search");
+    if (path.error().code == ErrorCode::kDeadlineExceeded) {
+      return stop.Reason(options.time_budget_s, "the path search");
+    }
+    return path.error();
+  }
+  result.path = std::move(path).value();
+
+  // Optimise and verify; a failed verification retries with stiffer penalties.
+  std::vector<Eigen::Vector3d> waypoints = result.path.points_m;
+  RobotState head = request.start, tail = request.goal;
+  head.position_m = BoundaryPosition(graph, result.start, request.start.position_m);
+  tail.position_m = BoundaryPosition(graph, result.goal, request.goal.position_m);
+  waypoints.front() = head.position_m;
+  waypoints.back() = tail.position_m;
+  if (waypoints.size() < 2) waypoints.push_back(tail.position_m);
+
+  OptimizerConfig config = options.optimizer;
+  Error last_failure{ErrorCode::kOptimizationFailed, "no optimisation attempt ran"};
+  for (int attempt = 0; attempt < options.max_attempts; ++attempt) {
+    stage = Clock::now();
+    const TrajectoryCost cost(graph, config.weights, MakeCostParams(profile, config));
+    const OptimizationProblem problem = MakeInitialProblem(cost, waypoints, head, tail, config);
+    Minco3 minco;
+    Expected<OptimizationReport> report =
+        OptimizeTrajectory(cost, problem, config, stop.AsFunction(), &minco);
+    stats.timings.optimize_s += SecondsSince(stage);
+    ++stats.optimizer_attempts;
+    if (!report) {
+      if (stop.stopped()) return stop.Reason(options.time_budget_s, "trajectory optimisation");
+      return report.error();
+    }
+    stats.optimizer_iterations += report->iterations;
+
+    stage = Clock::now();
+    Trajectory trajectory = Trajectory::FromMinco(minco);
+    VerificationReport verification;
+    const Status verified =
+        VerifyTrajectory(graph, profile, trajectory, options.verifier, &verification);
+    stats.timings.verify_s += SecondsSince(stage);
+    if (verified) {
+      FillStats(trajectory, verification, &stats);
+      result.trajectory = std::move(trajectory);
+      stats.timings.total_s = SecondsSince(start_time);
+      return result;
+    }
+    last_failure = verified.error();
+    if (stop()) return stop.Reason(options.time_budget_s, "trajectory verification");
+    config.weights.safety *= 4;
+    config.weights.edge *= 4;
+    config.weights.ground *= 4;
+    config.weights.feasibility *= 4;
+    config.piece_length_m *= 0.7;
+    config.limit_margin *= 0.95;
+  }
+  char buf[64];
+  std::snprintf(buf, sizeof(buf), " (after %d attempts)", options.max_attempts);
+  last_failure.message += buf;
+  return last_failure;
+}
+
+}  // namespace strata

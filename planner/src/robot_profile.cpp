@@ -26,7 +26,7 @@ RobotProfile Biped() {
   RobotProfile p;
   p.name = "biped";
   p.max_tilt_rad = 15.0 * kDegree;
-  p.max_step_m = 0.08;
+  p.max_step_m = 0.1;
   p.reference_height_m = 0.2;
   p.active_height = true;
   p.body_height_m = 0.65;

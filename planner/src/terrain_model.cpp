@@ -1,5 +1,9 @@
 #include "strata/terrain_model.hpp"
 
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
 #include <chrono>
 #include <cmath>
 
@@ -8,6 +12,38 @@
 #include "strata/safety_field.hpp"
 
 namespace strata {
+namespace {
+
+// A riser of exactly one voxel must pass the ground filter's comparison despite float noise.
+constexpr double kQuantumToleranceFactor = 1.05;
+
+}  // namespace
+
+double DetectVerticalQuantum(const PointCloud& cloud) {
+  // On an evenly spaced sample, the distinct heights (to 0.1 mm) of a voxelised map are few
+  // and all multiples of one step; a sensor's are many and arbitrary.
+  constexpr std::size_t kSample = 20000;
+  constexpr std::size_t kMaxLevels = 4000;
+  constexpr double kResolution = 1e-4;
+  std::vector<std::int64_t> heights;
+  const std::size_t stride = std::max<std::size_t>(1, cloud.size() / kSample);
+  for (std::size_t i = 0; i < cloud.size(); i += stride) {
+    heights.push_back(std::llround(cloud[i].z() / kResolution));
+  }
+  std::sort(heights.begin(), heights.end());
+  heights.erase(std::unique(heights.begin(), heights.end()), heights.end());
+  if (heights.size() < 3 || heights.size() > kMaxLevels) return 0;
+  std::int64_t step = std::numeric_limits<std::int64_t>::max();
+  for (std::size_t i = 1; i < heights.size(); ++i) step = std::min(step, heights[i] - heights[i - 1]);
+  if (step * kResolution < 0.01) return 0;  // Finer than a centimetre: not a voxel grid.
+  for (std::size_t i = 1; i < heights.size(); ++i) {
+    const std::int64_t gap = heights[i] - heights[i - 1];
+    const std::int64_t off = gap % step;
+    if (std::min(off, step - off) > 2) return 0;  // Not a multiple of the step (±0.2 mm).
+  }
+  return step * kResolution;
+}
+
 namespace {
 
 class Stopwatch {
@@ -49,8 +85,12 @@ Expected<std::shared_ptr<const TerrainModel>> TerrainModel::Assess(
   summary.input_points = cloud.size();
   for (const Eigen::Vector3f& p : cloud) summary.cloud_bounds_m.extend(p.cast<double>());
 
+  // A voxelised map turns every slope into a staircase of one-voxel risers, which the rule
+  // would read as walls: risers of one voxel are tolerated as steps.
+  summary.vertical_quantum_m = DetectVerticalQuantum(cloud);
   const std::vector<std::uint8_t> valid =
-      FilterValidGround(cloud, config.ground, config.num_threads);
+      FilterValidGround(cloud, config.ground, config.num_threads,
+                        kQuantumToleranceFactor * summary.vertical_quantum_m);
   for (const std::uint8_t v : valid) summary.valid_ground_points += v;
   summary.timings.ground_filter_s = stage.Lap();
 

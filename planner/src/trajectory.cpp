@@ -34,7 +34,11 @@ Eigen::VectorXd Trajectory::Evaluate(double t, int order) const {
     t -= pieces[i].duration_s;
     ++i;
   }
-  t = std::min(t, pieces[i].duration_s);
+  return EvaluatePiece(i, std::min(t, pieces[i].duration_s), order);
+}
+
+Eigen::VectorXd Trajectory::EvaluatePiece(std::size_t i, double t, int order) const {
+  assert(i < pieces.size() && order >= 0 && order <= 5);
   // Horner on the order-th derivative: Σ_{k>=order} k!/(k-order)! c_k t^(k-order).
   Eigen::VectorXd value = Eigen::VectorXd::Zero(dimension);
   for (int k = 5; k >= order; --k) {

@@ -1,1 +1,260 @@
 #include "strata/trajectory_optimizer.hpp"
+
+#include <LBFGS.h>
+
+#include <algorithm>
+#include <cmath>
+#include <exception>
+#include <limits>
+
+#include "format_internal.hpp"
+
+namespace strata {
+namespace {
+
+Error BadField(const char* field, double value, const char* range) {
+  return internal::OutOfRange(std::string("optimizer.") + field, value, range);
+}
+
+// Thrown from inside the L-BFGS objective when should_stop fires; LBFGS++ has no other way
+// to stop early. Caught in OptimizeTrajectory, never crosses the library's API.
+struct StopRequested {};
+
+// L-BFGS runs per optimisation at most (see the restart loop).
+constexpr int kMaxRestarts = 8;
+
+// The objective over x = [waypoints (dim×(M−1), column-major), τ (M)] in LBFGS++'s shape.
+// Remembers the best point evaluated, because LBFGS++ may throw from a failed line search.
+class Objective {
+ public:
+  Objective(const TrajectoryCost& cost, Minco3* minco, const std::function<bool()>& should_stop)
+      : cost_(cost), minco_(minco), should_stop_(should_stop) {
+    const int pieces = minco->piece_count();
+    waypoints_.resize(minco->dim(), pieces - 1);
+    durations_.resize(pieces);
+  }
+
+  double operator()(const Eigen::VectorXd& x, Eigen::VectorXd& grad) {
+    if (should_stop_ && should_stop_()) throw StopRequested{};
+    ++evaluations_;
+    const int pieces = minco_->piece_count();
+    const int waypoint_values = static_cast<int>(waypoints_.size());
+    Apply(x);
+    const double value = cost_.Evaluate(*minco_, &grad_c_, &grad_T_);
+    minco_->PropagateGradient(grad_c_, grad_T_, &grad_waypoints_, &grad_durations_);
+    grad.resize(x.size());
+    grad.head(waypoint_values) =
+        Eigen::Map<const Eigen::VectorXd>(grad_waypoints_.data(), waypoint_values);
+    for (int i = 0; i < pieces; ++i) {
+      grad(waypoint_values + i) = grad_durations_(i) * DurationGradient(x(waypoint_values + i));
+    }
+    if (std::isfinite(value) && value < best_value_) {
+      best_value_ = value;
+      best_x_ = x;
+    }
+    return value;
+  }
+
+  // Sets *minco to the trajectory of x.
+  void Apply(const Eigen::VectorXd& x) {
+    const int waypoint_values = static_cast<int>(waypoints_.size());
+    waypoints_ = Eigen::Map<const Eigen::MatrixXd>(x.data(), waypoints_.rows(), waypoints_.cols());
+    for (int i = 0; i < minco_->piece_count(); ++i) {
+      durations_(i) = DurationFromTau(x(waypoint_values + i));
+    }
+    minco_->SetParameters(waypoints_, durations_);
+  }
+
+  const Eigen::VectorXd& best_x() const { return best_x_; }
+  double best_value() const { return best_value_; }
+  int evaluations() const { return evaluations_; }
+
+ private:
+  const TrajectoryCost& cost_;
+  Minco3* minco_;
+  const std::function<bool()>& should_stop_;
+  Eigen::MatrixXd waypoints_, grad_c_, grad_waypoints_;
+  Eigen::VectorXd durations_, grad_T_, grad_durations_;
+  Eigen::VectorXd best_x_;
+  double best_value_ = std::numeric_limits<double>::infinity();
+  int evaluations_ = 0;
+};
+
+// Positions every `spacing_m` of arc length along the polyline, excluding both ends.
+std::vector<Eigen::Vector3d> ResampleInterior(const std::vector<Eigen::Vector3d>& path,
+                                              double spacing_m, int* pieces) {
+  double length = 0;
+  for (std::size_t k = 1; k < path.size(); ++k) length += (path[k] - path[k - 1]).norm();
+  *pieces = std::max(1, static_cast<int>(std::lround(length / spacing_m)));
+  const double step = length / *pieces;
+  std::vector<Eigen::Vector3d> points;
+  double travelled = 0;
+  double next = step;
+  for (std::size_t k = 1; k < path.size() && static_cast<int>(points.size()) < *pieces - 1; ++k) {
+    const double segment = (path[k] - path[k - 1]).norm();
+    while (segment > 0 && travelled + segment >= next &&
+           static_cast<int>(points.size()) < *pieces - 1) {
+      points.push_back(path[k - 1] + (next - travelled) / segment * (path[k] - path[k - 1]));
+      next += step;
+    }
+    travelled += segment;
+  }
+  while (static_cast<int>(points.size()) < *pieces - 1) points.push_back(path.back());
+  return points;
+}
+
+}  // namespace
+
+Status OptimizerConfig::Validate() const {
+  if (Status s = weights.Validate(); !s) return s;
+  if (!(std::isfinite(safety_threshold) && safety_threshold >= 0)) {
+    return BadField("safety_threshold", safety_threshold, ">= 0 and finite");
+  }
+  if (!(std::isfinite(edge_margin_m) && edge_margin_m >= 0)) {
+    return BadField("edge_margin_m", edge_margin_m, ">= 0 and finite");
+  }
+  if (!(std::isfinite(distance_threshold_m) && distance_threshold_m > 0)) {
+    return BadField("distance_threshold_m", distance_threshold_m, "> 0 and finite");
+  }
+  if (!(limit_margin > 0 && limit_margin <= 1)) {
+    return BadField("limit_margin", limit_margin, "in (0, 1]");
+  }
+  if (!(std::isfinite(piece_length_m) && piece_length_m > 0)) {
+    return BadField("piece_length_m", piece_length_m, "> 0 and finite");
+  }
+  if (samples_per_piece < 2) return BadField("samples_per_piece", samples_per_piece, ">= 2");
+  if (max_iterations < 1) return BadField("max_iterations", max_iterations, ">= 1");
+  if (!(std::isfinite(gradient_tolerance) && gradient_tolerance > 0)) {
+    return BadField("gradient_tolerance", gradient_tolerance, "> 0 and finite");
+  }
+  if (!(std::isfinite(relative_improvement_tolerance) && relative_improvement_tolerance >= 0)) {
+    return BadField("relative_improvement_tolerance", relative_improvement_tolerance,
+                    ">= 0 and finite");
+  }
+  if (memory < 1) return BadField("memory", memory, ">= 1");
+  return Status::Ok();
+}
+
+OptimizationProblem MakeInitialProblem(const TrajectoryCost& cost,
+                                       const std::vector<Eigen::Vector3d>& path_m,
+                                       const RobotState& start, const RobotState& goal,
+                                       const OptimizerConfig& config) {
+  const CostParams& params = cost.params();
+  const int dim = params.dim();
+  int pieces = 1;
+  const std::vector<Eigen::Vector3d> interior =
+      ResampleInterior(path_m, config.piece_length_m, &pieces);
+
+  // Body height (active robots): the suitable height where the robot stands.
+  const auto body_height = [&](const Eigen::Vector3d& p) {
+    GroundSample ground;
+    const double clearance =
+        SampleGround(cost.model(), p, params.reference_height_m, cost.ClearanceCap(), &ground)
+            ? ground.clearance_m
+            : cost.ClearanceCap();
+    return cost.SuitableBodyHeight(clearance, nullptr);
+  };
+  const auto boundary = [&](const RobotState& state) {
+    Eigen::MatrixXd pva = Eigen::MatrixXd::Zero(dim, 3);
+    pva.col(0).head<3>() = state.position_m;
+    pva.col(1).head<3>() = state.velocity_mps;
+    pva.col(2).head<3>() = state.acceleration_mps2;
+    if (dim == 4) pva(3, 0) = body_height(state.position_m);
+    return pva;
+  };
+
+  OptimizationProblem problem;
+  problem.head_pva = boundary(start);
+  problem.tail_pva = boundary(goal);
+  problem.initial_waypoints.resize(dim, pieces - 1);
+  for (int k = 0; k < pieces - 1; ++k) {
+    problem.initial_waypoints.col(k).head<3>() = interior[static_cast<std::size_t>(k)];
+    if (dim == 4) problem.initial_waypoints(3, k) = body_height(interior[static_cast<std::size_t>(k)]);
+  }
+  // Durations at a comfortable fraction of the speed bounds; the optimiser shortens them.
+  problem.initial_durations.resize(pieces);
+  Eigen::Vector3d previous = start.position_m;
+  for (int k = 0; k < pieces; ++k) {
+    const Eigen::Vector3d next =
+        k + 1 < pieces ? interior[static_cast<std::size_t>(k)] : goal.position_m;
+    const Eigen::Vector3d delta = next - previous;
+    const double horizontal = delta.head<2>().norm() / (0.5 * params.max_speed_horizontal_mps);
+    const double vertical = std::abs(delta.z()) / (0.5 * params.max_speed_vertical_mps);
+    problem.initial_durations(k) = std::max({horizontal, vertical, 0.1});
+    previous = next;
+  }
+  return problem;
+}
+
+Expected<OptimizationReport> OptimizeTrajectory(const TrajectoryCost& cost,
+                                                const OptimizationProblem& problem,
+                                                const OptimizerConfig& config,
+                                                const std::function<bool()>& should_stop,
+                                                Minco3* minco) {
+  if (Status s = config.Validate(); !s) return s.error();
+  const int pieces = static_cast<int>(problem.initial_durations.size());
+  minco->SetConditions(problem.head_pva, problem.tail_pva, pieces);
+
+  const int waypoint_values = static_cast<int>(problem.initial_waypoints.size());
+  Eigen::VectorXd x(waypoint_values + pieces);
+  x.head(waypoint_values) =
+      Eigen::Map<const Eigen::VectorXd>(problem.initial_waypoints.data(), waypoint_values);
+  for (int i = 0; i < pieces; ++i) {
+    x(waypoint_values + i) = TauFromDuration(problem.initial_durations(i));
+  }
+
+  LBFGSpp::LBFGSParam<double> param;
+  param.m = config.memory;
+  param.epsilon = config.gradient_tolerance;
+  param.epsilon_rel = config.gradient_tolerance;
+  param.past = 3;
+  param.delta = config.relative_improvement_tolerance;
+  param.max_linesearch = 32;
+  // Backtracking to the (weak) Wolfe conditions: about one evaluation per iteration here, and
+  // the curvature condition keeps the L-BFGS update positive definite.
+  param.linesearch = LBFGSpp::LBFGS_LINESEARCH_BACKTRACKING_WOLFE;
+
+  Objective objective(cost, minco, should_stop);
+  OptimizationReport report;
+  Eigen::VectorXd scratch;
+  try {
+    report.initial_cost = objective(x, scratch);
+    // A line search that cannot meet the Wolfe conditions (a cliff of a cubic penalty from a
+    // poor start) ends an L-BFGS run by an exception; restarting from the best point with a
+    // fresh memory gets past it. Restarts stop when one makes no progress.
+    double previous_best = objective.best_value();
+    int iterations_left = config.max_iterations;
+    for (int run = 0; run < kMaxRestarts && iterations_left > 0; ++run) {
+      param.max_iterations = iterations_left;
+      LBFGSpp::LBFGSSolver<double, LBFGSpp::LineSearchBacktracking> solver(param);
+      x = objective.best_x();
+      double value = 0;
+      try {
+        const int iterations = solver.minimize(objective, x, value);
+        report.iterations += iterations;
+        report.converged = iterations < iterations_left;
+        break;
+      } catch (const StopRequested&) {
+        throw;
+      } catch (const std::exception&) {
+        // The failed run's iterations are not reported; count the evaluations it used.
+        iterations_left -= std::max(1, objective.evaluations() - report.evaluations);
+        report.evaluations = objective.evaluations();
+        ++report.iterations;
+      }
+      if (!(objective.best_value() < previous_best * (1 - config.relative_improvement_tolerance))) break;
+      previous_best = objective.best_value();
+    }
+  } catch (const StopRequested&) {
+    return Error{ErrorCode::kCancelled, "trajectory optimisation stopped by the caller"};
+  }
+  // Leave *minco at the best point evaluated (the solver's last evaluation may be a trial).
+  objective.Apply(objective.best_x());
+  report.evaluations = objective.evaluations();
+  Eigen::MatrixXd grad_c;
+  report.final_cost = cost.Evaluate(*minco, &grad_c, &scratch, &report.final_terms);
+  return report;
+}
+
+}  // namespace strata
+

@@ -126,7 +126,19 @@ TEST_F(TwoLevel, SnapPicksTheLevelTheHeightPointsAt) {
   ASSERT_TRUE(s.ok()) << s.error().message;
   EXPECT_EQ(s->level, 0);
   EXPECT_NEAR(s->position_m.z(), layout_.floor_z_m + params_.reference_height_m, 0.03);
-  EXPECT_NEAR(s->distance_m, (s->position_m - p).norm(), 1e-9);
+  // p is in the floor's air space, so only the horizontal offset counts.
+  EXPECT_NEAR(s->distance_m, (s->position_m - p).head<2>().norm(), 1e-9);
+
+  // A z high above the open floor still points at it, and a point below the floor is that
+  // far off it.
+  p.z() = layout_.floor_z_m + 20.0;
+  s = SnapToSurface(graph(), p, 1.0, ErrorCode::kStartOffGround);
+  ASSERT_TRUE(s.ok()) << s.error().message;
+  EXPECT_EQ(s->level, 0);
+  p.z() = layout_.floor_z_m - 2.0;
+  EXPECT_EQ(SnapToSurface(graph(), p, 1.0, ErrorCode::kStartOffGround).error().code,
+            ErrorCode::kStartOffGround);
+  p = layout_.start_example_m;
 
   p = layout_.goal_example_m;
   p.z() = layout_.deck_z_m + 0.5;
@@ -257,9 +269,9 @@ TEST_F(TwoLevel, CancelDeadlineAndBudgetAreNamed) {
   EXPECT_THAT(r.error().message, HasSubstr("1e-09 s"));
 }
 
-TEST_F(TwoLevel, TinyStepMakesTheDeckUnreachableWithoutSearching) {
+TEST_F(TwoLevel, TooSteepARampMakesTheDeckUnreachableWithoutSearching) {
   TraversabilityParams p;
-  p.max_step_m = 0.012;  // The 12° ramp rises 0.021 m per cell.
+  p.max_tilt_rad = layout_.ramp_slope_rad * 0.6;  // The ramp is steeper than the robot may go.
   auto g = SurfaceGraph::Build(model(), p);
   ASSERT_TRUE(g.ok()) << g.error().message;
   auto start = SnapToSurface(*g, layout_.start_example_m, 1.0, ErrorCode::kStartOffGround);

@@ -23,9 +23,12 @@ namespace strata {
 ///
 /// Neighbours come from a kd-tree (FLANN, the one PCL wraps); points are processed in parallel with
 /// `num_threads` threads (0 = every core). Returns one flag per point (1 = valid ground).
+/// `step_tolerance_m` > 0 (the height step of a voxelised cloud) lets a neighbour at most that
+/// much higher and at least half of it away horizontally pass as a step, not an obstacle.
 /// Precondition: config.Validate() is ok and every point is finite.
 std::vector<std::uint8_t> FilterValidGround(const PointCloud& cloud,
                                             const GroundFilterConfig& config,
-                                            int num_threads = 0);
+                                            int num_threads = 0,
+                                            double step_tolerance_m = 0);
 
 }  // namespace strata

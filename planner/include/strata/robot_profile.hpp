@@ -41,8 +41,9 @@ struct RobotProfile {
   double footprint_radius_m = 0.3;
   /// Steepest ground the robot may stand on [rad], in (0, π/2); at most the map's θ.
   double max_tilt_rad = 20.0 * std::numbers::pi / 180.0;
-  /// Largest ground height change between neighbouring grid columns it can drive over [m].
-  double max_step_m = 0.1;
+  /// Highest step (a curb, a riser) it can drive up [m], >= 0. Between neighbouring grid
+  /// columns the ground may change by this plus the slope allowance (SurfaceGraph).
+  double max_step_m = 0.15;
   /// Height of the trajectory's reference point above the ground [m], > 0: the z of the
   /// planned trajectory is ground height + this everywhere.
   double reference_height_m = 0.3;

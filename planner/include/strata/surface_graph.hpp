@@ -26,7 +26,8 @@ struct TraversabilityParams {
   /// Steepest surface the robot stands on [rad], in (0, π/2); at most the map's ground
   /// filter θ (AssessmentConfig::ground.max_tilt_rad), since steeper ground is not valid.
   double max_tilt_rad = 20.0 * std::numbers::pi / 180.0;
-  /// Largest ground height change between horizontally neighbouring cells [m], >= 0, finite.
+  /// Highest step the robot climbs [m], >= 0, finite; neighbouring columns may differ by this
+  /// plus the slope allowance (see SurfaceGraph).
   double max_step_m = 0.1;
 
   Status Validate() const;
@@ -41,11 +42,16 @@ struct TraversabilityParams {
 /// nodes lowest first.
 ///
 /// Edges (undirected): node a in column (ix, iy) and node b in one of the 8 horizontally
-/// neighbouring columns (|dx|, |dy| <= 1, not both 0) are adjacent iff
-/// |ground_z(a) - ground_z(b)| <= max_step_m. Nodes of the same column are never adjacent.
-/// When max_step_m < the grid resolution the two reference cells are at most one layer
-/// apart, so this is 26-connectivity of the grid restricted to near-surface cells, with the
-/// step rule deciding which of the (at most two) candidate cells of a neighbour column joins.
+/// neighbouring columns (|dx|, |dy| <= 1, not both 0; a diagonal only when both columns it
+/// passes between hold a node within an axis step of a, so no path cuts a corner or slips
+/// through a one-cell diagonal line of untraversable ground) are adjacent iff
+/// |ground_z(a) - ground_z(b)| <= max_step_m + s·tan(max_tilt_rad), s the horizontal distance
+/// between the column centres (r or r√2): a step the robot can climb on top of the steepest
+/// slope it may drive. (Real maps are often voxelised, e.g. the shared maps at 0.2 m: their
+/// ramps are staircases whose risers this allows.) Nodes of the same column are never
+/// adjacent. When the limit is below the grid resolution the two reference cells are at most
+/// one layer apart, so this is 26-connectivity of the grid restricted to near-surface cells,
+/// with the step rule deciding which of the candidate cells of a neighbour column joins.
 ///
 /// Connected components are labelled at build, so reachability is an O(1) query.
 class SurfaceGraph {
@@ -81,6 +87,14 @@ class SurfaceGraph {
   Eigen::Vector2i column(int node) const { return {nodes_[node].ix, nodes_[node].iy}; }
   /// Index of the node's surface among the valid surfaces of its column, 0 = lowest.
   int level(int node) const { return nodes_[node].level; }
+  /// Free height above the node's ground up to the next obstacle in its column [m]
+  /// (ColumnSurface::clearance_m; +infinity under open sky).
+  double ceiling_clearance(int node) const { return surface(node).clearance_m; }
+  /// The column surface the node stands on.
+  const ColumnSurface& surface(int node) const {
+    const Node& n = nodes_[node];
+    return model_->surfaces().Column(n.ix, n.iy)[static_cast<std::size_t>(n.surface_index)];
+  }
   /// Obstacle distance d at the reference point (TerrainModel::Distance) [m].
   double clearance(int node) const { return nodes_[node].clearance_m; }
 
@@ -99,18 +113,35 @@ class SurfaceGraph {
     for (int dy = -1; dy <= 1; ++dy) {
       for (int dx = -1; dx <= 1; ++dx) {
         if (dx == 0 && dy == 0) continue;
+        const bool diagonal = dx != 0 && dy != 0;
+        // No corner cutting: a diagonal move needs both columns it passes between.
+        if (diagonal && !(HasStepNeighbor(n, n.ix + dx, n.iy) && HasStepNeighbor(n, n.ix, n.iy + dy))) {
+          continue;
+        }
         for (const std::int32_t m : ColumnNodes(n.ix + dx, n.iy + dy)) {
-          if (std::abs(nodes_[m].reference_z_m - n.reference_z_m) <= step_limit_) f(int{m});
+          const float limit = diagonal ? step_limit_diagonal_ : step_limit_axis_;
+          if (std::abs(nodes_[m].reference_z_m - n.reference_z_m) <= limit) f(int{m});
         }
       }
     }
   }
 
+  /// Distance from the node's column centre to the rim of the traversable region it belongs
+  /// to [m]: 0.5·r for a node missing any of its 8 neighbours (its column borders
+  /// non-traversable ground), growing inwards along graph edges (chamfer distance).
+  double edge_distance(int node) const { return edge_distance_[node]; }
+  /// The node of column (ix, iy) whose ground is nearest to ground_z and within 0.5 m of it
+  /// (the same level), or -1.
+  int NodeNear(int ix, int iy, double ground_z) const;
+  /// Heights further apart than this are different levels [m].
+  static constexpr double kLevelGapM = 0.5;
+
   /// Bytes held by the graph, not counting the object itself.
   std::size_t MemoryBytes() const {
     return nodes_.capacity() * sizeof(Node) + column_begin_.capacity() * sizeof(std::uint32_t) +
            column_nodes_.capacity() * sizeof(std::int32_t) +
-           components_.capacity() * sizeof(std::int32_t);
+           components_.capacity() * sizeof(std::int32_t) +
+           edge_distance_.capacity() * sizeof(float);
   }
 
  private:
@@ -123,15 +154,27 @@ class SurfaceGraph {
   };
 
   SurfaceGraph() = default;
+  void ComputeEdgeDistances();
+  // Whether column (ix, iy) has a node an axis step away from n.
+  bool HasStepNeighbor(const Node& n, int ix, int iy) const {
+    for (const std::int32_t m : ColumnNodes(ix, iy)) {
+      if (std::abs(nodes_[m].reference_z_m - n.reference_z_m) <= step_limit_axis_) return true;
+    }
+    return false;
+  }
 
   const TerrainModel* model_ = nullptr;
   TraversabilityParams params_;
-  float step_limit_ = 0;  // max_step_m as compared in float.
+  // Largest ground height change to an axis / diagonal neighbour column (see the class
+  // comment), as compared in float.
+  float step_limit_axis_ = 0;
+  float step_limit_diagonal_ = 0;
   std::vector<Node> nodes_;
   std::vector<std::uint32_t> column_begin_;  // Columns + 1 offsets into column_nodes_.
   std::vector<std::int32_t> column_nodes_;
   std::vector<std::int32_t> components_;
   int component_count_ = 0;
+  std::vector<float> edge_distance_;
 };
 
 /// Where a 3D start or goal lands on the graph.
@@ -140,13 +183,16 @@ struct SnapResult {
   Eigen::Vector3d position_m = Eigen::Vector3d::Zero();  ///< Its reference point [m].
   /// Index of the node's surface among the valid surfaces of its column, 0 = lowest.
   int level = 0;
-  double distance_m = 0;  ///< 3D distance from the query point to position_m [m].
+  double distance_m = 0;  ///< Level distance from the query point (see SnapToSurface) [m].
 };
 
-/// Snaps `p` onto the graph. First choice: p's own column, at the level p's z points at (the
-/// highest node whose ground is at or below p.z + half a cell), if within `tolerance_m` in 3D.
-/// Otherwise the node within tolerance_m (3D, reference point) that minimises the distance,
-/// with a strong preference for nodes whose ground lies below p.z.
+/// Snaps `p` onto the graph. Distances are "level distances": the horizontal distance to the
+/// node's reference point combined (hypot) with how far p.z lies outside that level's free
+/// space (from its ground − half a cell up to its ceiling), so any z within a level's air space
+/// selects that level. First choice: p's own column, at the level p's z points at (the highest
+/// node whose ground is at or below p.z + half a cell), if within `tolerance_m`. Otherwise the
+/// node within tolerance_m that minimises the distance, with a strong preference for nodes
+/// whose ground lies below p.z.
 /// Fails with kInvalidInput for a non-finite p or tolerance < 0, and with `off_ground_code`
 /// (kStartOffGround or kGoalOffGround) when no node is within tolerance; the message names p,
 /// the tolerance, and the nearest node anywhere on the map.

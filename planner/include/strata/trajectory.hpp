@@ -31,6 +31,8 @@ struct Trajectory {
   /// The `order`-th time derivative (0..5) at global time t [s], clamped to
   /// [0, TotalDuration()]. Precondition: at least one piece.
   Eigen::VectorXd Evaluate(double t, int order) const;
+  /// The `order`-th derivative of piece `piece` at local time t ∈ [0, T_piece] (not clamped).
+  Eigen::VectorXd EvaluatePiece(std::size_t piece, double t, int order) const;
   Eigen::VectorXd Position(double t) const { return Evaluate(t, 0); }
   Eigen::VectorXd Velocity(double t) const { return Evaluate(t, 1); }
   Eigen::VectorXd Acceleration(double t) const { return Evaluate(t, 2); }

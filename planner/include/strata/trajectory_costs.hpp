@@ -7,6 +7,9 @@
 /// - J_t: total duration Σ T_i.
 /// - J_s: safety, C(S'(p) − s_thr) + C(d_thr − d(p)) with C(x) = max(x, 0)³ (the paper sums
 ///   the two arguments before cubing; separate penalties keep one from masking the other).
+/// - J_e: staying on traversable ground, C(e_margin − e(p)) with e the distance to the rim of
+///   the traversable region (SampleEdgeDistance). Not in the paper: S' marks the rim only as
+///   rough ground, so a trajectory could cut across a corner of untraversable ground.
 /// - J_g: ground following, (z − h_G(x, y) − h_ref)². Not in the paper, whose trajectories
 ///   float above flat ground; the smooth ground height h_G comes from SampleGround.
 /// - J_d: feasibility, C(‖v_xy‖² − v_h²) + C(v_z² − v_v²) and the same for acceleration.
@@ -21,25 +24,32 @@
 
 #include "strata/minco.hpp"
 #include "strata/robot_profile.hpp"
+#include "strata/surface_graph.hpp"
 #include "strata/terrain_model.hpp"
 
 namespace strata {
+
+/// A state vector of the trajectory (x, y, z[, body height]): fixed storage of 4, so the
+/// optimiser's inner loop never allocates.
+using StateVector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, 4, 1>;
 
 /// Weights λ of the cost terms, each >= 0 and finite. A zero weight skips the term.
 struct CostWeights {
   double smoothness = 1.0;     ///< λ_m [s⁵/m²].
   double time = 10.0;          ///< λ_t [1/s].
-  double safety = 1.0e4;       ///< λ_s.
+  double safety = 1.0e3;       ///< λ_s.
+  double edge = 1.0e6;         ///< λ_e [1/m³].
   double ground = 1.0e4;       ///< λ_g [1/m²].
-  double feasibility = 1.0e4;  ///< λ_d.
+  double feasibility = 1.0e5;  ///< λ_d.
   double height = 1.0e3;       ///< λ_h [1/m²].
   Status Validate() const;
 };
 
 /// Everything the cost needs besides the weights, in SI units.
 struct CostParams {
-  double safety_threshold = 0.5;        ///< s_thr [-].
+  double safety_threshold = 1.5;        ///< s_thr [-].
   double distance_threshold_m = 0.15;   ///< d_thr [m].
+  double edge_margin_m = 0.1;           ///< e_margin [m].
   double reference_height_m = 0.3;      ///< h_ref [m].
   double max_speed_horizontal_mps = 1;  ///< Bounds used by J_d (already with any margin).
   double max_speed_vertical_mps = 1;
@@ -57,8 +67,10 @@ struct CostParams {
 
 /// The objective's value split by term, each already multiplied by its weight.
 struct CostBreakdown {
-  double smoothness = 0, time = 0, safety = 0, ground = 0, feasibility = 0, height = 0;
-  double total() const { return smoothness + time + safety + ground + feasibility + height; }
+  double smoothness = 0, time = 0, safety = 0, edge = 0, ground = 0, feasibility = 0, height = 0;
+  double total() const {
+    return smoothness + time + safety + edge + ground + feasibility + height;
+  }
 };
 
 /// The ground under a point, smoothed across columns (see SampleGround).
@@ -67,25 +79,42 @@ struct GroundSample {
   Eigen::Vector2d height_gradient = Eigen::Vector2d::Zero();     ///< ∂h_G/∂(x, y) [-].
   double clearance_m = 0;                               ///< Ceiling clearance [m], capped.
   Eigen::Vector2d clearance_gradient = Eigen::Vector2d::Zero();  ///< ∂clearance/∂(x, y).
+  /// The surface of p's own column whose ground is nearest to p.z − reference height (the one
+  /// p stands on); when the column has none (a hole in the map), the surface of the corner
+  /// with the largest interpolation weight.
+  const ColumnSurface* surface = nullptr;
 };
 
-/// The ground a reference point p stands on, as a smooth function of (x, y): bilinear
+/// The ground a reference point p stands on, as a continuous function of p: bilinear
 /// interpolation between the four nearest column centres of each column's plane-fit centre
-/// height (and ceiling clearance, capped at `clearance_cap_m`), taking in every column the
-/// highest surface at or below the point p.z − reference_height_m + half a cell. A neighbour
-/// column whose surface is more than a cell away in height from the one under p (a ledge, a
-/// deck's edge, a void) contributes the value under p instead, so the ground does not slope
-/// into a drop. Returns false when nothing is below p in its own column.
+/// height (and, when clearance_cap_m > 0, of the lowest ceiling clearance of the column and
+/// its 8 neighbours, capped at clearance_cap_m: a ceiling is felt half a cell before the body
+/// is under it; 0 skips the clearance), taking in every column the
+/// surface whose ground is nearest to p.z − reference_height_m. Corners whose ground is more
+/// than 0.5 m from that height (another level: a ledge, a drop) or that have no surface get no
+/// weight and the rest are renormalised, so the ground does not slope into a drop; if every
+/// corner is that far, all are used. Returns false when none of the four columns has a surface
+/// or p lies outside the grid.
 bool SampleGround(const TerrainModel& model, const Eigen::Vector3d& p, double reference_height_m,
                   double clearance_cap_m, GroundSample* sample);
+
+/// Distance from p to the rim of the traversable region [m], a continuous function of p:
+/// bilinear interpolation between the four nearest column centres of each column's
+/// SurfaceGraph::edge_distance at p's level (the node within 0.5 m of p.z −
+/// reference_height_m), a column without such a node counting −0.5·r (its centre lies half a
+/// cell outside the rim). The rim itself is at 0. Writes the gradient wrt (x, y).
+double SampleEdgeDistance(const SurfaceGraph& graph, const Eigen::Vector3d& p,
+                          Eigen::Vector2d* gradient);
 
 /// J and its gradient for one planning problem. Immutable; cheap to construct.
 class TrajectoryCost {
  public:
-  TrajectoryCost(const TerrainModel& model, const CostWeights& weights, const CostParams& params)
-      : model_(&model), weights_(weights), params_(params) {}
+  /// `graph` (and its model) must outlive the cost.
+  TrajectoryCost(const SurfaceGraph& graph, const CostWeights& weights, const CostParams& params)
+      : graph_(&graph), model_(&graph.model()), weights_(weights), params_(params) {}
 
   const TerrainModel& model() const { return *model_; }
+  const SurfaceGraph& graph() const { return *graph_; }
   const CostWeights& weights() const { return weights_; }
   const CostParams& params() const { return params_; }
 
@@ -94,13 +123,12 @@ class TrajectoryCost {
   double Evaluate(const Minco3& minco, Eigen::MatrixXd* grad_c, Eigen::VectorXd* grad_T,
                   CostBreakdown* breakdown = nullptr) const;
 
-  /// The integrand of the constraint-point terms (λ_s, λ_g, λ_d, λ_h parts) at one state:
-  /// position (dim: x, y, z[, h]), velocity, acceleration. Adds ∂P/∂pos, ∂P/∂vel, ∂P/∂acc
-  /// into the given vectors (each dim entries) and the terms into *breakdown. Exposed for
-  /// tests.
-  double PointPenalty(const Eigen::VectorXd& pos, const Eigen::VectorXd& vel,
-                      const Eigen::VectorXd& acc, Eigen::VectorXd* grad_pos,
-                      Eigen::VectorXd* grad_vel, Eigen::VectorXd* grad_acc,
+  /// The integrand of the constraint-point terms (λ_s, λ_e, λ_g, λ_d, λ_h parts) at one state:
+  /// position (dim: x, y, z[, h]), velocity, acceleration. Writes ∂P/∂pos, ∂P/∂vel, ∂P/∂acc
+  /// (each dim entries, overwritten) and adds the weighted terms into *breakdown (may be
+  /// null). Exposed for tests.
+  double PointPenalty(const StateVector& pos, const StateVector& vel, const StateVector& acc,
+                      StateVector* grad_pos, StateVector* grad_vel, StateVector* grad_acc,
                       CostBreakdown* breakdown) const;
 
   /// The most suitable body height h_S at a ceiling clearance [m] (active-height robots), and
@@ -111,6 +139,7 @@ class TrajectoryCost {
   double ClearanceCap() const;
 
  private:
+  const SurfaceGraph* graph_;
   const TerrainModel* model_;
   CostWeights weights_;
   CostParams params_;

@@ -18,11 +18,16 @@ namespace strata {
 struct OptimizerConfig {
   CostWeights weights;
   /// S' above this is penalised (s_thr) [-], >= 0. S' is the cone-diffused S, normalised to
-  /// unit kernel sum, so this is a weighted mean of λ_f φ² + λ_m sqrt(‖∇H‖) nearby.
-  double safety_threshold = 0.5;
+  /// unit kernel sum, so this is a weighted mean of λ_f φ² + λ_m sqrt(‖∇H‖) nearby. On the
+  /// shared maps the median S' over ramps is ~0.5 and the 90th percentile ~2.8 (their
+  /// voxelised ramps are staircases), near the rim of valid ground it climbs to ~5.
+  double safety_threshold = 1.5;
   /// ESDF distance below this is penalised (d_thr) [m], > 0. Keep it below the profile's
   /// reference height: the ground itself is an obstacle that far below the reference point.
   double distance_threshold_m = 0.15;
+  /// Distance to the rim of traversable ground below which J_e penalises [m], >= 0; at most
+  /// half a grid cell keeps the centres of rim cells free of penalty.
+  double edge_margin_m = 0.1;
   /// The speed and acceleration bounds the optimiser aims for, as a fraction of the
   /// profile's, in (0, 1]: penalties are soft, so aiming a little low lands within them.
   double limit_margin = 0.92;
@@ -36,7 +41,7 @@ struct OptimizerConfig {
   double gradient_tolerance = 1e-5;
   /// L-BFGS: stop when the objective improves by less than this fraction over 3 iterations
   /// (LBFGS++'s `delta` with `past` = 3), >= 0.
-  double relative_improvement_tolerance = 1e-5;
+  double relative_improvement_tolerance = 1e-3;
   /// L-BFGS: corrections kept (LBFGS++'s `m`), >= 1.
   int memory = 8;
   Status Validate() const;

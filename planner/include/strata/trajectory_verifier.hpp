@@ -6,7 +6,7 @@
 
 #include "strata/robot_profile.hpp"
 #include "strata/status.hpp"
-#include "strata/terrain_model.hpp"
+#include "strata/surface_graph.hpp"
 #include "strata/trajectory.hpp"
 
 namespace strata {
@@ -42,14 +42,16 @@ struct VerificationReport {
 };
 
 /// Checks every sample (spacing <= max_sample_spacing_m in 3D, and both ends): the column
-/// under the reference point holds a valid surface with tilt <= profile.max_tilt_rad and a
-/// ceiling clearance of at least the body height (commanded for active-height robots, else
-/// body_height_m); z within ground_tolerance_m of ground + reference height; ESDF distance
+/// under the reference point is traversable for the profile at the sample's level (a node of
+/// `graph`, built from profile.Traversability(): valid ground, tilt <= max_tilt_rad, ceiling
+/// clearance >= lowest body height + headroom) and its ceiling clears the body height
+/// (commanded for active-height robots, else body_height_m); z within ground_tolerance_m of
+/// ground + reference height (the smoothed ground of SampleGround); ESDF distance
 /// >= min_obstacle_distance_m; horizontal/vertical speed and acceleration within the bounds
 /// (+ limit_tolerance); body height within [min, max] (+ limit_tolerance) for active-height
 /// robots. Fails with kOptimizationFailed naming the first violation: time, position, the
 /// quantity, its value and its bound.
-Status VerifyTrajectory(const TerrainModel& model, const RobotProfile& profile,
+Status VerifyTrajectory(const SurfaceGraph& graph, const RobotProfile& profile,
                         const Trajectory& trajectory, const VerifierConfig& config,
                         VerificationReport* report);
 

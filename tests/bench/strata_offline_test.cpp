@@ -1,0 +1,211 @@
+// The offline tool end to end: the real binary on a built-in scene, its exit codes, JSON keys
+// and SVG. Each run assesses the scene again (about 0.2 s).
+
+#include <sys/wait.h>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "strata/scenes.hpp"
+
+namespace strata {
+namespace {
+
+using ::testing::EndsWith;
+using ::testing::HasSubstr;
+using ::testing::StartsWith;
+
+struct Outcome {
+  int exit_code = -1;
+  std::string output;  // stdout, and stderr when asked for.
+};
+
+// Runs strata-offline with `args` through the shell; stderr is dropped unless merged.
+Outcome RunOffline(const std::string& args, bool with_stderr = false) {
+  const std::string command = std::string("'") + STRATA_OFFLINE_BIN + "' " + args +
+                              (with_stderr ? " 2>&1" : " 2>/dev/null");
+  FILE* pipe = popen(command.c_str(), "r");
+  Outcome outcome;
+  if (pipe == nullptr) return outcome;
+  char buffer[4096];
+  for (std::size_t n; (n = std::fread(buffer, 1, sizeof(buffer), pipe)) > 0;) {
+    outcome.output.append(buffer, n);
+  }
+  const int status = pclose(pipe);
+  if (WIFEXITED(status)) outcome.exit_code = WEXITSTATUS(status);
+  return outcome;
+}
+
+std::string Point(const Eigen::Vector3d& p) {
+  std::ostringstream text;
+  text << p.x() << ',' << p.y() << ',' << p.z();
+  return text.str();
+}
+
+// The scene's documented start (ground floor) and goal (deck) as plan arguments.
+std::string RampQuery(const Eigen::Vector3d& goal) {
+  return "plan scene:two_level_ramp --threads 1 --start " +
+         Point(GetTwoLevelRampLayout().start_example_m) + " --goal " + Point(goal);
+}
+
+nlohmann::json ParseJson(const std::string& text) {
+  nlohmann::json j = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
+  EXPECT_FALSE(j.is_discarded()) << "not JSON:\n" << text;
+  return j;
+}
+
+void ExpectEndpoint(const nlohmann::json& endpoint, const Eigen::Vector3d& requested) {
+  ASSERT_TRUE(endpoint.is_object());
+  for (int i = 0; i < 3; ++i)
+    EXPECT_DOUBLE_EQ(endpoint["requested"][i].get<double>(), requested(i));
+  EXPECT_EQ(endpoint["snapped"].size(), 3u);
+  EXPECT_GE(endpoint["level"].get<int>(), 0);
+  EXPECT_GE(endpoint["distance_m"].get<double>(), 0.0);
+}
+
+// x, y, z of one JSON piece at local time t.
+Eigen::Vector3d PieceValue(const nlohmann::json& piece, double t) {
+  Eigen::Vector3d p;
+  for (int a = 0; a < 3; ++a) {
+    const nlohmann::json& c = piece["coefficients"][a];
+    p(a) = 0;
+    for (int k = 5; k >= 0; --k) p(a) = p(a) * t + c[k].get<double>();
+  }
+  return p;
+}
+
+// Within the grid column of `snapped` (default 0.2 m cells) and the verifier's default
+// ground tolerance of its height.
+void ExpectInSnappedColumn(const Eigen::Vector3d& p, const nlohmann::json& snapped) {
+  const double cell_m = 0.2;
+  EXPECT_LE(std::abs(p.x() - snapped[0].get<double>()), 0.5 * cell_m + 1e-6);
+  EXPECT_LE(std::abs(p.y() - snapped[1].get<double>()), 0.5 * cell_m + 1e-6);
+  EXPECT_NEAR(p.z(), snapped[2].get<double>(), 0.1);
+}
+
+TEST(StrataOfflinePlan, JsonHasEveryDocumentedKeyAndPiecesLowestOrderFirst) {
+  const TwoLevelRampLayout layout = GetTwoLevelRampLayout();
+  const Outcome run = RunOffline(RampQuery(layout.goal_example_m) + " --json");
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  const nlohmann::json j = ParseJson(run.output);
+
+  EXPECT_EQ(j["map"], "scene:two_level_ramp");
+  EXPECT_EQ(j["robot"], "differential");
+  EXPECT_TRUE(j["map_seconds"].contains("load"));
+  EXPECT_TRUE(j["map_seconds"].contains("assess"));
+  ExpectEndpoint(j["start"], layout.start_example_m);
+  ExpectEndpoint(j["goal"], layout.goal_example_m);
+  EXPECT_EQ(j["goal"]["level"], 1) << "the goal is on the deck, above the ground floor";
+
+  const nlohmann::json& stats = j["stats"];
+  for (const char* key :
+       {"length_m", "duration_s", "mean_curvature_per_m", "max_speed_horizontal_mps",
+        "max_speed_vertical_mps", "max_accel_horizontal_mps2", "max_accel_vertical_mps2",
+        "min_obstacle_distance_m", "max_ground_offset_m", "max_tilt_rad", "min_body_height_m",
+        "min_headroom_m", "pieces", "search_expansions", "optimizer_iterations",
+        "optimizer_attempts", "verified_samples"}) {
+    EXPECT_TRUE(stats.contains(key)) << key;
+  }
+  for (const char* key : {"snap_s", "search_s", "optimize_s", "verify_s", "total_s"}) {
+    EXPECT_TRUE(stats["timings"].contains(key)) << key;
+  }
+
+  const nlohmann::json& trajectory = j["trajectory"];
+  EXPECT_EQ(trajectory["dimension"], 3);
+  const nlohmann::json& pieces = trajectory["pieces"];
+  ASSERT_FALSE(pieces.empty());
+  EXPECT_EQ(pieces.size(), stats["pieces"].get<std::size_t>());
+  double duration_s = 0;
+  for (const nlohmann::json& piece : pieces) {
+    EXPECT_GT(piece["duration_s"].get<double>(), 0.0);
+    duration_s += piece["duration_s"].get<double>();
+    ASSERT_EQ(piece["coefficients"].size(), 3u);
+    for (const nlohmann::json& axis : piece["coefficients"]) EXPECT_EQ(axis.size(), 6u);
+  }
+  EXPECT_NEAR(duration_s, stats["duration_s"].get<double>(), 1e-6);
+  // Lowest order first: c0 of the first piece is the start, Σ c_k T^k of the last the goal;
+  // both lie in the column they snapped to (the planner keeps the requested x, y there).
+  ExpectInSnappedColumn(PieceValue(pieces.front(), 0), j["start"]["snapped"]);
+  const nlohmann::json& last = pieces.back();
+  ExpectInSnappedColumn(PieceValue(last, last["duration_s"].get<double>()), j["goal"]["snapped"]);
+}
+
+TEST(StrataOfflinePlan, ActiveHeightRobotGetsAFourthAxis) {
+  const Outcome run =
+      RunOffline(RampQuery(GetTwoLevelRampLayout().goal_example_m) + " --robot biped --json");
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  const nlohmann::json j = ParseJson(run.output);
+  EXPECT_EQ(j["robot"], "biped");
+  EXPECT_EQ(j["trajectory"]["dimension"], 4);
+  EXPECT_EQ(j["trajectory"]["pieces"][0]["coefficients"].size(), 4u);
+}
+
+TEST(StrataOfflinePlan, TextOutputAndSvg) {
+  const std::string svg_path = ::testing::TempDir() + "strata_offline_plan_test.svg";
+  std::remove(svg_path.c_str());
+  const Outcome run =
+      RunOffline(RampQuery(GetTwoLevelRampLayout().goal_example_m) + " --svg '" + svg_path + "'");
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_THAT(run.output, HasSubstr("level 1"));
+  EXPECT_THAT(run.output, HasSubstr("pieces"));
+
+  std::ifstream file(svg_path);
+  ASSERT_TRUE(file) << "no SVG at " << svg_path;
+  const std::string svg((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
+  EXPECT_THAT(svg, StartsWith("<svg xmlns=\"http://www.w3.org/2000/svg\""));
+  EXPECT_THAT(svg, EndsWith("</svg>\n"));
+  EXPECT_THAT(svg, HasSubstr("scene:two_level_ramp"));
+  EXPECT_THAT(svg, HasSubstr("<polyline"));
+}
+
+TEST(StrataOfflinePlan, GoalOffGroundFailsWithItsReason) {
+  // Level with the deck but 3 m beyond the hall's far wall: no ground within the 1 m
+  // snapping tolerance.
+  const TwoLevelRampLayout layout = GetTwoLevelRampLayout();
+  const Eigen::Vector3d outside(layout.room_x_max_m + 3, layout.goal_example_m.y(),
+                                layout.deck_z_m);
+
+  const Outcome json = RunOffline(RampQuery(outside) + " --json");
+  ASSERT_EQ(json.exit_code, 1) << json.output;
+  const nlohmann::json j = ParseJson(json.output);
+  ASSERT_TRUE(j.contains("error")) << json.output;
+  EXPECT_EQ(j["error"]["reason"], "GOAL_OFF_GROUND");
+  EXPECT_FALSE(j["error"]["message"].get<std::string>().empty());
+
+  const Outcome text = RunOffline(RampQuery(outside), /*with_stderr=*/true);
+  EXPECT_EQ(text.exit_code, 1);
+  EXPECT_THAT(text.output, StartsWith("error: GOAL_OFF_GROUND: goal ("));
+}
+
+TEST(StrataOfflinePlan, BadArgumentsExitWithTwo) {
+  const std::string start = Point(GetTwoLevelRampLayout().start_example_m);
+  EXPECT_EQ(RunOffline("plan scene:two_level_ramp --start " + start).exit_code, 2);
+  EXPECT_EQ(RunOffline("plan scene:two_level_ramp --start 1,2 --goal 1,2,3").exit_code, 2);
+  EXPECT_EQ(RunOffline("plan scene:two_level_ramp --start 1,2,3 --goal 1,2,3,4").exit_code, 2);
+  EXPECT_EQ(
+      RunOffline("plan scene:two_level_ramp --start 1,2,3 --goal 1,2,3 --time-budget x").exit_code,
+      2);
+  const Outcome robot =
+      RunOffline("plan scene:two_level_ramp --start 1,2,3 --goal 1,2,3 --robot tank", true);
+  EXPECT_EQ(robot.exit_code, 2);
+  EXPECT_THAT(robot.output, HasSubstr("differential, biped"));
+}
+
+// assess and plan share the parsing of the assessment options.
+TEST(StrataOfflineAssess, ReadsTheSharedAssessmentOptions) {
+  const Outcome run =
+      RunOffline("assess scene:two_level_ramp --resolution 0.25 --threads 1 --json");
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_DOUBLE_EQ(ParseJson(run.output)["grid"]["resolution_m"].get<double>(), 0.25);
+  EXPECT_EQ(RunOffline("assess scene:two_level_ramp --radius").exit_code, 2);
+}
+
+}  // namespace
+}  // namespace strata

@@ -1,0 +1,278 @@
+#include "strata/planner.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <memory>
+#include <string>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "strata/cloud_io.hpp"
+#include "strata/scenes.hpp"
+
+namespace strata {
+namespace {
+
+using ::testing::HasSubstr;
+
+std::shared_ptr<const TerrainModel> Assess(const PointCloud& cloud, double resolution_m) {
+  AssessmentConfig config;
+  config.grid.resolution_m = resolution_m;
+  return TerrainModel::Assess(cloud, config).value();
+}
+
+PlanRequest Request(const Eigen::Vector3d& start, const Eigen::Vector3d& goal,
+                    const std::string& robot = "differential") {
+  PlanRequest request;
+  request.start.position_m = start;
+  request.goal.position_m = goal;
+  request.profile = BuiltinProfile(robot).value();
+  return request;
+}
+
+// Properties every successful plan must have, whatever the map.
+void ExpectSound(const PlanResult& plan, const PlanRequest& request) {
+  const Trajectory& t = plan.trajectory;
+  ASSERT_FALSE(t.pieces.empty());
+  const RobotProfile& robot = request.profile;
+  EXPECT_EQ(t.dimension, robot.active_height ? 4 : 3);
+  // Boundary states: the snapped positions, the requested (zero) velocity and acceleration.
+  EXPECT_LT((t.Position(0).head<3>() - plan.start.position_m).head<2>().norm(), 0.5);
+  EXPECT_LT((t.Position(t.TotalDuration()).head<3>() - plan.goal.position_m).head<2>().norm(), 0.5);
+  EXPECT_LT(t.Velocity(0).norm(), 1e-9);
+  EXPECT_LT(t.Velocity(t.TotalDuration()).norm(), 1e-9);
+  EXPECT_LT(t.Acceleration(0).norm(), 1e-9);
+  EXPECT_LT(t.Acceleration(t.TotalDuration()).norm(), 1e-9);
+  // The verified limits, as reported.
+  const PlanStats& s = plan.stats;
+  EXPECT_LE(s.max_speed_horizontal_mps, 1.01 * robot.max_speed_horizontal_mps);
+  EXPECT_LE(s.max_speed_vertical_mps, 1.01 * robot.max_speed_vertical_mps);
+  EXPECT_LE(s.max_accel_horizontal_mps2, 1.01 * robot.max_accel_horizontal_mps2);
+  EXPECT_LE(s.max_accel_vertical_mps2, 1.01 * robot.max_accel_vertical_mps2);
+  EXPECT_LE(s.max_ground_offset_m, request.options.verifier.ground_tolerance_m);
+  EXPECT_GT(s.verified_samples, s.length_m / 0.021);
+  // Smoothing cuts the grid path's corners; a retried optimisation (stiffer penalties) can
+  // swerve a little (7% measured on the two-level ramp), never much.
+  EXPECT_LE(s.length_m, 1.1 * plan.path.length_m + 0.5);
+  EXPECT_GT(s.length_m, 0.5 * plan.path.length_m);
+  EXPECT_NEAR(s.duration_s, t.TotalDuration(), 1e-9);
+  EXPECT_GT(s.timings.total_s, 0);
+}
+
+class TwoLevelPlan : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    map_ = new PlanningMap(Assess(GenerateTwoLevelRamp(5), 0.1));
+  }
+  static void TearDownTestSuite() { delete map_; }
+  static PlanningMap* map_;
+  const TwoLevelRampLayout layout_ = GetTwoLevelRampLayout();
+};
+PlanningMap* TwoLevelPlan::map_ = nullptr;
+
+TEST_F(TwoLevelPlan, FloorToDeckClimbsTheRampOnTheGround) {
+  const PlanRequest request = Request(layout_.start_example_m, layout_.goal_example_m);
+  auto plan = Plan(*map_, request);
+  ASSERT_TRUE(plan.ok()) << plan.error().message;
+  ExpectSound(*plan, request);
+  EXPECT_EQ(plan->start.level, 0);
+  EXPECT_EQ(plan->goal.level, 1);
+  // Every sample is at the reference height above the ground, so the way up is the ramp.
+  const Trajectory& t = plan->trajectory;
+  bool crossed_ramp = false;
+  for (double time = 0; time <= t.TotalDuration(); time += 0.1) {
+    const Eigen::Vector3d p = t.Position(time).head<3>();
+    const double ground = map_->model().GroundHeightBelow(p).value_or(-100);
+    EXPECT_NEAR(p.z() - ground, 0.3, 0.15) << p.transpose();
+    if (p.z() > layout_.floor_z_m + 1.0 && p.z() < layout_.deck_z_m - 0.5) {
+      EXPECT_GT(p.x(), layout_.ramp_x_min_m - 0.3) << p.transpose();
+      EXPECT_LT(p.x(), layout_.ramp_x_max_m + 0.3) << p.transpose();
+      EXPECT_GT(p.y(), layout_.ramp_y_min_m - 0.3) << p.transpose();
+      EXPECT_LT(p.y(), layout_.ramp_y_max_m + 0.3) << p.transpose();
+      crossed_ramp = true;
+    }
+  }
+  EXPECT_TRUE(crossed_ramp);
+}
+
+TEST_F(TwoLevelPlan, BadRequestsGetNamedErrors) {
+  PlanRequest request = Request(layout_.start_example_m, layout_.goal_example_m);
+  request.start.position_m.x() = std::nan("");
+  auto plan = Plan(*map_, request);
+  ASSERT_FALSE(plan.ok());
+  EXPECT_EQ(plan.error().code, ErrorCode::kInvalidInput);
+  EXPECT_THAT(plan.error().message, HasSubstr("start.position_m"));
+
+  request = Request(layout_.start_example_m, {layout_.room_x_max_m + 10, 3, 0});
+  plan = Plan(*map_, request);
+  ASSERT_FALSE(plan.ok());
+  EXPECT_EQ(plan.error().code, ErrorCode::kGoalOffGround);
+  EXPECT_THAT(plan.error().message, HasSubstr("the nearest is"));
+
+  request = Request(layout_.start_example_m, layout_.goal_example_m);
+  request.profile.footprint_radius_m = 0.5;  // The map was filtered for 0.3 m.
+  plan = Plan(*map_, request);
+  ASSERT_FALSE(plan.ok());
+  EXPECT_EQ(plan.error().code, ErrorCode::kProfileMismatch);
+  EXPECT_THAT(plan.error().message, HasSubstr("radius of at least 0.5"));
+
+  request = Request(layout_.start_example_m, layout_.goal_example_m);
+  request.options.optimizer.weights.time = -1;
+  plan = Plan(*map_, request);
+  ASSERT_FALSE(plan.ok());
+  EXPECT_EQ(plan.error().code, ErrorCode::kInvalidConfig);
+  EXPECT_THAT(plan.error().message, HasSubstr("weights.time"));
+}
+
+TEST_F(TwoLevelPlan, CancellationAndDeadlinesStopPromptlyWithTheirReason) {
+  const PlanRequest request = Request(layout_.start_example_m, layout_.goal_example_m);
+  auto plan = Plan(*map_, request, [] { return true; });
+  ASSERT_FALSE(plan.ok());
+  EXPECT_EQ(plan.error().code, ErrorCode::kCancelled);
+
+  PlanRequest hurried = request;
+  hurried.options.time_budget_s = 0.002;
+  const auto begin = std::chrono::steady_clock::now();
+  plan = Plan(*map_, hurried);
+  const double elapsed =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count();
+  ASSERT_FALSE(plan.ok());
+  EXPECT_EQ(plan.error().code, ErrorCode::kDeadlineExceeded);
+  EXPECT_THAT(plan.error().message, HasSubstr("time budget of 0.002 s"));
+  // Generous bound (not a speed target): the stop is polled, not waited for the whole plan.
+  EXPECT_LT(elapsed, 0.5);
+}
+
+// A room split by a wall whose only opening is under a table 0.45 m high: the biped crouches
+// through, the differential robot (0.5 m tall) cannot pass.
+PointCloud TableRoom() {
+  PointCloud cloud;
+  const auto add = [&](double x, double y, double z) {
+    cloud.emplace_back(static_cast<float>(x), static_cast<float>(y), static_cast<float>(z));
+  };
+  const double s = 0.05;
+  for (double x = 0; x <= 8.0 + 1e-9; x += s) {
+    for (double y = 0; y <= 4.0 + 1e-9; y += s) {
+      add(x, y, 0);                                            // Floor.
+      const bool opening = y > 1.2 && y < 2.8;
+      if (std::abs(x - 4.0) < 0.1 && !opening) {               // Dividing wall, 1.5 m.
+        for (double z = s; z <= 1.5; z += s) add(x, y, z);
+      }
+      if (std::abs(x - 4.0) <= 0.6 && opening) add(x, y, 0.45);  // Table top over the opening.
+    }
+  }
+  for (double z = s; z <= 1.5; z += s) {  // Outer walls.
+    for (double x = 0; x <= 8.0 + 1e-9; x += s) add(x, 0, z), add(x, 4.0, z);
+    for (double y = 0; y <= 4.0 + 1e-9; y += s) add(0, y, z), add(8.0, y, z);
+  }
+  return cloud;
+}
+
+TEST(TableRoom, TheBipedCrouchesUnderTheTableWhereTheDifferentialRobotCannotPass) {
+  const PlanningMap map(Assess(TableRoom(), 0.1));
+  const Eigen::Vector3d start(1.5, 2.0, 0.3), goal(6.5, 2.0, 0.3);
+
+  const PlanRequest wheeled = Request(start, goal, "differential");
+  auto blocked = Plan(map, wheeled);
+  ASSERT_FALSE(blocked.ok());
+  EXPECT_EQ(blocked.error().code, ErrorCode::kGoalUnreachable);
+
+  const PlanRequest biped = Request(start, goal, "biped");
+  auto plan = Plan(map, biped);
+  ASSERT_TRUE(plan.ok()) << plan.error().message;
+  ExpectSound(*plan, biped);
+  const Trajectory& t = plan->trajectory;
+  ASSERT_EQ(t.dimension, 4);
+  double under_table = 1e9, in_the_open = 0;
+  for (double time = 0; time <= t.TotalDuration(); time += 0.05) {
+    const Eigen::VectorXd q = t.Position(time);
+    if (std::abs(q.x() - 4.0) < 0.3) under_table = std::min(under_table, q(3));
+    if (std::abs(q.x() - 4.0) > 1.5) in_the_open = std::max(in_the_open, q(3));
+    EXPECT_GE(q(3), biped.profile.body_height_min_m - 0.01);
+    EXPECT_LE(q(3), biped.profile.body_height_max_m + 0.01);
+  }
+  EXPECT_LE(under_table, 0.45) << "the body must fit under the table";
+  EXPECT_GT(in_the_open, 0.6) << "away from the table it stands near its preferred height";
+  EXPECT_LE(plan->stats.min_body_height_m, 0.45);
+  EXPECT_GE(plan->stats.min_headroom_m, 0.0);
+}
+
+TEST(StairsRampRoomPlan, TheTrajectoryTakesTheRampNotTheStairs) {
+  const PlanningMap map(Assess(GenerateStairsRampRoom(3, 0.05), 0.1));
+  const StairsRampLayout L = GetStairsRampLayout();
+  const double stairs_x = 0.5 * (L.stairs_x_min_m + L.stairs_x_max_m);
+  const PlanRequest request =
+      Request({stairs_x, L.stairs_y_min_m - 1.0, 0.3},
+              {stairs_x, 0.5 * (L.landing_y_min_m + L.room_y_max_m), L.landing_z_m + 0.3});
+  auto plan = Plan(map, request);
+  ASSERT_TRUE(plan.ok()) << plan.error().message;
+  ExpectSound(*plan, request);
+  const Trajectory& t = plan->trajectory;
+  for (double time = 0; time <= t.TotalDuration(); time += 0.05) {
+    const Eigen::Vector3d p = t.Position(time).head<3>();
+    const bool over_stairs = p.x() > L.stairs_x_min_m + 0.1 && p.x() < L.stairs_x_max_m - 0.1 &&
+                             p.y() > L.stairs_y_min_m + 0.1 && p.y() < L.stairs_y_max_m - 0.1;
+    EXPECT_FALSE(over_stairs) << p.transpose();
+  }
+}
+
+// The shared maps (skipped when ../shared/maps is absent).
+std::shared_ptr<const TerrainModel> SharedMap(const std::string& name, double resolution_m) {
+  const std::string path = std::string(STRATA_SHARED_MAPS_DIR) + "/" + name;
+  if (!std::filesystem::exists(path)) return nullptr;
+  auto cloud = LoadPointCloud(path, CloudLoadLimits{});
+  if (!cloud) return nullptr;
+  return Assess(cloud->points, resolution_m);
+}
+
+TEST(SharedMaps, Scene20QueriesSucceedOnTheGround) {
+  const auto model = SharedMap("scene20.2.pcd", 0.2);
+  if (!model) GTEST_SKIP() << "shared maps not found at " << STRATA_SHARED_MAPS_DIR;
+  const PlanningMap map(model);
+  // From ../shared/maps/README.md: s2_flat_diag, s2_under_deck, s2_around_walls.
+  const std::pair<Eigen::Vector3d, Eigen::Vector3d> queries[] = {
+      {{-6, -8, 1}, {16, 16, 1}}, {{0, -2, 1}, {13, -2, 1}}, {{-5, -8, 1}, {15, -8, 1}}};
+  for (const auto& [start, goal] : queries) {
+    const PlanRequest request = Request(start, goal);
+    auto plan = Plan(map, request);
+    ASSERT_TRUE(plan.ok()) << start.transpose() << ": " << plan.error().message;
+    ExpectSound(*plan, request);
+  }
+}
+
+TEST(SharedMaps, SpiralGroundQueriesSucceedAndAnIsolatedGoalIsRefusedWithoutSearch) {
+  const auto model = SharedMap("spiral0.3_2.pcd", 0.2);
+  if (!model) GTEST_SKIP() << "shared maps not found at " << STRATA_SHARED_MAPS_DIR;
+  const PlanningMap map(model);
+  // sp_ground_left, sp_ground_right, sp_ground_to_l1 (up the first turn of the west ramp).
+  const std::pair<Eigen::Vector3d, Eigen::Vector3d> queries[] = {
+      {{-38, -2, 1.5}, {-26, -24, 1.5}},
+      {{-18, 0, 1.5}, {8, 2, 1.5}},
+      {{-30, -2, 1.5}, {-45, -29, 5.5}}};
+  for (const auto& [start, goal] : queries) {
+    const PlanRequest request = Request(start, goal);
+    auto plan = Plan(map, request);
+    ASSERT_TRUE(plan.ok()) << start.transpose() << ": " << plan.error().message;
+    ExpectSound(*plan, request);
+  }
+
+  // A goal on an island of traversable ground (a component the start's does not reach).
+  const PlanRequest probe = Request({-30, -2, 1.5}, {-26, -24, 1.5});
+  const auto graph = map.Graph(probe.profile.Traversability()).value();
+  const SnapResult start = SnapToSurface(*graph, probe.start.position_m, 1.0,
+                                         ErrorCode::kStartOffGround).value();
+  int island = -1;
+  for (int m = 0; m < graph->node_count() && island < 0; ++m) {
+    if (graph->component(m) != graph->component(start.node)) island = m;
+  }
+  ASSERT_GE(island, 0);
+  auto refused = Plan(map, Request(probe.start.position_m, graph->position(island)));
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.error().code, ErrorCode::kGoalUnreachable);
+  EXPECT_THAT(refused.error().message, HasSubstr("different connected components"));
+}
+
+}  // namespace
+}  // namespace strata

@@ -1,0 +1,242 @@
+#include "strata/trajectory_costs.hpp"
+
+#include <memory>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "strata/minco.hpp"
+#include "strata/scenes.hpp"
+#include "strata/terrain_model.hpp"
+#include "test_util/gradient_check.hpp"
+
+namespace strata {
+namespace {
+
+using test_util::NumericalGradient;
+using test_util::RelativeError;
+
+constexpr double kTolerance = 1e-5;
+
+// The two-level scene: a ramp (sloped ground), a deck (a ceiling over the floor) and pillars
+// (obstacles), so every term has something to bite on.
+const TerrainModel& Scene() {
+  static const std::shared_ptr<const TerrainModel> model = [] {
+    AssessmentConfig config;
+    config.grid.resolution_m = 0.2;
+    return TerrainModel::Assess(GenerateTwoLevelRamp(5), config).value();
+  }();
+  return *model;
+}
+
+// Its traversable ground for a robot with the cost's reference height (J_e needs it).
+const SurfaceGraph& Graph() {
+  static const SurfaceGraph graph = [] {
+    TraversabilityParams params;
+    params.reference_height_m = 0.3;
+    params.body_height_m = 0.4;
+    return SurfaceGraph::Build(Scene(), params).value();
+  }();
+  return graph;
+}
+
+// Each term alone, then all together.
+struct TermCase {
+  std::string name;
+  CostWeights weights;
+};
+std::vector<TermCase> TermCases() {
+  const CostWeights none{0, 0, 0, 0, 0, 0, 0};
+  std::vector<TermCase> cases;
+  CostWeights w = none;
+  w.smoothness = 1;
+  cases.push_back({"smoothness", w});
+  w = none;
+  w.time = 3;
+  cases.push_back({"time", w});
+  w = none;
+  w.safety = 50;
+  cases.push_back({"safety", w});
+  w = none;
+  w.edge = 1e3;
+  cases.push_back({"edge", w});
+  w = none;
+  w.ground = 20;
+  cases.push_back({"ground", w});
+  w = none;
+  w.feasibility = 5;
+  cases.push_back({"feasibility", w});
+  w = none;
+  w.height = 7;
+  cases.push_back({"height", w});
+  cases.push_back({"all", CostWeights{}});
+  return cases;
+}
+
+CostParams Params(bool active_height) {
+  CostParams p;
+  p.safety_threshold = 0.05;       // Low, so S' exceeds it on the ramp's edges and pillars.
+  p.distance_threshold_m = 0.35;   // High, so the ESDF term is active near the ground.
+  p.edge_margin_m = 0.6;           // High, so J_e is active well inside the ramp too.
+  p.reference_height_m = 0.3;
+  p.max_speed_horizontal_mps = 0.8;
+  p.max_speed_vertical_mps = 0.2;
+  p.max_accel_horizontal_mps2 = 0.6;
+  p.max_accel_vertical_mps2 = 0.2;
+  p.active_height = active_height;
+  p.body_height_min_m = 0.35;
+  p.body_height_max_m = 0.7;
+  p.body_height_preferred_m = 0.65;
+  p.headroom_m = 0.05;
+  p.samples_per_piece = 6;
+  return p;
+}
+
+// A point near the ground of the scene: on the ramp or under the deck, off the reference
+// height by a few centimetres, with a body height from crouched to beyond the range.
+StateVector RandomPosition(std::mt19937& rng, int dim) {
+  const TwoLevelRampLayout l = GetTwoLevelRampLayout();
+  std::uniform_real_distribution<double> unit(0, 1);
+  StateVector pos(dim);
+  pos(0) = l.ramp_x_min_m - 1 + unit(rng) * (l.ramp_x_max_m - l.ramp_x_min_m + 2);
+  pos(1) = l.ramp_y_min_m - 1 + unit(rng) * (l.ramp_y_max_m - l.ramp_y_min_m + 2);
+  const auto ground = Scene().GroundHeightBelow({pos(0), pos(1), l.deck_z_m - 0.5});
+  pos(2) = ground.value_or(l.floor_z_m) + 0.3 + 0.1 * (unit(rng) - 0.5);
+  if (dim == 4) pos(3) = 0.25 + 0.6 * unit(rng);
+  return pos;
+}
+
+class PointPenaltyGradient : public ::testing::TestWithParam<int> {};
+
+TEST_P(PointPenaltyGradient, MatchesFiniteDifferencesForEveryTerm) {
+  const int dim = GetParam();
+  std::mt19937 rng(7 + dim);
+  std::uniform_real_distribution<double> symmetric(-1.5, 1.5);
+  for (const TermCase& term : TermCases()) {
+    const TrajectoryCost cost(Graph(), term.weights, Params(dim == 4));
+    int active = 0;
+    for (int trial = 0; trial < 40; ++trial) {
+      const StateVector pos = RandomPosition(rng, dim);
+      StateVector vel(dim), acc(dim);
+      for (int a = 0; a < dim; ++a) vel(a) = symmetric(rng), acc(a) = symmetric(rng);
+      StateVector g_pos, g_vel, g_acc;
+      const double value = cost.PointPenalty(pos, vel, acc, &g_pos, &g_vel, &g_acc, nullptr);
+      if (value > 0) ++active;
+
+      // x = [pos, vel, acc].
+      Eigen::VectorXd x(3 * dim);
+      x << pos, vel, acc;
+      const auto f = [&](const Eigen::VectorXd& y) {
+        StateVector gp, gv, ga;
+        return cost.PointPenalty(y.segment(0, dim), y.segment(dim, dim), y.segment(2 * dim, dim),
+                                 &gp, &gv, &ga, nullptr);
+      };
+      Eigen::VectorXd analytic(3 * dim);
+      analytic << g_pos, g_vel, g_acc;
+      const Eigen::VectorXd numeric = NumericalGradient(f, x, 1e-7);
+      EXPECT_LT(RelativeError(analytic, numeric, 1e-3), kTolerance)
+          << term.name << " trial " << trial << "\nanalytic " << analytic.transpose()
+          << "\nnumeric  " << numeric.transpose();
+    }
+    // The point terms must actually have been exercised (smoothness and time have none).
+    if (term.name != "smoothness" && term.name != "time" && !(term.name == "height" && dim == 3)) {
+      EXPECT_GT(active, 10) << term.name;
+    }
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Dims, PointPenaltyGradient, ::testing::Values(3, 4));
+
+// A random MINCO trajectory along the ramp: J(q, T) through Evaluate and the adjoint.
+struct Trajectory5 {
+  Eigen::MatrixXd head, tail, waypoints;
+  Eigen::VectorXd durations;
+};
+
+Trajectory5 RandomTrajectory(std::mt19937& rng, int dim, int pieces) {
+  std::uniform_real_distribution<double> unit(0, 1);
+  Trajectory5 t;
+  t.head = Eigen::MatrixXd::Zero(dim, 3);
+  t.tail = Eigen::MatrixXd::Zero(dim, 3);
+  t.head.col(0) = RandomPosition(rng, dim);
+  t.tail.col(0) = RandomPosition(rng, dim);
+  t.head.col(1).setConstant(0.2);
+  t.tail.col(2).setConstant(-0.1);
+  t.waypoints.resize(dim, pieces - 1);
+  for (int k = 0; k < pieces - 1; ++k) t.waypoints.col(k) = RandomPosition(rng, dim);
+  t.durations.resize(pieces);
+  for (int k = 0; k < pieces; ++k) t.durations(k) = 0.6 + 1.5 * unit(rng);
+  return t;
+}
+
+double Objective(const TrajectoryCost& cost, const Trajectory5& t, const Eigen::MatrixXd& q,
+                 const Eigen::VectorXd& durations) {
+  Minco3 minco;
+  minco.SetConditions(t.head, t.tail, static_cast<int>(durations.size()));
+  minco.SetParameters(q, durations);
+  Eigen::MatrixXd gc;
+  Eigen::VectorXd gT;
+  return cost.Evaluate(minco, &gc, &gT);
+}
+
+class ObjectiveGradient : public ::testing::TestWithParam<int> {};
+
+TEST_P(ObjectiveGradient, WaypointAndDurationGradientsMatchFiniteDifferences) {
+  const int dim = GetParam();
+  const int pieces = 5;
+  std::mt19937 rng(100 + dim);
+  for (const TermCase& term : TermCases()) {
+    const TrajectoryCost cost(Graph(), term.weights, Params(dim == 4));
+    for (int trial = 0; trial < 4; ++trial) {
+      const Trajectory5 t = RandomTrajectory(rng, dim, pieces);
+      Minco3 minco;
+      minco.SetConditions(t.head, t.tail, pieces);
+      minco.SetParameters(t.waypoints, t.durations);
+      Eigen::MatrixXd grad_c, grad_q;
+      Eigen::VectorXd grad_T, grad_durations;
+      CostBreakdown terms;
+      const double value = cost.Evaluate(minco, &grad_c, &grad_T, &terms);
+      EXPECT_NEAR(value, terms.total(), 1e-9 * std::max(1.0, value));
+      minco.PropagateGradient(grad_c, grad_T, &grad_q, &grad_durations);
+
+      const int nq = dim * (pieces - 1);
+      Eigen::VectorXd x(nq + pieces);
+      x << Eigen::Map<const Eigen::VectorXd>(t.waypoints.data(), nq), t.durations;
+      const auto f = [&](const Eigen::VectorXd& y) {
+        const Eigen::MatrixXd q = Eigen::Map<const Eigen::MatrixXd>(y.data(), dim, pieces - 1);
+        return Objective(cost, t, q, y.tail(pieces));
+      };
+      Eigen::VectorXd analytic(nq + pieces);
+      analytic << Eigen::Map<const Eigen::VectorXd>(grad_q.data(), nq), grad_durations;
+      const Eigen::VectorXd numeric = NumericalGradient(f, x, 1e-7);
+      EXPECT_LT(RelativeError(analytic, numeric, 1e-3), kTolerance)
+          << term.name << " trial " << trial << "\nanalytic " << analytic.transpose()
+          << "\nnumeric  " << numeric.transpose();
+    }
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Dims, ObjectiveGradient, ::testing::Values(3, 4));
+
+TEST(SampleGround, FollowsTheRampAndFindsTheDeckAsCeiling) {
+  const TwoLevelRampLayout l = GetTwoLevelRampLayout();
+  GroundSample s;
+  // Mid-ramp: the ground rises along the ramp's uphill direction at its slope.
+  const double x = 0.5 * (l.ramp_x_min_m + l.ramp_x_max_m);
+  const double y = 0.5 * (l.ramp_y_min_m + l.ramp_y_max_m);
+  const auto ground = Scene().GroundHeightBelow({x, y, l.deck_z_m - 0.3});
+  ASSERT_TRUE(ground.has_value());
+  ASSERT_TRUE(SampleGround(Scene(), {x, y, *ground + 0.3}, 0.3, 10, &s));
+  EXPECT_NEAR(s.height_m, *ground, 0.1);
+  const double slope = s.height_gradient.dot(l.ramp_uphill_dir);
+  EXPECT_NEAR(std::atan(slope), l.ramp_slope_rad, 0.05);
+  // Under the deck, the clearance is the height of the deck's underside above the floor.
+  const Eigen::Vector2d under = l.pillar_centers_m.front() + Eigen::Vector2d(1.5, 0);
+  ASSERT_TRUE(SampleGround(Scene(), {under.x(), under.y(), l.floor_z_m + 0.3}, 0.3, 10, &s));
+  EXPECT_NEAR(s.clearance_m, l.deck_underside_z_m - l.floor_z_m, 0.25);
+}
+
+}  // namespace
+}  // namespace strata
