@@ -1,0 +1,184 @@
+// Planning figures for docs/benchmarks.md: the eleven reference queries of
+// ../shared/maps/README.md (median of 5 runs each) and random start/goal pairs on each shared
+// map (fixed seed). Prints markdown tables. Not part of the test path.
+//
+//   STRATA_MAPS_DIR=../shared/maps build/bench/planning_benchmark [PAIRS] [SEED]
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <map>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "strata/cloud_io.hpp"
+#include "strata/planner.hpp"
+
+namespace {
+
+using strata::PlanningMap;
+
+struct Query {
+  const char* name;
+  const char* map;
+  Eigen::Vector3d start, goal;
+};
+
+const Query kQueries[] = {
+    {"s2_flat_diag", "scene20.2", {-6, -8, 1}, {16, 16, 1}},
+    {"s2_ground_to_deck", "scene20.2", {-4, 16, 1}, {6.5, -1.5, 3.5}},
+    {"s2_deck_to_ground", "scene20.2", {6.5, -2, 3.5}, {16, 8, 1}},
+    {"s2_under_deck", "scene20.2", {0, -2, 1}, {13, -2, 1}},
+    {"s2_around_walls", "scene20.2", {-5, -8, 1}, {15, -8, 1}},
+    {"sp_ground_left", "spiral0.3_2", {-38, -2, 1.5}, {-26, -24, 1.5}},
+    {"sp_ground_right", "spiral0.3_2", {-18, 0, 1.5}, {8, 2, 1.5}},
+    {"sp_ground_to_l1", "spiral0.3_2", {-30, -2, 1.5}, {-45, -29, 5.5}},
+    {"sp_ground_to_top", "spiral0.3_2", {-30, -2, 1.5}, {-30, -28, 21.5}},
+    {"sp_top_to_ground", "spiral0.3_2", {-16, -23, 21.5}, {-18, 0, 1.5}},
+    {"sp_cross_wall", "spiral0.3_2", {-30, -2, 1.5}, {-15, 0, 1.5}},
+};
+
+// The original code's plan times on these queries [ms] (../shared/maps/README.md).
+const std::map<std::string, double> kOriginalMs = {
+    {"s2_flat_diag", 210},   {"s2_ground_to_deck", 277}, {"s2_deck_to_ground", 311},
+    {"s2_under_deck", 27},   {"s2_around_walls", 161},   {"sp_ground_left", 40},
+    {"sp_ground_right", 68}, {"sp_ground_to_l1", 125},   {"sp_ground_to_top", 806},
+    {"sp_top_to_ground", 159}, {"sp_cross_wall", 1224}};
+
+double Median(std::vector<double> v) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  return v[v.size() / 2];
+}
+double Percentile(std::vector<double> v, double q) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  return v[std::min(v.size() - 1, static_cast<std::size_t>(q * v.size()))];
+}
+
+std::unique_ptr<PlanningMap> LoadMap(const std::string& dir, const std::string& name) {
+  auto cloud = strata::LoadPointCloud(dir + "/" + name + ".pcd", strata::CloudLoadLimits{});
+  if (!cloud) {
+    std::fprintf(stderr, "%s\n", cloud.error().message.c_str());
+    std::exit(1);
+  }
+  strata::AssessmentConfig config;
+  config.grid.resolution_m = 0.2;
+  return std::make_unique<PlanningMap>(strata::TerrainModel::Assess(cloud->points, config).value());
+}
+
+strata::PlanRequest Request(const Eigen::Vector3d& start, const Eigen::Vector3d& goal) {
+  strata::PlanRequest r;
+  r.start.position_m = start;
+  r.goal.position_m = goal;
+  r.profile = strata::BuiltinProfile("differential").value();
+  return r;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const char* env = std::getenv("STRATA_MAPS_DIR");
+  const std::string dir = env ? env : "../shared/maps";
+  const int pairs = argc > 1 ? std::atoi(argv[1]) : 200;
+  const unsigned seed = argc > 2 ? static_cast<unsigned>(std::atoi(argv[2])) : 1;
+  std::map<std::string, std::unique_ptr<PlanningMap>> maps;
+  for (const char* name : {"scene20.2", "spiral0.3_2"}) maps[name] = LoadMap(dir, name);
+  for (auto& [name, map] : maps) {  // Build the differential robot's graph before timing.
+    (void)map->Graph(strata::BuiltinProfile("differential")->Traversability());
+  }
+
+  std::printf("| query | result | total ms (median of 5) | snap / search / optimise / verify ms | "
+              "original ms | speed-up | length m | κ_m 1/m | max v h/v m/s | max a h/v m/s² |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|---|\n");
+  for (const Query& q : kQueries) {
+    std::vector<double> total, snap, search, optimize, verify;
+    strata::Expected<strata::PlanResult> last = strata::Error{strata::ErrorCode::kNoPath, ""};
+    for (int run = 0; run < 5; ++run) {
+      last = strata::Plan(*maps[q.map], Request(q.start, q.goal));
+      const auto& t = last ? last->stats.timings : strata::PlanTimings{};
+      if (!last) break;
+      total.push_back(t.total_s * 1e3);
+      snap.push_back(t.snap_s * 1e3);
+      search.push_back(t.search_s * 1e3);
+      optimize.push_back(t.optimize_s * 1e3);
+      verify.push_back(t.verify_s * 1e3);
+    }
+    const double original = kOriginalMs.at(q.name);
+    if (!last) {
+      std::printf("| %s | %s | | | %.0f | | | | | |\n", q.name,
+                  strata::ErrorCodeName(last.error().code), original);
+      std::fprintf(stderr, "%s: %s\n", q.name, last.error().message.c_str());
+      continue;
+    }
+    const strata::PlanStats& s = last->stats;
+    std::printf("| %s | ok | %.1f | %.1f / %.1f / %.1f / %.1f | %.0f | %.0f× | %.1f | %.3f | "
+                "%.2f / %.2f | %.2f / %.2f |\n",
+                q.name, Median(total), Median(snap), Median(search), Median(optimize),
+                Median(verify), original, original / Median(total), s.length_m,
+                s.mean_curvature_per_m, s.max_speed_horizontal_mps, s.max_speed_vertical_mps,
+                s.max_accel_horizontal_mps2, s.max_accel_vertical_mps2);
+  }
+
+  std::printf("\n| map | pairs | success | failures by reason | total ms median / p95 | "
+              "search ms median / p95 | optimise ms median / p95 | length m median | "
+              "κ_m median | max v / a over all |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|---|\n");
+  for (auto& [name, map] : maps) {
+    const auto graph = map->Graph(strata::BuiltinProfile("differential")->Traversability()).value();
+    // Pairs of nodes of the largest component: valid, reachable start/goal pairs.
+    std::vector<int> size(graph->component_count(), 0);
+    for (int m = 0; m < graph->node_count(); ++m) ++size[graph->component(m)];
+    const int biggest = static_cast<int>(std::max_element(size.begin(), size.end()) - size.begin());
+    std::vector<int> nodes;
+    for (int m = 0; m < graph->node_count(); ++m) {
+      if (graph->component(m) == biggest) nodes.push_back(m);
+    }
+    std::mt19937 rng(seed);
+    std::uniform_int_distribution<std::size_t> pick(0, nodes.size() - 1);
+    std::vector<double> total, search, optimize, length, curvature;
+    double max_v = 0, max_a = 0;
+    std::map<std::string, int> failures;
+    int ok = 0;
+    for (int k = 0; k < pairs; ++k) {
+      const auto plan = strata::Plan(*map, Request(graph->position(nodes[pick(rng)]),
+                                                   graph->position(nodes[pick(rng)])));
+      if (!plan) {
+        ++failures[strata::ErrorCodeName(plan.error().code)];
+        continue;
+      }
+      ++ok;
+      const strata::PlanStats& s = plan->stats;
+      total.push_back(s.timings.total_s * 1e3);
+      search.push_back(s.timings.search_s * 1e3);
+      optimize.push_back(s.timings.optimize_s * 1e3);
+      length.push_back(s.length_m);
+      curvature.push_back(s.mean_curvature_per_m);
+      max_v = std::max(max_v, s.max_speed_horizontal_mps);
+      max_a = std::max(max_a, s.max_accel_horizontal_mps2);
+    }
+    // An unreachable goal: a node of another component, refused from the labels.
+    int island = -1;
+    for (int m = 0; m < graph->node_count() && island < 0; ++m) {
+      if (graph->component(m) != biggest) island = m;
+    }
+    std::vector<double> refusal;
+    for (int run = 0; island >= 0 && run < 5; ++run) {
+      const auto begin = std::chrono::steady_clock::now();
+      const auto plan = strata::Plan(*map, Request(graph->position(nodes[0]), graph->position(island)));
+      refusal.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - begin).count());
+      if (plan || plan.error().code != strata::ErrorCode::kGoalUnreachable) refusal.back() = -1;
+    }
+    std::fprintf(stderr, "%s: unreachable goal refused in %.3f ms (median of 5)\n", name.c_str(), Median(refusal));
+    std::string reasons;
+    for (const auto& [reason, count] : failures) reasons += reason + " " + std::to_string(count) + " ";
+    std::printf("| %s | %d | %.1f%% | %s | %.1f / %.1f | %.1f / %.1f | %.1f / %.1f | %.1f | %.3f | "
+                "%.2f / %.2f |\n",
+                name.c_str(), pairs, 100.0 * ok / pairs, reasons.empty() ? "none" : reasons.c_str(),
+                Median(total), Percentile(total, 0.95), Median(search), Percentile(search, 0.95),
+                Median(optimize), Percentile(optimize, 0.95), Median(length), Median(curvature),
+                max_v, max_a);
+  }
+  return 0;
+}
