@@ -31,12 +31,11 @@ std::string Exceeds(const char* quantity, double value, double bound, const char
 // Largest speed of the x, y, z path, from 32 samples per piece; only sets the step size.
 double PeakSpeed(const Trajectory& trajectory) {
   double peak = 0;
-  double start = 0;
-  for (const TrajectoryPiece& piece : trajectory.pieces) {
+  for (std::size_t i = 0; i < trajectory.pieces.size(); ++i) {
+    const double duration = trajectory.pieces[i].duration_s;
     for (int k = 0; k <= 32; ++k) {
-      peak = std::max(peak, trajectory.Velocity(start + piece.duration_s * k / 32).head<3>().norm());
+      peak = std::max(peak, trajectory.EvaluatePiece(i, duration * k / 32, 1).head<3>().norm());
     }
-    start += piece.duration_s;
   }
   return peak;
 }
@@ -79,91 +78,98 @@ Status VerifyTrajectory(const SurfaceGraph& graph, const RobotProfile& profile,
 
   double piece_start = 0;
   for (std::size_t i = 0; i < trajectory.pieces.size(); ++i) {
-  const double piece_duration = trajectory.pieces[i].duration_s;
-  const int steps = std::max(
-      1, static_cast<int>(std::ceil(piece_duration * peak_speed / config.max_sample_spacing_m)));
-  // Each piece's samples include its start; the last piece also its end.
-  const int last = i + 1 == trajectory.pieces.size() ? steps : steps - 1;
-  for (int k = 0; k <= last; ++k) {
-    const double local_t = piece_duration * k / steps;
-    const double t = piece_start + local_t;
-    const Eigen::VectorXd pos = trajectory.EvaluatePiece(i, local_t, 0);
-    const Eigen::VectorXd vel = trajectory.EvaluatePiece(i, local_t, 1);
-    const Eigen::VectorXd acc = trajectory.EvaluatePiece(i, local_t, 2);
-    const Eigen::Vector3d p = pos.head<3>();
-    ++report->samples;
+    const double piece_duration = trajectory.pieces[i].duration_s;
+    const int steps = std::max(
+        1, static_cast<int>(std::ceil(piece_duration * peak_speed / config.max_sample_spacing_m)));
+    // Each piece's samples include its start; the last piece also its end.
+    const int last = i + 1 == trajectory.pieces.size() ? steps : steps - 1;
+    for (int k = 0; k <= last; ++k) {
+      const double local_t = piece_duration * k / steps;
+      const double t = piece_start + local_t;
+      const Eigen::VectorXd pos = trajectory.EvaluatePiece(i, local_t, 0);
+      const Eigen::VectorXd vel = trajectory.EvaluatePiece(i, local_t, 1);
+      const Eigen::VectorXd acc = trajectory.EvaluatePiece(i, local_t, 2);
+      const Eigen::Vector3d p = pos.head<3>();
+      ++report->samples;
 
-    const double speed_h = vel.head<2>().norm(), speed_v = std::abs(vel(2));
-    const double accel_h = acc.head<2>().norm(), accel_v = std::abs(acc(2));
-    report->max_speed_horizontal_mps = std::max(report->max_speed_horizontal_mps, speed_h);
-    report->max_speed_vertical_mps = std::max(report->max_speed_vertical_mps, speed_v);
-    report->max_accel_horizontal_mps2 = std::max(report->max_accel_horizontal_mps2, accel_h);
-    report->max_accel_vertical_mps2 = std::max(report->max_accel_vertical_mps2, accel_v);
-    if (speed_h > tolerance * profile.max_speed_horizontal_mps) {
-      return Violation(t, p, Exceeds("horizontal speed", speed_h, profile.max_speed_horizontal_mps, "m/s"));
-    }
-    if (speed_v > tolerance * profile.max_speed_vertical_mps) {
-      return Violation(t, p, Exceeds("vertical speed", speed_v, profile.max_speed_vertical_mps, "m/s"));
-    }
-    if (accel_h > tolerance * profile.max_accel_horizontal_mps2) {
-      return Violation(t, p, Exceeds("horizontal acceleration", accel_h,
-                                     profile.max_accel_horizontal_mps2, "m/s^2"));
-    }
-    if (accel_v > tolerance * profile.max_accel_vertical_mps2) {
-      return Violation(t, p, Exceeds("vertical acceleration", accel_v,
-                                     profile.max_accel_vertical_mps2, "m/s^2"));
-    }
+      const double speed_h = vel.head<2>().norm(), speed_v = std::abs(vel(2));
+      const double accel_h = acc.head<2>().norm(), accel_v = std::abs(acc(2));
+      report->max_speed_horizontal_mps = std::max(report->max_speed_horizontal_mps, speed_h);
+      report->max_speed_vertical_mps = std::max(report->max_speed_vertical_mps, speed_v);
+      report->max_accel_horizontal_mps2 = std::max(report->max_accel_horizontal_mps2, accel_h);
+      report->max_accel_vertical_mps2 = std::max(report->max_accel_vertical_mps2, accel_v);
+      if (speed_h > tolerance * profile.max_speed_horizontal_mps) {
+        return Violation(
+            t, p, Exceeds("horizontal speed", speed_h, profile.max_speed_horizontal_mps, "m/s"));
+      }
+      if (speed_v > tolerance * profile.max_speed_vertical_mps) {
+        return Violation(t, p,
+                         Exceeds("vertical speed", speed_v, profile.max_speed_vertical_mps, "m/s"));
+      }
+      if (accel_h > tolerance * profile.max_accel_horizontal_mps2) {
+        return Violation(t, p,
+                         Exceeds("horizontal acceleration", accel_h,
+                                 profile.max_accel_horizontal_mps2, "m/s^2"));
+      }
+      if (accel_v > tolerance * profile.max_accel_vertical_mps2) {
+        return Violation(
+            t, p,
+            Exceeds("vertical acceleration", accel_v, profile.max_accel_vertical_mps2, "m/s^2"));
+      }
 
-    // Ground: the column under the reference point must be traversable at this level.
-    GroundSample ground;
-    if (!SampleGround(model, p, profile.reference_height_m, 0, &ground)) {
-      return Violation(t, p, "no ground below the reference point");
-    }
-    const Eigen::Vector3i cell = graph.grid().CellOf(p);
-    const int node = graph.NodeNear(cell.x(), cell.y(), ground.height_m);
-    if (node < 0) {
-      return Violation(t, p, "the ground below is not traversable for this robot (not valid "
-                             "ground, too steep, or too low a ceiling)");
-    }
-    const ColumnSurface& surface = graph.surface(node);
-    report->max_tilt_rad = std::max(report->max_tilt_rad, static_cast<double>(surface.tilt_rad));
-    const double offset = p.z() - ground.height_m - profile.reference_height_m;
-    report->max_ground_offset_m = std::max(report->max_ground_offset_m, std::abs(offset));
-    if (std::abs(offset) > config.ground_tolerance_m) {
-      return Violation(t, p, Exceeds("distance from the reference height above ground",
-                                     std::abs(offset), config.ground_tolerance_m, "m"));
-    }
-    const double distance = model.Distance(p);
-    report->min_obstacle_distance_m = std::min(report->min_obstacle_distance_m, distance);
-    if (distance < config.min_obstacle_distance_m) {
-      char buf[128];
-      std::snprintf(buf, sizeof(buf), "obstacle distance %.3f m is below %.3f m", distance,
-                    config.min_obstacle_distance_m);
-      return Violation(t, p, buf);
-    }
-
-    // Body: fits under the ceiling, within its range.
-    const double body = profile.active_height ? pos(3) : profile.body_height_m;
-    report->min_body_height_m = std::min(report->min_body_height_m, body);
-    report->min_headroom_m = std::min(report->min_headroom_m,
-                                      static_cast<double>(surface.clearance_m) - body);
-    if (surface.clearance_m < body) {
-      char buf[128];
-      std::snprintf(buf, sizeof(buf), "body height %.3f m does not fit under the ceiling %.3f m above ground",
-                    body, static_cast<double>(surface.clearance_m));
-      return Violation(t, p, buf);
-    }
-    if (profile.active_height) {
-      const double slack = config.limit_tolerance * profile.body_height_max_m;
-      if (body > profile.body_height_max_m + slack || body < profile.body_height_min_m - slack) {
+      // Ground: the column under the reference point must be traversable at this level.
+      GroundSample ground;
+      if (!SampleGround(model, p, profile.reference_height_m, 0, &ground)) {
+        return Violation(t, p, "no ground below the reference point");
+      }
+      const Eigen::Vector3i cell = graph.grid().CellOf(p);
+      const int node = graph.NodeNear(cell.x(), cell.y(), ground.height_m);
+      if (node < 0) {
+        return Violation(t, p,
+                         "the ground below is not traversable for this robot (not valid "
+                         "ground, too steep, or too low a ceiling)");
+      }
+      const ColumnSurface& surface = graph.surface(node);
+      report->max_tilt_rad = std::max(report->max_tilt_rad, static_cast<double>(surface.tilt_rad));
+      const double offset = p.z() - ground.height_m - profile.reference_height_m;
+      report->max_ground_offset_m = std::max(report->max_ground_offset_m, std::abs(offset));
+      if (std::abs(offset) > config.ground_tolerance_m) {
+        return Violation(t, p,
+                         Exceeds("distance from the reference height above ground",
+                                 std::abs(offset), config.ground_tolerance_m, "m"));
+      }
+      const double distance = model.Distance(p);
+      report->min_obstacle_distance_m = std::min(report->min_obstacle_distance_m, distance);
+      if (distance < config.min_obstacle_distance_m) {
         char buf[128];
-        std::snprintf(buf, sizeof(buf), "body height %.3f m is outside [%.3f, %.3f] m", body,
-                      profile.body_height_min_m, profile.body_height_max_m);
+        std::snprintf(buf, sizeof(buf), "obstacle distance %.3f m is below %.3f m", distance,
+                      config.min_obstacle_distance_m);
         return Violation(t, p, buf);
       }
+
+      // Body: fits under the ceiling, within its range.
+      const double body = profile.active_height ? pos(3) : profile.body_height_m;
+      report->min_body_height_m = std::min(report->min_body_height_m, body);
+      report->min_headroom_m =
+          std::min(report->min_headroom_m, static_cast<double>(surface.clearance_m) - body);
+      if (surface.clearance_m < body) {
+        char buf[128];
+        std::snprintf(buf, sizeof(buf),
+                      "body height %.3f m does not fit under the ceiling %.3f m above ground", body,
+                      static_cast<double>(surface.clearance_m));
+        return Violation(t, p, buf);
+      }
+      if (profile.active_height) {
+        const double slack = config.limit_tolerance * profile.body_height_max_m;
+        if (body > profile.body_height_max_m + slack || body < profile.body_height_min_m - slack) {
+          char buf[128];
+          std::snprintf(buf, sizeof(buf), "body height %.3f m is outside [%.3f, %.3f] m", body,
+                        profile.body_height_min_m, profile.body_height_max_m);
+          return Violation(t, p, buf);
+        }
+      }
     }
-  }
-  piece_start += piece_duration;
+    piece_start += piece_duration;
   }
   return Status::Ok();
 }
@@ -187,17 +193,16 @@ double MeanCurvature(const Trajectory& trajectory, int samples) {
 
 double PathLength(const Trajectory& trajectory) {
   double length = 0;
-  double start = 0;
-  for (const TrajectoryPiece& piece : trajectory.pieces) {
+  for (std::size_t i = 0; i < trajectory.pieces.size(); ++i) {
+    const double duration = trajectory.pieces[i].duration_s;
     // Steps small enough that the chord error is far below a centimetre.
-    const int steps = std::max(8, static_cast<int>(std::ceil(piece.duration_s * 100)));
-    Eigen::Vector3d previous = trajectory.Position(start).head<3>();
+    const int steps = std::max(8, static_cast<int>(std::ceil(duration * 100)));
+    Eigen::Vector3d previous = trajectory.EvaluatePiece(i, 0, 0).head<3>();
     for (int k = 1; k <= steps; ++k) {
-      const Eigen::Vector3d next = trajectory.Position(start + piece.duration_s * k / steps).head<3>();
+      const Eigen::Vector3d next = trajectory.EvaluatePiece(i, duration * k / steps, 0).head<3>();
       length += (next - previous).norm();
       previous = next;
     }
-    start += piece.duration_s;
   }
   return length;
 }
