@@ -1,0 +1,202 @@
+#pragma once
+/// The maps a server hosts: an id → map store and the small worker pool that assesses new
+/// maps off the RPC threads. No gRPC here, so it is tested (and run under ThreadSanitizer)
+/// on its own.
+///
+/// Concurrency: one mutex guards the id → entry table and every entry's mutable fields; it
+/// is held only for bookkeeping, never while loading, assessing or planning. A plan copies
+/// the map's shared_ptr<const PlanningMap> (GetActive) and releases the lock, so creating or
+/// deleting maps never blocks planning on others, and a deleted map lives on until the last
+/// plan running on it lets go. An ACTIVE map never changes.
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <deque>
+#include <filesystem>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <variant>
+#include <vector>
+
+#include "service_error.hpp"
+#include "strata/cloud_io.hpp"
+#include "strata/planner.hpp"
+#include "strata/point_cloud.hpp"
+#include "strata/terrain_config.hpp"
+#include "strata/terrain_model.hpp"
+
+namespace strata::server {
+
+enum class MapState { kCreating, kActive, kFailed };
+
+/// Where a CREATING map is.
+enum class CreationStage { kQueued, kLoading, kAssessing, kDone };
+
+/// A point-cloud file, already confined to the map root (ResolveMapPath).
+struct FileMapSource {
+  std::filesystem::path resolved_path;  ///< Canonical path that is loaded.
+  std::string requested_path;           ///< As the client gave it, for display.
+};
+
+/// A built-in scene (strata::GenerateScene).
+struct SceneMapSource {
+  std::string name;
+  std::uint32_t seed = 0;
+};
+
+/// Uploaded points (may hold NaN/Inf: they are dropped and counted like a file's).
+struct UploadMapSource {
+  PointCloud points;
+  std::uint64_t received_bytes = 0;
+};
+
+using MapSource = std::variant<FileMapSource, SceneMapSource, UploadMapSource>;
+
+/// What remains known of a source once its points are consumed.
+struct UploadSummary {
+  std::uint64_t received_bytes = 0;
+};
+using MapSourceInfo = std::variant<FileMapSource, SceneMapSource, UploadSummary>;
+
+/// A consistent copy of a map's public state.
+struct MapSnapshot {
+  std::string id;
+  MapState state = MapState::kCreating;
+  CreationStage stage = CreationStage::kQueued;
+  std::optional<ServiceError> failure;  ///< Set when FAILED.
+  MapSourceInfo source;
+  AssessmentConfig config;              ///< Parameters it is (being) assessed with.
+  std::size_t raw_point_count = 0;      ///< Known after loading.
+  std::size_t dropped_nonfinite_point_count = 0;
+  double load_s = 0;
+  /// The rest is set once ACTIVE.
+  AssessmentSummary summary;
+  GridGeometry grid;
+  std::size_t memory_bytes = 0;  ///< Model plus cached graphs.
+  int max_levels = 0;            ///< Most valid surfaces in one column.
+  std::chrono::system_clock::time_point create_time;
+  std::optional<std::chrono::system_clock::time_point> done_time;
+
+  /// Coarse progress in [0, 1] from the stage (see the proto's Map.progress).
+  double progress() const;
+};
+
+/// Reads a source into a sanitised cloud (file, scene or upload); runs on a worker thread.
+using CloudLoader = std::function<Expected<LoadedCloud>(MapSource, const CloudLoadLimits&)>;
+
+/// The loader the server uses: LoadPointCloud for files, GenerateScene then SanitizeCloud
+/// for scenes, SanitizeCloud for uploads.
+Expected<LoadedCloud> LoadMapSource(MapSource source, const CloudLoadLimits& limits);
+
+/// Limits and resources of a registry.
+struct RegistryOptions {
+  /// Maps assessed at the same time (worker threads) [-], >= 1.
+  int max_concurrent_assessments = 1;
+  /// Maps held at once, in any state [-], >= 1.
+  int max_maps = 16;
+  /// Threads of one assessment's parallel stages [-], >= 0; 0 uses every core.
+  int assessment_threads = 0;
+  /// Limits on file loading and uploads (points, bytes, coordinates).
+  CloudLoadLimits load_limits;
+  /// How sources are read (tests substitute one that waits on a latch).
+  CloudLoader loader = LoadMapSource;
+};
+
+/// Counts for metrics.
+struct MapTotals {
+  int creating = 0;
+  int active = 0;
+  int failed = 0;
+  std::size_t active_memory_bytes = 0;  ///< Sum over ACTIVE maps [bytes].
+};
+
+/// One page of List.
+struct MapPage {
+  std::vector<MapSnapshot> maps;  ///< In id order.
+  std::string last_id;            ///< Id of the last map when more follow; empty otherwise.
+};
+
+class MapRegistry {
+ public:
+  /// Called by a worker, outside the lock, when a map becomes ACTIVE or FAILED.
+  using DoneListener = std::function<void(const MapSnapshot&)>;
+
+  explicit MapRegistry(RegistryOptions options, DoneListener on_done = {});
+  /// Stops the workers (Shutdown) and waits for any assessment in progress.
+  ~MapRegistry();
+  MapRegistry(const MapRegistry&) = delete;
+  MapRegistry& operator=(const MapRegistry&) = delete;
+
+  /// Checks that `id` is 1–64 characters from [A-Za-z0-9._-]; kInvalidInput otherwise.
+  static ServiceStatus ValidateId(const std::string& id);
+
+  /// Adds a CREATING map and queues its assessment; returns at once. An empty `id` gets a
+  /// fresh "map-N". A FAILED map with the same id is replaced. Fails with kInvalidInput (bad
+  /// id, blamed on "map_id"), kInvalidConfig (bad `config`), kMapAlreadyExists,
+  /// kTooManyMaps, kShuttingDown. `config.num_threads` is replaced by the registry's.
+  Result<MapSnapshot> Create(const std::string& id, MapSource source, AssessmentConfig config);
+
+  /// The map's state; kMapNotFound.
+  Result<MapSnapshot> Get(const std::string& id) const;
+
+  /// The planning map of an ACTIVE map, shared with the registry; kMapNotFound, or
+  /// kMapNotActive naming the state (and the failure of a FAILED map).
+  Result<std::shared_ptr<const PlanningMap>> GetActive(const std::string& id) const;
+
+  /// Blocks until the map is ACTIVE or FAILED (returns it), `deadline` passes (returns it
+  /// CREATING), or `should_stop` (polled every 50 ms; may be empty) returns true (returns
+  /// it as it is). kMapNotFound, also when it is deleted while waiting.
+  Result<MapSnapshot> WaitUntilDone(const std::string& id,
+                                    std::chrono::steady_clock::time_point deadline,
+                                    const std::function<bool()>& should_stop) const;
+
+  /// Removes the map in any state; kMapNotFound. An assessment in progress finishes and is
+  /// discarded; plans holding the map finish normally.
+  ServiceStatus Delete(const std::string& id);
+
+  /// Up to `page_size` (>= 1) maps with ids greater than `after_id`, in id order.
+  MapPage List(const std::string& after_id, int page_size) const;
+
+  MapTotals Totals() const;
+
+  /// Refuses new maps (kShuttingDown), drops queued assessments and lets the workers exit
+  /// once their current assessment ends. Idempotent.
+  void Shutdown();
+
+  /// After Shutdown: waits until no assessment is running or `deadline` passes; true when
+  /// idle. (An assessment cannot be interrupted; the caller may exit without it.)
+  bool WaitIdle(std::chrono::steady_clock::time_point deadline);
+
+  const RegistryOptions& options() const { return options_; }
+
+ private:
+  struct Entry;
+
+  void WorkerLoop();
+  void Assess(const std::shared_ptr<Entry>& entry);
+  // Builds the snapshot of `entry`; call with mutex_ held. Leaves memory_bytes to the caller
+  // (see FillMemory) because it takes the planning map's own lock.
+  MapSnapshot SnapshotLocked(const Entry& entry) const;
+  static void FillMemory(const std::shared_ptr<const PlanningMap>& map, MapSnapshot* snapshot);
+  void Finish(const std::shared_ptr<Entry>& entry,
+              Result<std::shared_ptr<const PlanningMap>> outcome);
+
+  RegistryOptions options_;
+  DoneListener on_done_;
+
+  mutable std::mutex mutex_;
+  mutable std::condition_variable changed_;  // Any entry's state, the queue, or stopping_.
+  std::map<std::string, std::shared_ptr<Entry>> maps_;
+  std::deque<std::shared_ptr<Entry>> queue_;
+  std::uint64_t next_generated_id_ = 1;
+  int running_assessments_ = 0;
+  bool stopping_ = false;
+  std::vector<std::thread> workers_;
+};
+
+}  // namespace strata::server

@@ -1,0 +1,54 @@
+#pragma once
+/// strata.v1.MapService: adapts the map registry to gRPC.
+#include <filesystem>
+
+#include <grpcpp/grpcpp.h>
+
+#include "map_registry.hpp"
+#include "strata/v1/map_service.grpc.pb.h"
+
+namespace strata::server {
+
+struct MapServiceOptions {
+  /// Canonical map root; empty disables file maps.
+  std::filesystem::path map_root;
+  /// Most points one uploaded map may hold [-].
+  std::size_t max_points = 50'000'000;
+};
+
+/// The MapSource and config of a CreateMapRequest (file confined to `map_root`, or scene);
+/// errors blame request fields ("file.path", "scene.name", "terrain.resolution_m", ...).
+Result<MapSource> SourceFromRequest(const v1::CreateMapRequest& request,
+                                    const std::filesystem::path& map_root);
+
+/// The latest time a handler may wait before answering, from the call's deadline: a little
+/// before it (10% of the time left, at most 100 ms), so the answer still arrives.
+std::chrono::steady_clock::time_point WaitDeadline(const grpc::ServerContext& context);
+
+class MapServiceImpl final : public v1::MapService::Service {
+ public:
+  /// `registry` must outlive the service.
+  MapServiceImpl(MapRegistry* registry, MapServiceOptions options);
+
+  grpc::Status CreateMap(grpc::ServerContext* context, const v1::CreateMapRequest* request,
+                         v1::Map* response) override;
+  grpc::Status UploadMap(grpc::ServerContext* context,
+                         grpc::ServerReader<v1::UploadMapRequest>* reader,
+                         v1::Map* response) override;
+  grpc::Status GetMap(grpc::ServerContext* context, const v1::GetMapRequest* request,
+                      v1::Map* response) override;
+  grpc::Status ListMaps(grpc::ServerContext* context, const v1::ListMapsRequest* request,
+                        v1::ListMapsResponse* response) override;
+  grpc::Status DeleteMap(grpc::ServerContext* context, const v1::DeleteMapRequest* request,
+                         v1::DeleteMapResponse* response) override;
+
+ private:
+  // Returns the new map, waiting for it when `wait` is set (see CreateMapRequest.wait).
+  ServiceStatus Respond(grpc::ServerContext* context, const MapSnapshot& created, bool wait,
+                        v1::Map* response);
+
+  MapRegistry* registry_;
+  MapServiceOptions options_;
+};
+
+}  // namespace strata::server

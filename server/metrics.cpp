@@ -1,0 +1,281 @@
+#include "metrics.hpp"
+
+#include <chrono>
+#include <sstream>
+
+#include <prometheus/text_serializer.h>
+
+namespace strata::server {
+namespace {
+
+using SteadyClock = std::chrono::steady_clock;
+using grpc::experimental::InterceptionHookPoints;
+using grpc::experimental::ServerRpcInfo;
+
+// prometheus.DefBuckets, as go-grpc-prometheus uses for grpc_server_handling_seconds.
+const prometheus::Histogram::BucketBoundaries kRpcBuckets = {0.005, 0.01, 0.025, 0.05, 0.1, 0.25,
+                                                             0.5,   1,    2.5,   5,    10};
+const prometheus::Histogram::BucketBoundaries kPlanBuckets = {
+    0.001, 0.0025, 0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 0.5, 1, 2.5, 5, 10, 30};
+const prometheus::Histogram::BucketBoundaries kAssessmentBuckets = {
+    0.01, 0.05, 0.1, 0.25, 0.5, 1, 2.5, 5, 10, 25, 50, 100, 250, 600};
+
+std::string_view TypeName(ServerRpcInfo::Type type) {
+  switch (type) {
+    case ServerRpcInfo::Type::UNARY: return "unary";
+    case ServerRpcInfo::Type::CLIENT_STREAMING: return "client_stream";
+    case ServerRpcInfo::Type::SERVER_STREAMING: return "server_stream";
+    case ServerRpcInfo::Type::BIDI_STREAMING: return "bidi_stream";
+  }
+  return "unary";
+}
+
+// "/strata.v1.MapService/GetMap" -> service "strata.v1.MapService", method "GetMap".
+Metrics::MethodLabels LabelsOf(const ServerRpcInfo& info) {
+  const std::string_view full = info.method() != nullptr ? info.method() : "";
+  const std::string_view path = full.empty() || full[0] != '/' ? full : full.substr(1);
+  const std::size_t slash = path.find('/');
+  Metrics::MethodLabels labels;
+  labels.type = TypeName(info.type());
+  if (slash == std::string_view::npos) {
+    labels.service = "unknown";
+    labels.method = path;
+  } else {
+    labels.service = path.substr(0, slash);
+    labels.method = path.substr(slash + 1);
+  }
+  return labels;
+}
+
+class MetricsInterceptor final : public grpc::experimental::Interceptor {
+ public:
+  MetricsInterceptor(Metrics* metrics, Metrics::MethodLabels labels)
+      : metrics_(metrics), labels_(std::move(labels)), start_(SteadyClock::now()) {
+    metrics_->RecordStarted(labels_);
+  }
+
+  ~MetricsInterceptor() override {
+    // A call that ended without sending a status (the client went away).
+    if (!handled_) metrics_->RecordHandled(labels_, grpc::StatusCode::CANCELLED, Elapsed());
+  }
+
+  void Intercept(grpc::experimental::InterceptorBatchMethods* methods) override {
+    if (methods->QueryInterceptionHookPoint(InterceptionHookPoints::POST_RECV_MESSAGE) &&
+        methods->GetRecvMessage() != nullptr) {
+      metrics_->RecordReceived(labels_);
+    }
+    if (methods->QueryInterceptionHookPoint(InterceptionHookPoints::PRE_SEND_MESSAGE)) {
+      metrics_->RecordSent(labels_);
+    }
+    if (methods->QueryInterceptionHookPoint(InterceptionHookPoints::PRE_SEND_STATUS)) {
+      handled_ = true;
+      metrics_->RecordHandled(labels_, methods->GetSendStatus().error_code(), Elapsed());
+    }
+    methods->Proceed();
+  }
+
+ private:
+  double Elapsed() const {
+    return std::chrono::duration<double>(SteadyClock::now() - start_).count();
+  }
+
+  Metrics* metrics_;
+  Metrics::MethodLabels labels_;
+  SteadyClock::time_point start_;
+  bool handled_ = false;
+};
+
+class MetricsInterceptorFactory final
+    : public grpc::experimental::ServerInterceptorFactoryInterface {
+ public:
+  explicit MetricsInterceptorFactory(Metrics* metrics) : metrics_(metrics) {}
+  grpc::experimental::Interceptor* CreateServerInterceptor(ServerRpcInfo* info) override {
+    return new MetricsInterceptor(metrics_, LabelsOf(*info));
+  }
+
+ private:
+  Metrics* metrics_;
+};
+
+// Map gauges read from the registry at scrape time, so they are never stale (a map's memory
+// grows when a new robot profile first plans on it).
+class MapCollector final : public prometheus::Collectable {
+ public:
+  explicit MapCollector(const MapRegistry* maps) : maps_(maps) {}
+
+  std::vector<prometheus::MetricFamily> Collect() const override {
+    const MapTotals totals = maps_->Totals();
+    prometheus::MetricFamily states{"strata_maps", "Maps hosted, by state.",
+                                    prometheus::MetricType::Gauge, {}};
+    const std::pair<const char*, int> counts[] = {
+        {"creating", totals.creating}, {"active", totals.active}, {"failed", totals.failed}};
+    for (const auto& [state, count] : counts) {
+      prometheus::ClientMetric metric;
+      metric.label = {{"state", state}};
+      metric.gauge.value = count;
+      states.metric.push_back(metric);
+    }
+    prometheus::MetricFamily memory{
+        "strata_map_memory_bytes",
+        "Bytes held by ACTIVE maps (terrain models and cached traversability graphs).",
+        prometheus::MetricType::Gauge, {}};
+    prometheus::ClientMetric bytes;
+    bytes.gauge.value = static_cast<double>(totals.active_memory_bytes);
+    memory.metric.push_back(bytes);
+    return {states, memory};
+  }
+
+ private:
+  const MapRegistry* maps_;
+};
+
+}  // namespace
+
+std::string_view GoCodeName(grpc::StatusCode code) {
+  switch (code) {
+    case grpc::StatusCode::OK: return "OK";
+    case grpc::StatusCode::CANCELLED: return "Canceled";
+    case grpc::StatusCode::UNKNOWN: return "Unknown";
+    case grpc::StatusCode::INVALID_ARGUMENT: return "InvalidArgument";
+    case grpc::StatusCode::DEADLINE_EXCEEDED: return "DeadlineExceeded";
+    case grpc::StatusCode::NOT_FOUND: return "NotFound";
+    case grpc::StatusCode::ALREADY_EXISTS: return "AlreadyExists";
+    case grpc::StatusCode::PERMISSION_DENIED: return "PermissionDenied";
+    case grpc::StatusCode::RESOURCE_EXHAUSTED: return "ResourceExhausted";
+    case grpc::StatusCode::FAILED_PRECONDITION: return "FailedPrecondition";
+    case grpc::StatusCode::ABORTED: return "Aborted";
+    case grpc::StatusCode::OUT_OF_RANGE: return "OutOfRange";
+    case grpc::StatusCode::UNIMPLEMENTED: return "Unimplemented";
+    case grpc::StatusCode::INTERNAL: return "Internal";
+    case grpc::StatusCode::UNAVAILABLE: return "Unavailable";
+    case grpc::StatusCode::DATA_LOSS: return "DataLoss";
+    case grpc::StatusCode::UNAUTHENTICATED: return "Unauthenticated";
+    default: return "Unknown";
+  }
+}
+
+Metrics::Metrics()
+    : registry_(std::make_shared<prometheus::Registry>()),
+      started_(prometheus::BuildCounter()
+                   .Name("grpc_server_started_total")
+                   .Help("Total number of RPCs started on the server.")
+                   .Register(*registry_)),
+      handled_(prometheus::BuildCounter()
+                   .Name("grpc_server_handled_total")
+                   .Help("Total number of RPCs completed on the server, regardless of success "
+                         "or failure.")
+                   .Register(*registry_)),
+      received_(prometheus::BuildCounter()
+                    .Name("grpc_server_msg_received_total")
+                    .Help("Total number of RPC stream messages received on the server.")
+                    .Register(*registry_)),
+      sent_(prometheus::BuildCounter()
+                .Name("grpc_server_msg_sent_total")
+                .Help("Total number of gRPC stream messages sent by the server.")
+                .Register(*registry_)),
+      handling_seconds_(prometheus::BuildHistogram()
+                            .Name("grpc_server_handling_seconds")
+                            .Help("Histogram of response latency (seconds) of gRPC that had "
+                                  "been application-level handled by the server.")
+                            .Register(*registry_)),
+      plans_(prometheus::BuildCounter()
+                 .Name("strata_plans_total")
+                 .Help("Plans finished, by result: OK or the error reason.")
+                 .Register(*registry_)),
+      plan_seconds_(prometheus::BuildHistogram()
+                        .Name("strata_plan_duration_seconds")
+                        .Help("Wall-clock seconds of successful plans, by stage.")
+                        .Register(*registry_)),
+      assessment_seconds_(prometheus::BuildHistogram()
+                              .Name("strata_map_assessment_seconds")
+                              .Help("Wall-clock seconds of map creation, by stage (maps that "
+                                    "became ACTIVE).")
+                              .Register(*registry_)) {}
+
+std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>
+Metrics::MakeInterceptorFactory() {
+  return std::make_unique<MetricsInterceptorFactory>(this);
+}
+
+void Metrics::ServeOn(prometheus::Exposer& exposer) {
+  exposer.RegisterCollectable(registry_);
+  if (map_collector_) exposer.RegisterCollectable(map_collector_);
+}
+
+std::string Metrics::Serialize() const {
+  std::vector<prometheus::MetricFamily> families = registry_->Collect();
+  if (map_collector_) {
+    for (auto& family : map_collector_->Collect()) families.push_back(std::move(family));
+  }
+  return prometheus::TextSerializer().Serialize(families);
+}
+
+void Metrics::InitializeMethod(std::string_view type, std::string_view service,
+                               std::string_view method) {
+  const MethodLabels labels{std::string(type), std::string(service), std::string(method)};
+  started_.Add({{"grpc_type", labels.type}, {"grpc_service", labels.service},
+                {"grpc_method", labels.method}});
+  handling_seconds_.Add({{"grpc_type", labels.type}, {"grpc_service", labels.service},
+                         {"grpc_method", labels.method}},
+                        kRpcBuckets);
+}
+
+void Metrics::WatchMaps(const MapRegistry* maps) {
+  map_collector_ = std::make_shared<MapCollector>(maps);
+}
+
+void Metrics::RecordPlan(std::string_view result, const PlanTimings* timings) {
+  plans_.Add({{"result", std::string(result)}}).Increment();
+  if (timings == nullptr) return;
+  const std::pair<const char*, double> stages[] = {{"snap", timings->snap_s},
+                                                   {"search", timings->search_s},
+                                                   {"optimize", timings->optimize_s},
+                                                   {"verify", timings->verify_s},
+                                                   {"total", timings->total_s}};
+  for (const auto& [stage, seconds] : stages) {
+    plan_seconds_.Add({{"stage", stage}}, kPlanBuckets).Observe(seconds);
+  }
+}
+
+void Metrics::RecordMapDone(const MapSnapshot& map) {
+  if (map.state != MapState::kActive) return;
+  const AssessmentTimings& t = map.summary.timings;
+  const std::pair<const char*, double> stages[] = {{"load", map.load_s},
+                                                   {"ground_filter", t.ground_filter_s},
+                                                   {"esdf", t.esdf_s},
+                                                   {"field", t.field_s},
+                                                   {"total", t.total_s}};
+  for (const auto& [stage, seconds] : stages) {
+    assessment_seconds_.Add({{"stage", stage}}, kAssessmentBuckets).Observe(seconds);
+  }
+}
+
+void Metrics::RecordStarted(const MethodLabels& l) {
+  started_.Add({{"grpc_type", l.type}, {"grpc_service", l.service}, {"grpc_method", l.method}})
+      .Increment();
+}
+
+void Metrics::RecordHandled(const MethodLabels& l, grpc::StatusCode code, double seconds) {
+  handled_
+      .Add({{"grpc_type", l.type},
+            {"grpc_service", l.service},
+            {"grpc_method", l.method},
+            {"grpc_code", std::string(GoCodeName(code))}})
+      .Increment();
+  handling_seconds_
+      .Add({{"grpc_type", l.type}, {"grpc_service", l.service}, {"grpc_method", l.method}},
+           kRpcBuckets)
+      .Observe(seconds);
+}
+
+void Metrics::RecordReceived(const MethodLabels& l) {
+  received_.Add({{"grpc_type", l.type}, {"grpc_service", l.service}, {"grpc_method", l.method}})
+      .Increment();
+}
+
+void Metrics::RecordSent(const MethodLabels& l) {
+  sent_.Add({{"grpc_type", l.type}, {"grpc_service", l.service}, {"grpc_method", l.method}})
+      .Increment();
+}
+
+}  // namespace strata::server

@@ -1,0 +1,203 @@
+#include "planner_service.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "error_mapping.hpp"
+#include "metrics.hpp"
+#include "proto_convert.hpp"
+#include "rpc_boundary.hpp"
+
+namespace strata::server {
+namespace {
+
+using SteadyClock = std::chrono::steady_clock;
+
+// The request field a planner error is about, by its code and the field path its message
+// starts with ("profile.max_tilt_rad = ...", "start.position_m must be ...").
+std::string FieldOf(const Error& error, bool inline_profile) {
+  switch (error.code) {
+    case ErrorCode::kStartOffGround: return "start.position_m";
+    case ErrorCode::kGoalOffGround: return "goal.position_m";
+    case ErrorCode::kProfileMismatch:
+      return inline_profile ? "profile" : "profile_name";
+    case ErrorCode::kInvalidInput:
+    case ErrorCode::kInvalidConfig: {
+      const std::string first_word = error.message.substr(0, error.message.find(' '));
+      for (const char* prefix : {"start.", "goal.", "profile.", "options."}) {
+        if (first_word.rfind(prefix, 0) == 0) return first_word;
+      }
+      return "";
+    }
+    default: return "";
+  }
+}
+
+double DeadlineLeftSeconds(const grpc::ServerContext& context) {
+  const auto deadline = context.deadline();
+  if (deadline == std::chrono::system_clock::time_point::max()) {
+    return std::numeric_limits<double>::infinity();
+  }
+  return std::chrono::duration<double>(deadline - std::chrono::system_clock::now()).count();
+}
+
+// When a queued plan stops waiting for a slot: before the deadline, leaving the margin
+// PlanTimeBudget leaves.
+SteadyClock::time_point QueueDeadline(double deadline_left_s) {
+  if (!std::isfinite(deadline_left_s)) return SteadyClock::time_point::max();
+  const double margin = std::min(0.1 * std::max(deadline_left_s, 0.0), 0.1);
+  return SteadyClock::now() + std::chrono::duration_cast<SteadyClock::duration>(
+                                  std::chrono::duration<double>(deadline_left_s - margin));
+}
+
+ServiceError BudgetExhausted(double deadline_left_s) {
+  char buf[256];
+  std::snprintf(buf, sizeof(buf),
+                "the call's deadline leaves %.3f s, too little to plan: allow more time (set "
+                "a later deadline)",
+                std::max(0.0, deadline_left_s));
+  return MakeError(ErrorCode::kDeadlineExceeded, buf);
+}
+
+}  // namespace
+
+Result<ParsedPlanRequest> ParsePlanRequest(const v1::PlanRequest& request) {
+  ParsedPlanRequest parsed;
+  if (request.map_id().empty()) {
+    return MakeError(ErrorCode::kInvalidInput, "map_id is required (ListMaps shows the maps)")
+        .Blame("map_id");
+  }
+  Result<RobotProfile> profile = ProfileFromRequest(request);
+  if (!profile.ok()) return std::move(profile).error();
+  parsed.plan.profile = std::move(profile).value();
+  parsed.inline_profile = request.has_profile();
+  if (!request.has_start()) {
+    return MakeError(ErrorCode::kInvalidInput, "start is required").Blame("start");
+  }
+  if (!request.has_goal()) {
+    return MakeError(ErrorCode::kInvalidInput, "goal is required").Blame("goal");
+  }
+  Result<RobotState> start = FromProto(request.start(), "start");
+  if (!start.ok()) return std::move(start).error();
+  Result<RobotState> goal = FromProto(request.goal(), "goal");
+  if (!goal.ok()) return std::move(goal).error();
+  parsed.plan.start = start.value();
+  parsed.plan.goal = goal.value();
+  Result<PlanOptions> options = FromProto(request.options());
+  if (!options.ok()) return std::move(options).error();
+  parsed.plan.options = std::move(options).value();
+  parsed.time_budget_given = request.options().has_time_budget_s();
+  if (request.options().has_sample_dt_s()) {
+    const double dt = request.options().sample_dt_s();
+    if (!(std::isfinite(dt) && dt > 0)) {
+      return MakeError(ErrorCode::kInvalidConfig,
+                       "options.sample_dt_s = " + std::to_string(dt) +
+                           " is out of range: must be > 0 and finite")
+          .Blame("options.sample_dt_s");
+    }
+    parsed.sample_dt_s = dt;
+  }
+  return parsed;
+}
+
+double PlanTimeBudget(const ParsedPlanRequest& request, double deadline_left_s,
+                      double server_cap_s) {
+  double budget = std::min(request.plan.options.time_budget_s, server_cap_s);
+  if (std::isfinite(deadline_left_s)) {
+    const double margin = std::min(0.1 * std::max(deadline_left_s, 0.0), 0.1);
+    budget = std::min(budget, deadline_left_s - margin);
+  }
+  return budget;
+}
+
+ServiceStatus PlanOnMap(const PlanningMap& map, const ParsedPlanRequest& request,
+                        const std::function<bool()>& should_stop, int max_samples,
+                        v1::PlanResponse* response, PlanTimings* timings) {
+  Expected<PlanResult> result = strata::Plan(map, request.plan, should_stop);
+  if (!result.ok()) {
+    return ServiceError::FromPlanner(result.error(),
+                                     FieldOf(result.error(), request.inline_profile));
+  }
+  const PlanResult& plan = result.value();
+  ToProto(plan.trajectory, response->mutable_trajectory());
+  ToProto(plan.start, response->mutable_start());
+  ToProto(plan.goal, response->mutable_goal());
+  ToProto(plan.stats, response->mutable_stats());
+  ToProto(request.plan.profile, response->mutable_profile());
+  response->set_time_budget_s(request.plan.options.time_budget_s);
+  if (request.sample_dt_s.has_value()) {
+    ServiceStatus sampled =
+        AppendSamples(plan.trajectory, *request.sample_dt_s, max_samples, response);
+    if (!sampled.ok()) return sampled;
+  }
+  *timings = plan.stats.timings;
+  return OkStatus();
+}
+
+PlannerServiceImpl::PlannerServiceImpl(const MapRegistry* registry, Metrics* metrics,
+                                       PlannerServiceOptions options)
+    : registry_(registry),
+      metrics_(metrics),
+      options_(options),
+      slots_(std::max(1, options.max_concurrent_plans)) {}
+
+grpc::Status PlannerServiceImpl::Plan(grpc::ServerContext* context,
+                                      const v1::PlanRequest* request,
+                                      v1::PlanResponse* response) {
+  return RunRpc("Plan", [&](CallLog& log) -> ServiceStatus {
+    log.map_id = request->map_id();
+    PlanTimings timings;
+    auto outcome = [&]() -> ServiceStatus {
+      Result<ParsedPlanRequest> parsed = ParsePlanRequest(*request);
+      if (!parsed.ok()) return std::move(parsed).error();
+      Result<std::shared_ptr<const PlanningMap>> map = registry_->GetActive(request->map_id());
+      if (!map.ok()) return std::move(map).error();
+
+      const auto should_stop = [context] { return context->IsCancelled(); };
+      const double left_s = DeadlineLeftSeconds(*context);
+      if (left_s <= 0) return BudgetExhausted(left_s);
+      const auto queue_start = SteadyClock::now();
+      const auto queue_deadline =
+          std::min(QueueDeadline(left_s),
+                   queue_start + std::chrono::duration_cast<SteadyClock::duration>(
+                                     std::chrono::duration<double>(options_.max_plan_time_s)));
+      if (!slots_.Acquire(queue_deadline, should_stop)) {
+        if (context->IsCancelled()) {
+          return MakeError(ErrorCode::kCancelled, "the client cancelled the plan while queued");
+        }
+        return MakeError(ServiceErrorCode::kServerBusy,
+                         "all " + std::to_string(options_.max_concurrent_plans) +
+                             " planning slots stayed busy until the call's deadline: retry "
+                             "with backoff, or allow a later deadline");
+      }
+      ConcurrencyLimiter::Slot slot(&slots_);
+      const double queue_s =
+          std::chrono::duration<double>(SteadyClock::now() - queue_start).count();
+
+      ParsedPlanRequest capped = std::move(parsed).value();
+      const double budget_s =
+          PlanTimeBudget(capped, DeadlineLeftSeconds(*context), options_.max_plan_time_s);
+      if (budget_s <= 0) return BudgetExhausted(DeadlineLeftSeconds(*context));
+      capped.plan.options.time_budget_s = budget_s;
+      ServiceStatus status =
+          PlanOnMap(*map.value(), capped, should_stop, options_.max_samples, response, &timings);
+      if (!status.ok()) return status;
+      response->mutable_stats()->mutable_timings()->set_queue_s(queue_s);
+      return OkStatus();
+    }();
+    if (!outcome.ok()) {
+      ServiceError error = std::move(outcome).error();
+      if (!request->map_id().empty()) error.With("map_id", request->map_id().substr(0, 64));
+      if (metrics_ != nullptr) metrics_->RecordPlan(MapError(error.code).reason, nullptr);
+      return error;
+    }
+    if (metrics_ != nullptr) metrics_->RecordPlan("OK", &timings);
+    char ms[32];
+    std::snprintf(ms, sizeof(ms), "%.1f", timings.total_s * 1e3);
+    log.fields.emplace_back("plan_ms", ms);
+    return OkStatus();
+  });
+}
+
+}  // namespace strata::server

@@ -1,0 +1,66 @@
+#pragma once
+/// strata.v1.PlannerService: runs strata::Plan for each request on a shared, read-only map.
+#include <functional>
+#include <optional>
+
+#include <grpcpp/grpcpp.h>
+
+#include "concurrency_limiter.hpp"
+#include "map_registry.hpp"
+#include "strata/v1/planner_service.grpc.pb.h"
+
+namespace strata::server {
+
+class Metrics;
+
+struct PlannerServiceOptions {
+  /// Cap on every plan's time budget [s], > 0.
+  double max_plan_time_s = 10.0;
+  /// Plans run at the same time [-], >= 1.
+  int max_concurrent_plans = 2;
+  /// Most trajectory samples one response may carry [-].
+  int max_samples = 20000;
+};
+
+/// A request converted and validated, before any map is touched.
+struct ParsedPlanRequest {
+  PlanRequest plan;                  ///< options.time_budget_s not yet capped.
+  bool time_budget_given = false;    ///< options.time_budget_s was set.
+  bool inline_profile = false;       ///< The profile came inline (else by name).
+  std::optional<double> sample_dt_s;  ///< options.sample_dt_s, when set.
+};
+
+/// Converts `request`; errors blame the field ("start.position_m.x", "profile.max_tilt_rad",
+/// "options.sample_dt_s", ...).
+Result<ParsedPlanRequest> ParsePlanRequest(const v1::PlanRequest& request);
+
+/// The time budget of one plan [s]: the request's (or the planner's default), capped by the
+/// server's cap and by the time left before the call's deadline (`deadline_left_s`, infinite
+/// without one) less a margin to send the answer (10% of it, at most 0.1 s). May be <= 0.
+double PlanTimeBudget(const ParsedPlanRequest& request, double deadline_left_s,
+                      double server_cap_s);
+
+/// Plans on `map` into `response` (everything but stats.timings.queue_s); `request`'s time
+/// budget is already capped; `should_stop` reaches the search and the optimiser. Planner
+/// errors come back blaming the request field at fault. No gRPC calls: tested without a
+/// server.
+ServiceStatus PlanOnMap(const PlanningMap& map, const ParsedPlanRequest& request,
+                        const std::function<bool()>& should_stop, int max_samples,
+                        v1::PlanResponse* response, PlanTimings* timings);
+
+class PlannerServiceImpl final : public v1::PlannerService::Service {
+ public:
+  /// `registry` and `metrics` (may be null) must outlive the service.
+  PlannerServiceImpl(const MapRegistry* registry, Metrics* metrics, PlannerServiceOptions options);
+
+  grpc::Status Plan(grpc::ServerContext* context, const v1::PlanRequest* request,
+                    v1::PlanResponse* response) override;
+
+ private:
+  const MapRegistry* registry_;
+  Metrics* metrics_;
+  PlannerServiceOptions options_;
+  ConcurrencyLimiter slots_;
+};
+
+}  // namespace strata::server

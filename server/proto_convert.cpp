@@ -1,0 +1,412 @@
+#include "proto_convert.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <functional>
+
+#include "error_mapping.hpp"
+
+namespace strata::server {
+namespace {
+
+using google::protobuf::Timestamp;
+
+std::string Format(double value) {
+  char buf[32];
+  std::snprintf(buf, sizeof(buf), "%g", value);
+  return buf;
+}
+
+void ToProto(const Eigen::Vector3d& v, v1::Vector3* message) {
+  message->set_x(v.x());
+  message->set_y(v.y());
+  message->set_z(v.z());
+}
+
+void ToProto(std::chrono::system_clock::time_point time, Timestamp* message) {
+  const auto since_epoch = time.time_since_epoch();
+  const auto seconds = std::chrono::floor<std::chrono::seconds>(since_epoch);
+  message->set_seconds(seconds.count());
+  message->set_nanos(static_cast<int>(
+      std::chrono::duration_cast<std::chrono::nanoseconds>(since_epoch - seconds).count()));
+}
+
+// A vector field of a request: each component must be finite.
+Result<Eigen::Vector3d> FromProto(const v1::Vector3& v, const std::string& field) {
+  const double values[3] = {v.x(), v.y(), v.z()};
+  const char* names[3] = {"x", "y", "z"};
+  for (int i = 0; i < 3; ++i) {
+    if (!std::isfinite(values[i])) {
+      return MakeError(ErrorCode::kInvalidInput, field + "." + names[i] + " must be finite, got " +
+                                                     Format(values[i]))
+          .Blame(field + "." + names[i]);
+    }
+  }
+  return Eigen::Vector3d(v.x(), v.y(), v.z());
+}
+
+// One optional terrain field and where it lands in AssessmentConfig.
+struct TerrainField {
+  const char* name;
+  std::function<bool(const v1::TerrainParameters&)> has;
+  std::function<double(const v1::TerrainParameters&)> get;
+  std::function<double&(AssessmentConfig&)> slot;
+};
+
+const std::vector<TerrainField>& TerrainFields() {
+  using T = v1::TerrainParameters;
+  static const std::vector<TerrainField> fields = {
+      {"resolution_m", &T::has_resolution_m, &T::resolution_m,
+       [](AssessmentConfig& c) -> double& { return c.grid.resolution_m; }},
+      {"ground_radius_m", &T::has_ground_radius_m, &T::ground_radius_m,
+       [](AssessmentConfig& c) -> double& { return c.ground.radius_m; }},
+      {"max_tilt_rad", &T::has_max_tilt_rad, &T::max_tilt_rad,
+       [](AssessmentConfig& c) -> double& { return c.ground.max_tilt_rad; }},
+      {"height_tolerance_m", &T::has_height_tolerance_m, &T::height_tolerance_m,
+       [](AssessmentConfig& c) -> double& { return c.ground.height_tolerance_m; }},
+      {"padding_m", &T::has_padding_m, &T::padding_m,
+       [](AssessmentConfig& c) -> double& { return c.grid.padding_m; }},
+  };
+  return fields;
+}
+
+// The request field a RobotProfile::Validate message is about: its messages start with
+// "profile.<field> = ", which is also the field's path in PlanRequest.
+std::string ProfileFieldOf(const std::string& message) {
+  const std::size_t end = message.find(" = ");
+  if (message.rfind("profile.", 0) == 0 && end != std::string::npos) return message.substr(0, end);
+  return "profile";
+}
+
+ServiceError OutOfRange(const std::string& field, double value, const std::string& range) {
+  return MakeError(ErrorCode::kInvalidConfig,
+                   field + " = " + Format(value) + " is out of range: must be " + range)
+      .Blame(field);
+}
+
+}  // namespace
+
+Result<AssessmentConfig> FromProto(const v1::TerrainParameters& terrain, const std::string& field) {
+  AssessmentConfig config;
+  for (const TerrainField& f : TerrainFields()) {
+    if (!f.has(terrain)) continue;
+    // Each field is checked alone on top of the defaults, so the error names it exactly
+    // and the ranges stay those of AssessmentConfig::Validate.
+    AssessmentConfig probe;
+    f.slot(probe) = f.get(terrain);
+    if (Status valid = probe.Validate(); !valid) {
+      // The planner names its own field ("grid.resolution_m = ..."); say the request's.
+      const std::string request_field = field + "." + f.name;
+      Error error = valid.error();
+      if (const std::size_t eq = error.message.find(" = "); eq != std::string::npos) {
+        error.message = request_field + error.message.substr(eq);
+      }
+      return ServiceError::FromPlanner(error, request_field);
+    }
+    f.slot(config) = f.get(terrain);
+  }
+  if (Status valid = config.Validate(); !valid) {
+    return ServiceError::FromPlanner(valid.error(), field);
+  }
+  return config;
+}
+
+void ToProto(const AssessmentConfig& config, v1::TerrainParameters* terrain) {
+  terrain->set_resolution_m(config.grid.resolution_m);
+  terrain->set_ground_radius_m(config.ground.radius_m);
+  terrain->set_max_tilt_rad(config.ground.max_tilt_rad);
+  terrain->set_height_tolerance_m(config.ground.height_tolerance_m);
+  terrain->set_padding_m(config.grid.padding_m);
+}
+
+void ToProto(const MapSnapshot& s, v1::Map* map) {
+  map->set_id(s.id);
+  switch (s.state) {
+    case MapState::kCreating: map->set_state(v1::MAP_STATE_CREATING); break;
+    case MapState::kActive: map->set_state(v1::MAP_STATE_ACTIVE); break;
+    case MapState::kFailed: map->set_state(v1::MAP_STATE_FAILED); break;
+  }
+  switch (s.stage) {
+    case CreationStage::kQueued: map->set_stage(v1::MAP_CREATION_STAGE_QUEUED); break;
+    case CreationStage::kLoading: map->set_stage(v1::MAP_CREATION_STAGE_LOADING); break;
+    case CreationStage::kAssessing: map->set_stage(v1::MAP_CREATION_STAGE_ASSESSING); break;
+    case CreationStage::kDone: map->set_stage(v1::MAP_CREATION_STAGE_DONE); break;
+  }
+  map->set_progress(s.progress());
+  if (s.failure.has_value()) {
+    map->mutable_failure()->set_reason(std::string(MapError(s.failure->code).reason));
+    map->mutable_failure()->set_message(s.failure->message);
+  }
+  if (const auto* file = std::get_if<FileMapSource>(&s.source)) {
+    map->mutable_source()->mutable_file()->set_path(file->requested_path);
+  } else if (const auto* scene = std::get_if<SceneMapSource>(&s.source)) {
+    map->mutable_source()->mutable_scene()->set_name(scene->name);
+    map->mutable_source()->mutable_scene()->set_seed(scene->seed);
+  } else {
+    map->mutable_source()->mutable_upload()->set_received_bytes(
+        std::get<UploadSummary>(s.source).received_bytes);
+  }
+  ToProto(s.config, map->mutable_terrain());
+  map->set_raw_point_count(s.raw_point_count);
+  map->set_dropped_nonfinite_point_count(s.dropped_nonfinite_point_count);
+  map->mutable_assessment_seconds()->set_load_s(s.load_s);
+  if (s.state == MapState::kActive) {
+    const AssessmentSummary& summary = s.summary;
+    ToProto(summary.cloud_bounds_m.min(), map->mutable_bounds_m()->mutable_min_m());
+    ToProto(summary.cloud_bounds_m.max(), map->mutable_bounds_m()->mutable_max_m());
+    map->set_input_point_count(summary.input_points);
+    map->set_valid_ground_point_count(summary.valid_ground_points);
+    map->mutable_grid_size()->set_nx(s.grid.size.x());
+    map->mutable_grid_size()->set_ny(s.grid.size.y());
+    map->mutable_grid_size()->set_nz(s.grid.size.z());
+    ToProto(s.grid.origin_m, map->mutable_grid_origin_m());
+    map->set_memory_bytes(s.memory_bytes);
+    v1::AssessmentSeconds* seconds = map->mutable_assessment_seconds();
+    seconds->set_ground_filter_s(summary.timings.ground_filter_s);
+    seconds->set_esdf_s(summary.timings.esdf_s);
+    seconds->set_field_s(summary.timings.field_s);
+    seconds->set_total_s(summary.timings.total_s);
+    map->set_surface_count(summary.surface_count);
+    map->set_valid_surface_count(summary.valid_surface_count);
+    map->set_max_levels(static_cast<std::uint32_t>(s.max_levels));
+  }
+  ToProto(s.create_time, map->mutable_create_time());
+  if (s.done_time.has_value()) ToProto(*s.done_time, map->mutable_done_time());
+}
+
+Result<RobotProfile> ProfileFromRequest(const v1::PlanRequest& request) {
+  switch (request.robot_case()) {
+    case v1::PlanRequest::kProfileName: {
+      Expected<RobotProfile> builtin = BuiltinProfile(request.profile_name());
+      if (!builtin) return ServiceError::FromPlanner(builtin.error(), "profile_name");
+      return std::move(builtin).value();
+    }
+    case v1::PlanRequest::kProfile: break;
+    case v1::PlanRequest::ROBOT_NOT_SET:
+      return MakeError(ErrorCode::kInvalidInput,
+                       "no robot given: set profile_name (\"differential\" or \"biped\") or an "
+                       "inline profile")
+          .Blame("profile_name");
+  }
+  const v1::RobotProfile& m = request.profile();
+  RobotProfile p;
+  p.name = m.has_name() ? m.name() : "custom";
+  if (m.has_footprint_radius_m()) p.footprint_radius_m = m.footprint_radius_m();
+  if (m.has_max_tilt_rad()) p.max_tilt_rad = m.max_tilt_rad();
+  if (m.has_max_step_m()) p.max_step_m = m.max_step_m();
+  if (m.has_reference_height_m()) p.reference_height_m = m.reference_height_m();
+  if (m.has_max_speed_horizontal_mps()) p.max_speed_horizontal_mps = m.max_speed_horizontal_mps();
+  if (m.has_max_speed_vertical_mps()) p.max_speed_vertical_mps = m.max_speed_vertical_mps();
+  if (m.has_max_accel_horizontal_mps2()) {
+    p.max_accel_horizontal_mps2 = m.max_accel_horizontal_mps2();
+  }
+  if (m.has_max_accel_vertical_mps2()) p.max_accel_vertical_mps2 = m.max_accel_vertical_mps2();
+  if (m.has_active_height()) p.active_height = m.active_height();
+  if (m.has_body_height_m()) p.body_height_m = m.body_height_m();
+  if (m.has_body_height_min_m()) p.body_height_min_m = m.body_height_min_m();
+  if (m.has_body_height_max_m()) p.body_height_max_m = m.body_height_max_m();
+  if (m.has_headroom_m()) p.headroom_m = m.headroom_m();
+  if (Status valid = p.Validate(); !valid) {
+    return ServiceError::FromPlanner(valid.error(), ProfileFieldOf(valid.error().message));
+  }
+  return p;
+}
+
+void ToProto(const RobotProfile& p, v1::RobotProfile* m) {
+  m->set_name(p.name);
+  m->set_footprint_radius_m(p.footprint_radius_m);
+  m->set_max_tilt_rad(p.max_tilt_rad);
+  m->set_max_step_m(p.max_step_m);
+  m->set_reference_height_m(p.reference_height_m);
+  m->set_max_speed_horizontal_mps(p.max_speed_horizontal_mps);
+  m->set_max_speed_vertical_mps(p.max_speed_vertical_mps);
+  m->set_max_accel_horizontal_mps2(p.max_accel_horizontal_mps2);
+  m->set_max_accel_vertical_mps2(p.max_accel_vertical_mps2);
+  m->set_active_height(p.active_height);
+  m->set_body_height_m(p.body_height_m);
+  m->set_body_height_min_m(p.body_height_min_m);
+  m->set_body_height_max_m(p.body_height_max_m);
+  m->set_headroom_m(p.headroom_m);
+}
+
+Result<RobotState> FromProto(const v1::RobotState& state, const std::string& field) {
+  if (!state.has_position_m()) {
+    return MakeError(ErrorCode::kInvalidInput, field + ".position_m is required")
+        .Blame(field + ".position_m");
+  }
+  RobotState result;
+  Result<Eigen::Vector3d> position = FromProto(state.position_m(), field + ".position_m");
+  if (!position.ok()) return std::move(position).error();
+  result.position_m = position.value();
+  if (state.has_velocity_mps()) {
+    Result<Eigen::Vector3d> v = FromProto(state.velocity_mps(), field + ".velocity_mps");
+    if (!v.ok()) return std::move(v).error();
+    result.velocity_mps = v.value();
+  }
+  if (state.has_acceleration_mps2()) {
+    Result<Eigen::Vector3d> a = FromProto(state.acceleration_mps2(), field + ".acceleration_mps2");
+    if (!a.ok()) return std::move(a).error();
+    result.acceleration_mps2 = a.value();
+  }
+  return result;
+}
+
+Result<PlanOptions> FromProto(const v1::PlanOptions& m) {
+  PlanOptions options;
+  if (m.has_time_budget_s()) {
+    if (!(std::isfinite(m.time_budget_s()) && m.time_budget_s() > 0)) {
+      return OutOfRange("options.time_budget_s", m.time_budget_s(), "> 0 and finite");
+    }
+    options.time_budget_s = m.time_budget_s();
+  }
+  if (m.has_snap_tolerance_m()) {
+    if (!(std::isfinite(m.snap_tolerance_m()) && m.snap_tolerance_m() >= 0)) {
+      return OutOfRange("options.snap_tolerance_m", m.snap_tolerance_m(), ">= 0 and finite");
+    }
+    options.snap_tolerance_m = m.snap_tolerance_m();
+  }
+  if (m.has_max_attempts()) {
+    if (m.max_attempts() < 1 || m.max_attempts() > 10) {
+      return OutOfRange("options.max_attempts", m.max_attempts(), "in [1, 10]");
+    }
+    options.max_attempts = m.max_attempts();
+  }
+  const v1::CostWeights& w = m.weights();
+  CostWeights& weights = options.optimizer.weights;
+  const struct {
+    const char* name;
+    bool has;
+    double value;
+    double* slot;
+  } overrides[] = {
+      {"smoothness", w.has_smoothness(), w.smoothness(), &weights.smoothness},
+      {"time", w.has_time(), w.time(), &weights.time},
+      {"safety", w.has_safety(), w.safety(), &weights.safety},
+      {"ground", w.has_ground(), w.ground(), &weights.ground},
+      {"feasibility", w.has_feasibility(), w.feasibility(), &weights.feasibility},
+      {"height", w.has_height(), w.height(), &weights.height},
+  };
+  for (const auto& o : overrides) {
+    if (!o.has) continue;
+    if (!(std::isfinite(o.value) && o.value >= 0)) {
+      return OutOfRange(std::string("options.weights.") + o.name, o.value, ">= 0 and finite");
+    }
+    *o.slot = o.value;
+  }
+  return options;
+}
+
+void ToProto(const Trajectory& trajectory, v1::Trajectory* message) {
+  message->set_frame("map");
+  message->set_dimension(trajectory.dimension);
+  for (const TrajectoryPiece& piece : trajectory.pieces) {
+    v1::TrajectoryPiece* p = message->add_pieces();
+    p->set_duration_s(piece.duration_s);
+    for (int axis = 0; axis < trajectory.dimension; ++axis) {
+      v1::Polynomial* polynomial = p->add_axes();
+      for (int k = 0; k < piece.coefficients.rows(); ++k) {
+        polynomial->add_coefficients(piece.coefficients(k, axis));
+      }
+    }
+  }
+  message->set_duration_s(trajectory.TotalDuration());
+}
+
+Result<Trajectory> FromProto(const v1::Trajectory& message) {
+  if (message.dimension() != 3 && message.dimension() != 4) {
+    return MakeError(ErrorCode::kInvalidInput, "trajectory dimension must be 3 or 4, got " +
+                                                   std::to_string(message.dimension()))
+        .Blame("dimension");
+  }
+  Trajectory trajectory;
+  trajectory.dimension = message.dimension();
+  for (int i = 0; i < message.pieces_size(); ++i) {
+    const v1::TrajectoryPiece& p = message.pieces(i);
+    const std::string field = "pieces[" + std::to_string(i) + "]";
+    if (!(std::isfinite(p.duration_s()) && p.duration_s() > 0)) {
+      return MakeError(ErrorCode::kInvalidInput, field + ".duration_s must be > 0 and finite")
+          .Blame(field + ".duration_s");
+    }
+    if (p.axes_size() != message.dimension()) {
+      return MakeError(ErrorCode::kInvalidInput, field + " must have one polynomial per axis")
+          .Blame(field + ".axes");
+    }
+    TrajectoryPiece piece;
+    piece.duration_s = p.duration_s();
+    piece.coefficients.resize(6, message.dimension());
+    for (int axis = 0; axis < message.dimension(); ++axis) {
+      if (p.axes(axis).coefficients_size() != 6) {
+        return MakeError(ErrorCode::kInvalidInput, field + " must have 6 coefficients per axis")
+            .Blame(field + ".axes[" + std::to_string(axis) + "].coefficients");
+      }
+      for (int k = 0; k < 6; ++k) piece.coefficients(k, axis) = p.axes(axis).coefficients(k);
+    }
+    trajectory.pieces.push_back(std::move(piece));
+  }
+  return trajectory;
+}
+
+void ToProto(const SnapResult& snap, v1::SnappedState* message) {
+  ToProto(snap.position_m, message->mutable_position_m());
+  message->set_level(static_cast<std::uint32_t>(std::max(0, snap.level)));
+  message->set_distance_m(snap.distance_m);
+}
+
+void ToProto(const PlanStats& s, v1::PlanStats* m) {
+  m->set_length_m(s.length_m);
+  m->set_duration_s(s.duration_s);
+  m->set_mean_curvature_per_m(s.mean_curvature_per_m);
+  m->set_max_speed_horizontal_mps(s.max_speed_horizontal_mps);
+  m->set_max_speed_vertical_mps(s.max_speed_vertical_mps);
+  m->set_max_accel_horizontal_mps2(s.max_accel_horizontal_mps2);
+  m->set_max_accel_vertical_mps2(s.max_accel_vertical_mps2);
+  m->set_min_obstacle_distance_m(s.min_obstacle_distance_m);
+  m->set_max_ground_offset_m(s.max_ground_offset_m);
+  m->set_max_tilt_rad(s.max_tilt_rad);
+  m->set_min_body_height_m(s.min_body_height_m);
+  m->set_min_headroom_m(s.min_headroom_m);
+  m->set_pieces(s.pieces);
+  m->set_search_expansions(s.search_expansions);
+  m->set_optimizer_iterations(s.optimizer_iterations);
+  m->set_optimizer_attempts(s.optimizer_attempts);
+  m->set_verified_samples(s.verified_samples);
+  v1::PlanTimings* t = m->mutable_timings();
+  t->set_snap_s(s.timings.snap_s);
+  t->set_search_s(s.timings.search_s);
+  t->set_optimize_s(s.timings.optimize_s);
+  t->set_verify_s(s.timings.verify_s);
+  t->set_total_s(s.timings.total_s);
+}
+
+ServiceStatus AppendSamples(const Trajectory& trajectory, double dt_s, int max_samples,
+                            v1::PlanResponse* response) {
+  const double total_s = trajectory.TotalDuration();
+  if (trajectory.pieces.empty()) return OkStatus();
+  // Samples at 0, dt, 2 dt, ... below the end, then the end itself.
+  const double steps = std::ceil(total_s / dt_s - 1e-9);
+  if (!(steps + 1 <= max_samples)) {
+    return MakeError(ErrorCode::kInvalidInput,
+                     "options.sample_dt_s = " + Format(dt_s) + " gives more than " +
+                         std::to_string(max_samples) + " samples over the trajectory's " +
+                         Format(total_s) + " s: use at least " +
+                         Format(total_s / (max_samples - 1)) + " s")
+        .Blame("options.sample_dt_s");
+  }
+  const auto count = static_cast<int>(steps) + 1;
+  for (int i = 0; i < count; ++i) {
+    const double t = std::min(i * dt_s, total_s);
+    const Eigen::VectorXd p = trajectory.Position(t);
+    const Eigen::VectorXd v = trajectory.Velocity(t);
+    const Eigen::VectorXd a = trajectory.Acceleration(t);
+    v1::TrajectorySample* sample = response->add_samples();
+    sample->set_time_s(t);
+    ToProto(Eigen::Vector3d(p.head<3>()), sample->mutable_position_m());
+    ToProto(Eigen::Vector3d(v.head<3>()), sample->mutable_velocity_mps());
+    ToProto(Eigen::Vector3d(a.head<3>()), sample->mutable_acceleration_mps2());
+    if (trajectory.dimension == 4) sample->set_body_height_m(p(3));
+  }
+  return OkStatus();
+}
+
+}  // namespace strata::server

@@ -1,0 +1,50 @@
+#pragma once
+/// The boundary every RPC handler runs inside: it turns a ServiceError into a grpc::Status
+/// with the richer error details, catches every exception (so no client ever sees gRPC's
+/// "Unexpected error in RPC handling"), and writes one log line per call.
+#include <chrono>
+#include <exception>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+#include <grpcpp/support/status.h>
+
+#include "service_error.hpp"
+
+namespace strata::server {
+
+/// What a handler tells the log about its call.
+struct CallLog {
+  std::string map_id;
+  /// Extra key=value pairs (e.g. "points").
+  std::vector<std::pair<std::string, std::string>> fields;
+  /// Successful calls of read-only rpcs (GetMap, ListMaps) log at debug level, so polling
+  /// clients do not fill the log.
+  bool quiet_on_success = false;
+};
+
+/// The ServiceError for an exception that escaped a handler body.
+ServiceError ErrorFromException(std::exception_ptr exception);
+
+/// Logs the call (rpc, map, duration, code, reason, and the message of failures) and
+/// returns its grpc::Status. Never throws.
+grpc::Status FinishRpc(std::string_view rpc, const CallLog& log, const ServiceStatus& outcome,
+                       std::chrono::steady_clock::time_point start) noexcept;
+
+/// Runs `body(CallLog&) -> ServiceStatus` inside the boundary.
+template <typename Body>
+grpc::Status RunRpc(std::string_view rpc, Body&& body) noexcept {
+  const auto start = std::chrono::steady_clock::now();
+  CallLog log;
+  ServiceStatus outcome = OkStatus();
+  try {
+    outcome = body(log);
+  } catch (...) {
+    outcome = ErrorFromException(std::current_exception());
+  }
+  return FinishRpc(rpc, log, outcome, start);
+}
+
+}  // namespace strata::server

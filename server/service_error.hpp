@@ -1,0 +1,90 @@
+#pragma once
+/// How failures travel inside the server (no gRPC here): a planner code (strata::ErrorCode)
+/// or a code only the server knows, a message that says what to fix, the request fields at
+/// fault, and machine-readable details. error_mapping.hpp turns one into a grpc::Status.
+#include <map>
+#include <string>
+#include <utility>
+#include <variant>
+#include <vector>
+
+#include "strata/status.hpp"
+
+namespace strata::server {
+
+/// Failures the planner library cannot report because they concern the server's state.
+enum class ServiceErrorCode {
+  kMapNotFound,         ///< No map has the requested id.
+  kMapNotActive,        ///< The map is CREATING or FAILED.
+  kMapAlreadyExists,    ///< CreateMap with an id already in use (by a map not FAILED).
+  kTooManyMaps,         ///< The server holds --max-maps maps.
+  kPathOutsideMapRoot,  ///< A file path resolves outside --map-root (or there is no root).
+  kServerBusy,          ///< Every planning slot stayed busy until the call's deadline.
+  kShuttingDown,        ///< The server is draining for shutdown.
+  kInternal,            ///< A bug: an exception reached a handler boundary.
+};
+
+/// Every ServiceErrorCode, for exhaustive tests.
+inline constexpr ServiceErrorCode kAllServiceErrorCodes[] = {
+    ServiceErrorCode::kMapNotFound,        ServiceErrorCode::kMapNotActive,
+    ServiceErrorCode::kMapAlreadyExists,   ServiceErrorCode::kTooManyMaps,
+    ServiceErrorCode::kPathOutsideMapRoot, ServiceErrorCode::kServerBusy,
+    ServiceErrorCode::kShuttingDown,       ServiceErrorCode::kInternal,
+};
+
+/// A request field that is wrong (google.rpc.BadRequest.FieldViolation). `field` is the
+/// path in the request message, e.g. "start.position_m.x".
+struct FieldViolation {
+  std::string field;
+  std::string description;
+};
+
+/// A failure anywhere in the server.
+struct ServiceError {
+  using Code = std::variant<ErrorCode, ServiceErrorCode>;
+
+  Code code;
+  std::string message;                          ///< What went wrong and what to do.
+  std::vector<FieldViolation> field_violations;  ///< Request fields at fault, if any.
+  std::map<std::string, std::string> metadata;  ///< ErrorInfo metadata, e.g. {"map_id", "x"}.
+
+  /// A planner error, optionally blamed on one request field.
+  static ServiceError FromPlanner(const Error& error, std::string field = {});
+  /// Adds a field violation whose description is the message; returns *this.
+  ServiceError& Blame(std::string field);
+  /// Adds one metadata entry; returns *this.
+  ServiceError& With(std::string key, std::string value);
+};
+
+/// Shorthand for a server-side failure.
+ServiceError MakeError(ServiceErrorCode code, std::string message);
+/// Shorthand for a failure with a planner code.
+ServiceError MakeError(ErrorCode code, std::string message);
+
+/// A value or a ServiceError.
+template <typename T>
+class Result {
+ public:
+  Result(T value) : storage_(std::move(value)) {}              // NOLINT: implicit by design.
+  Result(ServiceError error) : storage_(std::move(error)) {}   // NOLINT: implicit by design.
+
+  bool ok() const { return std::holds_alternative<T>(storage_); }
+  /// Precondition: ok().
+  T& value() & { return std::get<T>(storage_); }
+  const T& value() const& { return std::get<T>(storage_); }
+  T&& value() && { return std::get<T>(std::move(storage_)); }
+  T* operator->() { return &value(); }
+  const T* operator->() const { return &value(); }
+  /// Precondition: !ok().
+  const ServiceError& error() const& { return std::get<ServiceError>(storage_); }
+  ServiceError&& error() && { return std::get<ServiceError>(std::move(storage_)); }
+
+ private:
+  std::variant<T, ServiceError> storage_;
+};
+
+/// Success, or a ServiceError, for calls without a value.
+using ServiceStatus = Result<std::monostate>;
+inline ServiceStatus OkStatus() { return std::monostate{}; }
+
+}  // namespace strata::server

@@ -1,0 +1,239 @@
+#include "strata_server.hpp"
+
+#include <thread>
+
+#include <google/protobuf/descriptor.h>
+#include <grpc/grpc.h>
+#include <grpcpp/ext/proto_server_reflection_plugin.h>
+#include <grpcpp/health_check_service_interface.h>
+
+#include "log.hpp"
+#include "map_root.hpp"
+#include "proto_convert.hpp"
+#include "strata/scenes.hpp"
+
+namespace strata::server {
+namespace {
+
+constexpr const char* kServices[] = {"strata.v1.MapService", "strata.v1.PlannerService"};
+
+struct ResolvedPreload {
+  std::string id;
+  MapSource source;
+  AssessmentConfig config;
+};
+
+Result<ResolvedPreload> ResolvePreload(const PreloadSpec& spec,
+                                       const std::filesystem::path& map_root) {
+  const std::string flag = "--preload " + spec.id;
+  auto fail = [&](const ServiceError& error) {
+    return MakeError(ErrorCode::kInvalidInput, flag + ": " + error.message);
+  };
+  if (ServiceStatus valid = MapRegistry::ValidateId(spec.id); !valid.ok()) {
+    return fail(valid.error());
+  }
+  ResolvedPreload preload{spec.id, SceneMapSource{}, {}};
+  if (!spec.scene_name.empty()) {
+    v1::CreateMapRequest request;
+    request.mutable_scene()->set_name(spec.scene_name);
+    request.mutable_scene()->set_seed(spec.scene_seed);
+    Result<MapSource> source = SourceFromRequest(request, map_root);
+    if (!source.ok()) return fail(source.error());
+    preload.source = std::move(source).value();
+  } else {
+    Result<std::filesystem::path> path = ResolveMapPath(map_root, spec.path, "preload");
+    if (!path.ok()) return fail(path.error());
+    preload.source = FileMapSource{path.value(), spec.path};
+  }
+  v1::TerrainParameters terrain;
+  if (spec.resolution_m) terrain.set_resolution_m(*spec.resolution_m);
+  if (spec.ground_radius_m) terrain.set_ground_radius_m(*spec.ground_radius_m);
+  if (spec.max_tilt_rad) terrain.set_max_tilt_rad(*spec.max_tilt_rad);
+  Result<AssessmentConfig> config = FromProto(terrain, "terrain");
+  if (!config.ok()) return fail(config.error());
+  preload.config = config.value();
+  return preload;
+}
+
+// "0.0.0.0:0" with port 43125 bound -> "0.0.0.0:43125".
+std::string BoundAddress(const std::string& listen, int port) {
+  return listen.substr(0, listen.rfind(':')) + ":" + std::to_string(port);
+}
+
+}  // namespace
+
+Result<std::unique_ptr<StrataServer>> StrataServer::Start(const ServerConfig& config) {
+  std::unique_ptr<StrataServer> self(new StrataServer());
+  self->config_ = config;
+
+  std::filesystem::path map_root;
+  if (!config.map_root.empty()) {
+    Result<std::filesystem::path> root = CanonicalMapRoot(config.map_root);
+    if (!root.ok()) return MakeError(ErrorCode::kInvalidInput, "--map-root: " + root.error().message);
+    map_root = root.value();
+  }
+  std::vector<ResolvedPreload> preloads;
+  for (const PreloadSpec& spec : config.preload) {
+    Result<ResolvedPreload> preload = ResolvePreload(spec, map_root);
+    if (!preload.ok()) return std::move(preload).error();
+    preloads.push_back(std::move(preload).value());
+  }
+
+  self->metrics_ = std::make_unique<Metrics>();
+  RegistryOptions registry_options;
+  registry_options.max_concurrent_assessments = config.max_concurrent_assessments;
+  registry_options.max_maps = config.max_maps;
+  registry_options.assessment_threads = config.assessment_threads;
+  registry_options.load_limits.max_points = config.max_points;
+  StrataServer* raw = self.get();
+  self->registry_ = std::make_unique<MapRegistry>(
+      registry_options, [raw](const MapSnapshot& map) { raw->OnMapDone(map); });
+  self->metrics_->WatchMaps(self->registry_.get());
+
+  self->map_service_ = std::make_unique<MapServiceImpl>(
+      self->registry_.get(), MapServiceOptions{map_root, config.max_points});
+  PlannerServiceOptions planner_options;
+  planner_options.max_plan_time_s = config.max_plan_time_s;
+  planner_options.max_concurrent_plans =
+      config.max_concurrent_plans > 0
+          ? config.max_concurrent_plans
+          : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  self->planner_service_ = std::make_unique<PlannerServiceImpl>(
+      self->registry_.get(), self->metrics_.get(), planner_options);
+
+  grpc::EnableDefaultHealthCheckService(true);
+  grpc::reflection::InitProtoReflectionServerBuilderPlugin();
+  grpc::ServerBuilder builder;
+  int port = 0;
+  builder.AddListeningPort(config.listen, grpc::InsecureServerCredentials(), &port);
+  builder.SetMaxReceiveMessageSize(config.max_receive_message_bytes);
+  builder.SetMaxSendMessageSize(config.max_send_message_bytes);
+  // Robots on Wi-Fi: notice dead links within keepalive time + timeout, keep idle
+  // connections (and NAT entries) alive, and let clients ping often without being cut off.
+  builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_TIME_MS,
+                             static_cast<int>(config.keepalive_time_s * 1000));
+  builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_TIMEOUT_MS,
+                             static_cast<int>(config.keepalive_timeout_s * 1000));
+  builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_PERMIT_WITHOUT_CALLS, 1);
+  builder.AddChannelArgument(GRPC_ARG_HTTP2_MAX_PINGS_WITHOUT_DATA, 0);
+  builder.AddChannelArgument(GRPC_ARG_HTTP2_MIN_RECV_PING_INTERVAL_WITHOUT_DATA_MS, 5000);
+  std::vector<std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>> creators;
+  creators.push_back(self->metrics_->MakeInterceptorFactory());
+  builder.experimental().SetInterceptorCreators(std::move(creators));
+  builder.RegisterService(self->map_service_.get());
+  builder.RegisterService(self->planner_service_.get());
+  self->server_ = builder.BuildAndStart();
+  if (!self->server_ || port == 0) {
+    return MakeError(ErrorCode::kInvalidInput,
+                     "--listen " + config.listen +
+                         ": cannot listen there (address in use, or not a local address)");
+  }
+  self->address_ = BoundAddress(config.listen, port);
+  {
+    std::lock_guard lock(self->mutex_);
+    for (const ResolvedPreload& preload : preloads) self->pending_preloads_.insert(preload.id);
+  }
+  self->server_->GetHealthCheckService()->SetServingStatus(kServices[0], true);
+  self->SetReady(preloads.empty());
+
+  if (config.metrics_port >= 0) {
+    try {
+      // Same interface as gRPC: a server bound to loopback does not expose metrics wider.
+      const std::string host = config.listen.substr(0, config.listen.rfind(':'));
+      self->exposer_ = std::make_unique<prometheus::Exposer>(
+          host + ":" + std::to_string(config.metrics_port));
+    } catch (const std::exception& e) {
+      return MakeError(ErrorCode::kInvalidInput,
+                       "--metrics-port " + std::to_string(config.metrics_port) +
+                           ": cannot serve metrics there: " + e.what());
+    }
+    self->metrics_->ServeOn(*self->exposer_);
+    const std::vector<int> ports = self->exposer_->GetListeningPorts();
+    self->metrics_port_ = ports.empty() ? config.metrics_port : ports.front();
+  }
+  const auto* pool = google::protobuf::DescriptorPool::generated_pool();
+  for (const char* name : kServices) {
+    const google::protobuf::ServiceDescriptor* service = pool->FindServiceByName(name);
+    for (int i = 0; service != nullptr && i < service->method_count(); ++i) {
+      const google::protobuf::MethodDescriptor* method = service->method(i);
+      const char* type = method->client_streaming()
+                             ? (method->server_streaming() ? "bidi_stream" : "client_stream")
+                             : (method->server_streaming() ? "server_stream" : "unary");
+      self->metrics_->InitializeMethod(type, name, method->name());
+    }
+  }
+
+  for (ResolvedPreload& preload : preloads) {
+    LogInfo("map_queued").Add("map", preload.id).Add("source", "preload");
+    Result<MapSnapshot> created =
+        self->registry_->Create(preload.id, std::move(preload.source), preload.config);
+    if (!created.ok()) {
+      return MakeError(ErrorCode::kInvalidInput,
+                       "--preload " + preload.id + ": " + created.error().message);
+    }
+  }
+  return self;
+}
+
+StrataServer::~StrataServer() {
+  {
+    std::lock_guard lock(mutex_);
+    shutting_down_ = true;  // Workers finishing now must not touch the health service.
+  }
+  registry_.reset();
+}
+
+void StrataServer::SetReady(bool ready) {
+  grpc::HealthCheckServiceInterface* health = server_->GetHealthCheckService();
+  health->SetServingStatus("", ready);
+  health->SetServingStatus(kServices[1], ready);
+}
+
+void StrataServer::OnMapDone(const MapSnapshot& map) {
+  metrics_->RecordMapDone(map);
+  if (map.state == MapState::kActive) {
+    LogInfo("map_active")
+        .Add("map", map.id)
+        .Add("points", map.summary.input_points)
+        .Add("valid_ground_points", map.summary.valid_ground_points)
+        .Add("load_s", map.load_s)
+        .Add("assessment_s", map.summary.timings.total_s)
+        .Add("memory_bytes", map.memory_bytes);
+  } else {
+    LogWarning("map_failed")
+        .Add("map", map.id)
+        .Add("message", map.failure.has_value() ? map.failure->message : "");
+  }
+  std::lock_guard lock(mutex_);
+  if (pending_preloads_.erase(map.id) == 0 || shutting_down_) return;
+  if (map.state != MapState::kActive) {
+    preload_failed_ = true;
+    LogError("preload_failed")
+        .Add("map", map.id)
+        .Add("message", "a preloaded map failed: health stays NOT_SERVING; fix --preload");
+  }
+  if (pending_preloads_.empty() && !preload_failed_) {
+    SetReady(true);
+    LogInfo("ready").Add("message", "every preloaded map is ACTIVE: health is SERVING");
+  }
+}
+
+void StrataServer::Shutdown(std::chrono::steady_clock::duration grace) {
+  {
+    std::lock_guard lock(mutex_);
+    if (shutting_down_) return;
+    shutting_down_ = true;
+    server_->GetHealthCheckService()->SetServingStatus(false);
+  }
+  registry_->Shutdown();
+  server_->Shutdown(std::chrono::system_clock::now() +
+                    std::chrono::duration_cast<std::chrono::system_clock::duration>(grace));
+}
+
+void StrataServer::Wait() { server_->Wait(); }
+
+bool StrataServer::WaitAssessmentsIdle(std::chrono::steady_clock::duration timeout) {
+  return registry_->WaitIdle(std::chrono::steady_clock::now() + timeout);
+}
+
+}  // namespace strata::server

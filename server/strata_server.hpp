@@ -1,0 +1,71 @@
+#pragma once
+/// The assembled server: map registry, services, health, reflection, metrics, preloads.
+/// main.cpp adds flags and signals around it; tests may embed it.
+#include <chrono>
+#include <memory>
+#include <mutex>
+#include <set>
+#include <string>
+
+#include <grpcpp/grpcpp.h>
+#include <prometheus/exposer.h>
+
+#include "flags.hpp"
+#include "map_registry.hpp"
+#include "map_service.hpp"
+#include "metrics.hpp"
+#include "planner_service.hpp"
+#include "service_error.hpp"
+
+namespace strata::server {
+
+class StrataServer {
+ public:
+  /// Checks the configuration (map root, preloads), starts listening, and queues the
+  /// preloaded maps. Health is NOT_SERVING for "" and strata.v1.PlannerService until every
+  /// preloaded map is ACTIVE (it stays so if one FAILS; the log says why). Fails with a
+  /// message naming the flag at fault.
+  static Result<std::unique_ptr<StrataServer>> Start(const ServerConfig& config);
+  ~StrataServer();
+
+  /// Bound gRPC address ("127.0.0.1:50051") and metrics port (-1 when disabled).
+  const std::string& address() const { return address_; }
+  int metrics_port() const { return metrics_port_; }
+
+  /// Health to NOT_SERVING, no new maps, then gRPC shutdown: new calls are refused,
+  /// in-flight calls get until `grace` to finish, after which they are cancelled (plans
+  /// stop promptly). Returns when every call has ended. Thread-safe; idempotent.
+  void Shutdown(std::chrono::steady_clock::duration grace);
+
+  /// Blocks until Shutdown has completed.
+  void Wait();
+
+  /// After Shutdown: waits up to `timeout` for a running assessment (which cannot be
+  /// interrupted) to end; false if one is still running.
+  bool WaitAssessmentsIdle(std::chrono::steady_clock::duration timeout);
+
+  MapRegistry& registry() { return *registry_; }
+  Metrics& metrics() { return *metrics_; }
+
+ private:
+  StrataServer() = default;
+  void OnMapDone(const MapSnapshot& map);
+  void SetReady(bool ready);
+
+  ServerConfig config_;
+  std::unique_ptr<Metrics> metrics_;
+  std::unique_ptr<MapRegistry> registry_;
+  std::unique_ptr<MapServiceImpl> map_service_;
+  std::unique_ptr<PlannerServiceImpl> planner_service_;
+  std::unique_ptr<grpc::Server> server_;
+  std::unique_ptr<prometheus::Exposer> exposer_;
+  std::string address_;
+  int metrics_port_ = -1;
+
+  std::mutex mutex_;  // Guards the fields below.
+  std::set<std::string> pending_preloads_;
+  bool preload_failed_ = false;
+  bool shutting_down_ = false;
+};
+
+}  // namespace strata::server

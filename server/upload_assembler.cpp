@@ -1,0 +1,133 @@
+#include "upload_assembler.hpp"
+
+#include <algorithm>
+#include <bit>
+#include <cstring>
+#include <string>
+
+#include "proto_convert.hpp"
+
+namespace strata::server {
+namespace {
+
+float ReadLittleEndianFloat(const char* bytes) {
+  std::uint32_t bits = 0;
+  std::memcpy(&bits, bytes, sizeof(bits));
+  if constexpr (std::endian::native == std::endian::big) {
+    bits = ((bits & 0xFFu) << 24) | ((bits & 0xFF00u) << 8) | ((bits >> 8) & 0xFF00u) |
+           (bits >> 24);
+  }
+  return std::bit_cast<float>(bits);
+}
+
+}  // namespace
+
+ServiceStatus UploadAssembler::Add(const v1::UploadMapRequest& message) {
+  ++messages_;
+  const std::string where = "message " + std::to_string(messages_) + " of the stream";
+  switch (message.part_case()) {
+    case v1::UploadMapRequest::kHeader: {
+      if (have_header_) {
+        return MakeError(ErrorCode::kMapLoadFailed,
+                         where + " is a second header: send the header once, first")
+            .Blame("header");
+      }
+      have_header_ = true;
+      header_ = message.header();
+      if (!header_.map_id().empty()) {
+        if (ServiceStatus valid = MapRegistry::ValidateId(header_.map_id()); !valid.ok()) {
+          ServiceError error = std::move(valid).error();
+          error.field_violations.clear();
+          return error.Blame("header.map_id");
+        }
+      }
+      if (header_.format() != v1::POINT_FORMAT_XYZ_F32_LE) {
+        return MakeError(ErrorCode::kInvalidInput,
+                         "header.format must be POINT_FORMAT_XYZ_F32_LE (packed little-endian "
+                         "float32 x, y, z)")
+            .Blame("header.format");
+      }
+      Result<AssessmentConfig> config = FromProto(header_.terrain(), "header.terrain");
+      if (!config.ok()) return std::move(config).error();
+      config_ = config.value();
+      if (header_.point_count() > max_points_) {
+        return MakeError(ErrorCode::kResourceExhausted,
+                         "header.point_count = " + std::to_string(header_.point_count()) +
+                             " is above this server's limit of " + std::to_string(max_points_) +
+                             " points per map (--max-points): downsample the cloud")
+            .Blame("header.point_count");
+      }
+      source_.points.reserve(static_cast<std::size_t>(header_.point_count()));
+      return OkStatus();
+    }
+    case v1::UploadMapRequest::kChunk: {
+      if (!have_header_) {
+        return MakeError(ErrorCode::kMapLoadFailed,
+                         where + " is a chunk, but the first message must be the header")
+            .Blame("header");
+      }
+      const std::string& bytes = message.chunk().points();
+      if (bytes.size() > kMaxChunkBytes) {
+        return MakeError(ErrorCode::kMapLoadFailed,
+                         where + " holds " + std::to_string(bytes.size()) +
+                             " bytes of points, more than the 1 MiB (1048576 bytes) a chunk "
+                             "may hold: split it")
+            .Blame("chunk.points");
+      }
+      if (bytes.size() % kPointBytes != 0) {
+        return MakeError(ErrorCode::kMapLoadFailed,
+                         where + " holds " + std::to_string(bytes.size()) +
+                             " bytes, not a whole number of 12-byte points (float32 x, y, z)")
+            .Blame("chunk.points");
+      }
+      const std::size_t count = bytes.size() / kPointBytes;
+      const std::size_t total = source_.points.size() + count;
+      if (total > max_points_) {
+        return MakeError(ErrorCode::kResourceExhausted,
+                         "the upload passed this server's limit of " +
+                             std::to_string(max_points_) +
+                             " points per map (--max-points): downsample the cloud")
+            .Blame("chunk.points");
+      }
+      if (header_.point_count() != 0 && total > header_.point_count()) {
+        return MakeError(ErrorCode::kMapLoadFailed,
+                         where + " brings the upload to " + std::to_string(total) +
+                             " points, more than header.point_count = " +
+                             std::to_string(header_.point_count()))
+            .Blame("header.point_count");
+      }
+      source_.received_bytes += bytes.size();
+      const char* data = bytes.data();
+      for (std::size_t i = 0; i < count; ++i, data += kPointBytes) {
+        source_.points.emplace_back(ReadLittleEndianFloat(data), ReadLittleEndianFloat(data + 4),
+                                    ReadLittleEndianFloat(data + 8));
+      }
+      return OkStatus();
+    }
+    case v1::UploadMapRequest::PART_NOT_SET: break;
+  }
+  return MakeError(ErrorCode::kMapLoadFailed, where + " sets neither header nor chunk")
+      .Blame("part");
+}
+
+ServiceStatus UploadAssembler::Finish() {
+  if (!have_header_) {
+    return MakeError(ErrorCode::kMapLoadFailed,
+                     "the upload stream was empty: send a header, then chunks of points")
+        .Blame("header");
+  }
+  if (source_.points.empty()) {
+    return MakeError(ErrorCode::kMapLoadFailed, "the upload carried no points").Blame("chunk");
+  }
+  if (header_.point_count() != 0 && source_.points.size() != header_.point_count()) {
+    return MakeError(ErrorCode::kMapLoadFailed,
+                     "the upload carried " + std::to_string(source_.points.size()) +
+                         " points but header.point_count = " +
+                         std::to_string(header_.point_count()) +
+                         ": the stream was cut short or the count is wrong")
+        .Blame("header.point_count");
+  }
+  return OkStatus();
+}
+
+}  // namespace strata::server

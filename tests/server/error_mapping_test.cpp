@@ -1,0 +1,124 @@
+// The one table from failures to gRPC codes and reasons, and the richer error details.
+#include "error_mapping.hpp"
+
+#include <cctype>
+#include <set>
+
+#include <google/rpc/error_details.pb.h>
+#include <google/rpc/status.pb.h>
+#include <gtest/gtest.h>
+
+namespace strata::server {
+namespace {
+
+using grpc::StatusCode;
+
+// Every planner code, by walking the enum up to its last value.
+std::vector<ErrorCode> AllPlannerCodes() {
+  std::vector<ErrorCode> codes;
+  for (int i = 0; i <= static_cast<int>(ErrorCode::kOptimizationFailed); ++i) {
+    codes.push_back(static_cast<ErrorCode>(i));
+  }
+  return codes;
+}
+
+bool IsUpperSnakeCase(std::string_view text) {
+  if (text.empty() || text.front() == '_' || text.back() == '_') return false;
+  for (const char c : text) {
+    if (!(std::isupper(static_cast<unsigned char>(c)) || std::isdigit(static_cast<unsigned char>(c)) || c == '_')) return false;
+  }
+  return true;
+}
+
+TEST(ErrorMappingTest, EveryCodeHasExactlyOneRowWithAUniqueUpperSnakeReason) {
+  std::vector<ServiceError::Code> all;
+  for (ErrorCode code : AllPlannerCodes()) all.emplace_back(code);
+  for (ServiceErrorCode code : kAllServiceErrorCodes) all.emplace_back(code);
+  EXPECT_EQ(ErrorMappingTable().size(), all.size());
+  std::set<std::string_view> reasons;
+  for (const ServiceError::Code& code : all) {
+    int rows = 0;
+    for (const ErrorMapping& row : ErrorMappingTable()) rows += row.code == code ? 1 : 0;
+    EXPECT_EQ(rows, 1) << MapError(code).reason;
+    const ErrorMapping mapping = MapError(code);
+    EXPECT_TRUE(IsUpperSnakeCase(mapping.reason)) << mapping.reason;
+    EXPECT_TRUE(reasons.insert(mapping.reason).second) << "duplicate " << mapping.reason;
+    EXPECT_NE(mapping.grpc_code, StatusCode::OK);
+    EXPECT_NE(mapping.grpc_code, StatusCode::UNKNOWN);
+  }
+}
+
+// The documented mapping (proto/README.md), row by row.
+TEST(ErrorMappingTest, MapsAsDocumented) {
+  const struct {
+    ServiceError::Code code;
+    StatusCode grpc_code;
+    const char* reason;
+  } expected[] = {
+      {ErrorCode::kInvalidInput, StatusCode::INVALID_ARGUMENT, "INVALID_INPUT"},
+      {ErrorCode::kInvalidConfig, StatusCode::INVALID_ARGUMENT, "INVALID_CONFIG"},
+      {ErrorCode::kMapLoadFailed, StatusCode::INVALID_ARGUMENT, "MAP_LOAD_FAILED"},
+      {ErrorCode::kResourceExhausted, StatusCode::RESOURCE_EXHAUSTED, "RESOURCE_EXHAUSTED"},
+      {ErrorCode::kStartOffGround, StatusCode::INVALID_ARGUMENT, "START_OFF_GROUND"},
+      {ErrorCode::kGoalOffGround, StatusCode::INVALID_ARGUMENT, "GOAL_OFF_GROUND"},
+      {ErrorCode::kGoalUnreachable, StatusCode::FAILED_PRECONDITION, "GOAL_UNREACHABLE"},
+      {ErrorCode::kNoPath, StatusCode::FAILED_PRECONDITION, "NO_PATH"},
+      {ErrorCode::kDeadlineExceeded, StatusCode::DEADLINE_EXCEEDED, "TIME_BUDGET_EXCEEDED"},
+      {ErrorCode::kCancelled, StatusCode::CANCELLED, "CANCELLED"},
+      {ErrorCode::kSearchBudgetExhausted, StatusCode::RESOURCE_EXHAUSTED,
+       "SEARCH_BUDGET_EXHAUSTED"},
+      {ErrorCode::kProfileMismatch, StatusCode::FAILED_PRECONDITION, "PROFILE_MISMATCH"},
+      {ErrorCode::kOptimizationFailed, StatusCode::ABORTED, "OPTIMIZATION_FAILED"},
+      {ServiceErrorCode::kMapNotFound, StatusCode::NOT_FOUND, "MAP_NOT_FOUND"},
+      {ServiceErrorCode::kMapNotActive, StatusCode::FAILED_PRECONDITION, "MAP_NOT_ACTIVE"},
+      {ServiceErrorCode::kMapAlreadyExists, StatusCode::ALREADY_EXISTS, "MAP_ALREADY_EXISTS"},
+      {ServiceErrorCode::kTooManyMaps, StatusCode::RESOURCE_EXHAUSTED, "TOO_MANY_MAPS"},
+      {ServiceErrorCode::kPathOutsideMapRoot, StatusCode::PERMISSION_DENIED,
+       "PATH_OUTSIDE_MAP_ROOT"},
+      {ServiceErrorCode::kServerBusy, StatusCode::UNAVAILABLE, "SERVER_BUSY"},
+      {ServiceErrorCode::kShuttingDown, StatusCode::UNAVAILABLE, "SHUTTING_DOWN"},
+      {ServiceErrorCode::kInternal, StatusCode::INTERNAL, "INTERNAL"},
+  };
+  EXPECT_EQ(std::size(expected), ErrorMappingTable().size());
+  for (const auto& row : expected) {
+    const ErrorMapping mapping = MapError(row.code);
+    EXPECT_EQ(mapping.grpc_code, row.grpc_code) << row.reason;
+    EXPECT_EQ(mapping.reason, row.reason);
+  }
+}
+
+TEST(ErrorMappingTest, PacksErrorInfoAndBadRequestIntoTheStatusDetails) {
+  ServiceError error = MakeError(ErrorCode::kInvalidInput, "start.position_m.x must be finite")
+                           .Blame("start.position_m.x")
+                           .With("map_id", "demo");
+  const grpc::Status status = ToGrpcStatus(error);
+  EXPECT_EQ(status.error_code(), StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(status.error_message(), "start.position_m.x must be finite");
+
+  google::rpc::Status details;
+  ASSERT_TRUE(details.ParseFromString(status.error_details()));
+  EXPECT_EQ(details.code(), static_cast<int>(StatusCode::INVALID_ARGUMENT));
+  EXPECT_EQ(details.message(), status.error_message());
+  ASSERT_EQ(details.details_size(), 2);
+  google::rpc::ErrorInfo info;
+  ASSERT_TRUE(details.details(0).UnpackTo(&info));
+  EXPECT_EQ(info.reason(), "INVALID_INPUT");
+  EXPECT_EQ(info.domain(), "strata");
+  EXPECT_EQ(info.metadata().at("map_id"), "demo");
+  google::rpc::BadRequest bad_request;
+  ASSERT_TRUE(details.details(1).UnpackTo(&bad_request));
+  ASSERT_EQ(bad_request.field_violations_size(), 1);
+  EXPECT_EQ(bad_request.field_violations(0).field(), "start.position_m.x");
+}
+
+TEST(ErrorMappingTest, NoBadRequestWhenNoFieldIsBlamed) {
+  const grpc::Status status =
+      ToGrpcStatus(MakeError(ServiceErrorCode::kMapNotActive, "map 'x' is CREATING"));
+  google::rpc::Status details;
+  ASSERT_TRUE(details.ParseFromString(status.error_details()));
+  ASSERT_EQ(details.details_size(), 1);
+  EXPECT_TRUE(details.details(0).Is<google::rpc::ErrorInfo>());
+}
+
+}  // namespace
+}  // namespace strata::server

@@ -1,0 +1,234 @@
+// Conversions between strata.v1 messages and planner types: round trips, defaults, and the
+// request field each validation error blames.
+#include "proto_convert.hpp"
+
+#include <cmath>
+#include <limits>
+#include <random>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "planner_service.hpp"
+
+namespace strata::server {
+namespace {
+
+using ::testing::HasSubstr;
+
+std::string FieldOf(const ServiceError& error) {
+  return error.field_violations.empty() ? "" : error.field_violations[0].field;
+}
+
+Trajectory RandomTrajectory(int dimension, int pieces, std::uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> value(-2.0, 2.0);
+  Trajectory trajectory;
+  trajectory.dimension = dimension;
+  for (int i = 0; i < pieces; ++i) {
+    TrajectoryPiece piece;
+    piece.duration_s = 0.5 + 0.25 * i;
+    piece.coefficients.resize(6, dimension);
+    for (int k = 0; k < 6; ++k) {
+      for (int a = 0; a < dimension; ++a) piece.coefficients(k, a) = value(rng);
+    }
+    trajectory.pieces.push_back(piece);
+  }
+  return trajectory;
+}
+
+// Evaluates the message exactly as trajectory.proto documents it.
+double EvaluateMessage(const v1::Trajectory& message, double t, int axis) {
+  int i = 0;
+  while (i + 1 < message.pieces_size() && t > message.pieces(i).duration_s()) {
+    t -= message.pieces(i).duration_s();
+    ++i;
+  }
+  double value = 0;
+  const auto& c = message.pieces(i).axes(axis).coefficients();
+  for (int k = 0; k < c.size(); ++k) value += c[k] * std::pow(t, k);
+  return value;
+}
+
+TEST(ProtoConvertTest, TrajectoryRoundTripsAndMeansWhatTheProtoSays) {
+  for (const int dimension : {3, 4}) {
+    const Trajectory original = RandomTrajectory(dimension, 3, 7u + dimension);
+    v1::Trajectory message;
+    ToProto(original, &message);
+    EXPECT_EQ(message.frame(), "map");
+    EXPECT_EQ(message.dimension(), dimension);
+    EXPECT_DOUBLE_EQ(message.duration_s(), original.TotalDuration());
+    Result<Trajectory> back = FromProto(message);
+    ASSERT_TRUE(back.ok()) << back.error().message;
+    ASSERT_EQ(back->pieces.size(), original.pieces.size());
+    for (std::size_t i = 0; i < original.pieces.size(); ++i) {
+      EXPECT_EQ(back->pieces[i].duration_s, original.pieces[i].duration_s);
+      EXPECT_EQ(back->pieces[i].coefficients, original.pieces[i].coefficients);
+    }
+    for (double t = 0; t <= original.TotalDuration(); t += 0.1) {
+      const Eigen::VectorXd p = original.Position(t);
+      for (int a = 0; a < dimension; ++a) {
+        EXPECT_NEAR(EvaluateMessage(message, t, a), p(a), 1e-9) << "t=" << t << " axis " << a;
+      }
+    }
+  }
+}
+
+TEST(ProtoConvertTest, MalformedTrajectoriesNameTheField) {
+  v1::Trajectory message;
+  ToProto(RandomTrajectory(3, 2, 1), &message);
+  message.mutable_pieces(1)->set_duration_s(0);
+  EXPECT_EQ(FieldOf(FromProto(message).error()), "pieces[1].duration_s");
+  message.Clear();
+  ToProto(RandomTrajectory(3, 2, 1), &message);
+  message.mutable_pieces(0)->mutable_axes(2)->add_coefficients(1);
+  EXPECT_EQ(FieldOf(FromProto(message).error()), "pieces[0].axes[2].coefficients");
+}
+
+TEST(ProtoConvertTest, TerrainParametersDefaultAndBlameTheirField) {
+  const AssessmentConfig defaults;
+  Result<AssessmentConfig> unset = FromProto(v1::TerrainParameters(), "terrain");
+  ASSERT_TRUE(unset.ok());
+  EXPECT_EQ(unset->grid.resolution_m, defaults.grid.resolution_m);
+  EXPECT_EQ(unset->ground.radius_m, defaults.ground.radius_m);
+
+  v1::TerrainParameters terrain;
+  terrain.set_resolution_m(0.3);
+  terrain.set_max_tilt_rad(0.3);
+  Result<AssessmentConfig> set = FromProto(terrain, "terrain");
+  ASSERT_TRUE(set.ok());
+  EXPECT_EQ(set->grid.resolution_m, 0.3);
+  EXPECT_EQ(set->ground.max_tilt_rad, 0.3);
+  v1::TerrainParameters shown;
+  ToProto(set.value(), &shown);
+  EXPECT_EQ(shown.resolution_m(), 0.3);
+  EXPECT_TRUE(shown.has_padding_m());
+
+  terrain.set_ground_radius_m(std::numeric_limits<double>::quiet_NaN());
+  Result<AssessmentConfig> bad = FromProto(terrain, "terrain");
+  ASSERT_FALSE(bad.ok());
+  EXPECT_EQ(FieldOf(bad.error()), "terrain.ground_radius_m");
+  EXPECT_THAT(bad.error().message, ::testing::StartsWith("terrain.ground_radius_m = nan"));
+  EXPECT_EQ(std::get<ErrorCode>(bad.error().code), ErrorCode::kInvalidConfig);
+}
+
+TEST(ProtoConvertTest, ProfilesByNameOrInlineOverTheDefaults) {
+  v1::PlanRequest request;
+  request.set_profile_name("biped");
+  Result<RobotProfile> biped = ProfileFromRequest(request);
+  ASSERT_TRUE(biped.ok());
+  EXPECT_TRUE(biped->active_height);
+
+  request.set_profile_name("tank");
+  Result<RobotProfile> unknown = ProfileFromRequest(request);
+  ASSERT_FALSE(unknown.ok());
+  EXPECT_EQ(FieldOf(unknown.error()), "profile_name");
+  EXPECT_THAT(unknown.error().message, HasSubstr("differential"));
+
+  request.mutable_profile()->set_max_speed_horizontal_mps(0.5);
+  Result<RobotProfile> custom = ProfileFromRequest(request);
+  ASSERT_TRUE(custom.ok()) << custom.error().message;
+  EXPECT_EQ(custom->max_speed_horizontal_mps, 0.5);
+  EXPECT_EQ(custom->footprint_radius_m, RobotProfile().footprint_radius_m);
+  v1::RobotProfile shown;
+  ToProto(custom.value(), &shown);
+  EXPECT_EQ(shown.max_speed_horizontal_mps(), 0.5);
+  EXPECT_TRUE(shown.has_headroom_m());
+
+  request.mutable_profile()->set_max_speed_horizontal_mps(-1);
+  Result<RobotProfile> bad = ProfileFromRequest(request);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_EQ(FieldOf(bad.error()), "profile.max_speed_horizontal_mps");
+
+  Result<RobotProfile> missing = ProfileFromRequest(v1::PlanRequest());
+  ASSERT_FALSE(missing.ok());
+  EXPECT_EQ(FieldOf(missing.error()), "profile_name");
+}
+
+v1::PlanRequest ValidRequest() {
+  v1::PlanRequest request;
+  request.set_map_id("demo");
+  request.set_profile_name("differential");
+  request.mutable_start()->mutable_position_m()->set_x(1);
+  request.mutable_goal()->mutable_position_m()->set_x(2);
+  return request;
+}
+
+TEST(ProtoConvertTest, PlanRequestsBlameTheExactField) {
+  ASSERT_TRUE(ParsePlanRequest(ValidRequest()).ok());
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double inf = std::numeric_limits<double>::infinity();
+  struct Case {
+    std::function<void(v1::PlanRequest*)> edit;
+    std::string field;
+  } cases[] = {
+      {[](v1::PlanRequest* r) { r->clear_map_id(); }, "map_id"},
+      {[](v1::PlanRequest* r) { r->clear_start(); }, "start"},
+      {[](v1::PlanRequest* r) { r->mutable_goal()->clear_position_m(); }, "goal.position_m"},
+      {[&](v1::PlanRequest* r) { r->mutable_start()->mutable_position_m()->set_x(nan); },
+       "start.position_m.x"},
+      {[&](v1::PlanRequest* r) { r->mutable_goal()->mutable_velocity_mps()->set_y(inf); },
+       "goal.velocity_mps.y"},
+      {[&](v1::PlanRequest* r) { r->mutable_start()->mutable_acceleration_mps2()->set_z(-inf); },
+       "start.acceleration_mps2.z"},
+      {[](v1::PlanRequest* r) { r->mutable_options()->set_time_budget_s(0); },
+       "options.time_budget_s"},
+      {[](v1::PlanRequest* r) { r->mutable_options()->mutable_weights()->set_safety(-1); },
+       "options.weights.safety"},
+      {[](v1::PlanRequest* r) { r->mutable_options()->set_max_attempts(0); },
+       "options.max_attempts"},
+      {[](v1::PlanRequest* r) { r->mutable_options()->set_sample_dt_s(0); },
+       "options.sample_dt_s"},
+  };
+  for (const Case& c : cases) {
+    v1::PlanRequest request = ValidRequest();
+    c.edit(&request);
+    Result<ParsedPlanRequest> parsed = ParsePlanRequest(request);
+    ASSERT_FALSE(parsed.ok()) << c.field;
+    EXPECT_EQ(FieldOf(parsed.error()), c.field);
+  }
+}
+
+TEST(ProtoConvertTest, TimeBudgetIsCappedByServerAndDeadline) {
+  v1::PlanRequest request = ValidRequest();
+  ParsedPlanRequest parsed = ParsePlanRequest(request).value();
+  const double inf = std::numeric_limits<double>::infinity();
+  EXPECT_DOUBLE_EQ(PlanTimeBudget(parsed, inf, 10), PlanOptions().time_budget_s);
+  EXPECT_DOUBLE_EQ(PlanTimeBudget(parsed, inf, 0.5), 0.5);
+  EXPECT_NEAR(PlanTimeBudget(parsed, 1.0, 10), 0.9, 1e-12);   // 10% margin ...
+  EXPECT_NEAR(PlanTimeBudget(parsed, 1.5, 10), 1.4, 1e-12);   // ... at most 0.1 s.
+  EXPECT_LE(PlanTimeBudget(parsed, 0.0, 10), 0.0);
+  request.mutable_options()->set_time_budget_s(30);
+  EXPECT_DOUBLE_EQ(PlanTimeBudget(ParsePlanRequest(request).value(), inf, 10), 10);
+}
+
+TEST(ProtoConvertTest, SamplesCoverTheTrajectoryEndToEnd) {
+  const Trajectory trajectory = RandomTrajectory(4, 2, 3);  // 0.5 s + 0.75 s.
+  v1::PlanResponse response;
+  ASSERT_TRUE(AppendSamples(trajectory, 0.1, 1000, &response).ok());
+  ASSERT_EQ(response.samples_size(), 14);  // 0, 0.1, ..., 1.2, then 1.25.
+  EXPECT_DOUBLE_EQ(response.samples(13).time_s(), 1.25);
+  EXPECT_TRUE(response.samples(0).has_body_height_m());
+  EXPECT_NEAR(response.samples(5).position_m().y(), trajectory.Position(0.5)(1), 1e-12);
+  v1::PlanResponse too_many;
+  ServiceStatus refused = AppendSamples(trajectory, 1e-4, 1000, &too_many);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(FieldOf(refused.error()), "options.sample_dt_s");
+}
+
+TEST(ProtoConvertTest, FailedMapsShowTheReasonOfTheTable) {
+  MapSnapshot snapshot;
+  snapshot.id = "m";
+  snapshot.state = MapState::kFailed;
+  snapshot.stage = CreationStage::kDone;
+  snapshot.failure = MakeError(ErrorCode::kMapLoadFailed, "truncated");
+  snapshot.source = FileMapSource{"/srv/maps/a.pcd", "a.pcd"};
+  v1::Map map;
+  ToProto(snapshot, &map);
+  EXPECT_EQ(map.state(), v1::MAP_STATE_FAILED);
+  EXPECT_EQ(map.failure().reason(), "MAP_LOAD_FAILED");
+  EXPECT_EQ(map.source().file().path(), "a.pcd");  // Never the server's own path.
+}
+
+}  // namespace
+}  // namespace strata::server

@@ -1,0 +1,288 @@
+// MapService end to end against the real strata-server binary.
+#include <cmath>
+#include <cstring>
+#include <limits>
+
+#include <gmock/gmock.h>
+#include <grpc/health/v1/health.grpc.pb.h>
+
+#include "server_fixture.hpp"
+
+namespace strata::server::testing {
+namespace {
+
+using ::testing::ElementsAre;
+using ::testing::HasSubstr;
+
+class MapServiceTest : public ServerFixture {};
+
+TEST_F(MapServiceTest, StartsServingWithTheDemoMapAndPerServiceHealth) {
+  StartServer();
+  auto health = grpc::health::v1::Health::NewStub(channel_);
+  for (const char* service : {"", "strata.v1.MapService", "strata.v1.PlannerService"}) {
+    grpc::ClientContext context;
+    SetDeadline(&context, 10);
+    grpc::health::v1::HealthCheckRequest request;
+    request.set_service(service);
+    grpc::health::v1::HealthCheckResponse response;
+    ASSERT_TRUE(health->Check(&context, request, &response).ok()) << service;
+    EXPECT_EQ(response.status(), grpc::health::v1::HealthCheckResponse::SERVING) << service;
+  }
+  grpc::ClientContext context;
+  v1::GetMapRequest request;
+  request.set_map_id("demo");
+  v1::Map demo;
+  ASSERT_TRUE(maps_->GetMap(&context, request, &demo).ok());
+  EXPECT_EQ(demo.state(), v1::MAP_STATE_ACTIVE);
+  EXPECT_EQ(demo.source().scene().name(), "two_level_ramp");
+  EXPECT_EQ(demo.max_levels(), 2u);  // Floor and deck.
+  EXPECT_GT(demo.memory_bytes(), 0u);
+  EXPECT_GT(demo.assessment_seconds().total_s(), 0);
+  EXPECT_TRUE(demo.has_done_time());
+}
+
+TEST_F(MapServiceTest, HealthStaysNotServingWhenAPreloadFails) {
+  // README.md is under the map root but is no point cloud: its assessment fails.
+  server_ = ServerProcess::Start({"--map-root", STRATA_SHARED_MAPS_DIR, "--preload",
+                                  "demo=scene:two_level_ramp", "--preload", "bad=README.md"});
+  ASSERT_NE(server_, nullptr);
+  ASSERT_TRUE(server_->WaitForLog("event=preload_failed map=bad", std::chrono::seconds(60)));
+  channel_ = server_->NewChannel();
+  auto health = grpc::health::v1::Health::NewStub(channel_);
+  grpc::ClientContext context;
+  SetDeadline(&context, 10);
+  grpc::health::v1::HealthCheckResponse response;
+  ASSERT_TRUE(health->Check(&context, grpc::health::v1::HealthCheckRequest(), &response).ok());
+  EXPECT_EQ(response.status(), grpc::health::v1::HealthCheckResponse::NOT_SERVING);
+
+  maps_ = v1::MapService::NewStub(channel_);
+  grpc::ClientContext get_context;
+  v1::GetMapRequest request;
+  request.set_map_id("bad");
+  v1::Map bad;
+  ASSERT_TRUE(maps_->GetMap(&get_context, request, &bad).ok());
+  EXPECT_EQ(bad.state(), v1::MAP_STATE_FAILED);
+  EXPECT_EQ(bad.failure().reason(), "MAP_LOAD_FAILED");
+  EXPECT_THAT(bad.failure().message(), HasSubstr("README.md"));
+  EXPECT_THAT(bad.failure().message(), ::testing::Not(HasSubstr(STRATA_SHARED_MAPS_DIR)));
+}
+
+TEST_F(MapServiceTest, CreatesGetsListsPagesAndDeletes) {
+  if (!HaveSpiral()) GTEST_SKIP() << "shared maps not found in " << STRATA_SHARED_MAPS_DIR;
+  StartServer();
+  v1::CreateMapRequest scene;
+  scene.set_map_id("hills");
+  scene.mutable_scene()->set_name("uneven_terrain");
+  scene.mutable_scene()->set_seed(3);
+  scene.mutable_terrain()->set_resolution_m(0.25);
+  const v1::Map hills = CreateAndWait(scene);
+  EXPECT_EQ(hills.terrain().resolution_m(), 0.25);
+  EXPECT_EQ(hills.terrain().ground_radius_m(), 0.3);  // Defaults filled in.
+
+  const v1::Map spiral = CreateSpiral();
+  EXPECT_EQ(spiral.source().file().path(), "spiral0.3_2.pcd");
+  EXPECT_EQ(spiral.raw_point_count(), 231885u);
+  EXPECT_GE(spiral.max_levels(), 5u);  // Ramps stacked over the ground floor.
+  EXPECT_GT(spiral.grid_size().nz(), 60);
+  EXPECT_NEAR(spiral.bounds_m().max_m().z(), 22.8, 0.1);
+
+  // Pages of one: demo, hills, spiral in id order, then no token.
+  std::vector<std::string> ids;
+  std::string token;
+  int pages = 0;
+  do {
+    grpc::ClientContext context;
+    v1::ListMapsRequest request;
+    request.set_page_size(1);
+    request.set_page_token(token);
+    v1::ListMapsResponse response;
+    ASSERT_TRUE(maps_->ListMaps(&context, request, &response).ok());
+    for (const v1::Map& map : response.maps()) ids.push_back(map.id());
+    token = response.next_page_token();
+    ASSERT_LE(++pages, 3);
+  } while (!token.empty());
+  EXPECT_THAT(ids, ElementsAre("demo", "hills", "spiral"));
+
+  {
+    grpc::ClientContext context;
+    v1::ListMapsRequest request;
+    request.set_page_token("garbage");
+    v1::ListMapsResponse response;
+    const CallError error = ErrorOf(maps_->ListMaps(&context, request, &response));
+    EXPECT_EQ(error.code, grpc::StatusCode::INVALID_ARGUMENT);
+    EXPECT_THAT(error.fields, ElementsAre("page_token"));
+  }
+  {
+    grpc::ClientContext context;
+    v1::DeleteMapRequest request;
+    request.set_map_id("hills");
+    v1::DeleteMapResponse response;
+    ASSERT_TRUE(maps_->DeleteMap(&context, request, &response).ok());
+  }
+  grpc::ClientContext context;
+  v1::GetMapRequest request;
+  request.set_map_id("hills");
+  v1::Map map;
+  const CallError error = ErrorOf(maps_->GetMap(&context, request, &map));
+  EXPECT_EQ(error.code, grpc::StatusCode::NOT_FOUND);
+  EXPECT_EQ(error.reason, "MAP_NOT_FOUND");
+  EXPECT_EQ(error.domain, "strata");
+}
+
+TEST_F(MapServiceTest, CreateWithoutWaitReturnsAtOnce) {
+  StartServer();
+  grpc::ClientContext context;
+  v1::CreateMapRequest request;
+  request.mutable_scene()->set_name("stairs_ramp_room");
+  v1::Map map;
+  ASSERT_TRUE(maps_->CreateMap(&context, request, &map).ok());
+  EXPECT_THAT(map.id(), ::testing::StartsWith("map-"));
+  EXPECT_EQ(map.state(), v1::MAP_STATE_CREATING);
+  EXPECT_LT(map.progress(), 1.0);
+  EXPECT_FALSE(map.has_done_time());
+}
+
+// Two flat 60 m x 60 m floors 10 m apart, sampled every 0.13 m (426k points, 5.1 MB): more
+// than gRPC's 4 MiB message limit, and two disconnected components.
+std::vector<float> TwoFloors() {
+  std::vector<float> xyz;
+  for (const float x0 : {0.0f, 70.0f}) {
+    for (int i = 0; i < 462; ++i) {
+      for (int j = 0; j < 462; ++j) {
+        xyz.insert(xyz.end(), {x0 + 0.13f * i, 0.13f * j, 0.0f});
+      }
+    }
+  }
+  return xyz;
+}
+
+TEST_F(MapServiceTest, UploadsACloudFarAboveTheMessageLimitInChunks) {
+  StartServer();
+  std::vector<float> xyz = TwoFloors();
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  xyz.insert(xyz.end(), {nan, 0, 0, 1, nan, 1});  // Dropped and counted.
+  const std::size_t points = xyz.size() / 3;
+  ASSERT_GT(xyz.size() * sizeof(float), std::size_t{4} << 20);
+
+  grpc::ClientContext context;
+  SetDeadline(&context, 120);
+  v1::Map map;
+  auto writer = maps_->UploadMap(&context, &map);
+  v1::UploadMapRequest header;
+  header.mutable_header()->set_map_id("floors");
+  header.mutable_header()->set_format(v1::POINT_FORMAT_XYZ_F32_LE);
+  header.mutable_header()->set_point_count(points);
+  header.mutable_header()->set_wait(true);
+  ASSERT_TRUE(writer->Write(header));
+  const std::size_t chunk_points = (std::size_t{1} << 20) / 12;  // The largest chunk allowed.
+  int chunks = 0;
+  for (std::size_t first = 0; first < points; first += chunk_points) {
+    const std::size_t count = std::min(chunk_points, points - first);
+    v1::UploadMapRequest chunk;
+    chunk.mutable_chunk()->set_points(std::string(reinterpret_cast<const char*>(&xyz[3 * first]),
+                                                  count * 12));
+    ASSERT_TRUE(writer->Write(chunk));
+    ++chunks;
+  }
+  ASSERT_TRUE(writer->WritesDone());
+  const grpc::Status status = writer->Finish();
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  EXPECT_GE(chunks, 5);
+  EXPECT_EQ(map.id(), "floors");
+  EXPECT_EQ(map.state(), v1::MAP_STATE_ACTIVE);
+  EXPECT_EQ(map.raw_point_count(), points);
+  EXPECT_EQ(map.dropped_nonfinite_point_count(), 2u);
+  EXPECT_EQ(map.source().upload().received_bytes(), points * 12);
+
+  v1::PlanResponse response;
+  const grpc::Status within = Plan(PlanRequestFor("floors", 5, 5, 0.3, 50, 50, 0.3), &response);
+  EXPECT_TRUE(within.ok()) << within.error_message();
+  const CallError across = ErrorOf(Plan(PlanRequestFor("floors", 5, 5, 0.3, 100, 50, 0.3), &response));
+  EXPECT_EQ(across.code, grpc::StatusCode::FAILED_PRECONDITION);
+  EXPECT_EQ(across.reason, "GOAL_UNREACHABLE");
+}
+
+TEST_F(MapServiceTest, RefusesMalformedUploads) {
+  StartServer();
+  grpc::ClientContext context;
+  SetDeadline(&context, 30);
+  v1::Map map;
+  auto writer = maps_->UploadMap(&context, &map);
+  v1::UploadMapRequest header;
+  header.mutable_header()->set_map_id("broken");
+  header.mutable_header()->set_format(v1::POINT_FORMAT_XYZ_F32_LE);
+  writer->Write(header);
+  v1::UploadMapRequest chunk;
+  chunk.mutable_chunk()->set_points(std::string(13, '\0'));  // Not whole 12-byte points.
+  writer->Write(chunk);
+  writer->WritesDone();
+  const CallError error = ErrorOf(writer->Finish());
+  EXPECT_EQ(error.code, grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(error.reason, "MAP_LOAD_FAILED");
+  EXPECT_THAT(error.fields, ElementsAre("chunk.points"));
+  EXPECT_THAT(error.message, HasSubstr("12-byte"));
+
+  grpc::ClientContext get_context;
+  v1::GetMapRequest get;
+  get.set_map_id("broken");
+  EXPECT_EQ(maps_->GetMap(&get_context, get, &map).error_code(), grpc::StatusCode::NOT_FOUND);
+}
+
+TEST_F(MapServiceTest, RefusesPathsOutsideTheMapRoot) {
+  StartServer();
+  for (const char* path : {"../DESIGN.md", "/etc/passwd", "../../../etc/passwd", "../maps/../STYLE.md"}) {
+    grpc::ClientContext context;
+    v1::CreateMapRequest request;
+    request.set_map_id("escape");
+    request.mutable_file()->set_path(path);
+    v1::Map map;
+    const CallError error = ErrorOf(maps_->CreateMap(&context, request, &map));
+    EXPECT_EQ(error.code, grpc::StatusCode::PERMISSION_DENIED) << path;
+    EXPECT_EQ(error.reason, "PATH_OUTSIDE_MAP_ROOT") << path;
+    EXPECT_THAT(error.fields, ElementsAre("file.path"));
+  }
+  grpc::ClientContext context;
+  v1::CreateMapRequest request;
+  request.mutable_file()->set_path("no_such_map.pcd");
+  v1::Map map;
+  const CallError missing = ErrorOf(maps_->CreateMap(&context, request, &map));
+  EXPECT_EQ(missing.code, grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(missing.reason, "MAP_LOAD_FAILED");
+}
+
+TEST_F(MapServiceTest, RefusesBadRequestsNamingTheField) {
+  StartServer();
+  auto scene = [](const char* name) {
+    v1::CreateMapRequest request;
+    request.mutable_scene()->set_name(name);
+    return request;
+  };
+  struct Case {
+    v1::CreateMapRequest request;
+    grpc::StatusCode code;
+    std::string reason;
+    std::string field;
+  };
+  std::vector<Case> cases = {
+      {scene("moon"), grpc::StatusCode::INVALID_ARGUMENT, "INVALID_INPUT", "scene.name"},
+      {scene("two_level_ramp"), grpc::StatusCode::INVALID_ARGUMENT, "INVALID_CONFIG",
+       "terrain.resolution_m"},
+      {scene("two_level_ramp"), grpc::StatusCode::ALREADY_EXISTS, "MAP_ALREADY_EXISTS", ""},
+      {v1::CreateMapRequest(), grpc::StatusCode::INVALID_ARGUMENT, "INVALID_INPUT", "source"},
+      {scene("two_level_ramp"), grpc::StatusCode::INVALID_ARGUMENT, "INVALID_INPUT", "map_id"},
+  };
+  cases[1].request.mutable_terrain()->set_resolution_m(100);
+  cases[2].request.set_map_id("demo");
+  cases[4].request.set_map_id("../demo");
+  for (const Case& c : cases) {
+    grpc::ClientContext context;
+    v1::Map map;
+    const CallError error = ErrorOf(maps_->CreateMap(&context, c.request, &map));
+    EXPECT_EQ(error.code, c.code) << c.reason;
+    EXPECT_EQ(error.reason, c.reason);
+    if (!c.field.empty()) EXPECT_THAT(error.fields, ElementsAre(c.field));
+  }
+}
+
+}  // namespace
+}  // namespace strata::server::testing

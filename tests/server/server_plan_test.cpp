@@ -1,0 +1,203 @@
+// PlannerService end to end against the real strata-server binary: plans on the demo scene
+// and the spiral garage, and every documented error.
+#include <cmath>
+#include <limits>
+
+#include <gmock/gmock.h>
+
+#include "server_fixture.hpp"
+
+namespace strata::server::testing {
+namespace {
+
+using ::testing::ElementsAre;
+using ::testing::HasSubstr;
+
+class PlannerServiceTest : public ServerFixture {};
+
+double Distance(const v1::Vector3& a, double x, double y, double z) {
+  return std::sqrt((a.x() - x) * (a.x() - x) + (a.y() - y) * (a.y() - y) +
+                   (a.z() - z) * (a.z() - z));
+}
+
+// p(t) of one axis of one piece, as trajectory.proto defines it.
+double Evaluate(const v1::Polynomial& polynomial, double t) {
+  double value = 0;
+  for (int k = polynomial.coefficients_size() - 1; k >= 0; --k) {
+    value = value * t + polynomial.coefficients(k);
+  }
+  return value;
+}
+
+// Checks what any successful plan promises: pieces as the proto describes, continuous, from
+// the snapped start to the snapped goal, samples on the polynomials, stats consistent.
+void ExpectConsistentPlan(const v1::PlanResponse& response) {
+  const v1::Trajectory& trajectory = response.trajectory();
+  ASSERT_EQ(trajectory.frame(), "map");
+  ASSERT_EQ(trajectory.dimension(), 3);
+  ASSERT_GT(trajectory.pieces_size(), 0);
+  EXPECT_EQ(response.stats().pieces(), trajectory.pieces_size());
+  double total = 0;
+  for (int i = 0; i < trajectory.pieces_size(); ++i) {
+    const v1::TrajectoryPiece& piece = trajectory.pieces(i);
+    ASSERT_EQ(piece.axes_size(), 3);
+    EXPECT_GT(piece.duration_s(), 0);
+    total += piece.duration_s();
+    if (i + 1 < trajectory.pieces_size()) {
+      for (int a = 0; a < 3; ++a) {
+        EXPECT_NEAR(Evaluate(piece.axes(a), piece.duration_s()),
+                    Evaluate(trajectory.pieces(i + 1).axes(a), 0), 1e-6);
+      }
+    }
+  }
+  EXPECT_NEAR(trajectory.duration_s(), total, 1e-9);
+  EXPECT_NEAR(response.stats().duration_s(), total, 1e-6);
+  const v1::TrajectoryPiece& last = trajectory.pieces(trajectory.pieces_size() - 1);
+  const v1::Vector3& goal = response.goal().position_m();
+  // The trajectory ends on the goal's ground (x, y may be the requested ones in its cell).
+  EXPECT_NEAR(Evaluate(last.axes(2), last.duration_s()), goal.z(), 0.15);
+  EXPECT_LE(response.stats().max_speed_horizontal_mps(),
+            1.01 * response.profile().max_speed_horizontal_mps());
+  EXPECT_GT(response.stats().length_m(), 0);
+  EXPECT_GT(response.stats().timings().total_s(), 0);
+  EXPECT_GT(response.time_budget_s(), 0);
+}
+
+TEST_F(PlannerServiceTest, PlansFromTheFloorOntoTheDeckOfTheDemo) {
+  StartServer();
+  v1::PlanRequest request = PlanRequestFor("demo", 2, 2, 0.3, 10, 10, 3.3);
+  request.mutable_options()->set_sample_dt_s(0.1);
+  v1::PlanResponse response;
+  const grpc::Status status = Plan(request, &response);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  ExpectConsistentPlan(response);
+  EXPECT_EQ(response.start().level(), 0u);
+  EXPECT_EQ(response.goal().level(), 1u);
+  EXPECT_LT(Distance(response.start().position_m(), 2, 2, 0.3), 0.5);
+  EXPECT_EQ(response.profile().name(), "differential");
+  ASSERT_GT(response.samples_size(), 2);
+  EXPECT_DOUBLE_EQ(response.samples(0).time_s(), 0);
+  EXPECT_DOUBLE_EQ(response.samples(response.samples_size() - 1).time_s(),
+                   response.trajectory().duration_s());
+  EXPECT_NEAR(response.samples(0).position_m().x(), 2, 0.2);
+}
+
+TEST_F(PlannerServiceTest, PlansUpTheFirstTurnOfTheSpiralGarage) {
+  if (!HaveSpiral()) GTEST_SKIP() << "shared maps not found in " << STRATA_SHARED_MAPS_DIR;
+  StartServer();
+  CreateSpiral("spiral", 0.2);  // The resolution docs/benchmarks.md plans at.
+  v1::PlanResponse response;
+  const grpc::Status status =
+      Plan(PlanRequestFor("spiral", -30, -2, 1.5, -45, -29, 5.5), &response, 60);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  ExpectConsistentPlan(response);
+  // One half turn (4 m) up: the goal's ground is above the start's.
+  EXPECT_GT(response.goal().position_m().z(), response.start().position_m().z() + 3);
+}
+
+// The reference query sp_ground_to_top (../shared/maps/README.md), all the way up, on the
+// map assessed at 0.3 m.
+TEST_F(PlannerServiceTest, PlansFromTheGroundToTheTopOfTheSpiralGarage) {
+  if (!HaveSpiral()) GTEST_SKIP() << "shared maps not found in " << STRATA_SHARED_MAPS_DIR;
+  StartServer();
+  CreateSpiral();
+  v1::PlanRequest request = PlanRequestFor("spiral", -30, -2, 1.5, -30, -28, 21.5);
+  request.mutable_options()->set_time_budget_s(10);
+  v1::PlanResponse response;
+  const grpc::Status status = Plan(request, &response, 60);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  ExpectConsistentPlan(response);
+  EXPECT_EQ(response.start().level(), 0u);
+  EXPECT_GT(response.stats().length_m(), 40);  // Up the turns of one spiral.
+  EXPECT_NEAR(response.goal().position_m().z(), 21.5, 1.0);
+}
+
+TEST_F(PlannerServiceTest, UnknownMapIsNotFound) {
+  StartServer();
+  v1::PlanResponse response;
+  const CallError error = ErrorOf(Plan(PlanRequestFor("atlantis", 2, 2, 0.3, 3, 3, 0.3), &response));
+  EXPECT_EQ(error.code, grpc::StatusCode::NOT_FOUND);
+  EXPECT_EQ(error.reason, "MAP_NOT_FOUND");
+  EXPECT_EQ(error.domain, "strata");
+  EXPECT_THAT(error.fields, ElementsAre("map_id"));
+}
+
+TEST_F(PlannerServiceTest, MapStillCreatingIsNotActive) {
+  StartServer({"--max-concurrent-assessments", "1", "--assessment-threads", "1"});
+  // Three maps queue behind each other on the single worker; the last stays CREATING for
+  // the time the first two take, far longer than the Plan call below.
+  for (const char* id : {"a", "b", "last"}) {
+    grpc::ClientContext context;
+    v1::CreateMapRequest request;
+    request.set_map_id(id);
+    request.mutable_scene()->set_name("uneven_terrain");
+    v1::Map map;
+    ASSERT_TRUE(maps_->CreateMap(&context, request, &map).ok());
+  }
+  v1::PlanResponse response;
+  const CallError error = ErrorOf(Plan(PlanRequestFor("last", 5, 5, 1, 6, 6, 1), &response));
+  EXPECT_EQ(error.code, grpc::StatusCode::FAILED_PRECONDITION);
+  EXPECT_EQ(error.reason, "MAP_NOT_ACTIVE");
+  EXPECT_THAT(error.message, HasSubstr("CREATING"));
+}
+
+TEST_F(PlannerServiceTest, StartOffTheGroundNamesTheNearestValidPoint) {
+  StartServer();
+  v1::PlanResponse response;
+  const CallError error = ErrorOf(Plan(PlanRequestFor("demo", 2, -10, 0.3, 10, 10, 3.3), &response));
+  EXPECT_EQ(error.code, grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(error.reason, "START_OFF_GROUND");
+  EXPECT_THAT(error.fields, ElementsAre("start.position_m"));
+  EXPECT_THAT(error.message, HasSubstr("nearest"));
+}
+
+TEST_F(PlannerServiceTest, NonFiniteValuesAreRefusedNamingTheComponent) {
+  StartServer();
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  v1::PlanResponse response;
+  CallError error = ErrorOf(Plan(PlanRequestFor("demo", nan, 2, 0.3, 10, 10, 3.3), &response));
+  EXPECT_EQ(error.code, grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(error.reason, "INVALID_INPUT");
+  EXPECT_THAT(error.fields, ElementsAre("start.position_m.x"));
+
+  v1::PlanRequest request = PlanRequestFor("demo", 2, 2, 0.3, 10, 10, 3.3);
+  request.mutable_goal()->mutable_velocity_mps()->set_z(std::numeric_limits<double>::infinity());
+  error = ErrorOf(Plan(request, &response));
+  EXPECT_THAT(error.fields, ElementsAre("goal.velocity_mps.z"));
+
+  request = PlanRequestFor("demo", 2, 2, 0.3, 10, 10, 3.3);
+  request.mutable_profile()->set_max_tilt_rad(2.0);
+  error = ErrorOf(Plan(request, &response));
+  EXPECT_EQ(error.reason, "INVALID_CONFIG");
+  EXPECT_THAT(error.fields, ElementsAre("profile.max_tilt_rad"));
+}
+
+TEST_F(PlannerServiceTest, ProfileTooLargeForTheMapIsAPreconditionFailure) {
+  StartServer();
+  v1::PlanRequest request = PlanRequestFor("demo", 2, 2, 0.3, 10, 10, 3.3);
+  request.mutable_profile()->set_footprint_radius_m(0.5);  // The demo was assessed for 0.3 m.
+  v1::PlanResponse response;
+  const CallError error = ErrorOf(Plan(request, &response));
+  EXPECT_EQ(error.code, grpc::StatusCode::FAILED_PRECONDITION);
+  EXPECT_EQ(error.reason, "PROFILE_MISMATCH");
+}
+
+TEST_F(PlannerServiceTest, TimeBudgetExceededIsReportedWithItsReason) {
+  if (!HaveSpiral()) GTEST_SKIP() << "shared maps not found in " << STRATA_SHARED_MAPS_DIR;
+  StartServer();
+  CreateSpiral();
+  v1::PlanRequest request = PlanRequestFor("spiral", -30, -2, 1.5, -30, -28, 21.5);
+  request.mutable_options()->set_time_budget_s(0.001);
+  v1::PlanResponse response;
+  const CallError error = ErrorOf(Plan(request, &response));
+  EXPECT_EQ(error.code, grpc::StatusCode::DEADLINE_EXCEEDED);
+  EXPECT_EQ(error.reason, "TIME_BUDGET_EXCEEDED");
+  EXPECT_THAT(error.message, HasSubstr("time budget"));
+
+  // A client deadline far too short ends the call with DEADLINE_EXCEEDED, whoever notices.
+  request.mutable_options()->clear_time_budget_s();
+  EXPECT_EQ(Plan(request, &response, 0.02).error_code(), grpc::StatusCode::DEADLINE_EXCEEDED);
+}
+
+}  // namespace
+}  // namespace strata::server::testing

@@ -1,0 +1,66 @@
+#pragma once
+// Helpers for tests that talk to a running strata-server.
+#include <chrono>
+#include <string>
+#include <vector>
+
+#include <google/rpc/error_details.pb.h>
+#include <google/rpc/status.pb.h>
+#include <grpcpp/grpcpp.h>
+
+#include "strata/v1/map_service.grpc.pb.h"
+#include "strata/v1/planner_service.grpc.pb.h"
+
+namespace strata::server::testing {
+
+/// What a failed call carried: code, message, ErrorInfo and BadRequest fields.
+struct CallError {
+  grpc::StatusCode code = grpc::StatusCode::OK;
+  std::string message;
+  std::string reason;  ///< ErrorInfo.reason; empty without details.
+  std::string domain;  ///< ErrorInfo.domain.
+  std::vector<std::string> fields;  ///< BadRequest field violations.
+};
+
+inline CallError ErrorOf(const grpc::Status& status) {
+  CallError error;
+  error.code = status.error_code();
+  error.message = status.error_message();
+  google::rpc::Status details;
+  if (!details.ParseFromString(status.error_details())) return error;
+  for (const auto& detail : details.details()) {
+    google::rpc::ErrorInfo info;
+    google::rpc::BadRequest bad_request;
+    if (detail.UnpackTo(&info)) {
+      error.reason = info.reason();
+      error.domain = info.domain();
+    } else if (detail.UnpackTo(&bad_request)) {
+      for (const auto& v : bad_request.field_violations()) error.fields.push_back(v.field());
+    }
+  }
+  return error;
+}
+
+inline void SetDeadline(grpc::ClientContext* context, double seconds) {
+  context->set_deadline(std::chrono::system_clock::now() +
+                        std::chrono::duration_cast<std::chrono::system_clock::duration>(
+                            std::chrono::duration<double>(seconds)));
+}
+
+inline void SetXyz(v1::Vector3* v, double x, double y, double z) {
+  v->set_x(x);
+  v->set_y(y);
+  v->set_z(z);
+}
+
+inline v1::PlanRequest PlanRequestFor(const std::string& map_id, double sx, double sy, double sz,
+                                      double gx, double gy, double gz) {
+  v1::PlanRequest request;
+  request.set_map_id(map_id);
+  request.set_profile_name("differential");
+  SetXyz(request.mutable_start()->mutable_position_m(), sx, sy, sz);
+  SetXyz(request.mutable_goal()->mutable_position_m(), gx, gy, gz);
+  return request;
+}
+
+}  // namespace strata::server::testing
