@@ -1,7 +1,9 @@
-# Multi-stage build on Debian bookworm: the build stage compiles and runs the test suite, the
-# runtime stage carries only the binaries and their shared libraries' packages.
-# (The gRPC server and its health probe arrive with the service issue; until then the image
-# runs the offline assessment tool.)
+# Strata: multi-stage build on Debian bookworm.
+#   build    installs the build dependencies (scripts/install-deps.sh), builds everything and
+#            runs the whole test suite (tests that need ../shared/maps skip themselves);
+#   runtime  bookworm-slim with only the shared-library packages of the binaries, non-root,
+#            strata-server as entrypoint and strata-health-probe as HEALTHCHECK.
+# Build and run: deploy/README.md (podman needs `--format docker` to keep the HEALTHCHECK).
 FROM debian:bookworm AS build
 WORKDIR /src
 COPY scripts/install-deps.sh scripts/
@@ -10,14 +12,43 @@ COPY . .
 RUN cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release \
     && cmake --build build \
     && ctest --test-dir build --output-on-failure -j "$(nproc)"
+# The binaries the image ships; the `strata` CLI only when this tree builds it.
+RUN mkdir -p /out \
+    && cp build/server/strata-server build/deploy/health_probe/strata-health-probe \
+          build/bench/strata-offline /out/ \
+    && if [ -x build/client/strata ]; then cp build/client/strata /out/; fi \
+    && strip --strip-unneeded /out/*
 
 FROM debian:bookworm-slim AS runtime
+# Runtime libraries only (their dependencies come along): gRPC and protobuf, prometheus-cpp,
+# PCL io and sample_consensus (which pull VTK), OctoMap, OpenMP.
 RUN apt-get update \
     && DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends \
-       libpcl-io1.13 libpcl-sample-consensus1.13 liboctomap1.9 libgomp1 \
+       libgrpc++1.51 libprotobuf32 libprometheus-cpp-pull1.0 \
+       libpcl-common1.13 libpcl-io1.13 libpcl-sample-consensus1.13 liboctomap1.9 libgomp1 \
     && rm -rf /var/lib/apt/lists/*
-COPY --from=build /src/build/bench/strata-offline /usr/local/bin/strata-offline
-RUN useradd --system --uid 10001 strata
-USER strata
-ENTRYPOINT ["strata-offline"]
-CMD ["assess", "scene:two_level_ramp"]
+COPY --from=build /out/ /usr/local/bin/
+# Fails the build when a binary needs a library the list above does not bring.
+RUN if ldd /usr/local/bin/* | grep 'not found'; then exit 1; fi \
+    && groupadd --system --gid 10001 strata \
+    && useradd --system --uid 10001 --gid 10001 --no-create-home --home-dir /nonexistent \
+       --shell /usr/sbin/nologin strata \
+    && mkdir -p /maps
+# Configuration through strata-server's environment variables (server/README.md); a flag
+# given as a command argument overrides its variable. Change the port through STRATA_LISTEN,
+# not --listen: the health probe reads STRATA_LISTEN to find the server.
+ENV STRATA_LISTEN=0.0.0.0:50051 \
+    STRATA_METRICS_PORT=9090 \
+    STRATA_MAP_ROOT=/maps
+# Map files (PCD, PLY, OctoMap) under the map root; the server only reads them.
+VOLUME ["/maps"]
+# gRPC, Prometheus /metrics.
+EXPOSE 50051 9090
+USER 10001:10001
+# SERVING once every preloaded map is ACTIVE; the start period covers a map's assessment.
+HEALTHCHECK --interval=15s --timeout=5s --start-period=120s --retries=3 \
+    CMD ["strata-health-probe", "--timeout-s", "3"]
+STOPSIGNAL SIGTERM
+ENTRYPOINT ["strata-server"]
+# No arguments: serves the built-in demo scene as map "demo".
+CMD []

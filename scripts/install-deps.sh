@@ -9,12 +9,16 @@ packages=(
   golang-github-gogo-googleapis-dev
   libeigen3-dev libpcl-dev liboctomap-dev liblbfgspp-dev prometheus-cpp-dev
   libgtest-dev libgmock-dev libbenchmark-dev nlohmann-json3-dev
+  python3-yaml  # tests/deploy: manifest checks with Debian's /usr/bin/python3
 )
 
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
+# tests/deploy renders the Kubernetes manifests with `kubectl kustomize`: any kubectl on PATH
+# will do, else Debian's kubernetes-client (kubectl 1.20, with kustomize built in).
+command -v kubectl >/dev/null 2>&1 || missing+=(kubernetes-client)
 if [ ${#missing[@]} -eq 0 ]; then
   exit 0
 fi
