@@ -1,0 +1,112 @@
+// `strata plan`: one Plan call, printed as a summary or as the PlanResponse in JSON.
+#include "commands.hpp"
+#include "output.hpp"
+#include "strata/client/polynomial_trajectory.hpp"
+#include "strata/client/rpc.hpp"
+#include "strata/v1/planner_service.grpc.pb.h"
+
+namespace strata::cli {
+namespace {
+
+void SetVector(const std::array<double, 3>& xyz, v1::Vector3* v) {
+  v->set_x(xyz[0]);
+  v->set_y(xyz[1]);
+  v->set_z(xyz[2]);
+}
+
+v1::Vector3 ToVector(const Eigen::Vector3d& p) {
+  v1::Vector3 v;
+  v.set_x(p.x());
+  v.set_y(p.y());
+  v.set_z(p.z());
+  return v;
+}
+
+void PrintSnapped(std::ostream& out, const char* name, const v1::SnappedState& state) {
+  out << "  " << name << FormatVector(state.position_m()) << " m, level " << state.level()
+      << ", " << Fixed(state.distance_m(), 3) << " m from the requested point\n";
+}
+
+void PrintSummary(const Context& ctx, const v1::PlanRequest& request,
+                  const v1::PlanResponse& response) {
+  std::ostream& out = *ctx.out;
+  const v1::PlanStats& stats = response.stats();
+  out << "plan on map " << request.map_id() << " for robot " << response.profile().name() << ": "
+      << Fixed(stats.length_m(), 2) << " m in " << Fixed(stats.duration_s(), 2) << " s, "
+      << stats.pieces() << " pieces\n";
+  PrintSnapped(out, "start ", response.start());
+  PrintSnapped(out, "goal  ", response.goal());
+  out << "  speed       max " << Fixed(stats.max_speed_horizontal_mps(), 2) << " m/s horizontal, "
+      << Fixed(stats.max_speed_vertical_mps(), 2) << " m/s vertical\n"
+      << "  accel       max " << Fixed(stats.max_accel_horizontal_mps2(), 2)
+      << " m/s^2 horizontal, " << Fixed(stats.max_accel_vertical_mps2(), 2) << " m/s^2 vertical\n"
+      << "  clearance   " << Fixed(stats.min_obstacle_distance_m(), 3)
+      << " m to the nearest obstacle; ground offset at most "
+      << Fixed(stats.max_ground_offset_m(), 3) << " m; mean curvature "
+      << Fixed(stats.mean_curvature_per_m(), 3) << " 1/m\n"
+      << "  planning    " << Fixed(stats.timings().total_s(), 3) << " s (search "
+      << Fixed(stats.timings().search_s(), 3) << " s, optimise "
+      << Fixed(stats.timings().optimize_s(), 3) << " s, verify "
+      << Fixed(stats.timings().verify_s(), 3) << " s; " << stats.optimizer_iterations()
+      << " iterations, " << stats.optimizer_attempts() << " attempt(s))\n";
+
+  const auto trajectory = client::PolynomialTrajectory::FromPlanResponse(response);
+  if (!trajectory) {
+    out << "  (" << trajectory.error().message << ")\n";
+    return;
+  }
+  out << "  piece   start_s  duration_s  start position [m]\n";
+  for (std::size_t i = 0; i < trajectory->piece_count(); ++i) {
+    char line[64];
+    std::snprintf(line, sizeof(line), "  %5zu  %7.3f  %10.3f  ", i, trajectory->piece_start_s(i),
+                  trajectory->piece_duration_s(i));
+    out << line << FormatVector(ToVector(trajectory->PositionAt(trajectory->piece_start_s(i))))
+        << "\n";
+  }
+  out << "  end     " << Fixed(trajectory->duration_s(), 3) << "               "
+      << FormatVector(ToVector(trajectory->PositionAt(trajectory->duration_s()))) << "\n";
+}
+
+}  // namespace
+
+v1::PlanRequest PlanRequestFromArguments(Arguments& args) {
+  v1::PlanRequest request;
+  const auto map = args.Take("map");
+  const auto start = args.TakeVector3("start");
+  const auto goal = args.TakeVector3("goal");
+  if (!map || !start || !goal) {
+    throw UsageError("planning needs --map ID, --start x,y,z and --goal x,y,z");
+  }
+  request.set_map_id(*map);
+  SetVector(*start, request.mutable_start()->mutable_position_m());
+  SetVector(*goal, request.mutable_goal()->mutable_position_m());
+  request.set_profile_name(args.Take("robot").value_or("differential"));
+  if (auto v = args.TakeDouble("time-budget")) request.mutable_options()->set_time_budget_s(*v);
+  if (auto v = args.TakeDouble("sample-dt")) request.mutable_options()->set_sample_dt_s(*v);
+  return request;
+}
+
+bool CallPlan(const Context& ctx, const v1::PlanRequest& request, v1::PlanResponse* response) {
+  auto stub = v1::PlannerService::NewStub(client::MakeChannel(ctx.server));
+  grpc::ClientContext call;
+  client::SetDeadline(&call, ctx.deadline_s);
+  const grpc::Status status = stub->Plan(&call, request, response);
+  if (status.ok()) return true;
+  ReportRpcError(ctx, "Plan", status);
+  return false;
+}
+
+int RunPlan(const Context& ctx, Arguments& args) {
+  const v1::PlanRequest request = PlanRequestFromArguments(args);
+  args.Finish();
+  v1::PlanResponse response;
+  if (!CallPlan(ctx, request, &response)) return kExitRpcError;
+  if (ctx.json) {
+    *ctx.out << ToJson(response);
+  } else {
+    PrintSummary(ctx, request, response);
+  }
+  return kExitOk;
+}
+
+}  // namespace strata::cli

@@ -1,0 +1,321 @@
+// The `strata` binary end to end against the real strata-server (one per test suite, on
+// an ephemeral port): maps, plan, setpoints, errors and exit codes. The trajectory in the
+// CLI's JSON is checked with the client library against the server's own samples.
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+#include <google/protobuf/struct.pb.h>
+#include <google/protobuf/util/json_util.h>
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "run_command.hpp"
+#include "server_process.hpp"
+#include "strata/client/polynomial_trajectory.hpp"
+#include "strata/client/setpoints.hpp"
+#include "strata/v1/map_service.pb.h"
+#include "strata/v1/planner_service.pb.h"
+
+namespace strata::client::testing {
+namespace {
+
+using ::testing::HasSubstr;
+using server::testing::ServerProcess;
+
+class StrataCliTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    server_ = ServerProcess::Start({}).release();  // Preloads the demo scene as "demo".
+    ASSERT_NE(server_, nullptr);
+    ASSERT_TRUE(server_->WaitServing(std::chrono::seconds(120))) << server_->Log();
+    dir_ = new std::filesystem::path(std::filesystem::temp_directory_path() /
+                                     ("strata_cli_test_" + std::to_string(::getpid())));
+    std::filesystem::create_directories(*dir_);
+  }
+  static void TearDownTestSuite() {
+    delete server_;
+    server_ = nullptr;
+    if (dir_ != nullptr) std::filesystem::remove_all(*dir_);
+    delete dir_;
+    dir_ = nullptr;
+  }
+  void TearDown() override {
+    if (HasFailure() && server_ != nullptr) {
+      std::fprintf(stderr, "--- strata-server log ---\n%s\n", server_->Log().c_str());
+    }
+  }
+
+  // Runs `strata --server <the test server> args...`.
+  static CommandResult Strata(std::vector<std::string> args) {
+    args.insert(args.begin(), {STRATA_CLI_BINARY, "--server", server_->address()});
+    return RunCommand(args);
+  }
+
+  template <typename Message>
+  static Message Parse(const std::string& json) {
+    Message message;
+    const auto status = google::protobuf::util::JsonStringToMessage(json, &message);
+    EXPECT_TRUE(status.ok()) << status.ToString() << "\n" << json;
+    return message;
+  }
+
+  static std::string Path(const std::string& name) { return (*dir_ / name).string(); }
+
+  static v1::PlanResponse PlanOnDemo(std::vector<std::string> extra = {}) {
+    std::vector<std::string> args = {"plan", "--map", "demo", "--start", "2,2,0.3", "--goal",
+                                     "10,10,3.3", "--json"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    const CommandResult result = Strata(args);
+    EXPECT_EQ(result.exit_code, 0) << result.err;
+    return Parse<v1::PlanResponse>(result.out);
+  }
+
+  static ServerProcess* server_;
+  static std::filesystem::path* dir_;
+};
+
+ServerProcess* StrataCliTest::server_ = nullptr;
+std::filesystem::path* StrataCliTest::dir_ = nullptr;
+
+double Distance(const Eigen::Vector3d& p, const v1::Vector3& q) {
+  return (p - Eigen::Vector3d(q.x(), q.y(), q.z())).norm();
+}
+
+TEST_F(StrataCliTest, MapsListShowsTheDemoMap) {
+  const CommandResult text = Strata({"maps", "list"});
+  ASSERT_EQ(text.exit_code, 0) << text.err;
+  EXPECT_THAT(text.out, HasSubstr("demo"));
+  EXPECT_THAT(text.out, HasSubstr("ACTIVE"));
+  EXPECT_THAT(text.out, HasSubstr("scene two_level_ramp"));
+
+  const CommandResult json = Strata({"maps", "list", "--json"});
+  ASSERT_EQ(json.exit_code, 0) << json.err;
+  const auto response = Parse<v1::ListMapsResponse>(json.out);
+  ASSERT_EQ(response.maps_size(), 1);
+  EXPECT_EQ(response.maps(0).id(), "demo");
+  EXPECT_EQ(response.maps(0).state(), v1::MAP_STATE_ACTIVE);
+  EXPECT_GT(response.maps(0).valid_ground_point_count(), 0u);
+  // Stable keys: zero-valued fields are printed too, with proto field names.
+  EXPECT_THAT(json.out, HasSubstr("\"dropped_nonfinite_point_count\""));
+  EXPECT_THAT(json.out, HasSubstr("\"next_page_token\": \"\""));
+}
+
+TEST_F(StrataCliTest, ServerComesFromTheEnvironmentUnlessGiven) {
+  const CommandResult from_env = RunCommand({STRATA_CLI_BINARY, "maps", "get", "demo"},
+                                            {"STRATA_SERVER=" + server_->address()});
+  ASSERT_EQ(from_env.exit_code, 0) << from_env.err;
+  EXPECT_THAT(from_env.out, HasSubstr("map demo: ACTIVE"));
+  // --server wins over the variable (which here points nowhere).
+  const CommandResult flag = RunCommand(
+      {STRATA_CLI_BINARY, "--server", server_->address(), "maps", "get", "demo"},
+      {"STRATA_SERVER=127.0.0.1:1"});
+  EXPECT_EQ(flag.exit_code, 0) << flag.err;
+}
+
+TEST_F(StrataCliTest, PlanJsonStartsAndEndsAtTheSnappedStartAndGoal) {
+  const v1::PlanResponse response = PlanOnDemo({"--sample-dt", "0.1"});
+  const auto trajectory = PolynomialTrajectory::FromPlanResponse(response);
+  ASSERT_TRUE(trajectory.ok()) << trajectory.error().message;
+  EXPECT_EQ(response.start().level(), 0u);
+  EXPECT_EQ(response.goal().level(), 1u);
+  EXPECT_LT(Distance(trajectory->PositionAt(0), response.start().position_m()), 1e-6);
+  EXPECT_LT(Distance(trajectory->PositionAt(trajectory->duration_s()), response.goal().position_m()),
+            1e-6);
+  EXPECT_NEAR(trajectory->duration_s(), response.stats().duration_s(), 1e-6);
+  EXPECT_LT(trajectory->VelocityAt(0).norm(), 1e-6);  // Requested at rest.
+
+  // The library's evaluation matches the server's own samples of the same trajectory.
+  ASSERT_GT(response.samples_size(), 10);
+  for (const v1::TrajectorySample& sample : response.samples()) {
+    const TrajectoryState state = trajectory->StateAt(sample.time_s());
+    EXPECT_LT(Distance(state.position_m, sample.position_m()), 1e-6) << sample.time_s();
+    EXPECT_LT(Distance(state.velocity_mps, sample.velocity_mps()), 1e-6) << sample.time_s();
+    EXPECT_LT(Distance(state.acceleration_mps2, sample.acceleration_mps2()), 1e-6) << sample.time_s();
+  }
+}
+
+TEST_F(StrataCliTest, PlanSummaryNamesSnappedStatesAndPieces) {
+  const CommandResult result = Strata({"plan", "--map", "demo", "--start", "2,2,0.3", "--goal",
+                                       "10,10,3.3", "--robot", "differential", "--time-budget", "5"});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_THAT(result.out, HasSubstr("plan on map demo for robot differential"));
+  EXPECT_THAT(result.out, HasSubstr("level 0"));
+  EXPECT_THAT(result.out, HasSubstr("level 1"));
+  EXPECT_THAT(result.out, HasSubstr("piece   start_s  duration_s"));
+}
+
+TEST_F(StrataCliTest, SetpointsFromASavedPlanMatchTheLibrary) {
+  const CommandResult saved = Strata({"plan", "--map", "demo", "--start", "2,2,0.3", "--goal",
+                                      "10,10,3.3", "--json"});
+  ASSERT_EQ(saved.exit_code, 0) << saved.err;
+  const std::string path = Path("plan.json");
+  std::ofstream(path) << saved.out;
+  const auto plan = Parse<v1::PlanResponse>(saved.out);
+  const auto trajectory = PolynomialTrajectory::FromPlanResponse(plan);
+  ASSERT_TRUE(trajectory.ok());
+
+  // A horizon that runs past the end: the last setpoints hold the goal.
+  const double t0 = trajectory->duration_s() - 1.0;
+  const CommandResult result = Strata({"setpoints", "--from", path, "--t0", std::to_string(t0),
+                                       "--dt", "0.25", "--steps", "8", "--json"});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  const auto json = Parse<google::protobuf::Struct>(result.out);
+  const auto& rows = json.fields().at("setpoints").list_value().values();
+  ASSERT_EQ(rows.size(), 8);
+  const auto expected = ComputeSetpoints(*trajectory, std::stod(std::to_string(t0)), 0.25, 8);
+  ASSERT_TRUE(expected.ok());
+  for (int k = 0; k < 8; ++k) {
+    const auto& row = rows[k].struct_value().fields();
+    const MpcSetpoint& e = expected.value()[k];
+    EXPECT_DOUBLE_EQ(row.at("time_s").number_value(), e.time_s);
+    EXPECT_DOUBLE_EQ(row.at("position_m").struct_value().fields().at("x").number_value(), e.position_m.x());
+    EXPECT_DOUBLE_EQ(row.at("position_m").struct_value().fields().at("z").number_value(), e.position_m.z());
+    EXPECT_DOUBLE_EQ(row.at("yaw_rad").number_value(), e.yaw_rad);
+    EXPECT_DOUBLE_EQ(row.at("yaw_rate_radps").number_value(), e.yaw_rate_radps);
+    EXPECT_DOUBLE_EQ(row.at("speed_mps").number_value(), e.speed_mps);
+    EXPECT_EQ(row.at("yaw_held").bool_value(), e.yaw_held);
+    EXPECT_TRUE(row.at("body_height_m").has_null_value());  // Dimension 3.
+  }
+  const auto& last = rows[7].struct_value().fields();
+  EXPECT_TRUE(last.at("yaw_held").bool_value());
+  EXPECT_EQ(last.at("speed_mps").number_value(), 0.0);
+  EXPECT_NEAR(last.at("position_m").struct_value().fields().at("x").number_value(),
+              plan.goal().position_m().x(), 1e-6);
+}
+
+TEST_F(StrataCliTest, SetpointsCanPlanThemselvesAndPrintATable) {
+  const CommandResult result = Strata({"setpoints", "--map", "demo", "--start", "2,2,0.3",
+                                       "--goal", "6,2,0.3", "--dt", "0.5", "--steps", "5"});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_THAT(result.out, HasSubstr("yaw_rad"));
+  EXPECT_THAT(result.out, HasSubstr("omega_radps"));
+  std::size_t lines = 0;
+  for (char c : result.out) lines += c == '\n';
+  EXPECT_GE(lines, 6u);  // Header and five setpoints (and the held-yaw note when one is held).
+}
+
+TEST_F(StrataCliTest, UnknownMapIsNotFoundWithItsReasonAndExitCode1) {
+  const CommandResult plan = Strata({"plan", "--map", "atlantis", "--start", "2,2,0.3",
+                                     "--goal", "3,3,0.3"});
+  EXPECT_EQ(plan.exit_code, 1);
+  EXPECT_THAT(plan.err, HasSubstr("Plan failed: NOT_FOUND"));
+  EXPECT_THAT(plan.err, HasSubstr("reason: MAP_NOT_FOUND (domain strata)"));
+  EXPECT_TRUE(plan.out.empty());
+
+  const CommandResult get = Strata({"--json", "maps", "get", "atlantis"});
+  EXPECT_EQ(get.exit_code, 1);
+  const auto error = Parse<google::protobuf::Struct>(get.err).fields().at("error").struct_value();
+  EXPECT_EQ(error.fields().at("code").string_value(), "NOT_FOUND");
+  EXPECT_EQ(error.fields().at("reason").string_value(), "MAP_NOT_FOUND");
+  EXPECT_EQ(error.fields().at("rpc").string_value(), "GetMap");
+}
+
+TEST_F(StrataCliTest, OffGroundStartPrintsTheBadField) {
+  const CommandResult result = Strata({"plan", "--map", "demo", "--start", "2,2,30",
+                                       "--goal", "3,3,0.3"});
+  EXPECT_EQ(result.exit_code, 1);
+  EXPECT_THAT(result.err, HasSubstr("INVALID_ARGUMENT"));
+  EXPECT_THAT(result.err, HasSubstr("reason: START_OFF_GROUND"));
+  EXPECT_THAT(result.err, HasSubstr("bad field start.position_m"));
+}
+
+TEST_F(StrataCliTest, BadArgumentsExitWith2BeforeAnyCall) {
+  const std::vector<std::vector<std::string>> cases = {
+      {"plan", "--map", "demo", "--start", "1,2", "--goal", "3,3,0.3"},
+      {"plan", "--start", "1,2,3", "--goal", "3,3,0.3"},
+      {"frobnicate"},
+      {"maps", "rename", "demo"},
+      {"maps", "create", "x", "--file", "a.pcd", "--scene", "two_level_ramp"},
+      {"--deadline", "0", "maps", "list"},
+      {"maps", "list", "--colour", "red"},
+      {"setpoints", "--from", Path("missing.json")},
+      {"maps", "upload", "x", Path("cloud.ply")},
+  };
+  for (const auto& args : cases) {
+    const CommandResult result = Strata(args);
+    EXPECT_EQ(result.exit_code, 2) << args[0] << " " << result.err;
+    EXPECT_THAT(result.err, HasSubstr("strata --help"));
+  }
+  std::ofstream(Path("bad.json")) << "{\"trajectory\": {\"dimension\": 5}}";
+  const CommandResult bad_plan = Strata({"setpoints", "--from", Path("bad.json")});
+  EXPECT_EQ(bad_plan.exit_code, 2);
+  EXPECT_THAT(bad_plan.err, HasSubstr("invalid trajectory: dimension is 5"));
+  EXPECT_EQ(RunCommand({STRATA_CLI_BINARY, "--help"}).exit_code, 0);
+}
+
+TEST_F(StrataCliTest, UnreachableServerIsAnRpcError) {
+  const CommandResult result =
+      RunCommand({STRATA_CLI_BINARY, "--server", "127.0.0.1:1", "--deadline", "2", "maps", "list"});
+  EXPECT_EQ(result.exit_code, 1);
+  EXPECT_THAT(result.err, HasSubstr("ListMaps failed"));
+}
+
+TEST_F(StrataCliTest, CreateGetDeleteAScene) {
+  const CommandResult created = Strata({"--deadline", "120", "maps", "create", "ramp2",
+                                        "--scene", "two_level_ramp", "--seed", "3",
+                                        "--resolution", "0.25", "--wait", "--json"});
+  ASSERT_EQ(created.exit_code, 0) << created.err;
+  const auto map = Parse<v1::Map>(created.out);
+  EXPECT_EQ(map.id(), "ramp2");
+  EXPECT_EQ(map.state(), v1::MAP_STATE_ACTIVE);
+  EXPECT_EQ(map.source().scene().seed(), 3u);
+  EXPECT_DOUBLE_EQ(map.terrain().resolution_m(), 0.25);
+
+  const CommandResult got = Strata({"maps", "get", "ramp2"});
+  ASSERT_EQ(got.exit_code, 0) << got.err;
+  EXPECT_THAT(got.out, HasSubstr("map ramp2: ACTIVE"));
+  EXPECT_THAT(got.out, HasSubstr("resolution 0.250 m"));
+
+  const CommandResult again = Strata({"maps", "create", "ramp2", "--scene", "two_level_ramp"});
+  EXPECT_EQ(again.exit_code, 1);
+  EXPECT_THAT(again.err, HasSubstr("ALREADY_EXISTS"));
+  EXPECT_THAT(again.err, HasSubstr("MAP_ALREADY_EXISTS"));
+
+  const CommandResult deleted = Strata({"maps", "delete", "ramp2"});
+  ASSERT_EQ(deleted.exit_code, 0) << deleted.err;
+  EXPECT_THAT(deleted.out, HasSubstr("deleted map ramp2"));
+  const CommandResult gone = Strata({"maps", "get", "ramp2"});
+  EXPECT_EQ(gone.exit_code, 1);
+  EXPECT_THAT(gone.err, HasSubstr("MAP_NOT_FOUND"));
+}
+
+TEST_F(StrataCliTest, UploadStreamsAPcdInChunksAndPlansOnIt) {
+  // A flat 6 m × 6 m floor at z = 0, one point every 5 cm, as binary PCD.
+  std::string body;
+  int count = 0;
+  for (int i = 0; i <= 120; ++i) {
+    for (int j = 0; j <= 120; ++j) {
+      const float xyz[3] = {0.05f * i, 0.05f * j, 0.0f};
+      body.append(reinterpret_cast<const char*>(xyz), sizeof(xyz));
+      ++count;
+    }
+  }
+  const std::string path = Path("floor.pcd");
+  std::ofstream(path, std::ios::binary)
+      << "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH " << count
+      << "\nHEIGHT 1\nPOINTS " << count << "\nDATA binary\n" << body;
+
+  const CommandResult uploaded = Strata({"--deadline", "120", "maps", "upload", "floor", path,
+                                         "--chunk-points", "1000", "--wait", "--json"});
+  ASSERT_EQ(uploaded.exit_code, 0) << uploaded.err;
+  const auto map = Parse<v1::Map>(uploaded.out);
+  EXPECT_EQ(map.state(), v1::MAP_STATE_ACTIVE) << map.failure().message();
+  EXPECT_EQ(map.raw_point_count(), static_cast<std::uint64_t>(count));
+  EXPECT_EQ(map.source().upload().received_bytes(), static_cast<std::uint64_t>(12 * count));
+
+  const CommandResult plan = Strata({"plan", "--map", "floor", "--start", "1,1,0.3", "--goal",
+                                     "5,4,0.3", "--json"});
+  ASSERT_EQ(plan.exit_code, 0) << plan.err;
+  const auto response = Parse<v1::PlanResponse>(plan.out);
+  const auto trajectory = PolynomialTrajectory::FromPlanResponse(response);
+  ASSERT_TRUE(trajectory.ok());
+  EXPECT_LT(Distance(trajectory->PositionAt(trajectory->duration_s()), response.goal().position_m()),
+            1e-6);
+  EXPECT_EQ(Strata({"maps", "delete", "floor"}).exit_code, 0);
+}
+
+}  // namespace
+}  // namespace strata::client::testing
