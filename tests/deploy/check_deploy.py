@@ -7,7 +7,7 @@
              requires the matching check to reject it with the expected message; also requires
              `kubectl kustomize` to fail on a broken kustomization
   compose    checks deploy/compose.yaml and the Prometheus configs (structure and references;
-             `promtool check config` too when promtool is installed)
+             `docker-compose config` and `promtool check config` too when installed)
   probe      strata-health-probe against a real strata-server: SERVING, unknown service,
              unreachable server, bad arguments
 
@@ -637,7 +637,17 @@ def expect_rejected(case, errors):
 
 def cmd_compose(args):
     compose = yaml.safe_load(open(args.compose))
-    status = report(check_compose(args.compose, compose), os.path.relpath(args.compose))
+    errors = check_compose(args.compose, compose)
+    # Compose v1 (Debian's docker-compose) validates against its copy of the Compose schema.
+    docker_compose = shutil.which("docker-compose")
+    if docker_compose:
+        result = subprocess.run([docker_compose, "-f", args.compose, "config", "-q"],
+                                capture_output=True, text=True)
+        if result.returncode != 0:
+            errors.append(f"docker-compose config failed: {(result.stdout + result.stderr).strip()}")
+        else:
+            print(f"  docker-compose config -q {os.path.basename(args.compose)}: valid")
+    status = report(errors, os.path.relpath(args.compose))
     promtool = shutil.which("promtool")
     if not promtool:
         print("  (promtool not installed: Prometheus configs get the structural checks only)")
