@@ -30,6 +30,8 @@ class Expected {
   T&& value() && { return std::get<T>(std::move(storage_)); }
   T* operator->() { return &value(); }
   const T* operator->() const { return &value(); }
+  T& operator*() & { return value(); }
+  const T& operator*() const& { return value(); }
 
   /// The error; precondition: !ok().
   const ClientError& error() const { return std::get<ClientError>(storage_); }
