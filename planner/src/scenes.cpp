@@ -2,214 +2,25 @@
 
 #include <algorithm>
 #include <cmath>
-#include <functional>
-#include <numbers>
-#include <random>
+#include <cstdio>
+#include <string>
 #include <utility>
+
+#include "scenes_internal.hpp"
+#include "strata/bench_scenes.hpp"
 
 namespace strata {
 namespace {
 
-using Vec2 = Eigen::Vector2d;
-using Vec3 = Eigen::Vector3d;
-
-/// Decides whether a sampled surface point is kept; used to clip a face to its visible part.
-using KeepFn = std::function<bool(const Vec3&)>;
-
-constexpr double kPi = std::numbers::pi;
-constexpr double kDegToRad = kPi / 180.0;
-
-constexpr double kMinSpacingM = 0.01;
-// Jitter bounds relative to the spacing and absolute in z: enough to break the perfect lattice
-// (so nothing downstream relies on exact alignment) while staying well below the spacing.
-constexpr double kJitterFraction = 0.1;
-constexpr double kMaxJitterZM = 0.005;
-// Tolerance for "strictly inside" tests on exact (unjittered) lattice coordinates.
-constexpr double kEpsM = 1e-9;
-
-// Streams of one seed: geometry placed by the seed and the jitter are drawn from independent
-// engines, so changing the spacing (and with it the number of jitter draws) never moves a tree.
-constexpr std::uint32_t kLayoutStream = 1;
-constexpr std::uint32_t kJitterStream = 2;
-
-std::mt19937 MakeEngine(std::uint32_t seed, std::uint32_t stream) {
-  std::seed_seq seq{seed, stream};
-  return std::mt19937(seq);
-}
-
-// Uniform in [lo, hi). Written out because std::uniform_real_distribution differs between
-// standard libraries, which would make "same seed, same scene" platform dependent.
-double Uniform(std::mt19937& rng, double lo, double hi) {
-  constexpr double kInv2Pow32 = 1.0 / 4294967296.0;
-  return lo + (hi - lo) * (static_cast<double>(rng()) * kInv2Pow32);
-}
-
-// Integer in [lo, hi]; the modulo bias is negligible for the small ranges used here.
-int UniformInt(std::mt19937& rng, int lo, int hi) {
-  return lo + static_cast<int>(rng() % static_cast<std::uint32_t>(hi - lo + 1));
-}
-
-bool IsValidSpacing(double spacing_m) {
-  return std::isfinite(spacing_m) && spacing_m >= kMinSpacingM;
-}
-
-// Number of lattice intervals along a segment: the spacing is rounded so both ends are sampled.
-int Intervals(double length_m, double spacing_m) {
-  if (length_m < kEpsM) return 0;
-  return std::max(1, static_cast<int>(std::lround(length_m / spacing_m)));
-}
-
-bool StrictlyInside(double v, double lo, double hi) { return v > lo + kEpsM && v < hi - kEpsM; }
-
-/// Samples surfaces into a point cloud on a lattice at about `spacing_m`, with seeded jitter.
-class SurfaceSampler {
- public:
-  SurfaceSampler(std::uint32_t seed, double spacing_m)
-      : rng_(MakeEngine(seed, kJitterStream)),
-        spacing_m_(spacing_m),
-        jitter_xy_m_(kJitterFraction * spacing_m),
-        jitter_z_m_(std::min(kMaxJitterZM, kJitterFraction * spacing_m)) {}
-
-  /// Adds p (exact surface point) with jitter if keep accepts it (or keep is empty).
-  void AddPoint(const Vec3& p, const KeepFn& keep) {
-    if (keep && !keep(p)) return;
-    // Jitter is drawn only for kept points, always in the order x, y, z.
-    const double dx = Uniform(rng_, -jitter_xy_m_, jitter_xy_m_);
-    const double dy = Uniform(rng_, -jitter_xy_m_, jitter_xy_m_);
-    const double dz = Uniform(rng_, -jitter_z_m_, jitter_z_m_);
-    cloud_.emplace_back(static_cast<float>(p.x() + dx), static_cast<float>(p.y() + dy),
-                        static_cast<float>(p.z() + dz));
-  }
-
-  /// A ruled patch between segment a0→a1 and segment b0→b1: columns every spacing along the
-  /// longer of the two, each column sampled every spacing from a(u) to b(u). Covers
-  /// rectangles, parallelograms and (with a degenerate edge) triangles and trapezoids.
-  void AddRuledPatch(const Vec3& a0, const Vec3& a1, const Vec3& b0, const Vec3& b1,
-                     const KeepFn& keep = {}) {
-    const int nu = Intervals(std::max((a1 - a0).norm(), (b1 - b0).norm()), spacing_m_);
-    for (int i = 0; i <= nu; ++i) {
-      const double u = nu == 0 ? 0.0 : static_cast<double>(i) / nu;
-      const Vec3 a = a0 + u * (a1 - a0);
-      const Vec3 b = b0 + u * (b1 - b0);
-      const int nv = Intervals((b - a).norm(), spacing_m_);
-      for (int j = 0; j <= nv; ++j) {
-        const double v = nv == 0 ? 0.0 : static_cast<double>(j) / nv;
-        AddPoint(a + v * (b - a), keep);
-      }
-    }
-  }
-
-  /// The horizontal rectangle [x0, x1] × [y0, y1] at height z.
-  void AddHorizontalRect(double x0, double x1, double y0, double y1, double z,
-                         const KeepFn& keep = {}) {
-    AddRuledPatch({x0, y0, z}, {x1, y0, z}, {x0, y1, z}, {x1, y1, z}, keep);
-  }
-
-  /// A vertical rectangle above the ground segment a→b, from z0 to z1.
-  void AddVerticalRect(const Vec2& a, const Vec2& b, double z0, double z1,
-                       const KeepFn& keep = {}) {
-    AddRuledPatch({a.x(), a.y(), z0}, {b.x(), b.y(), z0}, {a.x(), a.y(), z1}, {b.x(), b.y(), z1},
-                  keep);
-  }
-
-  /// A vertical trapezoid above the ground segment a→b: bottom at z_base, top edge rising
-  /// linearly from z_top_a over a to z_top_b over b (a triangle when z_top_a == z_base). The
-  /// side face of a solid ramp.
-  void AddVerticalTrapezoid(const Vec2& a, const Vec2& b, double z_base, double z_top_a,
-                            double z_top_b, const KeepFn& keep = {}) {
-    AddRuledPatch({a.x(), a.y(), z_base}, {b.x(), b.y(), z_base}, {a.x(), a.y(), z_top_a},
-                  {b.x(), b.y(), z_top_b}, keep);
-  }
-
-  /// The inclined rectangle whose low edge is a→b at z_low and which rises by `rise` over the
-  /// horizontal run `run_dir` (not necessarily unit; its length is the run).
-  void AddInclinedRect(const Vec2& a, const Vec2& b, double z_low, const Vec2& run_dir, double rise,
-                       const KeepFn& keep = {}) {
-    const Vec2 a_high = a + run_dir;
-    const Vec2 b_high = b + run_dir;
-    AddRuledPatch({a.x(), a.y(), z_low}, {b.x(), b.y(), z_low},
-                  {a_high.x(), a_high.y(), z_low + rise}, {b_high.x(), b_high.y(), z_low + rise},
-                  keep);
-  }
-
-  /// The faces of the axis-aligned box [lo, hi]: top, four sides and, if asked, the bottom.
-  void AddBoxSurfaces(const Vec3& lo, const Vec3& hi, bool with_bottom, const KeepFn& keep = {}) {
-    AddHorizontalRect(lo.x(), hi.x(), lo.y(), hi.y(), hi.z(), keep);
-    if (with_bottom) AddHorizontalRect(lo.x(), hi.x(), lo.y(), hi.y(), lo.z(), keep);
-    const Vec2 c00(lo.x(), lo.y()), c10(hi.x(), lo.y()), c11(hi.x(), hi.y()), c01(lo.x(), hi.y());
-    AddVerticalRect(c00, c10, lo.z(), hi.z(), keep);
-    AddVerticalRect(c10, c11, lo.z(), hi.z(), keep);
-    AddVerticalRect(c11, c01, lo.z(), hi.z(), keep);
-    AddVerticalRect(c01, c00, lo.z(), hi.z(), keep);
-  }
-
-  /// The mantle of the vertical cylinder of radius r around (cx, cy), from z0 to z1 (no caps).
-  void AddVerticalCylinder(double cx, double cy, double r, double z0, double z1,
-                           const KeepFn& keep = {}) {
-    // At least 8 columns, so a thin leg still reads as round rather than as a line.
-    const int n_around = std::max(8, Intervals(2.0 * kPi * r, spacing_m_));
-    const int n_up = Intervals(z1 - z0, spacing_m_);
-    for (int i = 0; i < n_around; ++i) {
-      const double phi = 2.0 * kPi * i / n_around;
-      const double x = cx + r * std::cos(phi);
-      const double y = cy + r * std::sin(phi);
-      for (int j = 0; j <= n_up; ++j) {
-        AddPoint({x, y, z0 + (z1 - z0) * (n_up == 0 ? 0.0 : static_cast<double>(j) / n_up)}, keep);
-      }
-    }
-  }
-
-  /// The surface of an ellipsoid round in plan (radius r_xy) with vertical radius r_z; a
-  /// sphere when they are equal. Rings of constant latitude, each sampled at about the spacing.
-  void AddEllipsoid(const Vec3& center, double r_xy, double r_z, const KeepFn& keep = {}) {
-    const int n_lat = std::max(2, Intervals(kPi * std::max(r_xy, r_z), spacing_m_));
-    for (int i = 0; i <= n_lat; ++i) {
-      const double theta = kPi * i / n_lat;  // 0 at the top pole.
-      const double ring_r = r_xy * std::sin(theta);
-      const double z = center.z() + r_z * std::cos(theta);
-      const int n_around = std::max(1, Intervals(2.0 * kPi * ring_r, spacing_m_));
-      for (int k = 0; k < n_around; ++k) {
-        const double phi = 2.0 * kPi * k / n_around;
-        AddPoint({center.x() + ring_r * std::cos(phi), center.y() + ring_r * std::sin(phi), z},
-                 keep);
-      }
-    }
-  }
-
-  /// The height field z = height(x, y) over [x0, x1] × [y0, y1], on the horizontal lattice.
-  void AddHeightField(double x0, double x1, double y0, double y1,
-                      const std::function<double(double, double)>& height,
-                      const KeepFn& keep = {}) {
-    const int nx = Intervals(x1 - x0, spacing_m_);
-    const int ny = Intervals(y1 - y0, spacing_m_);
-    for (int i = 0; i <= nx; ++i) {
-      const double x = x0 + (x1 - x0) * (nx == 0 ? 0.0 : static_cast<double>(i) / nx);
-      for (int j = 0; j <= ny; ++j) {
-        const double y = y0 + (y1 - y0) * (ny == 0 ? 0.0 : static_cast<double>(j) / ny);
-        AddPoint({x, y, height(x, y)}, keep);
-      }
-    }
-  }
-
-  PointCloud TakeCloud() && { return std::move(cloud_); }
-
- private:
-  std::mt19937 rng_;
-  double spacing_m_;
-  double jitter_xy_m_;
-  double jitter_z_m_;
-  PointCloud cloud_;
-};
-
-/// The four walls of the room [0, x_max] × [0, y_max], from z0 to z1.
-void AddRoomWalls(SurfaceSampler& sampler, double x_max, double y_max, double z0, double z1,
-                  const KeepFn& keep) {
-  const Vec2 c00(0.0, 0.0), c10(x_max, 0.0), c11(x_max, y_max), c01(0.0, y_max);
-  sampler.AddVerticalRect(c00, c10, z0, z1, keep);
-  sampler.AddVerticalRect(c10, c11, z0, z1, keep);
-  sampler.AddVerticalRect(c11, c01, z0, z1, keep);
-  sampler.AddVerticalRect(c01, c00, z0, z1, keep);
-}
+using internal::AddRoomWalls;
+using internal::KeepFn;
+using internal::kDegToRad;
+using internal::kEpsM;
+using internal::IsValidSpacing;
+using internal::StrictlyInside;
+using internal::SurfaceSampler;
+using internal::Vec2;
+using internal::Vec3;
 
 // Stairs room.
 constexpr double kRoomXM = 8.0;
@@ -247,14 +58,6 @@ constexpr double kHallRampYMinM = 1.5;
 constexpr double kHallRampWidthM = 2.5;
 constexpr double kRailingHeightM = 1.0;
 constexpr double kPillarRadiusM = 0.3;
-
-// Uneven terrain.
-constexpr double kTerrainSizeM = 30.0;
-// Below the ground at a trunk's foot the trunk is started this deep, so it meets the terrain on
-// the downhill side as well; the part below ground is clipped.
-constexpr double kTrunkFootDepthM = 0.5;
-// Fraction of a rock's vertical radius that is buried, so rocks sit in the ground, not on it.
-constexpr double kRockBuriedFraction = 0.2;
 
 }  // namespace
 
@@ -465,182 +268,66 @@ PointCloud GenerateTwoLevelRamp(std::uint32_t seed, double spacing_m) {
   return std::move(s).TakeCloud();
 }
 
-double UnevenTerrainLayout::HeightAt(double x_m, double y_m) const {
-  double z = 0.0;
-  for (const Hill& h : hills) {
-    const double dx = x_m - h.x_m;
-    const double dy = y_m - h.y_m;
-    z += h.height_m * std::exp(-(dx * dx + dy * dy) / (2.0 * h.sigma_m * h.sigma_m));
+namespace {
+
+// One row per scene: name, default spacing and generator.
+struct SceneEntry {
+  const char* name;
+  double default_spacing_m;
+  PointCloud (*generate)(std::uint32_t seed, double spacing_m);
+};
+
+constexpr SceneEntry kScenes[] = {
+    {"stairs_ramp_room", 0.05, &GenerateStairsRampRoom},
+    {"two_level_ramp", 0.1, &GenerateTwoLevelRamp},
+    {"uneven_terrain", 0.1, &GenerateUnevenTerrain},
+    {"uneven_forest", 0.1, &GenerateUnevenForest},
+    {"abandoned_station", 0.1, &GenerateAbandonedStation},
+    {"parking_garage", 0.2, &GenerateParkingGarage},
+    {"crossing_viaducts", 0.2, &GenerateCrossingViaducts},
+    {"indoor_tables", 0.05, &GenerateIndoorTables},
+};
+
+Expected<const SceneEntry*> FindScene(const std::string& name) {
+  for (const SceneEntry& entry : kScenes) {
+    if (name == entry.name) return &entry;
   }
-  const double k = 2.0 * kPi / wave_length_m;
-  z += wave_amplitude_m * std::sin(k * x_m + wave_phase_x_rad) *
-       std::sin(k * y_m + wave_phase_y_rad);
-  return z;
-}
-
-Eigen::Vector2d UnevenTerrainLayout::GradientAt(double x_m, double y_m) const {
-  Vec2 g = Vec2::Zero();
-  for (const Hill& h : hills) {
-    const Vec2 d(x_m - h.x_m, y_m - h.y_m);
-    const double s2 = h.sigma_m * h.sigma_m;
-    g -= h.height_m * std::exp(-d.squaredNorm() / (2.0 * s2)) / s2 * d;
-  }
-  const double k = 2.0 * kPi / wave_length_m;
-  const double sx = std::sin(k * x_m + wave_phase_x_rad), cx = std::cos(k * x_m + wave_phase_x_rad);
-  const double sy = std::sin(k * y_m + wave_phase_y_rad), cy = std::cos(k * y_m + wave_phase_y_rad);
-  g += wave_amplitude_m * k * Vec2(cx * sy, sx * cy);
-  return g;
-}
-
-UnevenTerrainLayout GetUnevenTerrainLayout(std::uint32_t seed) {
-  // Hills: one steep hill so every seed has slopes beyond 30° (a Gaussian's steepest slope is
-  // height/sigma·e^(-1/2), here >= 0.73, i.e. >= 36°), then gentler hills and hollows
-  // (<= 2/3·e^(-1/2) ≈ 0.4, i.e. <= 22°) that leave flat stretches between them.
-  constexpr double kSteepHeightMinM = 3.0, kSteepHeightMaxM = 4.0;
-  constexpr double kSteepSigmaMinM = 2.0, kSteepSigmaMaxM = 2.5;
-  constexpr int kGentleHillsMin = 5, kGentleHillsMax = 7;
-  constexpr double kGentleHeightMinM = 0.5, kGentleHeightMaxM = 2.0;
-  constexpr double kGentleSigmaMinM = 3.0, kGentleSigmaMaxM = 6.0;
-  constexpr double kHollowProbability = 0.35;
-  // Trees and rocks.
-  constexpr int kTreesMin = 15, kTreesMax = 25;
-  constexpr int kRocksMin = 10, kRocksMax = 15;
-  constexpr double kTrunkRadiusMinM = 0.15, kTrunkRadiusMaxM = 0.3;
-  constexpr double kCrownHeightMinM = 3.2, kCrownHeightMaxM = 5.0;  // Crown centre above foot.
-  constexpr double kCrownRadiusMinM = 1.0, kCrownRadiusMaxM = 2.0;
-  constexpr double kCrownClearanceM = 2.2;  // Crown bottom above the trunk's foot, > 2 m.
-  constexpr double kRockRadiusMinM = 0.3, kRockRadiusMaxM = 0.8;
-  constexpr double kRockFlatnessMin = 0.6, kRockFlatnessMax = 1.0;  // r_z / r_xy.
-  constexpr double kMaxTreeSlopeTan = 0.364;                        // tan 20°.
-  constexpr double kMaxRockSlopeTan = 0.466;                        // tan 25°.
-  constexpr double kGapM = 0.5;  // Free space between neighbouring objects.
-  constexpr int kMaxPlacementAttempts = 2000;
-
-  std::mt19937 rng = MakeEngine(seed, kLayoutStream);
-  UnevenTerrainLayout l{};
-  l.size_m = kTerrainSizeM;
-  const double n = kTerrainSizeM;
-
-  l.hills.push_back({Uniform(rng, 0.3 * n, 0.7 * n), Uniform(rng, 0.3 * n, 0.7 * n),
-                     Uniform(rng, kSteepHeightMinM, kSteepHeightMaxM),
-                     Uniform(rng, kSteepSigmaMinM, kSteepSigmaMaxM)});
-  const int n_gentle = UniformInt(rng, kGentleHillsMin, kGentleHillsMax);
-  for (int i = 0; i < n_gentle; ++i) {
-    UnevenTerrainLayout::Hill h{};
-    h.x_m = Uniform(rng, 0.0, n);
-    h.y_m = Uniform(rng, 0.0, n);
-    h.height_m = Uniform(rng, kGentleHeightMinM, kGentleHeightMaxM);
-    if (Uniform(rng, 0.0, 1.0) < kHollowProbability) h.height_m = -h.height_m;
-    h.sigma_m = Uniform(rng, kGentleSigmaMinM, kGentleSigmaMaxM);
-    l.hills.push_back(h);
-  }
-  // A long, low undulation (steepest slope A·2π/L ≈ 0.08, under 5°) so no area is perfectly
-  // flat.
-  l.wave_amplitude_m = 0.15;
-  l.wave_length_m = 12.0;
-  l.wave_phase_x_rad = Uniform(rng, 0.0, 2.0 * kPi);
-  l.wave_phase_y_rad = Uniform(rng, 0.0, 2.0 * kPi);
-
-  // Objects are placed by rejection sampling; a failed attempt still consumes its draws, so
-  // the outcome depends on the seed only.
-  const int n_trees = UniformInt(rng, kTreesMin, kTreesMax);
-  for (int attempt = 0;
-       attempt < kMaxPlacementAttempts && static_cast<int>(l.trees.size()) < n_trees; ++attempt) {
-    UnevenTerrainLayout::Tree t{};
-    t.crown_radius_m = Uniform(rng, kCrownRadiusMinM, kCrownRadiusMaxM);
-    const double crown_height = Uniform(rng, kCrownHeightMinM, kCrownHeightMaxM);
-    t.trunk_radius_m = Uniform(rng, kTrunkRadiusMinM, kTrunkRadiusMaxM);
-    // Crowns stay inside the terrain's footprint.
-    const double margin = t.crown_radius_m + kGapM;
-    t.x_m = Uniform(rng, margin, n - margin);
-    t.y_m = Uniform(rng, margin, n - margin);
-    // Shrink the crown if needed so its bottom clears the trunk's foot by kCrownClearanceM.
-    t.crown_radius_m = std::min(t.crown_radius_m, crown_height - kCrownClearanceM);
-    if (t.crown_radius_m < kCrownRadiusMinM) continue;
-    if (l.GradientAt(t.x_m, t.y_m).norm() > kMaxTreeSlopeTan) continue;
-    const bool crowded = std::any_of(l.trees.begin(), l.trees.end(), [&](const auto& o) {
-      return std::hypot(t.x_m - o.x_m, t.y_m - o.y_m) < t.crown_radius_m + o.crown_radius_m + kGapM;
-    });
-    if (crowded) continue;
-    t.ground_z_m = l.HeightAt(t.x_m, t.y_m);
-    t.crown_center_z_m = t.ground_z_m + crown_height;
-    l.trees.push_back(t);
-  }
-
-  const int n_rocks = UniformInt(rng, kRocksMin, kRocksMax);
-  for (int attempt = 0;
-       attempt < kMaxPlacementAttempts && static_cast<int>(l.rocks.size()) < n_rocks; ++attempt) {
-    UnevenTerrainLayout::Rock r{};
-    r.radius_xy_m = Uniform(rng, kRockRadiusMinM, kRockRadiusMaxM);
-    r.radius_z_m = r.radius_xy_m * Uniform(rng, kRockFlatnessMin, kRockFlatnessMax);
-    const double margin = r.radius_xy_m + kGapM;
-    r.x_m = Uniform(rng, margin, n - margin);
-    r.y_m = Uniform(rng, margin, n - margin);
-    if (l.GradientAt(r.x_m, r.y_m).norm() > kMaxRockSlopeTan) continue;
-    const bool near_trunk = std::any_of(l.trees.begin(), l.trees.end(), [&](const auto& t) {
-      return std::hypot(r.x_m - t.x_m, r.y_m - t.y_m) < r.radius_xy_m + t.trunk_radius_m + kGapM;
-    });
-    const bool near_rock = std::any_of(l.rocks.begin(), l.rocks.end(), [&](const auto& o) {
-      return std::hypot(r.x_m - o.x_m, r.y_m - o.y_m) < r.radius_xy_m + o.radius_xy_m + kGapM;
-    });
-    if (near_trunk || near_rock) continue;
-    r.center_z_m = l.HeightAt(r.x_m, r.y_m) - kRockBuriedFraction * r.radius_z_m;
-    l.rocks.push_back(r);
-  }
-  return l;
-}
-
-PointCloud GenerateUnevenTerrain(std::uint32_t seed, double spacing_m) {
-  if (!IsValidSpacing(spacing_m)) return {};
-  const UnevenTerrainLayout l = GetUnevenTerrainLayout(seed);
-  SurfaceSampler s(seed, spacing_m);
-
-  const auto in_rock = [&l](const Vec3& p) {
-    return std::any_of(l.rocks.begin(), l.rocks.end(), [&](const auto& r) {
-      const double dx = (p.x() - r.x_m) / r.radius_xy_m;
-      const double dy = (p.y() - r.y_m) / r.radius_xy_m;
-      const double dz = (p.z() - r.center_z_m) / r.radius_z_m;
-      return dx * dx + dy * dy + dz * dz < 1.0 - kEpsM;
-    });
-  };
-  const auto in_tree = [&l](const Vec3& p) {
-    return std::any_of(l.trees.begin(), l.trees.end(), [&](const auto& t) {
-      const Vec3 crown(t.x_m, t.y_m, t.crown_center_z_m);
-      const bool in_trunk = std::hypot(p.x() - t.x_m, p.y() - t.y_m) < t.trunk_radius_m - kEpsM &&
-                            p.z() < t.crown_center_z_m;
-      return in_trunk || (p - crown).norm() < t.crown_radius_m - kEpsM;
-    });
-  };
-  const auto above_ground = [&l](const Vec3& p) {
-    return p.z() >= l.HeightAt(p.x(), p.y()) - kEpsM;
-  };
-  const auto visible = [&](const Vec3& p) { return above_ground(p) && !in_rock(p) && !in_tree(p); };
-
-  s.AddHeightField(
-      0.0, l.size_m, 0.0, l.size_m, [&l](double x, double y) { return l.HeightAt(x, y); },
-      [&](const Vec3& p) { return !in_rock(p) && !in_tree(p); });
-  for (const auto& t : l.trees) {
-    s.AddVerticalCylinder(t.x_m, t.y_m, t.trunk_radius_m, t.ground_z_m - kTrunkFootDepthM,
-                          t.crown_center_z_m, visible);
-    s.AddEllipsoid({t.x_m, t.y_m, t.crown_center_z_m}, t.crown_radius_m, t.crown_radius_m, visible);
-  }
-  for (const auto& r : l.rocks) {
-    s.AddEllipsoid({r.x_m, r.y_m, r.center_z_m}, r.radius_xy_m, r.radius_z_m, visible);
-  }
-  return std::move(s).TakeCloud();
-}
-
-std::vector<std::string> SceneNames() {
-  return {"stairs_ramp_room", "two_level_ramp", "uneven_terrain"};
-}
-
-Expected<PointCloud> GenerateScene(const std::string& name, std::uint32_t seed) {
-  if (name == "stairs_ramp_room") return GenerateStairsRampRoom(seed);
-  if (name == "two_level_ramp") return GenerateTwoLevelRamp(seed);
-  if (name == "uneven_terrain") return GenerateUnevenTerrain(seed);
   std::string known;
   for (const std::string& n : SceneNames()) known += (known.empty() ? "" : ", ") + n;
   return Error{ErrorCode::kInvalidInput, "unknown scene \"" + name + "\"; known scenes: " + known};
+}
+
+}  // namespace
+
+std::vector<std::string> SceneNames() {
+  std::vector<std::string> names;
+  for (const SceneEntry& entry : kScenes) names.emplace_back(entry.name);
+  return names;
+}
+
+Expected<double> DefaultSceneSpacing(const std::string& name) {
+  Expected<const SceneEntry*> entry = FindScene(name);
+  if (!entry) return entry.error();
+  return (*entry)->default_spacing_m;
+}
+
+Expected<PointCloud> GenerateScene(const std::string& name, std::uint32_t seed) {
+  Expected<const SceneEntry*> entry = FindScene(name);
+  if (!entry) return entry.error();
+  return (*entry)->generate(seed, (*entry)->default_spacing_m);
+}
+
+Expected<PointCloud> GenerateScene(const std::string& name, std::uint32_t seed,
+                                   double spacing_m) {
+  Expected<const SceneEntry*> entry = FindScene(name);
+  if (!entry) return entry.error();
+  if (!IsValidSpacing(spacing_m)) {
+    char value[32];
+    std::snprintf(value, sizeof(value), "%g", spacing_m);
+    return Error{ErrorCode::kInvalidInput, std::string("scene spacing_m = ") + value +
+                                               " is out of range: must be finite and >= 0.01 m"};
+  }
+  return (*entry)->generate(seed, spacing_m);
 }
 
 }  // namespace strata

@@ -137,10 +137,20 @@ struct UnevenTerrainLayout {
 };
 UnevenTerrainLayout GetUnevenTerrainLayout(std::uint32_t seed);
 
-/// Names accepted by GenerateScene: "stairs_ramp_room", "two_level_ramp", "uneven_terrain".
+/// Names accepted by GenerateScene: "stairs_ramp_room", "two_level_ramp", "uneven_terrain"
+/// and the benchmark scenes of bench_scenes.hpp: "uneven_forest", "abandoned_station",
+/// "parking_garage", "crossing_viaducts", "indoor_tables".
 std::vector<std::string> SceneNames();
+
+/// The default spacing of the named scene [m]; kInvalidInput naming the known scenes otherwise.
+Expected<double> DefaultSceneSpacing(const std::string& name);
 
 /// The named scene at its default spacing; kInvalidInput naming the known scenes otherwise.
 Expected<PointCloud> GenerateScene(const std::string& name, std::uint32_t seed);
+
+/// The named scene at `spacing_m`; kInvalidInput naming the known scenes for an unknown name,
+/// or naming the value for a spacing that is not finite or below 0.01 m.
+Expected<PointCloud> GenerateScene(const std::string& name, std::uint32_t seed,
+                                   double spacing_m);
 
 }  // namespace strata
