@@ -3,6 +3,8 @@
 #include <cmath>
 #include <utility>
 
+#include <Eigen/Geometry>
+
 #include "scenes_internal.hpp"
 
 namespace strata::internal {
