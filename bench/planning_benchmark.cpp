@@ -8,10 +8,10 @@
 #include <cstdio>
 #include <cstdlib>
 #include <map>
-#include <random>
 #include <string>
 #include <vector>
 
+#include "offline/bench_pairs.hpp"
 #include "strata/cloud_io.hpp"
 #include "strata/planner.hpp"
 
@@ -127,23 +127,16 @@ int main(int argc, char** argv) {
   std::printf("|---|---|---|---|---|---|---|---|---|---|\n");
   for (auto& [name, map] : maps) {
     const auto graph = map->Graph(strata::BuiltinProfile("differential")->Traversability()).value();
-    // Pairs of nodes of the largest component: valid, reachable start/goal pairs.
-    std::vector<int> size(graph->component_count(), 0);
-    for (int m = 0; m < graph->node_count(); ++m) ++size[graph->component(m)];
-    const int biggest = static_cast<int>(std::max_element(size.begin(), size.end()) - size.begin());
-    std::vector<int> nodes;
-    for (int m = 0; m < graph->node_count(); ++m) {
-      if (graph->component(m) == biggest) nodes.push_back(m);
-    }
-    std::mt19937 rng(seed);
-    std::uniform_int_distribution<std::size_t> pick(0, nodes.size() - 1);
+    // Valid, reachable start/goal pairs: nodes of the largest component (bench_pairs).
+    const strata::offline::LargestComponent largest = strata::offline::FindLargestComponent(*graph);
+    const std::vector<strata::offline::QueryPair> query_pairs =
+        strata::offline::DrawQueryPairs(*graph, pairs, seed);
     std::vector<double> total, search, optimize, length, curvature;
     double max_v = 0, max_a = 0;
     std::map<std::string, int> failures;
     int ok = 0;
-    for (int k = 0; k < pairs; ++k) {
-      const auto plan = strata::Plan(*map, Request(graph->position(nodes[pick(rng)]),
-                                                   graph->position(nodes[pick(rng)])));
+    for (const strata::offline::QueryPair& pair : query_pairs) {
+      const auto plan = strata::Plan(*map, Request(pair.start_m, pair.goal_m));
       if (!plan) {
         ++failures[strata::ErrorCodeName(plan.error().code)];
         continue;
@@ -161,12 +154,12 @@ int main(int argc, char** argv) {
     // An unreachable goal: a node of another component, refused from the labels.
     int island = -1;
     for (int m = 0; m < graph->node_count() && island < 0; ++m) {
-      if (graph->component(m) != biggest) island = m;
+      if (graph->component(m) != largest.label) island = m;
     }
     std::vector<double> refusal;
     for (int run = 0; island >= 0 && run < 5; ++run) {
       const auto begin = std::chrono::steady_clock::now();
-      const auto plan = strata::Plan(*map, Request(graph->position(nodes[0]), graph->position(island)));
+      const auto plan = strata::Plan(*map, Request(graph->position(largest.nodes[0]), graph->position(island)));
       refusal.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - begin).count());
       if (plan || plan.error().code != strata::ErrorCode::kGoalUnreachable) refusal.back() = -1;
     }

@@ -1,0 +1,171 @@
+#include "offline/bench_methods.hpp"
+
+#include <chrono>
+#include <cstdio>
+
+#include "baselines/krusi_planner.hpp"
+#include "baselines/liu_planner.hpp"
+#include "offline/bench_metrics.hpp"
+
+namespace strata::offline {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double SecondsSince(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+std::string Seconds(const char* stage, double s) {
+  char buf[64];
+  std::snprintf(buf, sizeof(buf), "%s=%.4f", stage, s);
+  return buf;
+}
+
+QueryOutcome Failure(const Error& error, double plan_s) {
+  QueryOutcome out;
+  out.reason = ErrorCodeName(error.code);
+  out.message = error.message;
+  out.plan_s = plan_s;
+  return out;
+}
+
+class StrataMethod : public BenchMethod {
+ public:
+  StrataMethod(std::shared_ptr<const PlanningMap> map, const RobotProfile& profile,
+               double assessment_s, std::string detail)
+      : map_(std::move(map)), profile_(profile), assessment_s_(assessment_s),
+        detail_(std::move(detail)) {}
+  const char* name() const override { return "strata"; }
+  double assessment_s() const override { return assessment_s_; }
+  std::string assessment_detail() const override { return detail_; }
+
+  QueryOutcome Run(const QueryPair& pair, double time_limit_s) override {
+    PlanRequest request;
+    request.start.position_m = pair.start_m;
+    request.goal.position_m = pair.goal_m;
+    request.profile = profile_;
+    request.options.time_budget_s = time_limit_s;
+    request.options.search.time_budget_s = time_limit_s;
+    const auto begin = Clock::now();
+    const Expected<PlanResult> plan = Plan(*map_, request);
+    const double plan_s = SecondsSince(begin);
+    if (!plan) return Failure(plan.error(), plan_s);
+
+    QueryOutcome out;
+    out.success = true;
+    out.plan_s = plan_s;
+    out.length_m = plan->stats.length_m;
+    out.kappa_m = plan->stats.mean_curvature_per_m;
+    out.kappa_arc_m = TrajectoryArcMeanCurvature(plan->trajectory);
+    out.start_snap_m = plan->start.distance_m;
+    out.goal_snap_m = plan->goal.distance_m;
+    out.points_m = SampleTrajectory(plan->trajectory);
+    // Independent of Plan's own final check: a returned plan that fails is a failure here.
+    const auto graph = map_->Graph(profile_.Traversability());
+    VerificationReport report;
+    const Status verified =
+        graph ? VerifyTrajectory(**graph, profile_, plan->trajectory, VerifierConfig{}, &report)
+              : Status(graph.error());
+    out.verify_violations = verified ? 0 : 1;
+    if (!verified) {
+      out.success = false;
+      out.reason = "VERIFY_FAILED";
+      out.message = verified.error().message;
+    }
+    return out;
+  }
+
+ private:
+  std::shared_ptr<const PlanningMap> map_;
+  RobotProfile profile_;
+  double assessment_s_;
+  std::string detail_;
+};
+
+// Shared by both baselines: point path → outcome.
+QueryOutcome PathOutcome(const baselines::BaselinePath& path, double plan_s) {
+  QueryOutcome out;
+  out.success = true;
+  out.plan_s = plan_s;
+  out.length_m = PolylineLength(path.points_m);
+  out.kappa_m = PathMeanCurvature(path.points_m);
+  out.kappa_arc_m = out.kappa_m;
+  out.start_snap_m = path.start_snap_m;
+  out.goal_snap_m = path.goal_snap_m;
+  out.points_m = path.points_m;
+  return out;
+}
+
+class LiuMethod : public BenchMethod {
+ public:
+  explicit LiuMethod(std::unique_ptr<baselines::LiuPlanner> planner)
+      : planner_(std::move(planner)) {}
+  const char* name() const override { return "liu"; }
+  double assessment_s() const override { return planner_->timings().total_s; }
+  std::string assessment_detail() const override {
+    const baselines::LiuTimings& t = planner_->timings();
+    return Seconds("normals_s", t.normals_s) + " " +
+           Seconds("traversability_s", t.traversability_s) + " " + Seconds("graph_s", t.graph_s) +
+           " traversable_points=" + std::to_string(planner_->traversable_count()) +
+           " edges=" + std::to_string(planner_->edge_count());
+  }
+  QueryOutcome Run(const QueryPair& pair, double time_limit_s) override {
+    const auto begin = Clock::now();
+    const auto path = planner_->Plan(pair.start_m, pair.goal_m, time_limit_s);
+    const double plan_s = SecondsSince(begin);
+    return path ? PathOutcome(*path, plan_s) : Failure(path.error(), plan_s);
+  }
+
+ private:
+  std::unique_ptr<baselines::LiuPlanner> planner_;
+};
+
+class KrusiMethod : public BenchMethod {
+ public:
+  explicit KrusiMethod(std::unique_ptr<baselines::KrusiPlanner> planner)
+      : planner_(std::move(planner)) {}
+  const char* name() const override { return "krusi"; }
+  double assessment_s() const override { return planner_->assessment_s(); }
+  std::string assessment_detail() const override {
+    return Seconds("kdtree_s", planner_->assessment_s());
+  }
+  QueryOutcome Run(const QueryPair& pair, double time_limit_s) override {
+    const auto begin = Clock::now();
+    const auto path = planner_->Plan(pair.start_m, pair.goal_m, time_limit_s);
+    const double plan_s = SecondsSince(begin);
+    return path ? PathOutcome(*path, plan_s) : Failure(path.error(), plan_s);
+  }
+
+ private:
+  std::unique_ptr<baselines::KrusiPlanner> planner_;
+};
+
+}  // namespace
+
+std::unique_ptr<BenchMethod> MakeStrataMethod(std::shared_ptr<const PlanningMap> map,
+                                              const RobotProfile& profile, double assessment_s,
+                                              std::string assessment_detail) {
+  return std::make_unique<StrataMethod>(std::move(map), profile, assessment_s,
+                                        std::move(assessment_detail));
+}
+
+Expected<std::unique_ptr<BenchMethod>> MakeLiuMethod(const PointCloud& cloud,
+                                                     const RobotProfile& profile, int threads) {
+  baselines::LiuParams params;
+  params.num_threads = threads;
+  auto planner =
+      baselines::LiuPlanner::Build(cloud, baselines::BaselineRobot::FromProfile(profile), params);
+  if (!planner) return planner.error();
+  return std::unique_ptr<BenchMethod>(new LiuMethod(std::move(planner).value()));
+}
+
+Expected<std::unique_ptr<BenchMethod>> MakeKrusiMethod(const PointCloud& cloud,
+                                                       const RobotProfile& profile) {
+  auto planner = baselines::KrusiPlanner::Build(
+      cloud, baselines::BaselineRobot::FromProfile(profile), baselines::KrusiParams{});
+  if (!planner) return planner.error();
+  return std::unique_ptr<BenchMethod>(new KrusiMethod(std::move(planner).value()));
+}
+
+}  // namespace strata::offline

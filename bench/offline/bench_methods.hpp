@@ -1,0 +1,60 @@
+#pragma once
+// The three planners of the comparison behind one interface, so the harness treats them
+// alike: t_a once per map, then one Run per query, measured the same way (bench_metrics).
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "offline/bench_pairs.hpp"
+#include "strata/planner.hpp"
+#include "strata/point_cloud.hpp"
+#include "strata/robot_profile.hpp"
+
+namespace strata::offline {
+
+/// What one method did on one query.
+struct QueryOutcome {
+  bool success = false;
+  std::string reason = "OK";  ///< "OK" or an ErrorCodeName (VERIFY_FAILED: see below).
+  std::string message;        ///< The failure's message, empty on success.
+  double plan_s = 0;          ///< Wall-clock seconds of the query (snapping included).
+  double length_m = 0;        ///< Path or trajectory length [m].
+  /// κ_m as the issue defines it [1/m]: uniform arc-length samples of the interpolated path
+  /// for the baselines, uniform time samples (strata::MeanCurvature) for Strata.
+  double kappa_m = 0;
+  double kappa_arc_m = 0;  ///< κ_m over uniform arc-length samples for every method [1/m].
+  /// Strata only: 1 when the returned trajectory fails an independent VerifyTrajectory (then
+  /// success is false and reason VERIFY_FAILED), else 0; -1 for the baselines.
+  int verify_violations = -1;
+  double start_snap_m = 0;  ///< How far the method moved the start [m].
+  double goal_snap_m = 0;   ///< How far the method moved the goal [m].
+  std::vector<Eigen::Vector3d> points_m;  ///< The path (Strata: sampled every 0.1 m) [m].
+};
+
+class BenchMethod {
+ public:
+  virtual ~BenchMethod() = default;
+  virtual const char* name() const = 0;
+  /// Terrain assessment time t_a of the map [s].
+  virtual double assessment_s() const = 0;
+  /// Its stages, "stage=seconds" separated by spaces.
+  virtual std::string assessment_detail() const = 0;
+  virtual QueryOutcome Run(const QueryPair& pair, double time_limit_s) = 0;
+};
+
+/// Strata on an assessed map; assessment_s and detail as measured by the caller (assessment
+/// plus the profile's graph build).
+std::unique_ptr<BenchMethod> MakeStrataMethod(std::shared_ptr<const PlanningMap> map,
+                                              const RobotProfile& profile, double assessment_s,
+                                              std::string assessment_detail);
+/// The Liu-style baseline, assessed now (t_a measured inside) with `threads` OpenMP threads.
+Expected<std::unique_ptr<BenchMethod>> MakeLiuMethod(const PointCloud& cloud,
+                                                     const RobotProfile& profile, int threads);
+/// The Krüsi-style baseline (t_a = its kd-tree build).
+Expected<std::unique_ptr<BenchMethod>> MakeKrusiMethod(const PointCloud& cloud,
+                                                       const RobotProfile& profile);
+
+}  // namespace strata::offline
