@@ -9,6 +9,7 @@ packages=(
   golang-github-gogo-googleapis-dev
   libeigen3-dev libpcl-dev liboctomap-dev liblbfgspp-dev prometheus-cpp-dev
   libgtest-dev libgmock-dev libbenchmark-dev nlohmann-json3-dev
+  libompl-dev
   python3-yaml  # tests/deploy: manifest checks with Debian's /usr/bin/python3
 )
 
