@@ -283,8 +283,8 @@ constexpr SceneEntry kScenes[] = {
     {"uneven_terrain", 0.1, &GenerateUnevenTerrain},
     {"uneven_forest", 0.1, &GenerateUnevenForest},
     {"abandoned_station", 0.1, &GenerateAbandonedStation},
-    {"parking_garage", 0.2, &GenerateParkingGarage},
-    {"crossing_viaducts", 0.2, &GenerateCrossingViaducts},
+    {"parking_garage", 0.16, &GenerateParkingGarage},
+    {"crossing_viaducts", 0.16, &GenerateCrossingViaducts},
     {"indoor_tables", 0.05, &GenerateIndoorTables},
 };
 

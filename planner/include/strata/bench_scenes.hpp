@@ -150,7 +150,7 @@ StationLayout GetStationLayout();
 /// a central row and of the lanes beside the ramps, differently on every level.
 /// Points lie in the garage box (widened by the jitter), z in [0, 9.4] m. At the default spacing
 /// 0.2 m: about 220k points. The seed only changes the jitter. Coordinates: GarageLayout.
-PointCloud GenerateParkingGarage(std::uint32_t seed, double spacing_m = 0.2);
+PointCloud GenerateParkingGarage(std::uint32_t seed, double spacing_m = 0.16);
 
 struct GarageLayout {
   double x_max_m, y_max_m;             ///< The garage is [0, x_max] × [0, y_max].
@@ -184,7 +184,7 @@ GarageLayout GetGarageLayout();
 /// crossing; a few low mounds (slopes under 9°) keep clear of the road and the viaducts.
 /// Points lie in the square (widened by the jitter), z in [0, 8] m. At the default spacing
 /// 0.2 m: about 250k points. The seed only changes the jitter. Coordinates: ViaductsLayout.
-PointCloud GenerateCrossingViaducts(std::uint32_t seed, double spacing_m = 0.2);
+PointCloud GenerateCrossingViaducts(std::uint32_t seed, double spacing_m = 0.16);
 
 struct ViaductsLayout {
   /// Adds height_m · exp(-|(x, y) - centre|² / (2 sigma_m²)) to the ground.

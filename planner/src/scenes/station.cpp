@@ -25,7 +25,7 @@ constexpr double kMezzanineYMinM = 16.0;
 constexpr double kRampSlopeDeg = 11.0;
 constexpr double kRampWidthM = 3.5;
 constexpr double kTongueDepthM = 3.5;  // Along x.
-constexpr double kCollapseXMinM = 19.5, kCollapseXMaxM = 25.5;
+constexpr double kCollapseWidthM = 6.0;  // Along x, from the west ramp's toe.
 constexpr double kBrokenSlabSlopeDeg = 32.0;
 constexpr double kRailingM = 1.0;
 
@@ -54,12 +54,6 @@ StationLayout GetStationLayout() {
   l.mezzanine_z_m = kMezzanineZM;
   l.mezzanine_underside_z_m = kMezzanineZM - kMezzanineThicknessM;
   l.mezzanine_y_min_m = kMezzanineYMinM;
-  l.collapse_x_min_m = kCollapseXMinM;
-  l.collapse_x_max_m = kCollapseXMaxM;
-  l.collapse_y_min_m = kMezzanineYMinM;
-  l.collapse_y_max_m = kHallYM;
-  l.broken_slab_foot_x_m = kCollapseXMinM + (kMezzanineZM - kPlatformZM) /
-                                                std::tan(kBrokenSlabSlopeDeg * kDegToRad);
   l.railing_height_m = kRailingM;
   const double tan_ramp = std::tan(kRampSlopeDeg * kDegToRad);
 
@@ -87,6 +81,14 @@ StationLayout GetStationLayout() {
                                ramp_y0, kMezzanineYMinM, kPlatformZM, kMezzanineZM,
                                Vec2::UnitX()});
   l.tongues_m.emplace_back(0.0, kTongueDepthM, ramp_y0, kMezzanineYMinM);
+  // The collapse starts at the west ramp's toe, so its debris and the ramp's railing close the
+  // front of the space under the mezzanine's west part without a gap.
+  l.collapse_x_min_m = l.mezzanine_ramps[0].x_max_m;
+  l.collapse_x_max_m = l.collapse_x_min_m + kCollapseWidthM;
+  l.collapse_y_min_m = kMezzanineYMinM;
+  l.collapse_y_max_m = kHallYM;
+  l.broken_slab_foot_x_m = l.collapse_x_min_m + (kMezzanineZM - kPlatformZM) /
+                                                    std::tan(kBrokenSlabSlopeDeg * kDegToRad);
   l.tongues_m.emplace_back(kHallXM - kTongueDepthM, kHallXM, ramp_y0, kMezzanineYMinM);
 
   l.pillar_radius_m = 0.3;
@@ -99,7 +101,7 @@ StationLayout GetStationLayout() {
 
   // Rubble: a packed pile of blocks between the broken slab's foot and the east part, gaps of
   // 0.1 m, heights 0.35–0.85 m from a fixed pattern (not the seed).
-  const double x0 = l.broken_slab_foot_x_m, x1 = kCollapseXMaxM;
+  const double x0 = l.broken_slab_foot_x_m, x1 = l.collapse_x_max_m;
   constexpr int kRubbleX = 2, kRubbleY = 12;
   for (int i = 0; i < kRubbleX; ++i) {
     for (int j = 0; j < kRubbleY; ++j) {
