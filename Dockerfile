@@ -24,11 +24,13 @@ RUN mkdir -p /out \
 
 FROM debian:bookworm-slim AS runtime
 # Runtime libraries only (their dependencies come along): gRPC and protobuf, prometheus-cpp,
-# PCL io and sample_consensus (which pull VTK), OctoMap, OpenMP.
+# PCL common/io/kdtree/sample_consensus (io pulls VTK), OctoMap, OpenMP, and OMPL for the
+# baselines in strata-offline.
 RUN apt-get update \
     && DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends \
        libgrpc++1.51 libprotobuf32 libprometheus-cpp-pull1.0 \
-       libpcl-common1.13 libpcl-io1.13 libpcl-sample-consensus1.13 liboctomap1.9 libgomp1 \
+       libpcl-common1.13 libpcl-io1.13 libpcl-kdtree1.13 libpcl-sample-consensus1.13 \
+       liboctomap1.9 libgomp1 libompl16 \
     && rm -rf /var/lib/apt/lists/*
 COPY --from=build /out/ /usr/local/bin/
 # Fails the build when a binary needs a library the list above does not bring.
