@@ -16,6 +16,8 @@
 #include <pcl/console/print.h>
 #include <pcl/io/pcd_io.h>
 #include <pcl/io/ply_io.h>
+#include <pcl/point_cloud.h>
+#include <pcl/point_types.h>
 
 #include "cloud_io_internal.hpp"
 #include "pcl_quiet_internal.hpp"
@@ -422,3 +424,32 @@ Expected<LoadedCloud> LoadPly(const std::string& path, std::string_view bytes,
 }
 
 }  // namespace strata::internal
+
+namespace strata {
+
+Status SavePcd(const PointCloud& cloud, const std::string& path) {
+  if (cloud.empty()) {
+    return Error{ErrorCode::kInvalidInput, path + ": cannot write an empty cloud as PCD"};
+  }
+  internal::SilencePclConsole();
+  pcl::PointCloud<pcl::PointXYZ> out;
+  out.resize(cloud.size());
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    out[i] = pcl::PointXYZ(cloud[i].x(), cloud[i].y(), cloud[i].z());
+  }
+  out.width = static_cast<std::uint32_t>(cloud.size());
+  out.height = 1;
+  out.is_dense = std::all_of(cloud.begin(), cloud.end(),
+                             [](const Eigen::Vector3f& p) { return p.allFinite(); });
+  try {
+    if (pcl::io::savePCDFileBinary(path, out) != 0) {
+      return Error{ErrorCode::kInvalidInput,
+                   path + ": cannot write the PCD file (missing directory or no permission?)"};
+    }
+  } catch (const std::exception& e) {
+    return Error{ErrorCode::kInvalidInput, path + ": cannot write the PCD file: " + e.what()};
+  }
+  return Status::Ok();
+}
+
+}  // namespace strata

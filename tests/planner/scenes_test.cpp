@@ -573,7 +573,11 @@ TEST_F(UnevenTerrainCloudTest, MostPointsAreGroundAndTreesAndRocksAreSampled) {
 
 TEST(GenerateSceneTest, EveryNameGivesItsSceneAtDefaultSpacing) {
   const std::vector<std::string> names = SceneNames();
-  ASSERT_EQ(names.size(), 3u);
+  // These three and the benchmark scenes (bench_scenes_test.cpp), each once.
+  ASSERT_EQ(names.size(), 8u);
+  for (const std::string& name : names) {
+    EXPECT_EQ(std::count(names.begin(), names.end(), name), 1) << name;
+  }
   for (const SceneCase& scene : AllScenes()) {
     SCOPED_TRACE(scene.name);
     EXPECT_NE(std::find(names.begin(), names.end(), scene.name), names.end());

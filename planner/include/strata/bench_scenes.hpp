@@ -148,7 +148,7 @@ StationLayout GetStationLayout();
 /// the openings' low ends. Square pillars (0.5 m) in two rows carry 0.45 m deep beams under
 /// each deck (2.1 m clear below them); parked cars (1.9 × 4.4 × 1.4 m boxes) fill most bays of
 /// a central row and of the lanes beside the ramps, differently on every level.
-/// Points lie in the garage box (widened by the jitter), z in [0, 9.4] m. At the default spacing
+/// Points lie in the garage box (widened by the jitter), z in [0, 9.8] m (cars on the roof). At the default spacing
 /// 0.2 m: about 220k points. The seed only changes the jitter. Coordinates: GarageLayout.
 PointCloud GenerateParkingGarage(std::uint32_t seed, double spacing_m = 0.16);
 

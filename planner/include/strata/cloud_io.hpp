@@ -1,6 +1,7 @@
 #pragma once
 /// Reading point-cloud maps from files: PCD (ascii, binary, binary_compressed), PLY, and
 /// OctoMap (.bt, .ot; occupied leaf centres become points). The format is chosen by extension.
+/// Writing: binary PCD (SavePcd).
 
 #include <cstddef>
 #include <string>
@@ -40,5 +41,11 @@ Expected<LoadedCloud> LoadPointCloud(const std::string& path, const CloudLoadLim
 /// Fails with kResourceExhausted above limits.max_points, kInvalidInput for a coordinate beyond
 /// the limit or when no finite point remains, kInvalidConfig for invalid `limits`.
 Expected<LoadedCloud> SanitizeCloud(PointCloud raw, const CloudLoadLimits& limits = {});
+
+/// Writes `cloud` to `path` as a binary PCD with float32 fields x, y, z (PCL's writer), one row
+/// (WIDTH = points, HEIGHT = 1), overwriting an existing file. LoadPointCloud reads it back
+/// exactly. Fails with kInvalidInput naming the path for an empty cloud or when the file cannot
+/// be written.
+Status SavePcd(const PointCloud& cloud, const std::string& path);
 
 }  // namespace strata
