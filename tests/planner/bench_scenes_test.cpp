@@ -97,7 +97,8 @@ TEST(BenchScenesTest, RampsAreGentleAndWide) {
   const StationLayout st = GetStationLayout();
   const GarageLayout g = GetGarageLayout();
   const ViaductsLayout v = GetViaductsLayout();
-  for (const auto* list : {&st.track_ramps, &st.mezzanine_ramps, &g.ramps, &v.a_ramps, &v.b_ramps}) {
+  for (const auto* list :
+       {&st.track_ramps, &st.mezzanine_ramps, &g.ramps, &v.a_ramps, &v.b_ramps}) {
     ramps.insert(ramps.end(), list->begin(), list->end());
   }
   for (const SceneRamp& r : ramps) {

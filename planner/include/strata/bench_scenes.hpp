@@ -11,7 +11,9 @@
 /// queries (SceneQuery) that plan successfully at the documented assessment resolution (the
 /// tests check them). Elevated edges carry 1 m railings (thin sampled sheets) except where a
 /// ramp arrives; ramps are at most 12° and at least 3 m wide. Counts below are at the default
-/// spacing. docs/scenes.md describes what makes each scene hard.
+/// spacing. Assess at a grid resolution of at least 1.25 × the spacing (each layout names
+/// one): on a finer grid some columns receive no lattice point and the ground gets holes.
+/// docs/scenes.md describes what makes each scene hard.
 
 #include <cmath>
 #include <cstdint>
@@ -62,7 +64,7 @@ struct SceneQuery {
 /// 16–22 partly buried rocks and 8–12 fallen logs (cylinders of radius 0.15–0.3 m, 3–6 m long,
 /// lying on ground under 15°, clear of trunks, rocks and each other). The seed changes the
 /// whole scene. Points lie in x, y in [0, 40] m (widened by the jitter), z roughly in [-4, 14] m.
-/// At the default spacing 0.1 m: about 270k–320k points. Coordinates: GetUnevenForestLayout.
+/// At the default spacing 0.1 m: 250k–290k points. Coordinates: GetUnevenForestLayout.
 PointCloud GenerateUnevenForest(std::uint32_t seed, double spacing_m = 0.1);
 
 struct UnevenForestLayout {
@@ -96,7 +98,7 @@ UnevenForestLayout GetUnevenForestLayout(std::uint32_t seed);
 /// platform, and the platform under the collapse is not traversable. A back wall (y = 24)
 /// closes the space under the mezzanine; 1 m parapets line the other elevated edges.
 /// Points lie in the hall box (widened by the jitter), z in [0, 5.05] m. At the default spacing
-/// 0.1 m: about 260k points. The seed only changes the jitter. Coordinates: StationLayout.
+/// 0.1 m: about 270k points. The seed only changes the jitter. Coordinates: StationLayout.
 PointCloud GenerateAbandonedStation(std::uint32_t seed, double spacing_m = 0.1);
 
 struct StationLayout {
@@ -148,8 +150,9 @@ StationLayout GetStationLayout();
 /// the openings' low ends. Square pillars (0.5 m) in two rows carry 0.45 m deep beams under
 /// each deck (2.1 m clear below them); parked cars (1.9 × 4.4 × 1.4 m boxes) fill most bays of
 /// a central row and of the lanes beside the ramps, differently on every level.
-/// Points lie in the garage box (widened by the jitter), z in [0, 9.8] m (cars on the roof). At the default spacing
-/// 0.2 m: about 220k points. The seed only changes the jitter. Coordinates: GarageLayout.
+/// Points lie in the garage box (widened by the jitter), z in [0, 9.8] m (cars on the roof).
+/// At the default spacing 0.16 m: about 390k points. The seed only changes the jitter.
+/// Coordinates: GarageLayout.
 PointCloud GenerateParkingGarage(std::uint32_t seed, double spacing_m = 0.16);
 
 struct GarageLayout {
@@ -183,7 +186,7 @@ GarageLayout GetGarageLayout();
 /// at both ends on a 12° solid ramp. A straight road (6 m wide, flat) runs diagonally under the
 /// crossing; a few low mounds (slopes under 9°) keep clear of the road and the viaducts.
 /// Points lie in the square (widened by the jitter), z in [0, 8] m. At the default spacing
-/// 0.2 m: about 250k points. The seed only changes the jitter. Coordinates: ViaductsLayout.
+/// 0.16 m: about 380k points. The seed only changes the jitter. Coordinates: ViaductsLayout.
 PointCloud GenerateCrossingViaducts(std::uint32_t seed, double spacing_m = 0.16);
 
 struct ViaductsLayout {
@@ -232,7 +235,7 @@ ViaductsLayout GetViaductsLayout();
 /// reachable only under them, which the biped (body down to 0.35 m + 0.05 m headroom) can do
 /// and the differential robot (0.5 m + 0.05 m) cannot. In front of the row stand two tables
 /// with chairs, behind it one more. Points lie in the room box (widened by the jitter), z in
-/// [0, 2] m. At the default spacing 0.05 m: about 110k points. The seed only changes the
+/// [0, 2] m. At the default spacing 0.05 m: about 100k points. The seed only changes the
 /// jitter. Coordinates: IndoorTablesLayout.
 PointCloud GenerateIndoorTables(std::uint32_t seed, double spacing_m = 0.05);
 
