@@ -58,7 +58,7 @@ std::optional<float> KrusiTerrain::GroundUnder(const Eigen::Vector3d& reference_
   if (static_cast<int>(ground.size()) < params_.min_patch_points) return std::nullopt;
   const LocalPlane plane = FitLocalPlane(neighbours, ground);
   if (!plane.valid || plane.tilt_rad() > robot_.max_tilt_rad ||
-      plane.surface_variation > params_.max_surface_variation) {
+      plane.roughness_m > params_.max_roughness_m) {
     return std::nullopt;
   }
   const float ground_z = plane.HeightAt(guess.x(), guess.y());

@@ -18,11 +18,11 @@ struct KrusiTerrainParams {
   /// The ground under a state is looked for within this height of its reference point −
   /// reference height [m], > 0: the "level" the state's z selects.
   double ground_window_m = 0.25;
-  /// Roughness bound on the patch's surface variation λ0/(λ0+λ1+λ2) [-], in (0, 1/3] (the
-  /// same measure and bound as the Liu-style baseline).
-  double max_surface_variation = 0.06;
+  /// Roughness bound: RMS distance of the patch from its plane [m], > 0 (the same measure and
+  /// bound as the Liu-style baseline: half the robot's step).
+  double max_roughness_m = 0.075;
   /// Support disc radius = max(footprint radius, this × point spacing) [-] (see LiuParams).
-  double support_spacings = 2.0;
+  double support_spacings = 2.5;
   int min_patch_points = 6;         ///< Fewest ground points for a plane fit [-], >= 3.
   double check_resolution_m = 0.1;  ///< Spacing of the states checked along a motion [m], > 0.
 };
@@ -36,7 +36,7 @@ class KrusiTerrain {
 
   /// Assesses the place of reference point `reference_m`: fits a plane (PCA) to the cloud
   /// points in the support disc within ground_window_m of reference − reference height, and
-  /// accepts it when the fit has enough points, tilt <= θ, variation <= the bound, its height
+  /// accepts it when the fit has enough points, tilt <= θ, roughness <= the bound, its height
   /// under (x, y) is within the window, and CheckFootprint passes. Returns the ground height
   /// under (x, y) [m], or nothing. Thread-safe.
   std::optional<float> GroundUnder(const Eigen::Vector3d& reference_m) const;

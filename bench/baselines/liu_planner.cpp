@@ -23,9 +23,7 @@ double SecondsSince(Clock::time_point start) {
 Status ValidateParams(const LiuParams& p) {
   auto bad = [](const std::string& what) { return Error{ErrorCode::kInvalidConfig, what}; };
   if (p.normal_neighbours < 3) return bad("LiuParams.normal_neighbours must be >= 3");
-  if (!(p.max_surface_variation > 0 && p.max_surface_variation <= 1.0 / 3)) {
-    return bad("LiuParams.max_surface_variation must be in (0, 1/3]");
-  }
+  if (!(p.max_roughness_m > 0)) return bad("LiuParams.max_roughness_m must be > 0");
   if (p.graph_neighbours < 1) return bad("LiuParams.graph_neighbours must be >= 1");
   if (!(p.max_edge_spacings > 1)) return bad("LiuParams.max_edge_spacings must be > 1");
   if (!(p.support_spacings >= 0)) return bad("LiuParams.support_spacings must be >= 0");
@@ -43,9 +41,9 @@ struct LiuPlanner::Impl {
   BaselineRobot robot;
   LiuTimings timings;
   double spacing_m = 0;
-  // Traversable points (graph nodes): ground position, tilt [rad], surface variation [-].
+  // Traversable points (graph nodes): ground position, tilt [rad], roughness [m].
   PointCloud nodes;
-  std::vector<float> tilt, variation;
+  std::vector<float> tilt, roughness;
   std::unique_ptr<CloudSearch> node_search;
   // Undirected k-NN graph in compressed rows: edges of node i are [offsets[i], offsets[i+1]).
   std::vector<std::size_t> offsets;
@@ -142,7 +140,7 @@ Expected<std::unique_ptr<LiuPlanner>> LiuPlanner::Build(const PointCloud& cloud,
     for (long i = 0; i < n; ++i) {
       const LocalPlane& plane = planes[i];
       if (!plane.valid || plane.tilt_rad() > robot.max_tilt_rad ||
-          plane.surface_variation > params.max_surface_variation) {
+          plane.roughness_m > params.max_roughness_m) {
         continue;
       }
       search.Radius(cloud[i] + Eigen::Vector3f(0, 0, lift), query_radius, &indices);
@@ -155,7 +153,7 @@ Expected<std::unique_ptr<LiuPlanner>> LiuPlanner::Build(const PointCloud& cloud,
     if (!traversable[i]) continue;
     impl->nodes.push_back(cloud[i]);
     impl->tilt.push_back(planes[i].tilt_rad());
-    impl->variation.push_back(planes[i].surface_variation);
+    impl->roughness.push_back(planes[i].roughness_m);
   }
   impl->timings.traversability_s = SecondsSince(start);
   if (impl->nodes.empty()) {
@@ -163,7 +161,7 @@ Expected<std::unique_ptr<LiuPlanner>> LiuPlanner::Build(const PointCloud& cloud,
   }
 
   // 3. k-NN graph over the traversable points, weighted by the terrain metric
-  //    length × (1 + w_s·mean tilt/θ + w_r·mean variation/bound); an edge must also pass the
+  //    length × (1 + w_s·mean tilt/θ + w_r·mean roughness/bound); an edge must also pass the
   //    step rule |Δz| <= step + horizontal length·tanθ.
   start = Clock::now();
   impl->node_search = std::make_unique<CloudSearch>(impl->nodes);
@@ -187,7 +185,7 @@ Expected<std::unique_ptr<LiuPlanner>> LiuPlanner::Build(const PointCloud& cloud,
         if (std::abs(d.z()) > robot.max_step_m + d.head<2>().norm() * tan_tilt) continue;
         const double slope = 0.5 * (impl->tilt[i] + impl->tilt[j]) / robot.max_tilt_rad;
         const double rough =
-            0.5 * (impl->variation[i] + impl->variation[j]) / params.max_surface_variation;
+            0.5 * (impl->roughness[i] + impl->roughness[j]) / params.max_roughness_m;
         out[i].emplace_back(j, static_cast<float>(length * (1 + params.weight_slope * slope +
                                                             params.weight_roughness * rough)));
       }

@@ -3,8 +3,9 @@
 // [liu2015robotic]): per-point local structure of the cloud, a k-nearest-neighbour graph over
 // the traversable points weighted by a terrain metric, and Dijkstra. The local structure is
 // estimated by PCA of each point's k-neighbourhood (pcl::NormalEstimationOMP), not by tensor
-// voting: the normal is the smallest eigenvector and the surface variation λ0/(λ0+λ1+λ2) is
-// the (inverse) surface saliency. Output is the point path, without time parametrisation.
+// voting: the normal is the smallest eigenvector, and the spread along it (RMS distance from
+// the plane, i.e. the lack of surface saliency) is the roughness. Output is the point path,
+// without time parametrisation.
 
 #include <memory>
 
@@ -18,25 +19,26 @@ namespace strata::baselines {
 /// Tuning of the Liu-style baseline (bench/baselines/README.md says how it was chosen).
 struct LiuParams {
   int normal_neighbours = 10;  ///< k of the PCA neighbourhood [-], >= 3.
-  /// Roughness bound on the surface variation λ0/(λ0+λ1+λ2) [-], in (0, 1/3]: 0 on a plane,
-  /// 1/3 for an isotropic blob (foliage, rubble).
-  double max_surface_variation = 0.06;
+  /// Roughness bound: RMS distance of the neighbourhood from its PCA plane [m], > 0. The
+  /// default is half the differential robot's 0.15 m step: a curb the robot climbs must not
+  /// make the ground around it untraversable.
+  double max_roughness_m = 0.075;
   int graph_neighbours = 10;  ///< k of the k-NN graph [-], >= 1.
   /// Longest graph edge as a multiple of the cloud's point spacing (median nearest-neighbour
   /// distance) [-], > 1.
   double max_edge_spacings = 3.0;
   /// The footprint's support disc is max(footprint radius, this × point spacing) [-], so a
   /// sparse (voxelised) cloud still shows ground in every quadrant.
-  double support_spacings = 2.0;
+  double support_spacings = 2.5;
   double weight_slope = 1.0;      ///< Edge cost factor per unit tilt/θ [-], >= 0.
-  double weight_roughness = 1.0;  ///< Edge cost factor per unit variation/bound [-], >= 0.
+  double weight_roughness = 1.0;  ///< Edge cost factor per unit roughness/bound [-], >= 0.
   double snap_tolerance_m = 1.0;  ///< Farthest traversable point start/goal may snap to [m].
   int num_threads = 0;            ///< OpenMP threads for the assessment, 0 = all cores.
 };
 
 /// Wall-clock seconds of the assessment (the method's t_a is total_s).
 struct LiuTimings {
-  double normals_s = 0;         ///< kd-tree, PCA normals and surface variation.
+  double normals_s = 0;         ///< kd-tree, PCA normals and roughness.
   double traversability_s = 0;  ///< Tilt, roughness and footprint/body test per point.
   double graph_s = 0;           ///< k-NN graph over traversable points and its components.
   double total_s = 0;

@@ -37,6 +37,8 @@ LocalPlane FitLocalPlane(std::span<const Eigen::Vector3f> points, std::span<cons
   plane.centroid = mean.cast<float>();
   plane.normal = normal.normalized().cast<float>();
   plane.surface_variation = sum > 0 ? static_cast<float>(std::max(0.0, eigenvalues(0)) / sum) : 0.f;
+  plane.roughness_m = static_cast<float>(
+      std::sqrt(std::max(0.0, eigenvalues(0)) / static_cast<double>(indices.size())));
   return plane;
 }
 

@@ -15,6 +15,9 @@ struct LocalPlane {
   Eigen::Vector3f normal = Eigen::Vector3f::UnitZ();   ///< Unit, oriented with z >= 0.
   /// Surface variation λ0/(λ0+λ1+λ2) of the covariance [-], in [0, 1/3]: 0 for a plane.
   float surface_variation = 0;
+  /// Root mean square distance of the points from the plane [m] (sqrt(λ0 / n)): the
+  /// roughness both baselines threshold, in metres so it compares with the robot's step.
+  float roughness_m = 0;
   /// Angle between the normal and vertical [rad].
   float tilt_rad() const;
   /// Height of the plane above (x, y) [m] (the centroid's z for a vertical plane).
