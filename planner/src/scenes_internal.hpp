@@ -3,6 +3,7 @@
 /// randomness without the std distributions, the lattice sampler, and the terrain builder of
 /// uneven_terrain and uneven_forest.
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <functional>
