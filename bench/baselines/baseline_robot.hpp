@@ -16,14 +16,15 @@ struct BaselineRobot {
   double headroom_m = 0.05;          ///< Extra free space above the body [m], >= 0.
   double reference_height_m = 0.3;   ///< Path points lie this far above the ground [m].
 
-  /// The limits of a Strata profile (its lowest body height for active-height robots: the
-  /// baselines have no height freedom, paper Table 1).
+  /// The limits of a Strata profile. The baselines have no height freedom (paper Table 1):
+  /// for an active-height robot (the biped) they plan for its preferred body height, the
+  /// height it drives at, as a fixed-height planner would.
   static BaselineRobot FromProfile(const RobotProfile& profile) {
     BaselineRobot r;
     r.footprint_radius_m = profile.footprint_radius_m;
     r.max_tilt_rad = profile.max_tilt_rad;
     r.max_step_m = profile.max_step_m;
-    r.body_height_m = profile.MinBodyHeight();
+    r.body_height_m = profile.body_height_m;
     r.headroom_m = profile.headroom_m;
     r.reference_height_m = profile.reference_height_m;
     return r;

@@ -173,7 +173,13 @@ int RunBench(const std::vector<std::string>& args) {
     }
     auto method = name == "liu" ? MakeLiuMethod(points, *profile, parsed.assessment.num_threads)
                                 : MakeKrusiMethod(points, *profile);
-    if (!method) return Fail("building " + name, method.error());
+    if (!method) {
+      // Reported as every query failing with this reason, not as a broken run.
+      std::fprintf(stderr, "bench: %s could not assess the map: %s\n", name.c_str(),
+                   method.error().message.c_str());
+      methods.push_back(MakeFailedMethod(name == "liu" ? "liu" : "krusi", method.error()));
+      continue;
+    }
     methods.push_back(std::move(method).value());
   }
   baselines::KrusiPlanner::SeedRandom(parsed.seed);

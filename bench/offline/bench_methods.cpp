@@ -141,7 +141,26 @@ class KrusiMethod : public BenchMethod {
   std::unique_ptr<baselines::KrusiPlanner> planner_;
 };
 
+class FailedMethod : public BenchMethod {
+ public:
+  FailedMethod(const char* name, Error error) : name_(name), error_(std::move(error)) {}
+  const char* name() const override { return name_; }
+  double assessment_s() const override { return 0; }
+  std::string assessment_detail() const override {
+    return std::string("failed: ") + ErrorCodeName(error_.code) + ": " + error_.message;
+  }
+  QueryOutcome Run(const QueryPair&, double) override { return Failure(error_, 0); }
+
+ private:
+  const char* name_;
+  Error error_;
+};
+
 }  // namespace
+
+std::unique_ptr<BenchMethod> MakeFailedMethod(const char* name, const Error& error) {
+  return std::make_unique<FailedMethod>(name, error);
+}
 
 std::unique_ptr<BenchMethod> MakeStrataMethod(std::shared_ptr<const PlanningMap> map,
                                               const RobotProfile& profile, double assessment_s,

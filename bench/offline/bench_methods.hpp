@@ -57,4 +57,8 @@ Expected<std::unique_ptr<BenchMethod>> MakeLiuMethod(const PointCloud& cloud,
 Expected<std::unique_ptr<BenchMethod>> MakeKrusiMethod(const PointCloud& cloud,
                                                        const RobotProfile& profile);
 
+/// A method whose assessment failed: every query fails with the assessment's error, so the
+/// run still reports the method (t_a = 0) instead of stopping.
+std::unique_ptr<BenchMethod> MakeFailedMethod(const char* name, const Error& error);
+
 }  // namespace strata::offline
