@@ -30,6 +30,12 @@ Status SearchConfig::Validate() const {
   if (!(std::isfinite(clearance_margin_m) && clearance_margin_m > 0)) {
     return BadConfig("clearance_margin_m", clearance_margin_m, "> 0 and finite");
   }
+  if (!(std::isfinite(rim_weight) && rim_weight >= 0)) {
+    return BadConfig("rim_weight", rim_weight, ">= 0 and finite");
+  }
+  if (!(std::isfinite(rim_margin_m) && rim_margin_m > 0)) {
+    return BadConfig("rim_margin_m", rim_margin_m, "> 0 and finite");
+  }
   return Status::Ok();
 }
 
@@ -37,7 +43,10 @@ double EdgeCost(const SurfaceGraph& graph, int a, int b, const SearchConfig& con
   const double length = (graph.position(a) - graph.position(b)).norm();
   const double c = std::min(graph.clearance(a), graph.clearance(b));
   const double shortfall = std::max(0.0, config.clearance_margin_m - c);
-  return length * (1.0 + config.clearance_weight * shortfall / config.clearance_margin_m);
+  const double e = std::min(graph.edge_distance(a), graph.edge_distance(b));
+  const double rim_shortfall = std::max(0.0, config.rim_margin_m - e);
+  return length * (1.0 + config.clearance_weight * shortfall / config.clearance_margin_m +
+                   config.rim_weight * rim_shortfall / config.rim_margin_m);
 }
 
 Expected<PathResult> SearchPath(const SurfaceGraph& graph, int start_node, int goal_node,

@@ -15,22 +15,27 @@ namespace {
 
 // Least-squares plane through the points selected by `take`: the normal is the eigenvector of
 // the covariance with the smallest eigenvalue. Returns false when the points are collinear.
+// With `weights` (one per point, > 0) the centroid and covariance are weighted.
 template <typename Take>
-bool LeastSquaresPlane(std::span<const Eigen::Vector3f> points, Take take, PlaneFit* fit) {
+bool LeastSquaresPlane(std::span<const Eigen::Vector3f> points, std::span<const float> weights,
+                       Take take, PlaneFit* fit) {
+  const auto weight = [&](std::size_t i) { return weights.empty() ? 1.0 : double{weights[i]}; };
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  double total = 0;
   int count = 0;
   for (std::size_t i = 0; i < points.size(); ++i) {
     if (!take(i)) continue;
-    sum += points[i].cast<double>();
+    sum += weight(i) * points[i].cast<double>();
+    total += weight(i);
     ++count;
   }
-  if (count < 3) return false;
-  const Eigen::Vector3d centroid = sum / count;
+  if (count < 3 || !(total > 0)) return false;
+  const Eigen::Vector3d centroid = sum / total;
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
   for (std::size_t i = 0; i < points.size(); ++i) {
     if (!take(i)) continue;
     const Eigen::Vector3d d = points[i].cast<double>() - centroid;
-    covariance += d * d.transpose();
+    covariance += weight(i) * d * d.transpose();
   }
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver;
   solver.computeDirect(covariance);
@@ -73,11 +78,12 @@ LocalPlaneFitter::LocalPlaneFitter(double inlier_distance_m, int ransac_iteratio
 
 LocalPlaneFitter::~LocalPlaneFitter() = default;
 
-PlaneFit LocalPlaneFitter::Fit(std::span<const Eigen::Vector3f> points) {
+PlaneFit LocalPlaneFitter::Fit(std::span<const Eigen::Vector3f> points,
+                               std::span<const float> weights) {
   PlaneFit fit;
-  if (points.size() < 3) return fit;
+  if (points.size() < 3 || (!weights.empty() && weights.size() != points.size())) return fit;
   const auto all = [](std::size_t) { return true; };
-  if (!LeastSquaresPlane(points, all, &fit)) {
+  if (!LeastSquaresPlane(points, weights, all, &fit)) {
     fit.inlier_count = 0;
     return fit;
   }
@@ -96,7 +102,8 @@ PlaneFit LocalPlaneFitter::Fit(std::span<const Eigen::Vector3f> points) {
   r.is_inlier.assign(points.size(), 0);
   for (const auto i : r.inliers) r.is_inlier[i] = 1;
   PlaneFit refined;
-  if (LeastSquaresPlane(points, [&](std::size_t i) { return r.is_inlier[i] != 0; }, &refined)) {
+  if (LeastSquaresPlane(points, weights, [&](std::size_t i) { return r.is_inlier[i] != 0; },
+                        &refined)) {
     return refined;
   }
   return fit;

@@ -1,6 +1,7 @@
 #include "strata/planner.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <string>
@@ -115,26 +116,47 @@ void FillStats(const Trajectory& trajectory, const VerificationReport& v, PlanSt
 
 }  // namespace
 
+struct PlanningMap::GraphEntry {
+  std::once_flag once;
+  std::atomic<bool> built{false};  // Set (release) once graph or error is final.
+  std::shared_ptr<const SurfaceGraph> graph;
+  Error error{ErrorCode::kInvalidConfig, {}};
+};
+
 PlanningMap::PlanningMap(std::shared_ptr<const TerrainModel> model) : model_(std::move(model)) {}
 
 Expected<std::shared_ptr<const SurfaceGraph>> PlanningMap::Graph(
     const TraversabilityParams& params) const {
   const GraphKey key{params.reference_height_m, params.body_height_m, params.max_tilt_rad,
                      params.max_step_m};
-  // Held while building: concurrent first requests for one profile build the graph once.
-  std::lock_guard lock(mutex_);
-  if (auto it = graphs_.find(key); it != graphs_.end()) return it->second;
-  Expected<SurfaceGraph> graph = SurfaceGraph::Build(*model_, params);
-  if (!graph) return graph.error();
-  auto shared = std::make_shared<const SurfaceGraph>(std::move(graph).value());
-  graphs_.emplace(key, shared);
-  return shared;
+  std::shared_ptr<GraphEntry> entry;
+  {
+    std::lock_guard lock(mutex_);
+    std::shared_ptr<GraphEntry>& slot = graphs_[key];
+    if (slot == nullptr) slot = std::make_shared<GraphEntry>();
+    entry = slot;
+  }
+  std::call_once(entry->once, [&] {
+    Expected<SurfaceGraph> graph = SurfaceGraph::Build(*model_, params);
+    if (graph) {
+      entry->graph = std::make_shared<const SurfaceGraph>(std::move(graph).value());
+    } else {
+      entry->error = graph.error();
+    }
+    entry->built.store(true, std::memory_order_release);
+  });
+  if (entry->graph == nullptr) return entry->error;
+  return entry->graph;
 }
 
 std::size_t PlanningMap::MemoryBytes() const {
-  std::lock_guard lock(mutex_);
   std::size_t bytes = model_->MemoryBytes();
-  for (const auto& [key, graph] : graphs_) bytes += graph->MemoryBytes();
+  std::lock_guard lock(mutex_);
+  for (const auto& [key, entry] : graphs_) {
+    if (entry->built.load(std::memory_order_acquire) && entry->graph != nullptr) {
+      bytes += entry->graph->MemoryBytes();
+    }
+  }
   return bytes;
 }
 
@@ -211,6 +233,11 @@ Expected<PlanResult> Plan(const PlanningMap& map, const PlanRequest& request,
   if (waypoints.size() < 2) waypoints.push_back(tail.position_m);
 
   OptimizerConfig config = options.optimizer;
+  // A voxelised cloud knows its ground only to within half a quantum; the check allows that
+  // plus a quarter quantum of tracking, or every staircase ramp would fail it by noise.
+  VerifierConfig verifier = options.verifier;
+  verifier.ground_tolerance_m =
+      std::max(verifier.ground_tolerance_m, 0.75 * map.model().summary().vertical_quantum_m);
   Error last_failure{ErrorCode::kOptimizationFailed, "no optimisation attempt ran"};
   for (int attempt = 0; attempt < options.max_attempts; ++attempt) {
     stage = Clock::now();
@@ -231,7 +258,7 @@ Expected<PlanResult> Plan(const PlanningMap& map, const PlanRequest& request,
     Trajectory trajectory = Trajectory::FromMinco(minco);
     VerificationReport verification;
     const Status verified =
-        VerifyTrajectory(graph, profile, trajectory, options.verifier, &verification);
+        VerifyTrajectory(graph, profile, trajectory, verifier, &verification);
     stats.timings.verify_s += SecondsSince(stage);
     if (verified) {
       FillStats(trajectory, verification, &stats);

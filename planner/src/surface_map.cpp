@@ -93,10 +93,12 @@ void ForEachRun(const GridGeometry& g, const ColumnSortedCloud& sorted, std::int
 }
 
 // Gathers the points of the vertical cylinder (horizontal `radius`, `half_height` above and
-// below) around `centre` from the columns around (ix, iy).
+// below) around `centre` from the columns around (ix, iy). With `column_tops`, only the
+// highest run top (a point with no point in the voxel above it) of each column: a wall's
+// points are not tops, so they cannot tilt the fit of the ground beside it.
 void GatherNeighbourhood(const GridGeometry& g, const ColumnSortedCloud& sorted, int ix, int iy,
                          const Eigen::Vector3f& centre, float radius, float half_height,
-                         std::vector<Eigen::Vector3f>* out) {
+                         bool column_tops, std::vector<Eigen::Vector3f>* out) {
   out->clear();
   const int reach = static_cast<int>(std::ceil(radius / g.resolution_m));
   const float radius_sq = radius * radius;
@@ -107,11 +109,30 @@ void GatherNeighbourhood(const GridGeometry& g, const ColumnSortedCloud& sorted,
       const auto end = sorted.points.begin() + sorted.begin[c + 1];
       auto it = std::lower_bound(begin, end, centre.z() - half_height,
                                  [](const Eigen::Vector3f& p, float z) { return p.z() < z; });
+      const Eigen::Vector3f* top = nullptr;
       for (; it != end && it->z() <= centre.z() + half_height; ++it) {
-        if ((*it - centre).head<2>().squaredNorm() <= radius_sq) out->push_back(*it);
+        if ((*it - centre).head<2>().squaredNorm() > radius_sq) continue;
+        if (column_tops) {
+          const auto next = it + 1;
+          if (next == end || ClampedLayer(g, next->z()) > ClampedLayer(g, it->z()) + 1) top = &*it;
+        } else {
+          out->push_back(*it);
+        }
       }
+      if (top != nullptr) out->push_back(*top);
     }
   }
+}
+
+// The fitted plane's height above the column centre. The inliers' centroid drifts off the
+// centre wherever the patch is cut (by an edge, or by the height band on a slope), and on a
+// voxel staircase it jumps with each tread; the plane itself is the smooth ground. A plane
+// too steep to stand on keeps the centroid's height, where the extrapolation would be wild.
+double PlaneHeightAt(const PlaneFit& fit, const Eigen::Vector3d& centre_xy) {
+  constexpr double kMinNormalZ = 0.5;  // Planes up to 60°.
+  if (fit.normal.z() < kMinNormalZ) return fit.center_m.z();
+  const Eigen::Vector2d offset = centre_xy.head<2>() - fit.center_m.head<2>();
+  return fit.center_m.z() - fit.normal.head<2>().dot(offset) / fit.normal.z();
 }
 
 }  // namespace
@@ -141,6 +162,7 @@ SurfaceMap SurfaceMap::Build(const GridGeometry& geometry, const PointCloud& clo
 #pragma omp parallel num_threads(num_threads)
   {
     std::vector<Eigen::Vector3f> patch;
+    std::vector<float> weights;
     LocalPlaneFitter fitter(field.plane_inlier_distance_m, field.plane_ransac_iterations);
 #pragma omp for schedule(dynamic, 256)
     for (std::int64_t c = 0; c < columns; ++c) {
@@ -157,11 +179,23 @@ SurfaceMap SurfaceMap::Build(const GridGeometry& geometry, const PointCloud& clo
       for (ColumnSurface* s = map.surfaces_.data() + map.column_begin_[c]; s != out; ++s) {
         const Eigen::Vector3f centre(static_cast<float>(centre_xy.x()),
                                      static_cast<float>(centre_xy.y()), s->ground_z_m);
-        GatherNeighbourhood(g, sorted, ix, iy, centre, fit_radius, fit_half_height, &patch);
-        const PlaneFit fit = fitter.Fit(patch);
+        GatherNeighbourhood(g, sorted, ix, iy, centre, fit_radius, fit_half_height,
+                            field.plane_fit_column_tops, &patch);
+        if (field.plane_fit_column_tops) {
+          // Voxel staircases: a hard disc edge makes the fit jump as a riser enters or leaves
+          // it; a smooth taper (biweight in the horizontal distance) makes it glide.
+          weights.clear();
+          for (const Eigen::Vector3f& p : patch) {
+            const float u = (p - centre).head<2>().squaredNorm() / (fit_radius * fit_radius);
+            weights.push_back(std::max(1e-3f, (1 - u) * (1 - u)));
+          }
+        }
+        const PlaneFit fit = fitter.Fit(patch, field.plane_fit_column_tops
+                                                   ? std::span<const float>(weights)
+                                                   : std::span<const float>());
         if (fit.inlier_count >= 3) {
           s->tilt_rad = static_cast<float>(fit.tilt_rad);
-          s->plane_center_z_m = static_cast<float>(fit.center_m.z());
+          s->plane_center_z_m = static_cast<float>(PlaneHeightAt(fit, centre_xy));
         } else {
           // A lone point or a thin edge: nothing to stand on, so the steepest tilt.
           s->tilt_rad = static_cast<float>(std::numbers::pi / 2);

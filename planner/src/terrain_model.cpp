@@ -1,11 +1,9 @@
 #include "strata/terrain_model.hpp"
 
 #include <algorithm>
-#include <cmath>
-#include <limits>
-
 #include <chrono>
 #include <cmath>
+#include <limits>
 
 #include "strata/esdf.hpp"
 #include "strata/ground_filter.hpp"
@@ -69,7 +67,40 @@ std::vector<std::uint8_t> OccupancyOf(const GridGeometry& g, const PointCloud& c
   return occupied;
 }
 
+// The box the grid is laid over. When the resolution is one or two quanta of a voxelised
+// map, a grid laid from the lowest point has a cell boundary through every lattice plane,
+// and rounding empties some columns and doubles others. Half a quantum lower, the points sit
+// inside cells, clear of the boundaries.
+Eigen::AlignedBox3d GridBounds(const AssessmentSummary& summary, double resolution_m) {
+  Eigen::AlignedBox3d box = summary.cloud_bounds_m;
+  const double q = summary.vertical_quantum_m;
+  if (q > 0) {
+    const double ratio = resolution_m / q;
+    if (ratio <= 2 && std::abs(ratio - std::round(ratio)) < 1e-3) box.min().array() -= 0.5 * q;
+  }
+  return box;
+}
+
 }  // namespace
+
+FieldConfig FieldConfigForQuantum(const FieldConfig& field, double vertical_quantum_m,
+                                  double resolution_m) {
+  // On a voxelised map a slope is a staircase whose points lie up to q/2 off its mean plane,
+  // and a one-voxel groove or riser leaves a patch whose band ±h holds a single row of
+  // points (collinear: no plane, read as a 90° edge). A band of 1.5 q and inliers within
+  // 0.75 q see the treads on both sides and fit the slope they make. The radius must span
+  // treads too: a least-squares plane over a disc of radius R split by one riser q tilts by
+  // atan(8q / (3πR)), 26° for q = 0.2 m and R = 0.35 m but 10° at R = 5q.
+  // A quantum well below the cell size is a fine lattice, fitted like a sensor's cloud.
+  FieldConfig out = field;
+  if (vertical_quantum_m >= 0.5 * resolution_m) {
+    out.plane_fit_radius_m = std::max(field.plane_fit_radius_m, 5 * vertical_quantum_m);
+    out.plane_fit_column_tops = true;
+    out.plane_fit_half_height_m = std::max(field.plane_fit_half_height_m, 1.5 * vertical_quantum_m);
+    out.plane_inlier_distance_m = std::max(field.plane_inlier_distance_m, 0.75 * vertical_quantum_m);
+  }
+  return out;
+}
 
 Expected<std::shared_ptr<const TerrainModel>> TerrainModel::Assess(
     const PointCloud& cloud, const AssessmentConfig& config) {
@@ -95,14 +126,15 @@ Expected<std::shared_ptr<const TerrainModel>> TerrainModel::Assess(
   summary.timings.ground_filter_s = stage.Lap();
 
   Expected<GridGeometry> geometry =
-      MakeGridGeometry(summary.cloud_bounds_m, config.grid.resolution_m, config.grid.padding_m,
-                       config.grid.max_cells);
+      MakeGridGeometry(GridBounds(summary, config.grid.resolution_m), config.grid.resolution_m,
+                       config.grid.padding_m, config.grid.max_cells);
   if (!geometry) return geometry.error();
   model->esdf_ = BuildSignedDistanceField(*geometry, OccupancyOf(*geometry, cloud));
   summary.timings.esdf_s = stage.Lap();
 
-  model->surfaces_ =
-      SurfaceMap::Build(*geometry, cloud, valid, config.field, config.num_threads);
+  const FieldConfig field = FieldConfigForQuantum(config.field, summary.vertical_quantum_m,
+                                                  config.grid.resolution_m);
+  model->surfaces_ = SurfaceMap::Build(*geometry, cloud, valid, field, config.num_threads);
   model->safety_ = DiffuseSafetyPenalty(
       ComputeSafetyPenalty(model->surfaces_, config.field, config.num_threads), config.field,
       config.num_threads);

@@ -119,6 +119,34 @@ TEST_F(TwoLevel, EveryNodeIsTraversableAndEdgesRespectTheStep) {
   }
 }
 
+TEST_F(TwoLevel, MovesNearTheRimCostMoreAndInteriorMovesCostTheirLength) {
+  SearchConfig plain;
+  plain.rim_weight = 0;
+  const SearchConfig rim_aware;  // Defaults: rim_weight 1, rim_margin_m 0.4.
+  int rim_pairs = 0;
+  int interior_pairs = 0;
+  for (int a = 0; a < graph().node_count(); ++a) {
+    graph().ForEachNeighbor(a, [&](int b) {
+      const double length = (graph().position(a) - graph().position(b)).norm();
+      const double e = std::min(graph().edge_distance(a), graph().edge_distance(b));
+      const double c = std::min(graph().clearance(a), graph().clearance(b));
+      const double with = EdgeCost(graph(), a, b, rim_aware);
+      const double without = EdgeCost(graph(), a, b, plain);
+      ASSERT_GE(without, length - 1e-12);
+      if (e < rim_aware.rim_margin_m) {
+        ++rim_pairs;
+        EXPECT_NEAR(with - without, length * (rim_aware.rim_margin_m - e) / rim_aware.rim_margin_m,
+                    1e-9);
+      } else if (c >= rim_aware.clearance_margin_m) {
+        ++interior_pairs;
+        EXPECT_NEAR(with, length, 1e-12);
+      }
+    });
+  }
+  EXPECT_GT(rim_pairs, 100);
+  EXPECT_GT(interior_pairs, 1000);
+}
+
 TEST_F(TwoLevel, SnapPicksTheLevelTheHeightPointsAt) {
   Eigen::Vector3d p = layout_.start_example_m;
   p.z() = layout_.floor_z_m + 0.5;

@@ -25,6 +25,11 @@ struct SearchConfig {
   /// Obstacle distance below which moves cost extra [m], > 0. Keep it below the reference
   /// height: the ground itself is an obstacle, so open ground has d ≈ reference height.
   double clearance_margin_m = 0.2;
+  /// Extra cost of a move onto the rim of the traversable ground, relative to its length
+  /// [-], >= 0. Paths that hug a drop or a too-steep patch leave the optimiser no room.
+  double rim_weight = 1.0;
+  /// Distance to the rim (SurfaceGraph::edge_distance) below which moves cost extra [m], > 0.
+  double rim_margin_m = 0.4;
 
   Status Validate() const;
 };
@@ -45,8 +50,9 @@ struct SearchStats {
 };
 
 /// Cost of moving between adjacent nodes a and b: the Euclidean 3D length between their
-/// reference points times 1 + w · max(0, margin − c) / margin, with c the smaller clearance
-/// of the two. Never below the length, so the Euclidean distance heuristic is admissible.
+/// reference points times 1 + w · max(0, margin − c) / margin + w_r · max(0, margin_r − e) /
+/// margin_r, with c the smaller clearance and e the smaller rim distance of the two. Never
+/// below the length, so the Euclidean distance heuristic is admissible.
 double EdgeCost(const SurfaceGraph& graph, int a, int b, const SearchConfig& config);
 
 /// Cheapest path from start_node to goal_node (e.g. SnapResult::node). Fails with:

@@ -32,7 +32,9 @@ class LocalPlaneFitter {
   LocalPlaneFitter& operator=(const LocalPlaneFitter&) = delete;
 
   /// Fits `points`; inlier_count = 0 for fewer than 3 points or a degenerate (collinear) patch.
-  PlaneFit Fit(std::span<const Eigen::Vector3f> points);
+  /// Optional `weights` (empty, or one > 0 per point) weight the least-squares fits (RANSAC's
+  /// vote stays one point, one vote).
+  PlaneFit Fit(std::span<const Eigen::Vector3f> points, std::span<const float> weights = {});
 
  private:
   struct Ransac;  // Buffers; PCL types stay out of this header.

@@ -28,17 +28,19 @@ class PlanningMap {
   explicit PlanningMap(std::shared_ptr<const TerrainModel> model);
   const TerrainModel& model() const { return *model_; }
   const std::shared_ptr<const TerrainModel>& model_ptr() const { return model_; }
-  /// The graph for `params`, built on first use (the first caller builds, others wait) and
-  /// kept for the map's lifetime. Fails as SurfaceGraph::Build does.
+  /// The graph for `params`, built on first use (the first caller for these params builds,
+  /// later ones for the same params wait; other params and MemoryBytes never wait for it)
+  /// and kept for the map's lifetime. Fails as SurfaceGraph::Build does.
   Expected<std::shared_ptr<const SurfaceGraph>> Graph(const TraversabilityParams& params) const;
-  /// Bytes held by the model and the cached graphs.
+  /// Bytes held by the model and the graphs built so far.
   std::size_t MemoryBytes() const;
 
  private:
   using GraphKey = std::tuple<double, double, double, double>;
+  struct GraphEntry;  // One graph's build, done once.
   std::shared_ptr<const TerrainModel> model_;
-  mutable std::mutex mutex_;
-  mutable std::map<GraphKey, std::shared_ptr<const SurfaceGraph>> graphs_;
+  mutable std::mutex mutex_;  // Guards the map only, never held while a graph builds.
+  mutable std::map<GraphKey, std::shared_ptr<GraphEntry>> graphs_;
 };
 
 /// Per-request options. Validate() names the first bad field.

@@ -21,7 +21,7 @@ struct ColumnSurface {
   float clearance_m = 0;       ///< Free height from ground_z_m to the next obstacle above in
                                ///< the column; +infinity when nothing is above [m].
   float tilt_rad = 0;          ///< φ of the local plane fit [rad], in [0, π/2].
-  float plane_center_z_m = 0;  ///< z of the local plane's centroid p_c [m].
+  float plane_center_z_m = 0;  ///< Height of the local plane above the column centre, p_c [m].
   std::int32_t top_layer = 0;     ///< Grid layer of the run's top cell.
   std::int32_t bottom_layer = 0;  ///< Grid layer of the run's bottom cell.
   bool valid = false;  ///< The top cell holds Valid-Ground-Filter points.

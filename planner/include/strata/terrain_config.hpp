@@ -47,6 +47,10 @@ struct FieldConfig {
   /// underside (and whatever hangs above) out of its top surface's fit; a slope up to θ
   /// (tan 20° · 0.35 m = 0.13 m) still fits inside.
   double plane_fit_half_height_m = 0.15;
+  /// Fit only the highest point of each column in that neighbourhood. For voxelised clouds,
+  /// where a column holds one point per voxel and a solid's interior voxels would pull the
+  /// plane; FieldConfigForQuantum sets it when the cloud has a vertical quantum.
+  bool plane_fit_column_tops = false;
   /// A point within this distance of a candidate plane is a RANSAC inlier [m], > 0.
   double plane_inlier_distance_m = 0.05;
   /// RANSAC iterations per patch that is not already a clean plane [-], >= 1.

@@ -45,6 +45,14 @@ struct AssessmentSummary {
 /// differences multiples of the smallest, and that is at least 1 cm; else 0.
 double DetectVerticalQuantum(const PointCloud& cloud);
 
+/// The plane-fit settings used on a cloud with this vertical quantum at this grid
+/// resolution: `field` unchanged for a sensor's cloud (quantum 0) or a lattice finer than half
+/// a cell; otherwise the fit takes the column tops only (FieldConfig::plane_fit_column_tops),
+/// its radius grows to at least 5 quanta, its band to 1.5 and the RANSAC inlier band to 0.75
+/// quanta, so a voxel staircase fits as the slope it samples and a one-voxel groove as flat.
+FieldConfig FieldConfigForQuantum(const FieldConfig& field, double vertical_quantum_m,
+                                  double resolution_m);
+
 /// An assessed map: ESDF d, safety penalty field S', and the surfaces of every column.
 class TerrainModel {
  public:
