@@ -5,8 +5,10 @@ For every run directory (results.csv, paths.csv, cloud.csv, meta.json as the ben
 writes them) it draws
   <name>_paths.png  top and side view of the three methods' paths for a few queries that every
                     method solved, over the map's points (coloured by height);
-  <name>_dist.png   distributions of planning time, length and mean curvature κ_m per method
-                    over all successful queries, and the success rate.
+  <name>_dist.png   distributions of planning time and mean curvature κ_m per method over
+                    all successful queries, length relative to Strata's on the queries every
+                    method solved, and the success rate;
+  bench_overview.png (two runs or more) success, t_a, median length ratio and κ_m per scene.
 
 Usage: /usr/bin/python3 bench/plots/plot_bench.py --out docs/img RUN_DIR[:NAME] ...
 Needs Debian's python3-matplotlib and python3-numpy (scripts/install-plot-deps.sh).
@@ -46,18 +48,20 @@ def load_run(run_dir):
 
 
 def shown_queries(results, paths, methods, count):
-    """Queries every method solved and dumped, longest Strata paths first (they show most)."""
+    """Up to `count` dumped queries, spread from long to short: those every method solved
+    first, then (where too few) those most methods solved, always including Strata's."""
     solved = {}
     for row in results:
-        if row["success"] == "1":
-            solved.setdefault(int(row["query"]), {})[row["method"]] = float(row["length_m"])
-    both = [q for q, m in solved.items()
-            if all(x in m for x in methods) and all((x, q) in paths for x in methods)]
-    both.sort(key=lambda q: -solved[q][methods[0]])
-    # Spread the choice over short and long queries.
-    if len(both) > count:
-        both = [both[int(i * (len(both) - 1) / (count - 1))] for i in range(count)] if count > 1 else both[:1]
-    return both
+        q = int(row["query"])
+        if row["success"] == "1" and (row["method"], q) in paths:
+            solved.setdefault(q, {})[row["method"]] = float(row["length_m"])
+    ranked = sorted(solved, key=lambda q: (-len(solved[q]), -max(solved[q].values())))
+    full = [q for q in ranked if len(solved[q]) == len(methods)]
+    if len(full) > count:
+        full.sort(key=lambda q: -max(solved[q].values()))
+        return [full[int(i * (len(full) - 1) / max(1, count - 1))] for i in range(count)]
+    rest = [q for q in ranked if q not in full and len(solved[q]) > 1]
+    return full + rest[:count - len(full)]
 
 
 def plot_paths(name, cloud, results, paths, methods, out_dir, count):
@@ -69,22 +73,28 @@ def plot_paths(name, cloud, results, paths, methods, out_dir, count):
                 linewidths=0, rasterized=True)
     side.scatter(cloud[:, 0], cloud[:, 2], c="0.75", s=0.2, alpha=0.5, linewidths=0, rasterized=True)
     styles = ["-", "--", "-.", ":"]
+    labelled = set()
     for k, q in enumerate(queries):
         for m in methods:
+            if (m, q) not in paths:
+                continue  # This method did not solve the query.
             p = paths[(m, q)]
-            label = LABELS[m] if k == 0 else None
+            label = LABELS[m] if m not in labelled else None
+            labelled.add(m)
             top.plot(p[:, 0], p[:, 1], styles[k % 4], color=COLOURS[m], lw=1.6, label=label)
             side.plot(p[:, 0], p[:, 2], styles[k % 4], color=COLOURS[m], lw=1.2)
-        start = paths[(methods[0], q)][0]
-        goal = paths[(methods[0], q)][-1]
+        first = next(paths[(m, q)] for m in methods if (m, q) in paths)
+        start, goal = first[0], first[-1]
         top.plot(*start[:2], "o", color="k", ms=6)
         top.plot(*goal[:2], "*", color="k", ms=10)
         top.annotate(f"q{q}", start[:2], textcoords="offset points", xytext=(4, 4), fontsize=8)
     top.set_aspect("equal")
     top.set_xlabel("x [m]")
     top.set_ylabel("y [m]")
-    top.set_title(f"{name}: top view, {len(queries)} queries every method solved "
-                  "(o start, * goal; line style = query)")
+    missing = sum(1 for q in queries for m in methods if (m, q) not in paths)
+    top.set_title(f"{name}: top view of {len(queries)} queries (o start, * goal; line style = "
+                  f"query){'; a missing colour = that method failed' if missing else ''}",
+                  fontsize=10)
     top.legend(loc="upper right", fontsize=9)
     side.set_xlabel("x [m]")
     side.set_ylabel("z [m]")
@@ -96,38 +106,99 @@ def plot_paths(name, cloud, results, paths, methods, out_dir, count):
     return path
 
 
+def common_queries(results, methods):
+    solved = {}
+    for r in results:
+        if r["success"] == "1":
+            solved.setdefault(r["query"], {})[r["method"]] = r
+    return {q: m for q, m in solved.items() if all(x in m for x in methods)}
+
+
 def plot_distributions(name, results, methods, out_dir):
     fig, axes = plt.subplots(1, 4, figsize=(15, 4.2))
-    metrics = [("plan_s", "planning time [ms]", 1e3, True),
-               ("length_m", "length [m]", 1.0, False),
-               ("kappa_m", "κ_m [1/m]", 1.0, True)]
-    for ax, (key, label, scale, log) in zip(axes, metrics):
-        data = [[float(r[key]) * scale for r in results
-                 if r["method"] == m and r["success"] == "1"] for m in methods]
-        data = [d if d else [np.nan] for d in data]
-        if log:
-            data = [[max(v, 1e-4) for v in d] for d in data]
+    for ax, (key, label) in zip(axes[:2], [("plan_s", "planning time per query [ms]"),
+                                           ("kappa_m", "κ_m [1/m]")]):
+        scale = 1e3 if key == "plan_s" else 1.0
+        data = [[max(float(r[key]) * scale, 1e-4) for r in results
+                 if r["method"] == m and r["success"] == "1"] or [np.nan] for m in methods]
         parts = ax.boxplot(data, labels=[LABELS[m] for m in methods], showfliers=True,
                            flierprops={"markersize": 2}, patch_artist=True)
         for patch, m in zip(parts["boxes"], methods):
             patch.set_facecolor(COLOURS[m])
             patch.set_alpha(0.5)
-        if log:
-            ax.set_yscale("log")
-        ax.set_title(label)
+        ax.set_yscale("log")
+        ax.set_title(label + "\n(all successful queries)", fontsize=10)
         ax.tick_params(axis="x", labelsize=8)
+    # Length like for like: each method's length over Strata's on the queries all solved.
+    common = common_queries(results, methods)
+    ax = axes[2]
+    if "strata" in methods and common:
+        others = [m for m in methods if m != "strata"]
+        data = [[float(c[m]["length_m"]) / float(c["strata"]["length_m"]) for c in common.values()
+                 if float(c["strata"]["length_m"]) > 0] for m in others]
+        parts = ax.boxplot(data, labels=[LABELS[m] for m in others], patch_artist=True,
+                           flierprops={"markersize": 2})
+        for patch, m in zip(parts["boxes"], others):
+            patch.set_facecolor(COLOURS[m])
+            patch.set_alpha(0.5)
+        ax.axhline(1.0, color=COLOURS["strata"], lw=1, ls="--", label="Strata")
+        ax.legend(fontsize=8)
+    ax.set_title(f"length / Strata's length\n({len(common)} queries every method solved)",
+                 fontsize=10)
+    ax.tick_params(axis="x", labelsize=8)
     rates = []
     for m in methods:
         rows = [r for r in results if r["method"] == m]
         rates.append(100.0 * sum(r["success"] == "1" for r in rows) / max(1, len(rows)))
     axes[3].bar([LABELS[m] for m in methods], rates, color=[COLOURS[m] for m in methods], alpha=0.7)
-    axes[3].set_ylim(0, 100)
-    axes[3].set_title("success rate [%]")
+    for i, v in enumerate(rates):
+        axes[3].text(i, v + 1, f"{v:.0f}%", ha="center", fontsize=9)
+    axes[3].set_ylim(0, 105)
+    axes[3].set_title("success rate [%]", fontsize=10)
     axes[3].tick_params(axis="x", labelsize=8)
     n = len({r["query"] for r in results})
-    fig.suptitle(f"{name}: {n} random start/goal pairs (successful queries only in the boxes)")
+    fig.suptitle(f"{name}: {n} random start/goal pairs")
     fig.tight_layout()
     path = os.path.join(out_dir, f"{name}_dist.png")
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path
+
+
+def plot_overview(runs, out_dir):
+    """One figure over all runs: success, t_a, length ratio and κ_m per scene and method."""
+    names = [name for name, _ in runs]
+    fig, axes = plt.subplots(4, 1, figsize=(max(8, 1.3 * len(names)), 12), sharex=True)
+    width = 0.27
+    x = np.arange(len(names))
+    for k, m in enumerate(METHODS):
+        rate, t_a, ratio, kappa = [], [], [], []
+        for name, (results, meta) in runs:
+            rows = [r for r in results if r["method"] == m]
+            rate.append(100.0 * sum(r["success"] == "1" for r in rows) / max(1, len(rows)))
+            t_a.append(meta["assessment"].get(m, {}).get("t_a_s", np.nan))
+            common = common_queries(results, [x for x in METHODS if any(r["method"] == x for r in results)])
+            ratio.append(np.median([float(c[m]["length_m"]) / float(c["strata"]["length_m"])
+                                    for c in common.values()
+                                    if m in c and float(c["strata"]["length_m"]) > 0]) if common else np.nan)
+            ks = [float(r["kappa_m"]) for r in rows if r["success"] == "1"]
+            kappa.append(np.median(ks) if ks else np.nan)
+        for ax, values in zip(axes, [rate, t_a, ratio, kappa]):
+            ax.bar(x + (k - 1) * width, values, width, color=COLOURS[m], alpha=0.75, label=LABELS[m])
+    axes[0].set_ylabel("success [%]")
+    axes[1].set_ylabel("t_a [s]")
+    axes[1].set_yscale("log")
+    axes[2].set_ylabel("median length /\nStrata's (common)")
+    axes[2].axhline(1.0, color="k", lw=0.8)
+    axes[2].set_ylim(0.8, None)
+    axes[3].set_ylabel("median κ_m [1/m]")
+    axes[3].set_yscale("log")
+    axes[0].legend(ncol=3, fontsize=9)
+    axes[3].set_xticks(x)
+    axes[3].set_xticklabels(names, rotation=30, ha="right")
+    fig.suptitle("Strata vs the Liu-style and Krüsi-style baselines, every scene")
+    fig.tight_layout()
+    path = os.path.join(out_dir, "bench_overview.png")
     fig.savefig(path, dpi=100)
     plt.close(fig)
     return path
@@ -140,6 +211,7 @@ def main():
     parser.add_argument("--queries", type=int, default=3, help="queries drawn per scene")
     args = parser.parse_args()
     os.makedirs(args.out, exist_ok=True)
+    overview = []
     for run in args.runs:
         run_dir, _, name = run.partition(":")
         name = name or os.path.basename(os.path.normpath(run_dir))
@@ -147,6 +219,9 @@ def main():
         methods = [m for m in METHODS if any(r["method"] == m for r in results)]
         print(plot_paths(name, cloud, results, paths, methods, args.out, args.queries))
         print(plot_distributions(name, results, methods, args.out))
+        overview.append((name, (results, meta)))
+    if len(overview) > 1:
+        print(plot_overview(overview, args.out))
     return 0
 
 
