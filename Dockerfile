@@ -8,9 +8,11 @@ FROM debian:bookworm AS build
 WORKDIR /src
 COPY scripts/install-deps.sh scripts/
 RUN bash scripts/install-deps.sh && rm -rf /var/lib/apt/lists/*
-# The integration tests use ../shared/maps as strata-server's map root and skip the tests
-# of the map files they do not find; the context has no shared/, so give them an empty one.
-RUN mkdir -p /shared/maps
+# The integration tests use ../shared/maps as strata-server's map root, skip the tests of
+# the map files they do not find, and preload its README.md as a file that is no map; the
+# context has no shared/, so give them a directory with only such a README.
+RUN mkdir -p /shared/maps \
+    && echo "Placeholder: the shared maps are not part of the image build." > /shared/maps/README.md
 COPY . .
 RUN cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release \
     && cmake --build build \
