@@ -24,7 +24,8 @@ v1::Vector3 ToVector(const Eigen::Vector3d& p) {
 
 void PrintSnapped(std::ostream& out, const char* name, const v1::SnappedState& state) {
   out << "  " << name << FormatVector(state.position_m()) << " m, level " << state.level()
-      << ", " << Fixed(state.distance_m(), 3) << " m from the requested point\n";
+      << ", its column " << Fixed(state.distance_m(), 3)
+      << " m (level distance) from the requested point\n";
 }
 
 void PrintSummary(const Context& ctx, const v1::PlanRequest& request,

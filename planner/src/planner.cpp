@@ -228,6 +228,8 @@ Expected<PlanResult> Plan(const PlanningMap& map, const PlanRequest& request,
   RobotState head = request.start, tail = request.goal;
   head.position_m = BoundaryPosition(graph, result.start, request.start.position_m);
   tail.position_m = BoundaryPosition(graph, result.goal, request.goal.position_m);
+  result.start.position_m = head.position_m;
+  result.goal.position_m = tail.position_m;
   waypoints.front() = head.position_m;
   waypoints.back() = tail.position_m;
   if (waypoints.size() < 2) waypoints.push_back(tail.position_m);

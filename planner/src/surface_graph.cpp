@@ -173,13 +173,17 @@ Expected<SnapResult> SnapToSurface(const SurfaceGraph& graph, const Eigen::Vecto
   const GridGeometry& g = graph.grid();
   const double r = g.resolution_m;
   const double slack = 0.5 * r;
+  // Under open sky (or a high roof) a level's air space ends this far above its ground: a z
+  // far above every ground does not point at the top one.
+  constexpr double kMaxAirSpaceM = 2.5;
   // Distance from p to a node's level: horizontal to its reference point, plus how far p's z
   // lies outside the free space of that level (from its ground up to its ceiling). So a z
   // anywhere in a level's air space selects that level, as a z "pointing at" it should.
   const auto level_distance = [&](int node) {
     const Eigen::Vector3d pos = graph.position(node);
     const double ground = graph.ground_z(node);
-    const double ceiling = ground + graph.ceiling_clearance(node);
+    const double ceiling =
+        ground + std::min<double>(graph.ceiling_clearance(node), kMaxAirSpaceM);
     const double below = std::max(0.0, ground - slack - p.z());
     const double above = std::max(0.0, p.z() - ceiling);
     return std::hypot((pos - p).head<2>().norm(), below + above);

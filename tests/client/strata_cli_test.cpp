@@ -85,17 +85,10 @@ double Distance(const Eigen::Vector3d& p, const v1::Vector3& q) {
   return (p - Eigen::Vector3d(q.x(), q.y(), q.z())).norm();
 }
 
-// The trajectory's boundary point against a SnappedState. trajectory.proto says the
-// trajectory starts and ends at SnappedState.position_m (a grid column's centre); the
-// server at the time of writing starts and ends at the *requested* x, y inside that column
-// (on its ground), up to half a cell diagonal away. Checked: the same column and ground.
-// TODO(issue 4): tighten to 1e-6 once server and proto agree (see the client report).
-void ExpectOnSnappedColumn(const Eigen::Vector3d& boundary, const v1::SnappedState& snapped,
-                           double resolution_m) {
+// The trajectory starts and ends exactly at the snapped states' positions.
+void ExpectAt(const Eigen::Vector3d& boundary, const v1::SnappedState& snapped) {
   const v1::Vector3& q = snapped.position_m();
-  EXPECT_LE(std::hypot(boundary.x() - q.x(), boundary.y() - q.y()),
-            resolution_m * std::sqrt(0.5) + 1e-6);
-  EXPECT_NEAR(boundary.z(), q.z(), 0.02);
+  EXPECT_LT((boundary - Eigen::Vector3d(q.x(), q.y(), q.z())).norm(), 1e-6);
 }
 
 TEST_F(StrataCliTest, MapsListShowsTheDemoMap) {
@@ -135,8 +128,8 @@ TEST_F(StrataCliTest, PlanJsonStartsAndEndsAtTheSnappedStartAndGoal) {
   ASSERT_TRUE(trajectory.ok()) << trajectory.error().message;
   EXPECT_EQ(response.start().level(), 0u);
   EXPECT_EQ(response.goal().level(), 1u);
-  ExpectOnSnappedColumn(trajectory->PositionAt(0), response.start(), 0.2);  // Demo: 0.2 m grid.
-  ExpectOnSnappedColumn(trajectory->PositionAt(trajectory->duration_s()), response.goal(), 0.2);
+  ExpectAt(trajectory->PositionAt(0), response.start());
+  ExpectAt(trajectory->PositionAt(trajectory->duration_s()), response.goal());
   // Where the request lay on the ground, the trajectory begins right there (x, y).
   EXPECT_NEAR(trajectory->PositionAt(0).x(), 2.0, 0.2);
   EXPECT_NEAR(trajectory->PositionAt(0).y(), 2.0, 0.2);
@@ -329,7 +322,7 @@ TEST_F(StrataCliTest, UploadStreamsAPcdInChunksAndPlansOnIt) {
   const auto response = Parse<v1::PlanResponse>(plan.out);
   const auto trajectory = PolynomialTrajectory::FromPlanResponse(response);
   ASSERT_TRUE(trajectory.ok());
-  ExpectOnSnappedColumn(trajectory->PositionAt(trajectory->duration_s()), response.goal(), 0.2);
+  ExpectAt(trajectory->PositionAt(trajectory->duration_s()), response.goal());
   EXPECT_NEAR(trajectory->PositionAt(trajectory->duration_s()).z(), 0.3, 0.05);  // Floor + 0.3 m.
   EXPECT_EQ(Strata({"maps", "delete", "floor"}).exit_code, 0);
 }

@@ -157,12 +157,15 @@ TEST_F(TwoLevel, SnapPicksTheLevelTheHeightPointsAt) {
   // p is in the floor's air space, so only the horizontal offset counts.
   EXPECT_NEAR(s->distance_m, (s->position_m - p).head<2>().norm(), 1e-9);
 
-  // A z high above the open floor still points at it, and a point below the floor is that
-  // far off it.
-  p.z() = layout_.floor_z_m + 20.0;
+  // A z up to 2.5 m above the open floor still points at it; 20 m above, nothing is within
+  // the tolerance; a point below the floor is that far off it.
+  p.z() = layout_.floor_z_m + 2.4;
   s = SnapToSurface(graph(), p, 1.0, ErrorCode::kStartOffGround);
   ASSERT_TRUE(s.ok()) << s.error().message;
   EXPECT_EQ(s->level, 0);
+  p.z() = layout_.floor_z_m + 20.0;
+  EXPECT_EQ(SnapToSurface(graph(), p, 1.0, ErrorCode::kStartOffGround).error().code,
+            ErrorCode::kStartOffGround);
   p.z() = layout_.floor_z_m - 2.0;
   EXPECT_EQ(SnapToSurface(graph(), p, 1.0, ErrorCode::kStartOffGround).error().code,
             ErrorCode::kStartOffGround);
@@ -190,6 +193,13 @@ TEST_F(TwoLevel, SnapFarOutsideNamesTheNearestValidPoint) {
   EXPECT_THAT(s.error().message, HasSubstr("goal (25.00, 3.00, 0.00) m"));
   EXPECT_THAT(s.error().message, HasSubstr("within 1.00 m"));
   EXPECT_THAT(s.error().message, HasSubstr("the nearest is ("));
+
+  // High above the open deck: no level's air space reaches 10 m up.
+  const Eigen::Vector3d above_deck(layout_.goal_example_m.x(), layout_.goal_example_m.y(),
+                                   layout_.deck_z_m + 10.0);
+  s = SnapToSurface(graph(), above_deck, 1.0, ErrorCode::kGoalOffGround);
+  ASSERT_FALSE(s.ok());
+  EXPECT_EQ(s.error().code, ErrorCode::kGoalOffGround);
 
   s = SnapToSurface(graph(), Eigen::Vector3d(std::nan(""), 1, 1), 1.0,
                     ErrorCode::kStartOffGround);

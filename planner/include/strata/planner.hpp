@@ -100,8 +100,11 @@ struct PlanStats {
 
 struct PlanResult {
   Trajectory trajectory;
-  SnapResult start;        ///< Where the start snapped, and its level.
-  SnapResult goal;         ///< Where the goal snapped, and its level.
+  /// Where the start snapped, and its level. position_m is exactly where the trajectory
+  /// starts: the requested x, y at the reference height above the ground when they lie in the
+  /// snapped node's column (the robot is where it says), else that node's reference point.
+  SnapResult start;
+  SnapResult goal;  ///< Where the goal snapped; position_m is where the trajectory ends.
   PathResult path;         ///< The A* path the trajectory was initialised from.
   PlanStats stats;
 };

@@ -188,8 +188,8 @@ struct SnapResult {
 
 /// Snaps `p` onto the graph. Distances are "level distances": the horizontal distance to the
 /// node's reference point combined (hypot) with how far p.z lies outside that level's free
-/// space (from its ground − half a cell up to its ceiling), so any z within a level's air space
-/// selects that level. First choice: p's own column, at the level p's z points at (the highest
+/// space (from its ground − half a cell up to its ceiling, at most 2.5 m above its ground), so
+/// any z within a level's air space selects that level. First choice: p's own column, at the level p's z points at (the highest
 /// node whose ground is at or below p.z + half a cell), if within `tolerance_m`. Otherwise the
 /// node within tolerance_m that minimises the distance, with a strong preference for nodes
 /// whose ground lies below p.z.
