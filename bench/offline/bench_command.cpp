@@ -33,6 +33,7 @@ struct BenchArgs {
   double min_separation_m = 1.0;
   int dump = 20;
   std::string robot = "differential";
+  double krusi_refine_s = -1;  // < 0: the baseline's default.
 };
 
 std::vector<std::string> SplitList(const std::string& text) {
@@ -89,6 +90,9 @@ std::optional<std::string> ParseArgs(const std::vector<std::string>& args, Bench
       if (out->methods.empty()) return "--methods needs at least one of strata, liu, krusi";
     } else if (a == "--out") {
       out->out_dir = value;
+    } else if (a == "--krusi-refine") {
+      if (auto p = need_number(0)) return p;
+      out->krusi_refine_s = *number;
     } else if (a == "--robot") {
       out->robot = value;
     } else {
@@ -118,6 +122,7 @@ nlohmann::json MetaJson(const BenchArgs& args, const std::vector<std::string>& c
           {"seed", args.seed},       {"robot", args.robot},
           {"time_limit_s", args.time_limit_s},
           {"min_separation_m", args.min_separation_m},
+          {"krusi_refine_s", args.krusi_refine_s},
           {"strata_resolution_m", args.assessment.grid.resolution_m},
           {"assessment", assessment}};
 }
@@ -172,7 +177,7 @@ int RunBench(const std::vector<std::string>& args) {
       continue;
     }
     auto method = name == "liu" ? MakeLiuMethod(points, *profile, parsed.assessment.num_threads)
-                                : MakeKrusiMethod(points, *profile);
+                                : MakeKrusiMethod(points, *profile, parsed.krusi_refine_s);
     if (!method) {
       // Reported as every query failing with this reason, not as a broken run.
       std::fprintf(stderr, "bench: %s could not assess the map: %s\n", name.c_str(),

@@ -180,9 +180,12 @@ Expected<std::unique_ptr<BenchMethod>> MakeLiuMethod(const PointCloud& cloud,
 }
 
 Expected<std::unique_ptr<BenchMethod>> MakeKrusiMethod(const PointCloud& cloud,
-                                                       const RobotProfile& profile) {
+                                                       const RobotProfile& profile,
+                                                       double refine_time_s) {
+  baselines::KrusiParams params;
+  if (refine_time_s >= 0) params.refine_time_s = refine_time_s;
   auto planner = baselines::KrusiPlanner::Build(
-      cloud, baselines::BaselineRobot::FromProfile(profile), baselines::KrusiParams{});
+      cloud, baselines::BaselineRobot::FromProfile(profile), params);
   if (!planner) return planner.error();
   return std::unique_ptr<BenchMethod>(new KrusiMethod(std::move(planner).value()));
 }

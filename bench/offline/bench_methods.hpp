@@ -53,9 +53,11 @@ std::unique_ptr<BenchMethod> MakeStrataMethod(std::shared_ptr<const PlanningMap>
 /// The Liu-style baseline, assessed now (t_a measured inside) with `threads` OpenMP threads.
 Expected<std::unique_ptr<BenchMethod>> MakeLiuMethod(const PointCloud& cloud,
                                                      const RobotProfile& profile, int threads);
-/// The Krüsi-style baseline (t_a = its kd-tree build).
+/// The Krüsi-style baseline (t_a = its kd-tree build); refine_time_s < 0 keeps
+/// KrusiParams::refine_time_s.
 Expected<std::unique_ptr<BenchMethod>> MakeKrusiMethod(const PointCloud& cloud,
-                                                       const RobotProfile& profile);
+                                                       const RobotProfile& profile,
+                                                       double refine_time_s = -1);
 
 /// A method whose assessment failed: every query fails with the assessment's error, so the
 /// run still reports the method (t_a = 0) instead of stopping.
