@@ -1,6 +1,9 @@
 #pragma once
 // A fixture that starts a real strata-server per test (on an ephemeral port) and gives
 // stubs to it; on failure it prints the server's log.
+#include <unistd.h>
+
+#include <cstdio>
 #include <filesystem>
 #include <memory>
 #include <string>
@@ -13,12 +16,32 @@
 
 namespace strata::server::testing {
 
+/// The map root the test servers use: the shared maps beside the repository, whose
+/// README.md is a file under the root that is no point cloud; without them (a container
+/// build), a temporary directory holding only such a README.md, so the tests that need no
+/// shared map still run and the others skip.
+inline const std::string& TestMapRoot() {
+  static const std::string root = []() -> std::string {
+    namespace fs = std::filesystem;
+    if (fs::is_directory(STRATA_SHARED_MAPS_DIR)) return STRATA_SHARED_MAPS_DIR;
+    const fs::path dir =
+        fs::temp_directory_path() / ("strata-test-maps-" + std::to_string(::getpid()));
+    fs::create_directories(dir);
+    if (std::FILE* text = std::fopen((dir / "README.md").c_str(), "w")) {
+      std::fputs("No maps here: the shared maps were not found.\n", text);
+      std::fclose(text);
+    }
+    return dir.string();
+  }();
+  return root;
+}
+
 class ServerFixture : public ::testing::Test {
  protected:
-  /// Starts the server with the shared maps as map root, plus `extra` flags, and waits
-  /// until it is SERVING (every preloaded map ACTIVE).
+  /// Starts the server with TestMapRoot() as map root, plus `extra` flags, and waits until
+  /// it is SERVING (every preloaded map ACTIVE).
   void StartServer(std::vector<std::string> extra = {}) {
-    std::vector<std::string> args = {"--map-root", STRATA_SHARED_MAPS_DIR};
+    std::vector<std::string> args = {"--map-root", TestMapRoot()};
     args.insert(args.end(), extra.begin(), extra.end());
     server_ = ServerProcess::Start(args);
     ASSERT_NE(server_, nullptr);
@@ -35,7 +58,7 @@ class ServerFixture : public ::testing::Test {
   }
 
   static bool HaveSpiral() {
-    return std::filesystem::exists(std::string(STRATA_SHARED_MAPS_DIR) + "/spiral0.3_2.pcd");
+    return std::filesystem::exists(TestMapRoot() + "/spiral0.3_2.pcd");
   }
 
   /// CreateMap with wait; fails the test unless the map becomes ACTIVE.

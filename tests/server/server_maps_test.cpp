@@ -17,7 +17,7 @@ using ::testing::HasSubstr;
 class MapServiceTest : public ServerFixture {};
 
 TEST_F(MapServiceTest, StartsServingWithTheDemoMapAndPerServiceHealth) {
-  StartServer();
+  ASSERT_NO_FATAL_FAILURE(StartServer());
   auto health = grpc::health::v1::Health::NewStub(channel_);
   for (const char* service : {"", "strata.v1.MapService", "strata.v1.PlannerService"}) {
     grpc::ClientContext context;
@@ -43,8 +43,9 @@ TEST_F(MapServiceTest, StartsServingWithTheDemoMapAndPerServiceHealth) {
 
 TEST_F(MapServiceTest, HealthStaysNotServingWhenAPreloadFails) {
   // README.md is under the map root but is no point cloud: its assessment fails.
-  server_ = ServerProcess::Start({"--map-root", STRATA_SHARED_MAPS_DIR, "--preload",
-                                  "demo=scene:two_level_ramp", "--preload", "bad=README.md"});
+  server_ = ServerProcess::Start({"--map-root", TestMapRoot(), "--preload",
+                                  "demo=scene:two_level_ramp", "--preload",
+                                  "bad=README.md"});
   ASSERT_NE(server_, nullptr);
   ASSERT_TRUE(server_->WaitForLog("event=preload_failed map=bad", std::chrono::seconds(60)));
   channel_ = server_->NewChannel();
@@ -64,12 +65,12 @@ TEST_F(MapServiceTest, HealthStaysNotServingWhenAPreloadFails) {
   EXPECT_EQ(bad.state(), v1::MAP_STATE_FAILED);
   EXPECT_EQ(bad.failure().reason(), "MAP_LOAD_FAILED");
   EXPECT_THAT(bad.failure().message(), HasSubstr("README.md"));
-  EXPECT_THAT(bad.failure().message(), ::testing::Not(HasSubstr(STRATA_SHARED_MAPS_DIR)));
+  EXPECT_THAT(bad.failure().message(), ::testing::Not(HasSubstr(TestMapRoot())));
 }
 
 TEST_F(MapServiceTest, CreatesGetsListsPagesAndDeletes) {
   if (!HaveSpiral()) GTEST_SKIP() << "shared maps not found in " << STRATA_SHARED_MAPS_DIR;
-  StartServer();
+  ASSERT_NO_FATAL_FAILURE(StartServer());
   v1::CreateMapRequest scene;
   scene.set_map_id("hills");
   scene.mutable_scene()->set_name("uneven_terrain");
@@ -130,7 +131,7 @@ TEST_F(MapServiceTest, CreatesGetsListsPagesAndDeletes) {
 }
 
 TEST_F(MapServiceTest, CreateWithoutWaitReturnsAtOnce) {
-  StartServer();
+  ASSERT_NO_FATAL_FAILURE(StartServer());
   grpc::ClientContext context;
   v1::CreateMapRequest request;
   request.mutable_scene()->set_name("stairs_ramp_room");
@@ -157,7 +158,7 @@ std::vector<float> TwoFloors() {
 }
 
 TEST_F(MapServiceTest, UploadsACloudFarAboveTheMessageLimitInChunks) {
-  StartServer();
+  ASSERT_NO_FATAL_FAILURE(StartServer());
   std::vector<float> xyz = TwoFloors();
   const float nan = std::numeric_limits<float>::quiet_NaN();
   xyz.insert(xyz.end(), {nan, 0, 0, 1, nan, 1});  // Dropped and counted.
@@ -203,7 +204,7 @@ TEST_F(MapServiceTest, UploadsACloudFarAboveTheMessageLimitInChunks) {
 }
 
 TEST_F(MapServiceTest, RefusesMalformedUploads) {
-  StartServer();
+  ASSERT_NO_FATAL_FAILURE(StartServer());
   grpc::ClientContext context;
   SetDeadline(&context, 30);
   v1::Map map;
@@ -229,7 +230,7 @@ TEST_F(MapServiceTest, RefusesMalformedUploads) {
 }
 
 TEST_F(MapServiceTest, RefusesPathsOutsideTheMapRoot) {
-  StartServer();
+  ASSERT_NO_FATAL_FAILURE(StartServer());
   for (const char* path : {"../DESIGN.md", "/etc/passwd", "../../../etc/passwd", "../maps/../STYLE.md"}) {
     grpc::ClientContext context;
     v1::CreateMapRequest request;
@@ -251,7 +252,7 @@ TEST_F(MapServiceTest, RefusesPathsOutsideTheMapRoot) {
 }
 
 TEST_F(MapServiceTest, RefusesBadRequestsNamingTheField) {
-  StartServer();
+  ASSERT_NO_FATAL_FAILURE(StartServer());
   auto scene = [](const char* name) {
     v1::CreateMapRequest request;
     request.mutable_scene()->set_name(name);

@@ -19,8 +19,8 @@ using ::testing::HasSubstr;
 class ServerOpsTest : public ServerFixture {};
 
 TEST_F(ServerOpsTest, SixteenClientsPlanOnTwoMapsWhileAThirdComesAndGoes) {
-  StartServer({"--preload", "demo=scene:two_level_ramp", "--preload",
-               "room=scene:stairs_ramp_room"});
+  ASSERT_NO_FATAL_FAILURE(StartServer(
+      {"--preload", "demo=scene:two_level_ramp", "--preload", "room=scene:stairs_ramp_room"}));
   constexpr int kClients = 16;
   constexpr int kPlansPerClient = 3;
   std::atomic<bool> planning{true};
@@ -79,7 +79,7 @@ TEST_F(ServerOpsTest, SixteenClientsPlanOnTwoMapsWhileAThirdComesAndGoes) {
 }
 
 TEST_F(ServerOpsTest, SigtermDrainsInFlightCallsAndExitsZero) {
-  StartServer({"--max-concurrent-plans", "1"});
+  ASSERT_NO_FATAL_FAILURE(StartServer({"--max-concurrent-plans", "1"}));
   constexpr int kCalls = 6;
   std::vector<std::future<grpc::Status>> calls;
   for (int i = 0; i < kCalls; ++i) {
@@ -113,7 +113,7 @@ TEST_F(ServerOpsTest, SigtermDrainsInFlightCallsAndExitsZero) {
 }
 
 TEST_F(ServerOpsTest, MetricsShowTheCountersMoving) {
-  StartServer();
+  ASSERT_NO_FATAL_FAILURE(StartServer());
   const std::string before = HttpGet(server_->metrics_port(), "/metrics");
   ASSERT_THAT(before, HasSubstr("grpc_server_started_total"));
   EXPECT_EQ(MetricValue(before, "strata_maps", {"state=\"active\""}), 1);

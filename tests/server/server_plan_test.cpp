@@ -64,7 +64,7 @@ void ExpectConsistentPlan(const v1::PlanResponse& response) {
 }
 
 TEST_F(PlannerServiceTest, PlansFromTheFloorOntoTheDeckOfTheDemo) {
-  StartServer();
+  ASSERT_NO_FATAL_FAILURE(StartServer());
   v1::PlanRequest request = PlanRequestFor("demo", 2, 2, 0.3, 10, 10, 3.3);
   request.mutable_options()->set_sample_dt_s(0.1);
   v1::PlanResponse response;
@@ -84,7 +84,7 @@ TEST_F(PlannerServiceTest, PlansFromTheFloorOntoTheDeckOfTheDemo) {
 
 TEST_F(PlannerServiceTest, PlansUpTheFirstTurnOfTheSpiralGarage) {
   if (!HaveSpiral()) GTEST_SKIP() << "shared maps not found in " << STRATA_SHARED_MAPS_DIR;
-  StartServer();
+  ASSERT_NO_FATAL_FAILURE(StartServer());
   CreateSpiral("spiral", 0.2);  // The resolution docs/benchmarks.md plans at.
   v1::PlanResponse response;
   const grpc::Status status =
@@ -99,7 +99,7 @@ TEST_F(PlannerServiceTest, PlansUpTheFirstTurnOfTheSpiralGarage) {
 // map assessed at 0.3 m.
 TEST_F(PlannerServiceTest, PlansFromTheGroundToTheTopOfTheSpiralGarage) {
   if (!HaveSpiral()) GTEST_SKIP() << "shared maps not found in " << STRATA_SHARED_MAPS_DIR;
-  StartServer();
+  ASSERT_NO_FATAL_FAILURE(StartServer());
   CreateSpiral();
   v1::PlanRequest request = PlanRequestFor("spiral", -30, -2, 1.5, -30, -28, 21.5);
   request.mutable_options()->set_time_budget_s(10);
@@ -113,7 +113,7 @@ TEST_F(PlannerServiceTest, PlansFromTheGroundToTheTopOfTheSpiralGarage) {
 }
 
 TEST_F(PlannerServiceTest, UnknownMapIsNotFound) {
-  StartServer();
+  ASSERT_NO_FATAL_FAILURE(StartServer());
   v1::PlanResponse response;
   const CallError error = ErrorOf(Plan(PlanRequestFor("atlantis", 2, 2, 0.3, 3, 3, 0.3), &response));
   EXPECT_EQ(error.code, grpc::StatusCode::NOT_FOUND);
@@ -123,7 +123,8 @@ TEST_F(PlannerServiceTest, UnknownMapIsNotFound) {
 }
 
 TEST_F(PlannerServiceTest, MapStillCreatingIsNotActive) {
-  StartServer({"--max-concurrent-assessments", "1", "--assessment-threads", "1"});
+  ASSERT_NO_FATAL_FAILURE(
+      StartServer({"--max-concurrent-assessments", "1", "--assessment-threads", "1"}));
   // Three maps queue behind each other on the single worker; the last stays CREATING for
   // the time the first two take, far longer than the Plan call below.
   for (const char* id : {"a", "b", "last"}) {
@@ -142,7 +143,7 @@ TEST_F(PlannerServiceTest, MapStillCreatingIsNotActive) {
 }
 
 TEST_F(PlannerServiceTest, StartOffTheGroundNamesTheNearestValidPoint) {
-  StartServer();
+  ASSERT_NO_FATAL_FAILURE(StartServer());
   v1::PlanResponse response;
   const CallError error = ErrorOf(Plan(PlanRequestFor("demo", 2, -10, 0.3, 10, 10, 3.3), &response));
   EXPECT_EQ(error.code, grpc::StatusCode::INVALID_ARGUMENT);
@@ -152,7 +153,7 @@ TEST_F(PlannerServiceTest, StartOffTheGroundNamesTheNearestValidPoint) {
 }
 
 TEST_F(PlannerServiceTest, NonFiniteValuesAreRefusedNamingTheComponent) {
-  StartServer();
+  ASSERT_NO_FATAL_FAILURE(StartServer());
   const double nan = std::numeric_limits<double>::quiet_NaN();
   v1::PlanResponse response;
   CallError error = ErrorOf(Plan(PlanRequestFor("demo", nan, 2, 0.3, 10, 10, 3.3), &response));
@@ -173,7 +174,7 @@ TEST_F(PlannerServiceTest, NonFiniteValuesAreRefusedNamingTheComponent) {
 }
 
 TEST_F(PlannerServiceTest, ProfileTooLargeForTheMapIsAPreconditionFailure) {
-  StartServer();
+  ASSERT_NO_FATAL_FAILURE(StartServer());
   v1::PlanRequest request = PlanRequestFor("demo", 2, 2, 0.3, 10, 10, 3.3);
   request.mutable_profile()->set_footprint_radius_m(0.5);  // The demo was assessed for 0.3 m.
   v1::PlanResponse response;
@@ -184,7 +185,7 @@ TEST_F(PlannerServiceTest, ProfileTooLargeForTheMapIsAPreconditionFailure) {
 
 TEST_F(PlannerServiceTest, TimeBudgetExceededIsReportedWithItsReason) {
   if (!HaveSpiral()) GTEST_SKIP() << "shared maps not found in " << STRATA_SHARED_MAPS_DIR;
-  StartServer();
+  ASSERT_NO_FATAL_FAILURE(StartServer());
   CreateSpiral();
   v1::PlanRequest request = PlanRequestFor("spiral", -30, -2, 1.5, -30, -28, 21.5);
   request.mutable_options()->set_time_budget_s(0.001);
