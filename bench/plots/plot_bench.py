@@ -101,7 +101,7 @@ def plot_paths(name, cloud, results, paths, methods, out_dir, count):
     side.set_title("side view (x, z) of the same paths")
     fig.tight_layout()
     path = os.path.join(out_dir, f"{name}_paths.png")
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=95)
     plt.close(fig)
     return path
 
