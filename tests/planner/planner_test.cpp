@@ -246,16 +246,21 @@ TEST(SharedMaps, SpiralGroundQueriesSucceedAndAnIsolatedGoalIsRefusedWithoutSear
   const auto model = SharedMap("spiral0.3_2.pcd", 0.2);
   if (!model) GTEST_SKIP() << "shared maps not found at " << STRATA_SHARED_MAPS_DIR;
   const PlanningMap map(model);
-  // sp_ground_left, sp_ground_right, sp_ground_to_l1 (up the first turn of the west ramp).
+  // sp_ground_left, sp_ground_right, sp_ground_to_l1 (up the first turn of the west ramp),
+  // sp_ground_to_top and sp_top_to_ground (all five turns of a spiral, over the top deck).
   const std::pair<Eigen::Vector3d, Eigen::Vector3d> queries[] = {
       {{-38, -2, 1.5}, {-26, -24, 1.5}},
       {{-18, 0, 1.5}, {8, 2, 1.5}},
-      {{-30, -2, 1.5}, {-45, -29, 5.5}}};
+      {{-30, -2, 1.5}, {-45, -29, 5.5}},
+      {{-30, -2, 1.5}, {-30, -28, 21.5}},
+      {{-16, -23, 21.5}, {-18, 0, 1.5}}};
   for (const auto& [start, goal] : queries) {
     const PlanRequest request = Request(start, goal);
     auto plan = Plan(map, request);
     ASSERT_TRUE(plan.ok()) << start.transpose() << ": " << plan.error().message;
     ExpectSound(*plan, request);
+    // On the level the goal's z points at (the top deck's ground is at 20.2 m).
+    EXPECT_NEAR(plan->goal.position_m.z() - goal.z(), 0.3 - 1.3, 0.25) << goal.transpose();
   }
 
   // A goal on an island of traversable ground (a component the start's does not reach).
