@@ -97,6 +97,16 @@ QueryOutcome PathOutcome(const baselines::BaselinePath& path, double plan_s) {
   return out;
 }
 
+// Runs a baseline, which returns a point path, on one query.
+template <typename PathPlanner>
+QueryOutcome RunPathPlanner(const PathPlanner& planner, const QueryPair& pair,
+                            double time_limit_s) {
+  const auto begin = Clock::now();
+  const auto path = planner.Plan(pair.start_m, pair.goal_m, time_limit_s);
+  const double plan_s = SecondsSince(begin);
+  return path ? PathOutcome(*path, plan_s) : Failure(path.error(), plan_s);
+}
+
 class LiuMethod : public BenchMethod {
  public:
   explicit LiuMethod(std::unique_ptr<baselines::LiuPlanner> planner)
@@ -111,10 +121,7 @@ class LiuMethod : public BenchMethod {
            " edges=" + std::to_string(planner_->edge_count());
   }
   QueryOutcome Run(const QueryPair& pair, double time_limit_s) override {
-    const auto begin = Clock::now();
-    const auto path = planner_->Plan(pair.start_m, pair.goal_m, time_limit_s);
-    const double plan_s = SecondsSince(begin);
-    return path ? PathOutcome(*path, plan_s) : Failure(path.error(), plan_s);
+    return RunPathPlanner(*planner_, pair, time_limit_s);
   }
 
  private:
@@ -131,10 +138,7 @@ class KrusiMethod : public BenchMethod {
     return Seconds("kdtree_s", planner_->assessment_s());
   }
   QueryOutcome Run(const QueryPair& pair, double time_limit_s) override {
-    const auto begin = Clock::now();
-    const auto path = planner_->Plan(pair.start_m, pair.goal_m, time_limit_s);
-    const double plan_s = SecondsSince(begin);
-    return path ? PathOutcome(*path, plan_s) : Failure(path.error(), plan_s);
+    return RunPathPlanner(*planner_, pair, time_limit_s);
   }
 
  private:
