@@ -235,11 +235,6 @@ Expected<PlanResult> Plan(const PlanningMap& map, const PlanRequest& request,
   if (waypoints.size() < 2) waypoints.push_back(tail.position_m);
 
   OptimizerConfig config = options.optimizer;
-  // A voxelised cloud knows its ground only to within half a quantum; the check allows that
-  // plus a quarter quantum of tracking, or every staircase ramp would fail it by noise.
-  VerifierConfig verifier = options.verifier;
-  verifier.ground_tolerance_m =
-      std::max(verifier.ground_tolerance_m, 0.75 * map.model().summary().vertical_quantum_m);
   Error last_failure{ErrorCode::kOptimizationFailed, "no optimisation attempt ran"};
   for (int attempt = 0; attempt < options.max_attempts; ++attempt) {
     stage = Clock::now();
@@ -260,7 +255,7 @@ Expected<PlanResult> Plan(const PlanningMap& map, const PlanRequest& request,
     Trajectory trajectory = Trajectory::FromMinco(minco);
     VerificationReport verification;
     const Status verified =
-        VerifyTrajectory(graph, profile, trajectory, verifier, &verification);
+        VerifyTrajectory(graph, profile, trajectory, options.verifier, &verification);
     stats.timings.verify_s += SecondsSince(stage);
     if (verified) {
       FillStats(trajectory, verification, &stats);

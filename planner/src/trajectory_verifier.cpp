@@ -75,6 +75,10 @@ Status VerifyTrajectory(const SurfaceGraph& graph, const RobotProfile& profile,
   // limit check bounds it anyway), so this step keeps consecutive samples <= the spacing.
   const double peak_speed = 1.1 * PeakSpeed(trajectory);
   const double tolerance = 1 + config.limit_tolerance;
+  // A voxelised cloud knows its ground only to within half a quantum; the check allows that
+  // plus a quarter quantum of tracking, or every staircase ramp would fail it by noise.
+  const double ground_tolerance_m =
+      std::max(config.ground_tolerance_m, 0.75 * model.summary().vertical_quantum_m);
 
   double piece_start = 0;
   for (std::size_t i = 0; i < trajectory.pieces.size(); ++i) {
@@ -133,10 +137,10 @@ Status VerifyTrajectory(const SurfaceGraph& graph, const RobotProfile& profile,
       report->max_tilt_rad = std::max(report->max_tilt_rad, static_cast<double>(surface.tilt_rad));
       const double offset = p.z() - ground.height_m - profile.reference_height_m;
       report->max_ground_offset_m = std::max(report->max_ground_offset_m, std::abs(offset));
-      if (std::abs(offset) > config.ground_tolerance_m) {
+      if (std::abs(offset) > ground_tolerance_m) {
         return Violation(t, p,
                          Exceeds("distance from the reference height above ground",
-                                 std::abs(offset), config.ground_tolerance_m, "m"));
+                                 std::abs(offset), ground_tolerance_m, "m"));
       }
       const double distance = model.Distance(p);
       report->min_obstacle_distance_m = std::min(report->min_obstacle_distance_m, distance);

@@ -261,6 +261,12 @@ TEST(SharedMaps, SpiralGroundQueriesSucceedAndAnIsolatedGoalIsRefusedWithoutSear
     ExpectSound(*plan, request);
     // On the level the goal's z points at (the top deck's ground is at 20.2 m).
     EXPECT_NEAR(plan->goal.position_m.z() - goal.z(), 0.3 - 1.3, 0.25) << goal.transpose();
+    // Anyone re-verifying with the default config gets the planner's verdict (the voxel
+    // ground tolerance lives in VerifyTrajectory, not in Plan).
+    const auto graph = map.Graph(request.profile.Traversability()).value();
+    VerificationReport report;
+    EXPECT_TRUE(VerifyTrajectory(*graph, request.profile, plan->trajectory, VerifierConfig{},
+                                 &report).ok());
   }
 
   // A goal on an island of traversable ground (a component the start's does not reach).

@@ -17,7 +17,7 @@ struct VerifierConfig {
   double max_sample_spacing_m = 0.02;
   /// Largest |z − (ground + reference height)| allowed [m], > 0. The ground is the smoothed
   /// plane-fit height (SampleGround); half a cell of slack covers the grid's quantisation.
-  /// Plan() raises it to 0.75 quanta on a voxelised cloud (its ground is known to ±q/2).
+  /// VerifyTrajectory raises it to 0.75 quanta on a voxelised cloud (ground known to ±q/2).
   double ground_tolerance_m = 0.1;
   /// Smallest ESDF distance at the reference point [m], >= 0 (the reference point is never
   /// inside an obstacle; walls are kept away by the ground filter radius).
