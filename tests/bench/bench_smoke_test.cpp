@@ -19,6 +19,8 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "run_offline.hpp"
+
 namespace strata {
 namespace {
 
@@ -26,15 +28,9 @@ using ::testing::HasSubstr;
 
 // Runs strata-offline with `args`; returns the exit code, stdout and stderr in *output.
 int RunOffline(const std::string& args, std::string* output) {
-  const std::string command = std::string("'") + STRATA_OFFLINE_BIN + "' " + args + " 2>&1";
-  FILE* pipe = popen(command.c_str(), "r");
-  if (pipe == nullptr) return -1;
-  char buffer[4096];
-  for (std::size_t n; (n = std::fread(buffer, 1, sizeof(buffer), pipe)) > 0;) {
-    output->append(buffer, n);
-  }
-  const int status = pclose(pipe);
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  testing::OfflineOutcome run = testing::RunOffline(args, true);
+  *output += run.output;
+  return run.exit_code;
 }
 
 // A CSV file as header → column index and rows of fields (no quoted commas in the columns

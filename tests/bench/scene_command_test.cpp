@@ -11,6 +11,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "run_offline.hpp"
 #include "strata/bench_scenes.hpp"
 #include "strata/cloud_io.hpp"
 #include "strata/scenes.hpp"
@@ -20,24 +21,10 @@ namespace {
 
 using ::testing::HasSubstr;
 
-struct Outcome {
-  int exit_code = -1;
-  std::string output;  // stdout and stderr.
-};
+using Outcome = testing::OfflineOutcome;
 
-Outcome RunOffline(const std::string& args) {
-  const std::string command = std::string("'") + STRATA_OFFLINE_BIN + "' " + args + " 2>&1";
-  FILE* pipe = popen(command.c_str(), "r");
-  Outcome outcome;
-  if (pipe == nullptr) return outcome;
-  char buffer[4096];
-  for (std::size_t n; (n = std::fread(buffer, 1, sizeof(buffer), pipe)) > 0;) {
-    outcome.output.append(buffer, n);
-  }
-  const int status = pclose(pipe);
-  if (WIFEXITED(status)) outcome.exit_code = WEXITSTATUS(status);
-  return outcome;
-}
+// Runs strata-offline with `args`, stderr merged into the output.
+Outcome RunOffline(const std::string& args) { return testing::RunOffline(args, true); }
 
 // A fresh directory per test, removed afterwards.
 class SceneCommandTest : public ::testing::Test {

@@ -13,6 +13,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "run_offline.hpp"
 #include "strata/scenes.hpp"
 
 namespace strata {
@@ -22,25 +23,11 @@ using ::testing::EndsWith;
 using ::testing::HasSubstr;
 using ::testing::StartsWith;
 
-struct Outcome {
-  int exit_code = -1;
-  std::string output;  // stdout, and stderr when asked for.
-};
+using Outcome = testing::OfflineOutcome;
 
-// Runs strata-offline with `args` through the shell; stderr is dropped unless merged.
+// Runs strata-offline with `args`; stderr is dropped unless merged.
 Outcome RunOffline(const std::string& args, bool with_stderr = false) {
-  const std::string command = std::string("'") + STRATA_OFFLINE_BIN + "' " + args +
-                              (with_stderr ? " 2>&1" : " 2>/dev/null");
-  FILE* pipe = popen(command.c_str(), "r");
-  Outcome outcome;
-  if (pipe == nullptr) return outcome;
-  char buffer[4096];
-  for (std::size_t n; (n = std::fread(buffer, 1, sizeof(buffer), pipe)) > 0;) {
-    outcome.output.append(buffer, n);
-  }
-  const int status = pclose(pipe);
-  if (WIFEXITED(status)) outcome.exit_code = WEXITSTATUS(status);
-  return outcome;
+  return testing::RunOffline(args, with_stderr);
 }
 
 std::string Point(const Eigen::Vector3d& p) {
