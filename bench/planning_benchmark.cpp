@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "offline/bench_pairs.hpp"
+#include "statistics.hpp"
 #include "strata/cloud_io.hpp"
 #include "strata/planner.hpp"
 
@@ -46,16 +47,8 @@ const std::map<std::string, double> kOriginalMs = {
     {"sp_ground_right", 68}, {"sp_ground_to_l1", 125},   {"sp_ground_to_top", 806},
     {"sp_top_to_ground", 159}, {"sp_cross_wall", 1224}};
 
-double Median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  return v[v.size() / 2];
-}
-double Percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  return v[std::min(v.size() - 1, static_cast<std::size_t>(q * v.size()))];
-}
+using strata::offline::Median;
+using strata::offline::Quantile;
 
 std::unique_ptr<PlanningMap> LoadMap(const std::string& dir, const std::string& name) {
   auto cloud = strata::LoadPointCloud(dir + "/" + name + ".pcd", strata::CloudLoadLimits{});
@@ -169,8 +162,8 @@ int main(int argc, char** argv) {
     std::printf("| %s | %d | %.1f%% | %s | %.1f / %.1f | %.1f / %.1f | %.1f / %.1f | %.1f | %.3f | "
                 "%.2f / %.2f |\n",
                 name.c_str(), pairs, 100.0 * ok / pairs, reasons.empty() ? "none" : reasons.c_str(),
-                Median(total), Percentile(total, 0.95), Median(search), Percentile(search, 0.95),
-                Median(optimize), Percentile(optimize, 0.95), Median(length), Median(curvature),
+                Median(total), Quantile(total, 0.95), Median(search), Quantile(search, 0.95),
+                Median(optimize), Quantile(optimize, 0.95), Median(length), Median(curvature),
                 max_v, max_a);
   }
   return 0;

@@ -23,6 +23,7 @@
 
 #include <grpcpp/grpcpp.h>
 
+#include "statistics.hpp"
 #include "strata/v1/map_service.grpc.pb.h"
 #include "strata/v1/planner_service.grpc.pb.h"
 
@@ -49,16 +50,8 @@ const Query kLatencyQueries[] = {
 // The throughput mix: the scene20.2 reference queries that plan, in turn.
 const Query kMix[] = {kLatencyQueries[0], kLatencyQueries[1], kLatencyQueries[2]};
 
-double Median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  return v[v.size() / 2];
-}
-double Percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  return v[std::min(v.size() - 1, static_cast<std::size_t>(q * v.size()))];
-}
+using strata::offline::Median;
+using strata::offline::Quantile;
 
 strata::v1::PlanRequest Request(const Query& q) {
   strata::v1::PlanRequest r;
@@ -221,8 +214,8 @@ int main(int argc, char** argv) {
       failed += failures[c];
     }
     std::printf("| %d | %zu | %d | %.1f | %.1f | %.1f | %.1f |\n", clients, all.size(), failed,
-                all.size() / window, Percentile(all, 0.5), Percentile(all, 0.99),
-                Percentile(all_queue, 0.5));
+                all.size() / window, Quantile(all, 0.5), Quantile(all, 0.99),
+                Quantile(all_queue, 0.5));
     std::fflush(stdout);
   }
   return 0;

@@ -151,13 +151,4 @@ std::vector<Eigen::Vector3d> SampleTrajectory(const Trajectory& trajectory, doub
   return points;
 }
 
-double Median(std::vector<double> values) { return Quantile(std::move(values), 0.5); }
-
-double Quantile(std::vector<double> values, double q) {
-  if (values.empty()) return 0;
-  std::sort(values.begin(), values.end());
-  const auto rank = static_cast<std::size_t>(std::ceil(q * values.size()));
-  return values[std::clamp<std::size_t>(rank, 1, values.size()) - 1];
-}
-
 }  // namespace strata::offline

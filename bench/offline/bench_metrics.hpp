@@ -10,6 +10,7 @@
 
 #include <Eigen/Core>
 
+#include "statistics.hpp"
 #include "strata/trajectory.hpp"
 
 namespace strata::offline {
@@ -31,9 +32,5 @@ double TrajectoryArcMeanCurvature(const Trajectory& trajectory, double spacing_m
 /// Positions of the trajectory's x, y, z every `spacing_m` of arc length (and both ends).
 std::vector<Eigen::Vector3d> SampleTrajectory(const Trajectory& trajectory,
                                               double spacing_m = 0.1);
-
-/// Median and q-quantile (nearest rank) of `values`; 0 when empty.
-double Median(std::vector<double> values);
-double Quantile(std::vector<double> values, double q);
 
 }  // namespace strata::offline
