@@ -1,7 +1,7 @@
 #pragma once
 /// The maps a server hosts: an id → map store and the small worker pool that assesses new
 /// maps off the RPC threads. No gRPC here, so it is tested on its own (and can run under
-/// ThreadSanitizer, which Debian's gRPC cannot; that run is not in CI yet).
+/// ThreadSanitizer, which Debian's gRPC cannot: scripts/test.sh runs that build in CI).
 ///
 /// Concurrency: one mutex guards the id → entry table and every entry's mutable fields; it
 /// is held only for bookkeeping, never while loading, assessing or planning. A plan copies

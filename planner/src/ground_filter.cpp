@@ -4,7 +4,7 @@
 
 #include <flann/algorithms/dist.h>
 #include <flann/algorithms/kdtree_single_index.h>
-#include <omp.h>
+#include "parallel_internal.hpp"
 
 namespace strata {
 namespace {
@@ -65,7 +65,7 @@ std::vector<std::uint8_t> FilterValidGround(const PointCloud& cloud,
   const auto radius_sq = static_cast<float>(config.radius_m * config.radius_m);
   const flann::SearchParams params(flann::FLANN_CHECKS_UNLIMITED, /*eps=*/0.0f,
                                    /*sorted=*/false);
-  if (num_threads <= 0) num_threads = omp_get_num_procs();
+  num_threads = internal::ResolveThreadCount(num_threads);
 
 #pragma omp parallel for schedule(dynamic, 1024) num_threads(num_threads)
   for (std::int64_t i = 0; i < n; ++i) {

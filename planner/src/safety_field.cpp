@@ -4,7 +4,7 @@
 #include <cmath>
 #include <cstdint>
 
-#include <omp.h>
+#include "parallel_internal.hpp"
 
 namespace strata {
 namespace {
@@ -79,7 +79,7 @@ double PoseGradientNorm(const SurfaceMap& surfaces, const FieldConfig& field, in
 
 ScalarGrid ComputeSafetyPenalty(const SurfaceMap& surfaces, const FieldConfig& field,
                                 int num_threads) {
-  if (num_threads <= 0) num_threads = omp_get_num_procs();
+  num_threads = internal::ResolveThreadCount(num_threads);
   const GridGeometry& g = surfaces.geometry();
   const int nx = g.size.x();
   const int ny = g.size.y();
@@ -134,7 +134,7 @@ ScalarGrid ComputeSafetyPenalty(const SurfaceMap& surfaces, const FieldConfig& f
 
 ScalarGrid DiffuseSafetyPenalty(const ScalarGrid& penalty, const FieldConfig& field,
                                 int num_threads) {
-  if (num_threads <= 0) num_threads = omp_get_num_procs();
+  num_threads = internal::ResolveThreadCount(num_threads);
   const GridGeometry& g = penalty.geometry();
   const Eigen::MatrixXd kernel = ConeKernel(field.diffusion_distance_m, g.resolution_m);
   if (kernel.size() == 1) return penalty;

@@ -5,8 +5,7 @@
 #include <limits>
 #include <numbers>
 
-#include <omp.h>
-
+#include "parallel_internal.hpp"
 #include "strata/plane_fit.hpp"
 
 namespace strata {
@@ -26,7 +25,7 @@ int ClampedLayer(const GridGeometry& g, float z) {
 }
 
 ColumnSortedCloud SortByColumn(const GridGeometry& g, const PointCloud& cloud,
-                               const std::vector<std::uint8_t>& valid_ground, int threads) {
+                               const std::vector<std::uint8_t>& valid_ground, [[maybe_unused]] int threads) {  // OpenMP only.
   const std::int64_t columns = g.LayerCellCount();
   std::vector<std::uint32_t> column_of(cloud.size());
   ColumnSortedCloud out;
@@ -140,7 +139,7 @@ double PlaneHeightAt(const PlaneFit& fit, const Eigen::Vector3d& centre_xy) {
 SurfaceMap SurfaceMap::Build(const GridGeometry& geometry, const PointCloud& cloud,
                              const std::vector<std::uint8_t>& valid_ground,
                              const FieldConfig& field, int num_threads) {
-  if (num_threads <= 0) num_threads = omp_get_num_procs();
+  num_threads = internal::ResolveThreadCount(num_threads);
   const GridGeometry& g = geometry;
   const std::int64_t columns = g.LayerCellCount();
   const ColumnSortedCloud sorted = SortByColumn(g, cloud, valid_ground, num_threads);

@@ -274,7 +274,7 @@ TEST(MapRegistryTest, ShutdownFailsQueuedMapsAndRefusesNewOnes) {
   EXPECT_EQ(registry.Get("first")->state, MapState::kActive);
 }
 
-// Readers, planners and writers at once; run under ThreadSanitizer in CI.
+// Readers and writers at once (the TSan build runs this too).
 TEST(MapRegistryTest, ConcurrentCreateDeleteAndReadsStayConsistent) {
   RegistryOptions options = Options();
   options.max_concurrent_assessments = 2;
