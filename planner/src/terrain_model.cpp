@@ -19,24 +19,40 @@ constexpr double kQuantumToleranceFactor = 1.05;
 
 double DetectVerticalQuantum(const PointCloud& cloud) {
   // On an evenly spaced sample, the distinct heights (to 0.1 mm) of a voxelised map are few
-  // and all multiples of one step; a sensor's are many and arbitrary.
+  // and all multiples of one step; a sensor's are many and arbitrary. A voxel map may carry a
+  // few stray points off its lattice (scene20.2 has two at z = 0 under a 0.05 + 0.15 k
+  // lattice), so heights seen fewer than three times in the sample neither set the step nor
+  // break it, as long as such points are rare.
   constexpr std::size_t kSample = 20000;
   constexpr std::size_t kMaxLevels = 4000;
   constexpr double kResolution = 1e-4;
-  std::vector<std::int64_t> heights;
+  constexpr std::size_t kMinPointsPerHeight = 3;
+  constexpr double kMaxStrayFraction = 1e-3;
+  std::vector<std::int64_t> sampled;
   const std::size_t stride = std::max<std::size_t>(1, cloud.size() / kSample);
   for (std::size_t i = 0; i < cloud.size(); i += stride) {
-    heights.push_back(std::llround(cloud[i].z() / kResolution));
+    sampled.push_back(std::llround(cloud[i].z() / kResolution));
   }
-  std::sort(heights.begin(), heights.end());
-  heights.erase(std::unique(heights.begin(), heights.end()), heights.end());
-  if (heights.size() < 3 || heights.size() > kMaxLevels) return 0;
+  std::sort(sampled.begin(), sampled.end());
+  std::vector<std::int64_t> heights;  // Each held by at least kMinPointsPerHeight points.
+  std::size_t stray_points = 0;
+  for (std::size_t i = 0, j = 0; i < sampled.size(); i = j) {
+    while (j < sampled.size() && sampled[j] == sampled[i]) ++j;
+    if (j - i >= kMinPointsPerHeight) {
+      heights.push_back(sampled[i]);
+    } else {
+      stray_points += j - i;
+    }
+  }
+  if (heights.size() < 3 || heights.size() > kMaxLevels ||
+      static_cast<double>(stray_points) > kMaxStrayFraction * static_cast<double>(sampled.size())) {
+    return 0;
+  }
   std::int64_t step = std::numeric_limits<std::int64_t>::max();
   for (std::size_t i = 1; i < heights.size(); ++i) step = std::min(step, heights[i] - heights[i - 1]);
   if (step * kResolution < 0.01) return 0;  // Finer than a centimetre: not a voxel grid.
   for (std::size_t i = 1; i < heights.size(); ++i) {
-    const std::int64_t gap = heights[i] - heights[i - 1];
-    const std::int64_t off = gap % step;
+    const std::int64_t off = (heights[i] - heights[0]) % step;
     if (std::min(off, step - off) > 2) return 0;  // Not a multiple of the step (±0.2 mm).
   }
   return step * kResolution;

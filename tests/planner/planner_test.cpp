@@ -240,6 +240,18 @@ TEST(SharedMaps, Scene20QueriesSucceedOnTheGround) {
     ASSERT_TRUE(plan.ok()) << start.transpose() << ": " << plan.error().message;
     ExpectSound(*plan, request);
   }
+  // s2_ground_to_deck and s2_deck_to_ground: up and down the corridor's stepped ramp (0.15 m
+  // risers on a 0.15 m voxel lattice, within the profile's step) to the deck at z = 2.9 m.
+  const std::pair<Eigen::Vector3d, Eigen::Vector3d> deck_queries[] = {
+      {{-4, 16, 1}, {6.5, -1.5, 3.5}}, {{6.5, -2, 3.5}, {16, 8, 1}}};
+  for (const auto& [start, goal] : deck_queries) {
+    const PlanRequest request = Request(start, goal);
+    auto plan = Plan(map, request);
+    ASSERT_TRUE(plan.ok()) << start.transpose() << ": " << plan.error().message;
+    ExpectSound(*plan, request);
+    const Eigen::Vector3d deck_end = start.z() > goal.z() ? plan->start.position_m : plan->goal.position_m;
+    EXPECT_NEAR(deck_end.z(), 2.9 + request.profile.reference_height_m, 0.1);
+  }
 }
 
 TEST(SharedMaps, SpiralGroundQueriesSucceedAndAnIsolatedGoalIsRefusedWithoutSearch) {

@@ -270,5 +270,23 @@ TEST(TerrainModel, FieldConfigForQuantumWidensTheFitOnlyForVoxelMaps) {
   EXPECT_TRUE(voxel.plane_fit_column_tops);
 }
 
+TEST(TerrainModel, VerticalQuantumIgnoresAFewStrayPointsButNotScatteredHeights) {
+  PointCloud lattice;  // Heights 0.05 + 0.15 k, as scene20.2's.
+  for (int i = 0; i < 200; ++i) {
+    for (int j = 0; j < 50; ++j) lattice.emplace_back(0.15f * i, 0.15f * j, 0.05f + 0.15f * (i % 12));
+  }
+  EXPECT_NEAR(DetectVerticalQuantum(lattice), 0.15, 1e-4);
+  PointCloud strays = lattice;  // scene20.2's two points at z = 0.
+  strays.emplace_back(1.0f, 1.0f, 0.0f);
+  strays.emplace_back(1.15f, 1.0f, 0.0f);
+  EXPECT_NEAR(DetectVerticalQuantum(strays), 0.15, 1e-4);
+  PointCloud scattered = lattice;  // 2% of the points at arbitrary heights: not a lattice.
+  for (int k = 0; k < 200; ++k) scattered.emplace_back(0.3f * k, 0.0f, 0.0137f * k + 0.003f);
+  EXPECT_EQ(DetectVerticalQuantum(scattered), 0.0);
+  PointCloud sensor;
+  for (int k = 0; k < 10000; ++k) sensor.emplace_back(0.01f * k, 0.0f, 0.5f * std::sin(0.01 * k));
+  EXPECT_EQ(DetectVerticalQuantum(sensor), 0.0);
+}
+
 }  // namespace
 }  // namespace strata

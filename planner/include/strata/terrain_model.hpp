@@ -41,8 +41,9 @@ struct AssessmentSummary {
 };
 
 /// The height step of a voxelised cloud (see AssessmentSummary::vertical_quantum_m): on a
-/// sample of up to 20k points, when there are at most 4000 distinct heights (to 0.1 mm), all
-/// differences multiples of the smallest, and that is at least 1 cm; else 0.
+/// sample of up to 20k points, when the heights (to 0.1 mm) held by at least three sampled
+/// points are at most 4000, all differences multiples of the smallest, and that is at least
+/// 1 cm, and at most 0.1% of the sample lie at other heights (stray points, ignored); else 0.
 double DetectVerticalQuantum(const PointCloud& cloud);
 
 /// The plane-fit settings used on a cloud with this vertical quantum at this grid
