@@ -16,6 +16,7 @@ if ! command -v npm >/dev/null 2>&1; then
   DEBIAN_FRONTEND=noninteractive "${sudo_cmd[@]}" apt-get install -y --no-install-recommends npm
 fi
 # --ignore-scripts: the CLI ships in a per-platform package; its postinstall only checks that.
-if ! (cd "$buf_dir" && npm install --ignore-scripts --no-audit --no-fund --loglevel=error); then
+if ! (cd "$buf_dir" && npm install --ignore-scripts --no-audit --no-fund --loglevel=error \
+    --fetch-timeout=30000 --fetch-retries=1); then
   echo "install-test-tools: could not install Buf's CLI; the buf curl test will skip" >&2
 fi
