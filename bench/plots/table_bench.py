@@ -30,9 +30,9 @@ def main():
             failures = r["failures"]
             if r["method"] == "strata":
                 failures += f"; verification violations {r['verify_violations']}"
-            print(f"| {scene} | {LABELS[r['method']]} | {s}/{q} ({100.0 * s / q:.0f}%) | "
-                  f"{float(r['t_a_s']):.2f} | {1e3 * float(r['time_median_s']):.0f} / "
-                  f"{1e3 * float(r['time_p95_s']):.0f} | {float(r['length_median_m']):.1f} / "
+            print(f"| {scene} | {LABELS[r['method']]} | {s}/{q} ({100.0 * s / q:.1f}%) | "
+                  f"{float(r['t_a_s']):.2f} | {1e3 * float(r['time_median_s']):.1f} / "
+                  f"{1e3 * float(r['time_p95_s']):.1f} | {float(r['length_median_m']):.1f} / "
                   f"{float(r['common_length_median_m']):.1f} | {float(r['kappa_median']):.3f} / "
                   f"{float(r['common_kappa_median']):.3f} | "
                   f"{float(r['common_kappa_arc_median']):.3f} | {failures} |")
