@@ -93,6 +93,7 @@ CostParams MakeCostParams(const RobotProfile& profile, const OptimizerConfig& co
   p.body_height_max_m = profile.active_height ? profile.body_height_max_m : profile.body_height_m;
   p.body_height_preferred_m = profile.body_height_m;
   p.headroom_m = profile.headroom_m;
+  p.body_height_margin_m = config.body_height_margin_m;
   p.samples_per_piece = config.samples_per_piece;
   return p;
 }

@@ -278,13 +278,23 @@ double TrajectoryCost::PointPenalty(const StateVector& pos, const StateVector& v
       grad_pos->head<2>() -= w.height * 2 * error * slope * ground.clearance_gradient;
     }
     if (w.feasibility > 0) {
-      // The body stays within its range and under the ceiling.
-      const Cubic high = CubicPenalty(h - c.body_height_max_m);
-      const Cubic low = CubicPenalty(c.body_height_min_m - h);
-      const Cubic ceiling = CubicPenalty(h + c.headroom_m - ground.clearance_m);
+      // The body stays within its range and under the ceiling, a margin inside each. The
+      // margin is at most half the range, and half the room between the lowest body and the
+      // ceiling, so that no two bounds cross where the graph let the robot in.
+      const double range_margin =
+          std::min(c.body_height_margin_m, (c.body_height_max_m - c.body_height_min_m) / 2);
+      const double room = ground.clearance_m - c.headroom_m - c.body_height_min_m;
+      const bool room_limited = 0 < room && room < 2 * range_margin;
+      const double margin = room_limited ? room / 2 : (room <= 0 ? 0 : range_margin);
+      const double margin_slope = room_limited ? 0.5 : 0;  // ∂margin/∂clearance.
+      const Cubic high = CubicPenalty(h - (c.body_height_max_m - range_margin));
+      const Cubic low = CubicPenalty(c.body_height_min_m + margin - h);
+      const Cubic ceiling = CubicPenalty(h + c.headroom_m + margin - ground.clearance_m);
       terms.height += w.feasibility * (high.value + low.value + ceiling.value);
       (*grad_pos)(3) += w.feasibility * (high.slope - low.slope + ceiling.slope);
-      grad_pos->head<2>() -= w.feasibility * ceiling.slope * ground.clearance_gradient;
+      grad_pos->head<2>() += w.feasibility *
+                             (low.slope * margin_slope + ceiling.slope * (margin_slope - 1)) *
+                             ground.clearance_gradient;
     }
   }
 

@@ -119,6 +119,9 @@ Status OptimizerConfig::Validate() const {
   if (!(limit_margin > 0 && limit_margin <= 1)) {
     return BadField("limit_margin", limit_margin, "in (0, 1]");
   }
+  if (!(std::isfinite(body_height_margin_m) && body_height_margin_m >= 0)) {
+    return BadField("body_height_margin_m", body_height_margin_m, ">= 0 and finite");
+  }
   if (!(std::isfinite(piece_length_m) && piece_length_m > 0)) {
     return BadField("piece_length_m", piece_length_m, "> 0 and finite");
   }

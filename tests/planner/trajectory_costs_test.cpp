@@ -149,6 +149,49 @@ TEST_P(PointPenaltyGradient, MatchesFiniteDifferencesForEveryTerm) {
 
 INSTANTIATE_TEST_SUITE_P(Dims, PointPenaltyGradient, ::testing::Values(3, 4));
 
+// Where the room between the lowest body and the ceiling is less than twice the body-height
+// margin, the margin shrinks with the room: its gradient through the clearance is checked
+// there. A body whose lowest height nearly fills the space under the deck makes such room.
+TEST(PointPenaltyGradientNearACeiling, MatchesFiniteDifferencesWhereTheMarginShrinks) {
+  CostWeights feasibility_only{0, 0, 0, 0, 0, 0, 0};
+  feasibility_only.feasibility = 1e3;
+  const TwoLevelRampLayout l = GetTwoLevelRampLayout();
+  CostParams params = Params(true);
+  params.body_height_margin_m = 0.15;
+  params.body_height_min_m = l.deck_underside_z_m - l.floor_z_m - params.headroom_m - 0.15;
+  params.body_height_max_m = params.body_height_min_m + 1;
+  params.body_height_preferred_m = params.body_height_min_m + 0.5;
+  const TrajectoryCost cost(Graph(), feasibility_only, params);
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> unit(0, 1);
+  int checked = 0;
+  for (int draw = 0; draw < 20000 && checked < 20; ++draw) {
+    StateVector pos = RandomPosition(rng, 4);
+    GroundSample ground;
+    if (!SampleGround(Scene(), pos.head<3>(), params.reference_height_m, cost.ClearanceCap(),
+                      &ground)) {
+      continue;
+    }
+    const double room = ground.clearance_m - params.headroom_m - params.body_height_min_m;
+    if (!(room > 0.01 && room < 2 * params.body_height_margin_m - 0.01)) continue;
+    // A body height around the shrunken bounds, so that the low or ceiling penalty is active.
+    pos(3) = params.body_height_min_m + room * (1.5 * unit(rng) - 0.25);
+    const StateVector zero = StateVector::Zero(4);
+    StateVector g_pos, g_vel, g_acc;
+    cost.PointPenalty(pos, zero, zero, &g_pos, &g_vel, &g_acc, nullptr);
+    const auto f = [&](const Eigen::VectorXd& y) {
+      StateVector gp, gv, ga;
+      return cost.PointPenalty(y, zero, zero, &gp, &gv, &ga, nullptr);
+    };
+    const Eigen::VectorXd numeric = NumericalGradient(f, pos, 1e-7);
+    EXPECT_LT(RelativeError(g_pos, numeric, 1e-3), kTolerance)
+        << "room " << room << "\nanalytic " << g_pos.transpose() << "\nnumeric  "
+        << numeric.transpose();
+    ++checked;
+  }
+  EXPECT_GE(checked, 5) << "too few points with little room under the deck";
+}
+
 // A random MINCO trajectory along the ramp: J(q, T) through Evaluate and the adjoint.
 struct Trajectory5 {
   Eigen::MatrixXd head, tail, waypoints;

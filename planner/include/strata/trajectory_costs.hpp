@@ -60,6 +60,7 @@ struct CostParams {
   double body_height_max_m = 0.5;
   double body_height_preferred_m = 0.5;
   double headroom_m = 0.05;
+  double body_height_margin_m = 0.02;   ///< Kept inside the range and under the ceiling [m].
   int samples_per_piece = 8;            ///< κ, >= 2.
   /// The trajectory's dimension: 4 with active height, else 3.
   int dim() const { return active_height ? 4 : 3; }

@@ -31,6 +31,11 @@ struct OptimizerConfig {
   /// The speed and acceleration bounds the optimiser aims for, as a fraction of the
   /// profile's, in (0, 1]: penalties are soft, so aiming a little low lands within them.
   double limit_margin = 0.92;
+  /// Active-height robots: how far inside [h_min, h_max] and below the ceiling (less
+  /// headroom) the optimiser keeps the body [m], >= 0. Like limit_margin, it lets the
+  /// polynomial between constraint points stay within the verified range. Where a passage
+  /// leaves less room than twice this, the margin shrinks to half the room.
+  double body_height_margin_m = 0.02;
   /// Target length of one MINCO piece along the initial path [m], > 0.
   double piece_length_m = 1.5;
   /// Constraint points per piece κ (trapezoid over κ + 1 samples), >= 2.
