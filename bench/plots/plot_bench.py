@@ -49,7 +49,7 @@ def load_run(run_dir):
 
 def shown_queries(results, paths, methods, count):
     """Up to `count` dumped queries, spread from long to short: those every method solved
-    first, then (where too few) those most methods solved, always including Strata's."""
+    first, then (where too few) those most methods solved, down to one method's."""
     solved = {}
     for row in results:
         q = int(row["query"])
@@ -60,7 +60,7 @@ def shown_queries(results, paths, methods, count):
     if len(full) > count:
         full.sort(key=lambda q: -max(solved[q].values()))
         return [full[int(i * (len(full) - 1) / max(1, count - 1))] for i in range(count)]
-    rest = [q for q in ranked if q not in full and len(solved[q]) > 1]
+    rest = [q for q in ranked if q not in full]
     return full + rest[:count - len(full)]
 
 
@@ -175,12 +175,14 @@ def plot_overview(runs, out_dir):
         rate, t_a, ratio, kappa = [], [], [], []
         for name, (results, meta) in runs:
             rows = [r for r in results if r["method"] == m]
-            rate.append(100.0 * sum(r["success"] == "1" for r in rows) / max(1, len(rows)))
+            # A method a run left out (--methods) gets no bar, not a 0% one.
+            rate.append(100.0 * sum(r["success"] == "1" for r in rows) / len(rows) if rows else np.nan)
             t_a.append(meta["assessment"].get(m, {}).get("t_a_s", np.nan))
             common = common_queries(results, [x for x in METHODS if any(r["method"] == x for r in results)])
             ratio.append(np.median([float(c[m]["length_m"]) / float(c["strata"]["length_m"])
                                     for c in common.values()
-                                    if m in c and float(c["strata"]["length_m"]) > 0]) if common else np.nan)
+                                    if m in c and "strata" in c
+                                    and float(c["strata"]["length_m"]) > 0]) if common else np.nan)
             ks = [float(r["kappa_m"]) for r in rows if r["success"] == "1"]
             kappa.append(np.median(ks) if ks else np.nan)
         for ax, values in zip(axes, [rate, t_a, ratio, kappa]):
