@@ -2,9 +2,6 @@
 // which, like grpcurl, discovers the services by reflection and speaks JSON. This is what the
 // README's grpcurl section promises. Buf's CLI is installed by scripts/install-test-tools.sh
 // (from npm); without it the tests skip and say so.
-#include <sys/wait.h>
-
-#include <cstdio>
 #include <filesystem>
 #include <string>
 
@@ -14,17 +11,13 @@
 #include <nlohmann/json.hpp>
 
 #include "server_fixture.hpp"
+#include "test_util/run_command.hpp"
 
 namespace strata::server::testing {
 namespace {
 
 using ::testing::AllOf;
 using ::testing::HasSubstr;
-
-struct BufOutcome {
-  int exit_code = -1;
-  std::string output;  // stdout and stderr.
-};
 
 class BufCurlTest : public ServerFixture {
  protected:
@@ -36,29 +29,20 @@ class BufCurlTest : public ServerFixture {
   }
 
   // `buf curl` over plaintext HTTP/2 to the test server; `rpc` empty lists the services.
-  BufOutcome Curl(const std::string& rpc, const std::string& json = "") {
+  // The outcome's output holds stdout and stderr.
+  strata::testing::CommandOutcome Curl(const std::string& rpc, const std::string& json = "") {
     std::string command = std::string("'") + STRATA_BUF_BIN +
                           "' curl --protocol grpc --http2-prior-knowledge --timeout 60s";
     if (rpc.empty()) command += " --list-services";
     if (!json.empty()) command += " -d '" + json + "'";
     command += " http://" + server_->address();
     if (!rpc.empty()) command += "/" + rpc;
-    command += " 2>&1";
-    BufOutcome outcome;
-    FILE* pipe = popen(command.c_str(), "r");
-    if (pipe == nullptr) return outcome;
-    char buffer[4096];
-    for (std::size_t n; (n = std::fread(buffer, 1, sizeof(buffer), pipe)) > 0;) {
-      outcome.output.append(buffer, n);
-    }
-    const int status = pclose(pipe);
-    if (WIFEXITED(status)) outcome.exit_code = WEXITSTATUS(status);
-    return outcome;
+    return strata::testing::RunCommand(command + " 2>&1");
   }
 };
 
 TEST_F(BufCurlTest, ReflectionListsEveryService) {
-  const BufOutcome listed = Curl("");
+  const auto listed = Curl("");
   ASSERT_EQ(listed.exit_code, 0) << listed.output;
   EXPECT_THAT(listed.output, AllOf(HasSubstr("strata.v1.MapService"),
                                    HasSubstr("strata.v1.PlannerService"),
@@ -66,14 +50,14 @@ TEST_F(BufCurlTest, ReflectionListsEveryService) {
 }
 
 TEST_F(BufCurlTest, HealthCheckAnswersServing) {
-  const BufOutcome health = Curl("grpc.health.v1.Health/Check", R"({"service":""})");
+  const auto health = Curl("grpc.health.v1.Health/Check", R"({"service":""})");
   ASSERT_EQ(health.exit_code, 0) << health.output;
   EXPECT_THAT(health.output, HasSubstr(R"("status": "SERVING")"));
 }
 
 // The README's grpcurl Plan call, in JSON: the response carries pieces and stats.
 TEST_F(BufCurlTest, PlansFromJsonAsTheReadmeShows) {
-  const BufOutcome plan = Curl("strata.v1.PlannerService/Plan",
+  const auto plan = Curl("strata.v1.PlannerService/Plan",
                                R"({"map_id":"demo","profile_name":"differential",)"
                                R"("start":{"position_m":{"x":2,"y":2,"z":0.3}},)"
                                R"("goal":{"position_m":{"x":10,"y":10,"z":3.3}}})");
@@ -85,7 +69,7 @@ TEST_F(BufCurlTest, PlansFromJsonAsTheReadmeShows) {
 // Errors reach a JSON client with their code, message and google.rpc.ErrorInfo (which buf
 // prints as base64 of the packed message, having no descriptor for it).
 TEST_F(BufCurlTest, ErrorsCarryTheirCodeMessageAndReason) {
-  const BufOutcome missing =
+  const auto missing =
       Curl("strata.v1.MapService/GetMap", R"({"map_id":"no-such-map"})");
   EXPECT_NE(missing.exit_code, 0);
   const nlohmann::json error = nlohmann::json::parse(missing.output, nullptr, false);
