@@ -99,9 +99,14 @@ def plot_paths(name, cloud, results, paths, methods, out_dir, count):
     side.set_xlabel("x [m]")
     side.set_ylabel("z [m]")
     side.set_title("side view (x, z) of the same paths")
+    return save_figure(fig, out_dir, f"{name}_paths.png", dpi=95)
+
+
+def save_figure(fig, out_dir, filename, dpi):
+    """Lays out, writes and closes `fig`; returns the PNG's path."""
     fig.tight_layout()
-    path = os.path.join(out_dir, f"{name}_paths.png")
-    fig.savefig(path, dpi=95)
+    path = os.path.join(out_dir, filename)
+    fig.savefig(path, dpi=dpi)
     plt.close(fig)
     return path
 
@@ -158,11 +163,7 @@ def plot_distributions(name, results, methods, out_dir):
     axes[3].tick_params(axis="x", labelsize=8)
     n = len({r["query"] for r in results})
     fig.suptitle(f"{name}: {n} random start/goal pairs")
-    fig.tight_layout()
-    path = os.path.join(out_dir, f"{name}_dist.png")
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return path
+    return save_figure(fig, out_dir, f"{name}_dist.png", dpi=100)
 
 
 def plot_overview(runs, out_dir):
@@ -199,11 +200,7 @@ def plot_overview(runs, out_dir):
     axes[3].set_xticks(x)
     axes[3].set_xticklabels(names, rotation=30, ha="right")
     fig.suptitle("Strata vs the Liu-style and Krüsi-style baselines, every scene")
-    fig.tight_layout()
-    path = os.path.join(out_dir, "bench_overview.png")
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return path
+    return save_figure(fig, out_dir, "bench_overview.png", dpi=100)
 
 
 def main():
