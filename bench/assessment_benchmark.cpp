@@ -72,17 +72,24 @@ void RegisterAll() {
   for (const auto& [name, path] : maps) {
     if (!std::filesystem::exists(path)) continue;
     benchmark::RegisterBenchmark(("Load/" + name).c_str(), BM_Load, path)
-        ->Unit(benchmark::kMillisecond)->Repetitions(5)->ReportAggregatesOnly(true);
+        ->Unit(benchmark::kMillisecond)
+        ->Repetitions(5)
+        ->ReportAggregatesOnly(true);
     for (const double r : {0.1, 0.2, 0.3}) {
-      benchmark::RegisterBenchmark(("Assess/" + name + "/" + std::to_string(r).substr(0, 3)).c_str(),
-                                   BM_Assess, path, r)
-          ->Unit(benchmark::kMillisecond)->Repetitions(5)->ReportAggregatesOnly(true)
+      benchmark::RegisterBenchmark(
+          ("Assess/" + name + "/" + std::to_string(r).substr(0, 3)).c_str(), BM_Assess, path, r)
+          ->Unit(benchmark::kMillisecond)
+          ->Repetitions(5)
+          ->ReportAggregatesOnly(true)
           ->UseRealTime();
     }
   }
   benchmark::RegisterBenchmark("Assess/two_level_ramp/0.1", BM_Assess,
                                std::string("scene:two_level_ramp"), 0.1)
-      ->Unit(benchmark::kMillisecond)->Repetitions(5)->ReportAggregatesOnly(true)->UseRealTime();
+      ->Unit(benchmark::kMillisecond)
+      ->Repetitions(5)
+      ->ReportAggregatesOnly(true)
+      ->UseRealTime();
 }
 
 }  // namespace

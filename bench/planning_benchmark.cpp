@@ -42,9 +42,9 @@ const Query kQueries[] = {
 
 // The original code's plan times on these queries [ms] (../shared/maps/README.md).
 const std::map<std::string, double> kOriginalMs = {
-    {"s2_flat_diag", 210},   {"s2_ground_to_deck", 277}, {"s2_deck_to_ground", 311},
-    {"s2_under_deck", 27},   {"s2_around_walls", 161},   {"sp_ground_left", 40},
-    {"sp_ground_right", 68}, {"sp_ground_to_l1", 125},   {"sp_ground_to_top", 806},
+    {"s2_flat_diag", 210},     {"s2_ground_to_deck", 277}, {"s2_deck_to_ground", 311},
+    {"s2_under_deck", 27},     {"s2_around_walls", 161},   {"sp_ground_left", 40},
+    {"sp_ground_right", 68},   {"sp_ground_to_l1", 125},   {"sp_ground_to_top", 806},
     {"sp_top_to_ground", 159}, {"sp_cross_wall", 1224}};
 
 using strata::offline::Median;
@@ -82,8 +82,9 @@ int main(int argc, char** argv) {
     (void)map->Graph(strata::BuiltinProfile("differential")->Traversability());
   }
 
-  std::printf("| query | result | total ms (median of 5) | snap / search / optimise / verify ms | "
-              "original ms | speed-up | length m | κ_m 1/m | max v h/v m/s | max a h/v m/s² |\n");
+  std::printf(
+      "| query | result | total ms (median of 5) | snap / search / optimise / verify ms | "
+      "original ms | speed-up | length m | κ_m 1/m | max v h/v m/s | max a h/v m/s² |\n");
   std::printf("|---|---|---|---|---|---|---|---|---|---|\n");
   for (const Query& q : kQueries) {
     std::vector<double> total, snap, search, optimize, verify;
@@ -106,17 +107,19 @@ int main(int argc, char** argv) {
       continue;
     }
     const strata::PlanStats& s = last->stats;
-    std::printf("| %s | ok | %.1f | %.1f / %.1f / %.1f / %.1f | %.0f | %.0f× | %.1f | %.3f | "
-                "%.2f / %.2f | %.2f / %.2f |\n",
-                q.name, Median(total), Median(snap), Median(search), Median(optimize),
-                Median(verify), original, original / Median(total), s.length_m,
-                s.mean_curvature_per_m, s.max_speed_horizontal_mps, s.max_speed_vertical_mps,
-                s.max_accel_horizontal_mps2, s.max_accel_vertical_mps2);
+    std::printf(
+        "| %s | ok | %.1f | %.1f / %.1f / %.1f / %.1f | %.0f | %.0f× | %.1f | %.3f | "
+        "%.2f / %.2f | %.2f / %.2f |\n",
+        q.name, Median(total), Median(snap), Median(search), Median(optimize), Median(verify),
+        original, original / Median(total), s.length_m, s.mean_curvature_per_m,
+        s.max_speed_horizontal_mps, s.max_speed_vertical_mps, s.max_accel_horizontal_mps2,
+        s.max_accel_vertical_mps2);
   }
 
-  std::printf("\n| map | pairs | success | failures by reason | total ms median / p95 | "
-              "search ms median / p95 | optimise ms median / p95 | length m median | "
-              "κ_m median | max v / a over all |\n");
+  std::printf(
+      "\n| map | pairs | success | failures by reason | total ms median / p95 | "
+      "search ms median / p95 | optimise ms median / p95 | length m median | "
+      "κ_m median | max v / a over all |\n");
   std::printf("|---|---|---|---|---|---|---|---|---|---|\n");
   for (auto& [name, map] : maps) {
     const auto graph = map->Graph(strata::BuiltinProfile("differential")->Traversability()).value();
@@ -152,19 +155,25 @@ int main(int argc, char** argv) {
     std::vector<double> refusal;
     for (int run = 0; island >= 0 && run < 5; ++run) {
       const auto begin = std::chrono::steady_clock::now();
-      const auto plan = strata::Plan(*map, Request(graph->position(largest.nodes[0]), graph->position(island)));
-      refusal.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - begin).count());
+      const auto plan =
+          strata::Plan(*map, Request(graph->position(largest.nodes[0]), graph->position(island)));
+      refusal.push_back(
+          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - begin)
+              .count());
       if (plan || plan.error().code != strata::ErrorCode::kGoalUnreachable) refusal.back() = -1;
     }
-    std::fprintf(stderr, "%s: unreachable goal refused in %.3f ms (median of 5)\n", name.c_str(), Median(refusal));
+    std::fprintf(stderr, "%s: unreachable goal refused in %.3f ms (median of 5)\n", name.c_str(),
+                 Median(refusal));
     std::string reasons;
-    for (const auto& [reason, count] : failures) reasons += reason + " " + std::to_string(count) + " ";
-    std::printf("| %s | %d | %.1f%% | %s | %.1f / %.1f | %.1f / %.1f | %.1f / %.1f | %.1f | %.3f | "
-                "%.2f / %.2f |\n",
-                name.c_str(), pairs, 100.0 * ok / pairs, reasons.empty() ? "none" : reasons.c_str(),
-                Median(total), Quantile(total, 0.95), Median(search), Quantile(search, 0.95),
-                Median(optimize), Quantile(optimize, 0.95), Median(length), Median(curvature),
-                max_v, max_a);
+    for (const auto& [reason, count] : failures)
+      reasons += reason + " " + std::to_string(count) + " ";
+    std::printf(
+        "| %s | %d | %.1f%% | %s | %.1f / %.1f | %.1f / %.1f | %.1f / %.1f | %.1f | %.3f | "
+        "%.2f / %.2f |\n",
+        name.c_str(), pairs, 100.0 * ok / pairs, reasons.empty() ? "none" : reasons.c_str(),
+        Median(total), Quantile(total, 0.95), Median(search), Quantile(search, 0.95),
+        Median(optimize), Quantile(optimize, 0.95), Median(length), Median(curvature), max_v,
+        max_a);
   }
   return 0;
 }

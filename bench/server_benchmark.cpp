@@ -70,9 +70,9 @@ strata::v1::PlanRequest Request(const Query& q) {
 
 struct Outcome {
   grpc::Status status;
-  double rpc_s = 0;        // client-side wall time of the call
-  double total_s = 0;      // server-reported stats.timings.total_s
-  double queue_s = 0;      // server-reported stats.timings.queue_s
+  double rpc_s = 0;    // client-side wall time of the call
+  double total_s = 0;  // server-reported stats.timings.total_s
+  double queue_s = 0;  // server-reported stats.timings.queue_s
 };
 
 Outcome Plan(strata::v1::PlannerService::Stub& stub, const strata::v1::PlanRequest& request) {
@@ -130,9 +130,12 @@ int main(int argc, char** argv) {
   double seconds = 5;
   int runs = 5;
   for (int i = 1; i + 1 < argc; i += 2) {
-    if (!std::strcmp(argv[i], "--server")) address = argv[i + 1];
-    else if (!std::strcmp(argv[i], "--seconds")) seconds = std::atof(argv[i + 1]);
-    else if (!std::strcmp(argv[i], "--runs")) runs = std::atoi(argv[i + 1]);
+    if (!std::strcmp(argv[i], "--server"))
+      address = argv[i + 1];
+    else if (!std::strcmp(argv[i], "--seconds"))
+      seconds = std::atof(argv[i + 1]);
+    else if (!std::strcmp(argv[i], "--runs"))
+      runs = std::atoi(argv[i + 1]);
     else {
       std::fprintf(stderr, "usage: %s [--server HOST:PORT] [--seconds S] [--runs N]\n", argv[0]);
       return 2;
@@ -152,8 +155,9 @@ int main(int argc, char** argv) {
   }
 
   std::printf("### Latency through gRPC (one client, median of %d)\n\n", runs);
-  std::printf("| query | result | RPC ms | in-process ms (stats.timings.total_s) | queue ms | "
-              "overhead ms | overhead %% |\n|---|---|---|---|---|---|---|\n");
+  std::printf(
+      "| query | result | RPC ms | in-process ms (stats.timings.total_s) | queue ms | "
+      "overhead ms | overhead %% |\n|---|---|---|---|---|---|---|\n");
   for (const Query& q : kLatencyQueries) {
     std::vector<double> rpc, total, queue;
     grpc::Status failed;
@@ -177,10 +181,13 @@ int main(int argc, char** argv) {
                 runs, r, t, Median(queue), r - t, t > 0 ? 100.0 * (r - t) / t : 0.0);
   }
 
-  std::printf("\n### Throughput (mix of s2_flat_diag, s2_under_deck, s2_around_walls; "
-              "%.0f s per row)\n\n", seconds);
-  std::printf("| clients | plans | failed | plans/s | p50 ms | p99 ms | p50 server queue ms |\n"
-              "|---|---|---|---|---|---|---|\n");
+  std::printf(
+      "\n### Throughput (mix of s2_flat_diag, s2_under_deck, s2_around_walls; "
+      "%.0f s per row)\n\n",
+      seconds);
+  std::printf(
+      "| clients | plans | failed | plans/s | p50 ms | p99 ms | p50 server queue ms |\n"
+      "|---|---|---|---|---|---|---|\n");
   for (int clients : {1, 2, 8, 32}) {
     std::atomic<bool> stop{false};
     std::vector<std::vector<double>> lat(clients), queue(clients);

@@ -11,6 +11,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev nlohmann-json3-dev
   libompl-dev
   python3-yaml  # tests/deploy: manifest checks with Debian's /usr/bin/python3
+  clang-format  # scripts/check-format.sh (CI): the repository's .clang-format
 )
 
 missing=()

@@ -23,7 +23,9 @@ class ConcurrencyLimiter {
   class Slot {
    public:
     explicit Slot(ConcurrencyLimiter* limiter) : limiter_(limiter) {}
-    ~Slot() { if (limiter_ != nullptr) limiter_->Release(); }
+    ~Slot() {
+      if (limiter_ != nullptr) limiter_->Release();
+    }
     Slot(const Slot&) = delete;
     Slot& operator=(const Slot&) = delete;
 

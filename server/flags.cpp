@@ -11,8 +11,8 @@ namespace {
 using Setter = std::function<std::optional<std::string>(ServerConfig&, const std::string&)>;
 
 struct FlagSpec {
-  const char* name;     // Without the leading dashes.
-  const char* value;    // Placeholder in --help; nullptr for a switch.
+  const char* name;   // Without the leading dashes.
+  const char* value;  // Placeholder in --help; nullptr for a switch.
   const char* help;
   Setter set;
 };
@@ -193,7 +193,8 @@ std::optional<PreloadSpec> ParsePreloadSpec(const std::string& text, std::string
   for (std::size_t i = 1; i < parts.size(); ++i) {
     const std::size_t kv = parts[i].find('=');
     const std::string key = parts[i].substr(0, kv);
-    const auto value = kv == std::string::npos ? std::nullopt : ParseDouble(parts[i].substr(kv + 1));
+    const auto value =
+        kv == std::string::npos ? std::nullopt : ParseDouble(parts[i].substr(kv + 1));
     std::optional<double>* slot = key == "resolution_m"      ? &spec.resolution_m
                                   : key == "ground_radius_m" ? &spec.ground_radius_m
                                   : key == "max_tilt_rad"    ? &spec.max_tilt_rad
@@ -265,8 +266,7 @@ FlagsOutcome ParseFlags(int argc, const char* const* argv,
     if (auto error = flag->set(config, *value)) return fail("--" + name + ": " + *error);
   }
   // --no-preload leaves one empty marker; remove it (and anything before it is moot).
-  const bool explicit_empty =
-      !config.preload.empty() && config.preload.back().id.empty();
+  const bool explicit_empty = !config.preload.empty() && config.preload.back().id.empty();
   if (explicit_empty) {
     config.preload.clear();
   } else if (config.preload.empty()) {

@@ -28,13 +28,17 @@ class LogRecord {
   LogRecord& operator=(const LogRecord&) = delete;
 
   LogRecord& Add(std::string_view key, std::string_view value);
-  LogRecord& Add(std::string_view key, const char* value) { return Add(key, std::string_view(value)); }
+  LogRecord& Add(std::string_view key, const char* value) {
+    return Add(key, std::string_view(value));
+  }
   LogRecord& Add(std::string_view key, const std::string& value) {
     return Add(key, std::string_view(value));
   }
   LogRecord& Add(std::string_view key, double value);
   LogRecord& Add(std::string_view key, long long value);
-  LogRecord& Add(std::string_view key, int value) { return Add(key, static_cast<long long>(value)); }
+  LogRecord& Add(std::string_view key, int value) {
+    return Add(key, static_cast<long long>(value));
+  }
   LogRecord& Add(std::string_view key, std::size_t value) {
     return Add(key, static_cast<long long>(value));
   }

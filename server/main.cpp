@@ -39,9 +39,7 @@ int main(int argc, char** argv) {
     case FlagsOutcome::Action::kHelp:
       std::fputs(strata::server::UsageText().c_str(), stdout);
       return 0;
-    case FlagsOutcome::Action::kVersion:
-      std::puts(kVersion);
-      return 0;
+    case FlagsOutcome::Action::kVersion: std::puts(kVersion); return 0;
     case FlagsOutcome::Action::kError:
       std::fprintf(stderr, "strata-server: %s\n", flags.error.c_str());
       return 2;

@@ -20,8 +20,8 @@ double SecondsSince(SteadyClock::time_point start) {
 }
 
 bool IsIdCharacter(char c) {
-  return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
-         c == '.' || c == '_' || c == '-';
+  return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '.' ||
+         c == '_' || c == '-';
 }
 
 const char* StateName(MapState state) {
@@ -126,11 +126,12 @@ MapRegistry::~MapRegistry() {
 }
 
 ServiceStatus MapRegistry::ValidateId(const std::string& id) {
-  const bool well_formed = !id.empty() && id.size() <= kMaxIdLength &&
-                           std::all_of(id.begin(), id.end(), IsIdCharacter);
+  const bool well_formed =
+      !id.empty() && id.size() <= kMaxIdLength && std::all_of(id.begin(), id.end(), IsIdCharacter);
   if (well_formed) return OkStatus();
   std::string shown = id.substr(0, kMaxIdLength);
-  std::replace_if(shown.begin(), shown.end(), [](char c) { return !IsIdCharacter(c); }, '?');
+  std::replace_if(
+      shown.begin(), shown.end(), [](char c) { return !IsIdCharacter(c); }, '?');
   return MakeError(ErrorCode::kInvalidInput,
                    "map id '" + shown + (id.size() > kMaxIdLength ? "...'" : "'") +
                        " is not valid: use 1 to 64 characters from A-Z a-z 0-9 . _ -")
@@ -177,10 +178,9 @@ Result<MapSnapshot> MapRegistry::Create(const std::string& id, MapSource source,
     maps_.erase(existing);
   }
   if (static_cast<int>(maps_.size()) >= options_.max_maps) {
-    return MakeError(ServiceErrorCode::kTooManyMaps,
-                     "the server already holds its limit of " +
-                         std::to_string(options_.max_maps) +
-                         " maps (--max-maps): delete one first");
+    return MakeError(ServiceErrorCode::kTooManyMaps, "the server already holds its limit of " +
+                                                         std::to_string(options_.max_maps) +
+                                                         " maps (--max-maps): delete one first");
   }
   entry->id = new_id;
   maps_.emplace(new_id, entry);
@@ -219,8 +219,9 @@ Result<std::shared_ptr<const PlanningMap>> MapRegistry::GetActive(const std::str
   if (entry.state == MapState::kActive) return entry.planning;
   std::string message = "map '" + id + "' is " + StateName(entry.state);
   if (entry.state == MapState::kCreating) {
-    message += ": its terrain assessment has not finished; wait for ACTIVE (GetMap, or "
-               "CreateMap with wait) and retry";
+    message +=
+        ": its terrain assessment has not finished; wait for ACTIVE (GetMap, or "
+        "CreateMap with wait) and retry";
   } else if (entry.failure.has_value()) {
     message += " (" + entry.failure->message + "): create it again";
   }
@@ -300,7 +301,10 @@ MapTotals MapRegistry::Totals() const {
     for (const auto& [id, entry] : maps_) {
       switch (entry->state) {
         case MapState::kCreating: ++totals.creating; break;
-        case MapState::kActive: ++totals.active; active.push_back(entry->planning); break;
+        case MapState::kActive:
+          ++totals.active;
+          active.push_back(entry->planning);
+          break;
         case MapState::kFailed: ++totals.failed; break;
       }
     }
@@ -459,8 +463,7 @@ MapSnapshot MapRegistry::SnapshotLocked(const Entry& entry) const {
   return s;
 }
 
-void MapRegistry::FillMemory(const std::shared_ptr<const PlanningMap>& map,
-                             MapSnapshot* snapshot) {
+void MapRegistry::FillMemory(const std::shared_ptr<const PlanningMap>& map, MapSnapshot* snapshot) {
   if (map) snapshot->memory_bytes = map->MemoryBytes();
 }
 

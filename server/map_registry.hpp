@@ -70,8 +70,8 @@ struct MapSnapshot {
   CreationStage stage = CreationStage::kQueued;
   std::optional<ServiceError> failure;  ///< Set when FAILED.
   MapSourceInfo source;
-  AssessmentConfig config;              ///< Parameters it is (being) assessed with.
-  std::size_t raw_point_count = 0;      ///< Known after loading.
+  AssessmentConfig config;          ///< Parameters it is (being) assessed with.
+  std::size_t raw_point_count = 0;  ///< Known after loading.
   std::size_t dropped_nonfinite_point_count = 0;
   double load_s = 0;
   /// The rest is set once ACTIVE.

@@ -38,8 +38,8 @@ Result<fs::path> ResolveMapPath(const fs::path& root, std::string_view requested
     return MakeError(ErrorCode::kInvalidInput, "the map file path holds a NUL character")
         .Blame(field);
   }
-  const fs::path candidate = fs::path(requested).is_absolute() ? fs::path(requested)
-                                                               : root / fs::path(requested);
+  const fs::path candidate =
+      fs::path(requested).is_absolute() ? fs::path(requested) : root / fs::path(requested);
   std::error_code ec;
   const fs::path resolved = fs::weakly_canonical(candidate, ec);
   if (ec || !IsInside(resolved, root)) {

@@ -16,8 +16,7 @@ namespace strata::server {
 /// before existence, so a refusal tells nothing about files outside the root. Errors blame
 /// `field` (e.g. "file.path").
 Result<std::filesystem::path> ResolveMapPath(const std::filesystem::path& root,
-                                             std::string_view requested,
-                                             const std::string& field);
+                                             std::string_view requested, const std::string& field);
 
 /// The canonical form of an existing directory, for use as a map root; kInvalidInput naming
 /// the path when it is missing or not a directory.

@@ -37,10 +37,9 @@ Result<MapSource> SourceFromRequest(const v1::CreateMapRequest& request,
     case v1::CreateMapRequest::kScene: {
       const std::vector<std::string> names = SceneNames();
       if (std::find(names.begin(), names.end(), request.scene().name()) == names.end()) {
-        return MakeError(ErrorCode::kInvalidInput, "unknown scene '" +
-                                                       request.scene().name().substr(0, 64) +
-                                                       "': the built-in scenes are " +
-                                                       JoinedSceneNames())
+        return MakeError(ErrorCode::kInvalidInput,
+                         "unknown scene '" + request.scene().name().substr(0, 64) +
+                             "': the built-in scenes are " + JoinedSceneNames())
             .Blame("scene.name");
       }
       return MapSource(SceneMapSource{request.scene().name(), request.scene().seed()});
@@ -49,7 +48,8 @@ Result<MapSource> SourceFromRequest(const v1::CreateMapRequest& request,
   }
   return MakeError(ErrorCode::kInvalidInput,
                    "no source given: set file (a path under the server's map root) or scene "
-                   "(one of " + JoinedSceneNames() + ")")
+                   "(one of " +
+                       JoinedSceneNames() + ")")
       .Blame("source");
 }
 
@@ -121,8 +121,9 @@ grpc::Status MapServiceImpl::UploadMap(grpc::ServerContext* context,
         if (Result<MapSnapshot> existing = registry_->Get(id);
             !id.empty() && existing.ok() && existing->state != MapState::kFailed) {
           return MakeError(ServiceErrorCode::kMapAlreadyExists,
-                           "map '" + id + "' already exists: delete it first or choose "
-                           "another id")
+                           "map '" + id +
+                               "' already exists: delete it first or choose "
+                               "another id")
               .With("map_id", id)
               .Blame("header.map_id");
         }
@@ -169,9 +170,8 @@ grpc::Status MapServiceImpl::ListMaps(grpc::ServerContext*, const v1::ListMapsRe
     std::string after;
     if (!request->page_token().empty()) {
       const std::string& token = request->page_token();
-      const bool well_formed =
-          token.rfind(kPageTokenPrefix, 0) == 0 &&
-          MapRegistry::ValidateId(token.substr(kPageTokenPrefix.size())).ok();
+      const bool well_formed = token.rfind(kPageTokenPrefix, 0) == 0 &&
+                               MapRegistry::ValidateId(token.substr(kPageTokenPrefix.size())).ok();
       if (!well_formed) {
         return MakeError(ErrorCode::kInvalidInput,
                          "page_token is not one this server issued: pass next_page_token of "

@@ -105,8 +105,8 @@ class MapCollector final : public prometheus::Collectable {
 
   std::vector<prometheus::MetricFamily> Collect() const override {
     const MapTotals totals = maps_->Totals();
-    prometheus::MetricFamily states{"strata_maps", "Maps hosted, by state.",
-                                    prometheus::MetricType::Gauge, {}};
+    prometheus::MetricFamily states{
+        "strata_maps", "Maps hosted, by state.", prometheus::MetricType::Gauge, {}};
     const std::pair<const char*, int> counts[] = {
         {"creating", totals.creating}, {"active", totals.active}, {"failed", totals.failed}};
     for (const auto& [state, count] : counts) {
@@ -118,7 +118,8 @@ class MapCollector final : public prometheus::Collectable {
     prometheus::MetricFamily memory{
         "strata_map_memory_bytes",
         "Bytes held by ACTIVE maps (terrain models and cached traversability graphs).",
-        prometheus::MetricType::Gauge, {}};
+        prometheus::MetricType::Gauge,
+        {}};
     prometheus::ClientMetric bytes;
     bytes.gauge.value = static_cast<double>(totals.active_memory_bytes);
     memory.metric.push_back(bytes);
@@ -213,9 +214,11 @@ std::string Metrics::Serialize() const {
 void Metrics::InitializeMethod(std::string_view type, std::string_view service,
                                std::string_view method) {
   const MethodLabels labels{std::string(type), std::string(service), std::string(method)};
-  started_.Add({{"grpc_type", labels.type}, {"grpc_service", labels.service},
+  started_.Add({{"grpc_type", labels.type},
+                {"grpc_service", labels.service},
                 {"grpc_method", labels.method}});
-  handling_seconds_.Add({{"grpc_type", labels.type}, {"grpc_service", labels.service},
+  handling_seconds_.Add({{"grpc_type", labels.type},
+                         {"grpc_service", labels.service},
                          {"grpc_method", labels.method}},
                         kRpcBuckets);
 }

@@ -20,8 +20,7 @@ std::string FieldOf(const Error& error, bool inline_profile) {
   switch (error.code) {
     case ErrorCode::kStartOffGround: return "start.position_m";
     case ErrorCode::kGoalOffGround: return "goal.position_m";
-    case ErrorCode::kProfileMismatch:
-      return inline_profile ? "profile" : "profile_name";
+    case ErrorCode::kProfileMismatch: return inline_profile ? "profile" : "profile_name";
     case ErrorCode::kInvalidInput:
     case ErrorCode::kInvalidConfig: {
       const std::string first_word = error.message.substr(0, error.message.find(' '));
@@ -91,9 +90,8 @@ Result<ParsedPlanRequest> ParsePlanRequest(const v1::PlanRequest& request) {
   if (request.options().has_sample_dt_s()) {
     const double dt = request.options().sample_dt_s();
     if (!(std::isfinite(dt) && dt > 0)) {
-      return MakeError(ErrorCode::kInvalidConfig,
-                       "options.sample_dt_s = " + std::to_string(dt) +
-                           " is out of range: must be > 0 and finite")
+      return MakeError(ErrorCode::kInvalidConfig, "options.sample_dt_s = " + std::to_string(dt) +
+                                                      " is out of range: must be > 0 and finite")
           .Blame("options.sample_dt_s");
     }
     parsed.sample_dt_s = dt;
@@ -142,8 +140,7 @@ PlannerServiceImpl::PlannerServiceImpl(const MapRegistry* registry, Metrics* met
       options_(options),
       slots_(std::max(1, options.max_concurrent_plans)) {}
 
-grpc::Status PlannerServiceImpl::Plan(grpc::ServerContext* context,
-                                      const v1::PlanRequest* request,
+grpc::Status PlannerServiceImpl::Plan(grpc::ServerContext* context, const v1::PlanRequest* request,
                                       v1::PlanResponse* response) {
   return RunRpc("Plan", [&](CallLog& log) -> ServiceStatus {
     log.map_id = request->map_id();

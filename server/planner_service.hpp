@@ -24,9 +24,9 @@ struct PlannerServiceOptions {
 
 /// A request converted and validated, before any map is touched.
 struct ParsedPlanRequest {
-  PlanRequest plan;                  ///< options.time_budget_s not yet capped.
-  bool time_budget_given = false;    ///< options.time_budget_s was set.
-  bool inline_profile = false;       ///< The profile came inline (else by name).
+  PlanRequest plan;                   ///< options.time_budget_s not yet capped.
+  bool time_budget_given = false;     ///< options.time_budget_s was set.
+  bool inline_profile = false;        ///< The profile came inline (else by name).
   std::optional<double> sample_dt_s;  ///< options.sample_dt_s, when set.
 };
 

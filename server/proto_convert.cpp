@@ -38,8 +38,8 @@ Result<Eigen::Vector3d> FromProto(const v1::Vector3& v, const std::string& field
   const char* names[3] = {"x", "y", "z"};
   for (int i = 0; i < 3; ++i) {
     if (!std::isfinite(values[i])) {
-      return MakeError(ErrorCode::kInvalidInput, field + "." + names[i] + " must be finite, got " +
-                                                     Format(values[i]))
+      return MakeError(ErrorCode::kInvalidInput,
+                       field + "." + names[i] + " must be finite, got " + Format(values[i]))
           .Blame(field + "." + names[i]);
     }
   }

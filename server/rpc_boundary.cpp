@@ -27,8 +27,7 @@ grpc::Status FinishRpc(std::string_view rpc, const CallLog& log, const ServiceSt
                        std::chrono::steady_clock::time_point start) noexcept {
   try {
     const double ms =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
-            .count();
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     grpc::Status status = grpc::Status::OK;
     LogLevel level = log.quiet_on_success ? LogLevel::kDebug : LogLevel::kInfo;
     std::string_view reason;

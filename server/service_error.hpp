@@ -44,9 +44,9 @@ struct ServiceError {
   using Code = std::variant<ErrorCode, ServiceErrorCode>;
 
   Code code;
-  std::string message;                          ///< What went wrong and what to do.
+  std::string message;                           ///< What went wrong and what to do.
   std::vector<FieldViolation> field_violations;  ///< Request fields at fault, if any.
-  std::map<std::string, std::string> metadata;  ///< ErrorInfo metadata, e.g. {"map_id", "x"}.
+  std::map<std::string, std::string> metadata;   ///< ErrorInfo metadata, e.g. {"map_id", "x"}.
 
   /// A planner error, optionally blamed on one request field.
   static ServiceError FromPlanner(const Error& error, std::string field = {});
@@ -65,8 +65,8 @@ ServiceError MakeError(ErrorCode code, std::string message);
 template <typename T>
 class Result {
  public:
-  Result(T value) : storage_(std::move(value)) {}              // NOLINT: implicit by design.
-  Result(ServiceError error) : storage_(std::move(error)) {}   // NOLINT: implicit by design.
+  Result(T value) : storage_(std::move(value)) {}             // NOLINT: implicit by design.
+  Result(ServiceError error) : storage_(std::move(error)) {}  // NOLINT: implicit by design.
 
   bool ok() const { return std::holds_alternative<T>(storage_); }
   /// Precondition: ok().

@@ -69,7 +69,8 @@ Result<std::unique_ptr<StrataServer>> StrataServer::Start(const ServerConfig& co
   std::filesystem::path map_root;
   if (!config.map_root.empty()) {
     Result<std::filesystem::path> root = CanonicalMapRoot(config.map_root);
-    if (!root.ok()) return MakeError(ErrorCode::kInvalidInput, "--map-root: " + root.error().message);
+    if (!root.ok())
+      return MakeError(ErrorCode::kInvalidInput, "--map-root: " + root.error().message);
     map_root = root.value();
   }
   std::vector<ResolvedPreload> preloads;
@@ -140,12 +141,12 @@ Result<std::unique_ptr<StrataServer>> StrataServer::Start(const ServerConfig& co
     try {
       // Same interface as gRPC: a server bound to loopback does not expose metrics wider.
       const std::string host = config.listen.substr(0, config.listen.rfind(':'));
-      self->exposer_ = std::make_unique<prometheus::Exposer>(
-          host + ":" + std::to_string(config.metrics_port));
+      self->exposer_ =
+          std::make_unique<prometheus::Exposer>(host + ":" + std::to_string(config.metrics_port));
     } catch (const std::exception& e) {
-      return MakeError(ErrorCode::kInvalidInput,
-                       "--metrics-port " + std::to_string(config.metrics_port) +
-                           ": cannot serve metrics there: " + e.what());
+      return MakeError(ErrorCode::kInvalidInput, "--metrics-port " +
+                                                     std::to_string(config.metrics_port) +
+                                                     ": cannot serve metrics there: " + e.what());
     }
     self->metrics_->ServeOn(*self->exposer_);
     const std::vector<int> ports = self->exposer_->GetListeningPorts();

@@ -14,8 +14,8 @@ float ReadLittleEndianFloat(const char* bytes) {
   std::uint32_t bits = 0;
   std::memcpy(&bits, bytes, sizeof(bits));
   if constexpr (std::endian::native == std::endian::big) {
-    bits = ((bits & 0xFFu) << 24) | ((bits & 0xFF00u) << 8) | ((bits >> 8) & 0xFF00u) |
-           (bits >> 24);
+    bits =
+        ((bits & 0xFFu) << 24) | ((bits & 0xFF00u) << 8) | ((bits >> 8) & 0xFF00u) | (bits >> 24);
   }
   return std::bit_cast<float>(bits);
 }
@@ -84,16 +84,15 @@ ServiceStatus UploadAssembler::Add(const v1::UploadMapRequest& message) {
       const std::size_t total = source_.points.size() + count;
       if (total > max_points_) {
         return MakeError(ErrorCode::kResourceExhausted,
-                         "the upload passed this server's limit of " +
-                             std::to_string(max_points_) +
+                         "the upload passed this server's limit of " + std::to_string(max_points_) +
                              " points per map (--max-points): downsample the cloud")
             .Blame("chunk.points");
       }
       if (header_.point_count() != 0 && total > header_.point_count()) {
-        return MakeError(ErrorCode::kMapLoadFailed,
-                         where + " brings the upload to " + std::to_string(total) +
-                             " points, more than header.point_count = " +
-                             std::to_string(header_.point_count()))
+        return MakeError(ErrorCode::kMapLoadFailed, where + " brings the upload to " +
+                                                        std::to_string(total) +
+                                                        " points, more than header.point_count = " +
+                                                        std::to_string(header_.point_count()))
             .Blame("header.point_count");
       }
       source_.received_bytes += bytes.size();
@@ -120,11 +119,11 @@ ServiceStatus UploadAssembler::Finish() {
     return MakeError(ErrorCode::kMapLoadFailed, "the upload carried no points").Blame("chunk");
   }
   if (header_.point_count() != 0 && source_.points.size() != header_.point_count()) {
-    return MakeError(ErrorCode::kMapLoadFailed,
-                     "the upload carried " + std::to_string(source_.points.size()) +
-                         " points but header.point_count = " +
-                         std::to_string(header_.point_count()) +
-                         ": the stream was cut short or the count is wrong")
+    return MakeError(
+               ErrorCode::kMapLoadFailed,
+               "the upload carried " + std::to_string(source_.points.size()) +
+                   " points but header.point_count = " + std::to_string(header_.point_count()) +
+                   ": the stream was cut short or the count is wrong")
         .Blame("header.point_count");
   }
   return OkStatus();

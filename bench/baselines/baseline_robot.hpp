@@ -11,10 +11,10 @@ namespace strata::baselines {
 struct BaselineRobot {
   double footprint_radius_m = 0.3;  ///< Radius of the footprint disc [m], > 0.
   double max_tilt_rad = 20.0 * 3.14159265358979323846 / 180.0;  ///< Steepest ground [rad].
-  double max_step_m = 0.15;          ///< Highest step between neighbouring places [m], >= 0.
-  double body_height_m = 0.5;        ///< Free height the body needs above the ground [m].
-  double headroom_m = 0.05;          ///< Extra free space above the body [m], >= 0.
-  double reference_height_m = 0.3;   ///< Path points lie this far above the ground [m].
+  double max_step_m = 0.15;         ///< Highest step between neighbouring places [m], >= 0.
+  double body_height_m = 0.5;       ///< Free height the body needs above the ground [m].
+  double headroom_m = 0.05;         ///< Extra free space above the body [m], >= 0.
+  double reference_height_m = 0.3;  ///< Path points lie this far above the ground [m].
 
   /// The limits of a Strata profile. The baselines have no height freedom (paper Table 1):
   /// for an active-height robot (the biped) they plan for its preferred body height, the

@@ -12,7 +12,8 @@ struct CloudSearch::Impl {
   pcl::KdTreeFLANN<pcl::PointXYZ> tree;
 };
 
-CloudSearch::CloudSearch(const PointCloud& cloud) : points_(cloud), impl_(std::make_unique<Impl>()) {
+CloudSearch::CloudSearch(const PointCloud& cloud)
+    : points_(cloud), impl_(std::make_unique<Impl>()) {
   auto pcl_cloud = std::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
   pcl_cloud->resize(cloud.size());
   for (std::size_t i = 0; i < cloud.size(); ++i) {
@@ -36,8 +37,8 @@ void CloudSearch::Nearest(const Eigen::Vector3f& center, int k, std::vector<int>
                           std::vector<float>* squared_distances) const {
   indices->assign(static_cast<std::size_t>(k), 0);
   squared_distances->assign(static_cast<std::size_t>(k), 0.f);
-  const int found = impl_->tree.nearestKSearch(pcl::PointXYZ(center.x(), center.y(), center.z()),
-                                               k, *indices, *squared_distances);
+  const int found = impl_->tree.nearestKSearch(pcl::PointXYZ(center.x(), center.y(), center.z()), k,
+                                               *indices, *squared_distances);
   indices->resize(static_cast<std::size_t>(std::max(found, 0)));
   squared_distances->resize(indices->size());
 }

@@ -10,8 +10,7 @@ namespace {
 
 // Vertical extent of the column CheckFootprint looks at, relative to ground_m: the plane
 // itself moves by up to support_radius·tanθ across the disc.
-void ColumnExtent(const BaselineRobot& robot, double support_radius_m, double* low,
-                  double* high) {
+void ColumnExtent(const BaselineRobot& robot, double support_radius_m, double* low, double* high) {
   const double tilt_rise = support_radius_m * std::tan(robot.max_tilt_rad);
   *low = -robot.max_step_m - tilt_rise;
   *high = robot.clearance_m() + tilt_rise;
@@ -52,7 +51,8 @@ FootprintVerdict CheckFootprint(const Eigen::Vector3f& ground_m, const Eigen::Ve
     if (std::abs(h) <= step) {
       if (r2 >= inner_r2) {
         const float angle = std::atan2(d.y(), d.x()) + static_cast<float>(std::numbers::pi);
-        sector[std::clamp(static_cast<int>(angle * static_cast<float>(4 / std::numbers::pi)), 0, 7)] = true;
+        sector[std::clamp(static_cast<int>(angle * static_cast<float>(4 / std::numbers::pi)), 0,
+                          7)] = true;
       }
     } else if (h > step && h <= clearance && r2 <= body_r2) {
       verdict.body_free = false;

@@ -86,7 +86,8 @@ class SurfaceMotionValidator : public ob::MotionValidator {
     const bool ok = terrain_.MotionValid(ToVector(s1), ToVector(s2), &fraction);
     if (!ok) {
       last_valid.second = fraction;
-      if (last_valid.first != nullptr) si_->getStateSpace()->interpolate(s1, s2, fraction, last_valid.first);
+      if (last_valid.first != nullptr)
+        si_->getStateSpace()->interpolate(s1, s2, fraction, last_valid.first);
     }
     ok ? ++valid_ : ++invalid_;
     return ok;
@@ -152,7 +153,8 @@ Expected<std::unique_ptr<KrusiPlanner>> KrusiPlanner::Build(const PointCloud& cl
   impl->assessment_s = std::chrono::duration<double>(Clock::now() - start).count();
   // Not part of t_a: a fixed number for a given cloud that the method's users would configure.
   impl->spacing_m = impl->search->MedianSpacing();
-  impl->terrain = std::make_unique<KrusiTerrain>(*impl->search, robot, params.terrain, impl->spacing_m);
+  impl->terrain =
+      std::make_unique<KrusiTerrain>(*impl->search, robot, params.terrain, impl->spacing_m);
   for (const Eigen::Vector3f& p : cloud) impl->bounds.extend(p.cast<double>());
   return std::unique_ptr<KrusiPlanner>(new KrusiPlanner(std::move(impl)));
 }
@@ -165,14 +167,14 @@ Expected<BaselinePath> KrusiPlanner::Plan(const Eigen::Vector3d& start_m,
   BaselinePath result;
   Eigen::Vector3d start, goal;
   if (!k.Snap(start_m, &start, &result.start_snap_m)) {
-    return Error{ErrorCode::kStartOffGround, "no valid state within " +
-                                                 std::to_string(k.params.snap_tolerance_m) +
-                                                 " m of the start"};
+    return Error{
+        ErrorCode::kStartOffGround,
+        "no valid state within " + std::to_string(k.params.snap_tolerance_m) + " m of the start"};
   }
   if (!k.Snap(goal_m, &goal, &result.goal_snap_m)) {
-    return Error{ErrorCode::kGoalOffGround, "no valid state within " +
-                                                std::to_string(k.params.snap_tolerance_m) +
-                                                " m of the goal"};
+    return Error{
+        ErrorCode::kGoalOffGround,
+        "no valid state within " + std::to_string(k.params.snap_tolerance_m) + " m of the goal"};
   }
 
   auto space = std::make_shared<ob::RealVectorStateSpace>(3);
@@ -206,7 +208,8 @@ Expected<BaselinePath> KrusiPlanner::Plan(const Eigen::Vector3d& start_m,
   const double elapsed = std::chrono::duration<double>(Clock::now() - begin).count();
   const double refine = std::min(k.params.refine_time_s, 0.5 * time_limit_s);
   const double search_budget = std::max(0.0, time_limit_s - refine - elapsed);
-  const ob::PlannerStatus status = planner.solve(ob::timedPlannerTerminationCondition(search_budget));
+  const ob::PlannerStatus status =
+      planner.solve(ob::timedPlannerTerminationCondition(search_budget));
   if (status != ob::PlannerStatus::EXACT_SOLUTION) {
     return Error{ErrorCode::kDeadlineExceeded,
                  "RRT-Connect found no path in " + std::to_string(search_budget) + " s"};

@@ -21,8 +21,8 @@ namespace strata::baselines {
 
 /// Tuning of the Krüsi-style baseline (bench/baselines/README.md says how it was chosen).
 struct KrusiParams {
-  KrusiTerrainParams terrain;     ///< The local assessment.
-  double range_m = 1.5;           ///< RRT-Connect's longest extension [m], > 0.
+  KrusiTerrainParams terrain;  ///< The local assessment.
+  double range_m = 1.5;        ///< RRT-Connect's longest extension [m], > 0.
   /// Seconds of the query's time limit kept for the refinement [s], >= 0; RRT-Connect gets
   /// the rest (at least half of the limit).
   double refine_time_s = 0.2;

@@ -44,8 +44,8 @@ std::optional<float> KrusiTerrain::GroundUnder(const Eigen::Vector3d& reference_
   // point spacing horizontally, higher than a slope could explain) is the underside of a slab
   // or the foot of a wall, and would tilt the plane fit.
   const float near2 = static_cast<float>(spacing_m_ * spacing_m_);
-  const float band = static_cast<float>(
-      std::max(0.08, 2 * spacing_m_ * std::tan(robot_.max_tilt_rad)));
+  const float band =
+      static_cast<float>(std::max(0.08, 2 * spacing_m_ * std::tan(robot_.max_tilt_rad)));
   thread_local std::vector<int> all_ground;
   all_ground = ground;
   std::erase_if(ground, [&](int g) {

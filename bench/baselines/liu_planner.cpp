@@ -146,7 +146,8 @@ Expected<std::unique_ptr<LiuPlanner>> LiuPlanner::Build(const PointCloud& cloud,
       search.Radius(cloud[i] + Eigen::Vector3f(0, 0, lift), query_radius, &indices);
       neighbours.clear();
       for (const int j : indices) neighbours.push_back(cloud[j]);
-      traversable[i] = CheckFootprint(cloud[i], plane.normal, neighbours, robot, support_radius).ok();
+      traversable[i] =
+          CheckFootprint(cloud[i], plane.normal, neighbours, robot, support_radius).ok();
     }
   }
   for (long i = 0; i < n; ++i) {
@@ -224,8 +225,7 @@ Expected<std::unique_ptr<LiuPlanner>> LiuPlanner::Build(const PointCloud& cloud,
 }
 
 Expected<BaselinePath> LiuPlanner::Plan(const Eigen::Vector3d& start_m,
-                                        const Eigen::Vector3d& goal_m,
-                                        double time_limit_s) const {
+                                        const Eigen::Vector3d& goal_m, double time_limit_s) const {
   const auto begin = Clock::now();
   const Impl& g = *impl_;
   BaselinePath path;

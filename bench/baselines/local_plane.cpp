@@ -11,8 +11,8 @@ float LocalPlane::tilt_rad() const { return std::acos(std::clamp(normal.z(), -1.
 
 float LocalPlane::HeightAt(float x, float y) const {
   if (normal.z() < 1e-3f) return centroid.z();
-  return centroid.z() - (normal.x() * (x - centroid.x()) + normal.y() * (y - centroid.y())) /
-                            normal.z();
+  return centroid.z() -
+         (normal.x() * (x - centroid.x()) + normal.y() * (y - centroid.y())) / normal.z();
 }
 
 LocalPlane FitLocalPlane(std::span<const Eigen::Vector3f> points, std::span<const int> indices) {

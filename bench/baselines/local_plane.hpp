@@ -10,7 +10,7 @@
 namespace strata::baselines {
 
 struct LocalPlane {
-  bool valid = false;                 ///< At least three points and a finite fit.
+  bool valid = false;                                  ///< At least three points and a finite fit.
   Eigen::Vector3f centroid = Eigen::Vector3f::Zero();  ///< Mean of the points [m].
   Eigen::Vector3f normal = Eigen::Vector3f::UnitZ();   ///< Unit, oriented with z >= 0.
   /// Surface variation λ0/(λ0+λ1+λ2) of the covariance [-], in [0, 1/3]: 0 for a plane.

@@ -74,16 +74,16 @@ void PrintHuman(const nlohmann::json& j) {
   std::printf("points         %zu raw, %zu dropped (non-finite), %zu valid ground\n",
               p["raw"].get<std::size_t>(), p["dropped_nonfinite"].get<std::size_t>(),
               p["valid_ground"].get<std::size_t>());
-  std::printf("grid           %d x %d x %d cells at %.3f m (%lld cells)\n",
-              g["size"][0].get<int>(), g["size"][1].get<int>(), g["size"][2].get<int>(),
-              g["resolution_m"].get<double>(), g["cells"].get<long long>());
+  std::printf("grid           %d x %d x %d cells at %.3f m (%lld cells)\n", g["size"][0].get<int>(),
+              g["size"][1].get<int>(), g["size"][2].get<int>(), g["resolution_m"].get<double>(),
+              g["cells"].get<long long>());
   std::printf("surfaces       %zu, of which %zu valid ground\n",
               j["surfaces"]["total"].get<std::size_t>(), j["surfaces"]["valid"].get<std::size_t>());
-  std::printf("memory         %.1f MB (%zu bytes)\n",
-              j["memory_bytes"].get<std::size_t>() / 1.0e6, j["memory_bytes"].get<std::size_t>());
+  std::printf("memory         %.1f MB (%zu bytes)\n", j["memory_bytes"].get<std::size_t>() / 1.0e6,
+              j["memory_bytes"].get<std::size_t>());
   std::printf("seconds        load %.3f, ground filter %.3f, esdf %.3f, field %.3f, total %.3f\n",
-              s["load"].get<double>(), s["ground_filter"].get<double>(),
-              s["esdf"].get<double>(), s["field"].get<double>(), s["total"].get<double>());
+              s["load"].get<double>(), s["ground_filter"].get<double>(), s["esdf"].get<double>(),
+              s["field"].get<double>(), s["total"].get<double>());
 }
 
 }  // namespace

@@ -117,9 +117,12 @@ nlohmann::json MetaJson(const BenchArgs& args, const std::vector<std::string>& c
   for (const BenchMethod* m : methods) {
     assessment[m->name()] = {{"t_a_s", m->assessment_s()}, {"detail", m->assessment_detail()}};
   }
-  return {{"command", command},      {"map", args.map},
-          {"points", points},        {"pairs", pairs},
-          {"seed", args.seed},       {"robot", args.robot},
+  return {{"command", command},
+          {"map", args.map},
+          {"points", points},
+          {"pairs", pairs},
+          {"seed", args.seed},
+          {"robot", args.robot},
           {"time_limit_s", args.time_limit_s},
           {"min_separation_m", args.min_separation_m},
           {"krusi_refine_s", args.krusi_refine_s},
@@ -143,8 +146,8 @@ int RunBench(const std::vector<std::string>& args) {
   std::error_code ec;
   std::filesystem::create_directories(parsed.out_dir, ec);
   if (ec) {
-    std::fprintf(stderr, "strata-offline bench: cannot create '%s': %s\n",
-                 parsed.out_dir.c_str(), ec.message().c_str());
+    std::fprintf(stderr, "strata-offline bench: cannot create '%s': %s\n", parsed.out_dir.c_str(),
+                 ec.message().c_str());
     return 1;
   }
 
@@ -215,11 +218,10 @@ int RunBench(const std::vector<std::string>& args) {
   const std::vector<MethodSummary> summary = Summarize(rows, method_view);
   const std::string markdown = SummaryMarkdown(parsed.map, summary);
   const std::filesystem::path dir(parsed.out_dir);
-  for (const Status& s :
-       {WriteResultsCsv((dir / "results.csv").string(), parsed.map, rows),
-        WriteSummaryCsv((dir / "summary.csv").string(), parsed.map, summary),
-        WritePathsCsv((dir / "paths.csv").string(), rows, parsed.dump),
-        WriteCloudCsv((dir / "cloud.csv").string(), points, 150000)}) {
+  for (const Status& s : {WriteResultsCsv((dir / "results.csv").string(), parsed.map, rows),
+                          WriteSummaryCsv((dir / "summary.csv").string(), parsed.map, summary),
+                          WritePathsCsv((dir / "paths.csv").string(), rows, parsed.dump),
+                          WriteCloudCsv((dir / "cloud.csv").string(), points, 150000)}) {
     if (!s) return Fail("writing the results", s.error());
   }
   std::vector<std::string> command = {"strata-offline", "bench"};

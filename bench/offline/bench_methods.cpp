@@ -34,7 +34,9 @@ class StrataMethod : public BenchMethod {
  public:
   StrataMethod(std::shared_ptr<const PlanningMap> map, const RobotProfile& profile,
                double assessment_s, std::string detail)
-      : map_(std::move(map)), profile_(profile), assessment_s_(assessment_s),
+      : map_(std::move(map)),
+        profile_(profile),
+        assessment_s_(assessment_s),
         detail_(std::move(detail)) {}
   const char* name() const override { return "strata"; }
   double assessment_s() const override { return assessment_s_; }
@@ -188,8 +190,8 @@ Expected<std::unique_ptr<BenchMethod>> MakeKrusiMethod(const PointCloud& cloud,
                                                        double refine_time_s) {
   baselines::KrusiParams params;
   if (refine_time_s >= 0) params.refine_time_s = refine_time_s;
-  auto planner = baselines::KrusiPlanner::Build(
-      cloud, baselines::BaselineRobot::FromProfile(profile), params);
+  auto planner =
+      baselines::KrusiPlanner::Build(cloud, baselines::BaselineRobot::FromProfile(profile), params);
   if (!planner) return planner.error();
   return std::unique_ptr<BenchMethod>(new KrusiMethod(std::move(planner).value()));
 }

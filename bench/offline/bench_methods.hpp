@@ -29,8 +29,8 @@ struct QueryOutcome {
   /// Strata only: 1 when the returned trajectory fails an independent VerifyTrajectory (then
   /// success is false and reason VERIFY_FAILED), else 0; -1 for the baselines.
   int verify_violations = -1;
-  double start_snap_m = 0;  ///< How far the method moved the start [m].
-  double goal_snap_m = 0;   ///< How far the method moved the goal [m].
+  double start_snap_m = 0;                ///< How far the method moved the start [m].
+  double goal_snap_m = 0;                 ///< How far the method moved the goal [m].
   std::vector<Eigen::Vector3d> points_m;  ///< The path (Strata: sampled every 0.1 m) [m].
 };
 

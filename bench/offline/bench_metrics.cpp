@@ -14,8 +14,8 @@ struct Derivatives {
 // u ∈ [0, 1].
 class CatmullRomSegment {
  public:
-  CatmullRomSegment(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1,
-                    const Eigen::Vector3d& p2, const Eigen::Vector3d& p3)
+  CatmullRomSegment(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1, const Eigen::Vector3d& p2,
+                    const Eigen::Vector3d& p3)
       : p1_(p1), p2_(p2) {
     const double d01 = std::sqrt((p1 - p0).norm());
     const double d12 = std::sqrt((p2 - p1).norm());

@@ -30,7 +30,6 @@ double PathMeanCurvature(std::span<const Eigen::Vector3d> points, double spacing
 double TrajectoryArcMeanCurvature(const Trajectory& trajectory, double spacing_m = 0.02);
 
 /// Positions of the trajectory's x, y, z every `spacing_m` of arc length (and both ends).
-std::vector<Eigen::Vector3d> SampleTrajectory(const Trajectory& trajectory,
-                                              double spacing_m = 0.1);
+std::vector<Eigen::Vector3d> SampleTrajectory(const Trajectory& trajectory, double spacing_m = 0.1);
 
 }  // namespace strata::offline

@@ -16,8 +16,7 @@ namespace {
 Status Written(std::ofstream& file, const std::string& path) {
   file.close();
   if (!file) {
-    return Error{ErrorCode::kInvalidInput,
-                 "cannot write '" + path + "': " + std::strerror(errno)};
+    return Error{ErrorCode::kInvalidInput, "cannot write '" + path + "': " + std::strerror(errno)};
   }
   return Status::Ok();
 }
@@ -107,18 +106,17 @@ std::string SummaryMarkdown(const std::string& map, const std::vector<MethodSumm
       "|---|---|---|---|---|---|---|---|---|\n";
   for (const MethodSummary& s : summary) {
     const double rate = s.queries > 0 ? 100.0 * s.successes / s.queries : 0;
-    text += "| " + s.method + " | " + std::to_string(s.successes) + "/" +
-            std::to_string(s.queries) + " (" + Number(rate, "%.1f") + "%) | " +
-            Number(s.assessment_s, "%.3f") + " | " + Number(1e3 * s.time_median_s, "%.1f") +
-            " / " + Number(1e3 * s.time_p95_s, "%.1f") + " | " +
-            Number(s.length_median_m, "%.2f") + " | " + Number(s.kappa_median, "%.3f") + " | " +
-            Number(s.kappa_arc_median, "%.3f") + " | " + std::to_string(s.common_queries) +
-            ": " + Number(s.common_length_median_m, "%.2f") + " / " +
-            Number(s.common_kappa_arc_median, "%.3f") + " | " + s.failures +
-            (s.method == "strata" ? "; verification violations " +
-                                        std::to_string(s.verify_violations)
-                                  : "") +
-            " |\n";
+    text +=
+        "| " + s.method + " | " + std::to_string(s.successes) + "/" + std::to_string(s.queries) +
+        " (" + Number(rate, "%.1f") + "%) | " + Number(s.assessment_s, "%.3f") + " | " +
+        Number(1e3 * s.time_median_s, "%.1f") + " / " + Number(1e3 * s.time_p95_s, "%.1f") + " | " +
+        Number(s.length_median_m, "%.2f") + " | " + Number(s.kappa_median, "%.3f") + " | " +
+        Number(s.kappa_arc_median, "%.3f") + " | " + std::to_string(s.common_queries) + ": " +
+        Number(s.common_length_median_m, "%.2f") + " / " +
+        Number(s.common_kappa_arc_median, "%.3f") + " | " + s.failures +
+        (s.method == "strata" ? "; verification violations " + std::to_string(s.verify_violations)
+                              : "") +
+        " |\n";
   }
   return text;
 }
@@ -138,8 +136,8 @@ Status WriteResultsCsv(const std::string& path, const std::string& map,
     file << ',' << (o.success ? 1 : 0) << ',' << o.reason << ',' << Number(o.plan_s) << ','
          << Number(o.length_m) << ',' << Number(o.kappa_m) << ',' << Number(o.kappa_arc_m) << ','
          << o.verify_violations << ',' << Number(o.start_snap_m, "%.4f") << ','
-         << Number(o.goal_snap_m, "%.4f") << ',' << o.points_m.size() << ','
-         << Field(o.message) << '\n';
+         << Number(o.goal_snap_m, "%.4f") << ',' << o.points_m.size() << ',' << Field(o.message)
+         << '\n';
   }
   return Written(file, path);
 }
@@ -154,19 +152,17 @@ Status WriteSummaryCsv(const std::string& path, const std::string& map,
   for (const MethodSummary& s : summary) {
     file << Field(map) << ',' << s.method << ',' << s.queries << ',' << s.successes << ','
          << Number(s.queries > 0 ? double(s.successes) / s.queries : 0) << ','
-         << Number(s.assessment_s) << ',' << Number(s.time_median_s) << ','
-         << Number(s.time_p95_s) << ',' << Number(s.length_median_m) << ','
-         << Number(s.kappa_median) << ',' << Number(s.kappa_arc_median) << ','
-         << s.common_queries << ',' << Number(s.common_time_median_s) << ','
-         << Number(s.common_length_median_m) << ',' << Number(s.common_kappa_median) << ','
-         << Number(s.common_kappa_arc_median) << ',' << s.verify_violations << ','
-         << Field(s.failures) << '\n';
+         << Number(s.assessment_s) << ',' << Number(s.time_median_s) << ',' << Number(s.time_p95_s)
+         << ',' << Number(s.length_median_m) << ',' << Number(s.kappa_median) << ','
+         << Number(s.kappa_arc_median) << ',' << s.common_queries << ','
+         << Number(s.common_time_median_s) << ',' << Number(s.common_length_median_m) << ','
+         << Number(s.common_kappa_median) << ',' << Number(s.common_kappa_arc_median) << ','
+         << s.verify_violations << ',' << Field(s.failures) << '\n';
   }
   return Written(file, path);
 }
 
-Status WritePathsCsv(const std::string& path, const std::vector<BenchRow>& rows,
-                     int max_queries) {
+Status WritePathsCsv(const std::string& path, const std::vector<BenchRow>& rows, int max_queries) {
   std::ofstream file(path);
   file << "method,query,index,x,y,z\n";
   for (const BenchRow& r : rows) {

@@ -76,9 +76,8 @@ int RunScene(const std::vector<std::string>& args) {
                  written.error().message.c_str());
     return 1;
   }
-  std::printf("scene %s, seed %u, spacing %.3f m: %zu points written to %s\n",
-              parsed.name.c_str(), parsed.seed, *parsed.spacing_m, cloud->size(),
-              parsed.out.c_str());
+  std::printf("scene %s, seed %u, spacing %.3f m: %zu points written to %s\n", parsed.name.c_str(),
+              parsed.seed, *parsed.spacing_m, cloud->size(), parsed.out.c_str());
   return 0;
 }
 

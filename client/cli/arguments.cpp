@@ -75,8 +75,8 @@ std::optional<long long> Arguments::TakeInteger(const std::string& name, long lo
   errno = 0;
   char* end = nullptr;
   const long long parsed = std::strtoll(value->c_str(), &end, 10);
-  if (value->empty() || end != value->c_str() + value->size() || errno == ERANGE ||
-      parsed < min || parsed > max) {
+  if (value->empty() || end != value->c_str() + value->size() || errno == ERANGE || parsed < min ||
+      parsed > max) {
     throw UsageError("--" + name + " must be an integer in [" + std::to_string(min) + ", " +
                      std::to_string(max) + "], got \"" + *value + "\"");
   }
@@ -92,8 +92,8 @@ std::optional<std::array<double, 3>> Arguments::TakeVector3(const std::string& n
     const std::size_t comma = value->find(',', begin);
     const bool last = i == 2;
     if (last != (comma == std::string::npos)) {
-      throw UsageError("--" + name + " must be x,y,z (three numbers in metres), got \"" +
-                       *value + "\"");
+      throw UsageError("--" + name + " must be x,y,z (three numbers in metres), got \"" + *value +
+                       "\"");
     }
     const std::string part = value->substr(begin, last ? std::string::npos : comma - begin);
     xyz[i] = ParseDouble(part, "--" + name + " component " + "xyz"[i]);
@@ -104,7 +104,8 @@ std::optional<std::array<double, 3>> Arguments::TakeVector3(const std::string& n
 
 void Arguments::Finish() const {
   if (!flags_.empty()) throw UsageError("unknown or misplaced flag --" + flags_.begin()->first);
-  if (!positionals_.empty()) throw UsageError("unexpected argument \"" + positionals_.front() + "\"");
+  if (!positionals_.empty())
+    throw UsageError("unexpected argument \"" + positionals_.front() + "\"");
 }
 
 }  // namespace strata::cli

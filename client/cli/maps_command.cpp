@@ -32,7 +32,8 @@ std::string SourceText(const v1::MapSource& source) {
   if (source.has_scene()) {
     return "scene " + source.scene().name() + ":" + std::to_string(source.scene().seed());
   }
-  if (source.has_upload()) return "upload " + std::to_string(source.upload().received_bytes()) + " B";
+  if (source.has_upload())
+    return "upload " + std::to_string(source.upload().received_bytes()) + " B";
   return "-";
 }
 
@@ -122,9 +123,8 @@ int Upload(const Context& ctx, Arguments& args) {
                        "\" from its extension; give --format pcd, xyz or raw");
     }
   }
-  const std::size_t chunk_points =
-      static_cast<std::size_t>(args.TakeInteger("chunk-points", 1, kMaxChunkPoints)
-                                   .value_or(kMaxChunkPoints));
+  const std::size_t chunk_points = static_cast<std::size_t>(
+      args.TakeInteger("chunk-points", 1, kMaxChunkPoints).value_or(kMaxChunkPoints));
   v1::UploadMapRequest header;
   header.mutable_header()->set_map_id(*id);
   header.mutable_header()->set_format(v1::POINT_FORMAT_XYZ_F32_LE);
@@ -203,13 +203,13 @@ int List(const Context& ctx, Arguments& args) {
   for (const v1::Map& map : all.maps()) {
     char line[256];
     std::snprintf(line, sizeof(line), "%-17s %-10s %-11llu %-13llu %-10s ", map.id().c_str(),
-                  StateName(map.state()),
-                  static_cast<unsigned long long>(map.input_point_count()),
+                  StateName(map.state()), static_cast<unsigned long long>(map.input_point_count()),
                   static_cast<unsigned long long>(map.valid_ground_point_count()),
                   Megabytes(map.memory_bytes()).c_str());
     out << line << SourceText(map.source()) << "\n";
   }
-  if (!all.next_page_token().empty()) out << "next page: --page-token " << all.next_page_token() << "\n";
+  if (!all.next_page_token().empty())
+    out << "next page: --page-token " << all.next_page_token() << "\n";
   return kExitOk;
 }
 

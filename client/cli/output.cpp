@@ -84,8 +84,9 @@ int ReportRpcError(const Context& ctx, const std::string& rpc, const grpc::Statu
   const client::RpcError error = client::DescribeStatus(status);
   std::ostream& err = *ctx.err;
   if (ctx.json) {
-    err << "{\"error\": {\"rpc\": " << JsonString(rpc) << ", \"code\": "
-        << JsonString(error.code_name) << ", \"code_number\": " << static_cast<int>(error.code)
+    err << "{\"error\": {\"rpc\": " << JsonString(rpc)
+        << ", \"code\": " << JsonString(error.code_name)
+        << ", \"code_number\": " << static_cast<int>(error.code)
         << ", \"message\": " << JsonString(error.message)
         << ", \"reason\": " << JsonString(error.reason)
         << ", \"domain\": " << JsonString(error.domain) << ", \"metadata\": {";

@@ -17,8 +17,7 @@ std::string ToJson(const google::protobuf::Message& message);
 
 /// Parses JSON (as ToJson or grpcurl print it) into `message`; throws UsageError naming
 /// `what` when it is not valid JSON for the message.
-void FromJson(const std::string& json, const std::string& what,
-              google::protobuf::Message* message);
+void FromJson(const std::string& json, const std::string& what, google::protobuf::Message* message);
 
 /// Reads a whole file; throws UsageError when it cannot be read.
 std::string ReadFile(const std::string& path);

@@ -42,7 +42,8 @@ std::optional<PointFileFormat> ParsePointFileFormat(const std::string& name) {
 std::optional<PointFileFormat> GuessPointFileFormat(const std::string& path) {
   const std::string extension = std::filesystem::path(path).extension().string();
   if (extension == ".pcd") return PointFileFormat::kPcd;
-  if (extension == ".xyz" || extension == ".txt" || extension == ".csv") return PointFileFormat::kText;
+  if (extension == ".xyz" || extension == ".txt" || extension == ".csv")
+    return PointFileFormat::kText;
   if (extension == ".bin" || extension == ".raw" || extension == ".f32") {
     return PointFileFormat::kRawF32;
   }
@@ -78,8 +79,10 @@ void PointFileReader::ReadPcdHeader() {
     try {
       if (key == "FIELDS") fields = values;
       if (key == "TYPE") types = values;
-      if (key == "SIZE") for (const auto& v : values) sizes.push_back(std::stoi(v));
-      if (key == "COUNT") for (const auto& v : values) counts.push_back(std::stoi(v));
+      if (key == "SIZE")
+        for (const auto& v : values) sizes.push_back(std::stoi(v));
+      if (key == "COUNT")
+        for (const auto& v : values) counts.push_back(std::stoi(v));
       if (key == "WIDTH" && !values.empty()) width = std::stoull(values[0]);
       if (key == "HEIGHT" && !values.empty()) height = std::stoull(values[0]);
       if (key == "POINTS" && !values.empty()) {
@@ -87,7 +90,8 @@ void PointFileReader::ReadPcdHeader() {
         have_points = true;
       }
     } catch (const std::exception&) {
-      throw UsageError("\"" + path_ + "\" line " + std::to_string(line_) + ": bad PCD header value");
+      throw UsageError("\"" + path_ + "\" line " + std::to_string(line_) +
+                       ": bad PCD header value");
     }
     if (key != "DATA") continue;
     if (values.empty() || (values[0] != "ascii" && values[0] != "binary")) {
@@ -131,10 +135,8 @@ bool PointFileReader::Next(std::size_t max_points, std::string* chunk) {
   switch (format_) {
     case PointFileFormat::kPcd:
       return pcd_binary_ ? NextBinary(max_points, chunk) : NextText(max_points, chunk, true);
-    case PointFileFormat::kText:
-      return NextText(max_points, chunk, false);
-    case PointFileFormat::kRawF32:
-      return NextBinary(max_points, chunk);
+    case PointFileFormat::kText: return NextText(max_points, chunk, false);
+    case PointFileFormat::kRawF32: return NextBinary(max_points, chunk);
   }
   return false;
 }

@@ -18,8 +18,7 @@ std::string JsonVector(const Eigen::Vector3d& v) {
 void PrintJson(std::ostream& out, const client::PolynomialTrajectory& trajectory,
                const std::vector<client::MpcSetpoint>& setpoints) {
   out << "{\n  \"dimension\": " << trajectory.dimension()
-      << ",\n  \"duration_s\": " << JsonNumber(trajectory.duration_s())
-      << ",\n  \"setpoints\": [";
+      << ",\n  \"duration_s\": " << JsonNumber(trajectory.duration_s()) << ",\n  \"setpoints\": [";
   const char* separator = "\n";
   for (const client::MpcSetpoint& s : setpoints) {
     out << separator << "    {\"time_s\": " << JsonNumber(s.time_s)
@@ -48,8 +47,8 @@ void PrintTable(std::ostream& out, const client::PolynomialTrajectory& trajector
     std::snprintf(line, sizeof(line),
                   "%8.3f %8.3f %8.3f %8.3f %8.4f%c %8.4f %12.4f %9.4f %9.4f %9.4f", s.time_s,
                   s.position_m.x(), s.position_m.y(), s.position_m.z(), s.yaw_rad,
-                  s.yaw_held ? '*' : ' ', s.speed_mps, s.yaw_rate_radps,
-                  s.acceleration_mps2.x(), s.acceleration_mps2.y(), s.acceleration_mps2.z());
+                  s.yaw_held ? '*' : ' ', s.speed_mps, s.yaw_rate_radps, s.acceleration_mps2.x(),
+                  s.acceleration_mps2.y(), s.acceleration_mps2.z());
     out << line;
     if (height) out << "  " << Fixed(*s.body_height_m, 4);
     out << "\n";

@@ -18,9 +18,7 @@ std::string Number(double value) {
   return buffer;
 }
 
-ClientError Invalid(const std::string& what) {
-  return ClientError{"invalid trajectory: " + what};
-}
+ClientError Invalid(const std::string& what) { return ClientError{"invalid trajectory: " + what}; }
 
 // k! / (k - order)!, the factor d^order/dt^order brings to c_k t^k.
 double FallingFactorial(int k, int order) {

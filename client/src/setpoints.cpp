@@ -110,8 +110,7 @@ MpcSetpoint SetpointAt(const PolynomialTrajectory& trajectory, double t_s,
   setpoint.speed_mps = std::hypot(vx, vy);
   if (setpoint.speed_mps >= options.min_speed_for_yaw_mps) {
     setpoint.yaw_rad = WrapAngle(std::atan2(vy, vx));
-    setpoint.yaw_rate_radps =
-        (vx * acceleration[1] - vy * acceleration[0]) / (vx * vx + vy * vy);
+    setpoint.yaw_rate_radps = (vx * acceleration[1] - vy * acceleration[0]) / (vx * vx + vy * vy);
   } else {
     setpoint.yaw_held = true;
     setpoint.yaw_rad = WrapAngle(HeldYaw(trajectory, t_s, options).value_or(0.0));

@@ -41,8 +41,8 @@ std::string DefaultAddress() {
   if (colon == std::string::npos) return "127.0.0.1:50051";
   const std::string host = text.substr(0, colon);
   const std::string port = text.substr(colon + 1);
-  const bool wildcard = host.empty() || host == "0.0.0.0" || host == "[::]" || host == "::" ||
-                        host == "[::0]";
+  const bool wildcard =
+      host.empty() || host == "0.0.0.0" || host == "[::]" || host == "::" || host == "[::0]";
   return (wildcard ? std::string("127.0.0.1") : host) + ":" + port;
 }
 
@@ -116,5 +116,5 @@ int main(int argc, char** argv) {
   }
   std::printf("%s %s: %s\n", address.c_str(), shown.c_str(), StatusName(response.status()));
   return response.status() == grpc::health::v1::HealthCheckResponse::SERVING ? kServing
-                                                                            : kNotServing;
+                                                                             : kNotServing;
 }

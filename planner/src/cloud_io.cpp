@@ -25,9 +25,8 @@ Error LoadError(std::string_view path, const std::string& problem) {
 
 Error TooBig(std::string_view path, const std::string& what, std::uint64_t limit,
              const char* field) {
-  return Error{ErrorCode::kResourceExhausted,
-               Cat(path, ": ", what, ", more than the limit of ", limit, " (CloudLoadLimits::",
-                   field, ")")};
+  return Error{ErrorCode::kResourceExhausted, Cat(path, ": ", what, ", more than the limit of ",
+                                                  limit, " (CloudLoadLimits::", field, ")")};
 }
 
 std::string Quote(std::string_view text) {

@@ -38,9 +38,9 @@ Expected<OctreeHeader> ReadOctreeHeader(const std::string& path, std::string_vie
                                binary ? ".ot" : ".bt"));
   }
   if (first.substr(0, want.size()) != want) {
-    return LoadError(path, Cat("does not start with '", want, "'; is this an OctoMap ",
-                               binary ? ".bt" : ".ot", " file? (legacy .bt files need ",
-                               "convert_octree)"));
+    return LoadError(
+        path, Cat("does not start with '", want, "'; is this an OctoMap ", binary ? ".bt" : ".ot",
+                  " file? (legacy .bt files need ", "convert_octree)"));
   }
   // Same token rules as octomap::AbstractOcTree::readHeader.
   OctreeHeader header;
@@ -164,9 +164,10 @@ Expected<LoadedCloud> LoadOctree(const std::string& path, std::string_view bytes
   }
   // The nodes and, once pruned blocks are expanded, the voxels are what cost memory.
   if (walk.nodes > limits.max_points || walk.occupied_voxels > limits.max_points) {
-    return TooBig(path, Cat("OctoMap holds ", walk.nodes, " nodes and ", walk.occupied_voxels,
-                            " occupied voxels"),
-                  limits.max_points, "max_points");
+    return TooBig(
+        path,
+        Cat("OctoMap holds ", walk.nodes, " nodes and ", walk.occupied_voxels, " occupied voxels"),
+        limits.max_points, "max_points");
   }
 
   // Only the data is handed over: OctoMap's own file readers (readBinary, AbstractOcTree::read)

@@ -47,9 +47,9 @@ class XyzReader {
       if (field == cloud.fields.end()) {
         std::string listed;
         for (const auto& f : cloud.fields) listed += (listed.empty() ? "" : ", ") + f.name;
-        return LoadError(path, Cat("has no x, y and z fields (it has: ",
-                                   listed.empty() ? "none" : listed,
-                                   "); a map needs point coordinates"));
+        return LoadError(path,
+                         Cat("has no x, y and z fields (it has: ", listed.empty() ? "none" : listed,
+                             "); a map needs point coordinates"));
       }
       const std::size_t size = pcl::getFieldSize(field->datatype);
       if (size == 0 || field->count < 1 || field->offset + size > cloud.point_step) {
@@ -152,8 +152,9 @@ Expected<PcdHeader> ScanPcdHeader(const std::string& path, std::string_view byte
       if (!value) {
         return LoadError(path, Cat("header line ", Quote(text), " needs one count >= 0"));
       }
-      (keyword == "WIDTH" ? header.width : keyword == "HEIGHT" ? header.height : header.points) =
-          value;
+      (keyword == "WIDTH"    ? header.width
+       : keyword == "HEIGHT" ? header.height
+                             : header.points) = value;
     } else if (keyword != "VERSION" && keyword != "FIELDS" && keyword != "SIZE" &&
                keyword != "TYPE" && keyword != "COUNT" && keyword != "VIEWPOINT") {
       return LoadError(path, Cat("header line ", Quote(text),
@@ -186,27 +187,28 @@ Status CheckPcdBody(const std::string& path, PcdEncoding encoding, std::string_v
   switch (encoding) {
     case PcdEncoding::kBinary:
       if (need > body.size()) {
-        return LoadError(path, Cat(promise, " (", need, " bytes) but the body holds ",
-                                   body.size(), " bytes (truncated file?)"));
+        return LoadError(path, Cat(promise, " (", need, " bytes) but the body holds ", body.size(),
+                                   " bytes (truncated file?)"));
       }
       return Status::Ok();
     case PcdEncoding::kBinaryCompressed: {
       // PCL resizes its buffer to whatever the block claims and reads as far as it says.
       if (body.size() < 8) {
-        return LoadError(path, "binary_compressed body is shorter than its 8-byte size prefix "
-                               "(truncated file?)");
+        return LoadError(path,
+                         "binary_compressed body is shorter than its 8-byte size prefix "
+                         "(truncated file?)");
       }
       std::uint32_t packed = 0, unpacked = 0;
       std::memcpy(&packed, body.data(), 4);
       std::memcpy(&unpacked, body.data() + 4, 4);
       if (unpacked != need) {
-        return LoadError(path, Cat("compressed block says it unpacks to ", unpacked,
-                                   " bytes but ", promise, " = ", need, " (corrupt file?)"));
+        return LoadError(path, Cat("compressed block says it unpacks to ", unpacked, " bytes but ",
+                                   promise, " = ", need, " (corrupt file?)"));
       }
       if (packed > body.size() - 8) {
-        return LoadError(path, Cat("compressed block of ", packed, " bytes runs past the end of ",
-                                   "the file, which holds ", body.size() - 8,
-                                   " (truncated file?)"));
+        return LoadError(path,
+                         Cat("compressed block of ", packed, " bytes runs past the end of ",
+                             "the file, which holds ", body.size() - 8, " (truncated file?)"));
       }
       return Status::Ok();
     }
@@ -287,8 +289,7 @@ Expected<LoadedCloud> LoadPcd(const std::string& path, std::string_view bytes,
   }
   if (Expected<XyzReader> xyz = XyzReader::Create(cloud, 0, path); !xyz.ok()) return xyz.error();
   const std::string_view body = bytes.substr(header->body_offset);
-  if (Status status = CheckPcdBody(path, header->encoding, body, n, record, values);
-      !status.ok()) {
+  if (Status status = CheckPcdBody(path, header->encoding, body, n, record, values); !status.ok()) {
     return status.error();
   }
 
@@ -307,10 +308,10 @@ Expected<LoadedCloud> LoadPcd(const std::string& path, std::string_view bytes,
                                    static_cast<unsigned int>(header->body_offset));
   }
   if (result != 0) {
-    return LoadError(path, Cat("PCL could not decode the ", header->encoding_name, " body (",
-                               header->encoding == PcdEncoding::kBinaryCompressed
-                                   ? "corrupt compressed block?)"
-                                   : "corrupt data?)"));
+    return LoadError(
+        path, Cat("PCL could not decode the ", header->encoding_name, " body (",
+                  header->encoding == PcdEncoding::kBinaryCompressed ? "corrupt compressed block?)"
+                                                                     : "corrupt data?)"));
   }
   return FromPcl(cloud, n, path, limits);
 }

@@ -16,7 +16,11 @@ class ElevationCheck final : public flann::ResultSet<float> {
  public:
   ElevationCheck(const PointCloud& cloud, const Eigen::Vector3f& p, float radius_sq,
                  double tan_tilt, double tolerance, double step)
-      : cloud_(cloud), p_(p), radius_sq_(radius_sq), tan_tilt_(tan_tilt), tolerance_(tolerance),
+      : cloud_(cloud),
+        p_(p),
+        radius_sq_(radius_sq),
+        tan_tilt_(tan_tilt),
+        tolerance_(tolerance),
         step_(step) {}
 
   bool full() const override { return blocked_; }
@@ -48,8 +52,8 @@ class ElevationCheck final : public flann::ResultSet<float> {
 }  // namespace
 
 std::vector<std::uint8_t> FilterValidGround(const PointCloud& cloud,
-                                            const GroundFilterConfig& config,
-                                            int num_threads, double step_tolerance_m) {
+                                            const GroundFilterConfig& config, int num_threads,
+                                            double step_tolerance_m) {
   const auto n = static_cast<std::int64_t>(cloud.size());
   std::vector<std::uint8_t> valid(cloud.size(), 0);
   if (n == 0) return valid;

@@ -70,8 +70,8 @@ Expected<PathResult> SearchPath(const SurfaceGraph& graph, int start_node, int g
   const int n = graph.node_count();
   if (start_node < 0 || start_node >= n || goal_node < 0 || goal_node >= n) {
     char buf[160];
-    std::snprintf(buf, sizeof(buf), "start node %d or goal node %d is outside [0, %d)",
-                  start_node, goal_node, n);
+    std::snprintf(buf, sizeof(buf), "start node %d or goal node %d is outside [0, %d)", start_node,
+                  goal_node, n);
     return fail(ErrorCode::kInvalidInput, buf);
   }
   const Eigen::Vector3d goal_p = graph.position(goal_node);
@@ -120,15 +120,16 @@ Expected<PathResult> SearchPath(const SurfaceGraph& graph, int start_node, int g
       if (should_stop && should_stop()) {
         char buf[96];
         std::snprintf(buf, sizeof(buf), " m was cancelled after %d expansions", expansions);
-        return fail(ErrorCode::kCancelled, "search from " + internal::FormatPoint(start_p) + " m to " +
-                                               internal::FormatPoint(goal_p) + buf);
+        return fail(ErrorCode::kCancelled, "search from " + internal::FormatPoint(start_p) +
+                                               " m to " + internal::FormatPoint(goal_p) + buf);
       }
       if (Clock::now() > deadline) {
         char buf[128];
         std::snprintf(buf, sizeof(buf), " m exceeded its time budget of %g s after %d expansions",
                       config.time_budget_s, expansions);
         return fail(ErrorCode::kDeadlineExceeded, "search from " + internal::FormatPoint(start_p) +
-                                                      " m to " + internal::FormatPoint(goal_p) + buf);
+                                                      " m to " + internal::FormatPoint(goal_p) +
+                                                      buf);
       }
     }
     if (expansions >= config.max_expansions) {
@@ -137,8 +138,9 @@ Expected<PathResult> SearchPath(const SurfaceGraph& graph, int start_node, int g
                     " m used its budget of %d expansions (search.max_expansions) without "
                     "reaching the goal",
                     config.max_expansions);
-      return fail(ErrorCode::kSearchBudgetExhausted,
-                  "search from " + internal::FormatPoint(start_p) + " m to " + internal::FormatPoint(goal_p) + buf);
+      return fail(ErrorCode::kSearchBudgetExhausted, "search from " +
+                                                         internal::FormatPoint(start_p) + " m to " +
+                                                         internal::FormatPoint(goal_p) + buf);
     }
     closed[top.node] = 1;
     ++expansions;
@@ -154,8 +156,8 @@ Expected<PathResult> SearchPath(const SurfaceGraph& graph, int start_node, int g
   }
   char buf[96];
   std::snprintf(buf, sizeof(buf), " m after %d expansions", expansions);
-  return fail(ErrorCode::kNoPath, "no path found from " + internal::FormatPoint(start_p) + " m to " +
-                                      internal::FormatPoint(goal_p) + buf);
+  return fail(ErrorCode::kNoPath, "no path found from " + internal::FormatPoint(start_p) +
+                                      " m to " + internal::FormatPoint(goal_p) + buf);
 }
 
 }  // namespace strata

@@ -3,10 +3,10 @@
 #include <algorithm>
 #include <cmath>
 
-#include <Eigen/Eigenvalues>
 #include <pcl/point_types.h>
 #include <pcl/sample_consensus/ransac.h>
 #include <pcl/sample_consensus/sac_model_plane.h>
+#include <Eigen/Eigenvalues>
 
 #include "pcl_quiet_internal.hpp"
 
@@ -102,8 +102,8 @@ PlaneFit LocalPlaneFitter::Fit(std::span<const Eigen::Vector3f> points,
   r.is_inlier.assign(points.size(), 0);
   for (const auto i : r.inliers) r.is_inlier[i] = 1;
   PlaneFit refined;
-  if (LeastSquaresPlane(points, weights, [&](std::size_t i) { return r.is_inlier[i] != 0; },
-                        &refined)) {
+  if (LeastSquaresPlane(
+          points, weights, [&](std::size_t i) { return r.is_inlier[i] != 0; }, &refined)) {
     return refined;
   }
   return fit;

@@ -29,13 +29,16 @@ class StopCondition {
     if (!cancelled_ && Clock::now() >= deadline_) expired_ = true;
     return cancelled_ || expired_;
   }
-  std::function<bool()> AsFunction() { return [this] { return (*this)(); }; }
+  std::function<bool()> AsFunction() {
+    return [this] { return (*this)(); };
+  }
   double RemainingSeconds() const {
     return std::chrono::duration<double>(deadline_ - Clock::now()).count();
   }
   // The error for a stage that stopped on our request.
   Error Reason(double budget_s, const char* stage) const {
-    if (cancelled_) return Error{ErrorCode::kCancelled, std::string("plan cancelled during ") + stage};
+    if (cancelled_)
+      return Error{ErrorCode::kCancelled, std::string("plan cancelled during ") + stage};
     char buf[200];
     std::snprintf(buf, sizeof(buf),
                   "the plan's time budget of %.3f s ran out during %s; allow more time "

@@ -47,7 +47,8 @@ TraversabilityParams RobotProfile::Traversability() const {
 }
 
 Status RobotProfile::Validate() const {
-  if (!Positive(footprint_radius_m)) return BadField("footprint_radius_m", footprint_radius_m, "> 0");
+  if (!Positive(footprint_radius_m))
+    return BadField("footprint_radius_m", footprint_radius_m, "> 0");
   if (!(max_tilt_rad > 0 && max_tilt_rad < std::numbers::pi / 2)) {
     return BadField("max_tilt_rad", max_tilt_rad, "in (0, pi/2)");
   }
@@ -97,8 +98,8 @@ std::vector<std::string> BuiltinProfileNames() { return {"differential", "biped"
 Expected<RobotProfile> BuiltinProfile(const std::string& name) {
   if (name == "differential") return Differential();
   if (name == "biped") return Biped();
-  return Error{ErrorCode::kInvalidInput,
-               "unknown robot profile '" + name + "': the built-in profiles are differential, biped"};
+  return Error{ErrorCode::kInvalidInput, "unknown robot profile '" + name +
+                                             "': the built-in profiles are differential, biped"};
 }
 
 Status CheckProfileFitsMap(const RobotProfile& profile, const AssessmentConfig& assessment) {

@@ -117,12 +117,12 @@ ScalarGrid ComputeSafetyPenalty(const SurfaceMap& surfaces, const FieldConfig& f
             out[ix + nx * iy] = static_cast<float>(void_penalty);
             continue;
           }
-          const double grad = PoseGradientFromNeighbours(
-              c, ix > 0 ? &layer[ix - 1 + nx * iy] : nullptr,
-              ix + 1 < nx ? &layer[ix + 1 + nx * iy] : nullptr,
-              iy > 0 ? &layer[ix + nx * (iy - 1)] : nullptr,
-              iy + 1 < ny ? &layer[ix + nx * (iy + 1)] : nullptr, g.resolution_m,
-              field.max_pose_gradient_per_m);
+          const double grad =
+              PoseGradientFromNeighbours(c, ix > 0 ? &layer[ix - 1 + nx * iy] : nullptr,
+                                         ix + 1 < nx ? &layer[ix + 1 + nx * iy] : nullptr,
+                                         iy > 0 ? &layer[ix + nx * (iy - 1)] : nullptr,
+                                         iy + 1 < ny ? &layer[ix + nx * (iy + 1)] : nullptr,
+                                         g.resolution_m, field.max_pose_gradient_per_m);
           out[ix + nx * iy] = static_cast<float>(field.weight_tilt * c.tilt_rad * c.tilt_rad +
                                                  field.weight_pose_change * std::sqrt(grad));
         }

@@ -13,10 +13,10 @@ namespace strata {
 namespace {
 
 using internal::AddRoomWalls;
-using internal::KeepFn;
-using internal::kDegToRad;
-using internal::kEpsM;
 using internal::IsValidSpacing;
+using internal::kDegToRad;
+using internal::KeepFn;
+using internal::kEpsM;
 using internal::StrictlyInside;
 using internal::SurfaceSampler;
 using internal::Vec2;
@@ -317,8 +317,7 @@ Expected<PointCloud> GenerateScene(const std::string& name, std::uint32_t seed) 
   return (*entry)->generate(seed, (*entry)->default_spacing_m);
 }
 
-Expected<PointCloud> GenerateScene(const std::string& name, std::uint32_t seed,
-                                   double spacing_m) {
+Expected<PointCloud> GenerateScene(const std::string& name, std::uint32_t seed, double spacing_m) {
   Expected<const SceneEntry*> entry = FindScene(name);
   if (!entry) return entry.error();
   if (!IsValidSpacing(spacing_m)) {

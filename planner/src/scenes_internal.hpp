@@ -92,8 +92,7 @@ class SurfaceSampler {
                          const KeepFn& keep = {});
 
   /// A vertical rectangle above the ground segment a→b, from z0 to z1.
-  void AddVerticalRect(const Vec2& a, const Vec2& b, double z0, double z1,
-                       const KeepFn& keep = {});
+  void AddVerticalRect(const Vec2& a, const Vec2& b, double z0, double z1, const KeepFn& keep = {});
 
   /// A vertical trapezoid above the ground segment a→b: bottom at z_base, top edge rising
   /// linearly from z_top_a over a to z_top_b over b (a triangle when z_top_a == z_base). The
@@ -103,8 +102,8 @@ class SurfaceSampler {
 
   /// The inclined rectangle whose low edge is a→b at z_low and which rises by `rise` over the
   /// horizontal run `run_dir` (not necessarily unit; its length is the run).
-  void AddInclinedRect(const Vec2& a, const Vec2& b, double z_low, const Vec2& run_dir,
-                       double rise, const KeepFn& keep = {});
+  void AddInclinedRect(const Vec2& a, const Vec2& b, double z_low, const Vec2& run_dir, double rise,
+                       const KeepFn& keep = {});
 
   /// The faces of the axis-aligned box [lo, hi]: top, four sides and, if asked, the bottom.
   void AddBoxSurfaces(const Vec3& lo, const Vec3& hi, bool with_bottom, const KeepFn& keep = {});
@@ -125,8 +124,7 @@ class SurfaceSampler {
 
   /// The height field z = height(x, y) over [x0, x1] × [y0, y1], on the horizontal lattice.
   void AddHeightField(double x0, double x1, double y0, double y1,
-                      const std::function<double(double, double)>& height,
-                      const KeepFn& keep = {});
+                      const std::function<double(double, double)>& height, const KeepFn& keep = {});
 
   PointCloud TakeCloud() && { return std::move(cloud_); }
 

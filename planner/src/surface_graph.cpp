@@ -5,8 +5,8 @@
 #include <cstdio>
 #include <limits>
 #include <queue>
-#include <utility>
 #include <string>
+#include <utility>
 
 #include "format_internal.hpp"
 
@@ -77,10 +77,9 @@ Expected<SurfaceGraph> SurfaceGraph::Build(const TerrainModel& model,
         const Eigen::Vector3d p(g.origin_m.x() + (ix + 0.5) * g.resolution_m,
                                 g.origin_m.y() + (iy + 0.5) * g.resolution_m, reference_z);
         graph.column_nodes_.push_back(static_cast<std::int32_t>(graph.nodes_.size()));
-        graph.nodes_.push_back(Node{ix, iy, static_cast<std::int16_t>(k),
-                                    static_cast<std::int16_t>(this_level),
-                                    static_cast<float>(reference_z),
-                                    static_cast<float>(model.Distance(p))});
+        graph.nodes_.push_back(
+            Node{ix, iy, static_cast<std::int16_t>(k), static_cast<std::int16_t>(this_level),
+                 static_cast<float>(reference_z), static_cast<float>(model.Distance(p))});
       }
       graph.column_begin_[ix + std::int64_t{g.size.x()} * iy + 1] =
           static_cast<std::uint32_t>(graph.column_nodes_.size());
@@ -182,8 +181,7 @@ Expected<SnapResult> SnapToSurface(const SurfaceGraph& graph, const Eigen::Vecto
   const auto level_distance = [&](int node) {
     const Eigen::Vector3d pos = graph.position(node);
     const double ground = graph.ground_z(node);
-    const double ceiling =
-        ground + std::min<double>(graph.ceiling_clearance(node), kMaxAirSpaceM);
+    const double ceiling = ground + std::min<double>(graph.ceiling_clearance(node), kMaxAirSpaceM);
     const double below = std::max(0.0, ground - slack - p.z());
     const double above = std::max(0.0, p.z() - ceiling);
     return std::hypot((pos - p).head<2>().norm(), below + above);

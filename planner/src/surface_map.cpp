@@ -25,7 +25,8 @@ int ClampedLayer(const GridGeometry& g, float z) {
 }
 
 ColumnSortedCloud SortByColumn(const GridGeometry& g, const PointCloud& cloud,
-                               const std::vector<std::uint8_t>& valid_ground, [[maybe_unused]] int threads) {  // OpenMP only.
+                               const std::vector<std::uint8_t>& valid_ground,
+                               [[maybe_unused]] int threads) {  // OpenMP only.
   const std::int64_t columns = g.LayerCellCount();
   std::vector<std::uint32_t> column_of(cloud.size());
   ColumnSortedCloud out;
@@ -189,9 +190,9 @@ SurfaceMap SurfaceMap::Build(const GridGeometry& geometry, const PointCloud& clo
             weights.push_back(std::max(1e-3f, (1 - u) * (1 - u)));
           }
         }
-        const PlaneFit fit = fitter.Fit(patch, field.plane_fit_column_tops
-                                                   ? std::span<const float>(weights)
-                                                   : std::span<const float>());
+        const PlaneFit fit =
+            fitter.Fit(patch, field.plane_fit_column_tops ? std::span<const float>(weights)
+                                                          : std::span<const float>());
         if (fit.inlier_count >= 3) {
           s->tilt_rad = static_cast<float>(fit.tilt_rad);
           s->plane_center_z_m = static_cast<float>(PlaneHeightAt(fit, centre_xy));

@@ -49,7 +49,8 @@ double DetectVerticalQuantum(const PointCloud& cloud) {
     return 0;
   }
   std::int64_t step = std::numeric_limits<std::int64_t>::max();
-  for (std::size_t i = 1; i < heights.size(); ++i) step = std::min(step, heights[i] - heights[i - 1]);
+  for (std::size_t i = 1; i < heights.size(); ++i)
+    step = std::min(step, heights[i] - heights[i - 1]);
   if (step * kResolution < 0.01) return 0;  // Finer than a centimetre: not a voxel grid.
   for (std::size_t i = 1; i < heights.size(); ++i) {
     const std::int64_t off = (heights[i] - heights[0]) % step;
@@ -76,8 +77,8 @@ class Stopwatch {
 std::vector<std::uint8_t> OccupancyOf(const GridGeometry& g, const PointCloud& cloud) {
   std::vector<std::uint8_t> occupied(g.CellCount(), 0);
   for (const Eigen::Vector3f& p : cloud) {
-    const Eigen::Vector3i c = g.CellOf(p.cast<double>()).cwiseMax(0).cwiseMin(
-        g.size - Eigen::Vector3i::Ones());
+    const Eigen::Vector3i c =
+        g.CellOf(p.cast<double>()).cwiseMax(0).cwiseMin(g.size - Eigen::Vector3i::Ones());
     occupied[g.Index(c)] = 1;
   }
   return occupied;
@@ -113,13 +114,14 @@ FieldConfig FieldConfigForQuantum(const FieldConfig& field, double vertical_quan
     out.plane_fit_radius_m = std::max(field.plane_fit_radius_m, 5 * vertical_quantum_m);
     out.plane_fit_column_tops = true;
     out.plane_fit_half_height_m = std::max(field.plane_fit_half_height_m, 1.5 * vertical_quantum_m);
-    out.plane_inlier_distance_m = std::max(field.plane_inlier_distance_m, 0.75 * vertical_quantum_m);
+    out.plane_inlier_distance_m =
+        std::max(field.plane_inlier_distance_m, 0.75 * vertical_quantum_m);
   }
   return out;
 }
 
-Expected<std::shared_ptr<const TerrainModel>> TerrainModel::Assess(
-    const PointCloud& cloud, const AssessmentConfig& config) {
+Expected<std::shared_ptr<const TerrainModel>> TerrainModel::Assess(const PointCloud& cloud,
+                                                                   const AssessmentConfig& config) {
   if (Status s = config.Validate(); !s) return s.error();
   if (cloud.empty()) {
     return Error{ErrorCode::kInvalidInput, "the point cloud is empty: nothing to assess"};
@@ -148,12 +150,12 @@ Expected<std::shared_ptr<const TerrainModel>> TerrainModel::Assess(
   model->esdf_ = BuildSignedDistanceField(*geometry, OccupancyOf(*geometry, cloud));
   summary.timings.esdf_s = stage.Lap();
 
-  const FieldConfig field = FieldConfigForQuantum(config.field, summary.vertical_quantum_m,
-                                                  config.grid.resolution_m);
+  const FieldConfig field =
+      FieldConfigForQuantum(config.field, summary.vertical_quantum_m, config.grid.resolution_m);
   model->surfaces_ = SurfaceMap::Build(*geometry, cloud, valid, field, config.num_threads);
-  model->safety_ = DiffuseSafetyPenalty(
-      ComputeSafetyPenalty(model->surfaces_, config.field, config.num_threads), config.field,
-      config.num_threads);
+  model->safety_ =
+      DiffuseSafetyPenalty(ComputeSafetyPenalty(model->surfaces_, config.field, config.num_threads),
+                           config.field, config.num_threads);
   summary.surface_count = model->surfaces_.surface_count();
   summary.valid_surface_count = model->surfaces_.valid_surface_count();
   summary.timings.field_s = stage.Lap();
@@ -169,8 +171,7 @@ std::span<const ColumnSurface> TerrainModel::LevelsAt(const Eigen::Vector3d& p) 
 
 const ColumnSurface* TerrainModel::SurfaceBelow(const Eigen::Vector3d& p) const {
   const Eigen::Vector3i c = grid().CellOf(p);
-  if (c.x() < 0 || c.y() < 0 || c.x() >= grid().size.x() || c.y() >= grid().size.y() ||
-      c.z() < 0) {
+  if (c.x() < 0 || c.y() < 0 || c.x() >= grid().size.x() || c.y() >= grid().size.y() || c.z() < 0) {
     return nullptr;
   }
   return surfaces_.SurfaceBelow(c.x(), c.y(), std::min(c.z(), grid().size.z() - 1));

@@ -14,8 +14,8 @@ Trajectory Trajectory::FromMinco(const Minco3& minco) {
   for (int i = 0; i < minco.piece_count(); ++i) {
     TrajectoryPiece& piece = trajectory.pieces[static_cast<std::size_t>(i)];
     piece.duration_s = minco.durations()(i);
-    piece.coefficients = minco.coefficients().middleRows(Minco3::kPieceCoefficients * i,
-                                                         Minco3::kPieceCoefficients);
+    piece.coefficients =
+        minco.coefficients().middleRows(Minco3::kPieceCoefficients * i, Minco3::kPieceCoefficients);
   }
   return trajectory;
 }

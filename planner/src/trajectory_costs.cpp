@@ -37,10 +37,8 @@ const ColumnSurface* NearestSurface(const SurfaceMap& surfaces, int ix, int iy, 
 Eigen::Matrix<double, 4, 6> Basis(double t) {
   const double t2 = t * t, t3 = t2 * t, t4 = t3 * t, t5 = t4 * t;
   Eigen::Matrix<double, 4, 6> b;
-  b << 1, t, t2, t3, t4, t5,
-       0, 1, 2 * t, 3 * t2, 4 * t3, 5 * t4,
-       0, 0, 2, 6 * t, 12 * t2, 20 * t3,
-       0, 0, 0, 6, 24 * t, 60 * t2;
+  b << 1, t, t2, t3, t4, t5, 0, 1, 2 * t, 3 * t2, 4 * t3, 5 * t4, 0, 0, 2, 6 * t, 12 * t2, 20 * t3,
+      0, 0, 0, 6, 24 * t, 60 * t2;
   return b;
 }
 
@@ -48,8 +46,10 @@ Eigen::Matrix<double, 4, 6> Basis(double t) {
 
 Status CostWeights::Validate() const {
   const std::pair<const char*, double> fields[] = {
-      {"smoothness", smoothness}, {"time", time},   {"safety", safety}, {"edge", edge},
-      {"ground", ground},         {"feasibility", feasibility}, {"height", height}};
+      {"smoothness", smoothness}, {"time", time},
+      {"safety", safety},         {"edge", edge},
+      {"ground", ground},         {"feasibility", feasibility},
+      {"height", height}};
   for (const auto& [name, value] : fields) {
     if (!(std::isfinite(value) && value >= 0)) {
       return internal::OutOfRange(std::string("weights.") + name, value, ">= 0 and finite");
@@ -207,8 +207,8 @@ double TrajectoryCost::SuitableBodyHeight(double clearance_m, double* derivative
 }
 
 double TrajectoryCost::ClearanceCap() const {
-  return std::max(params_.body_height_max_m, params_.body_height_preferred_m) +
-         params_.headroom_m + 1.0;
+  return std::max(params_.body_height_max_m, params_.body_height_preferred_m) + params_.headroom_m +
+         1.0;
 }
 
 double TrajectoryCost::PointPenalty(const StateVector& pos, const StateVector& vel,
@@ -242,9 +242,9 @@ double TrajectoryCost::PointPenalty(const StateVector& pos, const StateVector& v
   }
 
   GroundSample ground;
-  const bool has_ground = (w.ground > 0 || (c.active_height && (w.height > 0 || w.feasibility > 0))) &&
-                          SampleGround(*model_, p, c.reference_height_m,
-                                       c.active_height ? ClearanceCap() : 0, &ground);
+  const bool has_ground =
+      (w.ground > 0 || (c.active_height && (w.height > 0 || w.feasibility > 0))) &&
+      SampleGround(*model_, p, c.reference_height_m, c.active_height ? ClearanceCap() : 0, &ground);
   if (has_ground && w.ground > 0) {
     const double offset = p.z() - ground.height_m - c.reference_height_m;
     terms.ground += w.ground * offset * offset;
@@ -328,8 +328,8 @@ double TrajectoryCost::Evaluate(const Minco3& minco, Eigen::MatrixXd* grad_c,
   StateVector pos(dim), vel(dim), acc(dim), jerk(dim), g_pos(dim), g_vel(dim), g_acc(dim);
   for (int i = 0; i < pieces; ++i) {
     const double duration = minco.durations()(i);
-    const auto c = minco.coefficients().middleRows<Minco3::kPieceCoefficients>(
-        Minco3::kPieceCoefficients * i);
+    const auto c =
+        minco.coefficients().middleRows<Minco3::kPieceCoefficients>(Minco3::kPieceCoefficients * i);
     auto g_c = grad_c->middleRows<Minco3::kPieceCoefficients>(Minco3::kPieceCoefficients * i);
     for (int j = 0; j <= kappa; ++j) {
       const double alpha = static_cast<double>(j) / kappa;
@@ -339,8 +339,7 @@ double TrajectoryCost::Evaluate(const Minco3& minco, Eigen::MatrixXd* grad_c,
       acc.noalias() = (beta.row(2) * c).transpose();
       jerk.noalias() = (beta.row(3) * c).transpose();
       CostBreakdown point_terms;
-      const double penalty =
-          PointPenalty(pos, vel, acc, &g_pos, &g_vel, &g_acc, &point_terms);
+      const double penalty = PointPenalty(pos, vel, acc, &g_pos, &g_vel, &g_acc, &point_terms);
       if (penalty == 0) continue;  // Gradients are zero too: every term is >= 0 and C¹.
       // Trapezoid weight T/κ (halved at the ends); it scales with T, hence penalty·w/T below.
       const double weight = (j == 0 || j == kappa ? 0.5 : 1.0) * duration / kappa;

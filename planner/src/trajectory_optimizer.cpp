@@ -172,7 +172,8 @@ OptimizationProblem MakeInitialProblem(const TrajectoryCost& cost,
   problem.initial_waypoints.resize(dim, pieces - 1);
   for (int k = 0; k < pieces - 1; ++k) {
     problem.initial_waypoints.col(k).head<3>() = interior[static_cast<std::size_t>(k)];
-    if (dim == 4) problem.initial_waypoints(3, k) = body_height(interior[static_cast<std::size_t>(k)]);
+    if (dim == 4)
+      problem.initial_waypoints(3, k) = body_height(interior[static_cast<std::size_t>(k)]);
   }
   // Durations at a comfortable fraction of the speed bounds; the optimiser shortens them.
   problem.initial_durations.resize(pieces);
@@ -245,7 +246,8 @@ Expected<OptimizationReport> OptimizeTrajectory(const TrajectoryCost& cost,
         report.evaluations = objective.evaluations();
         ++report.iterations;
       }
-      if (!(objective.best_value() < previous_best * (1 - config.relative_improvement_tolerance))) break;
+      if (!(objective.best_value() < previous_best * (1 - config.relative_improvement_tolerance)))
+        break;
       previous_best = objective.best_value();
     }
   } catch (const StopRequested&) {
@@ -260,4 +262,3 @@ Expected<OptimizationReport> OptimizeTrajectory(const TrajectoryCost& cost,
 }
 
 }  // namespace strata
-

@@ -41,9 +41,7 @@ struct Csv {
   const std::string& At(std::size_t row, const std::string& name) const {
     return rows[row].at(column.at(name));
   }
-  double Number(std::size_t row, const std::string& name) const {
-    return std::stod(At(row, name));
-  }
+  double Number(std::size_t row, const std::string& name) const { return std::stod(At(row, name)); }
 };
 
 Csv ReadCsv(const std::filesystem::path& path) {
@@ -76,10 +74,11 @@ class BenchSmokeTest : public ::testing::Test {
 
 TEST_F(BenchSmokeTest, ThreeMethodsOnThreePairsWriteSaneRows) {
   std::string output;
-  const int code = RunOffline("bench --scene stairs_ramp_room --pairs 3 --seed 1 --threads 1 "
-                              "--time-limit 1 --methods strata,liu,krusi --out '" +
-                                  dir_.string() + "'",
-                              &output);
+  const int code = RunOffline(
+      "bench --scene stairs_ramp_room --pairs 3 --seed 1 --threads 1 "
+      "--time-limit 1 --methods strata,liu,krusi --out '" +
+          dir_.string() + "'",
+      &output);
   ASSERT_EQ(code, 0) << output;
   EXPECT_THAT(output, HasSubstr("| strata |"));
   EXPECT_THAT(output, HasSubstr("| liu |"));

@@ -25,7 +25,8 @@ std::string UsageMessage(const std::function<void()>& f) {
 }
 
 TEST(ArgumentsTest, FlagsGoAnywhereInEitherSpelling) {
-  Arguments args = Parse({"--json", "plan", "--map=demo", "--start", "-1.5,2,0.3", "extra", "--wait"});
+  Arguments args =
+      Parse({"--json", "plan", "--map=demo", "--start", "-1.5,2,0.3", "extra", "--wait"});
   EXPECT_EQ(args.NextPositional(), "plan");
   EXPECT_EQ(args.Take("map"), "demo");
   const auto start = args.TakeVector3("start");
@@ -46,11 +47,13 @@ TEST(ArgumentsTest, BadValuesAreNamed) {
   EXPECT_THAT(UsageMessage([&] { args.TakeVector3("start"); }), HasSubstr("--start must be x,y,z"));
   EXPECT_THAT(UsageMessage([&] { args.TakeVector3("goal"); }),
               HasSubstr("--goal component y must be a finite number, got \"x\""));
-  EXPECT_THAT(UsageMessage([&] { args.TakeDouble("dt"); }), HasSubstr("--dt must be a finite number"));
+  EXPECT_THAT(UsageMessage([&] { args.TakeDouble("dt"); }),
+              HasSubstr("--dt must be a finite number"));
   EXPECT_THAT(UsageMessage([&] { args.TakeInteger("steps", 1, 10); }),
               HasSubstr("--steps must be an integer in [1, 10], got \"0\""));
   EXPECT_THAT(UsageMessage([&] { args.TakeDouble("t0"); }), HasSubstr("--t0 must be a finite"));
-  EXPECT_THAT(UsageMessage([&] { args.Finish(); }), HasSubstr("unknown or misplaced flag --unknown"));
+  EXPECT_THAT(UsageMessage([&] { args.Finish(); }),
+              HasSubstr("unknown or misplaced flag --unknown"));
   EXPECT_THAT(UsageMessage([] { Parse({"plan", "--map"}); }), HasSubstr("--map needs a value"));
 }
 

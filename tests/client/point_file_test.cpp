@@ -64,9 +64,11 @@ TEST_F(PointFileTest, BinaryPcdWithExtraFieldsAndDoubles) {
     body.append(reinterpret_cast<const char*>(&y), 8);
     body.append(reinterpret_cast<const char*>(&z), 4);
   }
-  const std::string path = Write("cloud.pcd",
-      "# .PCD v0.7\nVERSION 0.7\nFIELDS intensity x y z\nSIZE 4 4 8 4\nTYPE F F F F\n"
-      "COUNT 1 1 1 1\nWIDTH 5\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 5\nDATA binary\n" + body);
+  const std::string path =
+      Write("cloud.pcd",
+            "# .PCD v0.7\nVERSION 0.7\nFIELDS intensity x y z\nSIZE 4 4 8 4\nTYPE F F F F\n"
+            "COUNT 1 1 1 1\nWIDTH 5\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 5\nDATA binary\n" +
+                body);
   ASSERT_EQ(GuessPointFileFormat(path), PointFileFormat::kPcd);
   PointFileReader reader(path, PointFileFormat::kPcd);
   EXPECT_EQ(reader.point_count(), 5u);
@@ -82,9 +84,10 @@ TEST_F(PointFileTest, BinaryPcdWithExtraFieldsAndDoubles) {
 }
 
 TEST_F(PointFileTest, AsciiPcdAndTextAndRaw) {
-  const std::string pcd = Write("a.pcd",
-      "FIELDS x y z rgb\nSIZE 4 4 4 4\nTYPE F F F U\nCOUNT 1 1 1 1\nWIDTH 2\nHEIGHT 1\n"
-      "DATA ascii\n1 2 3 77\n4.5 5 6 78\n");
+  const std::string pcd =
+      Write("a.pcd",
+            "FIELDS x y z rgb\nSIZE 4 4 4 4\nTYPE F F F U\nCOUNT 1 1 1 1\nWIDTH 2\nHEIGHT 1\n"
+            "DATA ascii\n1 2 3 77\n4.5 5 6 78\n");
   PointFileReader pcd_reader(pcd, PointFileFormat::kPcd);
   EXPECT_EQ(pcd_reader.point_count(), 2u);  // WIDTH × HEIGHT without POINTS.
   EXPECT_EQ(ReadAll(pcd_reader, 10), (std::vector<float>{1, 2, 3, 4.5f, 5, 6}));
@@ -95,7 +98,8 @@ TEST_F(PointFileTest, AsciiPcdAndTextAndRaw) {
   EXPECT_EQ(ReadAll(text_reader, 1), (std::vector<float>{1, 2, 3, -4, 5, 6}));
 
   const float raw_points[6] = {7, 8, 9, 10, 11, 12};
-  const std::string raw = Write("c.bin", std::string(reinterpret_cast<const char*>(raw_points), 24));
+  const std::string raw =
+      Write("c.bin", std::string(reinterpret_cast<const char*>(raw_points), 24));
   PointFileReader raw_reader(raw, PointFileFormat::kRawF32);
   EXPECT_EQ(raw_reader.point_count(), 2u);
   EXPECT_EQ(ReadAll(raw_reader, 5), (std::vector<float>{7, 8, 9, 10, 11, 12}));
@@ -112,14 +116,17 @@ std::string Failure(const std::function<void()>& f) {
 
 TEST_F(PointFileTest, MalformedFilesAreNamed) {
   const std::string compressed = Write("c.pcd",
-      "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 1\nHEIGHT 1\nPOINTS 1\nDATA binary_compressed\n");
+                                       "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 1\nHEIGHT "
+                                       "1\nPOINTS 1\nDATA binary_compressed\n");
   EXPECT_THAT(Failure([&] { PointFileReader(compressed, PointFileFormat::kPcd); }),
               HasSubstr("PCD DATA binary_compressed is not supported"));
-  const std::string no_z = Write("d.pcd", "FIELDS x y\nSIZE 4 4\nTYPE F F\nPOINTS 1\nDATA ascii\n1 2\n");
+  const std::string no_z =
+      Write("d.pcd", "FIELDS x y\nSIZE 4 4\nTYPE F F\nPOINTS 1\nDATA ascii\n1 2\n");
   EXPECT_THAT(Failure([&] { PointFileReader(no_z, PointFileFormat::kPcd); }),
               HasSubstr("PCD has no x, y and z fields"));
-  const std::string truncated = Write("e.pcd",
-      "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nPOINTS 3\nDATA binary\n" + std::string(20, '\0'));
+  const std::string truncated =
+      Write("e.pcd", "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nPOINTS 3\nDATA binary\n" +
+                         std::string(20, '\0'));
   EXPECT_THAT(Failure([&] {
                 PointFileReader reader(truncated, PointFileFormat::kPcd);
                 std::string chunk;
@@ -138,8 +145,9 @@ TEST_F(PointFileTest, MalformedFilesAreNamed) {
   const std::string odd_raw = Write("g.raw", std::string(13, '\0'));
   EXPECT_THAT(Failure([&] { PointFileReader(odd_raw, PointFileFormat::kRawF32); }),
               HasSubstr("has 13 bytes, not a multiple of 12"));
-  EXPECT_THAT(Failure([&] { PointFileReader((dir_ / "none.pcd").string(), PointFileFormat::kPcd); }),
-              HasSubstr("cannot read"));
+  EXPECT_THAT(
+      Failure([&] { PointFileReader((dir_ / "none.pcd").string(), PointFileFormat::kPcd); }),
+      HasSubstr("cannot read"));
   EXPECT_FALSE(GuessPointFileFormat("cloud.ply").has_value());
   EXPECT_EQ(ParsePointFileFormat("raw"), PointFileFormat::kRawF32);
   EXPECT_FALSE(ParsePointFileFormat("las").has_value());

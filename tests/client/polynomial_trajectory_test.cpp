@@ -25,7 +25,8 @@ PolynomialTrajectory Build(const v1::Trajectory& proto) {
 
 // x = 1 + 2t + 3t² + 4t³ + 5t⁴ + 6t⁵, y = −t³, z = 0.5, one piece of 2 s.
 v1::Trajectory HandPolynomial() {
-  return MakeTrajectory(3, {{2.0, {{1, 2, 3, 4, 5, 6}, {0, 0, 0, -1, 0, 0}, {0.5, 0, 0, 0, 0, 0}}}});
+  return MakeTrajectory(3,
+                        {{2.0, {{1, 2, 3, 4, 5, 6}, {0, 0, 0, -1, 0, 0}, {0.5, 0, 0, 0, 0, 0}}}});
 }
 
 TEST(PolynomialTrajectoryTest, MatchesHandComputedValuesAndDerivatives) {
@@ -36,9 +37,9 @@ TEST(PolynomialTrajectoryTest, MatchesHandComputedValuesAndDerivatives) {
   const TrajectoryState s = trajectory.StateAt(0.5);
   // By hand at t = 0.5: x = 1 + 1 + 0.75 + 0.5 + 0.3125 + 0.1875.
   EXPECT_DOUBLE_EQ(s.position_m.x(), 3.75);
-  EXPECT_DOUBLE_EQ(s.velocity_mps.x(), 2 + 3 + 3 + 2.5 + 1.875);    // 2 + 6t + 12t² + 20t³ + 30t⁴
-  EXPECT_DOUBLE_EQ(s.acceleration_mps2.x(), 6 + 12 + 15 + 15);      // 6 + 24t + 60t² + 120t³
-  EXPECT_DOUBLE_EQ(s.jerk_mps3.x(), 24 + 60 + 90);                  // 24 + 120t + 360t²
+  EXPECT_DOUBLE_EQ(s.velocity_mps.x(), 2 + 3 + 3 + 2.5 + 1.875);  // 2 + 6t + 12t² + 20t³ + 30t⁴
+  EXPECT_DOUBLE_EQ(s.acceleration_mps2.x(), 6 + 12 + 15 + 15);    // 6 + 24t + 60t² + 120t³
+  EXPECT_DOUBLE_EQ(s.jerk_mps3.x(), 24 + 60 + 90);                // 24 + 120t + 360t²
   EXPECT_DOUBLE_EQ(s.position_m.y(), -0.125);
   EXPECT_DOUBLE_EQ(s.velocity_mps.y(), -0.75);
   EXPECT_DOUBLE_EQ(s.acceleration_mps2.y(), -3.0);
@@ -54,10 +55,10 @@ TEST(PolynomialTrajectoryTest, MatchesHandComputedValuesAndDerivatives) {
 
 TEST(PolynomialTrajectoryTest, GlobalTimeSelectsThePieceAndItsLocalTime) {
   // Piece 0 (1.5 s): x = t. Piece 1 (0.5 s): x = 10 + 2t. Piece 2 (1 s): x = −t².
-  const PolynomialTrajectory trajectory = Build(MakeTrajectory(
-      3, {{1.5, {{0, 1, 0, 0, 0, 0}, {}, {}}},
-          {0.5, {{10, 2, 0, 0, 0, 0}, {}, {}}},
-          {1.0, {{0, 0, -1, 0, 0, 0}, {}, {}}}}));
+  const PolynomialTrajectory trajectory =
+      Build(MakeTrajectory(3, {{1.5, {{0, 1, 0, 0, 0, 0}, {}, {}}},
+                               {0.5, {{10, 2, 0, 0, 0, 0}, {}, {}}},
+                               {1.0, {{0, 0, -1, 0, 0, 0}, {}, {}}}}));
   EXPECT_DOUBLE_EQ(trajectory.piece_start_s(1), 1.5);
   EXPECT_DOUBLE_EQ(trajectory.piece_start_s(2), 2.0);
   EXPECT_DOUBLE_EQ(trajectory.duration_s(), 3.0);
@@ -129,7 +130,9 @@ TEST(PolynomialTrajectoryTest, DerivativesMatchFiniteDifferencesOfPosition) {
     const TrajectoryState state = trajectory.StateAt(t);
     for (int a = 0; a < 3; ++a) {
       EXPECT_NEAR(state.velocity_mps[a], velocity[a], 1e-5 * (1 + std::abs(velocity[a]))) << t;
-      EXPECT_NEAR(state.acceleration_mps2[a], acceleration[a], 1e-4 * (1 + std::abs(acceleration[a]))) << t;
+      EXPECT_NEAR(state.acceleration_mps2[a], acceleration[a],
+                  1e-4 * (1 + std::abs(acceleration[a])))
+          << t;
       EXPECT_NEAR(state.jerk_mps3[a], jerk[a], 1e-3 * (1 + std::abs(jerk[a]))) << t;
     }
   }
@@ -143,8 +146,9 @@ TEST(PolynomialTrajectoryTest, PiecesOfOneGlobalPolynomialAreContinuousAtTheirJo
   std::vector<PieceSpec> specs;
   double start = 0;
   for (double duration : durations) {
-    specs.push_back({duration, {ShiftPolynomial(x, start), ShiftPolynomial(y, start),
-                                ShiftPolynomial(z, start)}});
+    specs.push_back(
+        {duration,
+         {ShiftPolynomial(x, start), ShiftPolynomial(y, start), ShiftPolynomial(z, start)}});
     start += duration;
   }
   const PolynomialTrajectory trajectory = Build(MakeTrajectory(3, specs));
@@ -156,7 +160,8 @@ TEST(PolynomialTrajectoryTest, PiecesOfOneGlobalPolynomialAreContinuousAtTheirJo
           trajectory.EvaluatePiece(i - 1, trajectory.piece_duration_s(i - 1), order);
       const Eigen::VectorXd after = trajectory.EvaluatePiece(i, 0.0, order);
       EXPECT_NEAR((before - after).norm(), 0.0, 1e-10) << "joint " << i << " order " << order;
-      EXPECT_NEAR(trajectory.Evaluate(joint, order)[0], PowerSeriesDerivative(x, joint, order), 1e-10);
+      EXPECT_NEAR(trajectory.Evaluate(joint, order)[0], PowerSeriesDerivative(x, joint, order),
+                  1e-10);
       // And just either side of the joint, global time agrees with the global polynomial.
       for (double offset : {-1e-6, 1e-6}) {
         EXPECT_NEAR(trajectory.Evaluate(joint + offset, order)[1],
@@ -181,9 +186,10 @@ TEST(PolynomialTrajectoryTest, TimeBeforeTheStartClampsToTheStartState) {
 }
 
 TEST(PolynomialTrajectoryTest, TimePastTheEndHoldsTheFinalPositionAtRest) {
-  const PolynomialTrajectory trajectory =
-      Build(MakeTrajectory(4, {{1.0, {{0, 1, 0, 0, 0, 0}, {0, 0, 1, 0, 0, 0},
-                                      {0.3, 0, 0, 0, 0, 0}, {0.5, 0.1, 0, 0, 0, 0}}}}));
+  const PolynomialTrajectory trajectory = Build(MakeTrajectory(
+      4,
+      {{1.0,
+        {{0, 1, 0, 0, 0, 0}, {0, 0, 1, 0, 0, 0}, {0.3, 0, 0, 0, 0, 0}, {0.5, 0.1, 0, 0, 0, 0}}}}));
   const TrajectoryState end = trajectory.StateAt(1.0);
   EXPECT_DOUBLE_EQ(end.velocity_mps.x(), 1.0);  // The end itself: the last piece's values.
   const TrajectoryState past = trajectory.StateAt(5.0);
@@ -222,9 +228,9 @@ struct MalformedCase {
 class MalformedTrajectoryTest : public ::testing::TestWithParam<MalformedCase> {};
 
 TEST_P(MalformedTrajectoryTest, IsRefusedWithAClearMessage) {
-  v1::Trajectory trajectory = MakeTrajectory(
-      3, {{1.0, {{0, 1, 0, 0, 0, 0}, {0, 0, 0, 0, 0, 0}, {0, 0, 0, 0, 0, 0}}},
-          {2.0, {{1, 1, 0, 0, 0, 0}, {0, 0, 0, 0, 0, 0}, {0, 0, 0, 0, 0, 0}}}});
+  v1::Trajectory trajectory =
+      MakeTrajectory(3, {{1.0, {{0, 1, 0, 0, 0, 0}, {0, 0, 0, 0, 0, 0}, {0, 0, 0, 0, 0, 0}}},
+                         {2.0, {{1, 1, 0, 0, 0, 0}, {0, 0, 0, 0, 0, 0}, {0, 0, 0, 0, 0, 0}}}});
   ASSERT_TRUE(PolynomialTrajectory::FromProto(trajectory).ok());
   GetParam().corrupt(&trajectory);
   const auto result = PolynomialTrajectory::FromProto(trajectory);
@@ -243,17 +249,26 @@ INSTANTIATE_TEST_SUITE_P(
                       "dimension is 2; it must be 3 (x, y, z) or 4"},
         MalformedCase{"Dimension0", [](v1::Trajectory* t) { t->set_dimension(0); },
                       "dimension is 0"},
-        MalformedCase{"NoPieces", [](v1::Trajectory* t) { t->clear_pieces(); t->set_duration_s(0); },
+        MalformedCase{"NoPieces",
+                      [](v1::Trajectory* t) {
+                        t->clear_pieces();
+                        t->set_duration_s(0);
+                      },
                       "it has no pieces"},
-        MalformedCase{"ZeroDuration", [](v1::Trajectory* t) { t->mutable_pieces(1)->set_duration_s(0); },
+        MalformedCase{"ZeroDuration",
+                      [](v1::Trajectory* t) { t->mutable_pieces(1)->set_duration_s(0); },
                       "pieces[1].duration_s is 0 s; it must be > 0 and finite"},
-        MalformedCase{"NegativeDuration", [](v1::Trajectory* t) { t->mutable_pieces(0)->set_duration_s(-0.5); },
+        MalformedCase{"NegativeDuration",
+                      [](v1::Trajectory* t) { t->mutable_pieces(0)->set_duration_s(-0.5); },
                       "pieces[0].duration_s is -0.5 s"},
-        MalformedCase{"NaNDuration", [](v1::Trajectory* t) { t->mutable_pieces(0)->set_duration_s(kNaN); },
+        MalformedCase{"NaNDuration",
+                      [](v1::Trajectory* t) { t->mutable_pieces(0)->set_duration_s(kNaN); },
                       "pieces[0].duration_s is nan s"},
-        MalformedCase{"InfiniteDuration", [](v1::Trajectory* t) { t->mutable_pieces(1)->set_duration_s(kInf); },
+        MalformedCase{"InfiniteDuration",
+                      [](v1::Trajectory* t) { t->mutable_pieces(1)->set_duration_s(kInf); },
                       "pieces[1].duration_s is inf s"},
-        MalformedCase{"MissingAxis", [](v1::Trajectory* t) { t->mutable_pieces(1)->mutable_axes()->RemoveLast(); },
+        MalformedCase{"MissingAxis",
+                      [](v1::Trajectory* t) { t->mutable_pieces(1)->mutable_axes()->RemoveLast(); },
                       "pieces[1] has 2 axes; the trajectory's dimension is 3"},
         MalformedCase{"DimensionSaysFour", [](v1::Trajectory* t) { t->set_dimension(4); },
                       "pieces[0] has 3 axes; the trajectory's dimension is 4"},
@@ -262,11 +277,14 @@ INSTANTIATE_TEST_SUITE_P(
                         t->mutable_pieces(1)->mutable_axes(2)->mutable_coefficients()->RemoveLast();
                       },
                       "pieces[1].axes[2] has 5 coefficients; a quintic needs exactly 6"},
-        MalformedCase{"SevenCoefficients",
-                      [](v1::Trajectory* t) { t->mutable_pieces(0)->mutable_axes(0)->add_coefficients(1); },
-                      "pieces[0].axes[0] has 7 coefficients"},
+        MalformedCase{
+            "SevenCoefficients",
+            [](v1::Trajectory* t) { t->mutable_pieces(0)->mutable_axes(0)->add_coefficients(1); },
+            "pieces[0].axes[0] has 7 coefficients"},
         MalformedCase{"NaNCoefficient",
-                      [](v1::Trajectory* t) { t->mutable_pieces(0)->mutable_axes(1)->set_coefficients(3, kNaN); },
+                      [](v1::Trajectory* t) {
+                        t->mutable_pieces(0)->mutable_axes(1)->set_coefficients(3, kNaN);
+                      },
                       "pieces[0].axes[1].coefficients[3] is nan; coefficients must be finite"},
         MalformedCase{"TotalDisagrees", [](v1::Trajectory* t) { t->set_duration_s(3.5); },
                       "duration_s is 3.5 s but the pieces last 3 s in total"}),

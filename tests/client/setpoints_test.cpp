@@ -39,11 +39,15 @@ v1::Trajectory Circle(double radius_m, double rate_radps, double duration_s, dou
     };
     auto x = [&](double t, int k) {
       const double w = rate_radps, r = radius_m;
-      return k == 0 ? r * std::cos(w * t) : k == 1 ? -r * w * std::sin(w * t) : -r * w * w * std::cos(w * t);
+      return k == 0   ? r * std::cos(w * t)
+             : k == 1 ? -r * w * std::sin(w * t)
+                      : -r * w * w * std::cos(w * t);
     };
     auto y = [&](double t, int k) {
       const double w = rate_radps, r = radius_m;
-      return k == 0 ? r * std::sin(w * t) : k == 1 ? r * w * std::cos(w * t) : -r * w * w * std::sin(w * t);
+      return k == 0   ? r * std::sin(w * t)
+             : k == 1 ? r * w * std::cos(w * t)
+                      : -r * w * w * std::sin(w * t);
     };
     specs.push_back({piece_s, {axis(x), axis(y), Coefficients{0.2, 0, 0, 0, 0, 0}}});
   }
@@ -107,9 +111,9 @@ TEST(SetpointsTest, YawRateMatchesFiniteDifferencesOfYaw) {
     const double h = 1e-5;
     const MpcSetpoint s = SetpointAt(trajectory, t);
     ASSERT_FALSE(s.yaw_held);
-    const double numeric =
-        AngleDifference(SetpointAt(trajectory, t + h).yaw_rad, SetpointAt(trajectory, t - h).yaw_rad) /
-        (2 * h);
+    const double numeric = AngleDifference(SetpointAt(trajectory, t + h).yaw_rad,
+                                           SetpointAt(trajectory, t - h).yaw_rad) /
+                           (2 * h);
     EXPECT_NEAR(s.yaw_rate_radps, numeric, 1e-5 * (1 + std::abs(numeric))) << t;
     const Eigen::Vector3d v = trajectory.VelocityAt(t);
     EXPECT_DOUBLE_EQ(s.speed_mps, std::hypot(v.x(), v.y()));
@@ -120,7 +124,8 @@ TEST(SetpointsTest, YawRateMatchesFiniteDifferencesOfYaw) {
 // Rest to rest in 1 s: x' = 30t²(1−t)², y' = 2t(1−t)(1−2t). It leaves along +y (y' is first
 // order at t = 0, x' second order) and arrives moving along −y.
 v1::Trajectory RestToRest() {
-  return MakeTrajectory(3, {{1.0, {{0, 0, 0, 10, -15, 6}, {0, 0, 1, -2, 1, 0}, {0.3, 0, 0, 0, 0, 0}}}});
+  return MakeTrajectory(
+      3, {{1.0, {{0, 0, 0, 10, -15, 6}, {0, 0, 1, -2, 1, 0}, {0.3, 0, 0, 0, 0, 0}}}});
 }
 
 TEST(SetpointsTest, AtRestTheYawIsHeldFromTheNearestMotion) {

@@ -7,9 +7,9 @@
 #include <filesystem>
 #include <fstream>
 
+#include <gmock/gmock.h>
 #include <google/protobuf/struct.pb.h>
 #include <google/protobuf/util/json_util.h>
-#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include "run_command.hpp"
@@ -22,8 +22,8 @@
 namespace strata::client::testing {
 namespace {
 
-using ::testing::HasSubstr;
 using server::testing::ServerProcess;
+using ::testing::HasSubstr;
 
 class StrataCliTest : public ::testing::Test {
  protected:
@@ -66,8 +66,8 @@ class StrataCliTest : public ::testing::Test {
   static std::string Path(const std::string& name) { return (*dir_ / name).string(); }
 
   static v1::PlanResponse PlanOnDemo(std::vector<std::string> extra = {}) {
-    std::vector<std::string> args = {"plan", "--map", "demo", "--start", "2,2,0.3", "--goal",
-                                     "10,10,3.3", "--json"};
+    std::vector<std::string> args = {"plan",    "--map",  "demo",      "--start",
+                                     "2,2,0.3", "--goal", "10,10,3.3", "--json"};
     args.insert(args.end(), extra.begin(), extra.end());
     const CommandResult result = Strata(args);
     EXPECT_EQ(result.exit_code, 0) << result.err;
@@ -116,9 +116,9 @@ TEST_F(StrataCliTest, ServerComesFromTheEnvironmentUnlessGiven) {
   ASSERT_EQ(from_env.exit_code, 0) << from_env.err;
   EXPECT_THAT(from_env.out, HasSubstr("map demo: ACTIVE"));
   // --server wins over the variable (which here points nowhere).
-  const CommandResult flag = RunCommand(
-      {STRATA_CLI_BINARY, "--server", server_->address(), "maps", "get", "demo"},
-      {"STRATA_SERVER=127.0.0.1:1"});
+  const CommandResult flag =
+      RunCommand({STRATA_CLI_BINARY, "--server", server_->address(), "maps", "get", "demo"},
+                 {"STRATA_SERVER=127.0.0.1:1"});
   EXPECT_EQ(flag.exit_code, 0) << flag.err;
 }
 
@@ -142,13 +142,15 @@ TEST_F(StrataCliTest, PlanJsonStartsAndEndsAtTheSnappedStartAndGoal) {
     const TrajectoryState state = trajectory->StateAt(sample.time_s());
     EXPECT_LT(Distance(state.position_m, sample.position_m()), 1e-6) << sample.time_s();
     EXPECT_LT(Distance(state.velocity_mps, sample.velocity_mps()), 1e-6) << sample.time_s();
-    EXPECT_LT(Distance(state.acceleration_mps2, sample.acceleration_mps2()), 1e-6) << sample.time_s();
+    EXPECT_LT(Distance(state.acceleration_mps2, sample.acceleration_mps2()), 1e-6)
+        << sample.time_s();
   }
 }
 
 TEST_F(StrataCliTest, PlanSummaryNamesSnappedStatesAndPieces) {
-  const CommandResult result = Strata({"plan", "--map", "demo", "--start", "2,2,0.3", "--goal",
-                                       "10,10,3.3", "--robot", "differential", "--time-budget", "5"});
+  const CommandResult result =
+      Strata({"plan", "--map", "demo", "--start", "2,2,0.3", "--goal", "10,10,3.3", "--robot",
+              "differential", "--time-budget", "5"});
   ASSERT_EQ(result.exit_code, 0) << result.err;
   EXPECT_THAT(result.out, HasSubstr("plan on map demo for robot differential"));
   EXPECT_THAT(result.out, HasSubstr("level 0"));
@@ -157,8 +159,8 @@ TEST_F(StrataCliTest, PlanSummaryNamesSnappedStatesAndPieces) {
 }
 
 TEST_F(StrataCliTest, SetpointsFromASavedPlanMatchTheLibrary) {
-  const CommandResult saved = Strata({"plan", "--map", "demo", "--start", "2,2,0.3", "--goal",
-                                      "10,10,3.3", "--json"});
+  const CommandResult saved =
+      Strata({"plan", "--map", "demo", "--start", "2,2,0.3", "--goal", "10,10,3.3", "--json"});
   ASSERT_EQ(saved.exit_code, 0) << saved.err;
   const std::string path = Path("plan.json");
   std::ofstream(path) << saved.out;
@@ -180,8 +182,10 @@ TEST_F(StrataCliTest, SetpointsFromASavedPlanMatchTheLibrary) {
     const auto& row = rows[k].struct_value().fields();
     const MpcSetpoint& e = expected.value()[k];
     EXPECT_DOUBLE_EQ(row.at("time_s").number_value(), e.time_s);
-    EXPECT_DOUBLE_EQ(row.at("position_m").struct_value().fields().at("x").number_value(), e.position_m.x());
-    EXPECT_DOUBLE_EQ(row.at("position_m").struct_value().fields().at("z").number_value(), e.position_m.z());
+    EXPECT_DOUBLE_EQ(row.at("position_m").struct_value().fields().at("x").number_value(),
+                     e.position_m.x());
+    EXPECT_DOUBLE_EQ(row.at("position_m").struct_value().fields().at("z").number_value(),
+                     e.position_m.z());
     EXPECT_DOUBLE_EQ(row.at("yaw_rad").number_value(), e.yaw_rad);
     EXPECT_DOUBLE_EQ(row.at("yaw_rate_radps").number_value(), e.yaw_rate_radps);
     EXPECT_DOUBLE_EQ(row.at("speed_mps").number_value(), e.speed_mps);
@@ -197,8 +201,8 @@ TEST_F(StrataCliTest, SetpointsFromASavedPlanMatchTheLibrary) {
 }
 
 TEST_F(StrataCliTest, SetpointsCanPlanThemselvesAndPrintATable) {
-  const CommandResult result = Strata({"setpoints", "--map", "demo", "--start", "2,2,0.3",
-                                       "--goal", "6,2,0.3", "--dt", "0.5", "--steps", "5"});
+  const CommandResult result = Strata({"setpoints", "--map", "demo", "--start", "2,2,0.3", "--goal",
+                                       "6,2,0.3", "--dt", "0.5", "--steps", "5"});
   ASSERT_EQ(result.exit_code, 0) << result.err;
   EXPECT_THAT(result.out, HasSubstr("yaw_rad"));
   EXPECT_THAT(result.out, HasSubstr("omega_radps"));
@@ -208,8 +212,8 @@ TEST_F(StrataCliTest, SetpointsCanPlanThemselvesAndPrintATable) {
 }
 
 TEST_F(StrataCliTest, UnknownMapIsNotFoundWithItsReasonAndExitCode1) {
-  const CommandResult plan = Strata({"plan", "--map", "atlantis", "--start", "2,2,0.3",
-                                     "--goal", "3,3,0.3"});
+  const CommandResult plan =
+      Strata({"plan", "--map", "atlantis", "--start", "2,2,0.3", "--goal", "3,3,0.3"});
   EXPECT_EQ(plan.exit_code, 1);
   EXPECT_THAT(plan.err, HasSubstr("Plan failed: NOT_FOUND"));
   EXPECT_THAT(plan.err, HasSubstr("reason: MAP_NOT_FOUND (domain strata)"));
@@ -224,8 +228,8 @@ TEST_F(StrataCliTest, UnknownMapIsNotFoundWithItsReasonAndExitCode1) {
 }
 
 TEST_F(StrataCliTest, OffGroundStartPrintsTheBadField) {
-  const CommandResult result = Strata({"plan", "--map", "demo", "--start", "100,100,0.3",
-                                       "--goal", "3,3,0.3"});
+  const CommandResult result =
+      Strata({"plan", "--map", "demo", "--start", "100,100,0.3", "--goal", "3,3,0.3"});
   EXPECT_EQ(result.exit_code, 1);
   EXPECT_THAT(result.err, HasSubstr("INVALID_ARGUMENT"));
   EXPECT_THAT(result.err, HasSubstr("reason: START_OFF_GROUND"));
@@ -264,9 +268,9 @@ TEST_F(StrataCliTest, UnreachableServerIsAnRpcError) {
 }
 
 TEST_F(StrataCliTest, CreateGetDeleteAScene) {
-  const CommandResult created = Strata({"--deadline", "120", "maps", "create", "ramp2",
-                                        "--scene", "two_level_ramp", "--seed", "3",
-                                        "--resolution", "0.25", "--wait", "--json"});
+  const CommandResult created =
+      Strata({"--deadline", "120", "maps", "create", "ramp2", "--scene", "two_level_ramp", "--seed",
+              "3", "--resolution", "0.25", "--wait", "--json"});
   ASSERT_EQ(created.exit_code, 0) << created.err;
   const auto map = Parse<v1::Map>(created.out);
   EXPECT_EQ(map.id(), "ramp2");
@@ -306,7 +310,8 @@ TEST_F(StrataCliTest, UploadStreamsAPcdInChunksAndPlansOnIt) {
   const std::string path = Path("floor.pcd");
   std::ofstream(path, std::ios::binary)
       << "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH " << count
-      << "\nHEIGHT 1\nPOINTS " << count << "\nDATA binary\n" << body;
+      << "\nHEIGHT 1\nPOINTS " << count << "\nDATA binary\n"
+      << body;
 
   const CommandResult uploaded = Strata({"--deadline", "120", "maps", "upload", "floor", path,
                                          "--chunk-points", "1000", "--wait", "--json"});
@@ -316,8 +321,8 @@ TEST_F(StrataCliTest, UploadStreamsAPcdInChunksAndPlansOnIt) {
   EXPECT_EQ(map.raw_point_count(), static_cast<std::uint64_t>(count));
   EXPECT_EQ(map.source().upload().received_bytes(), static_cast<std::uint64_t>(12 * count));
 
-  const CommandResult plan = Strata({"plan", "--map", "floor", "--start", "1,1,0.3", "--goal",
-                                     "5,4,0.3", "--json"});
+  const CommandResult plan =
+      Strata({"plan", "--map", "floor", "--start", "1,1,0.3", "--goal", "5,4,0.3", "--json"});
   ASSERT_EQ(plan.exit_code, 0) << plan.err;
   const auto response = Parse<v1::PlanResponse>(plan.out);
   const auto trajectory = PolynomialTrajectory::FromPlanResponse(response);

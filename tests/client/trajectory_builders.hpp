@@ -61,8 +61,8 @@ inline Coefficients ShiftPolynomial(const Coefficients& c, double start_s) {
 }
 
 // The quintic on [0, T] with the given position, velocity and acceleration at both ends.
-inline Coefficients QuinticHermite(double p0, double v0, double a0, double p1, double v1,
-                                   double a1, double T) {
+inline Coefficients QuinticHermite(double p0, double v0, double a0, double p1, double v1, double a1,
+                                   double T) {
   Eigen::Matrix<double, 6, 6> m = Eigen::Matrix<double, 6, 6>::Zero();
   Eigen::Matrix<double, 6, 1> b;
   b << p0, v0, a0, p1, v1, a1;

@@ -41,13 +41,25 @@ std::vector<BenchScene> Scenes() {
   const IndoorTablesLayout t = GetIndoorTablesLayout();
   return {
       {"uneven_forest", GenerateUnevenForest, 0.1, {0, 0, -10}, {40, 40, 20}},
-      {"abandoned_station", GenerateAbandonedStation, 0.1, {0, 0, 0},
+      {"abandoned_station",
+       GenerateAbandonedStation,
+       0.1,
+       {0, 0, 0},
        {st.x_max_m, st.y_max_m, st.mezzanine_z_m + st.railing_height_m}},
-      {"parking_garage", GenerateParkingGarage, 0.16, {0, 0, 0},
+      {"parking_garage",
+       GenerateParkingGarage,
+       0.16,
+       {0, 0, 0},
        {g.x_max_m, g.y_max_m, g.level_z_m.back() + 1.4}},  // Cars parked on the roof.
-      {"crossing_viaducts", GenerateCrossingViaducts, 0.16, {0, 0, 0},
+      {"crossing_viaducts",
+       GenerateCrossingViaducts,
+       0.16,
+       {0, 0, 0},
        {v.size_m, v.size_m, v.b_z_m + v.railing_height_m}},
-      {"indoor_tables", GenerateIndoorTables, 0.05, {0, 0, 0},
+      {"indoor_tables",
+       GenerateIndoorTables,
+       0.05,
+       {0, 0, 0},
        {t.x_max_m, t.y_max_m, t.wall_height_m}},
   };
 }
@@ -200,8 +212,7 @@ Expected<PlanResult> ExpectPlans(const PlanningMap& map, const SceneQuery& q,
   EXPECT_LT((t.Position(t.TotalDuration()).head<2>() - plan->goal.position_m.head<2>()).norm(),
             0.5);
   EXPECT_LE(plan->stats.max_ground_offset_m, request.options.verifier.ground_tolerance_m);
-  EXPECT_LE(plan->stats.max_speed_horizontal_mps,
-            1.01 * request.profile.max_speed_horizontal_mps);
+  EXPECT_LE(plan->stats.max_speed_horizontal_mps, 1.01 * request.profile.max_speed_horizontal_mps);
   EXPECT_LE(plan->stats.max_tilt_rad, request.profile.max_tilt_rad + 1e-6);
   return plan;
 }
@@ -329,7 +340,7 @@ TEST(BenchScenesAssessed, ViaductsCrossAtTwoHeightsOverTheRoad) {
 TEST(BenchScenesAssessed, TablesOnlyTheBipedCrouchesUnderTheRow) {
   const IndoorTablesLayout l = GetIndoorTablesLayout();
   const PlanningMap map(Assess(GenerateIndoorTables(4), l.assessment_resolution_m));
-  EXPECT_LT(l.table_underside_z_m, 0.5 + 0.05 + 1e-9);  // Differential: body 0.5 + headroom.
+  EXPECT_LT(l.table_underside_z_m, 0.5 + 0.05 + 1e-9);   // Differential: body 0.5 + headroom.
   EXPECT_GE(l.table_underside_z_m, 0.35 + 0.05 + 0.05);  // Biped: lowest body + headroom.
   for (const SceneQuery& q : l.queries) {
     const Expected<PlanResult> plan = ExpectPlans(map, q, q.robot);

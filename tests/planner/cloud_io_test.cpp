@@ -18,7 +18,8 @@
 
 // The round trips write their fixtures with PCL's own writers.
 #if !__has_include(<pcl/io/pcd_io.h>)
-#error "cloud_io_test needs PCL's headers: in tests/planner/CMakeLists.txt add \
+#error \
+    "cloud_io_test needs PCL's headers: in tests/planner/CMakeLists.txt add \
 target_include_directories(cloud_io_test PRIVATE ${PCL_INCLUDE_DIRS})"
 #endif
 #include <octomap/ColorOcTree.h>
@@ -94,8 +95,9 @@ void ExpectSameSet(const PointCloud& got, const std::vector<Eigen::Vector3f>& wa
 std::string PcdHeader(const std::string& dimensions, std::uint64_t points,
                       const std::string& data) {
   return "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS x y z intensity\n"
-         "SIZE 4 4 4 4\nTYPE F F F F\nCOUNT 1 1 1 1\n" + dimensions +
-         "\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " + std::to_string(points) + "\nDATA " + data + "\n";
+         "SIZE 4 4 4 4\nTYPE F F F F\nCOUNT 1 1 1 1\n" +
+         dimensions + "\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " + std::to_string(points) + "\nDATA " +
+         data + "\n";
 }
 
 class CloudIoTest : public ::testing::Test {
@@ -139,8 +141,8 @@ class CloudIoTest : public ::testing::Test {
   // An OcTree with a few occupied voxels far apart (so nothing is pruned) and one free voxel.
   static octomap::OcTree SmallTree(std::vector<Eigen::Vector3f>* occupied_centres) {
     octomap::OcTree tree(0.1);
-    const octomap::point3d points[] = {{1.02f, 2.04f, 0.33f}, {-3.0f, 0.5f, 1.2f},
-                                       {10.0f, -7.3f, 2.2f}, {0.0f, 0.0f, -4.5f}};
+    const octomap::point3d points[] = {
+        {1.02f, 2.04f, 0.33f}, {-3.0f, 0.5f, 1.2f}, {10.0f, -7.3f, 2.2f}, {0.0f, 0.0f, -4.5f}};
     for (const auto& p : points) {
       tree.updateNode(p, true);
       const octomap::point3d c = tree.keyToCoord(tree.coordToKey(p));
@@ -172,8 +174,8 @@ TEST_F(CloudIoTest, PcdWithDoubleCoordinatesAndLeadingFieldLoads) {
   const std::string header =
       "VERSION 0.7\nFIELDS intensity x y z\nSIZE 4 8 8 8\nTYPE F F F F\nCOUNT 1 1 1 1\n"
       "WIDTH 2\nHEIGHT 1\nPOINTS 2\nDATA binary\n";
-  const std::string path = Write(
-      "f8.pcd", header + Bytes(7.0f, 1.25, -2.5, 3.75) + Bytes(8.0f, 1.0e4, 0.125, -99.0));
+  const std::string path =
+      Write("f8.pcd", header + Bytes(7.0f, 1.25, -2.5, 3.75) + Bytes(8.0f, 1.0e4, 0.125, -99.0));
   ExpectSameSet(LoadOk(path).points, {{1.25f, -2.5f, 3.75f}, {1.0e4f, 0.125f, -99.0f}});
 }
 
@@ -243,9 +245,8 @@ TEST_F(CloudIoTest, PcdWithZeroWidthAndHeightLoads) {
 }
 
 TEST_F(CloudIoTest, NonFinitePointsAreDroppedAndCounted) {
-  const std::string ascii =
-      Write("nan.pcd", PcdHeader("WIDTH 4\nHEIGHT 1", 4, "ascii") +
-                           "1 2 3 0\nnan 2 3 0\n4 nan 6 0\n7 8 9 0\n");
+  const std::string ascii = Write("nan.pcd", PcdHeader("WIDTH 4\nHEIGHT 1", 4, "ascii") +
+                                                 "1 2 3 0\nnan 2 3 0\n4 nan 6 0\n7 8 9 0\n");
   const LoadedCloud a = LoadOk(ascii);
   EXPECT_EQ(a.raw_point_count, 4u);
   EXPECT_EQ(a.dropped_nonfinite, 2u);
@@ -402,9 +403,9 @@ TEST_F(CloudIoTest, NonCloudFilesAreRejected) {
 
 TEST_F(CloudIoTest, HugeDeclaredCountsFailWithoutAllocating) {
   const std::string record = Bytes(1.f, 2.f, 3.f, 4.f);
-  ExpectError(Write("trillion.pcd", PcdHeader("WIDTH 0\nHEIGHT 0", 1'000'000'000'000, "binary") +
-                                        record),
-              ErrorCode::kResourceExhausted, "1000000000000 points");
+  ExpectError(
+      Write("trillion.pcd", PcdHeader("WIDTH 0\nHEIGHT 0", 1'000'000'000'000, "binary") + record),
+      ErrorCode::kResourceExhausted, "1000000000000 points");
   ExpectError(Write("trillion.ply",
                     "ply\nformat binary_little_endian 1.0\nelement vertex 1000000000000\n"
                     "property float x\nproperty float y\nproperty float z\nend_header\n" +
@@ -418,13 +419,13 @@ TEST_F(CloudIoTest, HugeDeclaredCountsFailWithoutAllocating) {
   ExpectError(Write("binary.pcd", PcdHeader("WIDTH 0\nHEIGHT 0", 4'000'000'000, "binary") + record),
               ErrorCode::kMapLoadFailed, "but the body holds 16 bytes (truncated file?)",
               unlimited);
-  ExpectError(Write("ascii.pcd", PcdHeader("WIDTH 0\nHEIGHT 0", 4'000'000'000, "ascii") +
-                                     "1 2 3 4\n"),
-              ErrorCode::kMapLoadFailed, "holds 1 lines of values (truncated file?)", unlimited);
-  ExpectError(Write("compressed.pcd",
-                    PcdHeader("WIDTH 0\nHEIGHT 0", 4'000'000'000, "binary_compressed") +
-                        Bytes(std::uint32_t{4}, std::uint32_t{4'000'000'000u}) + record),
-              ErrorCode::kMapLoadFailed, "compressed block says it unpacks to", unlimited);
+  ExpectError(
+      Write("ascii.pcd", PcdHeader("WIDTH 0\nHEIGHT 0", 4'000'000'000, "ascii") + "1 2 3 4\n"),
+      ErrorCode::kMapLoadFailed, "holds 1 lines of values (truncated file?)", unlimited);
+  ExpectError(
+      Write("compressed.pcd", PcdHeader("WIDTH 0\nHEIGHT 0", 4'000'000'000, "binary_compressed") +
+                                  Bytes(std::uint32_t{4}, std::uint32_t{4'000'000'000u}) + record),
+      ErrorCode::kMapLoadFailed, "compressed block says it unpacks to", unlimited);
 }
 
 TEST_F(CloudIoTest, LimitsOnFileSizeAndPointCountAreEnforced) {
@@ -434,8 +435,7 @@ TEST_F(CloudIoTest, LimitsOnFileSizeAndPointCountAreEnforced) {
   ExpectError(PathFor("ten.pcd"), ErrorCode::kResourceExhausted, "limit of 100", small_file);
   CloudLoadLimits few_points;
   few_points.max_points = 9;
-  ExpectError(PathFor("ten.pcd"), ErrorCode::kResourceExhausted, "declares 10 points",
-              few_points);
+  ExpectError(PathFor("ten.pcd"), ErrorCode::kResourceExhausted, "declares 10 points", few_points);
   EXPECT_EQ(LoadOk(PathFor("ten.pcd")).points.size(), 10u);
 }
 
@@ -461,8 +461,9 @@ TEST_F(CloudIoTest, MalformedOctomapIsRejectedWithReason) {
   ExpectError(Write("swapped.bt", ot), ErrorCode::kMapLoadFailed, "rename it to .ot");
   ExpectError(Write("nodata.bt", "# Octomap OcTree binary file\nid OcTree\nsize 1\nres 0.1\n"),
               ErrorCode::kMapLoadFailed, "no 'data' line");
-  ExpectError(Write("badres.bt", "# Octomap OcTree binary file\nid OcTree\nsize 1\nres nan\n"
-                                 "data\n\x02\x00"),
+  ExpectError(Write("badres.bt",
+                    "# Octomap OcTree binary file\nid OcTree\nsize 1\nres nan\n"
+                    "data\n\x02\x00"),
               ErrorCode::kMapLoadFailed, "resolution > 0");
 
   octomap::ColorOcTree colour(0.1);
@@ -525,8 +526,9 @@ TEST_F(CloudIoTest, LoadingNeverPrints) {
       PathFor("good.ot"),
       PathFor("good.bt"),
       Write("noise.pcd", "VERSION 0.7\nFIELDS x\nDATA ascii\n1\n"),
-      Write("short.ply", "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\n"
-                         "property float y\nproperty float z\nend_header\n1 2 3\n4 55555\n"),
+      Write("short.ply",
+            "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\n"
+            "property float y\nproperty float z\nend_header\n1 2 3\n4 55555\n"),
       Write("bad.bt", "# Octomap OcTree binary file\nid OcTree\nsize 9\nres 0.1\ndata\n\xff"),
       Write("bad.ot", "# Octomap OcTree file\nid Weird\nsize 1\nres 0.1\ndata\n"),
       Write("ok.pcd", PcdHeader("WIDTH 0\nHEIGHT 0", 1, "ascii") + "1 2 3 4\n"),

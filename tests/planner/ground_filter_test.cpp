@@ -69,9 +69,7 @@ TEST(GroundFilter, IndependentOfThreadCount) {
   EXPECT_EQ(FilterValidGround(cloud, config, 1), FilterValidGround(cloud, config, 2));
 }
 
-TEST(GroundFilter, EmptyCloud) {
-  EXPECT_TRUE(FilterValidGround({}, GroundFilterConfig{}).empty());
-}
+TEST(GroundFilter, EmptyCloud) { EXPECT_TRUE(FilterValidGround({}, GroundFilterConfig{}).empty()); }
 
 TEST(GroundFilter, PointDirectlyBelowAnotherIsRejected) {
   const PointCloud cloud = {{0, 0, 0}, {0, 0, 0.1f}, {1, 1, 0}};
@@ -129,24 +127,24 @@ TEST_F(StairsRampScene, GentleRampIsKept) {
   int count = 0;
   // The ramp's surface, away from its sides and ends by more than the filter radius.
   const double fraction = ValidFraction(
-      layout_.ramp_x_min_m, layout_.ramp_x_max_m, layout_.ramp_y_min_m, layout_.ramp_y_max_m,
-      0.05, layout_.landing_z_m - 0.05, config_.radius_m + 0.05, &count);
+      layout_.ramp_x_min_m, layout_.ramp_x_max_m, layout_.ramp_y_min_m, layout_.ramp_y_max_m, 0.05,
+      layout_.landing_z_m - 0.05, config_.radius_m + 0.05, &count);
   ASSERT_GT(count, 100);
   EXPECT_EQ(fraction, 1.0);
 }
 
 TEST_F(StairsRampScene, FloorUnderTheShelfIsRejectedAndOpenFloorKept) {
   int count = 0;
-  const double under = ValidFraction(layout_.shelf_x_min_m, layout_.shelf_x_max_m,
-                                     layout_.shelf_y_min_m, layout_.shelf_y_max_m, -0.02, 0.02,
-                                     0.05, &count);
+  const double under =
+      ValidFraction(layout_.shelf_x_min_m, layout_.shelf_x_max_m, layout_.shelf_y_min_m,
+                    layout_.shelf_y_max_m, -0.02, 0.02, 0.05, &count);
   ASSERT_GT(count, 20);
   EXPECT_EQ(under, 0.0);
 
   // Open floor between the shelf and the stairs/ramp side of the room is ground.
-  const double open = ValidFraction(layout_.shelf_x_min_m, layout_.shelf_x_max_m,
-                                    layout_.shelf_y_max_m + 0.5, layout_.shelf_y_max_m + 1.0,
-                                    -0.02, 0.02, 0.0, &count);
+  const double open =
+      ValidFraction(layout_.shelf_x_min_m, layout_.shelf_x_max_m, layout_.shelf_y_max_m + 0.5,
+                    layout_.shelf_y_max_m + 1.0, -0.02, 0.02, 0.0, &count);
   ASSERT_GT(count, 20);
   EXPECT_GT(open, 0.99);
 }
@@ -157,8 +155,8 @@ TEST_F(StairsRampScene, SteepRampIsRejectedWhenThetaIsBelowItsSlope) {
   valid_ = FilterValidGround(cloud_, strict);
   int count = 0;
   const double fraction = ValidFraction(
-      layout_.ramp_x_min_m, layout_.ramp_x_max_m, layout_.ramp_y_min_m, layout_.ramp_y_max_m,
-      0.05, layout_.landing_z_m - 0.05, config_.radius_m + 0.05, &count);
+      layout_.ramp_x_min_m, layout_.ramp_x_max_m, layout_.ramp_y_min_m, layout_.ramp_y_max_m, 0.05,
+      layout_.landing_z_m - 0.05, config_.radius_m + 0.05, &count);
   ASSERT_GT(count, 100);
   EXPECT_LT(fraction, 0.05);
 }

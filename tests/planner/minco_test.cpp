@@ -7,8 +7,8 @@
 #include <string>
 #include <tuple>
 
-#include <Eigen/Dense>
 #include <gtest/gtest.h>
+#include <Eigen/Dense>
 
 #include "test_util/gradient_check.hpp"
 

@@ -107,8 +107,8 @@ TEST_F(TwoLevel, BuildRejectsBadParamsNamingTheField) {
 TEST_F(TwoLevel, EveryNodeIsTraversableAndEdgesRespectTheStep) {
   ASSERT_GT(graph().node_count(), 1000);
   for (int v = 0; v < graph().node_count(); v += 7) {
-    EXPECT_TRUE(model().IsTraversable(graph().cell(v), params_.reference_height_m,
-                                      params_.body_height_m))
+    EXPECT_TRUE(
+        model().IsTraversable(graph().cell(v), params_.reference_height_m, params_.body_height_m))
         << v;
     graph().ForEachNeighbor(v, [&](int m) {
       EXPECT_LE(std::abs(graph().ground_z(m) - graph().ground_z(v)), params_.max_step_m + 1e-6);
@@ -201,8 +201,7 @@ TEST_F(TwoLevel, SnapFarOutsideNamesTheNearestValidPoint) {
   ASSERT_FALSE(s.ok());
   EXPECT_EQ(s.error().code, ErrorCode::kGoalOffGround);
 
-  s = SnapToSurface(graph(), Eigen::Vector3d(std::nan(""), 1, 1), 1.0,
-                    ErrorCode::kStartOffGround);
+  s = SnapToSurface(graph(), Eigen::Vector3d(std::nan(""), 1, 1), 1.0, ErrorCode::kStartOffGround);
   ASSERT_FALSE(s.ok());
   EXPECT_EQ(s.error().code, ErrorCode::kInvalidInput);
 }
@@ -265,10 +264,9 @@ TEST_F(TwoLevel, FloorToDeckClimbsTheRampOnValidGround) {
         *ground > layout_.floor_z_m + 0.3 && *ground < layout_.deck_z_m - 0.3;
     if (between_levels) {
       // Columns straddling the ramp's sides may hold its edge.
-      const bool near_ramp = pts[i].x() > layout_.ramp_x_min_m - 0.15 &&
-                             pts[i].x() < layout_.ramp_x_max_m + 0.15 &&
-                             pts[i].y() > layout_.ramp_y_min_m - 0.15 &&
-                             pts[i].y() < layout_.ramp_y_max_m + 0.15;
+      const bool near_ramp =
+          pts[i].x() > layout_.ramp_x_min_m - 0.15 && pts[i].x() < layout_.ramp_x_max_m + 0.15 &&
+          pts[i].y() > layout_.ramp_y_min_m - 0.15 && pts[i].y() < layout_.ramp_y_max_m + 0.15;
       EXPECT_TRUE(near_ramp) << "point " << i << " " << pts[i].transpose()
                              << " between the levels but off the ramp";
     }
@@ -320,8 +318,8 @@ TEST_F(TwoLevel, TooSteepARampMakesTheDeckUnreachableWithoutSearching) {
   int stop_calls = 0;
   SearchStats stats;
   stats.expansions = -1;
-  auto r = SearchPath(*g, start->node, goal->node, SearchConfig{},
-                      [&] { return ++stop_calls < 0; }, &stats);
+  auto r = SearchPath(
+      *g, start->node, goal->node, SearchConfig{}, [&] { return ++stop_calls < 0; }, &stats);
   ASSERT_FALSE(r.ok());
   EXPECT_EQ(r.error().code, ErrorCode::kGoalUnreachable);
   EXPECT_THAT(r.error().message, HasSubstr("goal ("));
@@ -342,9 +340,9 @@ TEST(StairsRampRoom, FloorToLandingTakesTheRampNotTheStairs) {
   // stairs, whose 0.15 m risers exceed max_step_m.
   auto start = SnapToSurface(*graph, {stairs_x, L.stairs_y_min_m - 1.0, 0.0}, 0.5,
                              ErrorCode::kStartOffGround);
-  auto goal = SnapToSurface(*graph, {stairs_x, 0.5 * (L.landing_y_min_m + L.room_y_max_m),
-                                     L.landing_z_m + 0.2},
-                            0.5, ErrorCode::kGoalOffGround);
+  auto goal = SnapToSurface(
+      *graph, {stairs_x, 0.5 * (L.landing_y_min_m + L.room_y_max_m), L.landing_z_m + 0.2}, 0.5,
+      ErrorCode::kGoalOffGround);
   ASSERT_TRUE(start.ok()) << start.error().message;
   ASSERT_TRUE(goal.ok()) << goal.error().message;
   EXPECT_NEAR(goal->position_m.z(), L.landing_z_m + params.reference_height_m, 0.03);

@@ -63,9 +63,7 @@ void ExpectSound(const PlanResult& plan, const PlanRequest& request) {
 
 class TwoLevelPlan : public ::testing::Test {
  protected:
-  static void SetUpTestSuite() {
-    map_ = new PlanningMap(Assess(GenerateTwoLevelRamp(5), 0.1));
-  }
+  static void SetUpTestSuite() { map_ = new PlanningMap(Assess(GenerateTwoLevelRamp(5), 0.1)); }
   static void TearDownTestSuite() { delete map_; }
   static PlanningMap* map_;
   const TwoLevelRampLayout layout_ = GetTwoLevelRampLayout();
@@ -155,9 +153,9 @@ PointCloud TableRoom() {
   const double s = 0.05;
   for (double x = 0; x <= 8.0 + 1e-9; x += s) {
     for (double y = 0; y <= 4.0 + 1e-9; y += s) {
-      add(x, y, 0);                                            // Floor.
+      add(x, y, 0);  // Floor.
       const bool opening = y > 1.2 && y < 2.8;
-      if (std::abs(x - 4.0) < 0.1 && !opening) {               // Dividing wall, 1.5 m.
+      if (std::abs(x - 4.0) < 0.1 && !opening) {  // Dividing wall, 1.5 m.
         for (double z = s; z <= 1.5; z += s) add(x, y, z);
       }
       if (std::abs(x - 4.0) <= 0.6 && opening) add(x, y, 0.45);  // Table top over the opening.
@@ -249,7 +247,8 @@ TEST(SharedMaps, Scene20QueriesSucceedOnTheGround) {
     auto plan = Plan(map, request);
     ASSERT_TRUE(plan.ok()) << start.transpose() << ": " << plan.error().message;
     ExpectSound(*plan, request);
-    const Eigen::Vector3d deck_end = start.z() > goal.z() ? plan->start.position_m : plan->goal.position_m;
+    const Eigen::Vector3d deck_end =
+        start.z() > goal.z() ? plan->start.position_m : plan->goal.position_m;
     EXPECT_NEAR(deck_end.z(), 2.9 + request.profile.reference_height_m, 0.1);
   }
 }
@@ -260,12 +259,11 @@ TEST(SharedMaps, SpiralGroundQueriesSucceedAndAnIsolatedGoalIsRefusedWithoutSear
   const PlanningMap map(model);
   // sp_ground_left, sp_ground_right, sp_ground_to_l1 (up the first turn of the west ramp),
   // sp_ground_to_top and sp_top_to_ground (all five turns of a spiral, over the top deck).
-  const std::pair<Eigen::Vector3d, Eigen::Vector3d> queries[] = {
-      {{-38, -2, 1.5}, {-26, -24, 1.5}},
-      {{-18, 0, 1.5}, {8, 2, 1.5}},
-      {{-30, -2, 1.5}, {-45, -29, 5.5}},
-      {{-30, -2, 1.5}, {-30, -28, 21.5}},
-      {{-16, -23, 21.5}, {-18, 0, 1.5}}};
+  const std::pair<Eigen::Vector3d, Eigen::Vector3d> queries[] = {{{-38, -2, 1.5}, {-26, -24, 1.5}},
+                                                                 {{-18, 0, 1.5}, {8, 2, 1.5}},
+                                                                 {{-30, -2, 1.5}, {-45, -29, 5.5}},
+                                                                 {{-30, -2, 1.5}, {-30, -28, 21.5}},
+                                                                 {{-16, -23, 21.5}, {-18, 0, 1.5}}};
   for (const auto& [start, goal] : queries) {
     const PlanRequest request = Request(start, goal);
     auto plan = Plan(map, request);
@@ -277,15 +275,16 @@ TEST(SharedMaps, SpiralGroundQueriesSucceedAndAnIsolatedGoalIsRefusedWithoutSear
     // ground tolerance lives in VerifyTrajectory, not in Plan).
     const auto graph = map.Graph(request.profile.Traversability()).value();
     VerificationReport report;
-    EXPECT_TRUE(VerifyTrajectory(*graph, request.profile, plan->trajectory, VerifierConfig{},
-                                 &report).ok());
+    EXPECT_TRUE(
+        VerifyTrajectory(*graph, request.profile, plan->trajectory, VerifierConfig{}, &report)
+            .ok());
   }
 
   // A goal on an island of traversable ground (a component the start's does not reach).
   const PlanRequest probe = Request({-30, -2, 1.5}, {-26, -24, 1.5});
   const auto graph = map.Graph(probe.profile.Traversability()).value();
-  const SnapResult start = SnapToSurface(*graph, probe.start.position_m, 1.0,
-                                         ErrorCode::kStartOffGround).value();
+  const SnapResult start =
+      SnapToSurface(*graph, probe.start.position_m, 1.0, ErrorCode::kStartOffGround).value();
   int island = -1;
   for (int m = 0; m < graph->node_count() && island < 0; ++m) {
     if (graph->component(m) != graph->component(start.node)) island = m;

@@ -42,7 +42,8 @@ TEST(ConeKernel, MatchesThePapersFormula) {
         const double c = (m - 1) / 2.0;
         const double expected =
             std::max(0.0, 1.0 - r * std::sqrt((i - c) * (i - c) + (j - c) * (j - c)) / t);
-        EXPECT_DOUBLE_EQ(a(i, j), expected) << "t " << t << " r " << r << " (" << i << "," << j << ")";
+        EXPECT_DOUBLE_EQ(a(i, j), expected)
+            << "t " << t << " r " << r << " (" << i << "," << j << ")";
       }
     }
     EXPECT_DOUBLE_EQ(a((m - 1) / 2, (m - 1) / 2), 1.0);
@@ -98,8 +99,9 @@ TEST(FitLocalPlane, RansacIgnoresAWallBesideTheFloor) {
 
 TEST(FitLocalPlane, TooFewOrCollinearPointsGiveNoFit) {
   EXPECT_EQ(FitLocalPlane(PointCloud{{0, 0, 0}, {1, 0, 0}}, 0.05, 10).inlier_count, 0);
-  EXPECT_EQ(FitLocalPlane(PointCloud{{0, 0, 0}, {1, 0, 0}, {2, 0, 0}, {3, 0, 0}}, 0.05, 10)
-                .inlier_count, 0);
+  EXPECT_EQ(
+      FitLocalPlane(PointCloud{{0, 0, 0}, {1, 0, 0}, {2, 0, 0}, {3, 0, 0}}, 0.05, 10).inlier_count,
+      0);
 }
 
 // Two floors, z = 0 for x < 0 and z = step for x >= 0, 4 × 4 m, sampled every 5 cm.
@@ -129,8 +131,10 @@ TEST(SafetyPenalty, StepEdgeGivesALargePoseChangeTerm) {
   const int iz = g.CellOf({0, 0, 0.8}).z();
   const int edge_x = g.CellOf({0.01, 0, 0}).x();
   const double at_edge = PoseGradientNorm(model->surfaces(), field, edge_x, iy, iz);
-  const double far_low = PoseGradientNorm(model->surfaces(), field, g.CellOf({-1, 0, 0}).x(), iy, iz);
-  const double far_high = PoseGradientNorm(model->surfaces(), field, g.CellOf({1, 0, 0}).x(), iy, iz);
+  const double far_low =
+      PoseGradientNorm(model->surfaces(), field, g.CellOf({-1, 0, 0}).x(), iy, iz);
+  const double far_high =
+      PoseGradientNorm(model->surfaces(), field, g.CellOf({1, 0, 0}).x(), iy, iz);
   // A 0.3 m jump over one or two cells: ‖∇H‖ ≥ 0.3 / (2 r).
   EXPECT_GE(at_edge, 0.3 / (2 * 0.1) - 1e-6);
   EXPECT_LT(far_low, 0.05);
@@ -184,8 +188,8 @@ TEST(SafetyPenalty, VoidBelowGetsTheVoidPenalty) {
   const auto model = Assess(StepCloud(0.0), 0.2);
   ASSERT_TRUE(model);
   // Below the floor nothing supports the robot.
-  const double below = model->SafetyPenalty(model->grid().CellCenter(
-      model->grid().CellOf({0, 0, -0.6})));
+  const double below =
+      model->SafetyPenalty(model->grid().CellCenter(model->grid().CellOf({0, 0, -0.6})));
   EXPECT_NEAR(below, model->config().field.VoidPenalty(), 1e-4);
 }
 

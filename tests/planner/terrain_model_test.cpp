@@ -273,7 +273,8 @@ TEST(TerrainModel, FieldConfigForQuantumWidensTheFitOnlyForVoxelMaps) {
 TEST(TerrainModel, VerticalQuantumIgnoresAFewStrayPointsButNotScatteredHeights) {
   PointCloud lattice;  // Heights 0.05 + 0.15 k, as scene20.2's.
   for (int i = 0; i < 200; ++i) {
-    for (int j = 0; j < 50; ++j) lattice.emplace_back(0.15f * i, 0.15f * j, 0.05f + 0.15f * (i % 12));
+    for (int j = 0; j < 50; ++j)
+      lattice.emplace_back(0.15f * i, 0.15f * j, 0.05f + 0.15f * (i % 12));
   }
   EXPECT_NEAR(DetectVerticalQuantum(lattice), 0.15, 1e-4);
   PointCloud strays = lattice;  // scene20.2's two points at z = 0.

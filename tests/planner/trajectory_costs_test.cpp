@@ -77,9 +77,9 @@ std::vector<TermCase> TermCases() {
 
 CostParams Params(bool active_height) {
   CostParams p;
-  p.safety_threshold = 0.05;       // Low, so S' exceeds it on the ramp's edges and pillars.
-  p.distance_threshold_m = 0.35;   // High, so the ESDF term is active near the ground.
-  p.edge_margin_m = 0.6;           // High, so J_e is active well inside the ramp too.
+  p.safety_threshold = 0.05;      // Low, so S' exceeds it on the ramp's edges and pillars.
+  p.distance_threshold_m = 0.35;  // High, so the ESDF term is active near the ground.
+  p.edge_margin_m = 0.6;          // High, so J_e is active well inside the ramp too.
   p.reference_height_m = 0.3;
   p.max_speed_horizontal_mps = 0.8;
   p.max_speed_vertical_mps = 0.2;

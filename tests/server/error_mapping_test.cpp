@@ -25,7 +25,9 @@ std::vector<ErrorCode> AllPlannerCodes() {
 bool IsUpperSnakeCase(std::string_view text) {
   if (text.empty() || text.front() == '_' || text.back() == '_') return false;
   for (const char c : text) {
-    if (!(std::isupper(static_cast<unsigned char>(c)) || std::isdigit(static_cast<unsigned char>(c)) || c == '_')) return false;
+    if (!(std::isupper(static_cast<unsigned char>(c)) ||
+          std::isdigit(static_cast<unsigned char>(c)) || c == '_'))
+      return false;
   }
   return true;
 }

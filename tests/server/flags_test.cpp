@@ -33,10 +33,9 @@ TEST(FlagsTest, DefaultsPreloadTheDemoScene) {
 }
 
 TEST(FlagsTest, FlagsOverrideTheEnvironment) {
-  const FlagsOutcome outcome =
-      Parse({"--listen", "127.0.0.1:0", "--max-plan-time-s=2.5"},
-            {{"STRATA_LISTEN", "1.2.3.4:5"}, {"STRATA_MAP_ROOT", "/maps"},
-             {"STRATA_METRICS_PORT", "0"}});
+  const FlagsOutcome outcome = Parse(
+      {"--listen", "127.0.0.1:0", "--max-plan-time-s=2.5"},
+      {{"STRATA_LISTEN", "1.2.3.4:5"}, {"STRATA_MAP_ROOT", "/maps"}, {"STRATA_METRICS_PORT", "0"}});
   ASSERT_EQ(outcome.action, FlagsOutcome::Action::kRun) << outcome.error;
   EXPECT_EQ(outcome.config.listen, "127.0.0.1:0");
   EXPECT_EQ(outcome.config.map_root, "/maps");
@@ -45,8 +44,8 @@ TEST(FlagsTest, FlagsOverrideTheEnvironment) {
 }
 
 TEST(FlagsTest, PreloadsReplaceTheDemoAndNoPreloadEmptiesTheList) {
-  FlagsOutcome outcome = Parse({"--preload", "spiral=spiral0.3_2.pcd,resolution_m=0.3",
-                                "--preload", "room=scene:stairs_ramp_room:7"});
+  FlagsOutcome outcome = Parse({"--preload", "spiral=spiral0.3_2.pcd,resolution_m=0.3", "--preload",
+                                "room=scene:stairs_ramp_room:7"});
   ASSERT_EQ(outcome.action, FlagsOutcome::Action::kRun) << outcome.error;
   ASSERT_EQ(outcome.config.preload.size(), 2u);
   EXPECT_EQ(outcome.config.preload[0].path, "spiral0.3_2.pcd");
@@ -76,10 +75,10 @@ TEST(FlagsTest, ErrorsNameTheFlag) {
 
 TEST(FlagsTest, UsageListsEveryFlagWithItsVariable) {
   const std::string usage = UsageText();
-  for (const char* text : {"--listen", "STRATA_LISTEN", "--metrics-port", "--map-root",
-                           "STRATA_MAP_ROOT", "--preload", "--max-concurrent-assessments",
-                           "--max-concurrent-plans", "--max-plan-time-s",
-                           "--shutdown-grace-s", "--keepalive-time-s"}) {
+  for (const char* text :
+       {"--listen", "STRATA_LISTEN", "--metrics-port", "--map-root", "STRATA_MAP_ROOT", "--preload",
+        "--max-concurrent-assessments", "--max-concurrent-plans", "--max-plan-time-s",
+        "--shutdown-grace-s", "--keepalive-time-s"}) {
     EXPECT_THAT(usage, HasSubstr(text));
   }
 }

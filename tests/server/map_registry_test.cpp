@@ -13,8 +13,8 @@
 namespace strata::server {
 namespace {
 
-using ::testing::HasSubstr;
 using std::chrono::steady_clock;
+using ::testing::HasSubstr;
 
 constexpr auto kLongWait = std::chrono::seconds(60);
 
@@ -121,8 +121,8 @@ TEST(MapRegistryTest, RefusesBadIdsDuplicatesBadConfigAndTooManyMaps) {
   options.max_maps = 2;
   MapRegistry registry(options);
 
-  for (const std::string id : {std::string("has space"), std::string("a/b"),
-                               std::string(65, 'x'), std::string("ümlaut")}) {
+  for (const std::string id : {std::string("has space"), std::string("a/b"), std::string(65, 'x'),
+                               std::string("ümlaut")}) {
     Result<MapSnapshot> bad = registry.Create(id, FloorSource(), AssessmentConfig{});
     ASSERT_FALSE(bad.ok()) << id;
     EXPECT_EQ(std::get<ErrorCode>(bad.error().code), ErrorCode::kInvalidInput);

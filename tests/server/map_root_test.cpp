@@ -57,9 +57,9 @@ TEST_F(MapRootTest, RefusesEverythingThatLeavesTheRoot) {
   EXPECT_EQ(CodeOf("sub/../../outside/secret.pcd"), outside);
   EXPECT_EQ(CodeOf((base_ / "outside" / "secret.pcd").string()), outside);
   EXPECT_EQ(CodeOf("/etc/passwd"), outside);
-  EXPECT_EQ(CodeOf("escape.pcd"), outside);              // Symlink to a file outside.
-  EXPECT_EQ(CodeOf("escape_dir/secret.pcd"), outside);   // Through a symlinked directory.
-  EXPECT_EQ(CodeOf("../root2/other.pcd"), outside);      // A sibling sharing the prefix.
+  EXPECT_EQ(CodeOf("escape.pcd"), outside);             // Symlink to a file outside.
+  EXPECT_EQ(CodeOf("escape_dir/secret.pcd"), outside);  // Through a symlinked directory.
+  EXPECT_EQ(CodeOf("../root2/other.pcd"), outside);     // A sibling sharing the prefix.
   // Refused before existence is checked: a missing file outside says nothing more.
   EXPECT_EQ(CodeOf("../outside/missing.pcd"), outside);
 }

@@ -177,8 +177,7 @@ TEST(ProtoConvertTest, PlanRequestsBlameTheExactField) {
        "options.weights.safety"},
       {[](v1::PlanRequest* r) { r->mutable_options()->set_max_attempts(0); },
        "options.max_attempts"},
-      {[](v1::PlanRequest* r) { r->mutable_options()->set_sample_dt_s(0); },
-       "options.sample_dt_s"},
+      {[](v1::PlanRequest* r) { r->mutable_options()->set_sample_dt_s(0); }, "options.sample_dt_s"},
   };
   for (const Case& c : cases) {
     v1::PlanRequest request = ValidRequest();
@@ -195,8 +194,8 @@ TEST(ProtoConvertTest, TimeBudgetIsCappedByServerAndDeadline) {
   const double inf = std::numeric_limits<double>::infinity();
   EXPECT_DOUBLE_EQ(PlanTimeBudget(parsed, inf, 10), PlanOptions().time_budget_s);
   EXPECT_DOUBLE_EQ(PlanTimeBudget(parsed, inf, 0.5), 0.5);
-  EXPECT_NEAR(PlanTimeBudget(parsed, 1.0, 10), 0.9, 1e-12);   // 10% margin ...
-  EXPECT_NEAR(PlanTimeBudget(parsed, 1.5, 10), 1.4, 1e-12);   // ... at most 0.1 s.
+  EXPECT_NEAR(PlanTimeBudget(parsed, 1.0, 10), 0.9, 1e-12);  // 10% margin ...
+  EXPECT_NEAR(PlanTimeBudget(parsed, 1.5, 10), 1.4, 1e-12);  // ... at most 0.1 s.
   EXPECT_LE(PlanTimeBudget(parsed, 0.0, 10), 0.0);
   request.mutable_options()->set_time_budget_s(30);
   EXPECT_DOUBLE_EQ(PlanTimeBudget(ParsePlanRequest(request).value(), inf, 10), 10);

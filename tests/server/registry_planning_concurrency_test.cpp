@@ -92,7 +92,8 @@ TEST(RegistryPlanningConcurrencyTest, SixteenPlannersOnTwoMapsWhileAThirdComesAn
   for (int p = 0; p < kPlanners; ++p) {
     planners.push_back(std::async(std::launch::async, [&registry, p] {
       std::vector<Expected<PlanResult>> results;
-      for (int i = 0; i < kPlansPerPlanner; ++i) results.push_back(PlanOn(registry, QueryFor(p, i)));
+      for (int i = 0; i < kPlansPerPlanner; ++i)
+        results.push_back(PlanOn(registry, QueryFor(p, i)));
       return results;
     }));
   }
@@ -106,8 +107,8 @@ TEST(RegistryPlanningConcurrencyTest, SixteenPlannersOnTwoMapsWhileAThirdComesAn
   for (int p = 0; p < kPlanners; ++p) {
     for (int i = 0; i < kPlansPerPlanner; ++i) {
       const Expected<PlanResult>& concurrent = results[p][i];
-      ASSERT_TRUE(concurrent.ok()) << "planner " << p << " plan " << i << ": "
-                                   << concurrent.error().message;
+      ASSERT_TRUE(concurrent.ok())
+          << "planner " << p << " plan " << i << ": " << concurrent.error().message;
       const Expected<PlanResult> alone = PlanOn(registry, QueryFor(p, i));
       ASSERT_TRUE(alone.ok()) << alone.error().message;
       EXPECT_TRUE(SameTrajectory(concurrent.value().trajectory, alone.value().trajectory))

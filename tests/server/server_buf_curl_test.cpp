@@ -44,9 +44,9 @@ class BufCurlTest : public ServerFixture {
 TEST_F(BufCurlTest, ReflectionListsEveryService) {
   const auto listed = Curl("");
   ASSERT_EQ(listed.exit_code, 0) << listed.output;
-  EXPECT_THAT(listed.output, AllOf(HasSubstr("strata.v1.MapService"),
-                                   HasSubstr("strata.v1.PlannerService"),
-                                   HasSubstr("grpc.health.v1.Health")));
+  EXPECT_THAT(listed.output,
+              AllOf(HasSubstr("strata.v1.MapService"), HasSubstr("strata.v1.PlannerService"),
+                    HasSubstr("grpc.health.v1.Health")));
 }
 
 TEST_F(BufCurlTest, HealthCheckAnswersServing) {
@@ -57,10 +57,10 @@ TEST_F(BufCurlTest, HealthCheckAnswersServing) {
 
 // The README's grpcurl Plan call, in JSON: the response carries pieces and stats.
 TEST_F(BufCurlTest, PlansFromJsonAsTheReadmeShows) {
-  const auto plan = Curl("strata.v1.PlannerService/Plan",
-                               R"({"map_id":"demo","profile_name":"differential",)"
-                               R"("start":{"position_m":{"x":2,"y":2,"z":0.3}},)"
-                               R"("goal":{"position_m":{"x":10,"y":10,"z":3.3}}})");
+  const auto plan =
+      Curl("strata.v1.PlannerService/Plan", R"({"map_id":"demo","profile_name":"differential",)"
+                                            R"("start":{"position_m":{"x":2,"y":2,"z":0.3}},)"
+                                            R"("goal":{"position_m":{"x":10,"y":10,"z":3.3}}})");
   ASSERT_EQ(plan.exit_code, 0) << plan.output;
   EXPECT_THAT(plan.output, AllOf(HasSubstr(R"("pieces")"), HasSubstr(R"("durationS")"),
                                  HasSubstr(R"("lengthM")")));
@@ -69,8 +69,7 @@ TEST_F(BufCurlTest, PlansFromJsonAsTheReadmeShows) {
 // Errors reach a JSON client with their code, message and google.rpc.ErrorInfo (which buf
 // prints as base64 of the packed message, having no descriptor for it).
 TEST_F(BufCurlTest, ErrorsCarryTheirCodeMessageAndReason) {
-  const auto missing =
-      Curl("strata.v1.MapService/GetMap", R"({"map_id":"no-such-map"})");
+  const auto missing = Curl("strata.v1.MapService/GetMap", R"({"map_id":"no-such-map"})");
   EXPECT_NE(missing.exit_code, 0);
   const nlohmann::json error = nlohmann::json::parse(missing.output, nullptr, false);
   ASSERT_TRUE(error.is_object()) << missing.output;

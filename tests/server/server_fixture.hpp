@@ -57,9 +57,7 @@ class ServerFixture : public ::testing::Test {
     }
   }
 
-  static bool HaveSpiral() {
-    return std::filesystem::exists(TestMapRoot() + "/spiral0.3_2.pcd");
-  }
+  static bool HaveSpiral() { return std::filesystem::exists(TestMapRoot() + "/spiral0.3_2.pcd"); }
 
   /// CreateMap with wait; fails the test unless the map becomes ACTIVE.
   v1::Map CreateAndWait(v1::CreateMapRequest request, double deadline_s = 120) {

@@ -44,8 +44,7 @@ TEST_F(MapServiceTest, StartsServingWithTheDemoMapAndPerServiceHealth) {
 TEST_F(MapServiceTest, HealthStaysNotServingWhenAPreloadFails) {
   // README.md is under the map root but is no point cloud: its assessment fails.
   server_ = ServerProcess::Start({"--map-root", TestMapRoot(), "--preload",
-                                  "demo=scene:two_level_ramp", "--preload",
-                                  "bad=README.md"});
+                                  "demo=scene:two_level_ramp", "--preload", "bad=README.md"});
   ASSERT_NE(server_, nullptr);
   ASSERT_TRUE(server_->WaitForLog("event=preload_failed map=bad", std::chrono::seconds(60)));
   channel_ = server_->NewChannel();
@@ -180,8 +179,8 @@ TEST_F(MapServiceTest, UploadsACloudFarAboveTheMessageLimitInChunks) {
   for (std::size_t first = 0; first < points; first += chunk_points) {
     const std::size_t count = std::min(chunk_points, points - first);
     v1::UploadMapRequest chunk;
-    chunk.mutable_chunk()->set_points(std::string(reinterpret_cast<const char*>(&xyz[3 * first]),
-                                                  count * 12));
+    chunk.mutable_chunk()->set_points(
+        std::string(reinterpret_cast<const char*>(&xyz[3 * first]), count * 12));
     ASSERT_TRUE(writer->Write(chunk));
     ++chunks;
   }
@@ -198,7 +197,8 @@ TEST_F(MapServiceTest, UploadsACloudFarAboveTheMessageLimitInChunks) {
   v1::PlanResponse response;
   const grpc::Status within = Plan(PlanRequestFor("floors", 5, 5, 0.3, 50, 50, 0.3), &response);
   EXPECT_TRUE(within.ok()) << within.error_message();
-  const CallError across = ErrorOf(Plan(PlanRequestFor("floors", 5, 5, 0.3, 100, 50, 0.3), &response));
+  const CallError across =
+      ErrorOf(Plan(PlanRequestFor("floors", 5, 5, 0.3, 100, 50, 0.3), &response));
   EXPECT_EQ(across.code, grpc::StatusCode::FAILED_PRECONDITION);
   EXPECT_EQ(across.reason, "GOAL_UNREACHABLE");
 }
@@ -231,7 +231,8 @@ TEST_F(MapServiceTest, RefusesMalformedUploads) {
 
 TEST_F(MapServiceTest, RefusesPathsOutsideTheMapRoot) {
   ASSERT_NO_FATAL_FAILURE(StartServer());
-  for (const char* path : {"../DESIGN.md", "/etc/passwd", "../../../etc/passwd", "../maps/../STYLE.md"}) {
+  for (const char* path :
+       {"../DESIGN.md", "/etc/passwd", "../../../etc/passwd", "../maps/../STYLE.md"}) {
     grpc::ClientContext context;
     v1::CreateMapRequest request;
     request.set_map_id("escape");

@@ -97,8 +97,8 @@ TEST_F(ServerOpsTest, SigtermDrainsInFlightCallsAndExitsZero) {
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
   double started = 0;
   while (started < kCalls && std::chrono::steady_clock::now() < deadline) {
-    started = MetricValue(HttpGet(server_->metrics_port(), "/metrics"),
-                          "grpc_server_started_total", {"grpc_method=\"Plan\""});
+    started = MetricValue(HttpGet(server_->metrics_port(), "/metrics"), "grpc_server_started_total",
+                          {"grpc_method=\"Plan\""});
   }
   ASSERT_EQ(started, kCalls);
   server_->Signal(SIGTERM);
@@ -125,9 +125,8 @@ TEST_F(ServerOpsTest, MetricsShowTheCountersMoving) {
   ASSERT_FALSE(Plan(PlanRequestFor("nowhere", 2, 2, 0.3, 10, 10, 3.3), &response).ok());
 
   const std::string after = HttpGet(server_->metrics_port(), "/metrics");
-  const std::vector<std::string> plan = {"grpc_method=\"Plan\"",
-                                         "grpc_service=\"strata.v1.PlannerService\"",
-                                         "grpc_type=\"unary\""};
+  const std::vector<std::string> plan = {
+      "grpc_method=\"Plan\"", "grpc_service=\"strata.v1.PlannerService\"", "grpc_type=\"unary\""};
   EXPECT_EQ(MetricValue(after, "grpc_server_started_total", plan) -
                 MetricValue(before, "grpc_server_started_total", plan),
             2);
@@ -142,7 +141,9 @@ TEST_F(ServerOpsTest, MetricsShowTheCountersMoving) {
   EXPECT_EQ(MetricValue(after, "strata_plans_total", {"result=\"MAP_NOT_FOUND\""}), 1);
   EXPECT_EQ(MetricValue(after, "strata_plan_duration_seconds_count", {"stage=\"search\""}), 1);
   // Health checks are counted like any other service.
-  EXPECT_GT(MetricValue(after, "grpc_server_started_total", {"grpc_service=\"grpc.health.v1.Health\""}), 0);
+  EXPECT_GT(
+      MetricValue(after, "grpc_server_started_total", {"grpc_service=\"grpc.health.v1.Health\""}),
+      0);
 }
 
 }  // namespace

@@ -115,7 +115,8 @@ TEST_F(PlannerServiceTest, PlansFromTheGroundToTheTopOfTheSpiralGarage) {
 TEST_F(PlannerServiceTest, UnknownMapIsNotFound) {
   ASSERT_NO_FATAL_FAILURE(StartServer());
   v1::PlanResponse response;
-  const CallError error = ErrorOf(Plan(PlanRequestFor("atlantis", 2, 2, 0.3, 3, 3, 0.3), &response));
+  const CallError error =
+      ErrorOf(Plan(PlanRequestFor("atlantis", 2, 2, 0.3, 3, 3, 0.3), &response));
   EXPECT_EQ(error.code, grpc::StatusCode::NOT_FOUND);
   EXPECT_EQ(error.reason, "MAP_NOT_FOUND");
   EXPECT_EQ(error.domain, "strata");
@@ -145,7 +146,8 @@ TEST_F(PlannerServiceTest, MapStillCreatingIsNotActive) {
 TEST_F(PlannerServiceTest, StartOffTheGroundNamesTheNearestValidPoint) {
   ASSERT_NO_FATAL_FAILURE(StartServer());
   v1::PlanResponse response;
-  const CallError error = ErrorOf(Plan(PlanRequestFor("demo", 2, -10, 0.3, 10, 10, 3.3), &response));
+  const CallError error =
+      ErrorOf(Plan(PlanRequestFor("demo", 2, -10, 0.3, 10, 10, 3.3), &response));
   EXPECT_EQ(error.code, grpc::StatusCode::INVALID_ARGUMENT);
   EXPECT_EQ(error.reason, "START_OFF_GROUND");
   EXPECT_THAT(error.fields, ElementsAre("start.position_m"));

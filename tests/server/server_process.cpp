@@ -43,9 +43,8 @@ std::unique_ptr<ServerProcess> ServerProcess::Start(const std::vector<std::strin
   process->reader_ = std::thread([p = process.get(), fd = fds[0]] { p->ReadStderr(fd); });
 
   std::unique_lock lock(process->mutex_);
-  const bool listening = process->changed_.wait_for(lock, timeout, [&] {
-    return !process->address_.empty() || process->eof_;
-  });
+  const bool listening = process->changed_.wait_for(
+      lock, timeout, [&] { return !process->address_.empty() || process->eof_; });
   if (!listening || process->address_.empty()) {
     std::fprintf(stderr, "strata-server did not start; its log:\n%s\n", process->log_.c_str());
     return nullptr;

@@ -19,8 +19,9 @@ class ServerProcess {
  public:
   /// Starts the server with `args` after "--listen 127.0.0.1:0 --metrics-port 0"; returns
   /// null (and prints the log) if it does not report listening within `timeout`.
-  static std::unique_ptr<ServerProcess> Start(const std::vector<std::string>& args,
-                                              std::chrono::seconds timeout = std::chrono::seconds(30));
+  static std::unique_ptr<ServerProcess> Start(
+      const std::vector<std::string>& args,
+      std::chrono::seconds timeout = std::chrono::seconds(30));
   ~ServerProcess();  // Kills the server if it still runs.
 
   const std::string& address() const { return address_; }

@@ -17,8 +17,8 @@ namespace strata::server::testing {
 struct CallError {
   grpc::StatusCode code = grpc::StatusCode::OK;
   std::string message;
-  std::string reason;  ///< ErrorInfo.reason; empty without details.
-  std::string domain;  ///< ErrorInfo.domain.
+  std::string reason;               ///< ErrorInfo.reason; empty without details.
+  std::string domain;               ///< ErrorInfo.domain.
   std::vector<std::string> fields;  ///< BadRequest field violations.
 };
 

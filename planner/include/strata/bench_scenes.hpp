@@ -73,8 +73,8 @@ struct UnevenForestLayout {
     Eigen::Vector3d a_m, b_m;  ///< Axis end points [m].
     double radius_m;           ///< In [0.15, 0.3].
   };
-  UnevenTerrainLayout terrain;  ///< Ground, trees and rocks (size_m = 40).
-  std::vector<Log> logs;        ///< 8–12 logs.
+  UnevenTerrainLayout terrain;           ///< Ground, trees and rocks (size_m = 40).
+  std::vector<Log> logs;                 ///< 8–12 logs.
   double assessment_resolution_m = 0.2;  ///< Grid resolution the queries are checked at.
   /// Corner to corner across the forest: gentle ground (< 8° within 1 m) clear of every
   /// object by 1.5 m, found near fixed anchors; plannable for the seeds the tests check.
@@ -102,29 +102,29 @@ UnevenForestLayout GetUnevenForestLayout(std::uint32_t seed);
 PointCloud GenerateAbandonedStation(std::uint32_t seed, double spacing_m = 0.1);
 
 struct StationLayout {
-  double x_max_m, y_max_m;              ///< The hall is [0, x_max] × [0, y_max].
-  double track_z_m;                     ///< Track bed height (0).
-  double track_y_max_m;                 ///< Track bed: y in [0, track_y_max].
-  double platform_z_m;                  ///< Platform top.
-  double mezzanine_z_m;                 ///< Mezzanine top.
-  double mezzanine_underside_z_m;       ///< Mezzanine slab's lower face.
-  double mezzanine_y_min_m;             ///< Mezzanine main part: y in [mezzanine_y_min, y_max].
+  double x_max_m, y_max_m;         ///< The hall is [0, x_max] × [0, y_max].
+  double track_z_m;                ///< Track bed height (0).
+  double track_y_max_m;            ///< Track bed: y in [0, track_y_max].
+  double platform_z_m;             ///< Platform top.
+  double mezzanine_z_m;            ///< Mezzanine top.
+  double mezzanine_underside_z_m;  ///< Mezzanine slab's lower face.
+  double mezzanine_y_min_m;        ///< Mezzanine main part: y in [mezzanine_y_min, y_max].
   double collapse_x_min_m, collapse_x_max_m;  ///< Collapsed section: x in this range ...
   double collapse_y_min_m, collapse_y_max_m;  ///< ... and y in this range (platform level).
-  double broken_slab_foot_x_m;          ///< Where the hanging slab meets the platform.
-  double railing_height_m;              ///< Railings and parapets above their floor.
-  std::vector<SceneRamp> track_ramps;   ///< Track bed → platform (2).
-  std::vector<SceneRamp> mezzanine_ramps;  ///< Platform → mezzanine: west, east.
+  double broken_slab_foot_x_m;                ///< Where the hanging slab meets the platform.
+  double railing_height_m;                    ///< Railings and parapets above their floor.
+  std::vector<SceneRamp> track_ramps;         ///< Track bed → platform (2).
+  std::vector<SceneRamp> mezzanine_ramps;     ///< Platform → mezzanine: west, east.
   /// Tongues of the mezzanine the mezzanine ramps arrive on [x_min, x_max, y_min, y_max].
   std::vector<Eigen::Vector4d> tongues_m;
   /// Stairs track bed → platform, footprints [x_min, x_max, y_min, y_max], rising along +y.
   std::vector<Eigen::Vector4d> stairs_m;
-  int stair_risers;                     ///< Risers per flight.
-  double riser_m, tread_m;              ///< Step height and depth.
-  double pillar_radius_m;               ///< Mezzanine pillars.
+  int stair_risers;                               ///< Risers per flight.
+  double riser_m, tread_m;                        ///< Step height and depth.
+  double pillar_radius_m;                         ///< Mezzanine pillars.
   std::vector<Eigen::Vector2d> pillar_centers_m;  ///< From the platform to the mezzanine.
-  double column_radius_m;               ///< Broken columns on the track bed.
-  double column_height_m;               ///< Their height above the track bed.
+  double column_radius_m;                         ///< Broken columns on the track bed.
+  double column_height_m;                         ///< Their height above the track bed.
   std::vector<Eigen::Vector2d> column_centers_m;
   /// Rubble blocks on the platform in the collapsed section, [lo, hi] corners.
   std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>> rubble_m;
@@ -156,15 +156,15 @@ StationLayout GetStationLayout();
 PointCloud GenerateParkingGarage(std::uint32_t seed, double spacing_m = 0.16);
 
 struct GarageLayout {
-  double x_max_m, y_max_m;             ///< The garage is [0, x_max] × [0, y_max].
-  std::vector<double> level_z_m;       ///< Floor heights, ground first (4 levels).
-  double slab_thickness_m;             ///< Deck slab thickness (underside = level − this).
-  double railing_height_m;             ///< Parapets and ramp walls above their deck.
-  std::vector<SceneRamp> ramps;        ///< ramps[k] joins level k to level k + 1.
-  double pillar_size_m;                ///< Square pillars' edge.
+  double x_max_m, y_max_m;        ///< The garage is [0, x_max] × [0, y_max].
+  std::vector<double> level_z_m;  ///< Floor heights, ground first (4 levels).
+  double slab_thickness_m;        ///< Deck slab thickness (underside = level − this).
+  double railing_height_m;        ///< Parapets and ramp walls above their deck.
+  std::vector<SceneRamp> ramps;   ///< ramps[k] joins level k to level k + 1.
+  double pillar_size_m;           ///< Square pillars' edge.
   std::vector<Eigen::Vector2d> pillar_centers_m;  ///< The same on every storey.
-  double beam_depth_m, beam_width_m;   ///< Beams along x under every deck ...
-  std::vector<double> beam_y_m;        ///< ... centred at these y.
+  double beam_depth_m, beam_width_m;              ///< Beams along x under every deck ...
+  std::vector<double> beam_y_m;                   ///< ... centred at these y.
   /// Parked cars, boxes [lo, hi] (lo.z = the floor they stand on).
   std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>> cars_m;
   double assessment_resolution_m = 0.2;  ///< Grid resolution the queries are checked at.
@@ -194,26 +194,26 @@ struct ViaductsLayout {
   struct Mound {
     double x_m, y_m, height_m, sigma_m;
   };
-  double size_m;                       ///< The ground covers [0, size] × [0, size].
+  double size_m;  ///< The ground covers [0, size] × [0, size].
   std::vector<Mound> mounds;
-  double deck_width_m;                 ///< Both viaducts.
+  double deck_width_m;  ///< Both viaducts.
   double deck_thickness_m;
   double railing_height_m;
-  double a_z_m;                        ///< Viaduct A deck top.
-  double a_y_min_m, a_y_max_m;         ///< A's deck: y in this range ...
-  double a_x_min_m, a_x_max_m;         ///< ... from toe to toe (ramps included).
-  double b_z_m;                        ///< Viaduct B deck top.
-  double b_x_min_m, b_x_max_m;         ///< B's deck: x in this range ...
-  double b_y_min_m, b_y_max_m;         ///< ... from toe to toe (ramps included).
-  std::vector<SceneRamp> a_ramps;      ///< West, east.
-  std::vector<SceneRamp> b_ramps;      ///< South, north.
+  double a_z_m;                    ///< Viaduct A deck top.
+  double a_y_min_m, a_y_max_m;     ///< A's deck: y in this range ...
+  double a_x_min_m, a_x_max_m;     ///< ... from toe to toe (ramps included).
+  double b_z_m;                    ///< Viaduct B deck top.
+  double b_x_min_m, b_x_max_m;     ///< B's deck: x in this range ...
+  double b_y_min_m, b_y_max_m;     ///< ... from toe to toe (ramps included).
+  std::vector<SceneRamp> a_ramps;  ///< West, east.
+  std::vector<SceneRamp> b_ramps;  ///< South, north.
   double pier_radius_m;
   std::vector<Eigen::Vector2d> a_piers_m;  ///< From the ground to A's underside.
   std::vector<Eigen::Vector2d> b_piers_m;  ///< From the ground to B's underside.
-  Eigen::Vector2d road_point_m;        ///< The road's centre line passes here ...
-  Eigen::Vector2d road_dir;            ///< ... along this unit direction ...
-  double road_width_m;                 ///< ... with this width.
-  double assessment_resolution_m = 0.2;  ///< Grid resolution the queries are checked at.
+  Eigen::Vector2d road_point_m;            ///< The road's centre line passes here ...
+  Eigen::Vector2d road_dir;                ///< ... along this unit direction ...
+  double road_width_m;                     ///< ... with this width.
+  double assessment_resolution_m = 0.2;    ///< Grid resolution the queries are checked at.
   /// along_road_under_crossing, ground_to_a_under_b, ground_to_b_over_a.
   std::vector<SceneQuery> queries;
 
@@ -250,15 +250,15 @@ struct IndoorTablesLayout {
     double x_m, y_m;
     Eigen::Vector2d back_dir;
   };
-  double x_max_m, y_max_m;        ///< The room is [0, x_max] × [0, y_max].
+  double x_max_m, y_max_m;  ///< The room is [0, x_max] × [0, y_max].
   double wall_height_m;
-  double table_underside_z_m;     ///< Every table's lower face.
-  double table_top_z_m;           ///< Every table's upper face.
-  double leg_radius_m;            ///< Table and chair legs.
-  double leg_inset_m;             ///< Legs' axes this far inside the top's corners.
+  double table_underside_z_m;       ///< Every table's lower face.
+  double table_top_z_m;             ///< Every table's upper face.
+  double leg_radius_m;              ///< Table and chair legs.
+  double leg_inset_m;               ///< Legs' axes this far inside the top's corners.
   double row_y_min_m, row_y_max_m;  ///< The row of tables spanning the room wall to wall.
-  std::vector<Table> tables;      ///< The row first, then the free-standing tables.
-  int row_tables;                 ///< How many of `tables` form the row.
+  std::vector<Table> tables;        ///< The row first, then the free-standing tables.
+  int row_tables;                   ///< How many of `tables` form the row.
   double chair_seat_size_m, chair_seat_z_m, chair_back_top_z_m;
   std::vector<Chair> chairs;
   double assessment_resolution_m = 0.1;  ///< Grid resolution the queries are checked at.

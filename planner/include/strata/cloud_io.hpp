@@ -13,7 +13,7 @@ namespace strata {
 
 /// Bounds that keep a hostile or broken file from exhausting memory.
 struct CloudLoadLimits {
-  std::size_t max_points = 50'000'000;  ///< Most points a file may hold [-], > 0.
+  std::size_t max_points = 50'000'000;                ///< Most points a file may hold [-], > 0.
   std::size_t max_file_bytes = std::size_t{4} << 30;  ///< Largest file accepted [bytes], > 0.
   double max_abs_coordinate_m = 1.0e5;  ///< Points farther from the origin on any axis are an
                                         ///< error, not data [m], > 0.
@@ -21,9 +21,9 @@ struct CloudLoadLimits {
 
 /// A loaded cloud with the bookkeeping the assessment summary reports.
 struct LoadedCloud {
-  PointCloud points;                   ///< Finite points only.
-  std::size_t raw_point_count = 0;     ///< Points the file held, finite or not.
-  std::size_t dropped_nonfinite = 0;   ///< Points dropped because a coordinate was NaN/Inf.
+  PointCloud points;                  ///< Finite points only.
+  std::size_t raw_point_count = 0;    ///< Points the file held, finite or not.
+  std::size_t dropped_nonfinite = 0;  ///< Points dropped because a coordinate was NaN/Inf.
 };
 
 /// Loads `path`. Fails with kMapLoadFailed naming the file and the problem when the file is

@@ -19,9 +19,7 @@ struct GridGeometry {
   double resolution_m = 0.2;                           ///< Cell edge [m], > 0.
   Eigen::Vector3i size = Eigen::Vector3i::Zero();      ///< Cells per axis [-], >= 1.
 
-  std::int64_t CellCount() const {
-    return std::int64_t{size.x()} * size.y() * size.z();
-  }
+  std::int64_t CellCount() const { return std::int64_t{size.x()} * size.y() * size.z(); }
   std::int64_t LayerCellCount() const { return std::int64_t{size.x()} * size.y(); }
   std::int64_t Index(int ix, int iy, int iz) const {
     return ix + std::int64_t{size.x()} * (iy + std::int64_t{size.y()} * iz);

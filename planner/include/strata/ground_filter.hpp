@@ -27,8 +27,7 @@ namespace strata {
 /// much higher and at least half of it away horizontally pass as a step, not an obstacle.
 /// Precondition: config.Validate() is ok and every point is finite.
 std::vector<std::uint8_t> FilterValidGround(const PointCloud& cloud,
-                                            const GroundFilterConfig& config,
-                                            int num_threads = 0,
+                                            const GroundFilterConfig& config, int num_threads = 0,
                                             double step_tolerance_m = 0);
 
 }  // namespace strata

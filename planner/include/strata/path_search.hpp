@@ -45,8 +45,8 @@ struct PathResult {
 
 /// Work done by a search, filled on success and failure alike.
 struct SearchStats {
-  int expansions = 0;      ///< Nodes expanded [-].
-  double elapsed_s = 0;    ///< Wall-clock time [s].
+  int expansions = 0;    ///< Nodes expanded [-].
+  double elapsed_s = 0;  ///< Wall-clock time [s].
 };
 
 /// Cost of moving between adjacent nodes a and b: the Euclidean 3D length between their

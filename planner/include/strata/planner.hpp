@@ -49,9 +49,9 @@ struct PlanOptions {
   double time_budget_s = 2.0;
   /// How far start and goal may be from traversable ground (3D, to the reference point) [m].
   double snap_tolerance_m = 1.0;
-  SearchConfig search;          ///< A* settings (its time budget is capped by the plan's).
-  OptimizerConfig optimizer;    ///< Weights, thresholds, L-BFGS settings.
-  VerifierConfig verifier;      ///< Tolerances of the final check.
+  SearchConfig search;        ///< A* settings (its time budget is capped by the plan's).
+  OptimizerConfig optimizer;  ///< Weights, thresholds, L-BFGS settings.
+  VerifierConfig verifier;    ///< Tolerances of the final check.
   /// Optimisations to try before giving up [-], >= 1. After a failed verification the next
   /// attempt doubles the safety, ground and feasibility weights and halves the piece length.
   int max_attempts = 3;
@@ -76,8 +76,8 @@ struct PlanTimings {
 
 /// Figures of a successful plan (paper Table 2 and the verification's extremes).
 struct PlanStats {
-  double length_m = 0;      ///< Arc length of the reference point's path [m].
-  double duration_s = 0;    ///< Total duration [s].
+  double length_m = 0;    ///< Arc length of the reference point's path [m].
+  double duration_s = 0;  ///< Total duration [s].
   /// Mean curvature κ_m [1/m]: the mean of ‖p′×p″‖/‖p′‖³ over uniform time samples (paper
   /// Table 2), over the samples where the speed exceeds 1 cm/s.
   double mean_curvature_per_m = 0;
@@ -105,7 +105,7 @@ struct PlanResult {
   /// snapped node's column (the robot is where it says), else that node's reference point.
   SnapResult start;
   SnapResult goal;  ///< Where the goal snapped; position_m is where the trajectory ends.
-  PathResult path;         ///< The A* path the trajectory was initialised from.
+  PathResult path;  ///< The A* path the trajectory was initialised from.
   PlanStats stats;
 };
 

@@ -150,7 +150,6 @@ Expected<PointCloud> GenerateScene(const std::string& name, std::uint32_t seed);
 
 /// The named scene at `spacing_m`; kInvalidInput naming the known scenes for an unknown name,
 /// or naming the value for a spacing that is not finite or below 0.01 m.
-Expected<PointCloud> GenerateScene(const std::string& name, std::uint32_t seed,
-                                   double spacing_m);
+Expected<PointCloud> GenerateScene(const std::string& name, std::uint32_t seed, double spacing_m);
 
 }  // namespace strata

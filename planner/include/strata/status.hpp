@@ -10,18 +10,18 @@ namespace strata {
 
 /// Why a call failed. The server maps each code to one gRPC status in a single table.
 enum class ErrorCode {
-  kInvalidInput,       ///< An argument is malformed (NaN, out of range, wrong shape).
-  kInvalidConfig,      ///< A configuration field is out of its documented range.
-  kMapLoadFailed,      ///< A map file cannot be read or is not a well-formed point cloud.
-  kResourceExhausted,  ///< The request would exceed a size or memory limit.
-  kStartOffGround,     ///< No traversable ground within tolerance of the start.
-  kGoalOffGround,      ///< No traversable ground within tolerance of the goal.
-  kGoalUnreachable,    ///< Start and goal lie in different connected components.
-  kNoPath,             ///< The search found no path (defensive; components agreed).
-  kDeadlineExceeded,   ///< The time budget or the caller's deadline ran out.
-  kCancelled,          ///< The caller cancelled the request (should_stop returned true).
+  kInvalidInput,           ///< An argument is malformed (NaN, out of range, wrong shape).
+  kInvalidConfig,          ///< A configuration field is out of its documented range.
+  kMapLoadFailed,          ///< A map file cannot be read or is not a well-formed point cloud.
+  kResourceExhausted,      ///< The request would exceed a size or memory limit.
+  kStartOffGround,         ///< No traversable ground within tolerance of the start.
+  kGoalOffGround,          ///< No traversable ground within tolerance of the goal.
+  kGoalUnreachable,        ///< Start and goal lie in different connected components.
+  kNoPath,                 ///< The search found no path (defensive; components agreed).
+  kDeadlineExceeded,       ///< The time budget or the caller's deadline ran out.
+  kCancelled,              ///< The caller cancelled the request (should_stop returned true).
   kSearchBudgetExhausted,  ///< The search used its expansion budget without reaching the goal.
-  kProfileMismatch,    ///< The robot profile needs terrain assessed with other parameters.
+  kProfileMismatch,        ///< The robot profile needs terrain assessed with other parameters.
   kOptimizationFailed,  ///< The optimised trajectory failed verification (first violation named).
 };
 
@@ -38,8 +38,8 @@ struct Error {
 template <typename T>
 class Expected {
  public:
-  Expected(T value) : storage_(std::move(value)) {}          // NOLINT: implicit by design.
-  Expected(Error error) : storage_(std::move(error)) {}      // NOLINT: implicit by design.
+  Expected(T value) : storage_(std::move(value)) {}      // NOLINT: implicit by design.
+  Expected(Error error) : storage_(std::move(error)) {}  // NOLINT: implicit by design.
 
   bool ok() const { return std::holds_alternative<T>(storage_); }
   explicit operator bool() const { return ok(); }

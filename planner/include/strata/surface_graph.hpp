@@ -56,8 +56,9 @@ struct TraversabilityParams {
 /// Connected components are labelled at build, so reachability is an O(1) query.
 class SurfaceGraph {
  public:
-  /// Builds the graph; it keeps a reference to `model`, which must outlive it. Fails with kInvalidConfig naming the bad field of `params`, or when
-  /// params.max_tilt_rad exceeds the map's ground filter θ (naming both values).
+  /// Builds the graph; it keeps a reference to `model`, which must outlive it. Fails with
+  /// kInvalidConfig naming the bad field of `params`, or when params.max_tilt_rad exceeds the map's
+  /// ground filter θ (naming both values).
   static Expected<SurfaceGraph> Build(const TerrainModel& model,
                                       const TraversabilityParams& params);
 
@@ -115,7 +116,8 @@ class SurfaceGraph {
         if (dx == 0 && dy == 0) continue;
         const bool diagonal = dx != 0 && dy != 0;
         // No corner cutting: a diagonal move needs both columns it passes between.
-        if (diagonal && !(HasStepNeighbor(n, n.ix + dx, n.iy) && HasStepNeighbor(n, n.ix, n.iy + dy))) {
+        if (diagonal &&
+            !(HasStepNeighbor(n, n.ix + dx, n.iy) && HasStepNeighbor(n, n.ix, n.iy + dy))) {
           continue;
         }
         for (const std::int32_t m : ColumnNodes(n.ix + dx, n.iy + dy)) {
@@ -179,7 +181,7 @@ class SurfaceGraph {
 
 /// Where a 3D start or goal lands on the graph.
 struct SnapResult {
-  int node = -1;                                          ///< Graph node snapped to.
+  int node = -1;                                         ///< Graph node snapped to.
   Eigen::Vector3d position_m = Eigen::Vector3d::Zero();  ///< Its reference point [m].
   /// Index of the node's surface among the valid surfaces of its column, 0 = lowest.
   int level = 0;
@@ -189,13 +191,12 @@ struct SnapResult {
 /// Snaps `p` onto the graph. Distances are "level distances": the horizontal distance to the
 /// node's reference point combined (hypot) with how far p.z lies outside that level's free
 /// space (from its ground − half a cell up to its ceiling, at most 2.5 m above its ground), so
-/// any z within a level's air space selects that level. First choice: p's own column, at the level p's z points at (the highest
-/// node whose ground is at or below p.z + half a cell), if within `tolerance_m`. Otherwise the
-/// node within tolerance_m that minimises the distance, with a strong preference for nodes
-/// whose ground lies below p.z.
-/// Fails with kInvalidInput for a non-finite p or tolerance < 0, and with `off_ground_code`
-/// (kStartOffGround or kGoalOffGround) when no node is within tolerance; the message names p,
-/// the tolerance, and the nearest node anywhere on the map.
+/// any z within a level's air space selects that level. First choice: p's own column, at the level
+/// p's z points at (the highest node whose ground is at or below p.z + half a cell), if within
+/// `tolerance_m`. Otherwise the node within tolerance_m that minimises the distance, with a strong
+/// preference for nodes whose ground lies below p.z. Fails with kInvalidInput for a non-finite p or
+/// tolerance < 0, and with `off_ground_code` (kStartOffGround or kGoalOffGround) when no node is
+/// within tolerance; the message names p, the tolerance, and the nearest node anywhere on the map.
 Expected<SnapResult> SnapToSurface(const SurfaceGraph& graph, const Eigen::Vector3d& p,
                                    double tolerance_m, ErrorCode off_ground_code);
 

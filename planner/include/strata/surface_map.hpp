@@ -16,15 +16,15 @@ namespace strata {
 
 /// One upper surface in a column (a "level").
 struct ColumnSurface {
-  float ground_z_m = 0;        ///< Height of the ground: highest valid point in the top cell
-                               ///< (highest point if none is valid) [m].
-  float clearance_m = 0;       ///< Free height from ground_z_m to the next obstacle above in
-                               ///< the column; +infinity when nothing is above [m].
-  float tilt_rad = 0;          ///< φ of the local plane fit [rad], in [0, π/2].
-  float plane_center_z_m = 0;  ///< Height of the local plane above the column centre, p_c [m].
+  float ground_z_m = 0;           ///< Height of the ground: highest valid point in the top cell
+                                  ///< (highest point if none is valid) [m].
+  float clearance_m = 0;          ///< Free height from ground_z_m to the next obstacle above in
+                                  ///< the column; +infinity when nothing is above [m].
+  float tilt_rad = 0;             ///< φ of the local plane fit [rad], in [0, π/2].
+  float plane_center_z_m = 0;     ///< Height of the local plane above the column centre, p_c [m].
   std::int32_t top_layer = 0;     ///< Grid layer of the run's top cell.
   std::int32_t bottom_layer = 0;  ///< Grid layer of the run's bottom cell.
-  bool valid = false;  ///< The top cell holds Valid-Ground-Filter points.
+  bool valid = false;             ///< The top cell holds Valid-Ground-Filter points.
 };
 
 /// Surfaces of every column, stored compactly (columns in x-fastest order).
@@ -37,8 +37,8 @@ class SurfaceMap {
   /// each surface's local plane with the points of the cylinder of radius
   /// field.plane_fit_radius_m and half-height field.plane_fit_half_height_m around it.
   static SurfaceMap Build(const GridGeometry& geometry, const PointCloud& cloud,
-                          const std::vector<std::uint8_t>& valid_ground,
-                          const FieldConfig& field, int num_threads);
+                          const std::vector<std::uint8_t>& valid_ground, const FieldConfig& field,
+                          int num_threads);
 
   const GridGeometry& geometry() const { return geometry_; }
   std::size_t surface_count() const { return surfaces_.size(); }

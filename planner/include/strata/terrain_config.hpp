@@ -37,8 +37,8 @@ struct GridConfig {
 
 /// Safety penalty field S and its diffusion S' (paper Sec. IV).
 struct FieldConfig {
-  double weight_tilt = 1.0;          ///< λ_f, weight of φ² [1/rad²], >= 0.
-  double weight_pose_change = 1.0;   ///< λ_m, weight of sqrt(‖∇H‖) [-], >= 0.
+  double weight_tilt = 1.0;         ///< λ_f, weight of φ² [1/rad²], >= 0.
+  double weight_pose_change = 1.0;  ///< λ_m, weight of sqrt(‖∇H‖) [-], >= 0.
   /// Diffusion distance t of the cone kernel [m], >= 0 (0 disables diffusion: S' = S).
   double diffusion_distance_m = 0.4;
   /// Horizontal radius of the neighbourhood used for the local plane fit [m], > 0.

@@ -16,8 +16,8 @@ namespace strata {
 class Minco3;
 
 struct TrajectoryPiece {
-  double duration_s = 0;                                      ///< T_i [s], > 0.
-  Eigen::Matrix<double, 6, Eigen::Dynamic> coefficients;      ///< 6 × dimension, see above.
+  double duration_s = 0;                                  ///< T_i [s], > 0.
+  Eigen::Matrix<double, 6, Eigen::Dynamic> coefficients;  ///< 6 × dimension, see above.
 };
 
 struct Trajectory {

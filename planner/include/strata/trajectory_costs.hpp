@@ -55,13 +55,13 @@ struct CostParams {
   double max_speed_vertical_mps = 1;
   double max_accel_horizontal_mps2 = 1;
   double max_accel_vertical_mps2 = 1;
-  bool active_height = false;           ///< Adds axis 3 (body height) and J_h.
+  bool active_height = false;  ///< Adds axis 3 (body height) and J_h.
   double body_height_min_m = 0.5;
   double body_height_max_m = 0.5;
   double body_height_preferred_m = 0.5;
   double headroom_m = 0.05;
-  double body_height_margin_m = 0.02;   ///< Kept inside the range and under the ceiling [m].
-  int samples_per_piece = 8;            ///< κ, >= 2.
+  double body_height_margin_m = 0.02;  ///< Kept inside the range and under the ceiling [m].
+  int samples_per_piece = 8;           ///< κ, >= 2.
   /// The trajectory's dimension: 4 with active height, else 3.
   int dim() const { return active_height ? 4 : 3; }
 };
@@ -69,16 +69,14 @@ struct CostParams {
 /// The objective's value split by term, each already multiplied by its weight.
 struct CostBreakdown {
   double smoothness = 0, time = 0, safety = 0, edge = 0, ground = 0, feasibility = 0, height = 0;
-  double total() const {
-    return smoothness + time + safety + edge + ground + feasibility + height;
-  }
+  double total() const { return smoothness + time + safety + edge + ground + feasibility + height; }
 };
 
 /// The ground under a point, smoothed across columns (see SampleGround).
 struct GroundSample {
-  double height_m = 0;                                  ///< h_G [m].
+  double height_m = 0;                                           ///< h_G [m].
   Eigen::Vector2d height_gradient = Eigen::Vector2d::Zero();     ///< ∂h_G/∂(x, y) [-].
-  double clearance_m = 0;                               ///< Ceiling clearance [m], capped.
+  double clearance_m = 0;                                        ///< Ceiling clearance [m], capped.
   Eigen::Vector2d clearance_gradient = Eigen::Vector2d::Zero();  ///< ∂clearance/∂(x, y).
   /// The surface of p's own column whose ground is nearest to p.z − reference height (the one
   /// p stands on); when the column has none (a hole in the map), the surface of the corner

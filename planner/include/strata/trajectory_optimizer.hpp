@@ -65,8 +65,8 @@ struct OptimizationProblem {
 
 /// How an optimisation ended.
 struct OptimizationReport {
-  int iterations = 0;         ///< L-BFGS iterations.
-  int evaluations = 0;        ///< Objective evaluations.
+  int iterations = 0;   ///< L-BFGS iterations.
+  int evaluations = 0;  ///< Objective evaluations.
   double initial_cost = 0;
   double final_cost = 0;
   CostBreakdown final_terms;  ///< The final cost split by term.

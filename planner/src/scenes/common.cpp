@@ -25,8 +25,8 @@ void SurfaceSampler::AddPoint(const Vec3& p, const KeepFn& keep) {
                       static_cast<float>(p.z() + dz));
 }
 
-void SurfaceSampler::AddRuledPatch(const Vec3& a0, const Vec3& a1, const Vec3& b0,
-                                   const Vec3& b1, const KeepFn& keep) {
+void SurfaceSampler::AddRuledPatch(const Vec3& a0, const Vec3& a1, const Vec3& b0, const Vec3& b1,
+                                   const KeepFn& keep) {
   const int nu = Intervals(std::max((a1 - a0).norm(), (b1 - b0).norm()), spacing_m_);
   for (int i = 0; i <= nu; ++i) {
     const double u = nu == 0 ? 0.0 : static_cast<double>(i) / nu;
@@ -120,8 +120,7 @@ void SurfaceSampler::AddCylinder(const Vec3& a, const Vec3& b, double r, const K
   }
 }
 
-void SurfaceSampler::AddDisc(const Vec3& center, const Vec3& normal, double r,
-                             const KeepFn& keep) {
+void SurfaceSampler::AddDisc(const Vec3& center, const Vec3& normal, double r, const KeepFn& keep) {
   const auto [u, v] = CrossBasis(normal.normalized());
   // Rings inside the rim (the rim itself belongs to the mantle), each at about the spacing.
   const int n_rings = Intervals(r, spacing_m_);
@@ -136,8 +135,7 @@ void SurfaceSampler::AddDisc(const Vec3& center, const Vec3& normal, double r,
   }
 }
 
-void SurfaceSampler::AddEllipsoid(const Vec3& center, double r_xy, double r_z,
-                                  const KeepFn& keep) {
+void SurfaceSampler::AddEllipsoid(const Vec3& center, double r_xy, double r_z, const KeepFn& keep) {
   const int n_lat = std::max(2, Intervals(kPi * std::max(r_xy, r_z), spacing_m_));
   for (int i = 0; i <= n_lat; ++i) {
     const double theta = kPi * i / n_lat;  // 0 at the top pole.
@@ -146,8 +144,7 @@ void SurfaceSampler::AddEllipsoid(const Vec3& center, double r_xy, double r_z,
     const int n_around = std::max(1, Intervals(2.0 * kPi * ring_r, spacing_m_));
     for (int k = 0; k < n_around; ++k) {
       const double phi = 2.0 * kPi * k / n_around;
-      AddPoint({center.x() + ring_r * std::cos(phi), center.y() + ring_r * std::sin(phi), z},
-               keep);
+      AddPoint({center.x() + ring_r * std::cos(phi), center.y() + ring_r * std::sin(phi), z}, keep);
     }
   }
 }
@@ -223,10 +220,14 @@ bool SceneRamp::Contains(double x_m, double y_m) const {
 double SceneRamp::TopZAt(double x_m, double y_m) const {
   // Distance from the toe along the run, clamped to the ramp.
   double along = 0;
-  if (uphill_dir.x() > 0.5) along = x_m - x_min_m;
-  else if (uphill_dir.x() < -0.5) along = x_max_m - x_m;
-  else if (uphill_dir.y() > 0.5) along = y_m - y_min_m;
-  else along = y_max_m - y_m;
+  if (uphill_dir.x() > 0.5)
+    along = x_m - x_min_m;
+  else if (uphill_dir.x() < -0.5)
+    along = x_max_m - x_m;
+  else if (uphill_dir.y() > 0.5)
+    along = y_m - y_min_m;
+  else
+    along = y_max_m - y_m;
   const double run = Run();
   along = std::clamp(along, 0.0, run);
   return z_low_m + (z_high_m - z_low_m) * along / run;

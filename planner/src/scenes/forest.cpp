@@ -72,8 +72,8 @@ void PlaceLogs(std::mt19937& rng, UnevenForestLayout* forest) {
   const UnevenTerrainLayout& t = forest->terrain;
   const double n = t.size_m;
   const int n_logs = UniformInt(rng, kLogsMin, kLogsMax);
-  for (int attempt = 0; attempt < kMaxPlacementAttempts &&
-                        static_cast<int>(forest->logs.size()) < n_logs;
+  for (int attempt = 0;
+       attempt < kMaxPlacementAttempts && static_cast<int>(forest->logs.size()) < n_logs;
        ++attempt) {
     const double radius = Uniform(rng, kRadiusMinM, kRadiusMaxM);
     const double length = Uniform(rng, kLengthMinM, kLengthMaxM);
@@ -88,28 +88,25 @@ void PlaceLogs(std::mt19937& rng, UnevenForestLayout* forest) {
       const double u = static_cast<double>(k) / kSamples;
       const Vec2 q = a2 + u * (b2 - a2);
       fits = t.GradientAt(q.x(), q.y()).norm() <= kMaxSlopeTan &&
-             std::abs(t.HeightAt(q.x(), q.y()) - (za + u * (zb - za))) <=
-                 kMaxBendFraction * radius;
+             std::abs(t.HeightAt(q.x(), q.y()) - (za + u * (zb - za))) <= kMaxBendFraction * radius;
     }
     if (!fits) continue;
     const bool near_tree = std::any_of(t.trees.begin(), t.trees.end(), [&](const auto& tree) {
-      return SegmentDistance2d({tree.x_m, tree.y_m}, a2, b2) <
-             radius + tree.trunk_radius_m + kGapM;
+      return SegmentDistance2d({tree.x_m, tree.y_m}, a2, b2) < radius + tree.trunk_radius_m + kGapM;
     });
     const bool near_rock = std::any_of(t.rocks.begin(), t.rocks.end(), [&](const auto& r) {
       return SegmentDistance2d({r.x_m, r.y_m}, a2, b2) < radius + r.radius_xy_m + kGapM;
     });
-    const bool near_log =
-        std::any_of(forest->logs.begin(), forest->logs.end(), [&](const auto& o) {
-          const Vec2 oa(o.a_m.x(), o.a_m.y()), ob(o.b_m.x(), o.b_m.y());
-          double d = 1e9;
-          for (int k = 0; k <= kSamples; ++k) {
-            const double u = static_cast<double>(k) / kSamples;
-            d = std::min({d, SegmentDistance2d(a2 + u * (b2 - a2), oa, ob),
-                          SegmentDistance2d(oa + u * (ob - oa), a2, b2)});
-          }
-          return d < radius + o.radius_m + kGapM;
-        });
+    const bool near_log = std::any_of(forest->logs.begin(), forest->logs.end(), [&](const auto& o) {
+      const Vec2 oa(o.a_m.x(), o.a_m.y()), ob(o.b_m.x(), o.b_m.y());
+      double d = 1e9;
+      for (int k = 0; k <= kSamples; ++k) {
+        const double u = static_cast<double>(k) / kSamples;
+        d = std::min({d, SegmentDistance2d(a2 + u * (b2 - a2), oa, ob),
+                      SegmentDistance2d(oa + u * (ob - oa), a2, b2)});
+      }
+      return d < radius + o.radius_m + kGapM;
+    });
     if (near_tree || near_rock || near_log) continue;
     const double lift = (1.0 - kSunkFraction) * radius;
     forest->logs.push_back(

@@ -62,8 +62,8 @@ GarageLayout GetGarageLayout() {
   // aisles, one in four more left free, shifted per level) and bays in both lanes away from
   // the ramps' ends.
   const auto add_car = [&l](double cx, double y0, double z) {
-    l.cars_m.emplace_back(Vec3(cx - 0.5 * kCarXM, y0, z), Vec3(cx + 0.5 * kCarXM, y0 + kCarYM,
-                                                                z + kCarZM));
+    l.cars_m.emplace_back(Vec3(cx - 0.5 * kCarXM, y0, z),
+                          Vec3(cx + 0.5 * kCarXM, y0 + kCarYM, z + kCarZM));
   };
   for (int k = 0; k < kLevels; ++k) {
     const double z = l.level_z_m[k];
@@ -134,9 +134,8 @@ PointCloud GenerateParkingGarage(std::uint32_t seed, double spacing_m) {
       for (const double b : l.beam_y_m) {
         const double y0 = b - 0.5 * l.beam_width_m, y1 = b + 0.5 * l.beam_width_m;
         const double bottom = under - l.beam_depth_m;
-        s.AddHorizontalRect(0.0, l.x_max_m, y0, y1, bottom, [&](const Vec3& p) {
-          return !in_pillar(p.x(), p.y());
-        });
+        s.AddHorizontalRect(0.0, l.x_max_m, y0, y1, bottom,
+                            [&](const Vec3& p) { return !in_pillar(p.x(), p.y()); });
         s.AddVerticalRect({0.0, y0}, {l.x_max_m, y0}, bottom, under);
         s.AddVerticalRect({0.0, y1}, {l.x_max_m, y1}, bottom, under);
       }

@@ -48,9 +48,10 @@ IndoorTablesLayout GetIndoorTablesLayout() {
   l.chair_seat_z_m = kSeatZM;
   l.chair_back_top_z_m = kBackTopM;
   const Vec2 south = -Vec2::UnitY(), north = Vec2::UnitY();
-  l.chairs = {{2.4, 1.45, south}, {3.2, 1.45, south}, {2.4, 3.05, north}, {3.2, 3.05, north},
-              {7.9, 1.85, south}, {8.7, 1.85, south}, {7.9, 3.45, north}, {8.7, 3.45, north},
-              {7.65, 7.75, -Vec2::UnitX()}, {9.95, 7.75, Vec2::UnitX()}};
+  l.chairs = {{2.4, 1.45, south},         {3.2, 1.45, south}, {2.4, 3.05, north},
+              {3.2, 3.05, north},         {7.9, 1.85, south}, {8.7, 1.85, south},
+              {7.9, 3.45, north},         {8.7, 3.45, north}, {7.65, 7.75, -Vec2::UnitX()},
+              {9.95, 7.75, Vec2::UnitX()}};
   l.assessment_resolution_m = 0.1;
   l.queries = {
       {"front_around_tables", {1.0, 1.0, 0.0}, {11.0, 4.0, 0.0}, "differential"},
@@ -77,16 +78,15 @@ PointCloud GenerateIndoorTables(std::uint32_t seed, double spacing_m) {
   for (std::size_t i = 0; i < l.tables.size(); ++i) {
     const auto& t = l.tables[i];
     const bool in_row = static_cast<int>(i) < l.row_tables;
-    s.AddBoxSurfaces({t.x_min_m, t.y_min_m, l.table_underside_z_m},
-                     {t.x_max_m, t.y_max_m, l.table_top_z_m}, /*with_bottom=*/true,
-                     [&](const Vec3& p) {
-                       // A row table's end faces (x = its x_min/x_max) are hidden.
-                       const bool end_face =
-                           (std::abs(p.x() - t.x_min_m) < kEpsM ||
-                            std::abs(p.x() - t.x_max_m) < kEpsM) &&
-                           StrictlyInside(p.z(), l.table_underside_z_m, l.table_top_z_m);
-                       return !(in_row && end_face);
-                     });
+    s.AddBoxSurfaces(
+        {t.x_min_m, t.y_min_m, l.table_underside_z_m}, {t.x_max_m, t.y_max_m, l.table_top_z_m},
+        /*with_bottom=*/true, [&](const Vec3& p) {
+          // A row table's end faces (x = its x_min/x_max) are hidden.
+          const bool end_face =
+              (std::abs(p.x() - t.x_min_m) < kEpsM || std::abs(p.x() - t.x_max_m) < kEpsM) &&
+              StrictlyInside(p.z(), l.table_underside_z_m, l.table_top_z_m);
+          return !(in_row && end_face);
+        });
     for (const double x : {t.x_min_m + l.leg_inset_m, t.x_max_m - l.leg_inset_m}) {
       for (const double y : {t.y_min_m + l.leg_inset_m, t.y_max_m - l.leg_inset_m}) {
         s.AddVerticalCylinder(x, y, l.leg_radius_m, 0.0, l.table_underside_z_m);

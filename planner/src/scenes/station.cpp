@@ -9,8 +9,8 @@ namespace {
 
 using internal::AddSolidRamp;
 using internal::kDegToRad;
-using internal::kEpsM;
 using internal::KeepFn;
+using internal::kEpsM;
 using internal::StrictlyInside;
 using internal::Vec2;
 using internal::Vec3;
@@ -24,7 +24,7 @@ constexpr double kMezzanineZM = 4.05, kMezzanineThicknessM = 0.25;
 constexpr double kMezzanineYMinM = 16.0;
 constexpr double kRampSlopeDeg = 11.0;
 constexpr double kRampWidthM = 3.5;
-constexpr double kTongueDepthM = 3.5;  // Along x.
+constexpr double kTongueDepthM = 3.5;    // Along x.
 constexpr double kCollapseWidthM = 6.0;  // Along x, from the west ramp's toe.
 constexpr double kBrokenSlabSlopeDeg = 32.0;
 constexpr double kRailingM = 1.0;
@@ -77,9 +77,8 @@ StationLayout GetStationLayout() {
   const double ramp_y0 = kMezzanineYMinM - kRampWidthM;
   l.mezzanine_ramps.push_back({kTongueDepthM, kTongueDepthM + mezz_run, ramp_y0, kMezzanineYMinM,
                                kPlatformZM, kMezzanineZM, -Vec2::UnitX()});
-  l.mezzanine_ramps.push_back({kHallXM - kTongueDepthM - mezz_run, kHallXM - kTongueDepthM,
-                               ramp_y0, kMezzanineYMinM, kPlatformZM, kMezzanineZM,
-                               Vec2::UnitX()});
+  l.mezzanine_ramps.push_back({kHallXM - kTongueDepthM - mezz_run, kHallXM - kTongueDepthM, ramp_y0,
+                               kMezzanineYMinM, kPlatformZM, kMezzanineZM, Vec2::UnitX()});
   l.tongues_m.emplace_back(0.0, kTongueDepthM, ramp_y0, kMezzanineYMinM);
   // The collapse starts at the west ramp's toe, so its debris and the ramp's railing close the
   // front of the space under the mezzanine's west part without a gap.
@@ -87,8 +86,8 @@ StationLayout GetStationLayout() {
   l.collapse_x_max_m = l.collapse_x_min_m + kCollapseWidthM;
   l.collapse_y_min_m = kMezzanineYMinM;
   l.collapse_y_max_m = kHallYM;
-  l.broken_slab_foot_x_m = l.collapse_x_min_m + (kMezzanineZM - kPlatformZM) /
-                                                    std::tan(kBrokenSlabSlopeDeg * kDegToRad);
+  l.broken_slab_foot_x_m =
+      l.collapse_x_min_m + (kMezzanineZM - kPlatformZM) / std::tan(kBrokenSlabSlopeDeg * kDegToRad);
   l.tongues_m.emplace_back(kHallXM - kTongueDepthM, kHallXM, ramp_y0, kMezzanineYMinM);
 
   l.pillar_radius_m = 0.3;
@@ -117,9 +116,13 @@ StationLayout GetStationLayout() {
   l.assessment_resolution_m = 0.2;
   l.queries = {
       {"track_to_mezzanine_east", {22.0, 2.0, 0.0}, {36.0, 20.0, kMezzanineZM}, "differential"},
-      {"mezzanine_west_to_east", {9.0, 22.0, kMezzanineZM}, {36.0, 22.0, kMezzanineZM},
+      {"mezzanine_west_to_east",
+       {9.0, 22.0, kMezzanineZM},
+       {36.0, 22.0, kMezzanineZM},
        "differential"},
-      {"under_mezzanine_to_track_east", {12.0, 19.0, kPlatformZM}, {35.0, 2.0, 0.0},
+      {"under_mezzanine_to_track_east",
+       {12.0, 19.0, kPlatformZM},
+       {35.0, 2.0, 0.0},
        "differential"},
   };
   return l;
@@ -161,13 +164,11 @@ PointCloud GenerateAbandonedStation(std::uint32_t seed, double spacing_m) {
   // Platform edge: the block's front face below, a railing above, both open where a ramp or
   // a flight of stairs arrives.
   const auto at_arrival = [&](const Vec3& p) {
-    return std::any_of(l.track_ramps.begin(), l.track_ramps.end(),
-                       [&](const SceneRamp& r) {
-                         return StrictlyInside(p.x(), r.x_min_m, r.x_max_m);
-                       }) ||
-           std::any_of(l.stairs_m.begin(), l.stairs_m.end(), [&](const Eigen::Vector4d& r) {
-             return StrictlyInside(p.x(), r[0], r[1]);
-           });
+    return std::any_of(
+               l.track_ramps.begin(), l.track_ramps.end(),
+               [&](const SceneRamp& r) { return StrictlyInside(p.x(), r.x_min_m, r.x_max_m); }) ||
+           std::any_of(l.stairs_m.begin(), l.stairs_m.end(),
+                       [&](const Eigen::Vector4d& r) { return StrictlyInside(p.x(), r[0], r[1]); });
   };
   s.AddVerticalRect({0.0, l.track_y_max_m}, {l.x_max_m, l.track_y_max_m}, l.track_z_m, pz + rail,
                     [&](const Vec3& p) { return !at_arrival(p); });
@@ -259,8 +260,8 @@ PointCloud GenerateAbandonedStation(std::uint32_t seed, double spacing_m) {
   }
   // Back wall, from the platform to the mezzanine's railing height; hidden behind the slab.
   s.AddVerticalRect({0.0, l.y_max_m}, {l.x_max_m, l.y_max_m}, pz, mz + rail, [&](const Vec3& p) {
-    const bool behind_slab = p.z() > mu + kEpsM && p.z() < mz - kEpsM &&
-                             l.IsOverMezzanine(p.x(), l.y_max_m);
+    const bool behind_slab =
+        p.z() > mu + kEpsM && p.z() < mz - kEpsM && l.IsOverMezzanine(p.x(), l.y_max_m);
     return !behind_slab;
   });
 

@@ -20,8 +20,8 @@ constexpr double kCentreM = 44.0;  // The crossing.
 constexpr double kDeckWidthM = 5.0, kDeckThicknessM = 0.4, kRailingM = 1.0;
 constexpr double kRampSlopeDeg = 12.0;
 constexpr double kAZM = 4.5, kBZM = 7.0;
-constexpr double kAToeXM = 4.0;            // A's west toe; its east toe mirrors it.
-constexpr double kBSpanHalfM = 8.0;        // B is elevated for |y - centre| <= this.
+constexpr double kAToeXM = 4.0;      // A's west toe; its east toe mirrors it.
+constexpr double kBSpanHalfM = 8.0;  // B is elevated for |y - centre| <= this.
 constexpr double kPierRadiusM = 0.8;
 constexpr double kRoadWidthM = 6.0;
 
@@ -53,13 +53,13 @@ double ViaductsLayout::RoadDistance(double x_m, double y_m) const {
 }
 
 double ViaductsLayout::AZAt(double x_m, double y_m) const {
-  return DeckZ(a_ramps, a_ramps[0].x_max_m, a_ramps[1].x_min_m, /*along_x=*/true, a_z_m,
-               a_y_min_m, a_y_max_m, x_m, y_m);
+  return DeckZ(a_ramps, a_ramps[0].x_max_m, a_ramps[1].x_min_m, /*along_x=*/true, a_z_m, a_y_min_m,
+               a_y_max_m, x_m, y_m);
 }
 
 double ViaductsLayout::BZAt(double x_m, double y_m) const {
-  return DeckZ(b_ramps, b_ramps[0].y_max_m, b_ramps[1].y_min_m, /*along_x=*/false, b_z_m,
-               b_x_min_m, b_x_max_m, x_m, y_m);
+  return DeckZ(b_ramps, b_ramps[0].y_max_m, b_ramps[1].y_min_m, /*along_x=*/false, b_z_m, b_x_min_m,
+               b_x_max_m, x_m, y_m);
 }
 
 ViaductsLayout GetViaductsLayout() {
@@ -67,7 +67,9 @@ ViaductsLayout GetViaductsLayout() {
   l.size_m = kSizeM;
   // Low mounds (slopes <= 1.2/5·e^(-1/2) = 0.15, under 9°), each at least three widths away
   // from the road and the viaducts, so the ground under them stays flat (to 0.3 mm).
-  l.mounds = {{20.0, 68.0, 1.2, 5.0}, {68.0, 20.0, 1.2, 5.0}, {75.0, 58.0, 0.8, 3.0},
+  l.mounds = {{20.0, 68.0, 1.2, 5.0},
+              {68.0, 20.0, 1.2, 5.0},
+              {75.0, 58.0, 0.8, 3.0},
               {13.0, 30.0, 0.8, 3.0}};
   l.deck_width_m = kDeckWidthM;
   l.deck_thickness_m = kDeckThicknessM;
@@ -80,10 +82,9 @@ ViaductsLayout GetViaductsLayout() {
   l.a_x_min_m = kAToeXM;
   l.a_x_max_m = kSizeM - kAToeXM;
   const double a_run = kAZM / tan_slope;
-  l.a_ramps = {{l.a_x_min_m, l.a_x_min_m + a_run, l.a_y_min_m, l.a_y_max_m, 0.0, kAZM,
-                Vec2::UnitX()},
-               {l.a_x_max_m - a_run, l.a_x_max_m, l.a_y_min_m, l.a_y_max_m, 0.0, kAZM,
-                -Vec2::UnitX()}};
+  l.a_ramps = {
+      {l.a_x_min_m, l.a_x_min_m + a_run, l.a_y_min_m, l.a_y_max_m, 0.0, kAZM, Vec2::UnitX()},
+      {l.a_x_max_m - a_run, l.a_x_max_m, l.a_y_min_m, l.a_y_max_m, 0.0, kAZM, -Vec2::UnitX()}};
 
   l.b_z_m = kBZM;
   l.b_x_min_m = kCentreM - 0.5 * kDeckWidthM;
@@ -91,10 +92,9 @@ ViaductsLayout GetViaductsLayout() {
   const double b_run = kBZM / tan_slope;
   l.b_y_min_m = kCentreM - kBSpanHalfM - b_run;
   l.b_y_max_m = kCentreM + kBSpanHalfM + b_run;
-  l.b_ramps = {{l.b_x_min_m, l.b_x_max_m, l.b_y_min_m, kCentreM - kBSpanHalfM, 0.0, kBZM,
-                Vec2::UnitY()},
-               {l.b_x_min_m, l.b_x_max_m, kCentreM + kBSpanHalfM, l.b_y_max_m, 0.0, kBZM,
-                -Vec2::UnitY()}};
+  l.b_ramps = {
+      {l.b_x_min_m, l.b_x_max_m, l.b_y_min_m, kCentreM - kBSpanHalfM, 0.0, kBZM, Vec2::UnitY()},
+      {l.b_x_min_m, l.b_x_max_m, kCentreM + kBSpanHalfM, l.b_y_max_m, 0.0, kBZM, -Vec2::UnitY()}};
 
   l.pier_radius_m = kPierRadiusM;
   // On the axes, clear of the road by >= 1 m.

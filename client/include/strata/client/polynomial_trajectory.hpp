@@ -32,7 +32,7 @@ namespace strata::client {
 
 /// Every quantity of a trajectory at one time.
 struct TrajectoryState {
-  double time_s = 0;                     ///< Global time asked for [s] (before clamping).
+  double time_s = 0;  ///< Global time asked for [s] (before clamping).
   Eigen::Vector3d position_m = Eigen::Vector3d::Zero();         ///< Reference point [m].
   Eigen::Vector3d velocity_mps = Eigen::Vector3d::Zero();       ///< [m/s].
   Eigen::Vector3d acceleration_mps2 = Eigen::Vector3d::Zero();  ///< [m/s²].
