@@ -177,7 +177,7 @@ double Minco3::JerkEnergy(Eigen::MatrixXd* grad_c, Eigen::VectorXd* grad_T) cons
     const double c35 = c3.dot(c5);
     const double c45 = c4.dot(c5);
     const double c55 = c5.squaredNorm();
-    // ∫₀ᵀ ‖6c₃ + 24c₄t + 60c₅t²‖² dt (DESIGN §5).
+    // ∫₀ᵀ ‖6c₃ + 24c₄t + 60c₅t²‖² dt (docs/design.md §11, J_m).
     energy += 36.0 * c33 * t1 + 144.0 * c34 * t2 + 192.0 * c44 * t3 + 240.0 * c35 * t3 +
               720.0 * c45 * t4 + 720.0 * c55 * t5;
     if (grad_c != nullptr) {

@@ -11,7 +11,7 @@
 namespace strata {
 namespace {
 
-// The rule of DESIGN.md §5 evaluated literally: every pair, the elevation angle by atan2.
+// The rule of docs/design.md §3 evaluated literally: every pair, the elevation angle by atan2.
 std::vector<std::uint8_t> NaiveValidGround(const PointCloud& cloud,
                                            const GroundFilterConfig& config) {
   std::vector<std::uint8_t> valid(cloud.size(), 1);

@@ -186,7 +186,7 @@ TEST_P(MincoSizes, JerkEnergyGradientMatchesFiniteDifferences) {
   EXPECT_LT(RelErr(grad_T2, 2.0 * grad_T), 1e-14);
 
   // The closed form as a function of (c, T) alone: the energy of a Minco3 is read from its
-  // coefficients and durations, so re-derive it here from the DESIGN formula.
+  // coefficients and durations, so re-derive it here from the formula in docs/design.md §11.
   const auto energy_of = [pieces = pieces](const Eigen::MatrixXd& c, const Eigen::VectorXd& t) {
     double e = 0.0;
     for (int i = 0; i < pieces; ++i) {

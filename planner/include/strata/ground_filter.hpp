@@ -1,5 +1,5 @@
 #pragma once
-/// Valid Ground Filter (paper Sec. III, eq. 1, Alg. 1, Fig. 2; DESIGN.md §5).
+/// Valid Ground Filter (paper Sec. III, eq. 1, Alg. 1, Fig. 2; docs/design.md §3).
 
 #include <cstdint>
 #include <vector>

@@ -1,5 +1,5 @@
 #pragma once
-/// The safety penalty field S and its diffusion S' (paper Sec. IV, DESIGN.md §5).
+/// The safety penalty field S and its diffusion S' (paper Sec. IV, docs/design.md §6).
 
 #include <vector>
 

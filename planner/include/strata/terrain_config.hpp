@@ -9,7 +9,7 @@
 
 namespace strata {
 
-/// Valid Ground Filter (paper Sec. III, eq. 1; DESIGN.md §5).
+/// Valid Ground Filter (paper Sec. III, eq. 1; docs/design.md §3).
 struct GroundFilterConfig {
   /// Neighbourhood radius r [m], > 0. At least the radius of the sphere enclosing the robot.
   double radius_m = 0.3;
