@@ -1,26 +1,29 @@
 #include "flags.hpp"
 
+#include <CLI/CLI.hpp>
 #include <cctype>
 #include <charconv>
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 namespace strata::server {
 namespace {
 
-using Setter = std::function<std::optional<std::string>(ServerConfig&, const std::string&)>;
+constexpr const char* kVersion = "strata-server 0.1.0 (API strata.v1)";
 
-struct FlagSpec {
-  const char* name;   // Without the leading dashes.
-  const char* value;  // Placeholder in --help; nullptr for a switch.
-  const char* help;
-  Setter set;
+// What the flags write: the configuration, and --preload and --no-preload as given.
+struct ParsedFlags {
+  ServerConfig config;
+  std::vector<std::string> preload = {kDefaultPreload};
+  bool no_preload = false;
 };
 
-std::string EnvName(const char* flag) {
+// "--map-root" -> "STRATA_MAP_ROOT".
+std::string EnvName(const std::string& flag) {
   std::string env = "STRATA_";
-  for (const char* c = flag; *c != '\0'; ++c) {
-    env += *c == '-' ? '_' : static_cast<char>(std::toupper(static_cast<unsigned char>(*c)));
+  for (const char c : flag.substr(2)) {
+    env += c == '-' ? '_' : static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
   }
   return env;
 }
@@ -41,120 +44,156 @@ std::optional<long long> ParseInteger(const std::string& text) {
   return value;
 }
 
-Setter IntFlag(int ServerConfig::*member, long long min, long long max) {
-  return [=](ServerConfig& c, const std::string& text) -> std::optional<std::string> {
-    const auto value = ParseInteger(text);
-    if (!value || *value < min || *value > max) {
-      return "'" + text + "' is not an integer in [" + std::to_string(min) + ", " +
-             std::to_string(max) + "]";
+// --help: each flag on one line with its value, default and variable, its description on
+// the lines below (CLI11's default layout puts the description beside the flag, which leaves
+// too little room for these).
+class HelpFormatter : public CLI::Formatter {
+ public:
+  HelpFormatter() { column_width(6); }  // The description's indent.
+
+  std::string make_option_opts(const CLI::Option* option) const override {
+    std::string text;
+    std::string notes;
+    if (option->get_expected_max() != 0) {  // Not a switch.
+      text = " " + option->get_type_name();
+      const std::string& fallback = option->get_default_str();
+      notes = "default " + (fallback.empty() ? std::string("none") : fallback);
     }
-    c.*member = static_cast<int>(*value);
-    return std::nullopt;
-  };
-}
-
-Setter PositiveSeconds(double ServerConfig::*member, bool allow_zero) {
-  return [=](ServerConfig& c, const std::string& text) -> std::optional<std::string> {
-    const auto value = ParseDouble(text);
-    if (!value || *value < 0 || (!allow_zero && *value == 0)) {
-      return "'" + text + "' is not a number of seconds " + (allow_zero ? ">= 0" : "> 0");
+    if (!option->get_envname().empty()) {
+      notes += (notes.empty() ? "env " : ", env ") + option->get_envname();
     }
-    c.*member = *value;
-    return std::nullopt;
-  };
-}
-
-const std::vector<FlagSpec>& Flags() {
-  static const std::vector<FlagSpec> flags = {
-      {"listen", "HOST:PORT",
-       "gRPC listen address (default 0.0.0.0:50051); port 0 picks a free port, printed on the "
-       "'listening on' line",
-       [](ServerConfig& c, const std::string& v) -> std::optional<std::string> {
-         if (v.find(':') == std::string::npos) return "'" + v + "' is not HOST:PORT";
-         c.listen = v;
-         return std::nullopt;
-       }},
-      {"metrics-port", "PORT",
-       "Prometheus /metrics HTTP port, on the host of --listen (default 9090); 0 picks a free "
-       "port, -1 disables metrics",
-       IntFlag(&ServerConfig::metrics_port, -1, 65535)},
-      {"map-root", "DIR",
-       "directory map files are loaded from; paths outside it are refused (default: none, "
-       "file maps disabled)",
-       [](ServerConfig& c, const std::string& v) -> std::optional<std::string> {
-         c.map_root = v;
-         return std::nullopt;
-       }},
-      {"preload", "ID=SOURCE[,KEY=VALUE...]",
-       "map to create at start, repeatable; SOURCE a path under the map root or "
-       "scene:NAME[:SEED]; KEY resolution_m, ground_radius_m or max_tilt_rad. Default: "
-       "demo=scene:two_level_ramp. The environment variable takes a space-separated list",
-       [](ServerConfig& c, const std::string& v) -> std::optional<std::string> {
-         std::string error;
-         std::istringstream words(v);
-         std::string word;
-         while (words >> word) {
-           std::optional<PreloadSpec> spec = ParsePreloadSpec(word, &error);
-           if (!spec) return error;
-           c.preload.push_back(*spec);
-         }
-         return std::nullopt;
-       }},
-      {"no-preload", nullptr, "start without any map (not even the demo scene)",
-       [](ServerConfig& c, const std::string&) -> std::optional<std::string> {
-         c.preload.clear();
-         c.preload.push_back(PreloadSpec{});  // Marker: an explicit empty list.
-         return std::nullopt;
-       }},
-      {"max-concurrent-assessments", "N",
-       "maps assessed at the same time, off the RPC threads (default 1)",
-       IntFlag(&ServerConfig::max_concurrent_assessments, 1, 64)},
-      {"assessment-threads", "N", "threads of one assessment; 0 = every core (default 0)",
-       IntFlag(&ServerConfig::assessment_threads, 0, 1024)},
-      {"max-maps", "N", "maps held at once, in any state (default 16)",
-       IntFlag(&ServerConfig::max_maps, 1, 100000)},
-      {"max-concurrent-plans", "N",
-       "plans run at the same time; more wait for a slot until their deadline; 0 = one per "
-       "core (default 0)",
-       IntFlag(&ServerConfig::max_concurrent_plans, 0, 10000)},
-      {"max-plan-time-s", "S", "cap on every plan's time budget in seconds (default 10)",
-       PositiveSeconds(&ServerConfig::max_plan_time_s, false)},
-      {"max-points", "N", "most points one map may hold, file or upload (default 50000000)",
-       [](ServerConfig& c, const std::string& v) -> std::optional<std::string> {
-         const auto value = ParseInteger(v);
-         if (!value || *value < 1) return "'" + v + "' is not a positive integer";
-         c.max_points = static_cast<std::size_t>(*value);
-         return std::nullopt;
-       }},
-      {"max-receive-message-bytes", "N",
-       "largest request message accepted (default 4194304; at least 1114112, an upload chunk "
-       "of 1 MiB plus framing)",
-       IntFlag(&ServerConfig::max_receive_message_bytes, (1 << 20) + (64 << 10), 1 << 30)},
-      {"max-send-message-bytes", "N", "largest response message sent (default 16777216)",
-       IntFlag(&ServerConfig::max_send_message_bytes, 1 << 16, 1 << 30)},
-      {"shutdown-grace-s", "S",
-       "on SIGTERM/SIGINT, seconds in-flight calls may take to finish before they are "
-       "cancelled (default 10)",
-       PositiveSeconds(&ServerConfig::shutdown_grace_s, true)},
-      {"keepalive-time-s", "S", "keepalive ping period on idle connections (default 20)",
-       PositiveSeconds(&ServerConfig::keepalive_time_s, false)},
-      {"keepalive-timeout-s", "S",
-       "seconds to wait for a keepalive ack before closing the connection (default 10)",
-       PositiveSeconds(&ServerConfig::keepalive_timeout_s, false)},
-      {"log-level", "LEVEL", "debug, info, warning or error (default info)",
-       [](ServerConfig& c, const std::string& v) -> std::optional<std::string> {
-         if (!ParseLogLevel(v, &c.log_level)) return "'" + v + "' is not a log level";
-         return std::nullopt;
-       }},
-  };
-  return flags;
-}
-
-const FlagSpec* FindFlag(const std::string& name) {
-  for (const FlagSpec& flag : Flags()) {
-    if (name == flag.name) return &flag;
+    return notes.empty() ? text : text + "  [" + notes + "]";
   }
-  return nullptr;
+};
+
+// Checks; CLI11 prefixes their messages with the flag's name.
+CLI::Validator IntegerIn(long long min, long long max) {
+  return CLI::Range(min, max).description("");  // The placeholder alone in --help.
+}
+
+CLI::Validator Seconds(bool allow_zero) {
+  return CLI::Validator(
+      [allow_zero](std::string& text) {
+        const auto value = ParseDouble(text);
+        if (value && *value >= 0 && (allow_zero || *value > 0)) return std::string();
+        return "'" + text + "' is not a number of seconds " + (allow_zero ? ">= 0" : "> 0");
+      },
+      "");
+}
+
+// Adds the flags to `app`, writing into `parsed`. With `environment`, every flag also reads
+// its variable; ParseFlags parses the command line alone first, so a check that fails then
+// failed on a variable, and its message says which.
+void AddFlags(CLI::App& app, ParsedFlags& parsed, bool environment) {
+  app.description(
+      "Serves Strata's gRPC API (strata.v1.MapService, strata.v1.PlannerService, health,\n"
+      "reflection) and Prometheus metrics. Every flag can also be set by the environment\n"
+      "variable shown with it; a flag overrides its variable.");
+  app.formatter(std::make_shared<HelpFormatter>());
+  app.set_help_flag("-h,--help", "print this help and exit");
+  app.set_version_flag("--version", kVersion, "print the version and exit");
+
+  auto finish = [environment](CLI::Option* option, const std::string& name, CLI::Validator check) {
+    if (environment) {
+      const std::string env = EnvName(name);
+      option->envname(env);
+      check = CLI::Validator(
+          [check, env](std::string& text) {
+            const std::string problem = check(text);
+            return problem.empty() ? problem : problem + " (from " + env + ")";
+          },
+          "");
+    }
+    option->check(std::move(check));
+  };
+  auto add = [&](const std::string& name, auto& value, const char* placeholder, const char* help,
+                 CLI::Validator check) {
+    finish(app.add_option(name, value, help)->type_name(placeholder)->capture_default_str(), name,
+           std::move(check));
+  };
+  ServerConfig& config = parsed.config;
+  add("--listen", config.listen, "HOST:PORT",
+      "gRPC listen address; port 0 picks a free port, printed on the 'listening on' line",
+      CLI::Validator(
+          [](std::string& text) {
+            return text.find(':') == std::string::npos ? "'" + text + "' is not HOST:PORT"
+                                                       : std::string();
+          },
+          ""));
+  add("--metrics-port", config.metrics_port, "PORT",
+      "Prometheus /metrics HTTP port, on the host of --listen; 0 picks a free port,\n"
+      "-1 disables metrics",
+      IntegerIn(-1, 65535));
+  add("--map-root", config.map_root, "DIR",
+      "directory map files are loaded from; paths outside it are refused; none: file maps\n"
+      "are disabled",
+      CLI::Validator());
+
+  CLI::Option* preload =
+      app.add_option("--preload", parsed.preload,
+                     "map to create at start, repeatable; SOURCE a path under the map root or\n"
+                     "scene:NAME[:SEED]; KEY resolution_m, ground_radius_m or max_tilt_rad.\n"
+                     "The environment variable takes a space-separated list")
+          ->type_name("ID=SOURCE[,KEY=VALUE...]")
+          ->default_str(kDefaultPreload)
+          ->delimiter(' ')
+          ->allow_extra_args(false);  // One map per --preload.
+  finish(preload, "--preload",
+         CLI::Validator(
+             [](std::string& text) {
+               std::string error;
+               return ParsePreloadSpec(text, &error) ? std::string() : error;
+             },
+             ""));
+  CLI::Option* no_preload = app.add_flag("--no-preload", parsed.no_preload,
+                                         "start without any map (not even the demo scene)");
+  finish(no_preload, "--no-preload",
+         CLI::IsMember({"1", "0", "true", "false", "yes", "no", "on", "off"}, CLI::ignore_case)
+             .description(""));
+  // Both on the command line contradict each other; from the environment, see ParseFlags.
+  if (!environment) no_preload->excludes(preload);
+
+  add("--max-concurrent-assessments", config.max_concurrent_assessments, "N",
+      "maps assessed at the same time, off the RPC threads", IntegerIn(1, 64));
+  add("--assessment-threads", config.assessment_threads, "N",
+      "threads of one assessment; 0 = every core", IntegerIn(0, 1024));
+  add("--max-maps", config.max_maps, "N", "maps held at once, in any state", IntegerIn(1, 100000));
+  add("--max-concurrent-plans", config.max_concurrent_plans, "N",
+      "plans run at the same time; more wait for a slot until their deadline; 0 = one per\n"
+      "core",
+      IntegerIn(0, 10000));
+  add("--max-plan-time-s", config.max_plan_time_s, "S",
+      "cap on every plan's time budget in seconds", Seconds(false));
+  add("--max-points", config.max_points, "N", "most points one map may hold, file or upload",
+      IntegerIn(1, std::numeric_limits<long long>::max()));
+  add("--max-receive-message-bytes", config.max_receive_message_bytes, "N",
+      "largest request message accepted; at least 1114112, an upload chunk of 1 MiB plus\n"
+      "framing",
+      IntegerIn((1 << 20) + (64 << 10), 1 << 30));
+  add("--max-send-message-bytes", config.max_send_message_bytes, "N",
+      "largest response message sent", IntegerIn(1 << 16, 1 << 30));
+  add("--shutdown-grace-s", config.shutdown_grace_s, "S",
+      "on SIGTERM/SIGINT, seconds in-flight calls may take to finish before they are\n"
+      "cancelled",
+      Seconds(true));
+  add("--keepalive-time-s", config.keepalive_time_s, "S",
+      "keepalive ping period on idle connections, in seconds", Seconds(false));
+  add("--keepalive-timeout-s", config.keepalive_timeout_s, "S",
+      "seconds to wait for a keepalive ack before closing the connection", Seconds(false));
+  finish(app.add_option_function<std::string>(
+                "--log-level",
+                [&config](const std::string& text) { ParseLogLevel(text, &config.log_level); },
+                "debug, info, warning or error")
+             ->type_name("LEVEL")
+             ->default_str(LogLevelName(config.log_level)),
+         "--log-level",
+         CLI::Validator(
+             [](std::string& text) {
+               LogLevel level;
+               return ParseLogLevel(text, &level) ? std::string()
+                                                  : "'" + text + "' is not a log level";
+             },
+             ""));
 }
 
 }  // namespace
@@ -209,94 +248,70 @@ std::optional<PreloadSpec> ParsePreloadSpec(const std::string& text, std::string
   return spec;
 }
 
-FlagsOutcome ParseFlags(int argc, const char* const* argv,
-                        const std::function<const char*(const char*)>& getenv) {
+FlagsOutcome ParseFlags(int argc, const char* const* argv) {
   FlagsOutcome outcome;
-  ServerConfig& config = outcome.config;
-  auto fail = [&](std::string message) {
+  auto fail = [&outcome](std::string message) {
     outcome.action = FlagsOutcome::Action::kError;
-    outcome.error = std::move(message);
+    outcome.text = std::move(message);
     return outcome;
   };
-
-  // The environment first, so flags override it.
-  for (const FlagSpec& flag : Flags()) {
-    const std::string env = EnvName(flag.name);
-    const char* value = getenv ? getenv(env.c_str()) : nullptr;
-    if (value == nullptr || *value == '\0') continue;
-    if (flag.value == nullptr) {
-      const std::string v(value);
-      if (v == "0" || v == "false") continue;
-    }
-    if (auto error = flag.set(config, value)) return fail(env + ": " + *error);
+  // The command line alone first, so that its errors name flags, not variables.
+  ParsedFlags line;
+  CLI::App line_app("", "strata-server");
+  AddFlags(line_app, line, /*environment=*/false);
+  try {
+    line_app.parse(argc, argv);
+  } catch (const CLI::CallForHelp&) {
+    outcome.action = FlagsOutcome::Action::kHelp;
+    outcome.text = UsageText();
+    return outcome;
+  } catch (const CLI::CallForVersion& version) {
+    outcome.action = FlagsOutcome::Action::kVersion;
+    outcome.text = std::string(version.what()) + "\n";
+    return outcome;
+  } catch (const CLI::ParseError& error) {
+    return fail(std::string(error.what()) + " (strata-server --help lists the flags)");
   }
-  bool preload_from_flags = false;
-  for (int i = 1; i < argc; ++i) {
-    std::string arg = argv[i];
-    if (arg == "--help" || arg == "-h") {
-      outcome.action = FlagsOutcome::Action::kHelp;
-      return outcome;
-    }
-    if (arg == "--version") {
-      outcome.action = FlagsOutcome::Action::kVersion;
-      return outcome;
-    }
-    if (arg.rfind("--", 0) != 0) return fail("unexpected argument '" + arg + "' (see --help)");
-    std::string name = arg.substr(2);
-    std::optional<std::string> value;
-    if (const std::size_t eq = name.find('='); eq != std::string::npos) {
-      value = name.substr(eq + 1);
-      name = name.substr(0, eq);
-    }
-    const FlagSpec* flag = FindFlag(name);
-    if (flag == nullptr) return fail("unknown flag --" + name + " (see --help)");
-    if (flag->value == nullptr) {
-      if (value) return fail("--" + name + " takes no value");
-      flag->set(config, "");
-      continue;
-    }
-    if (!value) {
-      if (i + 1 >= argc) return fail("--" + name + " needs a value: " + flag->value);
-      value = argv[++i];
-    }
-    if (name == "preload" && !preload_from_flags) {
-      config.preload.clear();  // Flags replace the environment's list.
-      preload_from_flags = true;
-    }
-    if (auto error = flag->set(config, *value)) return fail("--" + name + ": " + *error);
+  // Then over the environment: only a variable can fail now, and its check names it.
+  ParsedFlags parsed;
+  CLI::App app("", "strata-server");
+  AddFlags(app, parsed, /*environment=*/true);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& error) {
+    return fail(error.what());
   }
-  // --no-preload leaves one empty marker; remove it (and anything before it is moot).
-  const bool explicit_empty = !config.preload.empty() && config.preload.back().id.empty();
-  if (explicit_empty) {
-    config.preload.clear();
-  } else if (config.preload.empty()) {
-    PreloadSpec demo;
-    demo.id = "demo";
-    demo.scene_name = "two_level_ramp";
-    config.preload.push_back(demo);
+  // --preload on the command line beats STRATA_NO_PRELOAD as it beats STRATA_PRELOAD;
+  // --no-preload (or its variable) beats STRATA_PRELOAD.
+  const bool preload_given = line_app.get_option("--preload")->count() > 0;
+  if (parsed.no_preload && !preload_given) parsed.preload.clear();
+  outcome.config = parsed.config;
+  for (const std::string& text : parsed.preload) {
+    std::string error;
+    std::optional<PreloadSpec> spec = ParsePreloadSpec(text, &error);
+    if (!spec) return fail(error);  // Only kDefaultPreload is not checked by the flag.
+    outcome.config.preload.push_back(std::move(*spec));
   }
   return outcome;
 }
 
-std::string UsageText() {
-  std::string text =
-      "Usage: strata-server [FLAGS]\n"
-      "Serves Strata's gRPC API (strata.v1.MapService, strata.v1.PlannerService, health,\n"
-      "reflection) and Prometheus metrics. Every flag can also be set by the environment\n"
-      "variable in brackets; a flag overrides its variable.\n\n";
-  for (const FlagSpec& flag : Flags()) {
-    text += "  --";
-    text += flag.name;
-    if (flag.value != nullptr) {
-      text += ' ';
-      text += flag.value;
-    }
-    text += "  [" + EnvName(flag.name) + "]\n      ";
-    text += flag.help;
-    text += '\n';
+std::vector<FlagInfo> DescribeFlags() {
+  ParsedFlags defaults;
+  CLI::App app("", "strata-server");
+  AddFlags(app, defaults, /*environment=*/true);
+  std::vector<FlagInfo> flags;
+  for (const CLI::Option* option : app.get_options()) {
+    if (option == app.get_help_ptr() || option == app.get_version_ptr()) continue;
+    flags.push_back({option->get_name(), option->get_default_str(), option->get_envname()});
   }
-  text += "  --help, --version\n";
-  return text;
+  return flags;
+}
+
+std::string UsageText() {
+  ParsedFlags defaults;
+  CLI::App app("", "strata-server");
+  AddFlags(app, defaults, /*environment=*/true);
+  return app.help();
 }
 
 }  // namespace strata::server

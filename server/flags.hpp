@@ -1,9 +1,11 @@
 #pragma once
-/// strata-server's configuration: command-line flags, each with an environment variable
-/// (STRATA_ and the flag's name in upper case, dashes as underscores, e.g. --map-root and
-/// STRATA_MAP_ROOT). A flag overrides its variable. server/README.md has the table.
+/// strata-server's configuration: command-line flags (parsed with CLI11), each with an
+/// environment variable: STRATA_ and the flag's name in upper case, dashes as underscores
+/// (--map-root and STRATA_MAP_ROOT). A flag overrides its variable. Every default is the
+/// initial value of a ServerConfig field below (--preload's is kDefaultPreload); --help prints
+/// them, and tests/server/flags_test.cpp checks that server/README.md and README.md agree.
 #include <cstddef>
-#include <functional>
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <vector>
@@ -24,6 +26,9 @@ struct PreloadSpec {
   std::optional<double> max_tilt_rad;
 };
 
+/// --preload's default, the demo scene; --no-preload starts without it.
+inline constexpr const char* kDefaultPreload = "demo=scene:two_level_ramp";
+
 struct ServerConfig {
   /// gRPC listen address host:port; port 0 picks a free port (printed at start).
   std::string listen = "0.0.0.0:50051";
@@ -32,8 +37,7 @@ struct ServerConfig {
   int metrics_port = 9090;
   /// Directory map files are confined to; empty disables file maps.
   std::string map_root;
-  /// Maps created at start. Without --preload (and without --no-preload): the demo scene,
-  /// "demo=scene:two_level_ramp".
+  /// Maps created at start: --preload, else kDefaultPreload; none with --no-preload.
   std::vector<PreloadSpec> preload;
   /// Maps assessed at the same time [-], >= 1.
   int max_concurrent_assessments = 1;
@@ -64,13 +68,24 @@ struct ServerConfig {
 /// What the command line asks for.
 struct FlagsOutcome {
   enum class Action { kRun, kHelp, kVersion, kError } action = Action::kRun;
-  ServerConfig config;
-  std::string error;  ///< For kError: names the flag and the problem.
+  ServerConfig config;  ///< For kRun.
+  /// For kHelp the --help text and for kVersion the version (each ending in a newline); for
+  /// kError the problem, naming the flag, or the variable when the value came from it.
+  std::string text;
 };
 
-/// Parses argv over the environment (`getenv`, e.g. std::getenv).
-FlagsOutcome ParseFlags(int argc, const char* const* argv,
-                        const std::function<const char*(const char*)>& getenv);
+/// Parses argv over the process environment: a flag's variable applies where the flag is not
+/// on the command line. Exits nothing and prints nothing.
+FlagsOutcome ParseFlags(int argc, const char* const* argv);
+
+/// One flag as --help shows it.
+struct FlagInfo {
+  std::string name;          ///< "--map-root".
+  std::string default_text;  ///< As --help prints it; empty for none (a switch, --map-root).
+  std::string env;           ///< "STRATA_MAP_ROOT".
+};
+/// Every flag but --help and --version, in --help's order.
+std::vector<FlagInfo> DescribeFlags();
 
 /// `ID=SOURCE[,KEY=VALUE...]`; the error names the problem.
 std::optional<PreloadSpec> ParsePreloadSpec(const std::string& text, std::string* error);

@@ -12,16 +12,6 @@ namespace {
 
 std::atomic<int> g_level{static_cast<int>(LogLevel::kInfo)};
 
-const char* LevelName(LogLevel level) {
-  switch (level) {
-    case LogLevel::kDebug: return "debug";
-    case LogLevel::kInfo: return "info";
-    case LogLevel::kWarning: return "warning";
-    case LogLevel::kError: return "error";
-  }
-  return "info";
-}
-
 void AppendTimestamp(std::string* line) {
   const auto now = std::chrono::system_clock::now();
   const std::time_t seconds = std::chrono::system_clock::to_time_t(now);
@@ -76,6 +66,16 @@ void AppendValue(std::string* line, std::string_view value) {
 
 }  // namespace
 
+const char* LogLevelName(LogLevel level) {
+  switch (level) {
+    case LogLevel::kDebug: return "debug";
+    case LogLevel::kInfo: return "info";
+    case LogLevel::kWarning: return "warning";
+    case LogLevel::kError: return "error";
+  }
+  return "info";
+}
+
 void SetLogLevel(LogLevel level) { g_level.store(static_cast<int>(level)); }
 
 bool LogEnabled(LogLevel level) { return static_cast<int>(level) >= g_level.load(); }
@@ -100,7 +100,7 @@ LogRecord::LogRecord(LogLevel level, std::string_view event) : enabled_(LogEnabl
   line_ += "ts=";
   AppendTimestamp(&line_);
   line_ += " level=";
-  line_ += LevelName(level);
+  line_ += LogLevelName(level);
   Add("event", event);
 }
 

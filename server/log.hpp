@@ -16,6 +16,8 @@ void SetLogLevel(LogLevel level);
 bool LogEnabled(LogLevel level);
 /// "debug", "info", "warning" (or "warn"), "error"; false for anything else.
 bool ParseLogLevel(std::string_view text, LogLevel* level);
+/// "debug", "info", "warning", "error": what ParseLogLevel reads back.
+const char* LogLevelName(LogLevel level);
 
 /// A record being built; it is written when destroyed.
 class LogRecord {

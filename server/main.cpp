@@ -20,8 +20,6 @@ using strata::server::LogError;
 using strata::server::LogInfo;
 using strata::server::LogWarning;
 
-constexpr const char* kVersion = "strata-server 0.1.0 (API strata.v1)";
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -33,15 +31,12 @@ int main(int argc, char** argv) {
   sigaddset(&signals, SIGINT);
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);
 
-  const FlagsOutcome flags =
-      strata::server::ParseFlags(argc, argv, [](const char* name) { return std::getenv(name); });
+  const FlagsOutcome flags = strata::server::ParseFlags(argc, argv);
   switch (flags.action) {
     case FlagsOutcome::Action::kHelp:
-      std::fputs(strata::server::UsageText().c_str(), stdout);
-      return 0;
-    case FlagsOutcome::Action::kVersion: std::puts(kVersion); return 0;
+    case FlagsOutcome::Action::kVersion: std::fputs(flags.text.c_str(), stdout); return 0;
     case FlagsOutcome::Action::kError:
-      std::fprintf(stderr, "strata-server: %s\n", flags.error.c_str());
+      std::fprintf(stderr, "strata-server: %s\n", flags.text.c_str());
       return 2;
     case FlagsOutcome::Action::kRun: break;
   }
