@@ -1,52 +1,44 @@
 #pragma once
-// Command-line parsing for the strata CLI: positionals and --flags (as "--name value" or
-// "--name=value", anywhere on the line). Bad arguments throw UsageError, which main turns
-// into a message and exit code 2.
+// The strata CLI's command line on CLI11: subcommands that run after parsing, and the checks
+// of the values the commands share (finite numbers, x,y,z). A bad command line is a
+// CLI::ParseError, which main turns into a message and exit code 2.
 #include <array>
-#include <map>
+#include <functional>
+#include <memory>
 #include <optional>
-#include <set>
-#include <stdexcept>
 #include <string>
-#include <vector>
+#include <utility>
+
+#include <CLI/CLI.hpp>
 
 namespace strata::cli {
 
-/// A bad command line: main prints it with a hint and exits with code 2.
-class UsageError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
+/// What parsing selected: runs the command and returns the exit code.
+using Command = std::function<int()>;
 
-/// Parsed argv. Each command takes the flags it knows; Finish() rejects what is left.
-class Arguments {
- public:
-  /// Parses argv[1..]; `boolean_flags` take no value. Throws UsageError on "--" alone or a
-  /// value flag at the end of the line.
-  Arguments(int argc, const char* const* argv, const std::set<std::string>& boolean_flags);
+/// Adds subcommand `name` to `parent`. Its options write into the returned Flags; when the
+/// command line selects it, parsing sets *run to `body(flags)` (run after parsing, so
+/// that a command never starts on a half-checked command line).
+template <typename Flags>
+std::pair<CLI::App*, std::shared_ptr<Flags>> AddCommand(CLI::App& parent, const std::string& name,
+                                                        const std::string& help, Command* run,
+                                                        std::function<int(const Flags&)> body) {
+  auto flags = std::make_shared<Flags>();
+  CLI::App* command = parent.add_subcommand(name, help);
+  command->callback(
+      [flags, run, body = std::move(body)] { *run = [flags, body] { return body(*flags); }; });
+  return {command, flags};
+}
 
-  /// Removes and returns the next positional; nullopt when there are none left.
-  std::optional<std::string> NextPositional();
-  /// Removes and returns the flag's value (the last one when repeated).
-  std::optional<std::string> Take(const std::string& name);
-  /// Removes a boolean flag; true when it was given.
-  bool TakeBool(const std::string& name);
-  /// Take() parsed as a finite number; throws UsageError naming the flag otherwise.
-  std::optional<double> TakeDouble(const std::string& name);
-  /// Take() parsed as an integer in [min, max].
-  std::optional<long long> TakeInteger(const std::string& name, long long min, long long max);
-  /// Take() parsed as "x,y,z" (three finite numbers).
-  std::optional<std::array<double, 3>> TakeVector3(const std::string& name);
+/// Checks: a finite number (CLI11's own number checks let inf and nan through), and one > 0.
+CLI::Validator FiniteNumber();
+CLI::Validator PositiveNumber();
 
-  /// Throws UsageError naming the first unused flag or positional.
-  void Finish() const;
+/// Adds `--name x,y,z` (three finite numbers, in metres) writing into *xyz.
+CLI::Option* AddVector3(CLI::App& command, const std::string& name, const std::string& help,
+                        std::optional<std::array<double, 3>>* xyz);
 
- private:
-  std::vector<std::string> positionals_;
-  std::multimap<std::string, std::string> flags_;
-};
-
-/// Parses a finite double; throws UsageError naming `what`.
-double ParseDouble(const std::string& text, const std::string& what);
+/// "x,y,z" as three finite numbers; nullopt with the problem in *error otherwise.
+std::optional<std::array<double, 3>> ParseVector3(const std::string& text, std::string* error);
 
 }  // namespace strata::cli

@@ -1,26 +1,43 @@
 #pragma once
-// The strata subcommands. Each takes the arguments after its name (global flags already
-// taken), throws UsageError for bad ones, and returns the process exit code.
+// The strata commands. Each Add*Command adds its subcommand(s) and their flags to the CLI11
+// app; parsing sets *run to the selected one, which throws UsageError for bad input that
+// parsing cannot see (a file, a combination of flags) and returns the process exit code.
+#include <array>
+#include <optional>
+#include <string>
+#include <vector>
+
 #include "arguments.hpp"
 #include "context.hpp"
 #include "strata/v1/planner_service.pb.h"
 
 namespace strata::cli {
 
-/// `strata maps create|upload|get|list|delete ...`
-int RunMaps(const Context& ctx, Arguments& args);
-/// `strata plan ...`
-int RunPlan(const Context& ctx, Arguments& args);
-/// `strata setpoints ...`
-int RunSetpoints(const Context& ctx, Arguments& args);
+/// The whole command line: global flags (into *ctx), every command, help.
+void AddStrataCommands(CLI::App& app, Context* ctx, Command* run);
 
-/// A PlanRequest from --map, --start, --goal, --robot, --time-budget, --sample-dt; throws
-/// UsageError when one is missing or malformed.
-v1::PlanRequest PlanRequestFromArguments(Arguments& args);
+/// `strata maps create|upload|get|list|delete ...`
+void AddMapsCommands(CLI::App& app, const Context& ctx, Command* run);
+/// `strata plan ...`
+void AddPlanCommand(CLI::App& app, const Context& ctx, Command* run);
+/// `strata setpoints ...`
+void AddSetpointsCommand(CLI::App& app, const Context& ctx, Command* run);
+
+/// The flags of a plan request, shared by `plan` and `setpoints`.
+struct PlanFlags {
+  std::string map;
+  std::optional<std::array<double, 3>> start;
+  std::optional<std::array<double, 3>> goal;
+  std::string robot = "differential";
+  std::optional<double> time_budget_s;
+  std::optional<double> sample_dt_s;
+};
+/// Adds --map, --start, --goal (`required` or not), --robot, --time-budget, --sample-dt;
+/// returns them.
+std::vector<CLI::Option*> AddPlanFlags(CLI::App& command, PlanFlags* flags, bool required);
+/// The PlanRequest; throws UsageError when --map, --start or --goal is missing.
+v1::PlanRequest PlanRequestFromFlags(const PlanFlags& flags);
 /// Calls Plan with the context's deadline; on failure reports it and returns false.
 bool CallPlan(const Context& ctx, const v1::PlanRequest& request, v1::PlanResponse* response);
-
-/// The usage text.
-const char* UsageText();
 
 }  // namespace strata::cli

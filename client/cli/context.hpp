@@ -1,6 +1,8 @@
 #pragma once
-// What every strata command gets: the server, the call deadline, the output mode, streams.
+// What every strata command gets: the server, the call deadline, the output mode, streams;
+// and how it fails.
 #include <iostream>
+#include <stdexcept>
 #include <string>
 
 namespace strata::cli {
@@ -9,6 +11,13 @@ namespace strata::cli {
 inline constexpr int kExitOk = 0;
 inline constexpr int kExitRpcError = 1;  ///< The server answered with an error (or none).
 inline constexpr int kExitUsage = 2;     ///< Bad arguments or an unusable input file.
+
+/// Bad input that CLI11 cannot see while parsing (an unreadable or malformed file, a missing
+/// combination of flags): main prints it with a hint and exits with kExitUsage.
+class UsageError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
 
 struct Context {
   std::string server = "127.0.0.1:50051";  ///< --server, or $STRATA_SERVER.

@@ -1,39 +1,40 @@
 // strata: the command-line client of strata-server. See client/README.md.
-#include <cstdlib>
 #include <exception>
 #include <iostream>
 
-#include "arguments.hpp"
 #include "commands.hpp"
-#include "context.hpp"
 
 namespace strata::cli {
 namespace {
 
 int Run(int argc, const char* const* argv) {
-  Arguments args(argc, argv, {"json", "wait", "help"});
   Context ctx;
-  if (const char* server = std::getenv("STRATA_SERVER"); server != nullptr && *server != '\0') {
-    ctx.server = server;
-  }
-  ctx.server = args.Take("server").value_or(ctx.server);
-  ctx.deadline_s = args.TakeDouble("deadline").value_or(ctx.deadline_s);
-  if (ctx.deadline_s <= 0) throw UsageError("--deadline must be > 0 s");
-  ctx.json = args.TakeBool("json");
-  if (args.TakeBool("help")) {
-    std::cout << UsageText();
+  Command run;
+  CLI::App app("", "strata");
+  AddStrataCommands(app, &ctx, &run);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp&) {
+    std::cout << app.help();
     return kExitOk;
-  }
-  const auto command = args.NextPositional();
-  if (!command) throw UsageError("no command given");
-  if (*command == "help") {
-    std::cout << UsageText();
+  } catch (const CLI::CallForAllHelp&) {
+    std::cout << app.help("", CLI::AppFormatMode::All);
     return kExitOk;
+  } catch (const CLI::ParseError& error) {
+    throw UsageError(error.what());
   }
-  if (*command == "maps") return RunMaps(ctx, args);
-  if (*command == "plan") return RunPlan(ctx, args);
-  if (*command == "setpoints") return RunSetpoints(ctx, args);
-  throw UsageError("unknown command \"" + *command + "\"");
+  if (!run) {
+    // No command, or `maps` without one: name what the last command given offers.
+    const CLI::App* given = &app;
+    while (!given->get_subcommands().empty()) given = given->get_subcommands().front();
+    std::string commands;
+    for (const CLI::App* command : given->get_subcommands({})) {
+      commands += (commands.empty() ? "" : ", ") + command->get_name();
+    }
+    throw UsageError("no command given; " + given->get_display_name(true) +
+                     " takes one of: " + commands);
+  }
+  return run();
 }
 
 }  // namespace

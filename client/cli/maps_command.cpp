@@ -70,34 +70,59 @@ void PrintMap(const Context& ctx, const v1::Map& map) {
   }
 }
 
-// Terrain flags shared by create and upload.
-void TakeTerrain(Arguments& args, v1::TerrainParameters* terrain) {
-  if (auto v = args.TakeDouble("resolution")) terrain->set_resolution_m(*v);
-  if (auto v = args.TakeDouble("ground-radius")) terrain->set_ground_radius_m(*v);
-  if (auto v = args.TakeDouble("max-tilt")) terrain->set_max_tilt_rad(*v);
-  if (auto v = args.TakeDouble("height-tolerance")) terrain->set_height_tolerance_m(*v);
-  if (auto v = args.TakeDouble("padding")) terrain->set_padding_m(*v);
+// TerrainParameters (proto/strata/v1/common.proto), shared by create and upload; unset ones
+// take the server's defaults.
+struct TerrainFlags {
+  std::optional<double> resolution_m;
+  std::optional<double> ground_radius_m;
+  std::optional<double> max_tilt_rad;
+  std::optional<double> height_tolerance_m;
+  std::optional<double> padding_m;
+};
+
+void AddTerrainFlags(CLI::App& command, TerrainFlags* terrain) {
+  auto add = [&command](const char* name, std::optional<double>* value, const char* unit,
+                        const char* help) {
+    command.add_option(name, *value, help)
+        ->type_name(unit)
+        ->check(FiniteNumber())
+        ->group("Terrain (TerrainParameters; unset: the server's default)");
+  };
+  add("--resolution", &terrain->resolution_m, "M", "edge of a grid cell");
+  add("--ground-radius", &terrain->ground_radius_m, "M", "Valid Ground Filter radius");
+  add("--max-tilt", &terrain->max_tilt_rad, "RAD", "steepest slope a robot may stand on");
+  add("--height-tolerance", &terrain->height_tolerance_m, "M",
+      "rise the Valid Ground Filter ignores as sensor noise");
+  add("--padding", &terrain->padding_m, "M", "margin added around the cloud's bounds");
 }
 
-int Create(const Context& ctx, Arguments& args) {
+void SetTerrain(const TerrainFlags& flags, v1::TerrainParameters* terrain) {
+  if (flags.resolution_m) terrain->set_resolution_m(*flags.resolution_m);
+  if (flags.ground_radius_m) terrain->set_ground_radius_m(*flags.ground_radius_m);
+  if (flags.max_tilt_rad) terrain->set_max_tilt_rad(*flags.max_tilt_rad);
+  if (flags.height_tolerance_m) terrain->set_height_tolerance_m(*flags.height_tolerance_m);
+  if (flags.padding_m) terrain->set_padding_m(*flags.padding_m);
+}
+
+struct CreateFlags {
+  std::string id;
+  std::optional<std::string> file;
+  std::optional<std::string> scene;
+  std::optional<long long> seed;
+  TerrainFlags terrain;
+  bool wait = false;
+};
+
+int Create(const Context& ctx, const CreateFlags& flags) {
   v1::CreateMapRequest request;
-  request.set_map_id(args.NextPositional().value_or(""));
-  const auto file = args.Take("file");
-  const auto scene = args.Take("scene");
-  const auto seed = args.TakeInteger("seed", 0, 4294967295LL);
-  if (file.has_value() == scene.has_value()) {
-    throw UsageError("maps create needs exactly one of --file PATH and --scene NAME");
+  request.set_map_id(flags.id);
+  if (flags.file) request.mutable_file()->set_path(*flags.file);
+  if (flags.scene) {
+    request.mutable_scene()->set_name(*flags.scene);
+    request.mutable_scene()->set_seed(static_cast<std::uint32_t>(flags.seed.value_or(0)));
   }
-  if (file) request.mutable_file()->set_path(*file);
-  if (scene) {
-    request.mutable_scene()->set_name(*scene);
-    request.mutable_scene()->set_seed(static_cast<std::uint32_t>(seed.value_or(0)));
-  } else if (seed) {
-    throw UsageError("--seed goes with --scene");
-  }
-  TakeTerrain(args, request.mutable_terrain());
-  request.set_wait(args.TakeBool("wait"));
-  args.Finish();
+  SetTerrain(flags.terrain, request.mutable_terrain());
+  request.set_wait(flags.wait);
 
   grpc::ClientContext call;
   client::SetDeadline(&call, ctx.deadline_s);
@@ -108,31 +133,30 @@ int Create(const Context& ctx, Arguments& args) {
   return kExitOk;
 }
 
-int Upload(const Context& ctx, Arguments& args) {
-  const auto id = args.NextPositional();
-  const auto path = args.NextPositional();
-  if (!id || !path) throw UsageError("maps upload needs a map id and a file: maps upload ID FILE");
-  std::optional<PointFileFormat> format;
-  if (auto name = args.Take("format")) {
-    format = ParsePointFileFormat(*name);
-    if (!format) throw UsageError("--format must be pcd, xyz or raw, got \"" + *name + "\"");
-  } else {
-    format = GuessPointFileFormat(*path);
-    if (!format) {
-      throw UsageError("cannot tell the format of \"" + *path +
-                       "\" from its extension; give --format pcd, xyz or raw");
-    }
-  }
-  const std::size_t chunk_points = static_cast<std::size_t>(
-      args.TakeInteger("chunk-points", 1, kMaxChunkPoints).value_or(kMaxChunkPoints));
-  v1::UploadMapRequest header;
-  header.mutable_header()->set_map_id(*id);
-  header.mutable_header()->set_format(v1::POINT_FORMAT_XYZ_F32_LE);
-  TakeTerrain(args, header.mutable_header()->mutable_terrain());
-  header.mutable_header()->set_wait(args.TakeBool("wait"));
-  args.Finish();
+struct UploadFlags {
+  std::string id;
+  std::string path;
+  std::optional<std::string> format;
+  std::size_t chunk_points = kMaxChunkPoints;
+  TerrainFlags terrain;
+  bool wait = false;
+};
 
-  PointFileReader reader(*path, *format);  // Throws before any call for an unusable file.
+int Upload(const Context& ctx, const UploadFlags& flags) {
+  const std::string& path = flags.path;
+  const std::optional<PointFileFormat> format =
+      flags.format ? ParsePointFileFormat(*flags.format) : GuessPointFileFormat(path);
+  if (!format) {
+    throw UsageError("cannot tell the format of \"" + path +
+                     "\" from its extension; give --format pcd, xyz or raw");
+  }
+  v1::UploadMapRequest header;
+  header.mutable_header()->set_map_id(flags.id);
+  header.mutable_header()->set_format(v1::POINT_FORMAT_XYZ_F32_LE);
+  SetTerrain(flags.terrain, header.mutable_header()->mutable_terrain());
+  header.mutable_header()->set_wait(flags.wait);
+
+  PointFileReader reader(path, *format);  // Throws before any call for an unusable file.
   header.mutable_header()->set_point_count(reader.point_count());
 
   grpc::ClientContext call;
@@ -144,7 +168,7 @@ int Upload(const Context& ctx, Arguments& args) {
   std::string* points = chunk.mutable_chunk()->mutable_points();
   // A failed Write means the server ended the call; Finish() then has its status.
   try {
-    while (sending && reader.Next(chunk_points, points)) sending = stream->Write(chunk);
+    while (sending && reader.Next(flags.chunk_points, points)) sending = stream->Write(chunk);
   } catch (const UsageError&) {
     call.TryCancel();  // A malformed file part-way: abandon the upload, then report the file.
     stream->Finish();
@@ -157,12 +181,9 @@ int Upload(const Context& ctx, Arguments& args) {
   return kExitOk;
 }
 
-int Get(const Context& ctx, Arguments& args) {
-  const auto id = args.NextPositional();
-  if (!id) throw UsageError("maps get needs a map id");
-  args.Finish();
+int Get(const Context& ctx, const std::string& id) {
   v1::GetMapRequest request;
-  request.set_map_id(*id);
+  request.set_map_id(id);
   grpc::ClientContext call;
   client::SetDeadline(&call, ctx.deadline_s);
   v1::Map map;
@@ -172,15 +193,18 @@ int Get(const Context& ctx, Arguments& args) {
   return kExitOk;
 }
 
-int List(const Context& ctx, Arguments& args) {
-  const auto page_size = args.TakeInteger("page-size", 0, 1000);
-  const auto page_token = args.Take("page-token");
-  args.Finish();
+struct ListFlags {
+  std::optional<int> page_size;
+  std::optional<std::string> page_token;
+};
+
+int List(const Context& ctx, const ListFlags& flags) {
+  const auto& [page_size, page_token] = flags;
   // With --page-size or --page-token: that one page. Otherwise every page, merged.
   const bool one_page = page_size.has_value() || page_token.has_value();
   auto stub = Stub(ctx);
   v1::ListMapsRequest request;
-  request.set_page_size(static_cast<int>(page_size.value_or(0)));
+  request.set_page_size(page_size.value_or(0));
   request.set_page_token(page_token.value_or(""));
   v1::ListMapsResponse all;
   do {
@@ -213,12 +237,9 @@ int List(const Context& ctx, Arguments& args) {
   return kExitOk;
 }
 
-int Delete(const Context& ctx, Arguments& args) {
-  const auto id = args.NextPositional();
-  if (!id) throw UsageError("maps delete needs a map id");
-  args.Finish();
+int Delete(const Context& ctx, const std::string& id) {
   v1::DeleteMapRequest request;
-  request.set_map_id(*id);
+  request.set_map_id(id);
   grpc::ClientContext call;
   client::SetDeadline(&call, ctx.deadline_s);
   v1::DeleteMapResponse response;
@@ -227,23 +248,66 @@ int Delete(const Context& ctx, Arguments& args) {
   if (ctx.json) {
     *ctx.out << ToJson(response);
   } else {
-    *ctx.out << "deleted map " << *id << "\n";
+    *ctx.out << "deleted map " << id << "\n";
   }
   return kExitOk;
 }
 
 }  // namespace
 
-int RunMaps(const Context& ctx, Arguments& args) {
-  const auto verb = args.NextPositional();
-  if (!verb) throw UsageError("maps needs a subcommand: create, upload, get, list or delete");
-  if (*verb == "create") return Create(ctx, args);
-  if (*verb == "upload") return Upload(ctx, args);
-  if (*verb == "get") return Get(ctx, args);
-  if (*verb == "list") return List(ctx, args);
-  if (*verb == "delete") return Delete(ctx, args);
-  throw UsageError("unknown maps subcommand \"" + *verb +
-                   "\"; use create, upload, get, list or delete");
+void AddMapsCommands(CLI::App& app, const Context& ctx, Command* run) {
+  CLI::App* maps = app.add_subcommand("maps", "create, upload, inspect and delete maps");
+
+  auto [create, create_flags] = AddCommand<CreateFlags>(
+      *maps, "create",
+      "CreateMap from a file under the server's --map-root or a built-in scene (docs/scenes.md)",
+      run, [&ctx](const CreateFlags& flags) { return Create(ctx, flags); });
+  create->add_option("ID", create_flags->id, "map id; without one the server picks it");
+  CLI::App* source = create->add_option_group("Source", "one of --file and --scene");
+  CLI::Option* scene =
+      source->add_option("--scene", create_flags->scene, "built-in scene")->type_name("NAME");
+  source->add_option("--file", create_flags->file, "point cloud under the server's --map-root")
+      ->type_name("PATH");
+  source->require_option(1);
+  create->add_option("--seed", create_flags->seed, "the scene's seed (default 0)")
+      ->type_name("N")
+      ->check(CLI::Range(0LL, 4294967295LL).description(""))
+      ->needs(scene);
+  AddTerrainFlags(*create, &create_flags->terrain);
+  create->add_flag("--wait", create_flags->wait, "return once the map is ACTIVE or FAILED");
+
+  auto [upload, upload_flags] = AddCommand<UploadFlags>(
+      *maps, "upload", "UploadMap: streams a local point cloud in chunks of at most 1 MiB", run,
+      [&ctx](const UploadFlags& flags) { return Upload(ctx, flags); });
+  upload->add_option("ID", upload_flags->id, "map id")->required();
+  upload->add_option("FILE", upload_flags->path, "the point cloud")->required();
+  upload
+      ->add_option("--format", upload_flags->format,
+                   "pcd, xyz (text) or raw (float32 x, y, z); default: from the extension")
+      ->type_name("FORMAT")
+      ->check(CLI::IsMember({"pcd", "xyz", "raw"}).description(""));
+  upload->add_option("--chunk-points", upload_flags->chunk_points, "points per chunk")
+      ->type_name("N")
+      ->check(CLI::Range(std::size_t{1}, kMaxChunkPoints).description(""))
+      ->capture_default_str();
+  AddTerrainFlags(*upload, &upload_flags->terrain);
+  upload->add_flag("--wait", upload_flags->wait, "return once the map is ACTIVE or FAILED");
+
+  auto [get, get_id] = AddCommand<std::string>(
+      *maps, "get", "GetMap", run, [&ctx](const std::string& id) { return Get(ctx, id); });
+  get->add_option("ID", *get_id, "map id")->required();
+
+  auto [list, list_flags] =
+      AddCommand<ListFlags>(*maps, "list", "ListMaps: every page merged, or the page asked for",
+                            run, [&ctx](const ListFlags& flags) { return List(ctx, flags); });
+  list->add_option("--page-size", list_flags->page_size, "maps on one page")
+      ->type_name("N")
+      ->check(CLI::Range(0, 1000).description(""));
+  list->add_option("--page-token", list_flags->page_token, "the page to show")->type_name("T");
+
+  auto [remove, remove_id] = AddCommand<std::string>(
+      *maps, "delete", "DeleteMap", run, [&ctx](const std::string& id) { return Delete(ctx, id); });
+  remove->add_option("ID", *remove_id, "map id")->required();
 }
 
 }  // namespace strata::cli

@@ -7,7 +7,7 @@
 
 #include <google/protobuf/util/json_util.h>
 
-#include "arguments.hpp"
+#include "context.hpp"
 #include "strata/client/rpc.hpp"
 
 namespace strata::cli {

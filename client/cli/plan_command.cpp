@@ -70,20 +70,38 @@ void PrintSummary(const Context& ctx, const v1::PlanRequest& request,
 
 }  // namespace
 
-v1::PlanRequest PlanRequestFromArguments(Arguments& args) {
-  v1::PlanRequest request;
-  const auto map = args.Take("map");
-  const auto start = args.TakeVector3("start");
-  const auto goal = args.TakeVector3("goal");
-  if (!map || !start || !goal) {
-    throw UsageError("planning needs --map ID, --start x,y,z and --goal x,y,z");
+std::vector<CLI::Option*> AddPlanFlags(CLI::App& command, PlanFlags* flags, bool required) {
+  std::vector<CLI::Option*> options = {
+      command.add_option("--map", flags->map, "map id")->type_name("ID"),
+      AddVector3(command, "--start", "start position [m]; z picks the level", &flags->start),
+      AddVector3(command, "--goal", "goal position [m]; z picks the level", &flags->goal)};
+  for (CLI::Option* option : options) option->required(required);
+  options.push_back(command.add_option("--robot", flags->robot, "robot profile")
+                        ->type_name("NAME")
+                        ->capture_default_str());
+  options.push_back(
+      command.add_option("--time-budget", flags->time_budget_s, "options.time_budget_s [s]")
+          ->type_name("S")
+          ->check(FiniteNumber()));
+  options.push_back(
+      command.add_option("--sample-dt", flags->sample_dt_s, "options.sample_dt_s [s]")
+          ->type_name("S")
+          ->check(FiniteNumber()));
+  return options;
+}
+
+v1::PlanRequest PlanRequestFromFlags(const PlanFlags& flags) {
+  if (flags.map.empty() || !flags.start || !flags.goal) {
+    throw UsageError(
+        "planning needs --map ID, --start x,y,z and --goal x,y,z (setpoints: or --from PLAN.json)");
   }
-  request.set_map_id(*map);
-  SetVector(*start, request.mutable_start()->mutable_position_m());
-  SetVector(*goal, request.mutable_goal()->mutable_position_m());
-  request.set_profile_name(args.Take("robot").value_or("differential"));
-  if (auto v = args.TakeDouble("time-budget")) request.mutable_options()->set_time_budget_s(*v);
-  if (auto v = args.TakeDouble("sample-dt")) request.mutable_options()->set_sample_dt_s(*v);
+  v1::PlanRequest request;
+  request.set_map_id(flags.map);
+  SetVector(*flags.start, request.mutable_start()->mutable_position_m());
+  SetVector(*flags.goal, request.mutable_goal()->mutable_position_m());
+  request.set_profile_name(flags.robot);
+  if (flags.time_budget_s) request.mutable_options()->set_time_budget_s(*flags.time_budget_s);
+  if (flags.sample_dt_s) request.mutable_options()->set_sample_dt_s(*flags.sample_dt_s);
   return request;
 }
 
@@ -97,17 +115,21 @@ bool CallPlan(const Context& ctx, const v1::PlanRequest& request, v1::PlanRespon
   return false;
 }
 
-int RunPlan(const Context& ctx, Arguments& args) {
-  const v1::PlanRequest request = PlanRequestFromArguments(args);
-  args.Finish();
-  v1::PlanResponse response;
-  if (!CallPlan(ctx, request, &response)) return kExitRpcError;
-  if (ctx.json) {
-    *ctx.out << ToJson(response);
-  } else {
-    PrintSummary(ctx, request, response);
-  }
-  return kExitOk;
+void AddPlanCommand(CLI::App& app, const Context& ctx, Command* run) {
+  auto [plan, flags] = AddCommand<PlanFlags>(
+      app, "plan", "Plan: prints the snapped start and goal, the stats and the pieces", run,
+      [&ctx](const PlanFlags& flags) {
+        const v1::PlanRequest request = PlanRequestFromFlags(flags);
+        v1::PlanResponse response;
+        if (!CallPlan(ctx, request, &response)) return kExitRpcError;
+        if (ctx.json) {
+          *ctx.out << ToJson(response);
+        } else {
+          PrintSummary(ctx, request, response);
+        }
+        return kExitOk;
+      });
+  AddPlanFlags(*plan, flags.get(), /*required=*/true);
 }
 
 }  // namespace strata::cli

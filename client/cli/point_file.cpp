@@ -6,7 +6,7 @@
 #include <limits>
 #include <sstream>
 
-#include "arguments.hpp"
+#include "context.hpp"
 
 namespace strata::cli {
 namespace {

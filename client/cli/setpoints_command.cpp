@@ -57,35 +57,34 @@ void PrintTable(std::ostream& out, const client::PolynomialTrajectory& trajector
   if (any_held) out << "* yaw held: the speed is below the threshold (see client/README.md)\n";
 }
 
-}  // namespace
-
-int RunSetpoints(const Context& ctx, Arguments& args) {
-  v1::PlanResponse response;
-  const auto from = args.Take("from");
-  const double t0_s = args.TakeDouble("t0").value_or(0.0);
-  const double dt_s = args.TakeDouble("dt").value_or(0.1);
-  const auto steps_arg = args.TakeInteger("steps", 1, 1000000);
+struct SetpointsFlags {
+  std::optional<std::string> from;
+  PlanFlags plan;
+  double t0_s = 0.0;
+  double dt_s = 0.1;
+  std::optional<int> steps;
   client::SetpointOptions options;
-  if (auto v = args.TakeDouble("min-speed-for-yaw")) options.min_speed_for_yaw_mps = *v;
-  if (dt_s <= 0) throw UsageError("--dt must be > 0 s");
-  if (auto error = options.Validate()) throw UsageError("--min-speed-for-yaw: " + error->message);
+};
 
-  if (from) {
-    args.Finish();
-    FromJson(ReadFile(*from), "\"" + *from + "\"", &response);
+int RunSetpoints(const Context& ctx, const SetpointsFlags& flags) {
+  if (auto error = flags.options.Validate()) {
+    throw UsageError("--min-speed-for-yaw: " + error->message);
+  }
+  v1::PlanResponse response;
+  if (flags.from) {
+    FromJson(ReadFile(*flags.from), "\"" + *flags.from + "\"", &response);
   } else {
-    const v1::PlanRequest request = PlanRequestFromArguments(args);
-    args.Finish();
+    const v1::PlanRequest request = PlanRequestFromFlags(flags.plan);
     if (!CallPlan(ctx, request, &response)) return kExitRpcError;
   }
   const auto trajectory = client::PolynomialTrajectory::FromPlanResponse(response);
   if (!trajectory) throw UsageError(trajectory.error().message);
 
   // Without --steps: from t0 to the end of the trajectory (at least one setpoint).
-  const double span_steps = std::floor((trajectory->duration_s() - t0_s) / dt_s + 1e-9);
-  const int steps = steps_arg ? static_cast<int>(*steps_arg)
-                              : static_cast<int>(std::clamp(span_steps + 1, 1.0, 1e6));
-  const auto setpoints = client::ComputeSetpoints(*trajectory, t0_s, dt_s, steps, options);
+  const double span_steps = std::floor((trajectory->duration_s() - flags.t0_s) / flags.dt_s + 1e-9);
+  const int steps = flags.steps.value_or(static_cast<int>(std::clamp(span_steps + 1, 1.0, 1e6)));
+  const auto setpoints =
+      client::ComputeSetpoints(*trajectory, flags.t0_s, flags.dt_s, steps, flags.options);
   if (!setpoints) throw UsageError(setpoints.error().message);
   if (ctx.json) {
     PrintJson(*ctx.out, *trajectory, setpoints.value());
@@ -93,6 +92,39 @@ int RunSetpoints(const Context& ctx, Arguments& args) {
     PrintTable(*ctx.out, *trajectory, setpoints.value());
   }
   return kExitOk;
+}
+
+}  // namespace
+
+void AddSetpointsCommand(CLI::App& app, const Context& ctx, Command* run) {
+  auto [setpoints, flags] = AddCommand<SetpointsFlags>(
+      app, "setpoints",
+      "MPC setpoints from a saved `plan --json` output (--from) or a fresh plan (plan flags)", run,
+      [&ctx](const SetpointsFlags& flags) { return RunSetpoints(ctx, flags); });
+  CLI::Option* from = setpoints->add_option("--from", flags->from, "a saved PlanResponse in JSON")
+                          ->type_name("PLAN.json");
+  for (CLI::Option* option : AddPlanFlags(*setpoints, &flags->plan, /*required=*/false)) {
+    from->excludes(option);
+  }
+  setpoints->add_option("--t0", flags->t0_s, "trajectory time of the first setpoint [s]")
+      ->type_name("S")
+      ->check(FiniteNumber())
+      ->capture_default_str();
+  setpoints->add_option("--dt", flags->dt_s, "time between setpoints [s]")
+      ->type_name("S")
+      ->check(PositiveNumber())
+      ->capture_default_str();
+  setpoints
+      ->add_option("--steps", flags->steps,
+                   "number of setpoints (default: from t0 to the end of the trajectory)")
+      ->type_name("N")
+      ->check(CLI::Range(1, 1000000).description(""));
+  setpoints
+      ->add_option("--min-speed-for-yaw", flags->options.min_speed_for_yaw_mps,
+                   "below this horizontal speed the yaw is held")
+      ->type_name("MPS")
+      ->check(FiniteNumber())
+      ->capture_default_str();
 }
 
 }  // namespace strata::cli

@@ -9,7 +9,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "arguments.hpp"
+#include "context.hpp"
 
 namespace strata::cli {
 namespace {
