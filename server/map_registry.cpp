@@ -4,7 +4,7 @@
 #include <new>
 #include <utility>
 
-#include "strata/scenes.hpp"
+#include "strata/scenes/scenes.hpp"
 
 namespace strata::server {
 namespace {

@@ -5,7 +5,7 @@
 #include "map_root.hpp"
 #include "proto_convert.hpp"
 #include "rpc_boundary.hpp"
-#include "strata/scenes.hpp"
+#include "strata/scenes/scenes.hpp"
 #include "upload_assembler.hpp"
 
 namespace strata::server {

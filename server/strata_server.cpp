@@ -10,7 +10,6 @@
 #include "log.hpp"
 #include "map_root.hpp"
 #include "proto_convert.hpp"
-#include "strata/scenes.hpp"
 
 namespace strata::server {
 namespace {

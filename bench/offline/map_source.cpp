@@ -3,7 +3,7 @@
 #include <charconv>
 #include <chrono>
 
-#include "strata/scenes.hpp"
+#include "strata/scenes/scenes.hpp"
 
 namespace strata::offline {
 

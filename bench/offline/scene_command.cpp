@@ -7,7 +7,7 @@
 
 #include "offline/assessment_options.hpp"
 #include "strata/cloud_io.hpp"
-#include "strata/scenes.hpp"
+#include "strata/scenes/scenes.hpp"
 
 namespace strata::offline {
 namespace {

@@ -12,9 +12,9 @@
 #include <gtest/gtest.h>
 
 #include "run_offline.hpp"
-#include "strata/bench_scenes.hpp"
 #include "strata/cloud_io.hpp"
-#include "strata/scenes.hpp"
+#include "strata/scenes/paper_scenes.hpp"
+#include "strata/scenes/scenes.hpp"
 
 namespace strata {
 namespace {

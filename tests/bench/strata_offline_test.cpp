@@ -14,7 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include "run_offline.hpp"
-#include "strata/scenes.hpp"
+#include "strata/scenes/basic_scenes.hpp"
 
 namespace strata {
 namespace {

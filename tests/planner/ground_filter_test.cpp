@@ -6,7 +6,7 @@
 
 #include <gtest/gtest.h>
 
-#include "strata/scenes.hpp"
+#include "strata/scenes/basic_scenes.hpp"
 
 namespace strata {
 namespace {

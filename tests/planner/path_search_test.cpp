@@ -11,7 +11,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "strata/scenes.hpp"
+#include "strata/scenes/basic_scenes.hpp"
 #include "strata/surface_graph.hpp"
 #include "strata/terrain_model.hpp"
 

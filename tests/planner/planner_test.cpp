@@ -10,7 +10,7 @@
 #include <gtest/gtest.h>
 
 #include "strata/cloud_io.hpp"
-#include "strata/scenes.hpp"
+#include "strata/scenes/basic_scenes.hpp"
 
 namespace strata {
 namespace {

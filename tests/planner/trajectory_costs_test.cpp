@@ -8,7 +8,7 @@
 #include <gtest/gtest.h>
 
 #include "strata/minco.hpp"
-#include "strata/scenes.hpp"
+#include "strata/scenes/basic_scenes.hpp"
 #include "strata/terrain_model.hpp"
 #include "test_util/gradient_check.hpp"
 

@@ -37,9 +37,10 @@ struct LoadedCloud {
 Expected<LoadedCloud> LoadPointCloud(const std::string& path, const CloudLoadLimits& limits = {});
 
 /// Drops non-finite points and rejects coordinates beyond `max_abs_coordinate_m`, the same
-/// sanitising LoadPointCloud applies; for clouds that arrive from elsewhere (uploads, scenes).
-/// Fails with kResourceExhausted above limits.max_points, kInvalidInput for a coordinate beyond
-/// the limit or when no finite point remains, kInvalidConfig for invalid `limits`.
+/// sanitising LoadPointCloud applies; for clouds that arrive from elsewhere (uploads, generated
+/// clouds). Fails with kResourceExhausted above limits.max_points, kInvalidInput for a
+/// coordinate beyond the limit or when no finite point remains, kInvalidConfig for invalid
+/// `limits`.
 Expected<LoadedCloud> SanitizeCloud(PointCloud raw, const CloudLoadLimits& limits = {});
 
 /// Writes `cloud` to `path` as a binary PCD with float32 fields x, y, z (PCL's writer), one row

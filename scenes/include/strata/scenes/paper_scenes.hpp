@@ -1,7 +1,8 @@
 #pragma once
-/// The benchmark scenes of issue 5 (paper Sec. VI: an uneven forest, an abandoned station, a
-/// multi-level parking garage, crossing viaducts, and an indoor room with tables for the
-/// wheeled biped). Same conventions as scenes.hpp: surfaces sampled on a lattice at about
+/// Five scenes modelled on the paper's experiments (Sec. VI: an uneven forest, an abandoned
+/// station, a multi-level parking garage, crossing viaducts, and an indoor room with tables for
+/// the wheeled biped); the comparison harness (bench/compare/) runs on them. Same conventions
+/// as strata/scenes/scenes.hpp: surfaces sampled on a lattice at about
 /// `spacing_m` with seeded jitter (at most 10% of the spacing across, min(5 mm, 10%) in z),
 /// solids sampled on their visible faces only, identical output for the same seed and spacing
 /// on every platform, an empty cloud for a spacing that is not finite or below 0.01 m. Only
@@ -24,7 +25,7 @@
 #include <Eigen/Core>
 
 #include "strata/point_cloud.hpp"
-#include "strata/scenes.hpp"
+#include "strata/scenes/basic_scenes.hpp"
 
 namespace strata {
 

@@ -1,8 +1,8 @@
-// The benchmark scenes (strata/bench_scenes.hpp): determinism, bounds and sizes, the layouts'
+// The paper's scenes (strata/scenes/paper_scenes.hpp): determinism, bounds and sizes, the layouts'
 // promises, and, after terrain assessment, their levels, their example queries (reachable and
 // planned) and what must not be traversable. One assessment per scene, each well under a
 // second on two cores.
-#include "strata/bench_scenes.hpp"
+#include "strata/scenes/paper_scenes.hpp"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -16,15 +16,15 @@
 #include <vector>
 
 #include "strata/planner.hpp"
-#include "strata/scenes.hpp"
+#include "strata/scenes/scenes.hpp"
 
 namespace strata {
 namespace {
 
 constexpr double kMaxJitterZM = 0.005;
 constexpr double kFloatSlackM = 1e-4;
-// Upper bound on any benchmark scene at its default spacing, so assessment stays around a
-// second (bench_scenes.hpp gives each scene's own figure).
+// Upper bound on any of these scenes at its default spacing, so assessment stays around a
+// second (paper_scenes.hpp gives each scene's own figure).
 constexpr std::size_t kMaxPoints = 400'000;
 
 struct BenchScene {

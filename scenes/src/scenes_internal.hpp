@@ -1,7 +1,7 @@
 #pragma once
-/// Shared by the scene generators (scenes.cpp, scenes/*.cpp); not installed. Seeded
-/// randomness without the std distributions, the lattice sampler, and the terrain builder of
-/// uneven_terrain and uneven_forest.
+/// Shared by the scene generators (scenes/src/*.cpp); not installed. Seeded randomness without
+/// the std distributions, the lattice sampler, and the terrain builder of uneven_terrain and
+/// uneven_forest.
 
 #include <algorithm>
 #include <cmath>
@@ -12,9 +12,9 @@
 
 #include <Eigen/Core>
 
-#include "strata/bench_scenes.hpp"
 #include "strata/point_cloud.hpp"
-#include "strata/scenes.hpp"
+#include "strata/scenes/basic_scenes.hpp"
+#include "strata/scenes/paper_scenes.hpp"
 
 namespace strata::internal {
 

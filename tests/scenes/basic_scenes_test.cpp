@@ -1,4 +1,5 @@
-#include "strata/scenes.hpp"
+#include "strata/scenes/basic_scenes.hpp"
+#include "strata/scenes/scenes.hpp"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -573,7 +574,7 @@ TEST_F(UnevenTerrainCloudTest, MostPointsAreGroundAndTreesAndRocksAreSampled) {
 
 TEST(GenerateSceneTest, EveryNameGivesItsSceneAtDefaultSpacing) {
   const std::vector<std::string> names = SceneNames();
-  // These three and the benchmark scenes (bench_scenes_test.cpp), each once.
+  // These three and the paper's scenes (paper_scenes_test.cpp), each once.
   ASSERT_EQ(names.size(), 8u);
   for (const std::string& name : names) {
     EXPECT_EQ(std::count(names.begin(), names.end(), name), 1) << name;
