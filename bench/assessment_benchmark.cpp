@@ -9,7 +9,7 @@
 #include <filesystem>
 #include <string>
 
-#include "offline/map_source.hpp"
+#include "strata/scenes/map_source.hpp"
 #include "strata/terrain_model.hpp"
 
 namespace {
@@ -19,9 +19,9 @@ std::string MapsDir() {
   return env != nullptr ? env : "../shared/maps";
 }
 
-void BM_Load(benchmark::State& state, const std::string& source) {
+void BM_Load(benchmark::State& state, const strata::MapSource& source) {
   for (auto _ : state) {
-    auto cloud = strata::offline::LoadMapSource(source);
+    auto cloud = strata::LoadMapSource(source);
     if (!cloud) {
       state.SkipWithError(cloud.error().message.c_str());
       return;
@@ -30,8 +30,8 @@ void BM_Load(benchmark::State& state, const std::string& source) {
   }
 }
 
-void BM_Assess(benchmark::State& state, const std::string& source, double resolution_m) {
-  auto cloud = strata::offline::LoadMapSource(source);
+void BM_Assess(benchmark::State& state, const strata::MapSource& source, double resolution_m) {
+  auto cloud = strata::LoadMapSource(source);
   if (!cloud) {
     state.SkipWithError(cloud.error().message.c_str());
     return;
@@ -71,13 +71,15 @@ void RegisterAll() {
   };
   for (const auto& [name, path] : maps) {
     if (!std::filesystem::exists(path)) continue;
-    benchmark::RegisterBenchmark(("Load/" + name).c_str(), BM_Load, path)
+    benchmark::RegisterBenchmark(("Load/" + name).c_str(), BM_Load,
+                                 strata::MapSource(strata::FileSource{path}))
         ->Unit(benchmark::kMillisecond)
         ->Repetitions(5)
         ->ReportAggregatesOnly(true);
     for (const double r : {0.1, 0.2, 0.3}) {
       benchmark::RegisterBenchmark(
-          ("Assess/" + name + "/" + std::to_string(r).substr(0, 3)).c_str(), BM_Assess, path, r)
+          ("Assess/" + name + "/" + std::to_string(r).substr(0, 3)).c_str(), BM_Assess,
+          strata::MapSource(strata::FileSource{path}), r)
           ->Unit(benchmark::kMillisecond)
           ->Repetitions(5)
           ->ReportAggregatesOnly(true)
@@ -85,7 +87,7 @@ void RegisterAll() {
     }
   }
   benchmark::RegisterBenchmark("Assess/two_level_ramp/0.1", BM_Assess,
-                               std::string("scene:two_level_ramp"), 0.1)
+                               strata::MapSource(strata::SceneSource{"two_level_ramp"}), 0.1)
       ->Unit(benchmark::kMillisecond)
       ->Repetitions(5)
       ->ReportAggregatesOnly(true)

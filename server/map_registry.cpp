@@ -4,8 +4,6 @@
 #include <new>
 #include <utility>
 
-#include "strata/scenes/scenes.hpp"
-
 namespace strata::server {
 namespace {
 
@@ -43,12 +41,10 @@ MapSourceInfo InfoOf(const MapSource& source) {
 
 Expected<LoadedCloud> LoadMapSource(MapSource source, const CloudLoadLimits& limits) {
   if (auto* file = std::get_if<FileMapSource>(&source)) {
-    return LoadPointCloud(file->resolved_path.string(), limits);
+    return ::strata::LoadMapSource(FileSource{file->resolved_path.string()}, limits);
   }
   if (auto* scene = std::get_if<SceneMapSource>(&source)) {
-    Expected<PointCloud> cloud = GenerateScene(scene->name, scene->seed);
-    if (!cloud) return cloud.error();
-    return SanitizeCloud(std::move(cloud).value(), limits);
+    return ::strata::LoadMapSource(*scene, limits);
   }
   return SanitizeCloud(std::move(std::get<UploadMapSource>(source).points), limits);
 }

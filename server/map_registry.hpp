@@ -27,6 +27,7 @@
 #include "strata/cloud_io.hpp"
 #include "strata/planner.hpp"
 #include "strata/point_cloud.hpp"
+#include "strata/scenes/map_source.hpp"
 #include "strata/terrain_config.hpp"
 #include "strata/terrain_model.hpp"
 
@@ -43,11 +44,8 @@ struct FileMapSource {
   std::string requested_path;           ///< As the client gave it, for display.
 };
 
-/// A built-in scene (strata::GenerateScene).
-struct SceneMapSource {
-  std::string name;
-  std::uint32_t seed = 0;
-};
+/// A built-in scene (strata/scenes/map_source.hpp; seed kDefaultSceneSeed unless given).
+using SceneMapSource = SceneSource;
 
 /// Uploaded points (may hold NaN/Inf: they are dropped and counted like a file's).
 struct UploadMapSource {
@@ -89,8 +87,8 @@ struct MapSnapshot {
 /// Reads a source into a sanitised cloud (file, scene or upload); runs on a worker thread.
 using CloudLoader = std::function<Expected<LoadedCloud>(MapSource, const CloudLoadLimits&)>;
 
-/// The loader the server uses: LoadPointCloud for files, GenerateScene then SanitizeCloud
-/// for scenes, SanitizeCloud for uploads.
+/// The loader the server uses: strata::LoadMapSource (strata/scenes/map_source.hpp, the one
+/// strata-offline uses) for files and scenes, SanitizeCloud for uploads.
 Expected<LoadedCloud> LoadMapSource(MapSource source, const CloudLoadLimits& limits);
 
 /// Limits and resources of a registry.

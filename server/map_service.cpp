@@ -42,7 +42,9 @@ Result<MapSource> SourceFromRequest(const v1::CreateMapRequest& request,
                              "': the built-in scenes are " + JoinedSceneNames())
             .Blame("scene.name");
       }
-      return MapSource(SceneMapSource{request.scene().name(), request.scene().seed()});
+      const std::uint32_t seed =
+          request.scene().has_seed() ? request.scene().seed() : kDefaultSceneSeed;
+      return MapSource(SceneMapSource{request.scene().name(), seed});
     }
     case v1::CreateMapRequest::SOURCE_NOT_SET: break;
   }

@@ -16,8 +16,9 @@ struct MapServiceOptions {
   std::size_t max_points = 50'000'000;
 };
 
-/// The MapSource and config of a CreateMapRequest (file confined to `map_root`, or scene);
-/// errors blame request fields ("file.path", "scene.name", "terrain.resolution_m", ...).
+/// The MapSource of a CreateMapRequest: a file confined to `map_root`, or a scene (seed
+/// kDefaultSceneSeed when the request has none). Errors blame request fields ("file.path",
+/// "scene.name", "source").
 Result<MapSource> SourceFromRequest(const v1::CreateMapRequest& request,
                                     const std::filesystem::path& map_root);
 

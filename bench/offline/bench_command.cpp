@@ -15,7 +15,7 @@
 #include "offline/bench_methods.hpp"
 #include "offline/bench_pairs.hpp"
 #include "offline/bench_report.hpp"
-#include "offline/map_source.hpp"
+#include "strata/scenes/map_source.hpp"
 
 namespace strata::offline {
 namespace {
@@ -151,7 +151,9 @@ int RunBench(const std::vector<std::string>& args) {
     return 1;
   }
 
-  const Expected<LoadedCloud> cloud = LoadMapSource(parsed.map);
+  const Expected<MapSource> source = ParseMapSource(parsed.map);
+  if (!source) return Fail("loading " + parsed.map, source.error());
+  const Expected<LoadedCloud> cloud = LoadMapSource(*source);
   if (!cloud) return Fail("loading " + parsed.map, cloud.error());
   const PointCloud& points = cloud->points;
 

@@ -1,18 +1,14 @@
 #pragma once
-// Resolves a MAP argument of the offline tools: a file path (PCD, PLY, .bt, .ot) or a built-in
-// scene written as "scene:NAME" or "scene:NAME:SEED".
+// A MAP argument of the offline tools loaded and assessed: a file path (PCD, PLY, .bt, .ot) or a
+// built-in scene written as "scene:NAME" or "scene:NAME:SEED" (strata/scenes/map_source.hpp).
 
 #include <cstddef>
 #include <memory>
 #include <string>
 
-#include "strata/cloud_io.hpp"
 #include "strata/terrain_model.hpp"
 
 namespace strata::offline {
-
-/// Loads a file or generates a scene; the result is sanitised either way.
-Expected<LoadedCloud> LoadMapSource(const std::string& source);
 
 /// A MAP argument loaded and assessed.
 struct AssessedMap {
@@ -22,7 +18,8 @@ struct AssessedMap {
   double load_s = 0;                  ///< Reading the file or generating the scene [s].
 };
 
-/// LoadMapSource, then TerrainModel::Assess with `config`; fails as either does.
+/// ParseMapSource and LoadMapSource (strata/scenes/map_source.hpp), then TerrainModel::Assess with
+/// `config`; fails as either does.
 Expected<AssessedMap> LoadAndAssess(const std::string& source, const AssessmentConfig& config);
 
 }  // namespace strata::offline

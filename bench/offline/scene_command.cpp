@@ -7,6 +7,7 @@
 
 #include "offline/assessment_options.hpp"
 #include "strata/cloud_io.hpp"
+#include "strata/scenes/map_source.hpp"
 #include "strata/scenes/scenes.hpp"
 
 namespace strata::offline {
@@ -14,7 +15,7 @@ namespace {
 
 struct SceneArgs {
   std::string name;
-  std::uint32_t seed = 1;
+  std::uint32_t seed = kDefaultSceneSeed;
   std::optional<double> spacing_m;  // The scene's default when absent.
   std::string out;
 };

@@ -15,6 +15,8 @@
 
 #include "run_offline.hpp"
 #include "strata/scenes/basic_scenes.hpp"
+#include "strata/scenes/map_source.hpp"
+#include "strata/scenes/scenes.hpp"
 
 namespace strata {
 namespace {
@@ -192,6 +194,17 @@ TEST(StrataOfflineAssess, ReadsTheSharedAssessmentOptions) {
   ASSERT_EQ(run.exit_code, 0) << run.output;
   EXPECT_DOUBLE_EQ(ParseJson(run.output)["grid"]["resolution_m"].get<double>(), 0.25);
   EXPECT_EQ(RunOffline("assess scene:two_level_ramp --radius").exit_code, 2);
+}
+
+// scene:NAME without a seed is kDefaultSceneSeed's scene, the one strata-server creates for a
+// CreateMap request without a seed (tests/server/scene_source_test.cpp checks the server side).
+TEST(StrataOfflineAssess, SceneWithoutSeedIsTheDefaultSeedsScene) {
+  const std::size_t default_points = GenerateScene("uneven_terrain", kDefaultSceneSeed)->size();
+  ASSERT_NE(default_points, GenerateScene("uneven_terrain", 0)->size())
+      << "the check needs seeds whose scenes differ in size";
+  const Outcome run = RunOffline("assess scene:uneven_terrain --resolution 0.3 --json");
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_EQ(ParseJson(run.output)["points"]["raw"].get<std::size_t>(), default_points);
 }
 
 }  // namespace

@@ -1,0 +1,94 @@
+// The one parser of "scene:NAME[:SEED]" and the one loader of "a file or a scene" that
+// strata-server and strata-offline share (strata/scenes/map_source.hpp).
+#include "strata/scenes/map_source.hpp"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <string>
+
+#include "strata/cloud_io.hpp"
+#include "strata/scenes/scenes.hpp"
+
+namespace strata {
+namespace {
+
+using ::testing::HasSubstr;
+
+TEST(ParseSceneSource, ReadsTheNameAndTheSeed) {
+  Expected<SceneSource> scene = ParseSceneSource("scene:uneven_terrain:7");
+  ASSERT_TRUE(scene.ok()) << scene.error().message;
+  EXPECT_EQ(scene->name, "uneven_terrain");
+  EXPECT_EQ(scene->seed, 7u);
+
+  scene = ParseSceneSource("scene:indoor_tables:4294967295");
+  ASSERT_TRUE(scene.ok()) << scene.error().message;
+  EXPECT_EQ(scene->seed, 4294967295u);
+}
+
+TEST(ParseSceneSource, WithoutASeedTakesTheDefaultSeed) {
+  const Expected<SceneSource> scene = ParseSceneSource("scene:two_level_ramp");
+  ASSERT_TRUE(scene.ok()) << scene.error().message;
+  EXPECT_EQ(scene->name, "two_level_ramp");
+  EXPECT_EQ(scene->seed, kDefaultSceneSeed);
+  EXPECT_EQ(SceneSource{}.seed, kDefaultSceneSeed);
+}
+
+TEST(ParseSceneSource, RefusesMalformedTextNamingIt) {
+  for (const std::string text :
+       {"scene:", "scene::3", "scene:a:", "scene:a:-1", "scene:a:+1", "scene:a:1.5",
+        "scene:a:4294967296", "scene:a:3x", "scene:a: 3", "two_level_ramp", "Scene:a"}) {
+    const Expected<SceneSource> scene = ParseSceneSource(text);
+    ASSERT_FALSE(scene.ok()) << text;
+    EXPECT_EQ(scene.error().code, ErrorCode::kInvalidInput) << text;
+    EXPECT_THAT(scene.error().message, HasSubstr("'" + text + "'"));
+    EXPECT_THAT(scene.error().message, HasSubstr("scene:NAME[:SEED]"));
+  }
+}
+
+TEST(ParseMapSource, SceneByPrefixElseAFile) {
+  Expected<MapSource> source = ParseMapSource("scene:parking_garage:3");
+  ASSERT_TRUE(source.ok());
+  ASSERT_TRUE(std::holds_alternative<SceneSource>(*source));
+  EXPECT_EQ(std::get<SceneSource>(*source).seed, 3u);
+
+  for (const std::string path : {"maps/scene20.2.pcd", "scene.pcd", "/abs/scene:x.ply"}) {
+    source = ParseMapSource(path);
+    ASSERT_TRUE(source.ok()) << path;
+    ASSERT_TRUE(std::holds_alternative<FileSource>(*source)) << path;
+    EXPECT_EQ(std::get<FileSource>(*source).path, path);
+  }
+  EXPECT_FALSE(ParseMapSource("scene:a:b").ok());
+}
+
+TEST(LoadMapSource, GeneratesTheSceneWithItsSeed) {
+  const Expected<LoadedCloud> loaded = LoadMapSource(SceneSource{"stairs_ramp_room", 5});
+  ASSERT_TRUE(loaded.ok()) << loaded.error().message;
+  const PointCloud expected = GenerateScene("stairs_ramp_room", 5).value();
+  EXPECT_EQ(loaded->raw_point_count, expected.size());
+  EXPECT_EQ(loaded->dropped_nonfinite, 0u);
+  EXPECT_TRUE(loaded->points == expected);
+  EXPECT_FALSE(loaded->points == GenerateScene("stairs_ramp_room", 6).value());
+}
+
+TEST(LoadMapSource, AppliesTheLimitsToScenesToo) {
+  CloudLoadLimits limits;
+  limits.max_points = 1000;
+  const Expected<LoadedCloud> loaded = LoadMapSource(SceneSource{"stairs_ramp_room"}, limits);
+  ASSERT_FALSE(loaded.ok());
+  EXPECT_EQ(loaded.error().code, ErrorCode::kResourceExhausted);
+}
+
+TEST(LoadMapSource, FailuresNameTheProblem) {
+  Expected<LoadedCloud> loaded = LoadMapSource(SceneSource{"no_such_scene"});
+  ASSERT_FALSE(loaded.ok());
+  EXPECT_EQ(loaded.error().code, ErrorCode::kInvalidInput);
+  EXPECT_THAT(loaded.error().message, HasSubstr("two_level_ramp"));  // Lists the known scenes.
+
+  loaded = LoadMapSource(FileSource{"/no/such/dir/map.pcd"});
+  ASSERT_FALSE(loaded.ok());
+  EXPECT_THAT(loaded.error().message, HasSubstr("/no/such/dir/map.pcd"));
+}
+
+}  // namespace
+}  // namespace strata
