@@ -163,38 +163,4 @@ Expected<std::shared_ptr<const TerrainModel>> TerrainModel::Assess(const PointCl
   return std::shared_ptr<const TerrainModel>(std::move(model));
 }
 
-std::span<const ColumnSurface> TerrainModel::LevelsAt(const Eigen::Vector3d& p) const {
-  const Eigen::Vector3i c = grid().CellOf(p);
-  if (c.x() < 0 || c.y() < 0 || c.x() >= grid().size.x() || c.y() >= grid().size.y()) return {};
-  return surfaces_.Column(c.x(), c.y());
-}
-
-const ColumnSurface* TerrainModel::SurfaceBelow(const Eigen::Vector3d& p) const {
-  const Eigen::Vector3i c = grid().CellOf(p);
-  if (c.x() < 0 || c.y() < 0 || c.x() >= grid().size.x() || c.y() >= grid().size.y() || c.z() < 0) {
-    return nullptr;
-  }
-  return surfaces_.SurfaceBelow(c.x(), c.y(), std::min(c.z(), grid().size.z() - 1));
-}
-
-std::optional<double> TerrainModel::GroundHeightBelow(const Eigen::Vector3d& p) const {
-  const ColumnSurface* s = SurfaceBelow(p);
-  if (s == nullptr || !s->valid) return std::nullopt;
-  return s->ground_z_m;
-}
-
-bool TerrainModel::IsTraversable(const Eigen::Vector3i& cell, double reference_height_m,
-                                 double body_height_m) const {
-  const GridGeometry& g = grid();
-  if (!g.Contains(cell)) return false;
-  const double cell_bottom = g.origin_m.z() + cell.z() * g.resolution_m;
-  const double cell_top = cell_bottom + g.resolution_m;
-  for (const ColumnSurface& s : surfaces_.Column(cell.x(), cell.y())) {
-    const double reference_z = s.ground_z_m + reference_height_m;
-    if (reference_z < cell_bottom || reference_z >= cell_top) continue;
-    return s.valid && s.tilt_rad <= config_.ground.max_tilt_rad && s.clearance_m >= body_height_m;
-  }
-  return false;
-}
-
 }  // namespace strata

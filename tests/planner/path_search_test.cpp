@@ -14,6 +14,7 @@
 #include "strata/scenes/basic_scenes.hpp"
 #include "strata/surface_graph.hpp"
 #include "strata/terrain_model.hpp"
+#include "test_util/terrain_queries.hpp"
 
 namespace strata {
 namespace {
@@ -104,12 +105,19 @@ TEST_F(TwoLevel, BuildRejectsBadParamsNamingTheField) {
   EXPECT_THAT(c.Validate().error().message, HasSubstr("clearance_margin_m"));
 }
 
-TEST_F(TwoLevel, EveryNodeIsTraversableAndEdgesRespectTheStep) {
+// The graph is the one definition of where the robot stands: its nodes keep the promises of
+// surface_graph.hpp (valid ground, tilt and clearance within the params, the reference point
+// at the reference height above the ground, inside the grid).
+TEST_F(TwoLevel, EveryNodeStandsOnAllowedGroundAndEdgesRespectTheStep) {
   ASSERT_GT(graph().node_count(), 1000);
   for (int v = 0; v < graph().node_count(); v += 7) {
-    EXPECT_TRUE(
-        model().IsTraversable(graph().cell(v), params_.reference_height_m, params_.body_height_m))
+    const ColumnSurface& surface = graph().surface(v);
+    EXPECT_TRUE(surface.valid) << v;
+    EXPECT_LE(surface.tilt_rad, params_.max_tilt_rad) << v;
+    EXPECT_GE(surface.clearance_m, params_.body_height_m) << v;
+    EXPECT_NEAR(graph().position(v).z(), surface.ground_z_m + params_.reference_height_m, 1e-4)
         << v;
+    EXPECT_TRUE(model().grid().Contains(graph().cell(v))) << v;
     graph().ForEachNeighbor(v, [&](int m) {
       EXPECT_LE(std::abs(graph().ground_z(m) - graph().ground_z(v)), params_.max_step_m + 1e-6);
       EXPECT_LE((graph().cell(m) - graph().cell(v)).cwiseAbs().maxCoeff(), 1);
@@ -251,10 +259,10 @@ TEST_F(TwoLevel, FloorToDeckClimbsTheRampOnValidGround) {
   int ramp_points = 0;
   for (std::size_t i = 0; i < pts.size(); ++i) {
     if (i > 0) EXPECT_TRUE(AreNeighbors(graph(), path->nodes[i - 1], path->nodes[i])) << i;
-    const auto ground = model().GroundHeightBelow(pts[i]);
+    const auto ground = test_util::GroundHeightBelow(model(), pts[i]);
     ASSERT_TRUE(ground.has_value()) << i;
     EXPECT_NEAR(*ground, pts[i].z() - params_.reference_height_m, 1e-4) << i;
-    const ColumnSurface* s = model().SurfaceBelow(pts[i]);
+    const ColumnSurface* s = test_util::SurfaceBelow(model(), pts[i]);
     ASSERT_NE(s, nullptr);
     EXPECT_GE(s->clearance_m, params_.body_height_m) << i;
     const bool over_ramp = pts[i].x() > layout_.ramp_x_min_m + 0.2 &&
@@ -357,7 +365,7 @@ TEST(StairsRampRoom, FloorToLandingTakesTheRampNotTheStairs) {
     const bool over_ramp = p.x() > L.ramp_x_min_m - 0.1 && p.x() < L.ramp_x_max_m + 0.1 &&
                            p.y() > L.ramp_y_min_m + 0.5 && p.y() < L.ramp_y_max_m - 0.5;
     if (over_ramp) ++on_ramp;
-    EXPECT_TRUE(model->GroundHeightBelow(p).has_value()) << p.transpose();
+    EXPECT_TRUE(test_util::GroundHeightBelow(*model, p).has_value()) << p.transpose();
   }
   EXPECT_GT(on_ramp, 10);
 }

@@ -11,6 +11,7 @@
 
 #include "strata/cloud_io.hpp"
 #include "strata/scenes/basic_scenes.hpp"
+#include "test_util/terrain_queries.hpp"
 
 namespace strata {
 namespace {
@@ -82,7 +83,7 @@ TEST_F(TwoLevelPlan, FloorToDeckClimbsTheRampOnTheGround) {
   bool crossed_ramp = false;
   for (double time = 0; time <= t.TotalDuration(); time += 0.1) {
     const Eigen::Vector3d p = t.Position(time).head<3>();
-    const double ground = map_->model().GroundHeightBelow(p).value_or(-100);
+    const double ground = test_util::GroundHeightBelow(map_->model(), p).value_or(-100);
     EXPECT_NEAR(p.z() - ground, 0.3, 0.15) << p.transpose();
     if (p.z() > layout_.floor_z_m + 1.0 && p.z() < layout_.deck_z_m - 0.5) {
       EXPECT_GT(p.x(), layout_.ramp_x_min_m - 0.3) << p.transpose();

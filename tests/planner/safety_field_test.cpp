@@ -8,6 +8,7 @@
 
 #include "strata/plane_fit.hpp"
 #include "strata/terrain_model.hpp"
+#include "test_util/terrain_queries.hpp"
 
 namespace strata {
 namespace {
@@ -148,7 +149,7 @@ TEST(SafetyPenalty, TiltTermFollowsTheSlope) {
   for (const double slope_deg : {5.0, 15.0, 25.0}) {
     const auto model = Assess(InclinedPatch(slope_deg * kDeg, 0.3, 3.0, 0.05, 0.0, 1), 0.1);
     ASSERT_TRUE(model);
-    const ColumnSurface* s = model->SurfaceBelow({0.0, 0.0, 1.5});
+    const ColumnSurface* s = test_util::SurfaceBelow(*model, {0.0, 0.0, 1.5});
     ASSERT_NE(s, nullptr);
     EXPECT_NEAR(s->tilt_rad, slope_deg * kDeg, 0.5 * kDeg);
     // Away from the patch's edge, S' on the slope is λ_f φ² plus a small pose-change term.

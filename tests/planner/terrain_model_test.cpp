@@ -10,6 +10,8 @@
 
 #include "strata/cloud_io.hpp"
 #include "strata/scenes/basic_scenes.hpp"
+#include "strata/surface_graph.hpp"
+#include "test_util/terrain_queries.hpp"
 
 namespace strata {
 namespace {
@@ -36,7 +38,7 @@ std::shared_ptr<const TerrainModel>* TwoLevelModel::model_ = nullptr;
 TEST_F(TwoLevelModel, ColumnUnderTheDeckHasTwoValidLevels) {
   const Eigen::Vector3d goal = layout_.goal_example_m;
   std::vector<double> valid_heights;
-  for (const ColumnSurface& s : model().LevelsAt(goal)) {
+  for (const ColumnSurface& s : test_util::LevelsAt(model(), goal)) {
     if (s.valid) valid_heights.push_back(s.ground_z_m);
   }
   ASSERT_EQ(valid_heights.size(), 2u);
@@ -47,32 +49,43 @@ TEST_F(TwoLevelModel, ColumnUnderTheDeckHasTwoValidLevels) {
 TEST_F(TwoLevelModel, GroundBelowDependsOnTheLevelThePointIsOn) {
   Eigen::Vector3d p = layout_.goal_example_m;
   p.z() = layout_.floor_z_m + 1.0;  // Under the deck.
-  ASSERT_TRUE(model().GroundHeightBelow(p).has_value());
-  EXPECT_NEAR(*model().GroundHeightBelow(p), layout_.floor_z_m, 0.02);
+  ASSERT_TRUE(test_util::GroundHeightBelow(model(), p).has_value());
+  EXPECT_NEAR(*test_util::GroundHeightBelow(model(), p), layout_.floor_z_m, 0.02);
   p.z() = layout_.deck_z_m + 0.5;  // On the deck.
-  ASSERT_TRUE(model().GroundHeightBelow(p).has_value());
-  EXPECT_NEAR(*model().GroundHeightBelow(p), layout_.deck_z_m, 0.02);
-  const ColumnSurface* floor = model().SurfaceBelow({p.x(), p.y(), layout_.floor_z_m + 1.0});
+  ASSERT_TRUE(test_util::GroundHeightBelow(model(), p).has_value());
+  EXPECT_NEAR(*test_util::GroundHeightBelow(model(), p), layout_.deck_z_m, 0.02);
+  const ColumnSurface* floor =
+      test_util::SurfaceBelow(model(), {p.x(), p.y(), layout_.floor_z_m + 1.0});
   ASSERT_NE(floor, nullptr);
   // Clearance under the deck: up to the slab's underside.
   EXPECT_NEAR(floor->clearance_m, layout_.deck_underside_z_m - layout_.floor_z_m, 0.06);
 }
 
+// Where a robot can stand is where its SurfaceGraph has a node (the one definition).
 TEST_F(TwoLevelModel, TraversabilityRespectsBodyHeightAndLevels) {
   const GridGeometry& g = model().grid();
-  const double reference = 0.3;
+  TraversabilityParams short_body;
+  short_body.reference_height_m = 0.3;
+  short_body.body_height_m = 1.0;
+  TraversabilityParams tall_body = short_body;
+  tall_body.body_height_m = 3.5;
+  const Expected<SurfaceGraph> short_graph = SurfaceGraph::Build(model(), short_body);
+  const Expected<SurfaceGraph> tall_graph = SurfaceGraph::Build(model(), tall_body);
+  ASSERT_TRUE(short_graph.ok()) << short_graph.error().message;
+  ASSERT_TRUE(tall_graph.ok()) << tall_graph.error().message;
+
   Eigen::Vector3d under_deck = layout_.goal_example_m;
-  under_deck.z() = layout_.floor_z_m + reference;
-  EXPECT_TRUE(model().IsTraversable(g.CellOf(under_deck), reference, 1.0));
+  under_deck.z() = layout_.floor_z_m + short_body.reference_height_m;
+  EXPECT_TRUE(test_util::HasNodeInCell(*short_graph, g.CellOf(under_deck)));
   // A body taller than the room under the deck does not fit.
-  EXPECT_FALSE(model().IsTraversable(g.CellOf(under_deck), reference, 3.5));
+  EXPECT_FALSE(test_util::HasNodeInCell(*tall_graph, g.CellOf(under_deck)));
   Eigen::Vector3d on_deck = layout_.goal_example_m;
-  on_deck.z() = layout_.deck_z_m + reference;
-  EXPECT_TRUE(model().IsTraversable(g.CellOf(on_deck), reference, 3.5));
+  on_deck.z() = layout_.deck_z_m + tall_body.reference_height_m;
+  EXPECT_TRUE(test_util::HasNodeInCell(*tall_graph, g.CellOf(on_deck)));
   // Floating between the levels is not standing anywhere.
   Eigen::Vector3d mid_air = layout_.goal_example_m;
   mid_air.z() = 1.5;
-  EXPECT_FALSE(model().IsTraversable(g.CellOf(mid_air), reference, 1.0));
+  EXPECT_FALSE(test_util::HasNodeInCell(*short_graph, g.CellOf(mid_air)));
 }
 
 TEST_F(TwoLevelModel, RampIsValidGroundAndWallsAreNot) {
@@ -80,14 +93,14 @@ TEST_F(TwoLevelModel, RampIsValidGroundAndWallsAreNot) {
   const double mid_y = 0.5 * (layout_.ramp_y_min_m + layout_.ramp_y_max_m);
   const double ramp_z =
       layout_.floor_z_m + (mid_x - layout_.ramp_x_min_m) * std::tan(layout_.ramp_slope_rad);
-  const auto ground = model().GroundHeightBelow({mid_x, mid_y, ramp_z + 0.3});
+  const auto ground = test_util::GroundHeightBelow(model(), {mid_x, mid_y, ramp_z + 0.3});
   ASSERT_TRUE(ground.has_value());
   EXPECT_NEAR(*ground, ramp_z, 0.05);
-  const ColumnSurface* ramp = model().SurfaceBelow({mid_x, mid_y, ramp_z + 0.3});
+  const ColumnSurface* ramp = test_util::SurfaceBelow(model(), {mid_x, mid_y, ramp_z + 0.3});
   EXPECT_NEAR(ramp->tilt_rad, layout_.ramp_slope_rad, 0.5 * M_PI / 180);
 
   // Next to the outer wall (x = 0) the floor is not valid within the filter radius.
-  const auto by_wall = model().GroundHeightBelow({0.05, 3.0, 0.3});
+  const auto by_wall = test_util::GroundHeightBelow(model(), {0.05, 3.0, 0.3});
   EXPECT_FALSE(by_wall.has_value());
 }
 
@@ -245,14 +258,14 @@ TEST(TerrainModel, VoxelStaircaseFitsAsTheSlopeItSamplesAndAGrooveAsFlat) {
   EXPECT_NEAR((*model)->summary().vertical_quantum_m, 0.2, 1e-6);
   const double slope = std::tan(10.0 * std::numbers::pi / 180);
   for (double x = 2.1; x < 10; x += 0.4) {  // Ramp interior, away from its ends and sides.
-    const auto levels = (*model)->LevelsAt({x, 4.1, 0});
+    const auto levels = test_util::LevelsAt(**model, {x, 4.1, 0});
     ASSERT_EQ(levels.size(), 1u) << "x " << x;
     // A staircase of 1.13 m treads seen through a 1 m disc reads between flat and steep;
     // it must never read as steep as the 20° limit, and its plane must follow the slope.
     EXPECT_NEAR(levels[0].tilt_rad * 180 / std::numbers::pi, 10.0, 6.0) << "x " << x;
     EXPECT_NEAR(levels[0].plane_center_z_m, x * slope, 0.1) << "x " << x;
   }
-  const auto groove = (*model)->LevelsAt({16.1, 4.1, 0});  // Column i = 80.
+  const auto groove = test_util::LevelsAt(**model, {16.1, 4.1, 0});  // Column i = 80.
   ASSERT_EQ(groove.size(), 1u);
   EXPECT_LT(groove[0].tilt_rad, 0.05) << "a one-voxel groove is not a 90° edge";
 }

@@ -11,6 +11,7 @@
 #include "strata/scenes/basic_scenes.hpp"
 #include "strata/terrain_model.hpp"
 #include "test_util/gradient_check.hpp"
+#include "test_util/terrain_queries.hpp"
 
 namespace strata {
 namespace {
@@ -102,7 +103,7 @@ StateVector RandomPosition(std::mt19937& rng, int dim) {
   StateVector pos(dim);
   pos(0) = l.ramp_x_min_m - 1 + unit(rng) * (l.ramp_x_max_m - l.ramp_x_min_m + 2);
   pos(1) = l.ramp_y_min_m - 1 + unit(rng) * (l.ramp_y_max_m - l.ramp_y_min_m + 2);
-  const auto ground = Scene().GroundHeightBelow({pos(0), pos(1), l.deck_z_m - 0.5});
+  const auto ground = test_util::GroundHeightBelow(Scene(), {pos(0), pos(1), l.deck_z_m - 0.5});
   pos(2) = ground.value_or(l.floor_z_m) + 0.3 + 0.1 * (unit(rng) - 0.5);
   if (dim == 4) pos(3) = 0.25 + 0.6 * unit(rng);
   return pos;
@@ -269,7 +270,7 @@ TEST(SampleGround, FollowsTheRampAndFindsTheDeckAsCeiling) {
   // Mid-ramp: the ground rises along the ramp's uphill direction at its slope.
   const double x = 0.5 * (l.ramp_x_min_m + l.ramp_x_max_m);
   const double y = 0.5 * (l.ramp_y_min_m + l.ramp_y_max_m);
-  const auto ground = Scene().GroundHeightBelow({x, y, l.deck_z_m - 0.3});
+  const auto ground = test_util::GroundHeightBelow(Scene(), {x, y, l.deck_z_m - 0.3});
   ASSERT_TRUE(ground.has_value());
   ASSERT_TRUE(SampleGround(Scene(), {x, y, *ground + 0.3}, 0.3, 10, &s));
   EXPECT_NEAR(s.height_m, *ground, 0.1);

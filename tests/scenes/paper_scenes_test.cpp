@@ -17,6 +17,7 @@
 
 #include "strata/planner.hpp"
 #include "strata/scenes/scenes.hpp"
+#include "test_util/terrain_queries.hpp"
 
 namespace strata {
 namespace {
@@ -174,7 +175,7 @@ std::shared_ptr<const TerrainModel> Assess(const PointCloud& cloud, double resol
 // Whether the column at (x, y) holds valid ground within `tol_m` of z.
 bool HasValidLevelNear(const TerrainModel& model, double x, double y, double z,
                        double tol_m = 0.15) {
-  for (const ColumnSurface& s : model.LevelsAt({x, y, z})) {
+  for (const ColumnSurface& s : test_util::LevelsAt(model, {x, y, z})) {
     if (s.valid && std::abs(s.ground_z_m - z) <= tol_m) return true;
   }
   return false;

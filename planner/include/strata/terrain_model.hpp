@@ -4,8 +4,6 @@
 
 #include <cstdint>
 #include <memory>
-#include <optional>
-#include <span>
 
 #include <Eigen/Core>
 
@@ -78,22 +76,6 @@ class TerrainModel {
   double SafetyPenalty(const Eigen::Vector3d& p, Eigen::Vector3d* gradient = nullptr) const {
     return safety_.Sample(p, gradient);
   }
-
-  /// The surfaces (levels) in the column holding p's x and y, lowest first; empty outside.
-  std::span<const ColumnSurface> LevelsAt(const Eigen::Vector3d& p) const;
-
-  /// The surface p projects down onto (the highest one at or below p's cell), if any.
-  const ColumnSurface* SurfaceBelow(const Eigen::Vector3d& p) const;
-
-  /// Height of the valid ground directly below p [m], or nothing when p is inside an
-  /// obstacle, outside the grid, or above a surface that is not valid ground.
-  std::optional<double> GroundHeightBelow(const Eigen::Vector3d& p) const;
-
-  /// True when grid cell `cell` holds the point `reference_height_m` above a valid surface of
-  /// its column whose tilt is within the ground filter's θ and whose clearance is at least
-  /// `body_height_m`: a robot can stand there with its reference point in this cell.
-  bool IsTraversable(const Eigen::Vector3i& cell, double reference_height_m,
-                     double body_height_m) const;
 
   /// Bytes held by the model (fields and surfaces), not counting the object itself.
   std::size_t MemoryBytes() const {
