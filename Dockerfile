@@ -20,19 +20,18 @@ RUN cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release \
 # The binaries the image ships; the `strata` CLI only when this tree builds it.
 RUN mkdir -p /out \
     && cp build/server/strata-server build/deploy/health_probe/strata-health-probe \
-          build/bench/strata-offline /out/ \
+          build/tools/offline/strata-offline /out/ \
     && if [ -x build/client/strata ]; then cp build/client/strata /out/; fi \
     && strip --strip-unneeded /out/*
 
 FROM debian:bookworm-slim AS runtime
 # Runtime libraries only (their dependencies come along): gRPC and protobuf, prometheus-cpp,
-# PCL common/io/kdtree/sample_consensus (io pulls VTK), OctoMap, OpenMP, and OMPL for the
-# baselines in strata-offline.
+# PCL common/io/kdtree/sample_consensus (io pulls VTK), OctoMap and OpenMP.
 RUN apt-get update \
     && DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends \
        libgrpc++1.51 libprotobuf32 libprometheus-cpp-pull1.0 \
        libpcl-common1.13 libpcl-io1.13 libpcl-kdtree1.13 libpcl-sample-consensus1.13 \
-       liboctomap1.9 libgomp1 libompl16 \
+       liboctomap1.9 libgomp1 \
     && rm -rf /var/lib/apt/lists/*
 COPY --from=build /out/ /usr/local/bin/
 # Fails the build when a binary needs a library the list above does not bring.

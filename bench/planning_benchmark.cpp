@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "offline/bench_pairs.hpp"
+#include "compare/bench_pairs.hpp"
 #include "statistics.hpp"
 #include "strata/cloud_io.hpp"
 #include "strata/planner.hpp"
@@ -47,8 +47,8 @@ const std::map<std::string, double> kOriginalMs = {
     {"sp_ground_right", 68},   {"sp_ground_to_l1", 125},   {"sp_ground_to_top", 806},
     {"sp_top_to_ground", 159}, {"sp_cross_wall", 1224}};
 
-using strata::offline::Median;
-using strata::offline::Quantile;
+using strata::bench::Median;
+using strata::bench::Quantile;
 
 std::unique_ptr<PlanningMap> LoadMap(const std::string& dir, const std::string& name) {
   auto cloud = strata::LoadPointCloud(dir + "/" + name + ".pcd", strata::CloudLoadLimits{});
@@ -124,14 +124,14 @@ int main(int argc, char** argv) {
   for (auto& [name, map] : maps) {
     const auto graph = map->Graph(strata::BuiltinProfile("differential")->Traversability()).value();
     // Valid, reachable start/goal pairs: nodes of the largest component (bench_pairs).
-    const strata::offline::LargestComponent largest = strata::offline::FindLargestComponent(*graph);
-    const std::vector<strata::offline::QueryPair> query_pairs =
-        strata::offline::DrawQueryPairs(*graph, pairs, seed);
+    const strata::bench::LargestComponent largest = strata::bench::FindLargestComponent(*graph);
+    const std::vector<strata::bench::QueryPair> query_pairs =
+        strata::bench::DrawQueryPairs(*graph, pairs, seed);
     std::vector<double> total, search, optimize, length, curvature;
     double max_v = 0, max_a = 0;
     std::map<std::string, int> failures;
     int ok = 0;
-    for (const strata::offline::QueryPair& pair : query_pairs) {
+    for (const strata::bench::QueryPair& pair : query_pairs) {
       const auto plan = strata::Plan(*map, Request(pair.start_m, pair.goal_m));
       if (!plan) {
         ++failures[strata::ErrorCodeName(plan.error().code)];

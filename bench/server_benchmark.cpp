@@ -50,8 +50,8 @@ const Query kLatencyQueries[] = {
 // The throughput mix: the scene20.2 reference queries that plan, in turn.
 const Query kMix[] = {kLatencyQueries[0], kLatencyQueries[1], kLatencyQueries[2]};
 
-using strata::offline::Median;
-using strata::offline::Quantile;
+using strata::bench::Median;
+using strata::bench::Quantile;
 
 strata::v1::PlanRequest Request(const Query& q) {
   strata::v1::PlanRequest r;

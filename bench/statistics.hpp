@@ -1,11 +1,11 @@
 #pragma once
-// Order statistics shared by the benchmark binaries and strata-offline bench.
+// Order statistics shared by the benchmark binaries and strata-bench.
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <vector>
 
-namespace strata::offline {
+namespace strata::bench {
 
 /// The q-quantile of `values` by nearest rank (the ⌈q·n⌉-th smallest), 0 when empty.
 inline double Quantile(std::vector<double> values, double q) {
@@ -18,4 +18,4 @@ inline double Quantile(std::vector<double> values, double q) {
 /// Quantile(values, 0.5).
 inline double Median(std::vector<double> values) { return Quantile(std::move(values), 0.5); }
 
-}  // namespace strata::offline
+}  // namespace strata::bench

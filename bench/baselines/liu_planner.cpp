@@ -105,7 +105,8 @@ Expected<std::unique_ptr<LiuPlanner>> LiuPlanner::Build(const PointCloud& cloud,
   auto impl = std::make_unique<Impl>();
   impl->params = params;
   impl->robot = robot;
-  const int threads = params.num_threads > 0 ? params.num_threads : 0;
+  // Read by the `#pragma omp` loops only, so unused in a build without OpenMP.
+  [[maybe_unused]] const int threads = params.num_threads > 0 ? params.num_threads : 0;
   const long n = static_cast<long>(cloud.size());
 
   // 1. Local structure: PCA of every point's k-neighbourhood.

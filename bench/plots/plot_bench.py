@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Plots of `strata-offline bench` runs (issue 5, paper Table 2 and its trajectory figure).
+"""Plots of `strata-bench` runs (paper Table 2 and its trajectory figure).
 
 For every run directory (results.csv, paths.csv, cloud.csv, meta.json as the bench command
 writes them) it draws

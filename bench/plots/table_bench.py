@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""The paper-style table (Table 2) over several `strata-offline bench` runs, as markdown.
+"""The paper-style table (Table 2) over several `strata-bench` runs, as markdown.
 
 Usage: /usr/bin/python3 bench/plots/table_bench.py RUN_DIR[:NAME] ...
 Reads each run's summary.csv and meta.json; prints one row per scene and method.

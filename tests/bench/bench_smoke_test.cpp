@@ -1,4 +1,4 @@
-// Smoke test of `strata-offline bench` (issue 5): the real binary on a small built-in scene
+// Smoke test of strata-bench: the real binary on a small built-in scene
 // with 3 pairs and all three methods. It proves the harness works — rows, files and sane
 // values — not how well any method plans (that is docs/benchmarks.md's job).
 
@@ -19,16 +19,17 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "run_offline.hpp"
+#include "test_util/run_command.hpp"
 
 namespace strata {
 namespace {
 
 using ::testing::HasSubstr;
 
-// Runs strata-offline with `args`; returns the exit code, stdout and stderr in *output.
-int RunOffline(const std::string& args, std::string* output) {
-  testing::OfflineOutcome run = testing::RunOffline(args, true);
+// Runs strata-bench with `args`; returns the exit code, stdout and stderr in *output.
+int RunBench(const std::string& args, std::string* output) {
+  testing::CommandOutcome run =
+      testing::RunCommand(std::string("'") + STRATA_BENCH_BIN + "' " + args + " 2>&1");
   *output += run.output;
   return run.exit_code;
 }
@@ -74,8 +75,8 @@ class BenchSmokeTest : public ::testing::Test {
 
 TEST_F(BenchSmokeTest, ThreeMethodsOnThreePairsWriteSaneRows) {
   std::string output;
-  const int code = RunOffline(
-      "bench --scene stairs_ramp_room --pairs 3 --seed 1 --threads 1 "
+  const int code = RunBench(
+      "--scene stairs_ramp_room --pairs 3 --seed 1 --threads 1 "
       "--time-limit 1 --methods strata,liu,krusi --out '" +
           dir_.string() + "'",
       &output);
@@ -142,13 +143,13 @@ TEST_F(BenchSmokeTest, ThreeMethodsOnThreePairsWriteSaneRows) {
 
 TEST_F(BenchSmokeTest, BadArgumentsExitWithTwo) {
   std::string output;
-  EXPECT_EQ(RunOffline("bench --scene stairs_ramp_room --out '" + dir_.string() +
-                           "' --methods strata,astar",
-                       &output),
-            2);
+  EXPECT_EQ(
+      RunBench("--scene stairs_ramp_room --out '" + dir_.string() + "' --methods strata,astar",
+               &output),
+      2);
   EXPECT_THAT(output, HasSubstr("unknown method 'astar'"));
   output.clear();
-  EXPECT_EQ(RunOffline("bench --scene stairs_ramp_room --pairs 3", &output), 2);
+  EXPECT_EQ(RunBench("--scene stairs_ramp_room --pairs 3", &output), 2);
   EXPECT_THAT(output, HasSubstr("--out DIR is missing"));
 }
 

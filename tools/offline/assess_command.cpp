@@ -5,8 +5,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "offline/assessed_map.hpp"
 #include "offline/assessment_options.hpp"
-#include "offline/map_source.hpp"
 #include "strata/terrain_model.hpp"
 
 namespace strata::offline {

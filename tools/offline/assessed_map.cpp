@@ -1,4 +1,4 @@
-#include "offline/map_source.hpp"
+#include "offline/assessed_map.hpp"
 
 #include <chrono>
 

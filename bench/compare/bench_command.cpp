@@ -1,4 +1,4 @@
-#include "offline/bench_command.hpp"
+#include "compare/bench_command.hpp"
 
 #include <chrono>
 #include <cstdio>
@@ -11,14 +11,18 @@
 #include <nlohmann/json.hpp>
 
 #include "baselines/krusi_planner.hpp"
+#include "compare/bench_methods.hpp"
+#include "compare/bench_pairs.hpp"
+#include "compare/bench_report.hpp"
 #include "offline/assessment_options.hpp"
-#include "offline/bench_methods.hpp"
-#include "offline/bench_pairs.hpp"
-#include "offline/bench_report.hpp"
 #include "strata/scenes/map_source.hpp"
 
-namespace strata::offline {
+namespace strata::bench {
 namespace {
+
+using offline::IsAssessmentOption;
+using offline::ParseNumber;
+using offline::TakeAssessmentOption;
 
 using Clock = std::chrono::steady_clock;
 
@@ -105,8 +109,8 @@ std::optional<std::string> ParseArgs(const std::vector<std::string>& args, Bench
 }
 
 int Fail(const std::string& what, const Error& error) {
-  std::fprintf(stderr, "strata-offline bench: %s: %s: %s\n", what.c_str(),
-               ErrorCodeName(error.code), error.message.c_str());
+  std::fprintf(stderr, "strata-bench: %s: %s: %s\n", what.c_str(), ErrorCodeName(error.code),
+               error.message.c_str());
   return 1;
 }
 
@@ -135,18 +139,18 @@ nlohmann::json MetaJson(const BenchArgs& args, const std::vector<std::string>& c
 int RunBench(const std::vector<std::string>& args) {
   BenchArgs parsed;
   if (auto problem = ParseArgs(args, &parsed)) {
-    std::fprintf(stderr, "strata-offline bench: %s\n", problem->c_str());
+    std::fprintf(stderr, "strata-bench: %s\n", problem->c_str());
     return 2;
   }
   const Expected<RobotProfile> profile = BuiltinProfile(parsed.robot);
   if (!profile) {
-    std::fprintf(stderr, "strata-offline bench: %s\n", profile.error().message.c_str());
+    std::fprintf(stderr, "strata-bench: %s\n", profile.error().message.c_str());
     return 2;
   }
   std::error_code ec;
   std::filesystem::create_directories(parsed.out_dir, ec);
   if (ec) {
-    std::fprintf(stderr, "strata-offline bench: cannot create '%s': %s\n", parsed.out_dir.c_str(),
+    std::fprintf(stderr, "strata-bench: cannot create '%s': %s\n", parsed.out_dir.c_str(),
                  ec.message().c_str());
     return 1;
   }
@@ -226,7 +230,7 @@ int RunBench(const std::vector<std::string>& args) {
                           WriteCloudCsv((dir / "cloud.csv").string(), points, 150000)}) {
     if (!s) return Fail("writing the results", s.error());
   }
-  std::vector<std::string> command = {"strata-offline", "bench"};
+  std::vector<std::string> command = {"strata-bench"};
   command.insert(command.end(), args.begin(), args.end());
   std::ofstream meta(dir / "meta.json");
   meta << MetaJson(parsed, command, method_view, points.size(), pairs.size()).dump(2) << '\n';
@@ -240,4 +244,4 @@ int RunBench(const std::vector<std::string>& args) {
   return 0;
 }
 
-}  // namespace strata::offline
+}  // namespace strata::bench

@@ -1,6 +1,6 @@
 #pragma once
-// `strata-offline scene`: writes a built-in scene (strata/scenes.hpp, strata/bench_scenes.hpp)
-// to a PCD file, for other tools and for the baselines.
+// `strata-offline scene`: writes a built-in scene (strata/scenes/scenes.hpp) to a PCD file, for
+// other tools and for the baselines.
 
 #include <string>
 #include <vector>

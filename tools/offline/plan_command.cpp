@@ -11,8 +11,8 @@
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
 
+#include "offline/assessed_map.hpp"
 #include "offline/assessment_options.hpp"
-#include "offline/map_source.hpp"
 #include "offline/plan_svg.hpp"
 #include "strata/planner.hpp"
 

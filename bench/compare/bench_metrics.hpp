@@ -13,7 +13,7 @@
 #include "statistics.hpp"
 #include "strata/trajectory.hpp"
 
-namespace strata::offline {
+namespace strata::bench {
 
 /// Sum of the segment lengths [m].
 double PolylineLength(std::span<const Eigen::Vector3d> points);
@@ -32,4 +32,4 @@ double TrajectoryArcMeanCurvature(const Trajectory& trajectory, double spacing_m
 /// Positions of the trajectory's x, y, z every `spacing_m` of arc length (and both ends).
 std::vector<Eigen::Vector3d> SampleTrajectory(const Trajectory& trajectory, double spacing_m = 0.1);
 
-}  // namespace strata::offline
+}  // namespace strata::bench

@@ -1,4 +1,4 @@
-#include "offline/bench_report.hpp"
+#include "compare/bench_report.hpp"
 
 #include <algorithm>
 #include <cerrno>
@@ -8,9 +8,9 @@
 #include <map>
 #include <set>
 
-#include "offline/bench_metrics.hpp"
+#include "compare/bench_metrics.hpp"
 
-namespace strata::offline {
+namespace strata::bench {
 namespace {
 
 Status Written(std::ofstream& file, const std::string& path) {
@@ -187,4 +187,4 @@ Status WriteCloudCsv(const std::string& path, const PointCloud& cloud, std::size
   return Written(file, path);
 }
 
-}  // namespace strata::offline
+}  // namespace strata::bench

@@ -1,9 +1,9 @@
-#include "offline/bench_pairs.hpp"
+#include "compare/bench_pairs.hpp"
 
 #include <algorithm>
 #include <random>
 
-namespace strata::offline {
+namespace strata::bench {
 
 LargestComponent FindLargestComponent(const SurfaceGraph& graph) {
   LargestComponent result;
@@ -37,4 +37,4 @@ std::vector<QueryPair> DrawQueryPairs(const SurfaceGraph& graph, int count, std:
   return pairs;
 }
 
-}  // namespace strata::offline
+}  // namespace strata::bench

@@ -1,16 +1,16 @@
 #pragma once
-// What `strata-offline bench` writes: one CSV row per method × query, the summary per method
+// What `strata-bench` writes: one CSV row per method × query, the summary per method
 // (CSV and markdown), the paths of the first queries and a thinned copy of the cloud for the
 // plots (bench/plots/plot_bench.py reads them).
 
 #include <string>
 #include <vector>
 
-#include "offline/bench_methods.hpp"
+#include "compare/bench_methods.hpp"
 #include "strata/point_cloud.hpp"
 #include "strata/status.hpp"
 
-namespace strata::offline {
+namespace strata::bench {
 
 struct BenchRow {
   int query = 0;       ///< Index of the pair, from 0.
@@ -51,4 +51,4 @@ Status WritePathsCsv(const std::string& path, const std::vector<BenchRow>& rows,
 /// Up to max_points points of the cloud (every k-th): x,y,z.
 Status WriteCloudCsv(const std::string& path, const PointCloud& cloud, std::size_t max_points);
 
-}  // namespace strata::offline
+}  // namespace strata::bench

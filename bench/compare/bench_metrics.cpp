@@ -1,9 +1,9 @@
-#include "offline/bench_metrics.hpp"
+#include "compare/bench_metrics.hpp"
 
 #include <algorithm>
 #include <cmath>
 
-namespace strata::offline {
+namespace strata::bench {
 namespace {
 
 struct Derivatives {
@@ -151,4 +151,4 @@ std::vector<Eigen::Vector3d> SampleTrajectory(const Trajectory& trajectory, doub
   return points;
 }
 
-}  // namespace strata::offline
+}  // namespace strata::bench

@@ -1,13 +1,13 @@
-#include "offline/bench_methods.hpp"
+#include "compare/bench_methods.hpp"
 
 #include <chrono>
 #include <cstdio>
 
 #include "baselines/krusi_planner.hpp"
 #include "baselines/liu_planner.hpp"
-#include "offline/bench_metrics.hpp"
+#include "compare/bench_metrics.hpp"
 
-namespace strata::offline {
+namespace strata::bench {
 namespace {
 
 using Clock = std::chrono::steady_clock;
@@ -196,4 +196,4 @@ Expected<std::unique_ptr<BenchMethod>> MakeKrusiMethod(const PointCloud& cloud,
   return std::unique_ptr<BenchMethod>(new KrusiMethod(std::move(planner).value()));
 }
 
-}  // namespace strata::offline
+}  // namespace strata::bench

@@ -8,12 +8,12 @@
 
 #include <Eigen/Core>
 
-#include "offline/bench_pairs.hpp"
+#include "compare/bench_pairs.hpp"
 #include "strata/planner.hpp"
 #include "strata/point_cloud.hpp"
 #include "strata/robot_profile.hpp"
 
-namespace strata::offline {
+namespace strata::bench {
 
 /// What one method did on one query.
 struct QueryOutcome {
@@ -22,8 +22,8 @@ struct QueryOutcome {
   std::string message;        ///< The failure's message, empty on success.
   double plan_s = 0;          ///< Wall-clock seconds of the query (snapping included).
   double length_m = 0;        ///< Path or trajectory length [m].
-  /// κ_m as the issue defines it [1/m]: uniform arc-length samples of the interpolated path
-  /// for the baselines, uniform time samples (strata::MeanCurvature) for Strata.
+  /// κ_m, the mean curvature of paper Table 2 [1/m]: uniform arc-length samples of the interpolated
+  /// path for the baselines, uniform time samples (strata::MeanCurvature) for Strata.
   double kappa_m = 0;
   double kappa_arc_m = 0;  ///< κ_m over uniform arc-length samples for every method [1/m].
   /// Strata only: 1 when the returned trajectory fails an independent VerifyTrajectory (then
@@ -63,4 +63,4 @@ Expected<std::unique_ptr<BenchMethod>> MakeKrusiMethod(const PointCloud& cloud,
 /// run still reports the method (t_a = 0) instead of stopping.
 std::unique_ptr<BenchMethod> MakeFailedMethod(const char* name, const Error& error);
 
-}  // namespace strata::offline
+}  // namespace strata::bench

@@ -5,7 +5,6 @@
 #include <vector>
 
 #include "offline/assess_command.hpp"
-#include "offline/bench_command.hpp"
 #include "offline/plan_command.hpp"
 #include "offline/scene_command.hpp"
 
@@ -29,15 +28,7 @@ constexpr const char* kUsage =
     "      Assesses MAP as assess does, then plans a trajectory from start to goal [m] for\n"
     "      a built-in robot (differential, the default, or biped) within S seconds\n"
     "      (default 2). Prints where start and goal snapped, the plan's figures and its\n"
-    "      pieces; --svg also draws the plan (top view and side view) into FILE.\n"
-    "  bench (--scene NAME | --map FILE) --out DIR [--pairs N] [--seed S]\n"
-    "        [--methods strata,liu,krusi] [--time-limit S] [--min-separation M] [--dump N]\n"
-    "        [--robot NAME] [--krusi-refine S] [--resolution M] [--radius M]\n"
-    "        [--max-tilt-deg D] [--threads N]\n"
-    "      Compares Strata with the Liu-style and Krusi-style baselines (paper Table 2) on N\n"
-    "      random start/goal pairs (default 20, seed 1) of the map: terrain assessment time\n"
-    "      t_a, per-query time, success, length and mean curvature. Writes results.csv,\n"
-    "      summary.csv, summary.md, paths.csv, cloud.csv and meta.json into DIR.\n";
+    "      pieces; --svg also draws the plan (top view and side view) into FILE.\n";
 
 }  // namespace
 
@@ -51,7 +42,6 @@ int main(int argc, char** argv) {
   if (args[0] == "assess") return strata::offline::RunAssess(rest);
   if (args[0] == "plan") return strata::offline::RunPlan(rest);
   if (args[0] == "scene") return strata::offline::RunScene(rest);
-  if (args[0] == "bench") return strata::offline::RunBench(rest);
   std::fprintf(stderr, "strata-offline: unknown command '%s'\n\n%s", args[0].c_str(), kUsage);
   return 2;
 }

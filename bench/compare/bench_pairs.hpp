@@ -10,7 +10,7 @@
 
 #include "strata/surface_graph.hpp"
 
-namespace strata::offline {
+namespace strata::bench {
 
 /// The nodes of the graph's largest connected component (the lowest label among equals).
 struct LargestComponent {
@@ -31,4 +31,4 @@ struct QueryPair {
 std::vector<QueryPair> DrawQueryPairs(const SurfaceGraph& graph, int count, std::uint32_t seed,
                                       double min_separation_m = 0);
 
-}  // namespace strata::offline
+}  // namespace strata::bench
