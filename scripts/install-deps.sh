@@ -10,7 +10,7 @@ packages=(
   libeigen3-dev libpcl-dev liboctomap-dev liblbfgspp-dev prometheus-cpp-dev
   libgtest-dev libgmock-dev libbenchmark-dev nlohmann-json3-dev
   libompl-dev
-  libcli11-dev  # command-line flags of strata-server and strata (header-only)
+  libcli11-dev  # command-line parsing of the programs (header-only)
   python3-yaml  # tests/deploy: manifest checks with Debian's /usr/bin/python3
   clang-format  # scripts/check-format.sh (CI): the repository's .clang-format
 )

@@ -6,7 +6,6 @@
 #include <fstream>
 #include <memory>
 #include <optional>
-#include <sstream>
 
 #include <nlohmann/json.hpp>
 
@@ -14,15 +13,11 @@
 #include "compare/bench_methods.hpp"
 #include "compare/bench_pairs.hpp"
 #include "compare/bench_report.hpp"
-#include "offline/assessment_options.hpp"
+#include "offline/command_line.hpp"
 #include "strata/scenes/map_source.hpp"
 
 namespace strata::bench {
 namespace {
-
-using offline::IsAssessmentOption;
-using offline::ParseNumber;
-using offline::TakeAssessmentOption;
 
 using Clock = std::chrono::steady_clock;
 
@@ -40,78 +35,10 @@ struct BenchArgs {
   double krusi_refine_s = -1;  // < 0: the baseline's default.
 };
 
-std::vector<std::string> SplitList(const std::string& text) {
-  std::vector<std::string> items;
-  std::stringstream in(text);
-  for (std::string item; std::getline(in, item, ',');) {
-    if (!item.empty()) items.push_back(item);
-  }
-  return items;
-}
-
-std::optional<std::string> ParseArgs(const std::vector<std::string>& args, BenchArgs* out) {
-  for (std::size_t i = 0; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    if (IsAssessmentOption(a)) {
-      if (auto problem = TakeAssessmentOption(args, &i, &out->assessment)) return problem;
-      continue;
-    }
-    if (!a.starts_with("--")) return "unexpected argument '" + a + "'";
-    if (i + 1 >= args.size()) return a + " needs a value";
-    const std::string& value = args[++i];
-    const std::optional<double> number = ParseNumber(value);
-    auto need_number = [&](double low) -> std::optional<std::string> {
-      if (!number || *number < low) {
-        return a + " needs a number >= " + std::to_string(low) + ", got '" + value + "'";
-      }
-      return std::nullopt;
-    };
-    if (a == "--scene" || a == "--map") {
-      if (!out->map.empty()) return "give one of --scene and --map, once";
-      out->map = a == "--scene" ? "scene:" + value : value;
-    } else if (a == "--pairs") {
-      if (auto p = need_number(1)) return p;
-      out->pairs = static_cast<int>(*number);
-    } else if (a == "--seed") {
-      if (auto p = need_number(0)) return p;
-      out->seed = static_cast<std::uint32_t>(*number);
-    } else if (a == "--time-limit") {
-      if (auto p = need_number(0.001)) return p;
-      out->time_limit_s = *number;
-    } else if (a == "--min-separation") {
-      if (auto p = need_number(0)) return p;
-      out->min_separation_m = *number;
-    } else if (a == "--dump") {
-      if (auto p = need_number(0)) return p;
-      out->dump = static_cast<int>(*number);
-    } else if (a == "--methods") {
-      out->methods = SplitList(value);
-      for (const std::string& m : out->methods) {
-        if (m != "strata" && m != "liu" && m != "krusi") {
-          return "unknown method '" + m + "' (known: strata, liu, krusi)";
-        }
-      }
-      if (out->methods.empty()) return "--methods needs at least one of strata, liu, krusi";
-    } else if (a == "--out") {
-      out->out_dir = value;
-    } else if (a == "--krusi-refine") {
-      if (auto p = need_number(0)) return p;
-      out->krusi_refine_s = *number;
-    } else if (a == "--robot") {
-      out->robot = value;
-    } else {
-      return "unknown option " + a;
-    }
-  }
-  if (out->map.empty()) return "--scene NAME or --map FILE is missing";
-  if (out->out_dir.empty()) return "--out DIR is missing";
-  return std::nullopt;
-}
-
 int Fail(const std::string& what, const Error& error) {
   std::fprintf(stderr, "strata-bench: %s: %s: %s\n", what.c_str(), ErrorCodeName(error.code),
                error.message.c_str());
-  return 1;
+  return offline::kExitFailed;
 }
 
 nlohmann::json MetaJson(const BenchArgs& args, const std::vector<std::string>& command,
@@ -134,25 +61,16 @@ nlohmann::json MetaJson(const BenchArgs& args, const std::vector<std::string>& c
           {"assessment", assessment}};
 }
 
-}  // namespace
-
-int RunBench(const std::vector<std::string>& args) {
-  BenchArgs parsed;
-  if (auto problem = ParseArgs(args, &parsed)) {
-    std::fprintf(stderr, "strata-bench: %s\n", problem->c_str());
-    return 2;
-  }
+int RunBench(const BenchArgs& parsed, const std::vector<std::string>& command) {
+  // The name passed BuiltinRobotName when parsed.
   const Expected<RobotProfile> profile = BuiltinProfile(parsed.robot);
-  if (!profile) {
-    std::fprintf(stderr, "strata-bench: %s\n", profile.error().message.c_str());
-    return 2;
-  }
+  if (!profile) return Fail("robot", profile.error());
   std::error_code ec;
   std::filesystem::create_directories(parsed.out_dir, ec);
   if (ec) {
     std::fprintf(stderr, "strata-bench: cannot create '%s': %s\n", parsed.out_dir.c_str(),
                  ec.message().c_str());
-    return 1;
+    return offline::kExitFailed;
   }
 
   const Expected<MapSource> source = ParseMapSource(parsed.map);
@@ -230,8 +148,6 @@ int RunBench(const std::vector<std::string>& args) {
                           WriteCloudCsv((dir / "cloud.csv").string(), points, 150000)}) {
     if (!s) return Fail("writing the results", s.error());
   }
-  std::vector<std::string> command = {"strata-bench"};
-  command.insert(command.end(), args.begin(), args.end());
   std::ofstream meta(dir / "meta.json");
   meta << MetaJson(parsed, command, method_view, points.size(), pairs.size()).dump(2) << '\n';
   std::ofstream md(dir / "summary.md");
@@ -241,7 +157,71 @@ int RunBench(const std::vector<std::string>& args) {
                 Error{ErrorCode::kInvalidInput, "cannot write meta.json or summary.md"});
   }
   std::printf("%s", markdown.c_str());
-  return 0;
+  return offline::kExitOk;
+}
+
+}  // namespace
+
+void AddBenchOptions(CLI::App& app, std::vector<std::string> command_line,
+                     std::function<int()>* run) {
+  auto args = std::make_shared<BenchArgs>();
+  // Exactly one of --scene and --map.
+  CLI::Option_group* source = app.add_option_group("map", "where the points come from");
+  source
+      ->add_option_function<std::string>(
+          "--scene", [args](const std::string& name) { args->map = "scene:" + name; },
+          "a built-in scene, NAME[:SEED] as in scene:NAME[:SEED] (docs/scenes.md)")
+      ->type_name("NAME");
+  source->add_option("--map", args->map, "a .pcd, .ply, .bt or .ot file")->type_name("FILE");
+  source->require_option(1);
+  app.add_option("--out", args->out_dir,
+                 "directory for results.csv, summary.csv, summary.md, paths.csv, cloud.csv and "
+                 "meta.json")
+      ->type_name("DIR")
+      ->required();
+  app.add_option("--pairs", args->pairs, "random start/goal pairs")
+      ->type_name("N")
+      ->check(offline::AtLeast(1))
+      ->capture_default_str();
+  app.add_option("--seed", args->seed, "seed of the pairs and of OMPL's generators")
+      ->type_name("S")
+      ->capture_default_str();
+  app.add_option("--methods", args->methods, "the planners to compare")
+      ->type_name("LIST")
+      ->delimiter(',')
+      ->check(CLI::Validator(
+          [](const std::string& method) -> std::string {
+            if (method == "strata" || method == "liu" || method == "krusi") return {};
+            return "unknown method '" + method + "' (known: strata, liu, krusi)";
+          },
+          ""))
+      ->default_str("strata,liu,krusi");
+  app.add_option("--time-limit", args->time_limit_s, "every method's budget per query [s]")
+      ->type_name("S")
+      ->check(offline::AtLeast(0.001))
+      ->capture_default_str();
+  app.add_option("--min-separation", args->min_separation_m,
+                 "least straight-line distance between start and goal [m]")
+      ->type_name("M")
+      ->check(offline::AtLeast(0))
+      ->capture_default_str();
+  app.add_option("--dump", args->dump, "queries whose paths go into paths.csv")
+      ->type_name("N")
+      ->check(offline::AtLeast(0))
+      ->capture_default_str();
+  app.add_option("--robot", args->robot, "built-in robot profile: " + offline::BuiltinRobotNames())
+      ->type_name("NAME")
+      ->check(offline::BuiltinRobotName())
+      ->capture_default_str();
+  app.add_option("--krusi-refine", args->krusi_refine_s,
+                 "seconds of each query's limit the Krusi-style baseline keeps for refining "
+                 "[s]; default: the baseline's own")
+      ->type_name("S")
+      ->check(offline::AtLeast(0));
+  offline::AddAssessmentOptions(app, &args->assessment);
+  app.callback([args, command_line = std::move(command_line), run] {
+    *run = [args, command_line] { return RunBench(*args, command_line); };
+  });
 }
 
 }  // namespace strata::bench

@@ -150,7 +150,26 @@ TEST_F(BenchSmokeTest, BadArgumentsExitWithTwo) {
   EXPECT_THAT(output, HasSubstr("unknown method 'astar'"));
   output.clear();
   EXPECT_EQ(RunBench("--scene stairs_ramp_room --pairs 3", &output), 2);
-  EXPECT_THAT(output, HasSubstr("--out DIR is missing"));
+  EXPECT_THAT(output, HasSubstr("--out is required"));
+  output.clear();
+  EXPECT_EQ(RunBench("--scene stairs_ramp_room --map x.pcd --out '" + dir_.string() + "'", &output),
+            2);
+  EXPECT_THAT(output, HasSubstr("Exactly 1 option from [--scene,--map]"));
+  output.clear();
+  EXPECT_EQ(RunBench("--scene stairs_ramp_room --pairs 0 --out '" + dir_.string() + "'", &output),
+            2);
+  EXPECT_THAT(output, HasSubstr("--pairs: must be a number >= 1, got '0'"));
+}
+
+TEST_F(BenchSmokeTest, HelpListsEveryFlag) {
+  std::string output;
+  ASSERT_EQ(RunBench("--help", &output), 0) << output;
+  for (const char* flag :
+       {"--scene", "--map", "--out", "--pairs", "--seed", "--methods", "--time-limit",
+        "--min-separation", "--dump", "--robot", "--krusi-refine", "--resolution", "--radius",
+        "--max-tilt-deg", "--threads"}) {
+    EXPECT_THAT(output, HasSubstr(flag));
+  }
 }
 
 }  // namespace

@@ -1,12 +1,12 @@
 #include "offline/assess_command.hpp"
 
 #include <cstdio>
-#include <optional>
+#include <memory>
 
 #include <nlohmann/json.hpp>
 
 #include "offline/assessed_map.hpp"
-#include "offline/assessment_options.hpp"
+#include "offline/command_line.hpp"
 #include "strata/terrain_model.hpp"
 
 namespace strata::offline {
@@ -17,26 +17,6 @@ struct AssessArgs {
   AssessmentConfig config;
   bool json = false;
 };
-
-// Returns an error message, or nothing when the arguments parsed.
-std::optional<std::string> ParseArgs(const std::vector<std::string>& args, AssessArgs* out) {
-  for (std::size_t i = 0; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    if (a == "--json") {
-      out->json = true;
-      continue;
-    }
-    if (IsAssessmentOption(a)) {
-      if (auto problem = TakeAssessmentOption(args, &i, &out->config)) return problem;
-      continue;
-    }
-    if (a.starts_with("--")) return "unknown option " + a;
-    if (!out->map.empty()) return "more than one MAP given ('" + out->map + "', '" + a + "')";
-    out->map = a;
-  }
-  if (out->map.empty()) return "MAP is missing";
-  return std::nullopt;
-}
 
 nlohmann::json SummaryJson(const std::string& source, const AssessedMap& map) {
   const TerrainModel& model = *map.model;
@@ -86,19 +66,12 @@ void PrintHuman(const nlohmann::json& j) {
               s["field"].get<double>(), s["total"].get<double>());
 }
 
-}  // namespace
-
-int RunAssess(const std::vector<std::string>& args) {
-  AssessArgs parsed;
-  if (const auto problem = ParseArgs(args, &parsed)) {
-    std::fprintf(stderr, "strata-offline assess: %s\n", problem->c_str());
-    return 2;
-  }
+int RunAssess(const AssessArgs& parsed) {
   Expected<AssessedMap> map = LoadAndAssess(parsed.map, parsed.config);
   if (!map) {
     std::fprintf(stderr, "strata-offline assess: %s: %s\n", ErrorCodeName(map.error().code),
                  map.error().message.c_str());
-    return 1;
+    return kExitFailed;
   }
   const nlohmann::json summary = SummaryJson(parsed.map, *map);
   if (parsed.json) {
@@ -106,7 +79,19 @@ int RunAssess(const std::vector<std::string>& args) {
   } else {
     PrintHuman(summary);
   }
-  return 0;
+  return kExitOk;
+}
+
+}  // namespace
+
+void AddAssessCommand(CLI::App& app, std::function<int()>* run) {
+  auto args = std::make_shared<AssessArgs>();
+  CLI::App* command = app.add_subcommand(
+      "assess", "Terrain assessment of MAP: point counts, grid, memory and seconds per stage.");
+  command->add_option("MAP", args->map, MapHelp())->type_name("")->required();
+  AddAssessmentOptions(*command, &args->config);
+  command->add_flag("--json", args->json, "print the figures as JSON (README.md lists the keys)");
+  command->callback([args, run] { *run = [args] { return RunAssess(*args); }; });
 }
 
 }  // namespace strata::offline

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <memory>
 #include <numbers>
 #include <optional>
 
@@ -12,7 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "offline/assessed_map.hpp"
-#include "offline/assessment_options.hpp"
+#include "offline/command_line.hpp"
 #include "offline/plan_svg.hpp"
 #include "strata/planner.hpp"
 
@@ -30,72 +31,39 @@ struct PlanArgs {
   std::string svg_path;  // Empty: no drawing.
 };
 
-// "x,y,z" in metres.
+// "x,y,z" in metres, each a decimal number spanning its part.
 std::optional<Eigen::Vector3d> ParsePoint(const std::string& text) {
   Eigen::Vector3d p;
   std::size_t begin = 0;
   for (int axis = 0; axis < 3; ++axis) {
     const std::size_t end = axis < 2 ? text.find(',', begin) : text.size();
     if (end == std::string::npos) return std::nullopt;
-    const std::optional<double> v = ParseNumber(text.substr(begin, end - begin));
-    if (!v) return std::nullopt;
-    p(axis) = *v;
+    const std::string part = text.substr(begin, end - begin);
+    try {
+      std::size_t used = 0;
+      p(axis) = std::stod(part, &used);
+      if (used != part.size()) return std::nullopt;
+    } catch (const std::exception&) {
+      return std::nullopt;
+    }
     begin = end + 1;
   }
   return p;
 }
 
-bool IsPlanOption(const std::string& arg) {
-  return arg == "--start" || arg == "--goal" || arg == "--robot" || arg == "--time-budget" ||
-         arg == "--svg";
-}
-
-// Returns an error message, or nothing when `value` suits option `name`.
-std::optional<std::string> ApplyPlanOption(const std::string& name, const std::string& value,
-                                           PlanArgs* out) {
-  if (name == "--robot") {
-    out->robot = value;
-  } else if (name == "--svg") {
-    out->svg_path = value;
-  } else if (name == "--time-budget") {
-    const std::optional<double> seconds = ParseNumber(value);
-    if (!seconds) return name + " needs a number of seconds, got '" + value + "'";
-    // The whole plan's budget; the search may use all of it (the plan caps it anyway).
-    out->options.time_budget_s = *seconds;
-    out->options.search.time_budget_s = *seconds;
-  } else {
-    const std::optional<Eigen::Vector3d> p = ParsePoint(value);
-    if (!p) return name + " needs x,y,z in metres, got '" + value + "'";
-    (name == "--start" ? out->start : out->goal) = *p;
-  }
-  return std::nullopt;
-}
-
-// Returns an error message, or nothing when the arguments parsed.
-std::optional<std::string> ParseArgs(const std::vector<std::string>& args, PlanArgs* out) {
-  for (std::size_t i = 0; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    if (a == "--json") {
-      out->json = true;
-      continue;
-    }
-    if (IsAssessmentOption(a)) {
-      if (auto problem = TakeAssessmentOption(args, &i, &out->assessment)) return problem;
-      continue;
-    }
-    if (IsPlanOption(a)) {
-      if (i + 1 >= args.size()) return a + " needs a value";
-      if (auto problem = ApplyPlanOption(a, args[++i], out)) return problem;
-      continue;
-    }
-    if (a.starts_with("--")) return "unknown option " + a;
-    if (!out->map.empty()) return "more than one MAP given ('" + out->map + "', '" + a + "')";
-    out->map = a;
-  }
-  if (out->map.empty()) return "MAP is missing";
-  if (!out->start) return "--start x,y,z is missing";
-  if (!out->goal) return "--goal x,y,z is missing";
-  return std::nullopt;
+// Adds --start or --goal, a required point written x,y,z, parsed into *point.
+void AddPointOption(CLI::App& command, const std::string& name, const std::string& help,
+                    std::optional<Eigen::Vector3d>* point) {
+  command
+      .add_option_function<std::string>(
+          name, [point](const std::string& text) { *point = ParsePoint(text); }, help)
+      ->type_name("X,Y,Z")
+      ->required()
+      ->check(CLI::Validator(
+          [](const std::string& text) {
+            return ParsePoint(text) ? std::string() : "needs x,y,z in metres, got '" + text + "'";
+          },
+          ""));
 }
 
 // Reports a failure of the map or the plan: always on stderr, and as JSON on stdout with
@@ -107,7 +75,7 @@ int Fail(const PlanArgs& args, const Error& error) {
         {"error", {{"reason", ErrorCodeName(error.code)}, {"message", error.message}}}};
     std::printf("%s\n", j.dump(2).c_str());
   }
-  return 1;
+  return kExitFailed;
 }
 
 Status WriteSvg(const std::string& path, const PlanningMap& map, const RobotProfile& profile,
@@ -254,19 +222,10 @@ void PrintHuman(const PlanArgs& args, const RobotProfile& profile, const Assesse
   PrintPieces(plan.trajectory);
 }
 
-}  // namespace
-
-int RunPlan(const std::vector<std::string>& args) {
-  PlanArgs parsed;
-  if (auto problem = ParseArgs(args, &parsed)) {
-    std::fprintf(stderr, "strata-offline plan: %s\n", problem->c_str());
-    return 2;
-  }
+int RunPlan(const PlanArgs& parsed) {
+  // The name passed BuiltinRobotName when parsed.
   const Expected<RobotProfile> profile = BuiltinProfile(parsed.robot);
-  if (!profile) {
-    std::fprintf(stderr, "strata-offline plan: %s\n", profile.error().message.c_str());
-    return 2;
-  }
+  if (!profile) return Fail(parsed, profile.error());
   const Expected<AssessedMap> map = LoadAndAssess(parsed.map, parsed.assessment);
   if (!map) return Fail(parsed, map.error());
 
@@ -289,7 +248,40 @@ int RunPlan(const std::vector<std::string>& args) {
   } else {
     PrintHuman(parsed, *profile, *map, *plan);
   }
-  return 0;
+  return kExitOk;
+}
+
+}  // namespace
+
+void AddPlanCommand(CLI::App& app, std::function<int()>* run) {
+  auto args = std::make_shared<PlanArgs>();
+  CLI::App* command = app.add_subcommand(
+      "plan",
+      "Assesses MAP as assess does, then plans a trajectory of the robot's reference point from "
+      "start to goal. Prints where start and goal snapped, the plan's figures and its pieces.");
+  command->add_option("MAP", args->map, MapHelp())->type_name("")->required();
+  AddPointOption(*command, "--start", "start [m], map frame; z picks the level", &args->start);
+  AddPointOption(*command, "--goal", "goal [m], map frame; z picks the level", &args->goal);
+  command->add_option("--robot", args->robot, "built-in robot profile: " + BuiltinRobotNames())
+      ->type_name("NAME")
+      ->check(BuiltinRobotName())
+      ->capture_default_str();
+  command
+      ->add_option_function<double>(
+          "--time-budget",
+          [args](double seconds) {
+            // The whole plan's budget; the search may use all of it (the plan caps it anyway).
+            args->options.time_budget_s = seconds;
+            args->options.search.time_budget_s = seconds;
+          },
+          "wall-clock budget of the whole plan, search included [s]")
+      ->type_name("S")
+      ->default_str(DefaultText(PlanOptions{}.time_budget_s));
+  command->add_flag("--json", args->json, "print the plan as JSON (README.md lists the keys)");
+  command->add_option("--svg", args->svg_path, "also draw the plan (top and side view) into FILE")
+      ->type_name("FILE");
+  AddAssessmentOptions(*command, &args->assessment);
+  command->callback([args, run] { *run = [args] { return RunPlan(*args); }; });
 }
 
 }  // namespace strata::offline

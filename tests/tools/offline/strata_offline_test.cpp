@@ -196,6 +196,28 @@ TEST(StrataOfflineAssess, ReadsTheSharedAssessmentOptions) {
   EXPECT_EQ(RunOffline("assess scene:two_level_ramp --radius").exit_code, 2);
 }
 
+TEST(StrataOffline, HelpAndMissingCommand) {
+  const Outcome help = RunOffline("--help");
+  ASSERT_EQ(help.exit_code, 0) << help.output;
+  for (const char* command : {"assess", "plan", "scene"}) {
+    EXPECT_THAT(help.output, HasSubstr(command));
+  }
+  EXPECT_THAT(help.output, HasSubstr("Exit codes"));
+
+  const Outcome plan_help = RunOffline("plan --help");
+  ASSERT_EQ(plan_help.exit_code, 0) << plan_help.output;
+  for (const char* flag : {"--start", "--goal", "--robot", "--time-budget", "--json", "--svg",
+                           "--resolution", "--radius", "--max-tilt-deg", "--threads"}) {
+    EXPECT_THAT(plan_help.output, HasSubstr(flag));
+  }
+
+  const Outcome none = RunOffline("", /*with_stderr=*/true);
+  EXPECT_EQ(none.exit_code, 2);
+  EXPECT_THAT(none.output, HasSubstr("strata-offline --help"));
+  EXPECT_EQ(RunOffline("bench --scene stairs_ramp_room --out x").exit_code, 2)
+      << "the comparison is strata-bench's now";
+}
+
 // scene:NAME without a seed is kDefaultSceneSeed's scene, the one strata-server creates for a
 // CreateMap request without a seed (tests/server/scene_source_test.cpp checks the server side).
 TEST(StrataOfflineAssess, SceneWithoutSeedIsTheDefaultSeedsScene) {
