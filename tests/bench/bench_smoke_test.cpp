@@ -26,11 +26,13 @@ namespace {
 
 using ::testing::HasSubstr;
 
-// Runs strata-bench with `args`; returns the exit code, stdout and stderr in *output.
+// Runs strata-bench with `args` (as on a shell's command line); returns the exit code and
+// appends stdout, then stderr, to *output.
 int RunBench(const std::string& args, std::string* output) {
-  testing::CommandOutcome run =
-      testing::RunCommand(std::string("'") + STRATA_BENCH_BIN + "' " + args + " 2>&1");
-  *output += run.output;
+  std::vector<std::string> argv = test_util::ShellWords(args);
+  argv.insert(argv.begin(), STRATA_BENCH_BIN);
+  const test_util::CommandResult run = test_util::RunCommand(argv);
+  *output += run.out + run.err;
   return run.exit_code;
 }
 

@@ -12,17 +12,19 @@
 #include <google/protobuf/util/json_util.h>
 #include <gtest/gtest.h>
 
-#include "run_command.hpp"
 #include "server_process.hpp"
 #include "strata/client/polynomial_trajectory.hpp"
 #include "strata/client/setpoints.hpp"
 #include "strata/v1/map_service.pb.h"
 #include "strata/v1/planner_service.pb.h"
+#include "test_util/run_command.hpp"
 
 namespace strata::client::testing {
 namespace {
 
 using server::testing::ServerProcess;
+using test_util::CommandResult;
+using test_util::RunCommand;
 using ::testing::HasSubstr;
 
 class StrataCliTest : public ::testing::Test {

@@ -4,6 +4,7 @@
 // (from npm); without it the tests skip and say so.
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include <absl/strings/escaping.h>
 #include <gmock/gmock.h>
@@ -28,16 +29,21 @@ class BufCurlTest : public ServerFixture {
     ASSERT_NO_FATAL_FAILURE(StartServer());
   }
 
+  struct CurlOutcome {
+    int exit_code = -1;
+    std::string output;  ///< stdout, then stderr.
+  };
+
   // `buf curl` over plaintext HTTP/2 to the test server; `rpc` empty lists the services.
-  // The outcome's output holds stdout and stderr.
-  strata::testing::CommandOutcome Curl(const std::string& rpc, const std::string& json = "") {
-    std::string command = std::string("'") + STRATA_BUF_BIN +
-                          "' curl --protocol grpc --http2-prior-knowledge --timeout 60s";
-    if (rpc.empty()) command += " --list-services";
-    if (!json.empty()) command += " -d '" + json + "'";
-    command += " http://" + server_->address();
-    if (!rpc.empty()) command += "/" + rpc;
-    return strata::testing::RunCommand(command + " 2>&1");
+  CurlOutcome Curl(const std::string& rpc, const std::string& json = "") {
+    std::vector<std::string> argv = {
+        STRATA_BUF_BIN, "curl", "--protocol", "grpc", "--http2-prior-knowledge",
+        "--timeout",    "60s"};
+    if (rpc.empty()) argv.push_back("--list-services");
+    if (!json.empty()) argv.insert(argv.end(), {"-d", json});
+    argv.push_back("http://" + server_->address() + (rpc.empty() ? "" : "/" + rpc));
+    const test_util::CommandResult run = test_util::RunCommand(argv);
+    return {run.exit_code, run.out + run.err};
   }
 };
 

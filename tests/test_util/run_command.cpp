@@ -1,13 +1,16 @@
-#include "run_command.hpp"
+#include "test_util/run_command.hpp"
 
 #include <fcntl.h>
 #include <poll.h>
 #include <sys/wait.h>
 #include <unistd.h>
+#include <wordexp.h>
 
 #include <cstdlib>
 
-namespace strata::client::testing {
+#include <gtest/gtest.h>
+
+namespace strata::test_util {
 
 CommandResult RunCommand(const std::vector<std::string>& argv,
                          const std::vector<std::string>& env) {
@@ -59,4 +62,16 @@ CommandResult RunCommand(const std::vector<std::string>& argv,
   return result;
 }
 
-}  // namespace strata::client::testing
+std::vector<std::string> ShellWords(const std::string& line) {
+  wordexp_t words;
+  const int status = wordexp(line.c_str(), &words, WRDE_NOCMD | WRDE_UNDEF);
+  if (status != 0) {
+    ADD_FAILURE() << "wordexp cannot split (error " << status << "): " << line;
+    return {};
+  }
+  std::vector<std::string> result(words.we_wordv, words.we_wordv + words.we_wordc);
+  wordfree(&words);
+  return result;
+}
+
+}  // namespace strata::test_util
