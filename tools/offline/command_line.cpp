@@ -39,19 +39,13 @@ std::optional<int> ParseCommandLine(CLI::App& app, int argc, const char* const* 
 }
 
 void AddAssessmentOptions(CLI::App& command, AssessmentConfig* config) {
-  const AssessmentConfig defaults;
-  command
-      .add_option_function<double>(
-          "--resolution", [config](double m) { config->grid.resolution_m = m; },
-          "grid cell edge [m]")
+  // --help shows the values *config holds now: AssessmentConfig's defaults.
+  command.add_option("--resolution", config->grid.resolution_m, "grid cell edge [m]")
       ->type_name("M")
-      ->default_str(DefaultText(defaults.grid.resolution_m));
-  command
-      .add_option_function<double>(
-          "--radius", [config](double m) { config->ground.radius_m = m; },
-          "Valid Ground Filter radius [m]")
+      ->capture_default_str();
+  command.add_option("--radius", config->ground.radius_m, "Valid Ground Filter radius [m]")
       ->type_name("M")
-      ->default_str(DefaultText(defaults.ground.radius_m));
+      ->capture_default_str();
   command
       .add_option_function<double>(
           "--max-tilt-deg",
@@ -60,13 +54,12 @@ void AddAssessmentOptions(CLI::App& command, AssessmentConfig* config) {
           },
           "steepest ground the Valid Ground Filter keeps [deg]")
       ->type_name("D")
-      ->default_str(DefaultText(defaults.ground.max_tilt_rad * 180 / std::numbers::pi));
+      ->default_str(DefaultText(config->ground.max_tilt_rad * 180 / std::numbers::pi));
   command
-      .add_option_function<int>(
-          "--threads", [config](int threads) { config->num_threads = threads; },
-          "threads of the assessment's parallel stages; 0: every core")
+      .add_option("--threads", config->num_threads,
+                  "threads of the assessment's parallel stages; 0: every core")
       ->type_name("N")
-      ->default_str(DefaultText(defaults.num_threads));
+      ->capture_default_str();
 }
 
 CLI::Validator AtLeast(double min) {

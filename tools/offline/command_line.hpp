@@ -22,10 +22,10 @@ inline constexpr int kExitBadArguments = 2;
 /// (stderr); nothing when the line parsed and the caller runs it.
 std::optional<int> ParseCommandLine(CLI::App& app, int argc, const char* const* argv);
 
-/// Adds --resolution, --radius, --max-tilt-deg and --threads, which write into *config (their
-/// defaults shown in --help are AssessmentConfig's). Range checks are left to
-/// AssessmentConfig::Validate, which names the field (exit code 1), as for every other way a
-/// configuration reaches the planner.
+/// Adds --resolution, --radius, --max-tilt-deg and --threads, which write into *config; --help
+/// shows the values *config holds when they are added (AssessmentConfig's defaults). Range
+/// checks are left to AssessmentConfig::Validate, which names the field (exit code 1), as for
+/// every other way a configuration reaches the planner.
 void AddAssessmentOptions(CLI::App& command, AssessmentConfig* config);
 
 /// `value` as --help shows a default, e.g. 0.2 or 20 (a struct's default, so --help cannot
