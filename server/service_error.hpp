@@ -4,10 +4,10 @@
 /// fault, and machine-readable details. error_mapping.hpp turns one into a grpc::Status.
 #include <map>
 #include <string>
-#include <utility>
 #include <variant>
 #include <vector>
 
+#include "strata/common/expected.hpp"
 #include "strata/status.hpp"
 
 namespace strata::server {
@@ -63,28 +63,10 @@ ServiceError MakeError(ErrorCode code, std::string message);
 
 /// A value or a ServiceError.
 template <typename T>
-class Result {
- public:
-  Result(T value) : storage_(std::move(value)) {}             // NOLINT: implicit by design.
-  Result(ServiceError error) : storage_(std::move(error)) {}  // NOLINT: implicit by design.
-
-  bool ok() const { return std::holds_alternative<T>(storage_); }
-  /// Precondition: ok().
-  T& value() & { return std::get<T>(storage_); }
-  const T& value() const& { return std::get<T>(storage_); }
-  T&& value() && { return std::get<T>(std::move(storage_)); }
-  T* operator->() { return &value(); }
-  const T* operator->() const { return &value(); }
-  /// Precondition: !ok().
-  const ServiceError& error() const& { return std::get<ServiceError>(storage_); }
-  ServiceError&& error() && { return std::get<ServiceError>(std::move(storage_)); }
-
- private:
-  std::variant<T, ServiceError> storage_;
-};
+using Result = common::Expected<T, ServiceError>;
 
 /// Success, or a ServiceError, for calls without a value.
-using ServiceStatus = Result<std::monostate>;
-inline ServiceStatus OkStatus() { return std::monostate{}; }
+using ServiceStatus = common::Expected<void, ServiceError>;
+inline ServiceStatus OkStatus() { return ServiceStatus::Ok(); }
 
 }  // namespace strata::server

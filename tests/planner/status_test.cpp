@@ -27,16 +27,6 @@ TEST(Status, CodeNamesAreDistinctUpperSnakeCase) {
   }
 }
 
-TEST(Expected, HoldsAValueOrAnError) {
-  Expected<int> good = 42;
-  ASSERT_TRUE(good.ok());
-  EXPECT_EQ(*good, 42);
-  Expected<int> bad = Error{ErrorCode::kInvalidInput, "no"};
-  ASSERT_FALSE(bad.ok());
-  EXPECT_EQ(bad.error().code, ErrorCode::kInvalidInput);
-  EXPECT_EQ(bad.error().message, "no");
-}
-
 TEST(AssessmentConfig, DefaultsAreValid) { EXPECT_TRUE(AssessmentConfig{}.Validate().ok()); }
 
 TEST(AssessmentConfig, ValidateNamesTheBadField) {

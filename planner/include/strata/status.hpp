@@ -3,8 +3,8 @@
 /// A fallible call returns `Expected<T>` (a value or an `Error`) or `Status` (ok or an `Error`).
 
 #include <string>
-#include <utility>
-#include <variant>
+
+#include "strata/common/expected.hpp"
 
 namespace strata {
 
@@ -28,53 +28,23 @@ enum class ErrorCode {
 /// Stable UPPER_SNAKE_CASE name of a code, e.g. "MAP_LOAD_FAILED".
 const char* ErrorCodeName(ErrorCode code);
 
-/// A failure: a code and a message that names the offending values and says what to fix.
+/// A failure: a code, a message that names the offending values and says what to fix, and,
+/// when one field of the input is at fault, its path.
 struct Error {
   ErrorCode code;
   std::string message;
+  /// Path of the field at fault in the planner's structs, e.g. "profile.max_tilt_rad",
+  /// "options.optimizer.weights.safety", "start.position_m.x", "grid.resolution_m"; empty when
+  /// no single field is to blame. Set where the error is made, never recovered from the
+  /// message; the server maps it to the request field (server/proto_convert.hpp).
+  std::string field = {};
 };
 
 /// Either a value or an Error.
 template <typename T>
-class Expected {
- public:
-  Expected(T value) : storage_(std::move(value)) {}      // NOLINT: implicit by design.
-  Expected(Error error) : storage_(std::move(error)) {}  // NOLINT: implicit by design.
-
-  bool ok() const { return std::holds_alternative<T>(storage_); }
-  explicit operator bool() const { return ok(); }
-
-  /// The value; precondition: ok().
-  T& value() & { return std::get<T>(storage_); }
-  const T& value() const& { return std::get<T>(storage_); }
-  T&& value() && { return std::get<T>(std::move(storage_)); }
-  T* operator->() { return &value(); }
-  const T* operator->() const { return &value(); }
-  T& operator*() & { return value(); }
-  const T& operator*() const& { return value(); }
-
-  /// The error; precondition: !ok().
-  const Error& error() const { return std::get<Error>(storage_); }
-
- private:
-  std::variant<T, Error> storage_;
-};
+using Expected = common::Expected<T, Error>;
 
 /// Success or an Error, for calls with no result value.
-class Status {
- public:
-  Status() = default;
-  Status(Error error) : error_(std::move(error)), ok_(false) {}  // NOLINT: implicit by design.
-  static Status Ok() { return Status(); }
-
-  bool ok() const { return ok_; }
-  explicit operator bool() const { return ok_; }
-  /// The error; precondition: !ok().
-  const Error& error() const { return error_; }
-
- private:
-  Error error_{ErrorCode::kInvalidInput, {}};
-  bool ok_ = true;
-};
+using Status = common::Expected<void, Error>;
 
 }  // namespace strata

@@ -4,8 +4,8 @@
 /// offending field and value (e.g. "pieces[2].duration_s is -0.5 s; it must be > 0 and
 /// finite").
 #include <string>
-#include <utility>
-#include <variant>
+
+#include "strata/common/expected.hpp"
 
 namespace strata::client {
 
@@ -14,30 +14,8 @@ struct ClientError {
   std::string message;
 };
 
-/// Either a value or a ClientError.
+/// Either a value or a ClientError (strata::common::Expected, shared with planner and server).
 template <typename T>
-class Expected {
- public:
-  Expected(T value) : storage_(std::move(value)) {}            // NOLINT: implicit by design.
-  Expected(ClientError error) : storage_(std::move(error)) {}  // NOLINT: implicit by design.
-
-  bool ok() const { return std::holds_alternative<T>(storage_); }
-  explicit operator bool() const { return ok(); }
-
-  /// The value; precondition: ok().
-  T& value() & { return std::get<T>(storage_); }
-  const T& value() const& { return std::get<T>(storage_); }
-  T&& value() && { return std::get<T>(std::move(storage_)); }
-  T* operator->() { return &value(); }
-  const T* operator->() const { return &value(); }
-  T& operator*() & { return value(); }
-  const T& operator*() const& { return value(); }
-
-  /// The error; precondition: !ok().
-  const ClientError& error() const { return std::get<ClientError>(storage_); }
-
- private:
-  std::variant<T, ClientError> storage_;
-};
+using Expected = common::Expected<T, ClientError>;
 
 }  // namespace strata::client
