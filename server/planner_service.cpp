@@ -14,25 +14,6 @@ namespace {
 
 using SteadyClock = std::chrono::steady_clock;
 
-// The request field a planner error is about, by its code and the field path its message
-// starts with ("profile.max_tilt_rad = ...", "start.position_m must be ...").
-std::string FieldOf(const Error& error, bool inline_profile) {
-  switch (error.code) {
-    case ErrorCode::kStartOffGround: return "start.position_m";
-    case ErrorCode::kGoalOffGround: return "goal.position_m";
-    case ErrorCode::kProfileMismatch: return inline_profile ? "profile" : "profile_name";
-    case ErrorCode::kInvalidInput:
-    case ErrorCode::kInvalidConfig: {
-      const std::string first_word = error.message.substr(0, error.message.find(' '));
-      for (const char* prefix : {"start.", "goal.", "profile.", "options."}) {
-        if (first_word.rfind(prefix, 0) == 0) return first_word;
-      }
-      return "";
-    }
-    default: return "";
-  }
-}
-
 double DeadlineLeftSeconds(const grpc::ServerContext& context) {
   const auto deadline = context.deadline();
   if (deadline == std::chrono::system_clock::time_point::max()) {
@@ -83,9 +64,11 @@ Result<ParsedPlanRequest> ParsePlanRequest(const v1::PlanRequest& request) {
   if (!goal.ok()) return std::move(goal).error();
   parsed.plan.start = start.value();
   parsed.plan.goal = goal.value();
-  Result<PlanOptions> options = FromProto(request.options());
-  if (!options.ok()) return std::move(options).error();
-  parsed.plan.options = std::move(options).value();
+  parsed.plan.options = FromProto(request.options());
+  if (Status valid = parsed.plan.Validate(); !valid) {
+    return ServiceError::FromPlanner(valid.error(),
+                                     PlanRequestField(valid.error().field, parsed.inline_profile));
+  }
   parsed.time_budget_given = request.options().has_time_budget_s();
   if (request.options().has_sample_dt_s()) {
     const double dt = request.options().sample_dt_s();
@@ -114,8 +97,8 @@ ServiceStatus PlanOnMap(const PlanningMap& map, const ParsedPlanRequest& request
                         v1::PlanResponse* response, PlanTimings* timings) {
   Expected<PlanResult> result = strata::Plan(map, request.plan, should_stop);
   if (!result.ok()) {
-    return ServiceError::FromPlanner(result.error(),
-                                     FieldOf(result.error(), request.inline_profile));
+    return ServiceError::FromPlanner(
+        result.error(), PlanRequestField(result.error().field, request.inline_profile));
   }
   const PlanResult& plan = result.value();
   ToProto(plan.trajectory, response->mutable_trajectory());

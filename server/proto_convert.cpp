@@ -4,6 +4,8 @@
 #include <cmath>
 #include <cstdio>
 #include <functional>
+#include <string_view>
+#include <utility>
 
 #include "error_mapping.hpp"
 
@@ -32,23 +34,14 @@ void ToProto(std::chrono::system_clock::time_point time, Timestamp* message) {
       std::chrono::duration_cast<std::chrono::nanoseconds>(since_epoch - seconds).count()));
 }
 
-// A vector field of a request: each component must be finite.
-Result<Eigen::Vector3d> FromProto(const v1::Vector3& v, const std::string& field) {
-  const double values[3] = {v.x(), v.y(), v.z()};
-  const char* names[3] = {"x", "y", "z"};
-  for (int i = 0; i < 3; ++i) {
-    if (!std::isfinite(values[i])) {
-      return MakeError(ErrorCode::kInvalidInput,
-                       field + "." + names[i] + " must be finite, got " + Format(values[i]))
-          .Blame(field + "." + names[i]);
-    }
-  }
-  return Eigen::Vector3d(v.x(), v.y(), v.z());
-}
+Eigen::Vector3d FromProto(const v1::Vector3& v) { return {v.x(), v.y(), v.z()}; }
 
-// One optional terrain field and where it lands in AssessmentConfig.
+// One optional terrain field: its name in TerrainParameters, its path in AssessmentConfig
+// (Error::field) and where it lands there. The one table of terrain names: the proto
+// flattens the planner's per-stage structs.
 struct TerrainField {
   const char* name;
+  const char* planner_field;
   std::function<bool(const v1::TerrainParameters&)> has;
   std::function<double(const v1::TerrainParameters&)> get;
   std::function<double&(AssessmentConfig&)> slot;
@@ -57,57 +50,72 @@ struct TerrainField {
 const std::vector<TerrainField>& TerrainFields() {
   using T = v1::TerrainParameters;
   static const std::vector<TerrainField> fields = {
-      {"resolution_m", &T::has_resolution_m, &T::resolution_m,
+      {"resolution_m", "grid.resolution_m", &T::has_resolution_m, &T::resolution_m,
        [](AssessmentConfig& c) -> double& { return c.grid.resolution_m; }},
-      {"ground_radius_m", &T::has_ground_radius_m, &T::ground_radius_m,
+      {"ground_radius_m", "ground.radius_m", &T::has_ground_radius_m, &T::ground_radius_m,
        [](AssessmentConfig& c) -> double& { return c.ground.radius_m; }},
-      {"max_tilt_rad", &T::has_max_tilt_rad, &T::max_tilt_rad,
+      {"max_tilt_rad", "ground.max_tilt_rad", &T::has_max_tilt_rad, &T::max_tilt_rad,
        [](AssessmentConfig& c) -> double& { return c.ground.max_tilt_rad; }},
-      {"height_tolerance_m", &T::has_height_tolerance_m, &T::height_tolerance_m,
+      {"height_tolerance_m", "ground.height_tolerance_m", &T::has_height_tolerance_m,
+       &T::height_tolerance_m,
        [](AssessmentConfig& c) -> double& { return c.ground.height_tolerance_m; }},
-      {"padding_m", &T::has_padding_m, &T::padding_m,
+      {"padding_m", "grid.padding_m", &T::has_padding_m, &T::padding_m,
        [](AssessmentConfig& c) -> double& { return c.grid.padding_m; }},
   };
   return fields;
 }
 
-// The request field a RobotProfile::Validate message is about: its messages start with
-// "profile.<field> = ", which is also the field's path in PlanRequest.
-std::string ProfileFieldOf(const std::string& message) {
-  const std::size_t end = message.find(" = ");
-  if (message.rfind("profile.", 0) == 0 && end != std::string::npos) return message.substr(0, end);
-  return "profile";
-}
+// Planner field paths (PlanRequest) whose request path differs: PlanOptions keeps the
+// weights inside its optimiser settings, the proto beside the other options. Every other path
+// is the same in both by design (RobotState, RobotProfile, PlanOptions' own fields).
+constexpr std::pair<std::string_view, std::string_view> kPlanRequestRenames[] = {
+    {"options.optimizer.weights.", "options.weights."},
+};
 
-ServiceError OutOfRange(const std::string& field, double value, const std::string& range) {
-  return MakeError(ErrorCode::kInvalidConfig,
-                   field + " = " + Format(value) + " is out of range: must be " + range)
-      .Blame(field);
+// Whether `path` ("options.weights.safety": field names joined by dots) names a field of
+// `message`.
+bool HasFieldPath(const google::protobuf::Descriptor* message, std::string_view path) {
+  while (message != nullptr) {
+    const std::size_t dot = path.find('.');
+    const google::protobuf::FieldDescriptor* field =
+        message->FindFieldByName(std::string(path.substr(0, dot)));
+    if (field == nullptr) return false;
+    if (dot == std::string_view::npos) return true;
+    message = field->message_type();
+    path.remove_prefix(dot + 1);
+  }
+  return false;
 }
 
 }  // namespace
 
+std::string PlanRequestField(const std::string& planner_field, bool inline_profile) {
+  if (planner_field.rfind("profile.", 0) == 0 && !inline_profile) return "profile_name";
+  std::string field = planner_field;
+  for (const auto& [planner_prefix, request_prefix] : kPlanRequestRenames) {
+    if (field.rfind(planner_prefix, 0) == 0) {
+      field.replace(0, planner_prefix.size(), request_prefix);
+      break;
+    }
+  }
+  return HasFieldPath(v1::PlanRequest::descriptor(), field) ? field : std::string();
+}
+
+std::string TerrainRequestField(const std::string& planner_field, const std::string& field) {
+  for (const TerrainField& f : TerrainFields()) {
+    if (planner_field == f.planner_field) return field + "." + f.name;
+  }
+  return field;
+}
+
 Result<AssessmentConfig> FromProto(const v1::TerrainParameters& terrain, const std::string& field) {
   AssessmentConfig config;
   for (const TerrainField& f : TerrainFields()) {
-    if (!f.has(terrain)) continue;
-    // Each field is checked alone on top of the defaults, so the error names it exactly
-    // and the ranges stay those of AssessmentConfig::Validate.
-    AssessmentConfig probe;
-    f.slot(probe) = f.get(terrain);
-    if (Status valid = probe.Validate(); !valid) {
-      // The planner names its own field ("grid.resolution_m = ..."); say the request's.
-      const std::string request_field = field + "." + f.name;
-      Error error = valid.error();
-      if (const std::size_t eq = error.message.find(" = "); eq != std::string::npos) {
-        error.message = request_field + error.message.substr(eq);
-      }
-      return ServiceError::FromPlanner(error, request_field);
-    }
-    f.slot(config) = f.get(terrain);
+    if (f.has(terrain)) f.slot(config) = f.get(terrain);
   }
   if (Status valid = config.Validate(); !valid) {
-    return ServiceError::FromPlanner(valid.error(), field);
+    return ServiceError::FromPlanner(valid.error(),
+                                     TerrainRequestField(valid.error().field, field));
   }
   return config;
 }
@@ -207,8 +215,9 @@ Result<RobotProfile> ProfileFromRequest(const v1::PlanRequest& request) {
   if (m.has_body_height_min_m()) p.body_height_min_m = m.body_height_min_m();
   if (m.has_body_height_max_m()) p.body_height_max_m = m.body_height_max_m();
   if (m.has_headroom_m()) p.headroom_m = m.headroom_m();
-  if (Status valid = p.Validate(); !valid) {
-    return ServiceError::FromPlanner(valid.error(), ProfileFieldOf(valid.error().message));
+  // RobotProfile::Validate blames "profile.<field>", the field's path in PlanRequest too.
+  if (Status valid = p.Validate("profile"); !valid) {
+    return ServiceError::FromPlanner(valid.error(), valid.error().field);
   }
   return p;
 }
@@ -236,64 +245,27 @@ Result<RobotState> FromProto(const v1::RobotState& state, const std::string& fie
         .Blame(field + ".position_m");
   }
   RobotState result;
-  Result<Eigen::Vector3d> position = FromProto(state.position_m(), field + ".position_m");
-  if (!position.ok()) return std::move(position).error();
-  result.position_m = position.value();
-  if (state.has_velocity_mps()) {
-    Result<Eigen::Vector3d> v = FromProto(state.velocity_mps(), field + ".velocity_mps");
-    if (!v.ok()) return std::move(v).error();
-    result.velocity_mps = v.value();
-  }
+  result.position_m = FromProto(state.position_m());
+  if (state.has_velocity_mps()) result.velocity_mps = FromProto(state.velocity_mps());
   if (state.has_acceleration_mps2()) {
-    Result<Eigen::Vector3d> a = FromProto(state.acceleration_mps2(), field + ".acceleration_mps2");
-    if (!a.ok()) return std::move(a).error();
-    result.acceleration_mps2 = a.value();
+    result.acceleration_mps2 = FromProto(state.acceleration_mps2());
   }
   return result;
 }
 
-Result<PlanOptions> FromProto(const v1::PlanOptions& m) {
+PlanOptions FromProto(const v1::PlanOptions& m) {
   PlanOptions options;
-  if (m.has_time_budget_s()) {
-    if (!(std::isfinite(m.time_budget_s()) && m.time_budget_s() > 0)) {
-      return OutOfRange("options.time_budget_s", m.time_budget_s(), "> 0 and finite");
-    }
-    options.time_budget_s = m.time_budget_s();
-  }
-  if (m.has_snap_tolerance_m()) {
-    if (!(std::isfinite(m.snap_tolerance_m()) && m.snap_tolerance_m() >= 0)) {
-      return OutOfRange("options.snap_tolerance_m", m.snap_tolerance_m(), ">= 0 and finite");
-    }
-    options.snap_tolerance_m = m.snap_tolerance_m();
-  }
-  if (m.has_max_attempts()) {
-    if (m.max_attempts() < 1 || m.max_attempts() > 10) {
-      return OutOfRange("options.max_attempts", m.max_attempts(), "in [1, 10]");
-    }
-    options.max_attempts = m.max_attempts();
-  }
+  if (m.has_time_budget_s()) options.time_budget_s = m.time_budget_s();
+  if (m.has_snap_tolerance_m()) options.snap_tolerance_m = m.snap_tolerance_m();
+  if (m.has_max_attempts()) options.max_attempts = m.max_attempts();
   const v1::CostWeights& w = m.weights();
   CostWeights& weights = options.optimizer.weights;
-  const struct {
-    const char* name;
-    bool has;
-    double value;
-    double* slot;
-  } overrides[] = {
-      {"smoothness", w.has_smoothness(), w.smoothness(), &weights.smoothness},
-      {"time", w.has_time(), w.time(), &weights.time},
-      {"safety", w.has_safety(), w.safety(), &weights.safety},
-      {"ground", w.has_ground(), w.ground(), &weights.ground},
-      {"feasibility", w.has_feasibility(), w.feasibility(), &weights.feasibility},
-      {"height", w.has_height(), w.height(), &weights.height},
-  };
-  for (const auto& o : overrides) {
-    if (!o.has) continue;
-    if (!(std::isfinite(o.value) && o.value >= 0)) {
-      return OutOfRange(std::string("options.weights.") + o.name, o.value, ">= 0 and finite");
-    }
-    *o.slot = o.value;
-  }
+  if (w.has_smoothness()) weights.smoothness = w.smoothness();
+  if (w.has_time()) weights.time = w.time();
+  if (w.has_safety()) weights.safety = w.safety();
+  if (w.has_ground()) weights.ground = w.ground();
+  if (w.has_feasibility()) weights.feasibility = w.feasibility();
+  if (w.has_height()) weights.height = w.height();
   return options;
 }
 

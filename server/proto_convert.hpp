@@ -1,7 +1,10 @@
 #pragma once
-/// Conversion between the public API's messages (strata.v1) and the planner's types: the only
-/// place that knows both. Conversions from requests validate as they go and blame the
-/// request field at fault by its path in the request, e.g. "start.position_m.x".
+/// Conversion between the public API's messages (strata.v1) and the planner's types.
+/// Conversions from requests copy the fields that are set over the planner's defaults and call
+/// the planner's Validate(), which alone holds the valid ranges; the error's field path (a path
+/// in the planner's structs, Error::field) becomes the request field at fault, e.g.
+/// "start.position_m.x", by PlanRequestField or TerrainRequestField. The proto's own
+/// structure (presence of a required message, a oneof) is checked here.
 #include <string>
 #include <vector>
 
@@ -17,28 +20,43 @@
 
 namespace strata::server {
 
-/// Terrain parameters over the defaults; kInvalidConfig naming `field`.<name> when a set
-/// field is out of the range AssessmentConfig::Validate accepts.
+/// Terrain parameters over the defaults, validated by AssessmentConfig::Validate; its
+/// kInvalidConfig blames `field`.<name> (e.g. "terrain.ground_radius_m").
 Result<AssessmentConfig> FromProto(const v1::TerrainParameters& terrain, const std::string& field);
+/// The request field of an AssessmentConfig field path (Error::field, e.g. "ground.radius_m")
+/// for TerrainParameters at `field` ("terrain"): "terrain.ground_radius_m". The proto flattens
+/// the planner's per-stage structs, so one table in proto_convert.cpp maps the names; a path
+/// it does not hold (a stage parameter the request cannot set) maps to `field` itself.
+std::string TerrainRequestField(const std::string& planner_field, const std::string& field);
 /// Every field set.
 void ToProto(const AssessmentConfig& config, v1::TerrainParameters* terrain);
 
 /// The public view of a map; `failure` gets the reason from the error table.
 void ToProto(const MapSnapshot& snapshot, v1::Map* map);
 
-/// The profile of a request: a built-in by name, or inline over the defaults. kInvalidInput
-/// (unset, unknown name: "profile_name"), kInvalidConfig ("profile.<field>").
+/// The profile of a request: a built-in by name, or inline over the defaults and validated by
+/// RobotProfile::Validate. kInvalidInput (unset, unknown name: "profile_name"),
+/// kInvalidConfig ("profile.<field>", the same path in the planner and in PlanRequest).
 Result<RobotProfile> ProfileFromRequest(const v1::PlanRequest& request);
 /// Every field set.
 void ToProto(const RobotProfile& profile, v1::RobotProfile* message);
 
-/// A start or goal; kInvalidInput for a missing position or a non-finite component
-/// (blaming e.g. "start.position_m.x").
+/// A start or goal, copied; kInvalidInput for a missing position (blaming
+/// "<field>.position_m"). PlanRequest::Validate checks the values.
 Result<RobotState> FromProto(const v1::RobotState& state, const std::string& field);
 
-/// Options over the planner's defaults, except time_budget_s, which the caller caps (see
-/// PlannerService). kInvalidConfig / kInvalidInput naming "options.<field>".
-Result<PlanOptions> FromProto(const v1::PlanOptions& options);
+/// Options over the planner's defaults, copied (time_budget_s as given: the caller caps it,
+/// see PlannerService); PlanOptions::Validate checks them.
+PlanOptions FromProto(const v1::PlanOptions& options);
+
+/// The PlanRequest field of a planner field path (Error::field of PlanRequest::Validate or
+/// Plan), or "" when the request has no such field (a setting it cannot override). The paths
+/// are the same by design ("start.position_m.x", "profile.max_tilt_rad",
+/// "options.max_attempts"), with two exceptions: the weights ("options.optimizer.weights.X"
+/// is the request's "options.weights.X", one table in proto_convert.cpp), and a profile
+/// field of a built-in profile, which the request chose by "profile_name"
+/// (`inline_profile` false).
+std::string PlanRequestField(const std::string& planner_field, bool inline_profile);
 
 void ToProto(const Trajectory& trajectory, v1::Trajectory* message);
 /// The inverse of ToProto (clients and tests); kInvalidInput naming the field for a piece

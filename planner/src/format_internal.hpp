@@ -3,6 +3,7 @@
 
 #include <cstdio>
 #include <string>
+#include <string_view>
 
 #include <Eigen/Core>
 
@@ -10,12 +11,21 @@
 
 namespace strata::internal {
 
-/// kInvalidConfig: "<field> = <value> is out of range: must be <range>".
+/// The path of field `name` of a struct whose own path is `path`: "path.name", or "name" for
+/// the root (empty path).
+inline std::string FieldPath(std::string_view path, std::string_view name) {
+  std::string result(path);
+  if (!result.empty()) result += '.';
+  return result += name;
+}
+
+/// kInvalidConfig blaming `field` (a path, see Error::field): "<field> = <value> is out of
+/// range: must be <range>".
 inline Error OutOfRange(const std::string& field, double value, const std::string& range) {
   char buf[64];
   std::snprintf(buf, sizeof(buf), "%g", value);
   return Error{ErrorCode::kInvalidConfig,
-               field + " = " + buf + " is out of range: must be " + range};
+               field + " = " + buf + " is out of range: must be " + range, field};
 }
 
 /// "(x, y, z)" with centimetre precision, for messages in metres.

@@ -11,30 +11,25 @@
 #include "format_internal.hpp"
 
 namespace strata {
-namespace {
-
-Error BadConfig(const char* field, double value, const char* range) {
-  return internal::OutOfRange(std::string("search.") + field, value, range);
-}
-
-}  // namespace
-
-Status SearchConfig::Validate() const {
-  if (max_expansions < 1) return BadConfig("max_expansions", max_expansions, ">= 1");
+Status SearchConfig::Validate(std::string_view path) const {
+  const auto bad_config = [path](const char* field, double value, const char* range) {
+    return internal::OutOfRange(internal::FieldPath(path, field), value, range);
+  };
+  if (max_expansions < 1) return bad_config("max_expansions", max_expansions, ">= 1");
   if (!(std::isfinite(time_budget_s) && time_budget_s > 0)) {
-    return BadConfig("time_budget_s", time_budget_s, "> 0 and finite");
+    return bad_config("time_budget_s", time_budget_s, "> 0 and finite");
   }
   if (!(std::isfinite(clearance_weight) && clearance_weight >= 0)) {
-    return BadConfig("clearance_weight", clearance_weight, ">= 0 and finite");
+    return bad_config("clearance_weight", clearance_weight, ">= 0 and finite");
   }
   if (!(std::isfinite(clearance_margin_m) && clearance_margin_m > 0)) {
-    return BadConfig("clearance_margin_m", clearance_margin_m, "> 0 and finite");
+    return bad_config("clearance_margin_m", clearance_margin_m, "> 0 and finite");
   }
   if (!(std::isfinite(rim_weight) && rim_weight >= 0)) {
-    return BadConfig("rim_weight", rim_weight, ">= 0 and finite");
+    return bad_config("rim_weight", rim_weight, ">= 0 and finite");
   }
   if (!(std::isfinite(rim_margin_m) && rim_margin_m > 0)) {
-    return BadConfig("rim_margin_m", rim_margin_m, "> 0 and finite");
+    return bad_config("rim_margin_m", rim_margin_m, "> 0 and finite");
   }
   return Status::Ok();
 }
@@ -66,7 +61,10 @@ Expected<PathResult> SearchPath(const SurfaceGraph& graph, int start_node, int g
     return Error{code, std::move(message)};
   };
 
-  if (Status s = config.Validate(); !s.ok()) return fail(s.error().code, s.error().message);
+  if (Status s = config.Validate(); !s.ok()) {
+    finish();
+    return std::move(s).error();
+  }
   const int n = graph.node_count();
   if (start_node < 0 || start_node >= n || goal_node < 0 || goal_node >= n) {
     char buf[160];

@@ -55,19 +55,6 @@ class StopCondition {
   bool expired_ = false;
 };
 
-Status CheckFinite(const Eigen::Vector3d& v, const char* field) {
-  if (v.allFinite()) return Status::Ok();
-  return Error{ErrorCode::kInvalidInput,
-               std::string(field) + " must be finite, got " + internal::FormatPoint(v)};
-}
-
-Status CheckState(const RobotState& state, const char* name) {
-  const std::string prefix(name);
-  if (Status s = CheckFinite(state.position_m, (prefix + ".position_m").c_str()); !s) return s;
-  if (Status s = CheckFinite(state.velocity_mps, (prefix + ".velocity_mps").c_str()); !s) return s;
-  return CheckFinite(state.acceleration_mps2, (prefix + ".acceleration_mps2").c_str());
-}
-
 // Where the trajectory starts or ends: the requested x, y on the ground when they lie in the
 // snapped node's column (the robot is where it says), else the node's reference point.
 Eigen::Vector3d BoundaryPosition(const SurfaceGraph& graph, const SnapResult& snap,
@@ -164,17 +151,28 @@ std::size_t PlanningMap::MemoryBytes() const {
   return bytes;
 }
 
-Status PlanOptions::Validate() const {
+Status PlanOptions::Validate(std::string_view path) const {
+  using internal::FieldPath;
   if (!(std::isfinite(time_budget_s) && time_budget_s > 0)) {
-    return internal::OutOfRange("options.time_budget_s", time_budget_s, "> 0 and finite");
+    return internal::OutOfRange(FieldPath(path, "time_budget_s"), time_budget_s, "> 0 and finite");
   }
   if (!(std::isfinite(snap_tolerance_m) && snap_tolerance_m >= 0)) {
-    return internal::OutOfRange("options.snap_tolerance_m", snap_tolerance_m, ">= 0 and finite");
+    return internal::OutOfRange(FieldPath(path, "snap_tolerance_m"), snap_tolerance_m,
+                                ">= 0 and finite");
   }
-  if (max_attempts < 1) return internal::OutOfRange("options.max_attempts", max_attempts, ">= 1");
-  if (Status s = search.Validate(); !s) return s;
-  if (Status s = optimizer.Validate(); !s) return s;
-  return verifier.Validate();
+  if (max_attempts < 1 || max_attempts > 10) {
+    return internal::OutOfRange(FieldPath(path, "max_attempts"), max_attempts, "in [1, 10]");
+  }
+  if (Status s = search.Validate(FieldPath(path, "search")); !s) return s;
+  if (Status s = optimizer.Validate(FieldPath(path, "optimizer")); !s) return s;
+  return verifier.Validate(FieldPath(path, "verifier"));
+}
+
+Status PlanRequest::Validate() const {
+  if (Status s = start.Validate("start"); !s) return s;
+  if (Status s = goal.Validate("goal"); !s) return s;
+  if (Status s = profile.Validate("profile"); !s) return s;
+  return options.Validate("options");
 }
 
 Expected<PlanResult> Plan(const PlanningMap& map, const PlanRequest& request,
@@ -182,10 +180,7 @@ Expected<PlanResult> Plan(const PlanningMap& map, const PlanRequest& request,
   const Clock::time_point start_time = Clock::now();
   const PlanOptions& options = request.options;
   const RobotProfile& profile = request.profile;
-  if (Status s = CheckState(request.start, "start"); !s) return s.error();
-  if (Status s = CheckState(request.goal, "goal"); !s) return s.error();
-  if (Status s = profile.Validate(); !s) return s.error();
-  if (Status s = options.Validate(); !s) return s.error();
+  if (Status s = request.Validate(); !s) return std::move(s).error();
   if (Status s = CheckProfileFitsMap(profile, map.model().config()); !s) return s.error();
   const auto deadline = start_time + std::chrono::duration_cast<Clock::duration>(
                                          std::chrono::duration<double>(options.time_budget_s));
@@ -199,12 +194,17 @@ Expected<PlanResult> Plan(const PlanningMap& map, const PlanRequest& request,
   Expected<std::shared_ptr<const SurfaceGraph>> graph_or = map.Graph(profile.Traversability());
   if (!graph_or) return graph_or.error();
   const SurfaceGraph& graph = **graph_or;
+  // Off the ground, the position is what the caller must change.
+  const auto blame = [](Error error, const char* field) {
+    error.field = field;
+    return error;
+  };
   Expected<SnapResult> start = SnapToSurface(graph, request.start.position_m,
                                              options.snap_tolerance_m, ErrorCode::kStartOffGround);
-  if (!start) return start.error();
+  if (!start) return blame(std::move(start).error(), "start.position_m");
   Expected<SnapResult> goal = SnapToSurface(graph, request.goal.position_m,
                                             options.snap_tolerance_m, ErrorCode::kGoalOffGround);
-  if (!goal) return goal.error();
+  if (!goal) return blame(std::move(goal).error(), "goal.position_m");
   result.start = *start;
   result.goal = *goal;
   stats.timings.snap_s = SecondsSince(stage);

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <string>
 
 #include "format_internal.hpp"
 
@@ -10,8 +11,15 @@ namespace {
 
 constexpr double kDegree = std::numbers::pi / 180.0;
 
-Error BadField(const char* field, double value, const char* range) {
-  return internal::OutOfRange(std::string("profile.") + field, value, range);
+Status CheckFinite(const Eigen::Vector3d& v, std::string_view path) {
+  for (int i = 0; i < 3; ++i) {
+    if (std::isfinite(v(i))) continue;
+    const std::string field = internal::FieldPath(path, std::string(1, "xyz"[i]));
+    char buf[64];
+    std::snprintf(buf, sizeof(buf), " must be finite, got %g", v(i));
+    return Error{ErrorCode::kInvalidInput, field + buf, field};
+  }
+  return Status::Ok();
 }
 
 bool Positive(double v) { return std::isfinite(v) && v > 0; }
@@ -37,6 +45,12 @@ RobotProfile Biped() {
 
 }  // namespace
 
+Status RobotState::Validate(std::string_view path) const {
+  if (Status s = CheckFinite(position_m, internal::FieldPath(path, "position_m")); !s) return s;
+  if (Status s = CheckFinite(velocity_mps, internal::FieldPath(path, "velocity_mps")); !s) return s;
+  return CheckFinite(acceleration_mps2, internal::FieldPath(path, "acceleration_mps2"));
+}
+
 TraversabilityParams RobotProfile::Traversability() const {
   TraversabilityParams t;
   t.reference_height_m = reference_height_m;
@@ -46,49 +60,52 @@ TraversabilityParams RobotProfile::Traversability() const {
   return t;
 }
 
-Status RobotProfile::Validate() const {
+Status RobotProfile::Validate(std::string_view path) const {
+  const auto bad_field = [path](const char* field, double value, const char* range) {
+    return internal::OutOfRange(internal::FieldPath(path, field), value, range);
+  };
   if (!Positive(footprint_radius_m))
-    return BadField("footprint_radius_m", footprint_radius_m, "> 0");
+    return bad_field("footprint_radius_m", footprint_radius_m, "> 0");
   if (!(max_tilt_rad > 0 && max_tilt_rad < std::numbers::pi / 2)) {
-    return BadField("max_tilt_rad", max_tilt_rad, "in (0, pi/2)");
+    return bad_field("max_tilt_rad", max_tilt_rad, "in (0, pi/2)");
   }
   if (!(std::isfinite(max_step_m) && max_step_m >= 0)) {
-    return BadField("max_step_m", max_step_m, ">= 0 and finite");
+    return bad_field("max_step_m", max_step_m, ">= 0 and finite");
   }
   if (!Positive(reference_height_m)) {
-    return BadField("reference_height_m", reference_height_m, "> 0 and finite");
+    return bad_field("reference_height_m", reference_height_m, "> 0 and finite");
   }
   if (!Positive(max_speed_horizontal_mps)) {
-    return BadField("max_speed_horizontal_mps", max_speed_horizontal_mps, "> 0 and finite");
+    return bad_field("max_speed_horizontal_mps", max_speed_horizontal_mps, "> 0 and finite");
   }
   if (!Positive(max_speed_vertical_mps)) {
-    return BadField("max_speed_vertical_mps", max_speed_vertical_mps, "> 0 and finite");
+    return bad_field("max_speed_vertical_mps", max_speed_vertical_mps, "> 0 and finite");
   }
   if (!Positive(max_accel_horizontal_mps2)) {
-    return BadField("max_accel_horizontal_mps2", max_accel_horizontal_mps2, "> 0 and finite");
+    return bad_field("max_accel_horizontal_mps2", max_accel_horizontal_mps2, "> 0 and finite");
   }
   if (!Positive(max_accel_vertical_mps2)) {
-    return BadField("max_accel_vertical_mps2", max_accel_vertical_mps2, "> 0 and finite");
+    return bad_field("max_accel_vertical_mps2", max_accel_vertical_mps2, "> 0 and finite");
   }
   if (!(std::isfinite(headroom_m) && headroom_m >= 0)) {
-    return BadField("headroom_m", headroom_m, ">= 0 and finite");
+    return bad_field("headroom_m", headroom_m, ">= 0 and finite");
   }
-  if (!Positive(body_height_m)) return BadField("body_height_m", body_height_m, "> 0 and finite");
+  if (!Positive(body_height_m)) return bad_field("body_height_m", body_height_m, "> 0 and finite");
   if (active_height) {
     if (!Positive(body_height_min_m)) {
-      return BadField("body_height_min_m", body_height_min_m, "> 0 and finite");
+      return bad_field("body_height_min_m", body_height_min_m, "> 0 and finite");
     }
     if (!(std::isfinite(body_height_max_m) && body_height_max_m >= body_height_min_m)) {
-      return BadField("body_height_max_m", body_height_max_m, ">= body_height_min_m");
+      return bad_field("body_height_max_m", body_height_max_m, ">= body_height_min_m");
     }
     if (!(body_height_m >= body_height_min_m && body_height_m <= body_height_max_m)) {
-      return BadField("body_height_m", body_height_m,
-                      "in [body_height_min_m, body_height_max_m] (the preferred height)");
+      return bad_field("body_height_m", body_height_m,
+                       "in [body_height_min_m, body_height_max_m] (the preferred height)");
     }
   }
   if (reference_height_m > MinBodyHeight() + headroom_m) {
-    return BadField("reference_height_m", reference_height_m,
-                    "at most the lowest body height + headroom_m");
+    return bad_field("reference_height_m", reference_height_m,
+                     "at most the lowest body height + headroom_m");
   }
   return Status::Ok();
 }
@@ -111,7 +128,7 @@ Status CheckProfileFitsMap(const RobotProfile& profile, const AssessmentConfig& 
                   "robot; assess the map with a ground filter radius of at least %g m",
                   profile.name.c_str(), profile.footprint_radius_m, assessment.ground.radius_m,
                   profile.footprint_radius_m);
-    return Error{ErrorCode::kProfileMismatch, buf};
+    return Error{ErrorCode::kProfileMismatch, buf, "profile.footprint_radius_m"};
   }
   if (profile.max_tilt_rad > assessment.ground.max_tilt_rad + 1e-9) {
     std::snprintf(buf, sizeof(buf),
@@ -121,7 +138,7 @@ Status CheckProfileFitsMap(const RobotProfile& profile, const AssessmentConfig& 
                   profile.name.c_str(), profile.max_tilt_rad, profile.max_tilt_rad / kDegree,
                   assessment.ground.max_tilt_rad, assessment.ground.max_tilt_rad / kDegree,
                   profile.max_tilt_rad / kDegree);
-    return Error{ErrorCode::kProfileMismatch, buf};
+    return Error{ErrorCode::kProfileMismatch, buf, "profile.max_tilt_rad"};
   }
   return Status::Ok();
 }

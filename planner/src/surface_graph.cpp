@@ -11,26 +11,23 @@
 #include "format_internal.hpp"
 
 namespace strata {
-namespace {
+namespace {}  // namespace
 
-Error BadParam(const char* field, double value, const char* range) {
-  return internal::OutOfRange(std::string("traversability.") + field, value, range);
-}
-
-}  // namespace
-
-Status TraversabilityParams::Validate() const {
+Status TraversabilityParams::Validate(std::string_view path) const {
+  const auto bad_param = [path](const char* field, double value, const char* range) {
+    return internal::OutOfRange(internal::FieldPath(path, field), value, range);
+  };
   if (!(std::isfinite(body_height_m) && body_height_m > 0)) {
-    return BadParam("body_height_m", body_height_m, "> 0 and finite");
+    return bad_param("body_height_m", body_height_m, "> 0 and finite");
   }
   if (!(reference_height_m > 0 && reference_height_m <= body_height_m)) {
-    return BadParam("reference_height_m", reference_height_m, "in (0, body_height_m]");
+    return bad_param("reference_height_m", reference_height_m, "in (0, body_height_m]");
   }
   if (!(max_tilt_rad > 0 && max_tilt_rad < std::numbers::pi / 2)) {
-    return BadParam("max_tilt_rad", max_tilt_rad, "in (0, pi/2)");
+    return bad_param("max_tilt_rad", max_tilt_rad, "in (0, pi/2)");
   }
   if (!(std::isfinite(max_step_m) && max_step_m >= 0)) {
-    return BadParam("max_step_m", max_step_m, ">= 0 and finite");
+    return bad_param("max_step_m", max_step_m, ">= 0 and finite");
   }
   return Status::Ok();
 }
@@ -45,7 +42,7 @@ Expected<SurfaceGraph> SurfaceGraph::Build(const TerrainModel& model,
                   "traversability.max_tilt_rad = %g exceeds the map's ground filter "
                   "ground.max_tilt_rad = %g: steeper ground was never marked valid",
                   params.max_tilt_rad, map_tilt);
-    return Error{ErrorCode::kInvalidConfig, buf};
+    return Error{ErrorCode::kInvalidConfig, buf, "traversability.max_tilt_rad"};
   }
 
   SurfaceGraph graph;

@@ -44,7 +44,7 @@ Eigen::Matrix<double, 4, 6> Basis(double t) {
 
 }  // namespace
 
-Status CostWeights::Validate() const {
+Status CostWeights::Validate(std::string_view path) const {
   const std::pair<const char*, double> fields[] = {
       {"smoothness", smoothness}, {"time", time},
       {"safety", safety},         {"edge", edge},
@@ -52,7 +52,7 @@ Status CostWeights::Validate() const {
       {"height", height}};
   for (const auto& [name, value] : fields) {
     if (!(std::isfinite(value) && value >= 0)) {
-      return internal::OutOfRange(std::string("weights.") + name, value, ">= 0 and finite");
+      return internal::OutOfRange(internal::FieldPath(path, name), value, ">= 0 and finite");
     }
   }
   return Status::Ok();

@@ -12,10 +12,6 @@
 namespace strata {
 namespace {
 
-Error BadField(const char* field, double value, const char* range) {
-  return internal::OutOfRange(std::string("optimizer.") + field, value, range);
-}
-
 // Thrown from inside the L-BFGS objective when should_stop fires; LBFGS++ has no other way
 // to stop early. Caught in OptimizeTrajectory, never crosses the library's API.
 struct StopRequested {};
@@ -105,36 +101,39 @@ std::vector<Eigen::Vector3d> ResampleInterior(const std::vector<Eigen::Vector3d>
 
 }  // namespace
 
-Status OptimizerConfig::Validate() const {
-  if (Status s = weights.Validate(); !s) return s;
+Status OptimizerConfig::Validate(std::string_view path) const {
+  if (Status s = weights.Validate(internal::FieldPath(path, "weights")); !s) return s;
+  const auto bad_field = [path](const char* field, double value, const char* range) {
+    return internal::OutOfRange(internal::FieldPath(path, field), value, range);
+  };
   if (!(std::isfinite(safety_threshold) && safety_threshold >= 0)) {
-    return BadField("safety_threshold", safety_threshold, ">= 0 and finite");
+    return bad_field("safety_threshold", safety_threshold, ">= 0 and finite");
   }
   if (!(std::isfinite(edge_margin_m) && edge_margin_m >= 0)) {
-    return BadField("edge_margin_m", edge_margin_m, ">= 0 and finite");
+    return bad_field("edge_margin_m", edge_margin_m, ">= 0 and finite");
   }
   if (!(std::isfinite(distance_threshold_m) && distance_threshold_m > 0)) {
-    return BadField("distance_threshold_m", distance_threshold_m, "> 0 and finite");
+    return bad_field("distance_threshold_m", distance_threshold_m, "> 0 and finite");
   }
   if (!(limit_margin > 0 && limit_margin <= 1)) {
-    return BadField("limit_margin", limit_margin, "in (0, 1]");
+    return bad_field("limit_margin", limit_margin, "in (0, 1]");
   }
   if (!(std::isfinite(body_height_margin_m) && body_height_margin_m >= 0)) {
-    return BadField("body_height_margin_m", body_height_margin_m, ">= 0 and finite");
+    return bad_field("body_height_margin_m", body_height_margin_m, ">= 0 and finite");
   }
   if (!(std::isfinite(piece_length_m) && piece_length_m > 0)) {
-    return BadField("piece_length_m", piece_length_m, "> 0 and finite");
+    return bad_field("piece_length_m", piece_length_m, "> 0 and finite");
   }
-  if (samples_per_piece < 2) return BadField("samples_per_piece", samples_per_piece, ">= 2");
-  if (max_iterations < 1) return BadField("max_iterations", max_iterations, ">= 1");
+  if (samples_per_piece < 2) return bad_field("samples_per_piece", samples_per_piece, ">= 2");
+  if (max_iterations < 1) return bad_field("max_iterations", max_iterations, ">= 1");
   if (!(std::isfinite(gradient_tolerance) && gradient_tolerance > 0)) {
-    return BadField("gradient_tolerance", gradient_tolerance, "> 0 and finite");
+    return bad_field("gradient_tolerance", gradient_tolerance, "> 0 and finite");
   }
   if (!(std::isfinite(relative_improvement_tolerance) && relative_improvement_tolerance >= 0)) {
-    return BadField("relative_improvement_tolerance", relative_improvement_tolerance,
-                    ">= 0 and finite");
+    return bad_field("relative_improvement_tolerance", relative_improvement_tolerance,
+                     ">= 0 and finite");
   }
-  if (memory < 1) return BadField("memory", memory, ">= 1");
+  if (memory < 1) return bad_field("memory", memory, ">= 1");
   return Status::Ok();
 }
 

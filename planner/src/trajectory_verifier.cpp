@@ -42,19 +42,22 @@ double PeakSpeed(const Trajectory& trajectory) {
 
 }  // namespace
 
-Status VerifierConfig::Validate() const {
+Status VerifierConfig::Validate(std::string_view path) const {
   if (!(std::isfinite(max_sample_spacing_m) && max_sample_spacing_m > 0)) {
-    return internal::OutOfRange("verifier.max_sample_spacing_m", max_sample_spacing_m, "> 0");
+    return internal::OutOfRange(internal::FieldPath(path, "max_sample_spacing_m"),
+                                max_sample_spacing_m, "> 0");
   }
   if (!(std::isfinite(ground_tolerance_m) && ground_tolerance_m > 0)) {
-    return internal::OutOfRange("verifier.ground_tolerance_m", ground_tolerance_m, "> 0");
+    return internal::OutOfRange(internal::FieldPath(path, "ground_tolerance_m"), ground_tolerance_m,
+                                "> 0");
   }
   if (!(std::isfinite(min_obstacle_distance_m) && min_obstacle_distance_m >= 0)) {
-    return internal::OutOfRange("verifier.min_obstacle_distance_m", min_obstacle_distance_m,
-                                ">= 0");
+    return internal::OutOfRange(internal::FieldPath(path, "min_obstacle_distance_m"),
+                                min_obstacle_distance_m, ">= 0");
   }
   if (!(std::isfinite(limit_tolerance) && limit_tolerance >= 0)) {
-    return internal::OutOfRange("verifier.limit_tolerance", limit_tolerance, ">= 0");
+    return internal::OutOfRange(internal::FieldPath(path, "limit_tolerance"), limit_tolerance,
+                                ">= 0");
   }
   return Status::Ok();
 }

@@ -103,12 +103,14 @@ TEST_F(TwoLevelPlan, BadRequestsGetNamedErrors) {
   ASSERT_FALSE(plan.ok());
   EXPECT_EQ(plan.error().code, ErrorCode::kInvalidInput);
   EXPECT_THAT(plan.error().message, HasSubstr("start.position_m"));
+  EXPECT_EQ(plan.error().field, "start.position_m.x");
 
   request = Request(layout_.start_example_m, {layout_.room_x_max_m + 10, 3, 0});
   plan = Plan(*map_, request);
   ASSERT_FALSE(plan.ok());
   EXPECT_EQ(plan.error().code, ErrorCode::kGoalOffGround);
   EXPECT_THAT(plan.error().message, HasSubstr("the nearest is"));
+  EXPECT_EQ(plan.error().field, "goal.position_m");
 
   request = Request(layout_.start_example_m, layout_.goal_example_m);
   request.profile.footprint_radius_m = 0.5;  // The map was filtered for 0.3 m.
@@ -116,6 +118,7 @@ TEST_F(TwoLevelPlan, BadRequestsGetNamedErrors) {
   ASSERT_FALSE(plan.ok());
   EXPECT_EQ(plan.error().code, ErrorCode::kProfileMismatch);
   EXPECT_THAT(plan.error().message, HasSubstr("radius of at least 0.5"));
+  EXPECT_EQ(plan.error().field, "profile.footprint_radius_m");
 
   request = Request(layout_.start_example_m, layout_.goal_example_m);
   request.options.optimizer.weights.time = -1;
@@ -123,6 +126,7 @@ TEST_F(TwoLevelPlan, BadRequestsGetNamedErrors) {
   ASSERT_FALSE(plan.ok());
   EXPECT_EQ(plan.error().code, ErrorCode::kInvalidConfig);
   EXPECT_THAT(plan.error().message, HasSubstr("weights.time"));
+  EXPECT_EQ(plan.error().field, "options.optimizer.weights.time");
 }
 
 TEST_F(TwoLevelPlan, CancellationAndDeadlinesStopPromptlyWithTheirReason) {

@@ -108,8 +108,26 @@ TEST(ProtoConvertTest, TerrainParametersDefaultAndBlameTheirField) {
   Result<AssessmentConfig> bad = FromProto(terrain, "terrain");
   ASSERT_FALSE(bad.ok());
   EXPECT_EQ(FieldOf(bad.error()), "terrain.ground_radius_m");
-  EXPECT_THAT(bad.error().message, ::testing::StartsWith("terrain.ground_radius_m = nan"));
+  EXPECT_THAT(bad.error().message, ::testing::StartsWith("ground.radius_m = nan"));
   EXPECT_EQ(std::get<ErrorCode>(bad.error().code), ErrorCode::kInvalidConfig);
+}
+
+// Every field of TerrainParameters, set out of range alone, is blamed by its request path
+// (through the one table that maps the planner's per-stage names to the flat proto names).
+TEST(ProtoConvertTest, EveryTerrainFieldIsBlamedByItsRequestPath) {
+  const google::protobuf::Descriptor* descriptor = v1::TerrainParameters::descriptor();
+  ASSERT_GT(descriptor->field_count(), 0);
+  for (int i = 0; i < descriptor->field_count(); ++i) {
+    const google::protobuf::FieldDescriptor* field = descriptor->field(i);
+    ASSERT_EQ(field->cpp_type(), google::protobuf::FieldDescriptor::CPPTYPE_DOUBLE);
+    v1::TerrainParameters terrain;
+    terrain.GetReflection()->SetDouble(&terrain, field, std::nan(""));
+    Result<AssessmentConfig> bad = FromProto(terrain, "header.terrain");
+    ASSERT_FALSE(bad.ok()) << field->name();
+    EXPECT_EQ(FieldOf(bad.error()), "header.terrain." + field->name());
+  }
+  // A stage parameter the request cannot set blames the message as a whole.
+  EXPECT_EQ(TerrainRequestField("field.weight_tilt", "terrain"), "terrain");
 }
 
 TEST(ProtoConvertTest, ProfilesByNameOrInlineOverTheDefaults) {
@@ -186,6 +204,98 @@ TEST(ProtoConvertTest, PlanRequestsBlameTheExactField) {
     ASSERT_FALSE(parsed.ok()) << c.field;
     EXPECT_EQ(FieldOf(parsed.error()), c.field);
   }
+}
+
+std::string ParseFailureField(const v1::PlanRequest& request) {
+  Result<ParsedPlanRequest> parsed = ParsePlanRequest(request);
+  return parsed.ok() ? "(accepted)" : FieldOf(parsed.error());
+}
+
+// The planner's path of a profile field is its path in PlanRequest, by design: each field of
+// v1::RobotProfile, set out of range inline, is blamed as "profile.<name>" by the server, and
+// RobotProfile::Validate's message names the same path.
+TEST(ProtoConvertTest, EveryProfileFieldHasTheSamePathInThePlannerAndTheRequest) {
+  const google::protobuf::Descriptor* descriptor = v1::RobotProfile::descriptor();
+  int checked = 0;
+  for (int i = 0; i < descriptor->field_count(); ++i) {
+    const google::protobuf::FieldDescriptor* field = descriptor->field(i);
+    if (field->cpp_type() != google::protobuf::FieldDescriptor::CPPTYPE_DOUBLE) continue;
+    v1::PlanRequest request = ValidRequest();
+    v1::RobotProfile* profile = request.mutable_profile();
+    profile->set_active_height(true);  // Else the body height range is not checked.
+    profile->GetReflection()->SetDouble(profile, field, std::nan(""));
+    const std::string path = "profile." + field->name();
+    Result<RobotProfile> bad = ProfileFromRequest(request);
+    ASSERT_FALSE(bad.ok()) << path;
+    EXPECT_EQ(FieldOf(bad.error()), path);
+    // The message is the planner's own (RobotProfile::Validate), naming its path: the same.
+    EXPECT_THAT(bad.error().message, ::testing::StartsWith(path + " = nan"));
+    EXPECT_EQ(ParseFailureField(request), path);
+    ++checked;
+  }
+  EXPECT_EQ(checked, 12);
+}
+
+TEST(ProtoConvertTest, EveryOptionIsBlamedByItsRequestPath) {
+  const google::protobuf::Descriptor* weights = v1::CostWeights::descriptor();
+  for (int i = 0; i < weights->field_count(); ++i) {
+    const google::protobuf::FieldDescriptor* field = weights->field(i);
+    v1::PlanRequest request = ValidRequest();
+    v1::CostWeights* w = request.mutable_options()->mutable_weights();
+    w->GetReflection()->SetDouble(w, field, -1);
+    // The planner blames "options.optimizer.weights.<name>"; the one rename table maps it.
+    EXPECT_EQ(ParseFailureField(request), "options.weights." + field->name());
+  }
+  const struct {
+    std::function<void(v1::PlanOptions*)> edit;
+    std::string field;
+  } cases[] = {
+      {[](v1::PlanOptions* o) { o->set_time_budget_s(0); }, "options.time_budget_s"},
+      {[](v1::PlanOptions* o) { o->set_time_budget_s(std::nan("")); }, "options.time_budget_s"},
+      {[](v1::PlanOptions* o) { o->set_snap_tolerance_m(-1); }, "options.snap_tolerance_m"},
+      {[](v1::PlanOptions* o) { o->set_max_attempts(0); }, "options.max_attempts"},
+      {[](v1::PlanOptions* o) { o->set_max_attempts(11); }, "options.max_attempts"},
+      {[](v1::PlanOptions* o) { o->set_sample_dt_s(-1); }, "options.sample_dt_s"},
+  };
+  for (const auto& c : cases) {
+    v1::PlanRequest request = ValidRequest();
+    c.edit(request.mutable_options());
+    EXPECT_EQ(ParseFailureField(request), c.field);
+  }
+  v1::PlanRequest ten = ValidRequest();
+  ten.mutable_options()->set_max_attempts(10);
+  EXPECT_EQ(ParseFailureField(ten), "(accepted)");
+}
+
+TEST(ProtoConvertTest, EveryStartAndGoalComponentIsBlamedByItsPath) {
+  for (const std::string state : {"start", "goal"}) {
+    for (const std::string vector : {"position_m", "velocity_mps", "acceleration_mps2"}) {
+      for (const std::string axis : {"x", "y", "z"}) {
+        v1::PlanRequest request = ValidRequest();
+        v1::RobotState* s = state == "start" ? request.mutable_start() : request.mutable_goal();
+        google::protobuf::Message* v =
+            s->GetReflection()->MutableMessage(s, s->GetDescriptor()->FindFieldByName(vector));
+        v->GetReflection()->SetDouble(v, v->GetDescriptor()->FindFieldByName(axis),
+                                      std::numeric_limits<double>::infinity());
+        EXPECT_EQ(ParseFailureField(request), state + "." + vector + "." + axis);
+      }
+    }
+  }
+}
+
+// Planner errors of Plan itself (snapping, the map's assessment) reach the request field.
+TEST(ProtoConvertTest, PlannerFieldPathsMapToRequestFields) {
+  EXPECT_EQ(PlanRequestField("start.position_m", false), "start.position_m");
+  EXPECT_EQ(PlanRequestField("goal.position_m", true), "goal.position_m");
+  // A built-in profile that does not fit the map: the name chose it.
+  EXPECT_EQ(PlanRequestField("profile.footprint_radius_m", false), "profile_name");
+  EXPECT_EQ(PlanRequestField("profile.footprint_radius_m", true), "profile.footprint_radius_m");
+  EXPECT_EQ(PlanRequestField("options.optimizer.weights.height", true), "options.weights.height");
+  // Settings a request cannot override, and errors without a field, blame no request field.
+  EXPECT_EQ(PlanRequestField("options.search.max_expansions", true), "");
+  EXPECT_EQ(PlanRequestField("options.optimizer.weights.edge", true), "");
+  EXPECT_EQ(PlanRequestField("traversability.max_tilt_rad", true), "");
+  EXPECT_EQ(PlanRequestField("", true), "");
 }
 
 TEST(ProtoConvertTest, TimeBudgetIsCappedByServerAndDeadline) {

@@ -183,6 +183,7 @@ TEST_F(PlannerServiceTest, ProfileTooLargeForTheMapIsAPreconditionFailure) {
   const CallError error = ErrorOf(Plan(request, &response));
   EXPECT_EQ(error.code, grpc::StatusCode::FAILED_PRECONDITION);
   EXPECT_EQ(error.reason, "PROFILE_MISMATCH");
+  EXPECT_THAT(error.fields, ElementsAre("profile.footprint_radius_m"));
 }
 
 TEST_F(PlannerServiceTest, TimeBudgetExceededIsReportedWithItsReason) {

@@ -4,6 +4,7 @@
 /// should_stop callable for deadlines and cancellation. Every failure names its reason.
 
 #include <functional>
+#include <string_view>
 #include <vector>
 
 #include <Eigen/Core>
@@ -13,7 +14,7 @@
 
 namespace strata {
 
-/// A* settings. Validate() names the first bad field.
+/// A* settings. Validate() blames the first bad field by its path, `path`.<field>.
 struct SearchConfig {
   /// Most nodes the search may expand [-], >= 1. Reaching it fails with
   /// kSearchBudgetExhausted.
@@ -31,7 +32,7 @@ struct SearchConfig {
   /// Distance to the rim (SurfaceGraph::edge_distance) below which moves cost extra [m], > 0.
   double rim_margin_m = 0.4;
 
-  Status Validate() const;
+  Status Validate(std::string_view path = "search") const;
 };
 
 /// A path over graph nodes.

@@ -7,6 +7,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <string_view>
 #include <tuple>
 
 #include <Eigen/Core>
@@ -43,7 +44,8 @@ class PlanningMap {
   mutable std::map<GraphKey, std::shared_ptr<GraphEntry>> graphs_;
 };
 
-/// Per-request options. Validate() names the first bad field.
+/// Per-request options. Validate() blames the first bad field by its path, `path`.<field>
+/// (e.g. "options.optimizer.weights.safety").
 struct PlanOptions {
   /// Wall-clock budget of the whole plan [s], > 0. Running out fails with kDeadlineExceeded.
   double time_budget_s = 2.0;
@@ -52,10 +54,10 @@ struct PlanOptions {
   SearchConfig search;        ///< A* settings (its time budget is capped by the plan's).
   OptimizerConfig optimizer;  ///< Weights, thresholds, L-BFGS settings.
   VerifierConfig verifier;    ///< Tolerances of the final check.
-  /// Optimisations to try before giving up [-], >= 1. After a failed verification the next
+  /// Optimisations to try before giving up [-], in [1, 10]. After a failed verification the next
   /// attempt doubles the safety, ground and feasibility weights and halves the piece length.
   int max_attempts = 3;
-  Status Validate() const;
+  Status Validate(std::string_view path = "options") const;
 };
 
 struct PlanRequest {
@@ -63,6 +65,10 @@ struct PlanRequest {
   RobotState goal;
   RobotProfile profile;
   PlanOptions options;
+  /// The first bad field of start, goal, profile or options, blamed by its path (e.g.
+  /// "start.position_m.x", "profile.max_tilt_rad", "options.max_attempts"): kInvalidInput for
+  /// a non-finite state, kInvalidConfig for a field out of range.
+  Status Validate() const;
 };
 
 /// Wall-clock seconds per stage of one plan.

@@ -14,6 +14,7 @@
 /// fixed; the server shows the parameters each map was assessed with.
 #include <numbers>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <Eigen/Core>
@@ -30,6 +31,10 @@ struct RobotState {
   Eigen::Vector3d position_m = Eigen::Vector3d::Zero();
   Eigen::Vector3d velocity_mps = Eigen::Vector3d::Zero();
   Eigen::Vector3d acceleration_mps2 = Eigen::Vector3d::Zero();
+
+  /// kInvalidInput blaming the first non-finite component, e.g. "start.position_m.x" for
+  /// `path` "start".
+  Status Validate(std::string_view path) const;
 };
 
 struct RobotProfile {
@@ -75,8 +80,8 @@ struct RobotProfile {
   /// What the traversability graph needs from this profile.
   TraversabilityParams Traversability() const;
 
-  /// kInvalidConfig naming the first field out of range.
-  Status Validate() const;
+  /// kInvalidConfig blaming the first field out of range by its path, `path`.<field>.
+  Status Validate(std::string_view path = "profile") const;
 };
 
 /// Names of the built-in profiles, for help texts: "differential", "biped".
@@ -93,7 +98,8 @@ std::vector<std::string> BuiltinProfileNames();
 Expected<RobotProfile> BuiltinProfile(const std::string& name);
 
 /// Ok when `profile` can plan on a map assessed with `assessment` (see the file comment);
-/// kProfileMismatch naming both values and the parameter to reassess with otherwise.
+/// kProfileMismatch naming both values and the parameter to reassess with otherwise, blaming
+/// "profile.footprint_radius_m" or "profile.max_tilt_rad".
 Status CheckProfileFitsMap(const RobotProfile& profile, const AssessmentConfig& assessment);
 
 }  // namespace strata

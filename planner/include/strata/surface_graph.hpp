@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <numbers>
 #include <span>
+#include <string_view>
 #include <vector>
 
 #include <Eigen/Core>
@@ -17,7 +18,7 @@
 namespace strata {
 
 /// What the robot needs to stand somewhere. Every field documents its unit and valid range;
-/// Validate() names the first bad field.
+/// Validate() blames the first bad field by its path, `path`.<field>.
 struct TraversabilityParams {
   /// Height of the trajectory's reference point above the ground [m], in (0, body_height_m].
   double reference_height_m = 0.3;
@@ -30,7 +31,7 @@ struct TraversabilityParams {
   /// plus the slope allowance (see SurfaceGraph).
   double max_step_m = 0.1;
 
-  Status Validate() const;
+  Status Validate(std::string_view path = "traversability") const;
 };
 
 /// Near-surface cells and their connectivity.

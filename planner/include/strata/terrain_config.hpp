@@ -1,9 +1,11 @@
 #pragma once
 /// Parameters of terrain assessment, one struct per stage. Every field documents its unit and
-/// valid range; Validate() names the first bad field.
+/// valid range; Validate() blames the first bad field by its path (Error::field), which starts
+/// with `path`, the struct's own path: "ground.radius_m" for an AssessmentConfig's ground filter.
 
 #include <cstdint>
 #include <numbers>
+#include <string_view>
 
 #include "strata/status.hpp"
 
@@ -20,7 +22,7 @@ struct GroundFilterConfig {
   /// 0 gives the paper's rule exactly.
   double height_tolerance_m = 0.02;
 
-  Status Validate() const;
+  Status Validate(std::string_view path = "ground") const;
 };
 
 /// The 3D grid the ESDF and the safety penalty field live on.
@@ -32,7 +34,7 @@ struct GridConfig {
   /// Largest grid accepted [cells], > 0. Dense fields cost about 9 bytes per cell.
   std::int64_t max_cells = 300'000'000;
 
-  Status Validate() const;
+  Status Validate(std::string_view path = "grid") const;
 };
 
 /// Safety penalty field S and its diffusion S' (paper Sec. IV).
@@ -59,7 +61,7 @@ struct FieldConfig {
   /// void (a wall's inside, a drop into nothing) gets the largest pose-change penalty, > 0.
   double max_pose_gradient_per_m = 25.0;
 
-  Status Validate() const;
+  Status Validate(std::string_view path = "field") const;
   /// Penalty where no surface lies below: λ_f (π/2)² + λ_m sqrt(max ‖∇H‖).
   double VoidPenalty() const;
 };
@@ -72,7 +74,7 @@ struct AssessmentConfig {
   /// Worker threads for the parallel stages [-], >= 0; 0 uses every core.
   int num_threads = 0;
 
-  Status Validate() const;
+  Status Validate(std::string_view path = "") const;
 };
 
 }  // namespace strata

@@ -20,6 +20,8 @@
 /// All but J_m and J_t are integrals approximated at κ + 1 constraint points per piece,
 /// t_j = (j/κ)·T_i, with trapezoid weights (T_i/κ, halved at both ends), and have exact
 /// gradients wrt the coefficients c and the durations T (including dt_j/dT_i = j/κ).
+#include <string_view>
+
 #include <Eigen/Core>
 
 #include "strata/minco.hpp"
@@ -42,7 +44,8 @@ struct CostWeights {
   double ground = 1.0e4;       ///< λ_g [1/m²].
   double feasibility = 1.0e5;  ///< λ_d.
   double height = 1.0e3;       ///< λ_h [1/m²].
-  Status Validate() const;
+  /// kInvalidConfig blaming the first bad weight by its path, `path`.<field>.
+  Status Validate(std::string_view path = "weights") const;
 };
 
 /// Everything the cost needs besides the weights, in SI units.

@@ -2,6 +2,7 @@
 /// Back end of the planner: a MINCO trajectory (Minco3) whose interior waypoints and piece
 /// durations are optimised by L-BFGS (LBFGS++) over the paper's costs plus ground following.
 #include <functional>
+#include <string_view>
 #include <vector>
 
 #include <Eigen/Core>
@@ -14,7 +15,7 @@
 
 namespace strata {
 
-/// Optimiser settings. Validate() names the first bad field.
+/// Optimiser settings. Validate() blames the first bad field by its path, `path`.<field>.
 struct OptimizerConfig {
   CostWeights weights;
   /// S' above this is penalised (s_thr) [-], >= 0. S' is the cone-diffused S, normalised to
@@ -49,7 +50,7 @@ struct OptimizerConfig {
   double relative_improvement_tolerance = 1e-3;
   /// L-BFGS: corrections kept (LBFGS++'s `m`), >= 1.
   int memory = 8;
-  Status Validate() const;
+  Status Validate(std::string_view path = "optimizer") const;
 };
 
 /// The trajectory optimisation problem of one plan.

@@ -3,6 +3,7 @@
 /// is checked against the map and the robot's limits. A trajectory that fails is reported
 /// with its first violation, never returned as success.
 #include <string>
+#include <string_view>
 
 #include "strata/robot_profile.hpp"
 #include "strata/status.hpp"
@@ -11,7 +12,7 @@
 
 namespace strata {
 
-/// Verification settings. Validate() names the first bad field.
+/// Verification settings. Validate() blames the first bad field by its path, `path`.<field>.
 struct VerifierConfig {
   /// Largest distance between consecutive samples along the path [m], > 0.
   double max_sample_spacing_m = 0.02;
@@ -24,7 +25,7 @@ struct VerifierConfig {
   double min_obstacle_distance_m = 0.05;
   /// Speed and acceleration may exceed the profile's bounds by this fraction, >= 0.
   double limit_tolerance = 0.01;
-  Status Validate() const;
+  Status Validate(std::string_view path = "verifier") const;
 };
 
 /// What verification measured over all samples (extremes; filled even on failure up to the
