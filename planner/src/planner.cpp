@@ -68,26 +68,6 @@ Eigen::Vector3d BoundaryPosition(const SurfaceGraph& graph, const SnapResult& sn
   return {requested.x(), requested.y(), ground.height_m + h_ref};
 }
 
-CostParams MakeCostParams(const RobotProfile& profile, const OptimizerConfig& config) {
-  CostParams p;
-  p.safety_threshold = config.safety_threshold;
-  p.distance_threshold_m = config.distance_threshold_m;
-  p.edge_margin_m = config.edge_margin_m;
-  p.reference_height_m = profile.reference_height_m;
-  p.max_speed_horizontal_mps = config.limit_margin * profile.max_speed_horizontal_mps;
-  p.max_speed_vertical_mps = config.limit_margin * profile.max_speed_vertical_mps;
-  p.max_accel_horizontal_mps2 = config.limit_margin * profile.max_accel_horizontal_mps2;
-  p.max_accel_vertical_mps2 = config.limit_margin * profile.max_accel_vertical_mps2;
-  p.active_height = profile.active_height;
-  p.body_height_min_m = profile.active_height ? profile.body_height_min_m : profile.body_height_m;
-  p.body_height_max_m = profile.active_height ? profile.body_height_max_m : profile.body_height_m;
-  p.body_height_preferred_m = profile.body_height_m;
-  p.headroom_m = profile.headroom_m;
-  p.body_height_margin_m = config.body_height_margin_m;
-  p.samples_per_piece = config.samples_per_piece;
-  return p;
-}
-
 void FillStats(const Trajectory& trajectory, const VerificationReport& v, PlanStats* stats) {
   stats->length_m = PathLength(trajectory);
   stats->duration_s = trajectory.TotalDuration();
@@ -118,12 +98,11 @@ PlanningMap::PlanningMap(std::shared_ptr<const TerrainModel> model) : model_(std
 
 Expected<std::shared_ptr<const SurfaceGraph>> PlanningMap::Graph(
     const TraversabilityParams& params) const {
-  const GraphKey key{params.reference_height_m, params.body_height_m, params.max_tilt_rad,
-                     params.max_step_m};
+  if (Status s = params.Validate(); !s) return std::move(s).error();
   std::shared_ptr<GraphEntry> entry;
   {
     std::lock_guard lock(mutex_);
-    std::shared_ptr<GraphEntry>& slot = graphs_[key];
+    std::shared_ptr<GraphEntry>& slot = graphs_[params];
     if (slot == nullptr) slot = std::make_shared<GraphEntry>();
     entry = slot;
   }
@@ -242,7 +221,7 @@ Expected<PlanResult> Plan(const PlanningMap& map, const PlanRequest& request,
   Error last_failure{ErrorCode::kOptimizationFailed, "no optimisation attempt ran"};
   for (int attempt = 0; attempt < options.max_attempts; ++attempt) {
     stage = Clock::now();
-    const TrajectoryCost cost(graph, config.weights, MakeCostParams(profile, config));
+    const TrajectoryCost cost(graph, config.weights, CostParams{profile, config.cost});
     const OptimizationProblem problem = MakeInitialProblem(cost, waypoints, head, tail, config);
     Minco3 minco;
     Expected<OptimizationReport> report =
@@ -274,7 +253,7 @@ Expected<PlanResult> Plan(const PlanningMap& map, const PlanRequest& request,
     config.weights.ground *= 4;
     config.weights.feasibility *= 4;
     config.piece_length_m *= 0.7;
-    config.limit_margin *= 0.95;
+    config.cost.limit_margin *= 0.95;
   }
   char buf[64];
   std::snprintf(buf, sizeof(buf), " (after %d attempts)", options.max_attempts);

@@ -51,13 +51,25 @@ Status RobotState::Validate(std::string_view path) const {
   return CheckFinite(acceleration_mps2, internal::FieldPath(path, "acceleration_mps2"));
 }
 
-TraversabilityParams RobotProfile::Traversability() const {
-  TraversabilityParams t;
-  t.reference_height_m = reference_height_m;
-  t.body_height_m = MinBodyHeight() + headroom_m;
-  t.max_tilt_rad = max_tilt_rad;
-  t.max_step_m = max_step_m;
-  return t;
+TraversabilityParams RobotProfile::Traversability() const { return TraversabilityParams(*this); }
+
+Status TraversabilityParams::Validate(std::string_view path) const {
+  const auto bad_param = [path](const char* field, double value, const char* range) {
+    return internal::OutOfRange(internal::FieldPath(path, field), value, range);
+  };
+  if (!(std::isfinite(body_height_m) && body_height_m > 0)) {
+    return bad_param("body_height_m", body_height_m, "> 0 and finite");
+  }
+  if (!(reference_height_m > 0 && reference_height_m <= body_height_m)) {
+    return bad_param("reference_height_m", reference_height_m, "in (0, body_height_m]");
+  }
+  if (!(max_tilt_rad > 0 && max_tilt_rad < std::numbers::pi / 2)) {
+    return bad_param("max_tilt_rad", max_tilt_rad, "in (0, pi/2)");
+  }
+  if (!(std::isfinite(max_step_m) && max_step_m >= 0)) {
+    return bad_param("max_step_m", max_step_m, ">= 0 and finite");
+  }
+  return Status::Ok();
 }
 
 Status RobotProfile::Validate(std::string_view path) const {

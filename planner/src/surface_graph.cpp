@@ -11,27 +11,6 @@
 #include "format_internal.hpp"
 
 namespace strata {
-namespace {}  // namespace
-
-Status TraversabilityParams::Validate(std::string_view path) const {
-  const auto bad_param = [path](const char* field, double value, const char* range) {
-    return internal::OutOfRange(internal::FieldPath(path, field), value, range);
-  };
-  if (!(std::isfinite(body_height_m) && body_height_m > 0)) {
-    return bad_param("body_height_m", body_height_m, "> 0 and finite");
-  }
-  if (!(reference_height_m > 0 && reference_height_m <= body_height_m)) {
-    return bad_param("reference_height_m", reference_height_m, "in (0, body_height_m]");
-  }
-  if (!(max_tilt_rad > 0 && max_tilt_rad < std::numbers::pi / 2)) {
-    return bad_param("max_tilt_rad", max_tilt_rad, "in (0, pi/2)");
-  }
-  if (!(std::isfinite(max_step_m) && max_step_m >= 0)) {
-    return bad_param("max_step_m", max_step_m, ">= 0 and finite");
-  }
-  return Status::Ok();
-}
-
 Expected<SurfaceGraph> SurfaceGraph::Build(const TerrainModel& model,
                                            const TraversabilityParams& params) {
   if (Status s = params.Validate(); !s.ok()) return s.error();

@@ -58,6 +58,29 @@ Status CostWeights::Validate(std::string_view path) const {
   return Status::Ok();
 }
 
+Status CostConfig::Validate(std::string_view path) const {
+  const auto bad_field = [path](const char* field, double value, const char* range) {
+    return internal::OutOfRange(internal::FieldPath(path, field), value, range);
+  };
+  if (!(std::isfinite(safety_threshold) && safety_threshold >= 0)) {
+    return bad_field("safety_threshold", safety_threshold, ">= 0 and finite");
+  }
+  if (!(std::isfinite(edge_margin_m) && edge_margin_m >= 0)) {
+    return bad_field("edge_margin_m", edge_margin_m, ">= 0 and finite");
+  }
+  if (!(std::isfinite(distance_threshold_m) && distance_threshold_m > 0)) {
+    return bad_field("distance_threshold_m", distance_threshold_m, "> 0 and finite");
+  }
+  if (!(limit_margin > 0 && limit_margin <= 1)) {
+    return bad_field("limit_margin", limit_margin, "in (0, 1]");
+  }
+  if (!(std::isfinite(body_height_margin_m) && body_height_margin_m >= 0)) {
+    return bad_field("body_height_margin_m", body_height_margin_m, ">= 0 and finite");
+  }
+  if (samples_per_piece < 2) return bad_field("samples_per_piece", samples_per_piece, ">= 2");
+  return Status::Ok();
+}
+
 bool SampleGround(const TerrainModel& model, const Eigen::Vector3d& p, double reference_height_m,
                   double clearance_cap_m, GroundSample* sample) {
   const GridGeometry& g = model.grid();
@@ -191,15 +214,16 @@ double SampleEdgeDistance(const SurfaceGraph& graph, const Eigen::Vector3d& p,
 }
 
 double TrajectoryCost::SuitableBodyHeight(double clearance_m, double* derivative) const {
-  const CostParams& c = params_;
-  double h = c.body_height_preferred_m;
+  const RobotProfile& robot = params_.profile;
+  const double h_min = robot.MinBodyHeight(), h_max = robot.MaxBodyHeight();
+  double h = robot.body_height_m;  // The preferred height.
   double slope = 0;
-  if (clearance_m - c.headroom_m < h) {
-    h = clearance_m - c.headroom_m;
+  if (clearance_m - robot.headroom_m < h) {
+    h = clearance_m - robot.headroom_m;
     slope = 1;
   }
-  if (h < c.body_height_min_m || h > c.body_height_max_m) {
-    h = std::clamp(h, c.body_height_min_m, c.body_height_max_m);
+  if (h < h_min || h > h_max) {
+    h = std::clamp(h, h_min, h_max);
     slope = 0;
   }
   if (derivative != nullptr) *derivative = slope;
@@ -207,8 +231,8 @@ double TrajectoryCost::SuitableBodyHeight(double clearance_m, double* derivative
 }
 
 double TrajectoryCost::ClearanceCap() const {
-  return std::max(params_.body_height_max_m, params_.body_height_preferred_m) + params_.headroom_m +
-         1.0;
+  const RobotProfile& robot = params_.profile;
+  return std::max(robot.MaxBodyHeight(), robot.body_height_m) + robot.headroom_m + 1.0;
 }
 
 double TrajectoryCost::PointPenalty(const StateVector& pos, const StateVector& vel,
@@ -216,7 +240,10 @@ double TrajectoryCost::PointPenalty(const StateVector& pos, const StateVector& v
                                     StateVector* grad_vel, StateVector* grad_acc,
                                     CostBreakdown* breakdown) const {
   const CostWeights& w = weights_;
-  const CostParams& c = params_;
+  const CostConfig& c = params_.config;
+  const RobotProfile& robot = params_.profile;
+  const bool active_height = robot.active_height;
+  const double h_min = robot.MinBodyHeight(), h_max = robot.MaxBodyHeight();
   const int dim = static_cast<int>(pos.size());
   grad_pos->setZero(dim);
   grad_vel->setZero(dim);
@@ -243,10 +270,11 @@ double TrajectoryCost::PointPenalty(const StateVector& pos, const StateVector& v
 
   GroundSample ground;
   const bool has_ground =
-      (w.ground > 0 || (c.active_height && (w.height > 0 || w.feasibility > 0))) &&
-      SampleGround(*model_, p, c.reference_height_m, c.active_height ? ClearanceCap() : 0, &ground);
+      (w.ground > 0 || (active_height && (w.height > 0 || w.feasibility > 0))) &&
+      SampleGround(*model_, p, robot.reference_height_m, active_height ? ClearanceCap() : 0,
+                   &ground);
   if (has_ground && w.ground > 0) {
-    const double offset = p.z() - ground.height_m - c.reference_height_m;
+    const double offset = p.z() - ground.height_m - robot.reference_height_m;
     terms.ground += w.ground * offset * offset;
     (*grad_pos)(0) -= w.ground * 2 * offset * ground.height_gradient.x();
     (*grad_pos)(1) -= w.ground * 2 * offset * ground.height_gradient.y();
@@ -263,12 +291,13 @@ double TrajectoryCost::PointPenalty(const StateVector& pos, const StateVector& v
       (*g)(2) += w.feasibility * v.slope * 2 * x(2);
       return w.feasibility * (h.value + v.value);
     };
-    terms.feasibility += bound(vel, c.max_speed_horizontal_mps, c.max_speed_vertical_mps, grad_vel);
     terms.feasibility +=
-        bound(acc, c.max_accel_horizontal_mps2, c.max_accel_vertical_mps2, grad_acc);
+        bound(vel, params_.max_speed_horizontal_mps(), params_.max_speed_vertical_mps(), grad_vel);
+    terms.feasibility += bound(acc, params_.max_accel_horizontal_mps2(),
+                               params_.max_accel_vertical_mps2(), grad_acc);
   }
 
-  if (c.active_height && dim == 4 && has_ground) {
+  if (active_height && dim == 4 && has_ground) {
     const double h = pos(3);
     if (w.height > 0) {
       double slope = 0;
@@ -281,15 +310,14 @@ double TrajectoryCost::PointPenalty(const StateVector& pos, const StateVector& v
       // The body stays within its range and under the ceiling, a margin inside each. The
       // margin is at most half the range, and half the room between the lowest body and the
       // ceiling, so that no two bounds cross where the graph let the robot in.
-      const double range_margin =
-          std::min(c.body_height_margin_m, (c.body_height_max_m - c.body_height_min_m) / 2);
-      const double room = ground.clearance_m - c.headroom_m - c.body_height_min_m;
+      const double range_margin = std::min(c.body_height_margin_m, (h_max - h_min) / 2);
+      const double room = ground.clearance_m - robot.headroom_m - h_min;
       const bool room_limited = 0 < room && room < 2 * range_margin;
       const double margin = room_limited ? room / 2 : (room <= 0 ? 0 : range_margin);
       const double margin_slope = room_limited ? 0.5 : 0;  // ∂margin/∂clearance.
-      const Cubic high = CubicPenalty(h - (c.body_height_max_m - range_margin));
-      const Cubic low = CubicPenalty(c.body_height_min_m + margin - h);
-      const Cubic ceiling = CubicPenalty(h + c.headroom_m + margin - ground.clearance_m);
+      const Cubic high = CubicPenalty(h - (h_max - range_margin));
+      const Cubic low = CubicPenalty(h_min + margin - h);
+      const Cubic ceiling = CubicPenalty(h + robot.headroom_m + margin - ground.clearance_m);
       terms.height += w.feasibility * (high.value + low.value + ceiling.value);
       (*grad_pos)(3) += w.feasibility * (high.slope - low.slope + ceiling.slope);
       grad_pos->head<2>() += w.feasibility *
@@ -312,7 +340,7 @@ double TrajectoryCost::Evaluate(const Minco3& minco, Eigen::MatrixXd* grad_c,
                                 Eigen::VectorXd* grad_T, CostBreakdown* breakdown) const {
   const int pieces = minco.piece_count();
   const int dim = minco.dim();
-  const int kappa = params_.samples_per_piece;
+  const int kappa = params_.config.samples_per_piece;
   grad_c->setZero(Minco3::kPieceCoefficients * pieces, dim);
   grad_T->setZero(pieces);
   CostBreakdown terms;

@@ -106,25 +106,10 @@ Status OptimizerConfig::Validate(std::string_view path) const {
   const auto bad_field = [path](const char* field, double value, const char* range) {
     return internal::OutOfRange(internal::FieldPath(path, field), value, range);
   };
-  if (!(std::isfinite(safety_threshold) && safety_threshold >= 0)) {
-    return bad_field("safety_threshold", safety_threshold, ">= 0 and finite");
-  }
-  if (!(std::isfinite(edge_margin_m) && edge_margin_m >= 0)) {
-    return bad_field("edge_margin_m", edge_margin_m, ">= 0 and finite");
-  }
-  if (!(std::isfinite(distance_threshold_m) && distance_threshold_m > 0)) {
-    return bad_field("distance_threshold_m", distance_threshold_m, "> 0 and finite");
-  }
-  if (!(limit_margin > 0 && limit_margin <= 1)) {
-    return bad_field("limit_margin", limit_margin, "in (0, 1]");
-  }
-  if (!(std::isfinite(body_height_margin_m) && body_height_margin_m >= 0)) {
-    return bad_field("body_height_margin_m", body_height_margin_m, ">= 0 and finite");
-  }
+  if (Status s = cost.Validate(internal::FieldPath(path, "cost")); !s) return s;
   if (!(std::isfinite(piece_length_m) && piece_length_m > 0)) {
     return bad_field("piece_length_m", piece_length_m, "> 0 and finite");
   }
-  if (samples_per_piece < 2) return bad_field("samples_per_piece", samples_per_piece, ">= 2");
   if (max_iterations < 1) return bad_field("max_iterations", max_iterations, ">= 1");
   if (!(std::isfinite(gradient_tolerance) && gradient_tolerance > 0)) {
     return bad_field("gradient_tolerance", gradient_tolerance, "> 0 and finite");
@@ -143,6 +128,7 @@ OptimizationProblem MakeInitialProblem(const TrajectoryCost& cost,
                                        const OptimizerConfig& config) {
   const CostParams& params = cost.params();
   const int dim = params.dim();
+  const double reference_height_m = params.profile.reference_height_m;
   int pieces = 1;
   const std::vector<Eigen::Vector3d> interior =
       ResampleInterior(path_m, config.piece_length_m, &pieces);
@@ -151,7 +137,7 @@ OptimizationProblem MakeInitialProblem(const TrajectoryCost& cost,
   const auto body_height = [&](const Eigen::Vector3d& p) {
     GroundSample ground;
     const double clearance =
-        SampleGround(cost.model(), p, params.reference_height_m, cost.ClearanceCap(), &ground)
+        SampleGround(cost.model(), p, reference_height_m, cost.ClearanceCap(), &ground)
             ? ground.clearance_m
             : cost.ClearanceCap();
     return cost.SuitableBodyHeight(clearance, nullptr);
@@ -181,8 +167,8 @@ OptimizationProblem MakeInitialProblem(const TrajectoryCost& cost,
     const Eigen::Vector3d next =
         k + 1 < pieces ? interior[static_cast<std::size_t>(k)] : goal.position_m;
     const Eigen::Vector3d delta = next - previous;
-    const double horizontal = delta.head<2>().norm() / (0.5 * params.max_speed_horizontal_mps);
-    const double vertical = std::abs(delta.z()) / (0.5 * params.max_speed_vertical_mps);
+    const double horizontal = delta.head<2>().norm() / (0.5 * params.max_speed_horizontal_mps());
+    const double vertical = std::abs(delta.z()) / (0.5 * params.max_speed_vertical_mps());
     problem.initial_durations(k) = std::max({horizontal, vertical, 0.1});
     previous = next;
   }

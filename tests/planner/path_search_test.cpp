@@ -340,7 +340,8 @@ TEST(StairsRampRoom, FloorToLandingTakesTheRampNotTheStairs) {
   const auto model = AssessScene(GenerateStairsRampRoom(3, 0.05));
   ASSERT_NE(model, nullptr);
   const StairsRampLayout L = GetStairsRampLayout();
-  const TraversabilityParams params;
+  TraversabilityParams params;
+  params.max_step_m = 0.1;  // Below the stairs' 0.15 m risers.
   auto graph = SurfaceGraph::Build(*model, params);
   ASSERT_TRUE(graph.ok()) << graph.error().message;
   const double stairs_x = 0.5 * (L.stairs_x_min_m + L.stairs_x_max_m);

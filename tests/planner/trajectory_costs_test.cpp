@@ -78,20 +78,22 @@ std::vector<TermCase> TermCases() {
 
 CostParams Params(bool active_height) {
   CostParams p;
-  p.safety_threshold = 0.05;      // Low, so S' exceeds it on the ramp's edges and pillars.
-  p.distance_threshold_m = 0.35;  // High, so the ESDF term is active near the ground.
-  p.edge_margin_m = 0.6;          // High, so J_e is active well inside the ramp too.
-  p.reference_height_m = 0.3;
-  p.max_speed_horizontal_mps = 0.8;
-  p.max_speed_vertical_mps = 0.2;
-  p.max_accel_horizontal_mps2 = 0.6;
-  p.max_accel_vertical_mps2 = 0.2;
-  p.active_height = active_height;
-  p.body_height_min_m = 0.35;
-  p.body_height_max_m = 0.7;
-  p.body_height_preferred_m = 0.65;
-  p.headroom_m = 0.05;
-  p.samples_per_piece = 6;
+  p.config.safety_threshold = 0.05;      // Low, so S' exceeds it on the ramp's edges and pillars.
+  p.config.distance_threshold_m = 0.35;  // High, so the ESDF term is active near the ground.
+  p.config.edge_margin_m = 0.6;          // High, so J_e is active well inside the ramp too.
+  p.config.limit_margin = 1;
+  p.config.samples_per_piece = 6;
+  RobotProfile& robot = p.profile;
+  robot.reference_height_m = 0.3;
+  robot.max_speed_horizontal_mps = 0.8;
+  robot.max_speed_vertical_mps = 0.2;
+  robot.max_accel_horizontal_mps2 = 0.6;
+  robot.max_accel_vertical_mps2 = 0.2;
+  robot.active_height = active_height;
+  robot.body_height_min_m = 0.35;
+  robot.body_height_max_m = 0.7;
+  robot.body_height_m = 0.65;  // Preferred, when active.
+  robot.headroom_m = 0.05;
   return p;
 }
 
@@ -158,10 +160,11 @@ TEST(PointPenaltyGradientNearACeiling, MatchesFiniteDifferencesWhereTheMarginShr
   feasibility_only.feasibility = 1e3;
   const TwoLevelRampLayout l = GetTwoLevelRampLayout();
   CostParams params = Params(true);
-  params.body_height_margin_m = 0.15;
-  params.body_height_min_m = l.deck_underside_z_m - l.floor_z_m - params.headroom_m - 0.15;
-  params.body_height_max_m = params.body_height_min_m + 1;
-  params.body_height_preferred_m = params.body_height_min_m + 0.5;
+  params.config.body_height_margin_m = 0.15;
+  RobotProfile& robot = params.profile;
+  robot.body_height_min_m = l.deck_underside_z_m - l.floor_z_m - robot.headroom_m - 0.15;
+  robot.body_height_max_m = robot.body_height_min_m + 1;
+  robot.body_height_m = robot.body_height_min_m + 0.5;
   const TrajectoryCost cost(Graph(), feasibility_only, params);
   std::mt19937 rng(11);
   std::uniform_real_distribution<double> unit(0, 1);
@@ -169,14 +172,14 @@ TEST(PointPenaltyGradientNearACeiling, MatchesFiniteDifferencesWhereTheMarginShr
   for (int draw = 0; draw < 20000 && checked < 20; ++draw) {
     StateVector pos = RandomPosition(rng, 4);
     GroundSample ground;
-    if (!SampleGround(Scene(), pos.head<3>(), params.reference_height_m, cost.ClearanceCap(),
+    if (!SampleGround(Scene(), pos.head<3>(), robot.reference_height_m, cost.ClearanceCap(),
                       &ground)) {
       continue;
     }
-    const double room = ground.clearance_m - params.headroom_m - params.body_height_min_m;
-    if (!(room > 0.01 && room < 2 * params.body_height_margin_m - 0.01)) continue;
+    const double room = ground.clearance_m - robot.headroom_m - robot.body_height_min_m;
+    if (!(room > 0.01 && room < 2 * params.config.body_height_margin_m - 0.01)) continue;
     // A body height around the shrunken bounds, so that the low or ceiling penalty is active.
-    pos(3) = params.body_height_min_m + room * (1.5 * unit(rng) - 0.25);
+    pos(3) = robot.body_height_min_m + room * (1.5 * unit(rng) - 0.25);
     const StateVector zero = StateVector::Zero(4);
     StateVector g_pos, g_vel, g_acc;
     cost.PointPenalty(pos, zero, zero, &g_pos, &g_vel, &g_acc, nullptr);

@@ -8,7 +8,6 @@
 #include <memory>
 #include <mutex>
 #include <string_view>
-#include <tuple>
 
 #include <Eigen/Core>
 
@@ -37,11 +36,12 @@ class PlanningMap {
   std::size_t MemoryBytes() const;
 
  private:
-  using GraphKey = std::tuple<double, double, double, double>;
   struct GraphEntry;  // One graph's build, done once.
   std::shared_ptr<const TerrainModel> model_;
   mutable std::mutex mutex_;  // Guards the map only, never held while a graph builds.
-  mutable std::map<GraphKey, std::shared_ptr<GraphEntry>> graphs_;
+  // Keyed by the whole TraversabilityParams (its operator<=>): a field added there is part of
+  // the key. Only valid params enter, so no NaN breaks the ordering.
+  mutable std::map<TraversabilityParams, std::shared_ptr<GraphEntry>> graphs_;
 };
 
 /// Per-request options. Validate() blames the first bad field by its path, `path`.<field>

@@ -12,6 +12,7 @@
 /// Otherwise planning fails with kProfileMismatch naming both values: assess the map again
 /// with the parameters the message gives. This keeps a map's memory bounded and its meaning
 /// fixed; the server shows the parameters each map was assessed with.
+#include <compare>
 #include <numbers>
 #include <string>
 #include <string_view>
@@ -20,10 +21,11 @@
 #include <Eigen/Core>
 
 #include "strata/status.hpp"
-#include "strata/surface_graph.hpp"
 #include "strata/terrain_config.hpp"
 
 namespace strata {
+
+struct TraversabilityParams;
 
 /// A start or goal state of the reference point (x, y, z). The planner snaps the position to
 /// the ground; velocity and acceleration are used as given.
@@ -76,12 +78,44 @@ struct RobotProfile {
   /// The lowest the body can be [m]: body_height_min_m if active, else body_height_m. A
   /// place is traversable when its ceiling clearance is at least this plus headroom_m.
   double MinBodyHeight() const { return active_height ? body_height_min_m : body_height_m; }
+  /// The highest the body can be [m]: body_height_max_m if active, else body_height_m.
+  double MaxBodyHeight() const { return active_height ? body_height_max_m : body_height_m; }
 
-  /// What the traversability graph needs from this profile.
+  /// What the traversability graph needs from this profile: TraversabilityParams(*this).
   TraversabilityParams Traversability() const;
 
   /// kInvalidConfig blaming the first field out of range by its path, `path`.<field>.
   Status Validate(std::string_view path = "profile") const;
+};
+
+/// What a robot needs to stand somewhere: the part of a RobotProfile the traversability graph
+/// (SurfaceGraph) depends on, derived from the profile, never set apart from it in planning.
+/// PlanningMap caches one graph per distinct value, compared field by field (operator<=>), so
+/// a field added here is part of the cache key without further work. Validate() blames the
+/// first bad field by its path, `path`.<field>.
+struct TraversabilityParams {
+  /// The default RobotProfile's.
+  TraversabilityParams() : TraversabilityParams(RobotProfile{}) {}
+  explicit TraversabilityParams(const RobotProfile& profile)
+      : reference_height_m(profile.reference_height_m),
+        body_height_m(profile.MinBodyHeight() + profile.headroom_m),
+        max_tilt_rad(profile.max_tilt_rad),
+        max_step_m(profile.max_step_m) {}
+
+  /// Height of the trajectory's reference point above the ground [m], in (0, body_height_m].
+  double reference_height_m;
+  /// Free height the body needs above the ground [m], > 0 and finite: the profile's lowest
+  /// body height plus its headroom.
+  double body_height_m;
+  /// Steepest surface the robot stands on [rad], in (0, π/2); at most the map's ground
+  /// filter θ (AssessmentConfig::ground.max_tilt_rad), since steeper ground is not valid.
+  double max_tilt_rad;
+  /// Highest step the robot climbs [m], >= 0, finite; neighbouring columns may differ by this
+  /// plus the slope allowance (see SurfaceGraph).
+  double max_step_m;
+
+  Status Validate(std::string_view path = "traversability") const;
+  auto operator<=>(const TraversabilityParams&) const = default;
 };
 
 /// Names of the built-in profiles, for help texts: "differential", "biped".

@@ -5,34 +5,16 @@
 
 #include <cmath>
 #include <cstdint>
-#include <numbers>
 #include <span>
-#include <string_view>
 #include <vector>
 
 #include <Eigen/Core>
 
+#include "strata/robot_profile.hpp"
 #include "strata/status.hpp"
 #include "strata/terrain_model.hpp"
 
 namespace strata {
-
-/// What the robot needs to stand somewhere. Every field documents its unit and valid range;
-/// Validate() blames the first bad field by its path, `path`.<field>.
-struct TraversabilityParams {
-  /// Height of the trajectory's reference point above the ground [m], in (0, body_height_m].
-  double reference_height_m = 0.3;
-  /// Free height the body needs above the ground [m], > 0 and finite.
-  double body_height_m = 0.5;
-  /// Steepest surface the robot stands on [rad], in (0, π/2); at most the map's ground
-  /// filter θ (AssessmentConfig::ground.max_tilt_rad), since steeper ground is not valid.
-  double max_tilt_rad = 20.0 * std::numbers::pi / 180.0;
-  /// Highest step the robot climbs [m], >= 0, finite; neighbouring columns may differ by this
-  /// plus the slope allowance (see SurfaceGraph).
-  double max_step_m = 0.1;
-
-  Status Validate(std::string_view path = "traversability") const;
-};
 
 /// Near-surface cells and their connectivity.
 ///

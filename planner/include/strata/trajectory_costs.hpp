@@ -48,25 +48,56 @@ struct CostWeights {
   Status Validate(std::string_view path = "weights") const;
 };
 
-/// Everything the cost needs besides the weights, in SI units.
+/// Thresholds and margins of the cost terms (OptimizerConfig::cost). Validate() blames the
+/// first bad field by its path, `path`.<field>.
+struct CostConfig {
+  /// S' above this is penalised (s_thr) [-], >= 0. S' is the cone-diffused S, normalised to
+  /// unit kernel sum, so this is a weighted mean of λ_f φ² + λ_m sqrt(‖∇H‖) nearby. On the
+  /// shared maps the median S' over ramps is ~0.5 and the 90th percentile ~2.8 (their
+  /// voxelised ramps are staircases), near the rim of valid ground it climbs to ~5.
+  double safety_threshold = 1.5;
+  /// ESDF distance below this is penalised (d_thr) [m], > 0. Keep it below the profile's
+  /// reference height: the ground itself is an obstacle that far below the reference point.
+  double distance_threshold_m = 0.15;
+  /// Distance to the rim of traversable ground below which J_e penalises (e_margin) [m], >= 0;
+  /// at most half a grid cell keeps the centres of rim cells free of penalty.
+  double edge_margin_m = 0.1;
+  /// The speed and acceleration bounds J_d aims for, as a fraction of the profile's, in
+  /// (0, 1]: penalties are soft, so aiming a little low lands within them.
+  double limit_margin = 0.92;
+  /// Active-height robots: how far inside [h_min, h_max] and below the ceiling (less
+  /// headroom) the optimiser keeps the body [m], >= 0. Like limit_margin, it lets the
+  /// polynomial between constraint points stay within the verified range. Where a passage
+  /// leaves less room than twice this, the margin shrinks to half the room.
+  double body_height_margin_m = 0.02;
+  /// Constraint points per piece κ (trapezoid over κ + 1 samples), >= 2.
+  int samples_per_piece = 8;
+  Status Validate(std::string_view path = "cost") const;
+};
+
+/// Everything the cost needs besides the weights: the robot (reference height h_ref, speed and
+/// acceleration bounds, body heights, headroom) and the cost's settings, each held as it is,
+/// never copied field by field; what the terms use is derived below.
 struct CostParams {
-  double safety_threshold = 1.5;        ///< s_thr [-].
-  double distance_threshold_m = 0.15;   ///< d_thr [m].
-  double edge_margin_m = 0.1;           ///< e_margin [m].
-  double reference_height_m = 0.3;      ///< h_ref [m].
-  double max_speed_horizontal_mps = 1;  ///< Bounds used by J_d (already with any margin).
-  double max_speed_vertical_mps = 1;
-  double max_accel_horizontal_mps2 = 1;
-  double max_accel_vertical_mps2 = 1;
-  bool active_height = false;  ///< Adds axis 3 (body height) and J_h.
-  double body_height_min_m = 0.5;
-  double body_height_max_m = 0.5;
-  double body_height_preferred_m = 0.5;
-  double headroom_m = 0.05;
-  double body_height_margin_m = 0.02;  ///< Kept inside the range and under the ceiling [m].
-  int samples_per_piece = 8;           ///< κ, >= 2.
-  /// The trajectory's dimension: 4 with active height, else 3.
-  int dim() const { return active_height ? 4 : 3; }
+  RobotProfile profile;
+  CostConfig config;
+
+  /// Bounds used by J_d: the profile's, times config.limit_margin.
+  double max_speed_horizontal_mps() const {
+    return config.limit_margin * profile.max_speed_horizontal_mps;
+  }
+  double max_speed_vertical_mps() const {
+    return config.limit_margin * profile.max_speed_vertical_mps;
+  }
+  double max_accel_horizontal_mps2() const {
+    return config.limit_margin * profile.max_accel_horizontal_mps2;
+  }
+  double max_accel_vertical_mps2() const {
+    return config.limit_margin * profile.max_accel_vertical_mps2;
+  }
+  /// The trajectory's dimension: 4 with active height (axis 3, the body height, and J_h),
+  /// else 3.
+  int dim() const { return profile.active_height ? 4 : 3; }
 };
 
 /// The objective's value split by term, each already multiplied by its weight.

@@ -17,30 +17,10 @@ namespace strata {
 
 /// Optimiser settings. Validate() blames the first bad field by its path, `path`.<field>.
 struct OptimizerConfig {
-  CostWeights weights;
-  /// S' above this is penalised (s_thr) [-], >= 0. S' is the cone-diffused S, normalised to
-  /// unit kernel sum, so this is a weighted mean of λ_f φ² + λ_m sqrt(‖∇H‖) nearby. On the
-  /// shared maps the median S' over ramps is ~0.5 and the 90th percentile ~2.8 (their
-  /// voxelised ramps are staircases), near the rim of valid ground it climbs to ~5.
-  double safety_threshold = 1.5;
-  /// ESDF distance below this is penalised (d_thr) [m], > 0. Keep it below the profile's
-  /// reference height: the ground itself is an obstacle that far below the reference point.
-  double distance_threshold_m = 0.15;
-  /// Distance to the rim of traversable ground below which J_e penalises [m], >= 0; at most
-  /// half a grid cell keeps the centres of rim cells free of penalty.
-  double edge_margin_m = 0.1;
-  /// The speed and acceleration bounds the optimiser aims for, as a fraction of the
-  /// profile's, in (0, 1]: penalties are soft, so aiming a little low lands within them.
-  double limit_margin = 0.92;
-  /// Active-height robots: how far inside [h_min, h_max] and below the ceiling (less
-  /// headroom) the optimiser keeps the body [m], >= 0. Like limit_margin, it lets the
-  /// polynomial between constraint points stay within the verified range. Where a passage
-  /// leaves less room than twice this, the margin shrinks to half the room.
-  double body_height_margin_m = 0.02;
+  CostWeights weights;  ///< λ of each cost term.
+  CostConfig cost;      ///< Thresholds and margins of the cost terms, constraint points.
   /// Target length of one MINCO piece along the initial path [m], > 0.
   double piece_length_m = 1.5;
-  /// Constraint points per piece κ (trapezoid over κ + 1 samples), >= 2.
-  int samples_per_piece = 8;
   /// L-BFGS: most iterations per attempt, >= 1.
   int max_iterations = 200;
   /// L-BFGS: stop when ‖g‖ < epsilon · max(1, ‖x‖) (LBFGS++'s `epsilon`), > 0.

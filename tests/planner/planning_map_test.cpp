@@ -1,0 +1,66 @@
+// PlanningMap's graph cache: keyed by the whole TraversabilityParams, so every field of it
+// decides which graph a plan gets.
+#include <functional>
+#include <limits>
+#include <memory>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "strata/planner.hpp"
+
+namespace strata {
+namespace {
+
+std::shared_ptr<const TerrainModel> FlatFloor() {
+  PointCloud cloud;
+  for (double x = 0; x <= 3.0 + 1e-9; x += 0.05) {
+    for (double y = 0; y <= 3.0 + 1e-9; y += 0.05) {
+      cloud.emplace_back(static_cast<float>(x), static_cast<float>(y), 0.0f);
+    }
+  }
+  AssessmentConfig config;
+  config.grid.resolution_m = 0.1;
+  return TerrainModel::Assess(cloud, config).value();
+}
+
+TEST(PlanningMap, OneGraphPerDistinctTraversabilityParams) {
+  const PlanningMap map(FlatFloor());
+  const TraversabilityParams base = BuiltinProfile("differential")->Traversability();
+  const auto first = map.Graph(base).value();
+  EXPECT_EQ(map.Graph(base).value(), first);
+  EXPECT_EQ(map.Graph(RobotProfile{}.Traversability()).value(), first);
+  const std::size_t one_graph = map.MemoryBytes();
+
+  const struct {
+    std::string field;
+    std::function<void(TraversabilityParams*)> edit;
+  } changes[] = {
+      {"reference_height_m", [](TraversabilityParams* p) { p->reference_height_m += 0.01; }},
+      {"body_height_m", [](TraversabilityParams* p) { p->body_height_m += 0.01; }},
+      {"max_tilt_rad", [](TraversabilityParams* p) { p->max_tilt_rad -= 0.01; }},
+      {"max_step_m", [](TraversabilityParams* p) { p->max_step_m += 0.01; }},
+  };
+  for (const auto& change : changes) {
+    TraversabilityParams other = base;
+    change.edit(&other);
+    const auto graph = map.Graph(other).value();
+    EXPECT_NE(graph, first) << change.field;
+    EXPECT_EQ(graph->params(), other) << change.field;
+    EXPECT_EQ(map.Graph(other).value(), graph) << change.field;
+  }
+  EXPECT_GT(map.MemoryBytes(), one_graph);
+}
+
+TEST(PlanningMap, InvalidParamsAreRefusedBeforeTheCache) {
+  const PlanningMap map(FlatFloor());
+  TraversabilityParams bad;
+  bad.max_step_m = std::numeric_limits<double>::quiet_NaN();
+  auto graph = map.Graph(bad);
+  ASSERT_FALSE(graph.ok());
+  EXPECT_EQ(graph.error().field, "traversability.max_step_m");
+  EXPECT_EQ(map.MemoryBytes(), map.model().MemoryBytes());
+}
+
+}  // namespace
+}  // namespace strata
