@@ -269,6 +269,20 @@ PlanOptions FromProto(const v1::PlanOptions& m) {
   return options;
 }
 
+void ToProto(const PlanOptions& options, v1::PlanOptions* m) {
+  m->set_time_budget_s(options.time_budget_s);
+  m->set_snap_tolerance_m(options.snap_tolerance_m);
+  m->set_max_attempts(options.max_attempts);
+  const CostWeights& weights = options.optimizer.weights;
+  v1::CostWeights* w = m->mutable_weights();
+  w->set_smoothness(weights.smoothness);
+  w->set_time(weights.time);
+  w->set_safety(weights.safety);
+  w->set_ground(weights.ground);
+  w->set_feasibility(weights.feasibility);
+  w->set_height(weights.height);
+}
+
 void ToProto(const Trajectory& trajectory, v1::Trajectory* message) {
   message->set_frame("map");
   message->set_dimension(trajectory.dimension);

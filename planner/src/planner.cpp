@@ -248,6 +248,7 @@ Expected<PlanResult> Plan(const PlanningMap& map, const PlanRequest& request,
     }
     last_failure = verified.error();
     if (stop()) return stop.Reason(options.time_budget_s, "trajectory verification");
+    // Stiffer penalties for the next attempt (PlanOptions::max_attempts documents them).
     config.weights.safety *= 4;
     config.weights.edge *= 4;
     config.weights.ground *= 4;

@@ -298,6 +298,25 @@ TEST(ProtoConvertTest, PlannerFieldPathsMapToRequestFields) {
   EXPECT_EQ(PlanRequestField("", true), "");
 }
 
+TEST(ProtoConvertTest, OptionsRoundTripWithEveryFieldSet) {
+  v1::PlanOptions message;
+  message.set_time_budget_s(3.5);
+  message.set_snap_tolerance_m(0.25);
+  message.set_max_attempts(5);
+  v1::CostWeights* w = message.mutable_weights();
+  w->set_smoothness(2);
+  w->set_time(20);
+  w->set_safety(3e3);
+  w->set_ground(4e4);
+  w->set_feasibility(5e5);
+  w->set_height(6e3);
+  const PlanOptions options = FromProto(message);
+  EXPECT_EQ(options.optimizer.weights.feasibility, 5e5);
+  v1::PlanOptions back;
+  ToProto(options, &back);
+  EXPECT_EQ(back.SerializeAsString(), message.SerializeAsString());
+}
+
 TEST(ProtoConvertTest, TimeBudgetIsCappedByServerAndDeadline) {
   v1::PlanRequest request = ValidRequest();
   ParsedPlanRequest parsed = ParsePlanRequest(request).value();

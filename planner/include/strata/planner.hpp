@@ -54,8 +54,10 @@ struct PlanOptions {
   SearchConfig search;        ///< A* settings (its time budget is capped by the plan's).
   OptimizerConfig optimizer;  ///< Weights, thresholds, L-BFGS settings.
   VerifierConfig verifier;    ///< Tolerances of the final check.
-  /// Optimisations to try before giving up [-], in [1, 10]. After a failed verification the next
-  /// attempt doubles the safety, ground and feasibility weights and halves the piece length.
+  /// Optimisations to try before giving up [-], in [1, 10]. After a failed verification the
+  /// next attempt stiffens the penalties: the safety, edge, ground and feasibility weights
+  /// ×4, the piece length ×0.7 (more constraint points) and the limit margin ×0.95 (Plan in
+  /// planner/src/planner.cpp).
   int max_attempts = 3;
   Status Validate(std::string_view path = "options") const;
 };
