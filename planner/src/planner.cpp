@@ -7,6 +7,7 @@
 #include <string>
 
 #include "format_internal.hpp"
+#include "strata/terrain_query.hpp"
 
 namespace strata {
 namespace {

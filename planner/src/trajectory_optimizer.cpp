@@ -8,6 +8,7 @@
 #include <limits>
 
 #include "format_internal.hpp"
+#include "strata/terrain_query.hpp"
 
 namespace strata {
 namespace {

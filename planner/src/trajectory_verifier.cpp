@@ -7,7 +7,7 @@
 #include <string>
 
 #include "format_internal.hpp"
-#include "strata/trajectory_costs.hpp"
+#include "strata/terrain_query.hpp"
 
 namespace strata {
 namespace {

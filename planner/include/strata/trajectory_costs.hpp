@@ -8,10 +8,11 @@
 /// - J_s: safety, C(S'(p) − s_thr) + C(d_thr − d(p)) with C(x) = max(x, 0)³ (the paper sums
 ///   the two arguments before cubing; separate penalties keep one from masking the other).
 /// - J_e: staying on traversable ground, C(e_margin − e(p)) with e the distance to the rim of
-///   the traversable region (SampleEdgeDistance). Not in the paper: S' marks the rim only as
-///   rough ground, so a trajectory could cut across a corner of untraversable ground.
+///   the traversable region (SampleEdgeDistance, terrain_query.hpp). Not in the paper: S' marks the
+///   rim only as rough ground, so a trajectory could cut across a corner of untraversable ground.
 /// - J_g: ground following, (z − h_G(x, y) − h_ref)². Not in the paper, whose trajectories
-///   float above flat ground; the smooth ground height h_G comes from SampleGround.
+///   float above flat ground; the smooth ground height h_G comes from SampleGround
+///   (terrain_query.hpp).
 /// - J_d: feasibility, C(‖v_xy‖² − v_h²) + C(v_z² − v_v²) and the same for acceleration.
 /// - J_h: active-height robots only. (h − h_S)² with h the body height (axis 3) and h_S the
 ///   most suitable height, min(preferred, ceiling clearance − headroom) clamped to
@@ -28,6 +29,7 @@
 #include "strata/robot_profile.hpp"
 #include "strata/surface_graph.hpp"
 #include "strata/terrain_model.hpp"
+#include "strata/terrain_query.hpp"
 
 namespace strata {
 
@@ -105,39 +107,6 @@ struct CostBreakdown {
   double smoothness = 0, time = 0, safety = 0, edge = 0, ground = 0, feasibility = 0, height = 0;
   double total() const { return smoothness + time + safety + edge + ground + feasibility + height; }
 };
-
-/// The ground under a point, smoothed across columns (see SampleGround).
-struct GroundSample {
-  double height_m = 0;                                           ///< h_G [m].
-  Eigen::Vector2d height_gradient = Eigen::Vector2d::Zero();     ///< ∂h_G/∂(x, y) [-].
-  double clearance_m = 0;                                        ///< Ceiling clearance [m], capped.
-  Eigen::Vector2d clearance_gradient = Eigen::Vector2d::Zero();  ///< ∂clearance/∂(x, y).
-  /// The surface of p's own column whose ground is nearest to p.z − reference height (the one
-  /// p stands on); when the column has none (a hole in the map), the surface of the corner
-  /// with the largest interpolation weight.
-  const ColumnSurface* surface = nullptr;
-};
-
-/// The ground a reference point p stands on, as a continuous function of p: bilinear
-/// interpolation between the four nearest column centres of each column's plane-fit centre
-/// height (and, when clearance_cap_m > 0, of the lowest ceiling clearance of the column and
-/// its 8 neighbours, capped at clearance_cap_m: a ceiling is felt half a cell before the body
-/// is under it; 0 skips the clearance), taking in every column the
-/// surface whose ground is nearest to p.z − reference_height_m. Corners whose ground is more
-/// than 0.5 m from that height (another level: a ledge, a drop) or that have no surface get no
-/// weight and the rest are renormalised, so the ground does not slope into a drop; if every
-/// corner is that far, all are used. Returns false when none of the four columns has a surface
-/// or p lies outside the grid.
-bool SampleGround(const TerrainModel& model, const Eigen::Vector3d& p, double reference_height_m,
-                  double clearance_cap_m, GroundSample* sample);
-
-/// Distance from p to the rim of the traversable region [m], a continuous function of p:
-/// bilinear interpolation between the four nearest column centres of each column's
-/// SurfaceGraph::edge_distance at p's level (the node within 0.5 m of p.z −
-/// reference_height_m), a column without such a node counting −0.5·r (its centre lies half a
-/// cell outside the rim). The rim itself is at 0. Writes the gradient wrt (x, y).
-double SampleEdgeDistance(const SurfaceGraph& graph, const Eigen::Vector3d& p,
-                          Eigen::Vector2d* gradient);
 
 /// J and its gradient for one planning problem. Immutable; cheap to construct.
 class TrajectoryCost {

@@ -1,0 +1,157 @@
+#include "strata/terrain_query.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace strata {
+namespace {
+
+constexpr double kLevelGapM = SurfaceGraph::kLevelGapM;
+
+// The surface of column (ix, iy) whose ground is nearest to height z, or nullptr if the
+// column has none.
+const ColumnSurface* NearestSurface(const SurfaceMap& surfaces, int ix, int iy, double z) {
+  const ColumnSurface* nearest = nullptr;
+  for (const ColumnSurface& s : surfaces.Column(ix, iy)) {
+    if (nearest == nullptr || std::abs(s.ground_z_m - z) < std::abs(nearest->ground_z_m - z)) {
+      nearest = &s;
+    }
+  }
+  return nearest;
+}
+
+}  // namespace
+
+bool SampleGround(const TerrainModel& model, const Eigen::Vector3d& p, double reference_height_m,
+                  double clearance_cap_m, GroundSample* sample) {
+  const GridGeometry& g = model.grid();
+  const SurfaceMap& surfaces = model.surfaces();
+  const double r = g.resolution_m;
+  const double z_ground = p.z() - reference_height_m;
+  const int own_ix = static_cast<int>(std::floor((p.x() - g.origin_m.x()) / r));
+  const int own_iy = static_cast<int>(std::floor((p.y() - g.origin_m.y()) / r));
+  if (own_ix < 0 || own_iy < 0 || own_ix >= g.size.x() || own_iy >= g.size.y()) return false;
+  sample->surface = NearestSurface(surfaces, own_ix, own_iy, z_ground);
+
+  // Bilinear weights between the four column centres around p ("centre coordinates": the
+  // centre of column i sits at u = i).
+  const double u = (p.x() - g.origin_m.x()) / r - 0.5;
+  const double v = (p.y() - g.origin_m.y()) / r - 0.5;
+  const int i0 = static_cast<int>(std::floor(u));
+  const int j0 = static_cast<int>(std::floor(v));
+  const double fu = u - i0, fv = v - j0;
+  const ColumnSurface* corner[2][2];
+  bool any_near = false;
+  for (int dj = 0; dj < 2; ++dj) {
+    for (int di = 0; di < 2; ++di) {
+      const int ix = std::clamp(i0 + di, 0, g.size.x() - 1);
+      const int iy = std::clamp(j0 + dj, 0, g.size.y() - 1);
+      corner[dj][di] = NearestSurface(surfaces, ix, iy, z_ground);
+      any_near = any_near || (corner[dj][di] != nullptr &&
+                              std::abs(corner[dj][di]->ground_z_m - z_ground) <= kLevelGapM);
+    }
+  }
+  // A corner on another level (a ledge, a drop) or without ground must not tilt the ground:
+  // it gets no weight, and the others are renormalised. The choice only flips where the point
+  // is kLevelGapM from that corner's ground, far from where a trajectory runs, so the field is
+  // continuous wherever it matters.
+  bool used[2][2];
+  bool any_used = false;
+  double total = 0;
+  for (int dj = 0; dj < 2; ++dj) {
+    for (int di = 0; di < 2; ++di) {
+      const ColumnSurface* s = corner[dj][di];
+      used[dj][di] =
+          s != nullptr && (!any_near || std::abs(s->ground_z_m - z_ground) <= kLevelGapM);
+      any_used = any_used || used[dj][di];
+      if (used[dj][di]) total += (di ? fu : 1 - fu) * (dj ? fv : 1 - fv);
+    }
+  }
+  if (!any_used || total <= 0) return false;
+  if (sample->surface == nullptr) {  // A hole in p's column: report the heaviest corner's.
+    double heaviest = -1;
+    for (int dj = 0; dj < 2; ++dj) {
+      for (int di = 0; di < 2; ++di) {
+        const double w = (di ? fu : 1 - fu) * (dj ? fv : 1 - fv);
+        if (used[dj][di] && w > heaviest) {
+          heaviest = w;
+          sample->surface = corner[dj][di];
+        }
+      }
+    }
+  }
+  // f = Σ w_k f_k / Σ w_k with bilinear w_k; the gradient by the quotient rule.
+  const auto interpolate = [&](auto value_of, double* value, Eigen::Vector2d* grad) {
+    double num = 0;
+    Eigen::Vector2d d_num = Eigen::Vector2d::Zero(), d_total = Eigen::Vector2d::Zero();
+    for (int dj = 0; dj < 2; ++dj) {
+      for (int di = 0; di < 2; ++di) {
+        if (!used[dj][di]) continue;
+        const double w = (di ? fu : 1 - fu) * (dj ? fv : 1 - fv);
+        const Eigen::Vector2d dw((di ? 1.0 : -1.0) * (dj ? fv : 1 - fv) / r,
+                                 (dj ? 1.0 : -1.0) * (di ? fu : 1 - fu) / r);
+        const double f = value_of(dj, di);
+        num += w * f;
+        d_num += dw * f;
+        d_total += dw;
+      }
+    }
+    *value = num / total;
+    *grad = (d_num - *value * d_total) / total;
+  };
+  interpolate([&](int dj, int di) { return static_cast<double>(corner[dj][di]->plane_center_z_m); },
+              &sample->height_m, &sample->height_gradient);
+  if (clearance_cap_m > 0) {
+    // A ceiling must be seen before the body is under it: each corner takes the lowest
+    // clearance of its column and the 8 around it (same level), so the interpolated ceiling
+    // is never above any column within half a cell.
+    const auto lowest_around = [&](int ix, int iy, const ColumnSurface& s) {
+      double lowest = clearance_cap_m;
+      for (int dy = -1; dy <= 1; ++dy) {
+        for (int dx = -1; dx <= 1; ++dx) {
+          const int jx = std::clamp(ix + dx, 0, g.size.x() - 1);
+          const int jy = std::clamp(iy + dy, 0, g.size.y() - 1);
+          const ColumnSurface* n = NearestSurface(surfaces, jx, jy, s.ground_z_m);
+          if (n != nullptr && std::abs(n->ground_z_m - s.ground_z_m) <= kLevelGapM) {
+            lowest = std::min(lowest, static_cast<double>(n->clearance_m));
+          }
+        }
+      }
+      return lowest;
+    };
+    double lowest[2][2];
+    for (int dj = 0; dj < 2; ++dj) {
+      for (int di = 0; di < 2; ++di) {
+        if (used[dj][di]) lowest[dj][di] = lowest_around(i0 + di, j0 + dj, *corner[dj][di]);
+      }
+    }
+    interpolate([&](int dj, int di) { return lowest[dj][di]; }, &sample->clearance_m,
+                &sample->clearance_gradient);
+  }
+  return true;
+}
+
+double SampleEdgeDistance(const SurfaceGraph& graph, const Eigen::Vector3d& p,
+                          Eigen::Vector2d* gradient) {
+  const GridGeometry& g = graph.grid();
+  const double r = g.resolution_m;
+  const double z_ground = p.z() - graph.params().reference_height_m;
+  const double u = (p.x() - g.origin_m.x()) / r - 0.5;
+  const double v = (p.y() - g.origin_m.y()) / r - 0.5;
+  const int i0 = static_cast<int>(std::floor(u));
+  const int j0 = static_cast<int>(std::floor(v));
+  const double fu = u - i0, fv = v - j0;
+  double f[2][2];
+  for (int dj = 0; dj < 2; ++dj) {
+    for (int di = 0; di < 2; ++di) {
+      const int node = graph.NodeNear(i0 + di, j0 + dj, z_ground);
+      f[dj][di] = node >= 0 ? graph.edge_distance(node) : -0.5 * r;
+    }
+  }
+  const double f0 = f[0][0] + fu * (f[0][1] - f[0][0]);
+  const double f1 = f[1][0] + fu * (f[1][1] - f[1][0]);
+  (*gradient) << ((1 - fv) * (f[0][1] - f[0][0]) + fv * (f[1][1] - f[1][0])) / r, (f1 - f0) / r;
+  return f0 + fv * (f1 - f0);
+}
+
+}  // namespace strata
