@@ -18,7 +18,8 @@ struct MapServiceOptions {
 
 /// The MapSource of a CreateMapRequest: a file confined to `map_root`, or a scene (seed
 /// kDefaultSceneSeed when the request has none). Errors blame request fields ("file.path",
-/// "scene.name", "source").
+/// "scene.name", "source"). The request's terrain parameters are converted apart, by FromProto
+/// (proto_convert.hpp).
 Result<MapSource> SourceFromRequest(const v1::CreateMapRequest& request,
                                     const std::filesystem::path& map_root);
 

@@ -1,5 +1,8 @@
 #pragma once
-/// Conversion between the public API's messages (strata.v1) and the planner's types.
+/// Conversion between the public API's messages (strata.v1) and the planner's types: every
+/// message <-> planner type conversion is here. The services use both kinds of type (they
+/// call the planner and answer with messages), but convert only through these functions and
+/// set only fields of their own beside them (queue time, the capped time budget, page tokens).
 /// Conversions from requests copy the fields that are set over the planner's defaults and call
 /// the planner's Validate(), which alone holds the valid ranges; the error's field path (a path
 /// in the planner's structs, Error::field) becomes the request field at fault, e.g.

@@ -48,7 +48,6 @@ class StrataMethod : public BenchMethod {
     request.goal.position_m = pair.goal_m;
     request.profile = profile_;
     request.options.time_budget_s = time_limit_s;
-    request.options.search.time_budget_s = time_limit_s;
     const auto begin = Clock::now();
     const Expected<PlanResult> plan = Plan(*map_, request);
     const double plan_s = SecondsSince(begin);

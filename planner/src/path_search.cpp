@@ -16,9 +16,6 @@ Status SearchConfig::Validate(std::string_view path) const {
     return internal::OutOfRange(internal::FieldPath(path, field), value, range);
   };
   if (max_expansions < 1) return bad_config("max_expansions", max_expansions, ">= 1");
-  if (!(std::isfinite(time_budget_s) && time_budget_s > 0)) {
-    return bad_config("time_budget_s", time_budget_s, "> 0 and finite");
-  }
   if (!(std::isfinite(clearance_weight) && clearance_weight >= 0)) {
     return bad_config("clearance_weight", clearance_weight, ">= 0 and finite");
   }
@@ -94,8 +91,6 @@ Expected<PathResult> SearchPath(const SurfaceGraph& graph, int start_node, int g
   std::priority_queue<Entry, std::vector<Entry>, std::greater<>> open;
   g_cost[start_node] = 0;
   open.push({(start_p - goal_p).norm(), 0.0, start_node});
-  const auto deadline = t0 + std::chrono::duration_cast<Clock::duration>(
-                                 std::chrono::duration<double>(config.time_budget_s));
 
   while (!open.empty()) {
     const Entry top = open.top();
@@ -120,14 +115,6 @@ Expected<PathResult> SearchPath(const SurfaceGraph& graph, int start_node, int g
         std::snprintf(buf, sizeof(buf), " m was cancelled after %d expansions", expansions);
         return fail(ErrorCode::kCancelled, "search from " + internal::FormatPoint(start_p) +
                                                " m to " + internal::FormatPoint(goal_p) + buf);
-      }
-      if (Clock::now() > deadline) {
-        char buf[128];
-        std::snprintf(buf, sizeof(buf), " m exceeded its time budget of %g s after %d expansions",
-                      config.time_budget_s, expansions);
-        return fail(ErrorCode::kDeadlineExceeded, "search from " + internal::FormatPoint(start_p) +
-                                                      " m to " + internal::FormatPoint(goal_p) +
-                                                      buf);
       }
     }
     if (expansions >= config.max_expansions) {

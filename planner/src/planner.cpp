@@ -33,9 +33,6 @@ class StopCondition {
   std::function<bool()> AsFunction() {
     return [this] { return (*this)(); };
   }
-  double RemainingSeconds() const {
-    return std::chrono::duration<double>(deadline_ - Clock::now()).count();
-  }
   // The error for a stage that stopped on our request.
   Error Reason(double budget_s, const char* stage) const {
     if (cancelled_)
@@ -191,19 +188,15 @@ Expected<PlanResult> Plan(const PlanningMap& map, const PlanRequest& request,
 
   // Search.
   stage = Clock::now();
-  SearchConfig search = options.search;
-  search.time_budget_s = std::max(1e-6, std::min(search.time_budget_s, stop.RemainingSeconds()));
+  // The search runs on the plan's own budget (through stop), the only one a caller sets.
   SearchStats search_stats;
   Expected<PathResult> path =
-      SearchPath(graph, start->node, goal->node, search, stop.AsFunction(), &search_stats);
+      SearchPath(graph, start->node, goal->node, options.search, stop.AsFunction(), &search_stats);
   stats.timings.search_s = SecondsSince(stage);
   stats.search_expansions = search_stats.expansions;
   if (!path) {
     if (stop.stopped()) return stop.Reason(options.time_budget_s, "the path search");
-    if (path.error().code == ErrorCode::kDeadlineExceeded) {
-      return stop.Reason(options.time_budget_s, "the path search");
-    }
-    return path.error();
+    return std::move(path).error();
   }
   result.path = std::move(path).value();
 

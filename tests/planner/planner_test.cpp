@@ -129,6 +129,21 @@ TEST_F(TwoLevelPlan, BadRequestsGetNamedErrors) {
   EXPECT_EQ(plan.error().field, "options.optimizer.weights.time");
 }
 
+// A plan has one time budget, options.time_budget_s (with the caller's deadline): the search
+// has none of its own. When it runs out, the message names it, and raising it helps.
+TEST_F(TwoLevelPlan, ARunOutBudgetNamesTheOptionThatRaisesIt) {
+  PlanRequest request = Request(layout_.start_example_m, layout_.goal_example_m);
+  request.options.time_budget_s = 1e-9;  // Gone before the search polls the first time.
+  auto plan = Plan(*map_, request);
+  ASSERT_FALSE(plan.ok());
+  EXPECT_EQ(plan.error().code, ErrorCode::kDeadlineExceeded);
+  EXPECT_THAT(plan.error().message, HasSubstr("ran out during the path search"));
+  EXPECT_THAT(plan.error().message, HasSubstr("allow more time (options.time_budget_s"));
+  request.options.time_budget_s = 60;
+  plan = Plan(*map_, request);
+  EXPECT_TRUE(plan.ok()) << plan.error().message;
+}
+
 TEST_F(TwoLevelPlan, CancellationAndDeadlinesStopPromptlyWithTheirReason) {
   const PlanRequest request = Request(layout_.start_example_m, layout_.goal_example_m);
   auto plan = Plan(*map_, request, [] { return true; });

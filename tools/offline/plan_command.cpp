@@ -269,11 +269,7 @@ void AddPlanCommand(CLI::App& app, std::function<int()>* run) {
   command
       ->add_option_function<double>(
           "--time-budget",
-          [args](double seconds) {
-            // The whole plan's budget; the search may use all of it (the plan caps it anyway).
-            args->options.time_budget_s = seconds;
-            args->options.search.time_budget_s = seconds;
-          },
+          [args](double seconds) { args->options.time_budget_s = seconds; },
           "wall-clock budget of the whole plan, search included [s]")
       ->type_name("S")
       ->default_str(DefaultText(PlanOptions{}.time_budget_s));

@@ -1,7 +1,7 @@
 #pragma once
 /// Front end of the planner: A* over the near-surface cells of a SurfaceGraph (26-connected,
-/// admissible heuristic, clearance-aware cost), with an expansion and time budget and a
-/// should_stop callable for deadlines and cancellation. Every failure names its reason.
+/// admissible heuristic, clearance-aware cost), with an expansion budget and a should_stop
+/// callable for deadlines and cancellation. Every failure names its reason.
 
 #include <functional>
 #include <string_view>
@@ -19,8 +19,6 @@ struct SearchConfig {
   /// Most nodes the search may expand [-], >= 1. Reaching it fails with
   /// kSearchBudgetExhausted.
   int max_expansions = 2'000'000;
-  /// Wall-clock budget of one search [s], > 0. Exceeding it fails with kDeadlineExceeded.
-  double time_budget_s = 1.0;
   /// Extra cost of a move whose clearance is 0, relative to its length [-], >= 0.
   double clearance_weight = 2.0;
   /// Obstacle distance below which moves cost extra [m], > 0. Keep it below the reference
@@ -59,10 +57,11 @@ double EdgeCost(const SurfaceGraph& graph, int a, int b, const SearchConfig& con
 /// Cheapest path from start_node to goal_node (e.g. SnapResult::node). Fails with:
 /// kInvalidConfig (bad config), kInvalidInput (node out of range), kGoalUnreachable (the
 /// nodes are in different components; decided before any expansion), kCancelled
-/// (should_stop returned true), kDeadlineExceeded (time_budget_s ran out),
-/// kSearchBudgetExhausted (max_expansions reached), kNoPath (open set emptied; defensive).
-/// should_stop and the clock are checked before the first expansion and every 1024 after.
-/// `should_stop` may be empty. `stats`, when non-null, receives the work done.
+/// (should_stop returned true), kSearchBudgetExhausted (max_expansions reached), kNoPath (open
+/// set emptied; defensive). The search has no clock of its own: should_stop, checked before
+/// the first expansion and every 1024 after, is how a caller bounds it in time (Plan passes
+/// its deadline and reports kDeadlineExceeded itself). `should_stop` may be empty. `stats`,
+/// when non-null, receives the work done.
 Expected<PathResult> SearchPath(const SurfaceGraph& graph, int start_node, int goal_node,
                                 const SearchConfig& config,
                                 const std::function<bool()>& should_stop,

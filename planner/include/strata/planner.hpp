@@ -51,7 +51,7 @@ struct PlanOptions {
   double time_budget_s = 2.0;
   /// How far start and goal may be from traversable ground (3D, to the reference point) [m].
   double snap_tolerance_m = 1.0;
-  SearchConfig search;        ///< A* settings (its time budget is capped by the plan's).
+  SearchConfig search;        ///< A* settings (it runs on the plan's time budget).
   OptimizerConfig optimizer;  ///< Weights, thresholds, L-BFGS settings.
   VerifierConfig verifier;    ///< Tolerances of the final check.
   /// Optimisations to try before giving up [-], in [1, 10]. After a failed verification the
