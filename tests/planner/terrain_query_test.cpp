@@ -4,26 +4,17 @@
 #include "strata/terrain_query.hpp"
 
 #include <cmath>
-#include <memory>
 #include <random>
 #include <vector>
 
 #include <gtest/gtest.h>
 
-#include "strata/scenes.hpp"
+#include "test_util/two_level_scene.hpp"
 
 namespace strata {
 namespace {
 
-// The two-level scene: a ramp (sloped ground), a deck over the floor, pillars.
-const TerrainModel& Scene() {
-  static const std::shared_ptr<const TerrainModel> model = [] {
-    AssessmentConfig config;
-    config.grid.resolution_m = 0.2;
-    return TerrainModel::Assess(GenerateTwoLevelRamp(5), config).value();
-  }();
-  return *model;
-}
+const TerrainModel& Scene() { return test_util::TwoLevelScene(); }
 
 const SurfaceGraph& Graph() {
   static const SurfaceGraph graph = SurfaceGraph::Build(Scene(), TraversabilityParams{}).value();

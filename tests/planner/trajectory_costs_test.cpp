@@ -12,6 +12,7 @@
 #include "strata/terrain_model.hpp"
 #include "test_util/gradient_check.hpp"
 #include "test_util/terrain_queries.hpp"
+#include "test_util/two_level_scene.hpp"
 
 namespace strata {
 namespace {
@@ -21,16 +22,8 @@ using test_util::RelativeError;
 
 constexpr double kTolerance = 1e-5;
 
-// The two-level scene: a ramp (sloped ground), a deck (a ceiling over the floor) and pillars
-// (obstacles), so every term has something to bite on.
-const TerrainModel& Scene() {
-  static const std::shared_ptr<const TerrainModel> model = [] {
-    AssessmentConfig config;
-    config.grid.resolution_m = 0.2;
-    return TerrainModel::Assess(GenerateTwoLevelRamp(5), config).value();
-  }();
-  return *model;
-}
+// The two-level scene: every term has something to bite on.
+const TerrainModel& Scene() { return test_util::TwoLevelScene(); }
 
 // Its traversable ground for a robot with the cost's reference height (J_e needs it).
 const SurfaceGraph& Graph() {
