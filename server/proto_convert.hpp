@@ -51,7 +51,7 @@ Result<RobotState> FromProto(const v1::RobotState& state, const std::string& fie
 /// Options over the planner's defaults, copied (time_budget_s as given: the caller caps it,
 /// see PlannerService); PlanOptions::Validate checks them.
 PlanOptions FromProto(const v1::PlanOptions& options);
-/// Every field the proto has set, except sample_dt_s (a server option, not the planner's).
+/// Sets every field of the message but sample_dt_s (a server option, not the planner's).
 void ToProto(const PlanOptions& options, v1::PlanOptions* message);
 
 /// The PlanRequest field of a planner field path (Error::field of PlanRequest::Validate or

@@ -89,7 +89,7 @@ struct RobotProfile {
 };
 
 /// What a robot needs to stand somewhere: the part of a RobotProfile the traversability graph
-/// (SurfaceGraph) depends on, derived from the profile, never set apart from it in planning.
+/// (SurfaceGraph) depends on, derived from the profile (Plan never builds one otherwise).
 /// PlanningMap caches one graph per distinct value, compared field by field (operator<=>), so
 /// a field added here is part of the cache key without further work. Validate() blames the
 /// first bad field by its path, `path`.<field>.
