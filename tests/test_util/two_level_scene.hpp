@@ -4,7 +4,7 @@
 // every cost term and terrain query has something to bite on.
 #include <memory>
 
-#include "strata/scenes.hpp"
+#include "strata/scenes/basic_scenes.hpp"
 #include "strata/terrain_model.hpp"
 
 namespace strata::test_util {

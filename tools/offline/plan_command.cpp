@@ -268,8 +268,7 @@ void AddPlanCommand(CLI::App& app, std::function<int()>* run) {
       ->capture_default_str();
   command
       ->add_option_function<double>(
-          "--time-budget",
-          [args](double seconds) { args->options.time_budget_s = seconds; },
+          "--time-budget", [args](double seconds) { args->options.time_budget_s = seconds; },
           "wall-clock budget of the whole plan, search included [s]")
       ->type_name("S")
       ->default_str(DefaultText(PlanOptions{}.time_budget_s));
