@@ -49,15 +49,15 @@ void BM_Assess(benchmark::State& state, const strata::MapSource& source, double 
     }
     const auto& t = (*model)->summary().timings;
     sum.ground_filter_s += t.ground_filter_s;
-    sum.esdf_s += t.esdf_s;
-    sum.field_s += t.field_s;
+    sum.surfaces_s += t.surfaces_s;
+    sum.fields_s += t.fields_s;
     memory = (*model)->MemoryBytes();
     cells = (*model)->grid().CellCount();
   }
   const double n = static_cast<double>(state.iterations());
   state.counters["vgf_s"] = sum.ground_filter_s / n;
-  state.counters["esdf_s"] = sum.esdf_s / n;
-  state.counters["field_s"] = sum.field_s / n;
+  state.counters["surfaces_s"] = sum.surfaces_s / n;
+  state.counters["fields_s"] = sum.fields_s / n;
   state.counters["memory_MB"] = memory / 1.0e6;
   state.counters["cells"] = static_cast<double>(cells);
   state.counters["bytes_per_cell"] = static_cast<double>(memory) / static_cast<double>(cells);

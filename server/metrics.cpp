@@ -245,8 +245,8 @@ void Metrics::RecordMapDone(const MapSnapshot& map) {
   const AssessmentTimings& t = map.summary.timings;
   const std::pair<const char*, double> stages[] = {{"load", map.load_s},
                                                    {"ground_filter", t.ground_filter_s},
-                                                   {"esdf", t.esdf_s},
-                                                   {"field", t.field_s},
+                                                   {"surfaces", t.surfaces_s},
+                                                   {"fields", t.fields_s},
                                                    {"total", t.total_s}};
   for (const auto& [stage, seconds] : stages) {
     assessment_seconds_.Add({{"stage", stage}}, kAssessmentBuckets).Observe(seconds);

@@ -172,8 +172,8 @@ void ToProto(const MapSnapshot& s, v1::Map* map) {
     map->set_memory_bytes(s.memory_bytes);
     v1::AssessmentSeconds* seconds = map->mutable_assessment_seconds();
     seconds->set_ground_filter_s(summary.timings.ground_filter_s);
-    seconds->set_esdf_s(summary.timings.esdf_s);
-    seconds->set_field_s(summary.timings.field_s);
+    seconds->set_surfaces_s(summary.timings.surfaces_s);
+    seconds->set_fields_s(summary.timings.fields_s);
     seconds->set_total_s(summary.timings.total_s);
     map->set_surface_count(summary.surface_count);
     map->set_valid_surface_count(summary.valid_surface_count);

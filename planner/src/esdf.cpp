@@ -206,15 +206,18 @@ void SquaredDistanceTransform1D(const float* f, float* out, int n, std::int64_t 
 }
 
 ScalarGrid BuildSignedDistanceField(const GridGeometry& geometry,
-                                    const std::vector<std::uint8_t>& occupied) {
+                                    const std::vector<std::uint8_t>& occupied,
+                                    double distance_cap_m) {
   assert(static_cast<std::int64_t>(occupied.size()) == geometry.CellCount());
   const int nx = geometry.size.x();
   const int ny = geometry.size.y();
   const int nz = geometry.size.z();
   const std::int64_t layer = geometry.LayerCellCount();
   const double r = geometry.resolution_m;
-  // Farther than any two cell centres: the value where no cell of the other class exists.
-  const double diagonal_m = geometry.size.cast<double>().norm() * r;
+  // Without a cap: farther than any two cell centres, the value where no cell of the other
+  // class exists.
+  const double cap_m =
+      std::isfinite(distance_cap_m) ? distance_cap_m : geometry.size.cast<double>().norm() * r;
   const int blocks_per_row = (nx + kBlockWidth - 1) / kBlockWidth;
   const int longest_line = std::max({nx, ny, nz});
 
@@ -264,9 +267,9 @@ ScalarGrid BuildSignedDistanceField(const GridGeometry& geometry,
     // z, one block of columns at a time, converting to signed metres on the way out.
     // Float throughout: the values are stored as float anyway, and float sqrt is far cheaper.
     const float r_f = static_cast<float>(r);
-    const float diagonal_f = static_cast<float>(diagonal_m);
-    const auto to_metres = [r_f, diagonal_f](float squared_cells) {
-      const float distance = std::min(std::sqrt(std::fabs(squared_cells)) * r_f, diagonal_f);
+    const float cap_f = static_cast<float>(cap_m);
+    const auto to_metres = [r_f, cap_f](float squared_cells) {
+      const float distance = std::min(std::sqrt(std::fabs(squared_cells)) * r_f, cap_f);
       return IsOccupied(squared_cells) ? r_f - distance : distance;
     };
     const int block_count = ny * blocks_per_row;

@@ -29,7 +29,7 @@ std::string FormatBox(const Eigen::AlignedBox3d& box) {
 }  // namespace
 
 Expected<GridGeometry> MakeGridGeometry(const Eigen::AlignedBox3d& bounds, double resolution_m,
-                                        double padding_m, std::int64_t max_cells) {
+                                        double padding_m, std::int64_t max_columns) {
   if (!std::isfinite(resolution_m) || resolution_m <= 0.0) {
     return Error{ErrorCode::kInvalidInput, "grid resolution " + FormatShort(resolution_m) +
                                                " m must be a finite positive number"};
@@ -59,14 +59,15 @@ Expected<GridGeometry> MakeGridGeometry(const Eigen::AlignedBox3d& bounds, doubl
     if (lo[a] + n * resolution_m < hi[a]) n += 1.0;
     cells_per_axis[a] = n;
   }
-  const double cell_count = cells_per_axis.prod();
-  const double int_max = static_cast<double>(std::numeric_limits<int>::max());
-  if (cell_count > static_cast<double>(max_cells) || cells_per_axis.maxCoeff() > int_max) {
+  const double column_count = cells_per_axis.x() * cells_per_axis.y();
+  // Layers are bounded too: tiles stack them, and indices must stay far from overflow.
+  const double max_layers = static_cast<double>(std::numeric_limits<int>::max() / 4);
+  if (column_count > static_cast<double>(max_columns) || cells_per_axis.maxCoeff() > max_layers) {
     return Error{ErrorCode::kResourceExhausted,
                  "a " + FormatShort(resolution_m) + " m grid over " + FormatShort(extent.x()) +
                      " × " + FormatShort(extent.y()) + " × " + FormatShort(extent.z()) +
-                     " m needs " + FormatShort(cell_count) + " cells, above the limit of " +
-                     FormatShort(static_cast<double>(max_cells)) +
+                     " m needs " + FormatShort(column_count) + " columns, above the limit of " +
+                     FormatShort(static_cast<double>(max_columns)) +
                      "; check the map's units or use a coarser resolution"};
   }
 

@@ -4,8 +4,6 @@
 #include <cmath>
 #include <cstdint>
 
-#include "parallel_internal.hpp"
-
 namespace strata {
 namespace {
 
@@ -78,107 +76,118 @@ double PoseGradientNorm(const SurfaceMap& surfaces, const FieldConfig& field, in
 }
 
 ScalarGrid ComputeSafetyPenalty(const SurfaceMap& surfaces, const FieldConfig& field,
-                                int num_threads) {
-  num_threads = internal::ResolveThreadCount(num_threads);
+                                const CellBox& box) {
   const GridGeometry& g = surfaces.geometry();
-  const int nx = g.size.x();
-  const int ny = g.size.y();
   const double void_penalty = field.VoidPenalty();
-  std::vector<float> values(g.CellCount());
-
-#pragma omp parallel num_threads(num_threads)
-  {
-    // Each thread sweeps a contiguous block of layers upwards, keeping per column how many of
-    // its surfaces lie at or below the current layer, so every projection is O(1) amortised.
-    std::vector<PoseSample> layer(static_cast<std::size_t>(nx) * ny);
-    std::vector<std::uint32_t> passed(static_cast<std::size_t>(nx) * ny, 0);
-#pragma omp for schedule(static)
-    for (int iz = 0; iz < g.size.z(); ++iz) {
-      for (int iy = 0; iy < ny; ++iy) {
-        for (int ix = 0; ix < nx; ++ix) {
-          const std::size_t c = ix + static_cast<std::size_t>(nx) * iy;
-          const std::span<const ColumnSurface> column = surfaces.Column(ix, iy);
-          std::size_t k = passed[c];
-          while (k < column.size() && column[k].top_layer <= iz) ++k;
-          passed[c] = static_cast<std::uint32_t>(k);
-          const bool inside = k < column.size() && column[k].bottom_layer <= iz;
-          if (k == 0 || inside) {
-            layer[c] = {};
-          } else {
-            layer[c] = {true, column[k - 1].plane_center_z_m, column[k - 1].tilt_rad};
-          }
-        }
-      }
-      float* out = values.data() + g.Index(0, 0, iz);
-      for (int iy = 0; iy < ny; ++iy) {
-        for (int ix = 0; ix < nx; ++ix) {
-          const PoseSample& c = layer[ix + nx * iy];
-          if (!c.defined) {
-            out[ix + nx * iy] = static_cast<float>(void_penalty);
-            continue;
-          }
-          const double grad =
-              PoseGradientFromNeighbours(c, ix > 0 ? &layer[ix - 1 + nx * iy] : nullptr,
-                                         ix + 1 < nx ? &layer[ix + 1 + nx * iy] : nullptr,
-                                         iy > 0 ? &layer[ix + nx * (iy - 1)] : nullptr,
-                                         iy + 1 < ny ? &layer[ix + nx * (iy + 1)] : nullptr,
-                                         g.resolution_m, field.max_pose_gradient_per_m);
-          out[ix + nx * iy] = static_cast<float>(field.weight_tilt * c.tilt_rad * c.tilt_rad +
-                                                 field.weight_pose_change * std::sqrt(grad));
+  std::vector<float> values(static_cast<std::size_t>(box.CellCount()));
+  if (box.empty()) return ScalarGrid(box.Geometry(g), std::move(values));
+  // The layer's projections over the box and one column around it (the pose gradient's
+  // neighbours), cut to the grid; a neighbour outside the grid is missing (one-sided).
+  const CellBox ring = box.Grown({1, 1, 0}, g);
+  const int rx = ring.size().x(), ry = ring.size().y();
+  std::vector<PoseSample> layer(static_cast<std::size_t>(rx) * ry);
+  // Per ring column, how many of its surfaces lie at or below the current layer: the sweep
+  // upwards makes every projection O(1) amortised.
+  std::vector<std::uint32_t> passed(layer.size(), 0);
+  for (int y = 0; y < ry; ++y) {
+    for (int x = 0; x < rx; ++x) {
+      const std::span<const ColumnSurface> column =
+          surfaces.Column(ring.min.x() + x, ring.min.y() + y);
+      std::uint32_t k = 0;
+      while (k < column.size() && column[k].top_layer < box.min.z()) ++k;
+      passed[x + static_cast<std::size_t>(rx) * y] = k;
+    }
+  }
+  const Eigen::Vector3i n = box.size();
+  for (int iz = box.min.z(); iz <= box.max.z(); ++iz) {
+    for (int y = 0; y < ry; ++y) {
+      for (int x = 0; x < rx; ++x) {
+        const std::size_t c = x + static_cast<std::size_t>(rx) * y;
+        const std::span<const ColumnSurface> column =
+            surfaces.Column(ring.min.x() + x, ring.min.y() + y);
+        std::size_t k = passed[c];
+        while (k < column.size() && column[k].top_layer <= iz) ++k;
+        passed[c] = static_cast<std::uint32_t>(k);
+        const bool inside = k < column.size() && column[k].bottom_layer <= iz;
+        if (k == 0 || inside) {
+          layer[c] = {};
+        } else {
+          layer[c] = {true, column[k - 1].plane_center_z_m, column[k - 1].tilt_rad};
         }
       }
     }
+    float* out = values.data() + box.Index({box.min.x(), box.min.y(), iz});
+    for (int iy = box.min.y(); iy <= box.max.y(); ++iy) {
+      for (int ix = box.min.x(); ix <= box.max.x(); ++ix) {
+        const int x = ix - ring.min.x(), y = iy - ring.min.y();
+        const auto at = [&](int dx, int dy) {
+          return &layer[(x + dx) + static_cast<std::size_t>(rx) * (y + dy)];
+        };
+        const PoseSample& c = *at(0, 0);
+        float& value =
+            out[(ix - box.min.x()) + static_cast<std::size_t>(n.x()) * (iy - box.min.y())];
+        if (!c.defined) {
+          value = static_cast<float>(void_penalty);
+          continue;
+        }
+        const double grad = PoseGradientFromNeighbours(
+            c, ix > 0 ? at(-1, 0) : nullptr, ix + 1 < g.size.x() ? at(1, 0) : nullptr,
+            iy > 0 ? at(0, -1) : nullptr, iy + 1 < g.size.y() ? at(0, 1) : nullptr, g.resolution_m,
+            field.max_pose_gradient_per_m);
+        value = static_cast<float>(field.weight_tilt * c.tilt_rad * c.tilt_rad +
+                                   field.weight_pose_change * std::sqrt(grad));
+      }
+    }
   }
-  return ScalarGrid(g, std::move(values));
+  return ScalarGrid(box.Geometry(g), std::move(values));
 }
 
-ScalarGrid DiffuseSafetyPenalty(const ScalarGrid& penalty, const FieldConfig& field,
-                                int num_threads) {
-  num_threads = internal::ResolveThreadCount(num_threads);
-  const GridGeometry& g = penalty.geometry();
-  const Eigen::MatrixXd kernel = ConeKernel(field.diffusion_distance_m, g.resolution_m);
-  if (kernel.size() == 1) return penalty;
-
-  struct Tap {
-    int dx, dy;
-    float weight;
-  };
-  std::vector<Tap> taps;
-  const int half = static_cast<int>(kernel.rows() / 2);
+SafetyDiffusion::SafetyDiffusion(const FieldConfig& field, double resolution_m) {
+  const Eigen::MatrixXd kernel = ConeKernel(field.diffusion_distance_m, resolution_m);
+  reach_ = static_cast<int>(kernel.rows() / 2);
   for (int i = 0; i < kernel.rows(); ++i) {
     for (int j = 0; j < kernel.cols(); ++j) {
-      if (kernel(i, j) > 0) taps.push_back({i - half, j - half, static_cast<float>(kernel(i, j))});
+      if (kernel(i, j) > 0)
+        taps_.push_back({i - reach_, j - reach_, static_cast<float>(kernel(i, j))});
     }
   }
-  float total_weight = 0;
-  for (const Tap& t : taps) total_weight += t.weight;
-  const int nx = g.size.x();
-  const int ny = g.size.y();
-  const std::vector<float>& in = penalty.values();
-  std::vector<float> out(in.size());
+  for (const Tap& t : taps_) total_weight_ += t.weight;
+}
 
-#pragma omp parallel for collapse(2) schedule(static) num_threads(num_threads)
+float SafetyDiffusion::At(const ScalarGrid& penalty, const CellBox& box,
+                          const Eigen::Vector3i& grid_size, const Eigen::Vector3i& cell) const {
+  const Eigen::Vector3i n = box.size();
+  const float* layer = penalty.values().data() + box.Index({box.min.x(), box.min.y(), cell.z()});
+  const int x = cell.x() - box.min.x(), y = cell.y() - box.min.y();
+  const auto value = [&](const Tap& t) {
+    return layer[(x + t.dx) + static_cast<std::size_t>(n.x()) * (y + t.dy)];
+  };
+  float sum = 0;
+  if (cell.x() >= reach_ && cell.x() + reach_ < grid_size.x() && cell.y() >= reach_ &&
+      cell.y() + reach_ < grid_size.y()) {
+    for (const Tap& t : taps_) sum += t.weight * value(t);
+    return sum / total_weight_;
+  }
+  // Near the grid's edge the kernel is renormalised over the cells that exist.
+  float weight = 0;
+  for (const Tap& t : taps_) {
+    const int gx = cell.x() + t.dx, gy = cell.y() + t.dy;
+    if (gx < 0 || gx >= grid_size.x() || gy < 0 || gy >= grid_size.y()) continue;
+    sum += t.weight * value(t);
+    weight += t.weight;
+  }
+  return sum / weight;
+}
+
+ScalarGrid DiffuseSafetyPenalty(const ScalarGrid& penalty, const FieldConfig& field) {
+  const GridGeometry& g = penalty.geometry();
+  const SafetyDiffusion diffusion(field, g.resolution_m);
+  const CellBox whole = CellBox::Whole(g);
+  std::vector<float> out(penalty.values().size());
   for (int iz = 0; iz < g.size.z(); ++iz) {
-    for (int iy = 0; iy < ny; ++iy) {
-      const float* layer = in.data() + g.Index(0, 0, iz);
-      float* row = out.data() + g.Index(0, iy, iz);
-      const bool interior_y = iy >= half && iy + half < ny;
-      for (int ix = 0; ix < nx; ++ix) {
-        float sum = 0;
-        float weight = 0;
-        if (interior_y && ix >= half && ix + half < nx) {
-          for (const Tap& t : taps) sum += t.weight * layer[(ix + t.dx) + nx * (iy + t.dy)];
-          weight = total_weight;
-        } else {
-          for (const Tap& t : taps) {
-            const int x = ix + t.dx;
-            const int y = iy + t.dy;
-            if (x < 0 || x >= nx || y < 0 || y >= ny) continue;
-            sum += t.weight * layer[x + nx * y];
-            weight += t.weight;
-          }
-        }
-        row[ix] = sum / weight;
+    for (int iy = 0; iy < g.size.y(); ++iy) {
+      for (int ix = 0; ix < g.size.x(); ++ix) {
+        out[g.Index(ix, iy, iz)] = diffusion.At(penalty, whole, g.size, {ix, iy, iz});
       }
     }
   }

@@ -5,62 +5,23 @@
 #include <limits>
 #include <numbers>
 
+#include "assessment_progress.hpp"
+#include "column_cloud.hpp"
 #include "parallel_internal.hpp"
 #include "strata/plane_fit.hpp"
 
 namespace strata {
 namespace {
 
-// The cloud regrouped by column, each column sorted by height, so that runs and plane-fit
-// neighbourhoods are contiguous scans instead of tree queries.
-struct ColumnSortedCloud {
-  std::vector<std::uint32_t> begin;  // Per column, offset into points; size columns + 1.
-  std::vector<Eigen::Vector3f> points;
-  std::vector<std::uint8_t> valid;
-};
+// Progress and cancellation granularity of the plane fits [columns].
+constexpr std::int64_t kColumnsPerUnit = 4096;
 
-int ClampedLayer(const GridGeometry& g, float z) {
-  const int layer = static_cast<int>(std::floor((z - g.origin_m.z()) / g.resolution_m));
-  return std::clamp(layer, 0, g.size.z() - 1);
-}
-
-ColumnSortedCloud SortByColumn(const GridGeometry& g, const PointCloud& cloud,
-                               const std::vector<std::uint8_t>& valid_ground,
-                               [[maybe_unused]] int threads) {  // OpenMP only.
-  const std::int64_t columns = g.LayerCellCount();
-  std::vector<std::uint32_t> column_of(cloud.size());
-  ColumnSortedCloud out;
-  out.begin.assign(columns + 1, 0);
-  for (std::size_t i = 0; i < cloud.size(); ++i) {
-    const Eigen::Vector3i c = g.CellOf(cloud[i].cast<double>());
-    const int ix = std::clamp(c.x(), 0, g.size.x() - 1);
-    const int iy = std::clamp(c.y(), 0, g.size.y() - 1);
-    column_of[i] = static_cast<std::uint32_t>(ix + g.size.x() * std::int64_t{iy});
-    ++out.begin[column_of[i] + 1];
-  }
-  for (std::int64_t c = 0; c < columns; ++c) out.begin[c + 1] += out.begin[c];
-  std::vector<std::uint32_t> next(out.begin.begin(), out.begin.end() - 1);
-  std::vector<std::uint32_t> order(cloud.size());
-  for (std::size_t i = 0; i < cloud.size(); ++i) order[next[column_of[i]]++] = i;
-
-#pragma omp parallel for schedule(dynamic, 1024) num_threads(threads)
-  for (std::int64_t c = 0; c < columns; ++c) {
-    std::sort(order.begin() + out.begin[c], order.begin() + out.begin[c + 1],
-              [&](std::uint32_t a, std::uint32_t b) { return cloud[a].z() < cloud[b].z(); });
-  }
-  out.points.resize(cloud.size());
-  out.valid.resize(cloud.size());
-  for (std::size_t k = 0; k < order.size(); ++k) {
-    out.points[k] = cloud[order[k]];
-    out.valid[k] = valid_ground[order[k]];
-  }
-  return out;
-}
+using internal::ClampedLayer;
+using internal::ColumnCloud;
 
 // Calls emit(run) for every run of vertically adjacent occupied cells in one sorted column.
 template <typename Emit>
-void ForEachRun(const GridGeometry& g, const ColumnSortedCloud& sorted, std::int64_t column,
-                Emit emit) {
+void ForEachRun(const GridGeometry& g, const ColumnCloud& sorted, std::int64_t column, Emit emit) {
   const std::uint32_t first = sorted.begin[column];
   const std::uint32_t last = sorted.begin[column + 1];
   std::uint32_t run_start = first;
@@ -96,7 +57,7 @@ void ForEachRun(const GridGeometry& g, const ColumnSortedCloud& sorted, std::int
 // below) around `centre` from the columns around (ix, iy). With `column_tops`, only the
 // highest run top (a point with no point in the voxel above it) of each column: a wall's
 // points are not tops, so they cannot tilt the fit of the ground beside it.
-void GatherNeighbourhood(const GridGeometry& g, const ColumnSortedCloud& sorted, int ix, int iy,
+void GatherNeighbourhood(const GridGeometry& g, const ColumnCloud& sorted, int ix, int iy,
                          const Eigen::Vector3f& centre, float radius, float half_height,
                          bool column_tops, std::vector<Eigen::Vector3f>* out) {
   out->clear();
@@ -140,10 +101,19 @@ double PlaneHeightAt(const PlaneFit& fit, const Eigen::Vector3d& centre_xy) {
 SurfaceMap SurfaceMap::Build(const GridGeometry& geometry, const PointCloud& cloud,
                              const std::vector<std::uint8_t>& valid_ground,
                              const FieldConfig& field, int num_threads) {
+  std::vector<std::uint32_t> source;
+  ColumnCloud sorted = internal::SortIntoColumns(geometry, cloud, num_threads, &source);
+  for (std::size_t k = 0; k < source.size(); ++k) sorted.valid[k] = valid_ground[source[k]];
+  return std::move(BuildFromColumns(geometry, sorted, field, num_threads, nullptr)).value();
+}
+
+Expected<SurfaceMap> SurfaceMap::BuildFromColumns(const GridGeometry& geometry,
+                                                  const internal::ColumnCloud& sorted,
+                                                  const FieldConfig& field, int num_threads,
+                                                  internal::ProgressReporter* progress) {
   num_threads = internal::ResolveThreadCount(num_threads);
   const GridGeometry& g = geometry;
   const std::int64_t columns = g.LayerCellCount();
-  const ColumnSortedCloud sorted = SortByColumn(g, cloud, valid_ground, num_threads);
 
   SurfaceMap map;
   map.geometry_ = geometry;
@@ -166,6 +136,9 @@ SurfaceMap SurfaceMap::Build(const GridGeometry& geometry, const PointCloud& clo
     LocalPlaneFitter fitter(field.plane_inlier_distance_m, field.plane_ransac_iterations);
 #pragma omp for schedule(dynamic, 256)
     for (std::int64_t c = 0; c < columns; ++c) {
+      if (progress != nullptr && c % kColumnsPerUnit == 0 && !progress->Advance(kColumnsPerUnit)) {
+        continue;
+      }
       ColumnSurface* out = map.surfaces_.data() + map.column_begin_[c];
       ColumnSurface* previous = nullptr;
       ForEachRun(g, sorted, c, [&](const ColumnSurface& s, float run_min_z) {
@@ -203,6 +176,9 @@ SurfaceMap SurfaceMap::Build(const GridGeometry& geometry, const PointCloud& clo
         }
       }
     }
+  }
+  if (progress != nullptr && progress->stopped()) {
+    return Error{ErrorCode::kCancelled, "terrain assessment cancelled while fitting surfaces"};
   }
   return map;
 }

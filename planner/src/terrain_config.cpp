@@ -36,7 +36,13 @@ Status GridConfig::Validate(std::string_view path) const {
   if (!(std::isfinite(padding_m) && padding_m >= 0.0 && padding_m <= 100.0)) {
     return Bad(path, "padding_m", padding_m, "in [0, 100] m");
   }
-  if (max_cells <= 0) return Bad(path, "max_cells", static_cast<double>(max_cells), "> 0");
+  if (!(std::isfinite(band_height_m) && band_height_m > 0.0 && band_height_m <= 100.0)) {
+    return Bad(path, "band_height_m", band_height_m, "in (0, 100] m");
+  }
+  if (!(std::isfinite(distance_cap_m) && distance_cap_m > 0.0 && distance_cap_m <= 32.0)) {
+    return Bad(path, "distance_cap_m", distance_cap_m, "in (0, 32] m");
+  }
+  if (max_columns <= 0) return Bad(path, "max_columns", static_cast<double>(max_columns), "> 0");
   return Status::Ok();
 }
 

@@ -4,10 +4,11 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <string>
 
-#include "strata/esdf.hpp"
-#include "strata/ground_filter.hpp"
-#include "strata/safety_field.hpp"
+#include "column_cloud.hpp"
+#include "ground_filter_internal.hpp"
+#include "terrain_fields_build.hpp"
 
 namespace strata {
 namespace {
@@ -74,16 +75,6 @@ class Stopwatch {
   std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
 };
 
-std::vector<std::uint8_t> OccupancyOf(const GridGeometry& g, const PointCloud& cloud) {
-  std::vector<std::uint8_t> occupied(g.CellCount(), 0);
-  for (const Eigen::Vector3f& p : cloud) {
-    const Eigen::Vector3i c =
-        g.CellOf(p.cast<double>()).cwiseMax(0).cwiseMin(g.size - Eigen::Vector3i::Ones());
-    occupied[g.Index(c)] = 1;
-  }
-  return occupied;
-}
-
 // The box the grid is laid over. When the resolution is one or two quanta of a voxelised
 // map, a grid laid from the lowest point has a cell boundary through every lattice plane,
 // and rounding empties some columns and doubles others. Half a quantum lower, the points sit
@@ -120,46 +111,91 @@ FieldConfig FieldConfigForQuantum(const FieldConfig& field, double vertical_quan
   return out;
 }
 
-Expected<std::shared_ptr<const TerrainModel>> TerrainModel::Assess(const PointCloud& cloud,
-                                                                   const AssessmentConfig& config) {
+const char* AssessmentStageName(AssessmentStage stage) {
+  switch (stage) {
+    case AssessmentStage::kSorting: return "sorting";
+    case AssessmentStage::kGroundFilter: return "ground_filter";
+    case AssessmentStage::kSurfaces: return "surfaces";
+    case AssessmentStage::kFields: return "fields";
+  }
+  return "unknown";
+}
+
+Expected<std::shared_ptr<const TerrainModel>> TerrainModel::Assess(
+    const PointCloud& cloud, const AssessmentConfig& config, const AssessmentControl& control) {
   if (Status s = config.Validate(); !s) return s.error();
   if (cloud.empty()) {
     return Error{ErrorCode::kInvalidInput, "the point cloud is empty: nothing to assess"};
   }
   Stopwatch total;
   Stopwatch stage;
+  internal::ProgressReporter progress(&control);
+  const auto cancelled = [](const char* during) {
+    return Error{ErrorCode::kCancelled, std::string("terrain assessment cancelled ") + during};
+  };
   std::shared_ptr<TerrainModel> model(new TerrainModel());
   model->config_ = config;
   AssessmentSummary& summary = model->summary_;
   summary.input_points = cloud.size();
+  if (cloud.size() >= std::numeric_limits<std::uint32_t>::max()) {
+    return Error{ErrorCode::kResourceExhausted, "the cloud holds 2^32 points or more"};
+  }
   for (const Eigen::Vector3f& p : cloud) summary.cloud_bounds_m.extend(p.cast<double>());
-
   // A voxelised map turns every slope into a staircase of one-voxel risers, which the rule
   // would read as walls: risers of one voxel are tolerated as steps.
   summary.vertical_quantum_m = DetectVerticalQuantum(cloud);
-  const std::vector<std::uint8_t> valid =
-      FilterValidGround(cloud, config.ground, config.num_threads,
-                        kQuantumToleranceFactor * summary.vertical_quantum_m);
-  for (const std::uint8_t v : valid) summary.valid_ground_points += v;
-  summary.timings.ground_filter_s = stage.Lap();
-
+  // The grid's size is known from the bounds: refuse an absurd one before any heavy work.
   Expected<GridGeometry> geometry =
       MakeGridGeometry(GridBounds(summary, config.grid.resolution_m), config.grid.resolution_m,
-                       config.grid.padding_m, config.grid.max_cells);
+                       config.grid.padding_m, config.grid.max_columns);
   if (!geometry) return geometry.error();
-  model->esdf_ = BuildSignedDistanceField(*geometry, OccupancyOf(*geometry, cloud));
-  summary.timings.esdf_s = stage.Lap();
+
+  progress.BeginStage(AssessmentStage::kSorting, 1);
+  internal::ColumnCloud sorted = internal::SortIntoColumns(*geometry, cloud, config.num_threads);
+  if (!progress.Advance(1)) return cancelled("while sorting the points");
+  progress.BeginStage(AssessmentStage::kGroundFilter, geometry->size.y());
+  if (Status s = internal::FilterValidGroundInColumns(
+          &sorted, config.ground, geometry->resolution_m,
+          kQuantumToleranceFactor * summary.vertical_quantum_m, config.num_threads, &progress);
+      !s) {
+    return s.error();
+  }
+  for (const std::uint8_t v : sorted.valid) summary.valid_ground_points += v;
+  summary.timings.ground_filter_s = stage.Lap();
 
   const FieldConfig field =
       FieldConfigForQuantum(config.field, summary.vertical_quantum_m, config.grid.resolution_m);
-  model->surfaces_ = SurfaceMap::Build(*geometry, cloud, valid, field, config.num_threads);
-  model->safety_ =
-      DiffuseSafetyPenalty(ComputeSafetyPenalty(model->surfaces_, config.field, config.num_threads),
-                           config.field, config.num_threads);
+  progress.BeginStage(AssessmentStage::kSurfaces, geometry->LayerCellCount());
+  Expected<SurfaceMap> surfaces =
+      SurfaceMap::BuildFromColumns(*geometry, sorted, field, config.num_threads, &progress);
+  if (!surfaces) return surfaces.error();
+  model->surfaces_ = std::move(surfaces).value();
   summary.surface_count = model->surfaces_.surface_count();
   summary.valid_surface_count = model->surfaces_.valid_surface_count();
-  summary.timings.field_s = stage.Lap();
+  summary.timings.surfaces_s = stage.Lap();
+
+  Expected<TerrainFields> fields = internal::BuildTerrainFields(
+      model->surfaces_, sorted, field, config.grid, config.num_threads, &progress);
+  if (!fields) return fields.error();
+  model->fields_ = std::move(fields).value();
+  summary.timings.fields_s = stage.Lap();
   summary.timings.total_s = total.Lap();
+  return std::shared_ptr<const TerrainModel>(std::move(model));
+}
+
+Expected<std::shared_ptr<const TerrainModel>> TerrainModel::FromParts(
+    const AssessmentConfig& config, const AssessmentSummary& summary, SurfaceMap surfaces,
+    TerrainFields fields) {
+  const GridGeometry& a = surfaces.geometry();
+  const GridGeometry& b = fields.geometry();
+  if (a.size != b.size || a.origin_m != b.origin_m || a.resolution_m != b.resolution_m) {
+    return Error{ErrorCode::kInvalidInput, "the surfaces and the fields lie on different grids"};
+  }
+  std::shared_ptr<TerrainModel> model(new TerrainModel());
+  model->config_ = config;
+  model->summary_ = summary;
+  model->surfaces_ = std::move(surfaces);
+  model->fields_ = std::move(fields);
   return std::shared_ptr<const TerrainModel>(std::move(model));
 }
 

@@ -126,7 +126,7 @@ TEST(MakeGridGeometryTest, RefusesAbsurdBoundsWithTheLimitInTheMessage) {
   EXPECT_EQ(g.error().code, ErrorCode::kResourceExhausted);
   EXPECT_THAT(g.error().message, HasSubstr("2e+08"));
   EXPECT_THAT(g.error().message, HasSubstr("1e+07"));
-  EXPECT_THAT(g.error().message, HasSubstr("cells"));
+  EXPECT_THAT(g.error().message, HasSubstr("columns"));
 }
 
 TEST(MakeGridGeometryTest, RefusesAxesBeyondIntEvenWithoutACellLimit) {

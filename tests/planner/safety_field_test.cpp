@@ -60,7 +60,7 @@ TEST(DiffuseSafetyPenalty, SpreadsAnImpulseAsTheNormalisedCone) {
   values[g.Index(7, 6, 1)] = 1.0f;
   FieldConfig field;
   field.diffusion_distance_m = 0.5;
-  const ScalarGrid diffused = DiffuseSafetyPenalty(ScalarGrid(g, values), field, 2);
+  const ScalarGrid diffused = DiffuseSafetyPenalty(ScalarGrid(g, values), field);
   const Eigen::MatrixXd a = ConeKernel(0.5, 0.2);
   const int half = static_cast<int>(a.rows() / 2);
   for (int iy = 0; iy < g.size.y(); ++iy) {
@@ -114,9 +114,12 @@ PointCloud StepCloud(double step_m) {
   return cloud;
 }
 
-std::shared_ptr<const TerrainModel> Assess(const PointCloud& cloud, double resolution_m) {
+std::shared_ptr<const TerrainModel> Assess(
+    const PointCloud& cloud, double resolution_m,
+    double max_tilt_rad = GroundFilterConfig{}.max_tilt_rad) {
   AssessmentConfig config;
   config.grid.resolution_m = resolution_m;
+  config.ground.max_tilt_rad = max_tilt_rad;
   auto model = TerrainModel::Assess(cloud, config);
   EXPECT_TRUE(model.ok()) << model.error().message;
   return model.ok() ? *model : nullptr;
@@ -147,7 +150,10 @@ TEST(SafetyPenalty, StepEdgeGivesALargePoseChangeTerm) {
 
 TEST(SafetyPenalty, TiltTermFollowsTheSlope) {
   for (const double slope_deg : {5.0, 15.0, 25.0}) {
-    const auto model = Assess(InclinedPatch(slope_deg * kDeg, 0.3, 3.0, 0.05, 0.0, 1), 0.1);
+    // A map assessed for slopes up to 30°, so that even the 25° patch is valid ground and
+    // holds the fields.
+    const auto model =
+        Assess(InclinedPatch(slope_deg * kDeg, 0.3, 3.0, 0.05, 0.0, 1), 0.1, 30 * kDeg);
     ASSERT_TRUE(model);
     const ColumnSurface* s = test_util::SurfaceBelow(*model, {0.0, 0.0, 1.5});
     ASSERT_NE(s, nullptr);

@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <limits>
 #include <numbers>
+#include <optional>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -105,12 +106,18 @@ TEST_F(TwoLevelModel, RampIsValidGroundAndWallsAreNot) {
 }
 
 TEST_F(TwoLevelModel, DistanceFieldKnowsWhereTheDeckIs) {
+  // 0.3 m above the deck's top, the nearest obstacle is the deck itself.
   Eigen::Vector3d p = layout_.goal_example_m;
-  p.z() = layout_.deck_underside_z_m - 0.5;
+  p.z() = layout_.deck_z_m + 0.3;
   Eigen::Vector3d gradient;
   const double d = model().Distance(p, &gradient);
-  EXPECT_NEAR(d, 0.5, 0.1);
-  EXPECT_LT(gradient.z(), -0.5);  // Moving up approaches the slab.
+  EXPECT_NEAR(d, 0.3, 0.1);
+  EXPECT_GT(gradient.z(), 0.5);  // Moving up leaves the slab.
+  // 2.3 m above the floor under the deck is outside the band the planner reads: the field
+  // reads its background there, the distance cap.
+  p.z() = layout_.deck_underside_z_m - 0.5;
+  EXPECT_EQ(model().Distance(p, &gradient), model().config().grid.distance_cap_m);
+  EXPECT_EQ(gradient, Eigen::Vector3d::Zero());
 }
 
 TEST_F(TwoLevelModel, ReportsSummaryAndMemory) {
@@ -120,11 +127,17 @@ TEST_F(TwoLevelModel, ReportsSummaryAndMemory) {
   EXPECT_GT(s.valid_surface_count, 0u);
   EXPECT_GT(s.timings.total_s, 0.0);
   EXPECT_GE(s.timings.total_s,
-            s.timings.ground_filter_s + s.timings.esdf_s + s.timings.field_s - 1e-9);
-  const auto cells = static_cast<std::size_t>(model().grid().CellCount());
-  // Two float fields per cell plus sparse surfaces.
-  EXPECT_GE(model().MemoryBytes(), 8 * cells);
-  EXPECT_LT(model().MemoryBytes(), 12 * cells);
+            s.timings.ground_filter_s + s.timings.surfaces_s + s.timings.fields_s - 1e-9);
+  // The fields hold the band (band height / r + 3 layers) around each valid surface, a few
+  // more where a neighbour's ground differs, two 16-bit values per cell; every column also
+  // costs a few bytes of index (terrain_fields_test checks that the volume costs nothing).
+  const TerrainFields& fields = model().fields();
+  const auto columns = static_cast<std::size_t>(model().grid().LayerCellCount());
+  EXPECT_EQ(fields.MemoryBytes(),
+            (columns + 1) * 4 + fields.parts().intervals.capacity() * 8 + fields.cell_count() * 4);
+  const double layers = model().config().grid.band_height_m / model().grid().resolution_m + 3;
+  EXPECT_LT(static_cast<double>(fields.cell_count()), 1.5 * layers * s.valid_surface_count);
+  EXPECT_GT(static_cast<double>(fields.cell_count()), layers * s.valid_surface_count);
 }
 
 TEST(TerrainModel, RefusesAnEmptyCloud) {
@@ -212,17 +225,18 @@ TEST(TerrainModel, AssessmentIsReproducibleWhateverTheThreads) {
   const PointCloud cloud = GenerateStairsRampRoom(/*seed=*/9, /*spacing_m=*/0.05);
   AssessmentConfig config;
   config.grid.resolution_m = 0.1;
-  std::vector<float> reference;
+  std::optional<TerrainFields::Parts> reference;
   for (const int threads : {1, 2, 2, 1}) {
     config.num_threads = threads;
     auto model = TerrainModel::Assess(cloud, config);
     ASSERT_TRUE(model.ok()) << model.error().message;
-    const std::vector<float>& field = (*model)->safety_field().values();
-    if (reference.empty()) {
-      reference = field;
+    const TerrainFields::Parts& fields = (*model)->fields().parts();
+    if (!reference.has_value()) {
+      reference = fields;
       continue;
     }
-    EXPECT_EQ(field, reference) << "threads " << threads;
+    EXPECT_EQ(fields.distance, reference->distance) << "threads " << threads;
+    EXPECT_EQ(fields.safety, reference->safety) << "threads " << threads;
   }
 }
 

@@ -35,13 +35,18 @@ nlohmann::json SummaryJson(const std::string& source, const AssessedMap& map) {
         {"cells", g.CellCount()},
         {"resolution_m", g.resolution_m},
         {"origin_m", {g.origin_m.x(), g.origin_m.y(), g.origin_m.z()}}}},
-      {"surfaces", {{"total", s.surface_count}, {"valid", s.valid_surface_count}}},
+      {"surfaces",
+       {{"total", s.surface_count},
+        {"valid", s.valid_surface_count},
+        {"memory_bytes", model.surfaces().MemoryBytes()}}},
+      {"fields",
+       {{"cells", model.fields().cell_count()}, {"memory_bytes", model.fields().MemoryBytes()}}},
       {"memory_bytes", model.MemoryBytes()},
       {"seconds",
        {{"load", map.load_s},
         {"ground_filter", t.ground_filter_s},
-        {"esdf", t.esdf_s},
-        {"field", t.field_s},
+        {"surfaces", t.surfaces_s},
+        {"fields", t.fields_s},
         {"total", map.load_s + t.total_s}}},
   };
 }
@@ -61,9 +66,10 @@ void PrintHuman(const nlohmann::json& j) {
               j["surfaces"]["total"].get<std::size_t>(), j["surfaces"]["valid"].get<std::size_t>());
   std::printf("memory         %.1f MB (%zu bytes)\n", j["memory_bytes"].get<std::size_t>() / 1.0e6,
               j["memory_bytes"].get<std::size_t>());
-  std::printf("seconds        load %.3f, ground filter %.3f, esdf %.3f, field %.3f, total %.3f\n",
-              s["load"].get<double>(), s["ground_filter"].get<double>(), s["esdf"].get<double>(),
-              s["field"].get<double>(), s["total"].get<double>());
+  std::printf(
+      "seconds        load %.3f, ground filter %.3f, surfaces %.3f, fields %.3f, total %.3f\n",
+      s["load"].get<double>(), s["ground_filter"].get<double>(), s["surfaces"].get<double>(),
+      s["fields"].get<double>(), s["total"].get<double>());
 }
 
 int RunAssess(const AssessArgs& parsed) {

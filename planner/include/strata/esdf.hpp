@@ -3,6 +3,7 @@
 /// transform of Felzenszwalb & Huttenlocher (linear time per axis).
 
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include "strata/grid.hpp"
@@ -22,12 +23,14 @@ void SquaredDistanceTransform1D(const float* f, float* out, int n, std::int64_t 
 /// Signed distance [m] at every cell centre: for a free cell, the distance to the nearest
 /// occupied cell centre; for an occupied cell, resolution − (distance to the nearest free cell
 /// centre), i.e. 0 on the obstacle's boundary layer and negative deeper inside. Distances are
-/// capped at the grid's diagonal length: with no occupied cell at all every value is the
-/// diagonal, with no free cell every value is resolution − diagonal.
+/// capped at `distance_cap_m`, or without a cap (infinity) at the grid's diagonal length: with
+/// no occupied cell at all every value is the cap, with no free cell every value is
+/// resolution − cap.
 /// `occupied` has geometry.CellCount() entries (non-zero = occupied). Parallel over lines with
 /// OpenMP (the caller's thread settings apply); O(cells) time, no allocation beyond the result
 /// and small per-thread buffers.
-ScalarGrid BuildSignedDistanceField(const GridGeometry& geometry,
-                                    const std::vector<std::uint8_t>& occupied);
+ScalarGrid BuildSignedDistanceField(
+    const GridGeometry& geometry, const std::vector<std::uint8_t>& occupied,
+    double distance_cap_m = std::numeric_limits<double>::infinity());
 
 }  // namespace strata

@@ -37,11 +37,51 @@ struct GridGeometry {
   }
 };
 
+/// The cells [min, max] of a grid, bounds included on every axis; empty when min > max on some
+/// axis. Values over a box are stored x fastest, then y, then z.
+struct CellBox {
+  Eigen::Vector3i min = Eigen::Vector3i::Zero();
+  Eigen::Vector3i max = -Eigen::Vector3i::Ones();
+
+  /// Every cell of `geometry`.
+  static CellBox Whole(const GridGeometry& geometry) {
+    return {Eigen::Vector3i::Zero(), geometry.size - Eigen::Vector3i::Ones()};
+  }
+  bool empty() const { return (max.array() < min.array()).any(); }
+  Eigen::Vector3i size() const { return (max - min + Eigen::Vector3i::Ones()).cwiseMax(0); }
+  std::int64_t CellCount() const {
+    const Eigen::Vector3i n = size();
+    return std::int64_t{n.x()} * n.y() * n.z();
+  }
+  bool Contains(const Eigen::Vector3i& c) const {
+    return (c.array() >= min.array()).all() && (c.array() <= max.array()).all();
+  }
+  /// Index of cell c (grid coordinates, inside the box) in values over the box.
+  std::int64_t Index(const Eigen::Vector3i& c) const {
+    const Eigen::Vector3i n = size();
+    return (c.x() - min.x()) +
+           std::int64_t{n.x()} * ((c.y() - min.y()) + std::int64_t{n.y()} * (c.z() - min.z()));
+  }
+  /// The box grown by `cells` on each axis and cut to `geometry`.
+  CellBox Grown(const Eigen::Vector3i& cells, const GridGeometry& geometry) const {
+    return {(min - cells).cwiseMax(0),
+            (max + cells).cwiseMin(geometry.size - Eigen::Vector3i::Ones())};
+  }
+  /// The geometry of a grid made of the box's cells.
+  GridGeometry Geometry(const GridGeometry& geometry) const {
+    GridGeometry g = geometry;
+    g.origin_m = geometry.origin_m + min.cast<double>() * geometry.resolution_m;
+    g.size = size();
+    return g;
+  }
+};
+
 /// A grid covering `bounds` grown by `padding_m` on every side. Fails with kResourceExhausted
-/// when it would need more than `max_cells` cells (e.g. absurd coordinates), and with
-/// kInvalidInput for an empty box or a non-positive resolution.
+/// when it would need more than `max_columns` columns (x × y cells; e.g. absurd coordinates)
+/// or more than 2^29 cells along an axis, and with kInvalidInput for an empty box or a
+/// non-positive resolution.
 Expected<GridGeometry> MakeGridGeometry(const Eigen::AlignedBox3d& bounds, double resolution_m,
-                                        double padding_m, std::int64_t max_cells);
+                                        double padding_m, std::int64_t max_columns);
 
 /// Dense float values at cell centres, sampled by trilinear interpolation.
 class ScalarGrid {

@@ -21,8 +21,10 @@ namespace strata {
 /// Alg. 1 as printed tests the neighbours below and adds p on the first one that passes; both
 /// are slips, so neither is followed literally.
 ///
-/// Neighbours come from a kd-tree (FLANN, the one PCL wraps); points are processed in parallel with
-/// `num_threads` threads (0 = every core). Returns one flag per point (1 = valid ground).
+/// Neighbours are found by scanning the points of the grid columns around p, each column sorted
+/// by height (so only the slice above p within r is read), in parallel with `num_threads`
+/// threads (0 = every core): O(N) for N points at a bounded density, duplicates included.
+/// Returns one flag per point (1 = valid ground).
 /// `step_tolerance_m` > 0 (the height step of a voxelised cloud) lets a neighbour at most that
 /// much higher and at least half of it away horizontally pass as a step, not an obstacle.
 /// Precondition: config.Validate() is ok and every point is finite.

@@ -26,16 +26,38 @@ Eigen::MatrixXd ConeKernel(double diffusion_distance_m, double resolution_m);
 double PoseGradientNorm(const SurfaceMap& surfaces, const FieldConfig& field, int ix, int iy,
                         int iz);
 
-/// S at every cell centre: λ_f φ² + λ_m sqrt(‖∇H‖) of the surface the cell projects down onto,
-/// or field.VoidPenalty() where it projects onto nothing.
+/// S at the cells of `box` (inside the grid): λ_f φ² + λ_m sqrt(‖∇H‖) of the surface each
+/// cell projects down onto, or field.VoidPenalty() where it projects onto nothing. The result
+/// covers the box's cells (CellBox::Geometry). CellBox::Whole gives the dense field.
 ScalarGrid ComputeSafetyPenalty(const SurfaceMap& surfaces, const FieldConfig& field,
-                                int num_threads);
+                                const CellBox& box);
 
-/// S': each horizontal layer of S convolved with the cone kernel scaled to unit sum. The
-/// paper's A sums to about π t²/(3 r_g²); dividing by that sum keeps S' on the scale of S, so
-/// the optimiser's threshold s_thr means the same at every resolution. Near the grid's edge
-/// the kernel is renormalised over the cells that exist.
-ScalarGrid DiffuseSafetyPenalty(const ScalarGrid& penalty, const FieldConfig& field,
-                                int num_threads);
+/// S': each horizontal layer of S convolved with the cone kernel scaled to unit sum, one cell
+/// at a time. The paper's A sums to about π t²/(3 r_g²); dividing by that sum keeps S' on the
+/// scale of S, so the optimiser's threshold s_thr means the same at every resolution. Near the
+/// grid's edge the kernel is renormalised over the cells that exist.
+class SafetyDiffusion {
+ public:
+  SafetyDiffusion(const FieldConfig& field, double resolution_m);
+  /// Half-width of the kernel [cells]: S' at a cell reads S up to this many columns away.
+  int reach() const { return reach_; }
+  /// S' at `cell` of a grid of `grid_size` cells, from `penalty`, S over `box`, which must
+  /// hold every cell of the cell's layer within reach() columns that lies inside the grid.
+  float At(const ScalarGrid& penalty, const CellBox& box, const Eigen::Vector3i& grid_size,
+           const Eigen::Vector3i& cell) const;
+
+ private:
+  struct Tap {
+    int dx, dy;
+    float weight;
+  };
+  int reach_ = 0;
+  std::vector<Tap> taps_;
+  float total_weight_ = 0;
+};
+
+/// S' at every cell of the dense `penalty` (a whole grid): the reference the band is checked
+/// against, and what the tests look at.
+ScalarGrid DiffuseSafetyPenalty(const ScalarGrid& penalty, const FieldConfig& field);
 
 }  // namespace strata

@@ -13,6 +13,10 @@
 #include "strata/terrain_config.hpp"
 
 namespace strata {
+namespace internal {
+struct ColumnCloud;
+class ProgressReporter;
+}  // namespace internal
 
 /// One upper surface in a column (a "level").
 struct ColumnSurface {
@@ -39,6 +43,14 @@ class SurfaceMap {
   static SurfaceMap Build(const GridGeometry& geometry, const PointCloud& cloud,
                           const std::vector<std::uint8_t>& valid_ground, const FieldConfig& field,
                           int num_threads);
+
+  /// The same from a cloud already sorted into the columns of `geometry`, with its valid flags
+  /// set (terrain assessment's path). `progress` (may be null) counts columns and may stop
+  /// the build: kCancelled.
+  static Expected<SurfaceMap> BuildFromColumns(const GridGeometry& geometry,
+                                               const internal::ColumnCloud& sorted,
+                                               const FieldConfig& field, int num_threads,
+                                               internal::ProgressReporter* progress);
 
   const GridGeometry& geometry() const { return geometry_; }
   std::size_t surface_count() const { return surfaces_.size(); }

@@ -25,14 +25,27 @@ struct GroundFilterConfig {
   Status Validate(std::string_view path = "ground") const;
 };
 
-/// The 3D grid the ESDF and the safety penalty field live on.
+/// The 3D grid the surfaces and the fields d and S' are laid on. Only the band of cells around
+/// valid ground holds field values (strata/terrain_fields.hpp), so the grid's volume costs
+/// nothing; its columns cost a few bytes of index each.
 struct GridConfig {
   double resolution_m = 0.2;  ///< Cell edge r_g [m], in [0.02, 5].
-  /// Margin added around the cloud's bounds [m], >= 0; room above the top surface for the
-  /// robot's body and for the optimiser to push against.
+  /// Margin added around the cloud's bounds [m], in [0, 100]; room above the top surface for
+  /// the robot's body and for the optimiser to push against.
   double padding_m = 1.0;
-  /// Largest grid accepted [cells], > 0. Dense fields cost about 9 bytes per cell.
-  std::int64_t max_cells = 300'000'000;
+  /// Height above each valid surface up to which d and S' are kept [m], in (0, 100]. The
+  /// planner reads them at a robot's reference point, so it must be at least the highest
+  /// RobotProfile::reference_height_m planned on the map (CheckProfileFitsMap refuses
+  /// others); the default leaves room for a body up to 0.85 m plus the optimiser's 0.15 m
+  /// distance threshold. Each 0.2 m of band costs 4 bytes per column of ground.
+  double band_height_m = 1.0;
+  /// d is exact up to this distance from the nearest cell of the other class and reads this
+  /// value (or its negative inside obstacles) beyond it [m], in (0, 32]. Plan refuses
+  /// thresholds that reach it (kInvalidConfig). Each tile is transformed with a halo of this.
+  double distance_cap_m = 1.0;
+  /// Largest grid accepted [columns, x × y cells], > 0: about 16 bytes of index per column
+  /// during assessment. Checked from the cloud's bounds before any heavy work.
+  std::int64_t max_columns = 100'000'000;
 
   Status Validate(std::string_view path = "grid") const;
 };

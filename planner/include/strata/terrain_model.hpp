@@ -3,6 +3,7 @@
 /// read-only by every planning request on the map.
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 
 #include <Eigen/Core>
@@ -12,15 +13,36 @@
 #include "strata/status.hpp"
 #include "strata/surface_map.hpp"
 #include "strata/terrain_config.hpp"
+#include "strata/terrain_fields.hpp"
 
 namespace strata {
 
 /// Wall-clock seconds spent in each assessment stage.
 struct AssessmentTimings {
-  double ground_filter_s = 0;  ///< Valid Ground Filter.
-  double esdf_s = 0;           ///< Grid geometry, occupancy and signed distance field.
-  double field_s = 0;          ///< Surfaces, plane fits, S and its diffusion S'.
+  double ground_filter_s = 0;  ///< Sorting the points into columns, Valid Ground Filter.
+  double surfaces_s = 0;       ///< Column surfaces and their plane fits.
+  double fields_s = 0;         ///< d and S' on the band, tile by tile.
   double total_s = 0;          ///< All of the above (excludes loading the file).
+};
+
+/// The stages of an assessment, in order, as progress reports name them.
+enum class AssessmentStage {
+  kSorting,       ///< Grouping the points by grid column.
+  kGroundFilter,  ///< Valid Ground Filter (fraction: rows of columns done).
+  kSurfaces,      ///< Column surfaces and plane fits (fraction: columns done).
+  kFields,        ///< d and S' (fraction: tiles done).
+};
+
+/// Stable lower_snake_case name of a stage, e.g. "ground_filter".
+const char* AssessmentStageName(AssessmentStage stage);
+
+/// How a caller follows and stops an assessment. Both callables may be empty. They are called
+/// from the assessing threads, never two at a time, a few hundred times per assessment at most.
+struct AssessmentControl {
+  /// Receives the stage and the fraction of it done, in [0, 1].
+  std::function<void(AssessmentStage stage, double fraction)> on_progress;
+  /// Returning true stops the assessment within one unit of work per thread: kCancelled.
+  std::function<bool()> should_stop;
 };
 
 /// Counts and figures reported for an assessed map.
@@ -52,35 +74,48 @@ double DetectVerticalQuantum(const PointCloud& cloud);
 FieldConfig FieldConfigForQuantum(const FieldConfig& field, double vertical_quantum_m,
                                   double resolution_m);
 
-/// An assessed map: ESDF d, safety penalty field S', and the surfaces of every column.
+/// An assessed map: the surfaces of every column and the fields d and S' on the band around
+/// valid ground (TerrainFields).
 class TerrainModel {
  public:
-  /// Assesses `cloud` (finite points, e.g. from LoadPointCloud or SanitizeCloud). Fails with
-  /// kInvalidConfig naming the bad field, kInvalidInput for an empty cloud, or
-  /// kResourceExhausted when the grid would exceed config.grid.max_cells.
-  static Expected<std::shared_ptr<const TerrainModel>> Assess(const PointCloud& cloud,
-                                                              const AssessmentConfig& config);
+  /// Assesses `cloud` (finite points, e.g. from LoadPointCloud or SanitizeCloud). Its work and
+  /// memory grow with the points and the columns of the grid, not with the grid's volume; the
+  /// grid's size is checked against config.grid.max_columns before anything else. Fails with
+  /// kInvalidConfig naming the bad field, kInvalidInput for an empty cloud,
+  /// kResourceExhausted when the grid would exceed config.grid.max_columns, or kCancelled when
+  /// control.should_stop asked to stop.
+  static Expected<std::shared_ptr<const TerrainModel>> Assess(
+      const PointCloud& cloud, const AssessmentConfig& config,
+      const AssessmentControl& control = {});
+
+  /// A model from its parts, as a saved model stores them: the surfaces and fields must share
+  /// one grid (kInvalidInput otherwise).
+  static Expected<std::shared_ptr<const TerrainModel>> FromParts(const AssessmentConfig& config,
+                                                                 const AssessmentSummary& summary,
+                                                                 SurfaceMap surfaces,
+                                                                 TerrainFields fields);
 
   const AssessmentConfig& config() const { return config_; }
   const GridGeometry& grid() const { return surfaces_.geometry(); }
   const AssessmentSummary& summary() const { return summary_; }
   const SurfaceMap& surfaces() const { return surfaces_; }
-  const ScalarGrid& distance_field() const { return esdf_; }
-  const ScalarGrid& safety_field() const { return safety_; }
+  const TerrainFields& fields() const { return fields_; }
 
   /// Signed distance to the nearest obstacle d(p) [m], trilinear; gradient optional [-].
   double Distance(const Eigen::Vector3d& p, Eigen::Vector3d* gradient = nullptr) const {
-    return esdf_.Sample(p, gradient);
+    return fields_.Distance(p, gradient);
   }
   /// Diffused safety penalty S'(p) [-], trilinear; gradient optional [1/m].
   double SafetyPenalty(const Eigen::Vector3d& p, Eigen::Vector3d* gradient = nullptr) const {
-    return safety_.Sample(p, gradient);
+    return fields_.SafetyPenalty(p, gradient);
+  }
+  /// Both, with gradients, from one lookup.
+  void SampleFields(const Eigen::Vector3d& p, FieldSample* sample) const {
+    fields_.Sample(p, sample);
   }
 
-  /// Bytes held by the model (fields and surfaces), not counting the object itself.
-  std::size_t MemoryBytes() const {
-    return esdf_.MemoryBytes() + safety_.MemoryBytes() + surfaces_.MemoryBytes();
-  }
+  /// Bytes held by the model (surfaces and fields), not counting the object itself.
+  std::size_t MemoryBytes() const { return surfaces_.MemoryBytes() + fields_.MemoryBytes(); }
 
  private:
   TerrainModel() = default;
@@ -88,8 +123,7 @@ class TerrainModel {
   AssessmentConfig config_;
   AssessmentSummary summary_;
   SurfaceMap surfaces_;
-  ScalarGrid esdf_;
-  ScalarGrid safety_;
+  TerrainFields fields_;
 };
 
 }  // namespace strata

@@ -1,0 +1,186 @@
+#include "strata/terrain_fields.hpp"
+
+#include <cmath>
+#include <string>
+
+namespace strata {
+namespace {
+
+Error Inconsistent(const std::string& what) {
+  return Error{ErrorCode::kInvalidInput, "terrain fields are inconsistent: " + what};
+}
+
+// The eight corners of a trilinear sample: value indices (−1 outside the band) and weights.
+struct Corners {
+  std::int64_t index[8];  // (x, y, z) bits: corner k is at offset (k & 1, k >> 1 & 1, k >> 2).
+  double t[3];
+  bool clamped[3];
+};
+
+template <typename Decode>
+double Interpolate(const Corners& c, const Decode& decode, double inv_r,
+                   Eigen::Vector3d* gradient) {
+  double v[8];
+  for (int k = 0; k < 8; ++k) v[k] = decode(c.index[k]);
+  const double tx = c.t[0], ty = c.t[1], tz = c.t[2];
+  const double c00 = v[0] + tx * (v[1] - v[0]);
+  const double c10 = v[2] + tx * (v[3] - v[2]);
+  const double c01 = v[4] + tx * (v[5] - v[4]);
+  const double c11 = v[6] + tx * (v[7] - v[6]);
+  const double c0 = c00 + ty * (c10 - c00);
+  const double c1 = c01 + ty * (c11 - c01);
+  if (gradient != nullptr) {
+    const double dx = (1.0 - tz) * ((1.0 - ty) * (v[1] - v[0]) + ty * (v[3] - v[2])) +
+                      tz * ((1.0 - ty) * (v[5] - v[4]) + ty * (v[7] - v[6]));
+    const double dy = (1.0 - tz) * (c10 - c00) + tz * (c11 - c01);
+    const double dz = c1 - c0;
+    *gradient = Eigen::Vector3d(c.clamped[0] ? 0.0 : dx * inv_r, c.clamped[1] ? 0.0 : dy * inv_r,
+                                c.clamped[2] ? 0.0 : dz * inv_r);
+  }
+  return c0 + tz * (c1 - c0);
+}
+
+}  // namespace
+
+Expected<TerrainFields> TerrainFields::FromParts(Parts parts) {
+  const GridGeometry& g = parts.geometry;
+  if (!(g.resolution_m > 0) || (g.size.array() < 1).any()) return Inconsistent("empty grid");
+  if (!(parts.distance_cap_m > 0 && parts.distance_cap_m <= kMaxDistanceM)) {
+    return Inconsistent("distance cap out of (0, 32] m");
+  }
+  if (!(std::isfinite(parts.safety_step) && parts.safety_step >= 0) ||
+      !(std::isfinite(parts.safety_background) && parts.safety_background >= 0)) {
+    return Inconsistent("safety step or background not finite and >= 0");
+  }
+  const std::int64_t columns = g.LayerCellCount();
+  if (static_cast<std::int64_t>(parts.column_begin.size()) != columns + 1 ||
+      parts.column_begin.front() != 0 ||
+      parts.column_begin.back() + std::size_t{1} != parts.intervals.size()) {
+    return Inconsistent("column index does not match the grid and the intervals");
+  }
+  if (parts.distance.size() != parts.safety.size() ||
+      parts.intervals.back().offset != parts.distance.size()) {
+    return Inconsistent("value arrays do not match the intervals");
+  }
+  for (std::int64_t c = 0; c < columns; ++c) {
+    const std::uint32_t begin = parts.column_begin[c], end = parts.column_begin[c + 1];
+    if (end < begin) return Inconsistent("column index is not monotone");
+    std::int64_t previous_end = -1;
+    for (std::uint32_t k = begin; k < end; ++k) {
+      const Interval& interval = parts.intervals[k];
+      const std::int64_t count =
+          std::int64_t{parts.intervals[k + 1].offset} - std::int64_t{interval.offset};
+      if (count < 1 || interval.first_layer <= previous_end ||
+          std::int64_t{interval.first_layer} + count > g.size.z()) {
+        return Inconsistent("an interval is empty, unsorted or outside the grid's layers");
+      }
+      previous_end = interval.first_layer + count - 1;
+    }
+  }
+  return TerrainFields(std::move(parts));
+}
+
+std::int64_t TerrainFields::Find(std::int64_t column, int iz) const {
+  const std::uint32_t end = parts_.column_begin[column + 1];
+  for (std::uint32_t k = parts_.column_begin[column]; k < end; ++k) {
+    const Interval& interval = parts_.intervals[k];
+    if (iz < interval.first_layer) return -1;
+    const std::int64_t i = std::int64_t{interval.offset} + (iz - interval.first_layer);
+    if (i < std::int64_t{parts_.intervals[k + 1].offset}) return i;
+  }
+  return -1;
+}
+
+namespace {
+
+// The corners of the sample at p; `find(column, layer)` gives a value index or -1.
+Corners Locate(const GridGeometry& g, const Eigen::Vector3d& p, const auto& find) {
+  Corners c;
+  int i[3];
+  int step[3];
+  const double inv_r = 1.0 / g.resolution_m;
+  for (int a = 0; a < 3; ++a) {
+    // u is the position in "centre coordinates": cell centre i sits at u = i.
+    double u = (p[a] - g.origin_m[a]) * inv_r - 0.5;
+    const int n = g.size[a];
+    c.clamped[a] = false;
+    if (!(u >= 0.0)) {  // Also catches NaN, which would otherwise index out of range.
+      u = 0.0;
+      c.clamped[a] = true;
+    } else if (u > n - 1) {
+      u = n - 1;
+      c.clamped[a] = true;
+    }
+    i[a] = static_cast<int>(u);
+    // The last centre belongs to the pair (n-2, n-1) with t = 1; a one-cell axis has no pair.
+    if (i[a] > n - 2) i[a] = n > 1 ? n - 2 : 0;
+    c.t[a] = u - i[a];
+    step[a] = n > 1 ? 1 : 0;
+  }
+  for (int k = 0; k < 4; ++k) {
+    const int ix = i[0] + (k & 1) * step[0], iy = i[1] + (k >> 1) * step[1];
+    const std::int64_t column = ix + std::int64_t{g.size.x()} * iy;
+    c.index[k] = find(column, i[2]);
+    c.index[k + 4] = find(column, i[2] + step[2]);
+  }
+  return c;
+}
+
+}  // namespace
+
+double TerrainFields::Distance(const Eigen::Vector3d& p, Eigen::Vector3d* gradient) const {
+  const GridGeometry& g = parts_.geometry;
+  const Corners c = Locate(g, p, [this](std::int64_t col, int iz) { return Find(col, iz); });
+  const double cap = parts_.distance_cap_m;
+  return Interpolate(
+      c, [&](std::int64_t i) { return i < 0 ? cap : parts_.distance[i] * kDistanceStepM; },
+      1.0 / g.resolution_m, gradient);
+}
+
+double TerrainFields::SafetyPenalty(const Eigen::Vector3d& p, Eigen::Vector3d* gradient) const {
+  const GridGeometry& g = parts_.geometry;
+  const Corners c = Locate(g, p, [this](std::int64_t col, int iz) { return Find(col, iz); });
+  const double background = parts_.safety_background, step = parts_.safety_step;
+  return Interpolate(
+      c, [&](std::int64_t i) { return i < 0 ? background : parts_.safety[i] * step; },
+      1.0 / g.resolution_m, gradient);
+}
+
+void TerrainFields::Sample(const Eigen::Vector3d& p, FieldSample* sample) const {
+  const GridGeometry& g = parts_.geometry;
+  const Corners c = Locate(g, p, [this](std::int64_t col, int iz) { return Find(col, iz); });
+  const double inv_r = 1.0 / g.resolution_m;
+  const double cap = parts_.distance_cap_m;
+  sample->distance_m = Interpolate(
+      c, [&](std::int64_t i) { return i < 0 ? cap : parts_.distance[i] * kDistanceStepM; }, inv_r,
+      &sample->distance_gradient);
+  const double background = parts_.safety_background, step = parts_.safety_step;
+  sample->safety = Interpolate(
+      c, [&](std::int64_t i) { return i < 0 ? background : parts_.safety[i] * step; }, inv_r,
+      &sample->safety_gradient);
+}
+
+std::optional<double> TerrainFields::DistanceAt(const Eigen::Vector3i& cell) const {
+  if (!parts_.geometry.Contains(cell)) return std::nullopt;
+  const std::int64_t i =
+      Find(cell.x() + std::int64_t{parts_.geometry.size.x()} * cell.y(), cell.z());
+  if (i < 0) return std::nullopt;
+  return parts_.distance[i] * kDistanceStepM;
+}
+
+std::optional<double> TerrainFields::SafetyAt(const Eigen::Vector3i& cell) const {
+  if (!parts_.geometry.Contains(cell)) return std::nullopt;
+  const std::int64_t i =
+      Find(cell.x() + std::int64_t{parts_.geometry.size.x()} * cell.y(), cell.z());
+  if (i < 0) return std::nullopt;
+  return parts_.safety[i] * parts_.safety_step;
+}
+
+std::size_t TerrainFields::MemoryBytes() const {
+  return parts_.column_begin.capacity() * sizeof(std::uint32_t) +
+         parts_.intervals.capacity() * sizeof(Interval) +
+         parts_.distance.capacity() * sizeof(std::int16_t) +
+         parts_.safety.capacity() * sizeof(std::uint16_t);
+}
+
+}  // namespace strata
