@@ -9,6 +9,7 @@
 #include <string>
 
 #include "format_internal.hpp"
+#include "search_state.hpp"
 
 namespace strata {
 Status SearchConfig::Validate(std::string_view path) const {
@@ -47,9 +48,13 @@ Expected<PathResult> SearchPath(const SurfaceGraph& graph, int start_node, int g
   using Clock = std::chrono::steady_clock;
   const Clock::time_point t0 = Clock::now();
   int expansions = 0;
+  internal::SearchState state(graph.node_count());
+  std::size_t reached = 0;
   const auto finish = [&]() {
     if (stats != nullptr) {
       stats->expansions = expansions;
+      stats->reached_nodes = reached;
+      stats->state_bytes = state.MemoryBytes();
       stats->elapsed_s = std::chrono::duration<double>(Clock::now() - t0).count();
     }
   };
@@ -78,10 +83,6 @@ Expected<PathResult> SearchPath(const SurfaceGraph& graph, int start_node, int g
                     " m over traversable ground (they lie in different connected components)");
   }
 
-  constexpr double kInf = std::numeric_limits<double>::infinity();
-  std::vector<double> g_cost(n, kInf);
-  std::vector<std::int32_t> parent(n, -1);
-  std::vector<std::uint8_t> closed(n, 0);
   struct Entry {
     double f;
     double g;
@@ -89,22 +90,24 @@ Expected<PathResult> SearchPath(const SurfaceGraph& graph, int start_node, int g
     bool operator>(const Entry& o) const { return f > o.f; }
   };
   std::priority_queue<Entry, std::vector<Entry>, std::greater<>> open;
-  g_cost[start_node] = 0;
+  state.At(start_node).g = 0;
+  reached = 1;
   open.push({(start_p - goal_p).norm(), 0.0, start_node});
 
   while (!open.empty()) {
     const Entry top = open.top();
     open.pop();
-    if (closed[top.node] || top.g > g_cost[top.node]) continue;  // Stale entry.
+    internal::SearchState::Entry& top_state = state.At(top.node);
+    if (top_state.closed || top.g > top_state.g) continue;  // Stale entry.
     if (top.node == goal_node) {
       PathResult result;
-      for (int v = goal_node; v >= 0; v = parent[v]) result.nodes.push_back(v);
+      for (int v = goal_node; v >= 0; v = state.At(v).parent) result.nodes.push_back(v);
       std::reverse(result.nodes.begin(), result.nodes.end());
       for (std::size_t i = 0; i < result.nodes.size(); ++i) {
         result.points_m.push_back(graph.position(result.nodes[i]));
         if (i > 0) result.length_m += (result.points_m[i] - result.points_m[i - 1]).norm();
       }
-      result.cost = g_cost[goal_node];
+      result.cost = top_state.g;
       result.expansions = expansions;
       finish();
       return result;
@@ -127,14 +130,16 @@ Expected<PathResult> SearchPath(const SurfaceGraph& graph, int start_node, int g
                                                          internal::FormatPoint(start_p) + " m to " +
                                                          internal::FormatPoint(goal_p) + buf);
     }
-    closed[top.node] = 1;
+    top_state.closed = true;
     ++expansions;
     graph.ForEachNeighbor(top.node, [&](int m) {
-      if (closed[m]) return;
+      internal::SearchState::Entry& next = state.At(m);
+      if (next.closed) return;
       const double g = top.g + EdgeCost(graph, top.node, m, config);
-      if (g < g_cost[m]) {
-        g_cost[m] = g;
-        parent[m] = top.node;
+      if (g < next.g) {
+        reached += next.parent < 0;
+        next.g = g;
+        next.parent = top.node;
         open.push({g + (graph.position(m) - goal_p).norm(), g, m});
       }
     });

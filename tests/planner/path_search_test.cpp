@@ -364,5 +364,32 @@ TEST(StairsRampRoom, FloorToLandingTakesTheRampNotTheStairs) {
   EXPECT_GT(on_ramp, 10);
 }
 
+TEST(SearchState, AShortSearchOnALargeGraphCostsWhatItVisits) {
+  // A flat 120 m x 120 m floor at 0.2 m: about 360,000 nodes. A 2 m search touches a few
+  // hundred of them; its state must be a few pages and a directory of 4 bytes per 256 nodes,
+  // not arrays the size of the graph (13+ bytes per node).
+  PointCloud cloud;
+  for (double x = 0; x < 120; x += 0.1) {
+    for (double y = 0; y < 120; y += 0.1) cloud.emplace_back(x, y, 0.0);
+  }
+  AssessmentConfig config;
+  auto model = TerrainModel::Assess(cloud, config);
+  ASSERT_TRUE(model.ok()) << model.error().message;
+  auto graph = SurfaceGraph::Build(**model, TraversabilityParams{});
+  ASSERT_TRUE(graph.ok());
+  ASSERT_GT(graph->node_count(), 300000);
+  auto start = SnapToSurface(*graph, {60, 60, 0.3}, 0.5, ErrorCode::kStartOffGround);
+  auto goal = SnapToSurface(*graph, {62, 60, 0.3}, 0.5, ErrorCode::kGoalOffGround);
+  ASSERT_TRUE(start.ok() && goal.ok());
+  SearchStats stats;
+  auto path = SearchPath(*graph, start->node, goal->node, SearchConfig{}, {}, &stats);
+  ASSERT_TRUE(path.ok()) << path.error().message;
+  EXPECT_GT(stats.reached_nodes, 10u);
+  EXPECT_LT(stats.reached_nodes, 2000u);
+  const std::size_t directory = static_cast<std::size_t>(graph->node_count()) / 256 * 4;
+  EXPECT_LT(stats.state_bytes, directory + 64 * 4096) << stats.reached_nodes << " nodes reached";
+  EXPECT_LT(stats.state_bytes, static_cast<std::size_t>(graph->node_count()));
+}
+
 }  // namespace
 }  // namespace strata

@@ -44,8 +44,10 @@ struct PathResult {
 
 /// Work done by a search, filled on success and failure alike.
 struct SearchStats {
-  int expansions = 0;    ///< Nodes expanded [-].
-  double elapsed_s = 0;  ///< Wall-clock time [s].
+  int expansions = 0;             ///< Nodes expanded [-].
+  std::size_t reached_nodes = 0;  ///< Nodes given a cost (expanded or on the frontier) [-].
+  std::size_t state_bytes = 0;    ///< Memory of the per-node search state [B], ∝ reached_nodes.
+  double elapsed_s = 0;           ///< Wall-clock time [s].
 };
 
 /// Cost of moving between adjacent nodes a and b: the Euclidean 3D length between their
