@@ -7,7 +7,7 @@ packages=(
   build-essential cmake ninja-build pkg-config
   protobuf-compiler libprotobuf-dev protobuf-compiler-grpc libgrpc++-dev grpc-proto
   golang-github-gogo-googleapis-dev
-  libeigen3-dev libpcl-dev liboctomap-dev liblbfgspp-dev prometheus-cpp-dev
+  libeigen3-dev libpcl-dev liboctomap-dev liblbfgspp-dev prometheus-cpp-dev libxxhash-dev
   libgtest-dev libgmock-dev libbenchmark-dev nlohmann-json3-dev
   libompl-dev
   libcli11-dev  # command-line parsing of the programs (header-only)

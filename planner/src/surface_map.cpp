@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <string>
 
 #include "assessment_progress.hpp"
 #include "column_cloud.hpp"
@@ -180,6 +181,44 @@ Expected<SurfaceMap> SurfaceMap::BuildFromColumns(const GridGeometry& geometry,
   if (progress != nullptr && progress->stopped()) {
     return Error{ErrorCode::kCancelled, "terrain assessment cancelled while fitting surfaces"};
   }
+  return map;
+}
+
+Expected<SurfaceMap> SurfaceMap::FromParts(const GridGeometry& geometry,
+                                           std::vector<std::uint32_t> column_begin,
+                                           std::vector<ColumnSurface> surfaces) {
+  const auto bad = [](const std::string& what) {
+    return Error{ErrorCode::kInvalidInput, "surfaces are inconsistent: " + what};
+  };
+  if (!(geometry.resolution_m > 0) || (geometry.size.array() < 1).any()) {
+    return bad("empty grid");
+  }
+  const std::int64_t columns = geometry.LayerCellCount();
+  if (static_cast<std::int64_t>(column_begin.size()) != columns + 1 || column_begin.front() != 0 ||
+      column_begin.back() != surfaces.size()) {
+    return bad("the column index does not match the grid and the surfaces");
+  }
+  for (std::int64_t c = 0; c < columns; ++c) {
+    if (column_begin[c + 1] < column_begin[c]) return bad("the column index is not monotone");
+    std::int32_t previous_top = -1;
+    for (std::uint32_t k = column_begin[c]; k < column_begin[c + 1]; ++k) {
+      const ColumnSurface& s = surfaces[k];
+      if (s.bottom_layer <= previous_top || s.top_layer < s.bottom_layer ||
+          s.top_layer >= geometry.size.z()) {
+        return bad("a surface's layers are unsorted or outside the grid");
+      }
+      if (!std::isfinite(s.ground_z_m) || !std::isfinite(s.plane_center_z_m) ||
+          !(s.tilt_rad >= 0 && s.tilt_rad <= std::numbers::pi / 2 + 1e-6) ||
+          !(s.clearance_m >= 0)) {
+        return bad("a surface's height, tilt or clearance is not a number in range");
+      }
+      previous_top = s.top_layer;
+    }
+  }
+  SurfaceMap map;
+  map.geometry_ = geometry;
+  map.column_begin_ = std::move(column_begin);
+  map.surfaces_ = std::move(surfaces);
   return map;
 }
 

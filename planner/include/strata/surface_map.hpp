@@ -52,6 +52,16 @@ class SurfaceMap {
                                                const FieldConfig& field, int num_threads,
                                                internal::ProgressReporter* progress);
 
+  /// A map from its arrays, as a saved model stores them: `column_begin` holds one offset per
+  /// column (x fastest) plus the total, each column's surfaces lowest first with layers inside
+  /// the grid. kInvalidInput naming the first inconsistency.
+  static Expected<SurfaceMap> FromParts(const GridGeometry& geometry,
+                                        std::vector<std::uint32_t> column_begin,
+                                        std::vector<ColumnSurface> surfaces);
+  /// The arrays FromParts takes.
+  const std::vector<std::uint32_t>& column_begin() const { return column_begin_; }
+  const std::vector<ColumnSurface>& all_surfaces() const { return surfaces_; }
+
   const GridGeometry& geometry() const { return geometry_; }
   std::size_t surface_count() const { return surfaces_.size(); }
   std::size_t valid_surface_count() const;

@@ -3,9 +3,11 @@
 /// valid range; Validate() blames the first bad field by its path (Error::field), which starts
 /// with `path`, the struct's own path: "ground.radius_m" for an AssessmentConfig's ground filter.
 
+#include <concepts>
 #include <cstdint>
 #include <numbers>
 #include <string_view>
+#include <type_traits>
 
 #include "strata/status.hpp"
 
@@ -89,5 +91,32 @@ struct AssessmentConfig {
 
   Status Validate(std::string_view path = "") const;
 };
+
+/// Calls visit(path, field) for every field of `config` (AssessmentConfig or const
+/// AssessmentConfig), path being its name as Validate() reports it (e.g. "grid.resolution_m").
+/// The one list of the fields: whatever copies or stores them all (a saved model) follows it,
+/// so a new field cannot be forgotten there.
+template <typename Config, typename Visit>
+requires std::same_as<std::remove_const_t<Config>, AssessmentConfig>
+void ForEachField(Config& config, Visit&& visit) {
+  visit("ground.radius_m", config.ground.radius_m);
+  visit("ground.max_tilt_rad", config.ground.max_tilt_rad);
+  visit("ground.height_tolerance_m", config.ground.height_tolerance_m);
+  visit("grid.resolution_m", config.grid.resolution_m);
+  visit("grid.padding_m", config.grid.padding_m);
+  visit("grid.band_height_m", config.grid.band_height_m);
+  visit("grid.distance_cap_m", config.grid.distance_cap_m);
+  visit("grid.max_columns", config.grid.max_columns);
+  visit("field.weight_tilt", config.field.weight_tilt);
+  visit("field.weight_pose_change", config.field.weight_pose_change);
+  visit("field.diffusion_distance_m", config.field.diffusion_distance_m);
+  visit("field.plane_fit_radius_m", config.field.plane_fit_radius_m);
+  visit("field.plane_fit_half_height_m", config.field.plane_fit_half_height_m);
+  visit("field.plane_fit_column_tops", config.field.plane_fit_column_tops);
+  visit("field.plane_inlier_distance_m", config.field.plane_inlier_distance_m);
+  visit("field.plane_ransac_iterations", config.field.plane_ransac_iterations);
+  visit("field.max_pose_gradient_per_m", config.field.max_pose_gradient_per_m);
+  visit("num_threads", config.num_threads);
+}
 
 }  // namespace strata

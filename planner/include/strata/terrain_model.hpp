@@ -2,9 +2,11 @@
 /// The result of terrain assessment (paper Secs. III–IV): immutable once built and shared
 /// read-only by every planning request on the map.
 
+#include <concepts>
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <type_traits>
 
 #include <Eigen/Core>
 
@@ -59,6 +61,28 @@ struct AssessmentSummary {
   double vertical_quantum_m = 0;
   AssessmentTimings timings;
 };
+
+/// Calls visit(name, field) for every field of `summary` (AssessmentSummary, const or not):
+/// the one list of its fields, which a saved model follows.
+template <typename Summary, typename Visit>
+requires std::same_as<std::remove_const_t<Summary>, AssessmentSummary>
+void ForEachField(Summary& summary, Visit&& visit) {
+  visit("input_points", summary.input_points);
+  visit("valid_ground_points", summary.valid_ground_points);
+  visit("surface_count", summary.surface_count);
+  visit("valid_surface_count", summary.valid_surface_count);
+  visit("cloud_bounds_m.min.x", summary.cloud_bounds_m.min().x());
+  visit("cloud_bounds_m.min.y", summary.cloud_bounds_m.min().y());
+  visit("cloud_bounds_m.min.z", summary.cloud_bounds_m.min().z());
+  visit("cloud_bounds_m.max.x", summary.cloud_bounds_m.max().x());
+  visit("cloud_bounds_m.max.y", summary.cloud_bounds_m.max().y());
+  visit("cloud_bounds_m.max.z", summary.cloud_bounds_m.max().z());
+  visit("vertical_quantum_m", summary.vertical_quantum_m);
+  visit("timings.ground_filter_s", summary.timings.ground_filter_s);
+  visit("timings.surfaces_s", summary.timings.surfaces_s);
+  visit("timings.fields_s", summary.timings.fields_s);
+  visit("timings.total_s", summary.timings.total_s);
+}
 
 /// The height step of a voxelised cloud (see AssessmentSummary::vertical_quantum_m): on a
 /// sample of up to 20k points, when the heights (to 0.1 mm) held by at least three sampled

@@ -1,0 +1,51 @@
+#pragma once
+/// Assessed models saved to a file and loaded without assessing again (docs/design.md §2).
+///
+/// The file: the magic "STRATAMD", the format version (u32), the writer's version string
+/// (u32 length + bytes, at most 256), the payload length (u64), the payload, and an XXH3-64
+/// checksum (u64) of every byte before it. The payload holds the assessment parameters and
+/// summary as named fields (ForEachField), then the surfaces and the fields as arrays, all
+/// little-endian. The same model always gives the same bytes.
+///
+/// Reading refuses, with kMapLoadFailed and a message naming the file and the problem, a file
+/// that is not a saved model (no magic), one of another format version (assess the map
+/// again), a truncated or corrupted one (the checksum, checked before anything is built), and
+/// one whose contents are inconsistent even with a good checksum (every length is checked
+/// against the bytes left before anything is allocated, every index and layer against the
+/// grid). It never allocates more than the file's size plus a constant.
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <string_view>
+
+#include "strata/status.hpp"
+#include "strata/terrain_model.hpp"
+
+namespace strata {
+
+/// The format version this build writes and reads.
+inline constexpr std::uint32_t kSavedModelFormatVersion = 1;
+
+/// The first bytes of every saved model.
+inline constexpr std::string_view kSavedModelMagic = "STRATAMD";
+
+/// Whether `first_bytes` (the start of a file, at least 8 bytes to say yes) is a saved model's.
+bool IsSavedModel(std::string_view first_bytes);
+
+/// The saved model of `model`, in memory.
+std::string SerializeModel(const TerrainModel& model);
+
+/// Writes the saved model of `model` to `path`, atomically: to a temporary file beside it,
+/// then renamed over `path`, so a reader never sees half a file. kMapLoadFailed naming the
+/// path when it cannot be written.
+Status SaveModel(const TerrainModel& model, const std::string& path);
+
+/// The model saved in `bytes`; `name` is what messages call it (a path).
+Expected<std::shared_ptr<const TerrainModel>> DeserializeModel(std::string_view bytes,
+                                                               const std::string& name);
+
+/// The model saved at `path`, read in one pass (memory: the model, not the file twice).
+Expected<std::shared_ptr<const TerrainModel>> LoadModel(const std::string& path);
+
+}  // namespace strata
