@@ -275,6 +275,24 @@ TEST(TerrainFields, MemoryGrowsWithTheGroundNotWithTheBoundingBox) {
       << columns[1];
 }
 
+TEST(TerrainModel, ATooLargeGridIsRefusedBeforeAnyHeavyWork) {
+  // Two clusters of points 40 km apart: a grid of 4e10 columns at 0.2 m. Refused from the
+  // bounds, before the points are even sorted (no stage starts).
+  PointCloud cloud;
+  for (int i = 0; i < 1000; ++i) {
+    cloud.emplace_back(0.01f * static_cast<float>(i), 0.f, 0.f);
+    cloud.emplace_back(40000.f + 0.01f * static_cast<float>(i), 40000.f, 0.f);
+  }
+  int reports = 0;
+  AssessmentControl control;
+  control.on_progress = [&](AssessmentStage, double) { ++reports; };
+  const auto model = TerrainModel::Assess(cloud, AssessmentConfig{}, control);
+  ASSERT_FALSE(model.ok());
+  EXPECT_EQ(model.error().code, ErrorCode::kResourceExhausted);
+  EXPECT_THAT(model.error().message, HasSubstr("columns, above the limit of 1e+08"));
+  EXPECT_EQ(reports, 0);
+}
+
 TEST(TerrainModel, ReportsEveryStageInOrderAndCanBeCancelled) {
   const Expected<PointCloud> cloud = GenerateScene("two_level_ramp", 1);
   ASSERT_TRUE(cloud.ok());
