@@ -10,9 +10,9 @@
 #include <gtest/gtest.h>
 #include <xxhash.h>
 
-#include "strata/bench_scenes.hpp"
+#include "strata/scenes/paper_scenes.hpp"
 #include "strata/planner.hpp"
-#include "strata/scenes.hpp"
+#include "strata/scenes/scenes.hpp"
 
 namespace strata {
 namespace {

@@ -11,7 +11,7 @@
 
 #include "strata/esdf.hpp"
 #include "strata/safety_field.hpp"
-#include "strata/scenes.hpp"
+#include "strata/scenes/scenes.hpp"
 #include "strata/terrain_model.hpp"
 
 namespace strata {
