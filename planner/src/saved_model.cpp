@@ -27,6 +27,15 @@ constexpr std::uint32_t kMaxWriterBytes = 256;
 // the checksum.
 constexpr std::size_t kFixedHeaderBytes = 8 + 4 + 4;
 
+// Bytes per stored ColumnSurface and Interval (field by field, no padding).
+constexpr std::size_t kSurfaceRecordBytes = 4 * 4 + 2 * 4 + 1;
+constexpr std::size_t kIntervalRecordBytes = 4 + 4;
+
+template <typename T>
+void Encode(char* bytes, T value) {
+  std::memcpy(bytes, &value, sizeof(T));
+}
+
 // Where serialised bytes go: a string, a file, or nowhere (to count them). Every byte passes
 // through the checksum.
 class Sink {
@@ -61,6 +70,17 @@ class Sink {
     static_assert(std::is_arithmetic_v<T>);
     Value(static_cast<std::uint64_t>(v.size()));
     Bytes(v.data(), v.size() * sizeof(T));
+  }
+  // Each element of `items` as kRecordBytes bytes (encode(item, bytes)), in chunks.
+  template <std::size_t kRecordBytes, typename T, typename Encode>
+  void Records(const std::vector<T>& items, const Encode& encode) {
+    constexpr std::size_t kChunkRecords = 1 << 14;
+    char buffer[kChunkRecords * kRecordBytes];
+    for (std::size_t first = 0; first < items.size(); first += kChunkRecords) {
+      const std::size_t count = std::min(kChunkRecords, items.size() - first);
+      for (std::size_t i = 0; i < count; ++i) encode(items[first + i], buffer + i * kRecordBytes);
+      Bytes(buffer, count * kRecordBytes);
+    }
   }
   // The checksum of everything written so far, written last (not itself hashed).
   void Checksum() {
@@ -121,17 +141,18 @@ void WritePayload(Sink& sink, const TerrainModel& model) {
   const SurfaceMap& surfaces = model.surfaces();
   WriteGeometry(sink, surfaces.geometry());
   sink.Array(surfaces.column_begin());
+  // Records field by field (the structs' padding would make the bytes depend on the
+  // compiler), gathered into chunks so that the checksum sees large writes.
   sink.Value(static_cast<std::uint64_t>(surfaces.all_surfaces().size()));
-  for (const ColumnSurface& s : surfaces.all_surfaces()) {
-    // Field by field: the struct's padding would make the bytes depend on the compiler.
-    sink.Value(s.ground_z_m);
-    sink.Value(s.clearance_m);
-    sink.Value(s.tilt_rad);
-    sink.Value(s.plane_center_z_m);
-    sink.Value(s.top_layer);
-    sink.Value(s.bottom_layer);
-    sink.Value(static_cast<std::uint8_t>(s.valid));
-  }
+  sink.Records<kSurfaceRecordBytes>(surfaces.all_surfaces(), [](const ColumnSurface& s, char* b) {
+    Encode(b, s.ground_z_m);
+    Encode(b + 4, s.clearance_m);
+    Encode(b + 8, s.tilt_rad);
+    Encode(b + 12, s.plane_center_z_m);
+    Encode(b + 16, s.top_layer);
+    Encode(b + 20, s.bottom_layer);
+    Encode(b + 24, static_cast<std::uint8_t>(s.valid));
+  });
   const TerrainFields::Parts& f = model.fields().parts();
   WriteGeometry(sink, f.geometry);
   sink.Value(f.distance_cap_m);
@@ -139,10 +160,10 @@ void WritePayload(Sink& sink, const TerrainModel& model) {
   sink.Value(f.safety_background);
   sink.Array(f.column_begin);
   sink.Value(static_cast<std::uint64_t>(f.intervals.size()));
-  for (const TerrainFields::Interval& interval : f.intervals) {
-    sink.Value(interval.first_layer);
-    sink.Value(interval.offset);
-  }
+  sink.Records<kIntervalRecordBytes>(f.intervals, [](const TerrainFields::Interval& i, char* b) {
+    Encode(b, i.first_layer);
+    Encode(b + 4, i.offset);
+  });
   sink.Array(f.distance);
   sink.Array(f.safety);
 }
@@ -266,10 +287,33 @@ class Reader {
   bool Count(std::uint64_t* n, std::size_t record_bytes) {
     return Value(n) && *n <= source_->remaining() / record_bytes;
   }
+  // Reads `n` records of kRecordBytes each, in chunks, calling decode(bytes, index) for each:
+  // one read per chunk rather than one per field keeps loading at the speed of memory.
+  template <std::size_t kRecordBytes, typename Decode>
+  bool Records(std::uint64_t n, const Decode& decode) {
+    constexpr std::uint64_t kChunkRecords = 1 << 14;
+    buffer_.resize(std::min(n, kChunkRecords) * kRecordBytes);
+    for (std::uint64_t first = 0; first < n; first += kChunkRecords) {
+      const std::uint64_t count = std::min(kChunkRecords, n - first);
+      if (!source_->Read(buffer_.data(), count * kRecordBytes)) return false;
+      for (std::uint64_t i = 0; i < count; ++i) {
+        if (!decode(buffer_.data() + i * kRecordBytes, first + i)) return false;
+      }
+    }
+    return true;
+  }
 
  private:
   Source* source_;
+  std::vector<char> buffer_;
 };
+
+template <typename T>
+T Decode(const char* bytes) {
+  T value;
+  std::memcpy(&value, bytes, sizeof(T));
+  return value;
+}
 
 template <typename Fields>
 bool ReadFields(Reader& reader, Fields* fields, std::string* problem) {
@@ -365,10 +409,6 @@ struct Payload {
   TerrainFields::Parts fields;
 };
 
-// Bytes per stored ColumnSurface and Interval (field by field, no padding).
-constexpr std::size_t kSurfaceRecordBytes = 4 * 4 + 2 * 4 + 1;
-constexpr std::size_t kIntervalRecordBytes = 4 + 4;
-
 bool ReadPayload(Reader& reader, Payload* p, std::string* problem) {
   if (!ReadFields(reader, &p->config, problem) || !ReadFields(reader, &p->summary, problem)) {
     return false;
@@ -377,15 +417,19 @@ bool ReadPayload(Reader& reader, Payload* p, std::string* problem) {
   std::uint64_t n = 0;
   if (!reader.Count(&n, kSurfaceRecordBytes)) return false;
   p->surfaces.resize(n);
-  for (ColumnSurface& s : p->surfaces) {
-    std::uint8_t valid = 0;
-    if (!reader.Value(&s.ground_z_m) || !reader.Value(&s.clearance_m) ||
-        !reader.Value(&s.tilt_rad) || !reader.Value(&s.plane_center_z_m) ||
-        !reader.Value(&s.top_layer) || !reader.Value(&s.bottom_layer) || !reader.Value(&valid) ||
-        valid > 1) {
-      return false;
-    }
-    s.valid = valid != 0;
+  if (!reader.Records<kSurfaceRecordBytes>(n, [&](const char* b, std::uint64_t i) {
+        ColumnSurface& s = p->surfaces[i];
+        s.ground_z_m = Decode<float>(b);
+        s.clearance_m = Decode<float>(b + 4);
+        s.tilt_rad = Decode<float>(b + 8);
+        s.plane_center_z_m = Decode<float>(b + 12);
+        s.top_layer = Decode<std::int32_t>(b + 16);
+        s.bottom_layer = Decode<std::int32_t>(b + 20);
+        const auto valid = Decode<std::uint8_t>(b + 24);
+        s.valid = valid != 0;
+        return valid <= 1;
+      })) {
+    return false;
   }
   TerrainFields::Parts& f = p->fields;
   if (!ReadGeometry(reader, &f.geometry) || !reader.Value(&f.distance_cap_m) ||
@@ -394,14 +438,19 @@ bool ReadPayload(Reader& reader, Payload* p, std::string* problem) {
     return false;
   }
   f.intervals.resize(n);
-  for (TerrainFields::Interval& interval : f.intervals) {
-    if (!reader.Value(&interval.first_layer) || !reader.Value(&interval.offset)) return false;
+  if (!reader.Records<kIntervalRecordBytes>(n, [&](const char* b, std::uint64_t i) {
+        f.intervals[i] = {Decode<std::int32_t>(b), Decode<std::uint32_t>(b + 4)};
+        return true;
+      })) {
+    return false;
   }
   return reader.Array(&f.distance) && reader.Array(&f.safety);
 }
 
-Expected<std::shared_ptr<const TerrainModel>> Read(Source& source, std::uint64_t total_bytes,
-                                                   const std::string& name) {
+// The header up to the payload: checks the magic, the version and the length. Sets
+// *writer, and leaves the source's budget at the payload.
+Status ReadHeader(Source& source, std::uint64_t total_bytes, const std::string& name,
+                  std::string* writer) {
   const auto fail = [&name](const std::string& what) {
     return Error{ErrorCode::kMapLoadFailed, "saved model " + name + " " + what};
   };
@@ -423,10 +472,10 @@ Expected<std::shared_ptr<const TerrainModel>> Read(Source& source, std::uint64_t
   std::uint32_t writer_bytes = 0;
   if (!reader.Value(&writer_bytes)) return fail("is truncated in its header");
   if (writer_bytes > kMaxWriterBytes) return fail("has a corrupted header");
-  std::string writer(writer_bytes, '\0');
+  std::string writer_text(writer_bytes, '\0');
   std::uint64_t payload_bytes = 0;
   source.set_remaining(writer_bytes + sizeof(payload_bytes));
-  if (!source.Read(writer.data(), writer_bytes) || !reader.Value(&payload_bytes)) {
+  if (!source.Read(writer_text.data(), writer_bytes) || !reader.Value(&payload_bytes)) {
     return fail("is truncated in its header");
   }
   const std::uint64_t header_bytes = kFixedHeaderBytes + writer_bytes + sizeof(payload_bytes);
@@ -437,6 +486,18 @@ Expected<std::shared_ptr<const TerrainModel>> Read(Source& source, std::uint64_t
                 std::to_string(header_bytes + payload_bytes + sizeof(std::uint64_t)));
   }
   source.set_remaining(payload_bytes);
+  *writer = std::move(writer_text);
+  return Status::Ok();
+}
+
+Expected<std::shared_ptr<const TerrainModel>> Read(Source& source, std::uint64_t total_bytes,
+                                                   const std::string& name) {
+  const auto fail = [&name](const std::string& what) {
+    return Error{ErrorCode::kMapLoadFailed, "saved model " + name + " " + what};
+  };
+  std::string writer;
+  if (Status s = ReadHeader(source, total_bytes, name, &writer); !s) return s.error();
+  Reader reader(&source);
   Payload payload;
   std::string problem;
   const bool parsed = ReadPayload(reader, &payload, &problem) && source.remaining() == 0;
@@ -469,6 +530,34 @@ Expected<std::shared_ptr<const TerrainModel>> Read(Source& source, std::uint64_t
 
 bool IsSavedModel(std::string_view first_bytes) {
   return first_bytes.substr(0, kSavedModelMagic.size()) == kSavedModelMagic;
+}
+
+bool IsSavedModelFile(const std::string& path) {
+  std::ifstream file(path, std::ios::binary);
+  char magic[kSavedModelMagic.size()];
+  file.read(magic, sizeof(magic));
+  return file.gcount() == sizeof(magic) && IsSavedModel(std::string_view(magic, sizeof(magic)));
+}
+
+Expected<AssessmentConfig> ReadSavedModelConfig(const std::string& path) {
+  std::error_code error;
+  const std::uintmax_t size = std::filesystem::file_size(path, error);
+  std::ifstream file(path, std::ios::binary);
+  if (error || !file) {
+    return Error{ErrorCode::kMapLoadFailed, "saved model " + path + " cannot be read"};
+  }
+  FileSource source(&file);
+  std::string writer;
+  if (Status s = ReadHeader(source, size, path, &writer); !s) return s.error();
+  Reader reader(&source);
+  AssessmentConfig config;
+  std::string problem;
+  if (!ReadFields(reader, &config, &problem)) {
+    return Error{ErrorCode::kMapLoadFailed, "saved model " + path + " written by " + writer +
+                                                " has unreadable parameters" +
+                                                (problem.empty() ? "" : ": " + problem)};
+  }
+  return config;
 }
 
 std::string SerializeModel(const TerrainModel& model) {

@@ -6,6 +6,8 @@
 #include <numbers>
 #include <string>
 #include <string_view>
+#include <utility>
+#include <vector>
 
 namespace strata {
 namespace {
@@ -88,6 +90,20 @@ Status AssessmentConfig::Validate(std::string_view path) const {
     return Bad(path, "num_threads", num_threads, "in [0, 1024] (0 = every core)");
   }
   return Status::Ok();
+}
+
+std::optional<std::string> FirstDifference(const AssessmentConfig& a, const AssessmentConfig& b) {
+  std::vector<std::pair<std::string, double>> values;
+  ForEachField(a, [&](const char* name, const auto& value) {
+    values.emplace_back(name, static_cast<double>(value));
+  });
+  std::size_t i = 0;
+  std::optional<std::string> first;
+  ForEachField(b, [&](const char* name, const auto& value) {
+    const auto& [a_name, a_value] = values[i++];
+    if (!first && a_name != "num_threads" && a_value != static_cast<double>(value)) first = name;
+  });
+  return first;
 }
 
 }  // namespace strata

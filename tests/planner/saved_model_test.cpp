@@ -10,8 +10,8 @@
 #include <gtest/gtest.h>
 #include <xxhash.h>
 
-#include "strata/scenes/paper_scenes.hpp"
 #include "strata/planner.hpp"
+#include "strata/scenes/paper_scenes.hpp"
 #include "strata/scenes/scenes.hpp"
 
 namespace strata {

@@ -1,12 +1,15 @@
 #include "offline/assess_command.hpp"
 
+#include <chrono>
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 
 #include <nlohmann/json.hpp>
 
 #include "offline/assessed_map.hpp"
 #include "offline/command_line.hpp"
+#include "strata/saved_model.hpp"
 #include "strata/terrain_model.hpp"
 
 namespace strata::offline {
@@ -16,6 +19,8 @@ struct AssessArgs {
   std::string map;
   AssessmentConfig config;
   bool json = false;
+  std::string save_path;
+  bool progress = false;
 };
 
 nlohmann::json SummaryJson(const std::string& source, const AssessedMap& map) {
@@ -42,6 +47,7 @@ nlohmann::json SummaryJson(const std::string& source, const AssessedMap& map) {
       {"fields",
        {{"cells", model.fields().cell_count()}, {"memory_bytes", model.fields().MemoryBytes()}}},
       {"memory_bytes", model.MemoryBytes()},
+      {"from_saved_model", map.from_saved_model},
       {"seconds",
        {{"load", map.load_s},
         {"ground_filter", t.ground_filter_s},
@@ -73,13 +79,29 @@ void PrintHuman(const nlohmann::json& j) {
 }
 
 int RunAssess(const AssessArgs& parsed) {
-  Expected<AssessedMap> map = LoadAndAssess(parsed.map, parsed.config);
+  Expected<AssessedMap> map =
+      LoadAndAssess(parsed.map, parsed.config, ProgressLine(parsed.progress));
   if (!map) {
     std::fprintf(stderr, "strata-offline assess: %s: %s\n", ErrorCodeName(map.error().code),
                  map.error().message.c_str());
-    return kExitFailed;
+    return map.error().code == ErrorCode::kInvalidInput && !map.error().field.empty()
+               ? kExitBadArguments
+               : kExitFailed;
   }
-  const nlohmann::json summary = SummaryJson(parsed.map, *map);
+  nlohmann::json summary = SummaryJson(parsed.map, *map);
+  if (!parsed.save_path.empty()) {
+    const auto start = std::chrono::steady_clock::now();
+    if (Status saved = SaveModel(*map->model, parsed.save_path); !saved) {
+      std::fprintf(stderr, "strata-offline assess: %s\n", saved.error().message.c_str());
+      return kExitFailed;
+    }
+    std::error_code ignored;
+    summary["saved"] = {
+        {"path", parsed.save_path},
+        {"bytes", std::filesystem::file_size(parsed.save_path, ignored)},
+        {"seconds",
+         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()}};
+  }
   if (parsed.json) {
     std::printf("%s\n", summary.dump(2).c_str());
   } else {
@@ -97,6 +119,12 @@ void AddAssessCommand(CLI::App& app, std::function<int()>* run) {
   command->add_option("MAP", args->map, MapHelp())->type_name("")->required();
   AddAssessmentOptions(*command, &args->config);
   command->add_flag("--json", args->json, "print the figures as JSON (README.md lists the keys)");
+  command
+      ->add_option("--save", args->save_path,
+                   "also write the assessed model to FILE (a saved model: every command and "
+                   "strata-server take it as a map and load it without assessing)")
+      ->type_name("FILE");
+  AddProgressFlag(*command, &args->progress);
   command->callback([args, run] { *run = [args] { return RunAssess(*args); }; });
 }
 

@@ -1,5 +1,7 @@
 #include "offline/command_line.hpp"
 
+#include <unistd.h>
+
 #include <cstdio>
 #include <iostream>
 #include <numbers>
@@ -14,6 +16,13 @@ std::string DefaultText(double value) {
   std::ostringstream text;
   text << value;
   return text.str();
+}
+
+void AddProgressFlag(CLI::App& command, bool* progress) {
+  *progress = isatty(STDERR_FILENO) != 0;
+  command.add_flag("--progress,!--no-progress", *progress,
+                   "show the assessment's stage and fraction done on stderr (default: when "
+                   "stderr is a terminal)");
 }
 
 std::optional<int> ParseCommandLine(CLI::App& app, int argc, const char* const* argv) {

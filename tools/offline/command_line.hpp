@@ -28,6 +28,10 @@ std::optional<int> ParseCommandLine(CLI::App& app, int argc, const char* const* 
 /// every other way a configuration reaches the planner.
 void AddAssessmentOptions(CLI::App& command, AssessmentConfig* config);
 
+/// Adds --progress: the assessment's stage and fraction done on stderr (ProgressLine); on by
+/// default when stderr is a terminal.
+void AddProgressFlag(CLI::App& command, bool* progress);
+
 /// `value` as --help shows a default, e.g. 0.2 or 20 (a struct's default, so --help cannot
 /// drift from the code).
 std::string DefaultText(double value);

@@ -29,6 +29,7 @@ struct PlanArgs {
   PlanOptions options;
   bool json = false;
   std::string svg_path;  // Empty: no drawing.
+  bool progress = false;
 };
 
 // "x,y,z" in metres, each a decimal number spanning its part.
@@ -226,7 +227,8 @@ int RunPlan(const PlanArgs& parsed) {
   // The name passed BuiltinRobotName when parsed.
   const Expected<RobotProfile> profile = BuiltinProfile(parsed.robot);
   if (!profile) return Fail(parsed, profile.error());
-  const Expected<AssessedMap> map = LoadAndAssess(parsed.map, parsed.assessment);
+  const Expected<AssessedMap> map =
+      LoadAndAssess(parsed.map, parsed.assessment, ProgressLine(parsed.progress));
   if (!map) return Fail(parsed, map.error());
 
   const PlanningMap planning_map(map->model);
@@ -276,6 +278,7 @@ void AddPlanCommand(CLI::App& app, std::function<int()>* run) {
   command->add_option("--svg", args->svg_path, "also draw the plan (top and side view) into FILE")
       ->type_name("FILE");
   AddAssessmentOptions(*command, &args->assessment);
+  AddProgressFlag(*command, &args->progress);
   command->callback([args, run] { *run = [args] { return RunPlan(*args); }; });
 }
 

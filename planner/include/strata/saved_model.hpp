@@ -33,6 +33,14 @@ inline constexpr std::string_view kSavedModelMagic = "STRATAMD";
 /// Whether `first_bytes` (the start of a file, at least 8 bytes to say yes) is a saved model's.
 bool IsSavedModel(std::string_view first_bytes);
 
+/// Whether the file at `path` starts with the saved-model magic (false when it cannot be read).
+bool IsSavedModelFile(const std::string& path);
+
+/// The assessment parameters a saved model holds, read from the start of the file without
+/// loading the rest (nor checking its checksum): to decide quickly whether a request's
+/// parameters agree with the file's. Fails as LoadModel does on the header.
+Expected<AssessmentConfig> ReadSavedModelConfig(const std::string& path);
+
 /// The saved model of `model`, in memory.
 std::string SerializeModel(const TerrainModel& model);
 

@@ -6,6 +6,8 @@
 #include <concepts>
 #include <cstdint>
 #include <numbers>
+#include <optional>
+#include <string>
 #include <string_view>
 #include <type_traits>
 
@@ -118,5 +120,9 @@ void ForEachField(Config& config, Visit&& visit) {
   visit("field.max_pose_gradient_per_m", config.field.max_pose_gradient_per_m);
   visit("num_threads", config.num_threads);
 }
+
+/// The path of the first field (in ForEachField's order) whose value differs between `a` and
+/// `b`, leaving out num_threads (how to assess, not what), or nothing when they assess alike.
+std::optional<std::string> FirstDifference(const AssessmentConfig& a, const AssessmentConfig& b);
 
 }  // namespace strata
