@@ -1,5 +1,7 @@
 #include "map_registry.hpp"
 
+#include "strata/saved_model.hpp"
+
 #include <algorithm>
 #include <new>
 #include <utility>
@@ -92,14 +94,28 @@ struct MapRegistry::Entry {
   int max_levels = 0;
   std::chrono::system_clock::time_point create_time;
   std::optional<std::chrono::system_clock::time_point> done_time;
-  bool removed = false;  // Deleted or replaced: its worker discards the result.
+  bool removed = false;  // Deleted or replaced: its worker discards the result and stops.
+  // While ASSESSING: the step under way and the fraction of it done.
+  AssessmentStage step = AssessmentStage::kSorting;
+  double step_fraction = 0;
+  bool from_saved_model = false;  // A saved model's file: loaded, never assessed.
 };
 
 double MapSnapshot::progress() const {
+  // Loading takes the first tenth; the assessment's steps the rest, in the rough shares of
+  // their time on large maps.
+  constexpr double kStepShare[] = {0.05, 0.3, 0.2, 0.35};  // sorting ... fields.
   switch (stage) {
     case CreationStage::kQueued: return 0.0;
-    case CreationStage::kLoading: return 0.1;
-    case CreationStage::kAssessing: return 0.3;
+    case CreationStage::kLoading: return 0.05;
+    case CreationStage::kAssessing: {
+      // Summed the same way at the end of a step and at the start of the next, so the
+      // progress never steps back by a rounding error.
+      const auto step = static_cast<std::size_t>(assessment_step);
+      double progress = 0.1;
+      for (std::size_t i = 0; i < step; ++i) progress += kStepShare[i];
+      return progress + kStepShare[step] * assessment_step_fraction;
+    }
     case CreationStage::kDone: return 1.0;
   }
   return 0.0;
@@ -135,7 +151,7 @@ ServiceStatus MapRegistry::ValidateId(const std::string& id) {
 }
 
 Result<MapSnapshot> MapRegistry::Create(const std::string& id, MapSource source,
-                                        AssessmentConfig config) {
+                                        AssessmentConfig config, bool config_given) {
   if (!id.empty()) {
     if (ServiceStatus valid = ValidateId(id); !valid.ok()) return std::move(valid).error();
   }
@@ -143,7 +159,29 @@ Result<MapSnapshot> MapRegistry::Create(const std::string& id, MapSource source,
   if (Status valid = config.Validate(); !valid) {
     return ServiceError::FromPlanner(valid.error(), "terrain");
   }
+  bool saved_model = false;
+  if (const auto* file = std::get_if<FileMapSource>(&source);
+      file != nullptr && IsSavedModelFile(file->resolved_path.string())) {
+    // A saved model is assessed already: its parameters hold. Asking for others is an error
+    // the client hears now, not after a queue.
+    Expected<AssessmentConfig> saved = ReadSavedModelConfig(file->resolved_path.string());
+    if (!saved) return ServiceError::FromPlanner(saved.error(), "file.path");
+    if (config_given) {
+      if (const std::optional<std::string> field = FirstDifference(config, *saved)) {
+        return MakeError(ErrorCode::kInvalidConfig,
+                         "'" + file->requested_path + "' is a saved model, assessed with other " +
+                             "terrain parameters (its " + *field +
+                             " differs): leave terrain unset, or create the map from the " +
+                             "point cloud")
+            .Blame("terrain");
+      }
+    }
+    config = *saved;
+    config.num_threads = options_.assessment_threads;
+    saved_model = true;
+  }
   auto entry = std::make_shared<Entry>();
+  entry->from_saved_model = saved_model;
   entry->config = config;
   entry->source_info = InfoOf(source);
   entry->source = std::move(source);
@@ -296,7 +334,17 @@ MapTotals MapRegistry::Totals() const {
     std::lock_guard lock(mutex_);
     for (const auto& [id, entry] : maps_) {
       switch (entry->state) {
-        case MapState::kCreating: ++totals.creating; break;
+        case MapState::kCreating: {
+          ++totals.creating;
+          const MapSnapshot snapshot = SnapshotLocked(*entry);
+          totals.creating_progress.push_back(
+              {id,
+               snapshot.stage == CreationStage::kAssessing
+                   ? AssessmentStageName(snapshot.assessment_step)
+                   : (snapshot.stage == CreationStage::kLoading ? "loading" : "queued"),
+               snapshot.progress()});
+          break;
+        }
         case MapState::kActive:
           ++totals.active;
           active.push_back(entry->planning);
@@ -367,7 +415,14 @@ void MapRegistry::Assess(const std::shared_ptr<Entry>& entry) {
   // CREATING for ever.
   try {
     std::optional<Expected<std::shared_ptr<const TerrainModel>>> model;
-    {
+    if (entry->from_saved_model) {
+      const auto load_start = SteadyClock::now();
+      model.emplace(LoadModel(std::get<FileMapSource>(source).resolved_path.string()));
+      std::lock_guard lock(mutex_);
+      if (entry->removed) return;
+      entry->load_s = SecondsSince(load_start);
+      if (*model) entry->raw_point_count = (**model)->summary().input_points;
+    } else {
       const auto load_start = SteadyClock::now();
       Expected<LoadedCloud> loaded = options_.loader(std::move(source), options_.load_limits);
       const double load_s = SecondsSince(load_start);
@@ -384,8 +439,30 @@ void MapRegistry::Assess(const std::shared_ptr<Entry>& entry) {
         entry->stage = CreationStage::kAssessing;
       }
       changed_.notify_all();
-      model.emplace(TerrainModel::Assess(loaded->points, config));
+      // The assessment reports its step to the map (Map.progress) and stops when the map is
+      // deleted or the server shuts down.
+      AssessmentControl control;
+      control.on_progress = [this, &entry](AssessmentStage step, double fraction) {
+        std::lock_guard lock(mutex_);
+        entry->step = step;
+        entry->step_fraction = fraction;
+      };
+      control.should_stop = [this, &entry] {
+        std::lock_guard lock(mutex_);
+        return entry->removed || stopping_;
+      };
+      model.emplace(TerrainModel::Assess(loaded->points, config, control));
     }  // The cloud is freed here; the model keeps what planning needs.
+    {
+      std::lock_guard lock(mutex_);
+      if (entry->removed) return;  // Cancelled: nobody wants the result.
+    }
+    if (!*model && model->error().code == ErrorCode::kCancelled) {
+      Finish(entry, MakeError(ServiceErrorCode::kShuttingDown,
+                              "the server shut down while assessing this map: create it again "
+                              "on a running replica"));
+      return;
+    }
     if (!*model) {
       Finish(entry, ServiceError::FromPlanner(model->error()));
       return;
@@ -450,6 +527,9 @@ MapSnapshot MapRegistry::SnapshotLocked(const Entry& entry) const {
   s.dropped_nonfinite_point_count = entry.dropped_nonfinite_point_count;
   s.load_s = entry.load_s;
   s.max_levels = entry.max_levels;
+  s.assessment_step = entry.step;
+  s.assessment_step_fraction = entry.step_fraction;
+  s.from_saved_model = entry.from_saved_model;
   s.create_time = entry.create_time;
   s.done_time = entry.done_time;
   if (entry.planning) {

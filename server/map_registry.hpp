@@ -72,6 +72,11 @@ struct MapSnapshot {
   std::size_t raw_point_count = 0;  ///< Known after loading.
   std::size_t dropped_nonfinite_point_count = 0;
   double load_s = 0;
+  /// While ASSESSING: the assessment's step under way and the fraction of it done.
+  AssessmentStage assessment_step = AssessmentStage::kSorting;
+  double assessment_step_fraction = 0;
+  /// The file is a saved model (strata/saved_model.hpp): loaded, not assessed.
+  bool from_saved_model = false;
   /// The rest is set once ACTIVE.
   AssessmentSummary summary;
   GridGeometry grid;
@@ -80,7 +85,8 @@ struct MapSnapshot {
   std::chrono::system_clock::time_point create_time;
   std::optional<std::chrono::system_clock::time_point> done_time;
 
-  /// Coarse progress in [0, 1] from the stage (see the proto's Map.progress).
+  /// Progress in [0, 1] from the stage and, while assessing, the assessment's step and its
+  /// fraction done (see the proto's Map.progress).
   double progress() const;
 };
 
@@ -105,12 +111,20 @@ struct RegistryOptions {
   CloudLoader loader = LoadMapSource;
 };
 
+/// Where one CREATING map is, for metrics.
+struct CreationProgress {
+  std::string id;
+  std::string step;     ///< "queued", "loading", or the assessment's step (ground_filter ...).
+  double progress = 0;  ///< MapSnapshot::progress().
+};
+
 /// Counts for metrics.
 struct MapTotals {
   int creating = 0;
   int active = 0;
   int failed = 0;
-  std::size_t active_memory_bytes = 0;  ///< Sum over ACTIVE maps [bytes].
+  std::size_t active_memory_bytes = 0;              ///< Sum over ACTIVE maps [bytes].
+  std::vector<CreationProgress> creating_progress;  ///< One per CREATING map (<= --max-maps).
 };
 
 /// One page of List.
@@ -125,7 +139,7 @@ class MapRegistry {
   using DoneListener = std::function<void(const MapSnapshot&)>;
 
   explicit MapRegistry(RegistryOptions options, DoneListener on_done = {});
-  /// Stops the workers (Shutdown) and waits for any assessment in progress.
+  /// Stops the workers (Shutdown) and waits for any assessment in progress to stop.
   ~MapRegistry();
   MapRegistry(const MapRegistry&) = delete;
   MapRegistry& operator=(const MapRegistry&) = delete;
@@ -137,7 +151,11 @@ class MapRegistry {
   /// fresh "map-N". A FAILED map with the same id is replaced. Fails with kInvalidInput (bad
   /// id, blamed on "map_id"), kInvalidConfig (bad `config`), kMapAlreadyExists,
   /// kTooManyMaps, kShuttingDown. `config.num_threads` is replaced by the registry's.
-  Result<MapSnapshot> Create(const std::string& id, MapSource source, AssessmentConfig config);
+  /// A file that is a saved model keeps the parameters it was assessed with: `config` is
+  /// then ignored when `config_given` is false (the request set no terrain parameter), and
+  /// must assess alike otherwise (kInvalidConfig naming the first field that differs).
+  Result<MapSnapshot> Create(const std::string& id, MapSource source, AssessmentConfig config,
+                             bool config_given = false);
 
   /// The map's state; kMapNotFound.
   Result<MapSnapshot> Get(const std::string& id) const;
@@ -153,8 +171,9 @@ class MapRegistry {
                                     std::chrono::steady_clock::time_point deadline,
                                     const std::function<bool()>& should_stop) const;
 
-  /// Removes the map in any state; kMapNotFound. An assessment in progress finishes and is
-  /// discarded; plans holding the map finish normally.
+  /// Removes the map in any state; kMapNotFound. An assessment in progress stops within one
+  /// unit of its work (a row of columns, a tile) and is discarded; plans holding the map
+  /// finish normally.
   ServiceStatus Delete(const std::string& id);
 
   /// Up to `page_size` (>= 1) maps with ids greater than `after_id`, in id order.
@@ -162,12 +181,13 @@ class MapRegistry {
 
   MapTotals Totals() const;
 
-  /// Refuses new maps (kShuttingDown), drops queued assessments and lets the workers exit
-  /// once their current assessment ends. Idempotent.
+  /// Refuses new maps (kShuttingDown), fails queued maps and cancels the assessments under
+  /// way (their maps fail with kShuttingDown; a map still loading its file finishes the
+  /// load first), then lets the workers exit. Idempotent.
   void Shutdown();
 
   /// After Shutdown: waits until no assessment is running or `deadline` passes; true when
-  /// idle. (An assessment cannot be interrupted; the caller may exit without it.)
+  /// idle. (Reading a file cannot be interrupted; the caller may exit without it.)
   bool WaitIdle(std::chrono::steady_clock::time_point deadline);
 
   const RegistryOptions& options() const { return options_; }

@@ -99,7 +99,8 @@ grpc::Status MapServiceImpl::CreateMap(grpc::ServerContext* context,
     Result<MapSource> source = SourceFromRequest(*request, options_.map_root);
     if (!source.ok()) return std::move(source).error();
     Result<MapSnapshot> created =
-        registry_->Create(request->map_id(), std::move(source).value(), config.value());
+        registry_->Create(request->map_id(), std::move(source).value(), config.value(),
+                          request->has_terrain() && request->terrain().ByteSizeLong() > 0);
     if (!created.ok()) return std::move(created).error();
     log.map_id = created->id;
     return Respond(context, created.value(), request->wait(), response);

@@ -123,7 +123,20 @@ class MapCollector final : public prometheus::Collectable {
     prometheus::ClientMetric bytes;
     bytes.gauge.value = static_cast<double>(totals.active_memory_bytes);
     memory.metric.push_back(bytes);
-    return {states, memory};
+    // One series per map while it is created, gone once it is ACTIVE or FAILED: at most
+    // --max-maps series at a time.
+    prometheus::MetricFamily creation{
+        "strata_map_creation_progress",
+        "Progress of each map being created, in [0, 1], with the step under way.",
+        prometheus::MetricType::Gauge,
+        {}};
+    for (const CreationProgress& map : totals.creating_progress) {
+      prometheus::ClientMetric metric;
+      metric.label = {{"map_id", map.id}, {"step", map.step}};
+      metric.gauge.value = map.progress;
+      creation.metric.push_back(metric);
+    }
+    return {states, memory, creation};
   }
 
  private:

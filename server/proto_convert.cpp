@@ -142,6 +142,10 @@ void ToProto(const MapSnapshot& s, v1::Map* map) {
     case CreationStage::kDone: map->set_stage(v1::MAP_CREATION_STAGE_DONE); break;
   }
   map->set_progress(s.progress());
+  if (s.state == MapState::kCreating && s.stage == CreationStage::kAssessing) {
+    map->set_assessment_step(AssessmentStageName(s.assessment_step));
+  }
+  map->set_from_saved_model(s.from_saved_model);
   if (s.failure.has_value()) {
     map->mutable_failure()->set_reason(std::string(MapError(s.failure->code).reason));
     map->mutable_failure()->set_message(s.failure->message);

@@ -20,6 +20,7 @@ struct ResolvedPreload {
   std::string id;
   MapSource source;
   AssessmentConfig config;
+  bool config_given = false;  // A KEY=VALUE terrain parameter was given.
 };
 
 Result<ResolvedPreload> ResolvePreload(const PreloadSpec& spec,
@@ -51,6 +52,7 @@ Result<ResolvedPreload> ResolvePreload(const PreloadSpec& spec,
   Result<AssessmentConfig> config = FromProto(terrain, "terrain");
   if (!config.ok()) return fail(config.error());
   preload.config = config.value();
+  preload.config_given = terrain.ByteSizeLong() > 0;
   return preload;
 }
 
@@ -165,8 +167,8 @@ Result<std::unique_ptr<StrataServer>> StrataServer::Start(const ServerConfig& co
 
   for (ResolvedPreload& preload : preloads) {
     LogInfo("map_queued").Add("map", preload.id).Add("source", "preload");
-    Result<MapSnapshot> created =
-        self->registry_->Create(preload.id, std::move(preload.source), preload.config);
+    Result<MapSnapshot> created = self->registry_->Create(preload.id, std::move(preload.source),
+                                                          preload.config, preload.config_given);
     if (!created.ok()) {
       return MakeError(ErrorCode::kInvalidInput,
                        "--preload " + preload.id + ": " + created.error().message);

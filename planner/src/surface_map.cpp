@@ -137,8 +137,10 @@ Expected<SurfaceMap> SurfaceMap::BuildFromColumns(const GridGeometry& geometry,
     LocalPlaneFitter fitter(field.plane_inlier_distance_m, field.plane_ransac_iterations);
 #pragma omp for schedule(dynamic, 256)
     for (std::int64_t c = 0; c < columns; ++c) {
-      if (progress != nullptr && c % kColumnsPerUnit == 0 && !progress->Advance(kColumnsPerUnit)) {
-        continue;
+      // An OpenMP loop cannot break: once stopped, every remaining column is skipped.
+      if (progress != nullptr) {
+        if (progress->stopped()) continue;
+        if (c % kColumnsPerUnit == 0) progress->Advance(kColumnsPerUnit);
       }
       ColumnSurface* out = map.surfaces_.data() + map.column_begin_[c];
       ColumnSurface* previous = nullptr;

@@ -4,11 +4,15 @@
 
 #include <atomic>
 #include <chrono>
+#include <filesystem>
 #include <future>
 #include <thread>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+
+#include "large_floor.hpp"
+#include "strata/saved_model.hpp"
 
 namespace strata::server {
 namespace {
@@ -271,7 +275,10 @@ TEST(MapRegistryTest, ShutdownFailsQueuedMapsAndRefusesNewOnes) {
   EXPECT_FALSE(registry.WaitIdle(steady_clock::now() + std::chrono::milliseconds(10)));
   gate.Open();
   EXPECT_TRUE(registry.WaitIdle(steady_clock::now() + kLongWait));
-  EXPECT_EQ(registry.Get("first")->state, MapState::kActive);
+  // The assessment under way when the server stopped was cancelled, not finished.
+  const MapSnapshot first = registry.Get("first").value();
+  EXPECT_EQ(first.state, MapState::kFailed);
+  EXPECT_EQ(ServerCode(*first.failure), ServiceErrorCode::kShuttingDown);
 }
 
 // Readers and writers at once (the TSan build runs this too).
@@ -317,6 +324,72 @@ TEST(MapRegistryTest, ConcurrentCreateDeleteAndReadsStayConsistent) {
   EXPECT_EQ(totals.active, 1);
   EXPECT_EQ(totals.creating + totals.failed, 0);
   EXPECT_EQ(registry.List("", 100).maps.size(), 1u);
+}
+
+TEST(MapRegistryTest, AnAssessmentReportsItsStepsAndStopsWhenItsMapIsDeleted) {
+  MapRegistry registry(Options());
+  ASSERT_TRUE(registry.Create("big", testing::LargeFloorSource(), AssessmentConfig{}).ok());
+  // Watch the map until its assessment is well under way: the progress never goes back and
+  // names the step it is in.
+  double last = 0;
+  std::string steps;
+  while (true) {
+    const MapSnapshot snapshot = registry.Get("big").value();
+    ASSERT_EQ(snapshot.state, MapState::kCreating) << "assessed before it could be deleted";
+    ASSERT_GE(snapshot.progress(), last);
+    last = snapshot.progress();
+    if (snapshot.stage == CreationStage::kAssessing) {
+      const std::string step = AssessmentStageName(snapshot.assessment_step);
+      if (steps.find(step) == std::string::npos) steps += step + " ";
+      if (snapshot.assessment_step == AssessmentStage::kSurfaces) break;
+    }
+    std::this_thread::yield();
+  }
+  EXPECT_THAT(steps, HasSubstr("ground_filter"));
+  EXPECT_GT(last, 0.15);
+  EXPECT_LT(last, 0.9);
+  // Deleted in the middle of its surfaces: the worker stops within one unit of work (a
+  // second is the promise), long before the assessment could have finished (its surfaces and
+  // fields take seconds more).
+  const auto deleted_at = steady_clock::now();
+  ASSERT_TRUE(registry.Delete("big").ok());
+  registry.Shutdown();
+  EXPECT_TRUE(registry.WaitIdle(deleted_at + std::chrono::seconds(1)));
+}
+
+TEST(MapRegistryTest, ASavedModelIsLoadedNotAssessedAndKeepsItsParameters) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() /
+                                    ("strata_registry_saved_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const std::filesystem::path path = dir / "room.stratamodel";
+  AssessmentConfig assessed_with;
+  assessed_with.grid.resolution_m = 0.1;
+  {
+    Expected<LoadedCloud> cloud = strata::LoadMapSource(SceneSource{"stairs_ramp_room", 3});
+    ASSERT_TRUE(cloud.ok());
+    auto model = TerrainModel::Assess(cloud->points, assessed_with);
+    ASSERT_TRUE(model.ok());
+    ASSERT_TRUE(SaveModel(**model, path.string()).ok());
+  }
+  const FileMapSource source{path, "room.stratamodel"};
+  MapRegistry registry(Options());
+  // Nothing asked: the file's parameters.
+  ASSERT_TRUE(registry.Create("saved", source, AssessmentConfig{}).ok());
+  const MapSnapshot done = WaitDone(registry, "saved");
+  ASSERT_EQ(done.state, MapState::kActive) << done.failure->message;
+  EXPECT_TRUE(done.from_saved_model);
+  EXPECT_EQ(done.config.grid.resolution_m, 0.1);
+  EXPECT_EQ(done.summary.timings.total_s, done.summary.timings.total_s);  // As saved.
+  EXPECT_GT(done.raw_point_count, 0u);
+  // The same parameters asked again: fine. Others: refused at once, naming the field.
+  EXPECT_TRUE(registry.Create("again", source, assessed_with, /*config_given=*/true).ok());
+  AssessmentConfig other;  // The defaults, 0.2 m, asked for explicitly.
+  Result<MapSnapshot> refused = registry.Create("other", source, other, /*config_given=*/true);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(std::get<ErrorCode>(refused.error().code), ErrorCode::kInvalidConfig);
+  EXPECT_THAT(refused.error().message, HasSubstr("grid.resolution_m"));
+  EXPECT_THAT(refused.error().message, HasSubstr("saved model"));
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

@@ -1,12 +1,15 @@
 // MapService end to end against the real strata-server binary.
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 #include <limits>
 
 #include <gmock/gmock.h>
 #include <grpc/health/v1/health.grpc.pb.h>
 
 #include "server_fixture.hpp"
+#include "strata/saved_model.hpp"
+#include "strata/scenes/map_source.hpp"
 
 namespace strata::server::testing {
 namespace {
@@ -284,6 +287,59 @@ TEST_F(MapServiceTest, RefusesBadRequestsNamingTheField) {
     EXPECT_EQ(error.reason, c.reason);
     if (!c.field.empty()) EXPECT_THAT(error.fields, ElementsAre(c.field));
   }
+}
+
+TEST_F(MapServiceTest, ServesASavedModelAsSavedAndPlansOnItAsOnTheScene) {
+  // A model saved by the offline library into a map root of its own.
+  namespace fs = std::filesystem;
+  const fs::path root =
+      fs::temp_directory_path() / ("strata-saved-root-" + std::to_string(::getpid()));
+  fs::create_directories(root);
+  {
+    Expected<LoadedCloud> cloud = strata::LoadMapSource(SceneSource{"two_level_ramp"});
+    ASSERT_TRUE(cloud.ok());
+    auto model = TerrainModel::Assess(cloud->points, AssessmentConfig{});
+    ASSERT_TRUE(model.ok());
+    ASSERT_TRUE(SaveModel(**model, (root / "ramp.stratamodel").string()).ok());
+  }
+  server_ = ServerProcess::Start({"--map-root", root.string(), "--no-preload"});
+  ASSERT_NE(server_, nullptr);
+  ASSERT_TRUE(server_->WaitServing(std::chrono::seconds(60))) << server_->Log();
+  channel_ = server_->NewChannel();
+  maps_ = v1::MapService::NewStub(channel_);
+  planner_ = v1::PlannerService::NewStub(channel_);
+
+  v1::CreateMapRequest saved;
+  saved.set_map_id("saved");
+  saved.mutable_file()->set_path("ramp.stratamodel");
+  const v1::Map map = CreateAndWait(saved);
+  EXPECT_TRUE(map.from_saved_model());
+  EXPECT_DOUBLE_EQ(map.terrain().resolution_m(), 0.2);
+  EXPECT_GT(map.valid_surface_count(), 0u);
+  v1::CreateMapRequest scene;
+  scene.set_map_id("scene");
+  scene.mutable_scene()->set_name("two_level_ramp");
+  EXPECT_FALSE(CreateAndWait(scene).from_saved_model());
+
+  // Floor to deck on both: the same trajectory.
+  v1::PlanResponse on_saved, on_scene;
+  ASSERT_TRUE(Plan(PlanRequestFor("saved", 2, 2, 0.3, 10, 10, 3.3), &on_saved).ok());
+  ASSERT_TRUE(Plan(PlanRequestFor("scene", 2, 2, 0.3, 10, 10, 3.3), &on_scene).ok());
+  EXPECT_EQ(on_saved.trajectory().SerializeAsString(), on_scene.trajectory().SerializeAsString());
+
+  // Other terrain parameters for a saved model: refused at once, saying why.
+  v1::CreateMapRequest other = saved;
+  other.set_map_id("other");
+  other.mutable_terrain()->set_resolution_m(0.3);
+  grpc::ClientContext context;
+  SetDeadline(&context, 10);
+  v1::Map unused;
+  const CallError error = ErrorOf(maps_->CreateMap(&context, other, &unused));
+  EXPECT_EQ(error.code, grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_THAT(error.message, HasSubstr("saved model"));
+  EXPECT_THAT(error.message, HasSubstr("grid.resolution_m"));
+  EXPECT_THAT(error.fields, ElementsAre("terrain"));
+  fs::remove_all(root);
 }
 
 }  // namespace

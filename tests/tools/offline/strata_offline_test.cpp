@@ -23,6 +23,7 @@ namespace {
 
 using ::testing::EndsWith;
 using ::testing::HasSubstr;
+using ::testing::Not;
 using ::testing::StartsWith;
 
 using Outcome = testing::OfflineOutcome;
@@ -227,6 +228,61 @@ TEST(StrataOfflineAssess, SceneWithoutSeedIsTheDefaultSeedsScene) {
   const Outcome run = RunOffline("assess scene:uneven_terrain --resolution 0.3 --json");
   ASSERT_EQ(run.exit_code, 0) << run.output;
   EXPECT_EQ(ParseJson(run.output)["points"]["raw"].get<std::size_t>(), default_points);
+}
+
+TEST(StrataOfflineSavedModel, AssessSaveThenEveryCommandLoadsItWithoutAssessing) {
+  const std::string path = ::testing::TempDir() + "two_level_ramp.stratamodel";
+  const Outcome saved = RunOffline("assess scene:two_level_ramp --threads 1 --json --save " + path);
+  ASSERT_EQ(saved.exit_code, 0) << saved.output;
+  const nlohmann::json assessed = ParseJson(saved.output);
+  EXPECT_FALSE(assessed["from_saved_model"].get<bool>());
+  EXPECT_GT(assessed["saved"]["bytes"].get<std::size_t>(), 1000u);
+
+  // Loaded, not assessed: the same model (figures of the assessment that made it).
+  const Outcome loaded = RunOffline("assess " + path + " --json");
+  ASSERT_EQ(loaded.exit_code, 0) << loaded.output;
+  const nlohmann::json j = ParseJson(loaded.output);
+  EXPECT_TRUE(j["from_saved_model"].get<bool>());
+  EXPECT_EQ(j["memory_bytes"], assessed["memory_bytes"]);
+  EXPECT_EQ(j["surfaces"], assessed["surfaces"]);
+  EXPECT_EQ(j["grid"], assessed["grid"]);
+
+  // Planning on it gives the plan the scene gives.
+  const TwoLevelRampLayout layout = GetTwoLevelRampLayout();
+  const std::string query = " --threads 1 --start " + Point(layout.start_example_m) + " --goal " +
+                            Point(layout.goal_example_m) + " --json";
+  const Outcome from_scene = RunOffline("plan scene:two_level_ramp" + query);
+  const Outcome from_file = RunOffline("plan " + path + query);
+  ASSERT_EQ(from_scene.exit_code, 0) << from_scene.output;
+  ASSERT_EQ(from_file.exit_code, 0) << from_file.output;
+  EXPECT_EQ(ParseJson(from_file.output)["trajectory"], ParseJson(from_scene.output)["trajectory"]);
+
+  // Options that would assess differently are refused, naming the field (a bad line: 2).
+  const Outcome refused = RunOffline("assess " + path + " --resolution 0.3", true);
+  EXPECT_EQ(refused.exit_code, 2);
+  EXPECT_THAT(refused.output, HasSubstr("grid.resolution_m"));
+  EXPECT_THAT(refused.output, HasSubstr("saved model"));
+
+  // A truncated copy is refused with the reason, exit code 1.
+  const std::string truncated = ::testing::TempDir() + "truncated.stratamodel";
+  {
+    std::ifstream in(path, std::ios::binary);
+    const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    std::ofstream(truncated, std::ios::binary) << bytes.substr(0, bytes.size() / 2);
+  }
+  const Outcome broken = RunOffline("assess " + truncated, true);
+  EXPECT_EQ(broken.exit_code, 1);
+  EXPECT_THAT(broken.output, HasSubstr("truncated"));
+}
+
+TEST(StrataOfflineSavedModel, ProgressShowsEveryStepOnStderr) {
+  const Outcome run = RunOffline("assess scene:two_level_ramp --threads 1 --progress", true);
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  for (const char* step : {"sorting 0%", "ground_filter 50%", "surfaces 100%", "fields 100%"}) {
+    EXPECT_THAT(run.output, HasSubstr(std::string("strata-offline: assessing, ") + step));
+  }
+  EXPECT_THAT(RunOffline("assess scene:two_level_ramp --threads 1 --no-progress", true).output,
+              Not(HasSubstr("assessing,")));
 }
 
 }  // namespace
