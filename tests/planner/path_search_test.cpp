@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <limits>
 #include <memory>
 #include <queue>
@@ -11,7 +12,10 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "strata/cloud_io.hpp"
+#include "strata/robot_profile.hpp"
 #include "strata/scenes/basic_scenes.hpp"
+#include "strata/scenes/scenes.hpp"
 #include "strata/surface_graph.hpp"
 #include "strata/terrain_model.hpp"
 #include "test_util/terrain_queries.hpp"
@@ -389,6 +393,58 @@ TEST(SearchState, AShortSearchOnALargeGraphCostsWhatItVisits) {
   const std::size_t directory = static_cast<std::size_t>(graph->node_count()) / 256 * 4;
   EXPECT_LT(stats.state_bytes, directory + 64 * 4096) << stats.reached_nodes << " nodes reached";
   EXPECT_LT(stats.state_bytes, static_cast<std::size_t>(graph->node_count()));
+}
+
+// The graph is undirected (surface_graph.hpp): whenever b is a neighbour of a, a is one of b,
+// including diagonal moves between columns of different heights, where the corner-cutting
+// rule must judge both ends alike. Components and A* rely on it.
+class EdgeSymmetry : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(EdgeSymmetry, EveryEdgeRunsBothWays) {
+  const Expected<PointCloud> cloud = GenerateScene(GetParam(), 4);
+  ASSERT_TRUE(cloud.ok());
+  AssessmentConfig config;
+  config.grid.resolution_m = 0.2;
+  auto model = TerrainModel::Assess(*cloud, config);
+  ASSERT_TRUE(model.ok()) << model.error().message;
+  for (const TraversabilityParams& params :
+       {TraversabilityParams{}, BuiltinProfile("biped")->Traversability()}) {
+    auto graph = SurfaceGraph::Build(**model, params);
+    ASSERT_TRUE(graph.ok()) << graph.error().message;
+    int diagonal_edges = 0;
+    for (int a = 0; a < graph->node_count(); ++a) {
+      graph->ForEachNeighbor(a, [&](int b) {
+        ASSERT_TRUE(AreNeighbors(*graph, b, a))
+            << "edge " << graph->position(a).transpose() << " -> " << graph->position(b).transpose()
+            << " has no way back";
+        const Eigen::Vector2i d = graph->column(b) - graph->column(a);
+        diagonal_edges += d.x() != 0 && d.y() != 0 && graph->ground_z(a) != graph->ground_z(b);
+      });
+    }
+    EXPECT_GT(diagonal_edges, 100);  // The property was tested where it is delicate.
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Scenes, EdgeSymmetry,
+                         ::testing::Values("uneven_terrain", "stairs_ramp_room", "parking_garage"));
+
+TEST(EdgeSymmetryOnTheSpiral, EveryEdgeRunsBothWays) {
+  // The spiral's voxel staircases have corners where one side column is a step below a and
+  // the other level with b: a rule judged from a alone let a move one way only (3 of its
+  // million edges).
+  const std::string path = std::string(STRATA_SHARED_MAPS_DIR) + "/spiral0.3_2.pcd";
+  if (!std::filesystem::exists(path)) GTEST_SKIP() << path << " is not here";
+  const Expected<LoadedCloud> cloud = LoadPointCloud(path);
+  ASSERT_TRUE(cloud.ok()) << cloud.error().message;
+  auto model = TerrainModel::Assess(cloud->points, AssessmentConfig{});
+  ASSERT_TRUE(model.ok()) << model.error().message;
+  auto graph = SurfaceGraph::Build(**model, TraversabilityParams{});
+  ASSERT_TRUE(graph.ok());
+  int one_way = 0;
+  for (int a = 0; a < graph->node_count(); ++a) {
+    graph->ForEachNeighbor(a, [&](int b) { one_way += !AreNeighbors(*graph, b, a); });
+  }
+  EXPECT_EQ(one_way, 0);
 }
 
 }  // namespace

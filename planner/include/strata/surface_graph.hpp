@@ -26,8 +26,9 @@ namespace strata {
 ///
 /// Edges (undirected): node a in column (ix, iy) and node b in one of the 8 horizontally
 /// neighbouring columns (|dx|, |dy| <= 1, not both 0; a diagonal only when both columns it
-/// passes between hold a node within an axis step of a, so no path cuts a corner or slips
-/// through a one-cell diagonal line of untraversable ground) are adjacent iff
+/// passes between hold a node within an axis step of a and of b, so no path cuts a corner or
+/// slips through a one-cell diagonal line of untraversable ground, and either end judges the
+/// move alike) are adjacent iff
 /// |ground_z(a) - ground_z(b)| <= max_step_m + s·tan(max_tilt_rad), s the horizontal distance
 /// between the column centres (r or r√2): a step the robot can climb on top of the steepest
 /// slope it may drive. (Real maps are often voxelised, e.g. the shared maps at 0.2 m: their
@@ -98,14 +99,17 @@ class SurfaceGraph {
       for (int dx = -1; dx <= 1; ++dx) {
         if (dx == 0 && dy == 0) continue;
         const bool diagonal = dx != 0 && dy != 0;
-        // No corner cutting: a diagonal move needs both columns it passes between.
-        if (diagonal &&
-            !(HasStepNeighbor(n, n.ix + dx, n.iy) && HasStepNeighbor(n, n.ix, n.iy + dy))) {
-          continue;
-        }
         for (const std::int32_t m : ColumnNodes(n.ix + dx, n.iy + dy)) {
           const float limit = diagonal ? step_limit_diagonal_ : step_limit_axis_;
-          if (std::abs(nodes_[m].reference_z_m - n.reference_z_m) <= limit) f(int{m});
+          if (!(std::abs(nodes_[m].reference_z_m - n.reference_z_m) <= limit)) continue;
+          // No corner cutting: a diagonal move needs both columns it passes between, each
+          // with a node within an axis step of both ends, so that it is judged alike from
+          // either end (the graph is undirected).
+          if (diagonal && !(HasStepNeighbor(n, nodes_[m], n.ix + dx, n.iy) &&
+                            HasStepNeighbor(n, nodes_[m], n.ix, n.iy + dy))) {
+            continue;
+          }
+          f(int{m});
         }
       }
     }
@@ -140,10 +144,14 @@ class SurfaceGraph {
 
   SurfaceGraph() = default;
   void ComputeEdgeDistances();
-  // Whether column (ix, iy) has a node an axis step away from n.
-  bool HasStepNeighbor(const Node& n, int ix, int iy) const {
+  // Whether column (ix, iy) has a node an axis step away from both a and b.
+  bool HasStepNeighbor(const Node& a, const Node& b, int ix, int iy) const {
     for (const std::int32_t m : ColumnNodes(ix, iy)) {
-      if (std::abs(nodes_[m].reference_z_m - n.reference_z_m) <= step_limit_axis_) return true;
+      const float z = nodes_[m].reference_z_m;
+      if (std::abs(z - a.reference_z_m) <= step_limit_axis_ &&
+          std::abs(z - b.reference_z_m) <= step_limit_axis_) {
+        return true;
+      }
     }
     return false;
   }
