@@ -12,7 +12,7 @@ packages=(
   libompl-dev
   libcli11-dev  # command-line parsing of the programs (header-only)
   python3-yaml  # tests/deploy: manifest checks with Debian's /usr/bin/python3
-  clang-format  # scripts/check-format.sh (CI): the repository's .clang-format
+  clang-format clang-tidy  # scripts/check-format.sh, check-tidy.sh (CI): .clang-format, .clang-tidy
 )
 
 missing=()

@@ -1,14 +1,15 @@
 #!/usr/bin/env bash
-# Builds everything once, checks the C++ formatting (.clang-format), and runs the whole test
-# suite in parallel with CTest; then builds the gRPC-free concurrency tests a second time under
-# ThreadSanitizer and runs them (Debian's gRPC and libgomp are not instrumented, so that build
-# leaves them out). Arguments go to the first ctest (e.g. -R plan). STRATA_SKIP_TSAN=1 skips
-# the second build.
+# Builds everything once, checks the C++ formatting (.clang-format) and clang-tidy's findings
+# (.clang-tidy), and runs the whole test suite in parallel with CTest; then builds the
+# gRPC-free concurrency tests a second time under ThreadSanitizer and runs them (Debian's gRPC
+# and libgomp are not instrumented, so that build leaves them out). Arguments go to the first
+# ctest (e.g. -R plan). STRATA_SKIP_TSAN=1 skips the second build.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 build_dir=${STRATA_BUILD_DIR:-$root/build}
 "$root/scripts/build.sh"
 "$root/scripts/check-format.sh"
+"$root/scripts/check-tidy.sh"
 "$root/scripts/install-test-tools.sh"
 ctest --test-dir "$build_dir" --output-on-failure -j "$(nproc)" "$@"
 

@@ -107,9 +107,9 @@ void AddFlags(CLI::App& app, ParsedFlags& parsed, bool environment) {
     option->check(std::move(check));
   };
   auto add = [&](const std::string& name, auto& value, const char* placeholder, const char* help,
-                 CLI::Validator check) {
+                 const CLI::Validator& check) {
     finish(app.add_option(name, value, help)->type_name(placeholder)->capture_default_str(), name,
-           std::move(check));
+           check);
   };
   ServerConfig& config = parsed.config;
   add("--listen", config.listen, "HOST:PORT",

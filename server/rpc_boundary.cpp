@@ -8,7 +8,7 @@
 
 namespace strata::server {
 
-ServiceError ErrorFromException(std::exception_ptr exception) {
+ServiceError ErrorFromException(const std::exception_ptr& exception) {
   try {
     std::rethrow_exception(exception);
   } catch (const std::bad_alloc&) {

@@ -26,7 +26,7 @@ struct CallLog {
 };
 
 /// The ServiceError for an exception that escaped a handler body.
-ServiceError ErrorFromException(std::exception_ptr exception);
+ServiceError ErrorFromException(const std::exception_ptr& exception);
 
 /// Logs the call (rpc, map, duration, code, reason, and the message of failures) and
 /// returns its grpc::Status. Never throws.

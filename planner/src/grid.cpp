@@ -61,7 +61,7 @@ Expected<GridGeometry> MakeGridGeometry(const Eigen::AlignedBox3d& bounds, doubl
   }
   const double column_count = cells_per_axis.x() * cells_per_axis.y();
   // Layers are bounded too: tiles stack them, and indices must stay far from overflow.
-  const double max_layers = static_cast<double>(std::numeric_limits<int>::max() / 4);
+  const double max_layers = static_cast<double>(std::numeric_limits<int>::max()) / 4;
   if (column_count > static_cast<double>(max_columns) || cells_per_axis.maxCoeff() > max_layers) {
     return Error{ErrorCode::kResourceExhausted,
                  "a " + FormatShort(resolution_m) + " m grid over " + FormatShort(extent.x()) +

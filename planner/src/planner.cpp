@@ -57,7 +57,7 @@ class StopCondition {
 // snapped node's column (the robot is where it says), else the node's reference point.
 Eigen::Vector3d BoundaryPosition(const SurfaceGraph& graph, const SnapResult& snap,
                                  const Eigen::Vector3d& requested) {
-  const Eigen::Vector3d node = snap.position_m;
+  Eigen::Vector3d node = snap.position_m;
   const Eigen::Vector3d candidate(requested.x(), requested.y(), node.z());
   if (graph.grid().CellOf(candidate).head<2>() != graph.cell(snap.node).head<2>()) return node;
   GroundSample ground;

@@ -103,7 +103,10 @@ void SurfaceGraph::ComputeEdgeDistances() {
     }
   }
   while (!queue.empty()) {
-    const auto [d, m] = queue.top();
+    // Named variables, not a structured binding: the lambda below captures them, which
+    // clang 14 (clang-tidy's) does not accept for bindings.
+    const float d = queue.top().first;
+    const int m = queue.top().second;
     queue.pop();
     if (d > edge_distance_[m]) continue;
     const Node& a = nodes_[m];

@@ -91,7 +91,7 @@ std::vector<Eigen::Vector3d> ResampleInterior(const std::vector<Eigen::Vector3d>
     const double segment = (path[k] - path[k - 1]).norm();
     while (segment > 0 && travelled + segment >= next &&
            static_cast<int>(points.size()) < *pieces - 1) {
-      points.push_back(path[k - 1] + (next - travelled) / segment * (path[k] - path[k - 1]));
+      points.emplace_back(path[k - 1] + (next - travelled) / segment * (path[k] - path[k - 1]));
       next += step;
     }
     travelled += segment;

@@ -148,7 +148,7 @@ PointCloud GenerateParkingGarage(std::uint32_t seed, double spacing_m) {
                         z + l.railing_height_m);
     }
     if (ramp_up != nullptr) {
-      const double z_up = l.level_z_m[static_cast<std::size_t>(k + 1)];
+      const double z_up = l.level_z_m[static_cast<std::size_t>(k) + 1];
       AddSolidRamp(s, *ramp_up, /*with_sides=*/false, 0.0, /*back_bottom_z_m=*/z);
       for (const double y : {ramp_up->y_min_m, ramp_up->y_max_m}) {
         s.AddVerticalRect({ramp_up->x_min_m, y}, {ramp_up->x_max_m, y}, z,

@@ -115,7 +115,8 @@ struct TraversabilityParams {
   double max_step_m;
 
   Status Validate(std::string_view path = "traversability") const;
-  auto operator<=>(const TraversabilityParams&) const = default;
+  // clang-tidy 14 mistakes the 0 a defaulted <=> compares with for a null pointer.
+  auto operator<=>(const TraversabilityParams&) const = default;  // NOLINT(modernize-use-nullptr)
 };
 
 /// Names of the built-in profiles, for help texts: "differential", "biped".
