@@ -15,14 +15,10 @@ SurfaceSampler::SurfaceSampler(std::uint32_t seed, double spacing_m)
       jitter_xy_m_(kJitterFraction * spacing_m),
       jitter_z_m_(std::min(kMaxJitterZM, kJitterFraction * spacing_m)) {}
 
-void SurfaceSampler::AddPoint(const Vec3& p, const KeepFn& keep) {
-  if (keep && !keep(p)) return;
-  // Jitter is drawn only for kept points, always in the order x, y, z.
-  const double dx = Uniform(rng_, -jitter_xy_m_, jitter_xy_m_);
-  const double dy = Uniform(rng_, -jitter_xy_m_, jitter_xy_m_);
-  const double dz = Uniform(rng_, -jitter_z_m_, jitter_z_m_);
-  cloud_.emplace_back(static_cast<float>(p.x() + dx), static_cast<float>(p.y() + dy),
-                      static_cast<float>(p.z() + dz));
+SurfaceSampler SurfaceSampler::Counter(double spacing_m) {
+  SurfaceSampler counter(0, spacing_m);
+  counter.counting_ = true;
+  return counter;
 }
 
 void SurfaceSampler::AddRuledPatch(const Vec3& a0, const Vec3& a1, const Vec3& b0, const Vec3& b1,
@@ -33,6 +29,10 @@ void SurfaceSampler::AddRuledPatch(const Vec3& a0, const Vec3& a1, const Vec3& b
     const Vec3 a = a0 + u * (a1 - a0);
     const Vec3 b = b0 + u * (b1 - b0);
     const int nv = Intervals((b - a).norm(), spacing_m_);
+    if (counting_) {  // A column's count without visiting its points.
+      counted_ += static_cast<std::size_t>(nv) + 1;
+      continue;
+    }
     for (int j = 0; j <= nv; ++j) {
       const double v = nv == 0 ? 0.0 : static_cast<double>(j) / nv;
       AddPoint(a + v * (b - a), keep);

@@ -1,30 +1,60 @@
 #include "strata/scenes/map_source.hpp"
 
 #include <charconv>
-
-#include "strata/scenes/scenes.hpp"
+#include <cmath>
+#include <optional>
+#include <vector>
 
 namespace strata {
 
 Expected<SceneSource> ParseSceneSource(std::string_view text) {
   const auto bad = [&](const std::string& why) {
-    return Error{ErrorCode::kInvalidInput,
-                 "'" + std::string(text) + "' is not scene:NAME[:SEED]: " + why};
+    std::string message = "'";
+    message.append(text).append("' is not scene:NAME[:SEED][:size_m=M][:spacing_m=M]: ");
+    return Error{ErrorCode::kInvalidInput, message.append(why)};
   };
   if (!text.starts_with(kScenePrefix)) return bad("it does not start with 'scene:'");
-  std::string_view rest = text.substr(kScenePrefix.size());
-  SceneSource scene;
-  if (const std::size_t colon = rest.find(':'); colon != std::string_view::npos) {
-    const std::string_view seed_text = rest.substr(colon + 1);
-    const char* end = seed_text.data() + seed_text.size();
-    const auto [used, ec] = std::from_chars(seed_text.data(), end, scene.seed);
-    if (seed_text.empty() || ec != std::errc() || used != end) {
-      return bad("the seed must be an integer in [0, 4294967295]");
-    }
-    rest = rest.substr(0, colon);
+  // NAME, then the parts after it, split at every ':'.
+  const std::string_view rest = text.substr(kScenePrefix.size());
+  std::vector<std::string_view> parts;
+  for (std::size_t start = 0;;) {
+    const std::size_t colon = rest.find(':', start);
+    parts.push_back(rest.substr(start, colon - start));
+    if (colon == std::string_view::npos) break;
+    start = colon + 1;
   }
-  if (rest.empty()) return bad("NAME is missing");
-  scene.name = std::string(rest);
+  SceneSource scene;
+  scene.name = std::string(parts[0]);
+  if (scene.name.empty()) return bad("NAME is missing");
+  for (std::size_t i = 1; i < parts.size(); ++i) {
+    const std::string_view part = parts[i];
+    const std::size_t eq = part.find('=');
+    if (eq == std::string_view::npos) {
+      if (i != 1) return bad("the seed comes right after NAME, before the options");
+      const char* end = part.data() + part.size();
+      const auto [used, ec] = std::from_chars(part.data(), end, scene.seed);
+      if (part.empty() || ec != std::errc() || used != end) {
+        return bad("the seed must be an integer in [0, 4294967295]");
+      }
+      continue;
+    }
+    const std::string_view key = part.substr(0, eq), value = part.substr(eq + 1);
+    std::optional<double>* slot = key == "size_m"      ? &scene.options.size_m
+                                  : key == "spacing_m" ? &scene.options.spacing_m
+                                                       : nullptr;
+    if (slot == nullptr) {
+      return bad("unknown option '" + std::string(key) + "': the options are size_m and spacing_m");
+    }
+    if (slot->has_value()) return bad(std::string(key) + " is given twice");
+    double number = 0;
+    const char* end = value.data() + value.size();
+    const auto [used, ec] = std::from_chars(value.data(), end, number);
+    if (value.empty() || ec != std::errc() || used != end || !std::isfinite(number)) {
+      return bad(std::string(key) + " must be a decimal number in metres, e.g. " +
+                 std::string(key) + (key == "size_m" ? "=400" : "=0.2"));
+    }
+    *slot = number;
+  }
   return scene;
 }
 
@@ -40,7 +70,8 @@ Expected<LoadedCloud> LoadMapSource(const MapSource& source, const CloudLoadLimi
     return LoadPointCloud(file->path, limits);
   }
   const auto& scene = std::get<SceneSource>(source);
-  Expected<PointCloud> cloud = GenerateScene(scene.name, scene.seed);
+  Expected<PointCloud> cloud =
+      GenerateScene(scene.name, scene.seed, scene.options, limits.max_points);
   if (!cloud) return cloud.error();
   return SanitizeCloud(std::move(cloud).value(), limits);
 }

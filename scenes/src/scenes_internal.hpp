@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
 #include <functional>
 #include <numbers>
@@ -76,10 +77,37 @@ class SurfaceSampler {
  public:
   SurfaceSampler(std::uint32_t seed, double spacing_m);
 
+  /// A sampler that only counts the lattice points offered to it, without consulting `keep`:
+  /// an upper bound of what a sampler at the same spacing keeps, to reserve its cloud.
+  static SurfaceSampler Counter(double spacing_m);
+
   double spacing_m() const { return spacing_m_; }
 
-  /// Adds p (exact surface point) with jitter if keep accepts it (or keep is empty).
-  void AddPoint(const Vec3& p, const KeepFn& keep);
+  /// The points a Counter was offered so far.
+  std::size_t counted() const { return counted_; }
+
+  /// Reserves room for `points` points, so that a cloud of known size is never reallocated.
+  void Reserve(std::size_t points) { cloud_.reserve(points); }
+
+  /// Adds p (exact surface point) with jitter.
+  void AddPoint(const Vec3& p) {
+    if (counting_) {
+      ++counted_;
+      return;
+    }
+    // Jitter is drawn only for kept points, always in the order x, y, z.
+    const double dx = Uniform(rng_, -jitter_xy_m_, jitter_xy_m_);
+    const double dy = Uniform(rng_, -jitter_xy_m_, jitter_xy_m_);
+    const double dz = Uniform(rng_, -jitter_z_m_, jitter_z_m_);
+    cloud_.emplace_back(static_cast<float>(p.x() + dx), static_cast<float>(p.y() + dy),
+                        static_cast<float>(p.z() + dz));
+  }
+
+  /// Adds p with jitter if keep accepts it (or keep is empty).
+  void AddPoint(const Vec3& p, const KeepFn& keep) {
+    if (!counting_ && keep && !keep(p)) return;
+    AddPoint(p);
+  }
 
   /// A ruled patch between segment a0→a1 and segment b0→b1: columns every spacing along the
   /// longer of the two, each column sampled every spacing from a(u) to b(u). Covers
@@ -133,6 +161,8 @@ class SurfaceSampler {
   double spacing_m_;
   double jitter_xy_m_;
   double jitter_z_m_;
+  bool counting_ = false;
+  std::size_t counted_ = 0;
   PointCloud cloud_;
 };
 
@@ -174,5 +204,9 @@ bool InsideTree(const UnevenTerrainLayout& l, const Vec3& p);
 /// Samples the ground, trees and rocks of `l`; `in_extra_solid` (may be empty) hides further
 /// ground and object points (the forest's logs).
 void SampleTerrain(SurfaceSampler& s, const UnevenTerrainLayout& l, const KeepFn& in_extra_solid);
+
+/// An upper bound of GenerateOutdoorSite's points (every lattice point it offers, kept or not),
+/// counted without sampling; what it reserves.
+std::size_t OutdoorSitePointBound(std::uint32_t seed, double size_m, double spacing_m);
 
 }  // namespace strata::internal

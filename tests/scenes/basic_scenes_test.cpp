@@ -574,8 +574,9 @@ TEST_F(UnevenTerrainCloudTest, MostPointsAreGroundAndTreesAndRocksAreSampled) {
 
 TEST(GenerateSceneTest, EveryNameGivesItsSceneAtDefaultSpacing) {
   const std::vector<std::string> names = SceneNames();
-  // These three and the paper's scenes (paper_scenes_test.cpp), each once.
-  ASSERT_EQ(names.size(), 8u);
+  // These three, the paper's scenes (paper_scenes_test.cpp) and outdoor_site
+  // (outdoor_site_test.cpp), each once.
+  ASSERT_EQ(names.size(), 9u);
   for (const std::string& name : names) {
     EXPECT_EQ(std::count(names.begin(), names.end(), name), 1) << name;
   }
@@ -586,6 +587,73 @@ TEST(GenerateSceneTest, EveryNameGivesItsSceneAtDefaultSpacing) {
     ASSERT_TRUE(cloud.ok()) << cloud.error().message;
     EXPECT_TRUE(*cloud == scene.generate(4));
   }
+}
+
+TEST(GenerateSceneTest, OptionsResolveToTheScenesDefaults) {
+  Expected<SceneOptions> options = ResolveSceneOptions("outdoor_site", {});
+  ASSERT_TRUE(options.ok()) << options.error().message;
+  EXPECT_EQ(options->size_m, 100.0);
+  EXPECT_EQ(options->spacing_m, 0.1);
+  options = ResolveSceneOptions("outdoor_site", {.size_m = 400.0, .spacing_m = 0.2});
+  ASSERT_TRUE(options.ok()) << options.error().message;
+  EXPECT_EQ(options->size_m, 400.0);
+  EXPECT_EQ(options->spacing_m, 0.2);
+  options = ResolveSceneOptions("stairs_ramp_room", {});
+  ASSERT_TRUE(options.ok()) << options.error().message;
+  EXPECT_FALSE(options->size_m.has_value());  // No size parameter.
+  EXPECT_EQ(options->spacing_m, 0.05);
+}
+
+TEST(GenerateSceneTest, OptionsOutOfPlaceOrRangeAreInvalidInputNamingThem) {
+  // A size for a scene that has none names the scenes that take one.
+  Expected<PointCloud> cloud = GenerateScene("two_level_ramp", 1, {.size_m = 50.0});
+  ASSERT_FALSE(cloud.ok());
+  EXPECT_EQ(cloud.error().code, ErrorCode::kInvalidInput);
+  EXPECT_THAT(cloud.error().message, HasSubstr("two_level_ramp has no size parameter"));
+  EXPECT_THAT(cloud.error().message, HasSubstr("outdoor_site"));
+  for (const double size : {39.9, 1000.1, std::nan("")}) {
+    cloud = GenerateScene("outdoor_site", 1, {.size_m = size});
+    ASSERT_FALSE(cloud.ok()) << size;
+    EXPECT_EQ(cloud.error().code, ErrorCode::kInvalidInput);
+    EXPECT_THAT(cloud.error().message, HasSubstr("size_m"));
+    EXPECT_THAT(cloud.error().message, HasSubstr("[40, 1000] m"));
+  }
+  cloud = GenerateScene("outdoor_site", 1, {.spacing_m = 0.005});
+  ASSERT_FALSE(cloud.ok());
+  EXPECT_EQ(cloud.error().code, ErrorCode::kInvalidInput);
+  EXPECT_THAT(cloud.error().message, HasSubstr("spacing_m = 0.005"));
+  EXPECT_FALSE(EstimateScenePoints("two_level_ramp", 1, {.size_m = 50.0}).ok());
+}
+
+TEST(GenerateSceneTest, EstimatesFollowTheCounts) {
+  for (const std::string& name : SceneNames()) {
+    for (const std::uint32_t seed : {1u, 4u}) {
+      SCOPED_TRACE(name + ", seed " + std::to_string(seed));
+      const double points = static_cast<double>(GenerateScene(name, seed)->size());
+      const double estimate = EstimateScenePoints(name, seed).value();
+      EXPECT_NEAR(estimate / points, 1.0, 0.12);
+      // A quarter of the points at twice the spacing.
+      const double spacing = ResolveSceneOptions(name, {})->spacing_m.value();
+      const double coarse = EstimateScenePoints(name, seed, {.spacing_m = 2 * spacing}).value();
+      EXPECT_NEAR(coarse / estimate, 0.25, 0.02);
+    }
+  }
+}
+
+TEST(GenerateSceneTest, RefusesBeforeGeneratingWhatWouldPassMaxPoints) {
+  // Far beyond: 1e10 points; generating them would not end in this test's lifetime.
+  Expected<PointCloud> cloud =
+      GenerateScene("outdoor_site", 1, {.size_m = 1000.0, .spacing_m = 0.01});
+  ASSERT_FALSE(cloud.ok());
+  EXPECT_EQ(cloud.error().code, ErrorCode::kResourceExhausted);
+  EXPECT_THAT(cloud.error().message, HasSubstr("size_m = 1000, spacing_m = 0.01"));
+  EXPECT_THAT(cloud.error().message, HasSubstr("above the limit of 50000000"));
+  // The spacing the message names fits.
+  cloud = GenerateScene("two_level_ramp", 1, {}, 10'000);
+  ASSERT_FALSE(cloud.ok());
+  EXPECT_EQ(cloud.error().code, ErrorCode::kResourceExhausted);
+  EXPECT_THAT(cloud.error().message, HasSubstr("use spacing_m >= 0.3"));
+  EXPECT_TRUE(GenerateScene("two_level_ramp", 1, {.spacing_m = 0.3}, 10'000).ok());
 }
 
 TEST(GenerateSceneTest, UnknownNameIsInvalidInputNamingKnownScenes) {

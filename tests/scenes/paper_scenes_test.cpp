@@ -15,12 +15,18 @@
 #include <string>
 #include <vector>
 
+#include "scenes/scene_plans.hpp"
 #include "strata/planner.hpp"
 #include "strata/scenes/scenes.hpp"
 #include "test_util/terrain_queries.hpp"
 
 namespace strata {
 namespace {
+
+using test_util::Assess;
+using test_util::ExpectPlans;
+using test_util::HasValidLevelNear;
+using test_util::Request;
 
 constexpr double kMaxJitterZM = 0.005;
 constexpr double kFloatSlackM = 1e-4;
@@ -80,7 +86,8 @@ TEST(BenchScenesTest, ByNameAtTheDefaultSpacingWithinBoundsAndSize) {
   for (const BenchScene& scene : Scenes()) {
     SCOPED_TRACE(scene.name);
     EXPECT_NE(std::find(names.begin(), names.end(), scene.name), names.end());
-    EXPECT_DOUBLE_EQ(DefaultSceneSpacing(scene.name).value(), scene.default_spacing_m);
+    EXPECT_DOUBLE_EQ(ResolveSceneOptions(scene.name, {})->spacing_m.value(),
+                     scene.default_spacing_m);
     const Expected<PointCloud> cloud = GenerateScene(scene.name, 3);
     ASSERT_TRUE(cloud.ok()) << cloud.error().message;
     EXPECT_TRUE(*cloud == scene.generate(3, scene.default_spacing_m));
@@ -99,7 +106,7 @@ TEST(BenchScenesTest, ByNameAtTheDefaultSpacingWithinBoundsAndSize) {
     EXPECT_LT(scene.generate(3, 2 * scene.default_spacing_m).size(), cloud->size() / 3);
     EXPECT_TRUE(scene.generate(3, 0.001).empty());
   }
-  const Expected<PointCloud> bad = GenerateScene("indoor_tables", 1, std::nan(""));
+  const Expected<PointCloud> bad = GenerateScene("indoor_tables", 1, {.spacing_m = std::nan("")});
   ASSERT_FALSE(bad.ok());
   EXPECT_EQ(bad.error().code, ErrorCode::kInvalidInput);
   EXPECT_THAT(bad.error().message, ::testing::HasSubstr("spacing_m"));
@@ -165,58 +172,6 @@ TEST(BenchScenesTest, ForestLayoutMeetsTheDescription) {
 
 // ---------------------------------------------------------------------------------------------
 // Assessed scenes.
-
-std::shared_ptr<const TerrainModel> Assess(const PointCloud& cloud, double resolution_m) {
-  AssessmentConfig config;
-  config.grid.resolution_m = resolution_m;
-  return TerrainModel::Assess(cloud, config).value();
-}
-
-// Whether the column at (x, y) holds valid ground within `tol_m` of z.
-bool HasValidLevelNear(const TerrainModel& model, double x, double y, double z,
-                       double tol_m = 0.15) {
-  for (const ColumnSurface& s : test_util::LevelsAt(model, {x, y, z})) {
-    if (s.valid && std::abs(s.ground_z_m - z) <= tol_m) return true;
-  }
-  return false;
-}
-
-PlanRequest Request(const SceneQuery& q, const std::string& robot) {
-  PlanRequest request;
-  request.start.position_m = q.start_m;
-  request.goal.position_m = q.goal_m;
-  request.profile = BuiltinProfile(robot).value();
-  // Generous: this is not a speed test, and CI machines are shared.
-  request.options.time_budget_s = 30.0;
-  return request;
-}
-
-// Start and goal in one component, and a verified plan whose ends are the snapped points.
-Expected<PlanResult> ExpectPlans(const PlanningMap& map, const SceneQuery& q,
-                                 const std::string& robot) {
-  SCOPED_TRACE(q.name + " (" + robot + ")");
-  const PlanRequest request = Request(q, robot);
-  const auto graph = map.Graph(request.profile.Traversability()).value();
-  const auto start = SnapToSurface(*graph, q.start_m, 1.0, ErrorCode::kStartOffGround);
-  const auto goal = SnapToSurface(*graph, q.goal_m, 1.0, ErrorCode::kGoalOffGround);
-  EXPECT_TRUE(start.ok() && goal.ok());
-  if (start.ok() && goal.ok()) {
-    EXPECT_EQ(graph->component(start->node), graph->component(goal->node));
-    EXPECT_NEAR(start->position_m.z() - request.profile.reference_height_m, q.start_m.z(), 0.15);
-    EXPECT_NEAR(goal->position_m.z() - request.profile.reference_height_m, q.goal_m.z(), 0.15);
-  }
-  Expected<PlanResult> plan = Plan(map, request);
-  EXPECT_TRUE(plan.ok()) << plan.error().message;
-  if (!plan.ok()) return plan;
-  const Trajectory& t = plan->trajectory;
-  EXPECT_LT((t.Position(0).head<2>() - plan->start.position_m.head<2>()).norm(), 0.5);
-  EXPECT_LT((t.Position(t.TotalDuration()).head<2>() - plan->goal.position_m.head<2>()).norm(),
-            0.5);
-  EXPECT_LE(plan->stats.max_ground_offset_m, request.options.verifier.ground_tolerance_m);
-  EXPECT_LE(plan->stats.max_speed_horizontal_mps, 1.01 * request.profile.max_speed_horizontal_mps);
-  EXPECT_LE(plan->stats.max_tilt_rad, request.profile.max_tilt_rad + 1e-6);
-  return plan;
-}
 
 TEST(BenchScenesAssessed, ForestQueriesPlanAroundTreesRocksLogsAndSteepHills) {
   // One seed keeps the test short; the queries of seeds 2–8 plan too (checked by hand with

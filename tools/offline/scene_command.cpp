@@ -3,7 +3,6 @@
 #include <cstdint>
 #include <cstdio>
 #include <memory>
-#include <optional>
 
 #include "offline/command_line.hpp"
 #include "strata/cloud_io.hpp"
@@ -16,7 +15,7 @@ namespace {
 struct SceneArgs {
   std::string name;
   std::uint32_t seed = kDefaultSceneSeed;
-  std::optional<double> spacing_m;  // The scene's default when absent.
+  SceneOptions options;  // The scene's defaults where unset.
   std::string out;
 };
 
@@ -26,29 +25,22 @@ std::string SceneNameList() {
   return names;
 }
 
-int RunScene(SceneArgs parsed) {
-  if (!parsed.spacing_m) {
-    const Expected<double> spacing = DefaultSceneSpacing(parsed.name);
-    if (!spacing) {
-      std::fprintf(stderr, "strata-offline scene: %s: %s\n", ErrorCodeName(spacing.error().code),
-                   spacing.error().message.c_str());
-      return kExitFailed;
-    }
-    parsed.spacing_m = *spacing;
-  }
-  const Expected<PointCloud> cloud = GenerateScene(parsed.name, parsed.seed, *parsed.spacing_m);
-  if (!cloud) {
-    std::fprintf(stderr, "strata-offline scene: %s: %s\n", ErrorCodeName(cloud.error().code),
-                 cloud.error().message.c_str());
-    return kExitFailed;
-  }
-  if (const Status written = SavePcd(*cloud, parsed.out); !written) {
-    std::fprintf(stderr, "strata-offline scene: %s: %s\n", ErrorCodeName(written.error().code),
-                 written.error().message.c_str());
-    return kExitFailed;
-  }
-  std::printf("scene %s, seed %u, spacing %.3f m: %zu points written to %s\n", parsed.name.c_str(),
-              parsed.seed, *parsed.spacing_m, cloud->size(), parsed.out.c_str());
+int Fail(const Error& error) {
+  std::fprintf(stderr, "strata-offline scene: %s: %s\n", ErrorCodeName(error.code),
+               error.message.c_str());
+  return kExitFailed;
+}
+
+int RunScene(const SceneArgs& parsed) {
+  const Expected<SceneOptions> options = ResolveSceneOptions(parsed.name, parsed.options);
+  if (!options) return Fail(options.error());
+  const Expected<PointCloud> cloud = GenerateScene(parsed.name, parsed.seed, *options);
+  if (!cloud) return Fail(cloud.error());
+  if (const Status written = SavePcd(*cloud, parsed.out); !written) return Fail(written.error());
+  std::printf("scene %s, seed %u", parsed.name.c_str(), parsed.seed);
+  if (options->size_m) std::printf(", size %g m", *options->size_m);
+  std::printf(", spacing %.3f m: %zu points written to %s\n", *options->spacing_m, cloud->size(),
+              parsed.out.c_str());
   return kExitOk;
 }
 
@@ -64,7 +56,14 @@ void AddSceneCommand(CLI::App& app, std::function<int()>* run) {
   command->add_option("--seed", args->seed, "seed of the jitter (and of some layouts)")
       ->type_name("S")
       ->capture_default_str();
-  command->add_option("--spacing", args->spacing_m, "lattice spacing [m]; default: the scene's own")
+  command
+      ->add_option(
+          "--size", args->options.size_m,
+          "side of a scene with a size parameter (outdoor_site: 40 to 1000, default 100) [m]")
+      ->type_name("M");
+  command
+      ->add_option("--spacing", args->options.spacing_m,
+                   "lattice spacing [m]; default: the scene's own")
       ->type_name("M");
   command->add_option("--out", args->out, "the PCD file to write")->type_name("FILE")->required();
   command->callback([args, run] { *run = [args] { return RunScene(*args); }; });

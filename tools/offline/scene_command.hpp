@@ -8,8 +8,8 @@
 
 namespace strata::offline {
 
-/// Adds the command to `app`: NAME [--seed S] [--spacing M] --out FILE. When the command line
-/// selects it, parsing sets *run to the command, which returns the process exit code: 0
+/// Adds the command to `app`: NAME [--seed S] [--size M] [--spacing M] --out FILE. When the command
+/// line selects it, parsing sets *run to the command, which returns the process exit code: 0
 /// written, 1 the scene could not be generated or written.
 void AddSceneCommand(CLI::App& app, std::function<int()>* run);
 
