@@ -36,14 +36,6 @@ std::optional<double> ParseDouble(const std::string& text) {
   return value;
 }
 
-std::optional<long long> ParseInteger(const std::string& text) {
-  long long value = 0;
-  const char* end = text.data() + text.size();
-  const auto [ptr, ec] = std::from_chars(text.data(), end, value);
-  if (ec != std::errc() || ptr != end) return std::nullopt;
-  return value;
-}
-
 // --help: each flag on one line with its value, default and variable, its description on
 // the lines below (CLI11's default layout puts the description beside the flag, which leaves
 // too little room for these).
@@ -132,8 +124,9 @@ void AddFlags(CLI::App& app, ParsedFlags& parsed, bool environment) {
   CLI::Option* preload =
       app.add_option("--preload", parsed.preload,
                      "map to create at start, repeatable; SOURCE a path under the map root or\n"
-                     "scene:NAME[:SEED]; KEY resolution_m, ground_radius_m or max_tilt_rad.\n"
-                     "The environment variable takes a space-separated list")
+                     "scene:NAME[:SEED][:size_m=M][:spacing_m=M]; KEY resolution_m,\n"
+                     "ground_radius_m or max_tilt_rad. The environment variable takes a\n"
+                     "space-separated list")
           ->type_name("ID=SOURCE[,KEY=VALUE...]")
           ->default_str(kDefaultPreload)
           ->delimiter(' ')
@@ -210,22 +203,13 @@ std::optional<PreloadSpec> ParsePreloadSpec(const std::string& text, std::string
   std::istringstream rest(text.substr(eq + 1));
   for (std::string part; std::getline(rest, part, ',');) parts.push_back(part);
   const std::string& source = parts.front();
-  if (source.rfind("scene:", 0) == 0) {
-    const std::string scene = source.substr(6);
-    const std::size_t colon = scene.find(':');
-    spec.scene_name = scene.substr(0, colon);
-    if (colon != std::string::npos) {
-      const auto seed = ParseInteger(scene.substr(colon + 1));
-      if (!seed || *seed < 0 || *seed > 0xFFFFFFFFLL) {
-        *error = "preload '" + text + "': the seed must be an integer in [0, 4294967295]";
-        return std::nullopt;
-      }
-      spec.scene_seed = static_cast<std::uint32_t>(*seed);
-    }
-    if (spec.scene_name.empty()) {
-      *error = "preload '" + text + "': scene:NAME[:SEED] needs a NAME";
+  if (source.starts_with(kScenePrefix)) {
+    Expected<SceneSource> scene = ParseSceneSource(source);
+    if (!scene) {
+      *error = "preload '" + text + "': " + scene.error().message;
       return std::nullopt;
     }
+    spec.scene = std::move(scene).value();
   } else {
     spec.path = source;
   }

@@ -11,16 +11,17 @@
 #include <vector>
 
 #include "log.hpp"
+#include "strata/scenes/map_source.hpp"
 
 namespace strata::server {
 
 /// A map to create at start: `ID=SOURCE[,KEY=VALUE...]`, SOURCE a path under the map root or
-/// `scene:NAME[:SEED]`, KEY one of resolution_m, ground_radius_m, max_tilt_rad.
+/// `scene:NAME[:SEED][:size_m=M][:spacing_m=M]` (strata::ParseSceneSource), KEY one of
+/// resolution_m, ground_radius_m, max_tilt_rad.
 struct PreloadSpec {
   std::string id;
-  std::string path;        ///< Set for a file source.
-  std::string scene_name;  ///< Set for a scene source.
-  std::uint32_t scene_seed = 0;
+  std::string path;                  ///< Set for a file source.
+  std::optional<SceneSource> scene;  ///< Set for a scene source.
   std::optional<double> resolution_m;
   std::optional<double> ground_radius_m;
   std::optional<double> max_tilt_rad;

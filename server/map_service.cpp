@@ -1,6 +1,7 @@
 #include "map_service.hpp"
 
 #include <algorithm>
+#include <optional>
 
 #include "map_root.hpp"
 #include "proto_convert.hpp"
@@ -26,7 +27,7 @@ std::string JoinedSceneNames() {
 }  // namespace
 
 Result<MapSource> SourceFromRequest(const v1::CreateMapRequest& request,
-                                    const std::filesystem::path& map_root) {
+                                    const std::filesystem::path& map_root, std::size_t max_points) {
   switch (request.source_case()) {
     case v1::CreateMapRequest::kFile: {
       Result<std::filesystem::path> path =
@@ -42,9 +43,32 @@ Result<MapSource> SourceFromRequest(const v1::CreateMapRequest& request,
                              "': the built-in scenes are " + JoinedSceneNames())
             .Blame("scene.name");
       }
-      const std::uint32_t seed =
-          request.scene().has_seed() ? request.scene().seed() : kDefaultSceneSeed;
-      return MapSource(SceneMapSource{request.scene().name(), seed});
+      const v1::SceneSource& scene = request.scene();
+      SceneMapSource source{scene.name(), scene.has_seed() ? scene.seed() : kDefaultSceneSeed, {}};
+      // Each option alone first, so that the error blames the field at fault.
+      struct Option {
+        std::optional<double> SceneOptions::*field;
+        bool given;
+        double value;
+        const char* path;
+      };
+      for (const Option& o :
+           {Option{&SceneOptions::size_m, scene.has_size_m(), scene.size_m(), "scene.size_m"},
+            Option{&SceneOptions::spacing_m, scene.has_spacing_m(), scene.spacing_m(),
+                   "scene.spacing_m"}}) {
+        if (!o.given) continue;
+        SceneOptions alone;
+        alone.*o.field = o.value;
+        source.options.*o.field = o.value;
+        if (auto valid = ResolveSceneOptions(scene.name(), alone); !valid) {
+          return ServiceError::FromPlanner(valid.error(), o.path);
+        }
+      }
+      source.options = ResolveSceneOptions(scene.name(), source.options).value();
+      if (Status fits = CheckScene(source.name, source.seed, source.options, max_points); !fits) {
+        return ServiceError::FromPlanner(fits.error(), "scene.spacing_m");
+      }
+      return MapSource(std::move(source));
     }
     case v1::CreateMapRequest::SOURCE_NOT_SET: break;
   }
@@ -96,7 +120,7 @@ grpc::Status MapServiceImpl::CreateMap(grpc::ServerContext* context,
     }
     Result<AssessmentConfig> config = FromProto(request->terrain(), "terrain");
     if (!config.ok()) return std::move(config).error();
-    Result<MapSource> source = SourceFromRequest(*request, options_.map_root);
+    Result<MapSource> source = SourceFromRequest(*request, options_.map_root, options_.max_points);
     if (!source.ok()) return std::move(source).error();
     Result<MapSnapshot> created =
         registry_->Create(request->map_id(), std::move(source).value(), config.value(),

@@ -12,16 +12,18 @@ namespace strata::server {
 struct MapServiceOptions {
   /// Canonical map root; empty disables file maps.
   std::filesystem::path map_root;
-  /// Most points one uploaded map may hold [-].
+  /// Most points one map may hold, uploaded or generated [-].
   std::size_t max_points = 50'000'000;
 };
 
-/// The MapSource of a CreateMapRequest: a file confined to `map_root`, or a scene (seed
-/// kDefaultSceneSeed when the request has none). Errors blame request fields ("file.path",
-/// "scene.name", "source"). The request's terrain parameters are converted apart, by FromProto
-/// (proto_convert.hpp).
+/// The MapSource of a CreateMapRequest: a file confined to `map_root`, or a scene with every
+/// option resolved (seed kDefaultSceneSeed when the request has none, the scene's size and
+/// spacing when it has none), refused when it would hold more than `max_points` points.
+/// Errors blame request fields ("file.path", "scene.name", "scene.size_m", "scene.spacing_m",
+/// "source"). The request's terrain
+/// parameters are converted apart, by FromProto (proto_convert.hpp).
 Result<MapSource> SourceFromRequest(const v1::CreateMapRequest& request,
-                                    const std::filesystem::path& map_root);
+                                    const std::filesystem::path& map_root, std::size_t max_points);
 
 /// The latest time a handler may wait before answering, from the call's deadline: a little
 /// before it (10% of the time left, at most 100 ms), so the answer still arrives.

@@ -153,8 +153,11 @@ void ToProto(const MapSnapshot& s, v1::Map* map) {
   if (const auto* file = std::get_if<FileMapSource>(&s.source)) {
     map->mutable_source()->mutable_file()->set_path(file->requested_path);
   } else if (const auto* scene = std::get_if<SceneMapSource>(&s.source)) {
-    map->mutable_source()->mutable_scene()->set_name(scene->name);
-    map->mutable_source()->mutable_scene()->set_seed(scene->seed);
+    v1::SceneSource* out = map->mutable_source()->mutable_scene();
+    out->set_name(scene->name);
+    out->set_seed(scene->seed);
+    if (scene->options.size_m) out->set_size_m(*scene->options.size_m);
+    if (scene->options.spacing_m) out->set_spacing_m(*scene->options.spacing_m);
   } else {
     map->mutable_source()->mutable_upload()->set_received_bytes(
         std::get<UploadSummary>(s.source).received_bytes);

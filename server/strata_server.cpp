@@ -24,7 +24,8 @@ struct ResolvedPreload {
 };
 
 Result<ResolvedPreload> ResolvePreload(const PreloadSpec& spec,
-                                       const std::filesystem::path& map_root) {
+                                       const std::filesystem::path& map_root,
+                                       std::size_t max_points) {
   const std::string flag = "--preload " + spec.id;
   auto fail = [&](const ServiceError& error) {
     return MakeError(ErrorCode::kInvalidInput, flag + ": " + error.message);
@@ -33,11 +34,15 @@ Result<ResolvedPreload> ResolvePreload(const PreloadSpec& spec,
     return fail(valid.error());
   }
   ResolvedPreload preload{spec.id, SceneMapSource{}, {}};
-  if (!spec.scene_name.empty()) {
+  if (spec.scene) {
+    // The same checks as a CreateMap request for the scene.
     v1::CreateMapRequest request;
-    request.mutable_scene()->set_name(spec.scene_name);
-    request.mutable_scene()->set_seed(spec.scene_seed);
-    Result<MapSource> source = SourceFromRequest(request, map_root);
+    v1::SceneSource* scene = request.mutable_scene();
+    scene->set_name(spec.scene->name);
+    scene->set_seed(spec.scene->seed);
+    if (spec.scene->options.size_m) scene->set_size_m(*spec.scene->options.size_m);
+    if (spec.scene->options.spacing_m) scene->set_spacing_m(*spec.scene->options.spacing_m);
+    Result<MapSource> source = SourceFromRequest(request, map_root, max_points);
     if (!source.ok()) return fail(source.error());
     preload.source = std::move(source).value();
   } else {
@@ -76,7 +81,7 @@ Result<std::unique_ptr<StrataServer>> StrataServer::Start(const ServerConfig& co
   }
   std::vector<ResolvedPreload> preloads;
   for (const PreloadSpec& spec : config.preload) {
-    Result<ResolvedPreload> preload = ResolvePreload(spec, map_root);
+    Result<ResolvedPreload> preload = ResolvePreload(spec, map_root, config.max_points);
     if (!preload.ok()) return std::move(preload).error();
     preloads.push_back(std::move(preload).value());
   }

@@ -170,7 +170,8 @@ void AddBenchOptions(CLI::App& app, std::vector<std::string> command_line,
   source
       ->add_option_function<std::string>(
           "--scene", [args](const std::string& name) { args->map = "scene:" + name; },
-          "a built-in scene, NAME[:SEED] as in scene:NAME[:SEED] (docs/scenes.md)")
+          "a built-in scene: NAME[:SEED][:size_m=M][:spacing_m=M], what follows scene: in a "
+          "map source (docs/scenes.md)")
       ->type_name("NAME");
   source->add_option("--map", args->map, "a .pcd, .ply, .bt or .ot file")->type_name("FILE");
   source->require_option(1);

@@ -30,7 +30,12 @@ const char* StateName(v1::MapState state) {
 std::string SourceText(const v1::MapSource& source) {
   if (source.has_file()) return "file " + source.file().path();
   if (source.has_scene()) {
-    return "scene " + source.scene().name() + ":" + std::to_string(source.scene().seed());
+    // NAME:SEED[:size_m=M][:spacing_m=M], as strata-offline takes it after "scene:".
+    const v1::SceneSource& scene = source.scene();
+    std::string text = "scene " + scene.name() + ":" + std::to_string(scene.seed());
+    if (scene.has_size_m()) text += ":size_m=" + JsonNumber(scene.size_m());
+    if (scene.has_spacing_m()) text += ":spacing_m=" + JsonNumber(scene.spacing_m());
+    return text;
   }
   if (source.has_upload())
     return "upload " + std::to_string(source.upload().received_bytes()) + " B";
@@ -109,6 +114,8 @@ struct CreateFlags {
   std::optional<std::string> file;
   std::optional<std::string> scene;
   std::optional<long long> seed;
+  std::optional<double> size_m;
+  std::optional<double> spacing_m;
   TerrainFlags terrain;
   bool wait = false;
 };
@@ -118,8 +125,12 @@ int Create(const Context& ctx, const CreateFlags& flags) {
   request.set_map_id(flags.id);
   if (flags.file) request.mutable_file()->set_path(*flags.file);
   if (flags.scene) {
-    request.mutable_scene()->set_name(*flags.scene);
-    request.mutable_scene()->set_seed(static_cast<std::uint32_t>(flags.seed.value_or(0)));
+    // Only what was given: the server fills in the scene's defaults.
+    v1::SceneSource* scene = request.mutable_scene();
+    scene->set_name(*flags.scene);
+    if (flags.seed) scene->set_seed(static_cast<std::uint32_t>(*flags.seed));
+    if (flags.size_m) scene->set_size_m(*flags.size_m);
+    if (flags.spacing_m) scene->set_spacing_m(*flags.spacing_m);
   }
   SetTerrain(flags.terrain, request.mutable_terrain());
   request.set_wait(flags.wait);
@@ -269,9 +280,23 @@ void AddMapsCommands(CLI::App& app, const Context& ctx, Command* run) {
   source->add_option("--file", create_flags->file, "point cloud under the server's --map-root")
       ->type_name("PATH");
   source->require_option(1);
-  create->add_option("--seed", create_flags->seed, "the scene's seed (default 0)")
+  create
+      ->add_option("--seed", create_flags->seed,
+                   "the scene's seed; unset: the server's default (1)")
       ->type_name("N")
       ->check(CLI::Range(0LL, 4294967295LL).description(""))
+      ->needs(scene);
+  create
+      ->add_option("--size", create_flags->size_m,
+                   "side of a scene with a size parameter (outdoor_site: 40 to 1000; unset: 100)")
+      ->type_name("M")
+      ->check(FiniteNumber())
+      ->needs(scene);
+  create
+      ->add_option("--spacing", create_flags->spacing_m,
+                   "spacing of the scene's points, >= 0.01; unset: the scene's own")
+      ->type_name("M")
+      ->check(FiniteNumber())
       ->needs(scene);
   AddTerrainFlags(*create, &create_flags->terrain);
   create->add_flag("--wait", create_flags->wait, "return once the map is ACTIVE or FAILED");

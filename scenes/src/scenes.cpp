@@ -124,6 +124,21 @@ double Estimate(const ResolvedScene& scene, std::uint32_t seed) {
   return scene.entry->sampled_area_m2 / (spacing * spacing);
 }
 
+Status CheckPoints(const ResolvedScene& scene, std::uint32_t seed, std::size_t max_points) {
+  const double points = Estimate(scene, seed);
+  if (points <= static_cast<double>(max_points)) return Status::Ok();
+  const SceneOptions& o = scene.options;
+  // Points fall with the square of the spacing; name the next centimetre that fits.
+  const double fits = std::ceil(100.0 * *o.spacing_m * std::sqrt(points / max_points)) / 100.0;
+  std::string what = "scene " + std::string(scene.entry->name) + " (";
+  if (o.size_m) what += "size_m = " + Number(*o.size_m) + ", ";
+  what += "spacing_m = " + Number(*o.spacing_m) + ")";
+  return Error{ErrorCode::kResourceExhausted,
+               what + " would have about " + Number(points) + " points, above the limit of " +
+                   std::to_string(max_points) + ": use spacing_m >= " + Number(fits) +
+                   (o.size_m ? " or a smaller size_m" : "")};
+}
+
 }  // namespace
 
 std::vector<std::string> SceneNames() {
@@ -145,23 +160,19 @@ Expected<double> EstimateScenePoints(const std::string& name, std::uint32_t seed
   return Estimate(*resolved, seed);
 }
 
+Status CheckScene(const std::string& name, std::uint32_t seed, const SceneOptions& options,
+                  std::size_t max_points) {
+  Expected<ResolvedScene> resolved = Resolve(name, options);
+  if (!resolved) return resolved.error();
+  return CheckPoints(*resolved, seed, max_points);
+}
+
 Expected<PointCloud> GenerateScene(const std::string& name, std::uint32_t seed,
                                    const SceneOptions& options, std::size_t max_points) {
   Expected<ResolvedScene> resolved = Resolve(name, options);
   if (!resolved) return resolved.error();
+  if (Status fits = CheckPoints(*resolved, seed, max_points); !fits) return fits.error();
   const SceneOptions& o = resolved->options;
-  const double points = Estimate(*resolved, seed);
-  if (points > static_cast<double>(max_points)) {
-    // Points fall with the square of the spacing; name the next centimetre that fits.
-    const double fits = std::ceil(100.0 * *o.spacing_m * std::sqrt(points / max_points)) / 100.0;
-    std::string what = "scene " + name + " (";
-    if (o.size_m) what += "size_m = " + Number(*o.size_m) + ", ";
-    what += "spacing_m = " + Number(*o.spacing_m) + ")";
-    return Error{ErrorCode::kResourceExhausted,
-                 what + " would have about " + Number(points) + " points, above the limit of " +
-                     std::to_string(max_points) + ": use spacing_m >= " + Number(fits) +
-                     (o.size_m ? " or a smaller size_m" : "")};
-  }
   return resolved->entry->generate(seed, o.size_m.value_or(0.0), *o.spacing_m);
 }
 

@@ -298,6 +298,69 @@ TEST_F(StrataCliTest, CreateGetDeleteAScene) {
   EXPECT_THAT(gone.err, HasSubstr("MAP_NOT_FOUND"));
 }
 
+TEST_F(StrataCliTest, ThePreloadedDemoIsTheOfflineToolsDefaultScene) {
+  // The default demo=scene:two_level_ramp, and what `strata-offline scene two_level_ramp`
+  // writes without a seed, uploaded: the same points give the same count, bounds and
+  // assessment, to the last bit.
+  const std::string pcd = Path("two_level_ramp.pcd");
+  const CommandResult written =
+      RunCommand({STRATA_OFFLINE_BINARY, "scene", "two_level_ramp", "--out", pcd});
+  ASSERT_EQ(written.exit_code, 0) << written.err;
+  const CommandResult uploaded =
+      Strata({"--deadline", "120", "maps", "upload", "offline_ramp", pcd, "--wait", "--json"});
+  ASSERT_EQ(uploaded.exit_code, 0) << uploaded.err;
+  const auto offline = Parse<v1::Map>(uploaded.out);
+  const CommandResult got = Strata({"maps", "get", "demo", "--json"});
+  ASSERT_EQ(got.exit_code, 0) << got.err;
+  const auto demo = Parse<v1::Map>(got.out);
+  const auto same_cloud = [](const v1::Map& a, const v1::Map& b) {
+    const v1::Box3 &p = a.bounds_m(), &q = b.bounds_m();
+    return a.raw_point_count() == b.raw_point_count() && p.min_m().x() == q.min_m().x() &&
+           p.min_m().y() == q.min_m().y() && p.min_m().z() == q.min_m().z() &&
+           p.max_m().x() == q.max_m().x() && p.max_m().y() == q.max_m().y() &&
+           p.max_m().z() == q.max_m().z() &&
+           a.valid_ground_point_count() == b.valid_ground_point_count() &&
+           a.valid_surface_count() == b.valid_surface_count();
+  };
+  EXPECT_EQ(demo.source().scene().seed(), 1u);
+  EXPECT_TRUE(same_cloud(demo, offline)) << got.out << "\n" << uploaded.out;
+
+  // The fingerprint tells seeds apart: seed 0 (the demo's seed before) is another cloud.
+  const CommandResult seed0 =
+      Strata({"--deadline", "120", "maps", "create", "ramp_seed0", "--scene", "two_level_ramp",
+              "--seed", "0", "--wait", "--json"});
+  ASSERT_EQ(seed0.exit_code, 0) << seed0.err;
+  const auto other = Parse<v1::Map>(seed0.out);
+  EXPECT_EQ(other.source().scene().seed(), 0u);
+  EXPECT_FALSE(same_cloud(demo, other));
+  // Without --seed, the server's default.
+  const CommandResult unseeded = Strata({"--deadline", "120", "maps", "create", "ramp_unseeded",
+                                         "--scene", "two_level_ramp", "--wait", "--json"});
+  ASSERT_EQ(unseeded.exit_code, 0) << unseeded.err;
+  EXPECT_TRUE(same_cloud(demo, Parse<v1::Map>(unseeded.out)));
+
+  for (const char* id : {"offline_ramp", "ramp_seed0", "ramp_unseeded"}) {
+    EXPECT_EQ(Strata({"maps", "delete", id}).exit_code, 0) << id;
+  }
+}
+
+TEST_F(StrataCliTest, CreatesASceneWithSizeAndSpacing) {
+  const CommandResult created =
+      Strata({"--deadline", "120", "maps", "create", "site", "--scene", "outdoor_site", "--size",
+              "40", "--spacing", "0.25", "--wait"});
+  ASSERT_EQ(created.exit_code, 0) << created.err;
+  EXPECT_THAT(created.out, HasSubstr("map site: ACTIVE"));
+  EXPECT_THAT(created.out, HasSubstr("scene outdoor_site:1:size_m=40:spacing_m=0.25"));
+  EXPECT_EQ(Strata({"maps", "delete", "site"}).exit_code, 0);
+  // A size for a scene without one: the server names the field.
+  const CommandResult sized =
+      Strata({"maps", "create", "x", "--scene", "two_level_ramp", "--size", "40"});
+  EXPECT_EQ(sized.exit_code, 1);
+  EXPECT_THAT(sized.err, HasSubstr("bad field scene.size_m"));
+  // Options without --scene are usage errors.
+  EXPECT_EQ(Strata({"maps", "create", "x", "--file", "a.pcd", "--size", "40"}).exit_code, 2);
+}
+
 TEST_F(StrataCliTest, UploadStreamsAPcdInChunksAndPlansOnIt) {
   // A flat 6 m × 6 m floor at z = 0, one point every 5 cm, as binary PCD.
   std::string body;

@@ -64,7 +64,12 @@ TEST(FlagsTest, DefaultsPreloadTheDemoScene) {
   EXPECT_TRUE(outcome.config.map_root.empty());
   ASSERT_EQ(outcome.config.preload.size(), 1u);
   EXPECT_EQ(outcome.config.preload[0].id, "demo");
-  EXPECT_EQ(outcome.config.preload[0].scene_name, "two_level_ramp");
+  // The demo scene as strata-offline's scene:two_level_ramp: the default seed and options.
+  ASSERT_TRUE(outcome.config.preload[0].scene.has_value());
+  EXPECT_EQ(outcome.config.preload[0].scene->name, "two_level_ramp");
+  EXPECT_EQ(outcome.config.preload[0].scene->seed, kDefaultSceneSeed);
+  EXPECT_FALSE(outcome.config.preload[0].scene->options.size_m.has_value());
+  EXPECT_FALSE(outcome.config.preload[0].scene->options.spacing_m.has_value());
   EXPECT_EQ(outcome.config.max_concurrent_assessments, 1);
 }
 
@@ -106,8 +111,22 @@ TEST(FlagsTest, PreloadsReplaceTheDemoAndNoPreloadEmptiesTheList) {
   ASSERT_EQ(outcome.config.preload.size(), 2u);
   EXPECT_EQ(outcome.config.preload[0].path, "spiral0.3_2.pcd");
   EXPECT_DOUBLE_EQ(*outcome.config.preload[0].resolution_m, 0.3);
-  EXPECT_EQ(outcome.config.preload[1].scene_name, "stairs_ramp_room");
-  EXPECT_EQ(outcome.config.preload[1].scene_seed, 7u);
+  ASSERT_TRUE(outcome.config.preload[1].scene.has_value());
+  EXPECT_EQ(outcome.config.preload[1].scene->name, "stairs_ramp_room");
+  EXPECT_EQ(outcome.config.preload[1].scene->seed, 7u);
+  EXPECT_FALSE(outcome.config.preload[0].scene.has_value());
+
+  // Scene options, read by ParseSceneSource; the assessment keys follow the commas.
+  outcome =
+      Parse({"--preload", "site=scene:outdoor_site:2:size_m=60:spacing_m=0.2,resolution_m=0.3"});
+  ASSERT_EQ(outcome.action, FlagsOutcome::Action::kRun) << outcome.text;
+  const PreloadSpec& site = outcome.config.preload.at(0);
+  ASSERT_TRUE(site.scene.has_value());
+  EXPECT_EQ(site.scene->name, "outdoor_site");
+  EXPECT_EQ(site.scene->seed, 2u);
+  EXPECT_EQ(site.scene->options.size_m, 60.0);
+  EXPECT_EQ(site.scene->options.spacing_m, 0.2);
+  EXPECT_EQ(site.resolution_m, 0.3);
 
   outcome = Parse({}, {{"STRATA_PRELOAD", "a=scene:uneven_terrain b=x.pcd"}});
   ASSERT_EQ(outcome.config.preload.size(), 2u);
@@ -171,7 +190,9 @@ TEST(FlagsTest, BadValuesAreRefusedWithTheValue) {
            {{"--shutdown-grace-s", "-0.5"}, "'-0.5' is not a number of seconds >= 0"},
            {{"--log-level", "loud"}, "'loud' is not a log level"},
            {{"--preload", "a=scene:x:-1"}, "the seed must be an integer"},
-           {{"--preload", "a=scene:"}, "needs a NAME"},
+           {{"--preload", "a=scene:"}, "NAME is missing"},
+           {{"--preload", "a=scene:x:size_m=big"}, "size_m must be a decimal number"},
+           {{"--preload", "a=scene:x:colour=red"}, "unknown option 'colour'"},
            {{"--preload", "a=x.pcd", "b=y.pcd"}, "b=y.pcd"},
        }) {
     const FlagsOutcome outcome = Parse(c.args);

@@ -38,7 +38,11 @@ TEST_F(MapServiceTest, StartsServingWithTheDemoMapAndPerServiceHealth) {
   ASSERT_TRUE(maps_->GetMap(&context, request, &demo).ok());
   EXPECT_EQ(demo.state(), v1::MAP_STATE_ACTIVE);
   EXPECT_EQ(demo.source().scene().name(), "two_level_ramp");
-  EXPECT_EQ(demo.max_levels(), 2u);  // Floor and deck.
+  // kDefaultSceneSeed and the scene's own spacing, as strata-offline's scene:two_level_ramp.
+  EXPECT_EQ(demo.source().scene().seed(), 1u);
+  EXPECT_EQ(demo.source().scene().spacing_m(), 0.1);
+  EXPECT_FALSE(demo.source().scene().has_size_m());  // No size parameter.
+  EXPECT_EQ(demo.max_levels(), 2u);                  // Floor and deck.
   EXPECT_GT(demo.memory_bytes(), 0u);
   EXPECT_GT(demo.assessment_seconds().total_s(), 0);
   EXPECT_TRUE(demo.has_done_time());
@@ -275,10 +279,21 @@ TEST_F(MapServiceTest, RefusesBadRequestsNamingTheField) {
       {scene("two_level_ramp"), grpc::StatusCode::ALREADY_EXISTS, "MAP_ALREADY_EXISTS", ""},
       {v1::CreateMapRequest(), grpc::StatusCode::INVALID_ARGUMENT, "INVALID_INPUT", "source"},
       {scene("two_level_ramp"), grpc::StatusCode::INVALID_ARGUMENT, "INVALID_INPUT", "map_id"},
+      {scene("two_level_ramp"), grpc::StatusCode::INVALID_ARGUMENT, "INVALID_INPUT",
+       "scene.size_m"},
+      {scene("outdoor_site"), grpc::StatusCode::INVALID_ARGUMENT, "INVALID_INPUT",
+       "scene.spacing_m"},
+      {scene("outdoor_site"), grpc::StatusCode::RESOURCE_EXHAUSTED, "RESOURCE_EXHAUSTED",
+       "scene.spacing_m"},
   };
   cases[1].request.mutable_terrain()->set_resolution_m(100);
   cases[2].request.set_map_id("demo");
   cases[4].request.set_map_id("../demo");
+  cases[5].request.mutable_scene()->set_size_m(50);  // A scene without a size parameter.
+  cases[6].request.mutable_scene()->set_spacing_m(0.001);
+  // 1 km at 2 cm: 2.5e9 points, refused before anything is generated.
+  cases[7].request.mutable_scene()->set_size_m(1000);
+  cases[7].request.mutable_scene()->set_spacing_m(0.02);
   for (const Case& c : cases) {
     grpc::ClientContext context;
     v1::Map map;

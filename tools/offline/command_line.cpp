@@ -82,9 +82,10 @@ CLI::Validator AtLeast(double min) {
 }
 
 std::string MapHelp() {
-  return "a .pcd, .ply, .bt or .ot file, or a built-in scene scene:NAME[:SEED] (NAME as for the "
-         "scene command; SEED default " +
-         std::to_string(kDefaultSceneSeed) + ")";
+  return "a .pcd, .ply, .bt or .ot file, or a built-in scene "
+         "scene:NAME[:SEED][:size_m=M][:spacing_m=M] (NAME as for the scene command; SEED "
+         "default " +
+         std::to_string(kDefaultSceneSeed) + "; size and spacing default: the scene's own)";
 }
 
 CLI::Validator BuiltinRobotName() {

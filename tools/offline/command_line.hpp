@@ -39,7 +39,8 @@ std::string DefaultText(double value);
 /// A number >= `min`; the message names the bound and the value.
 CLI::Validator AtLeast(double min);
 
-/// --help of a MAP argument: a point-cloud file or scene:NAME[:SEED] (ParseMapSource).
+/// --help of a MAP argument: a point-cloud file or scene:NAME[:SEED][:size_m=M][:spacing_m=M]
+/// (ParseMapSource).
 std::string MapHelp();
 
 /// A built-in robot profile's name (BuiltinProfile); the message names the known ones.

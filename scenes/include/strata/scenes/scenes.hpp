@@ -56,9 +56,13 @@ Expected<SceneOptions> ResolveSceneOptions(const std::string& name, const SceneO
 Expected<double> EstimateScenePoints(const std::string& name, std::uint32_t seed,
                                      const SceneOptions& options = {});
 
-/// The named scene. Fails like ResolveSceneOptions, and with kResourceExhausted naming the
-/// spacing that fits, before generating anything, when EstimateScenePoints is above
-/// `max_points`.
+/// What GenerateScene checks before it generates anything: the name and the options (failing
+/// like ResolveSceneOptions), and EstimateScenePoints against `max_points` (kResourceExhausted
+/// naming the spacing that fits).
+Status CheckScene(const std::string& name, std::uint32_t seed, const SceneOptions& options,
+                  std::size_t max_points = CloudLoadLimits{}.max_points);
+
+/// The named scene, once CheckScene passes (its error otherwise).
 Expected<PointCloud> GenerateScene(const std::string& name, std::uint32_t seed,
                                    const SceneOptions& options = {},
                                    std::size_t max_points = CloudLoadLimits{}.max_points);
