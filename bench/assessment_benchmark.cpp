@@ -1,7 +1,7 @@
 // Terrain assessment time per stage and memory on the shared reference maps and a built-in
-// scene, at several resolutions. Run with --benchmark_repetitions=5 (the default below) and
-// read the median rows. Maps are looked up in $STRATA_MAPS_DIR (default ../shared/maps
-// relative to the working directory).
+// scene, at several resolutions; generating outdoor_site at the sizes docs/scenes.md gives. Run
+// with --benchmark_repetitions=5 (the default below) and read the median rows. Maps are looked up
+// in $STRATA_MAPS_DIR (default ../shared/maps relative to the working directory).
 
 #include <benchmark/benchmark.h>
 
@@ -27,6 +27,19 @@ void BM_Load(benchmark::State& state, const strata::MapSource& source) {
       return;
     }
     benchmark::DoNotOptimize(cloud->points.data());
+  }
+}
+
+// Generating a scene alone (no sanitising copy), one core.
+void BM_Generate(benchmark::State& state, const strata::SceneSource& scene) {
+  for (auto _ : state) {
+    auto cloud = strata::GenerateScene(scene.name, scene.seed, scene.options);
+    if (!cloud) {
+      state.SkipWithError(cloud.error().message.c_str());
+      return;
+    }
+    state.counters["points"] = static_cast<double>(cloud->size());
+    benchmark::DoNotOptimize(cloud->data());
   }
 }
 
@@ -85,6 +98,18 @@ void RegisterAll() {
           ->ReportAggregatesOnly(true)
           ->UseRealTime();
     }
+  }
+  // The site sizes of docs/scenes.md: side [m] and spacing [m].
+  for (const auto& [size, spacing] : {std::pair{100.0, 0.1}, {400.0, 0.1}, {1000.0, 0.2}}) {
+    const strata::SceneSource site{"outdoor_site", strata::kDefaultSceneSeed, {size, spacing}};
+    benchmark::RegisterBenchmark(("Generate/outdoor_site/" + std::to_string(int(size)) + "/" +
+                                  std::to_string(spacing).substr(0, 3))
+                                     .c_str(),
+                                 BM_Generate, site)
+        ->Unit(benchmark::kMillisecond)
+        ->Repetitions(3)
+        ->ReportAggregatesOnly(true)
+        ->UseRealTime();
   }
   benchmark::RegisterBenchmark("Assess/two_level_ramp/0.1", BM_Assess,
                                strata::MapSource(strata::SceneSource{"two_level_ramp"}), 0.1)
