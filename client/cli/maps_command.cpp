@@ -1,6 +1,8 @@
 // `strata maps create|upload|get|list|delete`.
 #include <cmath>
 #include <numbers>
+#include <optional>
+#include <tuple>
 
 #include "commands.hpp"
 #include "output.hpp"
@@ -286,18 +288,14 @@ void AddMapsCommands(CLI::App& app, const Context& ctx, Command* run) {
       ->type_name("N")
       ->check(CLI::Range(0LL, 4294967295LL).description(""))
       ->needs(scene);
-  create
-      ->add_option("--size", create_flags->size_m,
-                   "side of a scene with a size parameter (outdoor_site: 40 to 1000; unset: 100)")
-      ->type_name("M")
-      ->check(FiniteNumber())
-      ->needs(scene);
-  create
-      ->add_option("--spacing", create_flags->spacing_m,
-                   "spacing of the scene's points, >= 0.01; unset: the scene's own")
-      ->type_name("M")
-      ->check(FiniteNumber())
-      ->needs(scene);
+  const std::tuple<const char*, std::optional<double>*, const char*> scene_options[] = {
+      {"--size", &create_flags->size_m,
+       "side of a scene with a size parameter (outdoor_site: 40 to 1000; unset: 100)"},
+      {"--spacing", &create_flags->spacing_m,
+       "spacing of the scene's points, >= 0.01; unset: the scene's own"}};
+  for (const auto& [name, value, help] : scene_options) {
+    create->add_option(name, *value, help)->type_name("M")->check(FiniteNumber())->needs(scene);
+  }
   AddTerrainFlags(*create, &create_flags->terrain);
   create->add_flag("--wait", create_flags->wait, "return once the map is ACTIVE or FAILED");
 

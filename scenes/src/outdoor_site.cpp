@@ -18,17 +18,8 @@
 #include "scenes_internal.hpp"
 
 namespace strata {
+namespace internal {
 namespace {
-
-using internal::AddSolidRamp;
-using internal::kDegToRad;
-using internal::KeepFn;
-using internal::kEpsM;
-using internal::StrictlyInside;
-using internal::SurfaceSampler;
-using internal::Uniform;
-using internal::Vec2;
-using internal::Vec3;
 
 // The site's layout engine: a stream of its own, unrelated to the other scenes' layouts.
 constexpr std::uint32_t kSiteLayoutStream = 4;
@@ -356,7 +347,7 @@ std::vector<Footprint> Footprints(const OutdoorSiteLayout& l) {
 // chords of those that straddle it, sorted along y, are passed once.
 void SampleGround(SurfaceSampler& s, const OutdoorSiteLayout& l) {
   const std::vector<Footprint> footprints = Footprints(l);
-  const int n = internal::Intervals(l.size_m, s.spacing_m());
+  const int n = Intervals(l.size_m, s.spacing_m());
   GroundColumn column(l);
   std::vector<const Footprint*> active;
   std::vector<std::pair<double, double>> chords;
@@ -475,33 +466,13 @@ void SampleStructures(SurfaceSampler& s, const OutdoorSiteLayout& l) {
 // Every lattice point the sampling offers, kept or not: the ground's whole lattice and the
 // structures' faces, counted column by column without visiting their points.
 std::size_t PointBound(const OutdoorSiteLayout& l, double spacing_m) {
-  const auto ground = static_cast<std::size_t>(internal::Intervals(l.size_m, spacing_m)) + 1;
+  const auto ground = static_cast<std::size_t>(Intervals(l.size_m, spacing_m)) + 1;
   SurfaceSampler counter = SurfaceSampler::Counter(spacing_m);
   SampleStructures(counter, l);
   return ground * ground + counter.counted();
 }
 
-}  // namespace
-
-double OutdoorSiteLayout::GroundZAt(double x_m, double y_m) const {
-  GroundColumn column(*this);
-  column.MoveTo(x_m);
-  return column.HeightAt(y_m);
-}
-
-bool OutdoorSiteLayout::OnPad(double x_m, double y_m) const {
-  return x_m >= pad_x_min_m && x_m <= pad_x_max_m && y_m >= pad_y_min_m && y_m <= pad_y_max_m;
-}
-
-bool OutdoorSiteLayout::HasUpperFloor(double x_m, double y_m) const {
-  const bool inside = x_m >= building_x_min_m && x_m <= building_x_max_m &&
-                      y_m >= building_y_min_m && y_m <= building_y_max_m;
-  const SceneRamp& r = building_ramp;
-  return inside &&
-         !(StrictlyInside(x_m, r.x_min_m, r.x_max_m) && StrictlyInside(y_m, r.y_min_m, r.y_max_m));
-}
-
-OutdoorSiteLayout GetOutdoorSiteLayout(std::uint32_t seed, double size_m) {
+OutdoorSiteLayout BuildLayout(std::uint32_t seed, double size_m) {
   OutdoorSiteLayout l{};
   const double size = std::clamp(size_m, kOutdoorSiteMinSizeM, kOutdoorSiteMaxSizeM);
   l.size_m = size;
@@ -562,7 +533,7 @@ OutdoorSiteLayout GetOutdoorSiteLayout(std::uint32_t seed, double size_m) {
   const double end = std::max(kQueryEndMinM, kQueryEndFraction * size);
   const std::array<Vec2, 2> hill_ends = {Vec2(end, end), Vec2(size - end, size - end)};
 
-  std::mt19937 rng = internal::MakeEngine(seed, kSiteLayoutStream);
+  std::mt19937 rng = MakeEngine(seed, kSiteLayoutStream);
   DrawHills(rng, &l);
   PlaceHeaps(rng, hill_ends, &l);
   PlaceObstacles(rng, hill_ends, &l);
@@ -586,25 +557,51 @@ OutdoorSiteLayout GetOutdoorSiteLayout(std::uint32_t seed, double size_m) {
   return l;
 }
 
-namespace internal {
-
-std::size_t OutdoorSitePointBound(std::uint32_t seed, double size_m, double spacing_m) {
-  return PointBound(GetOutdoorSiteLayout(seed, size_m), spacing_m);
-}
-
-}  // namespace internal
-
-PointCloud GenerateOutdoorSite(std::uint32_t seed, double size_m, double spacing_m) {
-  if (!internal::IsValidSpacing(spacing_m) || !(size_m >= kOutdoorSiteMinSizeM) ||
+PointCloud Generate(std::uint32_t seed, double size_m, double spacing_m) {
+  if (!IsValidSpacing(spacing_m) || !(size_m >= kOutdoorSiteMinSizeM) ||
       !(size_m <= kOutdoorSiteMaxSizeM)) {
     return {};
   }
-  const OutdoorSiteLayout l = GetOutdoorSiteLayout(seed, size_m);
+  const OutdoorSiteLayout l = BuildLayout(seed, size_m);
   SurfaceSampler s(seed, spacing_m);
   s.Reserve(PointBound(l, spacing_m));
   SampleGround(s, l);
   SampleStructures(s, l);
   return std::move(s).TakeCloud();
+}
+
+}  // namespace
+
+std::size_t OutdoorSitePointBound(std::uint32_t seed, double size_m, double spacing_m) {
+  return PointBound(BuildLayout(seed, size_m), spacing_m);
+}
+
+}  // namespace internal
+
+double OutdoorSiteLayout::GroundZAt(double x_m, double y_m) const {
+  internal::GroundColumn column(*this);
+  column.MoveTo(x_m);
+  return column.HeightAt(y_m);
+}
+
+bool OutdoorSiteLayout::OnPad(double x_m, double y_m) const {
+  return x_m >= pad_x_min_m && x_m <= pad_x_max_m && y_m >= pad_y_min_m && y_m <= pad_y_max_m;
+}
+
+bool OutdoorSiteLayout::HasUpperFloor(double x_m, double y_m) const {
+  const bool inside = x_m >= building_x_min_m && x_m <= building_x_max_m &&
+                      y_m >= building_y_min_m && y_m <= building_y_max_m;
+  const SceneRamp& r = building_ramp;
+  return inside && !(internal::StrictlyInside(x_m, r.x_min_m, r.x_max_m) &&
+                     internal::StrictlyInside(y_m, r.y_min_m, r.y_max_m));
+}
+
+OutdoorSiteLayout GetOutdoorSiteLayout(std::uint32_t seed, double size_m) {
+  return internal::BuildLayout(seed, size_m);
+}
+
+PointCloud GenerateOutdoorSite(std::uint32_t seed, double size_m, double spacing_m) {
+  return internal::Generate(seed, size_m, spacing_m);
 }
 
 }  // namespace strata

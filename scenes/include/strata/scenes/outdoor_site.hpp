@@ -75,6 +75,13 @@ struct OutdoorSiteLayout {
 
   double size_m;  ///< The site is [0, size] × [0, size].
 
+  /// Ground height at (x, y) [m]: hills, pad and heaps (not obstacles or structures).
+  double GroundZAt(double x_m, double y_m) const;
+  /// Whether (x, y) lies on the level pad.
+  bool OnPad(double x_m, double y_m) const;
+  /// Whether the upper floor has floor over (x, y): inside the building, not in the opening.
+  bool HasUpperFloor(double x_m, double y_m) const;
+
   // Hills: GroundZAt = hill_scale · (1 - w) · (octaves' sum - hill_offset) + heaps, where the
   // weight w falls smoothly from 1 on the pad to 0 at blend_m from it.
   std::vector<Octave> octaves;  ///< Coarse first.
@@ -113,13 +120,6 @@ struct OutdoorSiteLayout {
   /// under_the_bridge (along the road), ground_to_upper_floor (in through the west door,
   /// up the ramp, through the partition's door); differential robot.
   std::vector<SceneQuery> queries;
-
-  /// Ground height at (x, y) [m]: hills, pad and heaps (not obstacles or structures).
-  double GroundZAt(double x_m, double y_m) const;
-  /// Whether (x, y) lies on the level pad.
-  bool OnPad(double x_m, double y_m) const;
-  /// Whether the upper floor has floor over (x, y): inside the building, not in the opening.
-  bool HasUpperFloor(double x_m, double y_m) const;
 };
 
 /// The layout for `seed` and `size_m` (clamped to [40, 1000] m).
