@@ -1,5 +1,6 @@
-// `strata-offline scene` end to end: the real binary writes a scene as PCD, which LoadPointCloud
-// reads back point for point; bad arguments get exit code 2, failures 1, with a message.
+// `strata-offline scene` end to end: the real binary writes a scene (at a size, for a scene that
+// has one) as PCD, which LoadPointCloud reads back point for point; bad arguments get exit
+// code 2, failures 1, with a message.
 
 #include <sys/wait.h>
 #include <unistd.h>
@@ -13,6 +14,7 @@
 
 #include "run_offline.hpp"
 #include "strata/cloud_io.hpp"
+#include "strata/scenes/outdoor_site.hpp"
 #include "strata/scenes/paper_scenes.hpp"
 #include "strata/scenes/scenes.hpp"
 
@@ -64,6 +66,21 @@ TEST_F(SceneCommandTest, DefaultsAreSeedOneAndTheScenesOwnSpacing) {
   auto loaded = LoadPointCloud(out);
   ASSERT_TRUE(loaded.ok()) << loaded.error().message;
   EXPECT_TRUE(loaded->points == GenerateScene("stairs_ramp_room", 1).value());
+}
+
+TEST_F(SceneCommandTest, TakesTheSizeOfASceneThatHasOne) {
+  const std::string out = Path("site.pcd");
+  Outcome run = RunOffline("scene outdoor_site --size 40 --spacing 0.3 --out '" + out + "'");
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_THAT(run.output, HasSubstr("size 40 m, spacing 0.300 m"));
+  auto loaded = LoadPointCloud(out);
+  ASSERT_TRUE(loaded.ok()) << loaded.error().message;
+  EXPECT_TRUE(loaded->points == GenerateOutdoorSite(1, 40.0, 0.3));
+
+  run = RunOffline("scene two_level_ramp --size 40 --out '" + Path("x.pcd") + "'");
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_THAT(run.output, HasSubstr("two_level_ramp has no size parameter"));
+  EXPECT_FALSE(std::filesystem::exists(Path("x.pcd")));
 }
 
 TEST_F(SceneCommandTest, BadArgumentsExitWithTwo) {
