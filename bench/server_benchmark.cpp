@@ -1,4 +1,4 @@
-// Service figures for docs/benchmarks.md (issue 4): plan latency through gRPC against the
+// Service figures for docs/benchmarks.md ("Service"): plan latency through gRPC against the
 // server's own in-process plan time, and throughput with 1, 2, 8 and 32 concurrent clients.
 // Talks to a running strata-server that hosts scene20.2 as "s20" and the spiral as "spiral":
 //
@@ -38,7 +38,7 @@ struct Query {
 };
 
 // Reference queries of ../shared/maps/README.md that plan successfully (docs/benchmarks.md,
-// "Planning (issue 3)").
+// "Planning").
 const Query kLatencyQueries[] = {
     {"s2_flat_diag", "s20", {-6, -8, 1}, {16, 16, 1}},
     {"s2_under_deck", "s20", {0, -2, 1}, {13, -2, 1}},

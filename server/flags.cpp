@@ -1,5 +1,7 @@
 #include "flags.hpp"
 
+#include "strata/version.hpp"
+
 #include <CLI/CLI.hpp>
 #include <cctype>
 #include <charconv>
@@ -10,7 +12,8 @@
 namespace strata::server {
 namespace {
 
-constexpr const char* kVersion = "strata-server 0.1.0 (API strata.v1)";
+// The project's version (CMakeLists.txt, through strata/version.hpp), as saved models name it.
+const std::string kVersion = std::string("strata-server ") + kStrataVersion + " (API strata.v1)";
 
 // What the flags write: the configuration, and --preload and --no-preload as given.
 struct ParsedFlags {

@@ -9,25 +9,13 @@
 
 #include <grpc/health/v1/health.grpc.pb.h>
 #include <grpcpp/grpcpp.h>
+#include <CLI/CLI.hpp>
 
 namespace {
 
 constexpr int kServing = 0;
 constexpr int kNotServing = 1;
 constexpr int kUsage = 3;
-
-constexpr const char* kUsageText =
-    "usage: strata-health-probe [ADDRESS] [--service NAME] [--timeout-s S]\n"
-    "\n"
-    "Calls grpc.health.v1.Health/Check on ADDRESS (host:port, plaintext) and prints the\n"
-    "status. Exit 0 when SERVING, 1 otherwise (NOT_SERVING, unknown service, unreachable,\n"
-    "deadline exceeded), 3 for bad arguments.\n"
-    "\n"
-    "  ADDRESS        default: $STRATA_HEALTH_ADDRESS, else 127.0.0.1 and the port of\n"
-    "                 $STRATA_LISTEN (strata-server's listen address; the host too unless\n"
-    "                 it is a wildcard such as 0.0.0.0 or [::]), else 127.0.0.1:50051\n"
-    "  --service NAME service to ask about; default \"\" (the whole server)\n"
-    "  --timeout-s S  deadline of the call in seconds, > 0; default 3\n";
 
 /// Where strata-server listens when configured by $STRATA_LISTEN, seen from the same host.
 std::string DefaultAddress() {
@@ -62,38 +50,31 @@ int main(int argc, char** argv) {
   std::string address;
   std::string service;
   double timeout_s = 3.0;
-  for (int i = 1; i < argc; ++i) {
-    const std::string arg = argv[i];
-    if (arg == "--help" || arg == "-h") {
-      std::fputs(kUsageText, stdout);
-      return kServing;
-    }
-    if (arg == "--service" || arg == "--timeout-s") {
-      if (i + 1 >= argc) {
-        std::fprintf(stderr, "strata-health-probe: %s needs a value\n%s", arg.c_str(), kUsageText);
-        return kUsage;
-      }
-      const std::string value = argv[++i];
-      if (arg == "--service") {
-        service = value;
-      } else {
-        char* end = nullptr;
-        timeout_s = std::strtod(value.c_str(), &end);
-        if (end == value.c_str() || *end != '\0' || !(timeout_s > 0.0) || timeout_s > 3600.0) {
-          std::fprintf(stderr, "strata-health-probe: --timeout-s %s: want seconds in (0, 3600]\n",
-                       value.c_str());
-          return kUsage;
-        }
-      }
-    } else if (!arg.empty() && arg[0] == '-') {
-      std::fprintf(stderr, "strata-health-probe: unknown flag %s\n%s", arg.c_str(), kUsageText);
-      return kUsage;
-    } else if (address.empty()) {
-      address = arg;
-    } else {
-      std::fprintf(stderr, "strata-health-probe: one ADDRESS only (got %s)\n", arg.c_str());
-      return kUsage;
-    }
+  CLI::App app(
+      "Calls grpc.health.v1.Health/Check on ADDRESS (host:port, plaintext) and prints the "
+      "status.",
+      "strata-health-probe");
+  app.footer(
+      "Exit 0 when SERVING, 1 otherwise (NOT_SERVING, unknown service, unreachable, deadline "
+      "exceeded), 3 for bad arguments (Docker reserves 2).");
+  app.add_option("ADDRESS", address,
+                 "default: $STRATA_HEALTH_ADDRESS, else 127.0.0.1 and the port of "
+                 "$STRATA_LISTEN (strata-server's listen address; the host too unless it is a "
+                 "wildcard such as 0.0.0.0 or [::]), else 127.0.0.1:50051");
+  app.add_option("--service", service, "service to ask about; \"\" is the whole server")
+      ->type_name("NAME")
+      ->capture_default_str();
+  app.add_option("--timeout-s", timeout_s, "deadline of the call in seconds")
+      ->type_name("S")
+      ->check(CLI::Range(1e-3, 3600.0))
+      ->capture_default_str();
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& help) {
+    return app.exit(help);  // The help on stdout, exit 0.
+  } catch (const CLI::ParseError& error) {
+    std::fprintf(stderr, "strata-health-probe: %s (--help lists the options)\n", error.what());
+    return kUsage;
   }
   if (address.empty()) address = DefaultAddress();
 
