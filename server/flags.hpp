@@ -30,6 +30,10 @@ struct PreloadSpec {
 /// --preload's default, the demo scene; --no-preload starts without it.
 inline constexpr const char* kDefaultPreload = "demo=scene:two_level_ramp";
 
+/// Most trajectory samples one PlanResponse may carry (options.sample_dt_s): 20,000 samples
+/// of 4 vectors are about 2 MB, well under --max-send-message-bytes' default.
+inline constexpr int kMaxResponseSamples = 20000;
+
 struct ServerConfig {
   /// gRPC listen address host:port; port 0 picks a free port (printed at start).
   std::string listen = "0.0.0.0:50051";

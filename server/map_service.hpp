@@ -9,11 +9,12 @@
 
 namespace strata::server {
 
+/// Set from ServerConfig (server/flags.hpp), which holds the defaults and the flags.
 struct MapServiceOptions {
-  /// Canonical map root; empty disables file maps.
+  /// Canonical map root; empty disables file maps (--map-root).
   std::filesystem::path map_root;
-  /// Most points one map may hold, uploaded or generated [-].
-  std::size_t max_points = 50'000'000;
+  /// Most points one map may hold, uploaded or generated [-], > 0 (--max-points).
+  std::size_t max_points = 0;
 };
 
 /// The MapSource of a CreateMapRequest: a file confined to `map_root`, or a scene with every

@@ -13,13 +13,15 @@ namespace strata::server {
 
 class Metrics;
 
+/// Set from ServerConfig (server/flags.hpp), which holds the defaults and the flags: no
+/// default is repeated here.
 struct PlannerServiceOptions {
-  /// Cap on every plan's time budget [s], > 0.
-  double max_plan_time_s = 10.0;
-  /// Plans run at the same time [-], >= 1.
-  int max_concurrent_plans = 2;
-  /// Most trajectory samples one response may carry [-].
-  int max_samples = 20000;
+  /// Cap on every plan's time budget [s], > 0 (--max-plan-time-s).
+  double max_plan_time_s = 0;
+  /// Plans run at the same time [-], >= 1 (--max-concurrent-plans, 0 resolved to the cores).
+  int max_concurrent_plans = 0;
+  /// Most trajectory samples one response may carry [-], >= 2 (kMaxResponseSamples).
+  int max_samples = 0;
 };
 
 /// A request converted and validated, before any map is touched.

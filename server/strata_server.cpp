@@ -101,6 +101,7 @@ Result<std::unique_ptr<StrataServer>> StrataServer::Start(const ServerConfig& co
       self->registry_.get(), MapServiceOptions{map_root, config.max_points});
   PlannerServiceOptions planner_options;
   planner_options.max_plan_time_s = config.max_plan_time_s;
+  planner_options.max_samples = kMaxResponseSamples;
   planner_options.max_concurrent_plans =
       config.max_concurrent_plans > 0
           ? config.max_concurrent_plans
