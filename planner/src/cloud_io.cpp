@@ -149,13 +149,33 @@ Expected<LoadedCloud> LoadPointCloud(const std::string& path, const CloudLoadLim
 
 Expected<LoadedCloud> SanitizeCloud(PointCloud raw, const CloudLoadLimits& limits) {
   if (Status status = CheckLimits(limits); !status.ok()) return status.error();
-  Expected<LoadedCloud> cloud = internal::SanitizePoints(
-      raw.size(), [&](std::size_t i) { return raw[i].cast<double>(); }, "cloud", limits);
-  if (cloud.ok() && cloud->points.empty()) {
+  if (raw.size() > limits.max_points) {
+    return internal::TooBig("cloud", Cat("holds ", raw.size(), " points"), limits.max_points,
+                            "max_points");
+  }
+  // In place: the points kept move to the front, so a large cloud is never held twice.
+  const double bound = internal::CoordinateBound(limits);
+  LoadedCloud out;
+  out.raw_point_count = raw.size();
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < raw.size(); ++i) {
+    const Eigen::Vector3f p = raw[i];
+    if (!p.allFinite()) {
+      ++out.dropped_nonfinite;
+      continue;
+    }
+    if (Status s = internal::CheckCoordinates("cloud", i, p.cast<double>(), bound, limits); !s) {
+      return s.error();
+    }
+    raw[kept++] = p;
+  }
+  if (kept == 0) {
     return Error{ErrorCode::kInvalidInput,
                  Cat("cloud contains no finite points (", raw.size(), " given)")};
   }
-  return cloud;
+  raw.resize(kept);
+  out.points = std::move(raw);
+  return out;
 }
 
 }  // namespace strata

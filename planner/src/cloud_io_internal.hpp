@@ -76,15 +76,30 @@ class MemoryStreambuf : public std::streambuf {
 /// beyond limits.max_abs_coordinate_m (kInvalidInput). `point_at(i)` yields point i in double
 /// precision, so an F8 coordinate of 1e300 is reported as out of range, not as an infinity.
 /// An empty result is not an error here: the callers word that failure themselves.
+/// The largest |coordinate| a point may have: the configured limit, and never beyond float
+/// range (a coordinate there cannot be stored).
+inline double CoordinateBound(const CloudLoadLimits& limits) {
+  return std::min(limits.max_abs_coordinate_m, double{std::numeric_limits<float>::max()});
+}
+
+/// kInvalidInput when the finite point `p` (number `i` of `source`) lies beyond `bound`.
+inline Status CheckCoordinates(std::string_view source, std::size_t i, const Eigen::Vector3d& p,
+                               double bound, const CloudLoadLimits& limits) {
+  if (!(p.cwiseAbs().maxCoeff() > bound)) return Status::Ok();
+  return Error{ErrorCode::kInvalidInput,
+               Cat(source, ": point ", i, " at (", p.x(), ", ", p.y(), ", ", p.z(),
+                   ") m lies beyond the ", limits.max_abs_coordinate_m,
+                   " m coordinate limit; check the units (CloudLoadLimits::"
+                   "max_abs_coordinate_m)")};
+}
+
 template <typename PointAt>
 Expected<LoadedCloud> SanitizePoints(std::size_t count, const PointAt& point_at,
                                      std::string_view source, const CloudLoadLimits& limits) {
   if (count > limits.max_points) {
     return TooBig(source, Cat("holds ", count, " points"), limits.max_points, "max_points");
   }
-  // Beyond float range a coordinate cannot be stored, whatever the configured limit.
-  const double bound =
-      std::min(limits.max_abs_coordinate_m, double{std::numeric_limits<float>::max()});
+  const double bound = CoordinateBound(limits);
   LoadedCloud out;
   out.raw_point_count = count;
   out.points.reserve(count);
@@ -94,13 +109,7 @@ Expected<LoadedCloud> SanitizePoints(std::size_t count, const PointAt& point_at,
       ++out.dropped_nonfinite;
       continue;
     }
-    if (p.cwiseAbs().maxCoeff() > bound) {
-      return Error{ErrorCode::kInvalidInput,
-                   Cat(source, ": point ", i, " at (", p.x(), ", ", p.y(), ", ", p.z(),
-                       ") m lies beyond the ", limits.max_abs_coordinate_m,
-                       " m coordinate limit; check the units (CloudLoadLimits::"
-                       "max_abs_coordinate_m)")};
-    }
+    if (Status s = CheckCoordinates(source, i, p, bound, limits); !s) return s.error();
     out.points.push_back(p.cast<float>());
   }
   return out;

@@ -1,0 +1,187 @@
+// Site-scale figures for docs/benchmarks.md ("Site-scale maps"): the outdoor_site scene of a
+// given side assessed with every core, its memory per column of valid ground and the peak
+// RSS, the differential robot's surface graph, a saved model written and loaded back, and
+// plans of a few metres and across the site. One site per process, so that the peak RSS is
+// that site's. Not part of the test path.
+//
+//   build/bench/site_benchmark SIZE_M [--spacing M] [--resolution M] [--plans] [--keep FILE]
+#include <sys/resource.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+#include "statistics.hpp"
+#include "strata/planner.hpp"
+#include "strata/saved_model.hpp"
+#include "strata/scenes/outdoor_site.hpp"
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double SecondsSince(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+// The process's peak resident memory so far [MB].
+double PeakRssMb() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return static_cast<double>(usage.ru_maxrss) / 1024.0;
+}
+
+// Columns holding at least one valid surface.
+std::size_t ValidColumns(const strata::TerrainModel& model) {
+  const Eigen::Vector3i n = model.grid().size;
+  std::size_t count = 0;
+  for (int iy = 0; iy < n.y(); ++iy) {
+    for (int ix = 0; ix < n.x(); ++ix) {
+      const auto column = model.surfaces().Column(ix, iy);
+      count += std::any_of(column.begin(), column.end(), [](const auto& s) { return s.valid; });
+    }
+  }
+  return count;
+}
+
+// Plans from `start` to `goal` `runs` times; the median total and search time [ms] and the
+// last result.
+struct PlanFigures {
+  bool ok = false;
+  std::string error;
+  double total_ms = 0, search_ms = 0, length_m = 0;
+  int expansions = 0;
+};
+
+PlanFigures TimePlans(const strata::PlanningMap& map, const Eigen::Vector3d& start,
+                      const Eigen::Vector3d& goal, int runs) {
+  strata::PlanRequest request;
+  request.profile = *strata::BuiltinProfile("differential");
+  request.start.position_m = start;
+  request.goal.position_m = goal;
+  request.options.time_budget_s = 60;
+  std::vector<double> totals, searches;
+  PlanFigures figures;
+  for (int k = 0; k < runs; ++k) {
+    const auto result = strata::Plan(map, request);
+    if (!result.ok()) {
+      figures.error = result.error().message;
+      return figures;
+    }
+    totals.push_back(1e3 * result->stats.timings.total_s);
+    searches.push_back(1e3 * result->stats.timings.search_s);
+    figures.length_m = result->stats.length_m;
+    figures.expansions = result->stats.search_expansions;
+  }
+  figures.ok = true;
+  figures.total_ms = strata::bench::Median(totals);
+  figures.search_ms = strata::bench::Median(searches);
+  return figures;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  double size_m = 100, spacing_m = 0.1, resolution_m = 0.2;
+  bool plans = false;
+  std::string keep;
+  CLI::App app("Site-scale assessment, memory, saved model and plan figures.", "site_benchmark");
+  app.add_option("SIZE_M", size_m, "side of the outdoor_site [m]")->required();
+  app.add_option("--spacing", spacing_m, "point spacing [m]")->capture_default_str();
+  app.add_option("--resolution", resolution_m, "grid resolution [m]")->capture_default_str();
+  app.add_flag("--plans", plans, "also time plans of a few metres and across the site");
+  app.add_option("--keep", keep, "keep the saved model in FILE (default: a temporary file)");
+  CLI11_PARSE(app, argc, argv);
+
+  auto start = Clock::now();
+  strata::PointCloud cloud = strata::GenerateOutdoorSite(1, size_m, spacing_m);
+  const double generate_s = SecondsSince(start);
+  const std::size_t points = cloud.size();
+  strata::AssessmentConfig config;
+  config.grid.resolution_m = resolution_m;
+  start = Clock::now();
+  auto assessed = strata::TerrainModel::Assess(cloud, config);
+  const double assess_s = SecondsSince(start);
+  if (!assessed.ok()) {
+    std::fprintf(stderr, "assessment failed: %s\n", assessed.error().message.c_str());
+    return 1;
+  }
+  const double peak_after_assess_mb = PeakRssMb();
+  cloud = {};
+  cloud.shrink_to_fit();
+  const strata::TerrainModel& model = **assessed;
+  const std::size_t valid_columns = ValidColumns(model);
+  const double model_mb = static_cast<double>(model.MemoryBytes()) / 1e6;
+
+  strata::PlanningMap map(*assessed);
+  start = Clock::now();
+  auto graph = map.Graph(strata::BuiltinProfile("differential")->Traversability());
+  const double graph_s = SecondsSince(start);
+  if (!graph.ok()) {
+    std::fprintf(stderr, "graph failed: %s\n", graph.error().message.c_str());
+    return 1;
+  }
+  const double peak_after_graph_mb = PeakRssMb();
+  const std::size_t graph_bytes = (*graph)->MemoryBytes();
+
+  const std::string path = keep.empty() ? (std::filesystem::temp_directory_path() /
+                                           ("site_benchmark_" + std::to_string(::getpid())))
+                                              .string()
+                                        : keep;
+  start = Clock::now();
+  if (strata::Status saved = strata::SaveModel(model, path); !saved) {
+    std::fprintf(stderr, "%s\n", saved.error().message.c_str());
+    return 1;
+  }
+  const double save_s = SecondsSince(start);
+  const double file_mb = static_cast<double>(std::filesystem::file_size(path)) / 1e6;
+  std::vector<double> loads;
+  for (int k = 0; k < 3; ++k) {
+    start = Clock::now();
+    auto loaded = strata::LoadModel(path);
+    loads.push_back(SecondsSince(start));
+    if (!loaded.ok()) {
+      std::fprintf(stderr, "%s\n", loaded.error().message.c_str());
+      return 1;
+    }
+  }
+  if (keep.empty()) std::filesystem::remove(path);
+  const double load_s = strata::bench::Median(loads);
+
+  std::printf(
+      "| site | points | grid columns | valid-ground columns | generate s | assess s | model MB "
+      "| B / valid column | peak RSS MB (assessed) | graph nodes | graph s | graph MB | B / node "
+      "| peak RSS MB (with graph) | saved MB | save s | load s | assess / load |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+  std::printf(
+      "| %.0f m @%.2f m, grid %.2f m | %.2f M | %.1f M | %.1f M | %.1f | %.2f | %.0f | %.0f | "
+      "%.0f | %.1f M | %.2f | %.0f | %.1f | %.0f | %.0f | %.2f | %.3f | %.0f× |\n",
+      size_m, spacing_m, resolution_m, points / 1e6, model.grid().LayerCellCount() / 1e6,
+      valid_columns / 1e6, generate_s, assess_s, model_mb,
+      static_cast<double>(model.MemoryBytes()) / static_cast<double>(valid_columns),
+      peak_after_assess_mb, (*graph)->node_count() / 1e6, graph_s, graph_bytes / 1e6,
+      static_cast<double>(graph_bytes) / (*graph)->node_count(), peak_after_graph_mb, file_mb,
+      save_s, load_s, assess_s / load_s);
+
+  if (plans) {
+    const strata::OutdoorSiteLayout layout = strata::GetOutdoorSiteLayout(1, size_m);
+    std::printf("\n| plan | length m | expansions | search ms (median) | total ms (median) |\n");
+    std::printf("|---|---|---|---|---|\n");
+    for (const strata::SceneQuery& query : layout.queries) {
+      const Eigen::Vector3d lift(0, 0, 0.3);
+      const PlanFigures f = TimePlans(map, query.start_m + lift, query.goal_m + lift, 5);
+      if (!f.ok) {
+        std::printf("| %s | failed: %s | | | |\n", query.name.c_str(), f.error.c_str());
+        continue;
+      }
+      std::printf("| %s | %.1f | %d | %.2f | %.2f |\n", query.name.c_str(), f.length_m,
+                  f.expansions, f.search_ms, f.total_ms);
+    }
+  }
+  return 0;
+}
