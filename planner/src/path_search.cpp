@@ -26,8 +26,8 @@ Status SearchConfig::Validate(std::string_view path) const {
   if (!(std::isfinite(rim_weight) && rim_weight >= 0)) {
     return bad_config("rim_weight", rim_weight, ">= 0 and finite");
   }
-  if (!(std::isfinite(rim_margin_m) && rim_margin_m > 0)) {
-    return bad_config("rim_margin_m", rim_margin_m, "> 0 and finite");
+  if (!(std::isfinite(rim_margin_m) && rim_margin_m > 0 && rim_margin_m <= 1)) {
+    return bad_config("rim_margin_m", rim_margin_m, "in (0, 1] m");
   }
   return Status::Ok();
 }

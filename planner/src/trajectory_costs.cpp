@@ -51,8 +51,8 @@ Status CostConfig::Validate(std::string_view path) const {
   if (!(std::isfinite(safety_threshold) && safety_threshold >= 0)) {
     return bad_field("safety_threshold", safety_threshold, ">= 0 and finite");
   }
-  if (!(std::isfinite(edge_margin_m) && edge_margin_m >= 0)) {
-    return bad_field("edge_margin_m", edge_margin_m, ">= 0 and finite");
+  if (!(std::isfinite(edge_margin_m) && edge_margin_m >= 0 && edge_margin_m <= 1)) {
+    return bad_field("edge_margin_m", edge_margin_m, "in [0, 1] m");
   }
   if (!(std::isfinite(distance_threshold_m) && distance_threshold_m > 0)) {
     return bad_field("distance_threshold_m", distance_threshold_m, "> 0 and finite");

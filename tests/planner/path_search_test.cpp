@@ -447,5 +447,43 @@ TEST(EdgeSymmetryOnTheSpiral, EveryEdgeRunsBothWays) {
   EXPECT_EQ(one_way, 0);
 }
 
+TEST(EdgeDistance, IsTheChamferDistanceFromTheRimUpToItsCap) {
+  // Reference: a Dijkstra over every node from the nodes missing a neighbour, uncapped.
+  const Expected<PointCloud> cloud = GenerateScene("parking_garage", 2);
+  ASSERT_TRUE(cloud.ok());
+  AssessmentConfig config;
+  config.grid.resolution_m = 0.25;
+  auto model = TerrainModel::Assess(*cloud, config);
+  ASSERT_TRUE(model.ok());
+  auto graph = SurfaceGraph::Build(**model, TraversabilityParams{});
+  ASSERT_TRUE(graph.ok());
+  const double r = graph->grid().resolution_m;
+  std::vector<double> reference(graph->node_count(), std::numeric_limits<double>::infinity());
+  using Item = std::pair<double, int>;
+  std::priority_queue<Item, std::vector<Item>, std::greater<>> queue;
+  for (int a = 0; a < graph->node_count(); ++a) {
+    int neighbours = 0;
+    graph->ForEachNeighbor(a, [&](int) { ++neighbours; });
+    if (neighbours < 8) queue.push({reference[a] = 0.5 * r, a});
+  }
+  while (!queue.empty()) {
+    const auto [d, a] = queue.top();
+    queue.pop();
+    if (d > reference[a]) continue;
+    graph->ForEachNeighbor(a, [&, d = d, a = a](int b) {
+      const Eigen::Vector2i step = graph->column(b) - graph->column(a);
+      const double next = d + (step.x() != 0 && step.y() != 0 ? std::sqrt(2.0) * r : r);
+      if (next < reference[b]) queue.push({reference[b] = next, b});
+    });
+  }
+  const double cap = SurfaceGraph::EdgeDistanceCap(r);
+  int interior = 0;
+  for (int a = 0; a < graph->node_count(); ++a) {
+    ASSERT_NEAR(graph->edge_distance(a), std::min(reference[a], cap), 1e-4) << "node " << a;
+    interior += reference[a] > cap;
+  }
+  EXPECT_GT(interior, 1000);  // The cap was reached, so the comparison covers it.
+}
+
 }  // namespace
 }  // namespace strata

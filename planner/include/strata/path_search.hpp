@@ -27,7 +27,8 @@ struct SearchConfig {
   /// Extra cost of a move onto the rim of the traversable ground, relative to its length
   /// [-], >= 0. Paths that hug a drop or a too-steep patch leave the optimiser no room.
   double rim_weight = 1.0;
-  /// Distance to the rim (SurfaceGraph::edge_distance) below which moves cost extra [m], > 0.
+  /// Distance to the rim (SurfaceGraph::edge_distance) below which moves cost extra [m], in
+  /// (0, 1] (the graph keeps rim distances exact only up to 2 m).
   double rim_margin_m = 0.4;
 
   Status Validate(std::string_view path = "search") const;

@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <numbers>
 #include <span>
 #include <vector>
 
@@ -117,8 +118,16 @@ class SurfaceGraph {
 
   /// Distance from the node's column centre to the rim of the traversable region it belongs
   /// to [m]: 0.5·r for a node missing any of its 8 neighbours (its column borders
-  /// non-traversable ground), growing inwards along graph edges (chamfer distance).
+  /// non-traversable ground), growing inwards along graph edges (chamfer distance), up to
+  /// EdgeDistanceCap(r); nodes farther in read the cap.
   double edge_distance(int node) const { return edge_distance_[node]; }
+  /// Where edge distances stop growing [m]: 2 m, plus two diagonal steps so that values up to
+  /// 2 m interpolate exactly between columns. Its readers' margins stay below 1 m
+  /// (SearchConfig::rim_margin_m, CostConfig::edge_margin_m), so capping changes nothing for
+  /// them, and only the nodes within the cap of a rim are visited: a fraction of a big map.
+  static double EdgeDistanceCap(double resolution_m) {
+    return 2.0 + 2.0 * std::numbers::sqrt2 * resolution_m;
+  }
   /// The node of column (ix, iy) whose ground is nearest to ground_z and within 0.5 m of it
   /// (the same level), or -1.
   int NodeNear(int ix, int iy, double ground_z) const;
@@ -143,7 +152,8 @@ class SurfaceGraph {
   };
 
   SurfaceGraph() = default;
-  void ComputeEdgeDistances();
+  // Sets edge_distance_ from the nodes of the rim.
+  void ComputeEdgeDistances(const std::vector<std::int32_t>& rim);
   // Whether column (ix, iy) has a node an axis step away from both a and b.
   bool HasStepNeighbor(const Node& a, const Node& b, int ix, int iy) const {
     for (const std::int32_t m : ColumnNodes(ix, iy)) {

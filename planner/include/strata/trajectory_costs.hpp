@@ -61,8 +61,8 @@ struct CostConfig {
   /// ESDF distance below this is penalised (d_thr) [m], > 0. Keep it below the profile's
   /// reference height: the ground itself is an obstacle that far below the reference point.
   double distance_threshold_m = 0.15;
-  /// Distance to the rim of traversable ground below which J_e penalises (e_margin) [m], >= 0;
-  /// at most half a grid cell keeps the centres of rim cells free of penalty.
+  /// Distance to the rim of traversable ground below which J_e penalises (e_margin) [m], in
+  /// [0, 1]; at most half a grid cell keeps the centres of rim cells free of penalty.
   double edge_margin_m = 0.1;
   /// The speed and acceleration bounds J_d aims for, as a fraction of the profile's, in
   /// (0, 1]: penalties are soft, so aiming a little low lands within them.
