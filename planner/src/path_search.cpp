@@ -17,6 +17,9 @@ Status SearchConfig::Validate(std::string_view path) const {
     return internal::OutOfRange(internal::FieldPath(path, field), value, range);
   };
   if (max_expansions < 1) return bad_config("max_expansions", max_expansions, ">= 1");
+  if (!(heuristic_weight >= 1 && heuristic_weight <= 3)) {
+    return bad_config("heuristic_weight", heuristic_weight, "in [1, 3]");
+  }
   if (!(std::isfinite(clearance_weight) && clearance_weight >= 0)) {
     return bad_config("clearance_weight", clearance_weight, ">= 0 and finite");
   }
@@ -92,7 +95,8 @@ Expected<PathResult> SearchPath(const SurfaceGraph& graph, int start_node, int g
   std::priority_queue<Entry, std::vector<Entry>, std::greater<>> open;
   state.At(start_node).g = 0;
   reached = 1;
-  open.push({(start_p - goal_p).norm(), 0.0, start_node});
+  const double w = config.heuristic_weight;
+  open.push({w * (start_p - goal_p).norm(), 0.0, start_node});
 
   while (!open.empty()) {
     const Entry top = open.top();
@@ -140,7 +144,7 @@ Expected<PathResult> SearchPath(const SurfaceGraph& graph, int start_node, int g
         reached += next.parent < 0;
         next.g = g;
         next.parent = top.node;
-        open.push({g + (graph.position(m) - goal_p).norm(), g, m});
+        open.push({g + w * (graph.position(m) - goal_p).norm(), g, m});
       }
     });
   }

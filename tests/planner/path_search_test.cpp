@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <limits>
 #include <memory>
@@ -226,12 +227,21 @@ TEST_F(TwoLevel, AStarMatchesDijkstra) {
     if (graph().component(v) == graph().component(start)) component.push_back(v);
   }
   std::mt19937 rng(42);
-  const SearchConfig config;
+  // Plain A* (w = 1) is optimal; weighted A* (the default w) costs at most w times that.
+  SearchConfig plain;
+  plain.heuristic_weight = 1.0;
+  const SearchConfig weighted;
+  ASSERT_GT(weighted.heuristic_weight, 1.0);
   for (int trial = 0; trial < 6; ++trial) {
     const int a = component[rng() % component.size()];
-    const std::vector<double> dist = Dijkstra(graph(), a, config);
+    const std::vector<double> dist = Dijkstra(graph(), a, plain);
     for (int k = 0; k < 4; ++k) {
       const int b = component[rng() % component.size()];
+      auto fast = SearchPath(graph(), a, b, weighted, {});
+      ASSERT_TRUE(fast.ok()) << fast.error().message;
+      EXPECT_GE(fast->cost, dist[b] - 1e-9 * std::max(1.0, dist[b]));
+      EXPECT_LE(fast->cost, weighted.heuristic_weight * dist[b] + 1e-9);
+      const SearchConfig& config = plain;
       auto path = SearchPath(graph(), a, b, config, {});
       ASSERT_TRUE(path.ok()) << path.error().message;
       EXPECT_NEAR(path->cost, dist[b], 1e-9 * std::max(1.0, dist[b]));
