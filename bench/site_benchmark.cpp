@@ -172,15 +172,33 @@ int main(int argc, char** argv) {
     const strata::OutdoorSiteLayout layout = strata::GetOutdoorSiteLayout(1, size_m);
     std::printf("\n| plan | length m | expansions | search ms (median) | total ms (median) |\n");
     std::printf("|---|---|---|---|---|\n");
-    for (const strata::SceneQuery& query : layout.queries) {
-      const Eigen::Vector3d lift(0, 0, 0.3);
-      const PlanFigures f = TimePlans(map, query.start_m + lift, query.goal_m + lift, 5);
+    const Eigen::Vector3d lift(0, 0, 0.3);
+    const auto row = [](const std::string& name, const PlanFigures& f) {
       if (!f.ok) {
-        std::printf("| %s | failed: %s | | | |\n", query.name.c_str(), f.error.c_str());
-        continue;
+        std::printf("| %s | failed: %s | | | |\n", name.c_str(), f.error.c_str());
+      } else {
+        std::printf("| %s | %.1f | %d | %.2f | %.2f |\n", name.c_str(), f.length_m, f.expansions,
+                    f.search_ms, f.total_ms);
       }
-      std::printf("| %s | %.1f | %d | %.2f | %.2f |\n", query.name.c_str(), f.length_m,
-                  f.expansions, f.search_ms, f.total_ms);
+    };
+    for (const strata::SceneQuery& query : layout.queries) {
+      row(query.name, TimePlans(map, query.start_m + lift, query.goal_m + lift, 5));
+    }
+    // Plans of a given straight-line length from the across_the_hills start towards its goal;
+    // the goal moves on a metre at a time until it stands on ground (not on an obstacle).
+    const strata::SceneQuery& diagonal = layout.queries.front();
+    const Eigen::Vector2d direction = (diagonal.goal_m - diagonal.start_m).head<2>().normalized();
+    for (const double distance : {5.0, 50.0, 500.0}) {
+      if (distance > 0.9 * (diagonal.goal_m - diagonal.start_m).head<2>().norm()) continue;
+      PlanFigures f;
+      for (int k = 0; k < 20 && !f.ok; ++k) {
+        const Eigen::Vector2d xy = diagonal.start_m.head<2>() + (distance + k) * direction;
+        const Eigen::Vector3d goal(xy.x(), xy.y(), layout.GroundZAt(xy.x(), xy.y()));
+        f = TimePlans(map, diagonal.start_m + lift, goal + lift, distance < 100 ? 20 : 5);
+      }
+      char name[64];
+      std::snprintf(name, sizeof(name), "%.0f m along the diagonal", distance);
+      row(name, f);
     }
   }
   return 0;

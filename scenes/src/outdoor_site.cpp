@@ -97,7 +97,7 @@ class GroundColumn {
  public:
   explicit GroundColumn(const OutdoorSiteLayout& l) : l_(l) {
     for (std::size_t k = 0; k < l.octaves.size(); ++k) {
-      rows_[k].resize(static_cast<std::size_t>(l.octaves[k].cells + 3));
+      rows_[k].resize(static_cast<std::size_t>(l.octaves[k].cells) + 3);
     }
   }
 
@@ -181,16 +181,15 @@ void DrawHills(std::mt19937& rng, OutdoorSiteLayout* l) {
     OutdoorSiteLayout::Octave o;
     o.cells = kOctaveCells[k];
     o.knot_spacing_m = size / o.cells;
-    const int n = o.cells + 3;
-    o.coefficients.resize(static_cast<std::size_t>(n * n));
+    const auto n = static_cast<std::size_t>(o.cells) + 3;
+    o.coefficients.resize(n * n);
     for (double& c : o.coefficients) c = Uniform(rng, -1.0, 1.0) * kOctaveAmplitude[k];
     // The pad's centre is the middle knot of every octave. Its 3 × 3 coefficients made equal,
     // the hills have no slope and no curvature there, so the pad cuts little into them.
-    const int mid = o.cells / 2 + 1;
-    const double centre = o.coefficients[static_cast<std::size_t>(mid * n + mid)];
-    for (int a = mid - 1; a <= mid + 1; ++a) {
-      for (int b = mid - 1; b <= mid + 1; ++b)
-        o.coefficients[static_cast<std::size_t>(a * n + b)] = centre;
+    const auto mid = static_cast<std::size_t>(o.cells / 2) + 1;
+    const double centre = o.coefficients[mid * n + mid];
+    for (std::size_t a = mid - 1; a <= mid + 1; ++a) {
+      for (std::size_t b = mid - 1; b <= mid + 1; ++b) o.coefficients[a * n + b] = centre;
     }
     l->octaves.push_back(std::move(o));
   }
