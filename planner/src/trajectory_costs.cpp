@@ -290,9 +290,10 @@ double TrajectoryCost::PointPenalty(const StateVector& pos, const StateVector& v
       const Cubic high = CubicPenalty(h - (c.body_height_max_m - range_margin));
       const Cubic low = CubicPenalty(c.body_height_min_m + margin - h);
       const Cubic ceiling = CubicPenalty(h + c.headroom_m + margin - ground.clearance_m);
-      terms.height += w.feasibility * (high.value + low.value + ceiling.value);
-      (*grad_pos)(3) += w.feasibility * (high.slope - low.slope + ceiling.slope);
-      grad_pos->head<2>() += w.feasibility *
+      const double weight = c.body_height_stiffness * w.feasibility;
+      terms.height += weight * (high.value + low.value + ceiling.value);
+      (*grad_pos)(3) += weight * (high.slope - low.slope + ceiling.slope);
+      grad_pos->head<2>() += weight *
                              (low.slope * margin_slope + ceiling.slope * (margin_slope - 1)) *
                              ground.clearance_gradient;
     }

@@ -59,6 +59,11 @@ Status VerifierConfig::Validate() const {
   return Status::Ok();
 }
 
+double BodyHeightTolerance(const RobotProfile& profile, const VerifierConfig& config) {
+  return config.limit_tolerance *
+         (profile.active_height ? profile.body_height_max_m : profile.body_height_m);
+}
+
 Status VerifyTrajectory(const SurfaceGraph& graph, const RobotProfile& profile,
                         const Trajectory& trajectory, const VerifierConfig& config,
                         VerificationReport* report) {
@@ -75,6 +80,7 @@ Status VerifyTrajectory(const SurfaceGraph& graph, const RobotProfile& profile,
   // limit check bounds it anyway), so this step keeps consecutive samples <= the spacing.
   const double peak_speed = 1.1 * PeakSpeed(trajectory);
   const double tolerance = 1 + config.limit_tolerance;
+  const double body_slack_m = BodyHeightTolerance(profile, config);
   // A voxelised cloud knows its ground only to within half a quantum; the check allows that
   // plus a quarter quantum of tracking, or every staircase ramp would fail it by noise.
   const double ground_tolerance_m =
@@ -151,21 +157,22 @@ Status VerifyTrajectory(const SurfaceGraph& graph, const RobotProfile& profile,
         return Violation(t, p, buf);
       }
 
-      // Body: fits under the ceiling, within its range.
+      // Body: under the ceiling with the profile's headroom above it, within its range.
       const double body = profile.active_height ? pos(3) : profile.body_height_m;
+      const double clearance = surface.clearance_m;
       report->min_body_height_m = std::min(report->min_body_height_m, body);
-      report->min_headroom_m =
-          std::min(report->min_headroom_m, static_cast<double>(surface.clearance_m) - body);
-      if (surface.clearance_m < body) {
-        char buf[128];
+      report->min_headroom_m = std::min(report->min_headroom_m, clearance - body);
+      if (!(body + profile.headroom_m <= clearance + body_slack_m)) {
+        char buf[192];
         std::snprintf(buf, sizeof(buf),
-                      "body height %.3f m does not fit under the ceiling %.3f m above ground", body,
-                      static_cast<double>(surface.clearance_m));
+                      "headroom %.3f m between the body (height %.3f m) and the ceiling (%.3f m "
+                      "above ground) is below the profile's headroom_m %.3f m",
+                      clearance - body, body, clearance, profile.headroom_m);
         return Violation(t, p, buf);
       }
       if (profile.active_height) {
-        const double slack = config.limit_tolerance * profile.body_height_max_m;
-        if (body > profile.body_height_max_m + slack || body < profile.body_height_min_m - slack) {
+        if (body > profile.body_height_max_m + body_slack_m ||
+            body < profile.body_height_min_m - body_slack_m) {
           char buf[128];
           std::snprintf(buf, sizeof(buf), "body height %.3f m is outside [%.3f, %.3f] m", body,
                         profile.body_height_min_m, profile.body_height_max_m);

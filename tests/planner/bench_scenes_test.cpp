@@ -214,6 +214,9 @@ Expected<PlanResult> ExpectPlans(const PlanningMap& map, const SceneQuery& q,
   EXPECT_LE(plan->stats.max_ground_offset_m, request.options.verifier.ground_tolerance_m);
   EXPECT_LE(plan->stats.max_speed_horizontal_mps, 1.01 * request.profile.max_speed_horizontal_mps);
   EXPECT_LE(plan->stats.max_tilt_rad, request.profile.max_tilt_rad + 1e-6);
+  EXPECT_GE(
+      plan->stats.min_headroom_m,
+      request.profile.headroom_m - BodyHeightTolerance(request.profile, request.options.verifier));
   return plan;
 }
 
@@ -348,8 +351,11 @@ TEST(BenchScenesAssessed, TablesOnlyTheBipedCrouchesUnderTheRow) {
     // Behind the row: the biped crouches under it, the differential robot cannot get there.
     ASSERT_EQ(q.robot, "biped");
     if (plan.ok()) {
-      EXPECT_LE(plan->stats.min_body_height_m, l.table_underside_z_m - 0.05 + 1e-6);
-      EXPECT_GE(plan->stats.min_headroom_m, 0.0);
+      const RobotProfile biped = BuiltinProfile("biped").value();
+      const double tolerance = BodyHeightTolerance(biped, VerifierConfig{});
+      EXPECT_LE(plan->stats.min_body_height_m,
+                l.table_underside_z_m - biped.headroom_m + tolerance);
+      EXPECT_GE(plan->stats.min_headroom_m, biped.headroom_m - tolerance);
     }
     const Expected<PlanResult> wheeled = Plan(map, Request(q, "differential"));
     ASSERT_FALSE(wheeled.ok()) << q.name;

@@ -22,10 +22,17 @@ struct VerifierConfig {
   /// Smallest ESDF distance at the reference point [m], >= 0 (the reference point is never
   /// inside an obstacle; walls are kept away by the ground filter radius).
   double min_obstacle_distance_m = 0.05;
-  /// Speed and acceleration may exceed the profile's bounds by this fraction, >= 0.
+  /// Speed and acceleration may exceed the profile's bounds by this fraction, >= 0. The body
+  /// height may leave its range, and eat into the profile's headroom, by this fraction of the
+  /// highest body height (BodyHeightTolerance: 7 mm for the built-in biped).
   double limit_tolerance = 0.01;
   Status Validate() const;
 };
+
+/// How far the body height may leave [body_height_min_m, body_height_max_m], and come closer
+/// to the ceiling than the profile's headroom_m, in verification [m]: limit_tolerance × the
+/// highest body height (body_height_max_m, or body_height_m for a fixed height).
+double BodyHeightTolerance(const RobotProfile& profile, const VerifierConfig& config);
 
 /// What verification measured over all samples (extremes; filled even on failure up to the
 /// first violation).
@@ -45,9 +52,10 @@ struct VerificationReport {
 /// Checks every sample (spacing <= max_sample_spacing_m in 3D, and both ends): the column
 /// under the reference point is traversable for the profile at the sample's level (a node of
 /// `graph`, built from profile.Traversability(): valid ground, tilt <= max_tilt_rad, ceiling
-/// clearance >= lowest body height + headroom) and its ceiling clears the body height
-/// (commanded for active-height robots, else body_height_m); z within ground_tolerance_m of
-/// ground + reference height (the smoothed ground of SampleGround); ESDF distance
+/// clearance >= lowest body height + headroom) and its ceiling clearance is at least the body
+/// height (commanded for active-height robots, else body_height_m) plus the profile's
+/// headroom_m (less the tolerance of VerifierConfig::limit_tolerance); z within ground_tolerance_m
+/// of ground + reference height (the smoothed ground of SampleGround); ESDF distance
 /// >= min_obstacle_distance_m; horizontal/vertical speed and acceleration within the bounds
 /// (+ limit_tolerance); body height within [min, max] (+ limit_tolerance) for active-height
 /// robots. Fails with kOptimizationFailed naming the first violation: time, position, the
