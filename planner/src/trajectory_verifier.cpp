@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <numbers>
 #include <string>
 
 #include "format_internal.hpp"
@@ -40,6 +41,29 @@ double PeakSpeed(const Trajectory& trajectory) {
   return peak;
 }
 
+// Most samples one verification takes (2e7 samples 2 cm apart: 400 km).
+constexpr double kMaxSamples = 2e7;
+
+constexpr double kDegree = std::numbers::pi / 180.0;
+
+// `surface` if it is one of column `cell`'s surfaces, else nullptr.
+const ColumnSurface* SurfaceOfColumn(const TerrainModel& model, const Eigen::Vector3i& cell,
+                                     const ColumnSurface* surface) {
+  for (const ColumnSurface& s : model.surfaces().Column(cell.x(), cell.y())) {
+    if (&s == surface) return surface;
+  }
+  return nullptr;
+}
+
+// Whether `graph` has a node on `surface` in column `cell`.
+bool HasNodeOn(const SurfaceGraph& graph, const Eigen::Vector3i& cell,
+               const ColumnSurface* surface) {
+  for (const std::int32_t node : graph.ColumnNodes(cell.x(), cell.y())) {
+    if (&graph.surface(node) == surface) return true;
+  }
+  return false;
+}
+
 }  // namespace
 
 Status VerifierConfig::Validate() const {
@@ -68,24 +92,65 @@ Status VerifyTrajectory(const SurfaceGraph& graph, const RobotProfile& profile,
                         const Trajectory& trajectory, const VerifierConfig& config,
                         VerificationReport* report) {
   if (Status s = config.Validate(); !s) return s;
+  if (Status s = profile.Validate(); !s) return s;
   const TerrainModel& model = graph.model();
   *report = VerificationReport{};
   report->min_obstacle_distance_m = std::numeric_limits<double>::infinity();
   report->min_body_height_m = std::numeric_limits<double>::infinity();
   report->min_headroom_m = std::numeric_limits<double>::infinity();
+  const int dimension = profile.active_height ? 4 : 3;
+  if (trajectory.dimension != dimension) {
+    char buf[160];
+    std::snprintf(buf, sizeof(buf),
+                  "trajectory has dimension %d but profile '%s' needs %d (x, y, z%s)",
+                  trajectory.dimension, profile.name.c_str(), dimension,
+                  profile.active_height ? ", body height" : "");
+    return Error{ErrorCode::kInvalidInput, buf};
+  }
   if (trajectory.pieces.empty()) {
     return Error{ErrorCode::kOptimizationFailed, "trajectory verification failed: no pieces"};
+  }
+  for (std::size_t i = 0; i < trajectory.pieces.size(); ++i) {
+    const TrajectoryPiece& piece = trajectory.pieces[i];
+    if (piece.coefficients.cols() != dimension) {
+      return Error{ErrorCode::kInvalidInput, "trajectory piece " + std::to_string(i) + " has " +
+                                                 std::to_string(piece.coefficients.cols()) +
+                                                 " axes, the trajectory " +
+                                                 std::to_string(dimension)};
+    }
+    // Everything below evaluates these; a NaN would also make the step count undefined.
+    if (!(std::isfinite(piece.duration_s) && piece.duration_s > 0) ||
+        !piece.coefficients.allFinite()) {
+      char buf[160];
+      std::snprintf(buf, sizeof(buf),
+                    "trajectory verification failed: piece %zu has duration %g s and %s "
+                    "coefficients; both must be finite, the duration > 0",
+                    i, piece.duration_s, piece.coefficients.allFinite() ? "finite" : "non-finite");
+      return Error{ErrorCode::kOptimizationFailed, buf};
+    }
   }
   // Speed is at most ~1.1× the coarse peak between coarse samples of a quintic (and the 1%
   // limit check bounds it anyway), so this step keeps consecutive samples <= the spacing.
   const double peak_speed = 1.1 * PeakSpeed(trajectory);
+  const double sample_count = peak_speed * trajectory.TotalDuration() / config.max_sample_spacing_m;
+  if (!(sample_count <= kMaxSamples)) {
+    char buf[160];
+    std::snprintf(buf, sizeof(buf),
+                  "trajectory verification failed: %.3g samples %.3g m apart are too many "
+                  "(at most %.0f); the trajectory is too long or too fast",
+                  sample_count, config.max_sample_spacing_m, kMaxSamples);
+    return Error{ErrorCode::kOptimizationFailed, buf};
+  }
   const double tolerance = 1 + config.limit_tolerance;
   const double body_slack_m = BodyHeightTolerance(profile, config);
   // A voxelised cloud knows its ground only to within half a quantum; the check allows that
   // plus a quarter quantum of tracking, or every staircase ramp would fail it by noise.
   const double ground_tolerance_m =
       std::max(config.ground_tolerance_m, 0.75 * model.summary().vertical_quantum_m);
+  const GridGeometry& grid = graph.grid();
+  const Eigen::Vector3d grid_max = grid.origin_m + grid.size.cast<double>() * grid.resolution_m;
 
+  // Every comparison below is written !(value within bound), so a NaN fails it.
   double piece_start = 0;
   for (std::size_t i = 0; i < trajectory.pieces.size(); ++i) {
     const double piece_duration = trajectory.pieces[i].duration_s;
@@ -108,49 +173,59 @@ Status VerifyTrajectory(const SurfaceGraph& graph, const RobotProfile& profile,
       report->max_speed_vertical_mps = std::max(report->max_speed_vertical_mps, speed_v);
       report->max_accel_horizontal_mps2 = std::max(report->max_accel_horizontal_mps2, accel_h);
       report->max_accel_vertical_mps2 = std::max(report->max_accel_vertical_mps2, accel_v);
-      if (speed_h > tolerance * profile.max_speed_horizontal_mps) {
+      if (!(speed_h <= tolerance * profile.max_speed_horizontal_mps)) {
         return Violation(
             t, p, Exceeds("horizontal speed", speed_h, profile.max_speed_horizontal_mps, "m/s"));
       }
-      if (speed_v > tolerance * profile.max_speed_vertical_mps) {
+      if (!(speed_v <= tolerance * profile.max_speed_vertical_mps)) {
         return Violation(t, p,
                          Exceeds("vertical speed", speed_v, profile.max_speed_vertical_mps, "m/s"));
       }
-      if (accel_h > tolerance * profile.max_accel_horizontal_mps2) {
+      if (!(accel_h <= tolerance * profile.max_accel_horizontal_mps2)) {
         return Violation(t, p,
                          Exceeds("horizontal acceleration", accel_h,
                                  profile.max_accel_horizontal_mps2, "m/s^2"));
       }
-      if (accel_v > tolerance * profile.max_accel_vertical_mps2) {
+      if (!(accel_v <= tolerance * profile.max_accel_vertical_mps2)) {
         return Violation(
             t, p,
             Exceeds("vertical acceleration", accel_v, profile.max_accel_vertical_mps2, "m/s^2"));
       }
 
-      // Ground: the column under the reference point must be traversable at this level.
+      // Ground: the surface the robot stands on is the one of its own column nearest to its
+      // feet (SampleGround), never another level of that column (the deck above a passage
+      // too low for it). It must be valid ground, not too steep, and a node of the graph.
+      if (!((p.array() >= grid.origin_m.array()).all() && (p.array() < grid_max.array()).all())) {
+        return Violation(t, p, "no ground: the reference point is outside the map's grid");
+      }
       GroundSample ground;
-      if (!SampleGround(model, p, profile.reference_height_m, 0, &ground)) {
-        return Violation(t, p, "no ground below the reference point");
+      const Eigen::Vector3i cell = grid.CellOf(p);
+      if (!SampleGround(model, p, profile.reference_height_m, 0, &ground) ||
+          SurfaceOfColumn(model, cell, ground.surface) == nullptr) {
+        return Violation(t, p, "no ground in the column below the reference point");
       }
-      const Eigen::Vector3i cell = graph.grid().CellOf(p);
-      const int node = graph.NodeNear(cell.x(), cell.y(), ground.height_m);
-      if (node < 0) {
+      const ColumnSurface& surface = *ground.surface;
+      if (!surface.valid) {
         return Violation(t, p,
-                         "the ground below is not traversable for this robot (not valid "
-                         "ground, too steep, or too low a ceiling)");
+                         "the ground below is not valid ground (the Valid Ground Filter found "
+                         "an obstacle, an overhang or a steep rise within its radius)");
       }
-      const ColumnSurface& surface = graph.surface(node);
-      report->max_tilt_rad = std::max(report->max_tilt_rad, static_cast<double>(surface.tilt_rad));
+      const double tilt = surface.tilt_rad;
+      report->max_tilt_rad = std::max(report->max_tilt_rad, tilt);
+      if (!(tilt <= profile.max_tilt_rad)) {
+        return Violation(
+            t, p, Exceeds("ground tilt", tilt / kDegree, profile.max_tilt_rad / kDegree, "deg"));
+      }
       const double offset = p.z() - ground.height_m - profile.reference_height_m;
       report->max_ground_offset_m = std::max(report->max_ground_offset_m, std::abs(offset));
-      if (std::abs(offset) > ground_tolerance_m) {
+      if (!(std::abs(offset) <= ground_tolerance_m)) {
         return Violation(t, p,
                          Exceeds("distance from the reference height above ground",
                                  std::abs(offset), ground_tolerance_m, "m"));
       }
       const double distance = model.Distance(p);
       report->min_obstacle_distance_m = std::min(report->min_obstacle_distance_m, distance);
-      if (distance < config.min_obstacle_distance_m) {
+      if (!(distance >= config.min_obstacle_distance_m)) {
         char buf[128];
         std::snprintf(buf, sizeof(buf), "obstacle distance %.3f m is below %.3f m", distance,
                       config.min_obstacle_distance_m);
@@ -170,14 +245,20 @@ Status VerifyTrajectory(const SurfaceGraph& graph, const RobotProfile& profile,
                       clearance - body, body, clearance, profile.headroom_m);
         return Violation(t, p, buf);
       }
-      if (profile.active_height) {
-        if (body > profile.body_height_max_m + body_slack_m ||
-            body < profile.body_height_min_m - body_slack_m) {
-          char buf[128];
-          std::snprintf(buf, sizeof(buf), "body height %.3f m is outside [%.3f, %.3f] m", body,
-                        profile.body_height_min_m, profile.body_height_max_m);
-          return Violation(t, p, buf);
-        }
+      if (profile.active_height && !(body <= profile.body_height_max_m + body_slack_m &&
+                                     body >= profile.body_height_min_m - body_slack_m)) {
+        char buf[128];
+        std::snprintf(buf, sizeof(buf), "body height %.3f m is outside [%.3f, %.3f] m", body,
+                      profile.body_height_min_m, profile.body_height_max_m);
+        return Violation(t, p, buf);
+      }
+
+      // The graph the path was searched on must hold this surface too (it does when it was
+      // built from profile.Traversability(); another robot's graph may not).
+      if (!HasNodeOn(graph, cell, ground.surface)) {
+        return Violation(t, p,
+                         "the ground below is not a node of the traversability graph (a graph "
+                         "built for other traversability parameters than this profile's?)");
       }
     }
     piece_start += piece_duration;

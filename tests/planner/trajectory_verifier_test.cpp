@@ -1,9 +1,14 @@
+// The verifier against hand-made trajectories on a hand-made map. For every kind of
+// violation a trajectory that violates it by a small margin is refused, with a message that
+// names the quantity, and the same trajectory just inside the bound passes.
 #include "strata/trajectory_verifier.hpp"
 
 #include <cmath>
-#include <cstdio>
+#include <limits>
 #include <memory>
 #include <numbers>
+#include <string>
+#include <vector>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -17,11 +22,20 @@
 namespace strata {
 namespace {
 
+using test_util::kMinimumJerkPeakAcceleration;
+using test_util::kMinimumJerkPeakSpeed;
 using test_util::MinimumJerk;
 using ::testing::HasSubstr;
 
 constexpr double kRampSlopeRad = 10.0 * std::numbers::pi / 180.0;
+// How far past (or inside) a bound the trajectories go: relative for speeds and
+// accelerations, in metres for heights and distances.
+constexpr double kRelativeMargin = 0.003;
+constexpr double kMarginM = 0.002;
 
+// A yard 12 × 6 m, floor at z = 0 with a 1 × 1 m hole (x in (1, 2), y in (4.5, 5.5)); a slab
+// 0.45 m above the floor over [2, 4] × [2, 4] (the deck over a passage too low for a 0.5 m
+// body); a 10° ramp rising along +x over [7, 10] × [1, 5] to a plateau.
 PointCloud Yard() {
   test_util::CloudBuilder b(0.05);
   const auto in_hole = [](double x, double y) { return x > 1 && x < 2 && y > 4.5 && y < 5.5; };
@@ -49,36 +63,352 @@ SurfaceGraph GraphFor(const RobotProfile& profile) {
   return SurfaceGraph::Build(Model(), profile.Traversability()).value();
 }
 
-RobotProfile Biped() { return BuiltinProfile("biped").value(); }
+// A built-in profile whose speed and acceleration bounds are far above anything here, so that
+// only the quantity a test is about can fail.
+RobotProfile Loose(const std::string& name) {
+  RobotProfile profile = BuiltinProfile(name).value();
+  profile.max_speed_horizontal_mps = profile.max_speed_vertical_mps = 10;
+  profile.max_accel_horizontal_mps2 = profile.max_accel_vertical_mps2 = 10;
+  return profile;
+}
 
-// The biped under the slab (clearance 0.45 m, read from the map), body held at `body_m`.
-Trajectory UnderTheSlab(double body_m) {
-  const double z = Biped().reference_height_m;
-  return MinimumJerk(Eigen::Vector4d(2.5, 3.0, z, body_m), Eigen::Vector4d(3.5, 3.0, z, body_m), 4);
+Status Verify(const RobotProfile& profile, const Trajectory& trajectory,
+              const VerifierConfig& config = {}, VerificationReport* report = nullptr) {
+  VerificationReport scratch;
+  return VerifyTrajectory(GraphFor(profile), profile, trajectory, config,
+                          report != nullptr ? report : &scratch);
+}
+
+void ExpectRefused(const Status& status, const std::string& quantity) {
+  ASSERT_FALSE(status.ok()) << "expected a refusal naming " << quantity;
+  EXPECT_EQ(status.error().code, ErrorCode::kOptimizationFailed);
+  EXPECT_THAT(status.error().message, HasSubstr("trajectory verification failed"));
+  EXPECT_THAT(status.error().message, HasSubstr(quantity));
+}
+
+void ExpectPasses(const Status& status) { EXPECT_TRUE(status.ok()) << status.error().message; }
+
+// Rest to rest along the floor at y = 1 from x = 1 to 4 (3 m) in 4 s, the reference point
+// rising by `rise_m` (centred on the reference height, plus `offset_m`); active-height
+// profiles hold the body at `body_m`.
+constexpr double kRunM = 3, kRunS = 4;
+Trajectory AcrossTheFloor(const RobotProfile& profile, double rise_m = 0, double offset_m = 0,
+                          double body_m = 0.65) {
+  const double z = profile.reference_height_m + offset_m;
+  Eigen::VectorXd from(profile.active_height ? 4 : 3), to(from.size());
+  from.head<3>() << 1, 1, z - rise_m / 2;
+  to.head<3>() << 1 + kRunM, 1, z + rise_m / 2;
+  if (profile.active_height) from(3) = to(3) = body_m;
+  return MinimumJerk(from, to, kRunS, 2);
+}
+
+TEST(VerifyTrajectory, ACleanTrajectoryPassesAndItsExtremesAreReported) {
+  const RobotProfile profile = Loose("differential");
+  VerificationReport report;
+  ExpectPasses(Verify(profile, AcrossTheFloor(profile, 0.1), {}, &report));
+  // Samples at most 2 cm apart along the path, and the analytic peaks found within 0.5%.
+  EXPECT_GE(report.samples, kRunM / VerifierConfig{}.max_sample_spacing_m);
+  EXPECT_NEAR(report.max_speed_horizontal_mps, kMinimumJerkPeakSpeed * kRunM / kRunS,
+              0.005 * kMinimumJerkPeakSpeed * kRunM / kRunS);
+  EXPECT_NEAR(report.max_accel_horizontal_mps2,
+              kMinimumJerkPeakAcceleration * kRunM / (kRunS * kRunS),
+              0.005 * kMinimumJerkPeakAcceleration * kRunM / (kRunS * kRunS));
+  EXPECT_NEAR(report.max_ground_offset_m, 0.05, 1e-3);
+  EXPECT_NEAR(report.max_tilt_rad, 0, 1e-3);
+  EXPECT_EQ(report.min_headroom_m, std::numeric_limits<double>::infinity());
+}
+
+// Speed and acceleration, horizontal and vertical: the bound set so that the trajectory's
+// analytic peak lies just above (refused) or just below (passes) bound × (1 + tolerance).
+struct LimitCase {
+  const char* quantity;
+  double RobotProfile::*bound;
+  double peak;
+};
+
+class VerifyLimits : public ::testing::TestWithParam<LimitCase> {};
+
+TEST_P(VerifyLimits, RefusedJustOverTheBoundAndPassedJustUnder) {
+  const LimitCase& c = GetParam();
+  RobotProfile profile = Loose("differential");
+  const Trajectory trajectory = AcrossTheFloor(profile, 0.1);
+  const double allowed = 1 + VerifierConfig{}.limit_tolerance;
+  profile.*c.bound = c.peak / allowed * (1 - kRelativeMargin);
+  ExpectRefused(Verify(profile, trajectory), c.quantity);
+  profile.*c.bound = c.peak / allowed * (1 + kRelativeMargin);
+  ExpectPasses(Verify(profile, trajectory));
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    SpeedAndAcceleration, VerifyLimits,
+    ::testing::Values(LimitCase{"horizontal speed", &RobotProfile::max_speed_horizontal_mps,
+                                kMinimumJerkPeakSpeed* kRunM / kRunS},
+                      LimitCase{"vertical speed", &RobotProfile::max_speed_vertical_mps,
+                                kMinimumJerkPeakSpeed * 0.1 / kRunS},
+                      LimitCase{"horizontal acceleration", &RobotProfile::max_accel_horizontal_mps2,
+                                kMinimumJerkPeakAcceleration* kRunM / (kRunS * kRunS)},
+                      LimitCase{"vertical acceleration", &RobotProfile::max_accel_vertical_mps2,
+                                kMinimumJerkPeakAcceleration * 0.1 / (kRunS * kRunS)}));
+
+TEST(VerifyTrajectory, RefusesFloatingAboveOrSinkingBelowTheReferenceHeight) {
+  const RobotProfile profile = Loose("differential");
+  const VerifierConfig config;
+  // The yard is no voxel lattice, so the configured tolerance is the one applied.
+  ASSERT_LT(0.75 * Model().summary().vertical_quantum_m, config.ground_tolerance_m);
+  const double tolerance = config.ground_tolerance_m;
+  for (const double sign : {1.0, -1.0}) {
+    ExpectRefused(Verify(profile, AcrossTheFloor(profile, 0, sign * (tolerance + kMarginM))),
+                  "distance from the reference height above ground");
+    ExpectPasses(Verify(profile, AcrossTheFloor(profile, 0, sign * (tolerance - kMarginM))));
+  }
+}
+
+TEST(VerifyTrajectory, RefusesLeavingTheGround) {
+  const RobotProfile profile = Loose("differential");
+  const double z = profile.reference_height_m;
+  // Over the hole in the floor, and off the map.
+  ExpectRefused(
+      Verify(profile, MinimumJerk(Eigen::Vector3d(3, 5, z), Eigen::Vector3d(1.5, 5, z), 4)),
+      "no ground");
+  ExpectPasses(
+      Verify(profile, MinimumJerk(Eigen::Vector3d(3, 5, z), Eigen::Vector3d(2.15, 5, z), 4)));
+  ExpectRefused(
+      Verify(profile, MinimumJerk(Eigen::Vector3d(11, 0.5, z), Eigen::Vector3d(15, 0.5, z), 4)),
+      "no ground");
+}
+
+TEST(VerifyTrajectory, RefusesAReferencePointAboveTheMapsGrid) {
+  const RobotProfile profile = Loose("differential");
+  const GridGeometry& grid = Model().grid();
+  const double top = grid.origin_m.z() + grid.size.z() * grid.resolution_m;
+  ExpectRefused(Verify(profile, MinimumJerk(Eigen::Vector3d(1, 1, top + kMarginM),
+                                            Eigen::Vector3d(2, 1, top + kMarginM), 4)),
+                "outside the map's grid");
+}
+
+// Beside the ramp's low side the floor is not valid ground: the ramp's edge rises steeply
+// within the filter's radius. Half a metre further out it is.
+TEST(VerifyTrajectory, RefusesGroundTheValidGroundFilterRemoved) {
+  const RobotProfile profile = Loose("differential");
+  const double z = profile.reference_height_m;
+  const auto along = [&](double y) {
+    return MinimumJerk(Eigen::Vector3d(7.6, y, z), Eigen::Vector3d(8.2, y, z), 4);
+  };
+  ExpectRefused(Verify(profile, along(5.15)), "not valid ground");
+  ExpectPasses(Verify(profile, along(5.6)));
+}
+
+TEST(VerifyTrajectory, RefusesATrajectoryTooFastToSampleDensely) {
+  const RobotProfile profile = Loose("differential");
+  const double z = profile.reference_height_m;
+  // 1.9e6 m/s at its peak: 1e8 samples 2 cm apart.
+  ExpectRefused(
+      Verify(profile, MinimumJerk(Eigen::Vector3d(1, 1, z), Eigen::Vector3d(1e6, 1, z), 1)),
+      "too many");
+}
+
+TEST(VerifyTrajectory, RefusesComingCloserToAnObstacleThanTheBound) {
+  const RobotProfile profile = Loose("differential");
+  const Trajectory trajectory = AcrossTheFloor(profile);
+  VerifierConfig config;
+  config.min_obstacle_distance_m = 0;
+  VerificationReport report;
+  ExpectPasses(Verify(profile, trajectory, config, &report));
+  // The floor itself is the nearest obstacle: about the reference height away.
+  const double distance = report.min_obstacle_distance_m;
+  EXPECT_NEAR(distance, profile.reference_height_m, 0.05);
+  config.min_obstacle_distance_m = distance + kMarginM;
+  ExpectRefused(Verify(profile, trajectory, config), "obstacle distance");
+  config.min_obstacle_distance_m = distance - kMarginM;
+  ExpectPasses(Verify(profile, trajectory, config));
+}
+
+TEST(VerifyTrajectory, RefusesGroundSteeperThanTheProfileAllows) {
+  RobotProfile profile = Loose("differential");
+  const auto on_ramp = [&](double x) {
+    return Eigen::Vector3d(x, 3, (x - 7) * std::tan(kRampSlopeRad) + profile.reference_height_m);
+  };
+  const Trajectory up_the_ramp = MinimumJerk(on_ramp(7.6), on_ramp(9.4), 6);
+  VerificationReport report;
+  ExpectPasses(Verify(profile, up_the_ramp, {}, &report));
+  const double tilt = report.max_tilt_rad;  // The plane fits' tilt, near the ramp's 10°.
+  EXPECT_NEAR(tilt, kRampSlopeRad, 0.01);
+  profile.max_tilt_rad = tilt - 0.002;
+  ExpectRefused(Verify(profile, up_the_ramp), "ground tilt");
+  profile.max_tilt_rad = tilt + 0.002;
+  ExpectPasses(Verify(profile, up_the_ramp));
+}
+
+TEST(VerifyTrajectory, RefusesABodyHeightOutsideItsRange) {
+  const RobotProfile biped = Loose("biped");
+  const double tolerance = BodyHeightTolerance(biped, {});
+  EXPECT_NEAR(tolerance, 0.007, 1e-12);  // 1% of the biped's 0.7 m.
+  const double high = biped.body_height_max_m + tolerance,
+               low = biped.body_height_min_m - tolerance;
+  ExpectRefused(Verify(biped, AcrossTheFloor(biped, 0, 0, high + kMarginM)), "body height");
+  ExpectPasses(Verify(biped, AcrossTheFloor(biped, 0, 0, high - kMarginM)));
+  ExpectRefused(Verify(biped, AcrossTheFloor(biped, 0, 0, low - kMarginM)), "body height");
+  ExpectPasses(Verify(biped, AcrossTheFloor(biped, 0, 0, low + kMarginM)));
+}
+
+// Under the slab, from x = 2.5 to 3.5 at y = 3 (0.5 m inside its edges).
+Trajectory UnderTheSlab(const RobotProfile& profile, double body_m = 0) {
+  const double z = profile.reference_height_m;
+  if (!profile.active_height)
+    return MinimumJerk(Eigen::Vector3d(2.5, 3, z), Eigen::Vector3d(3.5, 3, z), 4);
+  return MinimumJerk(Eigen::Vector4d(2.5, 3, z, body_m), Eigen::Vector4d(3.5, 3, z, body_m), 4);
+}
+
+// The floor's ceiling under the slab, read from the map.
+double SlabClearance() {
+  for (const ColumnSurface& s : Model().surfaces().Column(Model().grid().CellOf({3, 3, 0}).x(),
+                                                          Model().grid().CellOf({3, 3, 0}).y())) {
+    if (std::abs(s.ground_z_m) < 0.01) return s.clearance_m;
+  }
+  return 0;
 }
 
 TEST(VerifyTrajectory, KeepsTheProfilesHeadroomAboveTheCommandedBody) {
-  const RobotProfile biped = Biped();
-  const SurfaceGraph graph = GraphFor(biped);
+  const RobotProfile biped = Loose("biped");
   const VerifierConfig config;
-  const int node = graph.NodeNear(graph.grid().CellOf({3.0, 3.0, 0.2}).x(),
-                                  graph.grid().CellOf({3.0, 3.0, 0.2}).y(), 0.0);
-  ASSERT_GE(node, 0);
-  const double clearance = graph.ceiling_clearance(node);
+  const double clearance = SlabClearance();
   ASSERT_NEAR(clearance, 0.45, 1e-6);
-  // The body may eat into the headroom by the verifier's stated tolerance, no more.
+  // The body may eat into the headroom by the stated tolerance (1% of the highest body), no
+  // more.
   const double highest =
       clearance - biped.headroom_m + config.limit_tolerance * biped.body_height_max_m;
+  ExpectRefused(Verify(biped, UnderTheSlab(biped, highest + kMarginM), config), "headroom");
   VerificationReport report;
+  ExpectPasses(Verify(biped, UnderTheSlab(biped, highest - kMarginM), config, &report));
+  EXPECT_NEAR(report.min_headroom_m, clearance - (highest - kMarginM), 1e-6);
+}
+
+// A robot of fixed height too tall for the passage under the slab: its graph has no node on
+// the floor there, but one on the slab above, within the level gap of the floor. The
+// verifier judges the floor it drives on, not the deck over its head.
+TEST(VerifyTrajectory, JudgesTheLevelTheRobotDrivesOnNotTheDeckAboveIt) {
+  RobotProfile profile = Loose("differential");
+  const double clearance = SlabClearance();
+  profile.body_height_m = clearance - profile.headroom_m + 0.01;
+  const SurfaceGraph graph = GraphFor(profile);
+  const Eigen::Vector3i cell = Model().grid().CellOf({3, 3, 0});
+  ASSERT_EQ(graph.ColumnNodes(cell.x(), cell.y()).size(), 1u);
+  ASSERT_NEAR(graph.ground_z(graph.ColumnNodes(cell.x(), cell.y())[0]), 0.45, 1e-6)
+      << "the slab's top must be the column's only node";
+  ASSERT_LT(0.45, SurfaceGraph::kLevelGapM);
+  ExpectRefused(Verify(profile, UnderTheSlab(profile)), "ceiling (0.450 m above ground)");
+
+  profile.body_height_m = clearance - profile.headroom_m - 0.01;
+  ExpectPasses(Verify(profile, UnderTheSlab(profile)));
+}
+
+TEST(VerifyTrajectory, RefusesGroundThatIsNoNodeOfTheGraphItIsGiven) {
+  RobotProfile fits = Loose("differential");
+  fits.body_height_m = SlabClearance() - fits.headroom_m - 0.01;
+  RobotProfile too_tall = fits;
+  too_tall.body_height_m += 0.02;
+  const Trajectory trajectory = UnderTheSlab(fits);
+  VerificationReport report;
+  // The same trajectory, checked against a graph built for a taller robot.
   const Status refused =
-      VerifyTrajectory(graph, biped, UnderTheSlab(highest + 0.002), config, &report);
-  ASSERT_FALSE(refused.ok());
-  EXPECT_EQ(refused.error().code, ErrorCode::kOptimizationFailed);
-  EXPECT_THAT(refused.error().message, HasSubstr("headroom"));
-  const Status passed =
-      VerifyTrajectory(graph, biped, UnderTheSlab(highest - 0.002), config, &report);
-  EXPECT_TRUE(passed.ok()) << passed.error().message;
-  EXPECT_NEAR(report.min_headroom_m, clearance - (highest - 0.002), 1e-6);
+      VerifyTrajectory(GraphFor(too_tall), fits, trajectory, VerifierConfig{}, &report);
+  ExpectRefused(refused, "not a node of the traversability graph");
+  ExpectPasses(VerifyTrajectory(GraphFor(fits), fits, trajectory, VerifierConfig{}, &report));
+}
+
+TEST(VerifyTrajectory, RefusesNonFiniteCoefficientsAndBadDurations) {
+  const RobotProfile biped = Loose("biped");
+  const Trajectory clean = AcrossTheFloor(biped);
+  ExpectPasses(Verify(biped, clean));
+  for (const double bad : {std::nan(""), std::numeric_limits<double>::infinity()}) {
+    for (std::size_t piece = 0; piece < clean.pieces.size(); ++piece) {
+      for (int axis = 0; axis < 4; ++axis) {
+        for (const int order : {0, 3, 5}) {
+          Trajectory t = clean;
+          t.pieces[piece].coefficients(order, axis) = bad;
+          SCOPED_TRACE("piece " + std::to_string(piece) + " axis " + std::to_string(axis) +
+                       " order " + std::to_string(order));
+          ExpectRefused(Verify(biped, t), "non-finite coefficients");
+        }
+      }
+    }
+  }
+  for (const double duration : {std::nan(""), 0.0, -1.0, std::numeric_limits<double>::infinity()}) {
+    Trajectory t = clean;
+    t.pieces.back().duration_s = duration;
+    ExpectRefused(Verify(biped, t), "duration");
+  }
+  ExpectRefused(Verify(biped, Trajectory{4, {}}), "no pieces");
+}
+
+TEST(VerifyTrajectory, RefusesATrajectoryOfTheWrongDimensionForTheProfile) {
+  const RobotProfile biped = Loose("biped"), differential = Loose("differential");
+  VerificationReport report;
+  Status status = Verify(biped, AcrossTheFloor(differential));
+  ASSERT_FALSE(status.ok());
+  EXPECT_EQ(status.error().code, ErrorCode::kInvalidInput);
+  EXPECT_THAT(status.error().message, HasSubstr("dimension 3 but profile 'biped' needs 4"));
+  status = Verify(differential, AcrossTheFloor(biped));
+  ASSERT_FALSE(status.ok());
+  EXPECT_EQ(status.error().code, ErrorCode::kInvalidInput);
+  Trajectory ragged = AcrossTheFloor(biped);
+  ragged.pieces[1].coefficients.conservativeResize(6, 3);
+  status = Verify(biped, ragged);
+  ASSERT_FALSE(status.ok());
+  EXPECT_EQ(status.error().code, ErrorCode::kInvalidInput);
+  EXPECT_THAT(status.error().message, HasSubstr("piece 1 has 3 axes"));
+}
+
+TEST(VerifyTrajectory, RefusesABadConfigOrProfileBeforeSampling) {
+  const RobotProfile profile = Loose("differential");
+  VerifierConfig config;
+  config.max_sample_spacing_m = 0;
+  Status status = Verify(profile, AcrossTheFloor(profile), config);
+  ASSERT_FALSE(status.ok());
+  EXPECT_EQ(status.error().code, ErrorCode::kInvalidConfig);
+  EXPECT_THAT(status.error().message, HasSubstr("verifier.max_sample_spacing_m"));
+  RobotProfile broken = profile;
+  broken.max_speed_vertical_mps = std::nan("");
+  VerificationReport report;
+  status = VerifyTrajectory(GraphFor(profile), broken, AcrossTheFloor(profile), {}, &report);
+  ASSERT_FALSE(status.ok());
+  EXPECT_EQ(status.error().code, ErrorCode::kInvalidConfig);
+  EXPECT_THAT(status.error().message, HasSubstr("profile.max_speed_vertical_mps"));
+}
+
+// Each field of VerifierConfig, set out of its range, is named by Validate.
+struct ConfigField {
+  const char* name;
+  double VerifierConfig::*field;
+  std::vector<double> bad;
+};
+
+TEST(VerifierConfig, ValidateNamesEachFieldOutOfRange) {
+  const double nan = std::nan(""), inf = std::numeric_limits<double>::infinity();
+  const ConfigField fields[] = {
+      {"verifier.max_sample_spacing_m", &VerifierConfig::max_sample_spacing_m, {0, -1, nan, inf}},
+      {"verifier.ground_tolerance_m", &VerifierConfig::ground_tolerance_m, {0, -1, nan, inf}},
+      {"verifier.min_obstacle_distance_m",
+       &VerifierConfig::min_obstacle_distance_m,
+       {-1e-3, nan, inf}},
+      {"verifier.limit_tolerance", &VerifierConfig::limit_tolerance, {-1e-3, nan, inf}},
+  };
+  EXPECT_TRUE(VerifierConfig{}.Validate().ok());
+  for (const ConfigField& f : fields) {
+    for (const double value : f.bad) {
+      VerifierConfig config;
+      config.*f.field = value;
+      const Status status = config.Validate();
+      ASSERT_FALSE(status.ok()) << f.name << " = " << value;
+      EXPECT_EQ(status.error().code, ErrorCode::kInvalidConfig);
+      EXPECT_THAT(status.error().message, HasSubstr(std::string(f.name) + " = "));
+    }
+  }
+  // The edges of the ranges are valid.
+  VerifierConfig edges;
+  edges.min_obstacle_distance_m = 0;
+  edges.limit_tolerance = 0;
+  EXPECT_TRUE(edges.Validate().ok());
 }
 
 }  // namespace

@@ -49,17 +49,26 @@ struct VerificationReport {
   double min_headroom_m = 0;
 };
 
-/// Checks every sample (spacing <= max_sample_spacing_m in 3D, and both ends): the column
-/// under the reference point is traversable for the profile at the sample's level (a node of
-/// `graph`, built from profile.Traversability(): valid ground, tilt <= max_tilt_rad, ceiling
-/// clearance >= lowest body height + headroom) and its ceiling clearance is at least the body
-/// height (commanded for active-height robots, else body_height_m) plus the profile's
-/// headroom_m (less the tolerance of VerifierConfig::limit_tolerance); z within ground_tolerance_m
-/// of ground + reference height (the smoothed ground of SampleGround); ESDF distance
-/// >= min_obstacle_distance_m; horizontal/vertical speed and acceleration within the bounds
-/// (+ limit_tolerance); body height within [min, max] (+ limit_tolerance) for active-height
-/// robots. Fails with kOptimizationFailed naming the first violation: time, position, the
-/// quantity, its value and its bound.
+/// Checks every sample (spacing <= max_sample_spacing_m in 3D, and both ends), in this order,
+/// and fails with kOptimizationFailed naming the first violation (time, position, the
+/// quantity, its value and its bound):
+/// - horizontal and vertical speed and acceleration within the profile's bounds
+///   (+ limit_tolerance);
+/// - the reference point inside the map's grid, over ground of its own column: the surface
+///   SampleGround picks there (the one nearest to z − reference height, never another level of
+///   the column), which must be valid ground with tilt <= max_tilt_rad;
+/// - z within ground_tolerance_m of that ground + reference height (the smoothed ground of
+///   SampleGround);
+/// - ESDF distance >= min_obstacle_distance_m;
+/// - the surface's ceiling clearance at least the body height (commanded for active-height
+///   robots, else body_height_m) + headroom_m, and the commanded body height within
+///   [body_height_min_m, body_height_max_m], both within BodyHeightTolerance;
+/// - the surface is a node of `graph` (true when the graph was built from
+///   profile.Traversability(), as Plan does).
+/// Every comparison fails on NaN. Fails before sampling with kInvalidConfig for a bad config
+/// or profile, kInvalidInput when the trajectory's dimension is not the profile's (4 with
+/// active height, else 3), and kOptimizationFailed for no pieces, a non-finite coefficient, a
+/// duration that is not finite and > 0, or more than 2e7 samples.
 Status VerifyTrajectory(const SurfaceGraph& graph, const RobotProfile& profile,
                         const Trajectory& trajectory, const VerifierConfig& config,
                         VerificationReport* report);
