@@ -1,12 +1,11 @@
-// The verifier against hand-made trajectories on a hand-made map. For every kind of
-// violation a trajectory that violates it by a small margin is refused, with a message that
+// The verifier against hand-made trajectories on a hand-made map (test_util::Yard). For every kind
+// of violation a trajectory that violates it by a small margin is refused, with a message that
 // names the quantity, and the same trajectory just inside the bound passes.
 #include "strata/trajectory_verifier.hpp"
 
 #include <cmath>
 #include <limits>
 #include <memory>
-#include <numbers>
 #include <string>
 #include <vector>
 
@@ -27,50 +26,20 @@ using test_util::kMinimumJerkPeakSpeed;
 using test_util::MinimumJerk;
 using ::testing::HasSubstr;
 
-constexpr double kRampSlopeRad = 10.0 * std::numbers::pi / 180.0;
+using test_util::kYardRampSlopeRad;
 // How far past (or inside) a bound the trajectories go: relative for speeds and
 // accelerations, in metres for heights and distances.
 constexpr double kRelativeMargin = 0.003;
 constexpr double kMarginM = 0.002;
 
-// A yard 12 × 6 m, floor at z = 0 with a 1 × 1 m hole (x in (1, 2), y in (4.5, 5.5)); a slab
-// 0.45 m above the floor over [2, 4] × [2, 4] (the deck over a passage too low for a 0.5 m
-// body); a 10° ramp rising along +x over [7, 10] × [1, 5] to a plateau.
-PointCloud Yard() {
-  test_util::CloudBuilder b(0.05);
-  const auto in_hole = [](double x, double y) { return x > 1 && x < 2 && y > 4.5 && y < 5.5; };
-  const auto under_ramp = [](double x, double y) { return x > 6.99 && y > 0.99 && y < 5.01; };
-  b.Surface(
-      0, 12, 0, 6, [](double, double) { return 0.0; },
-      [&](double x, double y) { return !in_hole(x, y) && !under_ramp(x, y); });
-  b.Plate(2, 4, 2, 4, 0.45);
-  b.Surface(7, 10, 1, 5, [](double x, double) { return (x - 7) * std::tan(kRampSlopeRad); });
-  b.Plate(10.05, 12, 1, 5, 3 * std::tan(kRampSlopeRad));
-  return b.cloud();
-}
-
-const TerrainModel& Model() {
-  static const std::shared_ptr<const TerrainModel> model = [] {
-    AssessmentConfig config;
-    config.grid.resolution_m = 0.1;
-    return TerrainModel::Assess(Yard(), config).value();
-  }();
-  return *model;
-}
+const TerrainModel& Model() { return test_util::YardModel(); }
 
 // The graph the verifier checks against, for `profile` as Plan builds it.
 SurfaceGraph GraphFor(const RobotProfile& profile) {
   return SurfaceGraph::Build(Model(), profile.Traversability()).value();
 }
 
-// A built-in profile whose speed and acceleration bounds are far above anything here, so that
-// only the quantity a test is about can fail.
-RobotProfile Loose(const std::string& name) {
-  RobotProfile profile = BuiltinProfile(name).value();
-  profile.max_speed_horizontal_mps = profile.max_speed_vertical_mps = 10;
-  profile.max_accel_horizontal_mps2 = profile.max_accel_vertical_mps2 = 10;
-  return profile;
-}
+RobotProfile Loose(const std::string& name) { return test_util::LooseProfile(name); }
 
 Status Verify(const RobotProfile& profile, const Trajectory& trajectory,
               const VerifierConfig& config = {}, VerificationReport* report = nullptr) {
@@ -226,13 +195,14 @@ TEST(VerifyTrajectory, RefusesComingCloserToAnObstacleThanTheBound) {
 TEST(VerifyTrajectory, RefusesGroundSteeperThanTheProfileAllows) {
   RobotProfile profile = Loose("differential");
   const auto on_ramp = [&](double x) {
-    return Eigen::Vector3d(x, 3, (x - 7) * std::tan(kRampSlopeRad) + profile.reference_height_m);
+    return Eigen::Vector3d(x, 3,
+                           (x - 7) * std::tan(kYardRampSlopeRad) + profile.reference_height_m);
   };
   const Trajectory up_the_ramp = MinimumJerk(on_ramp(7.6), on_ramp(9.4), 6);
   VerificationReport report;
   ExpectPasses(Verify(profile, up_the_ramp, {}, &report));
   const double tilt = report.max_tilt_rad;  // The plane fits' tilt, near the ramp's 10°.
-  EXPECT_NEAR(tilt, kRampSlopeRad, 0.01);
+  EXPECT_NEAR(tilt, kYardRampSlopeRad, 0.01);
   profile.max_tilt_rad = tilt - 0.002;
   ExpectRefused(Verify(profile, up_the_ramp), "ground tilt");
   profile.max_tilt_rad = tilt + 0.002;
@@ -281,6 +251,58 @@ TEST(VerifyTrajectory, KeepsTheProfilesHeadroomAboveTheCommandedBody) {
   VerificationReport report;
   ExpectPasses(Verify(biped, UnderTheSlab(biped, highest - kMarginM), config, &report));
   EXPECT_NEAR(report.min_headroom_m, clearance - (highest - kMarginM), 1e-6);
+}
+
+// The body comes down while the robot drives 2 cm across the slab's edge in 1 s: the
+// samples 2 cm apart fall on either side of the edge, where the body fits, and only the state
+// at the edge itself (body 0.415 m under a ceiling that allows 0.407 m) breaks the headroom.
+TEST(VerifyTrajectory, ChecksTheHeadroomWhereTheBodyEntersUnderTheCeiling) {
+  const RobotProfile biped = Loose("biped");
+  const GridGeometry& grid = Model().grid();
+  // The slab's first column along y = 3.
+  double edge = 0;
+  for (int ix = 0; ix < grid.size.x() && edge == 0; ++ix) {
+    for (const ColumnSurface& s : Model().surfaces().Column(ix, grid.CellOf({0, 3, 0}).y())) {
+      if (s.clearance_m < 1) edge = grid.origin_m.x() + ix * grid.resolution_m;
+    }
+  }
+  ASSERT_NEAR(edge, 2.0, 0.1);
+  const double z = biped.reference_height_m;
+  const auto entering = [&](double body_from_m) {
+    return MinimumJerk(Eigen::Vector4d(edge - 0.01, 3, z, body_from_m),
+                       Eigen::Vector4d(edge + 0.01, 3, z, 0.36), 1);
+  };
+  // At the edge (halfway in time and space) the body is halfway between its ends.
+  ExpectRefused(Verify(biped, entering(0.47)), "headroom");
+  ExpectPasses(Verify(biped, entering(0.44)));
+}
+
+// A post 0.5 m tall on a floor, assessed with a ground filter radius so small that the floor
+// right beside it stays valid: the post's column holds one surface, the post's top. A robot
+// driving through the post stands on no ground of its own column at its level, although the
+// smoothed ground around (and the obstacle distance a few centimetres off the post's axis)
+// look fine.
+TEST(VerifyTrajectory, RefusesAColumnWhoseOnlyGroundIsAnotherLevel) {
+  static const std::shared_ptr<const TerrainModel> model = [] {
+    test_util::CloudBuilder b(0.05);
+    b.Plate(0, 4, 0, 4, 0).Block(2, 2, 2, 2, 0.05, 0.5);
+    AssessmentConfig config;
+    config.grid.resolution_m = 0.1;
+    config.ground.radius_m = 0.05;
+    return TerrainModel::Assess(b.cloud(), config).value();
+  }();
+  const RobotProfile profile = Loose("differential");
+  const SurfaceGraph graph = SurfaceGraph::Build(*model, profile.Traversability()).value();
+  const Eigen::Vector3i post = model->grid().CellOf({2, 2, 0});
+  ASSERT_EQ(model->surfaces().Column(post.x(), post.y()).size(), 1u);
+  const double z = profile.reference_height_m;
+  const auto along = [&](double y) {
+    return MinimumJerk(Eigen::Vector3d(1.5, y, z), Eigen::Vector3d(2.5, y, z), 4);
+  };
+  VerificationReport report;
+  ExpectRefused(VerifyTrajectory(graph, profile, along(2.0), {}, &report),
+                "no ground in the column below at the robot's level");
+  ExpectPasses(VerifyTrajectory(graph, profile, along(2.3), {}, &report));
 }
 
 // A robot of fixed height too tall for the passage under the slab: its graph has no node on

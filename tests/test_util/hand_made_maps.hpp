@@ -4,8 +4,11 @@
 /// test code only.
 #include <cmath>
 #include <functional>
+#include <memory>
+#include <numbers>
 
 #include "strata/point_cloud.hpp"
+#include "strata/terrain_model.hpp"
 
 namespace strata::test_util {
 
@@ -74,6 +77,36 @@ inline PointCloud TableRoom() {
     for (double y = 0; y <= 4.0 + 1e-9; y += s) add(0, y, z), add(8.0, y, z);
   }
   return cloud;
+}
+
+/// Slope of the Yard's ramp [rad].
+inline const double kYardRampSlopeRad = 10.0 * std::numbers::pi / 180.0;
+
+/// A yard 12 × 6 m, floor at z = 0 with a 1 × 1 m hole (x in (1, 2), y in (4.5, 5.5)); a slab
+/// 0.45 m above the floor over [2, 4] × [2, 4] (the deck over a passage too low for a 0.5 m
+/// body); a kYardRampSlopeRad ramp rising along +x over [7, 10] × [1, 5] to a plateau at
+/// x = 10..12. Points 5 cm apart, no walls.
+inline PointCloud Yard() {
+  CloudBuilder b(0.05);
+  const auto in_hole = [](double x, double y) { return x > 1 && x < 2 && y > 4.5 && y < 5.5; };
+  const auto under_ramp = [](double x, double y) { return x > 6.99 && y > 0.99 && y < 5.01; };
+  b.Surface(
+      0, 12, 0, 6, [](double, double) { return 0.0; },
+      [&](double x, double y) { return !in_hole(x, y) && !under_ramp(x, y); });
+  b.Plate(2, 4, 2, 4, 0.45);
+  b.Surface(7, 10, 1, 5, [](double x, double) { return (x - 7) * std::tan(kYardRampSlopeRad); });
+  b.Plate(10.05, 12, 1, 5, 3 * std::tan(kYardRampSlopeRad));
+  return b.cloud();
+}
+
+/// The Yard assessed on a 0.1 m grid (otherwise default settings), built once.
+inline const TerrainModel& YardModel() {
+  static const std::shared_ptr<const TerrainModel> model = [] {
+    AssessmentConfig config;
+    config.grid.resolution_m = 0.1;
+    return TerrainModel::Assess(Yard(), config).value();
+  }();
+  return *model;
 }
 
 }  // namespace strata::test_util

@@ -2,9 +2,11 @@
 /// Trajectories with known extremes for tests of the verifier and the benchmark's checks.
 /// Header-only, test code only.
 #include <cmath>
+#include <string>
 
 #include <Eigen/Core>
 
+#include "strata/robot_profile.hpp"
 #include "strata/trajectory.hpp"
 
 namespace strata::test_util {
@@ -51,6 +53,15 @@ inline Trajectory MinimumJerk(const Eigen::VectorXd& from, const Eigen::VectorXd
     trajectory.pieces.push_back(piece);
   }
   return trajectory;
+}
+
+/// The built-in profile `name` with speed and acceleration bounds of 10 m/s and 10 m/s², far
+/// above any test trajectory's, so that only the quantity a test is about can fail.
+inline RobotProfile LooseProfile(const std::string& name) {
+  RobotProfile profile = BuiltinProfile(name).value();
+  profile.max_speed_horizontal_mps = profile.max_speed_vertical_mps = 10;
+  profile.max_accel_horizontal_mps2 = profile.max_accel_vertical_mps2 = 10;
+  return profile;
 }
 
 }  // namespace strata::test_util

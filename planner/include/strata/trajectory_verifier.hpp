@@ -49,16 +49,20 @@ struct VerificationReport {
   double min_headroom_m = 0;
 };
 
-/// Checks every sample (spacing <= max_sample_spacing_m in 3D, and both ends), in this order,
-/// and fails with kOptimizationFailed naming the first violation (time, position, the
+/// Checks every sample (spacing <= max_sample_spacing_m in 3D, both ends, and the first instant
+/// in every grid column the reference point enters, where ceilings and ground change), in this
+/// order, and fails with kOptimizationFailed naming the first violation (time, position, the
 /// quantity, its value and its bound):
 /// - horizontal and vertical speed and acceleration within the profile's bounds
 ///   (+ limit_tolerance);
 /// - the reference point inside the map's grid, over ground of its own column: the surface
 ///   SampleGround picks there (the one nearest to z − reference height, never another level of
-///   the column), which must be valid ground with tilt <= max_tilt_rad;
-/// - z within ground_tolerance_m of that ground + reference height (the smoothed ground of
-///   SampleGround);
+///   the column), whose plane-fit height at the column's centre lies within the ground
+///   tolerance (below) + (r/√2)·tan(max_tilt_rad) of z − reference height (r the grid
+///   resolution; else the robot is inside a post, a leg or a wall, or cuts across a ledge
+///   that the smoothed ground rounds off), which is valid ground with tilt <= max_tilt_rad;
+/// - z within the ground tolerance of the smoothed ground of SampleGround + reference height:
+///   ground_tolerance_m, or 0.75 quanta on a voxelised cloud if more;
 /// - ESDF distance >= min_obstacle_distance_m;
 /// - the surface's ceiling clearance at least the body height (commanded for active-height
 ///   robots, else body_height_m) + headroom_m, and the commanded body height within
