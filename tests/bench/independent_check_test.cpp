@@ -25,12 +25,8 @@ using test_util::MinimumJerk;
 // reference height; active-height robots hold the body at `body_m`.
 constexpr double kRunM = 3, kRunS = 4, kRiseM = 0.1;
 Trajectory AcrossTheFloor(const RobotProfile& profile, double offset_m = 0, double body_m = 0.65) {
-  const double z = profile.reference_height_m + offset_m;
-  Eigen::VectorXd from(profile.active_height ? 4 : 3), to(from.size());
-  from.head<3>() << 1, 1, z - kRiseM / 2;
-  to.head<3>() << 1 + kRunM, 1, z + kRiseM / 2;
-  if (profile.active_height) from(3) = to(3) = body_m;
-  return MinimumJerk(from, to, kRunS, 2);
+  return test_util::FloorMotion(profile, {1, 1}, {1 + kRunM, 1}, kRunS,
+                                {kRiseM, offset_m, body_m, 2});
 }
 
 IndependentCheckCounts Check(const RobotProfile& profile, const Trajectory& trajectory,
@@ -108,12 +104,10 @@ TEST(IndependentCheck, CountsNoGroundInvalidGroundAndSteepGround) {
   RobotProfile profile = LooseProfile("differential");
   const double z = profile.reference_height_m;
   // Over the hole in the floor (no headroom can be judged there either).
-  EXPECT_EQ(
-      Broken(Check(profile, MinimumJerk(Eigen::Vector3d(3, 5, z), Eigen::Vector3d(1.5, 5, z), 4))),
-      "ground headroom");
+  EXPECT_EQ(Broken(Check(profile, test_util::FloorMotion(profile, {3, 5}, {1.5, 5}, 4))),
+            "ground headroom");
   // Beside the ramp's low side, where the ground filter removed the floor.
-  EXPECT_EQ(Broken(Check(profile, MinimumJerk(Eigen::Vector3d(7.6, 5.15, z),
-                                              Eigen::Vector3d(8.2, 5.15, z), 4))),
+  EXPECT_EQ(Broken(Check(profile, test_util::FloorMotion(profile, {7.6, 5.15}, {8.2, 5.15}, 4))),
             "ground");
   // Up the 10° ramp, for a robot allowed 9.5°, then 10.5°.
   const auto on_ramp = [&](double x) {
@@ -138,19 +132,18 @@ TEST(IndependentCheck, CountsAnObstacleCloserThanTheBound) {
 
 TEST(IndependentCheck, CountsABodyThatEatsIntoTheHeadroomUnderTheSlab) {
   const RobotProfile biped = LooseProfile("biped");
-  const double z = biped.reference_height_m;
   // Under the slab (its underside 0.45 m above the floor): at most 0.45 − 0.05 + 0.007.
   const auto under = [&](double body_m) {
-    return MinimumJerk(Eigen::Vector4d(2.5, 3, z, body_m), Eigen::Vector4d(3.5, 3, z, body_m), 4);
+    return test_util::FloorMotion(biped, {2.5, 3}, {3.5, 3}, 4, {.body_m = body_m});
   };
+
   EXPECT_EQ(Broken(Check(biped, under(0.409))), "headroom");
   EXPECT_EQ(Broken(Check(biped, under(0.405))), "");
   // A robot of fixed height 0.5 m on the floor under the slab, whose top is another level.
   const RobotProfile differential = LooseProfile("differential");
-  EXPECT_EQ(Broken(Check(differential,
-                         MinimumJerk(Eigen::Vector3d(2.5, 3, differential.reference_height_m),
-                                     Eigen::Vector3d(3.5, 3, differential.reference_height_m), 4))),
-            "headroom");
+  EXPECT_EQ(
+      Broken(Check(differential, test_util::FloorMotion(differential, {2.5, 3}, {3.5, 3}, 4))),
+      "headroom");
 }
 
 TEST(IndependentCheck, ABrokenTrajectoryBreaksEveryRule) {

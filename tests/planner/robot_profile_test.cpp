@@ -130,6 +130,15 @@ TEST(RobotProfile, TraversabilityAsksForTheLowestBodyPlusHeadroom) {
   EXPECT_TRUE(edge.Traversability().Validate().ok());
 }
 
+// kProfileMismatch with every piece of `expected` in its message.
+void ExpectMismatch(const RobotProfile& profile, const AssessmentConfig& map,
+                    const std::vector<std::string>& expected) {
+  const Status status = CheckProfileFitsMap(profile, map);
+  ASSERT_FALSE(status.ok());
+  EXPECT_EQ(status.error().code, ErrorCode::kProfileMismatch);
+  for (const std::string& text : expected) EXPECT_THAT(status.error().message, HasSubstr(text));
+}
+
 TEST(CheckProfileFitsMap, RefusesAMapFilteredForASmallerFootprintOrAGentlerSlope) {
   AssessmentConfig map;
   map.ground.radius_m = 0.3;
@@ -138,21 +147,12 @@ TEST(CheckProfileFitsMap, RefusesAMapFilteredForASmallerFootprintOrAGentlerSlope
   EXPECT_TRUE(CheckProfileFitsMap(profile, map).ok());  // Equal is enough.
 
   profile.footprint_radius_m = 0.4;
-  Status status = CheckProfileFitsMap(profile, map);
-  ASSERT_FALSE(status.ok());
-  EXPECT_EQ(status.error().code, ErrorCode::kProfileMismatch);
-  EXPECT_THAT(status.error().message, HasSubstr("footprint_radius_m = 0.4"));
-  EXPECT_THAT(status.error().message, HasSubstr("ground.radius_m = 0.3"));
-  EXPECT_THAT(status.error().message, HasSubstr("a ground filter radius of at least 0.4 m"));
-
+  ExpectMismatch(profile, map,
+                 {"footprint_radius_m = 0.4", "ground.radius_m = 0.3",
+                  "a ground filter radius of at least 0.4 m"});
   profile = Differential();
   profile.max_tilt_rad = 25 * kDegree;
-  status = CheckProfileFitsMap(profile, map);
-  ASSERT_FALSE(status.ok());
-  EXPECT_EQ(status.error().code, ErrorCode::kProfileMismatch);
-  EXPECT_THAT(status.error().message, HasSubstr("(25.0 deg)"));
-  EXPECT_THAT(status.error().message, HasSubstr("(20.0 deg)"));
-  EXPECT_THAT(status.error().message, HasSubstr("a max tilt of at least 25.0 deg"));
+  ExpectMismatch(profile, map, {"(25.0 deg)", "(20.0 deg)", "a max tilt of at least 25.0 deg"});
 
   // A gentler robot on a steeper-filtered map, a smaller one on a wider-filtered map: fine.
   profile = Differential();

@@ -272,17 +272,10 @@ TEST_P(ObjectiveGradient, WaypointAndDurationGradientsMatchFiniteDifferences) {
       // Blocks: each axis of the waypoints (x, y, z[, h]), then the durations. The waypoints
       // are stored waypoint by waypoint; reorder them axis by axis.
       const auto by_axis = [&](const Eigen::VectorXd& g) {
-        Eigen::VectorXd out(g.size());
-        out.head(nq) =
-            Eigen::Map<const Eigen::MatrixXd>(g.data(), dim, pieces - 1).transpose().reshaped();
-        out.tail(pieces) = g.tail(pieces);
-        return out;
+        return test_util::WaypointsByAxis(g, dim, pieces - 1);
       };
-      std::vector<GradientBlock> blocks;
-      for (int a = 0; a < dim; ++a) {
-        blocks.push_back({"waypoint axis " + std::to_string(a), a * (pieces - 1), pieces - 1});
-      }
-      blocks.push_back({"durations", nq, pieces});
+      const std::vector<test_util::GradientBlock> blocks =
+          test_util::WaypointAxisBlocks(dim, pieces - 1, "durations", pieces);
       EXPECT_TRUE(GradientsMatchPerBlock(by_axis(analytic), by_axis(numeric), blocks, kTolerance,
                                          NoiseFloor(value)))
           << term.name << " trial " << trial << " f " << value;

@@ -4,6 +4,7 @@
 // iterations within the budget.
 #include "strata/trajectory_optimizer.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <functional>
 #include <limits>
@@ -26,19 +27,19 @@ namespace {
 
 using ::testing::HasSubstr;
 
-CostParams ParamsFor(const RobotProfile& profile, const OptimizerConfig& config) {
-  CostParams p;
-  p.reference_height_m = profile.reference_height_m;
-  p.max_speed_horizontal_mps = config.limit_margin * profile.max_speed_horizontal_mps;
-  p.max_speed_vertical_mps = config.limit_margin * profile.max_speed_vertical_mps;
-  p.max_accel_horizontal_mps2 = config.limit_margin * profile.max_accel_horizontal_mps2;
-  p.max_accel_vertical_mps2 = config.limit_margin * profile.max_accel_vertical_mps2;
-  p.active_height = profile.active_height;
-  p.body_height_min_m = profile.MinBodyHeight();
-  p.body_height_max_m = profile.active_height ? profile.body_height_max_m : profile.body_height_m;
-  p.body_height_preferred_m = profile.body_height_m;
-  p.headroom_m = profile.headroom_m;
-  return p;
+// The cost's parameters for a built-in profile, aiming a little below its bounds as Plan does
+// (the built-ins share 1 m/s and 1 m/s² horizontally, 0.5 vertically).
+CostParams ParamsFor(const RobotProfile& profile) {
+  return CostParams{.reference_height_m = profile.reference_height_m,
+                    .max_speed_horizontal_mps = 0.92,
+                    .max_speed_vertical_mps = 0.46,
+                    .max_accel_horizontal_mps2 = 0.92,
+                    .max_accel_vertical_mps2 = 0.46,
+                    .active_height = profile.active_height,
+                    .body_height_min_m = profile.MinBodyHeight(),
+                    .body_height_max_m = std::max(profile.body_height_max_m, profile.body_height_m),
+                    .body_height_preferred_m = profile.body_height_m,
+                    .headroom_m = profile.headroom_m};
 }
 
 // The yard's ground height at (x, y) [m]: the ramp's over its footprint, else the floor's.
@@ -73,7 +74,7 @@ struct Case {
        const OptimizerConfig& config = {})
       : profile(BuiltinProfile(robot).value()),
         graph(SurfaceGraph::Build(test_util::YardModel(), profile.Traversability()).value()),
-        cost(graph, config.weights, ParamsFor(profile, config)),
+        cost(graph, config.weights, ParamsFor(profile)),
         path(StraightPath(from, to, profile.reference_height_m)),
         problem(MakeInitialProblem(cost, path, At(path.front()), At(path.back()), config)) {}
   Case(const Case&) = delete;
@@ -143,17 +144,10 @@ TEST_P(OptimizerObjectiveGradient, MatchesCentralDifferencesPerBlock) {
   // Waypoints are stored waypoint by waypoint: reorder them axis by axis.
   const int nq = dim * (pieces - 1);
   const auto by_axis = [&](const Eigen::VectorXd& g) {
-    Eigen::VectorXd out(g.size());
-    out.head(nq) =
-        Eigen::Map<const Eigen::MatrixXd>(g.data(), dim, pieces - 1).transpose().reshaped();
-    out.tail(pieces) = g.tail(pieces);
-    return out;
+    return test_util::WaypointsByAxis(g, dim, pieces - 1);
   };
-  std::vector<test_util::GradientBlock> blocks;
-  for (int a = 0; a < dim; ++a) {
-    blocks.push_back({"waypoint axis " + std::to_string(a), a * (pieces - 1), pieces - 1});
-  }
-  blocks.push_back({"tau", nq, pieces});
+  const std::vector<test_util::GradientBlock> blocks =
+      test_util::WaypointAxisBlocks(dim, pieces - 1, "tau", pieces);
   EXPECT_TRUE(test_util::GradientsMatchPerBlock(by_axis(analytic), by_axis(numeric), blocks, 1e-5,
                                                 test_util::FiniteDifferenceNoise(value, h)));
   // Every block must carry a gradient, or the comparison is 0 = 0.

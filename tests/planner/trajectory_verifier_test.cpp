@@ -63,12 +63,14 @@ void ExpectPasses(const Status& status) { EXPECT_TRUE(status.ok()) << status.err
 constexpr double kRunM = 3, kRunS = 4;
 Trajectory AcrossTheFloor(const RobotProfile& profile, double rise_m = 0, double offset_m = 0,
                           double body_m = 0.65) {
-  const double z = profile.reference_height_m + offset_m;
-  Eigen::VectorXd from(profile.active_height ? 4 : 3), to(from.size());
-  from.head<3>() << 1, 1, z - rise_m / 2;
-  to.head<3>() << 1 + kRunM, 1, z + rise_m / 2;
-  if (profile.active_height) from(3) = to(3) = body_m;
-  return MinimumJerk(from, to, kRunS, 2);
+  return test_util::FloorMotion(profile, {1, 1}, {1 + kRunM, 1}, kRunS,
+                                {rise_m, offset_m, body_m, 2});
+}
+
+// Rest to rest over the floor at the reference height in 4 s.
+Trajectory Along(const RobotProfile& profile, const Eigen::Vector2d& from,
+                 const Eigen::Vector2d& to) {
+  return test_util::FloorMotion(profile, from, to, 4);
 }
 
 TEST(VerifyTrajectory, ACleanTrajectoryPassesAndItsExtremesAreReported) {
@@ -134,16 +136,10 @@ TEST(VerifyTrajectory, RefusesFloatingAboveOrSinkingBelowTheReferenceHeight) {
 
 TEST(VerifyTrajectory, RefusesLeavingTheGround) {
   const RobotProfile profile = Loose("differential");
-  const double z = profile.reference_height_m;
   // Over the hole in the floor, and off the map.
-  ExpectRefused(
-      Verify(profile, MinimumJerk(Eigen::Vector3d(3, 5, z), Eigen::Vector3d(1.5, 5, z), 4)),
-      "no ground");
-  ExpectPasses(
-      Verify(profile, MinimumJerk(Eigen::Vector3d(3, 5, z), Eigen::Vector3d(2.15, 5, z), 4)));
-  ExpectRefused(
-      Verify(profile, MinimumJerk(Eigen::Vector3d(11, 0.5, z), Eigen::Vector3d(15, 0.5, z), 4)),
-      "no ground");
+  ExpectRefused(Verify(profile, Along(profile, {3, 5}, {1.5, 5})), "no ground");
+  ExpectPasses(Verify(profile, Along(profile, {3, 5}, {2.15, 5})));
+  ExpectRefused(Verify(profile, Along(profile, {11, 0.5}, {15, 0.5})), "no ground");
 }
 
 TEST(VerifyTrajectory, RefusesAReferencePointAboveTheMapsGrid) {
@@ -159,21 +155,14 @@ TEST(VerifyTrajectory, RefusesAReferencePointAboveTheMapsGrid) {
 // within the filter's radius. Half a metre further out it is.
 TEST(VerifyTrajectory, RefusesGroundTheValidGroundFilterRemoved) {
   const RobotProfile profile = Loose("differential");
-  const double z = profile.reference_height_m;
-  const auto along = [&](double y) {
-    return MinimumJerk(Eigen::Vector3d(7.6, y, z), Eigen::Vector3d(8.2, y, z), 4);
-  };
-  ExpectRefused(Verify(profile, along(5.15)), "not valid ground");
-  ExpectPasses(Verify(profile, along(5.6)));
+  ExpectRefused(Verify(profile, Along(profile, {7.6, 5.15}, {8.2, 5.15})), "not valid ground");
+  ExpectPasses(Verify(profile, Along(profile, {7.6, 5.6}, {8.2, 5.6})));
 }
 
 TEST(VerifyTrajectory, RefusesATrajectoryTooFastToSampleDensely) {
   const RobotProfile profile = Loose("differential");
-  const double z = profile.reference_height_m;
   // 1.9e6 m/s at its peak: 1e8 samples 2 cm apart.
-  ExpectRefused(
-      Verify(profile, MinimumJerk(Eigen::Vector3d(1, 1, z), Eigen::Vector3d(1e6, 1, z), 1)),
-      "too many");
+  ExpectRefused(Verify(profile, test_util::FloorMotion(profile, {1, 1}, {1e6, 1}, 1)), "too many");
 }
 
 TEST(VerifyTrajectory, RefusesComingCloserToAnObstacleThanTheBound) {
@@ -223,10 +212,7 @@ TEST(VerifyTrajectory, RefusesABodyHeightOutsideItsRange) {
 
 // Under the slab, from x = 2.5 to 3.5 at y = 3 (0.5 m inside its edges).
 Trajectory UnderTheSlab(const RobotProfile& profile, double body_m = 0) {
-  const double z = profile.reference_height_m;
-  if (!profile.active_height)
-    return MinimumJerk(Eigen::Vector3d(2.5, 3, z), Eigen::Vector3d(3.5, 3, z), 4);
-  return MinimumJerk(Eigen::Vector4d(2.5, 3, z, body_m), Eigen::Vector4d(3.5, 3, z, body_m), 4);
+  return test_util::FloorMotion(profile, {2.5, 3}, {3.5, 3}, 4, {.body_m = body_m});
 }
 
 // The floor's ceiling under the slab, read from the map.
@@ -295,10 +281,7 @@ TEST(VerifyTrajectory, RefusesAColumnWhoseOnlyGroundIsAnotherLevel) {
   const SurfaceGraph graph = SurfaceGraph::Build(*model, profile.Traversability()).value();
   const Eigen::Vector3i post = model->grid().CellOf({2, 2, 0});
   ASSERT_EQ(model->surfaces().Column(post.x(), post.y()).size(), 1u);
-  const double z = profile.reference_height_m;
-  const auto along = [&](double y) {
-    return MinimumJerk(Eigen::Vector3d(1.5, y, z), Eigen::Vector3d(2.5, y, z), 4);
-  };
+  const auto along = [&](double y) { return Along(profile, {1.5, y}, {2.5, y}); };
   VerificationReport report;
   ExpectRefused(VerifyTrajectory(graph, profile, along(2.0), {}, &report),
                 "no ground in the column below at the robot's level");

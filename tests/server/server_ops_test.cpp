@@ -89,13 +89,9 @@ TEST_F(ServerOpsTest, SigtermDrainsACallThatIsProvablyInFlight) {
   SetDeadline(&context, 60);
   v1::Map map;
   auto writer = maps_->UploadMap(&context, &map);
-  v1::UploadMapRequest header;
-  header.mutable_header()->set_map_id("late");
-  header.mutable_header()->set_format(v1::POINT_FORMAT_XYZ_F32_LE);
   // Two chunks of 400 points, one before the signal and one after: a server that stopped
   // reading at the signal would see a stream 400 points short.
-  header.mutable_header()->set_point_count(800);
-  ASSERT_TRUE(writer->Write(header));
+  ASSERT_TRUE(writer->Write(UploadHeader("late", 800)));
   std::vector<float> xyz;
   for (int i = 0; i < 400; ++i) xyz.insert(xyz.end(), {0.1f * (i % 20), 0.1f * (i / 20), 0.0f});
   v1::UploadMapRequest chunk;

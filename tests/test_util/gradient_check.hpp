@@ -85,6 +85,26 @@ inline ::testing::AssertionResult GradientsMatchPerBlock(const Eigen::VectorXd& 
   return ::testing::AssertionFailure() << failures.str();
 }
 
+/// A gradient over x = [waypoints (dim × count, stored waypoint by waypoint), rest] with the
+/// waypoints reordered axis by axis, so that each axis is one block (WaypointAxisBlocks).
+inline Eigen::VectorXd WaypointsByAxis(const Eigen::VectorXd& gradient, int dim, int count) {
+  Eigen::VectorXd out = gradient;
+  out.head(dim * count) =
+      Eigen::Map<const Eigen::MatrixXd>(gradient.data(), dim, count).transpose().reshaped();
+  return out;
+}
+
+/// The blocks of a WaypointsByAxis vector: "waypoint axis a" for each axis, then `rest` (its
+/// last rest_size entries).
+inline std::vector<GradientBlock> WaypointAxisBlocks(int dim, int count, const std::string& rest,
+                                                     Eigen::Index rest_size) {
+  std::vector<GradientBlock> blocks;
+  for (int a = 0; a < dim; ++a)
+    blocks.push_back({"waypoint axis " + std::to_string(a), a * count, count});
+  blocks.push_back({rest, Eigen::Index{dim} * count, rest_size});
+  return blocks;
+}
+
 /// The absolute error of central differences with step h of a function of magnitude |f|
 /// evaluated to a relative precision of about 1e-14 (a hundred ulps, for a cost summed over
 /// many terms): 1e-14·max(1, |f|)/h. Truncation error is not included: keep h small.

@@ -55,6 +55,28 @@ inline Trajectory MinimumJerk(const Eigen::VectorXd& from, const Eigen::VectorXd
   return trajectory;
 }
 
+/// How a robot moves over a flat floor at z = 0 (FloorMotion below).
+struct FloorMotionSpec {
+  double rise_m = 0;     ///< z goes from −rise/2 to +rise/2 around the reference height [m].
+  double offset_m = 0;   ///< ... shifted by this [m].
+  double body_m = 0.65;  ///< Active-height profiles: the body height held throughout [m].
+  int pieces = 1;        ///< Pieces of equal duration.
+};
+
+/// Rest to rest (MinimumJerk) from (x, y) `from` to `to` over a flat floor at z = 0, the
+/// reference point at the profile's reference height (see FloorMotionSpec), in duration_s;
+/// dimension 4 for active-height profiles.
+inline Trajectory FloorMotion(const RobotProfile& profile, const Eigen::Vector2d& from,
+                              const Eigen::Vector2d& to, double duration_s,
+                              const FloorMotionSpec& spec = {}) {
+  const double z = profile.reference_height_m + spec.offset_m;
+  Eigen::VectorXd a(profile.active_height ? 4 : 3), b(a.size());
+  a.head<3>() << from.x(), from.y(), z - spec.rise_m / 2;
+  b.head<3>() << to.x(), to.y(), z + spec.rise_m / 2;
+  if (profile.active_height) a(3) = b(3) = spec.body_m;
+  return MinimumJerk(a, b, duration_s, spec.pieces);
+}
+
 /// The built-in profile `name` with speed and acceleration bounds of 10 m/s and 10 m/s², far
 /// above any test trajectory's, so that only the quantity a test is about can fail.
 inline RobotProfile LooseProfile(const std::string& name) {
