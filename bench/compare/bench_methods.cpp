@@ -69,6 +69,7 @@ class StrataMethod : public BenchMethod {
         graph ? VerifyTrajectory(**graph, profile_, plan->trajectory, VerifierConfig{}, &report)
               : Status(graph.error());
     out.verify_violations = verified ? 0 : 1;
+    out.check = bench::CheckTrajectory(map_->model(), profile_, plan->trajectory);
     if (!verified) {
       out.success = false;
       out.reason = "VERIFY_FAILED";

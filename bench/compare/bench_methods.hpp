@@ -3,12 +3,14 @@
 // alike: t_a once per map, then one Run per query, measured the same way (bench_metrics).
 
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include <Eigen/Core>
 
 #include "compare/bench_pairs.hpp"
+#include "independent_check.hpp"
 #include "strata/planner.hpp"
 #include "strata/point_cloud.hpp"
 #include "strata/robot_profile.hpp"
@@ -29,6 +31,8 @@ struct QueryOutcome {
   /// Strata only: 1 when the returned trajectory fails an independent VerifyTrajectory (then
   /// success is false and reason VERIFY_FAILED), else 0; -1 for the baselines.
   int verify_violations = -1;
+  /// Strata's returned plans: what the harness's own check found (independent_check.hpp).
+  std::optional<bench::IndependentCheckCounts> check;
   double start_snap_m = 0;                ///< How far the method moved the start [m].
   double goal_snap_m = 0;                 ///< How far the method moved the goal [m].
   std::vector<Eigen::Vector3d> points_m;  ///< The path (Strata: sampled every 0.1 m) [m].

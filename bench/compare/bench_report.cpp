@@ -63,6 +63,7 @@ std::vector<MethodSummary> Summarize(const std::vector<BenchRow>& rows,
       const QueryOutcome& o = row.outcome;
       ++s.queries;
       s.verify_violations += std::max(0, o.verify_violations);
+      if (o.check) s.check.Add(*o.check);
       if (!o.success) {
         ++failures[o.reason];
         continue;
@@ -114,7 +115,8 @@ std::string SummaryMarkdown(const std::string& map, const std::vector<MethodSumm
         Number(s.kappa_arc_median, "%.3f") + " | " + std::to_string(s.common_queries) + ": " +
         Number(s.common_length_median_m, "%.2f") + " / " +
         Number(s.common_kappa_arc_median, "%.3f") + " | " + s.failures +
-        (s.method == "strata" ? "; verification violations " + std::to_string(s.verify_violations)
+        (s.method == "strata" ? "; verification violations " + std::to_string(s.verify_violations) +
+                                    "; independent check of " + s.check.Describe()
                               : "") +
         " |\n";
   }
@@ -126,7 +128,8 @@ Status WriteResultsCsv(const std::string& path, const std::string& map,
   std::ofstream file(path);
   file << "map,query,method,start_x,start_y,start_z,goal_x,goal_y,goal_z,success,reason,"
           "plan_s,length_m,kappa_m,kappa_arc_m,verify_violations,start_snap_m,goal_snap_m,"
-          "path_points,message\n";
+          "path_points," +
+              bench::IndependentCheckCsvHeader() + ",message\n";
   for (const BenchRow& r : rows) {
     const QueryOutcome& o = r.outcome;
     file << Field(map) << ',' << r.query << ',' << r.method;
@@ -136,8 +139,9 @@ Status WriteResultsCsv(const std::string& path, const std::string& map,
     file << ',' << (o.success ? 1 : 0) << ',' << o.reason << ',' << Number(o.plan_s) << ','
          << Number(o.length_m) << ',' << Number(o.kappa_m) << ',' << Number(o.kappa_arc_m) << ','
          << o.verify_violations << ',' << Number(o.start_snap_m, "%.4f") << ','
-         << Number(o.goal_snap_m, "%.4f") << ',' << o.points_m.size() << ',' << Field(o.message)
-         << '\n';
+         << Number(o.goal_snap_m, "%.4f") << ',' << o.points_m.size() << ','
+         << bench::IndependentCheckCsvValues(o.check ? &*o.check : nullptr) << ','
+         << Field(o.message) << '\n';
   }
   return Written(file, path);
 }
@@ -148,7 +152,7 @@ Status WriteSummaryCsv(const std::string& path, const std::string& map,
   file << "map,method,queries,successes,success_rate,t_a_s,time_median_s,time_p95_s,"
           "length_median_m,kappa_median,kappa_arc_median,common_queries,common_time_median_s,"
           "common_length_median_m,common_kappa_median,common_kappa_arc_median,"
-          "verify_violations,failures\n";
+          "verify_violations,independent_check,failures\n";
   for (const MethodSummary& s : summary) {
     file << Field(map) << ',' << s.method << ',' << s.queries << ',' << s.successes << ','
          << Number(s.queries > 0 ? double(s.successes) / s.queries : 0) << ','
@@ -157,7 +161,9 @@ Status WriteSummaryCsv(const std::string& path, const std::string& map,
          << Number(s.kappa_arc_median) << ',' << s.common_queries << ','
          << Number(s.common_time_median_s) << ',' << Number(s.common_length_median_m) << ','
          << Number(s.common_kappa_median) << ',' << Number(s.common_kappa_arc_median) << ','
-         << s.verify_violations << ',' << Field(s.failures) << '\n';
+         << s.verify_violations << ','
+         << Field(s.method == "strata" ? s.check.Describe() : std::string()) << ','
+         << Field(s.failures) << '\n';
   }
   return Written(file, path);
 }

@@ -30,8 +30,9 @@ struct MethodSummary {
   int common_queries = 0;
   double common_time_median_s = 0, common_length_median_m = 0, common_kappa_median = 0,
          common_kappa_arc_median = 0;
-  int verify_violations = 0;  ///< Strata: returned plans that failed re-verification.
-  std::string failures;       ///< "REASON count" pairs, or "none".
+  int verify_violations = 0;           ///< Strata: returned plans that failed re-verification.
+  bench::IndependentCheckTally check;  ///< Strata: the harness's own check of its plans.
+  std::string failures;                ///< "REASON count" pairs, or "none".
 };
 
 /// One summary per method in `methods` order.

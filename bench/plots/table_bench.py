@@ -30,6 +30,8 @@ def main():
             failures = r["failures"]
             if r["method"] == "strata":
                 failures += f"; verification violations {r['verify_violations']}"
+                if r.get("independent_check"):
+                    failures += f"; independent check of {r['independent_check']}"
             print(f"| {scene} | {LABELS[r['method']]} | {s}/{q} ({100.0 * s / q:.1f}%) | "
                   f"{float(r['t_a_s']):.2f} | {1e3 * float(r['time_median_s']):.1f} / "
                   f"{1e3 * float(r['time_p95_s']):.1f} | {float(r['length_median_m']):.1f} / "

@@ -63,6 +63,9 @@ Status CostConfig::Validate(std::string_view path) const {
   if (!(std::isfinite(body_height_margin_m) && body_height_margin_m >= 0)) {
     return bad_field("body_height_margin_m", body_height_margin_m, ">= 0 and finite");
   }
+  if (!(std::isfinite(body_height_stiffness) && body_height_stiffness >= 0)) {
+    return bad_field("body_height_stiffness", body_height_stiffness, ">= 0 and finite");
+  }
   if (samples_per_piece < 2) return bad_field("samples_per_piece", samples_per_piece, ">= 2");
   return Status::Ok();
 }
@@ -172,9 +175,10 @@ double TrajectoryCost::PointPenalty(const StateVector& pos, const StateVector& v
       const Cubic high = CubicPenalty(h - (h_max - range_margin));
       const Cubic low = CubicPenalty(h_min + margin - h);
       const Cubic ceiling = CubicPenalty(h + robot.headroom_m + margin - ground.clearance_m);
-      terms.height += w.feasibility * (high.value + low.value + ceiling.value);
-      (*grad_pos)(3) += w.feasibility * (high.slope - low.slope + ceiling.slope);
-      grad_pos->head<2>() += w.feasibility *
+      const double weight = c.body_height_stiffness * w.feasibility;
+      terms.height += weight * (high.value + low.value + ceiling.value);
+      (*grad_pos)(3) += weight * (high.slope - low.slope + ceiling.slope);
+      grad_pos->head<2>() += weight *
                              (low.slope * margin_slope + ceiling.slope * (margin_slope - 1)) *
                              ground.clearance_gradient;
     }

@@ -9,73 +9,14 @@
 
 #include "format_internal.hpp"
 #include "strata/terrain_query.hpp"
+#include "trajectory_optimizer_internal.hpp"
 
 namespace strata {
 namespace {
 
-// Thrown from inside the L-BFGS objective when should_stop fires; LBFGS++ has no other way
-// to stop early. Caught in OptimizeTrajectory, never crosses the library's API.
-struct StopRequested {};
 
 // L-BFGS runs per optimisation at most (see the restart loop).
 constexpr int kMaxRestarts = 8;
-
-// The objective over x = [waypoints (dim×(M−1), column-major), τ (M)] in LBFGS++'s shape.
-// Remembers the best point evaluated, because LBFGS++ may throw from a failed line search.
-class Objective {
- public:
-  Objective(const TrajectoryCost& cost, Minco3* minco, const std::function<bool()>& should_stop)
-      : cost_(cost), minco_(minco), should_stop_(should_stop) {
-    const int pieces = minco->piece_count();
-    waypoints_.resize(minco->dim(), pieces - 1);
-    durations_.resize(pieces);
-  }
-
-  double operator()(const Eigen::VectorXd& x, Eigen::VectorXd& grad) {
-    if (should_stop_ && should_stop_()) throw StopRequested{};
-    ++evaluations_;
-    const int pieces = minco_->piece_count();
-    const int waypoint_values = static_cast<int>(waypoints_.size());
-    Apply(x);
-    const double value = cost_.Evaluate(*minco_, &grad_c_, &grad_T_);
-    minco_->PropagateGradient(grad_c_, grad_T_, &grad_waypoints_, &grad_durations_);
-    grad.resize(x.size());
-    grad.head(waypoint_values) =
-        Eigen::Map<const Eigen::VectorXd>(grad_waypoints_.data(), waypoint_values);
-    for (int i = 0; i < pieces; ++i) {
-      grad(waypoint_values + i) = grad_durations_(i) * DurationGradient(x(waypoint_values + i));
-    }
-    if (std::isfinite(value) && value < best_value_) {
-      best_value_ = value;
-      best_x_ = x;
-    }
-    return value;
-  }
-
-  // Sets *minco to the trajectory of x.
-  void Apply(const Eigen::VectorXd& x) {
-    const int waypoint_values = static_cast<int>(waypoints_.size());
-    waypoints_ = Eigen::Map<const Eigen::MatrixXd>(x.data(), waypoints_.rows(), waypoints_.cols());
-    for (int i = 0; i < minco_->piece_count(); ++i) {
-      durations_(i) = DurationFromTau(x(waypoint_values + i));
-    }
-    minco_->SetParameters(waypoints_, durations_);
-  }
-
-  const Eigen::VectorXd& best_x() const { return best_x_; }
-  double best_value() const { return best_value_; }
-  int evaluations() const { return evaluations_; }
-
- private:
-  const TrajectoryCost& cost_;
-  Minco3* minco_;
-  const std::function<bool()>& should_stop_;
-  Eigen::MatrixXd waypoints_, grad_c_, grad_waypoints_;
-  Eigen::VectorXd durations_, grad_T_, grad_durations_;
-  Eigen::VectorXd best_x_;
-  double best_value_ = std::numeric_limits<double>::infinity();
-  int evaluations_ = 0;
-};
 
 // Positions every `spacing_m` of arc length along the polyline, excluding both ends.
 std::vector<Eigen::Vector3d> ResampleInterior(const std::vector<Eigen::Vector3d>& path,
@@ -185,13 +126,7 @@ Expected<OptimizationReport> OptimizeTrajectory(const TrajectoryCost& cost,
   const int pieces = static_cast<int>(problem.initial_durations.size());
   minco->SetConditions(problem.head_pva, problem.tail_pva, pieces);
 
-  const int waypoint_values = static_cast<int>(problem.initial_waypoints.size());
-  Eigen::VectorXd x(waypoint_values + pieces);
-  x.head(waypoint_values) =
-      Eigen::Map<const Eigen::VectorXd>(problem.initial_waypoints.data(), waypoint_values);
-  for (int i = 0; i < pieces; ++i) {
-    x(waypoint_values + i) = TauFromDuration(problem.initial_durations(i));
-  }
+  Eigen::VectorXd x = internal::InitialDecisionVector(problem);
 
   LBFGSpp::LBFGSParam<double> param;
   param.m = config.memory;
@@ -204,7 +139,7 @@ Expected<OptimizationReport> OptimizeTrajectory(const TrajectoryCost& cost,
   // the curvature condition keeps the L-BFGS update positive definite.
   param.linesearch = LBFGSpp::LBFGS_LINESEARCH_BACKTRACKING_WOLFE;
 
-  Objective objective(cost, minco, should_stop);
+  internal::OptimizerObjective objective(cost, minco, should_stop);
   OptimizationReport report;
   Eigen::VectorXd scratch;
   try {
@@ -224,7 +159,7 @@ Expected<OptimizationReport> OptimizeTrajectory(const TrajectoryCost& cost,
         report.iterations += iterations;
         report.converged = iterations < iterations_left;
         break;
-      } catch (const StopRequested&) {
+      } catch (const internal::StopRequested&) {
         throw;
       } catch (const std::exception&) {
         // The failed run's iterations are not reported; count the evaluations it used.
@@ -236,7 +171,7 @@ Expected<OptimizationReport> OptimizeTrajectory(const TrajectoryCost& cost,
         break;
       previous_best = objective.best_value();
     }
-  } catch (const StopRequested&) {
+  } catch (const internal::StopRequested&) {
     return Error{ErrorCode::kCancelled, "trajectory optimisation stopped by the caller"};
   }
   // Leave *minco at the best point evaluated (the solver's last evaluation may be a trial).

@@ -90,7 +90,10 @@ TEST_F(BenchSmokeTest, ThreeMethodsOnThreePairsWriteSaneRows) {
   const Csv results = ReadCsv(dir_ / "results.csv");
   ASSERT_EQ(results.rows.size(), 9u) << "one row per method × query";
   std::map<std::string, std::set<int>> queries_of;
-  int successes = 0;
+  std::map<std::string, int> successes;
+  const std::vector<std::string> checks = {"check_ground",   "check_clearance",
+                                           "check_headroom", "check_body_height",
+                                           "check_speed",    "check_acceleration"};
   for (std::size_t r = 0; r < results.rows.size(); ++r) {
     const std::string method = results.At(r, "method");
     queries_of[method].insert(std::stoi(results.At(r, "query")));
@@ -98,14 +101,21 @@ TEST_F(BenchSmokeTest, ThreeMethodsOnThreePairsWriteSaneRows) {
     EXPECT_TRUE(std::isfinite(plan_s) && plan_s >= 0 && plan_s < 30) << "row " << r;
     const bool success = results.At(r, "success") == "1";
     EXPECT_EQ(success, results.At(r, "reason") == "OK") << "row " << r;
-    if (method == "strata") {
-      // A returned Strata trajectory always passes the independent verification.
-      if (success) EXPECT_EQ(results.At(r, "verify_violations"), "0") << "row " << r;
+    if (method == "strata" && success) {
+      // A returned trajectory passes Plan's verifier again, and the harness's own check.
+      EXPECT_EQ(results.At(r, "verify_violations"), "0") << "row " << r;
+      for (const std::string& check : checks) EXPECT_EQ(results.At(r, check), "0") << check;
     } else {
+      // Baselines' paths and failed plans are not checked.
       EXPECT_EQ(results.At(r, "verify_violations"), "-1") << "row " << r;
+      for (const std::string& check : checks) EXPECT_EQ(results.At(r, check), "-1") << check;
+    }
+    if (method == "strata" && !success) {
+      // Strata's only way to fail on a reachable pair: a trajectory verification kept refusing.
+      EXPECT_EQ(results.At(r, "reason"), "OPTIMIZATION_FAILED") << "row " << r;
     }
     if (!success) continue;
-    ++successes;
+    ++successes[method];
     // A path is at least as long as the straight line between its (snapped) ends.
     const double straight = std::hypot(results.Number(r, "goal_x") - results.Number(r, "start_x"),
                                        results.Number(r, "goal_y") - results.Number(r, "start_y"),
@@ -119,7 +129,15 @@ TEST_F(BenchSmokeTest, ThreeMethodsOnThreePairsWriteSaneRows) {
     }
     EXPECT_GE(std::stoi(results.At(r, "path_points")), 2) << "row " << r;
   }
-  EXPECT_GT(successes, 0) << "no method solved any pair; nothing was measured";
+  // What this run achieves on this small room (stairs, a ramp, open floor): Liu-style's graph
+  // search solves every pair; Strata all but one at most (a start in a room corner can keep
+  // its acceleration 1-2% over the bound through all three attempts, as the third pair does).
+  // Krüsi-style samples against a 1 s limit, so its count depends on the machine: not asserted.
+  EXPECT_EQ(successes["liu"], 3);
+  EXPECT_GE(successes["strata"], 2);
+  EXPECT_THAT(output, HasSubstr("independent check of " + std::to_string(successes["strata"]) +
+                                " checked: ground 0, clearance 0, headroom 0, body height 0, "
+                                "speed 0, acceleration 0"));
   for (const char* method : {"strata", "liu", "krusi"}) {
     EXPECT_EQ(queries_of[method], (std::set<int>{0, 1, 2})) << method;
   }

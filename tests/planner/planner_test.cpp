@@ -1,8 +1,8 @@
 #include "strata/planner.hpp"
 
-#include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <string>
 
@@ -11,6 +11,7 @@
 
 #include "strata/cloud_io.hpp"
 #include "strata/scenes/basic_scenes.hpp"
+#include "test_util/hand_made_maps.hpp"
 #include "test_util/terrain_queries.hpp"
 
 namespace strata {
@@ -53,6 +54,8 @@ void ExpectSound(const PlanResult& plan, const PlanRequest& request) {
   EXPECT_LE(s.max_accel_horizontal_mps2, 1.01 * robot.max_accel_horizontal_mps2);
   EXPECT_LE(s.max_accel_vertical_mps2, 1.01 * robot.max_accel_vertical_mps2);
   EXPECT_LE(s.max_ground_offset_m, request.options.verifier.ground_tolerance_m);
+  EXPECT_GE(s.min_headroom_m,
+            robot.headroom_m - BodyHeightTolerance(robot, request.options.verifier));
   EXPECT_GT(s.verified_samples, s.length_m / 0.021);
   // Smoothing cuts the grid path's corners; a retried optimisation (stiffer penalties) can
   // swerve a little (7% measured on the two-level ramp), never much.
@@ -144,52 +147,63 @@ TEST_F(TwoLevelPlan, ARunOutBudgetNamesTheOptionThatRaisesIt) {
   EXPECT_TRUE(plan.ok()) << plan.error().message;
 }
 
-TEST_F(TwoLevelPlan, CancellationAndDeadlinesStopPromptlyWithTheirReason) {
-  const PlanRequest request = Request(layout_.start_example_m, layout_.goal_example_m);
-  auto plan = Plan(*map_, request, [] { return true; });
-  ASSERT_FALSE(plan.ok());
-  EXPECT_EQ(plan.error().code, ErrorCode::kCancelled);
+// A should_stop that counts its polls and fires from the `fire_at`-th on (0: never).
+struct CountingStop {
+  int fire_at = 0;
+  int polls = 0;
+  bool operator()() { return ++polls >= fire_at && fire_at > 0; }
+};
 
-  PlanRequest hurried = request;
-  hurried.options.time_budget_s = 0.002;
-  const auto begin = std::chrono::steady_clock::now();
-  plan = Plan(*map_, hurried);
-  const double elapsed =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count();
+TEST_F(TwoLevelPlan, CancellationStopsAtTheFirstPollThatAsksInEveryStage) {
+  const PlanRequest request = Request(layout_.start_example_m, layout_.goal_example_m);
+  // How often a whole plan polls, then a cancellation at the first poll and at the last: the
+  // plan ends at that very poll (no further poll), naming the stage.
+  CountingStop never;
+  ASSERT_TRUE(Plan(*map_, request, std::ref(never)).ok());
+  ASSERT_GT(never.polls, 2);
+  for (const int fire_at : {1, never.polls}) {
+    CountingStop stop{fire_at};
+    const auto plan = Plan(*map_, request, std::ref(stop));
+    ASSERT_FALSE(plan.ok()) << "fire_at " << fire_at;
+    EXPECT_EQ(plan.error().code, ErrorCode::kCancelled);
+    EXPECT_THAT(plan.error().message, HasSubstr(fire_at == 1 ? "during the path search"
+                                                             : "during trajectory optimisation"));
+    EXPECT_EQ(stop.polls, fire_at);
+  }
+}
+
+TEST_F(TwoLevelPlan, ABudgetSpentBeforeTheFirstPollEndsThePlanAtThatPoll) {
+  PlanRequest request = Request(layout_.start_example_m, layout_.goal_example_m);
+  // Below the clock's resolution: the deadline is the start time itself, so it has passed at
+  // the first poll whatever the machine's speed.
+  request.options.time_budget_s = 1e-12;
+  CountingStop polls;
+  const auto plan = Plan(*map_, request, std::ref(polls));
   ASSERT_FALSE(plan.ok());
   EXPECT_EQ(plan.error().code, ErrorCode::kDeadlineExceeded);
-  EXPECT_THAT(plan.error().message, HasSubstr("time budget of 0.002 s"));
-  // Generous bound (not a speed target): the stop is polled, not waited for the whole plan.
-  EXPECT_LT(elapsed, 0.5);
+  EXPECT_THAT(plan.error().message, HasSubstr("time budget of 0.000 s"));
+  EXPECT_EQ(polls.polls, 1);
 }
 
-// A room split by a wall whose only opening is under a table 0.45 m high: the biped crouches
-// through, the differential robot (0.5 m tall) cannot pass.
-PointCloud TableRoom() {
-  PointCloud cloud;
-  const auto add = [&](double x, double y, double z) {
-    cloud.emplace_back(static_cast<float>(x), static_cast<float>(y), static_cast<float>(z));
-  };
-  const double s = 0.05;
-  for (double x = 0; x <= 8.0 + 1e-9; x += s) {
-    for (double y = 0; y <= 4.0 + 1e-9; y += s) {
-      add(x, y, 0);  // Floor.
-      const bool opening = y > 1.2 && y < 2.8;
-      if (std::abs(x - 4.0) < 0.1 && !opening) {  // Dividing wall, 1.5 m.
-        for (double z = s; z <= 1.5; z += s) add(x, y, z);
-      }
-      if (std::abs(x - 4.0) <= 0.6 && opening) add(x, y, 0.45);  // Table top over the opening.
-    }
-  }
-  for (double z = s; z <= 1.5; z += s) {  // Outer walls.
-    for (double x = 0; x <= 8.0 + 1e-9; x += s) add(x, 0, z), add(x, 4.0, z);
-    for (double y = 0; y <= 4.0 + 1e-9; y += s) add(0, y, z), add(8.0, y, z);
-  }
-  return cloud;
+// A plan whose optimiser ignores the speed bounds (no feasibility penalty) and values time far
+// above smoothness races through: every attempt fails verification, and Plan reports the
+// violation.
+TEST_F(TwoLevelPlan, ATrajectoryThatNeverPassesVerificationIsOptimizationFailed) {
+  PlanRequest request = Request(layout_.start_example_m, layout_.goal_example_m);
+  request.options.optimizer.weights.feasibility = 0;
+  request.options.optimizer.weights.time = 1e4;
+  const auto plan = Plan(*map_, request);
+  ASSERT_FALSE(plan.ok());
+  EXPECT_EQ(plan.error().code, ErrorCode::kOptimizationFailed);
+  EXPECT_THAT(plan.error().message, HasSubstr("trajectory verification failed"));
+  EXPECT_THAT(plan.error().message, HasSubstr("exceeds the bound"));
+  EXPECT_THAT(plan.error().message,
+              HasSubstr("(after " + std::to_string(request.options.max_attempts) + " attempts)"));
 }
 
+// test_util::TableRoom: a wall whose only opening is under a table 0.45 m high.
 TEST(TableRoom, TheBipedCrouchesUnderTheTableWhereTheDifferentialRobotCannotPass) {
-  const PlanningMap map(Assess(TableRoom(), 0.1));
+  const PlanningMap map(Assess(test_util::TableRoom(), 0.1));
   const Eigen::Vector3d start(1.5, 2.0, 0.3), goal(6.5, 2.0, 0.3);
 
   const PlanRequest wheeled = Request(start, goal, "differential");
@@ -211,10 +225,13 @@ TEST(TableRoom, TheBipedCrouchesUnderTheTableWhereTheDifferentialRobotCannotPass
     EXPECT_GE(q(3), biped.profile.body_height_min_m - 0.01);
     EXPECT_LE(q(3), biped.profile.body_height_max_m + 0.01);
   }
-  EXPECT_LE(under_table, 0.45) << "the body must fit under the table";
+  // The body fits under the table with the profile's headroom above it, up to the verifier's
+  // stated tolerance.
+  const double tolerance = BodyHeightTolerance(biped.profile, biped.options.verifier);
+  EXPECT_LE(under_table, 0.45 - biped.profile.headroom_m + tolerance);
   EXPECT_GT(in_the_open, 0.6) << "away from the table it stands near its preferred height";
-  EXPECT_LE(plan->stats.min_body_height_m, 0.45);
-  EXPECT_GE(plan->stats.min_headroom_m, 0.0);
+  EXPECT_LE(plan->stats.min_body_height_m, 0.45 - biped.profile.headroom_m + tolerance);
+  EXPECT_GE(plan->stats.min_headroom_m, biped.profile.headroom_m - tolerance);
 }
 
 TEST(StairsRampRoomPlan, TheTrajectoryTakesTheRampNotTheStairs) {
@@ -236,18 +253,24 @@ TEST(StairsRampRoomPlan, TheTrajectoryTakesTheRampNotTheStairs) {
   }
 }
 
-// The shared maps (skipped when ../shared/maps is absent).
-std::shared_ptr<const TerrainModel> SharedMap(const std::string& name, double resolution_m) {
-  const std::string path = std::string(STRATA_SHARED_MAPS_DIR) + "/" + name;
-  if (!std::filesystem::exists(path)) return nullptr;
+// The shared maps: a test skips when ../shared/maps is absent, and fails when a map is there
+// but does not load.
+std::string SharedMapPath(const std::string& name) {
+  return std::string(STRATA_SHARED_MAPS_DIR) + "/" + name;
+}
+
+std::shared_ptr<const TerrainModel> LoadShared(const std::string& path, double resolution_m) {
   auto cloud = LoadPointCloud(path, CloudLoadLimits{});
+  EXPECT_TRUE(cloud.ok()) << path << ": " << cloud.error().message;
   if (!cloud) return nullptr;
   return Assess(cloud->points, resolution_m);
 }
 
 TEST(SharedMaps, Scene20QueriesSucceedOnTheGround) {
-  const auto model = SharedMap("scene20.2.pcd", 0.2);
-  if (!model) GTEST_SKIP() << "shared maps not found at " << STRATA_SHARED_MAPS_DIR;
+  const std::string path = SharedMapPath("scene20.2.pcd");
+  if (!std::filesystem::exists(path)) GTEST_SKIP() << "shared maps not found at " << path;
+  const auto model = LoadShared(path, 0.2);
+  ASSERT_NE(model, nullptr);
   const PlanningMap map(model);
   // From ../shared/maps/README.md: s2_flat_diag, s2_under_deck, s2_around_walls.
   const std::pair<Eigen::Vector3d, Eigen::Vector3d> queries[] = {
@@ -274,8 +297,10 @@ TEST(SharedMaps, Scene20QueriesSucceedOnTheGround) {
 }
 
 TEST(SharedMaps, SpiralGroundQueriesSucceedAndAnIsolatedGoalIsRefusedWithoutSearch) {
-  const auto model = SharedMap("spiral0.3_2.pcd", 0.2);
-  if (!model) GTEST_SKIP() << "shared maps not found at " << STRATA_SHARED_MAPS_DIR;
+  const std::string path = SharedMapPath("spiral0.3_2.pcd");
+  if (!std::filesystem::exists(path)) GTEST_SKIP() << "shared maps not found at " << path;
+  const auto model = LoadShared(path, 0.2);
+  ASSERT_NE(model, nullptr);
   const PlanningMap map(model);
   // sp_ground_left, sp_ground_right, sp_ground_to_l1 (up the first turn of the west ramp),
   // sp_ground_to_top and sp_top_to_ground (all five turns of a spiral, over the top deck).
@@ -310,10 +335,21 @@ TEST(SharedMaps, SpiralGroundQueriesSucceedAndAnIsolatedGoalIsRefusedWithoutSear
     if (graph->component(m) != graph->component(start.node)) island = m;
   }
   ASSERT_GE(island, 0);
-  auto refused = Plan(map, Request(probe.start.position_m, graph->position(island)));
+  // The search would poll before its first expansion: no poll, no search.
+  CountingStop polls;
+  auto refused =
+      Plan(map, Request(probe.start.position_m, graph->position(island)), std::ref(polls));
   ASSERT_FALSE(refused.ok());
   EXPECT_EQ(refused.error().code, ErrorCode::kGoalUnreachable);
   EXPECT_THAT(refused.error().message, HasSubstr("different connected components"));
+  EXPECT_EQ(polls.polls, 0);
+  // The same verdict from the search itself, with its expansion count.
+  SearchStats stats;
+  stats.expansions = -1;
+  const auto search = SearchPath(*graph, start.node, island, SearchConfig{}, {}, &stats);
+  ASSERT_FALSE(search.ok());
+  EXPECT_EQ(search.error().code, ErrorCode::kGoalUnreachable);
+  EXPECT_EQ(stats.expansions, 0);
 }
 
 }  // namespace

@@ -304,8 +304,11 @@ TEST(BenchScenesAssessed, TablesOnlyTheBipedCrouchesUnderTheRow) {
     // Behind the row: the biped crouches under it, the differential robot cannot get there.
     ASSERT_EQ(q.robot, "biped");
     if (plan.ok()) {
-      EXPECT_LE(plan->stats.min_body_height_m, l.table_underside_z_m - 0.05 + 1e-6);
-      EXPECT_GE(plan->stats.min_headroom_m, 0.0);
+      const RobotProfile biped = BuiltinProfile("biped").value();
+      const double tolerance = BodyHeightTolerance(biped, VerifierConfig{});
+      EXPECT_LE(plan->stats.min_body_height_m,
+                l.table_underside_z_m - biped.headroom_m + tolerance);
+      EXPECT_GE(plan->stats.min_headroom_m, biped.headroom_m - tolerance);
     }
     const Expected<PlanResult> wheeled = Plan(map, Request(q, "differential"));
     ASSERT_FALSE(wheeled.ok()) << q.name;

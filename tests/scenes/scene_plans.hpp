@@ -63,6 +63,9 @@ inline Expected<PlanResult> ExpectPlans(const PlanningMap& map, const SceneQuery
   EXPECT_LE(plan->stats.max_ground_offset_m, request.options.verifier.ground_tolerance_m);
   EXPECT_LE(plan->stats.max_speed_horizontal_mps, 1.01 * request.profile.max_speed_horizontal_mps);
   EXPECT_LE(plan->stats.max_tilt_rad, request.profile.max_tilt_rad + 1e-6);
+  EXPECT_GE(
+      plan->stats.min_headroom_m,
+      request.profile.headroom_m - BodyHeightTolerance(request.profile, request.options.verifier));
   return plan;
 }
 

@@ -175,10 +175,7 @@ TEST_F(MapServiceTest, UploadsACloudFarAboveTheMessageLimitInChunks) {
   SetDeadline(&context, 120);
   v1::Map map;
   auto writer = maps_->UploadMap(&context, &map);
-  v1::UploadMapRequest header;
-  header.mutable_header()->set_map_id("floors");
-  header.mutable_header()->set_format(v1::POINT_FORMAT_XYZ_F32_LE);
-  header.mutable_header()->set_point_count(points);
+  v1::UploadMapRequest header = UploadHeader("floors", points);
   header.mutable_header()->set_wait(true);
   ASSERT_TRUE(writer->Write(header));
   const std::size_t chunk_points = (std::size_t{1} << 20) / 12;  // The largest chunk allowed.
@@ -216,10 +213,7 @@ TEST_F(MapServiceTest, RefusesMalformedUploads) {
   SetDeadline(&context, 30);
   v1::Map map;
   auto writer = maps_->UploadMap(&context, &map);
-  v1::UploadMapRequest header;
-  header.mutable_header()->set_map_id("broken");
-  header.mutable_header()->set_format(v1::POINT_FORMAT_XYZ_F32_LE);
-  writer->Write(header);
+  writer->Write(UploadHeader("broken"));
   v1::UploadMapRequest chunk;
   chunk.mutable_chunk()->set_points(std::string(13, '\0'));  // Not whole 12-byte points.
   writer->Write(chunk);

@@ -78,38 +78,60 @@ TEST_F(ServerOpsTest, SixteenClientsPlanOnTwoMapsWhileAThirdComesAndGoes) {
   EXPECT_EQ(succeeded, kClients * kPlansPerClient);
 }
 
-TEST_F(ServerOpsTest, SigtermDrainsInFlightCallsAndExitsZero) {
-  ASSERT_NO_FATAL_FAILURE(StartServer({"--max-concurrent-plans", "1"}));
-  constexpr int kCalls = 6;
-  std::vector<std::future<grpc::Status>> calls;
-  for (int i = 0; i < kCalls; ++i) {
-    calls.push_back(std::async(std::launch::async, [this, i] {
-      auto stub = v1::PlannerService::NewStub(server_->NewChannel());
-      grpc::ClientContext context;
-      SetDeadline(&context, 60);
-      v1::PlanResponse response;
-      return stub->Plan(&context, PlanRequestFor("demo", 2, 2 + 0.2 * i, 0.3, 10, 10, 3.3),
-                        &response);
-    }));
-  }
-  // Every call has reached the server (one plans, the rest queue for the single slot) once
-  // the started counter says so; then the signal lands with all of them in flight.
+// A call that cannot finish before the test lets it: an upload whose stream the client keeps
+// open. The server's handler has started (its started counter says so) and waits for the
+// rest of the stream, so it is provably in flight when SIGTERM lands; the client sends the
+// rest only once the server refuses new calls. The call must then end with the server's own
+// answer (drained), not be cut off, and the server exit 0 once it has.
+TEST_F(ServerOpsTest, SigtermDrainsACallThatIsProvablyInFlight) {
+  ASSERT_NO_FATAL_FAILURE(StartServer());
+  grpc::ClientContext context;
+  SetDeadline(&context, 60);
+  v1::Map map;
+  auto writer = maps_->UploadMap(&context, &map);
+  // Two chunks of 400 points, one before the signal and one after: a server that stopped
+  // reading at the signal would see a stream 400 points short.
+  ASSERT_TRUE(writer->Write(UploadHeader("late", 800)));
+  std::vector<float> xyz;
+  for (int i = 0; i < 400; ++i) xyz.insert(xyz.end(), {0.1f * (i % 20), 0.1f * (i / 20), 0.0f});
+  v1::UploadMapRequest chunk;
+  chunk.mutable_chunk()->set_points(
+      std::string(reinterpret_cast<const char*>(xyz.data()), xyz.size() * sizeof(float)));
+  ASSERT_TRUE(writer->Write(chunk));
+
+  const std::vector<std::string> upload = {"grpc_method=\"UploadMap\""};
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
   double started = 0;
-  while (started < kCalls && std::chrono::steady_clock::now() < deadline) {
+  while (started < 1 && std::chrono::steady_clock::now() < deadline) {
     started = MetricValue(HttpGet(server_->metrics_port(), "/metrics"), "grpc_server_started_total",
-                          {"grpc_method=\"Plan\""});
+                          upload);
   }
-  ASSERT_EQ(started, kCalls);
+  ASSERT_EQ(started, 1) << "the upload's handler never started";
   server_->Signal(SIGTERM);
-  for (auto& call : calls) {
-    const grpc::Status status = call.get();
-    EXPECT_TRUE(status.ok()) << status.error_message();
+  // The server stops its map registry, then refuses new calls: once a new call is refused,
+  // the registry has stopped, and the upload still in flight can only end one way.
+  bool refusing = false;
+  while (!refusing && std::chrono::steady_clock::now() < deadline) {
+    grpc::ClientContext list_context;
+    SetDeadline(&list_context, 5);
+    v1::ListMapsResponse maps;
+    refusing = !maps_->ListMaps(&list_context, v1::ListMapsRequest{}, &maps).ok();
   }
+  ASSERT_TRUE(refusing) << "the server kept taking new calls after SIGTERM";
+
+  // The rest of the stream, after the signal: the handler reads it all and refuses the new
+  // map, as a server shutting down does. A call cut at the signal would end otherwise:
+  // CANCELLED or UNAVAILABLE without the server's reason, or INVALID_ARGUMENT for a stream
+  // 400 points short.
+  ASSERT_TRUE(writer->Write(chunk));
+  ASSERT_TRUE(writer->WritesDone());
+  const CallError error = ErrorOf(writer->Finish());
+  EXPECT_EQ(error.code, grpc::StatusCode::UNAVAILABLE) << error.message;
+  EXPECT_EQ(error.reason, "SHUTTING_DOWN") << error.message;
   EXPECT_EQ(server_->WaitExit(std::chrono::seconds(30)), 0);
   const std::string log = server_->Log();
-  EXPECT_THAT(log, HasSubstr("event=shutdown signal=SIGTERM"));
   EXPECT_THAT(log, HasSubstr("event=stopped"));
+  EXPECT_THAT(log, HasSubstr("rpc=UploadMap map=late"));  // The handler ran to its end.
 }
 
 TEST_F(ServerOpsTest, MetricsShowTheCountersMoving) {

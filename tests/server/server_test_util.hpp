@@ -1,6 +1,7 @@
 #pragma once
 // Helpers for tests that talk to a running strata-server.
 #include <chrono>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -51,6 +52,16 @@ inline void SetXyz(v1::Vector3* v, double x, double y, double z) {
   v->set_x(x);
   v->set_y(y);
   v->set_z(z);
+}
+
+/// The first message of an UploadMap stream: map `map_id`, points as little-endian float32
+/// x, y, z, `point_count` of them announced (0: any number).
+inline v1::UploadMapRequest UploadHeader(const std::string& map_id, std::uint64_t point_count = 0) {
+  v1::UploadMapRequest message;
+  message.mutable_header()->set_map_id(map_id);
+  message.mutable_header()->set_format(v1::POINT_FORMAT_XYZ_F32_LE);
+  message.mutable_header()->set_point_count(point_count);
+  return message;
 }
 
 inline v1::PlanRequest PlanRequestFor(const std::string& map_id, double sx, double sy, double sz,

@@ -23,10 +23,17 @@ struct VerifierConfig {
   /// Smallest ESDF distance at the reference point [m], >= 0 (the reference point is never
   /// inside an obstacle; walls are kept away by the ground filter radius).
   double min_obstacle_distance_m = 0.05;
-  /// Speed and acceleration may exceed the profile's bounds by this fraction, >= 0.
+  /// Speed and acceleration may exceed the profile's bounds by this fraction, >= 0. The body
+  /// height may leave its range, and eat into the profile's headroom, by this fraction of the
+  /// highest body height (BodyHeightTolerance: 7 mm for the built-in biped).
   double limit_tolerance = 0.01;
   Status Validate(std::string_view path = "verifier") const;
 };
+
+/// How far the body height may leave [body_height_min_m, body_height_max_m], and come closer
+/// to the ceiling than the profile's headroom_m, in verification [m]: limit_tolerance × the
+/// highest body height (body_height_max_m, or body_height_m for a fixed height).
+double BodyHeightTolerance(const RobotProfile& profile, const VerifierConfig& config);
 
 /// What verification measured over all samples (extremes; filled even on failure up to the
 /// first violation).
@@ -43,16 +50,30 @@ struct VerificationReport {
   double min_headroom_m = 0;
 };
 
-/// Checks every sample (spacing <= max_sample_spacing_m in 3D, and both ends): the column
-/// under the reference point is traversable for the profile at the sample's level (a node of
-/// `graph`, built from profile.Traversability(): valid ground, tilt <= max_tilt_rad, ceiling
-/// clearance >= lowest body height + headroom) and its ceiling clears the body height
-/// (commanded for active-height robots, else body_height_m); z within ground_tolerance_m of
-/// ground + reference height (the smoothed ground of SampleGround); ESDF distance
-/// >= min_obstacle_distance_m; horizontal/vertical speed and acceleration within the bounds
-/// (+ limit_tolerance); body height within [min, max] (+ limit_tolerance) for active-height
-/// robots. Fails with kOptimizationFailed naming the first violation: time, position, the
-/// quantity, its value and its bound.
+/// Checks every sample (spacing <= max_sample_spacing_m in 3D, both ends, and the first instant
+/// in every grid column the reference point enters, where ceilings and ground change), in this
+/// order, and fails with kOptimizationFailed naming the first violation (time, position, the
+/// quantity, its value and its bound):
+/// - horizontal and vertical speed and acceleration within the profile's bounds
+///   (+ limit_tolerance);
+/// - the reference point inside the map's grid, over ground of its own column: the surface
+///   SampleGround picks there (the one nearest to z − reference height, never another level of
+///   the column), whose plane-fit height at the column's centre lies within the ground
+///   tolerance (below) + (r/√2)·tan(max_tilt_rad) of z − reference height (r the grid
+///   resolution; else the robot is inside a post, a leg or a wall, or cuts across a ledge
+///   that the smoothed ground rounds off), which is valid ground with tilt <= max_tilt_rad;
+/// - z within the ground tolerance of the smoothed ground of SampleGround + reference height:
+///   ground_tolerance_m, or 0.75 quanta on a voxelised cloud if more;
+/// - ESDF distance >= min_obstacle_distance_m;
+/// - the surface's ceiling clearance at least the body height (commanded for active-height
+///   robots, else body_height_m) + headroom_m, and the commanded body height within
+///   [body_height_min_m, body_height_max_m], both within BodyHeightTolerance;
+/// - the surface is a node of `graph` (true when the graph was built from
+///   profile.Traversability(), as Plan does).
+/// Every comparison fails on NaN. Fails before sampling with kInvalidConfig for a bad config
+/// or profile, kInvalidInput when the trajectory's dimension is not the profile's (4 with
+/// active height, else 3), and kOptimizationFailed for no pieces, a non-finite coefficient, a
+/// duration that is not finite and > 0, or more than 2e7 samples.
 Status VerifyTrajectory(const SurfaceGraph& graph, const RobotProfile& profile,
                         const Trajectory& trajectory, const VerifierConfig& config,
                         VerificationReport* report);

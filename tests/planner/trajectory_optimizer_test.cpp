@@ -1,0 +1,246 @@
+// The optimiser on the hand-made yard (test_util::Yard): it converges on a simple problem, its
+// objective's gradient wrt the decision variables (waypoints q, duration parameters τ) matches
+// central differences block by block, it honours should_stop at once, and it reports its
+// iterations within the budget.
+#include "strata/trajectory_optimizer.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "strata/robot_profile.hpp"
+#include "strata/surface_graph.hpp"
+#include "strata/trajectory.hpp"
+#include "strata/trajectory_verifier.hpp"
+#include "test_util/gradient_check.hpp"
+#include "test_util/hand_made_maps.hpp"
+#include "trajectory_optimizer_internal.hpp"
+
+namespace strata {
+namespace {
+
+using ::testing::HasSubstr;
+
+// The cost's parameters as Plan builds them.
+CostParams ParamsFor(const RobotProfile& profile, const OptimizerConfig& config) {
+  return CostParams{profile, config.cost};
+}
+
+// The yard's ground height at (x, y) [m]: the ramp's over its footprint, else the floor's.
+double YardGround(const Eigen::Vector2d& xy) {
+  if (xy.x() < 7 || xy.y() < 1 || xy.y() > 5) return 0;
+  return std::min(xy.x() - 7, 3.0) * std::tan(test_util::kYardRampSlopeRad);
+}
+
+// The straight path of reference points 0.1 m apart from `from` to `to` (x, y) on the ground.
+std::vector<Eigen::Vector3d> StraightPath(const Eigen::Vector2d& from, const Eigen::Vector2d& to,
+                                          double reference_height_m) {
+  std::vector<Eigen::Vector3d> path;
+  const int steps = static_cast<int>(std::ceil((to - from).norm() / 0.1));
+  for (int k = 0; k <= steps; ++k) {
+    const Eigen::Vector2d xy = from + (to - from) * k / steps;
+    path.emplace_back(xy.x(), xy.y(), YardGround(xy) + reference_height_m);
+  }
+  return path;
+}
+
+RobotState At(const Eigen::Vector3d& position_m) {
+  RobotState state;
+  state.position_m = position_m;
+  return state;
+}
+
+// One planning problem on the yard: the graph and cost for a built-in profile, and the
+// problem made from a straight path between two points of the floor. Not copyable: the cost
+// refers to the graph.
+struct Case {
+  Case(const std::string& robot, const Eigen::Vector2d& from, const Eigen::Vector2d& to,
+       const OptimizerConfig& config = {})
+      : profile(BuiltinProfile(robot).value()),
+        graph(SurfaceGraph::Build(test_util::YardModel(), profile.Traversability()).value()),
+        cost(graph, config.weights, ParamsFor(profile, config)),
+        path(StraightPath(from, to, profile.reference_height_m)),
+        problem(MakeInitialProblem(cost, path, At(path.front()), At(path.back()), config)) {}
+  Case(const Case&) = delete;
+  Case& operator=(const Case&) = delete;
+
+  RobotProfile profile;
+  SurfaceGraph graph;
+  TrajectoryCost cost;
+  std::vector<Eigen::Vector3d> path;
+  OptimizationProblem problem;
+};
+
+TEST(OptimizeTrajectory, ConvergesAcrossOpenFloorToAVerifiedTrajectory) {
+  const OptimizerConfig config;
+  const Case s("differential", {1, 1}, {5, 1.5}, config);
+  Minco3 minco;
+  const auto report = OptimizeTrajectory(s.cost, s.problem, config, {}, &minco);
+  ASSERT_TRUE(report.ok()) << report.error().message;
+  EXPECT_TRUE(report->converged);
+  EXPECT_GE(report->iterations, 1);
+  EXPECT_LT(report->iterations, config.max_iterations);
+  EXPECT_GE(report->evaluations, report->iterations);
+  EXPECT_LT(report->final_cost, report->initial_cost);
+  EXPECT_NEAR(report->final_cost, report->final_terms.total(), 1e-9 * report->final_cost);
+  // The boundary states are kept, and the result passes verification.
+  EXPECT_LT((minco.Position(0) - s.problem.head_pva.col(0)).norm(), 1e-9);
+  EXPECT_LT((minco.Position(minco.TotalDuration()) - s.problem.tail_pva.col(0)).norm(), 1e-9);
+  VerificationReport verification;
+  const Status verified =
+      VerifyTrajectory(s.graph, s.profile, Trajectory::FromMinco(minco), {}, &verification);
+  EXPECT_TRUE(verified.ok()) << verified.error().message;
+  // Faster than the initial guess, which runs at half the speed bound.
+  EXPECT_LT(minco.TotalDuration(), s.problem.initial_durations.sum());
+}
+
+// The objective L-BFGS sees, J(q, T(τ)), against central differences over x = [q, τ], one
+// block per waypoint axis and one for τ. On the ramp (slope, rim and safety terms) and under
+// the slab (ceiling and body-height terms for the biped), from a perturbed initial guess.
+class OptimizerObjectiveGradient : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(OptimizerObjectiveGradient, MatchesCentralDifferencesPerBlock) {
+  const std::string robot = GetParam();
+  const bool biped = robot == "biped";
+  OptimizerConfig config;
+  config.piece_length_m = 0.6;
+  const Case s(robot, biped ? Eigen::Vector2d(1.5, 3.2) : Eigen::Vector2d(7.3, 1.6),
+               biped ? Eigen::Vector2d(4.5, 2.8) : Eigen::Vector2d(9.5, 4.4), config);
+  const int dim = s.problem.head_pva.rows();
+  const int pieces = static_cast<int>(s.problem.initial_durations.size());
+  ASSERT_GE(pieces, 3);
+  Minco3 minco;
+  minco.SetConditions(s.problem.head_pva, s.problem.tail_pva, pieces);
+  internal::OptimizerObjective objective(s.cost, &minco, {});
+  Eigen::VectorXd x = internal::InitialDecisionVector(s.problem);
+  // Off the initial guess: waypoints moved by up to 5 cm, durations by up to 20%.
+  for (Eigen::Index i = 0; i < x.size(); ++i)
+    x(i) += (i % 2 == 0 ? 1 : -1) * (i < x.size() - pieces ? 0.05 : 0.2) * std::sin(i + 1.0);
+  Eigen::VectorXd analytic;
+  const double value = objective(x, analytic);
+  const double h = 1e-6;
+  const Eigen::VectorXd numeric = test_util::NumericalGradient(
+      [&](const Eigen::VectorXd& y) {
+        Eigen::VectorXd unused;
+        return objective(y, unused);
+      },
+      x, h);
+  // Waypoints are stored waypoint by waypoint: reorder them axis by axis.
+  const int nq = dim * (pieces - 1);
+  const auto by_axis = [&](const Eigen::VectorXd& g) {
+    return test_util::WaypointsByAxis(g, dim, pieces - 1);
+  };
+  const std::vector<test_util::GradientBlock> blocks =
+      test_util::WaypointAxisBlocks(dim, pieces - 1, "tau", pieces);
+  EXPECT_TRUE(test_util::GradientsMatchPerBlock(by_axis(analytic), by_axis(numeric), blocks, 1e-5,
+                                                test_util::FiniteDifferenceNoise(value, h)));
+  // Every block must carry a gradient, or the comparison is 0 = 0.
+  for (const auto& b : blocks) {
+    EXPECT_GT(by_axis(analytic).segment(b.offset, b.size).norm(), 1e-3) << b.name;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Robots, OptimizerObjectiveGradient,
+                         ::testing::Values("differential", "biped"));
+
+TEST(OptimizeTrajectory, StopsAtThePollThatAsks) {
+  const OptimizerConfig config;
+  const Case s("differential", {1, 1}, {5, 1.5}, config);
+  for (const int fire_at : {1, 5}) {
+    int polls = 0;
+    Minco3 minco;
+    const auto report = OptimizeTrajectory(
+        s.cost, s.problem, config, [&] { return ++polls >= fire_at; }, &minco);
+    ASSERT_FALSE(report.ok());
+    EXPECT_EQ(report.error().code, ErrorCode::kCancelled);
+    EXPECT_EQ(polls, fire_at) << "no evaluation after the stop";
+  }
+}
+
+TEST(OptimizeTrajectory, ReportsItsIterationsWithinTheBudget) {
+  for (const int budget : {1, 3, 10}) {
+    OptimizerConfig config;
+    config.max_iterations = budget;
+    const Case s("differential", {1, 1}, {5, 1.5}, config);
+    Minco3 minco;
+    const auto report = OptimizeTrajectory(s.cost, s.problem, config, {}, &minco);
+    ASSERT_TRUE(report.ok()) << report.error().message;
+    EXPECT_GE(report->iterations, 1) << budget;
+    EXPECT_LE(report->iterations, budget);
+    EXPECT_FALSE(report->converged) << "the problem needs more than " << budget << " iterations";
+    EXPECT_LE(report->final_cost, report->initial_cost);
+  }
+}
+
+TEST(MakeInitialProblem, SplitsThePathIntoPiecesAtTheBodyHeightTheCeilingAllows) {
+  OptimizerConfig config;
+  config.piece_length_m = 0.5;
+  // The biped from the open floor under the slab (clearance 0.45 m).
+  const Case s("biped", {0.5, 3}, {3.5, 3}, config);
+  const OptimizationProblem& p = s.problem;
+  ASSERT_EQ(p.initial_durations.size(), 6);  // 3 m in pieces of 0.5 m.
+  ASSERT_EQ(p.initial_waypoints.rows(), 4);
+  ASSERT_EQ(p.initial_waypoints.cols(), 5);
+  EXPECT_TRUE((p.initial_durations.array() > 0).all());
+  EXPECT_EQ(p.head_pva.col(0).head<3>(), Eigen::Vector3d(0.5, 3, 0.2));
+  EXPECT_EQ(p.tail_pva.col(0).head<3>(), Eigen::Vector3d(3.5, 3, 0.2));
+  EXPECT_TRUE(p.head_pva.rightCols<2>().isZero());
+  // In the open the preferred 0.65 m; under the slab at most its clearance less headroom.
+  EXPECT_NEAR(p.head_pva(3, 0), s.profile.body_height_m, 1e-9);
+  EXPECT_LE(p.tail_pva(3, 0), 0.45 - s.profile.headroom_m + 1e-6);
+  for (int k = 0; k < p.initial_waypoints.cols(); ++k) {
+    EXPECT_NEAR(p.initial_waypoints(0, k), 0.5 + 0.5 * (k + 1), 1e-6);
+  }
+}
+
+TEST(OptimizerConfig, ValidateNamesEachFieldOutOfRange) {
+  const double nan = std::nan(""), inf = std::numeric_limits<double>::infinity();
+  const std::vector<std::pair<std::string, std::function<void(OptimizerConfig*)>>> cases = {
+      {"optimizer.weights.safety", [&](OptimizerConfig* c) { c->weights.safety = -1; }},
+      {"optimizer.cost.safety_threshold",
+       [&](OptimizerConfig* c) { c->cost.safety_threshold = nan; }},
+      {"optimizer.cost.edge_margin_m", [&](OptimizerConfig* c) { c->cost.edge_margin_m = -0.1; }},
+      {"optimizer.cost.distance_threshold_m",
+       [&](OptimizerConfig* c) { c->cost.distance_threshold_m = 0; }},
+      {"optimizer.cost.limit_margin", [&](OptimizerConfig* c) { c->cost.limit_margin = 1.5; }},
+      {"optimizer.cost.body_height_margin_m",
+       [&](OptimizerConfig* c) { c->cost.body_height_margin_m = inf; }},
+      {"optimizer.cost.body_height_stiffness",
+       [&](OptimizerConfig* c) { c->cost.body_height_stiffness = -1; }},
+      {"optimizer.cost.samples_per_piece",
+       [&](OptimizerConfig* c) { c->cost.samples_per_piece = 1; }},
+      {"optimizer.piece_length_m", [&](OptimizerConfig* c) { c->piece_length_m = 0; }},
+      {"optimizer.max_iterations", [&](OptimizerConfig* c) { c->max_iterations = 0; }},
+      {"optimizer.gradient_tolerance", [&](OptimizerConfig* c) { c->gradient_tolerance = 0; }},
+      {"optimizer.relative_improvement_tolerance",
+       [&](OptimizerConfig* c) { c->relative_improvement_tolerance = -1; }},
+      {"optimizer.memory", [&](OptimizerConfig* c) { c->memory = 0; }},
+  };
+  EXPECT_TRUE(OptimizerConfig{}.Validate().ok());
+  for (const auto& [field, spoil] : cases) {
+    OptimizerConfig config;
+    spoil(&config);
+    const Status status = config.Validate();
+    ASSERT_FALSE(status.ok()) << field;
+    EXPECT_EQ(status.error().code, ErrorCode::kInvalidConfig);
+    EXPECT_THAT(status.error().message, HasSubstr(field + " = ")) << field;
+    EXPECT_EQ(status.error().field, field);
+  }
+  // OptimizeTrajectory refuses a bad config before touching the trajectory.
+  OptimizerConfig bad;
+  bad.memory = 0;
+  const Case s("differential", {1, 1}, {5, 1.5});
+  Minco3 minco;
+  const auto report = OptimizeTrajectory(s.cost, s.problem, bad, {}, &minco);
+  ASSERT_FALSE(report.ok());
+  EXPECT_EQ(report.error().code, ErrorCode::kInvalidConfig);
+}
+
+}  // namespace
+}  // namespace strata
