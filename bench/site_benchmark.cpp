@@ -49,13 +49,13 @@ std::size_t ValidColumns(const strata::TerrainModel& model) {
   return count;
 }
 
-// Plans from `start` to `goal` `runs` times; the median total and search time [ms] and the
+// Plans from `start` to `goal` `runs` times: the median of each time [ms], the rest from the
 // last result.
 struct PlanFigures {
   bool ok = false;
   std::string error;
-  double total_ms = 0, search_ms = 0, length_m = 0;
-  int expansions = 0;
+  double total_ms = 0, search_ms = 0, optimize_ms = 0, verify_ms = 0, length_m = 0;
+  int expansions = 0, pieces = 0, iterations = 0, attempts = 0;
 };
 
 PlanFigures TimePlans(const strata::PlanningMap& map, const Eigen::Vector3d& start,
@@ -65,7 +65,7 @@ PlanFigures TimePlans(const strata::PlanningMap& map, const Eigen::Vector3d& sta
   request.start.position_m = start;
   request.goal.position_m = goal;
   request.options.time_budget_s = 60;
-  std::vector<double> totals, searches;
+  std::vector<double> totals, searches, optimizations, verifications;
   PlanFigures figures;
   for (int k = 0; k < runs; ++k) {
     const auto result = strata::Plan(map, request);
@@ -75,13 +75,59 @@ PlanFigures TimePlans(const strata::PlanningMap& map, const Eigen::Vector3d& sta
     }
     totals.push_back(1e3 * result->stats.timings.total_s);
     searches.push_back(1e3 * result->stats.timings.search_s);
+    optimizations.push_back(1e3 * result->stats.timings.optimize_s);
+    verifications.push_back(1e3 * result->stats.timings.verify_s);
     figures.length_m = result->stats.length_m;
     figures.expansions = result->stats.search_expansions;
+    figures.pieces = result->stats.pieces;
+    figures.iterations = result->stats.optimizer_iterations;
+    figures.attempts = result->stats.optimizer_attempts;
   }
   figures.ok = true;
   figures.total_ms = strata::bench::Median(totals);
   figures.search_ms = strata::bench::Median(searches);
+  figures.optimize_ms = strata::bench::Median(optimizations);
+  figures.verify_ms = strata::bench::Median(verifications);
   return figures;
+}
+
+// The site's example queries and plans of 5, 50 and 500 m (those shorter than its diagonal),
+// as a table.
+void PrintPlans(const strata::PlanningMap& map, double size_m) {
+  const strata::OutdoorSiteLayout layout = strata::GetOutdoorSiteLayout(1, size_m);
+  std::printf(
+      "\n| plan | length m | expansions | pieces | L-BFGS iterations (attempts) | search / optimise "
+      "/ verify ms (median) | total ms (median) |\n");
+  std::printf("|---|---|---|---|---|---|---|\n");
+  const Eigen::Vector3d lift(0, 0, 0.3);
+  const auto row = [](const std::string& name, const PlanFigures& f) {
+    if (!f.ok) {
+      std::printf("| %s | failed: %s | | | | | |\n", name.c_str(), f.error.c_str());
+    } else {
+      std::printf("| %s | %.1f | %d | %d | %d (%d) | %.2f / %.1f / %.1f | %.2f |\n", name.c_str(),
+                  f.length_m, f.expansions, f.pieces, f.iterations, f.attempts, f.search_ms,
+                  f.optimize_ms, f.verify_ms, f.total_ms);
+    }
+  };
+  for (const strata::SceneQuery& query : layout.queries) {
+    row(query.name, TimePlans(map, query.start_m + lift, query.goal_m + lift, 5));
+  }
+  // Plans of a given straight-line length from the across_the_hills start towards its goal;
+  // the goal moves on a metre at a time until it stands on ground (not on an obstacle).
+  const strata::SceneQuery& diagonal = layout.queries.front();
+  const Eigen::Vector2d direction = (diagonal.goal_m - diagonal.start_m).head<2>().normalized();
+  for (const double distance : {5.0, 50.0, 500.0}) {
+    if (distance > 0.9 * (diagonal.goal_m - diagonal.start_m).head<2>().norm()) continue;
+    PlanFigures f;
+    for (int k = 0; k < 20 && !f.ok; ++k) {
+      const Eigen::Vector2d xy = diagonal.start_m.head<2>() + (distance + k) * direction;
+      const Eigen::Vector3d goal(xy.x(), xy.y(), layout.GroundZAt(xy.x(), xy.y()));
+      f = TimePlans(map, diagonal.start_m + lift, goal + lift, distance < 100 ? 20 : 5);
+    }
+    char name[64];
+    std::snprintf(name, sizeof(name), "%.0f m along the diagonal", distance);
+    row(name, f);
+  }
 }
 
 }  // namespace
@@ -96,7 +142,19 @@ int main(int argc, char** argv) {
   app.add_option("--resolution", resolution_m, "grid resolution [m]")->capture_default_str();
   app.add_flag("--plans", plans, "also time plans of a few metres and across the site");
   app.add_option("--keep", keep, "keep the saved model in FILE (default: a temporary file)");
+  std::string model_file;
+  app.add_option("--model", model_file,
+                 "only time the plans, on FILE, a saved model of the SIZE_M site (--keep)");
   CLI11_PARSE(app, argc, argv);
+  if (!model_file.empty()) {
+    auto loaded = strata::LoadModel(model_file);
+    if (!loaded.ok()) {
+      std::fprintf(stderr, "%s\n", loaded.error().message.c_str());
+      return 1;
+    }
+    PrintPlans(strata::PlanningMap(*loaded), size_m);
+    return 0;
+  }
 
   auto start = Clock::now();
   strata::PointCloud cloud = strata::GenerateOutdoorSite(1, size_m, spacing_m);
@@ -168,38 +226,6 @@ int main(int argc, char** argv) {
       static_cast<double>(graph_bytes) / (*graph)->node_count(), peak_after_graph_mb, file_mb,
       save_s, load_s, assess_s / load_s);
 
-  if (plans) {
-    const strata::OutdoorSiteLayout layout = strata::GetOutdoorSiteLayout(1, size_m);
-    std::printf("\n| plan | length m | expansions | search ms (median) | total ms (median) |\n");
-    std::printf("|---|---|---|---|---|\n");
-    const Eigen::Vector3d lift(0, 0, 0.3);
-    const auto row = [](const std::string& name, const PlanFigures& f) {
-      if (!f.ok) {
-        std::printf("| %s | failed: %s | | | |\n", name.c_str(), f.error.c_str());
-      } else {
-        std::printf("| %s | %.1f | %d | %.2f | %.2f |\n", name.c_str(), f.length_m, f.expansions,
-                    f.search_ms, f.total_ms);
-      }
-    };
-    for (const strata::SceneQuery& query : layout.queries) {
-      row(query.name, TimePlans(map, query.start_m + lift, query.goal_m + lift, 5));
-    }
-    // Plans of a given straight-line length from the across_the_hills start towards its goal;
-    // the goal moves on a metre at a time until it stands on ground (not on an obstacle).
-    const strata::SceneQuery& diagonal = layout.queries.front();
-    const Eigen::Vector2d direction = (diagonal.goal_m - diagonal.start_m).head<2>().normalized();
-    for (const double distance : {5.0, 50.0, 500.0}) {
-      if (distance > 0.9 * (diagonal.goal_m - diagonal.start_m).head<2>().norm()) continue;
-      PlanFigures f;
-      for (int k = 0; k < 20 && !f.ok; ++k) {
-        const Eigen::Vector2d xy = diagonal.start_m.head<2>() + (distance + k) * direction;
-        const Eigen::Vector3d goal(xy.x(), xy.y(), layout.GroundZAt(xy.x(), xy.y()));
-        f = TimePlans(map, diagonal.start_m + lift, goal + lift, distance < 100 ? 20 : 5);
-      }
-      char name[64];
-      std::snprintf(name, sizeof(name), "%.0f m along the diagonal", distance);
-      row(name, f);
-    }
-  }
+  if (plans) PrintPlans(map, size_m);
   return 0;
 }

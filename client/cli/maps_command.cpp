@@ -1,7 +1,9 @@
 // `strata maps create|upload|get|list|delete`.
+#include <chrono>
 #include <cmath>
 #include <numbers>
 #include <optional>
+#include <thread>
 #include <tuple>
 
 #include "commands.hpp"
@@ -15,6 +17,8 @@ namespace {
 
 // At most 1 MiB of whole 12-byte points per chunk (map_service.proto PointChunk).
 constexpr std::size_t kMaxChunkPoints = (1 << 20) / 12;
+// How often --wait asks after a CREATING map.
+constexpr auto kWaitPollPeriod = std::chrono::milliseconds(250);
 
 std::unique_ptr<v1::MapService::Stub> Stub(const Context& ctx) {
   return v1::MapService::NewStub(client::MakeChannel(ctx.server));
@@ -77,6 +81,40 @@ void PrintMap(const Context& ctx, const v1::Map& map) {
   }
 }
 
+// --wait: asks after `map` until it leaves CREATING, printing a line on stderr whenever its
+// step or whole percent changes, so that a site that takes minutes shows how far it has come
+// (the request's own `wait` would say nothing until the end). Gives up at the deadline,
+// counted from `started`; the assessment goes on on the server.
+int WaitUntilCreated(const Context& ctx, std::chrono::steady_clock::time_point started,
+                     v1::Map* map) {
+  const auto deadline = started + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                      std::chrono::duration<double>(ctx.deadline_s));
+  auto stub = Stub(ctx);
+  std::string shown;
+  while (map->state() == v1::MAP_STATE_CREATING) {
+    const std::string line = "map " + map->id() + ": CREATING, " +
+                             (map->assessment_step().empty() ? "queued" : map->assessment_step()) +
+                             ", " + Fixed(100 * map->progress(), 0) + "% done";
+    if (line != shown) *ctx.err << line << "\n" << std::flush;
+    shown = line;
+    if (std::chrono::steady_clock::now() + kWaitPollPeriod > deadline) {
+      *ctx.err << "strata: map " << map->id() << " is still CREATING after --deadline "
+               << JsonNumber(ctx.deadline_s) << " s; it goes on on the server (strata maps get "
+               << map->id() << ")\n";
+      return kExitRpcError;
+    }
+    std::this_thread::sleep_for(kWaitPollPeriod);
+    v1::GetMapRequest request;
+    request.set_map_id(map->id());
+    grpc::ClientContext call;
+    client::SetDeadline(
+        &call, std::chrono::duration<double>(deadline - std::chrono::steady_clock::now()).count());
+    const grpc::Status status = stub->GetMap(&call, request, map);
+    if (!status.ok()) return ReportRpcError(ctx, "GetMap", status);
+  }
+  return kExitOk;
+}
+
 // TerrainParameters (proto/strata/v1/common.proto), shared by create and upload; unset ones
 // take the server's defaults.
 struct TerrainFlags {
@@ -135,13 +173,16 @@ int Create(const Context& ctx, const CreateFlags& flags) {
     if (flags.spacing_m) scene->set_spacing_m(*flags.spacing_m);
   }
   SetTerrain(flags.terrain, request.mutable_terrain());
-  request.set_wait(flags.wait);
 
+  const auto started = std::chrono::steady_clock::now();
   grpc::ClientContext call;
   client::SetDeadline(&call, ctx.deadline_s);
   v1::Map map;
   const grpc::Status status = Stub(ctx)->CreateMap(&call, request, &map);
   if (!status.ok()) return ReportRpcError(ctx, "CreateMap", status);
+  if (flags.wait) {
+    if (const int code = WaitUntilCreated(ctx, started, &map); code != kExitOk) return code;
+  }
   PrintMap(ctx, map);
   return kExitOk;
 }
@@ -167,11 +208,11 @@ int Upload(const Context& ctx, const UploadFlags& flags) {
   header.mutable_header()->set_map_id(flags.id);
   header.mutable_header()->set_format(v1::POINT_FORMAT_XYZ_F32_LE);
   SetTerrain(flags.terrain, header.mutable_header()->mutable_terrain());
-  header.mutable_header()->set_wait(flags.wait);
 
   PointFileReader reader(path, *format);  // Throws before any call for an unusable file.
   header.mutable_header()->set_point_count(reader.point_count());
 
+  const auto started = std::chrono::steady_clock::now();
   grpc::ClientContext call;
   client::SetDeadline(&call, ctx.deadline_s);
   v1::Map map;
@@ -190,6 +231,9 @@ int Upload(const Context& ctx, const UploadFlags& flags) {
   if (sending) stream->WritesDone();
   const grpc::Status status = stream->Finish();
   if (!status.ok()) return ReportRpcError(ctx, "UploadMap", status);
+  if (flags.wait) {
+    if (const int code = WaitUntilCreated(ctx, started, &map); code != kExitOk) return code;
+  }
   PrintMap(ctx, map);
   return kExitOk;
 }
@@ -297,7 +341,8 @@ void AddMapsCommands(CLI::App& app, const Context& ctx, Command* run) {
     create->add_option(name, *value, help)->type_name("M")->check(FiniteNumber())->needs(scene);
   }
   AddTerrainFlags(*create, &create_flags->terrain);
-  create->add_flag("--wait", create_flags->wait, "return once the map is ACTIVE or FAILED");
+  create->add_flag("--wait", create_flags->wait,
+                   "return once the map is ACTIVE or FAILED, showing its progress on stderr");
 
   auto [upload, upload_flags] = AddCommand<UploadFlags>(
       *maps, "upload", "UploadMap: streams a local point cloud in chunks of at most 1 MiB", run,
@@ -314,7 +359,8 @@ void AddMapsCommands(CLI::App& app, const Context& ctx, Command* run) {
       ->check(CLI::Range(std::size_t{1}, kMaxChunkPoints).description(""))
       ->capture_default_str();
   AddTerrainFlags(*upload, &upload_flags->terrain);
-  upload->add_flag("--wait", upload_flags->wait, "return once the map is ACTIVE or FAILED");
+  upload->add_flag("--wait", upload_flags->wait,
+                   "return once the map is ACTIVE or FAILED, showing its progress on stderr");
 
   auto [get, get_id] = AddCommand<std::string>(
       *maps, "get", "GetMap", run, [&ctx](const std::string& id) { return Get(ctx, id); });

@@ -351,6 +351,9 @@ TEST_F(StrataCliTest, CreatesASceneWithSizeAndSpacing) {
   ASSERT_EQ(created.exit_code, 0) << created.err;
   EXPECT_THAT(created.out, HasSubstr("map site: ACTIVE"));
   EXPECT_THAT(created.out, HasSubstr("scene outdoor_site:1:size_m=40:spacing_m=0.25"));
+  // --wait shows the assessment's progress on stderr, from the CREATING map CreateMap returned.
+  EXPECT_THAT(created.err,
+              ::testing::MatchesRegex("(map site: CREATING, [a-z_]+, [0-9]+% done\n)+"));
   EXPECT_EQ(Strata({"maps", "delete", "site"}).exit_code, 0);
   // A size for a scene without one: the server names the field.
   const CommandResult sized =

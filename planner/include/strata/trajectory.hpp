@@ -29,7 +29,9 @@ struct Trajectory {
 
   double TotalDuration() const;
   /// The `order`-th time derivative (0..5) at global time t [s], clamped to
-  /// [0, TotalDuration()]. Precondition: at least one piece.
+  /// [0, TotalDuration()]. Precondition: at least one piece. Finds the piece by walking from
+  /// the first, O(pieces): code that samples a whole long trajectory walks the pieces itself
+  /// and calls EvaluatePiece.
   Eigen::VectorXd Evaluate(double t, int order) const;
   /// The `order`-th derivative of piece `piece` at local time t ∈ [0, T_piece] (not clamped).
   Eigen::VectorXd EvaluatePiece(std::size_t piece, double t, int order) const;
