@@ -96,7 +96,8 @@ PlanFigures TimePlans(const strata::PlanningMap& map, const Eigen::Vector3d& sta
 void PrintPlans(const strata::PlanningMap& map, double size_m) {
   const strata::OutdoorSiteLayout layout = strata::GetOutdoorSiteLayout(1, size_m);
   std::printf(
-      "\n| plan | length m | expansions | pieces | L-BFGS iterations (attempts) | search / optimise "
+      "\n| plan | length m | expansions | pieces | L-BFGS iterations (attempts) | search / "
+      "optimise "
       "/ verify ms (median) | total ms (median) |\n");
   std::printf("|---|---|---|---|---|---|---|\n");
   const Eigen::Vector3d lift(0, 0, 0.3);

@@ -14,7 +14,6 @@
 namespace strata {
 namespace {
 
-
 // L-BFGS runs per optimisation at most (see the restart loop).
 constexpr int kMaxRestarts = 8;
 
