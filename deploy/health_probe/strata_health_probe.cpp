@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <exception>
 #include <string>
 
 #include <grpc/health/v1/health.grpc.pb.h>
@@ -44,9 +45,9 @@ const char* StatusName(grpc::health::v1::HealthCheckResponse::ServingStatus stat
   }
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
+// The probe; main only adds a last catch (a bad_alloc or a throwing gRPC setup): an exception
+// escaping main would end the probe with SIGABRT, which Docker reads as neither 0 nor 1.
+int Probe(int argc, char** argv) {
   std::string address;
   std::string service;
   double timeout_s = 3.0;
@@ -98,4 +99,17 @@ int main(int argc, char** argv) {
   std::printf("%s %s: %s\n", address.c_str(), shown.c_str(), StatusName(response.status()));
   return response.status() == grpc::health::v1::HealthCheckResponse::SERVING ? kServing
                                                                              : kNotServing;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    return Probe(argc, argv);
+  } catch (const std::exception& error) {
+    std::fprintf(stderr, "strata-health-probe: %s\n", error.what());
+  } catch (...) {
+    std::fprintf(stderr, "strata-health-probe: unknown error\n");
+  }
+  return kNotServing;
 }
