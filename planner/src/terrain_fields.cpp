@@ -128,52 +128,53 @@ Corners Locate(const GridGeometry& g, const Eigen::Vector3d& p, const auto& find
 
 }  // namespace
 
+double TerrainFields::DistanceValue(std::int64_t i) const {
+  return i < 0 ? parts_.distance_cap_m : parts_.distance[i] * kDistanceStepM;
+}
+
+double TerrainFields::SafetyValue(std::int64_t i) const {
+  return i < 0 ? parts_.safety_background : parts_.safety[i] * parts_.safety_step;
+}
+
+std::int64_t TerrainFields::FindCell(const Eigen::Vector3i& cell) const {
+  if (!parts_.geometry.Contains(cell)) return -1;
+  return Find(cell.x() + std::int64_t{parts_.geometry.size.x()} * cell.y(), cell.z());
+}
+
 double TerrainFields::Distance(const Eigen::Vector3d& p, Eigen::Vector3d* gradient) const {
   const GridGeometry& g = parts_.geometry;
   const Corners c = Locate(g, p, [this](std::int64_t col, int iz) { return Find(col, iz); });
-  const double cap = parts_.distance_cap_m;
   return Interpolate(
-      c, [&](std::int64_t i) { return i < 0 ? cap : parts_.distance[i] * kDistanceStepM; },
-      1.0 / g.resolution_m, gradient);
+      c, [this](std::int64_t i) { return DistanceValue(i); }, 1.0 / g.resolution_m, gradient);
 }
 
 double TerrainFields::SafetyPenalty(const Eigen::Vector3d& p, Eigen::Vector3d* gradient) const {
   const GridGeometry& g = parts_.geometry;
   const Corners c = Locate(g, p, [this](std::int64_t col, int iz) { return Find(col, iz); });
-  const double background = parts_.safety_background, step = parts_.safety_step;
   return Interpolate(
-      c, [&](std::int64_t i) { return i < 0 ? background : parts_.safety[i] * step; },
-      1.0 / g.resolution_m, gradient);
+      c, [this](std::int64_t i) { return SafetyValue(i); }, 1.0 / g.resolution_m, gradient);
 }
 
 void TerrainFields::Sample(const Eigen::Vector3d& p, FieldSample* sample) const {
   const GridGeometry& g = parts_.geometry;
   const Corners c = Locate(g, p, [this](std::int64_t col, int iz) { return Find(col, iz); });
   const double inv_r = 1.0 / g.resolution_m;
-  const double cap = parts_.distance_cap_m;
   sample->distance_m = Interpolate(
-      c, [&](std::int64_t i) { return i < 0 ? cap : parts_.distance[i] * kDistanceStepM; }, inv_r,
-      &sample->distance_gradient);
-  const double background = parts_.safety_background, step = parts_.safety_step;
+      c, [this](std::int64_t i) { return DistanceValue(i); }, inv_r, &sample->distance_gradient);
   sample->safety = Interpolate(
-      c, [&](std::int64_t i) { return i < 0 ? background : parts_.safety[i] * step; }, inv_r,
-      &sample->safety_gradient);
+      c, [this](std::int64_t i) { return SafetyValue(i); }, inv_r, &sample->safety_gradient);
 }
 
 std::optional<double> TerrainFields::DistanceAt(const Eigen::Vector3i& cell) const {
-  if (!parts_.geometry.Contains(cell)) return std::nullopt;
-  const std::int64_t i =
-      Find(cell.x() + std::int64_t{parts_.geometry.size.x()} * cell.y(), cell.z());
+  const std::int64_t i = FindCell(cell);
   if (i < 0) return std::nullopt;
-  return parts_.distance[i] * kDistanceStepM;
+  return DistanceValue(i);
 }
 
 std::optional<double> TerrainFields::SafetyAt(const Eigen::Vector3i& cell) const {
-  if (!parts_.geometry.Contains(cell)) return std::nullopt;
-  const std::int64_t i =
-      Find(cell.x() + std::int64_t{parts_.geometry.size.x()} * cell.y(), cell.z());
+  const std::int64_t i = FindCell(cell);
   if (i < 0) return std::nullopt;
-  return parts_.safety[i] * parts_.safety_step;
+  return SafetyValue(i);
 }
 
 std::size_t TerrainFields::MemoryBytes() const {

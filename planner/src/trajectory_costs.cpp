@@ -109,13 +109,14 @@ double TrajectoryCost::PointPenalty(const StateVector& pos, const StateVector& v
   CostBreakdown terms;
 
   if (w.safety > 0) {
-    Eigen::Vector3d gradient;
-    const Cubic unsafe = CubicPenalty(model_->SafetyPenalty(p, &gradient) - c.safety_threshold);
+    FieldSample fields;  // S' and d from one lookup of the eight corners they share.
+    model_->SampleFields(p, &fields);
+    const Cubic unsafe = CubicPenalty(fields.safety - c.safety_threshold);
     terms.safety += w.safety * unsafe.value;
-    grad_pos->head<3>() += w.safety * unsafe.slope * gradient;
-    const Cubic close = CubicPenalty(c.distance_threshold_m - model_->Distance(p, &gradient));
+    grad_pos->head<3>() += w.safety * unsafe.slope * fields.safety_gradient;
+    const Cubic close = CubicPenalty(c.distance_threshold_m - fields.distance_m);
     terms.safety += w.safety * close.value;
-    grad_pos->head<3>() -= w.safety * close.slope * gradient;
+    grad_pos->head<3>() -= w.safety * close.slope * fields.distance_gradient;
   }
 
   if (w.edge > 0) {

@@ -84,7 +84,7 @@ class TerrainFields {
   double Distance(const Eigen::Vector3d& p, Eigen::Vector3d* gradient = nullptr) const;
   /// S'(p) [-], likewise; gradient optional [1/m].
   double SafetyPenalty(const Eigen::Vector3d& p, Eigen::Vector3d* gradient = nullptr) const;
-  /// Both, sharing one lookup of the eight corners.
+  /// Both, sharing one lookup of the eight corners (what the optimiser's cost reads).
   void Sample(const Eigen::Vector3d& p, FieldSample* sample) const;
 
   /// The stored values at a cell, or nothing outside the band. For tests and tools.
@@ -100,6 +100,11 @@ class TerrainFields {
   explicit TerrainFields(Parts parts) : parts_(std::move(parts)) {}
   // Index of the value of cell (ix, iy, iz) of a column inside the grid, or -1.
   std::int64_t Find(std::int64_t column, int iz) const;
+  // The same for a cell given by its indices, -1 also outside the grid.
+  std::int64_t FindCell(const Eigen::Vector3i& cell) const;
+  // The value of stored cell i, or the field's background (outside the band) where i < 0.
+  double DistanceValue(std::int64_t i) const;
+  double SafetyValue(std::int64_t i) const;
 
   Parts parts_;
 };
