@@ -36,8 +36,8 @@ void Encode(char* bytes, T value) {
   std::memcpy(bytes, &value, sizeof(T));
 }
 
-// Where serialised bytes go: a string, a file, or nowhere (to count them). Every byte passes
-// through the checksum.
+// Where serialised bytes go: a string, a file, or nowhere (to count them). Every byte written
+// passes through the checksum; a counting sink neither hashes nor encodes.
 class Sink {
  public:
   explicit Sink(std::string* out = nullptr, std::ofstream* file = nullptr)
@@ -49,12 +49,12 @@ class Sink {
   Sink& operator=(const Sink&) = delete;
 
   void Bytes(const void* data, std::size_t n) {
-    if (n == 0) return;
+    count_ += n;
+    if (n == 0 || counting()) return;
     XXH3_64bits_update(hash_, data, n);
     if (out_ != nullptr) out_->append(static_cast<const char*>(data), n);
     if (file_ != nullptr)
       file_->write(static_cast<const char*>(data), static_cast<std::streamsize>(n));
-    count_ += n;
   }
   template <typename T>
   void Value(T value) {
@@ -74,6 +74,10 @@ class Sink {
   // Each element of `items` as kRecordBytes bytes (encode(item, bytes)), in chunks.
   template <std::size_t kRecordBytes, typename T, typename Encode>
   void Records(const std::vector<T>& items, const Encode& encode) {
+    if (counting()) {
+      count_ += items.size() * kRecordBytes;
+      return;
+    }
     constexpr std::size_t kChunkRecords = 1 << 14;
     char buffer[kChunkRecords * kRecordBytes];
     for (std::size_t first = 0; first < items.size(); first += kChunkRecords) {
@@ -91,6 +95,8 @@ class Sink {
   std::uint64_t count() const { return count_; }
 
  private:
+  bool counting() const { return out_ == nullptr && file_ == nullptr; }
+
   std::string* out_;
   std::ofstream* file_;
   XXH3_state_t* hash_;
@@ -171,7 +177,7 @@ void WritePayload(Sink& sink, const TerrainModel& model) {
 std::string WriterVersion() { return std::string("strata ") + kStrataVersion; }
 
 // Writes the whole file: header, payload, checksum. The payload's length comes first, so the
-// payload is written twice: once to count it, once for real.
+// payload goes through a counting sink first (sizes only, no encoding or hashing).
 void WriteModel(Sink& sink, const TerrainModel& model) {
   Sink counter;
   WritePayload(counter, model);
