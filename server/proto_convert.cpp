@@ -387,11 +387,12 @@ ServiceStatus AppendSamples(const Trajectory& trajectory, double dt_s, int max_s
         .Blame("options.sample_dt_s");
   }
   const auto count = static_cast<int>(steps) + 1;
+  TrajectoryCursor cursor(trajectory);
   for (int i = 0; i < count; ++i) {
     const double t = std::min(i * dt_s, total_s);
-    const Eigen::VectorXd p = trajectory.Position(t);
-    const Eigen::VectorXd v = trajectory.Velocity(t);
-    const Eigen::VectorXd a = trajectory.Acceleration(t);
+    const Eigen::VectorXd p = cursor.Position(t);
+    const Eigen::VectorXd v = cursor.Velocity(t);
+    const Eigen::VectorXd a = cursor.Acceleration(t);
     v1::TrajectorySample* sample = response->add_samples();
     sample->set_time_s(t);
     ToProto(Eigen::Vector3d(p.head<3>()), sample->mutable_position_m());

@@ -68,12 +68,13 @@ std::vector<std::pair<double, double>> TrajectoryArcTable(const Trajectory& traj
   if (trajectory.pieces.empty()) return table;
   const double duration = trajectory.TotalDuration();
   const int n = std::max(1000, static_cast<int>(std::ceil(duration / 0.002)));
-  Eigen::Vector3d previous = trajectory.Position(0).head<3>();
+  TrajectoryCursor cursor(trajectory);
+  Eigen::Vector3d previous = cursor.Position(0).head<3>();
   double length = 0;
   table.emplace_back(0.0, 0.0);
   for (int i = 1; i <= n; ++i) {
     const double t = duration * i / n;
-    const Eigen::Vector3d p = trajectory.Position(t).head<3>();
+    const Eigen::Vector3d p = cursor.Position(t).head<3>();
     length += (p - previous).norm();
     previous = p;
     table.emplace_back(t, length);
@@ -131,10 +132,11 @@ double PathMeanCurvature(std::span<const Eigen::Vector3d> points, double spacing
 double TrajectoryArcMeanCurvature(const Trajectory& trajectory, double spacing_m) {
   double sum = 0;
   int count = 0;
+  TrajectoryCursor cursor(trajectory);
   for (const double t : UniformArcParameters(TrajectoryArcTable(trajectory), spacing_m)) {
-    const Eigen::Vector3d v = trajectory.Velocity(t).head<3>();
+    const Eigen::Vector3d v = cursor.Velocity(t).head<3>();
     if (v.norm() < 0.01) continue;
-    sum += Curvature(v, trajectory.Acceleration(t).head<3>());
+    sum += Curvature(v, cursor.Acceleration(t).head<3>());
     ++count;
   }
   return count > 0 ? sum / count : 0;
@@ -143,9 +145,10 @@ double TrajectoryArcMeanCurvature(const Trajectory& trajectory, double spacing_m
 std::vector<Eigen::Vector3d> SampleTrajectory(const Trajectory& trajectory, double spacing_m) {
   std::vector<Eigen::Vector3d> points;
   if (trajectory.pieces.empty()) return points;
-  points.push_back(trajectory.Position(0).head<3>());
+  TrajectoryCursor cursor(trajectory);
+  points.push_back(cursor.Position(0).head<3>());
   for (const double t : UniformArcParameters(TrajectoryArcTable(trajectory), spacing_m)) {
-    points.push_back(trajectory.Position(t).head<3>());
+    points.push_back(cursor.Position(t).head<3>());
   }
   points.push_back(trajectory.Position(trajectory.TotalDuration()).head<3>());
   return points;

@@ -27,14 +27,7 @@ double Trajectory::TotalDuration() const {
 }
 
 Eigen::VectorXd Trajectory::Evaluate(double t, int order) const {
-  assert(!pieces.empty() && order >= 0 && order <= 5);
-  std::size_t i = 0;
-  t = std::max(t, 0.0);
-  while (i + 1 < pieces.size() && t > pieces[i].duration_s) {
-    t -= pieces[i].duration_s;
-    ++i;
-  }
-  return EvaluatePiece(i, std::min(t, pieces[i].duration_s), order);
+  return TrajectoryCursor(*this).Evaluate(t, order);
 }
 
 Eigen::VectorXd Trajectory::EvaluatePiece(std::size_t i, double t, int order) const {
@@ -47,6 +40,18 @@ Eigen::VectorXd Trajectory::EvaluatePiece(std::size_t i, double t, int order) co
     value = value * t + factor * pieces[i].coefficients.row(k).transpose();
   }
   return value;
+}
+
+Eigen::VectorXd TrajectoryCursor::Evaluate(double t, int order) {
+  const std::vector<TrajectoryPiece>& pieces = trajectory_.pieces;
+  assert(!pieces.empty() && order >= 0 && order <= 5);
+  t = std::max(t, 0.0);
+  while (piece_ > 0 && t < piece_start_s_) piece_start_s_ -= pieces[--piece_].duration_s;
+  while (piece_ + 1 < pieces.size() && t > piece_start_s_ + pieces[piece_].duration_s) {
+    piece_start_s_ += pieces[piece_++].duration_s;
+  }
+  return trajectory_.EvaluatePiece(
+      piece_, std::clamp(t - piece_start_s_, 0.0, pieces[piece_].duration_s), order);
 }
 
 }  // namespace strata

@@ -277,28 +277,19 @@ Status VerifyTrajectory(const SurfaceGraph& graph, const RobotProfile& profile,
     }
     return Status::Ok();
   };
-  double piece_start = 0, previous_piece_start = 0;
+  // Between samples (the column entries below) the cursor finds the piece from the last one.
+  TrajectoryCursor cursor(trajectory);
+  // The column of the reference point at global time t (floored cell coordinates, as doubles
+  // so that no cast can overflow).
+  const auto column_at = [&](double t) -> Eigen::Vector2d {
+    const Eigen::Vector2d p = cursor.Position(t).head<2>();
+    return ((p - grid.origin_m.head<2>()) / grid.resolution_m).array().floor();
+  };
+
+  double piece_start = 0;
   double previous_t = -1;
   for (std::size_t i = 0; i < trajectory.pieces.size(); ++i) {
     const double piece_duration = trajectory.pieces[i].duration_s;
-    // The state at global time t between the previous sample and the end of piece i, which
-    // lies on piece i or i − 1 (every piece's start is a sample). Evaluating piece by piece
-    // keeps the check linear in the length; Trajectory::Evaluate looks the piece up from the
-    // start, which made a kilometre's verification quadratic.
-    const auto at = [&](double t, int order) {
-      if (t >= piece_start || i == 0) {
-        return trajectory.EvaluatePiece(i, std::clamp(t - piece_start, 0.0, piece_duration), order);
-      }
-      return trajectory.EvaluatePiece(
-          i - 1, std::clamp(t - previous_piece_start, 0.0, trajectory.pieces[i - 1].duration_s),
-          order);
-    };
-    // The column of the reference point at global time t (floored cell coordinates, as
-    // doubles so that no cast can overflow).
-    const auto column_at = [&](double t) -> Eigen::Vector2d {
-      const Eigen::Vector2d p = at(t, 0).head<2>();
-      return ((p - grid.origin_m.head<2>()) / grid.resolution_m).array().floor();
-    };
     const int steps = std::max(
         1, static_cast<int>(std::ceil(piece_duration * peak_speed / config.max_sample_spacing_m)));
     // Each piece's samples include its start; the last piece also its end.
@@ -320,7 +311,9 @@ Status VerifyTrajectory(const SurfaceGraph& graph, const RobotProfile& profile,
             const double mid = 0.5 * (lo + hi);
             (column_at(mid) == column ? lo : hi) = mid;
           }
-          if (Status s = check(hi, at(hi, 0), at(hi, 1), at(hi, 2)); !s) {
+          if (Status s =
+                  check(hi, cursor.Position(hi), cursor.Velocity(hi), cursor.Acceleration(hi));
+              !s) {
             return s;
           }
           from = hi;
@@ -335,7 +328,6 @@ Status VerifyTrajectory(const SurfaceGraph& graph, const RobotProfile& profile,
       }
       previous_t = t;
     }
-    previous_piece_start = piece_start;
     piece_start += piece_duration;
   }
   return Status::Ok();
@@ -346,17 +338,11 @@ double MeanCurvature(const Trajectory& trajectory, int samples) {
   const double duration = trajectory.TotalDuration();
   double sum = 0;
   int counted = 0;
-  std::size_t piece = 0;  // The samples' times increase: walk the pieces along with them.
-  double piece_start = 0;
+  TrajectoryCursor cursor(trajectory);
   for (int k = 0; k < samples; ++k) {
     const double t = duration * (k + 0.5) / samples;
-    while (piece + 1 < trajectory.pieces.size() &&
-           t > piece_start + trajectory.pieces[piece].duration_s) {
-      piece_start += trajectory.pieces[piece++].duration_s;
-    }
-    const double local_t = std::clamp(t - piece_start, 0.0, trajectory.pieces[piece].duration_s);
-    const Eigen::Vector3d v = trajectory.EvaluatePiece(piece, local_t, 1).head<3>();
-    const Eigen::Vector3d a = trajectory.EvaluatePiece(piece, local_t, 2).head<3>();
+    const Eigen::Vector3d v = cursor.Velocity(t).head<3>();
+    const Eigen::Vector3d a = cursor.Acceleration(t).head<3>();
     const double speed = v.norm();
     if (speed < 0.01) continue;
     sum += v.cross(a).norm() / (speed * speed * speed);

@@ -175,12 +175,13 @@ std::vector<Sample> SampleTrajectory(const SurfaceGraph& graph, const PlanResult
   const double shown_clearance = highest_body + profile.headroom_m + kCeilingShownAboveBodyM;
   std::vector<Sample> samples;
   samples.reserve(static_cast<std::size_t>(count) + 1);
+  TrajectoryCursor cursor(trajectory);
   for (int i = 0; i <= count; ++i) {
     const double t = duration * i / count;
-    const Eigen::VectorXd p = trajectory.Position(t);
+    const Eigen::VectorXd p = cursor.Position(t);
     Sample s;
     s.position_m = p.head<3>();
-    s.speed_mps = trajectory.Velocity(t).head<3>().norm();
+    s.speed_mps = cursor.Velocity(t).head<3>().norm();
     s.arc_m = samples.empty()
                   ? 0.0
                   : samples.back().arc_m + (s.position_m - samples.back().position_m).norm();

@@ -30,14 +30,33 @@ struct Trajectory {
   double TotalDuration() const;
   /// The `order`-th time derivative (0..5) at global time t [s], clamped to
   /// [0, TotalDuration()]. Precondition: at least one piece. Finds the piece by walking from
-  /// the first, O(pieces): code that samples a whole long trajectory walks the pieces itself
-  /// and calls EvaluatePiece.
+  /// the first, O(pieces): code that samples a whole trajectory uses a TrajectoryCursor.
   Eigen::VectorXd Evaluate(double t, int order) const;
   /// The `order`-th derivative of piece `piece` at local time t ∈ [0, T_piece] (not clamped).
   Eigen::VectorXd EvaluatePiece(std::size_t piece, double t, int order) const;
   Eigen::VectorXd Position(double t) const { return Evaluate(t, 0); }
   Eigen::VectorXd Velocity(double t) const { return Evaluate(t, 1); }
   Eigen::VectorXd Acceleration(double t) const { return Evaluate(t, 2); }
+};
+
+/// Evaluates a trajectory at global times that mostly move forward, as dense sampling does:
+/// it keeps the piece of the last time asked and steps from there, so a pass over a whole
+/// trajectory costs O(samples + pieces), where Trajectory::Evaluate walks from the first piece
+/// each time (quadratic over a kilometre's trajectory of hundreds of pieces).
+class TrajectoryCursor {
+ public:
+  /// `trajectory` (at least one piece) must outlive the cursor.
+  explicit TrajectoryCursor(const Trajectory& trajectory) : trajectory_(trajectory) {}
+  /// As Trajectory::Evaluate.
+  Eigen::VectorXd Evaluate(double t, int order);
+  Eigen::VectorXd Position(double t) { return Evaluate(t, 0); }
+  Eigen::VectorXd Velocity(double t) { return Evaluate(t, 1); }
+  Eigen::VectorXd Acceleration(double t) { return Evaluate(t, 2); }
+
+ private:
+  const Trajectory& trajectory_;
+  std::size_t piece_ = 0;
+  double piece_start_s_ = 0;  // Global time at which piece_ starts.
 };
 
 }  // namespace strata
