@@ -94,34 +94,33 @@ Expected<TerrainFields> BuildTerrainFields(const SurfaceMap& surfaces, const Col
   // S and S' never exceed the void penalty: every term of S is capped by it, and S' averages S.
   parts.safety_step = parts.safety_background > 0 ? parts.safety_background / 65535.0 : 1.0;
 
-  // The band's intervals: counted, then laid out. An interval's offset first holds its cell
+  // The band's intervals: counted, then laid out (the band of a column is recomputed rather
+  // than held for every column between the passes). An interval's offset first holds its cell
   // count; the running sum turns counts into offsets.
-  parts.column_begin.assign(columns + 1, 0);
+  const auto for_each_band = [&](const auto& use) {
 #pragma omp parallel num_threads(num_threads)
-  {
-    std::vector<LayerRange> ranges;
+    {
+      std::vector<LayerRange> ranges;
 #pragma omp for schedule(dynamic, 4096)
-    for (std::int64_t c = 0; c < columns; ++c) {
-      BandOfColumn(surfaces, grid.band_height_m, static_cast<int>(c % g.size.x()),
-                   static_cast<int>(c / g.size.x()), &ranges);
-      parts.column_begin[c + 1] = static_cast<std::uint32_t>(ranges.size());
-    }
-  }
-  for (std::int64_t c = 0; c < columns; ++c) parts.column_begin[c + 1] += parts.column_begin[c];
-  parts.intervals.resize(parts.column_begin.back() + std::size_t{1});
-#pragma omp parallel num_threads(num_threads)
-  {
-    std::vector<LayerRange> ranges;
-#pragma omp for schedule(dynamic, 4096)
-    for (std::int64_t c = 0; c < columns; ++c) {
-      BandOfColumn(surfaces, grid.band_height_m, static_cast<int>(c % g.size.x()),
-                   static_cast<int>(c / g.size.x()), &ranges);
-      TerrainFields::Interval* out = parts.intervals.data() + parts.column_begin[c];
-      for (const LayerRange& r : ranges) {
-        *out++ = {r.first, static_cast<std::uint32_t>(r.second - r.first + 1)};
+      for (std::int64_t c = 0; c < columns; ++c) {
+        BandOfColumn(surfaces, grid.band_height_m, static_cast<int>(c % g.size.x()),
+                     static_cast<int>(c / g.size.x()), &ranges);
+        use(c, ranges);
       }
     }
-  }
+  };
+  parts.column_begin.assign(columns + 1, 0);
+  for_each_band([&](std::int64_t c, const std::vector<LayerRange>& ranges) {
+    parts.column_begin[c + 1] = static_cast<std::uint32_t>(ranges.size());
+  });
+  for (std::int64_t c = 0; c < columns; ++c) parts.column_begin[c + 1] += parts.column_begin[c];
+  parts.intervals.resize(parts.column_begin.back() + std::size_t{1});
+  for_each_band([&](std::int64_t c, const std::vector<LayerRange>& ranges) {
+    TerrainFields::Interval* out = parts.intervals.data() + parts.column_begin[c];
+    for (const LayerRange& r : ranges) {
+      *out++ = {r.first, static_cast<std::uint32_t>(r.second - r.first + 1)};
+    }
+  });
   std::uint64_t cells = 0;
   for (TerrainFields::Interval& interval : parts.intervals) {
     const std::uint64_t count = interval.offset;
