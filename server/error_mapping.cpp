@@ -46,6 +46,14 @@ const ErrorMapping kTable[] = {
     {SE::kServerBusy, StatusCode::UNAVAILABLE, "SERVER_BUSY"},
     {SE::kShuttingDown, StatusCode::UNAVAILABLE, "SHUTTING_DOWN"},
     {SE::kInternal, StatusCode::INTERNAL, "INTERNAL"},
+    {SE::kMapVersionNotFound, StatusCode::NOT_FOUND, "MAP_VERSION_NOT_FOUND"},
+    // Another writer changed the map between the read and the write: redo the edit on the
+    // current version.
+    {SE::kMapChanged, StatusCode::ABORTED, "MAP_CHANGED"},
+    // The shared volume failed (full, unmounted, an NFS outage): retrying later may succeed.
+    {SE::kMapStoreUnavailable, StatusCode::UNAVAILABLE, "MAP_STORE_UNAVAILABLE"},
+    // Stored bytes that fail their checksum or checks: the operator must repair the store.
+    {SE::kMapCorrupted, StatusCode::DATA_LOSS, "MAP_CORRUPTED"},
 };
 
 }  // namespace

@@ -14,22 +14,28 @@ namespace strata::server {
 
 /// Failures the planner library cannot report because they concern the server's state.
 enum class ServiceErrorCode {
-  kMapNotFound,         ///< No map has the requested id.
-  kMapNotActive,        ///< The map is CREATING or FAILED.
-  kMapAlreadyExists,    ///< CreateMap with an id already in use (by a map not FAILED).
-  kTooManyMaps,         ///< The server holds --max-maps maps.
-  kPathOutsideMapRoot,  ///< A file path resolves outside --map-root (or there is no root).
-  kServerBusy,          ///< Every planning slot stayed busy until the call's deadline.
-  kShuttingDown,        ///< The server is draining for shutdown.
-  kInternal,            ///< A bug: an exception reached a handler boundary.
+  kMapNotFound,          ///< No map has the requested id.
+  kMapNotActive,         ///< The map is CREATING or FAILED.
+  kMapAlreadyExists,     ///< CreateMap with an id already in use (by a map not FAILED).
+  kTooManyMaps,          ///< The server holds --max-maps maps.
+  kPathOutsideMapRoot,   ///< A file path resolves outside --map-root (or there is no root).
+  kServerBusy,           ///< Every planning slot stayed busy until the call's deadline.
+  kShuttingDown,         ///< The server is draining for shutdown.
+  kInternal,             ///< A bug: an exception reached a handler boundary.
+  kMapVersionNotFound,   ///< The map exists but not the requested version (pruned, never put).
+  kMapChanged,           ///< A compare-and-swap lost: the map's current version changed.
+  kMapStoreUnavailable,  ///< The map store cannot be read or written (I/O error, full, gone).
+  kMapCorrupted,         ///< A stored version or head fails its checks (truncated, tampered).
 };
 
 /// Every ServiceErrorCode, for exhaustive tests.
 inline constexpr ServiceErrorCode kAllServiceErrorCodes[] = {
-    ServiceErrorCode::kMapNotFound,        ServiceErrorCode::kMapNotActive,
-    ServiceErrorCode::kMapAlreadyExists,   ServiceErrorCode::kTooManyMaps,
-    ServiceErrorCode::kPathOutsideMapRoot, ServiceErrorCode::kServerBusy,
-    ServiceErrorCode::kShuttingDown,       ServiceErrorCode::kInternal,
+    ServiceErrorCode::kMapNotFound,         ServiceErrorCode::kMapNotActive,
+    ServiceErrorCode::kMapAlreadyExists,    ServiceErrorCode::kTooManyMaps,
+    ServiceErrorCode::kPathOutsideMapRoot,  ServiceErrorCode::kServerBusy,
+    ServiceErrorCode::kShuttingDown,        ServiceErrorCode::kInternal,
+    ServiceErrorCode::kMapVersionNotFound,  ServiceErrorCode::kMapChanged,
+    ServiceErrorCode::kMapStoreUnavailable, ServiceErrorCode::kMapCorrupted,
 };
 
 /// A request field that is wrong (google.rpc.BadRequest.FieldViolation). `field` is the

@@ -80,6 +80,10 @@ TEST(ErrorMappingTest, MapsAsDocumented) {
       {ServiceErrorCode::kServerBusy, StatusCode::UNAVAILABLE, "SERVER_BUSY"},
       {ServiceErrorCode::kShuttingDown, StatusCode::UNAVAILABLE, "SHUTTING_DOWN"},
       {ServiceErrorCode::kInternal, StatusCode::INTERNAL, "INTERNAL"},
+      {ServiceErrorCode::kMapVersionNotFound, StatusCode::NOT_FOUND, "MAP_VERSION_NOT_FOUND"},
+      {ServiceErrorCode::kMapChanged, StatusCode::ABORTED, "MAP_CHANGED"},
+      {ServiceErrorCode::kMapStoreUnavailable, StatusCode::UNAVAILABLE, "MAP_STORE_UNAVAILABLE"},
+      {ServiceErrorCode::kMapCorrupted, StatusCode::DATA_LOSS, "MAP_CORRUPTED"},
   };
   EXPECT_EQ(std::size(expected), ErrorMappingTable().size());
   for (const auto& row : expected) {

@@ -1,0 +1,563 @@
+#include "map_store.hpp"
+
+#include <signal.h>
+#include <sys/types.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <latch>
+#include <random>
+#include <set>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "strata/saved_model.hpp"
+#include "strata/scenes/basic_scenes.hpp"
+
+namespace strata::server {
+namespace {
+
+namespace fs = std::filesystem;
+using ::testing::ElementsAre;
+using ::testing::HasSubstr;
+using ::testing::IsEmpty;
+
+template <typename T>
+bool Fails(const T& result, ServiceErrorCode code) {
+  return !result.ok() && result.error().code == ServiceError::Code(code);
+}
+template <typename T>
+bool Fails(const T& result, ErrorCode code) {
+  return !result.ok() && result.error().code == ServiceError::Code(code);
+}
+template <typename T>
+std::string Why(const T& result) {
+  return result.ok() ? std::string("ok") : result.error().message;
+}
+
+// Every file and directory under `dir`, and `dir` itself, made older than the stale age.
+void MakeStale(const fs::path& dir) {
+  const auto old = fs::file_time_type::clock::now() - 2 * kStaleTemporaryAge;
+  if (fs::is_directory(dir)) {
+    for (const fs::directory_entry& entry : fs::recursive_directory_iterator(dir)) {
+      fs::last_write_time(entry.path(), old);
+    }
+  }
+  fs::last_write_time(dir, old);
+}
+
+class MapStoreTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    // A small model, assessed once: the store does not care what the model is of.
+    config_ = new AssessmentConfig();
+    config_->grid.resolution_m = 0.25;
+    cloud_ = new PointCloud(GenerateTwoLevelRamp(2, 0.2));
+    auto model = TerrainModel::Assess(*cloud_, *config_);
+    ASSERT_TRUE(model.ok()) << model.error().message;
+    model_ = new std::shared_ptr<const TerrainModel>(*model);
+  }
+  static void TearDownTestSuite() {
+    delete config_;
+    delete cloud_;
+    delete model_;
+  }
+
+  void SetUp() override {
+    std::random_device seed;
+    root_ = fs::path(::testing::TempDir()) /
+            ("map_store_test." + std::to_string(::getpid()) + "." + std::to_string(seed()));
+    auto store = MapStore::Open(root_);
+    ASSERT_TRUE(store.ok()) << store.error().message;
+    store_ = std::move(*store);
+  }
+  void TearDown() override {
+    store_.reset();
+    std::error_code ignored;
+    fs::remove_all(root_, ignored);
+  }
+
+  static const PointCloud& cloud() { return *cloud_; }
+  static const AssessmentConfig& config() { return *config_; }
+  static const TerrainModel& model() { return **model_; }
+
+  // The cloud with point 0 moved by `shift_m` in x: other content, another version.
+  static PointCloud Variant(int shift) {
+    PointCloud variant = cloud();
+    variant[0].x() += 0.001f * static_cast<float>(shift);
+    return variant;
+  }
+  static std::string VersionOf(const PointCloud& points) {
+    return MapStore::VersionOf(points, config(), {});
+  }
+
+  // Puts the version of `points` (with the shared model) and returns its name.
+  std::string Put(MapStore& store, const std::string& id, const PointCloud& points,
+                  const std::string& metadata = "{}") {
+    const std::string version = VersionOf(points);
+    const ServiceStatus put = store.PutVersion(id, version, points, model(), metadata);
+    EXPECT_TRUE(put.ok()) << Why(put);
+    return version;
+  }
+  std::string Create(const std::string& id, const PointCloud& points) {
+    const std::string version = Put(*store_, id, points);
+    const ServiceStatus published = store_->PublishNew(id, version);
+    EXPECT_TRUE(published.ok()) << Why(published);
+    return version;
+  }
+
+  // The entries of `dir` whose names start with `prefix`.
+  static std::vector<fs::path> Entries(const fs::path& dir, std::string_view prefix = "") {
+    std::vector<fs::path> entries;
+    if (fs::exists(dir)) {
+      for (const fs::directory_entry& e : fs::directory_iterator(dir)) {
+        if (e.path().filename().string().starts_with(prefix)) entries.push_back(e.path());
+      }
+    }
+    return entries;
+  }
+
+  fs::path root_;
+  std::unique_ptr<MapStore> store_;
+
+ private:
+  static AssessmentConfig* config_;
+  static PointCloud* cloud_;
+  static std::shared_ptr<const TerrainModel>* model_;
+};
+
+AssessmentConfig* MapStoreTest::config_ = nullptr;
+PointCloud* MapStoreTest::cloud_ = nullptr;
+std::shared_ptr<const TerrainModel>* MapStoreTest::model_ = nullptr;
+
+TEST_F(MapStoreTest, RoundTrip) {
+  const std::string metadata("{\"id\": \"ramp\"}\n\0binary", 23);
+  const std::string version = Put(*store_, "ramp", cloud(), metadata);
+  ASSERT_TRUE(store_->PublishNew("ramp", version).ok());
+
+  auto versions = store_->Versions("ramp");
+  ASSERT_TRUE(versions.ok()) << Why(versions);
+  EXPECT_THAT(*versions, ElementsAre(version));
+  auto current = store_->Current("ramp");
+  ASSERT_TRUE(current.ok()) << Why(current);
+  EXPECT_EQ(*current, version);
+
+  auto loaded_model = store_->LoadModel("ramp", version);
+  ASSERT_TRUE(loaded_model.ok()) << Why(loaded_model);
+  EXPECT_EQ(SerializeModel(**loaded_model), SerializeModel(model()));
+  auto loaded_cloud = store_->LoadCloud("ramp", version);
+  ASSERT_TRUE(loaded_cloud.ok()) << Why(loaded_cloud);
+  EXPECT_EQ(*loaded_cloud, cloud());
+  auto loaded_metadata = store_->LoadMetadata("ramp", version);
+  ASSERT_TRUE(loaded_metadata.ok()) << Why(loaded_metadata);
+  EXPECT_EQ(*loaded_metadata, metadata);
+
+  // Another store on the same directory (another server) sees the same.
+  auto other = MapStore::Open(root_);
+  ASSERT_TRUE(other.ok()) << Why(other);
+  auto ids = (*other)->ListIds("", 0);
+  ASSERT_TRUE(ids.ok()) << Why(ids);
+  EXPECT_THAT(*ids, ElementsAre("ramp"));
+  auto other_metadata = (*other)->LoadMetadata("ramp", version);
+  ASSERT_TRUE(other_metadata.ok());
+  EXPECT_EQ(*other_metadata, metadata);
+}
+
+TEST_F(MapStoreTest, VersionNamesTheContent) {
+  const std::string version = VersionOf(cloud());
+  EXPECT_TRUE(MapStore::IsVersion(version)) << version;
+  EXPECT_EQ(version.size(), 32u);
+  EXPECT_EQ(VersionOf(PointCloud(cloud())), version);
+
+  // One point, by one float step; two points swapped.
+  PointCloud nudged = cloud();
+  nudged[nudged.size() / 2].z() = std::nextafter(nudged[nudged.size() / 2].z(), 1e9f);
+  EXPECT_NE(VersionOf(nudged), version);
+  PointCloud swapped = cloud();
+  std::swap(swapped[1], swapped[2]);
+  EXPECT_NE(VersionOf(swapped), version);
+  PointCloud shorter(cloud().begin(), cloud().end() - 1);
+  EXPECT_NE(VersionOf(shorter), version);
+
+  // Every assessment parameter but num_threads, each changed alone.
+  int changed = 0;
+  const AssessmentConfig fields;
+  ForEachField(fields, [&](const char* name, const auto& /*value*/) {
+    AssessmentConfig other = config();
+    int index = 0;
+    ForEachField(other, [&](const char* field, auto& value) {
+      if (index++ == changed) {
+        using Value = std::remove_cvref_t<decltype(value)>;
+        if constexpr (std::is_same_v<Value, bool>) {
+          value = !value;
+        } else {
+          value = static_cast<Value>(value + 1);
+        }
+        EXPECT_STREQ(field, name);
+      }
+    });
+    const std::string other_version = MapStore::VersionOf(cloud(), other, {});
+    if (std::string_view(name) == "num_threads") {
+      EXPECT_EQ(other_version, version) << name;
+    } else {
+      EXPECT_NE(other_version, version) << name;
+    }
+    ++changed;
+  });
+  EXPECT_GT(changed, 10);
+
+  // Keep-out zones: one added, one corner moved, the height range changed.
+  const Prism zone =
+      BoxPrism(Eigen::AlignedBox3d(Eigen::Vector3d(1, 1, 0), Eigen::Vector3d(2, 2, 1)));
+  const std::vector<Prism> zones = {zone};
+  const std::string with_zone = MapStore::VersionOf(cloud(), config(), zones);
+  EXPECT_NE(with_zone, version);
+  EXPECT_EQ(MapStore::VersionOf(cloud(), config(), std::vector<Prism>{zone}), with_zone);
+  Prism moved = zone;
+  moved.polygon_m[2].x() += 0.01;
+  EXPECT_NE(MapStore::VersionOf(cloud(), config(), std::vector<Prism>{moved}), with_zone);
+  Prism taller = zone;
+  taller.z_max_m += 0.01;
+  EXPECT_NE(MapStore::VersionOf(cloud(), config(), std::vector<Prism>{taller}), with_zone);
+  EXPECT_NE(MapStore::VersionOf(cloud(), config(), std::vector<Prism>{zone, zone}), with_zone);
+}
+
+TEST_F(MapStoreTest, ManyWritersCreatingTheSameMapYieldOneVersion) {
+  auto other = MapStore::Open(root_);
+  ASSERT_TRUE(other.ok());
+  MapStore* stores[] = {store_.get(), other->get()};
+  constexpr int kWriters = 8;
+  std::latch start(kWriters);
+  std::vector<ServiceStatus> results(kWriters);
+  std::vector<std::thread> writers;
+  for (int i = 0; i < kWriters; ++i) {
+    writers.emplace_back([&, i] {
+      MapStore& store = *stores[i % 2];
+      const std::string version = VersionOf(cloud());
+      start.arrive_and_wait();
+      results[i] = store.PutVersion("same", version, cloud(), model(), "{}");
+      if (results[i].ok()) results[i] = store.PublishNew("same", version);
+    });
+  }
+  for (std::thread& writer : writers) writer.join();
+  for (const ServiceStatus& result : results) EXPECT_TRUE(result.ok()) << Why(result);
+  auto versions = store_->Versions("same");
+  ASSERT_TRUE(versions.ok());
+  EXPECT_THAT(*versions, ElementsAre(VersionOf(cloud())));
+  EXPECT_EQ(Entries(root_ / "maps" / "same" / "versions").size(), 1u);
+  EXPECT_THAT(Entries(root_ / "tmp"), IsEmpty());
+}
+
+TEST_F(MapStoreTest, ManyWritersCreatingDifferentMapsUnderOneIdHaveOneWinner) {
+  auto other = MapStore::Open(root_);
+  ASSERT_TRUE(other.ok());
+  MapStore* stores[] = {store_.get(), other->get()};
+  constexpr int kWriters = 8;
+  std::vector<std::string> versions(kWriters);
+  for (int i = 0; i < kWriters; ++i) versions[i] = Put(*stores[i % 2], "contested", Variant(i));
+  std::latch start(kWriters);
+  std::vector<ServiceStatus> results(kWriters);
+  std::vector<std::thread> writers;
+  for (int i = 0; i < kWriters; ++i) {
+    writers.emplace_back([&, i] {
+      start.arrive_and_wait();
+      results[i] = stores[i % 2]->PublishNew("contested", versions[i]);
+    });
+  }
+  for (std::thread& writer : writers) writer.join();
+  int winner = -1;
+  for (int i = 0; i < kWriters; ++i) {
+    if (results[i].ok()) {
+      EXPECT_EQ(winner, -1) << "two winners";
+      winner = i;
+    } else {
+      EXPECT_TRUE(Fails(results[i], ServiceErrorCode::kMapAlreadyExists)) << Why(results[i]);
+    }
+  }
+  ASSERT_NE(winner, -1);
+  auto current = store_->Current("contested");
+  ASSERT_TRUE(current.ok());
+  EXPECT_EQ(*current, versions[winner]);
+}
+
+TEST_F(MapStoreTest, ProcessesCreatingDifferentMapsUnderOneIdHaveOneWinner) {
+  // Separate processes: only the file lock keeps them apart.
+  constexpr int kWriters = 4;
+  std::vector<std::string> versions(kWriters);
+  for (int i = 0; i < kWriters; ++i) versions[i] = Put(*store_, "contested", Variant(i));
+  const fs::path go = root_ / "go";
+  std::vector<pid_t> children;
+  for (int i = 0; i < kWriters; ++i) {
+    const pid_t pid = ::fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+      auto store = MapStore::Open(root_);
+      if (!store.ok()) ::_exit(3);
+      while (!fs::exists(go)) std::this_thread::yield();
+      const ServiceStatus published = (*store)->PublishNew("contested", versions[i]);
+      ::_exit(published.ok() ? 0 : Fails(published, ServiceErrorCode::kMapAlreadyExists) ? 1 : 2);
+    }
+    children.push_back(pid);
+  }
+  std::ofstream(go) << "go";
+  std::multiset<int> exits;
+  for (const pid_t pid : children) {
+    int status = 0;
+    ASSERT_EQ(::waitpid(pid, &status, 0), pid);
+    ASSERT_TRUE(WIFEXITED(status));
+    exits.insert(WEXITSTATUS(status));
+  }
+  EXPECT_EQ(exits.count(0), 1u);
+  EXPECT_EQ(exits.count(1), kWriters - 1u);
+}
+
+TEST_F(MapStoreTest, PublishUpdateIsACompareAndSwap) {
+  const std::string v1 = Create("edited", Variant(1));
+  const std::string v2 = Put(*store_, "edited", Variant(2));
+  const std::string v3 = Put(*store_, "edited", Variant(3));
+  ASSERT_TRUE(store_->PublishUpdate("edited", v1, v2, 5).ok());
+
+  // A writer that read v1 before that update lost.
+  const ServiceStatus stale = store_->PublishUpdate("edited", v1, v3, 5);
+  EXPECT_TRUE(Fails(stale, ServiceErrorCode::kMapChanged)) << Why(stale);
+  EXPECT_THAT(Why(stale), HasSubstr(v2));
+  EXPECT_EQ(*store_->Current("edited"), v2);
+
+  // The same edit made twice (two replicas): one version, no error.
+  EXPECT_TRUE(store_->PublishUpdate("edited", v1, v2, 5).ok());
+  EXPECT_THAT(*store_->Versions("edited"), ElementsAre(v2, v1));
+
+  // A version never put is refused, and nothing changes.
+  const std::string never = VersionOf(Variant(99));
+  EXPECT_TRUE(
+      Fails(store_->PublishUpdate("edited", v2, never, 5), ServiceErrorCode::kMapVersionNotFound));
+  EXPECT_TRUE(Fails(store_->PublishUpdate("absent", v2, v3, 5), ServiceErrorCode::kMapNotFound));
+  EXPECT_TRUE(Fails(store_->PublishUpdate("edited", v2, v3, 0), ErrorCode::kInvalidInput));
+  EXPECT_THAT(*store_->Versions("edited"), ElementsAre(v2, v1));
+
+  // Concurrent edits of the current version: one wins, the others are told.
+  constexpr int kWriters = 6;
+  std::vector<std::string> edits(kWriters);
+  for (int i = 0; i < kWriters; ++i) edits[i] = Put(*store_, "edited", Variant(10 + i));
+  auto other = MapStore::Open(root_);
+  ASSERT_TRUE(other.ok());
+  MapStore* stores[] = {store_.get(), other->get()};
+  std::latch start(kWriters);
+  std::vector<ServiceStatus> results(kWriters);
+  std::vector<std::thread> writers;
+  for (int i = 0; i < kWriters; ++i) {
+    writers.emplace_back([&, i] {
+      start.arrive_and_wait();
+      results[i] = stores[i % 2]->PublishUpdate("edited", v2, edits[i], 5);
+    });
+  }
+  for (std::thread& writer : writers) writer.join();
+  int wins = 0;
+  for (int i = 0; i < kWriters; ++i) {
+    if (results[i].ok()) {
+      ++wins;
+      EXPECT_EQ(*store_->Current("edited"), edits[i]);
+    } else {
+      EXPECT_TRUE(Fails(results[i], ServiceErrorCode::kMapChanged)) << Why(results[i]);
+    }
+  }
+  EXPECT_EQ(wins, 1);
+}
+
+TEST_F(MapStoreTest, PruningKeepsTheNewestVersions) {
+  constexpr int kKeep = 3;
+  std::vector<std::string> versions = {Create("pruned", Variant(0))};
+  for (int i = 1; i <= 5; ++i) {
+    versions.push_back(Put(*store_, "pruned", Variant(i)));
+    ASSERT_TRUE(store_->PublishUpdate("pruned", versions[i - 1], versions[i], kKeep).ok());
+  }
+  EXPECT_THAT(*store_->Versions("pruned"), ElementsAre(versions[5], versions[4], versions[3]));
+  EXPECT_EQ(Entries(root_ / "maps" / "pruned" / "versions").size(),
+            static_cast<std::size_t>(kKeep));
+  for (int i = 3; i <= 5; ++i) EXPECT_TRUE(store_->LoadMetadata("pruned", versions[i]).ok());
+
+  const auto gone = store_->LoadModel("pruned", versions[1]);
+  ASSERT_TRUE(Fails(gone, ServiceErrorCode::kMapVersionNotFound)) << Why(gone);
+  EXPECT_THAT(gone.error().message, HasSubstr("pruned"));
+  EXPECT_THAT(gone.error().message, HasSubstr(versions[1]));
+  EXPECT_THAT(gone.error().message, HasSubstr(versions[5]));
+  EXPECT_TRUE(
+      Fails(store_->LoadCloud("pruned", versions[0]), ServiceErrorCode::kMapVersionNotFound));
+}
+
+TEST_F(MapStoreTest, DeleteRemovesTheMapForEveryone) {
+  const std::string version = Create("doomed", cloud());
+  auto other = MapStore::Open(root_);
+  ASSERT_TRUE(other.ok());
+  ASSERT_TRUE((*other)->Delete("doomed").ok());
+
+  EXPECT_TRUE(Fails(store_->Versions("doomed"), ServiceErrorCode::kMapNotFound));
+  EXPECT_TRUE(Fails(store_->Current("doomed"), ServiceErrorCode::kMapNotFound));
+  EXPECT_TRUE(Fails(store_->LoadModel("doomed", version), ServiceErrorCode::kMapNotFound));
+  EXPECT_TRUE(Fails(store_->LoadCloud("doomed", version), ServiceErrorCode::kMapNotFound));
+  EXPECT_TRUE(Fails(store_->LoadMetadata("doomed", version), ServiceErrorCode::kMapNotFound));
+  EXPECT_TRUE(
+      Fails(store_->PublishUpdate("doomed", version, version, 2), ServiceErrorCode::kMapNotFound));
+  EXPECT_TRUE(Fails(store_->Delete("doomed"), ServiceErrorCode::kMapNotFound));
+  EXPECT_THAT(*store_->ListIds("", 0), IsEmpty());
+  EXPECT_THAT(Entries(root_ / "trash"), IsEmpty());
+
+  // The id is free again.
+  EXPECT_TRUE(Fails(store_->PublishNew("doomed", version), ServiceErrorCode::kMapVersionNotFound));
+  const std::string again = Create("doomed", Variant(1));
+  EXPECT_THAT(*(*other)->Versions("doomed"), ElementsAre(again));
+}
+
+TEST_F(MapStoreTest, ListsIdsInOrderFromACursor) {
+  for (const char* id : {"b", "a", "c", "a.1"}) Create(id, cloud());
+  Put(*store_, "unpublished", cloud());  // Put but never published: not a map.
+  EXPECT_THAT(*store_->ListIds("", 0), ElementsAre("a", "a.1", "b", "c"));
+  EXPECT_THAT(*store_->ListIds("a", 2), ElementsAre("a.1", "b"));
+  EXPECT_THAT(*store_->ListIds("b", 10), ElementsAre("c"));
+  EXPECT_THAT(*store_->ListIds("c", 10), IsEmpty());
+  EXPECT_TRUE(Fails(store_->Versions("unpublished"), ServiceErrorCode::kMapNotFound));
+}
+
+TEST_F(MapStoreTest, RefusesNamesThatLeaveTheRoot) {
+  const std::string version = VersionOf(cloud());
+  for (const std::string& id : std::vector<std::string>{
+           "", ".", "..", "a/b", "../x", std::string("a\0b", 3), std::string(65, 'a')}) {
+    EXPECT_TRUE(
+        Fails(store_->PutVersion(id, version, cloud(), model(), ""), ErrorCode::kInvalidInput))
+        << id;
+    EXPECT_TRUE(Fails(store_->Versions(id), ErrorCode::kInvalidInput)) << id;
+    EXPECT_TRUE(Fails(store_->Delete(id), ErrorCode::kInvalidInput)) << id;
+  }
+  for (const std::string& bad :
+       std::vector<std::string>{"", "../../etc", version.substr(1), version + "0",
+                                std::string(32, 'A'), std::string(32, 'g')}) {
+    EXPECT_TRUE(Fails(store_->PutVersion("m", bad, cloud(), model(), ""), ErrorCode::kInvalidInput))
+        << bad;
+    EXPECT_TRUE(Fails(store_->LoadModel("m", bad), ErrorCode::kInvalidInput)) << bad;
+  }
+  EXPECT_THAT(Entries(root_ / "maps"), IsEmpty());
+}
+
+TEST_F(MapStoreTest, OpenRefusesWhatIsNoStore) {
+  const fs::path file = root_ / "a-file";
+  std::ofstream(file) << "x";
+  auto on_file = MapStore::Open(file);
+  ASSERT_TRUE(Fails(on_file, ErrorCode::kInvalidConfig));
+  EXPECT_THAT(on_file.error().message, HasSubstr("--map-store"));
+  EXPECT_TRUE(Fails(MapStore::Open(""), ErrorCode::kInvalidConfig));
+
+  const fs::path other = root_ / "other";
+  fs::create_directories(other);
+  std::ofstream(other / "strata-map-store") << "strata map store, layout 99\n";
+  EXPECT_TRUE(Fails(MapStore::Open(other), ErrorCode::kInvalidConfig));
+}
+
+TEST_F(MapStoreTest, AWriterKilledMidWriteLeavesNoVersion) {
+  // Big enough that writing it takes a good fraction of a second.
+  PointCloud big;
+  constexpr int kSide = 2000;
+  big.reserve(kSide * kSide);
+  for (int i = 0; i < kSide; ++i) {
+    for (int j = 0; j < kSide; ++j) big.emplace_back(0.05f * i, 0.05f * j, 0.001f * (i % 7));
+  }
+  const std::string version = VersionOf(big);
+  const pid_t pid = ::fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    auto store = MapStore::Open(root_);
+    const bool ok = store.ok() && (*store)->PutVersion("big", version, big, model(), "{}").ok() &&
+                    (*store)->PublishNew("big", version).ok();
+    ::_exit(ok ? 0 : 1);
+  }
+  // Kill it as soon as its temporary version directory exists (tmp/version.<pid>.<random>).
+  bool exited = false;
+  while (Entries(root_ / "tmp", "version.").empty()) {
+    int status = 0;
+    if (::waitpid(pid, &status, WNOHANG) == pid) {
+      exited = true;
+      break;
+    }
+    std::this_thread::yield();
+  }
+  ASSERT_FALSE(exited) << "the writer finished before its temporary was seen";
+  ASSERT_EQ(::kill(pid, SIGKILL), 0);
+  int status = 0;
+  ASSERT_EQ(::waitpid(pid, &status, 0), pid);
+  ASSERT_TRUE(WIFSIGNALED(status)) << "the writer finished before it was killed";
+  ASSERT_EQ(Entries(root_ / "tmp", "version.").size(), 1u);  // Its half-written version.
+
+  auto fresh = MapStore::Open(root_);
+  ASSERT_TRUE(fresh.ok()) << Why(fresh);
+  MapStore& store = **fresh;
+  EXPECT_THAT(*store.ListIds("", 0), IsEmpty());
+  EXPECT_TRUE(Fails(store.Versions("big"), ServiceErrorCode::kMapNotFound));
+  EXPECT_TRUE(Fails(store.LoadModel("big", version), ServiceErrorCode::kMapNotFound));
+  EXPECT_THAT(Entries(root_ / "maps" / "big" / "versions"), IsEmpty());
+
+  ASSERT_TRUE(store.PutVersion("big", version, big, model(), "{}").ok());
+  ASSERT_TRUE(store.PublishNew("big", version).ok());
+  auto loaded = store.LoadCloud("big", version);
+  ASSERT_TRUE(loaded.ok()) << Why(loaded);
+  EXPECT_EQ(loaded->size(), big.size());
+
+  // The dead writer's temporary is young, so it stays (it could be a live writer's) until
+  // it is older than the stale age.
+  ASSERT_EQ(Entries(root_ / "tmp").size(), 1u);
+  EXPECT_EQ(store.CollectGarbage(), 0);
+  MakeStale(Entries(root_ / "tmp", "version.").front());
+  EXPECT_EQ(store.CollectGarbage(), 1);
+  EXPECT_THAT(Entries(root_ / "tmp"), IsEmpty());
+}
+
+TEST_F(MapStoreTest, ATamperedVersionFailsToLoadClearly) {
+  const std::string version = Create("tampered", cloud());
+  const fs::path dir = root_ / "maps" / "tampered" / "versions" / version;
+  const fs::path model_file = dir / "model.stratamodel";
+  fs::resize_file(model_file, fs::file_size(model_file) / 2);
+  const auto truncated = store_->LoadModel("tampered", version);
+  ASSERT_TRUE(Fails(truncated, ServiceErrorCode::kMapCorrupted)) << Why(truncated);
+  EXPECT_THAT(truncated.error().message, HasSubstr(model_file.string()));
+  EXPECT_THAT(truncated.error().message, HasSubstr("truncated"));
+
+  const fs::path cloud_file = dir / "cloud.pcd";
+  fs::resize_file(cloud_file, fs::file_size(cloud_file) - 100);
+  const auto short_cloud = store_->LoadCloud("tampered", version);
+  ASSERT_TRUE(Fails(short_cloud, ServiceErrorCode::kMapCorrupted)) << Why(short_cloud);
+  EXPECT_THAT(short_cloud.error().message, HasSubstr(cloud_file.string()));
+
+  std::ofstream(root_ / "maps" / "tampered" / "head") << "not a version\n";
+  EXPECT_TRUE(Fails(store_->Versions("tampered"), ServiceErrorCode::kMapCorrupted));
+  // Deleting is the way out.
+  EXPECT_TRUE(store_->Delete("tampered").ok());
+}
+
+TEST_F(MapStoreTest, CollectsOnlyStaleLeftovers) {
+  const std::string kept = Create("m", cloud());
+  const std::string orphan = Put(*store_, "m", Variant(1));  // Lost a race, say.
+  const std::string young = Put(*store_, "m", Variant(2));   // About to be published.
+  Put(*store_, "headless", cloud());                         // Its writer died before publishing.
+  const fs::path versions = root_ / "maps" / "m" / "versions";
+  EXPECT_EQ(store_->CollectGarbage(), 0);  // Everything is young: maybe live writers'.
+  MakeStale(versions / kept);
+  MakeStale(versions / orphan);
+  MakeStale(root_ / "maps" / "headless");
+
+  EXPECT_EQ(store_->CollectGarbage(), 2);
+  EXPECT_TRUE(fs::exists(versions / kept));
+  EXPECT_FALSE(fs::exists(versions / orphan));
+  EXPECT_TRUE(fs::exists(versions / young));
+  EXPECT_FALSE(fs::exists(root_ / "maps" / "headless"));
+  EXPECT_TRUE(store_->PublishUpdate("m", kept, young, 3).ok());
+  EXPECT_THAT(Entries(root_ / "trash"), IsEmpty());
+}
+
+}  // namespace
+}  // namespace strata::server
