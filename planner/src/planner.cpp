@@ -194,11 +194,12 @@ Status PlanRequest::Validate() const {
     if (Status s = keep_out[i].Validate(path); !s) return s;
     // A robot overlaps a zone only by more than zero height (keep_out.hpp).
     if (!(keep_out[i].z_max_m > keep_out[i].z_min_m)) {
-      const std::string field = path + ".z_max_m";
-      return Error{ErrorCode::kInvalidInput,
-                   field + " must be above " + path +
-                       ".z_min_m: a keep-out zone of no height blocks nothing",
-                   field};
+      const std::string field = internal::FieldPath(path, "z_max_m");
+      std::string message = field;
+      message += " must be above ";
+      message += internal::FieldPath(path, "z_min_m");
+      message += ": a keep-out zone of no height blocks nothing";
+      return Error{ErrorCode::kInvalidInput, std::move(message), field};
     }
   }
   return Status::Ok();
