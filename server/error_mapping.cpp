@@ -23,6 +23,9 @@ const ErrorMapping kTable[] = {
     {PE::kResourceExhausted, StatusCode::RESOURCE_EXHAUSTED, "RESOURCE_EXHAUSTED"},
     {PE::kStartOffGround, StatusCode::INVALID_ARGUMENT, "START_OFF_GROUND"},
     {PE::kGoalOffGround, StatusCode::INVALID_ARGUMENT, "GOAL_OFF_GROUND"},
+    // Like off the ground: the start or goal is what the client must change (or its zone).
+    {PE::kStartInKeepOut, StatusCode::INVALID_ARGUMENT, "START_IN_KEEP_OUT"},
+    {PE::kGoalInKeepOut, StatusCode::INVALID_ARGUMENT, "GOAL_IN_KEEP_OUT"},
     {PE::kGoalUnreachable, StatusCode::FAILED_PRECONDITION, "GOAL_UNREACHABLE"},
     {PE::kNoPath, StatusCode::FAILED_PRECONDITION, "NO_PATH"},
     // The plan's own budget (the smaller of the client's and the server's) ran out. When the

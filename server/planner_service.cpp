@@ -65,6 +65,9 @@ Result<ParsedPlanRequest> ParsePlanRequest(const v1::PlanRequest& request) {
   parsed.plan.start = start.value();
   parsed.plan.goal = goal.value();
   parsed.plan.options = FromProto(request.options());
+  Result<std::vector<Prism>> keep_out = KeepOutFromRequest(request);
+  if (!keep_out.ok()) return std::move(keep_out).error();
+  parsed.plan.keep_out = std::move(keep_out).value();
   if (Status valid = parsed.plan.Validate(); !valid) {
     return ServiceError::FromPlanner(valid.error(),
                                      PlanRequestField(valid.error().field, parsed.inline_profile));

@@ -72,14 +72,17 @@ constexpr std::pair<std::string_view, std::string_view> kPlanRequestRenames[] = 
     {"options.optimizer.weights.", "options.weights."},
 };
 
-// Whether `path` ("options.weights.safety": field names joined by dots) names a field of
-// `message`.
+// Whether `path` ("options.weights.safety", "keep_out[1].polygon_m[2].x": field names joined
+// by dots, a repeated field's with an index) names a field of `message`.
 bool HasFieldPath(const google::protobuf::Descriptor* message, std::string_view path) {
   while (message != nullptr) {
     const std::size_t dot = path.find('.');
-    const google::protobuf::FieldDescriptor* field =
-        message->FindFieldByName(std::string(path.substr(0, dot)));
-    if (field == nullptr) return false;
+    std::string_view name = path.substr(0, dot);
+    const std::size_t bracket = name.find('[');
+    const bool indexed = bracket != std::string_view::npos;
+    if (indexed) name = name.substr(0, bracket);
+    const google::protobuf::FieldDescriptor* field = message->FindFieldByName(std::string(name));
+    if (field == nullptr || (indexed && !field->is_repeated())) return false;
     if (dot == std::string_view::npos) return true;
     message = field->message_type();
     path.remove_prefix(dot + 1);
@@ -258,6 +261,57 @@ Result<RobotState> FromProto(const v1::RobotState& state, const std::string& fie
     result.acceleration_mps2 = FromProto(state.acceleration_mps2());
   }
   return result;
+}
+
+Result<Prism> FromProto(const v1::Prism& message, const std::string& field) {
+  // Unset heights would silently make a zone of zero height at z = 0.
+  for (const auto& [name, present] :
+       {std::pair{"z_min_m", message.has_z_min_m()}, std::pair{"z_max_m", message.has_z_max_m()}}) {
+    if (!present) {
+      const std::string path = field + "." + name;
+      return MakeError(ErrorCode::kInvalidInput,
+                       path + " is required: give the prism's height range in the map's frame")
+          .Blame(path);
+    }
+  }
+  Prism prism;
+  prism.polygon_m.reserve(static_cast<std::size_t>(message.polygon_m_size()));
+  for (const v1::Vector2& corner : message.polygon_m()) {
+    prism.polygon_m.emplace_back(corner.x(), corner.y());
+  }
+  prism.z_min_m = message.z_min_m();
+  prism.z_max_m = message.z_max_m();
+  return prism;
+}
+
+void ToProto(const Prism& prism, v1::Prism* message) {
+  message->clear_polygon_m();
+  for (const Eigen::Vector2d& corner : prism.polygon_m) {
+    v1::Vector2* c = message->add_polygon_m();
+    c->set_x(corner.x());
+    c->set_y(corner.y());
+  }
+  message->set_z_min_m(prism.z_min_m);
+  message->set_z_max_m(prism.z_max_m);
+}
+
+Result<std::vector<Prism>> KeepOutFromRequest(const v1::PlanRequest& request) {
+  std::vector<Prism> zones;
+  // Only the count is checked first, so that a huge list costs nothing to refuse; the rest is
+  // PlanRequest::Validate's (the same paths).
+  if (request.keep_out_size() > kMaxRequestKeepOutZones) {
+    return MakeError(ErrorCode::kInvalidInput,
+                     "keep_out has " + std::to_string(request.keep_out_size()) +
+                         " zones, more than the " + std::to_string(kMaxRequestKeepOutZones) +
+                         " one request may carry: merge neighbouring zones")
+        .Blame("keep_out");
+  }
+  for (int i = 0; i < request.keep_out_size(); ++i) {
+    Result<Prism> zone = FromProto(request.keep_out(i), "keep_out[" + std::to_string(i) + "]");
+    if (!zone.ok()) return std::move(zone).error();
+    zones.push_back(std::move(zone).value());
+  }
+  return zones;
 }
 
 PlanOptions FromProto(const v1::PlanOptions& m) {

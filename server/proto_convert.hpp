@@ -14,6 +14,7 @@
 #include "map_registry.hpp"
 #include "service_error.hpp"
 #include "strata/planner.hpp"
+#include "strata/prism.hpp"
 #include "strata/robot_profile.hpp"
 #include "strata/terrain_config.hpp"
 #include "strata/trajectory.hpp"
@@ -48,6 +49,15 @@ void ToProto(const RobotProfile& profile, v1::RobotProfile* message);
 /// "<field>.position_m"). PlanRequest::Validate checks the values.
 Result<RobotState> FromProto(const v1::RobotState& state, const std::string& field);
 
+/// A prism, copied; kInvalidInput blaming "<field>.z_min_m" or "<field>.z_max_m" when one is
+/// unset (a prism has no default height). Prism::Validate(field) checks the values and blames
+/// the same paths, e.g. "keep_out[1].polygon_m[2].x".
+Result<Prism> FromProto(const v1::Prism& message, const std::string& field);
+void ToProto(const Prism& prism, v1::Prism* message);
+/// The request's keep-out zones, copied (FromProto above); kInvalidInput blaming "keep_out"
+/// for more than kMaxRequestKeepOutZones. PlanRequest::Validate checks the zones.
+Result<std::vector<Prism>> KeepOutFromRequest(const v1::PlanRequest& request);
+
 /// Options over the planner's defaults, copied (time_budget_s as given: the caller caps it,
 /// see PlannerService); PlanOptions::Validate checks them.
 PlanOptions FromProto(const v1::PlanOptions& options);
@@ -57,9 +67,10 @@ void ToProto(const PlanOptions& options, v1::PlanOptions* message);
 /// The PlanRequest field of a planner field path (Error::field of PlanRequest::Validate or
 /// Plan), or "" when the request has no such field (a setting it cannot override). The paths
 /// are the same by design ("start.position_m.x", "profile.max_tilt_rad",
-/// "options.max_attempts"), with two exceptions: the weights ("options.optimizer.weights.X"
-/// is the request's "options.weights.X", one table in proto_convert.cpp), and a profile
-/// field of a built-in profile, which the request chose by "profile_name"
+/// "options.max_attempts", "keep_out[1].polygon_m[2].x"), with two exceptions: the weights
+/// ("options.optimizer.weights.X" is the request's "options.weights.X", one table in
+/// proto_convert.cpp), and a profile field of a built-in profile, which the request chose by
+/// "profile_name"
 /// (`inline_profile` false).
 std::string PlanRequestField(const std::string& planner_field, bool inline_profile);
 

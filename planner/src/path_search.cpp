@@ -47,7 +47,8 @@ double EdgeCost(const SurfaceGraph& graph, int a, int b, const SearchConfig& con
 
 Expected<PathResult> SearchPath(const SurfaceGraph& graph, int start_node, int goal_node,
                                 const SearchConfig& config,
-                                const std::function<bool()>& should_stop, SearchStats* stats) {
+                                const std::function<bool()>& should_stop, SearchStats* stats,
+                                const std::function<bool(int node)>& blocked) {
   using Clock = std::chrono::steady_clock;
   const Clock::time_point t0 = Clock::now();
   int expansions = 0;
@@ -141,6 +142,9 @@ Expected<PathResult> SearchPath(const SurfaceGraph& graph, int start_node, int g
       if (next.closed) return;
       const double g = top.g + EdgeCost(graph, top.node, m, config);
       if (g < next.g) {
+        // Checked only for a node about to improve: a blocked one never does, so it is asked
+        // at most once per neighbour that reaches it.
+        if (blocked && m != goal_node && blocked(m)) return;
         reached += next.parent < 0;
         next.g = g;
         next.parent = top.node;

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "format_internal.hpp"
+#include "strata/keep_out.hpp"
 #include "strata/terrain_query.hpp"
 
 namespace strata {
@@ -83,6 +84,35 @@ void FillStats(const Trajectory& trajectory, const VerificationReport& v, PlanSt
   stats->verified_samples = v.samples;
 }
 
+// The map's zones, then the request's, named for messages.
+std::vector<KeepOutZone> CollectKeepOut(const PlanningMap& map, const PlanRequest& request) {
+  std::vector<KeepOutZone> zones;
+  zones.reserve(map.keep_out().size() + request.keep_out.size());
+  for (std::size_t i = 0; i < map.keep_out().size(); ++i) {
+    zones.emplace_back(map.keep_out()[i], "the map's keep-out zone " + std::to_string(i));
+  }
+  for (std::size_t i = 0; i < request.keep_out.size(); ++i) {
+    zones.emplace_back(request.keep_out[i], "keep-out zone keep_out[" + std::to_string(i) + "]");
+  }
+  return zones;
+}
+
+// kStartInKeepOut / kGoalInKeepOut: `what` ("start", "goal") at `p` violates `zone`.
+Error InKeepOut(ErrorCode code, const char* what, const Eigen::Vector3d& p, const KeepOutZone& zone,
+                const RobotProfile& profile, bool map_zone) {
+  const double penetration = KeepOutPenetration(zone.prism, profile, p);
+  char buf[320];
+  std::snprintf(buf, sizeof(buf),
+                " m puts the robot inside %s: its footprint (radius %.2f m) reaches %.2f m "
+                "into the zone's polygon and its height range overlaps the zone's [%.2f, %.2f] "
+                "m; move the %s at least %.2f m away from the zone%s",
+                zone.name.c_str(), profile.footprint_radius_m, penetration, zone.prism.z_min_m,
+                zone.prism.z_max_m, what, penetration,
+                map_zone ? " (the map's zones change only with the map)" : " or drop the zone");
+  return Error{code, std::string(what) + " " + internal::FormatPoint(p) + buf,
+               std::string(what) + ".position_m"};
+}
+
 }  // namespace
 
 struct PlanningMap::GraphEntry {
@@ -92,7 +122,8 @@ struct PlanningMap::GraphEntry {
   Error error{ErrorCode::kInvalidConfig, {}};
 };
 
-PlanningMap::PlanningMap(std::shared_ptr<const TerrainModel> model) : model_(std::move(model)) {}
+PlanningMap::PlanningMap(std::shared_ptr<const TerrainModel> model, std::vector<Prism> keep_out)
+    : model_(std::move(model)), keep_out_(std::move(keep_out)) {}
 
 Expected<std::shared_ptr<const SurfaceGraph>> PlanningMap::Graph(
     const TraversabilityParams& params) const {
@@ -149,7 +180,29 @@ Status PlanRequest::Validate() const {
   if (Status s = start.Validate("start"); !s) return s;
   if (Status s = goal.Validate("goal"); !s) return s;
   if (Status s = profile.Validate("profile"); !s) return s;
-  return options.Validate("options");
+  if (Status s = options.Validate("options"); !s) return s;
+  if (keep_out.size() > static_cast<std::size_t>(kMaxRequestKeepOutZones)) {
+    return Error{ErrorCode::kInvalidInput,
+                 "keep_out has " + std::to_string(keep_out.size()) + " zones, more than the " +
+                     std::to_string(kMaxRequestKeepOutZones) +
+                     " one request may carry: merge neighbouring zones, or make lasting ones "
+                     "part of the map",
+                 "keep_out"};
+  }
+  for (std::size_t i = 0; i < keep_out.size(); ++i) {
+    const std::string path = "keep_out[" + std::to_string(i) + "]";
+    if (Status s = keep_out[i].Validate(path); !s) return s;
+    // A robot overlaps a zone only by more than zero height (keep_out.hpp).
+    if (!(keep_out[i].z_max_m > keep_out[i].z_min_m)) {
+      const std::string field = internal::FieldPath(path, "z_max_m");
+      std::string message = field;
+      message += " must be above ";
+      message += internal::FieldPath(path, "z_min_m");
+      message += ": a keep-out zone of no height blocks nothing";
+      return Error{ErrorCode::kInvalidInput, std::move(message), field};
+    }
+  }
+  return Status::Ok();
 }
 
 Expected<PlanResult> Plan(const PlanningMap& map, const PlanRequest& request,
@@ -184,29 +237,72 @@ Expected<PlanResult> Plan(const PlanningMap& map, const PlanRequest& request,
   if (!goal) return blame(std::move(goal).error(), "goal.position_m");
   result.start = *start;
   result.goal = *goal;
-  stats.timings.snap_s = SecondsSince(stage);
-
-  // Search.
-  stage = Clock::now();
-  // The search runs on the plan's own budget (through stop), the only one a caller sets.
-  SearchStats search_stats;
-  Expected<PathResult> path =
-      SearchPath(graph, start->node, goal->node, options.search, stop.AsFunction(), &search_stats);
-  stats.timings.search_s = SecondsSince(stage);
-  stats.search_expansions = search_stats.expansions;
-  if (!path) {
-    if (stop.stopped()) return stop.Reason(options.time_budget_s, "the path search");
-    return std::move(path).error();
-  }
-  result.path = std::move(path).value();
-
-  // Optimise and verify; a failed verification retries with stiffer penalties.
-  std::vector<Eigen::Vector3d> waypoints = result.path.points_m;
   RobotState head = request.start, tail = request.goal;
   head.position_m = BoundaryPosition(graph, result.start, request.start.position_m);
   tail.position_m = BoundaryPosition(graph, result.goal, request.goal.position_m);
   result.start.position_m = head.position_m;
   result.goal.position_m = tail.position_m;
+  stats.timings.snap_s = SecondsSince(stage);
+
+  // Keep-out zones: the trajectory's ends must lie outside every zone; the search steps
+  // around them (the graph stays as it is, shared by every request), the optimiser's J_k
+  // keeps the trajectory out with a margin and the verifier checks every sample.
+  const std::vector<KeepOutZone> zones = CollectKeepOut(map, request);
+  const auto is_map_zone = [&](int zone) {
+    return static_cast<std::size_t>(zone) < map.keep_out().size();
+  };
+  if (const int zone = FirstViolatedKeepOut(zones, profile, head.position_m); zone >= 0) {
+    return InKeepOut(ErrorCode::kStartInKeepOut, "start", head.position_m, zones[zone], profile,
+                     is_map_zone(zone));
+  }
+  if (const int zone = FirstViolatedKeepOut(zones, profile, tail.position_m); zone >= 0) {
+    return InKeepOut(ErrorCode::kGoalInKeepOut, "goal", tail.position_m, zones[zone], profile,
+                     is_map_zone(zone));
+  }
+  std::vector<int> blocked_nodes(zones.size(), 0);  // Per zone, nodes the search left out.
+  std::function<bool(int)> blocked;
+  if (!zones.empty()) {
+    blocked = [&](int node) {
+      const int zone = FirstViolatedKeepOut(zones, profile, graph.position(node));
+      if (zone < 0) return false;
+      ++blocked_nodes[zone];
+      return true;
+    };
+  }
+
+  // Search.
+  stage = Clock::now();
+  // The search runs on the plan's own budget (through stop), the only one a caller sets.
+  SearchStats search_stats;
+  Expected<PathResult> path = SearchPath(graph, start->node, goal->node, options.search,
+                                         stop.AsFunction(), &search_stats, blocked);
+  stats.timings.search_s = SecondsSince(stage);
+  stats.search_expansions = search_stats.expansions;
+  if (!path) {
+    if (stop.stopped()) return stop.Reason(options.time_budget_s, "the path search");
+    Error error = std::move(path).error();
+    std::string in_the_way;  // The zones the search met, by name.
+    for (std::size_t i = 0; i < zones.size(); ++i) {
+      if (blocked_nodes[i] == 0) continue;
+      in_the_way += (in_the_way.empty() ? "" : ", ") + zones[i].name;
+    }
+    if (!in_the_way.empty() && error.code == ErrorCode::kNoPath) {
+      // The components connect start and goal; only the zones separate them.
+      return Error{ErrorCode::kGoalUnreachable,
+                   "goal " + internal::FormatPoint(tail.position_m) +
+                       " m cannot be reached from start " + internal::FormatPoint(head.position_m) +
+                       " m without entering the keep-out zones in the way (" + in_the_way +
+                       "): every way round is closed; move or shrink a zone, or choose another "
+                       "goal"};
+    }
+    if (!in_the_way.empty())
+      error.message += "; the search stepped around keep-out zones " + in_the_way;
+    return error;
+  }
+  result.path = std::move(path).value();
+
+  // Optimise and verify; a failed verification retries with stiffer penalties.
+  std::vector<Eigen::Vector3d> waypoints = result.path.points_m;
   waypoints.front() = head.position_m;
   waypoints.back() = tail.position_m;
   if (waypoints.size() < 2) waypoints.push_back(tail.position_m);
@@ -215,7 +311,7 @@ Expected<PlanResult> Plan(const PlanningMap& map, const PlanRequest& request,
   Error last_failure{ErrorCode::kOptimizationFailed, "no optimisation attempt ran"};
   for (int attempt = 0; attempt < options.max_attempts; ++attempt) {
     stage = Clock::now();
-    const TrajectoryCost cost(graph, config.weights, CostParams{profile, config.cost});
+    const TrajectoryCost cost(graph, config.weights, CostParams{profile, config.cost}, zones);
     const OptimizationProblem problem = MakeInitialProblem(cost, waypoints, head, tail, config);
     Minco3 minco;
     Expected<OptimizationReport> report =
@@ -232,7 +328,7 @@ Expected<PlanResult> Plan(const PlanningMap& map, const PlanRequest& request,
     Trajectory trajectory = Trajectory::FromMinco(minco);
     VerificationReport verification;
     const Status verified =
-        VerifyTrajectory(graph, profile, trajectory, options.verifier, &verification);
+        VerifyTrajectory(graph, profile, trajectory, options.verifier, &verification, zones);
     stats.timings.verify_s += SecondsSince(stage);
     if (verified) {
       FillStats(trajectory, verification, &stats);
@@ -247,6 +343,7 @@ Expected<PlanResult> Plan(const PlanningMap& map, const PlanRequest& request,
     config.weights.edge *= 4;
     config.weights.ground *= 4;
     config.weights.feasibility *= 4;
+    config.weights.keep_out *= 4;
     config.piece_length_m *= 0.7;
     config.cost.limit_margin *= 0.95;
   }

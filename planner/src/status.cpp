@@ -10,6 +10,8 @@ const char* ErrorCodeName(ErrorCode code) {
     case ErrorCode::kResourceExhausted: return "RESOURCE_EXHAUSTED";
     case ErrorCode::kStartOffGround: return "START_OFF_GROUND";
     case ErrorCode::kGoalOffGround: return "GOAL_OFF_GROUND";
+    case ErrorCode::kStartInKeepOut: return "START_IN_KEEP_OUT";
+    case ErrorCode::kGoalInKeepOut: return "GOAL_IN_KEEP_OUT";
     case ErrorCode::kGoalUnreachable: return "GOAL_UNREACHABLE";
     case ErrorCode::kNoPath: return "NO_PATH";
     case ErrorCode::kDeadlineExceeded: return "DEADLINE_EXCEEDED";

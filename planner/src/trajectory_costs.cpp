@@ -19,6 +19,13 @@ Cubic CubicPenalty(double x) {
   return {x * x * x, 3 * x * x};
 }
 
+// The smoothstep 3u² − 2u³ of u clamped to [0, 1], and its derivative (C¹: 0 at both ends).
+Cubic Smoothstep(double u) {
+  if (u <= 0) return {};
+  if (u >= 1) return {1, 0};
+  return {u * u * (3 - 2 * u), 6 * u * (1 - u)};
+}
+
 // β(t) and its first three derivatives: row k holds d^k/dt^k [1, t, …, t⁵].
 Eigen::Matrix<double, 4, 6> Basis(double t) {
   const double t2 = t * t, t3 = t2 * t, t4 = t3 * t, t5 = t4 * t;
@@ -35,7 +42,7 @@ Status CostWeights::Validate(std::string_view path) const {
       {"smoothness", smoothness}, {"time", time},
       {"safety", safety},         {"edge", edge},
       {"ground", ground},         {"feasibility", feasibility},
-      {"height", height}};
+      {"height", height},         {"keep_out", keep_out}};
   for (const auto& [name, value] : fields) {
     if (!(std::isfinite(value) && value >= 0)) {
       return internal::OutOfRange(internal::FieldPath(path, name), value, ">= 0 and finite");
@@ -65,6 +72,9 @@ Status CostConfig::Validate(std::string_view path) const {
   }
   if (!(std::isfinite(body_height_stiffness) && body_height_stiffness >= 0)) {
     return bad_field("body_height_stiffness", body_height_stiffness, ">= 0 and finite");
+  }
+  if (!(std::isfinite(keep_out_margin_m) && keep_out_margin_m >= 0 && keep_out_margin_m <= 1)) {
+    return bad_field("keep_out_margin_m", keep_out_margin_m, "in [0, 1] m");
   }
   if (samples_per_piece < 2) return bad_field("samples_per_piece", samples_per_piece, ">= 2");
   return Status::Ok();
@@ -124,6 +134,33 @@ double TrajectoryCost::PointPenalty(const StateVector& pos, const StateVector& v
     const Cubic outside = CubicPenalty(c.edge_margin_m - SampleEdgeDistance(*graph_, p, &gradient));
     terms.edge += w.edge * outside.value;
     grad_pos->head<2>() -= w.edge * outside.slope * gradient;
+  }
+
+  if (w.keep_out > 0 && !keep_out_.empty()) {
+    const double margin = c.keep_out_margin_m;
+    const double reach = robot.footprint_radius_m + margin;
+    for (const KeepOutZone& zone : keep_out_) {
+      // Vertical gate: 1 where the robot's height range overlaps the zone's, fading to 0 at
+      // k_margin apart (a step when k_margin is 0).
+      double overlap_slope = 0;
+      const double overlap = KeepOutVerticalOverlap(zone.prism, robot, p.z(), &overlap_slope);
+      if (overlap <= -margin || (margin == 0 && overlap <= 0)) continue;
+      const Cubic gate = margin > 0 ? Smoothstep(overlap / margin + 1) : Cubic{1, 0};
+      const Eigen::Vector2d lo = zone.bounds_m.min().head<2>().array() - reach;
+      const Eigen::Vector2d hi = zone.bounds_m.max().head<2>().array() + reach;
+      if ((p.head<2>().array() <= lo.array()).any() || (p.head<2>().array() >= hi.array()).any()) {
+        continue;
+      }
+      Eigen::Vector2d gradient;
+      const Cubic inside =
+          CubicPenalty(reach - zone.prism.SignedDistanceXY(p.head<2>(), &gradient));
+      if (inside.value == 0) continue;
+      terms.keep_out += w.keep_out * gate.value * inside.value;
+      grad_pos->head<2>() -= w.keep_out * gate.value * inside.slope * gradient;
+      if (gate.slope != 0) {  // Only inside the fade, so margin > 0.
+        (*grad_pos)(2) += w.keep_out * inside.value * gate.slope / margin * overlap_slope;
+      }
+    }
   }
 
   GroundSample ground;
@@ -191,8 +228,10 @@ double TrajectoryCost::PointPenalty(const StateVector& pos, const StateVector& v
     breakdown->ground += terms.ground;
     breakdown->feasibility += terms.feasibility;
     breakdown->height += terms.height;
+    breakdown->keep_out += terms.keep_out;
   }
-  return terms.safety + terms.edge + terms.ground + terms.feasibility + terms.height;
+  return terms.safety + terms.edge + terms.ground + terms.feasibility + terms.height +
+         terms.keep_out;
 }
 
 double TrajectoryCost::Evaluate(const Minco3& minco, Eigen::MatrixXd* grad_c,
@@ -241,6 +280,7 @@ double TrajectoryCost::Evaluate(const Minco3& minco, Eigen::MatrixXd* grad_c,
       terms.ground += weight * point_terms.ground;
       terms.feasibility += weight * point_terms.feasibility;
       terms.height += weight * point_terms.height;
+      terms.keep_out += weight * point_terms.keep_out;
     }
   }
   if (breakdown != nullptr) *breakdown = terms;

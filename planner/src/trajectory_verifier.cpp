@@ -97,7 +97,7 @@ double BodyHeightTolerance(const RobotProfile& profile, const VerifierConfig& co
 
 Status VerifyTrajectory(const SurfaceGraph& graph, const RobotProfile& profile,
                         const Trajectory& trajectory, const VerifierConfig& config,
-                        VerificationReport* report) {
+                        VerificationReport* report, std::span<const KeepOutZone> keep_out) {
   if (Status s = config.Validate(); !s) return s;
   if (Status s = profile.Validate(); !s) return s;
   const TerrainModel& model = graph.model();
@@ -274,6 +274,16 @@ Status VerifyTrajectory(const SurfaceGraph& graph, const RobotProfile& profile,
       return Violation(t, p,
                        "the ground below is not a node of the traversability graph (a graph "
                        "built for other traversability parameters than this profile's?)");
+    }
+
+    if (const int zone = FirstViolatedKeepOut(keep_out, profile, p); zone >= 0) {
+      char buf[160];
+      std::snprintf(buf, sizeof(buf),
+                    ": the footprint (radius %.3f m) reaches %.3f m into its polygon within its "
+                    "height range",
+                    profile.footprint_radius_m,
+                    KeepOutPenetration(keep_out[zone].prism, profile, p));
+      return Violation(t, p, "inside " + keep_out[zone].name + buf);
     }
     return Status::Ok();
   };

@@ -5,6 +5,7 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -18,6 +19,7 @@ namespace strata {
 namespace {
 
 using ::testing::HasSubstr;
+using ::testing::Not;
 
 std::shared_ptr<const TerrainModel> Assess(const PointCloud& cloud, double resolution_m) {
   AssessmentConfig config;
@@ -199,6 +201,164 @@ TEST_F(TwoLevelPlan, ATrajectoryThatNeverPassesVerificationIsOptimizationFailed)
   EXPECT_THAT(plan.error().message, HasSubstr("exceeds the bound"));
   EXPECT_THAT(plan.error().message,
               HasSubstr("(after " + std::to_string(request.options.max_attempts) + " attempts)"));
+}
+
+// Keep-out zones on the two-level hall's floor, under the deck: x in [6, 13] along y = 8 is
+// open floor (the pillars stand at y = 9.25), so the straight way crosses a zone around
+// x = 9.5; the way round is south of it, the pillar closes the north.
+class KeepOutPlan : public TwoLevelPlan {
+ protected:
+  // Zone of the floor's storey: from below the floor to below the deck's ground (3 m).
+  static Prism FloorZone(double x_min, double x_max, double y_min, double y_max) {
+    return BoxPrism(Eigen::AlignedBox3d(Eigen::Vector3d(x_min, y_min, -0.5),
+                                        Eigen::Vector3d(x_max, y_max, 2.5)));
+  }
+  const Eigen::Vector3d west_{6, 8, 0.3}, east_{13, 8, 0.3};
+  const Prism zone_ = FloorZone(9, 10, 7, 9);
+};
+
+// Reference points every 2 cm or closer along the trajectory.
+std::vector<Eigen::Vector3d> DenseSamples(const Trajectory& t) {
+  std::vector<Eigen::Vector3d> samples;
+  const double dt = 0.01;  // At most 1 m/s: 1 cm apart.
+  for (double time = 0; time < t.TotalDuration(); time += dt) {
+    samples.emplace_back(t.Position(time).head<3>());
+  }
+  samples.emplace_back(t.Position(t.TotalDuration()).head<3>());
+  return samples;
+}
+
+TEST_F(KeepOutPlan, ThePlanGoesAroundAZoneItWouldCrossAndStillVerifies) {
+  PlanRequest request = Request(west_, east_);
+  const auto straight = Plan(*map_, request);
+  ASSERT_TRUE(straight.ok()) << straight.error().message;
+  bool crossed = false;
+  for (const Eigen::Vector3d& p : DenseSamples(straight->trajectory)) {
+    crossed = crossed || zone_.ContainsXY(p.head<2>());
+  }
+  ASSERT_TRUE(crossed) << "without the zone the plan must pass through it, or the test is moot";
+  // Verified against the zone, that plan fails naming it.
+  const auto graph = map_->Graph(request.profile.Traversability()).value();
+  const std::vector<KeepOutZone> zones = {KeepOutZone(zone_, "keep-out zone keep_out[0]")};
+  VerificationReport report;
+  const Status refused = VerifyTrajectory(*graph, request.profile, straight->trajectory,
+                                          request.options.verifier, &report, zones);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.error().code, ErrorCode::kOptimizationFailed);
+  EXPECT_THAT(refused.error().message, HasSubstr("inside keep-out zone keep_out[0]"));
+
+  request.keep_out = {zone_};
+  const auto around = Plan(*map_, request);
+  ASSERT_TRUE(around.ok()) << around.error().message;
+  ExpectSound(*around, request);
+  for (const Eigen::Vector3d& p : DenseSamples(around->trajectory)) {
+    EXPECT_GE(zone_.SignedDistanceXY(p.head<2>()), request.profile.footprint_radius_m)
+        << p.transpose();
+  }
+  for (const Eigen::Vector3d& p : around->path.points_m) {
+    EXPECT_FALSE(ViolatesKeepOut(zone_, request.profile, p)) << "A* node " << p.transpose();
+  }
+  EXPECT_TRUE(VerifyTrajectory(*graph, request.profile, around->trajectory,
+                               request.options.verifier, &report, zones)
+                  .ok());
+}
+
+TEST_F(KeepOutPlan, AMapZoneIsHonouredLikeARequestZone) {
+  const PlanningMap map(map_->model_ptr(), {zone_});
+  ASSERT_EQ(map.keep_out().size(), 1u);
+  const PlanRequest request = Request(west_, east_);
+  const auto around = Plan(map, request);
+  ASSERT_TRUE(around.ok()) << around.error().message;
+  ExpectSound(*around, request);
+  for (const Eigen::Vector3d& p : DenseSamples(around->trajectory)) {
+    EXPECT_GE(zone_.SignedDistanceXY(p.head<2>()), request.profile.footprint_radius_m)
+        << p.transpose();
+  }
+  const auto refused = Plan(map, Request(west_, {9.5, 8, 0.3}));
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.error().code, ErrorCode::kGoalInKeepOut);
+  EXPECT_THAT(refused.error().message, HasSubstr("the map's keep-out zone 0"));
+}
+
+TEST_F(KeepOutPlan, AStartOrGoalInsideAZoneIsRefusedNamingIt) {
+  PlanRequest request = Request(west_, {9.5, 8, 0.3});
+  request.keep_out = {FloorZone(1, 2, 1, 2), zone_};
+  auto plan = Plan(*map_, request);
+  ASSERT_FALSE(plan.ok());
+  EXPECT_EQ(plan.error().code, ErrorCode::kGoalInKeepOut);
+  EXPECT_EQ(plan.error().field, "goal.position_m");
+  EXPECT_THAT(plan.error().message, HasSubstr("goal (9.50, 8.00, 0.30) m"));
+  EXPECT_THAT(plan.error().message, HasSubstr("keep_out[1]"));
+  EXPECT_THAT(plan.error().message, HasSubstr("move the goal"));
+
+  // Outside the polygon, but the footprint reaches into it.
+  request = Request({9.5, 6.8, 0.3}, east_);
+  request.keep_out = {zone_};
+  plan = Plan(*map_, request);
+  ASSERT_FALSE(plan.ok());
+  EXPECT_EQ(plan.error().code, ErrorCode::kStartInKeepOut);
+  EXPECT_EQ(plan.error().field, "start.position_m");
+  EXPECT_THAT(plan.error().message, HasSubstr("keep_out[0]"));
+  EXPECT_THAT(plan.error().message, HasSubstr("reaches 0.10 m into"));
+}
+
+TEST_F(KeepOutPlan, AZoneOnTheOtherStoreyDoesNotBlock) {
+  // The same floor zone under a plan on the deck above it: straight through its x, y.
+  PlanRequest request = Request({6, 8, 3.3}, {13, 8, 3.3});
+  request.keep_out = {zone_};
+  auto plan = Plan(*map_, request);
+  ASSERT_TRUE(plan.ok()) << plan.error().message;
+  bool over_zone = false;
+  for (const Eigen::Vector3d& p : DenseSamples(plan->trajectory)) {
+    over_zone = over_zone || zone_.ContainsXY(p.head<2>());
+  }
+  EXPECT_TRUE(over_zone);
+  // And a goal in the deck's x, y above a floor zone is no goal inside it.
+  request = Request({6, 8, 3.3}, {9.5, 8, 3.3});
+  request.keep_out = {zone_};
+  EXPECT_TRUE(Plan(*map_, request).ok());
+  // The deck's own zone does block there.
+  request.keep_out = {
+      BoxPrism(Eigen::AlignedBox3d(Eigen::Vector3d(9, 7, 2.9), Eigen::Vector3d(10, 9, 5.0)))};
+  plan = Plan(*map_, request);
+  ASSERT_FALSE(plan.ok());
+  EXPECT_EQ(plan.error().code, ErrorCode::kGoalInKeepOut);
+}
+
+TEST_F(KeepOutPlan, ZonesThatCloseEveryWayMakeTheGoalUnreachableNamingThem) {
+  // A wall across the hall's floor storey and the ramp: the east floor is cut off. The message
+  // names the zones the search met, not one on the deck it never reached.
+  PlanRequest request = Request(west_, east_);
+  const Prism on_the_deck =
+      BoxPrism(Eigen::AlignedBox3d(Eigen::Vector3d(2, 8, 2.9), Eigen::Vector3d(3, 9, 5.0)));
+  request.keep_out = {on_the_deck, FloorZone(11, 11.5, -1, 13)};
+  const auto plan = Plan(*map_, request);
+  ASSERT_FALSE(plan.ok());
+  EXPECT_EQ(plan.error().code, ErrorCode::kGoalUnreachable);
+  EXPECT_THAT(plan.error().message, HasSubstr("keep-out zone keep_out[1]"));
+  EXPECT_THAT(plan.error().message, Not(HasSubstr("keep_out[0]")));
+}
+
+TEST_F(KeepOutPlan, MalformedZonesAreBlamedByTheirPath) {
+  PlanRequest request = Request(west_, east_);
+  request.keep_out = {zone_, zone_};
+  request.keep_out[1].polygon_m[2].x() = std::nan("");
+  auto plan = Plan(*map_, request);
+  ASSERT_FALSE(plan.ok());
+  EXPECT_EQ(plan.error().code, ErrorCode::kInvalidInput);
+  EXPECT_EQ(plan.error().field, "keep_out[1].polygon_m[2].x");
+
+  request.keep_out = {zone_};
+  request.keep_out[0].z_max_m = request.keep_out[0].z_min_m;
+  plan = Plan(*map_, request);
+  ASSERT_FALSE(plan.ok());
+  EXPECT_EQ(plan.error().field, "keep_out[0].z_max_m");
+  EXPECT_THAT(plan.error().message, HasSubstr("blocks nothing"));
+
+  request.keep_out.assign(kMaxRequestKeepOutZones + 1, zone_);
+  plan = Plan(*map_, request);
+  ASSERT_FALSE(plan.ok());
+  EXPECT_EQ(plan.error().field, "keep_out");
 }
 
 // test_util::TableRoom: a wall whose only opening is under a table 0.45 m high.

@@ -13,8 +13,9 @@ TEST(Status, CodeNamesAreDistinctUpperSnakeCase) {
   for (const ErrorCode code :
        {ErrorCode::kInvalidInput, ErrorCode::kInvalidConfig, ErrorCode::kMapLoadFailed,
         ErrorCode::kResourceExhausted, ErrorCode::kStartOffGround, ErrorCode::kGoalOffGround,
-        ErrorCode::kGoalUnreachable, ErrorCode::kNoPath, ErrorCode::kDeadlineExceeded,
-        ErrorCode::kCancelled, ErrorCode::kSearchBudgetExhausted, ErrorCode::kProfileMismatch,
+        ErrorCode::kStartInKeepOut, ErrorCode::kGoalInKeepOut, ErrorCode::kGoalUnreachable,
+        ErrorCode::kNoPath, ErrorCode::kDeadlineExceeded, ErrorCode::kCancelled,
+        ErrorCode::kSearchBudgetExhausted, ErrorCode::kProfileMismatch,
         ErrorCode::kOptimizationFailed}) {
     const std::string name = ErrorCodeName(code);
     EXPECT_TRUE(names.insert(name).second) << name;

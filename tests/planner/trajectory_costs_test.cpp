@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include "strata/keep_out.hpp"
 #include "strata/minco.hpp"
 #include "strata/scenes/basic_scenes.hpp"
 #include "strata/terrain_model.hpp"
@@ -194,6 +195,58 @@ TEST(PointPenaltyGradientNearACeiling, MatchesFiniteDifferencesWhereTheMarginShr
     ++checked;
   }
   EXPECT_GE(checked, 5) << "too few points with little room under the deck";
+}
+
+// J_k on an L-shaped zone over the ramp (a reflex corner and straight edges), at points all
+// around it and at every height from well below the zone's range to well above: the gradient
+// matches finite differences everywhere, and nothing is charged where the robot's height range
+// is more than the margin away from the zone's.
+TEST(KeepOutPenalty, MatchesFiniteDifferencesAndActsOnlyWhereTheZoneAppliesInHeight) {
+  CostWeights keep_out_only{0, 0, 0, 0, 0, 0, 0};
+  keep_out_only.keep_out = 1e4;
+  const Prism l_shape{{{5, 1}, {9, 1}, {9, 2.5}, {6.5, 2.5}, {6.5, 4.5}, {5, 4.5}}, 0.5, 1.5};
+  const std::vector<KeepOutZone> zones = {KeepOutZone(l_shape, "keep-out zone keep_out[0]")};
+  for (const bool active : {false, true}) {
+    const CostParams params = Params(active);
+    const TrajectoryCost cost(Graph(), keep_out_only, params, zones);
+    const RobotProfile& robot = params.profile;
+    const double margin = params.config.keep_out_margin_m;
+    const int dim = params.dim();
+    std::mt19937 rng(23);
+    std::uniform_real_distribution<double> x(4.2, 9.8), y(0.2, 5.3), z(-0.6, 2.6);
+    int charged = 0, fading = 0, other_storey = 0;
+    for (int trial = 0; trial < 400; ++trial) {
+      StateVector pos = StateVector::Zero(dim);
+      pos.head<3>() << x(rng), y(rng), z(rng);
+      if (dim == 4) pos(3) = 0.5;
+      const StateVector zero = StateVector::Zero(dim);
+      StateVector g_pos, g_vel, g_acc;
+      CostBreakdown terms;
+      const double value = cost.PointPenalty(pos, zero, zero, &g_pos, &g_vel, &g_acc, &terms);
+      EXPECT_DOUBLE_EQ(terms.keep_out, value);
+      const double overlap = KeepOutVerticalOverlap(l_shape, robot, pos(2));
+      if (overlap <= -margin) {
+        ++other_storey;
+        EXPECT_EQ(value, 0) << pos.transpose();
+        EXPECT_EQ(g_pos.norm(), 0) << pos.transpose();
+        continue;
+      }
+      if (value > 0) ++charged;
+      if (value > 0 && overlap < 0) ++fading;
+      const auto f = [&](const Eigen::VectorXd& q) {
+        StateVector gp, gv, ga;
+        return cost.PointPenalty(q, zero, zero, &gp, &gv, &ga, nullptr);
+      };
+      const Eigen::VectorXd numeric = NumericalGradient(f, pos, kStep);
+      EXPECT_TRUE(GradientsMatchPerBlock(g_pos, numeric, {{"xy", 0, 2}, {"z", 2, dim - 2}},
+                                         kTolerance, NoiseFloor(value)))
+          << pos.transpose() << " overlap " << overlap;
+    }
+    // Every regime was visited: charged in height, within the fade, and on another storey.
+    EXPECT_GT(charged, 40) << "active " << active;
+    EXPECT_GT(fading, 3) << "active " << active;
+    EXPECT_GT(other_storey, 40) << "active " << active;
+  }
 }
 
 // A random MINCO trajectory along the ramp: J(q, T) through Evaluate and the adjoint.

@@ -63,6 +63,8 @@ TEST(ErrorMappingTest, MapsAsDocumented) {
       {ErrorCode::kResourceExhausted, StatusCode::RESOURCE_EXHAUSTED, "RESOURCE_EXHAUSTED"},
       {ErrorCode::kStartOffGround, StatusCode::INVALID_ARGUMENT, "START_OFF_GROUND"},
       {ErrorCode::kGoalOffGround, StatusCode::INVALID_ARGUMENT, "GOAL_OFF_GROUND"},
+      {ErrorCode::kStartInKeepOut, StatusCode::INVALID_ARGUMENT, "START_IN_KEEP_OUT"},
+      {ErrorCode::kGoalInKeepOut, StatusCode::INVALID_ARGUMENT, "GOAL_IN_KEEP_OUT"},
       {ErrorCode::kGoalUnreachable, StatusCode::FAILED_PRECONDITION, "GOAL_UNREACHABLE"},
       {ErrorCode::kNoPath, StatusCode::FAILED_PRECONDITION, "NO_PATH"},
       {ErrorCode::kDeadlineExceeded, StatusCode::DEADLINE_EXCEEDED, "TIME_BUDGET_EXCEEDED"},

@@ -283,6 +283,58 @@ TEST(ProtoConvertTest, EveryStartAndGoalComponentIsBlamedByItsPath) {
   }
 }
 
+// A keep-out zone around (x, y) with corners 1 m apart, over the floor's storey.
+void AddZone(v1::PlanRequest* request, double x, double y) {
+  v1::Prism* zone = request->add_keep_out();
+  for (const auto& [dx, dy] : {std::pair{0, 0}, {1, 0}, {1, 1}, {0, 1}}) {
+    v1::Vector2* corner = zone->add_polygon_m();
+    corner->set_x(x + dx);
+    corner->set_y(y + dy);
+  }
+  zone->set_z_min_m(-0.5);
+  zone->set_z_max_m(2.5);
+}
+
+TEST(ProtoConvertTest, KeepOutZonesArriveAsGivenAndRoundTrip) {
+  v1::PlanRequest request = ValidRequest();
+  AddZone(&request, 3, 4);
+  AddZone(&request, 7, 8);
+  Result<ParsedPlanRequest> parsed = ParsePlanRequest(request);
+  ASSERT_TRUE(parsed.ok()) << parsed.error().message;
+  ASSERT_EQ(parsed->plan.keep_out.size(), 2u);
+  const Prism& zone = parsed->plan.keep_out[1];
+  ASSERT_EQ(zone.polygon_m.size(), 4u);
+  EXPECT_EQ(zone.polygon_m[2], Eigen::Vector2d(8, 9));
+  EXPECT_EQ(zone.z_min_m, -0.5);
+  EXPECT_EQ(zone.z_max_m, 2.5);
+  v1::Prism back;
+  ToProto(zone, &back);
+  EXPECT_EQ(back.SerializeAsString(), request.keep_out(1).SerializeAsString());
+}
+
+TEST(ProtoConvertTest, MalformedKeepOutZonesAreBlamedByTheirRequestPath) {
+  v1::PlanRequest request = ValidRequest();
+  AddZone(&request, 3, 4);
+  AddZone(&request, 7, 8);
+  request.mutable_keep_out(1)->mutable_polygon_m(2)->set_x(
+      std::numeric_limits<double>::quiet_NaN());
+  EXPECT_EQ(ParseFailureField(request), "keep_out[1].polygon_m[2].x");
+
+  request = ValidRequest();
+  AddZone(&request, 3, 4);
+  request.mutable_keep_out(0)->clear_z_max_m();
+  EXPECT_EQ(ParseFailureField(request), "keep_out[0].z_max_m");
+
+  request = ValidRequest();
+  AddZone(&request, 3, 4);
+  request.mutable_keep_out(0)->mutable_polygon_m()->DeleteSubrange(2, 2);
+  EXPECT_EQ(ParseFailureField(request), "keep_out[0].polygon_m");
+
+  request = ValidRequest();
+  for (int i = 0; i <= kMaxRequestKeepOutZones; ++i) AddZone(&request, i, 0);
+  EXPECT_EQ(ParseFailureField(request), "keep_out");
+}
+
 // Planner errors of Plan itself (snapping, the map's assessment) reach the request field.
 TEST(ProtoConvertTest, PlannerFieldPathsMapToRequestFields) {
   EXPECT_EQ(PlanRequestField("start.position_m", false), "start.position_m");
@@ -291,6 +343,10 @@ TEST(ProtoConvertTest, PlannerFieldPathsMapToRequestFields) {
   EXPECT_EQ(PlanRequestField("profile.footprint_radius_m", false), "profile_name");
   EXPECT_EQ(PlanRequestField("profile.footprint_radius_m", true), "profile.footprint_radius_m");
   EXPECT_EQ(PlanRequestField("options.optimizer.weights.height", true), "options.weights.height");
+  EXPECT_EQ(PlanRequestField("keep_out[3].polygon_m[2].y", true), "keep_out[3].polygon_m[2].y");
+  EXPECT_EQ(PlanRequestField("keep_out[0].z_min_m", false), "keep_out[0].z_min_m");
+  // An index on a field that is not repeated names no request field.
+  EXPECT_EQ(PlanRequestField("start[0].position_m", true), "");
   // Settings a request cannot override, and errors without a field, blame no request field.
   EXPECT_EQ(PlanRequestField("options.search.max_expansions", true), "");
   EXPECT_EQ(PlanRequestField("options.optimizer.weights.edge", true), "");

@@ -78,6 +78,9 @@ void CollectOptionalFields(const Descriptor* message, const std::string& prefix,
     const FieldDescriptor* field = message->field(i);
     const std::string path = prefix + field->name();
     if (field->cpp_type() == FieldDescriptor::CPPTYPE_MESSAGE) {
+      // The elements of a repeated message (a keep-out Prism) are given whole, never defaulted
+      // field by field.
+      if (field->is_repeated()) continue;
       CollectOptionalFields(field->message_type(), path + ".", out);
     } else if (field->has_optional_keyword()) {
       out->push_back({path, field});

@@ -1,5 +1,6 @@
 // PlannerService end to end against the real strata-server binary: plans on the demo scene
 // and the spiral garage, and every documented error.
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -152,6 +153,74 @@ TEST_F(PlannerServiceTest, StartOffTheGroundNamesTheNearestValidPoint) {
   EXPECT_EQ(error.reason, "START_OFF_GROUND");
   EXPECT_THAT(error.fields, ElementsAre("start.position_m"));
   EXPECT_THAT(error.message, HasSubstr("nearest"));
+}
+
+// A square keep-out zone of the demo hall's floor storey (from below its floor to below the
+// deck's ground at 3 m).
+void AddFloorZone(v1::PlanRequest* request, double x_min, double y_min, double side) {
+  v1::Prism* zone = request->add_keep_out();
+  for (const auto& [dx, dy] : {std::pair{0.0, 0.0}, {side, 0.0}, {side, side}, {0.0, side}}) {
+    v1::Vector2* corner = zone->add_polygon_m();
+    corner->set_x(x_min + dx);
+    corner->set_y(y_min + dy);
+  }
+  zone->set_z_min_m(-0.5);
+  zone->set_z_max_m(2.5);
+}
+
+TEST_F(PlannerServiceTest, KeepOutZonesAreAvoidedAndAGoalInsideOneHasItsOwnReason) {
+  ASSERT_NO_FATAL_FAILURE(StartServer());
+  // Along the floor under the deck, y = 8 (clear of the pillars at y = 9.25); the zone
+  // x, y in [9, 10] × [7.5, 8.5] lies across the straight way.
+  v1::PlanRequest request = PlanRequestFor("demo", 6, 8, 0.3, 13, 8, 0.3);
+  AddFloorZone(&request, 9, 7.5, 1);
+  request.mutable_options()->set_sample_dt_s(0.02);
+  v1::PlanResponse response;
+  const grpc::Status status = Plan(request, &response);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  ExpectConsistentPlan(response);
+  const double radius = response.profile().footprint_radius_m();
+  for (const v1::TrajectorySample& sample : response.samples()) {
+    const v1::Vector3& p = sample.position_m();
+    const bool near_zone =
+        p.x() > 9 - radius && p.x() < 10 + radius && p.y() > 7.5 - radius && p.y() < 8.5 + radius;
+    // Outside the square grown by the footprint radius (its rounded corners included).
+    const double dx = std::max({9 - p.x(), p.x() - 10, 0.0});
+    const double dy = std::max({7.5 - p.y(), p.y() - 8.5, 0.0});
+    EXPECT_TRUE(!near_zone || std::hypot(dx, dy) >= radius)
+        << "t = " << sample.time_s() << ": (" << p.x() << ", " << p.y() << ")";
+  }
+
+  request = PlanRequestFor("demo", 6, 8, 0.3, 9.5, 8, 0.3);
+  AddFloorZone(&request, 1, 1, 1);
+  AddFloorZone(&request, 9, 7.5, 1);
+  const CallError error = ErrorOf(Plan(request, &response));
+  EXPECT_EQ(error.code, grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(error.reason, "GOAL_IN_KEEP_OUT");
+  EXPECT_THAT(error.fields, ElementsAre("goal.position_m"));
+  EXPECT_THAT(error.message, HasSubstr("keep_out[1]"));
+}
+
+TEST_F(PlannerServiceTest, AMalformedKeepOutPolygonIsBlamedByItsPath) {
+  ASSERT_NO_FATAL_FAILURE(StartServer());
+  v1::PlanRequest request = PlanRequestFor("demo", 6, 8, 0.3, 13, 8, 0.3);
+  AddFloorZone(&request, 1, 1, 1);
+  AddFloorZone(&request, 9, 7.5, 1);
+  // Corners 1 and 2 swapped: a bow tie, its edges cross (one corner moved, so that its two
+  // halves do not cancel out to no area).
+  v1::Prism* zone = request.mutable_keep_out(1);
+  zone->mutable_polygon_m()->SwapElements(1, 2);
+  zone->mutable_polygon_m(3)->set_y(9.0);
+  v1::PlanResponse response;
+  CallError error = ErrorOf(Plan(request, &response));
+  EXPECT_EQ(error.code, grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(error.reason, "INVALID_INPUT");
+  EXPECT_THAT(error.fields, ElementsAre("keep_out[1].polygon_m"));
+  EXPECT_THAT(error.message, HasSubstr("crosses"));
+
+  zone->mutable_polygon_m(2)->set_y(std::numeric_limits<double>::infinity());
+  error = ErrorOf(Plan(request, &response));
+  EXPECT_THAT(error.fields, ElementsAre("keep_out[1].polygon_m[2].y"));
 }
 
 TEST_F(PlannerServiceTest, NonFiniteValuesAreRefusedNamingTheComponent) {

@@ -73,10 +73,14 @@ double EdgeCost(const SurfaceGraph& graph, int a, int b, const SearchConfig& con
 /// set emptied; defensive). The search has no clock of its own: should_stop, checked before
 /// the first expansion and every 1024 after, is how a caller bounds it in time (Plan passes
 /// its deadline and reports kDeadlineExceeded itself). `should_stop` may be empty. `stats`,
-/// when non-null, receives the work done.
+/// when non-null, receives the work done. `blocked` (may be empty) keeps nodes out of the
+/// search for this call only, leaving the shared graph as it is (Plan passes the keep-out
+/// zones): a node for which it returns true is never reached, except the start and the goal.
+/// When it cuts the goal off, the search ends with kNoPath (the components do not know it).
 Expected<PathResult> SearchPath(const SurfaceGraph& graph, int start_node, int goal_node,
                                 const SearchConfig& config,
                                 const std::function<bool()>& should_stop,
-                                SearchStats* stats = nullptr);
+                                SearchStats* stats = nullptr,
+                                const std::function<bool(int node)>& blocked = {});
 
 }  // namespace strata

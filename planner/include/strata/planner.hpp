@@ -8,10 +8,13 @@
 #include <memory>
 #include <mutex>
 #include <string_view>
+#include <vector>
 
 #include <Eigen/Core>
 
+#include "strata/keep_out.hpp"
 #include "strata/path_search.hpp"
+#include "strata/prism.hpp"
 #include "strata/robot_profile.hpp"
 #include "strata/status.hpp"
 #include "strata/surface_graph.hpp"
@@ -22,12 +25,19 @@
 
 namespace strata {
 
-/// An assessed map ready for planning. Thread-safe: any number of Plan calls may share one.
+/// An assessed map ready for planning, with the map's own keep-out zones. Thread-safe: any
+/// number of Plan calls may share one.
 class PlanningMap {
  public:
-  explicit PlanningMap(std::shared_ptr<const TerrainModel> model);
+  /// `keep_out`: zones every plan on this map avoids (keep_out.hpp defines when a robot is in
+  /// one), each valid (Prism::Validate; whoever makes them validates them, e.g. a map edit).
+  /// They are not part of the graphs: a plan filters its search by them, so a map's zones and
+  /// a request's cost alike.
+  explicit PlanningMap(std::shared_ptr<const TerrainModel> model, std::vector<Prism> keep_out = {});
   const TerrainModel& model() const { return *model_; }
   const std::shared_ptr<const TerrainModel>& model_ptr() const { return model_; }
+  /// The map's keep-out zones, as given.
+  const std::vector<Prism>& keep_out() const { return keep_out_; }
   /// The graph for `params`, built on first use (the first caller for these params builds,
   /// later ones for the same params wait; other params and MemoryBytes never wait for it)
   /// and kept for the map's lifetime. Fails as SurfaceGraph::Build does.
@@ -38,6 +48,7 @@ class PlanningMap {
  private:
   struct GraphEntry;  // One graph's build, done once.
   std::shared_ptr<const TerrainModel> model_;
+  std::vector<Prism> keep_out_;
   mutable std::mutex mutex_;  // Guards the map only, never held while a graph builds.
   // Keyed by the whole TraversabilityParams (its operator<=>): a field added there is part of
   // the key. Only valid params enter, so no NaN breaks the ordering.
@@ -55,8 +66,8 @@ struct PlanOptions {
   OptimizerConfig optimizer;  ///< Weights, thresholds, L-BFGS settings.
   VerifierConfig verifier;    ///< Tolerances of the final check.
   /// Optimisations to try before giving up [-], in [1, 10]. After a failed verification the
-  /// next attempt stiffens the penalties: the safety, edge, ground and feasibility weights
-  /// ×4, the piece length ×0.7 (more constraint points) and the limit margin ×0.95 (Plan in
+  /// next attempt stiffens the penalties: the safety, edge, ground, feasibility and keep-out
+  /// weights ×4, the piece length ×0.7 (more constraint points) and the limit margin ×0.95 (Plan in
   /// planner/src/planner.cpp).
   int max_attempts = 3;
   Status Validate(std::string_view path = "options") const;
@@ -67,9 +78,14 @@ struct PlanRequest {
   RobotState goal;
   RobotProfile profile;
   PlanOptions options;
-  /// The first bad field of start, goal, profile or options, blamed by its path (e.g.
-  /// "start.position_m.x", "profile.max_tilt_rad", "options.max_attempts"): kInvalidInput for
-  /// a non-finite state, kInvalidConfig for a field out of range.
+  /// Zones this plan must keep the robot out of besides the map's (keep_out.hpp defines when
+  /// a robot is in one; e.g. where another robot is parked), at most kMaxRequestKeepOutZones.
+  std::vector<Prism> keep_out;
+  /// The first bad field of start, goal, profile, options or keep_out, blamed by its path
+  /// (e.g. "start.position_m.x", "profile.max_tilt_rad", "options.max_attempts",
+  /// "keep_out[1].polygon_m[2].x"): kInvalidInput for a non-finite state, a malformed zone or
+  /// more than kMaxRequestKeepOutZones zones ("keep_out"), kInvalidConfig for a field out of
+  /// range.
   Status Validate() const;
 };
 
@@ -117,11 +133,16 @@ struct PlanResult {
   PlanStats stats;
 };
 
-/// Plans one request on `map`. `should_stop` (may be empty) is polled throughout; returning
-/// true fails the plan with kCancelled. Failures: kInvalidInput (non-finite state),
-/// kInvalidConfig, kProfileMismatch, kStartOffGround / kGoalOffGround (with the nearest valid
-/// point), kGoalUnreachable (in milliseconds, from the components), kDeadlineExceeded,
-/// kCancelled, kSearchBudgetExhausted, kOptimizationFailed (naming the first violation).
+/// Plans one request on `map`, keeping the robot out of the map's and the request's keep-out
+/// zones (searched around, pushed out of by the optimiser's J_k, checked by the verifier).
+/// `should_stop` (may be empty) is polled throughout; returning true fails the plan with
+/// kCancelled. Failures: kInvalidInput (non-finite state, malformed zone), kInvalidConfig,
+/// kProfileMismatch, kStartOffGround / kGoalOffGround (with the nearest valid point),
+/// kStartInKeepOut / kGoalInKeepOut (where the trajectory would start or end violates a zone;
+/// the message names it), kGoalUnreachable (in milliseconds, from the components; or after the
+/// search when keep-out zones cut the goal off, naming the zones in the way),
+/// kDeadlineExceeded, kCancelled, kSearchBudgetExhausted, kOptimizationFailed (naming the
+/// first violation).
 Expected<PlanResult> Plan(const PlanningMap& map, const PlanRequest& request,
                           const std::function<bool()>& should_stop = {});
 

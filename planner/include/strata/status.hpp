@@ -16,7 +16,9 @@ enum class ErrorCode {
   kResourceExhausted,      ///< The request would exceed a size or memory limit.
   kStartOffGround,         ///< No traversable ground within tolerance of the start.
   kGoalOffGround,          ///< No traversable ground within tolerance of the goal.
-  kGoalUnreachable,        ///< Start and goal lie in different connected components.
+  kStartInKeepOut,         ///< The start puts the robot inside a keep-out zone.
+  kGoalInKeepOut,          ///< The goal puts the robot inside a keep-out zone.
+  kGoalUnreachable,        ///< Start, goal not connected (components, or keep-out zones).
   kNoPath,                 ///< The search found no path (defensive; components agreed).
   kDeadlineExceeded,       ///< The time budget or the caller's deadline ran out.
   kCancelled,              ///< The caller cancelled the request (should_stop returned true).

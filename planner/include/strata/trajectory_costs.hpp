@@ -1,7 +1,7 @@
 #pragma once
 /// The optimiser's objective on a MINCO trajectory (paper "Trajectory Generation", eq. for J):
 ///
-///   J = λ_m J_m + λ_t J_t + λ_s J_s + λ_g J_g + λ_d J_d + λ_h J_h
+///   J = λ_m J_m + λ_t J_t + λ_s J_s + λ_e J_e + λ_g J_g + λ_d J_d + λ_k J_k + λ_h J_h
 ///
 /// - J_m: jerk energy, closed form (Minco3::JerkEnergy).
 /// - J_t: total duration Σ T_i.
@@ -14,6 +14,11 @@
 ///   float above flat ground; the smooth ground height h_G comes from SampleGround
 ///   (terrain_query.hpp).
 /// - J_d: feasibility, C(‖v_xy‖² − v_h²) + C(v_z² − v_v²) and the same for acceleration.
+/// - J_k: keep-out zones (keep_out.hpp), C(r + k_margin − sd(x, y)) · g(o) per zone, with r the
+///   footprint radius, sd the signed horizontal distance to the zone's polygon (negative
+///   inside) and g a C¹ smoothstep of the vertical overlap o of the robot's height range with
+///   the zone's (KeepOutVerticalOverlap): 1 where they overlap (o >= 0), 0 where they are
+///   more than k_margin apart, so a zone on another storey costs nothing. Not in the paper.
 /// - J_h: active-height robots only. (h − h_S)² with h the body height (axis 3) and h_S the
 ///   most suitable height, min(preferred, ceiling clearance − headroom) clamped to
 ///   [h_min, h_max]; plus, weighted by λ_d·body_height_stiffness, C(h − h_max) + C(h_min − h)
@@ -22,10 +27,12 @@
 /// All but J_m and J_t are integrals approximated at κ + 1 constraint points per piece,
 /// t_j = (j/κ)·T_i, with trapezoid weights (T_i/κ, halved at both ends), and have exact
 /// gradients wrt the coefficients c and the durations T (including dt_j/dT_i = j/κ).
+#include <span>
 #include <string_view>
 
 #include <Eigen/Core>
 
+#include "strata/keep_out.hpp"
 #include "strata/minco.hpp"
 #include "strata/robot_profile.hpp"
 #include "strata/surface_graph.hpp"
@@ -47,6 +54,9 @@ struct CostWeights {
   double ground = 1.0e4;       ///< λ_g [1/m²].
   double feasibility = 1.0e5;  ///< λ_d.
   double height = 1.0e3;       ///< λ_h [1/m²].
+  /// λ_k [1/m³]. As stiff as λ_e: a centimetre into the zone's margin must cost more than the
+  /// time a detour takes.
+  double keep_out = 1.0e6;
   /// kInvalidConfig blaming the first bad weight by its path, `path`.<field>.
   Status Validate(std::string_view path = "weights") const;
 };
@@ -81,6 +91,11 @@ struct CostConfig {
   /// penalties, cubic in squared speeds, need no such factor. On the indoor_tables benchmark
   /// (2000 biped pairs) 10 took the plans that pass verification from 96.8% to 99.5%.
   double body_height_stiffness = 10.0;
+  /// How far beyond the robot's footprint J_k keeps the reference point from a keep-out
+  /// zone's polygon, and how far above or below the zone's height range it starts to act
+  /// (k_margin) [m], in [0, 1]. Like limit_margin, it lets the polynomial between constraint
+  /// points stay out of the zone the verifier checks.
+  double keep_out_margin_m = 0.1;
   /// Constraint points per piece κ (trapezoid over κ + 1 samples), >= 2.
   int samples_per_piece = 8;
   Status Validate(std::string_view path = "cost") const;
@@ -113,28 +128,38 @@ struct CostParams {
 
 /// The objective's value split by term, each already multiplied by its weight.
 struct CostBreakdown {
-  double smoothness = 0, time = 0, safety = 0, edge = 0, ground = 0, feasibility = 0, height = 0;
-  double total() const { return smoothness + time + safety + edge + ground + feasibility + height; }
+  double smoothness = 0, time = 0, safety = 0, edge = 0, ground = 0, feasibility = 0, height = 0,
+         keep_out = 0;
+  double total() const {
+    return smoothness + time + safety + edge + ground + feasibility + height + keep_out;
+  }
 };
 
 /// J and its gradient for one planning problem. Immutable; cheap to construct.
 class TrajectoryCost {
  public:
-  /// `graph` (and its model) must outlive the cost.
-  TrajectoryCost(const SurfaceGraph& graph, const CostWeights& weights, const CostParams& params)
-      : graph_(&graph), model_(&graph.model()), weights_(weights), params_(params) {}
+  /// `graph` (and its model) and `keep_out` (the zones J_k keeps the robot out of) must
+  /// outlive the cost.
+  TrajectoryCost(const SurfaceGraph& graph, const CostWeights& weights, const CostParams& params,
+                 std::span<const KeepOutZone> keep_out = {})
+      : graph_(&graph),
+        model_(&graph.model()),
+        weights_(weights),
+        params_(params),
+        keep_out_(keep_out) {}
 
   const TerrainModel& model() const { return *model_; }
   const SurfaceGraph& graph() const { return *graph_; }
   const CostWeights& weights() const { return weights_; }
   const CostParams& params() const { return params_; }
+  std::span<const KeepOutZone> keep_out() const { return keep_out_; }
 
   /// J of the trajectory held by `minco` (dimension params.dim()). Writes ∂J/∂c (6M×dim) and
   /// the explicit ∂J/∂T (M), overwriting both; `breakdown` (may be null) gets the terms.
   double Evaluate(const Minco3& minco, Eigen::MatrixXd* grad_c, Eigen::VectorXd* grad_T,
                   CostBreakdown* breakdown = nullptr) const;
 
-  /// The integrand of the constraint-point terms (λ_s, λ_e, λ_g, λ_d, λ_h parts) at one state:
+  /// The integrand of the constraint-point terms (λ_s, λ_e, λ_g, λ_d, λ_k, λ_h parts) at one state:
   /// position (dim: x, y, z[, h]), velocity, acceleration. Writes ∂P/∂pos, ∂P/∂vel, ∂P/∂acc
   /// (each dim entries, overwritten) and adds the weighted terms into *breakdown (may be
   /// null). Exposed for tests.
@@ -154,6 +179,7 @@ class TrajectoryCost {
   const TerrainModel* model_;
   CostWeights weights_;
   CostParams params_;
+  std::span<const KeepOutZone> keep_out_;
 };
 
 }  // namespace strata

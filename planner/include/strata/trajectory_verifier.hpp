@@ -2,9 +2,11 @@
 /// The last gate before a plan is returned: the trajectory is sampled densely and every sample
 /// is checked against the map and the robot's limits. A trajectory that fails is reported
 /// with its first violation, never returned as success.
+#include <span>
 #include <string>
 #include <string_view>
 
+#include "strata/keep_out.hpp"
 #include "strata/robot_profile.hpp"
 #include "strata/status.hpp"
 #include "strata/surface_graph.hpp"
@@ -69,14 +71,16 @@ struct VerificationReport {
 ///   robots, else body_height_m) + headroom_m, and the commanded body height within
 ///   [body_height_min_m, body_height_max_m], both within BodyHeightTolerance;
 /// - the surface is a node of `graph` (true when the graph was built from
-///   profile.Traversability(), as Plan does).
+///   profile.Traversability(), as Plan does);
+/// - the robot outside every zone of `keep_out` (keep_out.hpp defines when it is inside;
+///   the message names the zone and how far the footprint reaches into it).
 /// Every comparison fails on NaN. Fails before sampling with kInvalidConfig for a bad config
 /// or profile, kInvalidInput when the trajectory's dimension is not the profile's (4 with
 /// active height, else 3), and kOptimizationFailed for no pieces, a non-finite coefficient, a
 /// duration that is not finite and > 0, or more than 2e7 samples.
 Status VerifyTrajectory(const SurfaceGraph& graph, const RobotProfile& profile,
                         const Trajectory& trajectory, const VerifierConfig& config,
-                        VerificationReport* report);
+                        VerificationReport* report, std::span<const KeepOutZone> keep_out = {});
 
 /// Mean curvature κ_m [1/m] (paper Table 2): the mean of ‖p′×p″‖/‖p′‖³ of the x, y, z path
 /// over `samples` uniform time samples, skipping samples slower than 1 cm/s (where the
