@@ -419,9 +419,9 @@ Expected<Reassessment> ReassessRegion(const TerrainModel& base, const PointCloud
                 Format("%g m", summary.vertical_quantum_m));
   }
 
-  // The columns the edit touches (one more on each side: the points ApplyEdits adds are
-  // rounded to float), and around them every column whose assessment can change
-  // (docs/design.md, "Map edits").
+  // The columns the edit touches (a point's column is monotonic in its position, so every
+  // point inside touched_m lies in them), and around them every column whose assessment can
+  // change (docs/design.md, "Map edits").
   const FieldConfig field =
       FieldConfigForQuantum(config.field, summary.vertical_quantum_m, config.grid.resolution_m);
   const int ground_reach = internal::GroundFilterReach(config.ground, g.resolution_m);
@@ -436,8 +436,7 @@ Expected<Reassessment> ReassessRegion(const TerrainModel& base, const PointCloud
     return Eigen::Vector3i(std::clamp(cell.x(), 0, g.size.x() - 1),
                            std::clamp(cell.y(), 0, g.size.y() - 1), 0);
   };
-  const CellBox touched =
-      CellBox{clamp_column(touched_m.min()), clamp_column(touched_m.max())}.Grown({1, 1, 0}, g);
+  const CellBox touched{clamp_column(touched_m.min()), clamp_column(touched_m.max())};
   const auto grown = [&](int reach) { return touched.Grown({reach, reach, 0}, g); };
   const CellBox flags_changed = grown(ground_reach);  // Valid flags may change here.
   const CellBox surfaces_changed = grown(surface_reach);
