@@ -4,22 +4,23 @@
 #include <numeric>
 
 namespace strata::internal {
+namespace {
 
-ColumnCloud SortIntoColumns(const GridGeometry& g, const PointCloud& cloud,
-                            [[maybe_unused]] int num_threads,  // OpenMP only.
-                            std::vector<std::uint32_t>* source_index) {
+ColumnCloud SortIntoWindow(const GridGeometry& g, const CellBox& window, const PointCloud& cloud,
+                           [[maybe_unused]] int num_threads,  // OpenMP only.
+                           std::vector<std::uint32_t>* source_index) {
   ColumnCloud out;
-  out.nx = g.size.x();
-  out.ny = g.size.y();
-  const std::int64_t columns = g.LayerCellCount();
+  out.x0 = window.min.x();
+  out.y0 = window.min.y();
+  out.nx = window.max.x() - window.min.x() + 1;
+  out.ny = window.max.y() - window.min.y() + 1;
+  const std::int64_t columns = std::int64_t{out.nx} * out.ny;
   std::vector<std::uint32_t> column_of(cloud.size());
   out.begin.assign(columns + 1, 0);
   for (std::size_t i = 0; i < cloud.size(); ++i) {
-    // GridGeometry::CellOf's arithmetic, so a point lands in the column every other stage
-    // computes for it.
-    const Eigen::Vector3i cell = g.CellOf(cloud[i].cast<double>());
-    const int ix = std::clamp(cell.x(), 0, out.nx - 1);
-    const int iy = std::clamp(cell.y(), 0, out.ny - 1);
+    const Eigen::Vector2i column = ColumnOf(g, cloud[i]);
+    const int ix = std::clamp(column.x(), window.min.x(), window.max.x());
+    const int iy = std::clamp(column.y(), window.min.y(), window.max.y());
     column_of[i] = static_cast<std::uint32_t>(out.ColumnIndex(ix, iy));
     ++out.begin[column_of[i] + 1];
   }
@@ -43,6 +44,32 @@ ColumnCloud SortIntoColumns(const GridGeometry& g, const PointCloud& cloud,
   for (std::size_t k = 0; k < order.size(); ++k) out.points[k] = cloud[order[k]];
   out.valid.assign(cloud.size(), 0);
   if (source_index != nullptr) *source_index = std::move(order);
+  return out;
+}
+
+}  // namespace
+
+ColumnCloud SortIntoColumns(const GridGeometry& g, const PointCloud& cloud, int num_threads,
+                            std::vector<std::uint32_t>* source_index) {
+  return SortIntoWindow(g, CellBox::Whole(g), cloud, num_threads, source_index);
+}
+
+ColumnCloud SortIntoColumnWindow(const GridGeometry& g, const CellBox& window,
+                                 const PointCloud& cloud, int num_threads) {
+  return SortIntoWindow(g, window, cloud, num_threads, nullptr);
+}
+
+PointCloud CropToColumns(const GridGeometry& g, const CellBox& window, const PointCloud& cloud,
+                         Eigen::AlignedBox3d* bounds) {
+  PointCloud out;
+  for (const Eigen::Vector3f& p : cloud) {
+    if (bounds != nullptr) bounds->extend(p.cast<double>());
+    const Eigen::Vector2i column = ColumnOf(g, p);
+    if (column.x() >= window.min.x() && column.x() <= window.max.x() &&
+        column.y() >= window.min.y() && column.y() <= window.max.y()) {
+      out.push_back(p);
+    }
+  }
   return out;
 }
 

@@ -12,20 +12,30 @@
 #include <vector>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
 #include "strata/grid.hpp"
 #include "strata/point_cloud.hpp"
 
 namespace strata::internal {
 
+/// The columns of a window of the grid: all of it (terrain assessment) or the columns around
+/// an edit (ReassessRegion, strata/map_edit.hpp). Columns are named by their grid indices.
 struct ColumnCloud {
+  int x0 = 0;                           ///< Grid column x of the window's first column.
+  int y0 = 0;                           ///< Grid column y of the window's first column.
   int nx = 0;                           ///< Columns along x.
   int ny = 0;                           ///< Columns along y.
   std::vector<std::uint32_t> begin;     ///< nx·ny + 1 offsets into points, x fastest.
   std::vector<Eigen::Vector3f> points;  ///< Column by column, each by ascending z.
   std::vector<std::uint8_t> valid;      ///< Valid Ground Filter flag per point (1 = valid).
 
-  std::int64_t ColumnIndex(int ix, int iy) const { return ix + std::int64_t{nx} * iy; }
+  /// Index of grid column (ix, iy), which must lie in the window, in `begin`.
+  std::int64_t ColumnIndex(int ix, int iy) const {
+    return (ix - x0) + std::int64_t{nx} * (iy - y0);
+  }
+  /// The window's columns (grid indices; layer 0 only).
+  CellBox Window() const { return {{x0, y0, 0}, {x0 + nx - 1, y0 + ny - 1, 0}}; }
   std::span<const Eigen::Vector3f> Column(std::int64_t c) const {
     return {points.data() + begin[c], points.data() + begin[c + 1]};
   }
@@ -35,13 +45,31 @@ struct ColumnCloud {
   }
 };
 
-/// Groups `cloud` by the columns (x, y cells) of `geometry`; a point outside the grid goes to
-/// the nearest border column. Points of equal height keep their order in `cloud`, so the
-/// result does not depend on the thread count. `source_index`, when non-null, receives for
-/// every sorted point its index in `cloud`. `valid` is sized and zeroed. Precondition: fewer
-/// than 2^32 points.
+/// The column (x, y cell) of `geometry` a point belongs to: its cell, or the nearest border
+/// column for a point outside the grid. Every stage assigns points to columns through this.
+inline Eigen::Vector2i ColumnOf(const GridGeometry& g, const Eigen::Vector3f& p) {
+  const Eigen::Vector3i cell = g.CellOf(p.cast<double>());
+  return {std::clamp(cell.x(), 0, g.size.x() - 1), std::clamp(cell.y(), 0, g.size.y() - 1)};
+}
+
+/// Groups `cloud` by the columns (x, y cells) of `geometry` (ColumnOf). Points of equal
+/// height keep their order in `cloud`, so the result does not depend on the thread count.
+/// `source_index`, when non-null, receives for every sorted point its index in `cloud`.
+/// `valid` is sized and zeroed. Precondition: fewer than 2^32 points.
 ColumnCloud SortIntoColumns(const GridGeometry& geometry, const PointCloud& cloud, int num_threads,
                             std::vector<std::uint32_t>* source_index = nullptr);
+
+/// The same for the columns of `window` (x, y of a CellBox of `geometry`, inside the grid):
+/// the points of `cloud` (e.g. from CropToColumns) whose column lies outside the window go to
+/// the window's nearest column. A column's points are sorted as SortIntoColumns sorts them
+/// when `cloud` holds them in the same order.
+ColumnCloud SortIntoColumnWindow(const GridGeometry& geometry, const CellBox& window,
+                                 const PointCloud& cloud, int num_threads);
+
+/// The points of `cloud` whose column (ColumnOf) lies in `window` (x, y), in their order in
+/// `cloud`: one pass. `bounds`, when non-null, is extended by every point of `cloud`.
+PointCloud CropToColumns(const GridGeometry& geometry, const CellBox& window,
+                         const PointCloud& cloud, Eigen::AlignedBox3d* bounds = nullptr);
 
 /// Grid layer of height z, clamped into [0, nz − 1].
 inline int ClampedLayer(const GridGeometry& g, float z) {

@@ -61,30 +61,36 @@ struct NeighbourRange {
 
 }  // namespace
 
+int GroundFilterReach(const GroundFilterConfig& config, double column_size_m) {
+  return static_cast<int>(std::ceil(config.radius_m / column_size_m));
+}
+
 Status FilterValidGroundInColumns(ColumnCloud* cloud, const GroundFilterConfig& config,
                                   double column_size_m, double step_tolerance_m, int num_threads,
-                                  ProgressReporter* progress) {
+                                  ProgressReporter* progress, const CellBox* targets) {
   num_threads = ResolveThreadCount(num_threads);
   const ElevationRule rule(config, step_tolerance_m);
-  // Any neighbour within the radius lies at most this many columns away on each axis.
-  const int reach = static_cast<int>(std::ceil(config.radius_m / column_size_m));
+  const int reach = GroundFilterReach(config, column_size_m);
   const double max_rise = config.radius_m + 1e-3;  // Above this, q is outside the ball.
-  const int nx = cloud->nx, ny = cloud->ny;
+  const CellBox window = cloud->Window();
+  const CellBox todo = targets != nullptr ? *targets : window;
   constexpr int kRowsPerUnit = 4;  // Progress and cancellation granularity.
 
 #pragma omp parallel num_threads(num_threads)
   {
     std::vector<NeighbourRange> ranges;
 #pragma omp for schedule(dynamic, 1)
-    for (int row0 = 0; row0 < ny; row0 += kRowsPerUnit) {
+    for (int row0 = todo.min.y(); row0 <= todo.max.y(); row0 += kRowsPerUnit) {
       if (progress != nullptr && progress->stopped()) continue;
-      for (int iy = row0; iy < std::min(ny, row0 + kRowsPerUnit); ++iy) {
-        for (int ix = 0; ix < nx; ++ix) {
+      for (int iy = row0; iy <= std::min(todo.max.y(), row0 + kRowsPerUnit - 1); ++iy) {
+        for (int ix = todo.min.x(); ix <= todo.max.x(); ++ix) {
           const std::int64_t c = cloud->ColumnIndex(ix, iy);
           if (cloud->begin[c] == cloud->begin[c + 1]) continue;
           ranges.clear();
-          for (int y = std::max(0, iy - reach); y <= std::min(ny - 1, iy + reach); ++y) {
-            for (int x = std::max(0, ix - reach); x <= std::min(nx - 1, ix + reach); ++x) {
+          for (int y = std::max(window.min.y(), iy - reach);
+               y <= std::min(window.max.y(), iy + reach); ++y) {
+            for (int x = std::max(window.min.x(), ix - reach);
+                 x <= std::min(window.max.x(), ix + reach); ++x) {
               const std::int64_t n = cloud->ColumnIndex(x, y);
               if (cloud->begin[n] == cloud->begin[n + 1]) continue;
               ranges.push_back({cloud->points.data() + cloud->begin[n],

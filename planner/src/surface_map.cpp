@@ -10,6 +10,7 @@
 #include "column_cloud.hpp"
 #include "parallel_internal.hpp"
 #include "strata/plane_fit.hpp"
+#include "surface_map_build.hpp"
 
 namespace strata {
 namespace {
@@ -55,18 +56,17 @@ void ForEachRun(const GridGeometry& g, const ColumnCloud& sorted, std::int64_t c
 }
 
 // Gathers the points of the vertical cylinder (horizontal `radius`, `half_height` above and
-// below) around `centre` from the columns around (ix, iy). With `column_tops`, only the
-// highest run top (a point with no point in the voxel above it) of each column: a wall's
-// points are not tops, so they cannot tilt the fit of the ground beside it.
+// below) around `centre` from the columns within `reach` of (ix, iy). With `column_tops`,
+// only the highest run top (a point with no point in the voxel above it) of each column: a
+// wall's points are not tops, so they cannot tilt the fit of the ground beside it.
 void GatherNeighbourhood(const GridGeometry& g, const ColumnCloud& sorted, int ix, int iy,
-                         const Eigen::Vector3f& centre, float radius, float half_height,
+                         int reach, const Eigen::Vector3f& centre, float radius, float half_height,
                          bool column_tops, std::vector<Eigen::Vector3f>* out) {
   out->clear();
-  const int reach = static_cast<int>(std::ceil(radius / g.resolution_m));
   const float radius_sq = radius * radius;
   for (int y = std::max(0, iy - reach); y <= std::min(g.size.y() - 1, iy + reach); ++y) {
     for (int x = std::max(0, ix - reach); x <= std::min(g.size.x() - 1, ix + reach); ++x) {
-      const std::int64_t c = x + g.size.x() * std::int64_t{y};
+      const std::int64_t c = sorted.ColumnIndex(x, y);
       const auto begin = sorted.points.begin() + sorted.begin[c];
       const auto end = sorted.points.begin() + sorted.begin[c + 1];
       auto it = std::lower_bound(begin, end, centre.z() - half_height,
@@ -112,77 +112,13 @@ Expected<SurfaceMap> SurfaceMap::BuildFromColumns(const GridGeometry& geometry,
                                                   const internal::ColumnCloud& sorted,
                                                   const FieldConfig& field, int num_threads,
                                                   internal::ProgressReporter* progress) {
-  num_threads = internal::ResolveThreadCount(num_threads);
-  const GridGeometry& g = geometry;
-  const std::int64_t columns = g.LayerCellCount();
-
+  Expected<internal::ColumnSurfaces> built = internal::BuildColumnSurfaces(
+      geometry, sorted, CellBox::Whole(geometry), field, num_threads, progress);
+  if (!built) return built.error();
   SurfaceMap map;
   map.geometry_ = geometry;
-  map.column_begin_.assign(columns + 1, 0);
-#pragma omp parallel for schedule(dynamic, 1024) num_threads(num_threads)
-  for (std::int64_t c = 0; c < columns; ++c) {
-    std::uint32_t runs = 0;
-    ForEachRun(g, sorted, c, [&](const ColumnSurface&, float) { ++runs; });
-    map.column_begin_[c + 1] = runs;
-  }
-  for (std::int64_t c = 0; c < columns; ++c) map.column_begin_[c + 1] += map.column_begin_[c];
-  map.surfaces_.resize(map.column_begin_.back());
-
-  const float fit_radius = static_cast<float>(field.plane_fit_radius_m);
-  const float fit_half_height = static_cast<float>(field.plane_fit_half_height_m);
-#pragma omp parallel num_threads(num_threads)
-  {
-    std::vector<Eigen::Vector3f> patch;
-    std::vector<float> weights;
-    LocalPlaneFitter fitter(field.plane_inlier_distance_m, field.plane_ransac_iterations);
-#pragma omp for schedule(dynamic, 256)
-    for (std::int64_t c = 0; c < columns; ++c) {
-      // An OpenMP loop cannot break: once stopped, every remaining column is skipped.
-      if (progress != nullptr) {
-        if (progress->stopped()) continue;
-        if (c % kColumnsPerUnit == 0) progress->Advance(kColumnsPerUnit);
-      }
-      ColumnSurface* out = map.surfaces_.data() + map.column_begin_[c];
-      ColumnSurface* previous = nullptr;
-      ForEachRun(g, sorted, c, [&](const ColumnSurface& s, float run_min_z) {
-        if (previous != nullptr) previous->clearance_m = run_min_z - previous->ground_z_m;
-        *out = s;
-        previous = out++;
-      });
-      const int ix = static_cast<int>(c % g.size.x());
-      const int iy = static_cast<int>(c / g.size.x());
-      const Eigen::Vector3d centre_xy = g.CellCenter({ix, iy, 0});
-      for (ColumnSurface* s = map.surfaces_.data() + map.column_begin_[c]; s != out; ++s) {
-        const Eigen::Vector3f centre(static_cast<float>(centre_xy.x()),
-                                     static_cast<float>(centre_xy.y()), s->ground_z_m);
-        GatherNeighbourhood(g, sorted, ix, iy, centre, fit_radius, fit_half_height,
-                            field.plane_fit_column_tops, &patch);
-        if (field.plane_fit_column_tops) {
-          // Voxel staircases: a hard disc edge makes the fit jump as a riser enters or leaves
-          // it; a smooth taper (biweight in the horizontal distance) makes it glide.
-          weights.clear();
-          for (const Eigen::Vector3f& p : patch) {
-            const float u = (p - centre).head<2>().squaredNorm() / (fit_radius * fit_radius);
-            weights.push_back(std::max(1e-3f, (1 - u) * (1 - u)));
-          }
-        }
-        const PlaneFit fit =
-            fitter.Fit(patch, field.plane_fit_column_tops ? std::span<const float>(weights)
-                                                          : std::span<const float>());
-        if (fit.inlier_count >= 3) {
-          s->tilt_rad = static_cast<float>(fit.tilt_rad);
-          s->plane_center_z_m = static_cast<float>(PlaneHeightAt(fit, centre_xy));
-        } else {
-          // A lone point or a thin edge: nothing to stand on, so the steepest tilt.
-          s->tilt_rad = static_cast<float>(std::numbers::pi / 2);
-          s->plane_center_z_m = s->ground_z_m;
-        }
-      }
-    }
-  }
-  if (progress != nullptr && progress->stopped()) {
-    return Error{ErrorCode::kCancelled, "terrain assessment cancelled while fitting surfaces"};
-  }
+  map.column_begin_ = std::move(built->column_begin);
+  map.surfaces_ = std::move(built->surfaces);
   return map;
 }
 
@@ -238,5 +174,102 @@ const ColumnSurface* SurfaceMap::SurfaceBelow(int ix, int iy, int iz) const {
   }
   return below;
 }
+
+namespace internal {
+
+int PlaneFitReach(const FieldConfig& field, double resolution_m) {
+  return static_cast<int>(std::ceil(static_cast<float>(field.plane_fit_radius_m) / resolution_m));
+}
+
+Expected<ColumnSurfaces> BuildColumnSurfaces(const GridGeometry& geometry,
+                                             const ColumnCloud& sorted, const CellBox& window,
+                                             const FieldConfig& field, int num_threads,
+                                             ProgressReporter* progress) {
+  num_threads = ResolveThreadCount(num_threads);
+  const GridGeometry& g = geometry;
+  const int wx = window.max.x() - window.min.x() + 1;
+  const std::int64_t columns = std::int64_t{wx} * (window.max.y() - window.min.y() + 1);
+  // The grid column of the window's column c.
+  const auto grid_column = [&](std::int64_t c) {
+    return Eigen::Vector2i(window.min.x() + static_cast<int>(c % wx),
+                           window.min.y() + static_cast<int>(c / wx));
+  };
+
+  ColumnSurfaces out;
+  out.column_begin.assign(columns + 1, 0);
+#pragma omp parallel for schedule(dynamic, 1024) num_threads(num_threads)
+  for (std::int64_t c = 0; c < columns; ++c) {
+    const Eigen::Vector2i column = grid_column(c);
+    std::uint32_t runs = 0;
+    ForEachRun(g, sorted, sorted.ColumnIndex(column.x(), column.y()),
+               [&](const ColumnSurface&, float) { ++runs; });
+    out.column_begin[c + 1] = runs;
+  }
+  for (std::int64_t c = 0; c < columns; ++c) out.column_begin[c + 1] += out.column_begin[c];
+  out.surfaces.resize(out.column_begin.back());
+
+  const float fit_radius = static_cast<float>(field.plane_fit_radius_m);
+  const float fit_half_height = static_cast<float>(field.plane_fit_half_height_m);
+  const int reach = PlaneFitReach(field, g.resolution_m);
+#pragma omp parallel num_threads(num_threads)
+  {
+    std::vector<Eigen::Vector3f> patch;
+    std::vector<float> weights;
+    LocalPlaneFitter fitter(field.plane_inlier_distance_m, field.plane_ransac_iterations);
+#pragma omp for schedule(dynamic, 256)
+    for (std::int64_t c = 0; c < columns; ++c) {
+      // An OpenMP loop cannot break: once stopped, every remaining column is skipped.
+      if (progress != nullptr) {
+        if (progress->stopped()) continue;
+        if (c % kColumnsPerUnit == 0) progress->Advance(kColumnsPerUnit);
+      }
+      const Eigen::Vector2i column = grid_column(c);
+      const int ix = column.x();
+      const int iy = column.y();
+      ColumnSurface* surface = out.surfaces.data() + out.column_begin[c];
+      ColumnSurface* previous = nullptr;
+      ForEachRun(g, sorted, sorted.ColumnIndex(ix, iy),
+                 [&](const ColumnSurface& s, float run_min_z) {
+                   if (previous != nullptr)
+                     previous->clearance_m = run_min_z - previous->ground_z_m;
+                   *surface = s;
+                   previous = surface++;
+                 });
+      const Eigen::Vector3d centre_xy = g.CellCenter({ix, iy, 0});
+      for (ColumnSurface* s = out.surfaces.data() + out.column_begin[c]; s != surface; ++s) {
+        const Eigen::Vector3f centre(static_cast<float>(centre_xy.x()),
+                                     static_cast<float>(centre_xy.y()), s->ground_z_m);
+        GatherNeighbourhood(g, sorted, ix, iy, reach, centre, fit_radius, fit_half_height,
+                            field.plane_fit_column_tops, &patch);
+        if (field.plane_fit_column_tops) {
+          // Voxel staircases: a hard disc edge makes the fit jump as a riser enters or leaves
+          // it; a smooth taper (biweight in the horizontal distance) makes it glide.
+          weights.clear();
+          for (const Eigen::Vector3f& p : patch) {
+            const float u = (p - centre).head<2>().squaredNorm() / (fit_radius * fit_radius);
+            weights.push_back(std::max(1e-3f, (1 - u) * (1 - u)));
+          }
+        }
+        const PlaneFit fit =
+            fitter.Fit(patch, field.plane_fit_column_tops ? std::span<const float>(weights)
+                                                          : std::span<const float>());
+        if (fit.inlier_count >= 3) {
+          s->tilt_rad = static_cast<float>(fit.tilt_rad);
+          s->plane_center_z_m = static_cast<float>(PlaneHeightAt(fit, centre_xy));
+        } else {
+          // A lone point or a thin edge: nothing to stand on, so the steepest tilt.
+          s->tilt_rad = static_cast<float>(std::numbers::pi / 2);
+          s->plane_center_z_m = s->ground_z_m;
+        }
+      }
+    }
+  }
+  if (progress != nullptr && progress->stopped()) {
+    return Error{ErrorCode::kCancelled, "terrain assessment cancelled while fitting surfaces"};
+  }
+  return out;
+}
+
+}  // namespace internal
 
 }  // namespace strata

@@ -81,12 +81,28 @@ T Quantise(double value, double step) {
 
 }  // namespace
 
-Expected<TerrainFields> BuildTerrainFields(const SurfaceMap& surfaces, const ColumnCloud& cloud,
-                                           const FieldConfig& field, const GridConfig& grid,
-                                           int num_threads, ProgressReporter* progress) {
+FieldReach FieldReachOf(const FieldConfig& field, const GridConfig& grid, double resolution_m) {
+  FieldReach reach;
+  // BandOfColumn reads the 8 neighbours; S' at a cell reads S within the kernel's reach, and
+  // S at a cell reads the surfaces of its 4 neighbours (PoseGradientNorm).
+  reach.surfaces = SafetyDiffusion(field, resolution_m).reach() + 1;
+  reach.points = static_cast<int>(std::ceil(grid.distance_cap_m / resolution_m));
+  return reach;
+}
+
+Expected<TerrainFields::Parts> BuildFieldParts(const SurfaceMap& surfaces, const ColumnCloud& cloud,
+                                               const CellBox& window, const FieldConfig& field,
+                                               const GridConfig& grid, int num_threads,
+                                               ProgressReporter* progress) {
   num_threads = ResolveThreadCount(num_threads);
   const GridGeometry& g = surfaces.geometry();
-  const std::int64_t columns = g.LayerCellCount();
+  const int wx = window.max.x() - window.min.x() + 1;
+  const int wy = window.max.y() - window.min.y() + 1;
+  const std::int64_t columns = std::int64_t{wx} * wy;
+  // Index of grid column (ix, iy) of the window in the parts' column index.
+  const auto local = [&](int ix, int iy) {
+    return (ix - window.min.x()) + std::int64_t{wx} * (iy - window.min.y());
+  };
   TerrainFields::Parts parts;
   parts.geometry = g;
   parts.distance_cap_m = grid.distance_cap_m;
@@ -103,8 +119,8 @@ Expected<TerrainFields> BuildTerrainFields(const SurfaceMap& surfaces, const Col
       std::vector<LayerRange> ranges;
 #pragma omp for schedule(dynamic, 4096)
       for (std::int64_t c = 0; c < columns; ++c) {
-        BandOfColumn(surfaces, grid.band_height_m, static_cast<int>(c % g.size.x()),
-                     static_cast<int>(c / g.size.x()), &ranges);
+        BandOfColumn(surfaces, grid.band_height_m, window.min.x() + static_cast<int>(c % wx),
+                     window.min.y() + static_cast<int>(c / wx), &ranges);
         use(c, ranges);
       }
     }
@@ -138,9 +154,9 @@ Expected<TerrainFields> BuildTerrainFields(const SurfaceMap& surfaces, const Col
   // the halo its values depend on (the kernel's reach for S', the cap for d), and writes only
   // its own columns' values, so tiles run in parallel without sharing anything.
   const SafetyDiffusion diffusion(field, g.resolution_m);
-  const int halo_d = static_cast<int>(std::ceil(grid.distance_cap_m / g.resolution_m));
-  const int tiles_x = (g.size.x() + kTileColumns - 1) / kTileColumns;
-  const int tiles_y = (g.size.y() + kTileColumns - 1) / kTileColumns;
+  const int halo_d = FieldReachOf(field, grid, g.resolution_m).points;
+  const int tiles_x = (wx + kTileColumns - 1) / kTileColumns;
+  const int tiles_y = (wy + kTileColumns - 1) / kTileColumns;
   if (progress != nullptr)
     progress->BeginStage(AssessmentStage::kFields, std::int64_t{tiles_x} * tiles_y);
 #pragma omp parallel num_threads(num_threads)
@@ -150,17 +166,17 @@ Expected<TerrainFields> BuildTerrainFields(const SurfaceMap& surfaces, const Col
 #pragma omp for schedule(dynamic, 1)
     for (std::int64_t tile = 0; tile < std::int64_t{tiles_x} * tiles_y; ++tile) {
       if (progress != nullptr && progress->stopped()) continue;
-      const int x0 = static_cast<int>(tile % tiles_x) * kTileColumns;
-      const int y0 = static_cast<int>(tile / tiles_x) * kTileColumns;
-      const int x1 = std::min(g.size.x(), x0 + kTileColumns) - 1;
-      const int y1 = std::min(g.size.y(), y0 + kTileColumns) - 1;
+      const int x0 = window.min.x() + static_cast<int>(tile % tiles_x) * kTileColumns;
+      const int y0 = window.min.y() + static_cast<int>(tile / tiles_x) * kTileColumns;
+      const int x1 = std::min(window.max.x() + 1, x0 + kTileColumns) - 1;
+      const int y1 = std::min(window.max.y() + 1, y0 + kTileColumns) - 1;
       // The tile's stored layers, grouped into clusters that are transformed separately: a
       // gap wider than two halos means nothing of one cluster reaches the other (a stray
       // level far above costs its own small block, not the air in between).
       layers.clear();
       for (int iy = y0; iy <= y1; ++iy) {
         for (int ix = x0; ix <= x1; ++ix) {
-          const std::int64_t c = ix + std::int64_t{g.size.x()} * iy;
+          const std::int64_t c = local(ix, iy);
           for (std::uint32_t k = parts.column_begin[c]; k < parts.column_begin[c + 1]; ++k) {
             const int first = parts.intervals[k].first_layer;
             layers.emplace_back(first, first +
@@ -188,7 +204,7 @@ Expected<TerrainFields> BuildTerrainFields(const SurfaceMap& surfaces, const Col
             BuildSignedDistanceField(distance_box.Geometry(g), occupied, grid.distance_cap_m);
         for (int iy = y0; iy <= y1; ++iy) {
           for (int ix = x0; ix <= x1; ++ix) {
-            const std::int64_t c = ix + std::int64_t{g.size.x()} * iy;
+            const std::int64_t c = local(ix, iy);
             for (std::uint32_t k = parts.column_begin[c]; k < parts.column_begin[c + 1]; ++k) {
               const TerrainFields::Interval& interval = parts.intervals[k];
               if (interval.first_layer < z0 || interval.first_layer > z1) continue;
@@ -211,7 +227,16 @@ Expected<TerrainFields> BuildTerrainFields(const SurfaceMap& surfaces, const Col
   if (progress != nullptr && progress->stopped()) {
     return Error{ErrorCode::kCancelled, "terrain assessment cancelled while computing the fields"};
   }
-  return TerrainFields::FromParts(std::move(parts));
+  return parts;
+}
+
+Expected<TerrainFields> BuildTerrainFields(const SurfaceMap& surfaces, const ColumnCloud& cloud,
+                                           const FieldConfig& field, const GridConfig& grid,
+                                           int num_threads, ProgressReporter* progress) {
+  Expected<TerrainFields::Parts> parts = BuildFieldParts(
+      surfaces, cloud, CellBox::Whole(surfaces.geometry()), field, grid, num_threads, progress);
+  if (!parts) return parts.error();
+  return TerrainFields::FromParts(std::move(parts).value());
 }
 
 }  // namespace strata::internal

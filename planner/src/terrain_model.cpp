@@ -9,14 +9,9 @@
 #include "column_cloud.hpp"
 #include "ground_filter_internal.hpp"
 #include "terrain_fields_build.hpp"
+#include "terrain_model_internal.hpp"
 
 namespace strata {
-namespace {
-
-// A riser of exactly one voxel must pass the ground filter's comparison despite float noise.
-constexpr double kQuantumToleranceFactor = 1.05;
-
-}  // namespace
 
 double DetectVerticalQuantum(const PointCloud& cloud) {
   // On an evenly spaced sample, the distinct heights (to 0.1 mm) of a voxelised map are few
@@ -75,21 +70,31 @@ class Stopwatch {
   std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
 };
 
-// The box the grid is laid over. When the resolution is one or two quanta of a voxelised
-// map, a grid laid from the lowest point has a cell boundary through every lattice plane,
-// and rounding empties some columns and doubles others. Half a quantum lower, the points sit
-// inside cells, clear of the boundaries.
-Eigen::AlignedBox3d GridBounds(const AssessmentSummary& summary, double resolution_m) {
+}  // namespace
+
+namespace internal {
+
+double StepTolerance(double vertical_quantum_m) {
+  // A riser of exactly one voxel must pass the ground filter's comparison despite float noise.
+  constexpr double kQuantumToleranceFactor = 1.05;
+  return kQuantumToleranceFactor * vertical_quantum_m;
+}
+
+Expected<GridGeometry> AssessmentGrid(const AssessmentSummary& summary, const GridConfig& grid) {
+  // When the resolution is one or two quanta of a voxelised map, a grid laid from the lowest
+  // point has a cell boundary through every lattice plane, and rounding empties some columns
+  // and doubles others. Half a quantum lower, the points sit inside cells, clear of the
+  // boundaries.
   Eigen::AlignedBox3d box = summary.cloud_bounds_m;
   const double q = summary.vertical_quantum_m;
   if (q > 0) {
-    const double ratio = resolution_m / q;
+    const double ratio = grid.resolution_m / q;
     if (ratio <= 2 && std::abs(ratio - std::round(ratio)) < 1e-3) box.min().array() -= 0.5 * q;
   }
-  return box;
+  return MakeGridGeometry(box, grid.resolution_m, grid.padding_m, grid.max_columns);
 }
 
-}  // namespace
+}  // namespace internal
 
 FieldConfig FieldConfigForQuantum(const FieldConfig& field, double vertical_quantum_m,
                                   double resolution_m) {
@@ -145,9 +150,7 @@ Expected<std::shared_ptr<const TerrainModel>> TerrainModel::Assess(
   // would read as walls: risers of one voxel are tolerated as steps.
   summary.vertical_quantum_m = DetectVerticalQuantum(cloud);
   // The grid's size is known from the bounds: refuse an absurd one before any heavy work.
-  Expected<GridGeometry> geometry =
-      MakeGridGeometry(GridBounds(summary, config.grid.resolution_m), config.grid.resolution_m,
-                       config.grid.padding_m, config.grid.max_columns);
+  Expected<GridGeometry> geometry = internal::AssessmentGrid(summary, config.grid);
   if (!geometry) return geometry.error();
 
   progress.BeginStage(AssessmentStage::kSorting, 1);
@@ -156,7 +159,7 @@ Expected<std::shared_ptr<const TerrainModel>> TerrainModel::Assess(
   progress.BeginStage(AssessmentStage::kGroundFilter, geometry->size.y());
   if (Status s = internal::FilterValidGroundInColumns(
           &sorted, config.ground, geometry->resolution_m,
-          kQuantumToleranceFactor * summary.vertical_quantum_m, config.num_threads, &progress);
+          internal::StepTolerance(summary.vertical_quantum_m), config.num_threads, &progress);
       !s) {
     return s.error();
   }
