@@ -57,6 +57,8 @@ const ErrorMapping kTable[] = {
     {SE::kMapStoreUnavailable, StatusCode::UNAVAILABLE, "MAP_STORE_UNAVAILABLE"},
     // Stored bytes that fail their checksum or checks: the operator must repair the store.
     {SE::kMapCorrupted, StatusCode::DATA_LOSS, "MAP_CORRUPTED"},
+    {SE::kMapStoreRequired, StatusCode::FAILED_PRECONDITION, "MAP_STORE_REQUIRED"},
+    {SE::kEditNeedsCloud, StatusCode::FAILED_PRECONDITION, "EDIT_NEEDS_CLOUD"},
 };
 
 }  // namespace

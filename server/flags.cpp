@@ -153,7 +153,19 @@ void AddFlags(CLI::App& app, ParsedFlags& parsed, bool environment) {
       "maps assessed at the same time, off the RPC threads", IntegerIn(1, 64));
   add("--assessment-threads", config.assessment_threads, "N",
       "threads of one assessment; 0 = every core", IntegerIn(0, 1024));
-  add("--max-maps", config.max_maps, "N", "maps held at once, in any state", IntegerIn(1, 100000));
+  add("--max-maps", config.max_maps, "N",
+      "maps held at once, in any state; with --map-store, maps being created or failed here",
+      IntegerIn(1, 100000));
+  add("--map-store", config.map_store, "DIR",
+      "map store shared by every replica (a ReadWriteMany volume in Kubernetes): maps are\n"
+      "written there as immutable versions and loaded on demand; none keeps maps in memory",
+      CLI::Validator());
+  add("--max-map-memory", config.max_map_memory_bytes, "BYTES",
+      "with --map-store, most bytes of loaded maps held; least recently used ones are\n"
+      "dropped from memory (not from the store); 0 = no limit",
+      IntegerIn(0, std::numeric_limits<long long>::max()));
+  add("--map-versions-kept", config.map_versions_kept, "N",
+      "with --map-store, versions kept per map (the current one included)", IntegerIn(1, 1000));
   add("--max-concurrent-plans", config.max_concurrent_plans, "N",
       "plans run at the same time; more wait for a slot until their deadline; 0 = one per\n"
       "core",

@@ -48,8 +48,17 @@ struct ServerConfig {
   int max_concurrent_assessments = 1;
   /// Threads of one assessment [-], >= 0; 0 uses every core.
   int assessment_threads = 0;
-  /// Maps held at once [-], >= 1.
+  /// Maps held at once [-], >= 1. With a map store: maps being created or failed on this
+  /// server (the store's maps are loaded on demand, bounded by max_map_memory_bytes).
   int max_maps = 16;
+  /// Directory of the map store shared by every replica (server/map_store.hpp); empty keeps
+  /// maps in this server's memory only.
+  std::string map_store;
+  /// With a map store: the most bytes of loaded maps held [bytes], >= 0; 0 = no limit. The
+  /// least recently used are dropped from memory (never from the store) when over it.
+  std::uint64_t max_map_memory_bytes = 0;
+  /// With a map store: versions kept per map, the current one included [-], >= 1.
+  int map_versions_kept = 5;
   /// Plans run at the same time [-], >= 0; 0 means one per core. More wait for a slot
   /// until their deadline.
   int max_concurrent_plans = 0;

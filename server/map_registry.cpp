@@ -1,5 +1,7 @@
 #include "map_registry.hpp"
 
+#include "log.hpp"
+
 #include "strata/saved_model.hpp"
 
 #include <algorithm>
@@ -99,6 +101,8 @@ struct MapRegistry::Entry {
   AssessmentStage step = AssessmentStage::kSorting;
   double step_fraction = 0;
   bool from_saved_model = false;  // A saved model's file: loaded, never assessed.
+  std::string version;            // Known once loaded.
+  std::vector<Prism> keep_out;
 };
 
 double MapSnapshot::progress() const {
@@ -126,6 +130,8 @@ MapRegistry::MapRegistry(RegistryOptions options, DoneListener on_done)
   options_.max_concurrent_assessments = std::max(1, options_.max_concurrent_assessments);
   options_.max_maps = std::max(1, options_.max_maps);
   if (!options_.loader) options_.loader = LoadMapSource;
+  options_.versions_kept = std::max(1, options_.versions_kept);
+  if (options_.store) cache_ = std::make_unique<MapCache>(options_.max_map_memory_bytes);
   workers_.reserve(static_cast<std::size_t>(options_.max_concurrent_assessments));
   for (int i = 0; i < options_.max_concurrent_assessments; ++i) {
     workers_.emplace_back([this] { WorkerLoop(); });
@@ -180,6 +186,18 @@ Result<MapSnapshot> MapRegistry::Create(const std::string& id, MapSource source,
     config.num_threads = options_.assessment_threads;
     saved_model = true;
   }
+  if (options_.store && !id.empty()) {
+    // Creating the same map on two replicas at once is not an error (both produce one
+    // version; PublishCreated), but an id the store already holds is. Checked outside the
+    // lock: the store may be a network file system.
+    if (Result<std::string> current = options_.store->Current(id); current.ok()) {
+      return MakeError(ServiceErrorCode::kMapAlreadyExists,
+                       "map '" + id + "' already exists in the map store (version " +
+                           current.value() + "): delete it first, choose another id, or " +
+                           "UpdateMap it")
+          .With("map_id", id);
+    }
+  }
   auto entry = std::make_shared<Entry>();
   entry->from_saved_model = saved_model;
   entry->config = config;
@@ -197,8 +215,9 @@ Result<MapSnapshot> MapRegistry::Create(const std::string& id, MapSource source,
   if (new_id.empty()) {
     do {
       new_id = "map-" + std::to_string(next_generated_id_++);
-    } while (maps_.count(new_id) != 0);
+    } while (maps_.count(new_id) != 0 || (options_.store && options_.store->Current(new_id).ok()));
   }
+
   auto existing = maps_.find(new_id);
   if (existing != maps_.end()) {
     if (existing->second->state != MapState::kFailed) {
@@ -225,13 +244,41 @@ Result<MapSnapshot> MapRegistry::Create(const std::string& id, MapSource source,
   return snapshot;
 }
 
+namespace {
+
+ServiceError NotFound(const std::string& id) {
+  return MakeError(ServiceErrorCode::kMapNotFound,
+                   "no map '" + id + "' on this server: ListMaps shows the maps it holds")
+      .With("map_id", id);
+}
+
+ServiceError VersionNotFound(const std::string& id, const std::string& version,
+                             const std::vector<std::string>& kept) {
+  std::string listed;
+  for (const std::string& v : kept) listed += (listed.empty() ? "" : ", ") + v;
+  return MakeError(ServiceErrorCode::kMapVersionNotFound,
+                   "map '" + id + "' has no version '" + version + "' (kept: " + listed +
+                       "): plan on one of those, or leave map_version empty for the current")
+      .With("map_id", id)
+      .With("map_version", version)
+      .Blame("map_version");
+}
+
+}  // namespace
+
 Result<MapSnapshot> MapRegistry::Get(const std::string& id) const {
   std::unique_lock lock(mutex_);
   const auto it = maps_.find(id);
   if (it == maps_.end()) {
-    return MakeError(ServiceErrorCode::kMapNotFound,
-                     "no map '" + id + "' on this server: ListMaps shows the maps it holds")
-        .With("map_id", id);
+    lock.unlock();
+    if (!options_.store) return NotFound(id);
+    Result<std::vector<std::string>> versions = StoredVersions(id);
+    if (!versions.ok()) return std::move(versions).error();
+    Result<ActiveMap> active = LoadStored(id, versions.value().front());
+    if (!active.ok()) return std::move(active).error();
+    Result<MapSnapshot> snapshot = StoredSnapshot(id, versions.value());
+    if (snapshot.ok()) FillMemory(active.value().map, &snapshot.value());
+    return snapshot;
   }
   MapSnapshot snapshot = SnapshotLocked(*it->second);
   const std::shared_ptr<const PlanningMap> planning = it->second->planning;
@@ -240,17 +287,27 @@ Result<MapSnapshot> MapRegistry::Get(const std::string& id) const {
   return snapshot;
 }
 
-Result<std::shared_ptr<const PlanningMap>> MapRegistry::GetActive(const std::string& id) const {
-  std::lock_guard lock(mutex_);
+Result<ActiveMap> MapRegistry::GetActive(const std::string& id, const std::string& version) const {
+  std::unique_lock lock(mutex_);
   const auto it = maps_.find(id);
   if (it == maps_.end()) {
-    return MakeError(ServiceErrorCode::kMapNotFound,
-                     "no map '" + id + "' on this server: ListMaps shows the maps it holds")
-        .With("map_id", id)
-        .Blame("map_id");
+    lock.unlock();
+    if (!options_.store) return NotFound(id).Blame("map_id");
+    Result<std::vector<std::string>> versions = StoredVersions(id);
+    if (!versions.ok()) return std::move(versions).error();
+    const std::vector<std::string>& kept = versions.value();
+    if (!version.empty() && std::find(kept.begin(), kept.end(), version) == kept.end()) {
+      return VersionNotFound(id, version, kept);
+    }
+    return LoadStored(id, version.empty() ? kept.front() : version);
   }
   const Entry& entry = *it->second;
-  if (entry.state == MapState::kActive) return entry.planning;
+  if (entry.state == MapState::kActive) {
+    if (!version.empty() && version != entry.version) {
+      return VersionNotFound(id, version, {entry.version});
+    }
+    return ActiveMap{entry.planning, entry.version};
+  }
   std::string message = "map '" + id + "' is " + StateName(entry.state);
   if (entry.state == MapState::kCreating) {
     message +=
@@ -264,12 +321,52 @@ Result<std::shared_ptr<const PlanningMap>> MapRegistry::GetActive(const std::str
       .With("state", StateName(entry.state));
 }
 
+Result<std::vector<std::string>> MapRegistry::StoredVersions(const std::string& id) const {
+  Result<std::vector<std::string>> versions = options_.store->Versions(id);
+  if (!versions.ok() || versions.value().empty()) {
+    cache_->Drop(id);  // Deleted, perhaps by another replica: free it here too.
+    return NotFound(id).Blame("map_id");
+  }
+  return versions;
+}
+
+Result<ActiveMap> MapRegistry::LoadStored(const std::string& id, const std::string& version) const {
+  Result<std::shared_ptr<const PlanningMap>> map =
+      cache_->Get(id, version, [&]() -> Result<std::shared_ptr<const PlanningMap>> {
+        Result<std::string> metadata = options_.store->LoadMetadata(id, version);
+        if (!metadata.ok()) return std::move(metadata).error();
+        Result<MapSnapshot> described = options_.decode_metadata(metadata.value());
+        if (!described.ok()) return std::move(described).error();
+        Result<std::shared_ptr<const TerrainModel>> model = options_.store->LoadModel(id, version);
+        if (!model.ok()) return std::move(model).error();
+        return std::shared_ptr<const PlanningMap>(
+            std::make_shared<PlanningMap>(std::move(model).value(), described.value().keep_out));
+      });
+  if (!map.ok()) return std::move(map).error();
+  return ActiveMap{std::move(map).value(), version};
+}
+
+Result<MapSnapshot> MapRegistry::StoredSnapshot(const std::string& id,
+                                                const std::vector<std::string>& versions) const {
+  Result<std::string> metadata = options_.store->LoadMetadata(id, versions.front());
+  if (!metadata.ok()) return std::move(metadata).error();
+  Result<MapSnapshot> snapshot = options_.decode_metadata(metadata.value());
+  if (!snapshot.ok()) return snapshot;
+  snapshot.value().id = id;
+  snapshot.value().version = versions.front();
+  snapshot.value().versions = versions;
+  return snapshot;
+}
+
 Result<MapSnapshot> MapRegistry::WaitUntilDone(const std::string& id,
                                                SteadyClock::time_point deadline,
                                                const std::function<bool()>& should_stop) const {
   std::unique_lock lock(mutex_);
   const auto it = maps_.find(id);
   if (it == maps_.end()) {
+    lock.unlock();
+    // With a store, a map created here leaves the table once ACTIVE: it is in the store.
+    if (options_.store) return Get(id);
     return MakeError(ServiceErrorCode::kMapNotFound, "no map '" + id + "' on this server")
         .With("map_id", id);
   }
@@ -296,34 +393,165 @@ Result<MapSnapshot> MapRegistry::WaitUntilDone(const std::string& id,
 ServiceStatus MapRegistry::Delete(const std::string& id) {
   std::unique_lock lock(mutex_);
   const auto it = maps_.find(id);
-  if (it == maps_.end()) {
-    return MakeError(ServiceErrorCode::kMapNotFound, "no map '" + id + "' on this server")
-        .With("map_id", id);
+  std::shared_ptr<Entry> entry;
+  if (it != maps_.end()) {
+    entry = it->second;
+    entry->removed = true;
+    maps_.erase(it);
+    // A queued assessment is dropped now rather than run for nothing.
+    queue_.erase(std::remove(queue_.begin(), queue_.end(), entry), queue_.end());
   }
-  const std::shared_ptr<Entry> entry = it->second;
-  entry->removed = true;
-  maps_.erase(it);
-  // A queued assessment is dropped now rather than run for nothing.
-  queue_.erase(std::remove(queue_.begin(), queue_.end(), entry), queue_.end());
   lock.unlock();
   changed_.notify_all();
+  if (options_.store) {
+    cache_->Drop(id);
+    ServiceStatus deleted = options_.store->Delete(id);
+    if (!deleted.ok() && entry == nullptr) return NotFound(id);
+    return OkStatus();
+  }
+  if (entry == nullptr) return NotFound(id);
   return OkStatus();  // `entry` (and its planning map, if no plan holds it) is freed here.
+}
+
+Result<MapUpdate> MapRegistry::Update(const std::string& id, const std::string& base_version,
+                                      const std::vector<MapEdit>& edits,
+                                      const std::vector<Prism>& add_keep_out, bool clear_keep_out) {
+  const auto start = SteadyClock::now();
+  if (!options_.store) {
+    return MakeError(ServiceErrorCode::kMapStoreRequired,
+                     "UpdateMap makes a new version in the map store, and this server has none: "
+                     "start it with --map-store DIR")
+        .With("map_id", id);
+  }
+  {
+    std::lock_guard lock(mutex_);
+    if (const auto it = maps_.find(id); it != maps_.end()) {
+      return MakeError(ServiceErrorCode::kMapNotActive,
+                       "map '" + id + "' is " + StateName(it->second->state) +
+                           " on this server: edit it once it is ACTIVE")
+          .With("map_id", id);
+    }
+  }
+  Result<std::vector<std::string>> versions = StoredVersions(id);
+  if (!versions.ok()) return std::move(versions).error();
+  const std::string current = versions.value().front();
+  if (!base_version.empty() && base_version != current) {
+    return MakeError(ServiceErrorCode::kMapChanged,
+                     "map '" + id + "' is at version " + current + ", not " + base_version +
+                         ": read it again (GetMap) and redo the edits on it")
+        .With("map_id", id)
+        .With("current_version", current)
+        .Blame("base_version");
+  }
+  Result<ActiveMap> base = LoadStored(id, current);
+  if (!base.ok()) return std::move(base).error();
+  Result<MapSnapshot> described = StoredSnapshot(id, versions.value());
+  if (!described.ok()) return std::move(described).error();
+  MapSnapshot snapshot = std::move(described).value();
+  const TerrainModel& base_model = base.value().map->model();
+
+  MapUpdate update;
+  std::shared_ptr<const TerrainModel> model = base.value().map->model_ptr();
+  PointCloud cloud;
+  const bool edits_cloud = !edits.empty();
+  if (snapshot.from_saved_model) {
+    return MakeError(ServiceErrorCode::kEditNeedsCloud,
+                     "map '" + id + "' was made from a saved model, which keeps no point cloud " +
+                         "to edit: create the map from its point cloud to edit it")
+        .With("map_id", id);
+  }
+  Result<PointCloud> stored_cloud = options_.store->LoadCloud(id, current);
+  if (!stored_cloud.ok()) return std::move(stored_cloud).error();
+  cloud = std::move(stored_cloud).value();
+  if (edits_cloud) {
+    const auto apply_start = SteadyClock::now();
+    Expected<PointCloud> edited = ApplyEdits(cloud, edits, base_model);
+    if (!edited) return ServiceError::FromPlanner(edited.error(), edited.error().field);
+    update.apply_s = SecondsSince(apply_start);
+    const auto reassess_start = SteadyClock::now();
+    Expected<Reassessment> reassessed =
+        ReassessRegion(base_model, cloud, edited.value(), EditBounds(edits));
+    if (!reassessed) return ServiceError::FromPlanner(reassessed.error());
+    model = reassessed->model;
+    update.full_reassessment = reassessed->path == ReassessmentPath::kFull;
+    update.full_reason = reassessed->full_reason;
+    update.reassessed_columns = reassessed->reassessed_columns;
+    update.reassess_s = SecondsSince(reassess_start);
+    cloud = std::move(edited).value();
+  }
+  std::vector<Prism> keep_out = clear_keep_out ? std::vector<Prism>{} : snapshot.keep_out;
+  keep_out.insert(keep_out.end(), add_keep_out.begin(), add_keep_out.end());
+  const std::string version = MapStore::VersionOf(cloud, model->config(), keep_out);
+
+  snapshot.summary = model->summary();
+  snapshot.grid = model->grid();
+  snapshot.max_levels = MaxLevels(*model);
+  snapshot.keep_out = keep_out;
+  snapshot.done_time = std::chrono::system_clock::now();
+  snapshot.version = version;
+  snapshot.versions = {version};
+  for (const std::string& kept : versions.value()) {
+    if (static_cast<int>(snapshot.versions.size()) == options_.versions_kept) break;
+    if (kept != version) snapshot.versions.push_back(kept);
+  }
+  const auto write_start = SteadyClock::now();
+  if (ServiceStatus put = options_.store->PutVersion(id, version, cloud, *model,
+                                                     options_.encode_metadata(snapshot));
+      !put.ok()) {
+    return std::move(put).error();
+  }
+  if (ServiceStatus published =
+          options_.store->PublishUpdate(id, current, version, options_.versions_kept);
+      !published.ok()) {
+    return std::move(published).error();
+  }
+  update.write_s = SecondsSince(write_start);
+  auto planning = std::make_shared<PlanningMap>(model, keep_out);
+  FillMemory(planning, &snapshot);
+  cache_->Insert(id, version, std::move(planning));
+  update.map = std::move(snapshot);
+  update.total_s = SecondsSince(start);
+  return update;
 }
 
 MapPage MapRegistry::List(const std::string& after_id, int page_size) const {
   page_size = std::max(1, page_size);
   MapPage page;
   std::vector<std::shared_ptr<const PlanningMap>> planning;
+  std::map<std::string, MapSnapshot> local;  // With a store, merged with the store's ids.
   {
     std::lock_guard lock(mutex_);
     auto it = after_id.empty() ? maps_.begin() : maps_.upper_bound(after_id);
-    for (; it != maps_.end() && static_cast<int>(page.maps.size()) < page_size; ++it) {
-      page.maps.push_back(SnapshotLocked(*it->second));
+    for (; it != maps_.end() && static_cast<int>(local.size()) <= page_size; ++it) {
+      local.emplace(it->first, SnapshotLocked(*it->second));
       planning.push_back(it->second->planning);
     }
-    if (it != maps_.end() && !page.maps.empty()) page.last_id = page.maps.back().id;
   }
-  for (std::size_t i = 0; i < page.maps.size(); ++i) FillMemory(planning[i], &page.maps[i]);
+  {
+    std::size_t i = 0;  // `local` is in the order the entries were visited.
+    for (auto& [id, snapshot] : local) FillMemory(planning[i++], &snapshot);
+  }
+  if (options_.store) {
+    // One more than a page from each side tells whether more follow.
+    Result<std::vector<std::string>> ids = options_.store->ListIds(after_id, page_size + 1);
+    for (const std::string& id : ids.ok() ? ids.value() : std::vector<std::string>{}) {
+      if (local.count(id) != 0) continue;  // Being created here again after a failure.
+      Result<std::vector<std::string>> versions = options_.store->Versions(id);
+      if (!versions.ok() || versions.value().empty()) continue;  // Deleted meanwhile.
+      Result<MapSnapshot> snapshot = StoredSnapshot(id, versions.value());
+      if (!snapshot.ok()) continue;
+      const std::shared_ptr<const PlanningMap> held = cache_->Peek(id, versions.value().front());
+      FillMemory(held, &snapshot.value());
+      local.emplace(id, std::move(snapshot).value());
+    }
+  }
+  for (auto& [id, snapshot] : local) {
+    if (static_cast<int>(page.maps.size()) == page_size) {
+      page.last_id = page.maps.back().id;
+      break;
+    }
+    page.maps.push_back(std::move(snapshot));
+  }
   return page;
 }
 
@@ -354,6 +582,11 @@ MapTotals MapRegistry::Totals() const {
     }
   }
   for (const auto& map : active) totals.active_memory_bytes += map->MemoryBytes();
+  if (cache_) {
+    totals.active += cache_->Count();
+    totals.active_memory_bytes += cache_->ResidentBytes();
+    totals.memory_budget_bytes = cache_->budget_bytes();
+  }
   return totals;
 }
 
@@ -415,9 +648,13 @@ void MapRegistry::Assess(const std::shared_ptr<Entry>& entry) {
   // CREATING for ever.
   try {
     std::optional<Expected<std::shared_ptr<const TerrainModel>>> model;
+    PointCloud cloud;  // Kept until written to the store, when there is one.
+    std::string version;
     if (entry->from_saved_model) {
       const auto load_start = SteadyClock::now();
-      model.emplace(LoadModel(std::get<FileMapSource>(source).resolved_path.string()));
+      const std::string path = std::get<FileMapSource>(source).resolved_path.string();
+      model.emplace(LoadModel(path));
+      if (*model) version = MapStore::VersionOfSavedModel(path);
       std::lock_guard lock(mutex_);
       if (entry->removed) return;
       entry->load_s = SecondsSince(load_start);
@@ -451,8 +688,17 @@ void MapRegistry::Assess(const std::shared_ptr<Entry>& entry) {
         std::lock_guard lock(mutex_);
         return entry->removed || stopping_;
       };
-      model.emplace(TerrainModel::Assess(loaded->points, config, control));
-    }  // The cloud is freed here; the model keeps what planning needs.
+      version = MapStore::VersionOf(loaded->points, config, {});
+      // A replica that created the same map at the same time may have assessed it already.
+      if (options_.store && options_.store->Current(entry->id).ok() &&
+          options_.store->Current(entry->id).value() == version) {
+        Result<std::shared_ptr<const TerrainModel>> stored =
+            options_.store->LoadModel(entry->id, version);
+        if (stored.ok()) model.emplace(std::move(stored).value());
+      }
+      if (!model) model.emplace(TerrainModel::Assess(loaded->points, config, control));
+      if (options_.store) cloud = std::move(loaded->points);
+    }  // Without a store the cloud is freed here; the model keeps what planning needs.
     {
       std::lock_guard lock(mutex_);
       if (entry->removed) return;  // Cancelled: nobody wants the result.
@@ -471,6 +717,14 @@ void MapRegistry::Assess(const std::shared_ptr<Entry>& entry) {
     {
       std::lock_guard lock(mutex_);
       entry->max_levels = max_levels;
+      entry->version = version;
+    }
+    if (options_.store) {
+      ServiceStatus published = PublishCreated(entry, cloud, *model->value());
+      if (!published.ok()) {
+        Finish(entry, std::move(published).error());
+        return;
+      }
     }
     Finish(entry, std::shared_ptr<const PlanningMap>(
                       std::make_shared<PlanningMap>(std::move(*model).value())));
@@ -496,6 +750,14 @@ void MapRegistry::Finish(const std::shared_ptr<Entry>& entry,
     if (outcome.ok()) {
       entry->state = MapState::kActive;
       entry->planning = std::move(outcome).value();
+      if (options_.store) {
+        // The store holds it now: this server keeps it in the cache like any stored map,
+        // and the entry lives on only for those waiting on it.
+        cache_->Insert(entry->id, entry->version, entry->planning);
+        if (const auto it = maps_.find(entry->id); it != maps_.end() && it->second == entry) {
+          maps_.erase(it);
+        }
+      }
     } else {
       entry->state = MapState::kFailed;
       entry->failure = std::move(outcome).error();
@@ -532,11 +794,41 @@ MapSnapshot MapRegistry::SnapshotLocked(const Entry& entry) const {
   s.from_saved_model = entry.from_saved_model;
   s.create_time = entry.create_time;
   s.done_time = entry.done_time;
+  s.keep_out = entry.keep_out;
+  if (entry.state == MapState::kActive) {
+    s.version = entry.version;
+    s.versions = {entry.version};
+  }
   if (entry.planning) {
     s.summary = entry.planning->model().summary();
     s.grid = entry.planning->model().grid();
   }
   return s;
+}
+
+ServiceStatus MapRegistry::PublishCreated(const std::shared_ptr<Entry>& entry,
+                                          const PointCloud& cloud, const TerrainModel& model) {
+  MapSnapshot described;
+  {
+    std::lock_guard lock(mutex_);
+    described = SnapshotLocked(*entry);
+  }
+  // As it will be once ACTIVE, for replicas that load it from the store.
+  described.state = MapState::kActive;
+  described.stage = CreationStage::kDone;
+  described.done_time = std::chrono::system_clock::now();
+  described.version = entry->version;
+  described.versions = {entry->version};
+  described.summary = model.summary();
+  described.grid = model.grid();
+  const std::string& id = entry->id;
+  LogInfo("map_version_writing").Add("map", id).Add("version", entry->version);
+  if (ServiceStatus put = options_.store->PutVersion(id, entry->version, cloud, model,
+                                                     options_.encode_metadata(described));
+      !put.ok()) {
+    return put;
+  }
+  return options_.store->PublishNew(id, entry->version);
 }
 
 void MapRegistry::FillMemory(const std::shared_ptr<const PlanningMap>& map, MapSnapshot* snapshot) {

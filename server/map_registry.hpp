@@ -7,7 +7,13 @@
 /// is held only for bookkeeping, never while loading, assessing or planning. A plan copies
 /// the map's shared_ptr<const PlanningMap> (GetActive) and releases the lock, so creating or
 /// deleting maps never blocks planning on others, and a deleted map lives on until the last
-/// plan running on it lets go. An ACTIVE map never changes.
+/// plan running on it lets go. An ACTIVE map's version never changes; UpdateMap makes another.
+///
+/// With a map store (RegistryOptions::store), the store is what holds ACTIVE maps: a map
+/// assessed here is written there and becomes visible to every replica, the registry keeps only
+/// the maps being created (or failed) here, and ACTIVE maps are loaded on demand into a
+/// MapCache within --max-map-memory. Every request looks the map up in the store, so a map
+/// deleted or updated on another replica is refused or planned on its new version at once.
 #include <chrono>
 #include <condition_variable>
 #include <cstdint>
@@ -23,10 +29,14 @@
 #include <variant>
 #include <vector>
 
+#include "map_cache.hpp"
+#include "map_store.hpp"
 #include "service_error.hpp"
 #include "strata/cloud_io.hpp"
+#include "strata/map_edit.hpp"
 #include "strata/planner.hpp"
 #include "strata/point_cloud.hpp"
+#include "strata/prism.hpp"
 #include "strata/scenes/map_source.hpp"
 #include "strata/terrain_config.hpp"
 #include "strata/terrain_model.hpp"
@@ -84,6 +94,11 @@ struct MapSnapshot {
   int max_levels = 0;            ///< Most valid surfaces in one column.
   std::chrono::system_clock::time_point create_time;
   std::optional<std::chrono::system_clock::time_point> done_time;
+  /// Once ACTIVE: the version (MapStore::VersionOf) and the versions kept, newest first.
+  std::string version;
+  std::vector<std::string> versions;
+  /// The map's keep-out zones (part of its version; UpdateMap sets them).
+  std::vector<Prism> keep_out;
 
   /// Progress in [0, 1] from the stage and, while assessing, the assessment's step and its
   /// fraction done (see the proto's Map.progress).
@@ -109,6 +124,34 @@ struct RegistryOptions {
   CloudLoadLimits load_limits;
   /// How sources are read (tests substitute one that waits on a latch).
   CloudLoader loader = LoadMapSource;
+  /// The map store shared with other replicas; null keeps maps in this registry only.
+  std::shared_ptr<MapStore> store;
+  /// With a store: most bytes of loaded maps held [bytes]; 0 = no limit (MapCache).
+  std::uint64_t max_map_memory_bytes = 0;
+  /// With a store: versions kept per map, the current one included [-], >= 1.
+  int versions_kept = 5;
+  /// With a store: how a version's description is written beside it and read back (the
+  /// server stores the API's Map message; proto_convert.hpp). Both must be set with a store.
+  std::function<std::string(const MapSnapshot&)> encode_metadata;
+  std::function<Result<MapSnapshot>(const std::string&)> decode_metadata;
+};
+
+/// A new version made by MapRegistry::Update, and what it cost.
+struct MapUpdate {
+  MapSnapshot map;
+  double apply_s = 0;                   ///< Editing the cloud [s].
+  double reassess_s = 0;                ///< Reassessing the touched terrain [s].
+  double write_s = 0;                   ///< Writing and publishing the version [s].
+  double total_s = 0;                   ///< All of it, with loading the base when not held [s].
+  bool full_reassessment = false;       ///< The edits changed what the whole map depends on.
+  std::string full_reason;              ///< Why, when full_reassessment.
+  std::int64_t reassessed_columns = 0;  ///< Grid columns assessed again.
+};
+
+/// A planning map and the version it is.
+struct ActiveMap {
+  std::shared_ptr<const PlanningMap> map;
+  std::string version;
 };
 
 /// Where one CREATING map is, for metrics.
@@ -123,7 +166,10 @@ struct MapTotals {
   int creating = 0;
   int active = 0;
   int failed = 0;
-  std::size_t active_memory_bytes = 0;              ///< Sum over ACTIVE maps [bytes].
+  /// Sum over ACTIVE maps held in memory (with a store, the loaded ones) [bytes].
+  std::size_t active_memory_bytes = 0;
+  /// With a store: the memory budget (0 = none) [bytes].
+  std::uint64_t memory_budget_bytes = 0;
   std::vector<CreationProgress> creating_progress;  ///< One per CREATING map (<= --max-maps).
 };
 
@@ -157,12 +203,25 @@ class MapRegistry {
   Result<MapSnapshot> Create(const std::string& id, MapSource source, AssessmentConfig config,
                              bool config_given = false);
 
-  /// The map's state; kMapNotFound.
+  /// Makes a new version of ACTIVE map `id` from `edits` of version `base_version` (empty:
+  /// the current one): the cloud edited, the touched terrain reassessed (ReassessRegion), the
+  /// keep-out zones cleared first when `clear_keep_out`, then `add_keep_out` added; written to
+  /// the store and published if the map is still at the base. Needs a store
+  /// (kMapStoreRequired). Fails with kMapNotFound, kMapNotActive (CREATING here), kMapChanged,
+  /// kEditNeedsCloud (a map made from a saved model), kInvalidInput naming the edit field, or
+  /// as the store does.
+  Result<MapUpdate> Update(const std::string& id, const std::string& base_version,
+                           const std::vector<MapEdit>& edits,
+                           const std::vector<Prism>& add_keep_out, bool clear_keep_out);
+
+  /// The map's state; kMapNotFound. With a store, an ACTIVE map is loaded if not held.
   Result<MapSnapshot> Get(const std::string& id) const;
 
-  /// The planning map of an ACTIVE map, shared with the registry; kMapNotFound, or
-  /// kMapNotActive naming the state (and the failure of a FAILED map).
-  Result<std::shared_ptr<const PlanningMap>> GetActive(const std::string& id) const;
+  /// The planning map of an ACTIVE map, shared with the registry, at `version` (empty: the
+  /// current one; with a store, loaded from it if not held); kMapNotFound, kMapVersionNotFound
+  /// naming the versions kept, or kMapNotActive naming the state (and the failure of a FAILED
+  /// map), or a store's failure to load it.
+  Result<ActiveMap> GetActive(const std::string& id, const std::string& version = {}) const;
 
   /// Blocks until the map is ACTIVE or FAILED (returns it), `deadline` passes (returns it
   /// CREATING), or `should_stop` (polled every 50 ms; may be empty) returns true (returns
@@ -171,7 +230,8 @@ class MapRegistry {
                                     std::chrono::steady_clock::time_point deadline,
                                     const std::function<bool()>& should_stop) const;
 
-  /// Removes the map in any state; kMapNotFound. An assessment in progress stops within one
+  /// Removes the map in any state (with a store, from the store: for every replica);
+  /// kMapNotFound. An assessment in progress stops within one
   /// unit of its work (a row of columns, a tile) and is discarded; plans holding the map
   /// finish normally.
   ServiceStatus Delete(const std::string& id);
@@ -204,6 +264,18 @@ class MapRegistry {
   void Finish(const std::shared_ptr<Entry>& entry,
               Result<std::shared_ptr<const PlanningMap>> outcome);
 
+  // With a store: writes the version assessed (or loaded) for `entry` and makes it the map's
+  // first version; kMapAlreadyExists when another replica made the id another map meanwhile.
+  ServiceStatus PublishCreated(const std::shared_ptr<Entry>& entry, const PointCloud& cloud,
+                               const TerrainModel& model);
+  // With a store: the versions of `id` kept (newest first), or kMapNotFound.
+  Result<std::vector<std::string>> StoredVersions(const std::string& id) const;
+  // With a store: `version` of `id`, from the cache or loaded into it.
+  Result<ActiveMap> LoadStored(const std::string& id, const std::string& version) const;
+  // With a store: the snapshot of a stored version from its metadata.
+  Result<MapSnapshot> StoredSnapshot(const std::string& id,
+                                     const std::vector<std::string>& versions) const;
+
   RegistryOptions options_;
   DoneListener on_done_;
 
@@ -215,6 +287,8 @@ class MapRegistry {
   int running_assessments_ = 0;
   bool stopping_ = false;
   std::vector<std::thread> workers_;
+  // With a store: the versions loaded here (mutable: loading on demand is not a change).
+  std::unique_ptr<MapCache> cache_;
 };
 
 }  // namespace strata::server

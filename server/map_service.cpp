@@ -227,4 +227,29 @@ grpc::Status MapServiceImpl::DeleteMap(grpc::ServerContext*, const v1::DeleteMap
   });
 }
 
+grpc::Status MapServiceImpl::UpdateMap(grpc::ServerContext*, const v1::UpdateMapRequest* request,
+                                       v1::UpdateMapResponse* response) {
+  return RunRpc("UpdateMap", [&](CallLog& log) -> ServiceStatus {
+    log.map_id = request->map_id();
+    Result<ParsedMapEdits> parsed = MapEditsFromProto(*request);
+    if (!parsed.ok()) return std::move(parsed).error();
+    Result<MapUpdate> updated =
+        registry_->Update(request->map_id(), request->base_version(), parsed.value().edits,
+                          parsed.value().add_keep_out, request->clear_keep_out());
+    if (!updated.ok()) return std::move(updated).error();
+    const MapUpdate& update = updated.value();
+    ToProto(update.map, response->mutable_map());
+    v1::MapUpdateStats* stats = response->mutable_stats();
+    stats->set_apply_s(update.apply_s);
+    stats->set_reassess_s(update.reassess_s);
+    stats->set_write_s(update.write_s);
+    stats->set_total_s(update.total_s);
+    stats->set_full_reassessment(update.full_reassessment);
+    stats->set_full_reassessment_reason(update.full_reason);
+    stats->set_reassessed_columns(update.reassessed_columns);
+    log.fields.emplace_back("version", update.map.version);
+    return OkStatus();
+  });
+}
+
 }  // namespace strata::server

@@ -46,6 +46,8 @@ class MapServiceImpl final : public v1::MapService::Service {
                         v1::ListMapsResponse* response) override;
   grpc::Status DeleteMap(grpc::ServerContext* context, const v1::DeleteMapRequest* request,
                          v1::DeleteMapResponse* response) override;
+  grpc::Status UpdateMap(grpc::ServerContext* context, const v1::UpdateMapRequest* request,
+                         v1::UpdateMapResponse* response) override;
 
  private:
   // Returns the new map, waiting for it when `wait` is set (see CreateMapRequest.wait).

@@ -316,6 +316,21 @@ void HashString(XXH3_state_t* state, std::string_view text) {
 
 }  // namespace
 
+namespace {
+
+std::string Hex(const XXH128_canonical_t& canonical) {
+  std::string hex;
+  hex.reserve(kVersionDigits);
+  constexpr char kDigits[] = "0123456789abcdef";
+  for (const unsigned char byte : canonical.digest) {
+    hex += kDigits[byte >> 4];
+    hex += kDigits[byte & 15];
+  }
+  return hex;
+}
+
+}  // namespace
+
 std::string MapStore::VersionOf(const PointCloud& cloud, const AssessmentConfig& config,
                                 std::span<const Prism> keep_out) {
   XXH3_state_t* state = XXH3_createState();
@@ -347,14 +362,27 @@ std::string MapStore::VersionOf(const PointCloud& cloud, const AssessmentConfig&
   XXH128_canonical_t canonical;
   XXH128_canonicalFromHash(&canonical, XXH3_128bits_digest(state));
   XXH3_freeState(state);
-  std::string hex;
-  hex.reserve(kVersionDigits);
-  constexpr char kDigits[] = "0123456789abcdef";
-  for (const unsigned char byte : canonical.digest) {
-    hex += kDigits[byte >> 4];
-    hex += kDigits[byte & 15];
+  return Hex(canonical);
+}
+
+std::string MapStore::VersionOfSavedModel(const std::string& path) {
+  // The file's bytes determine the model (its format version and parameters are inside), so
+  // they name it, apart from any cloud's versions by the prefix.
+  XXH3_state_t* state = XXH3_createState();
+  XXH3_128bits_reset(state);
+  HashString(state, "strata saved model");
+  std::vector<char> buffer(std::size_t{1} << 20);
+  if (std::FILE* file = std::fopen(path.c_str(), "rb")) {
+    std::size_t read = 0;
+    while ((read = std::fread(buffer.data(), 1, buffer.size(), file)) > 0) {
+      XXH3_128bits_update(state, buffer.data(), read);
+    }
+    std::fclose(file);
   }
-  return hex;
+  XXH128_canonical_t canonical;
+  XXH128_canonicalFromHash(&canonical, XXH3_128bits_digest(state));
+  XXH3_freeState(state);
+  return Hex(canonical);
 }
 
 bool MapStore::IsVersion(std::string_view version) {
@@ -442,9 +470,6 @@ ServiceStatus MapStore::PutVersion(const std::string& id, const std::string& ver
                                    const std::string& metadata) {
   if (ServiceStatus ok = CheckId(id); !ok) return ok;
   if (ServiceStatus ok = CheckVersion(version); !ok) return ok;
-  if (cloud.empty()) {
-    return MakeError(ErrorCode::kInvalidInput, "map store: a version needs a non-empty cloud");
-  }
   const fs::path target = VersionDir(id, version);
   std::error_code ec;
   if (fs::is_directory(target, ec)) {
@@ -465,11 +490,13 @@ ServiceStatus MapStore::PutVersion(const std::string& id, const std::string& ver
   }
   const fs::path cloud_path = temporary / kCloudName;
   const fs::path model_path = temporary / kModelName;
-  if (Status saved = SavePcd(cloud, cloud_path.string()); !saved) {
-    return fail(MakeError(ServiceErrorCode::kMapStoreUnavailable,
-                          "map store: cannot write the cloud: " + saved.error().message));
+  if (!cloud.empty()) {  // A map made from a saved model has no cloud to keep.
+    if (Status saved = SavePcd(cloud, cloud_path.string()); !saved) {
+      return fail(MakeError(ServiceErrorCode::kMapStoreUnavailable,
+                            "map store: cannot write the cloud: " + saved.error().message));
+    }
+    if (ServiceStatus synced = Sync(cloud_path); !synced) return fail(std::move(synced).error());
   }
-  if (ServiceStatus synced = Sync(cloud_path); !synced) return fail(std::move(synced).error());
   if (Status saved = SaveModel(model, model_path.string()); !saved) {
     return fail(MakeError(ServiceErrorCode::kMapStoreUnavailable,
                           "map store: cannot write the model: " + saved.error().message));
@@ -636,7 +663,15 @@ Result<PointCloud> MapStore::LoadCloud(const std::string& id, const std::string&
   Expected<LoadedCloud> cloud = LoadPointCloud(path->string(), limits);
   if (cloud) return std::move(cloud->points);
   std::error_code ec;
-  if (!fs::exists(*path, ec)) return MissingVersion(id, version);
+  if (!fs::exists(*path, ec)) {
+    if (fs::is_directory(path->parent_path(), ec)) {
+      return MakeError(ServiceErrorCode::kEditNeedsCloud,
+                       "map '" + id + "' was made from a saved model, which keeps no point " +
+                           "cloud: create it from its point cloud to edit it")
+          .With("map_id", id);
+    }
+    return MissingVersion(id, version);
+  }
   return MakeError(ServiceErrorCode::kMapCorrupted,
                    "map store: the cloud of version " + version + " of map '" + id +
                        "' cannot be loaded: " + cloud.error().message +

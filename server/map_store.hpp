@@ -11,7 +11,8 @@
 ///                               exactly when its head does.
 ///   maps/<id>/lock              empty; flock'ed by whoever changes the head or deletes the map
 ///   maps/<id>/versions/<v>/     one version, never changed once renamed into place:
-///       cloud.pcd               the source cloud (binary PCD, float32 x y z)
+///       cloud.pcd               the source cloud (binary PCD, float32 x y z); absent for a
+///                               map made from a saved model
 ///       model.stratamodel       the assessed model (strata/saved_model.hpp, checksummed)
 ///       metadata                the caller's bytes (the server's Map message as JSON)
 ///   tmp/                        temporaries (a version being written, a head being
@@ -76,6 +77,10 @@ class MapStore {
   static std::string VersionOf(const PointCloud& cloud, const AssessmentConfig& config,
                                std::span<const Prism> keep_out);
 
+  /// The version of a map loaded from a saved-model file: the XXH3-128 of the file's bytes
+  /// (which hold its format version and parameters), in the same form as VersionOf's.
+  static std::string VersionOfSavedModel(const std::string& path);
+
   /// Whether `version` is a well-formed version name (what VersionOf returns).
   static bool IsVersion(std::string_view version);
 
@@ -91,11 +96,12 @@ class MapStore {
   /// The store's directory (absolute, symbolic links resolved).
   const std::filesystem::path& root() const { return root_; }
 
-  /// Writes version `version` of map `id`: `cloud` (non-empty), `model` and `metadata` go to
+  /// Writes version `version` of map `id`: `cloud` (empty for a map made from a saved model:
+  /// LoadCloud then fails with kEditNeedsCloud), `model` and `metadata` go to
   /// a fresh temporary directory, are made durable, and the directory is renamed into place.
   /// When the version is there already (another writer put it), that is success and nothing
   /// is written. Does not publish: PublishNew or PublishUpdate makes it the map's current
-  /// version. kInvalidInput for a bad id or version name or an empty cloud,
+  /// version. kInvalidInput for a bad id or version name,
   /// kMapStoreUnavailable when the store cannot be written (naming the path and the reason).
   ServiceStatus PutVersion(const std::string& id, const std::string& version,
                            const PointCloud& cloud, const TerrainModel& model,

@@ -117,12 +117,21 @@ class MapCollector final : public prometheus::Collectable {
     }
     prometheus::MetricFamily memory{
         "strata_map_memory_bytes",
-        "Bytes held by ACTIVE maps (terrain models and cached traversability graphs).",
+        "Bytes held by ACTIVE maps in memory (terrain models and cached traversability "
+        "graphs); with a map store, the maps loaded here.",
         prometheus::MetricType::Gauge,
         {}};
     prometheus::ClientMetric bytes;
     bytes.gauge.value = static_cast<double>(totals.active_memory_bytes);
     memory.metric.push_back(bytes);
+    prometheus::MetricFamily budget{
+        "strata_map_memory_budget_bytes",
+        "--max-map-memory: most bytes of loaded maps held with a map store (0: no limit).",
+        prometheus::MetricType::Gauge,
+        {}};
+    prometheus::ClientMetric budget_bytes;
+    budget_bytes.gauge.value = static_cast<double>(totals.memory_budget_bytes);
+    budget.metric.push_back(budget_bytes);
     // One series per map while it is created, gone once it is ACTIVE or FAILED: at most
     // --max-maps series at a time.
     prometheus::MetricFamily creation{
@@ -136,7 +145,7 @@ class MapCollector final : public prometheus::Collectable {
       metric.gauge.value = map.progress;
       creation.metric.push_back(metric);
     }
-    return {states, memory, creation};
+    return {states, memory, budget, creation};
   }
 
  private:

@@ -134,7 +134,7 @@ grpc::Status PlannerServiceImpl::Plan(grpc::ServerContext* context, const v1::Pl
     auto outcome = [&]() -> ServiceStatus {
       Result<ParsedPlanRequest> parsed = ParsePlanRequest(*request);
       if (!parsed.ok()) return std::move(parsed).error();
-      Result<std::shared_ptr<const PlanningMap>> map = registry_->GetActive(request->map_id());
+      Result<ActiveMap> map = registry_->GetActive(request->map_id(), request->map_version());
       if (!map.ok()) return std::move(map).error();
 
       const auto should_stop = [context] { return context->IsCancelled(); };
@@ -163,9 +163,10 @@ grpc::Status PlannerServiceImpl::Plan(grpc::ServerContext* context, const v1::Pl
           PlanTimeBudget(capped, DeadlineLeftSeconds(*context), options_.max_plan_time_s);
       if (budget_s <= 0) return BudgetExhausted(DeadlineLeftSeconds(*context));
       capped.plan.options.time_budget_s = budget_s;
-      ServiceStatus status =
-          PlanOnMap(*map.value(), capped, should_stop, options_.max_samples, response, &timings);
+      ServiceStatus status = PlanOnMap(*map.value().map, capped, should_stop, options_.max_samples,
+                                       response, &timings);
       if (!status.ok()) return status;
+      response->set_map_version(map.value().version);
       response->mutable_stats()->mutable_timings()->set_queue_s(queue_s);
       return OkStatus();
     }();

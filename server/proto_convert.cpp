@@ -7,6 +7,8 @@
 #include <string_view>
 #include <utility>
 
+#include <google/protobuf/util/json_util.h>
+
 #include "error_mapping.hpp"
 
 namespace strata::server {
@@ -191,6 +193,139 @@ void ToProto(const MapSnapshot& s, v1::Map* map) {
   }
   ToProto(s.create_time, map->mutable_create_time());
   if (s.done_time.has_value()) ToProto(*s.done_time, map->mutable_done_time());
+  map->set_version(s.version);
+  for (const std::string& version : s.versions) map->add_versions(version);
+  for (const Prism& zone : s.keep_out) ToProto(zone, map->add_keep_out());
+}
+
+namespace {
+
+std::chrono::system_clock::time_point FromProto(const Timestamp& time) {
+  return std::chrono::system_clock::time_point(
+      std::chrono::duration_cast<std::chrono::system_clock::duration>(
+          std::chrono::seconds(time.seconds()) + std::chrono::nanoseconds(time.nanos())));
+}
+
+// The snapshot of an ACTIVE map a Map describes (the inverse of ToProto for what a stored
+// version keeps; memory_bytes is the holder's to fill).
+Result<MapSnapshot> SnapshotFromProto(const v1::Map& map) {
+  MapSnapshot s;
+  s.id = map.id();
+  s.state = MapState::kActive;
+  s.stage = CreationStage::kDone;
+  switch (map.source().kind_case()) {
+    case v1::MapSource::kFile: s.source = FileMapSource{{}, map.source().file().path()}; break;
+    case v1::MapSource::kScene: {
+      SceneMapSource scene;
+      scene.name = map.source().scene().name();
+      scene.seed = map.source().scene().seed();
+      if (map.source().scene().has_size_m()) scene.options.size_m = map.source().scene().size_m();
+      if (map.source().scene().has_spacing_m()) {
+        scene.options.spacing_m = map.source().scene().spacing_m();
+      }
+      s.source = scene;
+      break;
+    }
+    default: s.source = UploadSummary{map.source().upload().received_bytes()}; break;
+  }
+  Result<AssessmentConfig> config = server::FromProto(map.terrain(), "terrain");
+  if (!config.ok()) return std::move(config).error();
+  s.config = config.value();
+  s.raw_point_count = map.raw_point_count();
+  s.dropped_nonfinite_point_count = map.dropped_nonfinite_point_count();
+  s.load_s = map.assessment_seconds().load_s();
+  s.from_saved_model = map.from_saved_model();
+  AssessmentSummary& summary = s.summary;
+  summary.cloud_bounds_m =
+      Eigen::AlignedBox3d(FromProto(map.bounds_m().min_m()), FromProto(map.bounds_m().max_m()));
+  summary.input_points = map.input_point_count();
+  summary.valid_ground_points = map.valid_ground_point_count();
+  summary.surface_count = map.surface_count();
+  summary.valid_surface_count = map.valid_surface_count();
+  summary.timings.ground_filter_s = map.assessment_seconds().ground_filter_s();
+  summary.timings.surfaces_s = map.assessment_seconds().surfaces_s();
+  summary.timings.fields_s = map.assessment_seconds().fields_s();
+  summary.timings.total_s = map.assessment_seconds().total_s();
+  s.grid.size = {map.grid_size().nx(), map.grid_size().ny(), map.grid_size().nz()};
+  s.grid.origin_m = FromProto(map.grid_origin_m());
+  s.grid.resolution_m = s.config.grid.resolution_m;
+  s.max_levels = static_cast<int>(map.max_levels());
+  s.create_time = FromProto(map.create_time());
+  if (map.has_done_time()) s.done_time = FromProto(map.done_time());
+  s.version = map.version();
+  s.versions.assign(map.versions().begin(), map.versions().end());
+  for (int i = 0; i < map.keep_out_size(); ++i) {
+    Result<Prism> zone = server::FromProto(map.keep_out(i), "keep_out[" + std::to_string(i) + "]");
+    if (!zone.ok()) return std::move(zone).error();
+    s.keep_out.push_back(std::move(zone).value());
+  }
+  return s;
+}
+
+}  // namespace
+
+Result<ParsedMapEdits> MapEditsFromProto(const v1::UpdateMapRequest& request) {
+  if (request.map_id().empty()) {
+    return MakeError(ErrorCode::kInvalidInput, "map_id is required (ListMaps shows the maps)")
+        .Blame("map_id");
+  }
+  const int count = request.edits_size();
+  if ((count == 0 && !request.clear_keep_out()) || count > kMaxMapEdits) {
+    return MakeError(ErrorCode::kInvalidInput,
+                     "edits has " + std::to_string(count) + " edits: give 1 to " +
+                         std::to_string(kMaxMapEdits) + " (or none with clear_keep_out)")
+        .Blame("edits");
+  }
+  ParsedMapEdits parsed;
+  for (int i = 0; i < count; ++i) {
+    const v1::MapEdit& edit = request.edits(i);
+    const std::string path = "edits[" + std::to_string(i) + "]";
+    switch (edit.kind_case()) {
+      case v1::MapEdit::kAddObstacle:
+      case v1::MapEdit::kRemovePoints: {
+        const bool obstacle = edit.kind_case() == v1::MapEdit::kAddObstacle;
+        Result<Prism> region = FromProto(obstacle ? edit.add_obstacle() : edit.remove_points(),
+                                         path + (obstacle ? ".add_obstacle" : ".remove_points"));
+        if (!region.ok()) return std::move(region).error();
+        parsed.edits.push_back(
+            MapEdit{obstacle ? MapEdit::Kind::kAddObstacle : MapEdit::Kind::kRemovePoints,
+                    std::move(region).value()});
+        break;
+      }
+      case v1::MapEdit::kAddKeepOut: {
+        Result<Prism> zone = FromProto(edit.add_keep_out(), path + ".add_keep_out");
+        if (!zone.ok()) return std::move(zone).error();
+        parsed.add_keep_out.push_back(std::move(zone).value());
+        break;
+      }
+      case v1::MapEdit::KIND_NOT_SET:
+        return MakeError(ErrorCode::kInvalidInput,
+                         path + " sets no edit: set add_obstacle, remove_points or add_keep_out")
+            .Blame(path);
+    }
+  }
+  return parsed;
+}
+
+std::string EncodeMapMetadata(const MapSnapshot& snapshot) {
+  v1::Map map;
+  ToProto(snapshot, &map);
+  map.clear_memory_bytes();  // The holder's, not the version's.
+  std::string json;
+  google::protobuf::util::JsonPrintOptions options;
+  options.add_whitespace = true;  // For operators who look into the store.
+  (void)google::protobuf::util::MessageToJsonString(map, &json, options);
+  return json;
+}
+
+Result<MapSnapshot> DecodeMapMetadata(const std::string& json) {
+  v1::Map map;
+  if (const auto parsed = google::protobuf::util::JsonStringToMessage(json, &map); !parsed.ok()) {
+    return MakeError(ErrorCode::kMapLoadFailed,
+                     "the map store holds a version description that is not a Map (" +
+                         std::string(parsed.message()) + "): delete the map and create it again");
+  }
+  return SnapshotFromProto(map);
 }
 
 Result<RobotProfile> ProfileFromRequest(const v1::PlanRequest& request) {

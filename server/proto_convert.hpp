@@ -38,6 +38,24 @@ void ToProto(const AssessmentConfig& config, v1::TerrainParameters* terrain);
 /// The public view of a map; `failure` gets the reason from the error table.
 void ToProto(const MapSnapshot& snapshot, v1::Map* map);
 
+/// The edits of an UpdateMapRequest: cloud edits in order, and the keep-out zones to add.
+struct ParsedMapEdits {
+  std::vector<MapEdit> edits;
+  std::vector<Prism> add_keep_out;
+};
+/// kInvalidInput blaming the request field: map_id empty, no edit (and no clear_keep_out),
+/// more than kMaxMapEdits, an edit with no kind, a bad prism ("edits[2].add_obstacle.z_max_m").
+Result<ParsedMapEdits> MapEditsFromProto(const v1::UpdateMapRequest& request);
+/// Most edits in one UpdateMapRequest.
+inline constexpr int kMaxMapEdits = 64;
+
+/// What a map store keeps beside an ACTIVE version (RegistryOptions::encode_metadata): its Map
+/// as JSON, readable by operators, without memory_bytes (the holder's).
+std::string EncodeMapMetadata(const MapSnapshot& snapshot);
+/// The snapshot EncodeMapMetadata wrote (file sources lose their resolved path, which only
+/// the creating server knew); kMapLoadFailed for text that is not a Map.
+Result<MapSnapshot> DecodeMapMetadata(const std::string& json);
+
 /// The profile of a request: a built-in by name, or inline over the defaults and validated by
 /// RobotProfile::Validate. kInvalidInput (unset, unknown name: "profile_name"),
 /// kInvalidConfig ("profile.<field>", the same path in the planner and in PlanRequest).

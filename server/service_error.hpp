@@ -26,6 +26,8 @@ enum class ServiceErrorCode {
   kMapChanged,           ///< A compare-and-swap lost: the map's current version changed.
   kMapStoreUnavailable,  ///< The map store cannot be read or written (I/O error, full, gone).
   kMapCorrupted,         ///< A stored version or head fails its checks (truncated, tampered).
+  kMapStoreRequired,     ///< The call needs a map store (--map-store) and the server has none.
+  kEditNeedsCloud,       ///< UpdateMap on a map made from a saved model, which keeps no cloud.
 };
 
 /// Every ServiceErrorCode, for exhaustive tests.
@@ -36,6 +38,7 @@ inline constexpr ServiceErrorCode kAllServiceErrorCodes[] = {
     ServiceErrorCode::kShuttingDown,        ServiceErrorCode::kInternal,
     ServiceErrorCode::kMapVersionNotFound,  ServiceErrorCode::kMapChanged,
     ServiceErrorCode::kMapStoreUnavailable, ServiceErrorCode::kMapCorrupted,
+    ServiceErrorCode::kMapStoreRequired,    ServiceErrorCode::kEditNeedsCloud,
 };
 
 /// A request field that is wrong (google.rpc.BadRequest.FieldViolation). `field` is the

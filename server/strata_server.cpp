@@ -92,6 +92,24 @@ Result<std::unique_ptr<StrataServer>> StrataServer::Start(const ServerConfig& co
   registry_options.max_maps = config.max_maps;
   registry_options.assessment_threads = config.assessment_threads;
   registry_options.load_limits.max_points = config.max_points;
+  if (!config.map_store.empty()) {
+    Result<std::unique_ptr<MapStore>> store = MapStore::Open(config.map_store);
+    if (!store.ok()) {
+      return MakeError(ErrorCode::kInvalidInput, "--map-store: " + store.error().message);
+    }
+    registry_options.store = std::move(store).value();
+    registry_options.max_map_memory_bytes = config.max_map_memory_bytes;
+    registry_options.versions_kept = config.map_versions_kept;
+    registry_options.encode_metadata = EncodeMapMetadata;
+    registry_options.decode_metadata = DecodeMapMetadata;
+    // A map the store holds already is served from there (loaded on its first request): a
+    // new replica assesses nothing at start.
+    std::erase_if(preloads, [&](const ResolvedPreload& preload) {
+      if (!registry_options.store->Current(preload.id).ok()) return false;
+      LogInfo("preload_in_store").Add("map", preload.id);
+      return true;
+    });
+  }
   StrataServer* raw = self.get();
   self->registry_ = std::make_unique<MapRegistry>(
       registry_options, [raw](const MapSnapshot& map) { raw->OnMapDone(map); });

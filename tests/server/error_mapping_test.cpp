@@ -86,6 +86,8 @@ TEST(ErrorMappingTest, MapsAsDocumented) {
       {ServiceErrorCode::kMapChanged, StatusCode::ABORTED, "MAP_CHANGED"},
       {ServiceErrorCode::kMapStoreUnavailable, StatusCode::UNAVAILABLE, "MAP_STORE_UNAVAILABLE"},
       {ServiceErrorCode::kMapCorrupted, StatusCode::DATA_LOSS, "MAP_CORRUPTED"},
+      {ServiceErrorCode::kMapStoreRequired, StatusCode::FAILED_PRECONDITION, "MAP_STORE_REQUIRED"},
+      {ServiceErrorCode::kEditNeedsCloud, StatusCode::FAILED_PRECONDITION, "EDIT_NEEDS_CLOUD"},
   };
   EXPECT_EQ(std::size(expected), ErrorMappingTable().size());
   for (const auto& row : expected) {

@@ -87,9 +87,9 @@ TEST(MapRegistryTest, SceneBecomesActiveWithItsFigures) {
   EXPECT_GE(done.max_levels, 2);  // The landing deck is over the floor's level.
   EXPECT_TRUE(done.done_time.has_value());
 
-  Result<std::shared_ptr<const PlanningMap>> active = registry.GetActive("room");
+  Result<ActiveMap> active = registry.GetActive("room");
   ASSERT_TRUE(active.ok());
-  EXPECT_EQ(active.value()->model().grid().size, done.grid.size);
+  EXPECT_EQ(active.value().map->model().grid().size, done.grid.size);
 }
 
 TEST(MapRegistryTest, CreatingMapIsNotActiveUntilAssessed) {
@@ -99,7 +99,7 @@ TEST(MapRegistryTest, CreatingMapIsNotActiveUntilAssessed) {
   MapRegistry registry(options);
   ASSERT_TRUE(registry.Create("floor", FloorSource(), AssessmentConfig{}).ok());
 
-  Result<std::shared_ptr<const PlanningMap>> active = registry.GetActive("floor");
+  Result<ActiveMap> active = registry.GetActive("floor");
   ASSERT_FALSE(active.ok());
   EXPECT_EQ(ServerCode(active.error()), ServiceErrorCode::kMapNotActive);
   EXPECT_THAT(active.error().message, HasSubstr("CREATING"));
@@ -177,7 +177,7 @@ TEST(MapRegistryTest, FailedLoadShowsTheReasonAndTheIdCanBeReused) {
     EXPECT_EQ(std::get<ErrorCode>(failed.failure->code), ErrorCode::kMapLoadFailed);
     EXPECT_EQ(failed.failure->message, "truncated body");
 
-    Result<std::shared_ptr<const PlanningMap>> active = registry.GetActive("m");
+    Result<ActiveMap> active = registry.GetActive("m");
     ASSERT_FALSE(active.ok());
     EXPECT_THAT(active.error().message, HasSubstr("FAILED"));
     EXPECT_THAT(active.error().message, HasSubstr("truncated body"));
@@ -216,11 +216,11 @@ TEST(MapRegistryTest, PlansHoldingADeletedMapKeepItAlive) {
   MapRegistry registry(Options());
   ASSERT_TRUE(registry.Create("floor", FloorSource(), AssessmentConfig{}).ok());
   ASSERT_EQ(WaitDone(registry, "floor").state, MapState::kActive);
-  Result<std::shared_ptr<const PlanningMap>> held = registry.GetActive("floor");
+  Result<ActiveMap> held = registry.GetActive("floor");
   ASSERT_TRUE(held.ok());
   ASSERT_TRUE(registry.Delete("floor").ok());
   EXPECT_FALSE(registry.GetActive("floor").ok());
-  EXPECT_GT(held.value()->model().summary().input_points, 0u);  // Still valid.
+  EXPECT_GT(held.value().map->model().summary().input_points, 0u);  // Still valid.
   EXPECT_EQ(registry.Totals().active, 0);
 }
 
@@ -297,9 +297,9 @@ TEST(MapRegistryTest, ConcurrentCreateDeleteAndReadsStayConsistent) {
   for (int r = 0; r < 3; ++r) {
     threads.emplace_back([&] {
       while (!stop) {
-        Result<std::shared_ptr<const PlanningMap>> map = registry.GetActive("stable");
+        Result<ActiveMap> map = registry.GetActive("stable");
         EXPECT_TRUE(map.ok());
-        if (map.ok()) EXPECT_GT(map.value()->MemoryBytes(), 0u);
+        if (map.ok()) EXPECT_GT(map.value().map->MemoryBytes(), 0u);
         registry.List("", 10);
         registry.Totals();
         ++reads;

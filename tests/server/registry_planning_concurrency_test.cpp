@@ -36,14 +36,14 @@ Query QueryFor(int client, int attempt) {
 }
 
 Expected<PlanResult> PlanOn(const MapRegistry& registry, const Query& query) {
-  Result<std::shared_ptr<const PlanningMap>> map = registry.GetActive(query.map_id);
+  Result<ActiveMap> map = registry.GetActive(query.map_id);
   if (!map.ok()) return Error{ErrorCode::kInvalidInput, map.error().message};
   PlanRequest request;
   request.profile = BuiltinProfile("differential").value();
   request.start.position_m = query.start;
   request.goal.position_m = query.goal;
   request.options.time_budget_s = 120;  // Correctness, not speed, is under test here.
-  return Plan(*map.value(), request);
+  return Plan(*map.value().map, request);
 }
 
 bool SameTrajectory(const Trajectory& a, const Trajectory& b) {

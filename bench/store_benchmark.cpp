@@ -1,0 +1,266 @@
+// Map-store figures for docs/benchmarks.md ("Map store"), in process, on a fresh temporary
+// store: a map created (assessed and written) by one registry, then planned on by a second
+// registry on the same store that has never loaded it (the first request loads the saved
+// model), against assessing it; edits (an obstacle, a removal, a keep-out zone) and what each
+// costs; and resident memory while maps are planned on in turn under a budget. Not part of the
+// test path.
+//
+//   build/bench/store_benchmark MAP [--resolution M] [--runs N] [--churn-maps N]
+//       MAP: a cloud file, or scene:NAME[:SEED][:size_m=M] (as strata-offline takes)
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+#include "map_registry.hpp"
+#include "proto_convert.hpp"
+#include "statistics.hpp"
+#include "strata/scenes/map_source.hpp"
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using namespace strata;
+using namespace strata::server;
+using strata::bench::Median;
+
+double SecondsSince(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+RegistryOptions StoreOptions(const std::shared_ptr<MapStore>& store, std::uint64_t budget) {
+  RegistryOptions options;
+  options.store = store;
+  options.max_map_memory_bytes = budget;
+  options.encode_metadata = EncodeMapMetadata;
+  options.decode_metadata = DecodeMapMetadata;
+  options.load_limits.max_points = 200'000'000;
+  return options;
+}
+
+server::MapSource SourceOf(const std::string& map) {
+  if (map.rfind("scene:", 0) == 0) {
+    Expected<SceneSource> scene = ParseSceneSource(map);
+    if (!scene) {
+      std::fprintf(stderr, "%s\n", scene.error().message.c_str());
+      std::exit(2);
+    }
+    return *scene;
+  }
+  const std::filesystem::path path = std::filesystem::canonical(map);
+  return FileMapSource{path, map};
+}
+
+MapSnapshot CreateAndWait(MapRegistry& registry, const std::string& id, const std::string& map,
+                          const AssessmentConfig& config) {
+  Result<MapSnapshot> created = registry.Create(id, SourceOf(map), config, true);
+  if (!created.ok()) {
+    std::fprintf(stderr, "create %s: %s\n", id.c_str(), created.error().message.c_str());
+    std::exit(1);
+  }
+  Result<MapSnapshot> done = registry.WaitUntilDone(id, Clock::time_point::max(), {});
+  if (!done.ok() || done->state != MapState::kActive) {
+    std::fprintf(stderr, "%s did not become ACTIVE: %s\n", id.c_str(),
+                 done.ok() && done->failure ? done->failure->message.c_str() : "not found");
+    std::exit(1);
+  }
+  return done.value();
+}
+
+// A valid ground point near the middle of the map, and one a few metres away on the same
+// level when there is one: a short plan that proves the loaded map plans.
+std::optional<std::pair<Eigen::Vector3d, Eigen::Vector3d>> ShortQuery(const TerrainModel& model) {
+  const GridGeometry& grid = model.grid();
+  const auto ground_at = [&](int ix, int iy) -> std::optional<Eigen::Vector3d> {
+    for (const ColumnSurface& surface : model.surfaces().Column(ix, iy)) {
+      if (!surface.valid) continue;
+      return Eigen::Vector3d(grid.origin_m.x() + (ix + 0.5) * grid.resolution_m,
+                             grid.origin_m.y() + (iy + 0.5) * grid.resolution_m,
+                             surface.ground_z_m + 0.3);
+    }
+    return std::nullopt;
+  };
+  const int cx = grid.size.x() / 2, cy = grid.size.y() / 2;
+  const int step = static_cast<int>(std::lround(4.0 / grid.resolution_m));
+  for (int r = 0; r < std::max(grid.size.x(), grid.size.y()) / 2; ++r) {
+    for (int dx = -r; dx <= r; ++dx) {
+      const int ix = cx + dx, iy = cy - r;
+      if (ix < 0 || iy < 0 || ix + step >= grid.size.x()) continue;
+      const auto a = ground_at(ix, iy);
+      const auto b = ground_at(ix + step, iy);
+      if (a && b && std::abs(a->z() - b->z()) < 0.3) return std::pair{*a, *b};
+    }
+  }
+  return std::nullopt;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"Map-store figures: load on demand against assessing, edits, memory budget."};
+  std::string map;
+  double resolution_m = 0;
+  int runs = 5;
+  int churn_maps = 6;
+  app.add_option("MAP", map, "cloud file or scene:NAME[:SEED][:size_m=M]")->required();
+  app.add_option("--resolution", resolution_m, "grid resolution [m]; 0: the default");
+  app.add_option("--runs", runs, "loads and edits timed (median reported)");
+  app.add_option("--churn-maps", churn_maps, "maps planned on in turn under a budget; 0 skips");
+  CLI11_PARSE(app, argc, argv);
+
+  AssessmentConfig config;
+  if (resolution_m > 0) config.grid.resolution_m = resolution_m;
+  const std::filesystem::path root =
+      std::filesystem::temp_directory_path() / ("strata-store-bench-" + std::to_string(getpid()));
+  std::filesystem::remove_all(root);
+  Result<std::unique_ptr<MapStore>> opened = MapStore::Open(root);
+  if (!opened.ok()) {
+    std::fprintf(stderr, "%s\n", opened.error().message.c_str());
+    return 1;
+  }
+  const std::shared_ptr<MapStore> store = std::move(opened).value();
+
+  // 1. Created on one registry: loaded, assessed, written to the store.
+  std::printf("map %s, store %s\n", map.c_str(), root.c_str());
+  MapSnapshot created;
+  double create_s = 0;
+  {
+    MapRegistry writer(StoreOptions(store, 0));
+    const auto start = Clock::now();
+    created = CreateAndWait(writer, "m", map, config);
+    create_s = SecondsSince(start);
+  }
+  const double assess_s = created.summary.timings.total_s;
+  std::printf(
+      "create: %.3f s (load %.3f s, assess %.3f s, write and publish the rest); %zu "
+      "points, model %.1f MB\n",
+      create_s, created.load_s, assess_s, created.summary.input_points, created.memory_bytes / 1e6);
+
+  // 2. A registry that never saw it: the first request loads the saved model.
+  std::vector<double> first_load_s, cached_s, plan_s;
+  std::optional<std::pair<Eigen::Vector3d, Eigen::Vector3d>> query;
+  for (int run = 0; run < runs; ++run) {
+    MapRegistry reader(StoreOptions(store, 0));
+    auto start = Clock::now();
+    Result<ActiveMap> active = reader.GetActive("m");
+    first_load_s.push_back(SecondsSince(start));
+    if (!active.ok()) {
+      std::fprintf(stderr, "load: %s\n", active.error().message.c_str());
+      return 1;
+    }
+    start = Clock::now();
+    (void)reader.GetActive("m");
+    cached_s.push_back(SecondsSince(start));
+    if (!query) query = ShortQuery(active.value().map->model());
+    if (query) {
+      PlanRequest request;
+      request.profile = BuiltinProfile("differential").value();
+      request.start.position_m = query->first;
+      request.goal.position_m = query->second;
+      start = Clock::now();
+      const Expected<PlanResult> plan = Plan(*active.value().map, request);
+      plan_s.push_back(SecondsSince(start));
+      if (!plan) std::printf("  plan failed: %s\n", plan.error().message.c_str());
+    }
+  }
+  std::printf(
+      "fresh registry, first request (load from the store): median %.3f s over %d "
+      "(assessing: %.3f s, %.0fx)\n",
+      Median(first_load_s), runs, assess_s, assess_s / Median(first_load_s));
+  std::printf(
+      "  next request (held): median %.6f s; first plan after loading (graph build "
+      "included): median %.3f s\n",
+      Median(cached_s), plan_s.empty() ? 0.0 : Median(plan_s));
+
+  // 3. Edits on the version just made, each from the current version.
+  if (query) {
+    MapRegistry editor(StoreOptions(store, 0));
+    const Eigen::Vector3d mid = 0.5 * (query->first + query->second);
+    const double ground_z = mid.z() - 0.3;
+    const Prism box =
+        BoxPrism(Eigen::AlignedBox3d(Eigen::Vector3d(mid.x() - 1, mid.y() - 1, ground_z - 0.05),
+                                     Eigen::Vector3d(mid.x() + 1, mid.y() + 1, ground_z + 1.2)));
+    const Prism hole =
+        BoxPrism(Eigen::AlignedBox3d(Eigen::Vector3d(mid.x() - 2.5, mid.y() - 2.5, ground_z + 0.5),
+                                     Eigen::Vector3d(mid.x() + 2.5, mid.y() + 2.5, ground_z + 3)));
+    struct Case {
+      const char* name;
+      std::vector<MapEdit> edits;
+      std::vector<Prism> keep_out;
+    };
+    const Case cases[] = {
+        {"obstacle 2 x 2 m", {MapEdit{MapEdit::Kind::kAddObstacle, box}}, {}},
+        {"removal 5 x 5 m", {MapEdit{MapEdit::Kind::kRemovePoints, hole}}, {}},
+        {"keep-out zone", {}, {box}},
+    };
+    for (const Case& edit : cases) {
+      std::vector<double> apply, reassess, write, total;
+      std::int64_t columns = 0;
+      bool full = false;
+      for (int run = 0; run < runs; ++run) {
+        // Alternate with clearing, so every run edits the same base afresh.
+        Result<MapUpdate> update = editor.Update("m", {}, edit.edits, edit.keep_out, true);
+        if (!update.ok()) {
+          std::fprintf(stderr, "%s: %s\n", edit.name, update.error().message.c_str());
+          return 1;
+        }
+        apply.push_back(update->apply_s);
+        reassess.push_back(update->reassess_s);
+        write.push_back(update->write_s);
+        total.push_back(update->total_s);
+        columns = update->reassessed_columns;
+        full = update->full_reassessment;
+      }
+      std::printf(
+          "edit %-17s median apply %.3f s, reassess %.3f s (%lld columns%s), write "
+          "%.3f s, total %.3f s\n",
+          edit.name, Median(apply), Median(reassess), static_cast<long long>(columns),
+          full ? ", FULL" : "", Median(write), Median(total));
+    }
+  }
+
+  // 4. Maps planned on in turn by a registry that holds about 40% of them.
+  if (churn_maps > 0) {
+    {
+      MapRegistry writer(StoreOptions(store, 0));
+      for (int i = 0; i < churn_maps; ++i) {
+        CreateAndWait(writer, "churn" + std::to_string(i),
+                      "scene:uneven_terrain:" + std::to_string(i + 1), {});
+      }
+    }
+    std::uint64_t largest = 0;
+    {
+      MapRegistry sizer(StoreOptions(store, 0));
+      for (int i = 0; i < churn_maps; ++i) {
+        Result<MapSnapshot> got = sizer.Get("churn" + std::to_string(i));
+        if (got.ok()) largest = std::max<std::uint64_t>(largest, got->memory_bytes);
+      }
+    }
+    const std::uint64_t budget = static_cast<std::uint64_t>(0.4 * churn_maps * largest);
+    MapRegistry reader(StoreOptions(store, budget));
+    std::uint64_t peak = 0;
+    std::vector<double> request_s;
+    for (int round = 0; round < 5; ++round) {
+      for (int i = 0; i < churn_maps; ++i) {
+        const auto start = Clock::now();
+        if (!reader.GetActive("churn" + std::to_string((i * 7 + round) % churn_maps)).ok()) {
+          std::fprintf(stderr, "churn: a map failed to load\n");
+          return 1;
+        }
+        request_s.push_back(SecondsSince(start));
+        peak = std::max<std::uint64_t>(peak, reader.Totals().active_memory_bytes);
+      }
+    }
+    std::printf(
+        "churn: %d maps of up to %.1f MB planned on in turn (%zu requests) under a "
+        "%.1f MB budget: resident peak %.1f MB; request median %.4f s, max %.3f s\n",
+        churn_maps, largest / 1e6, request_s.size(), budget / 1e6, peak / 1e6, Median(request_s),
+        *std::max_element(request_s.begin(), request_s.end()));
+  }
+  std::filesystem::remove_all(root);
+  return 0;
+}

@@ -1,0 +1,122 @@
+// MapCache: one load per version however many ask at once, least recently used maps dropped
+// when over the budget but never one a caller still holds (this test also runs under
+// ThreadSanitizer).
+#include "map_cache.hpp"
+
+#include <atomic>
+#include <future>
+#include <thread>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+namespace strata::server {
+namespace {
+
+// A flat floor of `side` x `side` points every 5 cm: its model's bytes grow with the side.
+std::shared_ptr<const PlanningMap> Floor(int side) {
+  PointCloud cloud;
+  for (int i = 0; i < side; ++i) {
+    for (int j = 0; j < side; ++j) cloud.emplace_back(0.05f * i, 0.05f * j, 0.0f);
+  }
+  AssessmentConfig config;
+  config.num_threads = 1;
+  return std::make_shared<PlanningMap>(TerrainModel::Assess(cloud, config).value());
+}
+
+// Loads a fresh floor of `side` points a side, which only the cache (and its callers) hold.
+MapCache::Loader CountingLoader(int side, std::atomic<int>* loads) {
+  return [side, loads]() -> Result<std::shared_ptr<const PlanningMap>> {
+    ++*loads;
+    return Floor(side);
+  };
+}
+
+TEST(MapCacheTest, ConcurrentRequestsForOneVersionShareOneLoad) {
+  MapCache cache(0);
+  std::atomic<int> loads{0};
+  std::promise<void> release;
+  std::shared_future<void> released = release.get_future().share();
+  const auto map = Floor(40);
+  // The loader waits until every caller has asked, so they all overlap it.
+  const MapCache::Loader slow = [&]() -> Result<std::shared_ptr<const PlanningMap>> {
+    ++loads;
+    released.wait();
+    return map;
+  };
+  std::vector<std::future<Result<std::shared_ptr<const PlanningMap>>>> callers;
+  for (int i = 0; i < 8; ++i) {
+    callers.push_back(std::async(std::launch::async, [&] { return cache.Get("m", "v1", slow); }));
+  }
+  while (loads.load() == 0) std::this_thread::yield();
+  release.set_value();
+  for (auto& caller : callers) {
+    Result<std::shared_ptr<const PlanningMap>> got = caller.get();
+    ASSERT_TRUE(got.ok());
+    EXPECT_EQ(got.value(), map);
+  }
+  EXPECT_EQ(loads.load(), 1);
+  EXPECT_EQ(cache.Count(), 1);
+}
+
+TEST(MapCacheTest, AFailedLoadIsNotRememberedAndNextCallerRetries) {
+  MapCache cache(0);
+  int attempts = 0;
+  const auto map = Floor(20);
+  const MapCache::Loader flaky = [&]() -> Result<std::shared_ptr<const PlanningMap>> {
+    if (++attempts == 1) return MakeError(ServiceErrorCode::kMapStoreUnavailable, "flaky");
+    return map;
+  };
+  EXPECT_FALSE(cache.Get("m", "v1", flaky).ok());
+  EXPECT_EQ(cache.Count(), 0);
+  EXPECT_TRUE(cache.Get("m", "v1", flaky).ok());
+  EXPECT_EQ(attempts, 2);
+}
+
+TEST(MapCacheTest, DropsLeastRecentlyUsedWithinTheBudgetButNeverAHeldMap) {
+  const std::uint64_t one = Floor(60)->MemoryBytes();
+  MapCache cache(2 * one + one / 2);  // Room for two.
+  std::atomic<int> loads{0};
+  ASSERT_TRUE(cache.Get("a", "v", CountingLoader(60, &loads)).ok());
+  ASSERT_TRUE(cache.Get("b", "v", CountingLoader(60, &loads)).ok());
+  ASSERT_TRUE(cache.Get("a", "v", CountingLoader(60, &loads)).ok());  // a is now the newest.
+  ASSERT_TRUE(cache.Get("c", "v", CountingLoader(60, &loads)).ok());  // Drops b, the oldest.
+  EXPECT_EQ(loads.load(), 3);
+  EXPECT_LE(cache.ResidentBytes(), cache.budget_bytes());
+  EXPECT_NE(cache.Peek("a", "v"), nullptr);
+  EXPECT_EQ(cache.Peek("b", "v"), nullptr);
+
+  // A caller holds a (as a plan would): loading b again drops c, not a, though a is older.
+  Result<std::shared_ptr<const PlanningMap>> held = cache.Get("a", "v", CountingLoader(60, &loads));
+  ASSERT_TRUE(cache.Get("c", "v", CountingLoader(60, &loads)).ok());  // c newest, a older.
+  ASSERT_TRUE(cache.Get("b", "v", CountingLoader(60, &loads)).ok());
+  EXPECT_NE(cache.Peek("a", "v"), nullptr);
+  EXPECT_EQ(cache.Peek("c", "v"), nullptr);
+  EXPECT_LE(cache.ResidentBytes(), cache.budget_bytes());
+}
+
+TEST(MapCacheTest, AMapLargerThanTheWholeBudgetIsRefused) {
+  MapCache cache(Floor(60)->MemoryBytes() / 2);
+  std::atomic<int> loads{0};
+  const Result<std::shared_ptr<const PlanningMap>> got =
+      cache.Get("big", "v", CountingLoader(60, &loads));
+  ASSERT_FALSE(got.ok());
+  EXPECT_EQ(std::get<ErrorCode>(got.error().code), ErrorCode::kResourceExhausted);
+  EXPECT_NE(got.error().message.find("--max-map-memory"), std::string::npos);
+  EXPECT_EQ(cache.Count(), 0);
+}
+
+TEST(MapCacheTest, DropForgetsEveryVersionOfAMap) {
+  MapCache cache(0);
+  std::atomic<int> loads{0};
+  ASSERT_TRUE(cache.Get("m", "v1", CountingLoader(20, &loads)).ok());
+  cache.Insert("m", "v2", Floor(20));
+  ASSERT_TRUE(cache.Get("other", "v1", CountingLoader(20, &loads)).ok());
+  cache.Drop("m");
+  EXPECT_EQ(cache.Peek("m", "v1"), nullptr);
+  EXPECT_EQ(cache.Peek("m", "v2"), nullptr);
+  EXPECT_NE(cache.Peek("other", "v1"), nullptr);
+}
+
+}  // namespace
+}  // namespace strata::server

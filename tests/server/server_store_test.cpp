@@ -1,0 +1,325 @@
+// Several real strata-server processes sharing one map store (--map-store): any replica
+// serves any map, edits and deletions reach every replica, a killed writer leaves no half
+// version, and a memory budget holds while maps are planned on in turn.
+#include <signal.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <future>
+#include <string>
+#include <vector>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "server_process.hpp"
+#include "server_test_util.hpp"
+
+namespace strata::server::testing {
+namespace {
+
+namespace fs = std::filesystem;
+
+// A flat 24 m x 16 m floor sampled every 0.1 m: small enough to assess in a blink, open enough
+// that a straight plan crosses its middle.
+std::string FloorPoints() {
+  std::vector<float> xyz;
+  for (int ix = 0; ix <= 240; ++ix) {
+    for (int iy = 0; iy <= 160; ++iy) xyz.insert(xyz.end(), {0.1f * ix, 0.1f * iy, 0.0f});
+  }
+  return std::string(reinterpret_cast<const char*>(xyz.data()), xyz.size() * sizeof(float));
+}
+
+class StoreTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    store_ = fs::temp_directory_path() /
+             ("strata-store-test-" + std::to_string(::getpid()) + "-" +
+              ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(store_);
+  }
+  void TearDown() override {
+    for (const auto& server : servers_) {
+      if (HasFailure() && server != nullptr) {
+        std::fprintf(stderr, "--- strata-server log ---\n%s\n", server->Log().c_str());
+      }
+    }
+    servers_.clear();
+    fs::remove_all(store_);
+  }
+
+  // A replica on the shared store, SERVING.
+  ServerProcess* StartReplica(std::vector<std::string> extra = {}) {
+    std::vector<std::string> args = {"--no-preload", "--map-store", store_.string()};
+    args.insert(args.end(), extra.begin(), extra.end());
+    servers_.push_back(ServerProcess::Start(args));
+    ServerProcess* server = servers_.back().get();
+    EXPECT_NE(server, nullptr);
+    if (server != nullptr) EXPECT_TRUE(server->WaitServing(std::chrono::seconds(60)));
+    return server;
+  }
+
+  static grpc::Status Upload(const ServerProcess& server, const std::string& id, v1::Map* map) {
+    auto stub = v1::MapService::NewStub(server.NewChannel());
+    grpc::ClientContext context;
+    SetDeadline(&context, 120);
+    auto writer = stub->UploadMap(&context, map);
+    v1::UploadMapRequest header = UploadHeader(id);
+    header.mutable_header()->set_wait(true);
+    writer->Write(header);
+    v1::UploadMapRequest chunk;
+    chunk.mutable_chunk()->set_points(FloorPoints());
+    writer->Write(chunk);
+    writer->WritesDone();
+    return writer->Finish();
+  }
+
+  static grpc::Status Plan(const ServerProcess& server, const v1::PlanRequest& request,
+                           v1::PlanResponse* response) {
+    auto stub = v1::PlannerService::NewStub(server.NewChannel());
+    grpc::ClientContext context;
+    SetDeadline(&context, 60);
+    return stub->Plan(&context, request, response);
+  }
+
+  static grpc::Status Update(const ServerProcess& server, const v1::UpdateMapRequest& request,
+                             v1::UpdateMapResponse* response) {
+    auto stub = v1::MapService::NewStub(server.NewChannel());
+    grpc::ClientContext context;
+    SetDeadline(&context, 60);
+    return stub->UpdateMap(&context, request, response);
+  }
+
+  static grpc::Status Get(const ServerProcess& server, const std::string& id, v1::Map* map) {
+    auto stub = v1::MapService::NewStub(server.NewChannel());
+    grpc::ClientContext context;
+    SetDeadline(&context, 60);
+    v1::GetMapRequest request;
+    request.set_map_id(id);
+    return stub->GetMap(&context, request, map);
+  }
+
+  fs::path store_;
+  std::vector<std::unique_ptr<ServerProcess>> servers_;
+};
+
+// Across the floor, through its middle.
+v1::PlanRequest AcrossTheFloor(const std::string& id) {
+  return PlanRequestFor(id, 2, 8, 0.3, 22, 8, 0.3);
+}
+
+void SetBox(v1::Prism* prism, double x0, double y0, double x1, double y1, double z0, double z1) {
+  for (const auto& [x, y] : {std::pair{x0, y0}, {x1, y0}, {x1, y1}, {x0, y1}}) {
+    v1::Vector2* corner = prism->add_polygon_m();
+    corner->set_x(x);
+    corner->set_y(y);
+  }
+  prism->set_z_min_m(z0);
+  prism->set_z_max_m(z1);
+}
+
+// Smallest distance of the response's trajectory samples to the vertical line at (x, y) [m].
+double ClosestApproach(const v1::PlanResponse& response, double x, double y) {
+  double closest = 1e9;
+  for (const v1::TrajectorySample& sample : response.samples()) {
+    closest =
+        std::min(closest, std::hypot(sample.position_m().x() - x, sample.position_m().y() - y));
+  }
+  return closest;
+}
+
+TEST_F(StoreTest, AnyReplicaServesEditsAndDeletesEveryMap) {
+  ServerProcess* a = StartReplica();
+  ServerProcess* b = StartReplica();
+  ASSERT_TRUE(a != nullptr && b != nullptr);
+
+  v1::Map uploaded;
+  const grpc::Status upload = Upload(*a, "floor", &uploaded);
+  ASSERT_TRUE(upload.ok()) << upload.error_message();
+  ASSERT_EQ(uploaded.version().size(), 32u);
+  const std::string v1 = uploaded.version();
+
+  // B never saw the upload: it loads the map from the store and plans the same trajectory.
+  v1::PlanRequest request = AcrossTheFloor("floor");
+  request.mutable_options()->set_sample_dt_s(0.05);
+  v1::PlanResponse on_a, on_b;
+  ASSERT_TRUE(Plan(*a, request, &on_a).ok());
+  const grpc::Status planned_b = Plan(*b, request, &on_b);
+  ASSERT_TRUE(planned_b.ok()) << planned_b.error_message();
+  EXPECT_EQ(on_a.map_version(), v1);
+  EXPECT_EQ(on_b.map_version(), v1);
+  EXPECT_EQ(on_a.trajectory().SerializeAsString(), on_b.trajectory().SerializeAsString());
+  EXPECT_LT(ClosestApproach(on_a, 12, 8), 0.5);  // Straight through the middle.
+
+  // B closes the middle with an obstacle; A plans on the new version, around it.
+  v1::UpdateMapRequest edit;
+  edit.set_map_id("floor");
+  edit.set_base_version(v1);
+  SetBox(edit.add_edits()->mutable_add_obstacle(), 11, 5, 13, 11, -0.1, 1.5);
+  v1::UpdateMapResponse edited;
+  const grpc::Status updated = Update(*b, edit, &edited);
+  ASSERT_TRUE(updated.ok()) << updated.error_message();
+  const std::string v2 = edited.map().version();
+  EXPECT_NE(v2, v1);
+  EXPECT_THAT(edited.map().versions(), ::testing::ElementsAre(v2, v1));
+  v1::PlanResponse around;
+  const grpc::Status planned_around = Plan(*a, request, &around);
+  ASSERT_TRUE(planned_around.ok()) << planned_around.error_message();
+  EXPECT_EQ(around.map_version(), v2);
+  EXPECT_GT(ClosestApproach(around, 12, 8), 3.0);  // Around the box, not through it.
+
+  // The old version is kept and may be pinned; an edit against it is refused as stale.
+  v1::PlanRequest pinned = request;
+  pinned.set_map_version(v1);
+  v1::PlanResponse on_v1;
+  ASSERT_TRUE(Plan(*a, pinned, &on_v1).ok());
+  EXPECT_EQ(on_v1.map_version(), v1);
+  EXPECT_EQ(on_v1.trajectory().SerializeAsString(), on_a.trajectory().SerializeAsString());
+  v1::UpdateMapResponse stale;
+  EXPECT_EQ(ErrorOf(Update(*a, edit, &stale)).reason, "MAP_CHANGED");
+  pinned.set_map_version(std::string(32, '0'));
+  const CallError gone = ErrorOf(Plan(*b, pinned, &on_v1));
+  EXPECT_EQ(gone.reason, "MAP_VERSION_NOT_FOUND");
+  EXPECT_THAT(gone.message, ::testing::HasSubstr(v2));
+
+  // A keep-out zone on the map: a goal inside it is refused with its own reason.
+  v1::UpdateMapRequest close;
+  close.set_map_id("floor");
+  SetBox(close.add_edits()->mutable_add_keep_out(), 20, 6, 23, 10, -1, 3);
+  v1::UpdateMapResponse closed;
+  ASSERT_TRUE(Update(*a, close, &closed).ok());
+  EXPECT_EQ(closed.map().keep_out_size(), 1);
+  EXPECT_EQ(ErrorOf(Plan(*b, request, &on_b)).reason, "GOAL_IN_KEEP_OUT");
+
+  // Deleted on A: B refuses it on the next request.
+  {
+    auto stub = v1::MapService::NewStub(a->NewChannel());
+    grpc::ClientContext context;
+    SetDeadline(&context, 30);
+    v1::DeleteMapRequest remove;
+    remove.set_map_id("floor");
+    v1::DeleteMapResponse removed;
+    ASSERT_TRUE(stub->DeleteMap(&context, remove, &removed).ok());
+  }
+  v1::Map after;
+  EXPECT_EQ(ErrorOf(Get(*b, "floor", &after)).reason, "MAP_NOT_FOUND");
+  EXPECT_EQ(ErrorOf(Plan(*b, request, &on_b)).reason, "MAP_NOT_FOUND");
+}
+
+TEST_F(StoreTest, TwoReplicasCreatingOneMapAtOnceMakeOneVersion) {
+  ServerProcess* a = StartReplica();
+  ServerProcess* b = StartReplica();
+  ASSERT_TRUE(a != nullptr && b != nullptr);
+  const auto create = [](const ServerProcess* server) {
+    auto stub = v1::MapService::NewStub(server->NewChannel());
+    grpc::ClientContext context;
+    SetDeadline(&context, 120);
+    v1::CreateMapRequest request;
+    request.set_map_id("ramp");
+    request.mutable_scene()->set_name("two_level_ramp");
+    request.set_wait(true);
+    v1::Map map;
+    const grpc::Status status = stub->CreateMap(&context, request, &map);
+    EXPECT_TRUE(status.ok()) << status.error_message();
+    return map;
+  };
+  auto on_a = std::async(std::launch::async, create, a);
+  auto on_b = std::async(std::launch::async, create, b);
+  const v1::Map map_a = on_a.get();
+  const v1::Map map_b = on_b.get();
+  EXPECT_EQ(map_a.version(), map_b.version());
+  v1::Map listed;
+  ASSERT_TRUE(Get(*a, "ramp", &listed).ok());
+  EXPECT_THAT(listed.versions(), ::testing::ElementsAre(map_a.version()));
+
+  // Created once, the id is taken for every replica.
+  auto stub = v1::MapService::NewStub(b->NewChannel());
+  grpc::ClientContext context;
+  SetDeadline(&context, 30);
+  v1::CreateMapRequest again;
+  again.set_map_id("ramp");
+  again.mutable_scene()->set_name("uneven_terrain");
+  v1::Map ignored;
+  EXPECT_EQ(ErrorOf(stub->CreateMap(&context, again, &ignored)).reason, "MAP_ALREADY_EXISTS");
+}
+
+TEST_F(StoreTest, AServerKilledWhileWritingLeavesTheWholeVersionOrNone) {
+  ServerProcess* observer = StartReplica();
+  ServerProcess* writer = StartReplica();
+  ASSERT_TRUE(observer != nullptr && writer != nullptr);
+  // A map large enough that writing its version takes a while: kill the writer as it starts.
+  auto stub = v1::MapService::NewStub(writer->NewChannel());
+  grpc::ClientContext context;
+  SetDeadline(&context, 120);
+  v1::CreateMapRequest request;
+  request.set_map_id("site");
+  request.mutable_scene()->set_name("outdoor_site");
+  request.mutable_scene()->set_size_m(120);
+  v1::Map created;
+  ASSERT_TRUE(stub->CreateMap(&context, request, &created).ok());
+  ASSERT_TRUE(writer->WaitForLog("map_version_writing", std::chrono::seconds(120)))
+      << writer->Log();
+  writer->Signal(SIGKILL);
+  EXPECT_EQ(writer->WaitExit(std::chrono::seconds(30)), -1);  // Died of the signal.
+
+  // Whatever the observer and a restarted replica see is whole: no map, or one that plans.
+  ServerProcess* restarted = StartReplica();
+  ASSERT_NE(restarted, nullptr);
+  for (const ServerProcess* server : {observer, restarted}) {
+    v1::Map map;
+    const grpc::Status got = Get(*server, "site", &map);
+    if (got.ok()) {
+      EXPECT_EQ(map.state(), v1::MAP_STATE_ACTIVE);
+      EXPECT_GT(map.valid_surface_count(), 0u);
+    } else {
+      EXPECT_EQ(ErrorOf(got).reason, "MAP_NOT_FOUND") << got.error_message();
+    }
+  }
+  // And the id can be created again from scratch when it was lost.
+  v1::Map map;
+  if (!Get(*restarted, "site", &map).ok()) {
+    auto again = v1::MapService::NewStub(restarted->NewChannel());
+    grpc::ClientContext again_context;
+    SetDeadline(&again_context, 180);
+    request.set_wait(true);
+    const grpc::Status recreated = again->CreateMap(&again_context, request, &map);
+    EXPECT_TRUE(recreated.ok()) << recreated.error_message();
+  }
+}
+
+TEST_F(StoreTest, MapsBeyondTheMemoryBudgetArePlannedOnInTurn) {
+  // Four maps written to the store by one replica, planned on by another that can hold about
+  // two of them.
+  ServerProcess* writer = StartReplica();
+  ASSERT_NE(writer, nullptr);
+  std::uint64_t largest = 0;
+  for (int i = 0; i < 4; ++i) {
+    v1::Map map;
+    const grpc::Status uploaded = Upload(*writer, "floor" + std::to_string(i), &map);
+    ASSERT_TRUE(uploaded.ok()) << uploaded.error_message();
+    v1::PlanResponse response;
+    ASSERT_TRUE(Plan(*writer, AcrossTheFloor(map.id()), &response).ok());
+    ASSERT_TRUE(Get(*writer, map.id(), &map).ok());
+    largest = std::max<std::uint64_t>(largest, map.memory_bytes());
+  }
+  const std::uint64_t budget = 2 * largest + largest / 2;
+  ServerProcess* reader = StartReplica({"--max-map-memory", std::to_string(budget)});
+  ASSERT_NE(reader, nullptr);
+  for (int round = 0; round < 2; ++round) {
+    for (int i = 0; i < 4; ++i) {
+      v1::PlanResponse response;
+      const grpc::Status planned =
+          Plan(*reader, AcrossTheFloor("floor" + std::to_string(i)), &response);
+      EXPECT_TRUE(planned.ok()) << planned.error_message();
+      const std::string metrics = HttpGet(reader->metrics_port(), "/metrics");
+      const double resident = MetricValue(metrics, "strata_map_memory_bytes", {});
+      EXPECT_GT(resident, 0);
+      EXPECT_LE(resident, static_cast<double>(budget)) << "after planning on floor" << i;
+      EXPECT_EQ(MetricValue(metrics, "strata_map_memory_budget_bytes", {}),
+                static_cast<double>(budget));
+    }
+  }
+}
+
+}  // namespace
+}  // namespace strata::server::testing
