@@ -44,13 +44,13 @@ int FirstViolatedKeepOut(std::span<const KeepOutZone> zones, const RobotProfile&
   const double radius = profile.footprint_radius_m;
   for (std::size_t i = 0; i < zones.size(); ++i) {
     const KeepOutZone& zone = zones[i];
-    if (KeepOutVerticalOverlap(zone.prism, profile, p_m.z()) <= 0) continue;
+    // Beyond the footprint radius of the bounds, the polygon is out of reach.
     const Eigen::Vector2d lo = zone.bounds_m.min().head<2>().array() - radius;
     const Eigen::Vector2d hi = zone.bounds_m.max().head<2>().array() + radius;
     if ((p_m.head<2>().array() < lo.array()).any() || (p_m.head<2>().array() > hi.array()).any()) {
       continue;
     }
-    if (KeepOutPenetration(zone.prism, profile, p_m) > 0) return static_cast<int>(i);
+    if (ViolatesKeepOut(zone.prism, profile, p_m)) return static_cast<int>(i);
   }
   return -1;
 }

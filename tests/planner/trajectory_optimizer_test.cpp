@@ -14,6 +14,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "strata/keep_out.hpp"
+#include "strata/prism.hpp"
 #include "strata/robot_profile.hpp"
 #include "strata/surface_graph.hpp"
 #include "strata/trajectory.hpp"
@@ -98,6 +100,38 @@ TEST(OptimizeTrajectory, ConvergesAcrossOpenFloorToAVerifiedTrajectory) {
   EXPECT_TRUE(verified.ok()) << verified.error().message;
   // Faster than the initial guess, which runs at half the speed bound.
   EXPECT_LT(minco.TotalDuration(), s.problem.initial_durations.sum());
+}
+
+// J_k alone moves a trajectory out of a keep-out zone its initial path runs straight through
+// (A* would have gone around; here the optimiser must): every dense sample ends outside the
+// zone grown by the footprint radius, and the result passes verification against the zone.
+TEST(OptimizeTrajectory, PushesTheTrajectoryOutOfAKeepOutZoneOnItsPath) {
+  const OptimizerConfig config;
+  const RobotProfile profile = BuiltinProfile("differential").value();
+  const SurfaceGraph graph =
+      SurfaceGraph::Build(test_util::YardModel(), profile.Traversability()).value();
+  // Open floor between the slab (x <= 4) and the ramp (x >= 7); the path runs north along
+  // x = 4.5, 0.1 m inside the zone's east edge, so J_k pushes it east, away from the slab.
+  const Prism zone = BoxPrism(
+      Eigen::AlignedBox3d(Eigen::Vector3d(3.8, 2.8, -0.5), Eigen::Vector3d(4.6, 3.4, 2.0)));
+  const std::vector<KeepOutZone> zones = {KeepOutZone(zone, "keep-out zone keep_out[0]")};
+  const TrajectoryCost cost(graph, config.weights, ParamsFor(profile, config), zones);
+  const std::vector<Eigen::Vector3d> path =
+      StraightPath({4.5, 0.8}, {4.5, 5.4}, profile.reference_height_m);
+  const OptimizationProblem problem =
+      MakeInitialProblem(cost, path, At(path.front()), At(path.back()), config);
+  Minco3 minco;
+  const auto report = OptimizeTrajectory(cost, problem, config, {}, &minco);
+  ASSERT_TRUE(report.ok()) << report.error().message;
+  const Trajectory trajectory = Trajectory::FromMinco(minco);
+  for (double t = 0; t <= trajectory.TotalDuration(); t += 0.01) {
+    const Eigen::Vector3d p = trajectory.Position(t).head<3>();
+    EXPECT_GE(zone.SignedDistanceXY(p.head<2>()), profile.footprint_radius_m)
+        << "t = " << t << ": " << p.transpose();
+  }
+  VerificationReport verification;
+  const Status verified = VerifyTrajectory(graph, profile, trajectory, {}, &verification, zones);
+  EXPECT_TRUE(verified.ok()) << verified.error().message;
 }
 
 // The objective L-BFGS sees, J(q, T(τ)), against central differences over x = [q, τ], one
