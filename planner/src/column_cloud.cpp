@@ -1,7 +1,10 @@
 #include "column_cloud.hpp"
 
 #include <algorithm>
+#include <limits>
 #include <numeric>
+
+#include "parallel_internal.hpp"
 
 namespace strata::internal {
 namespace {
@@ -60,15 +63,56 @@ ColumnCloud SortIntoColumnWindow(const GridGeometry& g, const CellBox& window,
 }
 
 PointCloud CropToColumns(const GridGeometry& g, const CellBox& window, const PointCloud& cloud,
-                         Eigen::AlignedBox3d* bounds) {
-  PointCloud out;
-  for (const Eigen::Vector3f& p : cloud) {
-    if (bounds != nullptr) bounds->extend(p.cast<double>());
-    const Eigen::Vector2i column = ColumnOf(g, p);
-    if (column.x() >= window.min.x() && column.x() <= window.max.x() &&
-        column.y() >= window.min.y() && column.y() <= window.max.y()) {
-      out.push_back(p);
+                         int num_threads, Eigen::AlignedBox3d* bounds) {
+  // Most points lie far from the window: a float test against the window grown by a cell
+  // rejects them before ColumnOf's exact arithmetic decides the rest.
+  const auto edge = [&](int axis, int column) {
+    return static_cast<float>(g.origin_m[axis] + column * g.resolution_m);
+  };
+  const float x_lo = edge(0, window.min.x() - 1), x_hi = edge(0, window.max.x() + 2);
+  const float y_lo = edge(1, window.min.y() - 1), y_hi = edge(1, window.max.y() + 2);
+  // Points beyond the grid belong to its border columns.
+  const bool open_x_lo = window.min.x() == 0, open_x_hi = window.max.x() == g.size.x() - 1;
+  const bool open_y_lo = window.min.y() == 0, open_y_hi = window.max.y() == g.size.y() - 1;
+  // Two passes' worth of work in one: each thread crops a contiguous part of the cloud, and
+  // the parts are joined in order.
+  const int threads = ResolveThreadCount(num_threads);
+  std::vector<PointCloud> parts(threads);
+  std::vector<Eigen::Vector3f> lows(
+      threads, Eigen::Vector3f::Constant(std::numeric_limits<float>::infinity()));
+  std::vector<Eigen::Vector3f> highs(threads, -lows.front());
+#pragma omp parallel for schedule(static, 1) num_threads(threads)
+  for (int t = 0; t < threads; ++t) {
+    const std::size_t begin = cloud.size() * t / threads;
+    const std::size_t end = cloud.size() * (t + 1) / threads;
+    Eigen::Vector3f lo = lows[t], hi = highs[t];
+    for (std::size_t i = begin; i < end; ++i) {
+      const Eigen::Vector3f& p = cloud[i];
+      lo = lo.cwiseMin(p);
+      hi = hi.cwiseMax(p);
+      if ((p.x() < x_lo && !open_x_lo) || (p.x() > x_hi && !open_x_hi) ||
+          (p.y() < y_lo && !open_y_lo) || (p.y() > y_hi && !open_y_hi)) {
+        continue;
+      }
+      const Eigen::Vector2i column = ColumnOf(g, p);
+      if (column.x() >= window.min.x() && column.x() <= window.max.x() &&
+          column.y() >= window.min.y() && column.y() <= window.max.y()) {
+        parts[t].push_back(p);
+      }
     }
+    lows[t] = lo;
+    highs[t] = hi;
+  }
+  PointCloud out = std::move(parts.front());
+  for (int t = 1; t < threads; ++t) out.insert(out.end(), parts[t].begin(), parts[t].end());
+  Eigen::Vector3f lo = lows.front(), hi = highs.front();
+  for (int t = 1; t < threads; ++t) {
+    lo = lo.cwiseMin(lows[t]);
+    hi = hi.cwiseMax(highs[t]);
+  }
+  if (bounds != nullptr && !cloud.empty()) {
+    bounds->extend(lo.cast<double>());
+    bounds->extend(hi.cast<double>());
   }
   return out;
 }

@@ -67,9 +67,11 @@ ColumnCloud SortIntoColumnWindow(const GridGeometry& geometry, const CellBox& wi
                                  const PointCloud& cloud, int num_threads);
 
 /// The points of `cloud` whose column (ColumnOf) lies in `window` (x, y), in their order in
-/// `cloud`: one pass. `bounds`, when non-null, is extended by every point of `cloud`.
+/// `cloud`: one pass, shared by `num_threads` threads (0: every core). `bounds`, when
+/// non-null, is extended by every point of `cloud`.
 PointCloud CropToColumns(const GridGeometry& geometry, const CellBox& window,
-                         const PointCloud& cloud, Eigen::AlignedBox3d* bounds = nullptr);
+                         const PointCloud& cloud, int num_threads,
+                         Eigen::AlignedBox3d* bounds = nullptr);
 
 /// Grid layer of height z, clamped into [0, nz − 1].
 inline int ClampedLayer(const GridGeometry& g, float z) {

@@ -445,7 +445,8 @@ Expected<Reassessment> ReassessRegion(const TerrainModel& base, const PointCloud
   const CellBox base_crop = grown(2 * ground_reach);
 
   progress.BeginStage(AssessmentStage::kSorting, 1);
-  PointCloud near = internal::CropToColumns(g, crop, edited_cloud, &summary.cloud_bounds_m);
+  PointCloud near =
+      internal::CropToColumns(g, crop, edited_cloud, config.num_threads, &summary.cloud_bounds_m);
   Expected<GridGeometry> geometry = internal::AssessmentGrid(summary, config.grid);
   if (!geometry) return full("the edited cloud's bounds give no grid");
   if (geometry->size != g.size || geometry->origin_m != g.origin_m ||
@@ -455,7 +456,7 @@ Expected<Reassessment> ReassessRegion(const TerrainModel& base, const PointCloud
                 FormatSize(geometry->size) + " at " + internal::FormatPoint(geometry->origin_m) +
                 " m");
   }
-  PointCloud near_base = internal::CropToColumns(g, base_crop, base_cloud);
+  PointCloud near_base = internal::CropToColumns(g, base_crop, base_cloud, config.num_threads);
   internal::ColumnCloud sorted = internal::SortIntoColumnWindow(g, crop, near, config.num_threads);
   internal::ColumnCloud sorted_base =
       internal::SortIntoColumnWindow(g, base_crop, near_base, config.num_threads);
