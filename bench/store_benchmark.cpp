@@ -179,31 +179,46 @@ int main(int argc, char** argv) {
   // 3. Edits on the version just made, each from the current version.
   if (query) {
     MapRegistry editor(StoreOptions(store, 0));
-    const Eigen::Vector3d mid = 0.5 * (query->first + query->second);
-    const double ground_z = mid.z() - 0.3;
-    const Prism box =
-        BoxPrism(Eigen::AlignedBox3d(Eigen::Vector3d(mid.x() - 1, mid.y() - 1, ground_z - 0.05),
-                                     Eigen::Vector3d(mid.x() + 1, mid.y() + 1, ground_z + 1.2)));
-    const Prism hole =
-        BoxPrism(Eigen::AlignedBox3d(Eigen::Vector3d(mid.x() - 2.5, mid.y() - 2.5, ground_z + 0.5),
-                                     Eigen::Vector3d(mid.x() + 2.5, mid.y() + 2.5, ground_z + 3)));
+    const Eigen::Vector3d centre = 0.5 * (query->first + query->second);
+    const double ground_z = centre.z() - 0.3;
+    // Each run edits another spot (0.3 m further along x) of the version the last one made,
+    // so every run is a fresh local edit, not a repeat the store already holds.
+    const auto box = [&](int run) {
+      const Eigen::Vector3d mid = centre + Eigen::Vector3d(0.3 * run, 0, 0);
+      return BoxPrism(
+          Eigen::AlignedBox3d(Eigen::Vector3d(mid.x() - 1, mid.y() - 1, ground_z - 0.05),
+                              Eigen::Vector3d(mid.x() + 1, mid.y() + 1, ground_z + 1.2)));
+    };
+    const auto hole = [&](int run) {
+      const Eigen::Vector3d mid = centre + Eigen::Vector3d(0.3 * run, 0, 0);
+      return BoxPrism(
+          Eigen::AlignedBox3d(Eigen::Vector3d(mid.x() - 2.5, mid.y() - 2.5, ground_z - 0.5),
+                              Eigen::Vector3d(mid.x() + 2.5, mid.y() + 2.5, ground_z + 0.5)));
+    };
     struct Case {
       const char* name;
-      std::vector<MapEdit> edits;
-      std::vector<Prism> keep_out;
+      MapEdit::Kind kind;
+      bool keep_out;
     };
     const Case cases[] = {
-        {"obstacle 2 x 2 m", {MapEdit{MapEdit::Kind::kAddObstacle, box}}, {}},
-        {"removal 5 x 5 m", {MapEdit{MapEdit::Kind::kRemovePoints, hole}}, {}},
-        {"keep-out zone", {}, {box}},
+        {"obstacle 2 x 2 m", MapEdit::Kind::kAddObstacle, false},
+        {"removal 5 x 5 m", MapEdit::Kind::kRemovePoints, false},
+        {"keep-out zone", MapEdit::Kind::kAddObstacle, true},
     };
     for (const Case& edit : cases) {
       std::vector<double> apply, reassess, write, total;
       std::int64_t columns = 0;
       bool full = false;
       for (int run = 0; run < runs; ++run) {
-        // Alternate with clearing, so every run edits the same base afresh.
-        Result<MapUpdate> update = editor.Update("m", {}, edit.edits, edit.keep_out, true);
+        const Prism region = edit.kind == MapEdit::Kind::kAddObstacle ? box(run) : hole(run);
+        std::vector<MapEdit> edits;
+        std::vector<Prism> keep_out;
+        if (edit.keep_out) {
+          keep_out.push_back(region);
+        } else {
+          edits.push_back(MapEdit{edit.kind, region});
+        }
+        Result<MapUpdate> update = editor.Update("m", {}, edits, keep_out, true);
         if (!update.ok()) {
           std::fprintf(stderr, "%s: %s\n", edit.name, update.error().message.c_str());
           return 1;
