@@ -245,19 +245,6 @@ const char* ReassessmentPathName(ReassessmentPath path) {
 
 namespace {
 
-class Stopwatch {
- public:
-  double Lap() {
-    const auto now = std::chrono::steady_clock::now();
-    const double s = std::chrono::duration<double>(now - last_).count();
-    last_ = now;
-    return s;
-  }
-
- private:
-  std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
-};
-
 std::string FormatSize(const Eigen::Vector3i& size) {
   return std::to_string(size.x()) + " × " + std::to_string(size.y()) + " × " +
          std::to_string(size.z());
@@ -402,8 +389,8 @@ Expected<Reassessment> ReassessRegion(const TerrainModel& base, const PointCloud
   if (edited_cloud.size() >= std::numeric_limits<std::uint32_t>::max()) {
     return full("the edited cloud holds 2^32 points or more");
   }
-  Stopwatch total;
-  Stopwatch stage;
+  internal::Stopwatch total;
+  internal::Stopwatch stage;
   internal::ProgressReporter progress(&control);
   const auto cancelled = [](const char* during) {
     return Error{ErrorCode::kCancelled, std::string("terrain reassessment cancelled ") + during};

@@ -55,23 +55,6 @@ double DetectVerticalQuantum(const PointCloud& cloud) {
   return step * kResolution;
 }
 
-namespace {
-
-class Stopwatch {
- public:
-  double Lap() {
-    const auto now = std::chrono::steady_clock::now();
-    const double s = std::chrono::duration<double>(now - last_).count();
-    last_ = now;
-    return s;
-  }
-
- private:
-  std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
-};
-
-}  // namespace
-
 namespace internal {
 
 double StepTolerance(double vertical_quantum_m) {
@@ -132,8 +115,8 @@ Expected<std::shared_ptr<const TerrainModel>> TerrainModel::Assess(
   if (cloud.empty()) {
     return Error{ErrorCode::kInvalidInput, "the point cloud is empty: nothing to assess"};
   }
-  Stopwatch total;
-  Stopwatch stage;
+  internal::Stopwatch total;
+  internal::Stopwatch stage;
   internal::ProgressReporter progress(&control);
   const auto cancelled = [](const char* during) {
     return Error{ErrorCode::kCancelled, std::string("terrain assessment cancelled ") + during};

@@ -2,12 +2,28 @@
 /// What terrain assessment derives from the whole cloud, shared with the local reassessment
 /// of an edit (strata/map_edit.hpp), which must derive it the same way.
 
+#include <chrono>
+
 #include "strata/grid.hpp"
 #include "strata/status.hpp"
 #include "strata/terrain_config.hpp"
 #include "strata/terrain_model.hpp"
 
 namespace strata::internal {
+
+/// Seconds between laps, for the assessment's per-stage timings.
+class Stopwatch {
+ public:
+  double Lap() {
+    const auto now = std::chrono::steady_clock::now();
+    const double s = std::chrono::duration<double>(now - last_).count();
+    last_ = now;
+    return s;
+  }
+
+ private:
+  std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
+};
 
 /// The ground filter's step tolerance on a cloud with this vertical quantum
 /// (FilterValidGround's `step_tolerance_m`; 0 for a sensor's cloud).
