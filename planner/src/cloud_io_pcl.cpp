@@ -342,8 +342,8 @@ Expected<LoadedCloud> LoadPly(const std::string& path, std::string_view bytes,
     return LoadError(path, "does not start with 'ply'; is this a PLY file?");
   }
   bool ascii = false, found_end = false, in_vertex = false, range_grid = false;
-  std::optional<std::uint64_t> vertices;
-  std::uint64_t min_body = 0, element_count = 0, grid = 1;
+  std::optional<std::uint64_t> vertices, grid_cols, grid_rows;
+  std::uint64_t min_body = 0, element_count = 0;
   unsigned vertex_xyz = 0;  // Bit per axis found.
   while (pos < bytes.size() && !found_end) {
     const std::string_view text = NextLine(bytes, &pos);
@@ -352,6 +352,13 @@ Expected<LoadedCloud> LoadPly(const std::string& path, std::string_view bytes,
     const auto bad_line = [&] {
       return LoadError(path, Cat("PLY header line ", Quote(text), " is malformed"));
     };
+    // PCL splits some header lines at whitespace and asserts that the first piece is the
+    // keyword (an abort of the whole process in Debian's build), so a keyword must start
+    // its line.
+    if (text.front() == ' ' || text.front() == '\t') {
+      return LoadError(path, Cat("PLY header line ", Quote(text),
+                                 " starts with whitespace; a header keyword must start its line"));
+    }
     if (t[0] == "end_header") {
       found_end = true;
     } else if (t[0] == "format") {
@@ -388,7 +395,7 @@ Expected<LoadedCloud> LoadPly(const std::string& path, std::string_view bytes,
       if (t.size() >= 3 && (t[1] == "num_cols" || t[1] == "num_rows")) {
         const auto value = ParseCount(t[2]);
         if (!value || *value > limits.max_points) return bad_line();
-        grid *= *value;
+        (t[1] == "num_cols" ? grid_cols : grid_rows) = value;
       }
     } else {
       return bad_line();
@@ -399,9 +406,19 @@ Expected<LoadedCloud> LoadPly(const std::string& path, std::string_view bytes,
   if (vertex_xyz != 7u) {
     return LoadError(path, "its vertex element lacks x, y and z properties; a map needs them");
   }
-  if (grid > limits.max_points) {
-    return TooBig(path, Cat("obj_info declares ", grid, " points"), limits.max_points,
+  // PCL writes vertex k at index k of its num_cols x num_rows cloud and asserts (aborting the
+  // process) past its end: the grid must hold the vertices exactly.
+  const std::uint64_t cells = grid_cols.value_or(1) * grid_rows.value_or(1);
+  if (range_grid && cells > limits.max_points) {
+    return TooBig(path, Cat("obj_info declares ", cells, " points"), limits.max_points,
                   "max_points");
+  }
+  if ((grid_cols || grid_rows) && !range_grid) {
+    if (!grid_cols || !grid_rows || cells != *vertices) {
+      return LoadError(path, Cat("obj_info num_cols × num_rows (", grid_cols.value_or(0), " × ",
+                                 grid_rows.value_or(0), ") must equal the ", *vertices,
+                                 " vertices; give both or neither"));
+    }
   }
   const std::uint64_t body = bytes.size() - pos;
   if (min_body > body + (ascii ? 1 : 0)) {

@@ -380,6 +380,40 @@ TEST_F(CloudIoTest, MalformedPlyIsRejectedWithReason) {
               ErrorCode::kMapLoadFailed, "PCL could not parse");
 }
 
+// Both headers abort the whole process inside Debian's PCL (its assertions are on) unless
+// they are refused before PCL reads the file.
+TEST_F(CloudIoTest, PlyHeadersThatTripPclAssertionsAreRefused) {
+  const std::string vertices =
+      "property float x\nproperty float y\nproperty float z\nend_header\n0 0 0\n1 1 1\n";
+  ExpectError(Write("indented.ply",
+                    "ply\nformat ascii 1.0\n obj_info num_cols 2\n"
+                    "element vertex 2\n" +
+                        vertices),
+              ErrorCode::kMapLoadFailed, "starts with whitespace");
+  ExpectError(Write("tab.ply",
+                    "ply\nformat ascii 1.0\n\tobj_info num_cols 2\n"
+                    "element vertex 2\n" +
+                        vertices),
+              ErrorCode::kMapLoadFailed, "starts with whitespace");
+  ExpectError(Write("small_grid.ply",
+                    "ply\nformat ascii 1.0\nobj_info num_cols 1\n"
+                    "obj_info num_rows 1\nelement vertex 2\n" +
+                        vertices),
+              ErrorCode::kMapLoadFailed, "must equal the 2 vertices");
+  ExpectError(Write("cols_only.ply",
+                    "ply\nformat ascii 1.0\nobj_info num_cols 1\n"
+                    "element vertex 2\n" +
+                        vertices),
+              ErrorCode::kMapLoadFailed, "give both or neither");
+  // A grid that holds the vertices exactly is an organised cloud and loads.
+  EXPECT_EQ(LoadOk(Write("organised.ply",
+                         "ply\nformat ascii 1.0\nobj_info num_cols 2\n"
+                         "obj_info num_rows 1\nelement vertex 2\n" +
+                             vertices))
+                .points.size(),
+            2u);
+}
+
 TEST_F(CloudIoTest, NonCloudFilesAreRejected) {
   std::mt19937 rng(5);
   std::string noise(4096, '\0');
