@@ -1,8 +1,10 @@
 #include "column_cloud.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <numeric>
+#include <tuple>
 
 #include "parallel_internal.hpp"
 
@@ -51,6 +53,66 @@ ColumnCloud SortIntoWindow(const GridGeometry& g, const CellBox& window, const P
 }
 
 }  // namespace
+
+void ThinColumns(ColumnCloud* cloud, const GridGeometry& g,
+                 [[maybe_unused]] int num_threads) {  // OpenMP only.
+  const double leaf = g.resolution_m / kThinningCubesPerCell;
+  const auto cube = [&](float value, double origin) {
+    return static_cast<std::int64_t>(std::floor((value - origin) / leaf));
+  };
+  const std::int64_t columns = std::int64_t{cloud->nx} * cloud->ny;
+  std::vector<std::uint8_t> keep(cloud->points.size(), 1);
+  std::vector<std::uint32_t> kept(columns + 1, 0);
+#pragma omp parallel num_threads(num_threads)
+  {
+    struct Key {
+      std::int64_t x, y;
+      std::uint32_t index;
+    };
+    std::vector<Key> run;
+#pragma omp for schedule(dynamic, 1024)
+    for (std::int64_t c = 0; c < columns; ++c) {
+      const std::uint32_t end = cloud->begin[c + 1];
+      // The column is sorted by z, so the points of one layer of cubes are a contiguous run;
+      // within a run, the first point of each (x, y) cube stays.
+      for (std::uint32_t i = cloud->begin[c]; i < end;) {
+        const std::int64_t layer = cube(cloud->points[i].z(), g.origin_m.z());
+        std::uint32_t j = i + 1;
+        while (j < end && cube(cloud->points[j].z(), g.origin_m.z()) == layer) ++j;
+        if (j - i > 1) {
+          run.clear();
+          for (std::uint32_t k = i; k < j; ++k) {
+            const Eigen::Vector3f& p = cloud->points[k];
+            run.push_back({cube(p.x(), g.origin_m.x()), cube(p.y(), g.origin_m.y()), k});
+          }
+          std::sort(run.begin(), run.end(), [](const Key& a, const Key& b) {
+            return std::tie(a.x, a.y, a.index) < std::tie(b.x, b.y, b.index);
+          });
+          for (std::size_t k = 1; k < run.size(); ++k) {
+            if (run[k].x == run[k - 1].x && run[k].y == run[k - 1].y) keep[run[k].index] = 0;
+          }
+        }
+        i = j;
+      }
+      std::uint32_t count = 0;
+      for (std::uint32_t k = cloud->begin[c]; k < end; ++k) count += keep[k];
+      kept[c + 1] = count;
+    }
+  }
+  std::partial_sum(kept.begin(), kept.end(), kept.begin());
+  if (kept.back() == cloud->points.size()) return;
+  std::vector<Eigen::Vector3f> points(kept.back());
+#pragma omp parallel for schedule(dynamic, 1024) num_threads(num_threads)
+  for (std::int64_t c = 0; c < columns; ++c) {
+    std::uint32_t out = kept[c];
+    for (std::uint32_t k = cloud->begin[c]; k < cloud->begin[c + 1]; ++k) {
+      if (keep[k]) points[out++] = cloud->points[k];
+    }
+  }
+  cloud->points = std::move(points);
+  cloud->begin = std::move(kept);
+  cloud->valid.assign(cloud->points.size(), 0);
+}
 
 ColumnCloud SortIntoColumns(const GridGeometry& g, const PointCloud& cloud, int num_threads,
                             std::vector<std::uint32_t>* source_index) {

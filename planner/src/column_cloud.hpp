@@ -66,6 +66,21 @@ ColumnCloud SortIntoColumns(const GridGeometry& geometry, const PointCloud& clou
 ColumnCloud SortIntoColumnWindow(const GridGeometry& geometry, const CellBox& window,
                                  const PointCloud& cloud, int num_threads);
 
+/// Cubes per grid cell edge in ThinColumns: a column keeps at most one point per cube of a
+/// cell edge / 8 (2.5 cm at 0.2 m), finer than any lattice the assessment resolves.
+inline constexpr int kThinningCubesPerCell = 8;
+
+/// Keeps, in every column, the first point (lowest, then earliest) of each cube of edge
+/// g.resolution_m / kThinningCubesPerCell (cubes laid from the grid's origin), in order, and
+/// resizes `valid`. The Valid Ground Filter scans the points above each point in the columns
+/// around it, so a dense or duplicated cloud (a sensor that dwelt on one spot, or an upload of
+/// one point repeated) would cost the square of its points there; thinned, the work per point
+/// is bounded by the cubes of its neighbourhood. A cloud with at most one point per cube (the
+/// shared maps, every lattice coarser than a cube) is unchanged. A column's result depends on
+/// its own points only, so a window (SortIntoColumnWindow) thins its columns as the whole grid
+/// does.
+void ThinColumns(ColumnCloud* cloud, const GridGeometry& g, int num_threads);
+
 /// The points of `cloud` whose column (ColumnOf) lies in `window` (x, y), in their order in
 /// `cloud`: one pass, shared by `num_threads` threads (0: every core). `bounds`, when
 /// non-null, is extended by every point of `cloud`.

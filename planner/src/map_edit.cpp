@@ -447,6 +447,8 @@ Expected<Reassessment> ReassessRegion(const TerrainModel& base, const PointCloud
   internal::ColumnCloud sorted = internal::SortIntoColumnWindow(g, crop, near, config.num_threads);
   internal::ColumnCloud sorted_base =
       internal::SortIntoColumnWindow(g, base_crop, near_base, config.num_threads);
+  internal::ThinColumns(&sorted, g, config.num_threads);
+  internal::ThinColumns(&sorted_base, g, config.num_threads);
   near = {};
   near_base = {};
   if (!progress.Advance(1)) return cancelled("while sorting the points");

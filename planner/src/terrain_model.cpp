@@ -138,6 +138,7 @@ Expected<std::shared_ptr<const TerrainModel>> TerrainModel::Assess(
 
   progress.BeginStage(AssessmentStage::kSorting, 1);
   internal::ColumnCloud sorted = internal::SortIntoColumns(*geometry, cloud, config.num_threads);
+  internal::ThinColumns(&sorted, *geometry, config.num_threads);
   if (!progress.Advance(1)) return cancelled("while sorting the points");
   progress.BeginStage(AssessmentStage::kGroundFilter, geometry->size.y());
   if (Status s = internal::FilterValidGroundInColumns(

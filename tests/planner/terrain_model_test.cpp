@@ -5,13 +5,16 @@
 #include <limits>
 #include <numbers>
 #include <optional>
+#include <random>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include "strata/cloud_io.hpp"
+#include "strata/ground_filter.hpp"
 #include "strata/scenes/basic_scenes.hpp"
 #include "strata/surface_graph.hpp"
+#include "terrain_model_internal.hpp"
 #include "test_util/terrain_queries.hpp"
 
 namespace strata {
@@ -314,6 +317,46 @@ TEST(TerrainModel, VerticalQuantumIgnoresAFewStrayPointsButNotScatteredHeights) 
   PointCloud sensor;
   for (int k = 0; k < 10000; ++k) sensor.emplace_back(0.01f * k, 0.0f, 0.5f * std::sin(0.01 * k));
   EXPECT_EQ(DetectVerticalQuantum(sensor), 0.0);
+}
+
+// The Valid Ground Filter scans the points above each point in the columns around it: on a
+// dense patch (a sensor that dwelt on one spot) or one point repeated, that was the square of
+// the points (100,000 on 1 m² took 23 s). Each column keeps one point per cube of a cell edge
+// / 8, so a 1 m² patch at 0.2 m holds at most a few thousand, whatever was sent.
+TEST(TerrainModel, ADenseOrRepeatedCloudIsThinnedBeforeTheGroundFilter) {
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+  PointCloud dense;
+  for (int i = 0; i < 20000; ++i) {
+    const float x = unit(rng);
+    dense.emplace_back(x, unit(rng), 0.2f * x);  // A gentle slope: every point is ground.
+  }
+  const PointCloud repeated(100000, Eigen::Vector3f(1.0f, 1.0f, 1.0f));
+  AssessmentConfig config;  // 0.2 m cells: cubes of 2.5 cm.
+  auto slope = TerrainModel::Assess(dense, config);
+  ASSERT_TRUE(slope.ok()) << slope.error().message;
+  EXPECT_EQ((*slope)->summary().input_points, 20000u);
+  // 40 × 40 cubes of 2.5 cm over the patch, the slope crossing at most two layers of each.
+  EXPECT_LE((*slope)->summary().valid_ground_points, 2u * 40 * 40);
+  EXPECT_GE((*slope)->summary().valid_ground_points, 40u * 40 / 2);
+  auto one = TerrainModel::Assess(repeated, config);
+  ASSERT_TRUE(one.ok()) << one.error().message;
+  EXPECT_EQ((*one)->summary().valid_ground_points, 1u);
+}
+
+// Thinning keeps every point of a cloud with at most one per cube (a voxel map, like the
+// shared maps): the valid ground is what the filter finds on the whole cloud.
+TEST(TerrainModel, ThinningLeavesALatticeCloudWhole) {
+  const PointCloud cloud = VoxelRampWithGroove();
+  AssessmentConfig config;
+  auto model = TerrainModel::Assess(cloud, config);
+  ASSERT_TRUE(model.ok()) << model.error().message;
+  ASSERT_GT((*model)->summary().vertical_quantum_m, 0.0);
+  const std::vector<std::uint8_t> valid = FilterValidGround(
+      cloud, config.ground, 0, internal::StepTolerance((*model)->summary().vertical_quantum_m));
+  std::size_t count = 0;
+  for (const std::uint8_t v : valid) count += v;
+  EXPECT_EQ((*model)->summary().valid_ground_points, count);
 }
 
 }  // namespace

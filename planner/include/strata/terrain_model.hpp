@@ -49,8 +49,10 @@ struct AssessmentControl {
 
 /// Counts and figures reported for an assessed map.
 struct AssessmentSummary {
-  std::size_t input_points = 0;         ///< Finite points assessed.
-  std::size_t valid_ground_points = 0;  ///< Points kept by the Valid Ground Filter (M^s).
+  std::size_t input_points = 0;  ///< Finite points assessed.
+  /// Points kept by the Valid Ground Filter (M^s), counted after each column is thinned to
+  /// one point per cube of a cell edge / 8 (a denser cloud counts fewer than it holds).
+  std::size_t valid_ground_points = 0;
   std::size_t surface_count = 0;        ///< Column surfaces (levels) of any kind.
   std::size_t valid_surface_count = 0;  ///< Column surfaces holding valid ground.
   Eigen::AlignedBox3d cloud_bounds_m;   ///< Bounding box of the input points [m].
