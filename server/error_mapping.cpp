@@ -74,28 +74,42 @@ ErrorMapping MapError(const ServiceError::Code& code) {
           planner_code != nullptr ? ErrorCodeName(*planner_code) : "INTERNAL"};
 }
 
+std::string BoundedText(std::string_view text, std::size_t max_bytes) {
+  if (text.size() <= max_bytes) return std::string(text);
+  std::size_t cut = max_bytes;
+  // Back off to the start of a UTF-8 character (continuation bytes are 10xxxxxx).
+  while (cut > 0 && (static_cast<unsigned char>(text[cut]) & 0xC0) == 0x80) --cut;
+  return std::string(text.substr(0, cut)) + "…[" + std::to_string(text.size() - cut) +
+         " more bytes]";
+}
+
 grpc::Status ToGrpcStatus(const ServiceError& error) {
   const ErrorMapping mapping = MapError(error.code);
+  const std::string message = BoundedText(error.message, kMaxErrorMessageBytes);
 
   google::rpc::ErrorInfo info;
   info.set_reason(std::string(mapping.reason));
   info.set_domain(std::string(kErrorDomain));
-  for (const auto& [key, value] : error.metadata) (*info.mutable_metadata())[key] = value;
+  for (const auto& [key, value] : error.metadata) {
+    (*info.mutable_metadata())[BoundedText(key, kMaxErrorValueBytes)] =
+        BoundedText(value, kMaxErrorValueBytes);
+  }
 
   google::rpc::Status status;
   status.set_code(static_cast<int>(mapping.grpc_code));
-  status.set_message(error.message);
+  status.set_message(message);
   status.add_details()->PackFrom(info);
   if (!error.field_violations.empty()) {
     google::rpc::BadRequest bad_request;
-    for (const FieldViolation& violation : error.field_violations) {
+    for (std::size_t i = 0; i < error.field_violations.size() && i < kMaxFieldViolations; ++i) {
+      const FieldViolation& violation = error.field_violations[i];
       auto* v = bad_request.add_field_violations();
-      v->set_field(violation.field);
-      v->set_description(violation.description);
+      v->set_field(BoundedText(violation.field, kMaxErrorValueBytes));
+      v->set_description(BoundedText(violation.description, kMaxViolationDescriptionBytes));
     }
     status.add_details()->PackFrom(bad_request);
   }
-  return grpc::Status(mapping.grpc_code, error.message, status.SerializeAsString());
+  return grpc::Status(mapping.grpc_code, message, status.SerializeAsString());
 }
 
 }  // namespace strata::server

@@ -3,7 +3,9 @@
 /// google.rpc.ErrorInfo reasons, and the packing of a ServiceError into a grpc::Status with
 /// the richer error model (google.rpc.Status in the binary details: ErrorInfo always,
 /// BadRequest when fields are blamed).
+#include <cstddef>
 #include <span>
+#include <string>
 #include <string_view>
 
 #include <grpcpp/support/status.h>
@@ -11,6 +13,22 @@
 #include "service_error.hpp"
 
 namespace strata::server {
+
+/// The most bytes of an error's message, of one ErrorInfo metadata value, and of one field
+/// violation's description that reach a client (and the log); longer ones are cut with a
+/// marker (BoundedText). A message may quote what the client sent (an id, a profile name, a
+/// path): without a bound a 1 MiB name came back as a 1 MB message plus 2 MB of details, which
+/// clients with the usual 8 KiB metadata limit see as RESOURCE_EXHAUSTED instead of the error.
+/// With at most kMaxFieldViolations violations, the status and its details stay under 8 KiB.
+inline constexpr std::size_t kMaxErrorMessageBytes = 1024;
+inline constexpr std::size_t kMaxErrorValueBytes = 128;
+inline constexpr std::size_t kMaxViolationDescriptionBytes = 256;
+/// The most field violations one error carries.
+inline constexpr std::size_t kMaxFieldViolations = 8;
+
+/// `text`, or its first bytes up to about `max_bytes` (whole UTF-8 characters) followed by
+/// "…[N more bytes]".
+std::string BoundedText(std::string_view text, std::size_t max_bytes);
 
 /// ErrorInfo.domain of every Strata error.
 inline constexpr std::string_view kErrorDomain = "strata";

@@ -47,7 +47,7 @@ grpc::Status FinishRpc(std::string_view rpc, const CallLog& log, const ServiceSt
       record.Add("code", GoCodeName(status.error_code()));
       if (!outcome.ok()) {
         record.Add("reason", reason);
-        record.Add("message", outcome.error().message);
+        record.Add("message", BoundedText(outcome.error().message, kMaxErrorMessageBytes));
       }
       for (const auto& [key, value] : log.fields) record.Add(key, value);
     }

@@ -29,12 +29,6 @@ Error TooBig(std::string_view path, const std::string& what, std::uint64_t limit
                                                   limit, " (CloudLoadLimits::", field, ")")};
 }
 
-std::string Quote(std::string_view text) {
-  std::string out = "'";
-  for (char c : text.substr(0, 40)) out += std::isprint(static_cast<unsigned char>(c)) ? c : '?';
-  return out + (text.size() > 40 ? "...'" : "'");
-}
-
 std::vector<std::string_view> Tokens(std::string_view line) {
   std::vector<std::string_view> tokens;
   std::size_t pos = 0;

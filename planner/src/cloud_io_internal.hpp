@@ -16,6 +16,7 @@
 
 #include <Eigen/Core>
 
+#include "format_internal.hpp"
 #include "strata/cloud_io.hpp"
 #include "strata/status.hpp"
 
@@ -35,9 +36,6 @@ Error LoadError(std::string_view path, const std::string& problem);
 /// kResourceExhausted: "<path>: <what>, more than the limit of <limit> (CloudLoadLimits::<field>)".
 Error TooBig(std::string_view path, const std::string& what, std::uint64_t limit,
              const char* field);
-
-/// File content echoed in a message: at most 40 characters, non-printables as '?'.
-std::string Quote(std::string_view text);
 
 /// The words of `line`, split at spaces, tabs and carriage returns.
 std::vector<std::string_view> Tokens(std::string_view line);

@@ -1,6 +1,7 @@
 #pragma once
 // Message helpers shared by the planner's validation and error paths; not installed.
 
+#include <cctype>
 #include <cstdio>
 #include <string>
 #include <string_view>
@@ -26,6 +27,18 @@ inline Error OutOfRange(const std::string& field, double value, const std::strin
   std::snprintf(buf, sizeof(buf), "%g", value);
   return Error{ErrorCode::kInvalidConfig,
                field + " = " + buf + " is out of range: must be " + range, field};
+}
+
+/// `text` in single quotes for a message, cut to its first 64 bytes ("...'" marks a cut)
+/// and with unprintable bytes as '?': text from a file or a request may be of any length
+/// and hold anything, and a message must stay short and printable.
+inline std::string Quote(std::string_view text) {
+  constexpr std::size_t kMaxQuoted = 64;
+  std::string out = "'";
+  for (char c : text.substr(0, kMaxQuoted)) {
+    out += std::isprint(static_cast<unsigned char>(c)) ? c : '?';
+  }
+  return out + (text.size() > kMaxQuoted ? "...'" : "'");
 }
 
 /// "(x, y, z)" with centimetre precision, for messages in metres.

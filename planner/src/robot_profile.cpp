@@ -127,8 +127,8 @@ std::vector<std::string> BuiltinProfileNames() { return {"differential", "biped"
 Expected<RobotProfile> BuiltinProfile(const std::string& name) {
   if (name == "differential") return Differential();
   if (name == "biped") return Biped();
-  return Error{ErrorCode::kInvalidInput, "unknown robot profile '" + name +
-                                             "': the built-in profiles are differential, biped"};
+  return Error{ErrorCode::kInvalidInput, "unknown robot profile " + internal::Quote(name) +
+                                             ": the built-in profiles are differential, biped"};
 }
 
 Status CheckProfileFitsMap(const RobotProfile& profile, const AssessmentConfig& assessment) {

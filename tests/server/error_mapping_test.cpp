@@ -132,3 +132,38 @@ TEST(ErrorMappingTest, NoBadRequestWhenNoFieldIsBlamed) {
 
 }  // namespace
 }  // namespace strata::server
+
+namespace strata::server {
+namespace {
+
+// A message may quote what a client sent; whatever it sent, what goes back stays small enough
+// for the usual 8 KiB metadata limit of clients (a 1 MiB name once came back as 3 MB).
+TEST(ErrorMappingTest, EveryEchoedStringIsBounded) {
+  const std::string huge(1 << 20, 'a');
+  ServiceError error = MakeError(ErrorCode::kInvalidInput, "unknown robot profile " + huge);
+  error.With("profile_name", huge).With(huge, "value");
+  for (int i = 0; i < 100; ++i) error.Blame(huge);
+  const grpc::Status status = ToGrpcStatus(error);
+  EXPECT_LE(status.error_message().size(), kMaxErrorMessageBytes + 32);
+  EXPECT_NE(status.error_message().find("more bytes]"), std::string::npos);
+  EXPECT_LE(status.error_details().size(), 8u * 1024);
+  google::rpc::Status details;
+  ASSERT_TRUE(details.ParseFromString(status.error_details()));
+  google::rpc::ErrorInfo info;
+  ASSERT_TRUE(details.details(0).UnpackTo(&info));
+  EXPECT_EQ(info.reason(), "INVALID_INPUT");
+  for (const auto& [key, value] : info.metadata()) {
+    EXPECT_LE(key.size(), kMaxErrorValueBytes + 32);
+    EXPECT_LE(value.size(), kMaxErrorValueBytes + 32);
+  }
+}
+
+TEST(ErrorMappingTest, BoundedTextCutsOnACharacterBoundary) {
+  EXPECT_EQ(BoundedText("short", 8), "short");
+  EXPECT_EQ(BoundedText("abcdefghij", 4), "abcd…[6 more bytes]");
+  // "é" is two bytes: a cut inside it backs off to before it.
+  EXPECT_EQ(BoundedText("abcé", 4), "abc…[2 more bytes]");
+}
+
+}  // namespace
+}  // namespace strata::server
