@@ -30,23 +30,6 @@ std::string_view TypeName(ServerRpcInfo::Type type) {
   return "unary";
 }
 
-// "/strata.v1.MapService/GetMap" -> service "strata.v1.MapService", method "GetMap".
-Metrics::MethodLabels LabelsOf(const ServerRpcInfo& info) {
-  const std::string_view full = info.method() != nullptr ? info.method() : "";
-  const std::string_view path = full.empty() || full[0] != '/' ? full : full.substr(1);
-  const std::size_t slash = path.find('/');
-  Metrics::MethodLabels labels;
-  labels.type = TypeName(info.type());
-  if (slash == std::string_view::npos) {
-    labels.service = "unknown";
-    labels.method = path;
-  } else {
-    labels.service = path.substr(0, slash);
-    labels.method = path.substr(slash + 1);
-  }
-  return labels;
-}
-
 class MetricsInterceptor final : public grpc::experimental::Interceptor {
  public:
   MetricsInterceptor(Metrics* metrics, Metrics::MethodLabels labels)
@@ -90,7 +73,7 @@ class MetricsInterceptorFactory final
  public:
   explicit MetricsInterceptorFactory(Metrics* metrics) : metrics_(metrics) {}
   grpc::experimental::Interceptor* CreateServerInterceptor(ServerRpcInfo* info) override {
-    return new MetricsInterceptor(metrics_, LabelsOf(*info));
+    return new MetricsInterceptor(metrics_, metrics_->LabelsOf(*info));
   }
 
  private:
@@ -233,9 +216,27 @@ std::string Metrics::Serialize() const {
   return prometheus::TextSerializer().Serialize(families);
 }
 
+// "/strata.v1.MapService/GetMap" -> service "strata.v1.MapService", method "GetMap".
+Metrics::MethodLabels Metrics::LabelsOf(const ServerRpcInfo& info) const {
+  const std::string_view full = info.method() != nullptr ? info.method() : "";
+  MethodLabels labels{std::string(TypeName(info.type())), "unknown", "unknown"};
+  {
+    std::shared_lock lock(known_mutex_);
+    if (!known_methods_.contains(full)) return labels;
+  }
+  const std::size_t slash = full.find('/', 1);
+  labels.service = full.substr(1, slash - 1);
+  labels.method = full.substr(slash + 1);
+  return labels;
+}
+
 void Metrics::InitializeMethod(std::string_view type, std::string_view service,
                                std::string_view method) {
   const MethodLabels labels{std::string(type), std::string(service), std::string(method)};
+  {
+    std::lock_guard lock(known_mutex_);
+    known_methods_.insert("/" + labels.service + "/" + labels.method);
+  }
   started_.Add({{"grpc_type", labels.type},
                 {"grpc_service", labels.service},
                 {"grpc_method", labels.method}});

@@ -15,6 +15,8 @@
 ///   strata_map_memory_bytes                    sum over ACTIVE maps (read at scrape)
 ///   strata_map_creation_progress{map_id,step}  per CREATING map, in [0, 1] (read at scrape)
 #include <memory>
+#include <set>
+#include <shared_mutex>
 #include <string>
 #include <string_view>
 
@@ -50,7 +52,9 @@ class Metrics {
   std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface> MakeInterceptorFactory();
 
   /// Creates the series of one method with zero counts, so dashboards see them before the
-  /// first call (as go-grpc-prometheus's InitializeMetrics does).
+  /// first call (as go-grpc-prometheus's InitializeMetrics does), and makes it a method
+  /// whose calls are labelled by name. Calls to any other path (a client may send any) are
+  /// counted under service and method "unknown", so they cannot grow the exposition.
   void InitializeMethod(std::string_view type, std::string_view service, std::string_view method);
 
   /// Serves strata_maps{state} and strata_map_memory_bytes from `maps` at each scrape.
@@ -67,6 +71,8 @@ class Metrics {
   struct MethodLabels {
     std::string type, service, method;
   };
+  /// The labels of a call: its service and method when initialised, else "unknown".
+  MethodLabels LabelsOf(const grpc::experimental::ServerRpcInfo& info) const;
   void RecordStarted(const MethodLabels& labels);
   void RecordHandled(const MethodLabels& labels, grpc::StatusCode code, double seconds);
   void RecordReceived(const MethodLabels& labels);
@@ -83,6 +89,8 @@ class Metrics {
   prometheus::Family<prometheus::Histogram>& plan_seconds_;
   prometheus::Family<prometheus::Histogram>& assessment_seconds_;
   std::shared_ptr<prometheus::Collectable> map_collector_;
+  mutable std::shared_mutex known_mutex_;
+  std::set<std::string, std::less<>> known_methods_;  // "/service/method" of InitializeMethod.
 };
 
 }  // namespace strata::server

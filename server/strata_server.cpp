@@ -120,6 +120,7 @@ Result<std::unique_ptr<StrataServer>> StrataServer::Start(const ServerConfig& co
   PlannerServiceOptions planner_options;
   planner_options.max_plan_time_s = config.max_plan_time_s;
   planner_options.max_samples = kMaxResponseSamples;
+  planner_options.max_queued_plans = config.max_queued_plans;
   planner_options.max_concurrent_plans =
       config.max_concurrent_plans > 0
           ? config.max_concurrent_plans
@@ -127,6 +128,20 @@ Result<std::unique_ptr<StrataServer>> StrataServer::Start(const ServerConfig& co
   self->planner_service_ = std::make_unique<PlannerServiceImpl>(
       self->registry_.get(), self->metrics_.get(), planner_options);
 
+  // Every method served gets its own metric series before the first call; calls to any
+  // other path are counted as "unknown" (Metrics::InitializeMethod).
+  const auto* pool = google::protobuf::DescriptorPool::generated_pool();
+  for (const char* name : {kServices[0], kServices[1], "grpc.health.v1.Health",
+                           "grpc.reflection.v1alpha.ServerReflection"}) {
+    const google::protobuf::ServiceDescriptor* service = pool->FindServiceByName(name);
+    for (int i = 0; service != nullptr && i < service->method_count(); ++i) {
+      const google::protobuf::MethodDescriptor* method = service->method(i);
+      const char* type = method->client_streaming()
+                             ? (method->server_streaming() ? "bidi_stream" : "client_stream")
+                             : (method->server_streaming() ? "server_stream" : "unary");
+      self->metrics_->InitializeMethod(type, name, method->name());
+    }
+  }
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
@@ -177,18 +192,6 @@ Result<std::unique_ptr<StrataServer>> StrataServer::Start(const ServerConfig& co
     const std::vector<int> ports = self->exposer_->GetListeningPorts();
     self->metrics_port_ = ports.empty() ? config.metrics_port : ports.front();
   }
-  const auto* pool = google::protobuf::DescriptorPool::generated_pool();
-  for (const char* name : kServices) {
-    const google::protobuf::ServiceDescriptor* service = pool->FindServiceByName(name);
-    for (int i = 0; service != nullptr && i < service->method_count(); ++i) {
-      const google::protobuf::MethodDescriptor* method = service->method(i);
-      const char* type = method->client_streaming()
-                             ? (method->server_streaming() ? "bidi_stream" : "client_stream")
-                             : (method->server_streaming() ? "server_stream" : "unary");
-      self->metrics_->InitializeMethod(type, name, method->name());
-    }
-  }
-
   for (ResolvedPreload& preload : preloads) {
     LogInfo("map_queued").Add("map", preload.id).Add("source", "preload");
     Result<MapSnapshot> created = self->registry_->Create(preload.id, std::move(preload.source),
