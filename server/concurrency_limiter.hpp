@@ -1,23 +1,42 @@
 #pragma once
-/// A counting semaphore whose waiters give up at a deadline or when their call is
-/// cancelled: bounds how many plans run at once without turning a burst into errors.
+/// Admission to a fixed number of slots (plans running at once) through a first-come,
+/// first-served queue of bounded length: a released slot goes to the longest waiter, a full
+/// queue refuses at once, and each waiter gives up at its own deadline or when its call is
+/// cancelled. Bounds both the work in progress and the calls held waiting, without turning
+/// a burst into errors.
 #include <chrono>
 #include <condition_variable>
+#include <cstddef>
 #include <functional>
+#include <list>
 #include <mutex>
 
 namespace strata::server {
 
 class ConcurrencyLimiter {
  public:
-  /// `slots` >= 1.
-  explicit ConcurrencyLimiter(int slots) : free_(slots < 1 ? 1 : slots) {}
+  /// `slots` >= 1 run at once; at most `max_queued` >= 0 wait.
+  ConcurrencyLimiter(int slots, int max_queued);
 
-  /// Takes a slot, waiting until `deadline` or until `should_stop` (may be empty; polled
-  /// every 50 ms) returns true. True when a slot was taken: release it with Release().
-  bool Acquire(std::chrono::steady_clock::time_point deadline,
-               const std::function<bool()>& should_stop);
+  enum class Admission {
+    kAdmitted,   ///< A slot is held: release it with Release() (or hold it with a Slot).
+    kQueueFull,  ///< `max_queued` calls were already waiting.
+    kTimedOut,   ///< `deadline` passed while waiting.
+    kStopped,    ///< `should_stop` returned true while waiting.
+  };
+
+  /// Takes a free slot when no one waits, else queues behind the earlier callers until a
+  /// slot is handed over, `deadline` passes, or `should_stop` (may be empty; polled every
+  /// 50 ms, since a call's cancellation has no notification) returns true.
+  Admission Acquire(std::chrono::steady_clock::time_point deadline,
+                    const std::function<bool()>& should_stop);
+  /// Hands the slot to the longest waiter, or frees it.
   void Release();
+
+  int slots() const { return slots_; }
+  int max_queued() const { return max_queued_; }
+  /// Calls waiting now (for tests and metrics).
+  std::size_t queued() const;
 
   /// Holds a slot for a scope.
   class Slot {
@@ -34,9 +53,16 @@ class ConcurrencyLimiter {
   };
 
  private:
-  std::mutex mutex_;
-  std::condition_variable released_;
+  struct Waiter {
+    std::condition_variable granted_cv;
+    bool granted = false;
+  };
+
+  const int slots_;
+  const int max_queued_;
+  mutable std::mutex mutex_;
   int free_;
+  std::list<Waiter> queue_;  // Oldest first; a list, so a waiter's node stays put.
 };
 
 }  // namespace strata::server

@@ -167,9 +167,12 @@ void AddFlags(CLI::App& app, ParsedFlags& parsed, bool environment) {
   add("--map-versions-kept", config.map_versions_kept, "N",
       "with --map-store, versions kept per map (the current one included)", IntegerIn(1, 1000));
   add("--max-concurrent-plans", config.max_concurrent_plans, "N",
-      "plans run at the same time; more wait for a slot until their deadline; 0 = one per\n"
-      "core",
+      "plans run at the same time; more wait for a slot, first come first served, until\n"
+      "their deadline; 0 = one per core",
       IntegerIn(0, 10000));
+  add("--max-queued-plans", config.max_queued_plans, "N",
+      "plans waiting for a slot at most; more are refused at once with SERVER_BUSY",
+      IntegerIn(0, 100000));
   add("--max-plan-time-s", config.max_plan_time_s, "S",
       "cap on every plan's time budget in seconds", Seconds(false));
   add("--max-points", config.max_points, "N", "most points one map may hold, file or upload",

@@ -59,9 +59,12 @@ struct ServerConfig {
   std::uint64_t max_map_memory_bytes = 0;
   /// With a map store: versions kept per map, the current one included [-], >= 1.
   int map_versions_kept = 5;
-  /// Plans run at the same time [-], >= 0; 0 means one per core. More wait for a slot
-  /// until their deadline.
+  /// Plans run at the same time [-], >= 0; 0 means one per core. More wait for a slot, first
+  /// come first served, until their deadline.
   int max_concurrent_plans = 0;
+  /// Plans waiting for a slot at most [-], >= 0; a plan beyond them is refused at once with
+  /// SERVER_BUSY (a burst of thousands of calls must not hold thousands of threads).
+  int max_queued_plans = 256;
   /// Cap on any plan's time budget [s], > 0.
   double max_plan_time_s = 10.0;
   /// Most points one map may hold, from a file or an upload [-], > 0.

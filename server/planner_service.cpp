@@ -124,7 +124,7 @@ PlannerServiceImpl::PlannerServiceImpl(const MapRegistry* registry, Metrics* met
     : registry_(registry),
       metrics_(metrics),
       options_(options),
-      slots_(std::max(1, options.max_concurrent_plans)) {}
+      slots_(options.max_concurrent_plans, options.max_queued_plans) {}
 
 grpc::Status PlannerServiceImpl::Plan(grpc::ServerContext* context, const v1::PlanRequest* request,
                                       v1::PlanResponse* response) {
@@ -141,18 +141,31 @@ grpc::Status PlannerServiceImpl::Plan(grpc::ServerContext* context, const v1::Pl
       const double left_s = DeadlineLeftSeconds(*context);
       if (left_s <= 0) return BudgetExhausted(left_s);
       const auto queue_start = SteadyClock::now();
+      // A call waits for its slot until its own deadline (less the margin to answer); one
+      // without a deadline, at most --max-plan-time-s.
+      const bool has_deadline = std::isfinite(left_s);
       const auto queue_deadline =
-          std::min(QueueDeadline(left_s),
-                   queue_start + std::chrono::duration_cast<SteadyClock::duration>(
-                                     std::chrono::duration<double>(options_.max_plan_time_s)));
-      if (!slots_.Acquire(queue_deadline, should_stop)) {
-        if (context->IsCancelled()) {
+          has_deadline ? QueueDeadline(left_s)
+                       : queue_start + std::chrono::duration_cast<SteadyClock::duration>(
+                                           std::chrono::duration<double>(options_.max_plan_time_s));
+      switch (slots_.Acquire(queue_deadline, should_stop)) {
+        case ConcurrencyLimiter::Admission::kAdmitted: break;
+        case ConcurrencyLimiter::Admission::kStopped:
           return MakeError(ErrorCode::kCancelled, "the client cancelled the plan while queued");
-        }
-        return MakeError(ServiceErrorCode::kServerBusy,
-                         "all " + std::to_string(options_.max_concurrent_plans) +
-                             " planning slots stayed busy until the call's deadline: retry "
-                             "with backoff, or allow a later deadline");
+        case ConcurrencyLimiter::Admission::kQueueFull:
+          return MakeError(ServiceErrorCode::kServerBusy,
+                           "all " + std::to_string(slots_.slots()) +
+                               " planning slots are busy and " +
+                               std::to_string(slots_.max_queued()) +
+                               " plans already wait (--max-queued-plans): retry with backoff");
+        case ConcurrencyLimiter::Admission::kTimedOut:
+          return MakeError(
+              ServiceErrorCode::kServerBusy,
+              "all " + std::to_string(slots_.slots()) + " planning slots stayed busy until " +
+                  (has_deadline ? std::string("the call's deadline: retry with backoff, or allow "
+                                              "a later deadline")
+                                : "--max-plan-time-s had passed (the call set no deadline): "
+                                  "retry with backoff, or set a deadline"));
       }
       ConcurrencyLimiter::Slot slot(&slots_);
       const double queue_s =

@@ -20,6 +20,8 @@ struct PlannerServiceOptions {
   double max_plan_time_s = 0;
   /// Plans run at the same time [-], >= 1 (--max-concurrent-plans, 0 resolved to the cores).
   int max_concurrent_plans = 0;
+  /// Plans waiting for a slot at most [-], >= 0 (--max-queued-plans).
+  int max_queued_plans = 0;
   /// Most trajectory samples one response may carry [-], >= 2 (kMaxResponseSamples).
   int max_samples = 0;
 };
