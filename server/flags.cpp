@@ -183,9 +183,13 @@ void AddFlags(CLI::App& app, ParsedFlags& parsed, bool environment) {
       IntegerIn((1 << 20) + (64 << 10), 1 << 30));
   add("--max-send-message-bytes", config.max_send_message_bytes, "N",
       "largest response message sent", IntegerIn(1 << 16, 1 << 30));
+  add("--drain-delay-s", config.drain_delay_s, "S",
+      "on SIGTERM, seconds health reports NOT_SERVING while new calls are still accepted\n"
+      "(for load balancers to stop sending); SIGINT skips it",
+      Seconds(true));
   add("--shutdown-grace-s", config.shutdown_grace_s, "S",
-      "on SIGTERM/SIGINT, seconds in-flight calls may take to finish before they are\n"
-      "cancelled",
+      "then seconds in-flight calls may take to finish; plans still running stop and\n"
+      "answer SHUTTING_DOWN",
       Seconds(true));
   add("--keepalive-time-s", config.keepalive_time_s, "S",
       "keepalive ping period on idle connections, in seconds", Seconds(false));

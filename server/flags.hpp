@@ -73,7 +73,12 @@ struct ServerConfig {
   int max_receive_message_bytes = 4 << 20;
   /// Largest response message sent [bytes], > 0.
   int max_send_message_bytes = 16 << 20;
-  /// On SIGTERM/SIGINT, how long in-flight calls may take to finish [s], >= 0.
+  /// On SIGTERM, how long health reports NOT_SERVING while new calls are still accepted,
+  /// before the server stops accepting [s], >= 0: the time a load balancer (Kubernetes'
+  /// endpoints) needs to stop sending calls here. SIGINT skips it.
+  double drain_delay_s = 0.0;
+  /// Then how long in-flight calls may take to finish [s], >= 0; plans still running at its
+  /// end stop and answer UNAVAILABLE with reason SHUTTING_DOWN.
   double shutdown_grace_s = 10.0;
   /// Keepalive ping period on idle connections [s], > 0.
   double keepalive_time_s = 20.0;

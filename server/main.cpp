@@ -59,15 +59,24 @@ int main(int argc, char** argv) {
       .Add("metrics_port", server->metrics_port())
       .Add("message", "listening on " + server->address());
 
-  std::thread signal_thread([&server, &signals, grace_s = config.shutdown_grace_s] {
+  std::thread signal_thread([&server, &signals, &config] {
     int signal_number = 0;
     sigwait(&signals, &signal_number);
+    // An orchestrator's SIGTERM waits for load balancers to notice NOT_SERVING; a person's
+    // Ctrl-C does not.
+    const double delay_s = signal_number == SIGTERM ? config.drain_delay_s : 0.0;
     LogInfo("shutdown")
         .Add("signal", signal_number == SIGTERM ? "SIGTERM" : "SIGINT")
-        .Add("grace_s", grace_s)
-        .Add("message", "health NOT_SERVING; draining in-flight calls");
-    server->Shutdown(std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-        std::chrono::duration<double>(grace_s)));
+        .Add("drain_delay_s", delay_s)
+        .Add("grace_s", config.shutdown_grace_s)
+        .Add("message",
+             "health NOT_SERVING; serving new calls for the drain delay, then "
+             "draining in-flight calls");
+    const auto seconds = [](double s) {
+      return std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+          std::chrono::duration<double>(s));
+    };
+    server->Shutdown(seconds(delay_s), seconds(config.shutdown_grace_s));
     // A second signal while draining means "now".
     sigwait(&signals, &signal_number);
     LogWarning("forced_exit").Add("message", "second signal: exiting without draining");

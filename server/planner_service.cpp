@@ -137,7 +137,7 @@ grpc::Status PlannerServiceImpl::Plan(grpc::ServerContext* context, const v1::Pl
       Result<ActiveMap> map = registry_->GetActive(request->map_id(), request->map_version());
       if (!map.ok()) return std::move(map).error();
 
-      const auto should_stop = [context] { return context->IsCancelled(); };
+      const auto should_stop = [this, context] { return stopping_ || context->IsCancelled(); };
       const double left_s = DeadlineLeftSeconds(*context);
       if (left_s <= 0) return BudgetExhausted(left_s);
       const auto queue_start = SteadyClock::now();
@@ -183,6 +183,13 @@ grpc::Status PlannerServiceImpl::Plan(grpc::ServerContext* context, const v1::Pl
       response->mutable_stats()->mutable_timings()->set_queue_s(queue_s);
       return OkStatus();
     }();
+    // A plan stopped by StopPlans (the planner and the queue report it as cancelled) says why.
+    if (!outcome.ok() && stopping_ &&
+        outcome.error().code == ServiceError::Code(ErrorCode::kCancelled)) {
+      outcome = MakeError(ServiceErrorCode::kShuttingDown,
+                          "the server is shutting down and its grace (--shutdown-grace-s) ran "
+                          "out before the plan finished: plan again (another replica answers)");
+    }
     if (!outcome.ok()) {
       ServiceError error = std::move(outcome).error();
       if (!request->map_id().empty()) error.With("map_id", request->map_id().substr(0, 64));

@@ -1,5 +1,6 @@
 #pragma once
 /// strata.v1.PlannerService: runs strata::Plan for each request on a shared, read-only map.
+#include <atomic>
 #include <functional>
 #include <optional>
 
@@ -60,7 +61,12 @@ class PlannerServiceImpl final : public v1::PlannerService::Service {
   grpc::Status Plan(grpc::ServerContext* context, const v1::PlanRequest* request,
                     v1::PlanResponse* response) override;
 
+  /// Stops every plan running or queued now and later: they answer SHUTTING_DOWN (the end of
+  /// the shutdown grace). Thread-safe.
+  void StopPlans() { stopping_ = true; }
+
  private:
+  std::atomic<bool> stopping_ = false;
   const MapRegistry* registry_;
   Metrics* metrics_;
   PlannerServiceOptions options_;

@@ -1,5 +1,6 @@
 #include "strata_server.hpp"
 
+#include <condition_variable>
 #include <thread>
 
 #include <google/protobuf/descriptor.h>
@@ -247,7 +248,8 @@ void StrataServer::OnMapDone(const MapSnapshot& map) {
   }
 }
 
-void StrataServer::Shutdown(std::chrono::steady_clock::duration grace) {
+void StrataServer::Shutdown(std::chrono::steady_clock::duration drain_delay,
+                            std::chrono::steady_clock::duration grace) {
   {
     std::lock_guard lock(mutex_);
     if (shutting_down_) return;
@@ -255,8 +257,26 @@ void StrataServer::Shutdown(std::chrono::steady_clock::duration grace) {
     server_->GetHealthCheckService()->SetServingStatus(false);
   }
   registry_->Shutdown();
+  std::this_thread::sleep_for(drain_delay);
+  // At the grace's end, plans stop and answer SHUTTING_DOWN; gRPC cancels what is left a
+  // moment later, once they have had time to send that answer.
+  constexpr auto kAnswerTime = std::chrono::milliseconds(500);
+  std::mutex done_mutex;
+  std::condition_variable done_cv;
+  bool done = false;
+  std::thread stopper([&] {
+    std::unique_lock lock(done_mutex);
+    if (!done_cv.wait_for(lock, grace, [&] { return done; })) planner_service_->StopPlans();
+  });
   server_->Shutdown(std::chrono::system_clock::now() +
-                    std::chrono::duration_cast<std::chrono::system_clock::duration>(grace));
+                    std::chrono::duration_cast<std::chrono::system_clock::duration>(grace) +
+                    kAnswerTime);
+  {
+    std::lock_guard lock(done_mutex);
+    done = true;
+  }
+  done_cv.notify_one();
+  stopper.join();
 }
 
 void StrataServer::Wait() { server_->Wait(); }

@@ -32,10 +32,13 @@ class StrataServer {
   const std::string& address() const { return address_; }
   int metrics_port() const { return metrics_port_; }
 
-  /// Health to NOT_SERVING, no new maps, then gRPC shutdown: new calls are refused,
-  /// in-flight calls get until `grace` to finish, after which they are cancelled (plans
-  /// stop promptly). Returns when every call has ended. Thread-safe; idempotent.
-  void Shutdown(std::chrono::steady_clock::duration grace);
+  /// Health to NOT_SERVING and no new maps; new calls are still served for `drain_delay`
+  /// (load balancers stop sending meanwhile); then gRPC shutdown: new calls are refused,
+  /// in-flight calls get until `grace` to finish, after which plans stop and answer
+  /// SHUTTING_DOWN and any other call is cancelled. Returns when every call has ended.
+  /// Thread-safe; idempotent.
+  void Shutdown(std::chrono::steady_clock::duration drain_delay,
+                std::chrono::steady_clock::duration grace);
 
   /// Blocks until Shutdown has completed.
   void Wait();

@@ -138,6 +138,39 @@ TEST_F(ServerOpsTest, SigtermDrainsACallThatIsProvablyInFlight) {
   EXPECT_THAT(log, HasSubstr("rpc=UploadMap map=late"));  // The handler ran to its end.
 }
 
+// On SIGTERM the port stayed open for no time at all, so load balancers kept sending calls to
+// a server that refused them. With --drain-delay-s, health turns NOT_SERVING first and new
+// calls are still answered while the delay runs.
+TEST_F(ServerOpsTest, SigtermTurnsHealthNotServingWhileNewCallsAreStillServed) {
+  ASSERT_NO_FATAL_FAILURE(StartServer({"--drain-delay-s", "60"}));
+  auto health = grpc::health::v1::Health::NewStub(channel_);
+  const auto status = [&] {
+    grpc::ClientContext context;
+    SetDeadline(&context, 5);
+    grpc::health::v1::HealthCheckRequest request;
+    grpc::health::v1::HealthCheckResponse response;
+    health->Check(&context, request, &response);
+    return response.status();
+  };
+  ASSERT_EQ(status(), grpc::health::v1::HealthCheckResponse::SERVING);
+  server_->Signal(SIGTERM);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (status() != grpc::health::v1::HealthCheckResponse::NOT_SERVING &&
+         std::chrono::steady_clock::now() < deadline) {
+  }
+  ASSERT_EQ(status(), grpc::health::v1::HealthCheckResponse::NOT_SERVING);
+  v1::PlanResponse response;
+  const grpc::Status plan = Plan(PlanRequestFor("demo", 2, 2, 0.3, 10, 10, 3.3), &response);
+  EXPECT_TRUE(plan.ok()) << plan.error_message();
+}
+
+// A person's Ctrl-C does not wait for load balancers: SIGINT skips the drain delay.
+TEST_F(ServerOpsTest, SigintSkipsTheDrainDelay) {
+  ASSERT_NO_FATAL_FAILURE(StartServer({"--drain-delay-s", "600"}));
+  server_->Signal(SIGINT);
+  EXPECT_EQ(server_->WaitExit(std::chrono::seconds(60)), 0);
+}
+
 TEST_F(ServerOpsTest, MetricsShowTheCountersMoving) {
   ASSERT_NO_FATAL_FAILURE(StartServer());
   const std::string before = HttpGet(server_->metrics_port(), "/metrics");
