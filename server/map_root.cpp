@@ -38,21 +38,38 @@ Result<fs::path> ResolveMapPath(const fs::path& root, std::string_view requested
     return MakeError(ErrorCode::kInvalidInput, "the map file path holds a NUL character")
         .Blame(field);
   }
+  // The path as the client gave it, cut: it is quoted back in messages.
+  constexpr std::size_t kMaxShown = 64;
+  const std::string shown = "'" + std::string(requested.substr(0, kMaxShown)) +
+                            (requested.size() > kMaxShown ? "...'" : "'");
   const fs::path candidate =
       fs::path(requested).is_absolute() ? fs::path(requested) : root / fs::path(requested);
   std::error_code ec;
   const fs::path resolved = fs::weakly_canonical(candidate, ec);
-  if (ec || !IsInside(resolved, root)) {
+  // A path that cannot be resolved is not one outside the root: say what failed.
+  if (ec == std::errc::filename_too_long) {
+    return MakeError(ErrorCode::kInvalidInput,
+                     "map file " + shown +
+                         " is too long: a file name holds at most 255 bytes and a path 4096")
+        .Blame(field);
+  }
+  if (ec) {
+    return MakeError(ErrorCode::kMapLoadFailed, "map file " + shown +
+                                                    " cannot be resolved under the map root (" +
+                                                    ec.message() + ")")
+        .Blame(field);
+  }
+  if (!IsInside(resolved, root)) {
     return MakeError(ServiceErrorCode::kPathOutsideMapRoot,
-                     "map file '" + std::string(requested) +
-                         "' is outside the server's map root (after resolving '..' and "
+                     "map file " + shown +
+                         " is outside the server's map root (after resolving '..' and "
                          "symbolic links): give a path inside the map root")
         .Blame(field);
   }
   if (!fs::is_regular_file(resolved, ec)) {
-    return MakeError(ErrorCode::kMapLoadFailed,
-                     "map file '" + std::string(requested) +
-                         "' does not exist under the map root or is not a regular file")
+    return MakeError(
+               ErrorCode::kMapLoadFailed,
+               "map file " + shown + " does not exist under the map root or is not a regular file")
         .Blame(field);
   }
   return resolved;

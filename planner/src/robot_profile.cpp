@@ -11,12 +11,19 @@ namespace {
 
 constexpr double kDegree = std::numbers::pi / 180.0;
 
-Status CheckFinite(const Eigen::Vector3d& v, std::string_view path) {
+// Each component finite and within ±bound. A coordinate of 1e308 is finite, but no map
+// reaches it, and a message quoting it in metres would print 300 digits.
+Status CheckWithin(const Eigen::Vector3d& v, std::string_view path, double bound,
+                   const char* unit) {
   for (int i = 0; i < 3; ++i) {
-    if (std::isfinite(v(i))) continue;
+    if (std::abs(v(i)) <= bound) continue;  // False for NaN too.
     const std::string field = internal::FieldPath(path, std::string(1, "xyz"[i]));
-    char buf[64];
-    std::snprintf(buf, sizeof(buf), " must be finite, got %g", v(i));
+    char buf[128];
+    if (std::isfinite(v(i))) {
+      std::snprintf(buf, sizeof(buf), " = %g %s is beyond ±%g %s", v(i), unit, bound, unit);
+    } else {
+      std::snprintf(buf, sizeof(buf), " must be finite, got %g", v(i));
+    }
     return Error{ErrorCode::kInvalidInput, field + buf, field};
   }
   return Status::Ok();
@@ -46,9 +53,18 @@ RobotProfile Biped() {
 }  // namespace
 
 Status RobotState::Validate(std::string_view path) const {
-  if (Status s = CheckFinite(position_m, internal::FieldPath(path, "position_m")); !s) return s;
-  if (Status s = CheckFinite(velocity_mps, internal::FieldPath(path, "velocity_mps")); !s) return s;
-  return CheckFinite(acceleration_mps2, internal::FieldPath(path, "acceleration_mps2"));
+  if (Status s =
+          CheckWithin(position_m, internal::FieldPath(path, "position_m"), kMaxAbsCoordinateM, "m");
+      !s) {
+    return s;
+  }
+  if (Status s = CheckWithin(velocity_mps, internal::FieldPath(path, "velocity_mps"), kMaxAbsMotion,
+                             "m/s");
+      !s) {
+    return s;
+  }
+  return CheckWithin(acceleration_mps2, internal::FieldPath(path, "acceleration_mps2"),
+                     kMaxAbsMotion, "m/s^2");
 }
 
 TraversabilityParams RobotProfile::Traversability() const { return TraversabilityParams(*this); }

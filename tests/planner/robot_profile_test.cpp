@@ -163,3 +163,34 @@ TEST(CheckProfileFitsMap, RefusesAMapFilteredForASmallerFootprintOrAGentlerSlope
 
 }  // namespace
 }  // namespace strata
+
+namespace strata {
+namespace {
+
+// A start at 1e308 m is finite but on no map: it once got a 300-digit coordinate in a message
+// that said there was no traversable ground there.
+TEST(RobotState, RefusesCoordinatesNoMapReachesAndAbsurdMotionsNamingTheField) {
+  RobotState state;
+  EXPECT_TRUE(state.Validate("start").ok());
+  state.position_m.x() = 1e308;
+  Status s = state.Validate("start");
+  ASSERT_FALSE(s.ok());
+  EXPECT_EQ(s.error().code, ErrorCode::kInvalidInput);
+  EXPECT_EQ(s.error().field, "start.position_m.x");
+  EXPECT_EQ(s.error().message, "start.position_m.x = 1e+308 m is beyond ±100000 m");
+  state.position_m.x() = -kMaxAbsCoordinateM;  // The bound itself is allowed.
+  EXPECT_TRUE(state.Validate("start").ok());
+  state.velocity_mps.z() = std::nan("");
+  s = state.Validate("goal");
+  ASSERT_FALSE(s.ok());
+  EXPECT_EQ(s.error().field, "goal.velocity_mps.z");
+  EXPECT_EQ(s.error().message, "goal.velocity_mps.z must be finite, got nan");
+  state.velocity_mps.z() = 0;
+  state.acceleration_mps2.y() = 2e3;
+  s = state.Validate("start");
+  ASSERT_FALSE(s.ok());
+  EXPECT_EQ(s.error().field, "start.acceleration_mps2.y");
+}
+
+}  // namespace
+}  // namespace strata

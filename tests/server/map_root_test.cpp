@@ -75,6 +75,21 @@ TEST_F(MapRootTest, NamesTheFieldAndTellsMissingFromRefused) {
   EXPECT_EQ(std::get<ErrorCode>(CodeOf(std::string("a\0b", 3))), ErrorCode::kInvalidInput);
 }
 
+// A name over 255 bytes was reported as "outside the map root", which sends a user looking
+// for the wrong mistake; the quoted path is cut, whatever its length.
+TEST_F(MapRootTest, ATooLongNameIsToldAsSuchAndQuotedShort) {
+  const std::string name = "sub/" + std::string(300, 'n') + ".pcd";
+  Result<fs::path> resolved = ResolveMapPath(root_, name, "file.path");
+  ASSERT_FALSE(resolved.ok());
+  EXPECT_EQ(std::get<ErrorCode>(resolved.error().code), ErrorCode::kInvalidInput);
+  EXPECT_NE(resolved.error().message.find("too long"), std::string::npos)
+      << resolved.error().message;
+  EXPECT_LT(resolved.error().message.size(), 200u);
+  Result<fs::path> outside = ResolveMapPath(root_, "../" + std::string(200, 'o'), "file.path");
+  ASSERT_FALSE(outside.ok());
+  EXPECT_LT(outside.error().message.size(), 250u);
+}
+
 TEST_F(MapRootTest, NoRootDisablesFiles) {
   Result<fs::path> resolved = ResolveMapPath(fs::path(), "sub/map.pcd", "file.path");
   ASSERT_FALSE(resolved.ok());

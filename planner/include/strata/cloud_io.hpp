@@ -15,8 +15,8 @@ namespace strata {
 struct CloudLoadLimits {
   std::size_t max_points = 50'000'000;                ///< Most points a file may hold [-], > 0.
   std::size_t max_file_bytes = std::size_t{4} << 30;  ///< Largest file accepted [bytes], > 0.
-  double max_abs_coordinate_m = 1.0e5;  ///< Points farther from the origin on any axis are an
-                                        ///< error, not data [m], > 0.
+  /// Points farther from the origin on any axis are an error, not data [m], > 0.
+  double max_abs_coordinate_m = kMaxAbsCoordinateM;
 };
 
 /// A loaded cloud with the bookkeeping the assessment summary reports.

@@ -20,6 +20,7 @@
 
 #include <Eigen/Core>
 
+#include "strata/point_cloud.hpp"
 #include "strata/status.hpp"
 #include "strata/terrain_config.hpp"
 
@@ -34,9 +35,13 @@ struct RobotState {
   Eigen::Vector3d velocity_mps = Eigen::Vector3d::Zero();
   Eigen::Vector3d acceleration_mps2 = Eigen::Vector3d::Zero();
 
-  /// kInvalidInput blaming the first non-finite component, e.g. "start.position_m.x" for
-  /// `path` "start".
+  /// kInvalidInput blaming the first component that is not finite, or lies beyond
+  /// kMaxAbsCoordinateM (position) or kMaxAbsMotion (velocity, acceleration), e.g.
+  /// "start.position_m.x" for `path` "start".
   Status Validate(std::string_view path) const;
+
+  /// The largest velocity [m/s] and acceleration [m/s^2] component a state may give.
+  static constexpr double kMaxAbsMotion = 1.0e3;
 };
 
 struct RobotProfile {
