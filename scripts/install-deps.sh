@@ -12,6 +12,7 @@ packages=(
   libompl-dev
   libcli11-dev  # command-line parsing of the programs (header-only)
   python3-yaml  # tests/deploy: manifest checks with Debian's /usr/bin/python3
+  openssl  # TLS tests make a throwaway certificate
   clang-format clang-tidy  # scripts/check-format.sh, check-tidy.sh (CI): .clang-format, .clang-tidy
 )
 

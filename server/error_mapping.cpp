@@ -59,6 +59,8 @@ const ErrorMapping kTable[] = {
     {SE::kMapCorrupted, StatusCode::DATA_LOSS, "MAP_CORRUPTED"},
     {SE::kMapStoreRequired, StatusCode::FAILED_PRECONDITION, "MAP_STORE_REQUIRED"},
     {SE::kEditNeedsCloud, StatusCode::FAILED_PRECONDITION, "EDIT_NEEDS_CLOUD"},
+    {SE::kUnauthenticated, StatusCode::UNAUTHENTICATED, "UNAUTHENTICATED"},
+    {SE::kPermissionDenied, StatusCode::PERMISSION_DENIED, "PERMISSION_DENIED"},
 };
 
 }  // namespace

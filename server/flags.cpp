@@ -156,6 +156,18 @@ void AddFlags(CLI::App& app, ParsedFlags& parsed, bool environment) {
   add("--max-maps", config.max_maps, "N",
       "maps held at once, in any state; with --map-store, maps being created or failed here",
       IntegerIn(1, 100000));
+  add("--tls-cert", config.tls_cert, "FILE",
+      "TLS: the server's certificate chain (PEM); with --tls-key. None serves plaintext",
+      CLI::ExistingFile);
+  add("--tls-key", config.tls_key, "FILE", "TLS: the server's private key (PEM); with --tls-cert",
+      CLI::ExistingFile);
+  add("--tls-client-ca", config.tls_client_ca, "FILE",
+      "mutual TLS: clients must present a certificate signed by a CA in this PEM file",
+      CLI::ExistingFile);
+  add("--auth-tokens", config.auth_tokens, "FILE",
+      "bearer tokens, one `TOKEN ROLE` a line (ROLE planner: plan and read maps; admin: also\n"
+      "create, upload, update and delete maps); none lets every client make every call",
+      CLI::ExistingFile);
   add("--map-store", config.map_store, "DIR",
       "map store shared by every replica (a ReadWriteMany volume in Kubernetes): maps are\n"
       "written there as immutable versions and loaded on demand; none keeps maps in memory",

@@ -84,6 +84,14 @@ struct ServerConfig {
   double keepalive_time_s = 20.0;
   /// Keepalive ping timeout before the connection is closed [s], > 0.
   double keepalive_timeout_s = 10.0;
+  /// TLS: the server's certificate chain and private key (PEM files); both or neither. Empty
+  /// serves plaintext.
+  std::string tls_cert;
+  std::string tls_key;
+  /// Mutual TLS: clients must present a certificate signed by a CA in this PEM file.
+  std::string tls_client_ca;
+  /// Bearer tokens with roles (server/auth.hpp); empty lets every client make every call.
+  std::string auth_tokens;
   LogLevel log_level = LogLevel::kInfo;
 };
 

@@ -112,6 +112,9 @@ ServiceStatus MapServiceImpl::Respond(grpc::ServerContext* context, const MapSna
 grpc::Status MapServiceImpl::CreateMap(grpc::ServerContext* context,
                                        const v1::CreateMapRequest* request, v1::Map* response) {
   return RunRpc("CreateMap", [&](CallLog& log) -> ServiceStatus {
+    if (ServiceStatus allowed = Authorize(*context, options_.tokens, Role::kAdmin); !allowed.ok()) {
+      return allowed;
+    }
     log.map_id = request->map_id();
     if (!request->map_id().empty()) {
       if (ServiceStatus valid = MapRegistry::ValidateId(request->map_id()); !valid.ok()) {
@@ -135,6 +138,9 @@ grpc::Status MapServiceImpl::UploadMap(grpc::ServerContext* context,
                                        grpc::ServerReader<v1::UploadMapRequest>* reader,
                                        v1::Map* response) {
   return RunRpc("UploadMap", [&](CallLog& log) -> ServiceStatus {
+    if (ServiceStatus allowed = Authorize(*context, options_.tokens, Role::kAdmin); !allowed.ok()) {
+      return allowed;
+    }
     UploadAssembler upload(options_.max_points);
     v1::UploadMapRequest message;
     bool first = true;
@@ -171,9 +177,13 @@ grpc::Status MapServiceImpl::UploadMap(grpc::ServerContext* context,
   });
 }
 
-grpc::Status MapServiceImpl::GetMap(grpc::ServerContext*, const v1::GetMapRequest* request,
+grpc::Status MapServiceImpl::GetMap(grpc::ServerContext* context, const v1::GetMapRequest* request,
                                     v1::Map* response) {
   return RunRpc("GetMap", [&](CallLog& log) -> ServiceStatus {
+    if (ServiceStatus allowed = Authorize(*context, options_.tokens, Role::kPlanner);
+        !allowed.ok()) {
+      return allowed;
+    }
     log.map_id = request->map_id();
     log.quiet_on_success = true;
     Result<MapSnapshot> map = registry_->Get(request->map_id());
@@ -183,9 +193,14 @@ grpc::Status MapServiceImpl::GetMap(grpc::ServerContext*, const v1::GetMapReques
   });
 }
 
-grpc::Status MapServiceImpl::ListMaps(grpc::ServerContext*, const v1::ListMapsRequest* request,
+grpc::Status MapServiceImpl::ListMaps(grpc::ServerContext* context,
+                                      const v1::ListMapsRequest* request,
                                       v1::ListMapsResponse* response) {
   return RunRpc("ListMaps", [&](CallLog& log) -> ServiceStatus {
+    if (ServiceStatus allowed = Authorize(*context, options_.tokens, Role::kPlanner);
+        !allowed.ok()) {
+      return allowed;
+    }
     log.quiet_on_success = true;
     if (request->page_size() < 0 || request->page_size() > kMaxPageSize) {
       return MakeError(ErrorCode::kInvalidInput,
@@ -217,9 +232,13 @@ grpc::Status MapServiceImpl::ListMaps(grpc::ServerContext*, const v1::ListMapsRe
   });
 }
 
-grpc::Status MapServiceImpl::DeleteMap(grpc::ServerContext*, const v1::DeleteMapRequest* request,
+grpc::Status MapServiceImpl::DeleteMap(grpc::ServerContext* context,
+                                       const v1::DeleteMapRequest* request,
                                        v1::DeleteMapResponse*) {
   return RunRpc("DeleteMap", [&](CallLog& log) -> ServiceStatus {
+    if (ServiceStatus allowed = Authorize(*context, options_.tokens, Role::kAdmin); !allowed.ok()) {
+      return allowed;
+    }
     log.map_id = request->map_id();
     ServiceStatus deleted = registry_->Delete(request->map_id());
     if (!deleted.ok()) return std::move(deleted).error().Blame("map_id");
@@ -227,9 +246,13 @@ grpc::Status MapServiceImpl::DeleteMap(grpc::ServerContext*, const v1::DeleteMap
   });
 }
 
-grpc::Status MapServiceImpl::UpdateMap(grpc::ServerContext*, const v1::UpdateMapRequest* request,
+grpc::Status MapServiceImpl::UpdateMap(grpc::ServerContext* context,
+                                       const v1::UpdateMapRequest* request,
                                        v1::UpdateMapResponse* response) {
   return RunRpc("UpdateMap", [&](CallLog& log) -> ServiceStatus {
+    if (ServiceStatus allowed = Authorize(*context, options_.tokens, Role::kAdmin); !allowed.ok()) {
+      return allowed;
+    }
     log.map_id = request->map_id();
     Result<ParsedMapEdits> parsed = MapEditsFromProto(*request);
     if (!parsed.ok()) return std::move(parsed).error();

@@ -4,6 +4,7 @@
 
 #include <grpcpp/grpcpp.h>
 
+#include "auth.hpp"
 #include "map_registry.hpp"
 #include "strata/v1/map_service.grpc.pb.h"
 
@@ -15,6 +16,8 @@ struct MapServiceOptions {
   std::filesystem::path map_root;
   /// Most points one map may hold, uploaded or generated [-], > 0 (--max-points).
   std::size_t max_points = 0;
+  /// Tokens the calls must carry (--auth-tokens); null lets every call through.
+  const TokenTable* tokens = nullptr;
 };
 
 /// The MapSource of a CreateMapRequest: a file confined to `map_root`, or a scene with every

@@ -129,6 +129,10 @@ PlannerServiceImpl::PlannerServiceImpl(const MapRegistry* registry, Metrics* met
 grpc::Status PlannerServiceImpl::Plan(grpc::ServerContext* context, const v1::PlanRequest* request,
                                       v1::PlanResponse* response) {
   return RunRpc("Plan", [&](CallLog& log) -> ServiceStatus {
+    if (ServiceStatus allowed = Authorize(*context, options_.tokens, Role::kPlanner);
+        !allowed.ok()) {
+      return allowed;
+    }
     log.map_id = request->map_id();
     PlanTimings timings;
     auto outcome = [&]() -> ServiceStatus {

@@ -6,6 +6,7 @@
 
 #include <grpcpp/grpcpp.h>
 
+#include "auth.hpp"
 #include "concurrency_limiter.hpp"
 #include "map_registry.hpp"
 #include "strata/v1/planner_service.grpc.pb.h"
@@ -23,6 +24,8 @@ struct PlannerServiceOptions {
   int max_concurrent_plans = 0;
   /// Plans waiting for a slot at most [-], >= 0 (--max-queued-plans).
   int max_queued_plans = 0;
+  /// Tokens the calls must carry (--auth-tokens); null lets every call through.
+  const TokenTable* tokens = nullptr;
   /// Most trajectory samples one response may carry [-], >= 2 (kMaxResponseSamples).
   int max_samples = 0;
 };

@@ -23,6 +23,16 @@ ServiceError ErrorFromException(const std::exception_ptr& exception) {
   }
 }
 
+ServiceStatus Authorize(const grpc::ServerContext& context, const TokenTable* tokens, Role needed) {
+  if (tokens == nullptr) return OkStatus();
+  const auto& metadata = context.client_metadata();
+  const auto found = metadata.find("authorization");
+  const std::string_view value = found == metadata.end()
+                                     ? std::string_view()
+                                     : std::string_view(found->second.data(), found->second.size());
+  return tokens->Authorize(value, needed);
+}
+
 grpc::Status FinishRpc(std::string_view rpc, const CallLog& log, const ServiceStatus& outcome,
                        std::chrono::steady_clock::time_point start) noexcept {
   try {

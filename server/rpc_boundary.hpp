@@ -9,8 +9,10 @@
 #include <utility>
 #include <vector>
 
+#include <grpcpp/server_context.h>
 #include <grpcpp/support/status.h>
 
+#include "auth.hpp"
 #include "service_error.hpp"
 
 namespace strata::server {
@@ -32,6 +34,10 @@ ServiceError ErrorFromException(const std::exception_ptr& exception);
 /// returns its grpc::Status. Never throws.
 grpc::Status FinishRpc(std::string_view rpc, const CallLog& log, const ServiceStatus& outcome,
                        std::chrono::steady_clock::time_point start) noexcept;
+
+/// With `tokens` (--auth-tokens), the call's `authorization` metadata must hold a token that
+/// allows `needed` (TokenTable::Authorize); without, every call is allowed.
+ServiceStatus Authorize(const grpc::ServerContext& context, const TokenTable* tokens, Role needed);
 
 /// Runs `body(CallLog&) -> ServiceStatus` inside the boundary.
 template <typename Body>

@@ -28,6 +28,8 @@ enum class ServiceErrorCode {
   kMapCorrupted,         ///< A stored version or head fails its checks (truncated, tampered).
   kMapStoreRequired,     ///< The call needs a map store (--map-store) and the server has none.
   kEditNeedsCloud,       ///< UpdateMap on a map made from a saved model, which keeps no cloud.
+  kUnauthenticated,      ///< The server needs a token and the call has none, or an unknown one.
+  kPermissionDenied,     ///< The call's token has a role that may not make this call.
 };
 
 /// Every ServiceErrorCode, for exhaustive tests.
@@ -39,6 +41,7 @@ inline constexpr ServiceErrorCode kAllServiceErrorCodes[] = {
     ServiceErrorCode::kMapVersionNotFound,  ServiceErrorCode::kMapChanged,
     ServiceErrorCode::kMapStoreUnavailable, ServiceErrorCode::kMapCorrupted,
     ServiceErrorCode::kMapStoreRequired,    ServiceErrorCode::kEditNeedsCloud,
+    ServiceErrorCode::kUnauthenticated,     ServiceErrorCode::kPermissionDenied,
 };
 
 /// A request field that is wrong (google.rpc.BadRequest.FieldViolation). `field` is the

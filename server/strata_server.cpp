@@ -1,6 +1,8 @@
 #include "strata_server.hpp"
 
 #include <condition_variable>
+#include <fstream>
+#include <iterator>
 #include <thread>
 
 #include <google/protobuf/descriptor.h>
@@ -62,6 +64,49 @@ Result<ResolvedPreload> ResolvePreload(const PreloadSpec& spec,
   return preload;
 }
 
+std::string ReadFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+// Plaintext, TLS (--tls-cert, --tls-key) or mutual TLS (and --tls-client-ca).
+Result<std::shared_ptr<grpc::ServerCredentials>> ServerCredentialsFor(const ServerConfig& config) {
+  if (config.tls_cert.empty() != config.tls_key.empty()) {
+    return MakeError(ErrorCode::kInvalidInput,
+                     "--tls-cert and --tls-key go together: give both for TLS, or neither");
+  }
+  if (config.tls_cert.empty()) {
+    if (!config.tls_client_ca.empty()) {
+      return MakeError(ErrorCode::kInvalidInput,
+                       "--tls-client-ca needs TLS: give --tls-cert and --tls-key too");
+    }
+    if (!config.auth_tokens.empty()) {
+      LogWarning("plaintext_tokens")
+          .Add("message",
+               "--auth-tokens without TLS: tokens cross the network in the clear; give "
+               "--tls-cert and --tls-key");
+    }
+    return grpc::InsecureServerCredentials();
+  }
+  grpc::SslServerCredentialsOptions options(
+      config.tls_client_ca.empty() ? GRPC_SSL_DONT_REQUEST_CLIENT_CERTIFICATE
+                                   : GRPC_SSL_REQUEST_AND_REQUIRE_CLIENT_CERTIFICATE_AND_VERIFY);
+  grpc::SslServerCredentialsOptions::PemKeyCertPair pair{ReadFile(config.tls_key),
+                                                         ReadFile(config.tls_cert)};
+  if (pair.private_key.empty() || pair.cert_chain.empty()) {
+    return MakeError(ErrorCode::kInvalidInput,
+                     "--tls-cert / --tls-key: cannot read a PEM certificate and key there");
+  }
+  options.pem_key_cert_pairs.push_back(std::move(pair));
+  if (!config.tls_client_ca.empty()) {
+    options.pem_root_certs = ReadFile(config.tls_client_ca);
+    if (options.pem_root_certs.empty()) {
+      return MakeError(ErrorCode::kInvalidInput, "--tls-client-ca: cannot read a PEM file there");
+    }
+  }
+  return grpc::SslServerCredentials(options);
+}
+
 // "0.0.0.0:0" with port 43125 bound -> "0.0.0.0:43125".
 std::string BoundAddress(const std::string& listen, int port) {
   return listen.substr(0, listen.rfind(':')) + ":" + std::to_string(port);
@@ -86,6 +131,16 @@ Result<std::unique_ptr<StrataServer>> StrataServer::Start(const ServerConfig& co
     if (!preload.ok()) return std::move(preload).error();
     preloads.push_back(std::move(preload).value());
   }
+
+  if (!config.auth_tokens.empty()) {
+    Result<TokenTable> tokens = TokenTable::Load(config.auth_tokens);
+    if (!tokens.ok()) {
+      return MakeError(ErrorCode::kInvalidInput, "--auth-tokens: " + tokens.error().message);
+    }
+    self->tokens_ = std::make_unique<TokenTable>(std::move(tokens).value());
+  }
+  Result<std::shared_ptr<grpc::ServerCredentials>> credentials = ServerCredentialsFor(config);
+  if (!credentials.ok()) return std::move(credentials).error();
 
   self->metrics_ = std::make_unique<Metrics>();
   RegistryOptions registry_options;
@@ -117,11 +172,12 @@ Result<std::unique_ptr<StrataServer>> StrataServer::Start(const ServerConfig& co
   self->metrics_->WatchMaps(self->registry_.get());
 
   self->map_service_ = std::make_unique<MapServiceImpl>(
-      self->registry_.get(), MapServiceOptions{map_root, config.max_points});
+      self->registry_.get(), MapServiceOptions{map_root, config.max_points, self->tokens_.get()});
   PlannerServiceOptions planner_options;
   planner_options.max_plan_time_s = config.max_plan_time_s;
   planner_options.max_samples = kMaxResponseSamples;
   planner_options.max_queued_plans = config.max_queued_plans;
+  planner_options.tokens = self->tokens_.get();
   planner_options.max_concurrent_plans =
       config.max_concurrent_plans > 0
           ? config.max_concurrent_plans
@@ -147,7 +203,7 @@ Result<std::unique_ptr<StrataServer>> StrataServer::Start(const ServerConfig& co
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
   int port = 0;
-  builder.AddListeningPort(config.listen, grpc::InsecureServerCredentials(), &port);
+  builder.AddListeningPort(config.listen, credentials.value(), &port);
   builder.SetMaxReceiveMessageSize(config.max_receive_message_bytes);
   builder.SetMaxSendMessageSize(config.max_send_message_bytes);
   // Robots on Wi-Fi: notice dead links within keepalive time + timeout, keep idle
@@ -168,7 +224,11 @@ Result<std::unique_ptr<StrataServer>> StrataServer::Start(const ServerConfig& co
   if (!self->server_ || port == 0) {
     return MakeError(ErrorCode::kInvalidInput,
                      "--listen " + config.listen +
-                         ": cannot listen there (address in use, or not a local address)");
+                         ": cannot listen there (address in use, or not a local address" +
+                         (config.tls_cert.empty()
+                              ? std::string(")")
+                              : std::string("; or --tls-cert and --tls-key are not a matching "
+                                            "PEM certificate and key)")));
   }
   self->address_ = BoundAddress(config.listen, port);
   {

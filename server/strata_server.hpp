@@ -10,6 +10,7 @@
 #include <grpcpp/grpcpp.h>
 #include <prometheus/exposer.h>
 
+#include "auth.hpp"
 #include "flags.hpp"
 #include "map_registry.hpp"
 #include "map_service.hpp"
@@ -56,6 +57,7 @@ class StrataServer {
   void SetReady(bool ready);
 
   ServerConfig config_;
+  std::unique_ptr<TokenTable> tokens_;  // --auth-tokens; null when every call is allowed.
   std::unique_ptr<Metrics> metrics_;
   std::unique_ptr<MapRegistry> registry_;
   std::unique_ptr<MapServiceImpl> map_service_;

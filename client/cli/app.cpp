@@ -22,6 +22,16 @@ void AddStrataCommands(CLI::App& app, Context* ctx, Command* run) {
       ->type_name("S")
       ->check(PositiveNumber())
       ->capture_default_str();
+  app.add_option("--token", ctx->token,
+                 "bearer token for a server run with --auth-tokens (better: $STRATA_TOKEN, which "
+                 "other users cannot read in the process list)")
+      ->type_name("TOKEN")
+      ->envname("STRATA_TOKEN");
+  app.add_option("--tls-ca", ctx->tls_ca,
+                 "connect with TLS, trusting the server certificate's CA in this PEM file")
+      ->type_name("FILE")
+      ->envname("STRATA_TLS_CA")
+      ->check(CLI::ExistingFile);
   app.add_flag("--json", ctx->json,
                "print responses as JSON (proto field names; errors as JSON on stderr)");
 

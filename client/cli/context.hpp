@@ -22,7 +22,9 @@ class UsageError : public std::runtime_error {
 struct Context {
   std::string server = "127.0.0.1:50051";  ///< --server, or $STRATA_SERVER.
   double deadline_s = 30;                  ///< --deadline [s], > 0: every call has one.
-  bool json = false;                       ///< --json: machine-readable output.
+  std::string token;                       ///< --token, or $STRATA_TOKEN: sent with every call.
+  std::string tls_ca;  ///< --tls-ca FILE, or $STRATA_TLS_CA: TLS trusting this PEM file.
+  bool json = false;   ///< --json: machine-readable output.
   std::ostream* out = &std::cout;
   std::ostream* err = &std::cerr;
 };

@@ -7,6 +7,7 @@
 #include <tuple>
 
 #include "commands.hpp"
+#include "connection.hpp"
 #include "output.hpp"
 #include "point_file.hpp"
 #include "strata/client/rpc.hpp"
@@ -21,7 +22,7 @@ constexpr std::size_t kMaxChunkPoints = (1 << 20) / 12;
 constexpr auto kWaitPollPeriod = std::chrono::milliseconds(250);
 
 std::unique_ptr<v1::MapService::Stub> Stub(const Context& ctx) {
-  return v1::MapService::NewStub(client::MakeChannel(ctx.server));
+  return v1::MapService::NewStub(OpenChannel(ctx));
 }
 
 const char* StateName(v1::MapState state) {
@@ -107,8 +108,8 @@ int WaitUntilCreated(const Context& ctx, std::chrono::steady_clock::time_point s
     v1::GetMapRequest request;
     request.set_map_id(map->id());
     grpc::ClientContext call;
-    client::SetDeadline(
-        &call, std::chrono::duration<double>(deadline - std::chrono::steady_clock::now()).count());
+    PrepareCall(ctx, &call,
+                std::chrono::duration<double>(deadline - std::chrono::steady_clock::now()).count());
     const grpc::Status status = stub->GetMap(&call, request, map);
     if (!status.ok()) return ReportRpcError(ctx, "GetMap", status);
   }
@@ -176,7 +177,7 @@ int Create(const Context& ctx, const CreateFlags& flags) {
 
   const auto started = std::chrono::steady_clock::now();
   grpc::ClientContext call;
-  client::SetDeadline(&call, ctx.deadline_s);
+  PrepareCall(ctx, &call);
   v1::Map map;
   const grpc::Status status = Stub(ctx)->CreateMap(&call, request, &map);
   if (!status.ok()) return ReportRpcError(ctx, "CreateMap", status);
@@ -214,7 +215,7 @@ int Upload(const Context& ctx, const UploadFlags& flags) {
 
   const auto started = std::chrono::steady_clock::now();
   grpc::ClientContext call;
-  client::SetDeadline(&call, ctx.deadline_s);
+  PrepareCall(ctx, &call);
   v1::Map map;
   auto stream = Stub(ctx)->UploadMap(&call, &map);
   bool sending = stream->Write(header);
@@ -242,7 +243,7 @@ int Get(const Context& ctx, const std::string& id) {
   v1::GetMapRequest request;
   request.set_map_id(id);
   grpc::ClientContext call;
-  client::SetDeadline(&call, ctx.deadline_s);
+  PrepareCall(ctx, &call);
   v1::Map map;
   const grpc::Status status = Stub(ctx)->GetMap(&call, request, &map);
   if (!status.ok()) return ReportRpcError(ctx, "GetMap", status);
@@ -266,7 +267,7 @@ int List(const Context& ctx, const ListFlags& flags) {
   v1::ListMapsResponse all;
   do {
     grpc::ClientContext call;
-    client::SetDeadline(&call, ctx.deadline_s);
+    PrepareCall(ctx, &call);
     v1::ListMapsResponse page;
     const grpc::Status status = stub->ListMaps(&call, request, &page);
     if (!status.ok()) return ReportRpcError(ctx, "ListMaps", status);
@@ -298,7 +299,7 @@ int Delete(const Context& ctx, const std::string& id) {
   v1::DeleteMapRequest request;
   request.set_map_id(id);
   grpc::ClientContext call;
-  client::SetDeadline(&call, ctx.deadline_s);
+  PrepareCall(ctx, &call);
   v1::DeleteMapResponse response;
   const grpc::Status status = Stub(ctx)->DeleteMap(&call, request, &response);
   if (!status.ok()) return ReportRpcError(ctx, "DeleteMap", status);

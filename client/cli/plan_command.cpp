@@ -1,5 +1,6 @@
 // `strata plan`: one Plan call, printed as a summary or as the PlanResponse in JSON.
 #include "commands.hpp"
+#include "connection.hpp"
 #include "output.hpp"
 #include "strata/client/polynomial_trajectory.hpp"
 #include "strata/client/rpc.hpp"
@@ -106,9 +107,9 @@ v1::PlanRequest PlanRequestFromFlags(const PlanFlags& flags) {
 }
 
 bool CallPlan(const Context& ctx, const v1::PlanRequest& request, v1::PlanResponse* response) {
-  auto stub = v1::PlannerService::NewStub(client::MakeChannel(ctx.server));
+  auto stub = v1::PlannerService::NewStub(OpenChannel(ctx));
   grpc::ClientContext call;
-  client::SetDeadline(&call, ctx.deadline_s);
+  PrepareCall(ctx, &call);
   const grpc::Status status = stub->Plan(&call, request, response);
   if (status.ok()) return true;
   ReportRpcError(ctx, "Plan", status);

@@ -16,7 +16,18 @@ std::shared_ptr<grpc::Channel> MakeChannel(const std::string& address,
     arguments.SetInt(GRPC_ARG_KEEPALIVE_TIMEOUT_MS, options.keepalive_timeout_s * 1000);
     arguments.SetInt(GRPC_ARG_KEEPALIVE_PERMIT_WITHOUT_CALLS, 0);
   }
-  return grpc::CreateCustomChannel(address, grpc::InsecureChannelCredentials(), arguments);
+  if (options.tls_root_certs_pem.empty()) {
+    return grpc::CreateCustomChannel(address, grpc::InsecureChannelCredentials(), arguments);
+  }
+  grpc::SslCredentialsOptions tls;
+  tls.pem_root_certs = options.tls_root_certs_pem;
+  tls.pem_cert_chain = options.tls_cert_chain_pem;
+  tls.pem_private_key = options.tls_private_key_pem;
+  return grpc::CreateCustomChannel(address, grpc::SslCredentials(tls), arguments);
+}
+
+void SetToken(grpc::ClientContext* context, const std::string& token) {
+  if (!token.empty()) context->AddMetadata("authorization", "Bearer " + token);
 }
 
 void SetDeadline(grpc::ClientContext* context, double seconds) {

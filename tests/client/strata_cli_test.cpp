@@ -400,5 +400,33 @@ TEST_F(StrataCliTest, UploadStreamsAPcdInChunksAndPlansOnIt) {
   EXPECT_EQ(Strata({"maps", "delete", "floor"}).exit_code, 0);
 }
 
+// A server that wants TLS and tokens: the CLI reaches it with --tls-ca and STRATA_TOKEN, and
+// says what is wrong without the token.
+TEST(StrataCliAccessTest, TlsAndATokenFromTheEnvironment) {
+  const auto dir = std::filesystem::temp_directory_path() /
+                   ("strata_cli_access_test_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const std::string cert = (dir / "cert.pem").string(), key = (dir / "key.pem").string();
+  const std::string tokens = (dir / "tokens").string();
+  const std::string token = "cli-test-admin-token-0123";
+  std::ofstream(tokens) << token << " admin\n";
+  const CommandResult made =
+      RunCommand({"/usr/bin/openssl", "req", "-x509", "-newkey", "rsa:2048", "-nodes", "-days", "1",
+                  "-subj", "/CN=localhost", "-addext", "subjectAltName=IP:127.0.0.1,DNS:localhost",
+                  "-keyout", key, "-out", cert});
+  if (made.exit_code != 0) GTEST_SKIP() << "openssl could not make a certificate: " << made.err;
+  auto server = ServerProcess::Start(
+      {"--no-preload", "--tls-cert", cert, "--tls-key", key, "--auth-tokens", tokens});
+  ASSERT_NE(server, nullptr);
+  const std::vector<std::string> list = {
+      STRATA_CLI_BINARY, "--server", server->address(), "--tls-ca", cert, "maps", "list"};
+  const CommandResult with_token = RunCommand(list, {"STRATA_TOKEN=" + token});
+  EXPECT_EQ(with_token.exit_code, 0) << with_token.err;
+  const CommandResult without = RunCommand(list);
+  EXPECT_EQ(without.exit_code, 1);
+  EXPECT_THAT(without.err, HasSubstr("UNAUTHENTICATED"));
+  std::filesystem::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace strata::client::testing

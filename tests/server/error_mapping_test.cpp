@@ -88,6 +88,8 @@ TEST(ErrorMappingTest, MapsAsDocumented) {
       {ServiceErrorCode::kMapCorrupted, StatusCode::DATA_LOSS, "MAP_CORRUPTED"},
       {ServiceErrorCode::kMapStoreRequired, StatusCode::FAILED_PRECONDITION, "MAP_STORE_REQUIRED"},
       {ServiceErrorCode::kEditNeedsCloud, StatusCode::FAILED_PRECONDITION, "EDIT_NEEDS_CLOUD"},
+      {ServiceErrorCode::kUnauthenticated, StatusCode::UNAUTHENTICATED, "UNAUTHENTICATED"},
+      {ServiceErrorCode::kPermissionDenied, StatusCode::PERMISSION_DENIED, "PERMISSION_DENIED"},
   };
   EXPECT_EQ(std::size(expected), ErrorMappingTable().size());
   for (const auto& row : expected) {

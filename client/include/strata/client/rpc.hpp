@@ -22,14 +22,24 @@ struct ChannelOptions {
   int keepalive_time_s = 20;
   /// Time to wait for a ping's answer before the connection is dropped [s], > 0. Default 10.
   int keepalive_timeout_s = 10;
+  /// TLS: the PEM root certificates the server's certificate must chain to. Empty: plaintext.
+  std::string tls_root_certs_pem;
+  /// Mutual TLS: this client's certificate chain and private key (PEM); empty: none.
+  std::string tls_cert_chain_pem;
+  std::string tls_private_key_pem;
 };
 
-/// An insecure (plaintext) channel to `address` ("host:port").
+/// A channel to `address` ("host:port"): TLS when options.tls_root_certs_pem is set,
+/// plaintext otherwise.
 std::shared_ptr<grpc::Channel> MakeChannel(const std::string& address,
                                            const ChannelOptions& options = {});
 
 /// Sets the call's deadline `seconds` from now. Every call should have one.
 void SetDeadline(grpc::ClientContext* context, double seconds);
+
+/// Adds `authorization: Bearer TOKEN` to the call, for a server run with --auth-tokens;
+/// nothing for an empty token.
+void SetToken(grpc::ClientContext* context, const std::string& token);
 
 /// A failed call, unpacked.
 struct RpcError {
