@@ -7,6 +7,7 @@
 //       --preload s20=scene20.2.pcd,resolution_m=0.2
 //       --listen 127.0.0.1:50099 --metrics-port -1          (one command line)
 //   build/bench/server_benchmark --server 127.0.0.1:50099 [--seconds 5] [--runs 5]
+//       [--clients 1,2,8,32] [--mix s2|spiral] [--deadline-s 30]
 //
 // Prints markdown tables. Not part of the test path.
 #include <algorithm>
@@ -47,8 +48,15 @@ const Query kLatencyQueries[] = {
     {"sp_ground_to_top", "spiral", {-30, -2, 1.5}, {-30, -28, 21.5}},
 };
 
-// The throughput mix: the scene20.2 reference queries that plan, in turn.
-const Query kMix[] = {kLatencyQueries[0], kLatencyQueries[1], kLatencyQueries[2]};
+// The throughput mixes, planned in turn: the scene20.2 reference queries that plan, or four
+// of the spiral's (each 5-45 ms in-process).
+const std::vector<Query> kS2Mix = {kLatencyQueries[0], kLatencyQueries[1], kLatencyQueries[2]};
+const std::vector<Query> kSpiralMix = {
+    {"sp_ground_left", "spiral", {-38, -2, 1.5}, {-26, -24, 1.5}},
+    {"sp_ground_right", "spiral", {-18, 0, 1.5}, {8, 2, 1.5}},
+    {"sp_ground_to_l1", "spiral", {-30, -2, 1.5}, {-45, -29, 5.5}},
+    {"sp_ground_to_top", "spiral", {-30, -2, 1.5}, {-30, -28, 21.5}},
+};
 
 using strata::bench::Median;
 using strata::bench::Quantile;
@@ -75,9 +83,12 @@ struct Outcome {
   double queue_s = 0;  // server-reported stats.timings.queue_s
 };
 
-Outcome Plan(strata::v1::PlannerService::Stub& stub, const strata::v1::PlanRequest& request) {
+Outcome Plan(strata::v1::PlannerService::Stub& stub, const strata::v1::PlanRequest& request,
+             double deadline_s = 30) {
   grpc::ClientContext context;
-  context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(30));
+  context.set_deadline(std::chrono::system_clock::now() +
+                       std::chrono::duration_cast<std::chrono::system_clock::duration>(
+                           std::chrono::duration<double>(deadline_s)));
   strata::v1::PlanResponse response;
   const auto t0 = Clock::now();
   Outcome out;
@@ -129,15 +140,35 @@ int main(int argc, char** argv) {
   std::string address = "127.0.0.1:50099";
   double seconds = 5;
   int runs = 5;
+  double deadline_s = 30;
+  std::vector<int> client_counts = {1, 2, 8, 32};
+  const std::vector<Query>* mix = &kS2Mix;
   for (int i = 1; i + 1 < argc; i += 2) {
-    if (!std::strcmp(argv[i], "--server"))
+    if (!std::strcmp(argv[i], "--server")) {
       address = argv[i + 1];
-    else if (!std::strcmp(argv[i], "--seconds"))
+    } else if (!std::strcmp(argv[i], "--seconds")) {
       seconds = std::atof(argv[i + 1]);
-    else if (!std::strcmp(argv[i], "--runs"))
+    } else if (!std::strcmp(argv[i], "--runs")) {
       runs = std::atoi(argv[i + 1]);
-    else {
-      std::fprintf(stderr, "usage: %s [--server HOST:PORT] [--seconds S] [--runs N]\n", argv[0]);
+    } else if (!std::strcmp(argv[i], "--deadline-s")) {
+      deadline_s = std::atof(argv[i + 1]);
+    } else if (!std::strcmp(argv[i], "--mix") && !std::strcmp(argv[i + 1], "spiral")) {
+      mix = &kSpiralMix;
+    } else if (!std::strcmp(argv[i], "--mix") && !std::strcmp(argv[i + 1], "s2")) {
+      mix = &kS2Mix;
+    } else if (!std::strcmp(argv[i], "--clients")) {
+      client_counts.clear();
+      for (const char* p = argv[i + 1]; *p != '\0';) {
+        char* end = nullptr;
+        client_counts.push_back(static_cast<int>(std::strtol(p, &end, 10)));
+        p = *end == ',' ? end + 1 : end;
+        if (client_counts.back() < 1 || end == p) break;
+      }
+    } else {
+      std::fprintf(stderr,
+                   "usage: %s [--server HOST:PORT] [--seconds S] [--runs N] [--clients 1,2,8,32] "
+                   "[--mix s2|spiral] [--deadline-s S]\n",
+                   argv[0]);
       return 2;
     }
   }
@@ -181,30 +212,32 @@ int main(int argc, char** argv) {
                 runs, r, t, Median(queue), r - t, t > 0 ? 100.0 * (r - t) / t : 0.0);
   }
 
+  std::string names;
+  for (const Query& q : *mix) names += (names.empty() ? "" : ", ") + std::string(q.name);
+  std::printf("\n### Throughput (mix of %s; %.0f s per row; %.0f s deadlines)\n\n", names.c_str(),
+              seconds, deadline_s);
   std::printf(
-      "\n### Throughput (mix of s2_flat_diag, s2_under_deck, s2_around_walls; "
-      "%.0f s per row)\n\n",
-      seconds);
-  std::printf(
-      "| clients | plans | failed | plans/s | p50 ms | p99 ms | p50 server queue ms |\n"
-      "|---|---|---|---|---|---|---|\n");
-  for (int clients : {1, 2, 8, 32}) {
+      "| clients | plans | failed (by code) | plans/s | p50 ms | p99 ms | max ms | p50 server "
+      "queue ms |\n|---|---|---|---|---|---|---|---|\n");
+  for (const int clients : client_counts) {
     std::atomic<bool> stop{false};
     std::vector<std::vector<double>> lat(clients), queue(clients);
     std::vector<int> failures(clients, 0);
+    std::vector<std::map<int, int>> codes(clients);
     std::vector<std::thread> threads;
     const auto t0 = Clock::now();
     for (int c = 0; c < clients; ++c) {
       threads.emplace_back([&, c] {
         auto own = strata::v1::PlannerService::NewStub(channel);  // own stub, shared channel
         for (std::size_t i = c; !stop.load(std::memory_order_relaxed); ++i) {
-          const Outcome o = Plan(*own, Request(kMix[i % std::size(kMix)]));
+          const Outcome o = Plan(*own, Request((*mix)[i % mix->size()]), deadline_s);
           if (stop.load(std::memory_order_relaxed)) break;  // finished after the window
           if (o.status.ok()) {
             lat[c].push_back(o.rpc_s * 1e3);
             queue[c].push_back(o.queue_s * 1e3);
           } else {
             ++failures[c];
+            ++codes[c][static_cast<int>(o.status.error_code())];
           }
         }
       });
@@ -215,13 +248,20 @@ int main(int argc, char** argv) {
     for (auto& t : threads) t.join();
     std::vector<double> all, all_queue;
     int failed = 0;
+    std::map<int, int> by_code;
     for (int c = 0; c < clients; ++c) {
       all.insert(all.end(), lat[c].begin(), lat[c].end());
       all_queue.insert(all_queue.end(), queue[c].begin(), queue[c].end());
       failed += failures[c];
+      for (const auto& [code, n] : codes[c]) by_code[code] += n;
     }
-    std::printf("| %d | %zu | %d | %.1f | %.1f | %.1f | %.1f |\n", clients, all.size(), failed,
-                all.size() / window, Quantile(all, 0.5), Quantile(all, 0.99),
+    std::string failed_text = std::to_string(failed);
+    for (const auto& [code, n] : by_code) {
+      failed_text += " code" + std::to_string(code) + ":" + std::to_string(n);
+    }
+    std::printf("| %d | %zu | %s | %.1f | %.1f | %.1f | %.1f | %.1f |\n", clients, all.size(),
+                failed_text.c_str(), all.size() / window, Quantile(all, 0.5), Quantile(all, 0.99),
+                all.empty() ? 0.0 : *std::max_element(all.begin(), all.end()),
                 Quantile(all_queue, 0.5));
     std::fflush(stdout);
   }
