@@ -26,10 +26,6 @@ inline constexpr std::size_t kMaxViolationDescriptionBytes = 256;
 /// The most field violations one error carries.
 inline constexpr std::size_t kMaxFieldViolations = 8;
 
-/// `text`, or its first bytes up to about `max_bytes` (whole UTF-8 characters) followed by
-/// "…[N more bytes]".
-std::string BoundedText(std::string_view text, std::size_t max_bytes);
-
 /// ErrorInfo.domain of every Strata error.
 inline constexpr std::string_view kErrorDomain = "strata";
 

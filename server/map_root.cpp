@@ -40,8 +40,9 @@ Result<fs::path> ResolveMapPath(const fs::path& root, std::string_view requested
   }
   // The path as the client gave it, cut: it is quoted back in messages.
   constexpr std::size_t kMaxShown = 64;
-  const std::string shown = "'" + std::string(requested.substr(0, kMaxShown)) +
-                            (requested.size() > kMaxShown ? "...'" : "'");
+  std::string shown = "'";
+  shown += BoundedText(requested, kMaxShown);
+  shown += '\'';
   const fs::path candidate =
       fs::path(requested).is_absolute() ? fs::path(requested) : root / fs::path(requested);
   std::error_code ec;

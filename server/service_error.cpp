@@ -26,4 +26,13 @@ ServiceError MakeError(ErrorCode code, std::string message) {
   return ServiceError{code, std::move(message), {}, {}};
 }
 
+std::string BoundedText(std::string_view text, std::size_t max_bytes) {
+  if (text.size() <= max_bytes) return std::string(text);
+  std::size_t cut = max_bytes;
+  // Back off to the start of a UTF-8 character (continuation bytes are 10xxxxxx).
+  while (cut > 0 && (static_cast<unsigned char>(text[cut]) & 0xC0) == 0x80) --cut;
+  return std::string(text.substr(0, cut)) + "…[" + std::to_string(text.size() - cut) +
+         " more bytes]";
+}
+
 }  // namespace strata::server

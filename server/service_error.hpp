@@ -2,8 +2,10 @@
 /// How failures travel inside the server (no gRPC here): a planner code (strata::ErrorCode)
 /// or a code only the server knows, a message that says what to fix, the request fields at
 /// fault, and machine-readable details. error_mapping.hpp turns one into a grpc::Status.
+#include <cstddef>
 #include <map>
 #include <string>
+#include <string_view>
 #include <variant>
 #include <vector>
 
@@ -67,6 +69,10 @@ struct ServiceError {
   /// Adds one metadata entry; returns *this.
   ServiceError& With(std::string key, std::string value);
 };
+
+/// `text`, or its first bytes up to about `max_bytes` (whole UTF-8 characters) followed by
+/// "…[N more bytes]": for text a client sent, quoted back in a message or a detail.
+std::string BoundedText(std::string_view text, std::size_t max_bytes);
 
 /// Shorthand for a server-side failure.
 ServiceError MakeError(ServiceErrorCode code, std::string message);
