@@ -19,7 +19,8 @@ RUN cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release \
     && ctest --test-dir build --output-on-failure -j "$(nproc)"
 # The binaries the image ships; the `strata` CLI only when this tree builds it.
 RUN mkdir -p /out \
-    && cp build/server/strata-server build/deploy/health_probe/strata-health-probe \
+    && cp build/server/strata-server build/server/strata-map-worker \
+          build/deploy/health_probe/strata-health-probe \
           build/tools/offline/strata-offline /out/ \
     && if [ -x build/client/strata ]; then cp build/client/strata /out/; fi \
     && strip --strip-unneeded /out/*

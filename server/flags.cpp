@@ -153,6 +153,18 @@ void AddFlags(CLI::App& app, ParsedFlags& parsed, bool environment) {
       "maps assessed at the same time, off the RPC threads", IntegerIn(1, 64));
   add("--assessment-threads", config.assessment_threads, "N",
       "threads of one assessment; 0 = every core", IntegerIn(0, 1024));
+  add("--max-assessment-memory", config.max_assessment_memory_bytes, "BYTES",
+      "memory the making of one map may allocate (its worker process's limit); beyond it\n"
+      "the map fails with RESOURCE_EXHAUSTED",
+      IntegerIn(64 << 20, std::numeric_limits<long long>::max()));
+  add("--max-assessment-time-s", config.max_assessment_time_s, "S",
+      "seconds the making of one map may take, reading its source included; beyond them\n"
+      "the map fails with DEADLINE_EXCEEDED",
+      Seconds(false));
+  add("--map-worker", config.map_worker, "FILE",
+      "the strata-map-worker program each new map is made in; none: the one installed\n"
+      "beside strata-server",
+      CLI::ExistingFile);
   add("--max-maps", config.max_maps, "N",
       "maps held at once, in any state; with --map-store, maps being created or failed here",
       IntegerIn(1, 100000));

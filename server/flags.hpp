@@ -48,6 +48,14 @@ struct ServerConfig {
   int max_concurrent_assessments = 1;
   /// Threads of one assessment [-], >= 0; 0 uses every core.
   int assessment_threads = 0;
+  /// Memory the making of one map may allocate, its worker process's limit [bytes],
+  /// >= 64 MiB. The server's memory budget sets this much aside while a map is made.
+  std::uint64_t max_assessment_memory_bytes = std::uint64_t{4} << 30;
+  /// Longest the making of one map may take, reading its source included [s], > 0.
+  double max_assessment_time_s = 600.0;
+  /// The strata-map-worker program (server/map_worker.hpp); empty: the one beside the
+  /// running strata-server.
+  std::string map_worker;
   /// Maps held at once [-], >= 1. With a map store: maps being created or failed on this
   /// server (the store's maps are loaded on demand, bounded by max_map_memory_bytes).
   int max_maps = 16;

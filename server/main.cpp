@@ -86,8 +86,9 @@ int main(int argc, char** argv) {
 
   server->Wait();
   if (!server->WaitAssessmentsIdle(std::chrono::seconds(2))) {
+    // Its worker process dies with this one (map_worker_main.cpp); nothing else is left.
     LogWarning("stopped").Add("message", "exiting with a map assessment unfinished");
-    std::_Exit(0);  // The assessment cannot be interrupted; nothing else is left to finish.
+    std::_Exit(0);
   }
   LogInfo("stopped").Add("message", "every call finished");
   // Everything a client can observe is done and the log is written (unbuffered). Skipping

@@ -5,6 +5,8 @@
 #include "strata/saved_model.hpp"
 
 #include <algorithm>
+#include <atomic>
+#include <charconv>
 #include <new>
 #include <utility>
 
@@ -19,6 +21,13 @@ constexpr auto kCancellationPollPeriod = std::chrono::milliseconds(50);
 
 double SecondsSince(SteadyClock::time_point start) {
   return std::chrono::duration<double>(SteadyClock::now() - start).count();
+}
+
+// "600 s", "0.5 s".
+std::string SecondsText(double seconds) {
+  char digits[32];
+  const auto [end, ec] = std::to_chars(digits, digits + sizeof digits, seconds);
+  return std::string(digits, ec == std::errc() ? end : digits) + " s";
 }
 
 bool IsIdCharacter(char c) {
@@ -42,16 +51,6 @@ MapSourceInfo InfoOf(const MapSource& source) {
 }
 
 }  // namespace
-
-Expected<LoadedCloud> LoadMapSource(MapSource source, const CloudLoadLimits& limits) {
-  if (auto* file = std::get_if<FileMapSource>(&source)) {
-    return ::strata::LoadMapSource(FileSource{file->resolved_path.string()}, limits);
-  }
-  if (auto* scene = std::get_if<SceneMapSource>(&source)) {
-    return ::strata::LoadMapSource(*scene, limits);
-  }
-  return SanitizeCloud(std::move(std::get<UploadMapSource>(source).points), limits);
-}
 
 namespace {
 
@@ -130,6 +129,14 @@ MapRegistry::MapRegistry(RegistryOptions options, DoneListener on_done)
   options_.max_concurrent_assessments = std::max(1, options_.max_concurrent_assessments);
   options_.max_maps = std::max(1, options_.max_maps);
   if (!options_.loader) options_.loader = LoadMapSource;
+  if (!options_.build) {
+    options_.build = [loader = options_.loader](MapBuildJob job,
+                                                const BuildMonitor& monitor) -> Result<BuiltMap> {
+      Expected<BuiltMap> built = BuildMapHere(std::move(job), monitor, loader);
+      if (!built) return ServiceError::FromPlanner(built.error());
+      return std::move(built).value();
+    };
+  }
   options_.versions_kept = std::max(1, options_.versions_kept);
   if (options_.store) cache_ = std::make_unique<MapCache>(options_.max_map_memory_bytes);
   workers_.reserve(static_cast<std::size_t>(options_.max_concurrent_assessments));
@@ -632,102 +639,92 @@ void MapRegistry::WorkerLoop() {
 }
 
 void MapRegistry::Assess(const std::shared_ptr<Entry>& entry) {
-  MapSource source;
-  AssessmentConfig config;
+  MapBuildJob job;
   {
     std::lock_guard lock(mutex_);
     if (entry->removed) return;
-    source = std::move(entry->source);
+    job.source = std::move(entry->source);
     entry->source = SceneMapSource{};  // Frees uploaded points once assessed.
     entry->stage = CreationStage::kLoading;
-    config = entry->config;
+    job.config = entry->config;
+    job.saved_model = entry->from_saved_model;
   }
   changed_.notify_all();
+  job.limits = options_.load_limits;
+  job.keep_cloud = options_.store != nullptr && !job.saved_model;  // The store keeps it.
+
+  // The build reports its figures and its step to the map (Map.progress), and stops when the
+  // map is deleted, the server shuts down, or its time is up.
+  const auto deadline =
+      options_.max_assessment_time_s > 0
+          ? SteadyClock::now() + std::chrono::duration_cast<SteadyClock::duration>(
+                                     std::chrono::duration<double>(options_.max_assessment_time_s))
+          : SteadyClock::time_point::max();
+  std::atomic<bool> timed_out{false};
+  BuildMonitor monitor;
+  monitor.on_loaded = [this, &entry](std::size_t raw, std::size_t dropped, double load_s) {
+    {
+      std::lock_guard lock(mutex_);
+      entry->raw_point_count = raw;
+      entry->dropped_nonfinite_point_count = dropped;
+      entry->load_s = load_s;
+      if (!entry->from_saved_model) entry->stage = CreationStage::kAssessing;
+    }
+    changed_.notify_all();
+  };
+  monitor.on_progress = [this, &entry](AssessmentStage step, double fraction) {
+    std::lock_guard lock(mutex_);
+    entry->step = step;
+    entry->step_fraction = fraction;
+  };
+  monitor.should_stop = [this, &entry, deadline, &timed_out] {
+    if (SteadyClock::now() >= deadline) timed_out = true;
+    std::lock_guard lock(mutex_);
+    return timed_out || entry->removed || stopping_;
+  };
 
   // Nothing below may throw past this function: a worker that died would leave maps
   // CREATING for ever.
   try {
-    std::optional<Expected<std::shared_ptr<const TerrainModel>>> model;
-    PointCloud cloud;  // Kept until written to the store, when there is one.
-    std::string version;
-    if (entry->from_saved_model) {
-      const auto load_start = SteadyClock::now();
-      const std::string path = std::get<FileMapSource>(source).resolved_path.string();
-      model.emplace(LoadModel(path));
-      if (*model) version = MapStore::VersionOfSavedModel(path);
-      std::lock_guard lock(mutex_);
-      if (entry->removed) return;
-      entry->load_s = SecondsSince(load_start);
-      if (*model) entry->raw_point_count = (**model)->summary().input_points;
-    } else {
-      const auto load_start = SteadyClock::now();
-      Expected<LoadedCloud> loaded = options_.loader(std::move(source), options_.load_limits);
-      const double load_s = SecondsSince(load_start);
-      if (!loaded) {
-        Finish(entry, ServiceError::FromPlanner(loaded.error()));
-        return;
-      }
-      {
-        std::lock_guard lock(mutex_);
-        if (entry->removed) return;
-        entry->raw_point_count = loaded->raw_point_count;
-        entry->dropped_nonfinite_point_count = loaded->dropped_nonfinite;
-        entry->load_s = load_s;
-        entry->stage = CreationStage::kAssessing;
-      }
-      changed_.notify_all();
-      // The assessment reports its step to the map (Map.progress) and stops when the map is
-      // deleted or the server shuts down.
-      AssessmentControl control;
-      control.on_progress = [this, &entry](AssessmentStage step, double fraction) {
-        std::lock_guard lock(mutex_);
-        entry->step = step;
-        entry->step_fraction = fraction;
-      };
-      control.should_stop = [this, &entry] {
-        std::lock_guard lock(mutex_);
-        return entry->removed || stopping_;
-      };
-      version = MapStore::VersionOf(loaded->points, config, {});
-      // A replica that created the same map at the same time may have assessed it already.
-      if (options_.store && options_.store->Current(entry->id).ok() &&
-          options_.store->Current(entry->id).value() == version) {
-        Result<std::shared_ptr<const TerrainModel>> stored =
-            options_.store->LoadModel(entry->id, version);
-        if (stored.ok()) model.emplace(std::move(stored).value());
-      }
-      if (!model) model.emplace(TerrainModel::Assess(loaded->points, config, control));
-      if (options_.store) cloud = std::move(loaded->points);
-    }  // Without a store the cloud is freed here; the model keeps what planning needs.
+    Result<BuiltMap> built = options_.build(std::move(job), monitor);
     {
       std::lock_guard lock(mutex_);
       if (entry->removed) return;  // Cancelled: nobody wants the result.
     }
-    if (!*model && model->error().code == ErrorCode::kCancelled) {
-      Finish(entry, MakeError(ServiceErrorCode::kShuttingDown,
-                              "the server shut down while assessing this map: create it again "
-                              "on a running replica"));
+    if (!built.ok()) {
+      const ServiceError& error = built.error();
+      const auto* code = std::get_if<ErrorCode>(&error.code);
+      if (code != nullptr && *code == ErrorCode::kCancelled && timed_out) {
+        Finish(entry, MakeError(ErrorCode::kDeadlineExceeded,
+                                "making this map took longer than the server allows "
+                                "(--max-assessment-time-s " +
+                                    SecondsText(options_.max_assessment_time_s) +
+                                    "): use a coarser terrain.resolution_m or a smaller cloud"));
+      } else if (code != nullptr && *code == ErrorCode::kCancelled) {
+        Finish(entry, MakeError(ServiceErrorCode::kShuttingDown,
+                                "the server shut down while assessing this map: create it again "
+                                "on a running replica"));
+      } else {
+        Finish(entry, error);
+      }
       return;
     }
-    if (!*model) {
-      Finish(entry, ServiceError::FromPlanner(model->error()));
-      return;
-    }
-    const int max_levels = MaxLevels(*model->value());
+    BuiltMap& map = built.value();
+    const int max_levels = MaxLevels(*map.model);
     {
       std::lock_guard lock(mutex_);
       entry->max_levels = max_levels;
-      entry->version = version;
+      entry->version = map.version;
     }
     if (options_.store) {
-      ServiceStatus published = PublishCreated(entry, cloud, *model->value());
+      ServiceStatus published = PublishCreated(entry, map.cloud, *map.model);
       if (!published.ok()) {
         Finish(entry, std::move(published).error());
         return;
       }
     }
-    Finish(entry, std::shared_ptr<const PlanningMap>(
-                      std::make_shared<PlanningMap>(std::move(*model).value())));
+    Finish(entry,
+           std::shared_ptr<const PlanningMap>(std::make_shared<PlanningMap>(std::move(map.model))));
   } catch (const std::bad_alloc&) {
     Finish(entry, MakeError(ErrorCode::kResourceExhausted,
                             "the server ran out of memory assessing this map: use a coarser "

@@ -1,7 +1,8 @@
 #pragma once
-/// The maps a server hosts: an id → map store and the small worker pool that assesses new
-/// maps off the RPC threads. No gRPC here, so it is tested on its own (and can run under
-/// ThreadSanitizer, which Debian's gRPC cannot: scripts/test.sh runs that build in CI).
+/// The maps a server hosts: an id → map store and the small pool of threads that make new
+/// maps off the RPC threads (each in a worker process of its own in the server:
+/// RegistryOptions::build, map_worker.hpp). No gRPC here, so it is tested on its own (and can run
+/// under ThreadSanitizer, which Debian's gRPC cannot: scripts/test.sh runs that build in CI).
 ///
 /// Concurrency: one mutex guards the id → entry table and every entry's mutable fields; it
 /// is held only for bookkeeping, never while loading, assessing or planning. A plan copies
@@ -29,6 +30,7 @@
 #include <variant>
 #include <vector>
 
+#include "map_build.hpp"
 #include "map_cache.hpp"
 #include "map_store.hpp"
 #include "service_error.hpp"
@@ -47,23 +49,6 @@ enum class MapState { kCreating, kActive, kFailed };
 
 /// Where a CREATING map is.
 enum class CreationStage { kQueued, kLoading, kAssessing, kDone };
-
-/// A point-cloud file, already confined to the map root (ResolveMapPath).
-struct FileMapSource {
-  std::filesystem::path resolved_path;  ///< Canonical path that is loaded.
-  std::string requested_path;           ///< As the client gave it, for display.
-};
-
-/// A built-in scene (strata/scenes/map_source.hpp; seed kDefaultSceneSeed unless given).
-using SceneMapSource = SceneSource;
-
-/// Uploaded points (may hold NaN/Inf: they are dropped and counted like a file's).
-struct UploadMapSource {
-  PointCloud points;
-  std::uint64_t received_bytes = 0;
-};
-
-using MapSource = std::variant<FileMapSource, SceneMapSource, UploadMapSource>;
 
 /// What remains known of a source once its points are consumed.
 struct UploadSummary {
@@ -105,16 +90,9 @@ struct MapSnapshot {
   double progress() const;
 };
 
-/// Reads a source into a sanitised cloud (file, scene or upload); runs on a worker thread.
-using CloudLoader = std::function<Expected<LoadedCloud>(MapSource, const CloudLoadLimits&)>;
-
-/// The loader the server uses: strata::LoadMapSource (strata/scenes/map_source.hpp, the one
-/// strata-offline uses) for files and scenes, SanitizeCloud for uploads.
-Expected<LoadedCloud> LoadMapSource(MapSource source, const CloudLoadLimits& limits);
-
 /// Limits and resources of a registry.
 struct RegistryOptions {
-  /// Maps assessed at the same time (worker threads) [-], >= 1.
+  /// Maps made at the same time [-], >= 1.
   int max_concurrent_assessments = 1;
   /// Maps held at once, in any state [-], >= 1.
   int max_maps = 16;
@@ -122,8 +100,15 @@ struct RegistryOptions {
   int assessment_threads = 0;
   /// Limits on file loading and uploads (points, bytes, coordinates).
   CloudLoadLimits load_limits;
-  /// How sources are read (tests substitute one that waits on a latch).
+  /// How a map is made: in a worker process (map_worker.hpp; what the server does). Empty:
+  /// on the registry's own thread with `loader` (BuildMapHere).
+  MapBuilder build;
+  /// How sources are read when `build` is empty (tests substitute one that waits on a latch).
   CloudLoader loader = LoadMapSource;
+  /// Longest the making of one map may take once started, reading its source included [s],
+  /// >= 0; past it the map fails with kDeadlineExceeded (a worker process is killed at once,
+  /// an assessment here stops within a unit of work). 0: no limit.
+  double max_assessment_time_s = 0;
   /// The map store shared with other replicas; null keeps maps in this registry only.
   std::shared_ptr<MapStore> store;
   /// With a store: most bytes of loaded maps held [bytes]; 0 = no limit (MapCache).
@@ -231,9 +216,9 @@ class MapRegistry {
                                     const std::function<bool()>& should_stop) const;
 
   /// Removes the map in any state (with a store, from the store: for every replica);
-  /// kMapNotFound. An assessment in progress stops within one
-  /// unit of its work (a row of columns, a tile) and is discarded; plans holding the map
-  /// finish normally.
+  /// kMapNotFound. A map being made stops at once (its worker process is killed; on this
+  /// process's own thread, within one unit of work: a row of columns, a tile) and is
+  /// discarded; plans holding the map finish normally.
   ServiceStatus Delete(const std::string& id);
 
   /// Up to `page_size` (>= 1) maps with ids greater than `after_id`, in id order.
@@ -241,13 +226,14 @@ class MapRegistry {
 
   MapTotals Totals() const;
 
-  /// Refuses new maps (kShuttingDown), fails queued maps and cancels the assessments under
-  /// way (their maps fail with kShuttingDown; a map still loading its file finishes the
-  /// load first), then lets the workers exit. Idempotent.
+  /// Refuses new maps (kShuttingDown), fails queued maps and stops the ones being made (their
+  /// maps fail with kShuttingDown: a worker process is killed at once; a build on this
+  /// process's own thread that is still reading its file finishes the read first), then lets
+  /// the threads exit. Idempotent.
   void Shutdown();
 
   /// After Shutdown: waits until no assessment is running or `deadline` passes; true when
-  /// idle. (Reading a file cannot be interrupted; the caller may exit without it.)
+  /// idle.
   bool WaitIdle(std::chrono::steady_clock::time_point deadline);
 
   const RegistryOptions& options() const { return options_; }

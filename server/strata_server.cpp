@@ -12,6 +12,7 @@
 
 #include "log.hpp"
 #include "map_root.hpp"
+#include "map_worker.hpp"
 #include "proto_convert.hpp"
 
 namespace strata::server {
@@ -148,6 +149,24 @@ Result<std::unique_ptr<StrataServer>> StrataServer::Start(const ServerConfig& co
   registry_options.max_maps = config.max_maps;
   registry_options.assessment_threads = config.assessment_threads;
   registry_options.load_limits.max_points = config.max_points;
+  // Every new map is made in a worker process of its own: a reader that crashes on a
+  // malformed file, or an assessment past its memory or time, fails that map only.
+  MapWorkerOptions worker;
+  worker.program = config.map_worker.empty() ? MapWorkerBesideThisProgram()
+                                             : std::filesystem::path(config.map_worker);
+  if (worker.program.empty()) {
+    return MakeError(ErrorCode::kInvalidInput,
+                     "--map-worker: there is no strata-map-worker beside strata-server; give "
+                     "its path");
+  }
+  worker.memory_bytes = config.max_assessment_memory_bytes;
+  // The wall-clock limit is the registry's; CPU time is a backstop at every core busy for it.
+  const unsigned threads = config.assessment_threads > 0
+                               ? static_cast<unsigned>(config.assessment_threads)
+                               : std::max(1u, std::thread::hardware_concurrency());
+  worker.cpu_s = config.max_assessment_time_s * threads + 10;
+  registry_options.build = MapWorkerBuilder(std::move(worker));
+  registry_options.max_assessment_time_s = config.max_assessment_time_s;
   if (!config.map_store.empty()) {
     Result<std::unique_ptr<MapStore>> store = MapStore::Open(config.map_store);
     if (!store.ok()) {

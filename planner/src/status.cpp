@@ -23,4 +23,11 @@ const char* ErrorCodeName(ErrorCode code) {
   return "UNKNOWN";
 }
 
+std::optional<ErrorCode> ErrorCodeFromName(std::string_view name) {
+  for (const ErrorCode code : kAllErrorCodes) {
+    if (name == ErrorCodeName(code)) return code;
+  }
+  return std::nullopt;
+}
+
 }  // namespace strata

@@ -58,6 +58,19 @@ Expected<SceneSource> ParseSceneSource(std::string_view text) {
   return scene;
 }
 
+std::string FormatSceneSource(const SceneSource& scene) {
+  std::string text = std::string(kScenePrefix) + scene.name + ":" + std::to_string(scene.seed);
+  const auto option = [&text](const char* key, const std::optional<double>& value) {
+    if (!value) return;
+    char digits[32];
+    const auto [end, ec] = std::to_chars(digits, digits + sizeof digits, *value);
+    text.append(":").append(key).append("=").append(digits, ec == std::errc() ? end : digits);
+  };
+  option("size_m", scene.options.size_m);
+  option("spacing_m", scene.options.spacing_m);
+  return text;
+}
+
 Expected<MapSource> ParseMapSource(std::string_view text) {
   if (!text.starts_with(kScenePrefix)) return MapSource(FileSource{std::string(text)});
   Expected<SceneSource> scene = ParseSceneSource(text);

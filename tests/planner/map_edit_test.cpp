@@ -12,29 +12,12 @@
 #include "strata/saved_model.hpp"
 #include "strata/scenes/basic_scenes.hpp"
 #include "strata/scenes/paper_scenes.hpp"
+#include "test_util/model_bytes.hpp"
 
 namespace strata {
 namespace {
 
 using ::testing::HasSubstr;
-
-// The saved model with the summary's timings zeroed: everything a plan reads, and the counts.
-std::string BytesWithoutTimings(const TerrainModel& model) {
-  AssessmentSummary summary = model.summary();
-  summary.timings = {};
-  auto copy = TerrainModel::FromParts(model.config(), summary, model.surfaces(), model.fields());
-  EXPECT_TRUE(copy.ok());
-  return SerializeModel(**copy);
-}
-
-// The first byte where two saved models differ, for a readable failure.
-std::size_t FirstDifference(const std::string& a, const std::string& b) {
-  const std::size_t n = std::min(a.size(), b.size());
-  for (std::size_t i = 0; i < n; ++i) {
-    if (a[i] != b[i]) return i;
-  }
-  return n;
-}
 
 // A voxelised copy of `cloud`: every point moved to the centre of its `voxel_m` voxel, one
 // point per voxel, as the shared maps are made.
@@ -86,13 +69,13 @@ Reassessment ExpectReassessedLikeFresh(const Scene& scene, const std::vector<Map
   auto fresh = TerrainModel::Assess(*edited, scene.model->config());
   EXPECT_TRUE(fresh.ok()) << fresh.error().message;
   if (!fresh.ok()) return {};
-  const std::string local_bytes = BytesWithoutTimings(*reassessed->model);
-  const std::string fresh_bytes = BytesWithoutTimings(**fresh);
+  const std::string local_bytes = test_util::BytesWithoutTimings(*reassessed->model);
+  const std::string fresh_bytes = test_util::BytesWithoutTimings(**fresh);
   EXPECT_TRUE(local_bytes == fresh_bytes)
       << "the reassessed model differs from a fresh assessment from byte "
-      << FirstDifference(local_bytes, fresh_bytes) << " of " << fresh_bytes.size();
+      << test_util::FirstDifferingByte(local_bytes, fresh_bytes) << " of " << fresh_bytes.size();
   // An edit that changed nothing would prove nothing.
-  EXPECT_NE(local_bytes, BytesWithoutTimings(*scene.model));
+  EXPECT_NE(local_bytes, test_util::BytesWithoutTimings(*scene.model));
   return std::move(reassessed).value();
 }
 

@@ -55,6 +55,25 @@ TEST(ParseSceneSource, ReadsSizeAndSpacingInAnyOrder) {
   EXPECT_FALSE(scene->options.size_m || scene->options.spacing_m);
 }
 
+TEST(FormatSceneSource, ReadsBackAsTheSameScene) {
+  SceneSource plain{"uneven_terrain", 7, {}};
+  SceneSource sized{"outdoor_site", 4294967295u, {}};
+  sized.options.size_m = 400.0;
+  sized.options.spacing_m = 0.1 + 0.2;  // Not a short decimal: must still read back exactly.
+  SceneSource spaced{"indoor_tables", 0, {}};
+  spaced.options.spacing_m = 1.0e-3;
+  for (const SceneSource& scene : {plain, sized, spaced}) {
+    const std::string text = FormatSceneSource(scene);
+    Expected<SceneSource> back = ParseSceneSource(text);
+    ASSERT_TRUE(back.ok()) << text << ": " << back.error().message;
+    EXPECT_EQ(back->name, scene.name) << text;
+    EXPECT_EQ(back->seed, scene.seed) << text;
+    EXPECT_EQ(back->options.size_m, scene.options.size_m) << text;
+    EXPECT_EQ(back->options.spacing_m, scene.options.spacing_m) << text;
+  }
+  EXPECT_EQ(FormatSceneSource(plain), "scene:uneven_terrain:7");
+}
+
 TEST(ParseSceneSource, RefusesMalformedOptionsNamingThem) {
   const std::pair<std::string, std::string> cases[] = {
       {"scene:a:size_m=", "size_m must be a decimal number"},

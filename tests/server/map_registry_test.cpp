@@ -189,6 +189,25 @@ TEST(MapRegistryTest, FailedLoadShowsTheReasonAndTheIdCanBeReused) {
   EXPECT_EQ(done_calls.load(), 2);
 }
 
+TEST(MapRegistryTest, AMapPastItsTimeFailsWithDeadlineExceeded) {
+  RegistryOptions options = Options();
+  options.max_assessment_time_s = 0.05;
+  MapRegistry registry(options);
+  SceneMapSource site{"outdoor_site", kDefaultSceneSeed, {}};
+  site.options.size_m = 200.0;  // About 2 s of assessment on one thread.
+  ASSERT_TRUE(registry.Create("slow", site, AssessmentConfig{}).ok());
+  const MapSnapshot failed = WaitDone(registry, "slow");
+  ASSERT_EQ(failed.state, MapState::kFailed);
+  ASSERT_TRUE(failed.failure.has_value());
+  EXPECT_EQ(std::get<ErrorCode>(failed.failure->code), ErrorCode::kDeadlineExceeded);
+  EXPECT_THAT(failed.failure->message, HasSubstr("--max-assessment-time-s 0.05 s"));
+  // Without the limit, the same map is made.
+  options.max_assessment_time_s = 0;
+  MapRegistry unlimited(options);
+  ASSERT_TRUE(unlimited.Create("floor", FloorSource(), AssessmentConfig{}).ok());
+  EXPECT_EQ(WaitDone(unlimited, "floor").state, MapState::kActive);
+}
+
 TEST(MapRegistryTest, DeletingACreatingMapDiscardsItsAssessment) {
   GatedLoader gate;
   RegistryOptions options = Options();

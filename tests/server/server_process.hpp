@@ -25,6 +25,7 @@ class ServerProcess {
   ~ServerProcess();  // Kills the server if it still runs.
 
   const std::string& address() const { return address_; }
+  pid_t pid() const { return pid_; }
   int metrics_port() const { return metrics_port_; }
   std::shared_ptr<grpc::Channel> NewChannel() const;
 

@@ -2,7 +2,9 @@
 /// Error reporting for the planner library: it never throws across its API and never prints.
 /// A fallible call returns `Expected<T>` (a value or an `Error`) or `Status` (ok or an `Error`).
 
+#include <optional>
 #include <string>
+#include <string_view>
 
 #include "strata/common/expected.hpp"
 
@@ -27,8 +29,23 @@ enum class ErrorCode {
   kOptimizationFailed,  ///< The optimised trajectory failed verification (first violation named).
 };
 
+/// Every ErrorCode, in declaration order.
+inline constexpr ErrorCode kAllErrorCodes[] = {
+    ErrorCode::kInvalidInput,          ErrorCode::kInvalidConfig,
+    ErrorCode::kMapLoadFailed,         ErrorCode::kResourceExhausted,
+    ErrorCode::kStartOffGround,        ErrorCode::kGoalOffGround,
+    ErrorCode::kStartInKeepOut,        ErrorCode::kGoalInKeepOut,
+    ErrorCode::kGoalUnreachable,       ErrorCode::kNoPath,
+    ErrorCode::kDeadlineExceeded,      ErrorCode::kCancelled,
+    ErrorCode::kSearchBudgetExhausted, ErrorCode::kProfileMismatch,
+    ErrorCode::kOptimizationFailed,
+};
+
 /// Stable UPPER_SNAKE_CASE name of a code, e.g. "MAP_LOAD_FAILED".
 const char* ErrorCodeName(ErrorCode code);
+
+/// The code whose ErrorCodeName is `name`, if any.
+std::optional<ErrorCode> ErrorCodeFromName(std::string_view name);
 
 /// A failure: a code, a message that names the offending values and says what to fix, and,
 /// when one field of the input is at fault, its path.

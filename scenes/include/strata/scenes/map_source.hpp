@@ -45,6 +45,10 @@ using MapSource = std::variant<FileSource, SceneSource>;
 /// GenerateScene (and LoadMapSource), which names the known scenes and the ranges.
 Expected<SceneSource> ParseSceneSource(std::string_view text);
 
+/// The text ParseSceneSource reads back as `scene`: "scene:NAME:SEED" and each option set,
+/// numbers in their shortest form that reads back exactly.
+std::string FormatSceneSource(const SceneSource& scene);
+
 /// A scene when `text` starts with kScenePrefix (ParseSceneSource), a file path otherwise.
 Expected<MapSource> ParseMapSource(std::string_view text);
 

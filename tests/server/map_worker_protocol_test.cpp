@@ -1,0 +1,179 @@
+// The worker's command line and report lines read back as what was written, and anything
+// else is refused (map_worker_protocol.hpp).
+#include "map_worker_protocol.hpp"
+
+#include <string>
+#include <vector>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+namespace strata::server {
+namespace {
+
+using ::testing::HasSubstr;
+
+Expected<WorkerJob> Parse(const std::vector<std::string>& args) {
+  std::vector<const char*> argv = {"strata-map-worker"};
+  for (const std::string& arg : args) argv.push_back(arg.c_str());
+  return ParseWorkerArguments(static_cast<int>(argv.size()), argv.data());
+}
+
+// A job whose every field differs from its default, numbers that are not short decimals
+// included, so that a field dropped or rounded on the way shows.
+WorkerJob OddJob() {
+  WorkerJob job;
+  job.kind = WorkerJob::Source::kScene;
+  job.source = "scene:outdoor_site:3:size_m=200";
+  job.saved_model = true;
+  job.keep_cloud = true;
+  double value = 0.1;
+  ForEachField(job.config, [&value](std::string_view, auto& field) {
+    using Field = std::remove_reference_t<decltype(field)>;
+    if constexpr (std::is_same_v<Field, bool>) {
+      field = !field;
+    } else if constexpr (std::is_floating_point_v<Field>) {
+      field = value / 3;
+      value += 0.1;
+    } else {
+      field = field + 7;
+    }
+  });
+  job.limits.max_points = 123457;
+  job.limits.max_file_bytes = 987654321;
+  job.limits.max_abs_coordinate_m = 1.0 / 3;
+  job.out_dir = "/tmp/a dir with spaces";
+  job.memory_bytes = (std::uint64_t{5} << 30) + 1;
+  job.cpu_s = 12.5;
+  return job;
+}
+
+TEST(WorkerArguments, ReadBackAsTheSameJob) {
+  const WorkerJob job = OddJob();
+  Expected<WorkerJob> back = Parse(WorkerArguments(job));
+  ASSERT_TRUE(back.ok()) << back.error().message;
+  EXPECT_EQ(back->kind, job.kind);
+  EXPECT_EQ(back->source, job.source);
+  EXPECT_EQ(back->saved_model, job.saved_model);
+  EXPECT_EQ(back->keep_cloud, job.keep_cloud);
+  EXPECT_FALSE(FirstDifference(back->config, job.config).has_value());
+  EXPECT_EQ(back->config.num_threads, job.config.num_threads);
+  EXPECT_EQ(back->limits.max_points, job.limits.max_points);
+  EXPECT_EQ(back->limits.max_file_bytes, job.limits.max_file_bytes);
+  EXPECT_EQ(back->limits.max_abs_coordinate_m, job.limits.max_abs_coordinate_m);
+  EXPECT_EQ(back->out_dir, job.out_dir);
+  EXPECT_EQ(back->memory_bytes, job.memory_bytes);
+  EXPECT_EQ(back->cpu_s, job.cpu_s);
+
+  for (const auto kind : {WorkerJob::Source::kFile, WorkerJob::Source::kPoints}) {
+    WorkerJob other = job;
+    other.kind = kind;
+    other.source = "/maps/a b.pcd";
+    Expected<WorkerJob> parsed = Parse(WorkerArguments(other));
+    ASSERT_TRUE(parsed.ok()) << parsed.error().message;
+    EXPECT_EQ(parsed->kind, kind);
+    EXPECT_EQ(parsed->source, other.source);
+  }
+}
+
+TEST(WorkerArguments, EveryConfigFieldMustBeGivenOnce) {
+  const std::vector<std::string> args = WorkerArguments(OddJob());
+  // Without the last --config: that field is missing, not silently defaulted.
+  std::vector<std::string> missing = args;
+  missing.resize(missing.size() - 2);
+  Expected<WorkerJob> parsed = Parse(missing);
+  ASSERT_FALSE(parsed.ok());
+  EXPECT_THAT(parsed.error().message, HasSubstr("num_threads is missing"));
+
+  std::vector<std::string> unknown = args;
+  unknown.insert(unknown.end(), {"--config", "grid.colour=3"});
+  parsed = Parse(unknown);
+  ASSERT_FALSE(parsed.ok());
+  EXPECT_THAT(parsed.error().message, HasSubstr("grid.colour"));
+
+  std::vector<std::string> twice = args;
+  twice.insert(twice.end(), {"--config", "num_threads=1"});
+  EXPECT_FALSE(Parse(twice).ok());
+
+  std::vector<std::string> not_a_number = args;
+  not_a_number.back() = "num_threads=many";
+  parsed = Parse(not_a_number);
+  ASSERT_FALSE(parsed.ok());
+  EXPECT_THAT(parsed.error().message, HasSubstr("num_threads=many"));
+}
+
+TEST(WorkerArguments, OneSourceExactly) {
+  std::vector<std::string> args = WorkerArguments(OddJob());
+  std::vector<std::string> two = args;
+  two.insert(two.end(), {"--file", "/maps/x.pcd"});
+  EXPECT_FALSE(Parse(two).ok());
+  std::vector<std::string> none;
+  for (std::size_t i = 0; i < args.size(); ++i) {
+    if (args[i] == "--scene") {
+      ++i;
+      continue;
+    }
+    none.push_back(args[i]);
+  }
+  EXPECT_FALSE(Parse(none).ok());
+}
+
+TEST(WorkerReport, LinesReadBackAsTheirReports) {
+  WorkerReport loaded;
+  loaded.kind = WorkerReport::Kind::kLoaded;
+  loaded.raw_points = 50'000'001;
+  loaded.dropped_nonfinite = 17;
+  loaded.load_s = 0.1 + 0.2;
+  WorkerReport progress;
+  progress.kind = WorkerReport::Kind::kProgress;
+  progress.step = AssessmentStage::kSurfaces;
+  progress.fraction = 1.0 / 3;
+  WorkerReport failed;
+  failed.kind = WorkerReport::Kind::kFailed;
+  failed.error = Error{ErrorCode::kResourceExhausted, "too many points: 51000000 > 50000000",
+                       "grid.max_columns"};
+  WorkerReport done;
+  done.version = "57b2470b769fbc7020073d736f8b88cc";
+  for (const WorkerReport& report : {loaded, progress, failed, done}) {
+    const std::string line = FormatWorkerReport(report);
+    ASSERT_FALSE(line.empty());
+    ASSERT_EQ(line.back(), '\n');
+    const std::optional<WorkerReport> back =
+        ParseWorkerReport(std::string_view(line).substr(0, line.size() - 1));
+    ASSERT_TRUE(back.has_value()) << line;
+    EXPECT_EQ(back->kind, report.kind) << line;
+    EXPECT_EQ(back->raw_points, report.raw_points) << line;
+    EXPECT_EQ(back->dropped_nonfinite, report.dropped_nonfinite) << line;
+    EXPECT_EQ(back->load_s, report.load_s) << line;
+    EXPECT_EQ(back->step, report.step) << line;
+    EXPECT_EQ(back->fraction, report.fraction) << line;
+    EXPECT_EQ(back->error.code, report.error.code) << line;
+    EXPECT_EQ(back->error.message, report.error.message) << line;
+    EXPECT_EQ(back->error.field, report.error.field) << line;
+    EXPECT_EQ(back->version, report.version) << line;
+  }
+}
+
+TEST(WorkerReport, AMessageStaysOnOneLineAndAnEmptyFieldReadsBackEmpty) {
+  WorkerReport failed;
+  failed.kind = WorkerReport::Kind::kFailed;
+  failed.error = Error{ErrorCode::kMapLoadFailed, "line one\nline two", ""};
+  const std::string line = FormatWorkerReport(failed);
+  EXPECT_EQ(line.find('\n'), line.size() - 1);
+  const std::optional<WorkerReport> back = ParseWorkerReport(line.substr(0, line.size() - 1));
+  ASSERT_TRUE(back.has_value());
+  EXPECT_EQ(back->error.message, "line one line two");
+  EXPECT_EQ(back->error.field, "");
+}
+
+TEST(WorkerReport, AnythingElseIsNotAReport) {
+  for (const char* line :
+       {"", "done", "done a b", "loaded 1 2", "loaded 1 2 3 4", "loaded -1 2 3", "loaded x 2 3",
+        "progress fields", "progress fields 1.5", "progress polishing 0.5", "failed NOPE - x",
+        "failed MAP_LOAD_FAILED", "PCL warning: something", "Loaded 1 2 3"}) {
+    EXPECT_FALSE(ParseWorkerReport(line).has_value()) << "'" << line << "'";
+  }
+}
+
+}  // namespace
+}  // namespace strata::server

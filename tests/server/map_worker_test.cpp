@@ -1,0 +1,202 @@
+// Maps made in the real strata-map-worker process (map_worker.hpp): the same model as on the
+// registry's own thread, and every way a worker can end badly (an error, a crash, its memory
+// or CPU limit, being stopped) failing that map with its own reason.
+#include "map_worker.hpp"
+
+#include <signal.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "strata/saved_model.hpp"
+#include "test_util/model_bytes.hpp"
+#include "test_util/time_scale.hpp"
+
+namespace strata::server {
+namespace {
+
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+
+// The processes this test process started and has not reaped yet.
+std::vector<pid_t> ChildProcesses() {
+  std::vector<pid_t> children;
+  for (const fs::directory_entry& task : fs::directory_iterator("/proc/self/task")) {
+    std::ifstream list(task.path() / "children");
+    for (pid_t pid = 0; list >> pid;) children.push_back(pid);
+  }
+  return children;
+}
+
+class MapWorkerTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    scratch_ = fs::temp_directory_path() /
+               ("map_worker_test_" + std::to_string(getpid()) + "_" +
+                ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::create_directories(scratch_);
+    options_.program = STRATA_MAP_WORKER_BINARY;
+    options_.scratch_dir = scratch_;
+  }
+  void TearDown() override {
+    // Every job's directory is gone, whatever the job's end.
+    EXPECT_TRUE(fs::is_empty(scratch_)) << scratch_;
+    fs::remove_all(scratch_);
+  }
+
+  static MapBuildJob SceneJob(const std::string& name, std::optional<double> size_m = {}) {
+    MapBuildJob job;
+    SceneMapSource scene{name, kDefaultSceneSeed, {}};
+    scene.options.size_m = size_m;
+    job.source = scene;
+    job.config.num_threads = 2;
+    return job;
+  }
+
+  Result<BuiltMap> Build(MapBuildJob job, const BuildMonitor& monitor = {}) {
+    return MapWorkerBuilder(options_)(std::move(job), monitor);
+  }
+
+  fs::path scratch_;
+  MapWorkerOptions options_;
+};
+
+ErrorCode CodeOf(const ServiceError& error) {
+  const auto* code = std::get_if<ErrorCode>(&error.code);
+  return code != nullptr ? *code : ErrorCode::kInvalidInput;
+}
+
+TEST_F(MapWorkerTest, MakesTheModelTheRegistrysOwnThreadWould) {
+  int loaded_calls = 0;
+  AssessmentStage last_step = AssessmentStage::kSorting;
+  double last_fraction = -1;
+  BuildMonitor monitor;
+  monitor.on_loaded = [&](std::size_t, std::size_t, double) { ++loaded_calls; };
+  monitor.on_progress = [&](AssessmentStage step, double fraction) {
+    last_step = step;
+    last_fraction = fraction;
+  };
+  Result<BuiltMap> there = Build(SceneJob("two_level_ramp"), monitor);
+  ASSERT_TRUE(there.ok()) << there.error().message;
+  Expected<BuiltMap> here = BuildMapHere(SceneJob("two_level_ramp"), {});
+  ASSERT_TRUE(here.ok()) << here.error().message;
+
+  const std::string there_bytes = test_util::BytesWithoutTimings(*there->model);
+  const std::string here_bytes = test_util::BytesWithoutTimings(*here->model);
+  EXPECT_TRUE(there_bytes == here_bytes)
+      << "first difference at byte " << test_util::FirstDifferingByte(there_bytes, here_bytes);
+  EXPECT_EQ(there->version, here->version);
+  EXPECT_EQ(there->raw_point_count, here->raw_point_count);
+  EXPECT_GT(there->raw_point_count, 0u);
+  EXPECT_GT(there->load_s, 0.0);
+  EXPECT_EQ(loaded_calls, 1);
+  EXPECT_EQ(last_step, AssessmentStage::kFields);
+  EXPECT_EQ(last_fraction, 1.0);
+  EXPECT_TRUE(there->cloud.empty());  // Not asked for.
+}
+
+TEST_F(MapWorkerTest, UploadedPointsKeepTheirCountsAndComeBackSanitised) {
+  UploadMapSource upload;
+  for (int i = 0; i < 60; ++i) {
+    for (int j = 0; j < 60; ++j) upload.points.emplace_back(0.05f * i, 0.05f * j, 0.0f);
+  }
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  upload.points.emplace_back(nan, 0.0f, 0.0f);
+  upload.points.emplace_back(1.0f, std::numeric_limits<float>::infinity(), 0.0f);
+  MapBuildJob job;
+  job.source = upload;
+  job.keep_cloud = true;
+  Result<BuiltMap> there = Build(job);
+  ASSERT_TRUE(there.ok()) << there.error().message;
+  Expected<BuiltMap> here = BuildMapHere(job, {});
+  ASSERT_TRUE(here.ok()) << here.error().message;
+
+  EXPECT_EQ(there->raw_point_count, 3602u);
+  EXPECT_EQ(there->dropped_nonfinite, 2u);
+  EXPECT_EQ(there->cloud, here->cloud);
+  EXPECT_EQ(there->cloud.size(), 3600u);
+  EXPECT_EQ(there->version, here->version);
+  EXPECT_TRUE(test_util::BytesWithoutTimings(*there->model) ==
+              test_util::BytesWithoutTimings(*here->model));
+}
+
+TEST_F(MapWorkerTest, AReadersErrorIsTheMapsError) {
+  const fs::path broken = scratch_.parent_path() / ("broken_" + std::to_string(getpid()) + ".pcd");
+  std::ofstream(broken) << "VERSION 0.7\nFIELDS x y z\nPOINTS 5\nDATA ascii\n1 2 3\n";
+  MapBuildJob job;
+  job.source = FileMapSource{broken, "broken.pcd"};
+  Result<BuiltMap> built = Build(job);
+  fs::remove(broken);
+  ASSERT_FALSE(built.ok());
+  EXPECT_EQ(CodeOf(built.error()), ErrorCode::kMapLoadFailed);
+  EXPECT_THAT(built.error().message, HasSubstr(broken.string()));
+}
+
+TEST_F(MapWorkerTest, ACrashFailsTheMapNamingTheSignalAndTheStep) {
+  BuildMonitor monitor;
+  // Once the points are read, the worker dies as a reader or an assessment would on a bug.
+  monitor.on_loaded = [](std::size_t, std::size_t, double) {
+    for (const pid_t child : ChildProcesses()) kill(child, SIGSEGV);
+  };
+  Result<BuiltMap> built = Build(SceneJob("outdoor_site", 200.0), monitor);
+  ASSERT_FALSE(built.ok());
+  EXPECT_EQ(CodeOf(built.error()), ErrorCode::kMapLoadFailed);
+  EXPECT_THAT(built.error().message, HasSubstr("crashed (SIGSEGV"));
+  EXPECT_THAT(built.error().message, HasSubstr("while assessing the terrain"));
+  EXPECT_THAT(built.error().message, HasSubstr("the server is unaffected"));
+}
+
+TEST_F(MapWorkerTest, MemoryBeyondTheLimitIsResourceExhausted) {
+  options_.memory_bytes = 64 << 20;  // The 200 m site needs about 220 MB.
+  Result<BuiltMap> built = Build(SceneJob("outdoor_site", 200.0));
+  ASSERT_FALSE(built.ok());
+  EXPECT_EQ(CodeOf(built.error()), ErrorCode::kResourceExhausted) << built.error().message;
+  EXPECT_THAT(built.error().message, HasSubstr("--max-assessment-memory 64 MiB"));
+}
+
+TEST_F(MapWorkerTest, CpuTimeBeyondTheLimitIsResourceExhausted) {
+  options_.cpu_s = 1;  // The 200 m site takes about 2 s of CPU time.
+  Result<BuiltMap> built = Build(SceneJob("outdoor_site", 200.0));
+  ASSERT_FALSE(built.ok());
+  EXPECT_EQ(CodeOf(built.error()), ErrorCode::kResourceExhausted) << built.error().message;
+  EXPECT_THAT(built.error().message, HasSubstr("1 s of CPU time"));
+}
+
+TEST_F(MapWorkerTest, StoppingKillsTheWorkerAtOnce) {
+  std::atomic<bool> stop{false};
+  std::chrono::steady_clock::time_point asked;
+  BuildMonitor monitor;
+  monitor.on_loaded = [&](std::size_t, std::size_t, double) {
+    asked = std::chrono::steady_clock::now();
+    stop = true;
+  };
+  monitor.should_stop = [&] { return stop.load(); };
+  Result<BuiltMap> built = Build(SceneJob("outdoor_site", 200.0), monitor);
+  const auto took = std::chrono::steady_clock::now() - asked;
+  ASSERT_FALSE(built.ok());
+  EXPECT_EQ(CodeOf(built.error()), ErrorCode::kCancelled);
+  EXPECT_LT(took, std::chrono::milliseconds(500) * test_util::kTimeScale);
+  EXPECT_TRUE(ChildProcesses().empty());  // Killed and reaped.
+}
+
+TEST_F(MapWorkerTest, AMissingProgramIsAClearError) {
+  options_.program = scratch_ / "no-such-worker";
+  Result<BuiltMap> built = Build(SceneJob("two_level_ramp"));
+  ASSERT_FALSE(built.ok());
+  EXPECT_THAT(built.error().message, HasSubstr("cannot start the map worker"));
+  EXPECT_THAT(built.error().message, HasSubstr("no-such-worker"));
+}
+
+}  // namespace
+}  // namespace strata::server
