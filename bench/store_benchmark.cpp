@@ -35,7 +35,7 @@ double SecondsSince(Clock::time_point start) {
 RegistryOptions StoreOptions(const std::shared_ptr<MapStore>& store, std::uint64_t budget) {
   RegistryOptions options;
   options.store = store;
-  options.max_map_memory_bytes = budget;
+  options.memory_budget = std::make_shared<MemoryBudget>(budget);
   options.encode_metadata = EncodeMapMetadata;
   options.decode_metadata = DecodeMapMetadata;
   options.load_limits.max_points = 200'000'000;

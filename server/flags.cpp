@@ -184,9 +184,15 @@ void AddFlags(CLI::App& app, ParsedFlags& parsed, bool environment) {
       "map store shared by every replica (a ReadWriteMany volume in Kubernetes): maps are\n"
       "written there as immutable versions and loaded on demand; none keeps maps in memory",
       CLI::Validator());
-  add("--max-map-memory", config.max_map_memory_bytes, "BYTES",
-      "with --map-store, most bytes of loaded maps held; least recently used ones are\n"
-      "dropped from memory (not from the store); 0 = no limit",
+  add("--max-memory", config.max_memory_bytes, "BYTES",
+      "the server's memory budget: maps held, uploads and maps waiting, and\n"
+      "--max-assessment-memory for each map being made; work past it is refused with\n"
+      "RESOURCE_EXHAUSTED. With --map-store, unused maps are dropped from memory first.\n"
+      "0 = 80 % of the memory of the server's cgroup, else of the machine",
+      IntegerIn(0, std::numeric_limits<long long>::max()));
+  add("--max-graph-memory", config.max_graph_memory_bytes, "BYTES",
+      "traversability graphs kept per map (one per robot profile planned with); the least\n"
+      "recently used are dropped past it; 0 = no bound",
       IntegerIn(0, std::numeric_limits<long long>::max()));
   add("--map-versions-kept", config.map_versions_kept, "N",
       "with --map-store, versions kept per map (the current one included)", IntegerIn(1, 1000));

@@ -57,14 +57,18 @@ struct ServerConfig {
   /// running strata-server.
   std::string map_worker;
   /// Maps held at once [-], >= 1. With a map store: maps being created or failed on this
-  /// server (the store's maps are loaded on demand, bounded by max_map_memory_bytes).
+  /// server (the store's maps are loaded on demand, bounded by max_memory_bytes).
   int max_maps = 16;
   /// Directory of the map store shared by every replica (server/map_store.hpp); empty keeps
   /// maps in this server's memory only.
   std::string map_store;
-  /// With a map store: the most bytes of loaded maps held [bytes], >= 0; 0 = no limit. The
-  /// least recently used are dropped from memory (never from the store) when over it.
-  std::uint64_t max_map_memory_bytes = 0;
+  /// The server's memory budget [bytes], >= 0: maps held (models and graphs), uploads being
+  /// received and maps waiting to be made, and max_assessment_memory_bytes for each map being
+  /// made or edited. 0: AutomaticMemoryLimit() (80 % of the cgroup's or the machine's memory).
+  std::uint64_t max_memory_bytes = 0;
+  /// Traversability graphs kept per map [bytes], >= 0; 0 = no bound. One graph per robot
+  /// profile planned with; past it, the least recently used no plan holds are dropped.
+  std::uint64_t max_graph_memory_bytes = std::uint64_t{1} << 30;
   /// With a map store: versions kept per map, the current one included [-], >= 1.
   int map_versions_kept = 5;
   /// Plans run at the same time [-], >= 0; 0 means one per core. More wait for a slot, first

@@ -22,6 +22,7 @@ Expected<LoadedCloud> LoadMapSource(MapSource source, const CloudLoadLimits& lim
   if (auto* scene = std::get_if<SceneMapSource>(&source)) {
     return ::strata::LoadMapSource(*scene, limits);
   }
+  // The points move into the sanitised cloud, whose memory the build's reservation covers.
   return SanitizeCloud(std::move(std::get<UploadMapSource>(source).points), limits);
 }
 

@@ -11,6 +11,7 @@
 #include <string>
 #include <variant>
 
+#include "memory_budget.hpp"
 #include "service_error.hpp"
 #include "strata/cloud_io.hpp"
 #include "strata/point_cloud.hpp"
@@ -33,6 +34,9 @@ using SceneMapSource = SceneSource;
 struct UploadMapSource {
   PointCloud points;
   std::uint64_t received_bytes = 0;
+  /// The points' bytes in the server's memory budget (may be null); whoever frees the points
+  /// releases it.
+  std::shared_ptr<MemoryBudget::Reservation> reservation;
 };
 
 using MapSource = std::variant<FileMapSource, SceneMapSource, UploadMapSource>;

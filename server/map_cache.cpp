@@ -1,6 +1,9 @@
 #include "map_cache.hpp"
 
+#include <limits>
 #include <vector>
+
+#include "memory_budget.hpp"
 
 namespace strata::server {
 
@@ -34,7 +37,7 @@ Result<std::shared_ptr<const PlanningMap>> MapCache::Get(const std::string& id,
     } catch (const std::bad_alloc&) {
       return Result<std::shared_ptr<const PlanningMap>>(MakeError(
           ErrorCode::kResourceExhausted, "the server ran out of memory loading map '" + id +
-                                             "': lower --max-map-memory or give it more memory"));
+                                             "': lower --max-memory or give it more memory"));
     }
   }();
 
@@ -48,21 +51,22 @@ Result<std::shared_ptr<const PlanningMap>> MapCache::Get(const std::string& id,
   }
   const std::shared_ptr<const PlanningMap> map = std::move(loaded).value();
   const std::uint64_t bytes = map->MemoryBytes();
-  if (budget_bytes_ > 0 && bytes > budget_bytes_) {
+  if (const std::uint64_t allowance = AllowanceBytes(); bytes > allowance) {
     slots_.erase(it);
     lock.unlock();
     loaded_.notify_all();
     return MakeError(ErrorCode::kResourceExhausted,
-                     "map '" + id + "' needs " + std::to_string(bytes) +
-                         " bytes, more than this server's --max-map-memory of " +
-                         std::to_string(budget_bytes_) + ": raise it")
+                     "map '" + id + "' needs " + MebibytesText(bytes) + ", more than the " +
+                         MebibytesText(allowance) +
+                         " the server's memory budget leaves for maps now (--max-memory): "
+                         "retry when uploads and assessments have finished, or raise it")
         .With("map_id", id);
   }
   it->second.loading = false;
   it->second.map = map;
   recency_.push_front(key);
   it->second.recency = recency_.begin();
-  EvictLocked();
+  EvictLocked(AllowanceBytes(), /*keep_newest=*/true);
   lock.unlock();
   loaded_.notify_all();
   return map;
@@ -77,7 +81,7 @@ void MapCache::Insert(const std::string& id, const std::string& version,
     if (slot.loading) return;  // A load of the same version is under way; it will hold it.
     TouchLocked(slot, key);
     slot.map = std::move(map);
-    EvictLocked();
+    EvictLocked(AllowanceBytes(), /*keep_newest=*/true);
   }
   loaded_.notify_all();
 }
@@ -101,23 +105,32 @@ std::shared_ptr<const PlanningMap> MapCache::Peek(const std::string& id,
   return it == slots_.end() ? nullptr : it->second.map;
 }
 
-void MapCache::EvictLocked() {
-  if (budget_bytes_ == 0 || recency_.empty()) return;
+void MapCache::TrimTo(std::uint64_t target_bytes) {
+  std::lock_guard lock(mutex_);
+  EvictLocked(target_bytes, /*keep_newest=*/false);
+}
+
+std::uint64_t MapCache::AllowanceBytes() const {
+  return allowance_ ? allowance_() : std::numeric_limits<std::uint64_t>::max();
+}
+
+void MapCache::EvictLocked(std::uint64_t target, bool keep_newest) {
   std::uint64_t bytes = 0;
   for (const auto& [key, slot] : slots_) {
     if (slot.map != nullptr) bytes += slot.map->MemoryBytes();
   }
-  // Oldest first; the newest (just loaded or used) is never dropped for its own room.
-  for (auto it = std::prev(recency_.end()); bytes > budget_bytes_ && it != recency_.begin();) {
+  // Oldest first (recency_ ends with it). For a map just loaded or used (keep_newest), the
+  // others make room.
+  for (auto it = recency_.end(); bytes > target && it != recency_.begin();) {
+    --it;
+    if (keep_newest && it == recency_.begin()) break;
     const auto slot = slots_.find(*it);
-    const auto older = std::prev(it);
     // use_count 1: only this cache holds it, so no plan runs on it and dropping frees it.
     if (slot->second.map.use_count() == 1) {
       bytes -= slot->second.map->MemoryBytes();
-      recency_.erase(it);
       slots_.erase(slot);
+      it = recency_.erase(it);  // The next older one; the loop steps to the next newer.
     }
-    it = older;
   }
 }
 

@@ -1,8 +1,9 @@
 #pragma once
 /// The map versions a server holds in memory when its maps live in a map store
 /// (map_store.hpp): loaded on demand, once, and dropped least recently used first when their
-/// bytes pass a budget. Dropping only forgets the map here; the store keeps it, and a plan
-/// holding it finishes on it (it is freed when that plan lets go). No gRPC here.
+/// bytes pass what the server's memory budget leaves them (memory_budget.hpp). Dropping only
+/// forgets the map here; the store keeps it, and a plan holding it finishes on it (it is freed when
+/// that plan lets go). No gRPC here.
 #include <condition_variable>
 #include <cstdint>
 #include <functional>
@@ -21,15 +22,18 @@ namespace strata::server {
 class MapCache {
  public:
   using Loader = std::function<Result<std::shared_ptr<const PlanningMap>>()>;
+  /// The bytes the maps held may take now (MemoryBudget::MapAllowance); it may change
+  /// between calls, and is asked with the cache's lock held.
+  using Allowance = std::function<std::uint64_t()>;
 
-  /// `budget_bytes` 0: no limit.
-  explicit MapCache(std::uint64_t budget_bytes) : budget_bytes_(budget_bytes) {}
+  /// Without an allowance, maps are never dropped for room.
+  explicit MapCache(Allowance allowance = {}) : allowance_(std::move(allowance)) {}
 
   /// The planning map of version `version` of map `id`: held already, or made by `load`
   /// (outside the lock). Concurrent callers for one version wait for the same load and share
   /// its outcome; a failed load is not remembered. After a load, the least recently used maps
-  /// no caller holds are dropped until the held bytes fit the budget; a map that alone needs
-  /// more than the budget is not kept and fails with kResourceExhausted.
+  /// no caller holds are dropped until the held bytes fit the allowance; a map that alone
+  /// needs more than the allowance is not kept and fails with kResourceExhausted.
   Result<std::shared_ptr<const PlanningMap>> Get(const std::string& id, const std::string& version,
                                                  const Loader& load);
 
@@ -40,6 +44,10 @@ class MapCache {
   /// Forgets every version of `id` (deleted from the store).
   void Drop(const std::string& id);
 
+  /// Drops the least recently used maps no caller holds until the maps held take at most
+  /// `target_bytes` (or none is left to drop): to make room for other uses of memory.
+  void TrimTo(std::uint64_t target_bytes);
+
   /// The version of `id` held, if one is (the most recently used).
   std::shared_ptr<const PlanningMap> Peek(const std::string& id, const std::string& version) const;
 
@@ -47,7 +55,6 @@ class MapCache {
   std::uint64_t ResidentBytes() const;
   /// Versions held.
   int Count() const;
-  std::uint64_t budget_bytes() const { return budget_bytes_; }
 
  private:
   using Key = std::pair<std::string, std::string>;  // Map id, version.
@@ -57,11 +64,14 @@ class MapCache {
     std::list<Key>::iterator recency;  // In recency_ once loaded.
   };
 
-  // Drops least recently used maps nobody else holds until the bytes fit; call with mutex_.
-  void EvictLocked();
+  // Drops least recently used maps nobody else holds until they take at most `target`
+  // bytes, never the most recently used one when `keep_newest`; call with mutex_.
+  void EvictLocked(std::uint64_t target, bool keep_newest);
+  // The allowance now (no limit without one).
+  std::uint64_t AllowanceBytes() const;
   void TouchLocked(Slot& slot, const Key& key);
 
-  const std::uint64_t budget_bytes_;
+  const Allowance allowance_;
   mutable std::mutex mutex_;
   std::condition_variable loaded_;  // A load finished (or failed).
   std::map<Key, Slot> slots_;

@@ -138,7 +138,19 @@ MapRegistry::MapRegistry(RegistryOptions options, DoneListener on_done)
     };
   }
   options_.versions_kept = std::max(1, options_.versions_kept);
-  if (options_.store) cache_ = std::make_unique<MapCache>(options_.max_map_memory_bytes);
+  if (options_.store) {
+    MapCache::Allowance allowance;
+    if (options_.memory_budget) {
+      allowance = [budget = options_.memory_budget.get()] { return budget->MapAllowance(); };
+    }
+    cache_ = std::make_unique<MapCache>(std::move(allowance));
+  }
+  if (options_.memory_budget) {
+    options_.memory_budget->WatchMaps([this] { return HeldMapBytes(); },
+                                      [this](std::uint64_t target) {
+                                        if (cache_) cache_->TrimTo(target);
+                                      });
+  }
   workers_.reserve(static_cast<std::size_t>(options_.max_concurrent_assessments));
   for (int i = 0; i < options_.max_concurrent_assessments; ++i) {
     workers_.emplace_back([this] { WorkerLoop(); });
@@ -148,6 +160,38 @@ MapRegistry::MapRegistry(RegistryOptions options, DoneListener on_done)
 MapRegistry::~MapRegistry() {
   Shutdown();
   for (std::thread& worker : workers_) worker.join();
+  if (options_.memory_budget) options_.memory_budget->WatchMaps({}, {});
+}
+
+std::uint64_t MapRegistry::HeldMapBytes() const {
+  std::vector<std::shared_ptr<const PlanningMap>> held;
+  {
+    std::lock_guard lock(mutex_);
+    for (const auto& [id, entry] : maps_) {
+      if (entry->planning) held.push_back(entry->planning);
+    }
+  }
+  std::uint64_t bytes = cache_ ? cache_->ResidentBytes() : 0;
+  for (const auto& map : held) bytes += map->MemoryBytes();
+  return bytes;
+}
+
+std::shared_ptr<const PlanningMap> MapRegistry::NewPlanningMap(
+    std::shared_ptr<const TerrainModel> model, std::vector<Prism> keep_out) const {
+  return std::make_shared<PlanningMap>(std::move(model), std::move(keep_out),
+                                       options_.max_graph_bytes);
+}
+
+Result<MemoryBudget::Reservation> MapRegistry::ReserveForMaking(const std::string& id) const {
+  if (!options_.memory_budget) return MemoryBudget::Reservation();
+  return options_.memory_budget->Reserve(MemoryBudget::Use::kAssessments,
+                                         options_.assessment_memory_bytes,
+                                         "making map '" + id + "' (--max-assessment-memory)");
+}
+
+ServiceStatus MapRegistry::AdmitMade(const std::string& id, const PlanningMap& map) const {
+  if (!options_.memory_budget) return OkStatus();
+  return options_.memory_budget->AdmitMap(map.MemoryBytes(), "holding map '" + id + "'");
 }
 
 ServiceStatus MapRegistry::ValidateId(const std::string& id) {
@@ -203,6 +247,17 @@ Result<MapSnapshot> MapRegistry::Create(const std::string& id, MapSource source,
                            current.value() + "): delete it first, choose another id, or " +
                            "UpdateMap it")
           .With("map_id", id);
+    }
+  }
+  if (options_.memory_budget) {
+    // Refused now if making it could not start: the client hears it at once, not after a
+    // queue. Making it sets the memory aside for real (Assess).
+    if (ServiceStatus room = options_.memory_budget->AdmitMap(
+            options_.assessment_memory_bytes, "making map '" +
+                                                  (id.empty() ? std::string("(new)") : id) +
+                                                  "' (--max-assessment-memory)");
+        !room.ok()) {
+      return std::move(room).error();
     }
   }
   auto entry = std::make_shared<Entry>();
@@ -346,8 +401,7 @@ Result<ActiveMap> MapRegistry::LoadStored(const std::string& id, const std::stri
         if (!described.ok()) return std::move(described).error();
         Result<std::shared_ptr<const TerrainModel>> model = options_.store->LoadModel(id, version);
         if (!model.ok()) return std::move(model).error();
-        return std::shared_ptr<const PlanningMap>(
-            std::make_shared<PlanningMap>(std::move(model).value(), described.value().keep_out));
+        return NewPlanningMap(std::move(model).value(), described.value().keep_out);
       });
   if (!map.ok()) return std::move(map).error();
   return ActiveMap{std::move(map).value(), version};
@@ -467,6 +521,10 @@ Result<MapUpdate> MapRegistry::Update(const std::string& id, const std::string& 
                          "to edit: create the map from its point cloud to edit it")
         .With("map_id", id);
   }
+  // The base cloud, its edited copy and the new model are made here: memory is set aside
+  // for them as for making a map.
+  Result<MemoryBudget::Reservation> making = ReserveForMaking(id);
+  if (!making.ok()) return std::move(making).error();
   Result<PointCloud> stored_cloud = options_.store->LoadCloud(id, current);
   if (!stored_cloud.ok()) return std::move(stored_cloud).error();
   cloud = std::move(stored_cloud).value();
@@ -513,7 +571,12 @@ Result<MapUpdate> MapRegistry::Update(const std::string& id, const std::string& 
     return std::move(published).error();
   }
   update.write_s = SecondsSince(write_start);
-  auto planning = std::make_shared<PlanningMap>(model, keep_out);
+  auto planning = NewPlanningMap(model, keep_out);
+  cloud = PointCloud();
+  making.value().Release();
+  if (ServiceStatus admitted = AdmitMade(id, *planning); !admitted.ok()) {
+    return std::move(admitted).error();  // Written and published: it loads when there is room.
+  }
   FillMemory(planning, &snapshot);
   cache_->Insert(id, version, std::move(planning));
   update.map = std::move(snapshot);
@@ -592,7 +655,6 @@ MapTotals MapRegistry::Totals() const {
   if (cache_) {
     totals.active += cache_->Count();
     totals.active_memory_bytes += cache_->ResidentBytes();
-    totals.memory_budget_bytes = cache_->budget_bytes();
   }
   return totals;
 }
@@ -686,6 +748,12 @@ void MapRegistry::Assess(const std::shared_ptr<Entry>& entry) {
   // Nothing below may throw past this function: a worker that died would leave maps
   // CREATING for ever.
   try {
+    Result<MemoryBudget::Reservation> making = ReserveForMaking(entry->id);
+    if (!making.ok()) {
+      Finish(entry, std::move(making).error());
+      return;
+    }
+    // The worker's memory is set aside until the map it made is loaded here (no larger).
     Result<BuiltMap> built = options_.build(std::move(job), monitor);
     {
       std::lock_guard lock(mutex_);
@@ -710,21 +778,27 @@ void MapRegistry::Assess(const std::shared_ptr<Entry>& entry) {
       return;
     }
     BuiltMap& map = built.value();
-    const int max_levels = MaxLevels(*map.model);
+    PointCloud cloud = std::move(map.cloud);
+    const std::shared_ptr<const PlanningMap> planning = NewPlanningMap(std::move(map.model));
+    making.value().Release();
+    if (ServiceStatus admitted = AdmitMade(entry->id, *planning); !admitted.ok()) {
+      Finish(entry, std::move(admitted).error());
+      return;
+    }
+    const int max_levels = MaxLevels(planning->model());
     {
       std::lock_guard lock(mutex_);
       entry->max_levels = max_levels;
       entry->version = map.version;
     }
     if (options_.store) {
-      ServiceStatus published = PublishCreated(entry, map.cloud, *map.model);
+      ServiceStatus published = PublishCreated(entry, cloud, planning->model());
       if (!published.ok()) {
         Finish(entry, std::move(published).error());
         return;
       }
     }
-    Finish(entry,
-           std::shared_ptr<const PlanningMap>(std::make_shared<PlanningMap>(std::move(map.model))));
+    Finish(entry, planning);
   } catch (const std::bad_alloc&) {
     Finish(entry, MakeError(ErrorCode::kResourceExhausted,
                             "the server ran out of memory assessing this map: use a coarser "

@@ -13,8 +13,9 @@
 /// With a map store (RegistryOptions::store), the store is what holds ACTIVE maps: a map
 /// assessed here is written there and becomes visible to every replica, the registry keeps only
 /// the maps being created (or failed) here, and ACTIVE maps are loaded on demand into a
-/// MapCache within --max-map-memory. Every request looks the map up in the store, so a map
-/// deleted or updated on another replica is refused or planned on its new version at once.
+/// MapCache within the server's memory budget (--max-memory). Every request looks the map up in the
+/// store, so a map deleted or updated on another replica is refused or planned on its new version
+/// at once.
 #include <chrono>
 #include <condition_variable>
 #include <cstdint>
@@ -33,6 +34,7 @@
 #include "map_build.hpp"
 #include "map_cache.hpp"
 #include "map_store.hpp"
+#include "memory_budget.hpp"
 #include "service_error.hpp"
 #include "strata/cloud_io.hpp"
 #include "strata/map_edit.hpp"
@@ -111,8 +113,15 @@ struct RegistryOptions {
   double max_assessment_time_s = 0;
   /// The map store shared with other replicas; null keeps maps in this registry only.
   std::shared_ptr<MapStore> store;
-  /// With a store: most bytes of loaded maps held [bytes]; 0 = no limit (MapCache).
-  std::uint64_t max_map_memory_bytes = 0;
+  /// The server's memory budget (memory_budget.hpp); null: none. The registry counts its maps
+  /// there, lets a store's maps go when room is needed, sets assessment_memory_bytes aside
+  /// for each map being made or edited, and admits a map made only when it fits.
+  std::shared_ptr<MemoryBudget> memory_budget;
+  /// Memory set aside in the budget for each map being made or edited [bytes]: the limit of
+  /// the process that makes it (map_worker.hpp).
+  std::uint64_t assessment_memory_bytes = 0;
+  /// Bytes of traversability graphs kept per map (PlanningMap's max_graph_bytes); 0: no bound.
+  std::size_t max_graph_bytes = 0;
   /// With a store: versions kept per map, the current one included [-], >= 1.
   int versions_kept = 5;
   /// With a store: how a version's description is written beside it and read back (the
@@ -153,8 +162,6 @@ struct MapTotals {
   int failed = 0;
   /// Sum over ACTIVE maps held in memory (with a store, the loaded ones) [bytes].
   std::size_t active_memory_bytes = 0;
-  /// With a store: the memory budget (0 = none) [bytes].
-  std::uint64_t memory_budget_bytes = 0;
   std::vector<CreationProgress> creating_progress;  ///< One per CREATING map (<= --max-maps).
 };
 
@@ -247,6 +254,16 @@ class MapRegistry {
   // (see FillMemory) because it takes the planning map's own lock.
   MapSnapshot SnapshotLocked(const Entry& entry) const;
   static void FillMemory(const std::shared_ptr<const PlanningMap>& map, MapSnapshot* snapshot);
+  // Bytes of the maps held, in the table and in the cache (the budget's count).
+  std::uint64_t HeldMapBytes() const;
+  // A planning map on `model` with the registry's graph bound.
+  std::shared_ptr<const PlanningMap> NewPlanningMap(std::shared_ptr<const TerrainModel> model,
+                                                    std::vector<Prism> keep_out = {}) const;
+  // With a budget: `bytes` set aside for making or editing map `id`; an empty reservation
+  // without one.
+  Result<MemoryBudget::Reservation> ReserveForMaking(const std::string& id) const;
+  // With a budget: whether map `id`'s new `map` may be held (see MemoryBudget::AdmitMap).
+  ServiceStatus AdmitMade(const std::string& id, const PlanningMap& map) const;
   void Finish(const std::shared_ptr<Entry>& entry,
               Result<std::shared_ptr<const PlanningMap>> outcome);
 

@@ -141,7 +141,7 @@ grpc::Status MapServiceImpl::UploadMap(grpc::ServerContext* context,
     if (ServiceStatus allowed = Authorize(*context, options_.tokens, Role::kAdmin); !allowed.ok()) {
       return allowed;
     }
-    UploadAssembler upload(options_.max_points);
+    UploadAssembler upload(options_.max_points, options_.memory_budget);
     v1::UploadMapRequest message;
     bool first = true;
     while (reader->Read(&message)) {

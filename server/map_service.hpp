@@ -18,6 +18,8 @@ struct MapServiceOptions {
   std::size_t max_points = 0;
   /// Tokens the calls must carry (--auth-tokens); null lets every call through.
   const TokenTable* tokens = nullptr;
+  /// The server's memory budget, in which uploads are counted as they arrive; may be null.
+  MemoryBudget* memory_budget = nullptr;
 };
 
 /// The MapSource of a CreateMapRequest: a file confined to `map_root`, or a scene with every

@@ -101,6 +101,7 @@ Result<WorkerJob> WorkerJobOf(MapBuildJob& job, const MapWorkerOptions& options,
       return ServiceError::FromPlanner(written.error());
     }
     PointCloud().swap(points);  // The worker reads them now: this copy goes.
+    std::get<UploadMapSource>(job.source).reservation.reset();
   }
   worker.saved_model = job.saved_model;
   worker.keep_cloud = job.keep_cloud;

@@ -108,13 +108,30 @@ class MapCollector final : public prometheus::Collectable {
     bytes.gauge.value = static_cast<double>(totals.active_memory_bytes);
     memory.metric.push_back(bytes);
     prometheus::MetricFamily budget{
-        "strata_map_memory_budget_bytes",
-        "--max-map-memory: most bytes of loaded maps held with a map store (0: no limit).",
+        "strata_memory_budget_bytes",
+        "--max-memory: the server's memory budget for maps, uploads and maps being made.",
         prometheus::MetricType::Gauge,
         {}};
-    prometheus::ClientMetric budget_bytes;
-    budget_bytes.gauge.value = static_cast<double>(totals.memory_budget_bytes);
-    budget.metric.push_back(budget_bytes);
+    prometheus::MetricFamily reserved{
+        "strata_memory_reserved_bytes",
+        "Bytes of the memory budget set aside beside the maps: uploads (and maps waiting to "
+        "be made from them), and --max-assessment-memory for each map being made.",
+        prometheus::MetricType::Gauge,
+        {}};
+    if (const MemoryBudget* memory = maps_->options().memory_budget.get()) {
+      prometheus::ClientMetric limit;
+      limit.gauge.value = static_cast<double>(memory->limit());
+      budget.metric.push_back(limit);
+      const std::pair<const char*, MemoryBudget::Use> uses[] = {
+          {"uploads", MemoryBudget::Use::kUploads},
+          {"assessments", MemoryBudget::Use::kAssessments}};
+      for (const auto& [name, use] : uses) {
+        prometheus::ClientMetric metric;
+        metric.label = {{"use", name}};
+        metric.gauge.value = static_cast<double>(memory->reserved(use));
+        reserved.metric.push_back(metric);
+      }
+    }
     // One series per map while it is created, gone once it is ACTIVE or FAILED: at most
     // --max-maps series at a time.
     prometheus::MetricFamily creation{
@@ -128,7 +145,7 @@ class MapCollector final : public prometheus::Collectable {
       metric.gauge.value = map.progress;
       creation.metric.push_back(metric);
     }
-    return {states, memory, budget, creation};
+    return {states, memory, budget, reserved, creation};
   }
 
  private:

@@ -13,6 +13,8 @@
 ///   strata_map_assessment_seconds{stage}       load, ground_filter, surfaces, fields, total
 ///   strata_maps{state}                         creating, active, failed (read at scrape)
 ///   strata_map_memory_bytes                    sum over ACTIVE maps (read at scrape)
+///   strata_memory_budget_bytes                 --max-memory (read at scrape)
+///   strata_memory_reserved_bytes{use}          uploads, assessments (read at scrape)
 ///   strata_map_creation_progress{map_id,step}  per CREATING map, in [0, 1] (read at scrape)
 #include <memory>
 #include <set>

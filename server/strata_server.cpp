@@ -167,13 +167,26 @@ Result<std::unique_ptr<StrataServer>> StrataServer::Start(const ServerConfig& co
   worker.cpu_s = config.max_assessment_time_s * threads + 10;
   registry_options.build = MapWorkerBuilder(std::move(worker));
   registry_options.max_assessment_time_s = config.max_assessment_time_s;
+  self->memory_budget_ = std::make_shared<MemoryBudget>(
+      config.max_memory_bytes > 0 ? config.max_memory_bytes : AutomaticMemoryLimit());
+  if (const std::uint64_t limit = self->memory_budget_->limit();
+      limit > 0 && config.max_assessment_memory_bytes > limit) {
+    // A replica that only serves maps from the store needs no room to make one.
+    LogWarning("no_room_to_make_maps")
+        .Add("message", "--max-assessment-memory " +
+                            MebibytesText(config.max_assessment_memory_bytes) +
+                            " is more than the whole memory budget (--max-memory " +
+                            MebibytesText(limit) + "): this server will refuse to make maps");
+  }
+  registry_options.memory_budget = self->memory_budget_;
+  registry_options.assessment_memory_bytes = config.max_assessment_memory_bytes;
+  registry_options.max_graph_bytes = config.max_graph_memory_bytes;
   if (!config.map_store.empty()) {
     Result<std::unique_ptr<MapStore>> store = MapStore::Open(config.map_store);
     if (!store.ok()) {
       return MakeError(ErrorCode::kInvalidInput, "--map-store: " + store.error().message);
     }
     registry_options.store = std::move(store).value();
-    registry_options.max_map_memory_bytes = config.max_map_memory_bytes;
     registry_options.versions_kept = config.map_versions_kept;
     registry_options.encode_metadata = EncodeMapMetadata;
     registry_options.decode_metadata = DecodeMapMetadata;
@@ -191,7 +204,8 @@ Result<std::unique_ptr<StrataServer>> StrataServer::Start(const ServerConfig& co
   self->metrics_->WatchMaps(self->registry_.get());
 
   self->map_service_ = std::make_unique<MapServiceImpl>(
-      self->registry_.get(), MapServiceOptions{map_root, config.max_points, self->tokens_.get()});
+      self->registry_.get(), MapServiceOptions{map_root, config.max_points, self->tokens_.get(),
+                                               self->memory_budget_.get()});
   PlannerServiceOptions planner_options;
   planner_options.max_plan_time_s = config.max_plan_time_s;
   planner_options.max_samples = kMaxResponseSamples;

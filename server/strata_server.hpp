@@ -58,6 +58,7 @@ class StrataServer {
 
   ServerConfig config_;
   std::unique_ptr<TokenTable> tokens_;  // --auth-tokens; null when every call is allowed.
+  std::shared_ptr<MemoryBudget> memory_budget_;
   std::unique_ptr<Metrics> metrics_;
   std::unique_ptr<MapRegistry> registry_;
   std::unique_ptr<MapServiceImpl> map_service_;

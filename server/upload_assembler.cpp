@@ -57,8 +57,7 @@ ServiceStatus UploadAssembler::Add(const v1::UploadMapRequest& message) {
                              " points per map (--max-points): downsample the cloud")
             .Blame("header.point_count");
       }
-      source_.points.reserve(static_cast<std::size_t>(header_.point_count()));
-      return OkStatus();
+      return Reserve(static_cast<std::size_t>(header_.point_count()), "header.point_count");
     }
     case v1::UploadMapRequest::kChunk: {
       if (!have_header_) {
@@ -95,6 +94,14 @@ ServiceStatus UploadAssembler::Add(const v1::UploadMapRequest& message) {
                                                         std::to_string(header_.point_count()))
             .Blame("header.point_count");
       }
+      if (total > source_.points.capacity()) {
+        // As the vector would grow, but counted first.
+        if (ServiceStatus room =
+                Reserve(std::max(total, 2 * source_.points.capacity()), "chunk.points");
+            !room.ok()) {
+          return room;
+        }
+      }
       source_.received_bytes += bytes.size();
       const char* data = bytes.data();
       for (std::size_t i = 0; i < count; ++i, data += kPointBytes) {
@@ -107,6 +114,29 @@ ServiceStatus UploadAssembler::Add(const v1::UploadMapRequest& message) {
   }
   return MakeError(ErrorCode::kMapLoadFailed, where + " sets neither header nor chunk")
       .Blame("part");
+}
+
+ServiceStatus UploadAssembler::Reserve(std::size_t points, const char* field) {
+  const std::uint64_t bytes = std::uint64_t{points} * sizeof(PointCloud::value_type);
+  if (budget_ != nullptr && bytes > reservation_.bytes()) {
+    if (reservation_.bytes() == 0) {
+      Result<MemoryBudget::Reservation> reserved = budget_->Reserve(
+          MemoryBudget::Use::kUploads, bytes, "uploading map '" + header_.map_id() + "'");
+      if (!reserved.ok()) return std::move(reserved).error().Blame(field);
+      reservation_ = std::move(reserved).value();
+    } else if (ServiceStatus grown = reservation_.Grow(bytes - reservation_.bytes(),
+                                                       "uploading map '" + header_.map_id() + "'");
+               !grown.ok()) {
+      return std::move(grown).error().Blame(field);
+    }
+  }
+  source_.points.reserve(points);
+  return OkStatus();
+}
+
+UploadMapSource UploadAssembler::TakeSource() {
+  source_.reservation = std::make_shared<MemoryBudget::Reservation>(std::move(reservation_));
+  return std::move(source_);
 }
 
 ServiceStatus UploadAssembler::Finish() {

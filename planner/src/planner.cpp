@@ -120,10 +120,17 @@ struct PlanningMap::GraphEntry {
   std::atomic<bool> built{false};  // Set (release) once graph or error is final.
   std::shared_ptr<const SurfaceGraph> graph;
   Error error{ErrorCode::kInvalidConfig, {}};
+  std::list<TraversabilityParams>::iterator recency;  // In recency_; guarded by mutex_.
+
+  // The graph's bytes once built, 0 before (or for a failed build).
+  std::size_t Bytes() const {
+    return built.load(std::memory_order_acquire) && graph != nullptr ? graph->MemoryBytes() : 0;
+  }
 };
 
-PlanningMap::PlanningMap(std::shared_ptr<const TerrainModel> model, std::vector<Prism> keep_out)
-    : model_(std::move(model)), keep_out_(std::move(keep_out)) {}
+PlanningMap::PlanningMap(std::shared_ptr<const TerrainModel> model, std::vector<Prism> keep_out,
+                         std::size_t max_graph_bytes)
+    : model_(std::move(model)), keep_out_(std::move(keep_out)), max_graph_bytes_(max_graph_bytes) {}
 
 Expected<std::shared_ptr<const SurfaceGraph>> PlanningMap::Graph(
     const TraversabilityParams& params) const {
@@ -132,7 +139,13 @@ Expected<std::shared_ptr<const SurfaceGraph>> PlanningMap::Graph(
   {
     std::lock_guard lock(mutex_);
     std::shared_ptr<GraphEntry>& slot = graphs_[params];
-    if (slot == nullptr) slot = std::make_shared<GraphEntry>();
+    if (slot == nullptr) {
+      slot = std::make_shared<GraphEntry>();
+      recency_.push_front(params);
+      slot->recency = recency_.begin();
+    } else {
+      recency_.splice(recency_.begin(), recency_, slot->recency);
+    }
     entry = slot;
   }
   std::call_once(entry->once, [&] {
@@ -144,19 +157,47 @@ Expected<std::shared_ptr<const SurfaceGraph>> PlanningMap::Graph(
     }
     entry->built.store(true, std::memory_order_release);
   });
-  if (entry->graph == nullptr) return entry->error;
-  return entry->graph;
+  std::shared_ptr<const SurfaceGraph> graph = entry->graph;  // Held: never dropped below.
+  std::lock_guard lock(mutex_);
+  if (graph == nullptr) {
+    if (const auto it = graphs_.find(params); it != graphs_.end() && it->second == entry) {
+      recency_.erase(entry->recency);
+      graphs_.erase(it);
+    }
+    return entry->error;
+  }
+  DropGraphsLocked();
+  return graph;
+}
+
+void PlanningMap::DropGraphsLocked() const {
+  if (max_graph_bytes_ == 0) return;
+  std::size_t bytes = 0;
+  for (const auto& [key, entry] : graphs_) bytes += entry->Bytes();
+  for (auto it = recency_.end(); bytes > max_graph_bytes_ && it != recency_.begin();) {
+    --it;
+    if (it == recency_.begin()) break;  // The one just asked for.
+    const auto slot = graphs_.find(*it);
+    const GraphEntry& entry = *slot->second;
+    // Built, and held by this cache alone: no plan runs on it, dropping it frees it.
+    if (entry.built.load(std::memory_order_acquire) && entry.graph.use_count() == 1) {
+      bytes -= entry.Bytes();
+      graphs_.erase(slot);
+      it = recency_.erase(it);
+    }
+  }
 }
 
 std::size_t PlanningMap::MemoryBytes() const {
   std::size_t bytes = model_->MemoryBytes();
   std::lock_guard lock(mutex_);
-  for (const auto& [key, entry] : graphs_) {
-    if (entry->built.load(std::memory_order_acquire) && entry->graph != nullptr) {
-      bytes += entry->graph->MemoryBytes();
-    }
-  }
+  for (const auto& [key, entry] : graphs_) bytes += entry->Bytes();
   return bytes;
+}
+
+std::size_t PlanningMap::GraphCount() const {
+  std::lock_guard lock(mutex_);
+  return graphs_.size();
 }
 
 Status PlanOptions::Validate(std::string_view path) const {

@@ -62,5 +62,50 @@ TEST(PlanningMap, InvalidParamsAreRefusedBeforeTheCache) {
   EXPECT_EQ(map.MemoryBytes(), map.model().MemoryBytes());
 }
 
+// Distinct params, hence distinct graphs of the same size on a flat floor.
+TraversabilityParams Variant(int i) {
+  TraversabilityParams params = BuiltinProfile("differential")->Traversability();
+  params.max_step_m += 0.01 * i;
+  return params;
+}
+
+TEST(PlanningMap, GraphsPastTheBoundGoLeastRecentlyUsedFirstNeverWhileHeld) {
+  const std::shared_ptr<const TerrainModel> model = FlatFloor();
+  const std::size_t one = PlanningMap(model).Graph(Variant(0)).value()->MemoryBytes();
+  const PlanningMap map(model, {}, 2 * one + one / 2);  // Room for two graphs.
+  {
+    const auto held = map.Graph(Variant(0)).value();  // Oldest, but a plan runs on it.
+    ASSERT_TRUE(map.Graph(Variant(1)).ok());
+    ASSERT_TRUE(map.Graph(Variant(2)).ok());  // Three: 1 goes, 0 is held.
+    EXPECT_EQ(map.GraphCount(), 2u);
+    EXPECT_EQ(map.Graph(Variant(0)).value(), held);  // Still the same graph.
+    EXPECT_LE(map.MemoryBytes(), model->MemoryBytes() + 2 * one);
+  }
+  // Recency: 0 (just asked), then 2. Asking 2 again makes 0 the oldest, and 3 drops it.
+  ASSERT_TRUE(map.Graph(Variant(2)).ok());
+  ASSERT_TRUE(map.Graph(Variant(3)).ok());
+  EXPECT_EQ(map.GraphCount(), 2u);
+  EXPECT_LE(map.MemoryBytes(), model->MemoryBytes() + 2 * one);
+  // A dropped graph is built again when asked for.
+  EXPECT_EQ(map.Graph(Variant(0)).value()->params(), Variant(0));
+
+  // Without a bound, every graph stays.
+  const PlanningMap unbounded(model);
+  for (int i = 0; i < 4; ++i) ASSERT_TRUE(unbounded.Graph(Variant(i)).ok());
+  EXPECT_EQ(unbounded.GraphCount(), 4u);
+}
+
+TEST(PlanningMap, AFailedBuildIsNotKept) {
+  const PlanningMap map(FlatFloor());
+  TraversabilityParams steep = Variant(0);
+  steep.max_tilt_rad = map.model().config().ground.max_tilt_rad + 0.1;  // Valid, but not here.
+  for (int attempt = 0; attempt < 3; ++attempt) {
+    auto graph = map.Graph(steep);
+    ASSERT_FALSE(graph.ok());
+    EXPECT_EQ(graph.error().field, "traversability.max_tilt_rad");
+  }
+  EXPECT_EQ(map.GraphCount(), 0u);
+}
+
 }  // namespace
 }  // namespace strata

@@ -33,7 +33,7 @@ MapCache::Loader CountingLoader(int side, std::atomic<int>* loads) {
 }
 
 TEST(MapCacheTest, ConcurrentRequestsForOneVersionShareOneLoad) {
-  MapCache cache(0);
+  MapCache cache;
   std::atomic<int> loads{0};
   std::promise<void> release;
   std::shared_future<void> released = release.get_future().share();
@@ -60,7 +60,7 @@ TEST(MapCacheTest, ConcurrentRequestsForOneVersionShareOneLoad) {
 }
 
 TEST(MapCacheTest, AFailedLoadIsNotRememberedAndNextCallerRetries) {
-  MapCache cache(0);
+  MapCache cache;
   int attempts = 0;
   const auto map = Floor(20);
   const MapCache::Loader flaky = [&]() -> Result<std::shared_ptr<const PlanningMap>> {
@@ -75,14 +75,15 @@ TEST(MapCacheTest, AFailedLoadIsNotRememberedAndNextCallerRetries) {
 
 TEST(MapCacheTest, DropsLeastRecentlyUsedWithinTheBudgetButNeverAHeldMap) {
   const std::uint64_t one = Floor(60)->MemoryBytes();
-  MapCache cache(2 * one + one / 2);  // Room for two.
+  const std::uint64_t budget = 2 * one + one / 2;  // Room for two.
+  MapCache cache([budget] { return budget; });
   std::atomic<int> loads{0};
   ASSERT_TRUE(cache.Get("a", "v", CountingLoader(60, &loads)).ok());
   ASSERT_TRUE(cache.Get("b", "v", CountingLoader(60, &loads)).ok());
   ASSERT_TRUE(cache.Get("a", "v", CountingLoader(60, &loads)).ok());  // a is now the newest.
   ASSERT_TRUE(cache.Get("c", "v", CountingLoader(60, &loads)).ok());  // Drops b, the oldest.
   EXPECT_EQ(loads.load(), 3);
-  EXPECT_LE(cache.ResidentBytes(), cache.budget_bytes());
+  EXPECT_LE(cache.ResidentBytes(), budget);
   EXPECT_NE(cache.Peek("a", "v"), nullptr);
   EXPECT_EQ(cache.Peek("b", "v"), nullptr);
 
@@ -92,22 +93,47 @@ TEST(MapCacheTest, DropsLeastRecentlyUsedWithinTheBudgetButNeverAHeldMap) {
   ASSERT_TRUE(cache.Get("b", "v", CountingLoader(60, &loads)).ok());
   EXPECT_NE(cache.Peek("a", "v"), nullptr);
   EXPECT_EQ(cache.Peek("c", "v"), nullptr);
-  EXPECT_LE(cache.ResidentBytes(), cache.budget_bytes());
+  EXPECT_LE(cache.ResidentBytes(), budget);
 }
 
 TEST(MapCacheTest, AMapLargerThanTheWholeBudgetIsRefused) {
-  MapCache cache(Floor(60)->MemoryBytes() / 2);
+  const std::uint64_t half = Floor(60)->MemoryBytes() / 2;
+  MapCache cache([half] { return half; });
   std::atomic<int> loads{0};
   const Result<std::shared_ptr<const PlanningMap>> got =
       cache.Get("big", "v", CountingLoader(60, &loads));
   ASSERT_FALSE(got.ok());
   EXPECT_EQ(std::get<ErrorCode>(got.error().code), ErrorCode::kResourceExhausted);
-  EXPECT_NE(got.error().message.find("--max-map-memory"), std::string::npos);
+  EXPECT_NE(got.error().message.find("--max-memory"), std::string::npos);
   EXPECT_EQ(cache.Count(), 0);
 }
 
+TEST(MapCacheTest, FollowsAnAllowanceThatShrinksAndTrimsForOtherUses) {
+  const std::uint64_t one = Floor(60)->MemoryBytes();
+  std::atomic<std::uint64_t> allowance{3 * one};
+  MapCache cache([&allowance] { return allowance.load(); });
+  std::atomic<int> loads{0};
+  for (const char* id : {"a", "b", "c"}) {
+    ASSERT_TRUE(cache.Get(id, "v", CountingLoader(60, &loads)).ok());
+  }
+  EXPECT_EQ(cache.Count(), 3);
+  // Memory went to other uses: the next load makes room down to the new allowance.
+  allowance = 2 * one;
+  ASSERT_TRUE(cache.Get("d", "v", CountingLoader(60, &loads)).ok());
+  EXPECT_EQ(cache.Count(), 2);
+  EXPECT_NE(cache.Peek("d", "v"), nullptr);
+  EXPECT_NE(cache.Peek("c", "v"), nullptr);
+
+  // Trimming for another use may drop even the newest, but never a held map.
+  Result<std::shared_ptr<const PlanningMap>> held = cache.Get("c", "v", CountingLoader(60, &loads));
+  cache.TrimTo(0);
+  EXPECT_EQ(cache.Count(), 1);
+  EXPECT_NE(cache.Peek("c", "v"), nullptr);
+  EXPECT_EQ(cache.Peek("d", "v"), nullptr);
+}
+
 TEST(MapCacheTest, DropForgetsEveryVersionOfAMap) {
-  MapCache cache(0);
+  MapCache cache;
   std::atomic<int> loads{0};
   ASSERT_TRUE(cache.Get("m", "v1", CountingLoader(20, &loads)).ok());
   cache.Insert("m", "v2", Floor(20));

@@ -303,7 +303,7 @@ TEST_F(StoreTest, MapsBeyondTheMemoryBudgetArePlannedOnInTurn) {
     largest = std::max<std::uint64_t>(largest, map.memory_bytes());
   }
   const std::uint64_t budget = 2 * largest + largest / 2;
-  ServerProcess* reader = StartReplica({"--max-map-memory", std::to_string(budget)});
+  ServerProcess* reader = StartReplica({"--max-memory", std::to_string(budget)});
   ASSERT_NE(reader, nullptr);
   for (int round = 0; round < 2; ++round) {
     for (int i = 0; i < 4; ++i) {
@@ -315,7 +315,7 @@ TEST_F(StoreTest, MapsBeyondTheMemoryBudgetArePlannedOnInTurn) {
       const double resident = MetricValue(metrics, "strata_map_memory_bytes", {});
       EXPECT_GT(resident, 0);
       EXPECT_LE(resident, static_cast<double>(budget)) << "after planning on floor" << i;
-      EXPECT_EQ(MetricValue(metrics, "strata_map_memory_budget_bytes", {}),
+      EXPECT_EQ(MetricValue(metrics, "strata_memory_budget_bytes", {}),
                 static_cast<double>(budget));
     }
   }

@@ -130,5 +130,47 @@ TEST(UploadAssemblerTest, StopsAtTheServersPointLimit) {
   EXPECT_EQ(ReasonOf(streaming.Add(Chunk({7, 8, 9}))), "RESOURCE_EXHAUSTED");
 }
 
+TEST(UploadAssemblerTest, CountsItsPointsInTheMemoryBudgetAsTheyArrive) {
+  constexpr std::uint64_t kPoint = sizeof(PointCloud::value_type);
+  MemoryBudget budget(100 * kPoint);
+  {
+    // A header that announces more than the budget holds is refused before any chunk.
+    UploadAssembler upload(1000, &budget);
+    const ServiceStatus s = upload.Add(Header(101));
+    EXPECT_EQ(ReasonOf(s), "RESOURCE_EXHAUSTED");
+    EXPECT_EQ(FieldOf(s), "header.point_count");
+    EXPECT_NE(s.error().message.find("uploading map 'up'"), std::string::npos);
+  }
+  EXPECT_EQ(budget.reserved(MemoryBudget::Use::kUploads), 0u);
+  {
+    // Without a count, each chunk is counted as the vector grows, and the one past it fails.
+    UploadAssembler upload(1000, &budget);
+    ASSERT_TRUE(upload.Add(Header()).ok());
+    std::vector<float> ten(30, 1.0f);
+    int accepted = 0;
+    ServiceStatus s = OkStatus();
+    while ((s = upload.Add(Chunk(ten))).ok()) ++accepted;
+    EXPECT_EQ(ReasonOf(s), "RESOURCE_EXHAUSTED");
+    EXPECT_EQ(FieldOf(s), "chunk.points");
+    EXPECT_GE(accepted, 3);  // 40 points, doubled to 80, fit; 160 do not.
+    EXPECT_LE(accepted * 10, 100);
+    EXPECT_LE(budget.reserved(MemoryBudget::Use::kUploads), 100 * kPoint);
+    EXPECT_GE(budget.reserved(MemoryBudget::Use::kUploads), accepted * 10 * kPoint);
+  }
+  EXPECT_EQ(budget.reserved(MemoryBudget::Use::kUploads), 0u);  // The failed upload let go.
+  // A finished upload hands its share to its source, which holds it until the points go.
+  UploadAssembler upload(1000, &budget);
+  ASSERT_TRUE(upload.Add(Header(50)).ok());
+  ASSERT_TRUE(upload.Add(Chunk(std::vector<float>(150, 2.0f))).ok());
+  ASSERT_TRUE(upload.Finish().ok());
+  {
+    const UploadMapSource source = upload.TakeSource();
+    EXPECT_EQ(budget.reserved(MemoryBudget::Use::kUploads), 50 * kPoint);
+    ASSERT_NE(source.reservation, nullptr);
+    EXPECT_EQ(source.reservation->bytes(), 50 * kPoint);
+  }
+  EXPECT_EQ(budget.reserved(MemoryBudget::Use::kUploads), 0u);
+}
+
 }  // namespace
 }  // namespace strata::server

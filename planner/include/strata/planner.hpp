@@ -4,6 +4,7 @@
 /// SurfaceGraph per robot traversability, so concurrent requests on one map share everything
 /// read-only; Plan itself keeps no state between calls.
 #include <functional>
+#include <list>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -32,27 +33,41 @@ class PlanningMap {
   /// `keep_out`: zones every plan on this map avoids (keep_out.hpp defines when a robot is in
   /// one), each valid (Prism::Validate; whoever makes them validates them, e.g. a map edit).
   /// They are not part of the graphs: a plan filters its search by them, so a map's zones and
-  /// a request's cost alike.
-  explicit PlanningMap(std::shared_ptr<const TerrainModel> model, std::vector<Prism> keep_out = {});
+  /// a request's cost alike. `max_graph_bytes` [bytes], >= 0, bounds the graphs kept (0: no
+  /// bound): past it, the least recently used graphs no plan holds are dropped (and built
+  /// again when asked for), the one just asked for always kept. Every robot profile, inline
+  /// ones from any client included, has its own graph, so an unbounded cache would grow
+  /// with the profiles clients make up.
+  explicit PlanningMap(std::shared_ptr<const TerrainModel> model, std::vector<Prism> keep_out = {},
+                       std::size_t max_graph_bytes = 0);
   const TerrainModel& model() const { return *model_; }
   const std::shared_ptr<const TerrainModel>& model_ptr() const { return model_; }
   /// The map's keep-out zones, as given.
   const std::vector<Prism>& keep_out() const { return keep_out_; }
   /// The graph for `params`, built on first use (the first caller for these params builds,
   /// later ones for the same params wait; other params and MemoryBytes never wait for it)
-  /// and kept for the map's lifetime. Fails as SurfaceGraph::Build does.
+  /// and kept while max_graph_bytes allows. Fails as SurfaceGraph::Build does (a failure is
+  /// not kept: the next call tries again).
   Expected<std::shared_ptr<const SurfaceGraph>> Graph(const TraversabilityParams& params) const;
-  /// Bytes held by the model and the graphs built so far.
+  /// Bytes held by the model and the graphs kept.
   std::size_t MemoryBytes() const;
+  /// Graphs kept (built, or being built).
+  std::size_t GraphCount() const;
 
  private:
   struct GraphEntry;  // One graph's build, done once.
+  // Drops the least recently used graphs no plan holds until the kept ones fit
+  // max_graph_bytes_, never the most recently used; call with mutex_.
+  void DropGraphsLocked() const;
+
   std::shared_ptr<const TerrainModel> model_;
   std::vector<Prism> keep_out_;
-  mutable std::mutex mutex_;  // Guards the map only, never held while a graph builds.
+  const std::size_t max_graph_bytes_;
+  mutable std::mutex mutex_;  // Guards the two below, never held while a graph builds.
   // Keyed by the whole TraversabilityParams (its operator<=>): a field added there is part of
   // the key. Only valid params enter, so no NaN breaks the ordering.
   mutable std::map<TraversabilityParams, std::shared_ptr<GraphEntry>> graphs_;
+  mutable std::list<TraversabilityParams> recency_;  // Keys of graphs_, most recent first.
 };
 
 /// Per-request options. Validate() blames the first bad field by its path, `path`.<field>
