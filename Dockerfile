@@ -46,6 +46,7 @@ RUN if ldd /usr/local/bin/* | grep 'not found'; then exit 1; fi \
 # not --listen: the health probe reads STRATA_LISTEN to find the server.
 ENV STRATA_LISTEN=0.0.0.0:50051 \
     STRATA_METRICS_PORT=9090 \
+    STRATA_METRICS_ADDRESS=0.0.0.0 \
     STRATA_MAP_ROOT=/maps
 # Map files (PCD, PLY, OctoMap) under the map root; the server only reads them.
 VOLUME ["/maps"]

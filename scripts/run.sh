@@ -2,7 +2,7 @@
 # The main job on a built-in default: builds strata-server and the `strata` client, starts the
 # server with the demo scene preloaded (map "demo"), waits until it is healthy, plans once
 # from the ground floor to the upper deck to show it answering, then keeps serving on
-# 0.0.0.0:50051 (metrics on :9090) until Ctrl-C. Extra arguments go to strata-server.
+# 0.0.0.0:50051 (metrics on 127.0.0.1:9090) until Ctrl-C. Extra arguments go to strata-server.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 build_dir=${STRATA_BUILD_DIR:-$root/build}

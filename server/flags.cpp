@@ -116,9 +116,20 @@ void AddFlags(CLI::App& app, ParsedFlags& parsed, bool environment) {
           },
           ""));
   add("--metrics-port", config.metrics_port, "PORT",
-      "Prometheus /metrics HTTP port, on the host of --listen; 0 picks a free port,\n"
+      "Prometheus /metrics HTTP port, on --metrics-address; 0 picks a free port,\n"
       "-1 disables metrics",
       IntegerIn(-1, 65535));
+  add("--metrics-address", config.metrics_address, "HOST",
+      "address /metrics is served on; metrics carry no token, so the default serves this\n"
+      "machine only: 0.0.0.0 for a scraper elsewhere (Kubernetes)",
+      CLI::Validator(
+          [](std::string& text) {
+            return text.empty() || text.find(':') != std::string::npos
+                       ? "'" + text +
+                             "' is not a host or IPv4 address (no port: see --metrics-port)"
+                       : std::string();
+          },
+          ""));
   add("--map-root", config.map_root, "DIR",
       "directory map files are loaded from; paths outside it are refused; none: file maps\n"
       "are disabled",

@@ -37,9 +37,12 @@ inline constexpr int kMaxResponseSamples = 20000;
 struct ServerConfig {
   /// gRPC listen address host:port; port 0 picks a free port (printed at start).
   std::string listen = "0.0.0.0:50051";
-  /// Port of the Prometheus /metrics endpoint, on the host of `listen`; 0 picks a free
-  /// port, negative disables it.
+  /// Port of the Prometheus /metrics endpoint, on metrics_address; 0 picks a free port,
+  /// negative disables it.
   int metrics_port = 9090;
+  /// Address (host or IP) /metrics is served on. Metrics carry no token, so by default only
+  /// this machine reaches them; a scraper elsewhere (Kubernetes) needs 0.0.0.0.
+  std::string metrics_address = "127.0.0.1";
   /// Directory map files are confined to; empty disables file maps.
   std::string map_root;
   /// Maps created at start: --preload, else kDefaultPreload; none with --no-preload.

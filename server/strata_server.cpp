@@ -272,15 +272,13 @@ Result<std::unique_ptr<StrataServer>> StrataServer::Start(const ServerConfig& co
   self->SetReady(preloads.empty());
 
   if (config.metrics_port >= 0) {
+    const std::string address = config.metrics_address + ":" + std::to_string(config.metrics_port);
     try {
-      // Same interface as gRPC: a server bound to loopback does not expose metrics wider.
-      const std::string host = config.listen.substr(0, config.listen.rfind(':'));
-      self->exposer_ =
-          std::make_unique<prometheus::Exposer>(host + ":" + std::to_string(config.metrics_port));
+      self->exposer_ = std::make_unique<prometheus::Exposer>(address);
     } catch (const std::exception& e) {
-      return MakeError(ErrorCode::kInvalidInput, "--metrics-port " +
-                                                     std::to_string(config.metrics_port) +
-                                                     ": cannot serve metrics there: " + e.what());
+      return MakeError(ErrorCode::kInvalidInput,
+                       "--metrics-address, --metrics-port: cannot serve metrics on " + address +
+                           ": " + e.what());
     }
     self->metrics_->ServeOn(*self->exposer_);
     const std::vector<int> ports = self->exposer_->GetListeningPorts();

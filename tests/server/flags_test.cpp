@@ -183,6 +183,9 @@ TEST(FlagsTest, BadValuesAreRefusedWithTheValue) {
            {{"--listen", "50051"}, "'50051' is not HOST:PORT"},
            {{"--metrics-port", "70000"}, "70000"},
            {{"--metrics-port", "-2"}, "-2"},
+           {{"--metrics-address", "0.0.0.0:9090"}, "(no port: see --metrics-port)"},
+           {{"--max-assessment-time-s", "0"}, "'0' is not a number of seconds > 0"},
+           {{"--max-assessment-memory", "1000"}, "--max-assessment-memory"},
            {{"--max-points", "0"}, "--max-points"},
            {{"--max-receive-message-bytes", "1048576"}, "1048576"},
            {{"--max-plan-time-s", "nan"}, "'nan' is not a number of seconds > 0"},
@@ -222,7 +225,7 @@ TEST(FlagsTest, BadValuesAreRefusedWithTheValue) {
 
 TEST(FlagsTest, HelpListsEveryFlagWithItsDefaultAndVariable) {
   const std::vector<FlagInfo> flags = DescribeFlags();
-  ASSERT_EQ(flags.size(), 30u);
+  ASSERT_EQ(flags.size(), 31u);
   const FlagsOutcome help = Parse({"--help"});
   EXPECT_EQ(help.text, UsageText());
   for (const FlagInfo& flag : flags) {
