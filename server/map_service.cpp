@@ -162,8 +162,13 @@ grpc::Status MapServiceImpl::UploadMap(grpc::ServerContext* context,
         }
       }
     }
+    // The stream broke off: gRPC has answered the client itself, and what we return is only
+    // logged. From here the two causes look alike, so the log names both.
     if (context->IsCancelled()) {
-      return MakeError(ErrorCode::kCancelled, "the client cancelled the upload");
+      return MakeError(ErrorCode::kCancelled,
+                       "the upload broke off before its end: the client cancelled it, or gRPC "
+                       "refused a message larger than --max-receive-message-bytes and answered "
+                       "RESOURCE_EXHAUSTED (chunks hold at most 1 MiB)");
     }
     if (ServiceStatus finished = upload.Finish(); !finished.ok()) return finished;
     log.fields.emplace_back("points", std::to_string(upload.point_count()));

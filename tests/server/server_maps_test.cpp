@@ -230,6 +230,28 @@ TEST_F(MapServiceTest, RefusesMalformedUploads) {
   EXPECT_EQ(maps_->GetMap(&get_context, get, &map).error_code(), grpc::StatusCode::NOT_FOUND);
 }
 
+TEST_F(MapServiceTest, AChunkAboveTheMessageLimitIsResourceExhaustedAndTheLogSaysWhy) {
+  ASSERT_NO_FATAL_FAILURE(StartServer());
+  grpc::ClientContext context;
+  SetDeadline(&context, 30);
+  v1::Map map;
+  auto writer = maps_->UploadMap(&context, &map);
+  writer->Write(UploadHeader("huge"));
+  v1::UploadMapRequest chunk;
+  chunk.mutable_chunk()->set_points(std::string(5 << 20, '\0'));  // Above 4 MiB.
+  writer->Write(chunk);
+  writer->WritesDone();
+  const CallError error = ErrorOf(writer->Finish());
+  EXPECT_EQ(error.code, grpc::StatusCode::RESOURCE_EXHAUSTED) << error.message;
+  // The server's log names the cause, not a consequence of it ("no points").
+  ASSERT_TRUE(server_->WaitForLog("rpc=UploadMap map=huge", std::chrono::seconds(10)));
+  const std::string log = server_->Log();
+  std::string line = log.substr(log.find("rpc=UploadMap map=huge"));
+  line = line.substr(0, line.find('\n'));
+  EXPECT_THAT(line, HasSubstr("larger than --max-receive-message-bytes"));
+  EXPECT_THAT(line, ::testing::Not(HasSubstr("no points")));
+}
+
 TEST_F(MapServiceTest, RefusesPathsOutsideTheMapRoot) {
   ASSERT_NO_FATAL_FAILURE(StartServer());
   for (const char* path :
