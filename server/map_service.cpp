@@ -163,7 +163,9 @@ grpc::Status MapServiceImpl::UploadMap(grpc::ServerContext* context,
       }
     }
     // The stream broke off: gRPC has answered the client itself, and what we return is only
-    // logged. From here the two causes look alike, so the log names both.
+    // logged. From here the two causes look alike, so the log names both. (gRPC does not
+    // always mark the call cancelled by the time Read fails: Finish's messages name the
+    // limit too.)
     if (context->IsCancelled()) {
       return MakeError(ErrorCode::kCancelled,
                        "the upload broke off before its end: the client cancelled it, or gRPC "

@@ -145,15 +145,21 @@ ServiceStatus UploadAssembler::Finish() {
                      "the upload stream was empty: send a header, then chunks of points")
         .Blame("header");
   }
+  // A stream gRPC cut off (a message above --max-receive-message-bytes) ends here too.
+  constexpr const char* kCutOff =
+      " (a chunk larger than --max-receive-message-bytes is refused by gRPC with "
+      "RESOURCE_EXHAUSTED and ends the stream: chunks hold at most 1 MiB)";
   if (source_.points.empty()) {
-    return MakeError(ErrorCode::kMapLoadFailed, "the upload carried no points").Blame("chunk");
+    return MakeError(ErrorCode::kMapLoadFailed,
+                     std::string("the upload carried no points") + kCutOff)
+        .Blame("chunk");
   }
   if (header_.point_count() != 0 && source_.points.size() != header_.point_count()) {
     return MakeError(
                ErrorCode::kMapLoadFailed,
                "the upload carried " + std::to_string(source_.points.size()) +
                    " points but header.point_count = " + std::to_string(header_.point_count()) +
-                   ": the stream was cut short or the count is wrong")
+                   ": the stream was cut short or the count is wrong" + kCutOff)
         .Blame("header.point_count");
   }
   return OkStatus();
