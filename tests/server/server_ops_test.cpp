@@ -164,6 +164,39 @@ TEST_F(ServerOpsTest, SigtermTurnsHealthNotServingWhileNewCallsAreStillServed) {
   EXPECT_TRUE(plan.ok()) << plan.error_message();
 }
 
+// A plan still running when the grace ends stops and tells its client why: UNAVAILABLE with
+// reason SHUTTING_DOWN (it was cut without any reason before).
+TEST_F(ServerOpsTest, APlanRunningPastTheGraceAnswersShuttingDown) {
+  ASSERT_NO_FATAL_FAILURE(StartServer({"--shutdown-grace-s", "0", "--no-preload"}));
+  v1::CreateMapRequest create;
+  create.set_map_id("site");
+  create.mutable_scene()->set_name("outdoor_site");
+  create.mutable_scene()->set_size_m(200);
+  CreateAndWait(create);
+  // A profile of its own: the plan first builds its graph (a quarter of a second here), long
+  // enough to be caught in flight.
+  v1::PlanRequest request = PlanRequestFor("site", 10, 10, 5, 190, 190, 5);
+  request.clear_profile_name();
+  request.mutable_profile()->set_max_step_m(0.123);
+  v1::PlanResponse response;
+  grpc::Status status;
+  std::thread plan([&] { status = Plan(request, &response, 60); });
+  const std::vector<std::string> plans = {"grpc_method=\"Plan\""};
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  double started = 0;
+  while (started < 1 && std::chrono::steady_clock::now() < deadline) {
+    started = MetricValue(HttpGet(server_->metrics_port(), "/metrics"), "grpc_server_started_total",
+                          plans);
+  }
+  server_->Signal(SIGTERM);
+  plan.join();
+  ASSERT_EQ(started, 1) << "the plan never started";
+  const CallError error = ErrorOf(status);
+  EXPECT_EQ(error.code, grpc::StatusCode::UNAVAILABLE) << error.message;
+  EXPECT_EQ(error.reason, "SHUTTING_DOWN") << error.message;
+  EXPECT_EQ(server_->WaitExit(std::chrono::seconds(30)), 0);
+}
+
 // A person's Ctrl-C does not wait for load balancers: SIGINT skips the drain delay.
 TEST_F(ServerOpsTest, SigintSkipsTheDrainDelay) {
   ASSERT_NO_FATAL_FAILURE(StartServer({"--drain-delay-s", "600"}));
