@@ -137,7 +137,10 @@ Expected<SurfaceMap> SurfaceMap::FromParts(const GridGeometry& geometry,
     return bad("the column index does not match the grid and the surfaces");
   }
   for (std::int64_t c = 0; c < columns; ++c) {
-    if (column_begin[c + 1] < column_begin[c]) return bad("the column index is not monotone");
+    // Past the surfaces, the loop below would read beyond them.
+    if (column_begin[c + 1] < column_begin[c] || column_begin[c + 1] > surfaces.size()) {
+      return bad("the column index is not monotone");
+    }
     std::int32_t previous_top = -1;
     for (std::uint32_t k = column_begin[c]; k < column_begin[c + 1]; ++k) {
       const ColumnSurface& s = surfaces[k];

@@ -64,7 +64,10 @@ Expected<TerrainFields> TerrainFields::FromParts(Parts parts) {
   }
   for (std::int64_t c = 0; c < columns; ++c) {
     const std::uint32_t begin = parts.column_begin[c], end = parts.column_begin[c + 1];
-    if (end < begin) return Inconsistent("column index is not monotone");
+    // Past the last entry, intervals[k + 1] below would read beyond the intervals.
+    if (end < begin || end > parts.column_begin.back()) {
+      return Inconsistent("column index is not monotone");
+    }
     std::int64_t previous_end = -1;
     for (std::uint32_t k = begin; k < end; ++k) {
       const Interval& interval = parts.intervals[k];

@@ -248,6 +248,30 @@ TEST(TerrainFields, FromPartsRefusesInconsistentParts) {
     p.safety_step = std::nan("");
     expect_refused(p, "NaN step");
   }
+  {
+    // Found by fuzz/saved_model_fuzzer: a column's end beyond the intervals, with the index's
+    // last entry right; the check read past the intervals before it saw the order broken.
+    TerrainFields::Parts p = good;
+    p.column_begin[1] = p.column_begin.back() + 5;
+    expect_refused(p, "a column past the intervals");
+  }
+}
+
+TEST(SurfaceMap, FromPartsRefusesAColumnPastTheSurfaces) {
+  // Found by fuzz/saved_model_fuzzer (heap-buffer-overflow before the fix): the index's first
+  // and last entries are right, an inner one points past the surfaces.
+  const Expected<PointCloud> cloud = GenerateScene("two_level_ramp", 1);
+  ASSERT_TRUE(cloud.ok());
+  const auto model = AssessOrDie(*cloud, 0.25);
+  ASSERT_TRUE(model);
+  const SurfaceMap& surfaces = model->surfaces();
+  std::vector<std::uint32_t> column_begin = surfaces.column_begin();
+  std::vector<ColumnSurface> all = surfaces.all_surfaces();
+  ASSERT_TRUE(SurfaceMap::FromParts(surfaces.geometry(), column_begin, all).ok());
+  column_begin[1] = static_cast<std::uint32_t>(all.size() + 100);
+  const Expected<SurfaceMap> broken = SurfaceMap::FromParts(surfaces.geometry(), column_begin, all);
+  ASSERT_FALSE(broken.ok());
+  EXPECT_THAT(broken.error().message, HasSubstr("not monotone"));
 }
 
 TEST(TerrainFields, MemoryGrowsWithTheGroundNotWithTheBoundingBox) {
