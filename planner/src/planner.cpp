@@ -133,7 +133,23 @@ PlanningMap::PlanningMap(std::shared_ptr<const TerrainModel> model, std::vector<
     : model_(std::move(model)), keep_out_(std::move(keep_out)), max_graph_bytes_(max_graph_bytes) {}
 
 Expected<std::shared_ptr<const SurfaceGraph>> PlanningMap::Graph(
-    const TraversabilityParams& params) const {
+    const TraversabilityParams& params, const std::function<bool()>& should_stop) const {
+  while (true) {
+    bool built_here = false;
+    Expected<std::shared_ptr<const SurfaceGraph>> graph =
+        GraphOnce(params, should_stop, &built_here);
+    // Another caller's build was stopped (its caller gave up, not this one): build it here.
+    if (!graph && graph.error().code == ErrorCode::kCancelled && !built_here &&
+        !(should_stop && should_stop())) {
+      continue;
+    }
+    return graph;
+  }
+}
+
+Expected<std::shared_ptr<const SurfaceGraph>> PlanningMap::GraphOnce(
+    const TraversabilityParams& params, const std::function<bool()>& should_stop,
+    bool* built_here) const {
   if (Status s = params.Validate(); !s) return std::move(s).error();
   std::shared_ptr<GraphEntry> entry;
   {
@@ -149,7 +165,8 @@ Expected<std::shared_ptr<const SurfaceGraph>> PlanningMap::Graph(
     entry = slot;
   }
   std::call_once(entry->once, [&] {
-    Expected<SurfaceGraph> graph = SurfaceGraph::Build(*model_, params);
+    *built_here = true;
+    Expected<SurfaceGraph> graph = SurfaceGraph::Build(*model_, params, should_stop);
     if (graph) {
       entry->graph = std::make_shared<const SurfaceGraph>(std::move(graph).value());
     } else {
@@ -262,8 +279,12 @@ Expected<PlanResult> Plan(const PlanningMap& map, const PlanRequest& request,
 
   // Snap.
   Clock::time_point stage = Clock::now();
-  Expected<std::shared_ptr<const SurfaceGraph>> graph_or = map.Graph(profile.Traversability());
-  if (!graph_or) return graph_or.error();
+  Expected<std::shared_ptr<const SurfaceGraph>> graph_or =
+      map.Graph(profile.Traversability(), stop.AsFunction());
+  if (!graph_or) {
+    if (stop.stopped()) return stop.Reason(options.time_budget_s, "building the surface graph");
+    return graph_or.error();
+  }
   const SurfaceGraph& graph = **graph_or;
   // Off the ground, the position is what the caller must change.
   const auto blame = [](Error error, const char* field) {

@@ -11,8 +11,19 @@
 #include "format_internal.hpp"
 
 namespace strata {
+namespace {
+
+// Nodes handled between two polls of should_stop.
+constexpr int kNodesPerPoll = 4096;
+
+Error Cancelled() { return Error{ErrorCode::kCancelled, "building the surface graph was stopped"}; }
+
+}  // namespace
+
 Expected<SurfaceGraph> SurfaceGraph::Build(const TerrainModel& model,
-                                           const TraversabilityParams& params) {
+                                           const TraversabilityParams& params,
+                                           const std::function<bool()>& should_stop) {
+  const auto stopped = [&should_stop] { return should_stop && should_stop(); };
   if (Status s = params.Validate(); !s.ok()) return s.error();
   const double map_tilt = model.config().ground.max_tilt_rad;
   if (params.max_tilt_rad > map_tilt) {
@@ -38,6 +49,7 @@ Expected<SurfaceGraph> SurfaceGraph::Build(const TerrainModel& model,
   const double z_max = z_min + g.size.z() * g.resolution_m;
 
   for (int iy = 0; iy < g.size.y(); ++iy) {
+    if (stopped()) return Cancelled();
     for (int ix = 0; ix < g.size.x(); ++ix) {
       const std::span<const ColumnSurface> column = surfaces.Column(ix, iy);
       int level = 0;
@@ -69,6 +81,7 @@ Expected<SurfaceGraph> SurfaceGraph::Build(const TerrainModel& model,
   std::vector<std::int32_t> rim;
   std::vector<std::int32_t> queue;
   queue.reserve(n);
+  int visited = 0;
   for (int seed = 0; seed < n; ++seed) {
     if (graph.components_[seed] >= 0) continue;
     const int label = graph.component_count_++;
@@ -76,6 +89,7 @@ Expected<SurfaceGraph> SurfaceGraph::Build(const TerrainModel& model,
     queue.push_back(seed);
     graph.components_[seed] = label;
     for (std::size_t head = 0; head < queue.size(); ++head) {
+      if (++visited % kNodesPerPoll == 0 && stopped()) return Cancelled();
       int neighbours = 0;
       graph.ForEachNeighbor(queue[head], [&](int m) {
         ++neighbours;
@@ -88,14 +102,15 @@ Expected<SurfaceGraph> SurfaceGraph::Build(const TerrainModel& model,
     }
   }
   queue = {};
-  graph.ComputeEdgeDistances(rim);
+  if (!graph.ComputeEdgeDistances(rim, should_stop)) return Cancelled();
   // The node arrays grew by push_back: give back what they reserved beyond their size.
   graph.nodes_.shrink_to_fit();
   graph.column_nodes_.shrink_to_fit();
   return graph;
 }
 
-void SurfaceGraph::ComputeEdgeDistances(const std::vector<std::int32_t>& rim) {
+bool SurfaceGraph::ComputeEdgeDistances(const std::vector<std::int32_t>& rim,
+                                        const std::function<bool()>& should_stop) {
   // Multi-source Dijkstra over the graph's own edges (lengths r and r√2) from the rim nodes: a
   // chamfer distance, within 8% of Euclidean, cheap and exact at the rim. It stops at the
   // cap, so it visits only the band of nodes within the cap of a rim.
@@ -108,7 +123,8 @@ void SurfaceGraph::ComputeEdgeDistances(const std::vector<std::int32_t>& rim) {
     edge_distance_[m] = static_cast<float>(0.5 * r);
     queue.push({edge_distance_[m], m});
   }
-  while (!queue.empty()) {
+  for (int popped = 1; !queue.empty(); ++popped) {
+    if (popped % kNodesPerPoll == 0 && should_stop && should_stop()) return false;
     // Named variables, not a structured binding: the lambda below captures them, which
     // clang 14 (clang-tidy's) does not accept for bindings.
     const float d = queue.top().first;
@@ -125,6 +141,7 @@ void SurfaceGraph::ComputeEdgeDistances(const std::vector<std::int32_t>& rim) {
       }
     });
   }
+  return true;
 }
 
 int SurfaceGraph::NodeNear(int ix, int iy, double ground_z) const {

@@ -14,6 +14,7 @@
 #include "strata/scenes/basic_scenes.hpp"
 #include "test_util/hand_made_maps.hpp"
 #include "test_util/terrain_queries.hpp"
+#include "test_util/time_scale.hpp"
 
 namespace strata {
 namespace {
@@ -33,6 +34,8 @@ PlanRequest Request(const Eigen::Vector3d& start, const Eigen::Vector3d& goal,
   request.start.position_m = start;
   request.goal.position_m = goal;
   request.profile = BuiltinProfile(robot).value();
+  // The product's budget, in the time of this build (a sanitised one runs several times slower).
+  request.options.time_budget_s *= test_util::kTimeScale;
   return request;
 }
 
@@ -138,8 +141,17 @@ TEST_F(TwoLevelPlan, BadRequestsGetNamedErrors) {
 // has none of its own. When it runs out, the message names it, and raising it helps.
 TEST_F(TwoLevelPlan, ARunOutBudgetNamesTheOptionThatRaisesIt) {
   PlanRequest request = Request(layout_.start_example_m, layout_.goal_example_m);
-  request.options.time_budget_s = 1e-9;  // Gone before the search polls the first time.
-  auto plan = Plan(*map_, request);
+  request.options.time_budget_s = 1e-9;  // Gone before the first poll.
+  // A map's first plan for a profile builds the profile's graph, and the budget covers it.
+  const PlanningMap fresh(map_->model_ptr());
+  auto plan = Plan(fresh, request);
+  ASSERT_FALSE(plan.ok());
+  EXPECT_EQ(plan.error().code, ErrorCode::kDeadlineExceeded);
+  EXPECT_THAT(plan.error().message, HasSubstr("ran out during building the surface graph"));
+  EXPECT_EQ(fresh.GraphCount(), 0u);  // Not kept: the next plan builds it.
+  // Once the graph is built, the first poll is the search's.
+  ASSERT_TRUE(map_->Graph(request.profile.Traversability()).ok());
+  plan = Plan(*map_, request);
   ASSERT_FALSE(plan.ok());
   EXPECT_EQ(plan.error().code, ErrorCode::kDeadlineExceeded);
   EXPECT_THAT(plan.error().message, HasSubstr("ran out during the path search"));
@@ -158,6 +170,7 @@ struct CountingStop {
 
 TEST_F(TwoLevelPlan, CancellationStopsAtTheFirstPollThatAsksInEveryStage) {
   const PlanRequest request = Request(layout_.start_example_m, layout_.goal_example_m);
+  ASSERT_TRUE(map_->Graph(request.profile.Traversability()).ok());  // Built: no build polls.
   // How often a whole plan polls, then a cancellation at the first poll and at the last: the
   // plan ends at that very poll (no further poll), naming the stage.
   CountingStop never;

@@ -107,5 +107,19 @@ TEST(PlanningMap, AFailedBuildIsNotKept) {
   EXPECT_EQ(map.GraphCount(), 0u);
 }
 
+TEST(PlanningMap, AStoppedBuildFailsCancelledAndIsBuiltAgainByTheNextCall) {
+  const PlanningMap map(FlatFloor());
+  int polls = 0;
+  // Stops at the second poll: the build is under way, not refused up front.
+  const auto graph = map.Graph(Variant(0), [&polls] { return ++polls >= 2; });
+  ASSERT_FALSE(graph.ok());
+  EXPECT_EQ(graph.error().code, ErrorCode::kCancelled);
+  EXPECT_EQ(polls, 2);
+  EXPECT_EQ(map.GraphCount(), 0u);
+  const auto again = map.Graph(Variant(0), [] { return false; });
+  ASSERT_TRUE(again.ok());
+  EXPECT_GT((*again)->node_count(), 0);
+}
+
 }  // namespace
 }  // namespace strata

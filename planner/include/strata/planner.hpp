@@ -47,8 +47,11 @@ class PlanningMap {
   /// The graph for `params`, built on first use (the first caller for these params builds,
   /// later ones for the same params wait; other params and MemoryBytes never wait for it)
   /// and kept while max_graph_bytes allows. Fails as SurfaceGraph::Build does (a failure is
-  /// not kept: the next call tries again).
-  Expected<std::shared_ptr<const SurfaceGraph>> Graph(const TraversabilityParams& params) const;
+  /// not kept: the next call tries again). `should_stop` (may be empty) stops the build this
+  /// call makes, failing with kCancelled; a caller that was waiting for a build another
+  /// caller stopped builds the graph itself.
+  Expected<std::shared_ptr<const SurfaceGraph>> Graph(
+      const TraversabilityParams& params, const std::function<bool()>& should_stop = {}) const;
   /// Bytes held by the model and the graphs kept.
   std::size_t MemoryBytes() const;
   /// Graphs kept (built, or being built).
@@ -56,6 +59,10 @@ class PlanningMap {
 
  private:
   struct GraphEntry;  // One graph's build, done once.
+  // One try of Graph: *built_here tells whether this call ran the build.
+  Expected<std::shared_ptr<const SurfaceGraph>> GraphOnce(const TraversabilityParams& params,
+                                                          const std::function<bool()>& should_stop,
+                                                          bool* built_here) const;
   // Drops the least recently used graphs no plan holds until the kept ones fit
   // max_graph_bytes_, never the most recently used; call with mutex_.
   void DropGraphsLocked() const;

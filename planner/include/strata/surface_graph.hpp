@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <numbers>
 #include <span>
 #include <vector>
@@ -43,9 +44,10 @@ class SurfaceGraph {
  public:
   /// Builds the graph; it keeps a reference to `model`, which must outlive it. Fails with
   /// kInvalidConfig naming the bad field of `params`, or when params.max_tilt_rad exceeds the map's
-  /// ground filter θ (naming both values).
-  static Expected<SurfaceGraph> Build(const TerrainModel& model,
-                                      const TraversabilityParams& params);
+  /// ground filter θ (naming both values); with kCancelled when `should_stop` (may be empty,
+  /// polled every grid row and every few thousand nodes: milliseconds apart) returns true.
+  static Expected<SurfaceGraph> Build(const TerrainModel& model, const TraversabilityParams& params,
+                                      const std::function<bool()>& should_stop = {});
 
   const TerrainModel& model() const { return *model_; }
   const TraversabilityParams& params() const { return params_; }
@@ -153,7 +155,9 @@ class SurfaceGraph {
 
   SurfaceGraph() = default;
   // Sets edge_distance_ from the nodes of the rim.
-  void ComputeEdgeDistances(const std::vector<std::int32_t>& rim);
+  // False when should_stop fired.
+  bool ComputeEdgeDistances(const std::vector<std::int32_t>& rim,
+                            const std::function<bool()>& should_stop);
   // Whether column (ix, iy) has a node an axis step away from both a and b.
   bool HasStepNeighbor(const Node& a, const Node& b, int ix, int iy) const {
     for (const std::int32_t m : ColumnNodes(ix, iy)) {
