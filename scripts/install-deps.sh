@@ -14,6 +14,7 @@ packages=(
   python3-yaml  # tests/deploy: manifest checks with Debian's /usr/bin/python3
   openssl  # TLS tests make a throwaway certificate
   clang-format clang-tidy  # scripts/check-format.sh, check-tidy.sh (CI): .clang-format, .clang-tidy
+  clang libclang-rt-14-dev libomp-dev  # the sanitised build (clang, its OpenMP) and libFuzzer
 )
 
 missing=()

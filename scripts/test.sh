@@ -1,22 +1,35 @@
 #!/usr/bin/env bash
-# Builds everything once, checks the C++ formatting (.clang-format) and clang-tidy's findings
-# (.clang-tidy), and runs the whole test suite in parallel with CTest; then builds the
-# gRPC-free concurrency tests a second time under ThreadSanitizer and runs them (Debian's gRPC
-# and libgomp are not instrumented, so that build leaves them out). Arguments go to the first
-# ctest (e.g. -R plan). STRATA_SKIP_TSAN=1 skips the second build.
+# Builds everything once with clang, AddressSanitizer and UndefinedBehaviorSanitizer
+# (scripts/build-sanitize.sh), checks the C++ formatting (.clang-format) and clang-tidy's
+# findings (.clang-tidy), and runs the whole test suite there in parallel with CTest: a memory
+# error, a leak or undefined behaviour fails the test that meets it. The suite includes a
+# 20-second smoke run of each libFuzzer target (fuzz/, label "fuzz"). Then the gRPC-free
+# concurrency tests are built a second time under ThreadSanitizer and run (Debian's gRPC is not
+# instrumented, so that build leaves it out).
+#
+# One full build, not a plain Release one beside the sanitised one: CI has two cores and 30
+# minutes, and the sanitised build runs every test the plain one would, with more checks.
+# `scripts/build.sh` then `ctest --test-dir build` runs the suite on the plain build.
+#
+# Arguments go to the first ctest (e.g. -R plan). STRATA_SKIP_FUZZ=1 leaves the fuzzers' smoke
+# runs out, STRATA_SKIP_TSAN=1 the ThreadSanitizer build.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
-build_dir=${STRATA_BUILD_DIR:-$root/build}
-"$root/scripts/build.sh"
+build_dir=${STRATA_SANITIZE_BUILD_DIR:-$root/build-sanitize}
+"$root/scripts/build-sanitize.sh"
 "$root/scripts/check-format.sh"
-"$root/scripts/check-tidy.sh"
+STRATA_BUILD_DIR=$build_dir "$root/scripts/check-tidy.sh"
 "$root/scripts/install-test-tools.sh"
-ctest --test-dir "$build_dir" --output-on-failure -j "$(nproc)" "$@"
+skip_fuzz=()
+[ "${STRATA_SKIP_FUZZ:-0}" != 1 ] || skip_fuzz=(-LE fuzz)
+# Sanitiser settings: tests/sanitize_defaults.cpp, server/map_worker_sanitizers.cpp.
+ctest --test-dir "$build_dir" --output-on-failure -j "$(nproc)" "${skip_fuzz[@]}" "$@"
 
 if [ "${STRATA_SKIP_TSAN:-0}" = 1 ]; then exit 0; fi
-tsan_dir=${build_dir}-tsan
+tsan_dir=${build_dir%-sanitize}-tsan
 if [ ! -f "$tsan_dir/build.ninja" ]; then
-  cmake -S "$root" -B "$tsan_dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSTRATA_TSAN=ON
+  cmake -S "$root" -B "$tsan_dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+    -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ -DSTRATA_TSAN=ON
 fi
 cmake --build "$tsan_dir"
 ctest --test-dir "$tsan_dir" --output-on-failure -j "$(nproc)"  # Options: tests/tsan_defaults.cpp

@@ -10,6 +10,13 @@
 
 #include "pcl_quiet_internal.hpp"
 
+// PCL's RANSAC allocates Eigen buffers inside Debian's libpcl (plain malloc, no sanitiser)
+// that this file frees: both sides must agree on how Eigen allocates. Under ASan the build
+// sets EIGEN_MALLOC_ALREADY_ALIGNED=1 (CMakeLists.txt, STRATA_SANITIZE), which is only right
+// where malloc's alignment covers Eigen's: glibc's 16 bytes, Eigen's default 16 (no AVX).
+static_assert(EIGEN_MALLOC_ALREADY_ALIGNED == 1 && EIGEN_DEFAULT_ALIGN_BYTES == 16,
+              "Eigen would allocate otherwise than Debian's PCL, built against plain malloc");
+
 namespace strata {
 namespace {
 

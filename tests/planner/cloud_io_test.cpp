@@ -182,7 +182,7 @@ TEST_F(CloudIoTest, PcdWithDoubleCoordinatesAndLeadingFieldLoads) {
 TEST_F(CloudIoTest, PlyRoundTripsAsciiAndBinaryIgnoringColour) {
   pcl::PointCloud<pcl::PointXYZRGB> cloud;
   for (const auto& p : RandomCloud(300, 2)) {
-    pcl::PointXYZRGB q(static_cast<std::uint8_t>(p.intensity), 20, 30);
+    pcl::PointXYZRGB q(static_cast<std::uint8_t>(std::clamp(p.intensity, 0.0f, 255.0f)), 20, 30);
     q.x = p.x;
     q.y = p.y;
     q.z = p.z;

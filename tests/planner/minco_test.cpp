@@ -235,7 +235,10 @@ struct TestCost {
 };
 
 TEST_P(MincoSizes, PropagateGradientMatchesFiniteDifferences) {
-  const auto [dim, pieces] = GetParam();
+  // Plain variables, not a structured binding: the lambdas below capture them (clang 14, the
+  // sanitised build's compiler, cannot capture bindings).
+  const int dim = std::get<0>(GetParam());
+  const int pieces = std::get<1>(GetParam());
   std::mt19937 rng(53 + 100 * dim + pieces);
   const Problem p = RandomProblem(&rng, dim, pieces);
   TestCost cost;

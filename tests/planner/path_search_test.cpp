@@ -42,7 +42,9 @@ std::vector<double> Dijkstra(const SurfaceGraph& graph, int source, const Search
   dist[source] = 0;
   queue.push({0.0, source});
   while (!queue.empty()) {
-    const auto [d, v] = queue.top();
+    // Not a structured binding: the lambda below captures them (clang 14 cannot).
+    const double d = queue.top().first;
+    const auto v = queue.top().second;
     queue.pop();
     if (d > dist[v]) continue;
     graph.ForEachNeighbor(v, [&](int m) {
