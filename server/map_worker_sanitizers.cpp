@@ -16,10 +16,12 @@
 
 extern "C" {
 
+// NOLINTNEXTLINE(bugprone-reserved-identifier): the name ASan looks for.
 const char* __asan_default_options() { return "handle_segv=0:handle_sigbus=0"; }
 
 // libomp keeps per-thread data of OpenMP threads started from a non-main thread until it is
 // unloaded; LeakSanitizer counts it as leaked at exit. Nothing of Strata's is suppressed.
+// NOLINTNEXTLINE(bugprone-reserved-identifier): the name LeakSanitizer looks for.
 const char* __lsan_default_suppressions() { return "leak:libomp.so\n"; }
 
 }  // extern "C"
