@@ -68,6 +68,11 @@ Result<ParsedPlanRequest> ParsePlanRequest(const v1::PlanRequest& request) {
   Result<std::vector<Prism>> keep_out = KeepOutFromRequest(request);
   if (!keep_out.ok()) return std::move(keep_out).error();
   parsed.plan.keep_out = std::move(keep_out).value();
+  if (request.has_warm_start()) {
+    Result<WarmStart> warm = WarmStartFromRequest(request.warm_start());
+    if (!warm.ok()) return std::move(warm).error();
+    parsed.plan.warm_start = std::move(warm).value();
+  }
   if (Status valid = parsed.plan.Validate(); !valid) {
     return ServiceError::FromPlanner(valid.error(),
                                      PlanRequestField(valid.error().field, parsed.inline_profile));

@@ -529,6 +529,40 @@ Result<Trajectory> FromProto(const v1::Trajectory& message) {
   return trajectory;
 }
 
+Result<WarmStart> WarmStartFromRequest(const v1::WarmStart& message) {
+  constexpr const char* kPrefix = "warm_start.trajectory";
+  if (message.trajectory().pieces_size() < 1 ||
+      static_cast<std::size_t>(message.trajectory().pieces_size()) > kMaxWarmStartPieces) {
+    return MakeError(ErrorCode::kInvalidInput,
+                     std::string(kPrefix) + ".pieces has " +
+                         std::to_string(message.trajectory().pieces_size()) + " pieces; give 1 to " +
+                         std::to_string(kMaxWarmStartPieces))
+        .Blame(std::string(kPrefix) + ".pieces");
+  }
+  Result<Trajectory> trajectory = FromProto(message.trajectory());
+  if (!trajectory.ok()) {
+    ServiceError error = std::move(trajectory).error();
+    for (FieldViolation& violation : error.field_violations) {
+      violation.field = std::string(kPrefix) + "." + violation.field;
+    }
+    error.message = std::string(kPrefix) + ": " + error.message;
+    return error;
+  }
+  WarmStart warm;
+  warm.trajectory = std::move(trajectory).value();
+  if (message.has_elapsed_s()) {
+    const double elapsed = message.elapsed_s();
+    if (!(std::isfinite(elapsed) && elapsed >= 0)) {
+      return MakeError(ErrorCode::kInvalidInput, "warm_start.elapsed_s = " +
+                                                     std::to_string(elapsed) +
+                                                     " must be >= 0 and finite (or unset)")
+          .Blame("warm_start.elapsed_s");
+    }
+    warm.elapsed_s = elapsed;
+  }
+  return warm;
+}
+
 void ToProto(const SnapResult& snap, v1::SnappedState* message) {
   ToProto(snap.position_m, message->mutable_position_m());
   message->set_level(static_cast<std::uint32_t>(std::max(0, snap.level)));
@@ -553,6 +587,9 @@ void ToProto(const PlanStats& s, v1::PlanStats* m) {
   m->set_optimizer_iterations(s.optimizer_iterations);
   m->set_optimizer_attempts(s.optimizer_attempts);
   m->set_verified_samples(s.verified_samples);
+  m->set_time_stretch(s.time_stretch);
+  m->set_warm_started(s.warm_started);
+  m->set_fallback(s.fallback);
   v1::PlanTimings* t = m->mutable_timings();
   t->set_snap_s(s.timings.snap_s);
   t->set_search_s(s.timings.search_s);

@@ -97,6 +97,11 @@ void ToProto(const Trajectory& trajectory, v1::Trajectory* message);
 /// with a non-positive duration or the wrong number of axes or coefficients.
 Result<Trajectory> FromProto(const v1::Trajectory& message);
 
+/// A warm start: its trajectory as FromProto reads it (fields blamed under
+/// "warm_start.trajectory."), at most kMaxWarmStartPieces pieces, elapsed_s >= 0 and finite when
+/// set (-1 when not). PlanRequest::Validate checks the trajectory against the profile.
+Result<WarmStart> WarmStartFromRequest(const v1::WarmStart& message);
+
 void ToProto(const SnapResult& snap, v1::SnappedState* message);
 void ToProto(const PlanStats& stats, v1::PlanStats* message);
 

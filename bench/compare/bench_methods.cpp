@@ -59,6 +59,12 @@ class StrataMethod : public BenchMethod {
     out.length_m = plan->stats.length_m;
     out.kappa_m = plan->stats.mean_curvature_per_m;
     out.kappa_arc_m = TrajectoryArcMeanCurvature(plan->trajectory);
+    out.duration_s = plan->stats.duration_s;
+    out.duration_ratio =
+        out.length_m > 0 ? out.duration_s * profile_.max_speed_horizontal_mps / out.length_m : 0;
+    out.time_stretch = plan->stats.time_stretch;
+    out.fallback = plan->stats.fallback;
+    out.iterations = plan->stats.optimizer_iterations;
     out.start_snap_m = plan->start.distance_m;
     out.goal_snap_m = plan->goal.distance_m;
     out.points_m = SampleTrajectory(plan->trajectory);

@@ -28,6 +28,14 @@ struct QueryOutcome {
   /// path for the baselines, uniform time samples (strata::MeanCurvature) for Strata.
   double kappa_m = 0;
   double kappa_arc_m = 0;  ///< κ_m over uniform arc-length samples for every method [1/m].
+  /// Strata only (0 for the baselines, whose paths are not timed): the trajectory's duration
+  /// [s], its ratio to driving its length at the horizontal speed bound, the time stretch
+  /// applied, whether it is the slow fallback, and the optimiser's iterations.
+  double duration_s = 0;
+  double duration_ratio = 0;
+  double time_stretch = 0;
+  bool fallback = false;
+  int iterations = 0;
   /// Strata only: 1 when the returned trajectory fails an independent VerifyTrajectory (then
   /// success is false and reason VERIFY_FAILED), else 0; -1 for the baselines.
   int verify_violations = -1;

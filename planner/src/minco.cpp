@@ -23,10 +23,12 @@ constexpr int kWaypointRow = 2;
 // d^order/dt^order of t^k, for k = 0..5, at t: k!/(k−order)! t^(k−order).
 std::array<double, kCoeffs> BasisDerivative(double t, int order) {
   std::array<double, kCoeffs> basis{};
+  double power = 1.0;  // t^(k − order) by multiplication: std::pow showed in plan profiles.
   for (int k = order; k < kCoeffs; ++k) {
     double factor = 1.0;
     for (int m = k - order + 1; m <= k; ++m) factor *= m;
-    basis[k] = factor * std::pow(t, k - order);
+    basis[k] = factor * power;
+    power *= t;
   }
   return basis;
 }

@@ -97,7 +97,7 @@ Expected<PathResult> SearchPath(const SurfaceGraph& graph, int start_node, int g
   state.At(start_node).g = 0;
   reached = 1;
   const double w = config.heuristic_weight;
-  open.push({w * (start_p - goal_p).norm(), 0.0, start_node});
+  open.push({w * graph.DistanceLowerBound(start_node, goal_node), 0.0, start_node});
 
   while (!open.empty()) {
     const Entry top = open.top();
@@ -148,7 +148,7 @@ Expected<PathResult> SearchPath(const SurfaceGraph& graph, int start_node, int g
         reached += next.parent < 0;
         next.g = g;
         next.parent = top.node;
-        open.push({g + w * (graph.position(m) - goal_p).norm(), g, m});
+        open.push({g + w * graph.DistanceLowerBound(m, goal_node), g, m});
       }
     });
   }

@@ -4,16 +4,26 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <span>
 #include <string>
 
 #include "format_internal.hpp"
 #include "strata/keep_out.hpp"
+#include "strata/path_shortening.hpp"
 #include "strata/terrain_query.hpp"
+#include "strata/time_scaling.hpp"
 
 namespace strata {
 namespace {
 
 using Clock = std::chrono::steady_clock;
+
+// Time stretching (time_scaling.hpp): the largest factor tried, the fraction of each bound the
+// stretched peaks are aimed at (the verifier samples between the peaks' samples), and the
+// spacing of those samples [s].
+constexpr double kMaxTimeStretch = 1.5;
+constexpr double kStretchTarget = 0.995;
+constexpr double kPeakSampleStepS = 0.01;
 
 double SecondsSince(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
@@ -111,6 +121,99 @@ Error InKeepOut(ErrorCode code, const char* what, const Eigen::Vector3d& p, cons
                 map_zone ? " (the map's zones change only with the map)" : " or drop the zone");
   return Error{code, std::string(what) + " " + internal::FormatPoint(p) + buf,
                std::string(what) + ".position_m"};
+}
+
+// Optimises `problem` and verifies the result; when its only fault is being too fast
+// somewhere (a speed or an acceleration a little over its bound), the same path stretched in
+// time passes instead (time_scaling.hpp). Fails with the optimiser's error (kCancelled when
+// `stop` fired) or the verifier's (kOptimizationFailed). Adds to the stats' timings,
+// iterations and attempts; sets the figures and time_stretch of a trajectory it returns.
+Expected<Trajectory> OptimizeAndVerify(const SurfaceGraph& graph, const RobotProfile& profile,
+                                       std::span<const KeepOutZone> zones,
+                                       const OptimizationProblem& problem,
+                                       const OptimizerConfig& config,
+                                       const VerifierConfig& verifier, StopCondition& stop,
+                                       PlanStats* stats) {
+  Clock::time_point stage = Clock::now();
+  const TrajectoryCost cost(graph, config.weights, CostParams{profile, config.cost}, zones);
+  Minco3 minco;
+  Expected<OptimizationReport> report =
+      OptimizeTrajectory(cost, problem, config, stop.AsFunction(), &minco);
+  stats->timings.optimize_s += SecondsSince(stage);
+  ++stats->optimizer_attempts;
+  if (!report) return report.error();
+  stats->optimizer_iterations += report->iterations;
+
+  stage = Clock::now();
+  Trajectory trajectory = Trajectory::FromMinco(minco);
+  VerificationReport verification;
+  Status verified = VerifyTrajectory(graph, profile, trajectory, verifier, &verification, zones);
+  double stretch = 1;
+  if (!verified) {
+    const double k =
+        RequiredTimeScale(SampleDynamicPeaks(trajectory, kPeakSampleStepS), profile, kStretchTarget);
+    if (k > 1 && k <= kMaxTimeStretch) {
+      Trajectory stretched = StretchTime(trajectory, k, problem.head_pva, problem.tail_pva);
+      VerificationReport stretched_report;
+      if (VerifyTrajectory(graph, profile, stretched, verifier, &stretched_report, zones)) {
+        trajectory = std::move(stretched);
+        verification = stretched_report;
+        verified = Status::Ok();
+        stretch = k;
+      }
+    }
+  }
+  stats->timings.verify_s += SecondsSince(stage);
+  if (!verified) return verified.error();
+  FillStats(trajectory, verification, stats);
+  stats->time_stretch = stretch;
+  return trajectory;
+}
+
+// The fallback's trajectory (MakeFallbackProblem) as MINCO makes it, stretched in time
+// until its speeds and accelerations are within the profile's bounds.
+Trajectory SlowTrajectory(const OptimizationProblem& problem, const RobotProfile& profile) {
+  Minco3 minco;
+  minco.SetConditions(problem.head_pva, problem.tail_pva,
+                      static_cast<int>(problem.initial_durations.size()));
+  minco.SetParameters(problem.initial_waypoints, problem.initial_durations);
+  Trajectory trajectory = Trajectory::FromMinco(minco);
+  const double k =
+      RequiredTimeScale(SampleDynamicPeaks(trajectory, kPeakSampleStepS), profile, kStretchTarget);
+  if (k > 1) trajectory = StretchTime(trajectory, k, problem.head_pva, problem.tail_pva);
+  return trajectory;
+}
+
+// A warm start's trajectory must be one this robot's plan could have returned.
+Status ValidateWarmStart(const WarmStart& warm, const RobotProfile& profile) {
+  const auto bad = [](const std::string& field, const std::string& what) {
+    return Error{ErrorCode::kInvalidInput, field + " " + what, field};
+  };
+  const Trajectory& trajectory = warm.trajectory;
+  const int dim = profile.active_height ? 4 : 3;
+  if (trajectory.dimension != dim) {
+    return bad("warm_start.trajectory.dimension",
+               "is " + std::to_string(trajectory.dimension) + "; this robot's trajectories have " +
+                   std::to_string(dim) + " axes");
+  }
+  if (trajectory.pieces.empty() || trajectory.pieces.size() > kMaxWarmStartPieces) {
+    return bad("warm_start.trajectory.pieces",
+               "has " + std::to_string(trajectory.pieces.size()) + " pieces; give 1 to " +
+                   std::to_string(kMaxWarmStartPieces));
+  }
+  for (std::size_t i = 0; i < trajectory.pieces.size(); ++i) {
+    const TrajectoryPiece& piece = trajectory.pieces[i];
+    const std::string field = "warm_start.trajectory.pieces[" + std::to_string(i) + "]";
+    if (!(std::isfinite(piece.duration_s) && piece.duration_s > 0)) {
+      return bad(field + ".duration_s", "must be > 0 and finite");
+    }
+    if (piece.coefficients.rows() != 6 || piece.coefficients.cols() != dim ||
+        !piece.coefficients.allFinite()) {
+      return bad(field, "must hold 6 finite coefficients per axis");
+    }
+  }
+  if (!std::isfinite(warm.elapsed_s)) return bad("warm_start.elapsed_s", "must be finite");
+  return Status::Ok();
 }
 
 }  // namespace
@@ -247,6 +350,9 @@ Status PlanRequest::Validate() const {
                      "part of the map",
                  "keep_out"};
   }
+  if (warm_start) {
+    if (Status s = ValidateWarmStart(*warm_start, profile); !s) return s;
+  }
   for (std::size_t i = 0; i < keep_out.size(); ++i) {
     const std::string path = "keep_out[" + std::to_string(i) + "]";
     if (Status s = keep_out[i].Validate(path); !s) return s;
@@ -332,6 +438,35 @@ Expected<PlanResult> Plan(const PlanningMap& map, const PlanRequest& request,
     };
   }
 
+  // A replan along the trajectory the robot follows starts from its remainder: no search.
+  OptimizerConfig config = options.optimizer;
+  Error last_failure{ErrorCode::kOptimizationFailed, "no optimisation attempt ran"};
+  const auto attempt = [&](const OptimizationProblem& problem) -> Expected<bool> {
+    const Expected<Trajectory> trajectory =
+        OptimizeAndVerify(graph, profile, zones, problem, config, options.verifier, stop, &stats);
+    if (trajectory) {
+      result.trajectory = *trajectory;
+      stats.timings.total_s = SecondsSince(start_time);
+      return true;
+    }
+    if (stop.stopped()) return stop.Reason(options.time_budget_s, "trajectory optimisation");
+    if (trajectory.error().code != ErrorCode::kOptimizationFailed) return trajectory.error();
+    last_failure = trajectory.error();
+    return false;
+  };
+  if (request.warm_start) {
+    const TrajectoryCost cost(graph, config.weights, CostParams{profile, config.cost}, zones);
+    if (Expected<OptimizationProblem> warm = MakeWarmProblem(cost, *request.warm_start, head, tail)) {
+      Expected<bool> done = attempt(*warm);
+      if (!done) return done.error();
+      if (*done) {
+        stats.warm_started = true;
+        return result;
+      }
+    }
+    // A warm start that does not fit, or fails verification: plan from scratch.
+  }
+
   // Search.
   stage = Clock::now();
   // The search runs on the plan's own budget (through stop), the only one a caller sets.
@@ -361,44 +496,21 @@ Expected<PlanResult> Plan(const PlanningMap& map, const PlanRequest& request,
       error.message += "; the search stepped around keep-out zones " + in_the_way;
     return error;
   }
-  result.path = std::move(path).value();
+  // Straightened inside the traversable corridor: the optimiser starts near the smooth answer
+  // instead of the grid's zigzag.
+  result.path = ShortenPath(graph, *path, options.search, {}, blocked);
+  stats.timings.search_s = SecondsSince(stage);
 
   // Optimise and verify; a failed verification retries with stiffer penalties.
   std::vector<Eigen::Vector3d> waypoints = result.path.points_m;
   waypoints.front() = head.position_m;
   waypoints.back() = tail.position_m;
   if (waypoints.size() < 2) waypoints.push_back(tail.position_m);
-
-  OptimizerConfig config = options.optimizer;
-  Error last_failure{ErrorCode::kOptimizationFailed, "no optimisation attempt ran"};
-  for (int attempt = 0; attempt < options.max_attempts; ++attempt) {
-    stage = Clock::now();
+  for (int k = 0; k < options.max_attempts; ++k) {
     const TrajectoryCost cost(graph, config.weights, CostParams{profile, config.cost}, zones);
-    const OptimizationProblem problem = MakeInitialProblem(cost, waypoints, head, tail, config);
-    Minco3 minco;
-    Expected<OptimizationReport> report =
-        OptimizeTrajectory(cost, problem, config, stop.AsFunction(), &minco);
-    stats.timings.optimize_s += SecondsSince(stage);
-    ++stats.optimizer_attempts;
-    if (!report) {
-      if (stop.stopped()) return stop.Reason(options.time_budget_s, "trajectory optimisation");
-      return report.error();
-    }
-    stats.optimizer_iterations += report->iterations;
-
-    stage = Clock::now();
-    Trajectory trajectory = Trajectory::FromMinco(minco);
-    VerificationReport verification;
-    const Status verified =
-        VerifyTrajectory(graph, profile, trajectory, options.verifier, &verification, zones);
-    stats.timings.verify_s += SecondsSince(stage);
-    if (verified) {
-      FillStats(trajectory, verification, &stats);
-      result.trajectory = std::move(trajectory);
-      stats.timings.total_s = SecondsSince(start_time);
-      return result;
-    }
-    last_failure = verified.error();
+    Expected<bool> done = attempt(MakeInitialProblem(cost, waypoints, head, tail, config));
+    if (!done) return done.error();
+    if (*done) return result;
     if (stop()) return stop.Reason(options.time_budget_s, "trajectory verification");
     // Stiffer penalties for the next attempt (PlanOptions::max_attempts documents them).
     config.weights.safety *= 4;
@@ -408,9 +520,26 @@ Expected<PlanResult> Plan(const PlanningMap& map, const PlanRequest& request,
     config.weights.keep_out *= 4;
     config.piece_length_m *= 0.7;
     config.cost.limit_margin *= 0.95;
+    config.initial_speed_fraction *= 0.75;
+  }
+  // The last resort: the path itself, slowly, marked as such for the dispatcher.
+  stage = Clock::now();
+  const TrajectoryCost cost(graph, config.weights, CostParams{profile, config.cost}, zones);
+  Trajectory slow = SlowTrajectory(MakeFallbackProblem(cost, waypoints, head, tail), profile);
+  VerificationReport verification;
+  const Status verified =
+      VerifyTrajectory(graph, profile, slow, options.verifier, &verification, zones);
+  stats.timings.verify_s += SecondsSince(stage);
+  if (verified) {
+    FillStats(slow, verification, &stats);
+    stats.fallback = true;
+    result.trajectory = std::move(slow);
+    stats.timings.total_s = SecondsSince(start_time);
+    return result;
   }
   char buf[64];
-  std::snprintf(buf, sizeof(buf), " (after %d attempts)", options.max_attempts);
+  std::snprintf(buf, sizeof(buf), " (after %d attempts and the slow fallback)",
+                options.max_attempts);
   last_failure.message += buf;
   return last_failure;
 }

@@ -103,6 +103,7 @@ Expected<SurfaceGraph> SurfaceGraph::Build(const TerrainModel& model,
   }
   queue = {};
   if (!graph.ComputeEdgeDistances(rim, should_stop)) return Cancelled();
+  if (!graph.ComputeLandmarks(should_stop)) return Cancelled();
   // The node arrays grew by push_back: give back what they reserved beyond their size.
   graph.nodes_.shrink_to_fit();
   graph.column_nodes_.shrink_to_fit();

@@ -70,6 +70,9 @@ Status CostConfig::Validate(std::string_view path) const {
   if (!(std::isfinite(body_height_margin_m) && body_height_margin_m >= 0)) {
     return bad_field("body_height_margin_m", body_height_margin_m, ">= 0 and finite");
   }
+  if (!(std::isfinite(distance_stiffness) && distance_stiffness >= 0)) {
+    return bad_field("distance_stiffness", distance_stiffness, ">= 0 and finite");
+  }
   if (!(std::isfinite(body_height_stiffness) && body_height_stiffness >= 0)) {
     return bad_field("body_height_stiffness", body_height_stiffness, ">= 0 and finite");
   }
@@ -124,9 +127,10 @@ double TrajectoryCost::PointPenalty(const StateVector& pos, const StateVector& v
     const Cubic unsafe = CubicPenalty(fields.safety - c.safety_threshold);
     terms.safety += w.safety * unsafe.value;
     grad_pos->head<3>() += w.safety * unsafe.slope * fields.safety_gradient;
+    const double stiff = w.safety * c.distance_stiffness;
     const Cubic close = CubicPenalty(c.distance_threshold_m - fields.distance_m);
-    terms.safety += w.safety * close.value;
-    grad_pos->head<3>() -= w.safety * close.slope * fields.distance_gradient;
+    terms.safety += stiff * close.value;
+    grad_pos->head<3>() -= stiff * close.slope * fields.distance_gradient;
   }
 
   if (w.edge > 0) {

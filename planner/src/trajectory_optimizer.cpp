@@ -4,8 +4,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <exception>
 #include <limits>
+#include <string>
 
 #include "format_internal.hpp"
 #include "strata/terrain_query.hpp"
@@ -40,6 +42,108 @@ std::vector<Eigen::Vector3d> ResampleInterior(const std::vector<Eigen::Vector3d>
   return points;
 }
 
+// The suitable body height (active-height robots) where the reference point is at p.
+double BodyHeightAt(const TrajectoryCost& cost, const Eigen::Vector3d& p) {
+  GroundSample ground;
+  const double clearance = SampleGround(cost.model(), p, cost.params().profile.reference_height_m,
+                                        cost.ClearanceCap(), &ground)
+                               ? ground.clearance_m
+                               : cost.ClearanceCap();
+  return cost.SuitableBodyHeight(clearance, nullptr);
+}
+
+// A boundary state as MINCO takes it (dim×3: position, velocity, acceleration), the body
+// height (dim 4) the suitable one at the state's position, at rest.
+Eigen::MatrixXd BoundaryState(const TrajectoryCost& cost, const RobotState& state) {
+  const int dim = cost.params().dim();
+  Eigen::MatrixXd pva = Eigen::MatrixXd::Zero(dim, 3);
+  pva.col(0).head<3>() = state.position_m;
+  pva.col(1).head<3>() = state.velocity_mps;
+  pva.col(2).head<3>() = state.acceleration_mps2;
+  if (dim == 4) pva(3, 0) = BodyHeightAt(cost, state.position_m);
+  return pva;
+}
+
+// The time on `trajectory` whose position is nearest p: a scan every kScanStepS, refined
+// around the best sample every kScanStepS / 50.
+double NearestTime(const Trajectory& trajectory, const Eigen::Vector3d& p) {
+  constexpr double kScanStepS = 0.05;
+  const double total = trajectory.TotalDuration();
+  TrajectoryCursor cursor(trajectory);
+  const auto distance = [&](double t) { return (cursor.Position(t).head<3>() - p).norm(); };
+  double best_t = 0, best = distance(0);
+  for (double t = kScanStepS; t < total + kScanStepS; t += kScanStepS) {
+    const double time = std::min(t, total);
+    if (const double d = distance(time); d < best) best = d, best_t = time;
+  }
+  const double from = std::max(0.0, best_t - kScanStepS), to = std::min(total, best_t + kScanStepS);
+  for (double t = from; t <= to; t += kScanStepS / 50) {
+    if (const double d = distance(t); d < best) best = d, best_t = t;
+  }
+  return best_t;
+}
+
+// Fractions of the profile's bounds a timing plans for.
+struct Pace {
+  double speed = 0;
+  double accel = 0;
+};
+// The optimiser's initial guess accelerates at this fraction of the bounds: room for turns
+// the timing does not see.
+constexpr double kInitialAccelFraction = 0.5;
+// The fallback: no optimiser will smooth its corners, so slow, and stretched afterwards.
+constexpr Pace kFallbackPace{0.4, 0.25};
+
+// Durations of the pieces between start, the interior points and goal: a trapezoidal speed
+// profile over the arc length (accelerate from the start's speed, cruise, brake to the
+// goal's), the cruise speed on each piece lowered where its slope would take the vertical
+// speed past its bound.
+Eigen::VectorXd InitialDurations(const CostParams& params, const RobotState& start,
+                                 const RobotState& goal,
+                                 const std::vector<Eigen::Vector3d>& interior, Pace pace) {
+  const RobotProfile& robot = params.profile;
+  std::vector<Eigen::Vector3d> points;
+  points.reserve(interior.size() + 2);
+  points.push_back(start.position_m);
+  points.insert(points.end(), interior.begin(), interior.end());
+  points.push_back(goal.position_m);
+  const int pieces = static_cast<int>(points.size()) - 1;
+  std::vector<double> along(points.size(), 0.0);  // Horizontal arc length [m].
+  for (std::size_t k = 1; k < points.size(); ++k) {
+    along[k] = along[k - 1] + (points[k] - points[k - 1]).head<2>().norm();
+  }
+  const double total = along.back();
+  const double accel = pace.accel * robot.max_accel_horizontal_mps2;
+  const double v0 = start.velocity_mps.head<2>().norm(), v1 = goal.velocity_mps.head<2>().norm();
+  // The trapezoid's speed at horizontal arc length s, before slopes.
+  const auto speed_at = [&](double s) {
+    return std::min({pace.speed * robot.max_speed_horizontal_mps,
+                     std::sqrt(v0 * v0 + 2 * accel * s),
+                     std::sqrt(v1 * v1 + 2 * accel * std::max(0.0, total - s))});
+  };
+  Eigen::VectorXd durations(pieces);
+  constexpr int kSubsteps = 4;  // Midpoint rule within a piece.
+  for (int k = 0; k < pieces; ++k) {
+    const Eigen::Vector3d delta = points[k + 1] - points[k];
+    const double horizontal = delta.head<2>().norm();
+    // On a slope, the horizontal speed at which the vertical speed meets its bound.
+    const double slope_cap =
+        horizontal > 0 ? pace.speed * robot.max_speed_vertical_mps * horizontal /
+                             std::max(std::abs(delta.z()), 1e-9)
+                       : 0;
+    double t = 0;
+    for (int j = 0; j < kSubsteps; ++j) {
+      const double s = along[k] + (j + 0.5) / kSubsteps * horizontal;
+      const double v = std::max(std::min(speed_at(s), slope_cap), 1e-3);
+      t += horizontal / kSubsteps / v;
+    }
+    // A vertical move (no horizontal length): its own bound.
+    t = std::max(t, std::abs(delta.z()) / (pace.speed * robot.max_speed_vertical_mps));
+    durations(k) = std::max(t, 0.1);
+  }
+  return durations;
+}
+
 }  // namespace
 
 Status OptimizerConfig::Validate(std::string_view path) const {
@@ -50,6 +154,9 @@ Status OptimizerConfig::Validate(std::string_view path) const {
   if (Status s = cost.Validate(internal::FieldPath(path, "cost")); !s) return s;
   if (!(std::isfinite(piece_length_m) && piece_length_m > 0)) {
     return bad_field("piece_length_m", piece_length_m, "> 0 and finite");
+  }
+  if (!(initial_speed_fraction > 0 && initial_speed_fraction <= 1)) {
+    return bad_field("initial_speed_fraction", initial_speed_fraction, "in (0, 1]");
   }
   if (max_iterations < 1) return bad_field("max_iterations", max_iterations, ">= 1");
   if (!(std::isfinite(gradient_tolerance) && gradient_tolerance > 0)) {
@@ -69,49 +176,94 @@ OptimizationProblem MakeInitialProblem(const TrajectoryCost& cost,
                                        const OptimizerConfig& config) {
   const CostParams& params = cost.params();
   const int dim = params.dim();
-  const double reference_height_m = params.profile.reference_height_m;
   int pieces = 1;
   const std::vector<Eigen::Vector3d> interior =
       ResampleInterior(path_m, config.piece_length_m, &pieces);
 
-  // Body height (active robots): the suitable height where the robot stands.
-  const auto body_height = [&](const Eigen::Vector3d& p) {
-    GroundSample ground;
-    const double clearance =
-        SampleGround(cost.model(), p, reference_height_m, cost.ClearanceCap(), &ground)
-            ? ground.clearance_m
-            : cost.ClearanceCap();
-    return cost.SuitableBodyHeight(clearance, nullptr);
-  };
-  const auto boundary = [&](const RobotState& state) {
-    Eigen::MatrixXd pva = Eigen::MatrixXd::Zero(dim, 3);
-    pva.col(0).head<3>() = state.position_m;
-    pva.col(1).head<3>() = state.velocity_mps;
-    pva.col(2).head<3>() = state.acceleration_mps2;
-    if (dim == 4) pva(3, 0) = body_height(state.position_m);
-    return pva;
-  };
-
   OptimizationProblem problem;
-  problem.head_pva = boundary(start);
-  problem.tail_pva = boundary(goal);
+  problem.head_pva = BoundaryState(cost, start);
+  problem.tail_pva = BoundaryState(cost, goal);
   problem.initial_waypoints.resize(dim, pieces - 1);
   for (int k = 0; k < pieces - 1; ++k) {
     problem.initial_waypoints.col(k).head<3>() = interior[static_cast<std::size_t>(k)];
-    if (dim == 4)
-      problem.initial_waypoints(3, k) = body_height(interior[static_cast<std::size_t>(k)]);
+    if (dim == 4) problem.initial_waypoints(3, k) = BodyHeightAt(cost, interior[static_cast<std::size_t>(k)]);
   }
-  // Durations at a comfortable fraction of the speed bounds; the optimiser shortens them.
-  problem.initial_durations.resize(pieces);
-  Eigen::Vector3d previous = start.position_m;
-  for (int k = 0; k < pieces; ++k) {
-    const Eigen::Vector3d next =
-        k + 1 < pieces ? interior[static_cast<std::size_t>(k)] : goal.position_m;
-    const Eigen::Vector3d delta = next - previous;
-    const double horizontal = delta.head<2>().norm() / (0.5 * params.max_speed_horizontal_mps());
-    const double vertical = std::abs(delta.z()) / (0.5 * params.max_speed_vertical_mps());
-    problem.initial_durations(k) = std::max({horizontal, vertical, 0.1});
-    previous = next;
+  problem.initial_durations = InitialDurations(
+      params, start, goal, interior, Pace{config.initial_speed_fraction, kInitialAccelFraction});
+  return problem;
+}
+
+OptimizationProblem MakeFallbackProblem(const TrajectoryCost& cost,
+                                        const std::vector<Eigen::Vector3d>& path_m,
+                                        const RobotState& start, const RobotState& goal) {
+  const int dim = cost.params().dim();
+  // Every point of the path but its ends, which start and goal replace.
+  const std::vector<Eigen::Vector3d> interior =
+      path_m.size() > 2 ? std::vector<Eigen::Vector3d>(path_m.begin() + 1, path_m.end() - 1)
+                        : std::vector<Eigen::Vector3d>{};
+  OptimizationProblem problem;
+  problem.head_pva = BoundaryState(cost, start);
+  problem.tail_pva = BoundaryState(cost, goal);
+  problem.initial_waypoints.resize(dim, static_cast<Eigen::Index>(interior.size()));
+  for (std::size_t k = 0; k < interior.size(); ++k) {
+    const auto column = static_cast<Eigen::Index>(k);
+    problem.initial_waypoints.col(column).head<3>() = interior[k];
+    if (dim == 4) problem.initial_waypoints(3, column) = BodyHeightAt(cost, interior[k]);
+  }
+  problem.initial_durations =
+      InitialDurations(cost.params(), start, goal, interior, kFallbackPace);
+  return problem;
+}
+
+Expected<OptimizationProblem> MakeWarmProblem(const TrajectoryCost& cost, const WarmStart& warm,
+                                              const RobotState& start, const RobotState& goal) {
+  const Trajectory& previous = warm.trajectory;
+  const int dim = cost.params().dim();
+  const auto refuse = [](const std::string& why) {
+    return Error{ErrorCode::kInvalidInput, "the warm start does not fit this plan: " + why};
+  };
+  if (previous.pieces.empty() || previous.dimension != dim) {
+    return refuse("its trajectory has " + std::to_string(previous.pieces.size()) +
+                  " pieces of dimension " + std::to_string(previous.dimension) +
+                  ", this robot's have dimension " + std::to_string(dim));
+  }
+  const double total = previous.TotalDuration();
+  const double now = warm.elapsed_s >= 0 ? std::min(warm.elapsed_s, total)
+                                         : NearestTime(previous, start.position_m);
+  const double off_start = (previous.Position(now).head<3>() - start.position_m).norm();
+  const double off_goal = (previous.Position(total).head<3>() - goal.position_m).norm();
+  if (off_start > kWarmStartToleranceM || off_goal > kWarmStartToleranceM) {
+    char buf[160];
+    std::snprintf(buf, sizeof(buf),
+                  "the start is %.2f m and the goal %.2f m from it (at most %.2f m each)",
+                  off_start, off_goal, kWarmStartToleranceM);
+    return refuse(buf);
+  }
+  // The piece the robot is on, and how far into it.
+  std::size_t piece = 0;
+  double into = now;
+  while (piece + 1 < previous.pieces.size() && into >= previous.pieces[piece].duration_s) {
+    into -= previous.pieces[piece].duration_s;
+    ++piece;
+  }
+  // What is left of it becomes the first piece; a stub of it merges with the next.
+  double first = std::max(previous.pieces[piece].duration_s - into, 0.0);
+  std::size_t next = piece + 1;
+  if (first < 0.3 * previous.pieces[piece].duration_s && next < previous.pieces.size()) {
+    first += previous.pieces[next++].duration_s;
+  }
+  const std::size_t remaining = 1 + previous.pieces.size() - next;
+  OptimizationProblem problem;
+  problem.head_pva = BoundaryState(cost, start);
+  problem.tail_pva = BoundaryState(cost, goal);
+  if (dim == 4) problem.head_pva(3, 0) = previous.Position(now)(3);  // Where the body is now.
+  problem.initial_waypoints.resize(dim, static_cast<Eigen::Index>(remaining) - 1);
+  problem.initial_durations.resize(static_cast<Eigen::Index>(remaining));
+  problem.initial_durations(0) = std::max(first, 0.05);
+  for (std::size_t k = next; k < previous.pieces.size(); ++k) {
+    const auto column = static_cast<Eigen::Index>(k - next);
+    problem.initial_waypoints.col(column) = previous.pieces[k].coefficients.row(0).transpose();
+    problem.initial_durations(column + 1) = previous.pieces[k].duration_s;
   }
   return problem;
 }

@@ -257,6 +257,31 @@ TEST_F(TwoLevel, AStarMatchesDijkstra) {
   }
 }
 
+TEST_F(TwoLevel, LandmarkBoundsLieBetweenTheStraightLineAndTheShortestPath) {
+  ASSERT_GT(graph().landmark_count(), 0);
+  const int start = Snap(layout_.start_example_m);
+  ASSERT_GE(start, 0);
+  SearchConfig lengths;  // EdgeCost = length: Dijkstra gives shortest path lengths.
+  lengths.clearance_weight = 0;
+  lengths.rim_weight = 0;
+  const std::vector<double> dist = Dijkstra(graph(), start, lengths);
+  int tighter = 0, pairs = 0;
+  for (int v = 0; v < graph().node_count(); v += 13) {
+    if (!std::isfinite(dist[v])) continue;
+    ++pairs;
+    const double straight = (graph().position(v) - graph().position(start)).norm();
+    const double bound = graph().DistanceLowerBound(start, v);
+    EXPECT_GE(bound, straight - 1e-12);
+    EXPECT_LE(bound, dist[v] + 1e-9) << graph().position(v).transpose();
+    tighter += bound > straight + 0.5;
+  }
+  // The deck lies above the floor: its straight line ignores the ramp, the landmarks do not.
+  EXPECT_GT(tighter, pairs / 10) << tighter << " of " << pairs;
+  const int deck = Snap(layout_.goal_example_m);
+  EXPECT_GT(graph().DistanceLowerBound(start, deck),
+            (graph().position(deck) - graph().position(start)).norm() + 1.0);
+}
+
 TEST_F(TwoLevel, FloorToDeckClimbsTheRampOnValidGround) {
   const int start = Snap(layout_.start_example_m);
   const int goal = Snap(layout_.goal_example_m + Eigen::Vector3d(0, 0, 0.3));

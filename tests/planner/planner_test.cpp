@@ -45,13 +45,14 @@ void ExpectSound(const PlanResult& plan, const PlanRequest& request) {
   ASSERT_FALSE(t.pieces.empty());
   const RobotProfile& robot = request.profile;
   EXPECT_EQ(t.dimension, robot.active_height ? 4 : 3);
-  // Boundary states: the snapped positions, the requested (zero) velocity and acceleration.
+  // Boundary states: the snapped positions, the requested velocity and acceleration.
   EXPECT_LT((t.Position(0).head<3>() - plan.start.position_m).norm(), 1e-9);
   EXPECT_LT((t.Position(t.TotalDuration()).head<3>() - plan.goal.position_m).norm(), 1e-9);
-  EXPECT_LT(t.Velocity(0).norm(), 1e-9);
-  EXPECT_LT(t.Velocity(t.TotalDuration()).norm(), 1e-9);
-  EXPECT_LT(t.Acceleration(0).norm(), 1e-9);
-  EXPECT_LT(t.Acceleration(t.TotalDuration()).norm(), 1e-9);
+  EXPECT_LT((t.Velocity(0).head<3>() - request.start.velocity_mps).norm(), 1e-9);
+  EXPECT_LT((t.Velocity(t.TotalDuration()).head<3>() - request.goal.velocity_mps).norm(), 1e-9);
+  EXPECT_LT((t.Acceleration(0).head<3>() - request.start.acceleration_mps2).norm(), 1e-9);
+  EXPECT_LT(
+      (t.Acceleration(t.TotalDuration()).head<3>() - request.goal.acceleration_mps2).norm(), 1e-9);
   // The verified limits, as reported.
   const PlanStats& s = plan.stats;
   EXPECT_LE(s.max_speed_horizontal_mps, 1.01 * robot.max_speed_horizontal_mps);
@@ -63,9 +64,11 @@ void ExpectSound(const PlanResult& plan, const PlanRequest& request) {
             robot.headroom_m - BodyHeightTolerance(robot, request.options.verifier));
   EXPECT_GT(s.verified_samples, s.length_m / 0.021);
   // Smoothing cuts the grid path's corners; a retried optimisation (stiffer penalties) can
-  // swerve a little (7% measured on the two-level ramp), never much.
-  EXPECT_LE(s.length_m, 1.1 * plan.path.length_m + 0.5);
-  EXPECT_GT(s.length_m, 0.5 * plan.path.length_m);
+  // swerve a little (7% measured on the two-level ramp), never much. A warm start has no path.
+  if (!s.warm_started) {
+    EXPECT_LE(s.length_m, 1.1 * plan.path.length_m + 0.5);
+    EXPECT_GT(s.length_m, 0.5 * plan.path.length_m);
+  }
   EXPECT_NEAR(s.duration_s, t.TotalDuration(), 1e-9);
   EXPECT_GT(s.timings.total_s, 0);
 }
@@ -169,7 +172,7 @@ struct CountingStop {
 };
 
 TEST_F(TwoLevelPlan, CancellationStopsAtTheFirstPollThatAsksInEveryStage) {
-  const PlanRequest request = Request(layout_.start_example_m, layout_.goal_example_m);
+  const PlanRequest request = Request({2, 5.2, 0.3}, {13, 8, 0.3});  // Optimised at once.
   ASSERT_TRUE(map_->Graph(request.profile.Traversability()).ok());  // Built: no build polls.
   // How often a whole plan polls, then a cancellation at the first poll and at the last: the
   // plan ends at that very poll (no further poll), naming the stage.
@@ -203,17 +206,89 @@ TEST_F(TwoLevelPlan, ABudgetSpentBeforeTheFirstPollEndsThePlanAtThatPoll) {
 // A plan whose optimiser ignores the speed bounds (no feasibility penalty) and values time far
 // above smoothness races through: every attempt fails verification, and Plan reports the
 // violation.
-TEST_F(TwoLevelPlan, ATrajectoryThatNeverPassesVerificationIsOptimizationFailed) {
+// An optimiser that ignores the bounds (no feasibility penalty, time at a premium) makes
+// trajectories far too fast to stretch within kMaxTimeStretch: every attempt fails, and the
+// plan falls back to the slow trajectory along the path, marked as such.
+TEST_F(TwoLevelPlan, WhenEveryAttemptFailsTheSlowFallbackIsReturnedAndMarked) {
   PlanRequest request = Request(layout_.start_example_m, layout_.goal_example_m);
   request.options.optimizer.weights.feasibility = 0;
   request.options.optimizer.weights.time = 1e4;
   const auto plan = Plan(*map_, request);
+  ASSERT_TRUE(plan.ok()) << plan.error().message;
+  EXPECT_TRUE(plan->stats.fallback);
+  EXPECT_EQ(plan->stats.optimizer_attempts, request.options.max_attempts);
+  ExpectSound(*plan, request);
+  // An ordinary plan is not marked (on the floor: on this map's ramp, rough at 0.1 m, the
+  // floor-to-deck plan itself ends in the fallback).
+  const auto ordinary = Plan(*map_, Request({2, 5.2, 0.3}, {13, 8, 0.3}));
+  ASSERT_TRUE(ordinary.ok()) << ordinary.error().message;
+  EXPECT_FALSE(ordinary->stats.fallback);
+}
+
+// A verifier no trajectory can satisfy (the reference point within a micrometre of the
+// ground's height): every attempt and the fallback fail, and the error says so.
+TEST_F(TwoLevelPlan, ATrajectoryThatNeverPassesVerificationIsOptimizationFailed) {
+  PlanRequest request = Request(layout_.start_example_m, layout_.goal_example_m);
+  request.options.verifier.ground_tolerance_m = 1e-6;
+  const auto plan = Plan(*map_, request);
   ASSERT_FALSE(plan.ok());
   EXPECT_EQ(plan.error().code, ErrorCode::kOptimizationFailed);
   EXPECT_THAT(plan.error().message, HasSubstr("trajectory verification failed"));
-  EXPECT_THAT(plan.error().message, HasSubstr("exceeds the bound"));
   EXPECT_THAT(plan.error().message,
-              HasSubstr("(after " + std::to_string(request.options.max_attempts) + " attempts)"));
+              HasSubstr("(after " + std::to_string(request.options.max_attempts) +
+                        " attempts and the slow fallback)"));
+}
+
+// Replanning on the way: from a state on a trajectory the robot follows, with that trajectory
+// as the warm start, the optimiser starts from its remainder and needs fewer iterations than
+// a plan from scratch; the plan still ends at the goal and passes verification.
+TEST_F(TwoLevelPlan, AWarmStartReplansInFewerIterationsThanACold) {
+  const std::pair<Eigen::Vector3d, Eigen::Vector3d> queries[] = {
+      {{2, 5.2, 0.3}, {13, 8, 0.3}},    // Floor, under the deck.
+      {{6, 8, 3.3}, {14, 11, 3.3}},     // Across the deck.
+      {{1, 5, 0.3}, {16, 11, 0.3}},     // Floor, between the pillars.
+      {{8, 8, 3.3}, {18, 3, 3.3}}};     // Deck to the tongue.
+  int fewer = 0;
+  for (const auto& [from, to] : queries) {
+    const auto first = Plan(*map_, Request(from, to));
+    ASSERT_TRUE(first.ok()) << first.error().message;
+    const Trajectory& followed = first->trajectory;
+    const double now = 0.3 * followed.TotalDuration();
+    PlanRequest replan = Request(from, to);
+    replan.start.position_m = followed.Position(now).head<3>();
+    replan.start.velocity_mps = followed.Velocity(now).head<3>();
+    replan.start.acceleration_mps2 = followed.Acceleration(now).head<3>();
+    replan.goal.position_m = first->goal.position_m;
+    const auto cold = Plan(*map_, replan);
+    replan.warm_start = WarmStart{followed, now};
+    const auto warm = Plan(*map_, replan);
+    ASSERT_TRUE(cold.ok()) << cold.error().message;
+    ASSERT_TRUE(warm.ok()) << warm.error().message;
+    EXPECT_TRUE(warm->stats.warm_started);
+    EXPECT_FALSE(cold->stats.warm_started);
+    EXPECT_EQ(warm->stats.search_expansions, 0);
+    ExpectSound(*warm, replan);
+    fewer += warm->stats.optimizer_iterations < cold->stats.optimizer_iterations;
+  }
+  EXPECT_EQ(fewer, 4);
+}
+
+TEST_F(TwoLevelPlan, AWarmStartThatDoesNotFitFallsBackToASearch) {
+  const auto first = Plan(*map_, Request(layout_.start_example_m, layout_.goal_example_m));
+  ASSERT_TRUE(first.ok()) << first.error().message;
+  // The goal moved 3 m: the remainder of the old trajectory ends elsewhere.
+  PlanRequest replan = Request(layout_.start_example_m, layout_.goal_example_m);
+  replan.goal.position_m.x() -= 3;
+  replan.warm_start = WarmStart{first->trajectory, 0};
+  const auto plan = Plan(*map_, replan);
+  ASSERT_TRUE(plan.ok()) << plan.error().message;
+  EXPECT_FALSE(plan->stats.warm_started);
+  EXPECT_GT(plan->stats.search_expansions, 0);
+  // A trajectory of the wrong dimension is a bad request, named by its field.
+  replan.warm_start->trajectory.dimension = 4;
+  const auto bad = Plan(*map_, replan);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_EQ(bad.error().field, "warm_start.trajectory.dimension");
 }
 
 // Keep-out zones on the two-level hall's floor, under the deck: x in [6, 13] along y = 8 is

@@ -1,6 +1,7 @@
 #pragma once
 /// Front end of the planner: A* over the near-surface cells of a SurfaceGraph (26-connected,
-/// clearance-aware cost, the admissible Euclidean heuristic weighted by heuristic_weight),
+/// clearance-aware cost, the admissible heuristic SurfaceGraph::DistanceLowerBound (landmarks,
+/// at least the straight line) weighted by heuristic_weight),
 /// with an expansion budget and a should_stop callable for deadlines and cancellation. Every
 /// failure names its reason.
 
@@ -62,8 +63,9 @@ struct SearchStats {
 /// Cost of moving between adjacent nodes a and b: the Euclidean 3D length between their
 /// reference points times 1 + w · max(0, margin − c) / margin + w_r · max(0, margin_r − e) /
 /// margin_r, with c the smaller clearance and e the smaller rim distance of the two. Never
-/// below the length, so the Euclidean distance heuristic is admissible (and weighted by w,
-/// SearchConfig::heuristic_weight, it bounds the path's cost by w times the cheapest).
+/// below the length, so SurfaceGraph::DistanceLowerBound, a bound on lengths, is an
+/// admissible heuristic (and weighted by w, SearchConfig::heuristic_weight, it bounds the
+/// path's cost by w times the cheapest).
 double EdgeCost(const SurfaceGraph& graph, int a, int b, const SearchConfig& config);
 
 /// Cheapest path from start_node to goal_node (e.g. SnapResult::node). Fails with:

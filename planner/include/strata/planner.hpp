@@ -8,6 +8,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string_view>
 #include <vector>
 
@@ -89,11 +90,15 @@ struct PlanOptions {
   VerifierConfig verifier;    ///< Tolerances of the final check.
   /// Optimisations to try before giving up [-], in [1, 10]. After a failed verification the
   /// next attempt stiffens the penalties: the safety, edge, ground, feasibility and keep-out
-  /// weights ×4, the piece length ×0.7 (more constraint points) and the limit margin ×0.95 (Plan in
-  /// planner/src/planner.cpp).
+  /// weights ×4, the piece length ×0.7 (more constraint points), the limit margin ×0.95 and the
+  /// initial speed ×0.75 (Plan in planner/src/planner.cpp). When every attempt fails, the slow
+  /// fallback is tried (PlanStats::fallback).
   int max_attempts = 3;
   Status Validate(std::string_view path = "options") const;
 };
+
+/// Most pieces a warm start's trajectory may have (a kilometre in pieces of 1.5 m is ~700).
+inline constexpr std::size_t kMaxWarmStartPieces = 20000;
 
 struct PlanRequest {
   RobotState start;
@@ -103,7 +108,12 @@ struct PlanRequest {
   /// Zones this plan must keep the robot out of besides the map's (keep_out.hpp defines when
   /// a robot is in one; e.g. where another robot is parked), at most kMaxRequestKeepOutZones.
   std::vector<Prism> keep_out;
-  /// The first bad field of start, goal, profile, options or keep_out, blamed by its path
+  /// The trajectory the robot is following, when it replans on the way: the optimiser starts
+  /// from its remainder (MakeWarmProblem) instead of searching, and the plan falls back to a
+  /// search when the remainder does not fit (the start or goal moved more than
+  /// kWarmStartToleranceM from it) or does not pass verification.
+  std::optional<WarmStart> warm_start;
+  /// The first bad field of start, goal, profile, options, keep_out or warm_start, blamed by its path
   /// (e.g. "start.position_m.x", "profile.max_tilt_rad", "options.max_attempts",
   /// "keep_out[1].polygon_m[2].x"): kInvalidInput for a non-finite state, a malformed zone or
   /// more than kMaxRequestKeepOutZones zones ("keep_out"), kInvalidConfig for a field out of
@@ -141,6 +151,15 @@ struct PlanStats {
   int optimizer_iterations = 0;        ///< L-BFGS iterations (all attempts).
   int optimizer_attempts = 0;          ///< Optimisations run (a failed verification retries).
   int verified_samples = 0;            ///< Samples checked by verification.
+  /// Factor by which the optimised trajectory's durations were stretched to bring a speed or
+  /// an acceleration within its bound (time_scaling.hpp) [-]; 1 when none was needed.
+  double time_stretch = 1;
+  /// True when the trajectory continues the request's warm start (no search ran).
+  bool warm_started = false;
+  /// True when no optimised trajectory passed verification and this one is the last resort:
+  /// the searched path's own points, driven slowly (MakeFallbackProblem), verified like any
+  /// other. A dispatcher may prefer another robot or goal.
+  bool fallback = false;
   PlanTimings timings;
 };
 

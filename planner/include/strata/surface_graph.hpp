@@ -3,6 +3,7 @@
 /// (TerrainModel, TraversabilityParams) and shared read-only by every search on it (the server
 /// caches one per robot profile). Start/goal snapping onto it lives here too.
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <functional>
@@ -136,12 +137,40 @@ class SurfaceGraph {
   /// Heights further apart than this are different levels [m].
   static constexpr double kLevelGapM = 0.5;
 
+  /// A lower bound on the length of every path over graph edges between nodes a and b [m],
+  /// at least their straight-line distance: with landmarks (ALT: Goldberg and Harrelson, 2005),
+  /// max over landmarks L of |d_L(a) − d_L(b)| (triangle inequality), d_L the shortest path
+  /// length from L over edges of the reference points' Euclidean length, the least EdgeCost
+  /// can be (so the bound holds for every SearchConfig). Where the straight line crosses a
+  /// spiral's core, the landmarks know the way round.
+  double DistanceLowerBound(int a, int b) const {
+    double bound = (position(a) - position(b)).norm();
+    if (landmark_count_ == 0) return bound;
+    const float* la = &landmark_distance_[static_cast<std::size_t>(a) * landmark_count_];
+    const float* lb = &landmark_distance_[static_cast<std::size_t>(b) * landmark_count_];
+    for (int k = 0; k < landmark_count_; ++k) {
+      // Infinite: a or b outside the landmark's component. Float distances are shrunk by a
+      // part in 10⁵, more than their rounding, so the bound stays below the true length.
+      if (std::isfinite(la[k]) && std::isfinite(lb[k])) {
+        bound = std::max(bound, (1 - 1e-5) * std::abs(double{la[k]} - double{lb[k]}));
+      }
+    }
+    return bound;
+  }
+  /// Landmarks kept for DistanceLowerBound: kMaxLandmarks in the largest component of a graph
+  /// of at most kMaxLandmarkNodes nodes, else none (their Dijkstra runs would cost seconds
+  /// on a site-scale graph, whose open ground the straight line already bounds well).
+  int landmark_count() const { return landmark_count_; }
+  static constexpr int kMaxLandmarks = 8;
+  static constexpr int kMaxLandmarkNodes = 1'000'000;
+
   /// Bytes held by the graph, not counting the object itself.
   std::size_t MemoryBytes() const {
     return nodes_.capacity() * sizeof(Node) + column_begin_.capacity() * sizeof(std::uint32_t) +
            column_nodes_.capacity() * sizeof(std::int32_t) +
            components_.capacity() * sizeof(std::int32_t) +
-           edge_distance_.capacity() * sizeof(float);
+           edge_distance_.capacity() * sizeof(float) +
+           landmark_distance_.capacity() * sizeof(float);
   }
 
  private:
@@ -154,8 +183,10 @@ class SurfaceGraph {
   };
 
   SurfaceGraph() = default;
-  // Sets edge_distance_ from the nodes of the rim.
-  // False when should_stop fired.
+  // Chooses landmarks and fills landmark_distance_ (surface_graph_landmarks.cpp); false when
+  // should_stop fired.
+  bool ComputeLandmarks(const std::function<bool()>& should_stop);
+  // Sets edge_distance_ from the nodes of the rim; false when should_stop fired.
   bool ComputeEdgeDistances(const std::vector<std::int32_t>& rim,
                             const std::function<bool()>& should_stop);
   // Whether column (ix, iy) has a node an axis step away from both a and b.
@@ -182,6 +213,8 @@ class SurfaceGraph {
   std::vector<std::int32_t> components_;
   int component_count_ = 0;
   std::vector<float> edge_distance_;
+  int landmark_count_ = 0;
+  std::vector<float> landmark_distance_;  // Node-major: landmark_count_ floats per node.
 };
 
 /// Where a 3D start or goal lands on the graph.

@@ -11,6 +11,7 @@
 #include "strata/robot_profile.hpp"
 #include "strata/status.hpp"
 #include "strata/terrain_model.hpp"
+#include "strata/trajectory.hpp"
 #include "strata/trajectory_costs.hpp"
 
 namespace strata {
@@ -21,6 +22,12 @@ struct OptimizerConfig {
   CostConfig cost;      ///< Thresholds and margins of the cost terms, constraint points.
   /// Target length of one MINCO piece along the initial path [m], > 0.
   double piece_length_m = 1.5;
+  /// Cruise speed of the initial timing, as a fraction of the profile's speed bounds, in
+  /// (0, 1] (MakeInitialProblem: a trapezoid at half the acceleration bounds). Faster starts
+  /// end faster (the optimiser rarely slows a trajectory down by much, nor speeds it up): on
+  /// the spiral, 0.5 left trajectories at 1.85 times the time of driving their length at the
+  /// speed bound, 0.8 at 1.21.
+  double initial_speed_fraction = 0.8;
   /// L-BFGS: most iterations per attempt, >= 1.
   int max_iterations = 200;
   /// L-BFGS: stop when ‖g‖ < epsilon · max(1, ‖x‖) (LBFGS++'s `epsilon`), > 0.
@@ -63,6 +70,36 @@ OptimizationProblem MakeInitialProblem(const TrajectoryCost& cost,
                                        const std::vector<Eigen::Vector3d>& path_m,
                                        const RobotState& start, const RobotState& goal,
                                        const OptimizerConfig& config);
+
+/// The last resort when no optimised trajectory passes verification: a minimum-jerk
+/// trajectory through every point of `path_m` (start and goal in place of its ends), timed
+/// slowly (a trapezoid at 40% of the speed bounds and 25% of the acceleration bounds), not
+/// optimised. Points a cell apart on the ground keep it on the ground and inside the corridor
+/// the path was found in; what is too fast for the bounds is then stretched in time.
+OptimizationProblem MakeFallbackProblem(const TrajectoryCost& cost,
+                                        const std::vector<Eigen::Vector3d>& path_m,
+                                        const RobotState& start, const RobotState& goal);
+
+/// A trajectory the robot is following, to replan from (PlanRequest::warm_start): the
+/// optimiser starts from its remainder instead of a searched path.
+struct WarmStart {
+  /// The trajectory as a previous plan returned it (its dimension the profile's).
+  Trajectory trajectory;
+  /// Time on `trajectory` at which the robot is at the request's start [s]; < 0: the time
+  /// whose position is nearest the start.
+  double elapsed_s = -1;
+};
+
+/// How far the start and the goal of a replan may lie from the warm start's trajectory (at
+/// the time the robot is on it, and at its end) for its remainder to be the initial guess [m].
+inline constexpr double kWarmStartToleranceM = 0.5;
+
+/// The problem of continuing along the remainder of `warm.trajectory`: its joints and piece
+/// durations after the robot's time on it (a stub of the current piece merged with the
+/// next), from `start` to `goal`. Fails with kInvalidInput when the trajectory's dimension is
+/// not the profile's or start or goal lies more than kWarmStartToleranceM from it.
+Expected<OptimizationProblem> MakeWarmProblem(const TrajectoryCost& cost, const WarmStart& warm,
+                                              const RobotState& start, const RobotState& goal);
 
 /// Minimises the cost over waypoints and durations (τ per piece through DurationFromTau).
 /// Writes the optimised trajectory into *minco (SetConditions and SetParameters done).

@@ -1,0 +1,179 @@
+#include "strata/path_shortening.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <memory>
+#include <set>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "strata/scenes/basic_scenes.hpp"
+#include "strata/surface_graph.hpp"
+#include "strata/terrain_model.hpp"
+#include "test_util/hand_made_maps.hpp"
+
+namespace strata {
+namespace {
+
+std::shared_ptr<const TerrainModel> Assess(const PointCloud& cloud) {
+  AssessmentConfig config;
+  config.grid.resolution_m = 0.1;
+  auto model = TerrainModel::Assess(cloud, config);
+  EXPECT_TRUE(model.ok()) << model.error().message;
+  return model.ok() ? *model : nullptr;
+}
+
+bool AreNeighbors(const SurfaceGraph& graph, int a, int b) {
+  bool found = false;
+  graph.ForEachNeighbor(a, [&](int m) { found = found || m == b; });
+  return found;
+}
+
+int Snap(const SurfaceGraph& graph, const Eigen::Vector3d& p) {
+  auto s = SnapToSurface(graph, p, 1.0, ErrorCode::kStartOffGround);
+  EXPECT_TRUE(s.ok()) << s.error().message;
+  return s.ok() ? s->node : -1;
+}
+
+// A floor of 10 × 6 m with a block (a pillar) in the middle, 1.5 m high.
+class PillarRoom : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    test_util::CloudBuilder cloud(0.05);
+    cloud.Plate(0, 10, 0, 6, 0).Block(4.5, 5.5, 2.0, 4.0, 0.05, 1.5);
+    model_ = new std::shared_ptr<const TerrainModel>(Assess(cloud.cloud()));
+    auto graph = SurfaceGraph::Build(**model_, TraversabilityParams{});
+    ASSERT_TRUE(graph.ok()) << graph.error().message;
+    graph_ = new SurfaceGraph(*std::move(graph));
+  }
+  static void TearDownTestSuite() {
+    delete graph_;
+    delete model_;
+  }
+  const SurfaceGraph& graph() const { return *graph_; }
+
+  // Every consecutive pair of nodes adjacent in the graph: the path is walkable as it is.
+  void ExpectWalkable(const PathResult& path) const {
+    ASSERT_EQ(path.nodes.size(), path.points_m.size());
+    for (std::size_t k = 1; k < path.nodes.size(); ++k) {
+      EXPECT_TRUE(AreNeighbors(graph(), path.nodes[k - 1], path.nodes[k])) << k;
+    }
+    double length = 0;
+    for (std::size_t k = 1; k < path.points_m.size(); ++k) {
+      length += (path.points_m[k] - path.points_m[k - 1]).norm();
+    }
+    EXPECT_NEAR(path.length_m, length, 1e-9);
+  }
+
+  static std::shared_ptr<const TerrainModel>* model_;
+  static SurfaceGraph* graph_;
+};
+std::shared_ptr<const TerrainModel>* PillarRoom::model_ = nullptr;
+SurfaceGraph* PillarRoom::graph_ = nullptr;
+
+TEST_F(PillarRoom, AnOpenStretchBecomesOneStraightLine) {
+  const SearchConfig search;
+  // South of the pillar, well inside the floor's rim on both sides.
+  const int a = Snap(graph(), {1.0, 0.8, 0.3}), b = Snap(graph(), {9.0, 1.2, 0.3});
+  const auto path = SearchPath(graph(), a, b, search, {});
+  ASSERT_TRUE(path.ok()) << path.error().message;
+  const PathResult shortened = ShortenPath(graph(), *path, search);
+  ExpectWalkable(shortened);
+  EXPECT_EQ(shortened.nodes.front(), a);
+  EXPECT_EQ(shortened.nodes.back(), b);
+  const double straight = (graph().position(b) - graph().position(a)).norm();
+  EXPECT_GT(path->length_m, straight + 0.05);  // The grid's path has a kink.
+  EXPECT_NEAR(shortened.length_m, straight, 1e-6);
+  // Every point lies on the line from a to b.
+  const Eigen::Vector2d direction =
+      (graph().position(b) - graph().position(a)).head<2>().normalized();
+  for (const Eigen::Vector3d& p : shortened.points_m) {
+    const Eigen::Vector2d offset = (p - graph().position(a)).head<2>();
+    EXPECT_NEAR(offset.x() * direction.y() - offset.y() * direction.x(), 0, 1e-9);
+  }
+}
+
+TEST_F(PillarRoom, AroundAPillarTheLineKeepsTheSearchsDistanceFromIt) {
+  const SearchConfig search;
+  const int a = Snap(graph(), {3.0, 3.0, 0.3}), b = Snap(graph(), {7.0, 3.0, 0.3});
+  const auto path = SearchPath(graph(), a, b, search, {});
+  ASSERT_TRUE(path.ok()) << path.error().message;
+  const PathResult shortened = ShortenPath(graph(), *path, search);
+  ExpectWalkable(shortened);
+  EXPECT_LT(shortened.length_m, path->length_m);
+  // No node nearer the rim or an obstacle than the search's path came (the line needs the
+  // margins, or its ends' distances if less), so the line does not graze the pillar.
+  double path_rim = 1e9, path_clearance = 1e9;
+  for (const int m : path->nodes) {
+    path_rim = std::min(path_rim, graph().edge_distance(m));
+    path_clearance = std::min(path_clearance, graph().clearance(m));
+  }
+  for (const int m : shortened.nodes) {
+    EXPECT_GE(graph().edge_distance(m), path_rim) << graph().position(m).transpose();
+    EXPECT_GE(graph().clearance(m), path_clearance) << graph().position(m).transpose();
+  }
+  for (const Eigen::Vector3d& p : shortened.points_m) {
+    const bool in_pillar = p.x() > 4.4 && p.x() < 5.6 && p.y() > 1.9 && p.y() < 4.1;
+    EXPECT_FALSE(in_pillar) << p.transpose();
+  }
+}
+
+TEST_F(PillarRoom, BlockedNodesAreNeverCrossed) {
+  const SearchConfig search;
+  const int a = Snap(graph(), {1.0, 1.0, 0.3}), b = Snap(graph(), {9.0, 1.0, 0.3});
+  // A keep-out square the search went round: x in [4.5, 5.5], y < 1.5.
+  const auto blocked = [&](int m) {
+    const Eigen::Vector3d p = graph().position(m);
+    return p.x() > 4.5 && p.x() < 5.5 && p.y() < 1.5;
+  };
+  const auto path = SearchPath(graph(), a, b, search, {}, nullptr, blocked);
+  ASSERT_TRUE(path.ok()) << path.error().message;
+  const PathResult shortened = ShortenPath(graph(), *path, search, {}, blocked);
+  ExpectWalkable(shortened);
+  for (const int m : shortened.nodes) EXPECT_FALSE(blocked(m)) << graph().position(m).transpose();
+  // Without the zone, the line goes straight through it.
+  const PathResult open = ShortenPath(graph(), *path, search);
+  EXPECT_LT(open.length_m, shortened.length_m);
+}
+
+TEST_F(PillarRoom, WalkStraightFailsAcrossThePillarAndSucceedsBesideIt) {
+  const auto any = [](int) { return true; };
+  const int west = Snap(graph(), {3.5, 3.0, 0.3}), east = Snap(graph(), {6.5, 3.0, 0.3});
+  EXPECT_TRUE(WalkStraight(graph(), west, east, any).empty());
+  const int south_west = Snap(graph(), {3.5, 1.0, 0.3}), south_east = Snap(graph(), {6.5, 1.3, 0.3});
+  const std::vector<int> walk = WalkStraight(graph(), south_west, south_east, any);
+  ASSERT_FALSE(walk.empty());
+  EXPECT_EQ(walk.front(), south_west);
+  EXPECT_EQ(walk.back(), south_east);
+  // Column by column: each step to an edge-adjacent column, 30 + 3 steps.
+  for (std::size_t k = 1; k < walk.size(); ++k) {
+    const Eigen::Vector2i step = graph().column(walk[k]) - graph().column(walk[k - 1]);
+    EXPECT_EQ(step.cwiseAbs().sum(), 1) << k;
+  }
+  EXPECT_EQ(walk.size(), 34u);
+}
+
+TEST(PathShortening, AClimbOntoADeckStaysWalkableAndNoLonger) {
+  // Two levels: from the floor up the ramp onto the deck, over the pillars under it.
+  const auto model = Assess(GenerateTwoLevelRamp(5));
+  ASSERT_NE(model, nullptr);
+  auto graph = SurfaceGraph::Build(*model, TraversabilityParams{});
+  ASSERT_TRUE(graph.ok());
+  const TwoLevelRampLayout layout = GetTwoLevelRampLayout();
+  const SearchConfig search;
+  const int a = Snap(*graph, layout.start_example_m);
+  const int b = Snap(*graph, layout.goal_example_m);
+  const auto path = SearchPath(*graph, a, b, search, {});
+  ASSERT_TRUE(path.ok()) << path.error().message;
+  const PathResult shortened = ShortenPath(*graph, *path, search);
+  EXPECT_LE(shortened.length_m, path->length_m + 1e-9);
+  for (std::size_t k = 1; k < shortened.nodes.size(); ++k) {
+    EXPECT_TRUE(AreNeighbors(*graph, shortened.nodes[k - 1], shortened.nodes[k])) << k;
+  }
+  EXPECT_EQ(graph->level(shortened.nodes.front()), graph->level(a));
+  EXPECT_EQ(shortened.nodes.back(), b);
+}
+
+}  // namespace
+}  // namespace strata
