@@ -6,6 +6,8 @@
 #include <limits>
 #include <vector>
 
+#include "parallel_internal.hpp"
+
 namespace strata {
 namespace {
 
@@ -207,7 +209,8 @@ void SquaredDistanceTransform1D(const float* f, float* out, int n, std::int64_t 
 
 ScalarGrid BuildSignedDistanceField(const GridGeometry& geometry,
                                     const std::vector<std::uint8_t>& occupied,
-                                    double distance_cap_m) {
+                                    double distance_cap_m,
+                                    [[maybe_unused]] int num_threads) {  // OpenMP only.
   assert(static_cast<std::int64_t>(occupied.size()) == geometry.CellCount());
   const int nx = geometry.size.x();
   const int ny = geometry.size.y();
@@ -225,7 +228,10 @@ ScalarGrid BuildSignedDistanceField(const GridGeometry& geometry,
   float* const d = field.data();
   const std::uint8_t* const occ = occupied.data();
 
-#pragma omp parallel if (geometry.CellCount() >= kMinCellsForThreads)
+  // An explicit team size: a caller's one-thread region around this call is not an active
+  // level of parallelism, so without it the transform would take every core.
+#pragma omp parallel if (geometry.CellCount() >= kMinCellsForThreads) \
+    num_threads(internal::ResolveThreadCount(num_threads))
   {
     // Per-thread scratch: a gathered block of columns (input and output) and the envelope.
     std::vector<float> block_in(static_cast<std::size_t>(kBlockWidth) * longest_line);

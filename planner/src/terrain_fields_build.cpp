@@ -201,7 +201,8 @@ Expected<TerrainFields::Parts> BuildFieldParts(const SurfaceMap& surfaces, const
         const CellBox distance_box = core.Grown({halo_d, halo_d, halo_d}, g);
         OccupancyInBox(g, cloud, distance_box, &occupied);
         const ScalarGrid distance =
-            BuildSignedDistanceField(distance_box.Geometry(g), occupied, grid.distance_cap_m);
+            BuildSignedDistanceField(distance_box.Geometry(g), occupied, grid.distance_cap_m,
+                                     /*num_threads=*/1);  // The tiles share the threads.
         for (int iy = y0; iy <= y1; ++iy) {
           for (int ix = x0; ix <= x1; ++ix) {
             const std::int64_t c = local(ix, iy);
