@@ -57,8 +57,8 @@ class StrataMethod : public BenchMethod {
     out.success = true;
     out.plan_s = plan_s;
     out.length_m = plan->stats.length_m;
-    out.kappa_m = plan->stats.mean_curvature_per_m;
-    out.kappa_arc_m = TrajectoryArcMeanCurvature(plan->trajectory);
+    out.kappa_m = TrajectoryMeanCurvature(plan->trajectory, CurvatureSpace::k3d);
+    out.kappa_xy_m = TrajectoryMeanCurvature(plan->trajectory, CurvatureSpace::kPlanar);
     out.duration_s = plan->stats.duration_s;
     out.duration_ratio =
         out.length_m > 0 ? out.duration_s * profile_.max_speed_horizontal_mps / out.length_m : 0;
@@ -97,8 +97,8 @@ QueryOutcome PathOutcome(const baselines::BaselinePath& path, double plan_s) {
   out.success = true;
   out.plan_s = plan_s;
   out.length_m = PolylineLength(path.points_m);
-  out.kappa_m = PathMeanCurvature(path.points_m);
-  out.kappa_arc_m = out.kappa_m;
+  out.kappa_m = PathMeanCurvature(path.points_m, CurvatureSpace::k3d);
+  out.kappa_xy_m = PathMeanCurvature(path.points_m, CurvatureSpace::kPlanar);
   out.start_snap_m = path.start_snap_m;
   out.goal_snap_m = path.goal_snap_m;
   out.points_m = path.points_m;

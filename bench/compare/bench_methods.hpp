@@ -24,10 +24,12 @@ struct QueryOutcome {
   std::string message;        ///< The failure's message, empty on success.
   double plan_s = 0;          ///< Wall-clock seconds of the query (snapping included).
   double length_m = 0;        ///< Path or trajectory length [m].
-  /// κ_m, the mean curvature of paper Table 2 [1/m]: uniform arc-length samples of the interpolated
-  /// path for the baselines, uniform time samples (strata::MeanCurvature) for Strata.
+  /// κ_m, the mean curvature of paper Table 2 [1/m], over uniform arc-length samples of the
+  /// curve in 3D, the same for every method (bench_metrics.hpp).
   double kappa_m = 0;
-  double kappa_arc_m = 0;  ///< κ_m over uniform arc-length samples for every method [1/m].
+  /// κ_m of the curve's x–y projection, the same for every method [1/m]: how the path turns,
+  /// without the height noise of paths that join raw cloud points.
+  double kappa_xy_m = 0;
   /// Strata only (0 for the baselines, whose paths are not timed): the trajectory's duration
   /// [s], its ratio to driving its length at the horizontal speed bound, the time stretch
   /// applied, whether it is the slow fallback, and the optimiser's iterations.

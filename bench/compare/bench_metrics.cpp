@@ -38,6 +38,14 @@ class CatmullRomSegment {
   Eigen::Vector3d p1_, p2_, m1_, m2_;
 };
 
+// Below this speed along the curve's parameter a sample is stationary and κ undefined.
+constexpr double kStationary = 1e-9;
+
+Eigen::Vector3d InSpace(Eigen::Vector3d v, CurvatureSpace space) {
+  if (space == CurvatureSpace::kPlanar) v.z() = 0;
+  return v;
+}
+
 double Curvature(const Eigen::Vector3d& first, const Eigen::Vector3d& second) {
   const double speed = first.norm();
   return first.cross(second).norm() / (speed * speed * speed);
@@ -62,19 +70,20 @@ std::vector<double> UniformArcParameters(const std::vector<std::pair<double, dou
   return params;
 }
 
-// (time, arc length) pairs of a trajectory's x, y, z every ~2 ms.
-std::vector<std::pair<double, double>> TrajectoryArcTable(const Trajectory& trajectory) {
+// (time, arc length) pairs of a trajectory's x, y, z (in `space`) every ~2 ms.
+std::vector<std::pair<double, double>> TrajectoryArcTable(const Trajectory& trajectory,
+                                                          CurvatureSpace space) {
   std::vector<std::pair<double, double>> table;
   if (trajectory.pieces.empty()) return table;
   const double duration = trajectory.TotalDuration();
   const int n = std::max(1000, static_cast<int>(std::ceil(duration / 0.002)));
   TrajectoryCursor cursor(trajectory);
-  Eigen::Vector3d previous = cursor.Position(0).head<3>();
+  Eigen::Vector3d previous = InSpace(cursor.Position(0).head<3>(), space);
   double length = 0;
   table.emplace_back(0.0, 0.0);
   for (int i = 1; i <= n; ++i) {
     const double t = duration * i / n;
-    const Eigen::Vector3d p = cursor.Position(t).head<3>();
+    const Eigen::Vector3d p = InSpace(cursor.Position(t).head<3>(), space);
     length += (p - previous).norm();
     previous = p;
     table.emplace_back(t, length);
@@ -90,9 +99,11 @@ double PolylineLength(std::span<const Eigen::Vector3d> points) {
   return length;
 }
 
-double PathMeanCurvature(std::span<const Eigen::Vector3d> points, double spacing_m) {
+double PathMeanCurvature(std::span<const Eigen::Vector3d> points, CurvatureSpace space,
+                         double spacing_m) {
   std::vector<Eigen::Vector3d> p;
-  for (const Eigen::Vector3d& q : points) {
+  for (const Eigen::Vector3d& point : points) {
+    const Eigen::Vector3d q = InSpace(point, space);
     if (p.empty() || (q - p.back()).norm() >= 1e-3) p.push_back(q);
   }
   if (p.size() < 3) return 0;
@@ -122,21 +133,23 @@ double PathMeanCurvature(std::span<const Eigen::Vector3d> points, double spacing
   for (const double s : UniformArcParameters(table, spacing_m)) {
     const std::size_t i = std::min(segments.size() - 1, static_cast<std::size_t>(s));
     const Derivatives d = segments[i].Evaluate(s - double(i));
-    if (d.first.norm() < 1e-9) continue;
+    if (d.first.norm() < kStationary) continue;
     sum += Curvature(d.first, d.second);
     ++count;
   }
   return count > 0 ? sum / count : 0;
 }
 
-double TrajectoryArcMeanCurvature(const Trajectory& trajectory, double spacing_m) {
+double TrajectoryMeanCurvature(const Trajectory& trajectory, CurvatureSpace space,
+                               double spacing_m) {
   double sum = 0;
   int count = 0;
   TrajectoryCursor cursor(trajectory);
-  for (const double t : UniformArcParameters(TrajectoryArcTable(trajectory), spacing_m)) {
-    const Eigen::Vector3d v = cursor.Velocity(t).head<3>();
-    if (v.norm() < 0.01) continue;
-    sum += Curvature(v, cursor.Acceleration(t).head<3>());
+  for (const double t :
+       UniformArcParameters(TrajectoryArcTable(trajectory, space), spacing_m)) {
+    const Eigen::Vector3d v = InSpace(cursor.Velocity(t).head<3>(), space);
+    if (v.norm() < kStationary) continue;
+    sum += Curvature(v, InSpace(cursor.Acceleration(t).head<3>(), space));
     ++count;
   }
   return count > 0 ? sum / count : 0;
@@ -147,7 +160,8 @@ std::vector<Eigen::Vector3d> SampleTrajectory(const Trajectory& trajectory, doub
   if (trajectory.pieces.empty()) return points;
   TrajectoryCursor cursor(trajectory);
   points.push_back(cursor.Position(0).head<3>());
-  for (const double t : UniformArcParameters(TrajectoryArcTable(trajectory), spacing_m)) {
+  for (const double t :
+       UniformArcParameters(TrajectoryArcTable(trajectory, CurvatureSpace::k3d), spacing_m)) {
     points.push_back(cursor.Position(t).head<3>());
   }
   points.push_back(trajectory.Position(trajectory.TotalDuration()).head<3>());

@@ -55,8 +55,8 @@ std::vector<MethodSummary> Summarize(const std::vector<BenchRow>& rows,
     MethodSummary s;
     s.method = method->name();
     s.assessment_s = method->assessment_s();
-    std::vector<double> time, length, kappa, kappa_arc;
-    std::vector<double> c_time, c_length, c_kappa, c_kappa_arc;
+    std::vector<double> time, length, kappa, kappa_xy;
+    std::vector<double> c_time, c_length, c_kappa, c_kappa_xy;
     std::map<std::string, int> failures;
     for (const BenchRow& row : rows) {
       if (row.method != s.method) continue;
@@ -72,24 +72,24 @@ std::vector<MethodSummary> Summarize(const std::vector<BenchRow>& rows,
       time.push_back(o.plan_s);
       length.push_back(o.length_m);
       kappa.push_back(o.kappa_m);
-      kappa_arc.push_back(o.kappa_arc_m);
+      kappa_xy.push_back(o.kappa_xy_m);
       if (common.count(row.query) > 0) {
         c_time.push_back(o.plan_s);
         c_length.push_back(o.length_m);
         c_kappa.push_back(o.kappa_m);
-        c_kappa_arc.push_back(o.kappa_arc_m);
+        c_kappa_xy.push_back(o.kappa_xy_m);
       }
     }
     s.time_median_s = Median(time);
     s.time_p95_s = Quantile(time, 0.95);
     s.length_median_m = Median(length);
     s.kappa_median = Median(kappa);
-    s.kappa_arc_median = Median(kappa_arc);
+    s.kappa_xy_median = Median(kappa_xy);
     s.common_queries = static_cast<int>(c_time.size());
     s.common_time_median_s = Median(c_time);
     s.common_length_median_m = Median(c_length);
     s.common_kappa_median = Median(c_kappa);
-    s.common_kappa_arc_median = Median(c_kappa_arc);
+    s.common_kappa_xy_median = Median(c_kappa_xy);
     for (const auto& [reason, count] : failures) {
       s.failures += (s.failures.empty() ? "" : " ") + reason + " " + std::to_string(count);
     }
@@ -102,8 +102,8 @@ std::vector<MethodSummary> Summarize(const std::vector<BenchRow>& rows,
 std::string SummaryMarkdown(const std::string& map, const std::vector<MethodSummary>& summary) {
   std::string text = "map: " + map + "\n\n";
   text +=
-      "| method | success | t_a s | time ms median / p95 | length m median | κ_m 1/m median | "
-      "κ_m arc 1/m median | common queries: length m / κ_m arc median | failures |\n"
+      "| method | success | t_a s | time ms median / p95 | length m median | κ_m 3D 1/m median | "
+      "κ_m x–y 1/m median | common queries: length m / κ_m x–y median | failures |\n"
       "|---|---|---|---|---|---|---|---|---|\n";
   for (const MethodSummary& s : summary) {
     const double rate = s.queries > 0 ? 100.0 * s.successes / s.queries : 0;
@@ -112,9 +112,9 @@ std::string SummaryMarkdown(const std::string& map, const std::vector<MethodSumm
         " (" + Number(rate, "%.1f") + "%) | " + Number(s.assessment_s, "%.3f") + " | " +
         Number(1e3 * s.time_median_s, "%.1f") + " / " + Number(1e3 * s.time_p95_s, "%.1f") + " | " +
         Number(s.length_median_m, "%.2f") + " | " + Number(s.kappa_median, "%.3f") + " | " +
-        Number(s.kappa_arc_median, "%.3f") + " | " + std::to_string(s.common_queries) + ": " +
+        Number(s.kappa_xy_median, "%.3f") + " | " + std::to_string(s.common_queries) + ": " +
         Number(s.common_length_median_m, "%.2f") + " / " +
-        Number(s.common_kappa_arc_median, "%.3f") + " | " + s.failures +
+        Number(s.common_kappa_xy_median, "%.3f") + " | " + s.failures +
         (s.method == "strata" ? "; verification violations " + std::to_string(s.verify_violations) +
                                     "; independent check of " + s.check.Describe()
                               : "") +
@@ -127,7 +127,7 @@ Status WriteResultsCsv(const std::string& path, const std::string& map,
                        const std::vector<BenchRow>& rows) {
   std::ofstream file(path);
   file << "map,query,method,start_x,start_y,start_z,goal_x,goal_y,goal_z,success,reason,"
-          "plan_s,length_m,kappa_m,kappa_arc_m,verify_violations,start_snap_m,goal_snap_m,"
+          "plan_s,length_m,kappa_m,kappa_xy_m,verify_violations,start_snap_m,goal_snap_m,"
           "path_points,duration_s,duration_ratio,time_stretch,fallback,iterations," +
               bench::IndependentCheckCsvHeader() + ",message\n";
   for (const BenchRow& r : rows) {
@@ -137,7 +137,7 @@ Status WriteResultsCsv(const std::string& path, const std::string& map,
       for (int a = 0; a < 3; ++a) file << ',' << Number((*p)(a), "%.4f");
     }
     file << ',' << (o.success ? 1 : 0) << ',' << o.reason << ',' << Number(o.plan_s) << ','
-         << Number(o.length_m) << ',' << Number(o.kappa_m) << ',' << Number(o.kappa_arc_m) << ','
+         << Number(o.length_m) << ',' << Number(o.kappa_m) << ',' << Number(o.kappa_xy_m) << ','
          << o.verify_violations << ',' << Number(o.start_snap_m, "%.4f") << ','
          << Number(o.goal_snap_m, "%.4f") << ',' << o.points_m.size() << ','
          << Number(o.duration_s) << ',' << Number(o.duration_ratio) << ','
@@ -152,17 +152,17 @@ Status WriteSummaryCsv(const std::string& path, const std::string& map,
                        const std::vector<MethodSummary>& summary) {
   std::ofstream file(path);
   file << "map,method,queries,successes,success_rate,t_a_s,time_median_s,time_p95_s,"
-          "length_median_m,kappa_median,kappa_arc_median,common_queries,common_time_median_s,"
-          "common_length_median_m,common_kappa_median,common_kappa_arc_median,"
+          "length_median_m,kappa_median,kappa_xy_median,common_queries,common_time_median_s,"
+          "common_length_median_m,common_kappa_median,common_kappa_xy_median,"
           "verify_violations,independent_check,failures\n";
   for (const MethodSummary& s : summary) {
     file << Field(map) << ',' << s.method << ',' << s.queries << ',' << s.successes << ','
          << Number(s.queries > 0 ? double(s.successes) / s.queries : 0) << ','
          << Number(s.assessment_s) << ',' << Number(s.time_median_s) << ',' << Number(s.time_p95_s)
          << ',' << Number(s.length_median_m) << ',' << Number(s.kappa_median) << ','
-         << Number(s.kappa_arc_median) << ',' << s.common_queries << ','
+         << Number(s.kappa_xy_median) << ',' << s.common_queries << ','
          << Number(s.common_time_median_s) << ',' << Number(s.common_length_median_m) << ','
-         << Number(s.common_kappa_median) << ',' << Number(s.common_kappa_arc_median) << ','
+         << Number(s.common_kappa_median) << ',' << Number(s.common_kappa_xy_median) << ','
          << s.verify_violations << ','
          << Field(s.method == "strata" ? s.check.Describe() : std::string()) << ','
          << Field(s.failures) << '\n';

@@ -25,11 +25,11 @@ struct MethodSummary {
   int queries = 0, successes = 0;
   double assessment_s = 0;                                             ///< t_a [s].
   double time_median_s = 0, time_p95_s = 0;                            ///< Over successful queries.
-  double length_median_m = 0, kappa_median = 0, kappa_arc_median = 0;  ///< Successes.
+  double length_median_m = 0, kappa_median = 0, kappa_xy_median = 0;  ///< Successes.
   /// The same medians over the queries every method of the run solved (like for like).
   int common_queries = 0;
   double common_time_median_s = 0, common_length_median_m = 0, common_kappa_median = 0,
-         common_kappa_arc_median = 0;
+         common_kappa_xy_median = 0;
   int verify_violations = 0;           ///< Strata: returned plans that failed re-verification.
   bench::IndependentCheckTally check;  ///< Strata: the harness's own check of its plans.
   std::string failures;                ///< "REASON count" pairs, or "none".

@@ -5,9 +5,9 @@ For every run directory (results.csv, paths.csv, cloud.csv, meta.json as the ben
 writes them) it draws
   <name>_paths.png  top and side view of the three methods' paths for a few queries that every
                     method solved, over the map's points (coloured by height);
-  <name>_dist.png   distributions of planning time and mean curvature κ_m per method over
-                    all successful queries, length relative to Strata's on the queries every
-                    method solved, and the success rate;
+  <name>_dist.png   distributions of planning time and mean curvature κ_m (of the x–y
+                    projection) per method over all successful queries, length relative to
+                    Strata's on the queries every method solved, and the success rate;
   bench_overview.png (two runs or more) success, t_a, median length ratio and κ_m per scene.
 
 Usage: /usr/bin/python3 bench/plots/plot_bench.py --out docs/img RUN_DIR[:NAME] ...
@@ -122,7 +122,7 @@ def common_queries(results, methods):
 def plot_distributions(name, results, methods, out_dir):
     fig, axes = plt.subplots(1, 4, figsize=(15, 4.2))
     for ax, (key, label) in zip(axes[:2], [("plan_s", "planning time per query [ms]"),
-                                           ("kappa_m", "κ_m [1/m]")]):
+                                           ("kappa_xy_m", "κ_m of the x–y projection [1/m]")]):
         scale = 1e3 if key == "plan_s" else 1.0
         data = [[max(float(r[key]) * scale, 1e-4) for r in results
                  if r["method"] == m and r["success"] == "1"] or [np.nan] for m in methods]
@@ -184,7 +184,7 @@ def plot_overview(runs, out_dir):
                                     for c in common.values()
                                     if m in c and "strata" in c
                                     and float(c["strata"]["length_m"]) > 0]) if common else np.nan)
-            ks = [float(r["kappa_m"]) for r in rows if r["success"] == "1"]
+            ks = [float(r["kappa_xy_m"]) for r in rows if r["success"] == "1"]
             kappa.append(np.median(ks) if ks else np.nan)
         for ax, values in zip(axes, [rate, t_a, ratio, kappa]):
             ax.bar(x + (k - 1) * width, values, width, color=COLOURS[m], alpha=0.75, label=LABELS[m])
@@ -194,7 +194,7 @@ def plot_overview(runs, out_dir):
     axes[2].set_ylabel("median length /\nStrata's (common)")
     axes[2].axhline(1.0, color="k", lw=0.8)
     axes[2].set_ylim(0.8, None)
-    axes[3].set_ylabel("median κ_m [1/m]")
+    axes[3].set_ylabel("median κ_m, x–y [1/m]")
     axes[3].set_yscale("log")
     axes[0].legend(ncol=3, fontsize=9)
     axes[3].set_xticks(x)

@@ -14,8 +14,8 @@ LABELS = {"strata": "Strata", "liu": "Liu-style", "krusi": "Krüsi-style"}
 
 def main():
     print("| scene (points) | method | success | t_a s | time ms median / p95 | "
-          "length m median (all / common) | κ_m 1/m median (all / common) | "
-          "κ_m arc-length 1/m (common) | failures |")
+          "length m median (all / common) | κ_m 3D 1/m median (all / common) | "
+          "κ_m x–y 1/m median (all / common) | failures |")
     print("|---|---|---|---|---|---|---|---|---|")
     for run in sys.argv[1:]:
         run_dir, _, name = run.partition(":")
@@ -36,8 +36,8 @@ def main():
                   f"{float(r['t_a_s']):.2f} | {1e3 * float(r['time_median_s']):.1f} / "
                   f"{1e3 * float(r['time_p95_s']):.1f} | {float(r['length_median_m']):.1f} / "
                   f"{float(r['common_length_median_m']):.1f} | {float(r['kappa_median']):.3f} / "
-                  f"{float(r['common_kappa_median']):.3f} | "
-                  f"{float(r['common_kappa_arc_median']):.3f} | {failures} |")
+                  f"{float(r['common_kappa_median']):.3f} | {float(r['kappa_xy_median']):.3f} / "
+                  f"{float(r['common_kappa_xy_median']):.3f} | {failures} |")
     return 0
 
 

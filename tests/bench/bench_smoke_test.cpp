@@ -123,7 +123,7 @@ TEST_F(BenchSmokeTest, ThreeMethodsOnThreePairsWriteSaneRows) {
     const double snaps = results.Number(r, "start_snap_m") + results.Number(r, "goal_snap_m");
     EXPECT_GE(results.Number(r, "length_m"), straight - snaps - 1e-6) << "row " << r;
     EXPECT_LT(results.Number(r, "length_m"), 10 * straight + 50) << "row " << r;
-    for (const char* kappa : {"kappa_m", "kappa_arc_m"}) {
+    for (const char* kappa : {"kappa_m", "kappa_xy_m"}) {
       const double k = results.Number(r, kappa);
       EXPECT_TRUE(std::isfinite(k) && k >= 0 && k < 1e3) << kappa << " in row " << r;
     }
