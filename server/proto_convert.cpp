@@ -590,6 +590,7 @@ void ToProto(const PlanStats& s, v1::PlanStats* m) {
   m->set_time_stretch(s.time_stretch);
   m->set_warm_started(s.warm_started);
   m->set_fallback(s.fallback);
+  m->set_fallback_reason(s.fallback_reason);
   v1::PlanTimings* t = m->mutable_timings();
   t->set_snap_s(s.timings.snap_s);
   t->set_search_s(s.timings.search_s);

@@ -64,6 +64,7 @@ class StrataMethod : public BenchMethod {
         out.length_m > 0 ? out.duration_s * profile_.max_speed_horizontal_mps / out.length_m : 0;
     out.time_stretch = plan->stats.time_stretch;
     out.fallback = plan->stats.fallback;
+    out.message = plan->stats.fallback_reason;
     out.iterations = plan->stats.optimizer_iterations;
     out.start_snap_m = plan->start.distance_m;
     out.goal_snap_m = plan->goal.distance_m;

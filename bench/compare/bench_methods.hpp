@@ -21,7 +21,8 @@ namespace strata::bench {
 struct QueryOutcome {
   bool success = false;
   std::string reason = "OK";  ///< "OK" or an ErrorCodeName (VERIFY_FAILED: see below).
-  std::string message;        ///< The failure's message, empty on success.
+  /// The failure's message; on a success, Strata's fallback_reason (else empty).
+  std::string message;
   double plan_s = 0;          ///< Wall-clock seconds of the query (snapping included).
   double length_m = 0;        ///< Path or trajectory length [m].
   /// κ_m, the mean curvature of paper Table 2 [1/m], over uniform arc-length samples of the

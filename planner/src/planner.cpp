@@ -65,16 +65,18 @@ class StopCondition {
 };
 
 // Where the trajectory starts or ends: the requested x, y on the ground when they lie in the
-// snapped node's column (the robot is where it says), else the node's reference point.
+// snapped node's column (the robot is where it says) at least `min_distance_m` from obstacles,
+// else the node's reference point.
 Eigen::Vector3d BoundaryPosition(const SurfaceGraph& graph, const SnapResult& snap,
-                                 const Eigen::Vector3d& requested) {
+                                 const Eigen::Vector3d& requested, double min_distance_m) {
   Eigen::Vector3d node = snap.position_m;
   const Eigen::Vector3d candidate(requested.x(), requested.y(), node.z());
   if (graph.grid().CellOf(candidate).head<2>() != graph.cell(snap.node).head<2>()) return node;
   GroundSample ground;
   const double h_ref = graph.params().reference_height_m;
   if (!SampleGround(graph.model(), candidate, h_ref, 0, &ground)) return node;
-  return {requested.x(), requested.y(), ground.height_m + h_ref};
+  const Eigen::Vector3d on_ground(requested.x(), requested.y(), ground.height_m + h_ref);
+  return graph.model().Distance(on_ground) >= min_distance_m ? on_ground : node;
 }
 
 void FillStats(const Trajectory& trajectory, const VerificationReport& v, PlanStats* stats) {
@@ -397,17 +399,27 @@ Expected<PlanResult> Plan(const PlanningMap& map, const PlanRequest& request,
     error.field = field;
     return error;
   };
-  Expected<SnapResult> start = SnapToSurface(graph, request.start.position_m,
-                                             options.snap_tolerance_m, ErrorCode::kStartOffGround);
+  // Only where verification can pass: a trajectory's end whose reference point is closer to
+  // an obstacle than the verifier allows could never be returned.
+  const double min_distance = options.verifier.min_obstacle_distance_m;
+  const auto clear = [&](int node) { return graph.clearance(node) >= min_distance; };
+  char refusal[96];
+  std::snprintf(refusal, sizeof(refusal),
+                "closer than %.3f m (verifier.min_obstacle_distance_m) to an obstacle",
+                min_distance);
+  Expected<SnapResult> start =
+      SnapToSurface(graph, request.start.position_m, options.snap_tolerance_m,
+                    ErrorCode::kStartOffGround, clear, refusal);
   if (!start) return blame(std::move(start).error(), "start.position_m");
   Expected<SnapResult> goal = SnapToSurface(graph, request.goal.position_m,
-                                            options.snap_tolerance_m, ErrorCode::kGoalOffGround);
+                                            options.snap_tolerance_m, ErrorCode::kGoalOffGround,
+                                            clear, refusal);
   if (!goal) return blame(std::move(goal).error(), "goal.position_m");
   result.start = *start;
   result.goal = *goal;
   RobotState head = request.start, tail = request.goal;
-  head.position_m = BoundaryPosition(graph, result.start, request.start.position_m);
-  tail.position_m = BoundaryPosition(graph, result.goal, request.goal.position_m);
+  head.position_m = BoundaryPosition(graph, result.start, request.start.position_m, min_distance);
+  tail.position_m = BoundaryPosition(graph, result.goal, request.goal.position_m, min_distance);
   result.start.position_m = head.position_m;
   result.goal.position_m = tail.position_m;
   stats.timings.snap_s = SecondsSince(stage);
@@ -513,7 +525,9 @@ Expected<PlanResult> Plan(const PlanningMap& map, const PlanRequest& request,
     if (*done) return result;
     if (stop()) return stop.Reason(options.time_budget_s, "trajectory verification");
     // Stiffer penalties for the next attempt (PlanOptions::max_attempts documents them).
-    config.weights.safety *= 4;
+    // Not S', the smooth safety field: stiffening it, which every retry used to, pushed the
+    // trajectory harder against the rim in passages whose ground is rough on both sides.
+    config.cost.distance_stiffness *= 4;
     config.weights.edge *= 4;
     config.weights.ground *= 4;
     config.weights.feasibility *= 4;
@@ -533,6 +547,7 @@ Expected<PlanResult> Plan(const PlanningMap& map, const PlanRequest& request,
   if (verified) {
     FillStats(slow, verification, &stats);
     stats.fallback = true;
+    stats.fallback_reason = last_failure.message;
     result.trajectory = std::move(slow);
     stats.timings.total_s = SecondsSince(start_time);
     return result;

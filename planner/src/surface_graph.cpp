@@ -159,7 +159,9 @@ int SurfaceGraph::NodeNear(int ix, int iy, double ground_z) const {
 }
 
 Expected<SnapResult> SnapToSurface(const SurfaceGraph& graph, const Eigen::Vector3d& p,
-                                   double tolerance_m, ErrorCode off_ground_code) {
+                                   double tolerance_m, ErrorCode off_ground_code,
+                                   const std::function<bool(int node)>& accept,
+                                   std::string_view refusal) {
   const char* what = off_ground_code == ErrorCode::kStartOffGround  ? "start"
                      : off_ground_code == ErrorCode::kGoalOffGround ? "goal"
                                                                     : "point";
@@ -200,7 +202,9 @@ Expected<SnapResult> SnapToSurface(const SurfaceGraph& graph, const Eigen::Vecto
     for (const std::int32_t m : graph.ColumnNodes(c.x(), c.y())) {
       if (graph.ground_z(m) <= p.z() + slack) chosen = m;  // Lowest first: keep the highest.
     }
-    if (chosen >= 0 && level_distance(chosen) <= tolerance_m) return make(chosen);
+    if (chosen >= 0 && level_distance(chosen) <= tolerance_m && (!accept || accept(chosen))) {
+      return make(chosen);
+    }
   }
 
   // 2. Columns within tolerance, ring by ring. Score = level distance, plus a penalty larger
@@ -208,6 +212,7 @@ Expected<SnapResult> SnapToSurface(const SurfaceGraph& graph, const Eigen::Vecto
   const double above_penalty = 2.0 * tolerance_m + r;
   const int max_ring = static_cast<int>(std::ceil(tolerance_m / r)) + 1;
   int best = -1;
+  bool turned_down = false;  // A node within tolerance that `accept` refused.
   double best_score = std::numeric_limits<double>::infinity();
   for (int ring = 0; ring <= max_ring; ++ring) {
     // Columns of this ring lie at least (ring - 1) · r horizontally from p.
@@ -218,6 +223,10 @@ Expected<SnapResult> SnapToSurface(const SurfaceGraph& graph, const Eigen::Vecto
         for (const std::int32_t m : graph.ColumnNodes(c.x() + dx, c.y() + dy)) {
           const double d = level_distance(m);
           if (d > tolerance_m) continue;
+          if (accept && !accept(m)) {
+            turned_down = true;
+            continue;
+          }
           const double score = d + (graph.ground_z(m) > p.z() + slack ? above_penalty : 0.0);
           if (score < best_score) {
             best_score = score;
@@ -229,6 +238,13 @@ Expected<SnapResult> SnapToSurface(const SurfaceGraph& graph, const Eigen::Vecto
     }
   }
   if (best >= 0) return make(best);
+  if (turned_down) {
+    char buf[96];
+    std::snprintf(buf, sizeof(buf), " m: all traversable ground within %.2f m", tolerance_m);
+    return Error{off_ground_code, std::string(what) + " " + internal::FormatPoint(p) + buf +
+                                      " puts the robot's reference point " + std::string(refusal) +
+                                      "; move it into open space"};
+  }
 
   // 3. Nothing within tolerance: name the nearest node anywhere (a linear scan, only on
   // this failure path).

@@ -131,27 +131,44 @@ bool SampleGround(const TerrainModel& model, const Eigen::Vector3d& p, double re
   return true;
 }
 
-double SampleEdgeDistance(const SurfaceGraph& graph, const Eigen::Vector3d& p,
+double SampleEdgeDistance(const SurfaceGraph& graph, const Eigen::Vector3d& p, double reach_m,
                           Eigen::Vector2d* gradient) {
   const GridGeometry& g = graph.grid();
   const double r = g.resolution_m;
   const double z_ground = p.z() - graph.params().reference_height_m;
-  const double u = (p.x() - g.origin_m.x()) / r - 0.5;
-  const double v = (p.y() - g.origin_m.y()) / r - 0.5;
-  const int i0 = static_cast<int>(std::floor(u));
-  const int j0 = static_cast<int>(std::floor(v));
-  const double fu = u - i0, fv = v - j0;
-  double f[2][2];
-  for (int dj = 0; dj < 2; ++dj) {
-    for (int di = 0; di < 2; ++di) {
-      const int node = graph.NodeNear(i0 + di, j0 + dj, z_ground);
-      f[dj][di] = node >= 0 ? graph.edge_distance(node) : -0.5 * r;
+  const Eigen::Vector2d q = (p.head<2>() - g.origin_m.head<2>()) / r;  // In cells.
+  const int ci = static_cast<int>(std::floor(q.x()));
+  const int cj = static_cast<int>(std::floor(q.y()));
+  const auto traversable = [&](int ix, int iy) {
+    return ix >= 0 && iy >= 0 && ix < g.size.x() && iy < g.size.y() &&
+           graph.NodeNear(ix, iy, z_ground) >= 0;
+  };
+  // Columns `window` away or more lie at least that many cells from p (p is inside its own
+  // column), so the nearest square of the other kind within the window is the nearest at all
+  // while it is closer than `window` cells.
+  const int window = std::max(1, static_cast<int>(std::ceil(reach_m / r)));
+  const bool inside = traversable(ci, cj);
+  double nearest = window;  // In cells.
+  Eigen::Vector2d away = Eigen::Vector2d::Zero();
+  for (int dj = -window; dj <= window; ++dj) {
+    for (int di = -window; di <= window; ++di) {
+      if ((di == 0 && dj == 0) || traversable(ci + di, cj + dj) == inside) continue;
+      // The square's nearest point to q.
+      const Eigen::Vector2d low(ci + di, cj + dj);
+      const Eigen::Vector2d high = low + Eigen::Vector2d::Ones();
+      const Eigen::Vector2d closest = q.cwiseMax(low).cwiseMin(high);
+      const Eigen::Vector2d delta = q - closest;
+      const double d = delta.norm();
+      if (d >= nearest) continue;
+      nearest = d;
+      // On the square's edge (d = 0) the direction is the edge's normal.
+      away = d > 1e-12 ? Eigen::Vector2d(delta / d)
+                       : Eigen::Vector2d(q - (low.array() + 0.5).matrix()).normalized();
     }
   }
-  const double f0 = f[0][0] + fu * (f[0][1] - f[0][0]);
-  const double f1 = f[1][0] + fu * (f[1][1] - f[1][0]);
-  (*gradient) << ((1 - fv) * (f[0][1] - f[0][0]) + fv * (f[1][1] - f[1][0])) / r, (f1 - f0) / r;
-  return f0 + fv * (f1 - f0);
+  const double sign = inside ? 1.0 : -1.0;
+  *gradient = nearest < window ? Eigen::Vector2d(sign * away) : Eigen::Vector2d::Zero();
+  return sign * nearest * r;
 }
 
 }  // namespace strata

@@ -135,7 +135,8 @@ double TrajectoryCost::PointPenalty(const StateVector& pos, const StateVector& v
 
   if (w.edge > 0) {
     Eigen::Vector2d gradient;
-    const Cubic outside = CubicPenalty(c.edge_margin_m - SampleEdgeDistance(*graph_, p, &gradient));
+    const Cubic outside =
+        CubicPenalty(c.edge_margin_m - SampleEdgeDistance(*graph_, p, c.edge_margin_m, &gradient));
     terms.edge += w.edge * outside.value;
     grad_pos->head<2>() -= w.edge * outside.slope * gradient;
   }

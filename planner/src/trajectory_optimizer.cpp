@@ -19,26 +19,55 @@ namespace {
 // L-BFGS runs per optimisation at most (see the restart loop).
 constexpr int kMaxRestarts = 8;
 
-// Positions every `spacing_m` of arc length along the polyline, excluding both ends.
+// A polyline's vertex turns a corner when its horizontal direction changes by more than this
+// [rad]: the pulled vertices of a shortened path (straight runs in between).
+constexpr double kCornerAngleRad = 0.2;
+
+// Indices of the polyline's corners, both ends included: vertices where the horizontal
+// direction between the neighbouring distinct points turns by more than kCornerAngleRad.
+std::vector<std::size_t> CornerIndices(const std::vector<Eigen::Vector3d>& path) {
+  std::vector<std::size_t> corners = {0};
+  const double cos_limit = std::cos(kCornerAngleRad);
+  Eigen::Vector2d incoming = Eigen::Vector2d::Zero();
+  for (std::size_t k = 1; k + 1 < path.size(); ++k) {
+    const Eigen::Vector2d in = (path[k] - path[k - 1]).head<2>();
+    if (in.norm() > 1e-9) incoming = in.normalized();
+    const Eigen::Vector2d out = (path[k + 1] - path[k]).head<2>();
+    if (incoming.isZero() || out.norm() <= 1e-9) continue;
+    if (incoming.dot(out.normalized()) < cos_limit) corners.push_back(k);
+  }
+  if (path.size() > 1) corners.push_back(path.size() - 1);
+  return corners;
+}
+
+// Waypoints along the polyline, excluding both ends: every corner (CornerIndices), and between
+// consecutive corners points every ~`spacing_m` of arc length (at least one piece per run).
+// Keeping the corners keeps the initial trajectory inside the corridor the path threads,
+// where a uniform resampling would cut its corners; *pieces is the number of pieces.
 std::vector<Eigen::Vector3d> ResampleInterior(const std::vector<Eigen::Vector3d>& path,
                                               double spacing_m, int* pieces) {
-  double length = 0;
-  for (std::size_t k = 1; k < path.size(); ++k) length += (path[k] - path[k - 1]).norm();
-  *pieces = std::max(1, static_cast<int>(std::lround(length / spacing_m)));
-  const double step = length / *pieces;
   std::vector<Eigen::Vector3d> points;
-  double travelled = 0;
-  double next = step;
-  for (std::size_t k = 1; k < path.size() && static_cast<int>(points.size()) < *pieces - 1; ++k) {
-    const double segment = (path[k] - path[k - 1]).norm();
-    while (segment > 0 && travelled + segment >= next &&
-           static_cast<int>(points.size()) < *pieces - 1) {
-      points.emplace_back(path[k - 1] + (next - travelled) / segment * (path[k] - path[k - 1]));
-      next += step;
+  const std::vector<std::size_t> corners = CornerIndices(path);
+  for (std::size_t c = 0; c + 1 < corners.size(); ++c) {
+    double length = 0;
+    for (std::size_t k = corners[c] + 1; k <= corners[c + 1]; ++k) {
+      length += (path[k] - path[k - 1]).norm();
     }
-    travelled += segment;
+    const int run_pieces = std::max(1, static_cast<int>(std::lround(length / spacing_m)));
+    const double step = length / run_pieces;
+    double travelled = 0, next = step;
+    for (std::size_t k = corners[c] + 1; k <= corners[c + 1]; ++k) {
+      const double segment = (path[k] - path[k - 1]).norm();
+      // The run's last point is the corner itself, added below.
+      while (segment > 0 && travelled + segment >= next && next < length - 0.5 * step) {
+        points.emplace_back(path[k - 1] + (next - travelled) / segment * (path[k] - path[k - 1]));
+        next += step;
+      }
+      travelled += segment;
+    }
+    if (c + 2 < corners.size()) points.push_back(path[corners[c + 1]]);
   }
-  while (static_cast<int>(points.size()) < *pieces - 1) points.push_back(path.back());
+  *pieces = static_cast<int>(points.size()) + 1;
   return points;
 }
 

@@ -3,7 +3,9 @@
 // smooth.
 #include "strata/terrain_query.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <random>
 #include <vector>
 
@@ -39,34 +41,86 @@ std::vector<Eigen::Vector3d> PointsNearNodes(int count, std::uint32_t seed) {
   return points;
 }
 
-TEST(SampleEdgeDistance, IsTheGraphsEdgeDistanceAtEveryNodeCentre) {
+// Seeded points within a cell and a half of rim nodes (in the columns beside them, missing
+// columns included), at the rim node's reference height.
+std::vector<Eigen::Vector3d> PointsNearTheRim(int count, std::uint32_t seed) {
   const SurfaceGraph& graph = Graph();
-  ASSERT_GT(graph.node_count(), 100);
-  for (int node = 0; node < graph.node_count(); node += 37) {
-    Eigen::Vector2d gradient;
-    EXPECT_NEAR(SampleEdgeDistance(graph, graph.position(node), &gradient),
-                graph.edge_distance(node), 1e-6)
-        << node;
+  const double r = Scene().grid().resolution_m;
+  std::vector<int> rim;
+  for (int node = 0; node < graph.node_count(); ++node) {
+    if (graph.edge_distance(node) <= 0.5 * r + 1e-6) rim.push_back(node);
   }
+  std::mt19937 rng(seed);
+  std::uniform_int_distribution<std::size_t> pick(0, rim.size() - 1);
+  std::uniform_real_distribution<double> offset(-1.5 * r, 1.5 * r);
+  std::vector<Eigen::Vector3d> points;
+  for (int i = 0; i < count; ++i) {
+    Eigen::Vector3d p = graph.position(rim[pick(rng)]);
+    p.x() += offset(rng);
+    p.y() += offset(rng);
+    points.push_back(p);
+  }
+  return points;
+}
+
+// The definition, evaluated naively: the distance from p to the nearest column square of the
+// other kind (traversable at p's level or not) within a wide window, signed, clamped at reach.
+double BruteForceEdgeDistance(const SurfaceGraph& graph, const Eigen::Vector3d& p,
+                              double reach_m) {
+  const GridGeometry& g = graph.grid();
+  const double r = g.resolution_m;
+  const double z = p.z() - graph.params().reference_height_m;
+  const auto traversable = [&](int ix, int iy) {
+    return ix >= 0 && iy >= 0 && ix < g.size.x() && iy < g.size.y() &&
+           graph.NodeNear(ix, iy, z) >= 0;
+  };
+  const Eigen::Vector3i c = g.CellOf(p);
+  const bool inside = traversable(c.x(), c.y());
+  double nearest = std::numeric_limits<double>::infinity();
+  for (int iy = c.y() - 10; iy <= c.y() + 10; ++iy) {
+    for (int ix = c.x() - 10; ix <= c.x() + 10; ++ix) {
+      if (traversable(ix, iy) == inside) continue;
+      const double x0 = g.origin_m.x() + ix * r, y0 = g.origin_m.y() + iy * r;
+      const double dx = std::max({x0 - p.x(), 0.0, p.x() - (x0 + r)});
+      const double dy = std::max({y0 - p.y(), 0.0, p.y() - (y0 + r)});
+      nearest = std::min(nearest, std::hypot(dx, dy));
+    }
+  }
+  const double cap = std::max(1.0, std::ceil(reach_m / r)) * r;
+  return (inside ? 1 : -1) * std::min(nearest, cap);
+}
+
+TEST(SampleEdgeDistance, IsTheSignedDistanceToTheNearestColumnOfTheOtherKind) {
+  const SurfaceGraph& graph = Graph();
+  int outside = 0;
+  for (const double reach : {0.1, 0.25}) {
+    for (const Eigen::Vector3d& p : PointsNearTheRim(400, 5)) {
+      Eigen::Vector2d gradient;
+      const double e = SampleEdgeDistance(graph, p, reach, &gradient);
+      EXPECT_NEAR(e, BruteForceEdgeDistance(graph, p, reach), 1e-9) << p.transpose();
+      outside += e < 0;
+    }
+  }
+  EXPECT_GT(outside, 50);  // The points reach into missing columns.
 }
 
 TEST(SampleEdgeDistance, GradientMatchesFiniteDifferences) {
-  const double h = 1e-6;
-  int checked = 0;
-  for (const Eigen::Vector3d& p : PointsNearNodes(200, 3)) {
+  const double h = 1e-7;
+  int moving = 0;
+  for (const Eigen::Vector3d& p : PointsNearTheRim(300, 3)) {
     Eigen::Vector2d gradient, unused;
-    SampleEdgeDistance(Graph(), p, &gradient);
+    SampleEdgeDistance(Graph(), p, 0.1, &gradient);
+    moving += gradient.norm() > 0;
     for (int axis = 0; axis < 2; ++axis) {
       Eigen::Vector3d step = Eigen::Vector3d::Zero();
       step(axis) = h;
-      const double numeric = (SampleEdgeDistance(Graph(), p + step, &unused) -
-                              SampleEdgeDistance(Graph(), p - step, &unused)) /
+      const double numeric = (SampleEdgeDistance(Graph(), p + step, 0.1, &unused) -
+                              SampleEdgeDistance(Graph(), p - step, 0.1, &unused)) /
                              (2 * h);
       EXPECT_NEAR(gradient(axis), numeric, 1e-5) << p.transpose() << " axis " << axis;
     }
-    ++checked;
   }
-  EXPECT_EQ(checked, 200);
+  EXPECT_GT(moving, 100);  // Most points are within reach of the rim, not clamped.
 }
 
 TEST(SampleGround, IsTheColumnsPlaneAtItsCentreAndSmoothAround) {

@@ -160,6 +160,9 @@ struct PlanStats {
   /// the searched path's own points, driven slowly (MakeFallbackProblem), verified like any
   /// other. A dispatcher may prefer another robot or goal.
   bool fallback = false;
+  /// With fallback: why the last optimised trajectory failed verification (its first
+  /// violation), e.g. "horizontal acceleration 1.03 m/s^2 exceeds the bound 1 m/s^2 at ...".
+  std::string fallback_reason;
   PlanTimings timings;
 };
 

@@ -9,6 +9,8 @@
 #include <functional>
 #include <numbers>
 #include <span>
+#include <string>
+#include <string_view>
 #include <vector>
 
 #include <Eigen/Core>
@@ -235,7 +237,12 @@ struct SnapResult {
 /// preference for nodes whose ground lies below p.z. Fails with kInvalidInput for a non-finite p or
 /// tolerance < 0, and with `off_ground_code` (kStartOffGround or kGoalOffGround) when no node is
 /// within tolerance; the message names p, the tolerance, and the nearest node anywhere on the map.
+/// `accept` (may be empty) restricts the nodes snapped to (e.g. those whose reference point
+/// keeps the verifier's distance from obstacles); when it turns down every node within
+/// tolerance, the message says so and names `refusal`, what the turned-down nodes lack.
 Expected<SnapResult> SnapToSurface(const SurfaceGraph& graph, const Eigen::Vector3d& p,
-                                   double tolerance_m, ErrorCode off_ground_code);
+                                   double tolerance_m, ErrorCode off_ground_code,
+                                   const std::function<bool(int node)>& accept = {},
+                                   std::string_view refusal = {});
 
 }  // namespace strata

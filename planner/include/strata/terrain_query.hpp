@@ -37,12 +37,15 @@ struct GroundSample {
 bool SampleGround(const TerrainModel& model, const Eigen::Vector3d& p, double reference_height_m,
                   double clearance_cap_m, GroundSample* sample);
 
-/// Distance from p to the rim of the traversable region [m], a continuous function of p:
-/// bilinear interpolation between the four nearest column centres of each column's
-/// SurfaceGraph::edge_distance at p's level (the node within 0.5 m of p.z −
-/// reference_height_m), a column without such a node counting −0.5·r (its centre lies half a
-/// cell outside the rim). The rim itself is at 0. Writes the gradient wrt (x, y).
-double SampleEdgeDistance(const SurfaceGraph& graph, const Eigen::Vector3d& p,
+/// Signed distance from p to the rim of the traversable region at p's level [m], measured in
+/// x, y: the region is the union of the grid columns that hold a SurfaceGraph node whose
+/// ground lies within SurfaceGraph::kLevelGapM of p.z − reference_height_m, positive inside
+/// it, negative outside, 0 on the rim. Exact (the distance to the nearest square of the
+/// other kind) wherever it is within `reach_m` (at least a cell) of the rim, and clamped to
+/// ± the exact range beyond, so that a penalty on e < reach_m sees the verifier's
+/// column-by-column test exactly: a point cutting a corner of a missing column is outside.
+/// Continuous in p; writes the gradient wrt (x, y) (0 where clamped).
+double SampleEdgeDistance(const SurfaceGraph& graph, const Eigen::Vector3d& p, double reach_m,
                           Eigen::Vector2d* gradient);
 
 }  // namespace strata
