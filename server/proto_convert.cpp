@@ -545,7 +545,10 @@ Result<WarmStart> WarmStartFromRequest(const v1::WarmStart& message) {
     for (FieldViolation& violation : error.field_violations) {
       violation.field = std::string(kPrefix) + "." + violation.field;
     }
-    error.message = std::string(kPrefix) + ": " + error.message;
+    // The messages start with the field they blame ("pieces[3].duration_s must be > 0"),
+    // or speak of "trajectory dimension".
+    error.message = std::string(kPrefix) + (error.message.rfind("trajectory ", 0) == 0 ? ": " : ".") +
+                    error.message;
     return error;
   }
   WarmStart warm;
@@ -591,6 +594,8 @@ void ToProto(const PlanStats& s, v1::PlanStats* m) {
   m->set_warm_started(s.warm_started);
   m->set_fallback(s.fallback);
   m->set_fallback_reason(s.fallback_reason);
+  m->set_limiting_bound(s.limiting_bound);
+  m->set_limiting_bound_fraction(s.limiting_bound_fraction);
   v1::PlanTimings* t = m->mutable_timings();
   t->set_snap_s(s.timings.snap_s);
   t->set_search_s(s.timings.search_s);

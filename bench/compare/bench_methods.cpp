@@ -66,6 +66,7 @@ class StrataMethod : public BenchMethod {
     out.fallback = plan->stats.fallback;
     out.message = plan->stats.fallback_reason;
     out.iterations = plan->stats.optimizer_iterations;
+    out.limiting_bound = plan->stats.limiting_bound;
     out.start_snap_m = plan->start.distance_m;
     out.goal_snap_m = plan->goal.distance_m;
     out.points_m = SampleTrajectory(plan->trajectory);

@@ -33,12 +33,14 @@ struct QueryOutcome {
   double kappa_xy_m = 0;
   /// Strata only (0 for the baselines, whose paths are not timed): the trajectory's duration
   /// [s], its ratio to driving its length at the horizontal speed bound, the time stretch
-  /// applied, whether it is the slow fallback, and the optimiser's iterations.
+  /// applied, whether it is the slow fallback, the optimiser's iterations, and the bound the
+  /// trajectory came closest to (PlanStats::limiting_bound).
   double duration_s = 0;
   double duration_ratio = 0;
   double time_stretch = 0;
   bool fallback = false;
   int iterations = 0;
+  std::string limiting_bound;
   /// Strata only: 1 when the returned trajectory fails an independent VerifyTrajectory (then
   /// success is false and reason VERIFY_FAILED), else 0; -1 for the baselines.
   int verify_violations = -1;

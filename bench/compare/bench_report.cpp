@@ -128,7 +128,7 @@ Status WriteResultsCsv(const std::string& path, const std::string& map,
   std::ofstream file(path);
   file << "map,query,method,start_x,start_y,start_z,goal_x,goal_y,goal_z,success,reason,"
           "plan_s,length_m,kappa_m,kappa_xy_m,verify_violations,start_snap_m,goal_snap_m,"
-          "path_points,duration_s,duration_ratio,time_stretch,fallback,iterations," +
+          "path_points,duration_s,duration_ratio,time_stretch,fallback,iterations,limiting_bound," +
               bench::IndependentCheckCsvHeader() + ",message\n";
   for (const BenchRow& r : rows) {
     const QueryOutcome& o = r.outcome;
@@ -142,6 +142,7 @@ Status WriteResultsCsv(const std::string& path, const std::string& map,
          << Number(o.goal_snap_m, "%.4f") << ',' << o.points_m.size() << ','
          << Number(o.duration_s) << ',' << Number(o.duration_ratio) << ','
          << Number(o.time_stretch) << ',' << (o.fallback ? 1 : 0) << ',' << o.iterations << ','
+         << o.limiting_bound << ','
          << bench::IndependentCheckCsvValues(o.check ? &*o.check : nullptr) << ','
          << Field(o.message) << '\n';
   }

@@ -20,6 +20,7 @@ Status SearchConfig::Validate(std::string_view path) const {
   if (!(heuristic_weight >= 1 && heuristic_weight <= 3)) {
     return bad_config("heuristic_weight", heuristic_weight, "in [1, 3]");
   }
+  if (!(line_bias >= 0 && line_bias <= 1)) return bad_config("line_bias", line_bias, "in [0, 1]");
   if (!(std::isfinite(clearance_weight) && clearance_weight >= 0)) {
     return bad_config("clearance_weight", clearance_weight, ">= 0 and finite");
   }
@@ -97,6 +98,15 @@ Expected<PathResult> SearchPath(const SurfaceGraph& graph, int start_node, int g
   state.At(start_node).g = 0;
   reached = 1;
   const double w = config.heuristic_weight;
+  // SearchConfig::line_bias: the horizontal distance from the start–goal segment.
+  const Eigen::Vector2d line_start = graph.position(start_node).head<2>();
+  const Eigen::Vector2d line = graph.position(goal_node).head<2>() - line_start;
+  const double line_squared = line.squaredNorm();
+  const auto off_line = [&](int node) {
+    const Eigen::Vector2d q = graph.position(node).head<2>() - line_start;
+    const double t = line_squared > 0 ? std::clamp(q.dot(line) / line_squared, 0.0, 1.0) : 0.0;
+    return config.line_bias * (q - t * line).norm();
+  };
   open.push({w * graph.DistanceLowerBound(start_node, goal_node), 0.0, start_node});
 
   while (!open.empty()) {
@@ -148,7 +158,7 @@ Expected<PathResult> SearchPath(const SurfaceGraph& graph, int start_node, int g
         reached += next.parent < 0;
         next.g = g;
         next.parent = top.node;
-        open.push({g + w * graph.DistanceLowerBound(m, goal_node), g, m});
+        open.push({g + w * graph.DistanceLowerBound(m, goal_node) + off_line(m), g, m});
       }
     });
   }

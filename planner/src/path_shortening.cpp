@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <cstdlib>
 #include <limits>
 
 namespace strata {
@@ -54,12 +55,12 @@ std::vector<int> WalkStraight(const SurfaceGraph& graph, int from, int to,
 
 namespace {
 
-// How fast the rim and obstacle allowance of a tight end grows back to the margin, per metre
-// travelled from it (ShortenPath).
-constexpr double kAllowanceSlope = 0.5;
-
 // Vertices tried from the farthest inwards before the vertex-by-vertex scan (ShortenPath).
 constexpr std::size_t kFarCandidates = 8;
+
+// Tightening passes over the pulled vertices at most (ShortenPath); each usually removes a
+// few, and a pass that removes none ends them.
+constexpr int kTighteningPasses = 4;
 
 // EdgeCost per metre between two adjacent nodes (>= 1).
 double CostFactor(const SurfaceGraph& graph, int a, int b, const SearchConfig& search) {
@@ -67,10 +68,11 @@ double CostFactor(const SurfaceGraph& graph, int a, int b, const SearchConfig& s
   return length > 0 ? EdgeCost(graph, a, b, search) / length : 1.0;
 }
 
-// Appends the walk from `walk.front()` to `walk.back()` to *out (without its first node),
-// each node's point the foot of its column centre on the straight line, at the node's height.
-void AppendStraight(const SurfaceGraph& graph, const std::vector<int>& walk,
-                    const SearchConfig& search, PathResult* out) {
+// The straight line from walk.front() to walk.back() through the walk's columns: each node's
+// point is the foot of its column centre on the line (in x, y), at the node's height.
+// Calls visit(node, point) for every node after the first.
+template <typename Visit>
+void ForEachLinePoint(const SurfaceGraph& graph, const std::vector<int>& walk, Visit&& visit) {
   const Eigen::Vector3d a = graph.position(walk.front());
   const Eigen::Vector2d direction = (graph.position(walk.back()) - a).head<2>();
   const double squared = direction.squaredNorm();
@@ -80,12 +82,35 @@ void AppendStraight(const SurfaceGraph& graph, const std::vector<int>& walk,
         squared > 0 ? std::clamp((centre - a).head<2>().dot(direction) / squared, 0.0, 1.0) : 0;
     Eigen::Vector3d p;
     p << a.head<2>() + t * direction, centre.z();
+    visit(walk[k], p);
+  }
+}
+
+// The search's cost of driving the line through the walk's columns: each step's length times
+// the EdgeCost per metre between its nodes.
+double LineCost(const SurfaceGraph& graph, const std::vector<int>& walk,
+                const SearchConfig& search) {
+  double cost = 0;
+  Eigen::Vector3d previous = graph.position(walk.front());
+  int previous_node = walk.front();
+  ForEachLinePoint(graph, walk, [&](int node, const Eigen::Vector3d& p) {
+    cost += (p - previous).norm() * CostFactor(graph, previous_node, node, search);
+    previous = p;
+    previous_node = node;
+  });
+  return cost;
+}
+
+// Appends the line through `walk` to *out (without its first node).
+void AppendStraight(const SurfaceGraph& graph, const std::vector<int>& walk,
+                    const SearchConfig& search, PathResult* out) {
+  ForEachLinePoint(graph, walk, [&](int node, const Eigen::Vector3d& p) {
     const double step = (p - out->points_m.back()).norm();
     out->length_m += step;
-    out->cost += step * CostFactor(graph, out->nodes.back(), walk[k], search);
-    out->nodes.push_back(walk[k]);
+    out->cost += step * CostFactor(graph, out->nodes.back(), node, search);
+    out->nodes.push_back(node);
     out->points_m.push_back(p);
-  }
+  });
 }
 
 }  // namespace
@@ -96,59 +121,103 @@ PathResult ShortenPath(const SurfaceGraph& graph, const PathResult& path,
   const std::vector<int>& nodes = path.nodes;
   const std::size_t n = nodes.size();
   if (n < 3) return path;
-  std::vector<double> along(n, 0.0);  // Arc length of the path up to each node [m].
+  std::vector<double> along(n, 0.0);     // Arc length of the path up to each node [m].
+  std::vector<double> path_cost(n, 0.0);  // Its EdgeCost up to each node.
   for (std::size_t k = 1; k < n; ++k) {
     along[k] = along[k - 1] + (graph.position(nodes[k]) - graph.position(nodes[k - 1])).norm();
+    path_cost[k] = path_cost[k - 1] + EdgeCost(graph, nodes[k - 1], nodes[k], search);
   }
-
-  PathResult out;
-  out.expansions = path.expansions;
-  out.nodes = {nodes.front()};
-  out.points_m = {graph.position(nodes.front())};
-  const auto walk_line = [&](std::size_t i, std::size_t j) {
-    // The line keeps the search's margins from the rim and from obstacles. Where an end is
-    // nearer (the path squeezed past a corner there), the line may be as near at that end,
-    // the allowance shrinking back to the margin at half the distance travelled from it: a
-    // line may leave a tight spot, not run along the rim from it.
-    const Eigen::Vector3d a = graph.position(nodes[i]), b = graph.position(nodes[j]);
-    const double rim_a = graph.edge_distance(nodes[i]), rim_b = graph.edge_distance(nodes[j]);
-    const double clear_a = graph.clearance(nodes[i]), clear_b = graph.clearance(nodes[j]);
-    return WalkStraight(graph, nodes[i], nodes[j], [&](int m) {
-      const Eigen::Vector3d p = graph.position(m);
-      const double from_a = kAllowanceSlope * (p - a).head<2>().norm();
-      const double from_b = kAllowanceSlope * (p - b).head<2>().norm();
-      const double rim = std::min({search.rim_margin_m, rim_a + from_a, rim_b + from_b});
-      const double clearance =
-          std::min({search.clearance_margin_m, clear_a + from_a, clear_b + from_b});
-      return graph.edge_distance(m) >= rim && graph.clearance(m) >= clearance &&
+  const double r = graph.grid().resolution_m;
+  // The walk of the line from node a to node b, or empty when it leaves the graph, crosses a
+  // blocked node, passes nearer the rim than one and a half cells or nearer an obstacle than
+  // the search's margin (unless an end is nearer: then as near as that end), or costs more
+  // than `budget` in the search's own terms.
+  const auto line = [&](int a, int b, double budget) {
+    const double rim_floor =
+        std::min({graph.edge_distance(a), graph.edge_distance(b), 1.5 * r});
+    const double clearance_floor =
+        std::min({graph.clearance(a), graph.clearance(b), search.clearance_margin_m});
+    std::vector<int> walk = WalkStraight(graph, a, b, [&](int m) {
+      return graph.edge_distance(m) >= rim_floor && graph.clearance(m) >= clearance_floor &&
              !(blocked && m != nodes.front() && m != nodes.back() && blocked(m));
     });
+    if (!walk.empty() && LineCost(graph, walk, search) > budget + 1e-9) walk.clear();
+    return walk;
   };
+
+  // 1. Pull: from each vertex, the farthest later node of the path within max_segment_m that
+  // a line reaches for no more than the path's cost between them; a few candidates from the
+  // farthest inwards (a line that fails halfway may pass farther on, past an obstacle's
+  // edge), then, if none passes, node by node from the nearest until one fails.
+  std::vector<int> vertices = {nodes.front()};
+  std::vector<double> vertex_cost = {0};  // Cost of the shortened path up to each vertex.
   std::size_t i = 0;
   while (i + 1 < n) {
-    // The farthest vertex within reach: a few candidates from the farthest inwards (a line
-    // that fails halfway may pass farther on, past the obstacle's edge), then, if none
-    // passes, vertex by vertex from the nearest until one fails.
     std::size_t last = i + 1;
     while (last + 1 < n && along[last + 1] - along[i] <= config.max_segment_m) ++last;
     std::size_t reached = i + 1;
-    std::vector<int> walk = {nodes[i], nodes[i + 1]};
+    double reached_cost = path_cost[i + 1] - path_cost[i];
     const std::size_t stride = std::max<std::size_t>(1, (last - i) / kFarCandidates);
+    const auto try_line = [&](std::size_t j) {
+      const std::vector<int> walk = line(nodes[i], nodes[j], path_cost[j] - path_cost[i]);
+      if (walk.empty()) return false;
+      reached = j;
+      reached_cost = LineCost(graph, walk, search);
+      return true;
+    };
     for (std::size_t j = last; j >= i + 2 && reached == i + 1; j = j >= stride ? j - stride : 0) {
-      if (std::vector<int> line = walk_line(i, j); !line.empty()) {
-        walk = std::move(line);
-        reached = j;
-      }
+      try_line(j);
       if (j < stride) break;
     }
     for (std::size_t j = reached + 1; j <= last && stride > 1; ++j) {
-      std::vector<int> line = walk_line(i, j);
-      if (line.empty()) break;
-      walk = std::move(line);
-      reached = j;
+      if (!try_line(j)) break;
+    }
+    vertices.push_back(nodes[reached]);
+    vertex_cost.push_back(vertex_cost.back() + reached_cost);
+    i = reached;
+  }
+
+  // 2. Tighten: the pull is greedy, so a later pass over its vertices still finds lines that
+  // skip some, for no more than the pulled path's cost between their ends.
+  for (int pass = 0; pass < kTighteningPasses; ++pass) {
+    std::vector<int> tight = {vertices.front()};
+    std::vector<double> tight_cost = {0};
+    bool removed = false;
+    for (std::size_t a = 0; a + 1 < vertices.size();) {
+      std::size_t c = a + 1;
+      double cost = vertex_cost[a + 1] - vertex_cost[a];
+      for (std::size_t j = vertices.size() - 1; j >= a + 2; --j) {
+        const double span = (graph.position(vertices[j]) - graph.position(vertices[a])).norm();
+        if (span > config.max_segment_m) continue;
+        const std::vector<int> walk =
+            line(vertices[a], vertices[j], vertex_cost[j] - vertex_cost[a]);
+        if (walk.empty()) continue;
+        c = j;
+        cost = LineCost(graph, walk, search);
+        removed = true;
+        break;
+      }
+      tight.push_back(vertices[c]);
+      tight_cost.push_back(tight_cost.back() + cost);
+      a = c;
+    }
+    vertices = std::move(tight);
+    vertex_cost = std::move(tight_cost);
+    if (!removed) break;
+  }
+
+  // 3. The path: the lines between consecutive vertices, column by column.
+  PathResult out;
+  out.expansions = path.expansions;
+  out.nodes = {vertices.front()};
+  out.points_m = {graph.position(vertices.front())};
+  for (std::size_t k = 1; k < vertices.size(); ++k) {
+    std::vector<int> walk = line(vertices[k - 1], vertices[k],
+                                 std::numeric_limits<double>::infinity());
+    if (walk.empty()) {  // Adjacent path nodes: always walkable.
+      walk = {vertices[k - 1], vertices[k]};
     }
     AppendStraight(graph, walk, search, &out);
-    i = reached;
   }
   return out;
 }

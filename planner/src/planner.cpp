@@ -4,8 +4,10 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <iterator>
 #include <span>
 #include <string>
+#include <utility>
 
 #include "format_internal.hpp"
 #include "strata/keep_out.hpp"
@@ -79,7 +81,8 @@ Eigen::Vector3d BoundaryPosition(const SurfaceGraph& graph, const SnapResult& sn
   return graph.model().Distance(on_ground) >= min_distance_m ? on_ground : node;
 }
 
-void FillStats(const Trajectory& trajectory, const VerificationReport& v, PlanStats* stats) {
+void FillStats(const Trajectory& trajectory, const VerificationReport& v,
+               const RobotProfile& profile, PlanStats* stats) {
   stats->length_m = PathLength(trajectory);
   stats->duration_s = trajectory.TotalDuration();
   stats->mean_curvature_per_m = MeanCurvature(trajectory);
@@ -94,6 +97,16 @@ void FillStats(const Trajectory& trajectory, const VerificationReport& v, PlanSt
   stats->min_headroom_m = v.min_headroom_m;
   stats->pieces = static_cast<int>(trajectory.pieces.size());
   stats->verified_samples = v.samples;
+  const std::pair<const char*, double> fractions[] = {
+      {"horizontal_speed", v.max_speed_horizontal_mps / profile.max_speed_horizontal_mps},
+      {"vertical_speed", v.max_speed_vertical_mps / profile.max_speed_vertical_mps},
+      {"horizontal_acceleration", v.max_accel_horizontal_mps2 / profile.max_accel_horizontal_mps2},
+      {"vertical_acceleration", v.max_accel_vertical_mps2 / profile.max_accel_vertical_mps2}};
+  const auto* limiting =
+      std::max_element(std::begin(fractions), std::end(fractions),
+                       [](const auto& a, const auto& b) { return a.second < b.second; });
+  stats->limiting_bound = limiting->first;
+  stats->limiting_bound_fraction = limiting->second;
 }
 
 // The map's zones, then the request's, named for messages.
@@ -167,7 +180,7 @@ Expected<Trajectory> OptimizeAndVerify(const SurfaceGraph& graph, const RobotPro
   }
   stats->timings.verify_s += SecondsSince(stage);
   if (!verified) return verified.error();
-  FillStats(trajectory, verification, stats);
+  FillStats(trajectory, verification, profile, stats);
   stats->time_stretch = stretch;
   return trajectory;
 }
@@ -530,6 +543,7 @@ Expected<PlanResult> Plan(const PlanningMap& map, const PlanRequest& request,
     config.cost.distance_stiffness *= 4;
     config.weights.edge *= 4;
     config.weights.ground *= 4;
+    config.cost.ground_band_m *= 0.25;
     config.weights.feasibility *= 4;
     config.weights.keep_out *= 4;
     config.piece_length_m *= 0.7;
@@ -545,7 +559,7 @@ Expected<PlanResult> Plan(const PlanningMap& map, const PlanRequest& request,
       VerifyTrajectory(graph, profile, slow, options.verifier, &verification, zones);
   stats.timings.verify_s += SecondsSince(stage);
   if (verified) {
-    FillStats(slow, verification, &stats);
+    FillStats(slow, verification, profile, &stats);
     stats.fallback = true;
     stats.fallback_reason = last_failure.message;
     result.trajectory = std::move(slow);

@@ -58,6 +58,9 @@ Status CostConfig::Validate(std::string_view path) const {
   if (!(std::isfinite(safety_threshold) && safety_threshold >= 0)) {
     return bad_field("safety_threshold", safety_threshold, ">= 0 and finite");
   }
+  if (!(std::isfinite(ground_band_m) && ground_band_m >= 0 && ground_band_m <= 0.5)) {
+    return bad_field("ground_band_m", ground_band_m, "in [0, 0.5] m");
+  }
   if (!(std::isfinite(edge_margin_m) && edge_margin_m >= 0 && edge_margin_m <= 1)) {
     return bad_field("edge_margin_m", edge_margin_m, "in [0, 1] m");
   }
@@ -174,7 +177,10 @@ double TrajectoryCost::PointPenalty(const StateVector& pos, const StateVector& v
       SampleGround(*model_, p, robot.reference_height_m, active_height ? ClearanceCap() : 0,
                    &ground);
   if (has_ground && w.ground > 0) {
-    const double offset = p.z() - ground.height_m - robot.reference_height_m;
+    // Quadratic beyond the band, zero within: C¹ at its edges.
+    const double raw = p.z() - ground.height_m - robot.reference_height_m;
+    const double band = c.ground_band_m;
+    const double offset = raw > band ? raw - band : (raw < -band ? raw + band : 0.0);
     terms.ground += w.ground * offset * offset;
     (*grad_pos)(0) -= w.ground * 2 * offset * ground.height_gradient.x();
     (*grad_pos)(1) -= w.ground * 2 * offset * ground.height_gradient.y();

@@ -144,11 +144,32 @@ Eigen::VectorXd InitialDurations(const CostParams& params, const RobotState& sta
   const double total = along.back();
   const double accel = pace.accel * robot.max_accel_horizontal_mps2;
   const double v0 = start.velocity_mps.head<2>().norm(), v1 = goal.velocity_mps.head<2>().norm();
+  // Corners: a turn of θ between pieces of horizontal length ℓ taken at speed v accelerates
+  // sideways by about v²·θ/ℓ, so the timing slows to where that is the pace's acceleration.
+  // A guess that turns at full speed overshoots its corners and leaves the optimiser a wave
+  // to iron out along the straight that follows.
+  struct Corner {
+    double along_m, speed_mps;
+  };
+  std::vector<Corner> corners;
+  for (std::size_t k = 1; k + 1 < points.size(); ++k) {
+    const Eigen::Vector2d in = (points[k] - points[k - 1]).head<2>();
+    const Eigen::Vector2d out = (points[k + 1] - points[k]).head<2>();
+    const double shorter = std::min(in.norm(), out.norm());
+    if (shorter <= 1e-9) continue;
+    const double turn =
+        std::acos(std::clamp(in.normalized().dot(out.normalized()), -1.0, 1.0));
+    if (turn > kCornerAngleRad) corners.push_back({along[k], std::sqrt(accel * shorter / turn)});
+  }
   // The trapezoid's speed at horizontal arc length s, before slopes.
   const auto speed_at = [&](double s) {
-    return std::min({pace.speed * robot.max_speed_horizontal_mps,
-                     std::sqrt(v0 * v0 + 2 * accel * s),
-                     std::sqrt(v1 * v1 + 2 * accel * std::max(0.0, total - s))});
+    double v = std::min({pace.speed * robot.max_speed_horizontal_mps,
+                         std::sqrt(v0 * v0 + 2 * accel * s),
+                         std::sqrt(v1 * v1 + 2 * accel * std::max(0.0, total - s))});
+    for (const Corner& c : corners) {
+      v = std::min(v, std::sqrt(c.speed_mps * c.speed_mps + 2 * accel * std::abs(s - c.along_m)));
+    }
+    return v;
   };
   Eigen::VectorXd durations(pieces);
   constexpr int kSubsteps = 4;  // Midpoint rule within a piece.

@@ -229,11 +229,19 @@ TEST_F(TwoLevel, AStarMatchesDijkstra) {
     if (graph().component(v) == graph().component(start)) component.push_back(v);
   }
   std::mt19937 rng(42);
-  // Plain A* (w = 1) is optimal; weighted A* (the default w) costs at most w times that.
+  // Plain A* (w = 1) is optimal; weighted A* (the default w) costs at most w times that, and
+  // with the default line bias at most line_bias times the largest distance of a node from
+  // the start-goal line more (bounded here by the grid's diagonal).
   SearchConfig plain;
   plain.heuristic_weight = 1.0;
-  const SearchConfig weighted;
+  plain.line_bias = 0;
+  SearchConfig weighted;
+  weighted.line_bias = 0;
   ASSERT_GT(weighted.heuristic_weight, 1.0);
+  const SearchConfig biased;
+  ASSERT_GT(biased.line_bias, 0.0);
+  const double diagonal =
+      graph().grid().size.head<2>().cast<double>().norm() * graph().grid().resolution_m;
   for (int trial = 0; trial < 6; ++trial) {
     const int a = component[rng() % component.size()];
     const std::vector<double> dist = Dijkstra(graph(), a, plain);
@@ -243,6 +251,11 @@ TEST_F(TwoLevel, AStarMatchesDijkstra) {
       ASSERT_TRUE(fast.ok()) << fast.error().message;
       EXPECT_GE(fast->cost, dist[b] - 1e-9 * std::max(1.0, dist[b]));
       EXPECT_LE(fast->cost, weighted.heuristic_weight * dist[b] + 1e-9);
+      auto leaning = SearchPath(graph(), a, b, biased, {});
+      ASSERT_TRUE(leaning.ok()) << leaning.error().message;
+      EXPECT_GE(leaning->cost, dist[b] - 1e-9 * std::max(1.0, dist[b]));
+      EXPECT_LE(leaning->cost,
+                biased.heuristic_weight * dist[b] + biased.line_bias * diagonal + 1e-9);
       const SearchConfig& config = plain;
       auto path = SearchPath(graph(), a, b, config, {});
       ASSERT_TRUE(path.ok()) << path.error().message;

@@ -70,6 +70,14 @@ void ExpectSound(const PlanResult& plan, const PlanRequest& request) {
     EXPECT_GT(s.length_m, 0.5 * plan.path.length_m);
   }
   EXPECT_NEAR(s.duration_s, t.TotalDuration(), 1e-9);
+  // The bound named as limiting is the one whose peak comes closest.
+  const double fraction = std::max({s.max_speed_horizontal_mps / robot.max_speed_horizontal_mps,
+                                    s.max_speed_vertical_mps / robot.max_speed_vertical_mps,
+                                    s.max_accel_horizontal_mps2 / robot.max_accel_horizontal_mps2,
+                                    s.max_accel_vertical_mps2 / robot.max_accel_vertical_mps2});
+  EXPECT_DOUBLE_EQ(s.limiting_bound_fraction, fraction);
+  EXPECT_THAT(s.limiting_bound, testing::AnyOf("horizontal_speed", "vertical_speed",
+                                               "horizontal_acceleration", "vertical_acceleration"));
   EXPECT_GT(s.timings.total_s, 0);
 }
 
@@ -216,6 +224,7 @@ TEST_F(TwoLevelPlan, WhenEveryAttemptFailsTheSlowFallbackIsReturnedAndMarked) {
   const auto plan = Plan(*map_, request);
   ASSERT_TRUE(plan.ok()) << plan.error().message;
   EXPECT_TRUE(plan->stats.fallback);
+  EXPECT_THAT(plan->stats.fallback_reason, HasSubstr("trajectory verification failed"));
   EXPECT_EQ(plan->stats.optimizer_attempts, request.options.max_attempts);
   ExpectSound(*plan, request);
   // An ordinary plan is not marked (on the floor: on this map's ramp, rough at 0.1 m, the

@@ -302,6 +302,29 @@ TEST(SnapToSurface, PicksTheLevelTheHeightPointsAtAndNamesTheNearestWhenNoneIsNe
   EXPECT_EQ(snap.error().code, ErrorCode::kInvalidInput);
 }
 
+// A node `accept` turns down is never snapped to: the nearest accepted one within tolerance
+// is, and when none is, the error names what the refused nodes lack.
+TEST(SnapToSurface, SnapsOnlyToAcceptedNodes) {
+  const SurfaceGraph& graph = Graph();
+  const double ref = Params().reference_height_m;
+  const Eigen::Vector3d p(0.33, 0.33, ref);
+  const auto own = SnapToSurface(graph, p, 1.0, ErrorCode::kStartOffGround);
+  ASSERT_TRUE(own.ok());
+  const int refused = own->node;
+  const auto other = SnapToSurface(graph, p, 1.0, ErrorCode::kStartOffGround,
+                                   [&](int node) { return node != refused; });
+  ASSERT_TRUE(other.ok()) << other.error().message;
+  EXPECT_NE(other->node, refused);
+  EXPECT_LE((graph.position(other->node) - graph.position(refused)).head<2>().norm(),
+            std::sqrt(2.0) * graph.grid().resolution_m + 1e-9);  // A neighbouring column.
+  const auto none = SnapToSurface(graph, p, 1.0, ErrorCode::kGoalOffGround,
+                                  [](int) { return false; }, "too close to a wall");
+  ASSERT_FALSE(none.ok());
+  EXPECT_EQ(none.error().code, ErrorCode::kGoalOffGround);
+  EXPECT_THAT(none.error().message, HasSubstr("all traversable ground within 1.00 m puts the "
+                                              "robot's reference point too close to a wall"));
+}
+
 TEST(SurfaceGraph, BuildRefusesBadParametersNamingTheField) {
   TraversabilityParams p = Params();
   p.reference_height_m = 0.6;  // Above the body.

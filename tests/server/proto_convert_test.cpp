@@ -85,6 +85,52 @@ TEST(ProtoConvertTest, MalformedTrajectoriesNameTheField) {
   EXPECT_EQ(FieldOf(FromProto(message).error()), "pieces[0].axes[2].coefficients");
 }
 
+// A warm start arrives as the trajectory a Plan returned (fields blamed under
+// warm_start.trajectory), with elapsed_s when set and -1 (the nearest point) when not.
+TEST(ProtoConvertTest, WarmStartsArriveAsTheTrajectoryAndBlameTheirFields) {
+  v1::WarmStart message;
+  const Trajectory original = RandomTrajectory(3, 4, 11);
+  ToProto(original, message.mutable_trajectory());
+  Result<WarmStart> unset = WarmStartFromRequest(message);
+  ASSERT_TRUE(unset.ok()) << unset.error().message;
+  EXPECT_EQ(unset->elapsed_s, -1);
+  ASSERT_EQ(unset->trajectory.pieces.size(), original.pieces.size());
+  EXPECT_EQ(unset->trajectory.pieces[2].coefficients, original.pieces[2].coefficients);
+  message.set_elapsed_s(1.5);
+  EXPECT_EQ(WarmStartFromRequest(message)->elapsed_s, 1.5);
+  message.set_elapsed_s(-1);
+  EXPECT_EQ(FieldOf(WarmStartFromRequest(message).error()), "warm_start.elapsed_s");
+  message.set_elapsed_s(std::nan(""));
+  EXPECT_EQ(FieldOf(WarmStartFromRequest(message).error()), "warm_start.elapsed_s");
+  message.clear_elapsed_s();
+  message.mutable_trajectory()->mutable_pieces(3)->set_duration_s(-2);
+  EXPECT_EQ(FieldOf(WarmStartFromRequest(message).error()),
+            "warm_start.trajectory.pieces[3].duration_s");
+  message.mutable_trajectory()->clear_pieces();
+  EXPECT_EQ(FieldOf(WarmStartFromRequest(message).error()), "warm_start.trajectory.pieces");
+}
+
+// The plan's figures reach the response, the new ones included.
+TEST(ProtoConvertTest, PlanStatsArriveWhole) {
+  PlanStats stats;
+  stats.length_m = 12.5;
+  stats.time_stretch = 1.02;
+  stats.warm_started = true;
+  stats.fallback = true;
+  stats.fallback_reason = "horizontal acceleration 1.03 m/s^2 exceeds the bound";
+  stats.limiting_bound = "vertical_speed";
+  stats.limiting_bound_fraction = 0.97;
+  v1::PlanStats message;
+  ToProto(stats, &message);
+  EXPECT_EQ(message.length_m(), 12.5);
+  EXPECT_EQ(message.time_stretch(), 1.02);
+  EXPECT_TRUE(message.warm_started());
+  EXPECT_TRUE(message.fallback());
+  EXPECT_EQ(message.fallback_reason(), stats.fallback_reason);
+  EXPECT_EQ(message.limiting_bound(), "vertical_speed");
+  EXPECT_EQ(message.limiting_bound_fraction(), 0.97);
+}
+
 TEST(ProtoConvertTest, TerrainParametersDefaultAndBlameTheirField) {
   const AssessmentConfig defaults;
   Result<AssessmentConfig> unset = FromProto(v1::TerrainParameters(), "terrain");

@@ -83,6 +83,51 @@ TEST_F(PlannerServiceTest, PlansFromTheFloorOntoTheDeckOfTheDemo) {
   EXPECT_NEAR(response.samples(0).position_m().x(), 2, 0.2);
 }
 
+// A robot replanning on the way sends its state and the trajectory it follows: the plan
+// continues that trajectory (no search) and says so; a malformed warm start is blamed by its
+// field.
+TEST_F(PlannerServiceTest, AReplanWithTheFollowedTrajectoryStartsWarm) {
+  ASSERT_NO_FATAL_FAILURE(StartServer());
+  v1::PlanResponse first;
+  ASSERT_TRUE(Plan(PlanRequestFor("demo", 2, 5.2, 0.3, 13, 8, 0.3), &first).ok());
+  EXPECT_FALSE(first.stats().warm_started());
+  EXPECT_FALSE(first.stats().fallback());
+  EXPECT_FALSE(first.stats().limiting_bound().empty());
+  // Where the robot is 3 s in: evaluated from the response as a client would.
+  const v1::Trajectory& followed = first.trajectory();
+  double t = 3.0;
+  int piece = 0;
+  while (t > followed.pieces(piece).duration_s()) t -= followed.pieces(piece++).duration_s();
+  const auto derivative = [&](int axis, int order) {
+    const v1::Polynomial& p = followed.pieces(piece).axes(axis);
+    double value = 0;
+    for (int k = p.coefficients_size() - 1; k >= order; --k) {
+      double factor = 1;
+      for (int j = 0; j < order; ++j) factor *= k - j;
+      value = value * t + factor * p.coefficients(k);
+    }
+    return value;
+  };
+  v1::PlanRequest replan = PlanRequestFor("demo", derivative(0, 0), derivative(1, 0),
+                                          derivative(2, 0), 13, 8, 0.3);
+  replan.mutable_start()->mutable_velocity_mps()->set_x(derivative(0, 1));
+  replan.mutable_start()->mutable_velocity_mps()->set_y(derivative(1, 1));
+  replan.mutable_start()->mutable_acceleration_mps2()->set_x(derivative(0, 2));
+  replan.mutable_start()->mutable_acceleration_mps2()->set_y(derivative(1, 2));
+  *replan.mutable_warm_start()->mutable_trajectory() = followed;
+  replan.mutable_warm_start()->set_elapsed_s(3.0);
+  v1::PlanResponse warm;
+  const grpc::Status status = Plan(replan, &warm);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  ExpectConsistentPlan(warm);
+  EXPECT_TRUE(warm.stats().warm_started());
+  EXPECT_EQ(warm.stats().search_expansions(), 0);
+  replan.mutable_warm_start()->mutable_trajectory()->mutable_pieces(0)->set_duration_s(0);
+  const grpc::Status bad = Plan(replan, &warm);
+  EXPECT_EQ(bad.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_THAT(bad.error_message(), HasSubstr("warm_start.trajectory.pieces[0].duration_s"));
+}
+
 TEST_F(PlannerServiceTest, PlansUpTheFirstTurnOfTheSpiralGarage) {
   if (!HaveSpiral()) GTEST_SKIP() << "shared maps not found in " << STRATA_SHARED_MAPS_DIR;
   ASSERT_NO_FATAL_FAILURE(StartServer());

@@ -89,9 +89,10 @@ struct PlanOptions {
   OptimizerConfig optimizer;  ///< Weights, thresholds, L-BFGS settings.
   VerifierConfig verifier;    ///< Tolerances of the final check.
   /// Optimisations to try before giving up [-], in [1, 10]. After a failed verification the
-  /// next attempt stiffens the penalties: the safety, edge, ground, feasibility and keep-out
-  /// weights ×4, the piece length ×0.7 (more constraint points), the limit margin ×0.95 and the
-  /// initial speed ×0.75 (Plan in planner/src/planner.cpp). When every attempt fails, the slow
+  /// next attempt stiffens the penalties: the obstacle distance's stiffness and the edge,
+  /// ground, feasibility and keep-out weights ×4, the ground's dead band ×0.25, the piece
+  /// length ×0.7 (more constraint points), the limit margin ×0.95 and the initial speed ×0.75
+  /// (Plan in planner/src/planner.cpp). When every attempt fails, the slow
   /// fallback is tried (PlanStats::fallback).
   int max_attempts = 3;
   Status Validate(std::string_view path = "options") const;
@@ -163,6 +164,13 @@ struct PlanStats {
   /// With fallback: why the last optimised trajectory failed verification (its first
   /// violation), e.g. "horizontal acceleration 1.03 m/s^2 exceeds the bound 1 m/s^2 at ...".
   std::string fallback_reason;
+  /// The dynamic bound the trajectory comes closest to: "horizontal_speed", "vertical_speed",
+  /// "horizontal_acceleration" or "vertical_acceleration", the one whose peak is the largest
+  /// fraction of the profile's bound. Where a trajectory takes longer than its length at the
+  /// speed bound, this says what held it back (a slope's vertical speed, a turn's
+  /// acceleration).
+  std::string limiting_bound;
+  double limiting_bound_fraction = 0;  ///< That peak over that bound [-].
   PlanTimings timings;
 };
 

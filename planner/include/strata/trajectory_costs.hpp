@@ -11,7 +11,8 @@
 /// - J_e: staying on traversable ground, C(e_margin − e(p)) with e the distance to the rim of
 ///   the traversable region (SampleEdgeDistance, terrain_query.hpp). Not in the paper: S' marks the
 ///   rim only as rough ground, so a trajectory could cut across a corner of untraversable ground.
-/// - J_g: ground following, (z − h_G(x, y) − h_ref)². Not in the paper, whose trajectories
+/// - J_g: ground following, D(z − h_G(x, y) − h_ref)² with D the dead band of
+///   CostConfig::ground_band_m (offsets within it cost nothing). Not in the paper, whose trajectories
 ///   float above flat ground; the smooth ground height h_G comes from SampleGround
 ///   (terrain_query.hpp).
 /// - J_d: feasibility, C(‖v_xy‖² − v_h²) + C(v_z² − v_v²) and the same for acceleration.
@@ -82,6 +83,12 @@ struct CostConfig {
   /// Distance to the rim of traversable ground below which J_e penalises (e_margin) [m], in
   /// [0, 1]; at most half a grid cell keeps the centres of rim cells free of penalty.
   double edge_margin_m = 0.1;
+  /// J_g penalises the reference point's height offset from ground + reference height only
+  /// beyond this band [m], >= 0, below the verifier's ground tolerance. A pull on every
+  /// centimetre of offset pulled the trajectory sideways on slopes as well (towards where the
+  /// ground lay at its height): gentle weaving that added a fifth to the median curvature on
+  /// uneven_terrain.
+  double ground_band_m = 0.01;
   /// The speed and acceleration bounds J_d aims for, as a fraction of the profile's, in
   /// (0, 1]: penalties are soft, so aiming a little low lands within them.
   double limit_margin = 0.96;
