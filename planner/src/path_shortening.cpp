@@ -55,6 +55,10 @@ std::vector<int> WalkStraight(const SurfaceGraph& graph, int from, int to,
 
 namespace {
 
+// How fast the rim and obstacle allowance of a tight end grows back, per metre travelled
+// from it (ShortenPath).
+constexpr double kAllowanceSlope = 0.5;
+
 // Vertices tried from the farthest inwards before the vertex-by-vertex scan (ShortenPath).
 constexpr std::size_t kFarCandidates = 8;
 
@@ -130,14 +134,21 @@ PathResult ShortenPath(const SurfaceGraph& graph, const PathResult& path,
   const double r = graph.grid().resolution_m;
   // The walk of the line from node a to node b, or empty when it leaves the graph, crosses a
   // blocked node, passes nearer the rim than one and a half cells or nearer an obstacle than
-  // the search's margin (unless an end is nearer: then as near as that end), or costs more
-  // than `budget` in the search's own terms.
+  // the search's margin, or costs more than `budget` in the search's own terms. Where an end
+  // is nearer (the path squeezed past a corner there), the line may be as near at that end,
+  // the allowance growing back at half the distance travelled from it: a line may leave a
+  // tight spot, not run along the rim from it.
   const auto line = [&](int a, int b, double budget) {
-    const double rim_floor =
-        std::min({graph.edge_distance(a), graph.edge_distance(b), 1.5 * r});
-    const double clearance_floor =
-        std::min({graph.clearance(a), graph.clearance(b), search.clearance_margin_m});
+    const Eigen::Vector2d pa = graph.position(a).head<2>(), pb = graph.position(b).head<2>();
+    const double rim_a = graph.edge_distance(a), rim_b = graph.edge_distance(b);
+    const double clear_a = graph.clearance(a), clear_b = graph.clearance(b);
     std::vector<int> walk = WalkStraight(graph, a, b, [&](int m) {
+      const Eigen::Vector2d p = graph.position(m).head<2>();
+      const double from_a = kAllowanceSlope * (p - pa).norm();
+      const double from_b = kAllowanceSlope * (p - pb).norm();
+      const double rim_floor = std::min({1.5 * r, rim_a + from_a, rim_b + from_b});
+      const double clearance_floor =
+          std::min({search.clearance_margin_m, clear_a + from_a, clear_b + from_b});
       return graph.edge_distance(m) >= rim_floor && graph.clearance(m) >= clearance_floor &&
              !(blocked && m != nodes.front() && m != nodes.back() && blocked(m));
     });
