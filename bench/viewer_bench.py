@@ -69,9 +69,9 @@ def plan(browser, start, goal, robot="differential"):
 
 
 def site_query(server):
-    """Two far-apart points on the largest connected ground of the site, for the differential."""
+    """Two far-apart points on the largest connected ground of the site, for the biped."""
     g = server.call("strata.v1.MapService/GetMapGeometry",
-                    {"map_id": "site", "profile_name": "differential", "max_bytes": 2000000})
+                    {"map_id": "site", "profile_name": "biped", "max_bytes": 2000000})
     sizes = {}
     for c in g["ground_component"]:
         if c >= 0:
@@ -83,9 +83,16 @@ def site_query(server):
             x = g["origin_m"]["x"] + (cell % g["nx"] + 0.5) * g["cell_size_m"]
             y = g["origin_m"]["y"] + (cell // g["nx"] + 0.5) * g["cell_size_m"]
             points.append((x, y, z + 0.3))
-    # Towards two opposite corners of the site.
-    start = min(points, key=lambda p: p[0] + p[1])
-    goal = max(points, key=lambda p: p[0] + 0.5 * p[1])
+    # Nearest to a fifth of the way in from two opposite corners (away from the site's rim).
+    xs = [p[0] for p in points]
+    ys = [p[1] for p in points]
+
+    def nearest(fx, fy):
+        x = min(xs) + fx * (max(xs) - min(xs))
+        y = min(ys) + fy * (max(ys) - min(ys))
+        return min(points, key=lambda p: (p[0] - x) ** 2 + (p[1] - y) ** 2)
+
+    start, goal = nearest(0.2, 0.2), nearest(0.8, 0.75)
     return ",".join(f"{v:.2f}" for v in start), ",".join(f"{v:.2f}" for v in goal)
 
 

@@ -328,8 +328,9 @@ ServiceStatus MapServiceImpl::GetMapGeometry(const v1::GetMapGeometryRequest& re
                              (stride == kMaxGeometryStride
                                   ? std::string("allow a larger max_bytes")
                                   : "ask for stride " + std::to_string(fits) +
-                                        " or more (0 picks the smallest that fits), or a "
-                                        "larger max_bytes (up to --max-send-message-bytes)"))
+                                        " or more (0 lets the server pick one that fits), "
+                                        "or a larger max_bytes (up to "
+                                        "--max-send-message-bytes)"))
             .Blame(request.stride() != 0 ? "stride" : "max_bytes");
       }
       stride = fits;

@@ -1,5 +1,8 @@
 // The 3D view (WebGL 1): every surface as a square point at its height, coloured as in the top
-// view, the plan's lines and markers; drag to orbit, wheel to zoom, shift-drag to pan.
+// view, the plan's lines and markers; drag to orbit, wheel to zoom, shift-drag to pan. While
+// the view moves it draws every other cell each way, twice as wide (a quarter of the points),
+// and all of them once it rests: large maps stay interactive without a GPU (Chromium's
+// software WebGL draws the spiral's 150,000 points at under 10 frames/s).
 
 // Levels the shader shows and hides one by one (higher ones go with the last); one more slot
 // holds the plan's lines and markers, always shown.
@@ -76,6 +79,8 @@ export class OrbitView {
     this.batches = {};
     this.levels = new Set([0]);
     this.frameRequested = false;
+    this.moving = false;
+    this.restTimer = null;
     if (!this.available) return;
     const gl = this.gl;
     this.program = gl.createProgram();
@@ -113,12 +118,14 @@ export class OrbitView {
         this.yaw = down.yaw - dx * 0.008;
         this.pitch = Math.min(1.55, Math.max(0.05, down.pitch + dy * 0.008));
       }
+      this.moved();
       this.requestRender();
     });
     this.canvas.addEventListener('pointerup', () => { down = null; });
     this.canvas.addEventListener('wheel', (e) => {
       e.preventDefault();
       this.distance *= Math.exp(e.deltaY * 0.0015);
+      this.moved();
       this.requestRender();
     }, { passive: false });
   }
@@ -141,28 +148,43 @@ export class OrbitView {
     this.requestRender();
   }
 
-  // The map's surfaces under `style` (as TopView.setStyle).
+  // The map's surfaces under `style` (as TopView.setStyle): all of them, and the quarter
+  // drawn while the view moves.
   setModel(model, style) {
     this.model = model;
     this.levels = style.levels;
-    const positions = [];
-    const colors = [];
-    const levels = [];
-    const add = (cell, z, level, color) => {
-      const [x, y] = model.cellCenter(cell);
-      positions.push(x, y, z);
-      colors.push(...color);
-      levels.push(Math.min(level, MAX_LEVELS - 1));
-    };
-    for (let i = 0; i < model.ground.z.length; ++i) {
-      add(model.ground.cell[i], model.ground.z[i], model.ground.level[i], model.groundColor(i, style));
-    }
-    if (style.obstacles) {
-      for (let i = 0; i < model.obstacle.z.length; ++i) {
-        add(model.obstacle.cell[i], model.obstacle.z[i], model.obstacle.level[i], model.obstacleColor());
+    for (const coarse of [false, true]) {
+      const positions = [];
+      const colors = [];
+      const levels = [];
+      const add = (cell, z, level, color) => {
+        if (coarse && ((cell % model.nx) % 2 !== 0 || Math.floor(cell / model.nx) % 2 !== 0)) return;
+        const [x, y] = model.cellCenter(cell);
+        positions.push(x + (coarse ? 0.5 * model.cellSize : 0), y + (coarse ? 0.5 * model.cellSize : 0), z);
+        colors.push(...color);
+        levels.push(Math.min(level, MAX_LEVELS - 1));
+      };
+      for (let i = 0; i < model.ground.z.length; ++i) {
+        add(model.ground.cell[i], model.ground.z[i], model.ground.level[i], model.groundColor(i, style));
       }
+      if (style.obstacles) {
+        for (let i = 0; i < model.obstacle.z.length; ++i) {
+          add(model.obstacle.cell[i], model.obstacle.z[i], model.obstacle.level[i], model.obstacleColor());
+        }
+      }
+      this.setBatch(coarse ? 'surfaces-moving' : 'surfaces', 'POINTS', positions, colors, levels,
+        coarse ? 2 : 1);
     }
-    this.setBatch('surfaces', 'POINTS', positions, colors, levels);
+  }
+
+  // Marks the view as moving: the coarse points until 200 ms after the last call.
+  moved() {
+    this.moving = true;
+    clearTimeout(this.restTimer);
+    this.restTimer = setTimeout(() => {
+      this.moving = false;
+      this.requestRender();
+    }, 200);
   }
 
   // Fits the whole map in the view.
@@ -170,7 +192,7 @@ export class OrbitView {
     if (!this.model) return;
     const b = this.model.bounds();
     this.target = [(b.xMin + b.xMax) / 2, (b.yMin + b.yMax) / 2, (this.model.zMin + this.model.zMax) / 2];
-    this.distance = 1.1 * Math.max(b.xMax - b.xMin, b.yMax - b.yMin, this.model.zMax - this.model.zMin);
+    this.distance = 0.8 * Math.max(b.xMax - b.xMin, b.yMax - b.yMin, this.model.zMax - this.model.zMin);
     this.requestRender();
   }
 
@@ -179,7 +201,7 @@ export class OrbitView {
   // whatever the levels.
   setOverlay(items) {
     for (const name of Object.keys(this.batches)) {
-      if (name !== 'surfaces') {
+      if (!name.startsWith('surfaces')) {
         this.batches[name].buffers.forEach((b) => this.gl.deleteBuffer(b));
         delete this.batches[name];
       }
@@ -231,7 +253,8 @@ export class OrbitView {
     for (let l = 0; l < MAX_LEVELS; ++l) visible[l] = this.levels.has(l) ? 1 : 0;
     visible[OVERLAY_SLOT] = 1;
     gl.uniform1fv(this.uniforms.levelVisible, visible);
-    for (const batch of Object.values(this.batches)) {
+    for (const [name, batch] of Object.entries(this.batches)) {
+      if (name === (this.moving ? 'surfaces' : 'surfaces-moving')) continue;
       gl.uniform1f(this.uniforms.pointScale, pointScale * batch.pointFactor);
       batch.buffers.forEach((buffer, i) => {
         gl.bindBuffer(gl.ARRAY_BUFFER, buffer);
@@ -242,7 +265,8 @@ export class OrbitView {
     }
   }
 
-  // Orbits for `seconds`, drawing every animation frame; resolves to frames/s.
+  // Orbits for `seconds`, drawing every animation frame (as the view moves: the coarse
+  // points); resolves to frames/s.
   measureFrames(seconds) {
     return new Promise((resolve) => {
       const yaw0 = this.yaw;
@@ -251,6 +275,7 @@ export class OrbitView {
       const step = (now) => {
         const t = (now - start) / 1000;
         this.yaw = yaw0 + t * 0.8;
+        this.moved();
         this.render();
         ++frames;
         if (t < seconds) {

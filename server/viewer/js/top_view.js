@@ -185,7 +185,9 @@ export class TopView {
       circle.setAttribute('cy', sy);
       circle.setAttribute('r', marker.hollow ? 7 : 5);
       circle.setAttribute('fill', marker.hollow ? 'none' : marker.color);
-      if (marker.hollow) circle.setAttribute('stroke', marker.color);
+      // A requested point: a ring of its colour (a style property: it beats the stylesheet's
+      // black outline, and the page's content security policy allows it, unlike an attribute).
+      if (marker.hollow) circle.style.stroke = marker.color;
       g.appendChild(circle);
       if (marker.label) {
         const text = document.createElementNS(SVG_NS, 'text');
