@@ -18,6 +18,7 @@ import os
 import statistics
 import sys
 
+sys.dont_write_bytecode = True  # No __pycache__ in the source tree.
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests", "server"))
 from viewer_driver import Browser, Server, browser_missing  # noqa: E402
 

@@ -11,7 +11,8 @@ import math
 import subprocess
 import sys
 
-from viewer_driver import Browser, Server, browser_missing
+sys.dont_write_bytecode = True  # No __pycache__ in the source tree.
+from viewer_driver import Browser, Server, browser_missing  # noqa: E402
 
 SKIP = 77
 START = "2,2,0.3"
