@@ -2,8 +2,9 @@
 """The web viewer in a real browser (CTest viewer_browser_test): a real strata-server with the
 demo map, Debian's headless Chromium through Selenium. Checks that the page loads without a
 console error, lists the demo map, plans floor to deck from the form and draws the trajectory
-with the length a gRPC client gets (the strata CLI), and shows an impossible goal's error with
-the nearest valid point. Exits 77 (CTest's skip) only when the browser cannot run here."""
+with the length a gRPC client gets (the strata CLI), draws a plan under the deck dotted until
+the deck's level is hidden, and shows an impossible goal's error with the nearest valid
+point. Exits 77 (CTest's skip) only when the browser cannot run here."""
 
 import argparse
 import json
@@ -18,6 +19,7 @@ SKIP = 77
 START = "2,2,0.3"
 GOAL = "10,10,3.3"  # The upper deck.
 OFF_GROUND_GOAL = "40,40,0.3"  # Outside the hall.
+UNDER_DECK_START, UNDER_DECK_GOAL = "2,9,0.3", "15,9,0.3"  # Along the floor under the deck.
 
 
 def grpc_plan_length(cli, address):
@@ -29,10 +31,10 @@ def grpc_plan_length(cli, address):
     return json.loads(out)["stats"]["length_m"]
 
 
-def plan_from_page(browser, goal):
+def plan_from_page(browser, goal, start=START):
     """Types start and goal into the form, plans, and waits for the result or the error."""
     driver = browser.driver
-    for field, value in (("start", START), ("goal", goal), ("budget", "30")):
+    for field, value in (("start", start), ("goal", goal), ("budget", "30")):
         box = driver.find_element("id", field)
         box.clear()
         box.send_keys(value)
@@ -89,6 +91,19 @@ def main():
         assert "level 1" in goal_label, goal_label
         assert driver.find_element("id", "search-path").get_attribute("points")
         assert driver.find_elements("css selector", "#profile polyline.reference")
+
+        # Along the floor under the deck: drawn dotted while the deck (level 1) is shown, solid
+        # once it is hidden.
+        plan_from_page(browser, UNDER_DECK_GOAL, start=UNDER_DECK_START)
+        assert not driver.find_elements("id", "plan-error"), driver.find_element("id", "plan-error").text
+        count = "[...document.querySelectorAll('#trajectory line')].filter((l) => l.classList.contains('covered')).length"
+        total = len(driver.find_elements("css selector", "#trajectory line"))
+        covered = driver.execute_script(f"return {count};")
+        assert covered > 0.8 * total, f"{covered} of {total} segments under the deck drawn dotted"
+        driver.find_element("css selector", '#levels input[data-level="1"]').click()
+        covered = driver.execute_script(f"return {count};")
+        assert covered == 0, f"{covered} segments still dotted with the deck hidden"
+        driver.find_element("css selector", '#levels input[data-level="1"]').click()
 
         errors = browser.console_errors()
         assert not errors, f"console errors: {errors}"

@@ -181,6 +181,8 @@ function buildLevelControls(count) {
       topView.requestRender();
       orbitView.levels = state.style.levels;
       orbitView.requestRender();
+      // What a level covers changes with it.
+      if (state.shown && state.shown.response) showPlan(state.shown.request, state.shown.response);
     });
     label.append(input, ` ${level}`);
     box.appendChild(label);
@@ -221,6 +223,13 @@ function drawLegend() {
 
 function visibleLevel(level) {
   return state.style.levels.has(level);
+}
+
+// Whether ground of a level shown lies over the reference point (x, y, z): more than half a
+// metre above it, so the robot's own ground never counts.
+function covered(x, y, z) {
+  const ground = state.model ? state.model.topGround(x, y, visibleLevel) : null;
+  return ground !== null && ground.z > z + 0.5;
 }
 
 function pick(x, y) {
@@ -306,7 +315,7 @@ function showPlan(request, response) {
     state.style.color = $('show-safety').checked ? 'safety' : 'height';
     restyle();
   }
-  showDrawing(planDrawing({ samples, response, request, length: drawnLength }));
+  showDrawing(planDrawing({ samples, response, request, length: drawnLength, covered }));
   const s = response.stats;
   const t = s.timings;
   const result = $('plan-result');

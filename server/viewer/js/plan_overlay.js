@@ -1,6 +1,6 @@
-// A plan drawn over the map: the trajectory coloured by horizontal speed, the A* path dashed,
-// the requested and snapped start and goal with their levels; in the top view's SVG overlay
-// and as the 3D view's lines and points.
+// A plan drawn over the map: the trajectory coloured by horizontal speed (dotted where a level
+// shown lies over it), the A* path dashed, the requested and snapped start and goal with their
+// levels; in the top view's SVG overlay and as the 3D view's lines and points.
 
 import { heatColor, css } from './colors.js';
 
@@ -21,13 +21,20 @@ function position(v) {
 
 // What to draw for a plan: `samples` (sampleTrajectory), `response` (PlanResponse, or null for
 // a failed plan), `request` (PlanRequest), `nearest` ({ point: [x, y, z], level, which }) for
-// an off-ground start or goal.
-export function planDrawing({ samples = [], response = null, request = null, nearest = null, length = 0 }) {
+// an off-ground start or goal; `covered(x, y, z)` tells whether a level shown in the top view
+// lies over a point (segments there are drawn dotted).
+export function planDrawing({
+  samples = [], response = null, request = null, nearest = null, length = 0, covered = () => false,
+}) {
   const maxSpeed = response ? response.profile.max_speed_horizontal_mps : 1;
   const segments = [];
   for (let i = 1; i < samples.length; ++i) {
     const speed = 0.5 * (samples[i - 1].speed + samples[i].speed);
-    segments.push({ a: samples[i - 1].p, b: samples[i].p, color: heatColor(speed / maxSpeed) });
+    const a = samples[i - 1].p;
+    const b = samples[i].p;
+    segments.push({
+      a, b, color: heatColor(speed / maxSpeed), covered: covered((a[0] + b[0]) / 2, (a[1] + b[1]) / 2, (a[2] + b[2]) / 2),
+    });
   }
   const path = response ? (response.search_path_m || []).map(position) : [];
   const markers = [];
@@ -73,10 +80,12 @@ export function drawSvg(worldGroup, drawing) {
       'data-length-m': drawing.length.toFixed(4),
       'data-segments': drawing.segments.length,
     });
-    for (const { a, b, color } of drawing.segments) {
-      group.appendChild(svg('line', {
+    for (const { a, b, color, covered } of drawing.segments) {
+      const line = svg('line', {
         x1: a[0], y1: a[1], x2: b[0], y2: b[1], stroke: css(color), 'vector-effect': 'non-scaling-stroke',
-      }));
+      });
+      if (covered) line.setAttribute('class', 'covered');
+      group.appendChild(line);
     }
     worldGroup.appendChild(group);
   }
