@@ -1,15 +1,16 @@
 #!/usr/bin/python3
-"""The web viewer's load time and frame rate on the shared spiral map, and the README's
-screenshots (the spiral and a site scene, each with a plan), in Debian's headless Chromium.
+"""The web viewer's load time and frame rate on the shared maps (spiral, scene20.2) and a site
+scene, and the README's screenshots (the spiral and the site, each with a plan), in Debian's
+headless Chromium.
 
   /usr/bin/python3 bench/viewer_bench.py --server build/server/strata-server \\
       [--maps ../shared/maps] [--runs 5] [--screenshots docs/img]
 
-Starts strata-server with the spiral at 0.2 m, the outdoor_site scene and the demo preloaded
-and the viewer on; for each of --runs fresh page loads of `#map=spiral` it reads the
-navigation timing and the time the map's first frame was drawn (the page's
-`strata-map-drawn:ID` mark), then pans the top view and orbits the 3D view for 3 s each,
-counting animation frames. Prints the medians. With --screenshots, plans on both maps from the
+Starts strata-server with the spiral and scene20.2 at 0.2 m, the outdoor_site scene and the
+demo preloaded and the viewer on; for each map and each of --runs fresh page loads of
+`#map=ID` it reads the navigation timing and the time the map's first frame was drawn (the
+page's `strata-map-drawn:ID` mark), then pans the top view and orbits the 3D view for 3 s
+each, counting animation frames. Prints the medians. With --screenshots, plans on both maps from the
 page and saves viewer_spiral.png, viewer_spiral_3d.png and viewer_site.png there. Run it under
 the shared lock (flock /tmp/strata-heavy.lock ...): it measures."""
 
@@ -111,29 +112,32 @@ def main():
 
     server = Server(args.server, ["--map-root", args.maps,
                                   "--preload", "spiral=spiral0.3_2.pcd,resolution_m=0.2",
+                                  "--preload", "s20=scene20.2.pcd,resolution_m=0.2",
                                   "--preload", "site=scene:outdoor_site",
                                   "--preload", "demo=scene:two_level_ramp"])
     browser = None
     try:
-        for map_id in ("spiral", "site", "demo"):
+        for map_id in ("spiral", "s20", "site", "demo"):
             server.wait_active(map_id, 300)
         browser = Browser(width=1280, height=800)
-        loads, tops, orbits = [], [], []
-        for _ in range(args.runs):
-            loads.append(open_map(browser, server.url, "spiral"))
-            tops.append(frames_per_second(browser, "top"))
-            orbits.append(frames_per_second(browser, "orbit"))
-        first = loads[0]
-        print(f"spiral at 0.2 m: {first['surfaces']} surfaces drawn at stride {first['stride']}")
-        for key, name in (("response_ms", "page received"), ("load_ms", "page loaded (load event)"),
-                          ("drawn_ms", "map drawn (first frame)")):
-            values = [run[key] for run in loads]
-            print(f"  {name}: median {statistics.median(values):.0f} ms "
-                  f"(min {min(values):.0f}, max {max(values):.0f}) after navigation start")
-        print(f"  top view, panning: median {statistics.median(tops):.1f} frames/s "
-              f"(min {min(tops):.1f}, max {max(tops):.1f})")
-        print(f"  3D view, orbiting: median {statistics.median(orbits):.1f} frames/s "
-              f"(min {min(orbits):.1f}, max {max(orbits):.1f})")
+        for map_id, name in (("spiral", "spiral0.3_2 at 0.2 m"), ("s20", "scene20.2 at 0.2 m"),
+                             ("site", "outdoor_site (100 m, 0.2 m)")):
+            loads, tops, orbits = [], [], []
+            for _ in range(args.runs):
+                loads.append(open_map(browser, server.url, map_id))
+                tops.append(frames_per_second(browser, "top"))
+                orbits.append(frames_per_second(browser, "orbit"))
+            first = loads[0]
+            print(f"{name}: {first['surfaces']} surfaces drawn at stride {first['stride']}")
+            for key, what in (("response_ms", "page received"), ("load_ms", "page loaded (load event)"),
+                              ("drawn_ms", "map drawn (first frame)")):
+                values = [run[key] for run in loads]
+                print(f"  {what}: median {statistics.median(values):.0f} ms "
+                      f"(min {min(values):.0f}, max {max(values):.0f}) after navigation start")
+            print(f"  top view, panning: median {statistics.median(tops):.1f} frames/s "
+                  f"(min {min(tops):.1f}, max {max(tops):.1f})")
+            print(f"  3D view, orbiting: median {statistics.median(orbits):.1f} frames/s "
+                  f"(min {min(orbits):.1f}, max {max(orbits):.1f})")
 
         if args.screenshots:
             os.makedirs(args.screenshots, exist_ok=True)

@@ -1,13 +1,15 @@
 // The 3D view (WebGL 1): every surface as a square point at its height, coloured as in the top
 // view, the plan's lines and markers; drag to orbit, wheel to zoom, shift-drag to pan. While
-// the view moves it draws every other cell each way, twice as wide (a quarter of the points),
-// and all of them once it rests: large maps stay interactive without a GPU (Chromium's
-// software WebGL draws the spiral's 150,000 points at under 10 frames/s).
+// the view moves it draws every k-th cell each way, k cells wide (k >= 2, so that about
+// MOVING_POINTS are drawn), and all of them once it rests: large maps stay interactive without
+// a GPU (Chromium's software WebGL draws the spiral's 150,000 points at under 10 frames/s).
 
 // Levels the shader shows and hides one by one (higher ones go with the last); one more slot
 // holds the plan's lines and markers, always shown.
 const MAX_LEVELS = 16;
 const OVERLAY_SLOT = MAX_LEVELS;
+// Points drawn while the view moves, about (a quarter of the spiral's surfaces at 0.2 m).
+const MOVING_POINTS = 40000;
 
 const VERTEX_SHADER = `
 attribute vec3 position;
@@ -148,19 +150,23 @@ export class OrbitView {
     this.requestRender();
   }
 
-  // The map's surfaces under `style` (as TopView.setStyle): all of them, and the quarter
-  // drawn while the view moves.
+  // The map's surfaces under `style` (as TopView.setStyle): all of them, and the subset drawn
+  // while the view moves.
   setModel(model, style) {
     this.model = model;
     this.levels = style.levels;
+    // While moving: every step-th cell each way, step cells wide, at most about
+    // MOVING_POINTS points.
+    const step = Math.max(2, Math.ceil(Math.sqrt(model.surfaceCount / MOVING_POINTS)));
     for (const coarse of [false, true]) {
       const positions = [];
       const colors = [];
       const levels = [];
+      const shift = coarse ? 0.5 * (step - 1) * model.cellSize : 0;
       const add = (cell, z, level, color) => {
-        if (coarse && ((cell % model.nx) % 2 !== 0 || Math.floor(cell / model.nx) % 2 !== 0)) return;
+        if (coarse && ((cell % model.nx) % step !== 0 || Math.floor(cell / model.nx) % step !== 0)) return;
         const [x, y] = model.cellCenter(cell);
-        positions.push(x + (coarse ? 0.5 * model.cellSize : 0), y + (coarse ? 0.5 * model.cellSize : 0), z);
+        positions.push(x + shift, y + shift, z);
         colors.push(...color);
         levels.push(Math.min(level, MAX_LEVELS - 1));
       };
@@ -173,7 +179,7 @@ export class OrbitView {
         }
       }
       this.setBatch(coarse ? 'surfaces-moving' : 'surfaces', 'POINTS', positions, colors, levels,
-        coarse ? 2 : 1);
+        coarse ? step : 1);
     }
   }
 
