@@ -26,11 +26,12 @@ RUN mkdir -p /out \
     && strip --strip-unneeded /out/*
 
 FROM debian:bookworm-slim AS runtime
-# Runtime libraries only (their dependencies come along): gRPC and protobuf, prometheus-cpp,
-# PCL common/io/kdtree/sample_consensus (io pulls VTK), OctoMap and OpenMP.
+# Runtime libraries only (their dependencies come along): gRPC and protobuf, prometheus-cpp
+# and civetweb (/metrics and the web viewer), PCL common/io/kdtree/sample_consensus (io pulls
+# VTK), OctoMap and OpenMP. The viewer's page is compiled into strata-server.
 RUN apt-get update \
     && DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends \
-       libgrpc++1.51 libprotobuf32 libprometheus-cpp-pull1.0 \
+       libgrpc++1.51 libprotobuf32 libprometheus-cpp-pull1.0 libcivetweb1 \
        libpcl-common1.13 libpcl-io1.13 libpcl-kdtree1.13 libpcl-sample-consensus1.13 \
        liboctomap1.9 libgomp1 \
     && rm -rf /var/lib/apt/lists/*
@@ -47,11 +48,12 @@ RUN if ldd /usr/local/bin/* | grep 'not found'; then exit 1; fi \
 ENV STRATA_LISTEN=0.0.0.0:50051 \
     STRATA_METRICS_PORT=9090 \
     STRATA_METRICS_ADDRESS=0.0.0.0 \
+    STRATA_HTTP_PORT=8080 \
     STRATA_MAP_ROOT=/maps
 # Map files (PCD, PLY, OctoMap) under the map root; the server only reads them.
 VOLUME ["/maps"]
-# gRPC, Prometheus /metrics.
-EXPOSE 50051 9090
+# gRPC, Prometheus /metrics, the web viewer.
+EXPOSE 50051 9090 8080
 USER 10001:10001
 # SERVING once every preloaded map is ACTIVE; the start period covers a map's assessment.
 HEALTHCHECK --interval=15s --timeout=5s --start-period=120s --retries=3 \

@@ -10,7 +10,8 @@
 
 namespace strata::server {
 
-/// What a token allows. kPlanner: Plan, GetMap, ListMaps (every call that changes nothing).
+/// What a token allows. kPlanner: Plan, ListRecentPlans, GetMap, GetMapGeometry, ListMaps
+/// (every call that changes nothing) and the web viewer's API, which offers only those.
 /// kAdmin: those and CreateMap, UploadMap, UpdateMap, DeleteMap.
 enum class Role { kPlanner, kAdmin };
 

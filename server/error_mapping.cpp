@@ -1,7 +1,6 @@
 #include "error_mapping.hpp"
 
 #include <google/rpc/error_details.pb.h>
-#include <google/rpc/status.pb.h>
 
 namespace strata::server {
 namespace {
@@ -76,10 +75,8 @@ ErrorMapping MapError(const ServiceError::Code& code) {
           planner_code != nullptr ? ErrorCodeName(*planner_code) : "INTERNAL"};
 }
 
-grpc::Status ToGrpcStatus(const ServiceError& error) {
+google::rpc::Status ToStatusProto(const ServiceError& error) {
   const ErrorMapping mapping = MapError(error.code);
-  const std::string message = BoundedText(error.message, kMaxErrorMessageBytes);
-
   google::rpc::ErrorInfo info;
   info.set_reason(std::string(mapping.reason));
   info.set_domain(std::string(kErrorDomain));
@@ -90,7 +87,7 @@ grpc::Status ToGrpcStatus(const ServiceError& error) {
 
   google::rpc::Status status;
   status.set_code(static_cast<int>(mapping.grpc_code));
-  status.set_message(message);
+  status.set_message(BoundedText(error.message, kMaxErrorMessageBytes));
   status.add_details()->PackFrom(info);
   if (!error.field_violations.empty()) {
     google::rpc::BadRequest bad_request;
@@ -102,7 +99,47 @@ grpc::Status ToGrpcStatus(const ServiceError& error) {
     }
     status.add_details()->PackFrom(bad_request);
   }
-  return grpc::Status(mapping.grpc_code, message, status.SerializeAsString());
+  return status;
+}
+
+grpc::Status ToGrpcStatus(const ServiceError& error) {
+  const google::rpc::Status status = ToStatusProto(error);
+  return grpc::Status(static_cast<grpc::StatusCode>(status.code()), status.message(),
+                      status.SerializeAsString());
+}
+
+void ToProto(const ServiceError& error, v1::PlanError* message) {
+  const ErrorMapping mapping = MapError(error.code);
+  message->set_code(std::string(StatusCodeName(mapping.grpc_code)));
+  message->set_reason(std::string(mapping.reason));
+  message->set_message(BoundedText(error.message, kMaxErrorMessageBytes));
+  for (const auto& [key, value] : error.metadata) {
+    (*message->mutable_metadata())[BoundedText(key, kMaxErrorValueBytes)] =
+        BoundedText(value, kMaxErrorValueBytes);
+  }
+}
+
+std::string_view StatusCodeName(grpc::StatusCode code) {
+  switch (code) {
+    case StatusCode::OK: return "OK";
+    case StatusCode::CANCELLED: return "CANCELLED";
+    case StatusCode::UNKNOWN: return "UNKNOWN";
+    case StatusCode::INVALID_ARGUMENT: return "INVALID_ARGUMENT";
+    case StatusCode::DEADLINE_EXCEEDED: return "DEADLINE_EXCEEDED";
+    case StatusCode::NOT_FOUND: return "NOT_FOUND";
+    case StatusCode::ALREADY_EXISTS: return "ALREADY_EXISTS";
+    case StatusCode::PERMISSION_DENIED: return "PERMISSION_DENIED";
+    case StatusCode::RESOURCE_EXHAUSTED: return "RESOURCE_EXHAUSTED";
+    case StatusCode::FAILED_PRECONDITION: return "FAILED_PRECONDITION";
+    case StatusCode::ABORTED: return "ABORTED";
+    case StatusCode::OUT_OF_RANGE: return "OUT_OF_RANGE";
+    case StatusCode::UNIMPLEMENTED: return "UNIMPLEMENTED";
+    case StatusCode::INTERNAL: return "INTERNAL";
+    case StatusCode::UNAVAILABLE: return "UNAVAILABLE";
+    case StatusCode::DATA_LOSS: return "DATA_LOSS";
+    case StatusCode::UNAUTHENTICATED: return "UNAUTHENTICATED";
+    default: return "UNKNOWN";
+  }
 }
 
 }  // namespace strata::server

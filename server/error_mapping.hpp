@@ -8,9 +8,11 @@
 #include <string>
 #include <string_view>
 
+#include <google/rpc/status.pb.h>
 #include <grpcpp/support/status.h>
 
 #include "service_error.hpp"
+#include "strata/v1/planner_service.pb.h"
 
 namespace strata::server {
 
@@ -44,7 +46,18 @@ std::span<const ErrorMapping> ErrorMappingTable();
 /// INTERNAL with the planner's own name as the reason.
 ErrorMapping MapError(const ServiceError::Code& code);
 
-/// The grpc::Status for `error`: its code, message, and details.
+/// The google.rpc.Status of `error` (code, message, ErrorInfo, BadRequest), bounded as
+/// above: what a gRPC client receives in grpc-status-details-bin, and the web viewer's JSON
+/// API as its error body.
+google::rpc::Status ToStatusProto(const ServiceError& error);
+
+/// The grpc::Status for `error`: its code, message, and details (ToStatusProto).
 grpc::Status ToGrpcStatus(const ServiceError& error);
+
+/// The error as RecentPlan records it: the same code, reason, message and metadata.
+void ToProto(const ServiceError& error, v1::PlanError* message);
+
+/// The canonical name of a gRPC status code, e.g. "INVALID_ARGUMENT".
+std::string_view StatusCodeName(grpc::StatusCode code);
 
 }  // namespace strata::server

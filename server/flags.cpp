@@ -82,8 +82,8 @@ CLI::Validator Seconds(bool allow_zero) {
 void AddFlags(CLI::App& app, ParsedFlags& parsed, bool environment) {
   app.description(
       "Serves Strata's gRPC API (strata.v1.MapService, strata.v1.PlannerService, health,\n"
-      "reflection) and Prometheus metrics. Every flag can also be set by the environment\n"
-      "variable shown with it; a flag overrides its variable.");
+      "reflection), Prometheus metrics and, with --http-port, a web viewer. Every flag can\n"
+      "also be set by the environment variable shown with it; a flag overrides its variable.");
   app.formatter(std::make_shared<HelpFormatter>());
   app.set_help_flag("-h,--help", "print this help and exit");
   app.set_version_flag("--version", kVersion, "print the version and exit");
@@ -127,6 +127,21 @@ void AddFlags(CLI::App& app, ParsedFlags& parsed, bool environment) {
             return text.empty() || text.find(':') != std::string::npos
                        ? "'" + text +
                              "' is not a host or IPv4 address (no port: see --metrics-port)"
+                       : std::string();
+          },
+          ""));
+  add("--http-port", config.http_port, "PORT",
+      "web viewer and its JSON API (plain HTTP), on --http-address; 0 picks a free port,\n"
+      "-1 disables it",
+      IntegerIn(-1, 65535));
+  add("--http-address", config.http_address, "HOST",
+      "address the viewer is served on; it answers what gRPC answers, under the same tokens,\n"
+      "so by default wherever gRPC is: 127.0.0.1 keeps it to this machine (required with\n"
+      "--tls-cert: the viewer has no HTTPS)",
+      CLI::Validator(
+          [](std::string& text) {
+            return text.empty() || text.find(':') != std::string::npos
+                       ? "'" + text + "' is not a host or IPv4 address (no port: see --http-port)"
                        : std::string();
           },
           ""));

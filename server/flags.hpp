@@ -43,6 +43,14 @@ struct ServerConfig {
   /// Address (host or IP) /metrics is served on. Metrics carry no token, so by default only
   /// this machine reaches them; a scraper elsewhere (Kubernetes) needs 0.0.0.0.
   std::string metrics_address = "127.0.0.1";
+  /// Port of the web viewer and its JSON API (plain HTTP), on http_address; 0 picks a free
+  /// port (printed at start), negative disables it.
+  int http_port = -1;
+  /// Address (host or IP) the viewer is served on. It answers only what the gRPC API answers,
+  /// under the same tokens, so by default it is reachable wherever gRPC is (unlike /metrics,
+  /// which carries no token); 127.0.0.1 keeps it to this machine, and with tls_cert it must be
+  /// a loopback address (server/http_server.hpp: the viewer has no HTTPS).
+  std::string http_address = "0.0.0.0";
   /// Directory map files are confined to; empty disables file maps.
   std::string map_root;
   /// Maps created at start: --preload, else kDefaultPreload; none with --no-preload.

@@ -57,7 +57,14 @@ int main(int argc, char** argv) {
   LogInfo("listening")
       .Add("address", server->address())
       .Add("metrics_port", server->metrics_port())
+      .Add("http_port", server->http_port())
       .Add("message", "listening on " + server->address());
+  if (server->http_port() >= 0) {
+    const std::string host =
+        config.http_address == "0.0.0.0" ? std::string("localhost") : config.http_address;
+    LogInfo("viewer").Add("message", "web viewer on http://" + host + ":" +
+                                         std::to_string(server->http_port()) + "/");
+  }
 
   std::thread signal_thread([&server, &signals, &config] {
     int signal_number = 0;

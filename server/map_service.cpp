@@ -1,8 +1,11 @@
 #include "map_service.hpp"
 
 #include <algorithm>
+#include <cmath>
+#include <cstdio>
 #include <optional>
 
+#include "map_geometry.hpp"
 #include "map_root.hpp"
 #include "proto_convert.hpp"
 #include "rpc_boundary.hpp"
@@ -184,6 +187,44 @@ grpc::Status MapServiceImpl::UploadMap(grpc::ServerContext* context,
   });
 }
 
+ServiceStatus GetMapFrom(const MapRegistry& registry, const v1::GetMapRequest& request,
+                         v1::Map* response) {
+  Result<MapSnapshot> map = registry.Get(request.map_id());
+  if (!map.ok()) return std::move(map).error().Blame("map_id");
+  ToProto(map.value(), response);
+  return OkStatus();
+}
+
+ServiceStatus ListMapsFrom(const MapRegistry& registry, const v1::ListMapsRequest& request,
+                           v1::ListMapsResponse* response) {
+  if (request.page_size() < 0 || request.page_size() > kMaxPageSize) {
+    return MakeError(ErrorCode::kInvalidInput,
+                     "page_size = " + std::to_string(request.page_size()) +
+                         " is out of range: must be in [0, 1000] (0 means 100)")
+        .Blame("page_size");
+  }
+  const int page_size = request.page_size() == 0 ? kDefaultPageSize : request.page_size();
+  std::string after;
+  if (!request.page_token().empty()) {
+    const std::string& token = request.page_token();
+    const bool well_formed = token.rfind(kPageTokenPrefix, 0) == 0 &&
+                             MapRegistry::ValidateId(token.substr(kPageTokenPrefix.size())).ok();
+    if (!well_formed) {
+      return MakeError(ErrorCode::kInvalidInput,
+                       "page_token is not one this server issued: pass next_page_token of the "
+                       "previous response unchanged, or an empty token for the first page")
+          .Blame("page_token");
+    }
+    after = token.substr(kPageTokenPrefix.size());
+  }
+  const MapPage page = registry.List(after, page_size);
+  for (const MapSnapshot& map : page.maps) ToProto(map, response->add_maps());
+  if (!page.last_id.empty()) {
+    response->set_next_page_token(std::string(kPageTokenPrefix) + page.last_id);
+  }
+  return OkStatus();
+}
+
 grpc::Status MapServiceImpl::GetMap(grpc::ServerContext* context, const v1::GetMapRequest* request,
                                     v1::Map* response) {
   return RunRpc("GetMap", [&](CallLog& log) -> ServiceStatus {
@@ -193,10 +234,7 @@ grpc::Status MapServiceImpl::GetMap(grpc::ServerContext* context, const v1::GetM
     }
     log.map_id = request->map_id();
     log.quiet_on_success = true;
-    Result<MapSnapshot> map = registry_->Get(request->map_id());
-    if (!map.ok()) return std::move(map).error().Blame("map_id");
-    ToProto(map.value(), response);
-    return OkStatus();
+    return GetMapFrom(*registry_, *request, response);
   });
 }
 
@@ -209,33 +247,146 @@ grpc::Status MapServiceImpl::ListMaps(grpc::ServerContext* context,
       return allowed;
     }
     log.quiet_on_success = true;
-    if (request->page_size() < 0 || request->page_size() > kMaxPageSize) {
-      return MakeError(ErrorCode::kInvalidInput,
-                       "page_size = " + std::to_string(request->page_size()) +
-                           " is out of range: must be in [0, 1000] (0 means 100)")
-          .Blame("page_size");
+    return ListMapsFrom(*registry_, *request, response);
+  });
+}
+
+ServiceStatus MapServiceImpl::GetMapGeometry(const v1::GetMapGeometryRequest& request,
+                                             const CallControl& call,
+                                             v1::MapGeometry* response) const {
+  if (request.map_id().empty()) {
+    return MakeError(ErrorCode::kInvalidInput, "map_id is required (ListMaps shows the maps)")
+        .Blame("map_id");
+  }
+  const std::uint64_t cap = options_.max_send_message_bytes;
+  if (request.max_bytes() != 0 &&
+      (request.max_bytes() < kMinGeometryBytes || request.max_bytes() > cap)) {
+    return MakeError(ErrorCode::kInvalidInput,
+                     "max_bytes = " + std::to_string(request.max_bytes()) +
+                         " is out of range: must be 0 (the default) or in [" +
+                         std::to_string(kMinGeometryBytes) + ", " + std::to_string(cap) +
+                         "] (--max-send-message-bytes)")
+        .Blame("max_bytes");
+  }
+  if (request.stride() > static_cast<std::uint32_t>(kMaxGeometryStride)) {
+    return MakeError(ErrorCode::kInvalidInput,
+                     "stride = " + std::to_string(request.stride()) +
+                         " is out of range: must be in [0, " + std::to_string(kMaxGeometryStride) +
+                         "] (0 lets the server pick one that fits max_bytes)")
+        .Blame("stride");
+  }
+  const std::uint64_t max_bytes =
+      request.max_bytes() != 0 ? request.max_bytes() : std::min(kDefaultGeometryBytes, cap);
+  Result<std::optional<RobotProfile>> profile = ProfileFromRequest(request);
+  if (!profile.ok()) return std::move(profile).error();
+  Result<ActiveMap> active = registry_->GetActive(request.map_id(), request.map_version());
+  if (!active.ok()) return std::move(active).error().With("map_id", request.map_id());
+  const PlanningMap& map = *active.value().map;
+  const std::optional<RobotProfile>& robot = profile.value();
+  if (robot.has_value()) {
+    if (Status fits = CheckProfileFitsMap(*robot, map.model().config()); !fits) {
+      return ServiceError::FromPlanner(fits.error(),
+                                       request.has_profile() ? "profile" : "profile_name");
     }
-    const int page_size = request->page_size() == 0 ? kDefaultPageSize : request->page_size();
-    std::string after;
-    if (!request->page_token().empty()) {
-      const std::string& token = request->page_token();
-      const bool well_formed = token.rfind(kPageTokenPrefix, 0) == 0 &&
-                               MapRegistry::ValidateId(token.substr(kPageTokenPrefix.size())).ok();
-      if (!well_formed) {
-        return MakeError(ErrorCode::kInvalidInput,
-                         "page_token is not one this server issued: pass next_page_token of "
-                         "the previous response unchanged, or an empty token for the first "
-                         "page")
-            .Blame("page_token");
+  }
+
+  GeometryRequest geometry;
+  geometry.include_safety = request.include_safety();
+  // S' where the robot's reference point would be; without a robot, the default one's.
+  geometry.safety_height_m = robot.has_value() ? robot->reference_height_m
+                                               : BuiltinProfile("differential")->reference_height_m;
+  // Bytes per surface in the binary encoding, a little above what they take (a cell index,
+  // a height, a level; S' and a component when asked for), for the first stride.
+  const double bytes_per_surface =
+      10.0 + (geometry.include_safety ? 4.0 : 0.0) + (robot.has_value() ? 3.0 : 0.0);
+  const auto extract = [&](const std::function<bool()>& should_stop) -> ServiceStatus {
+    int stride = request.stride() != 0
+                     ? static_cast<int>(request.stride())
+                     : EstimateGeometryStride(map.model(), max_bytes, bytes_per_surface);
+    while (true) {
+      geometry.stride = stride;
+      Expected<MapGeometryData> data = ExtractMapGeometry(map.model(), geometry, should_stop);
+      if (!data) return ServiceError::FromPlanner(data.error(), data.error().field);
+      response->Clear();
+      ToProto(data.value(), response);
+      response->set_map_id(request.map_id());
+      response->set_map_version(active.value().version);
+      if (geometry.include_safety) response->set_safety_height_m(geometry.safety_height_m);
+      const std::size_t bytes = response->ByteSizeLong();
+      if (bytes <= max_bytes) return OkStatus();
+      // The stride that would fit were the surfaces spread evenly (at least one more).
+      const int fits = std::min(
+          kMaxGeometryStride,
+          std::max(stride + 1, static_cast<int>(std::ceil(
+                                   stride * std::sqrt(static_cast<double>(bytes) / max_bytes)))));
+      if (request.stride() != 0 || stride == kMaxGeometryStride) {
+        response->Clear();
+        return MakeError(ErrorCode::kResourceExhausted,
+                         "the map's geometry at stride " + std::to_string(stride) + " takes " +
+                             std::to_string(bytes) + " bytes, more than max_bytes " +
+                             std::to_string(max_bytes) + ": " +
+                             (stride == kMaxGeometryStride
+                                  ? std::string("allow a larger max_bytes")
+                                  : "ask for stride " + std::to_string(fits) +
+                                        " or more (0 lets the server pick one that fits), "
+                                        "or a larger max_bytes (up to "
+                                        "--max-send-message-bytes)"))
+            .Blame(request.stride() != 0 ? "stride" : "max_bytes");
       }
-      after = token.substr(kPageTokenPrefix.size());
+      stride = fits;
     }
-    const MapPage page = registry_->List(after, page_size);
-    for (const MapSnapshot& map : page.maps) ToProto(map, response->add_maps());
-    if (!page.last_id.empty()) {
-      response->set_next_page_token(std::string(kPageTokenPrefix) + page.last_id);
+  };
+  if (!robot.has_value()) return extract(call.cancelled);
+
+  // With a robot, its graph is a plan's first step: it takes a planning slot and the time a
+  // plan may take.
+  PlanningSlots& slots = *options_.planning_slots;
+  return slots.Run(call, [&](const std::function<bool()>& should_stop, double) -> ServiceStatus {
+    const double budget_s = std::min(slots.max_plan_time_s(), WorkSecondsLeft(call.LeftSeconds()));
+    if (budget_s <= 0) return DeadlineLeavesNoTime(call.LeftSeconds());
+    const auto deadline = SteadyClock::now() + std::chrono::duration_cast<SteadyClock::duration>(
+                                                   std::chrono::duration<double>(budget_s));
+    const auto stop = [&] { return should_stop() || SteadyClock::now() > deadline; };
+    const auto out_of_time = [&](const char* what) {
+      char buf[200];
+      std::snprintf(buf, sizeof(buf),
+                    "%s took longer than the %.3f s allowed (the smaller of --max-plan-time-s "
+                    "and the call's deadline)",
+                    what, budget_s);
+      return MakeError(ErrorCode::kDeadlineExceeded, buf);
+    };
+    Expected<std::shared_ptr<const SurfaceGraph>> graph = map.Graph(robot->Traversability(), stop);
+    if (!graph) {
+      if (!should_stop() && SteadyClock::now() > deadline) {
+        return out_of_time("building the robot's traversability graph");
+      }
+      return ServiceError::FromPlanner(graph.error());
     }
-    return OkStatus();
+    geometry.graph = graph.value().get();
+    ServiceStatus extracted = extract(stop);
+    if (!extracted.ok() && !should_stop() && SteadyClock::now() > deadline) {
+      return out_of_time("extracting the map's geometry");
+    }
+    return extracted;
+  });
+}
+
+grpc::Status MapServiceImpl::GetMapGeometry(grpc::ServerContext* context,
+                                            const v1::GetMapGeometryRequest* request,
+                                            v1::MapGeometry* response) {
+  return RunRpc("GetMapGeometry", [&](CallLog& log) -> ServiceStatus {
+    if (ServiceStatus allowed = Authorize(*context, options_.tokens, Role::kPlanner);
+        !allowed.ok()) {
+      return allowed;
+    }
+    log.map_id = request->map_id();
+    ServiceStatus status = GetMapGeometry(*request, CallControlOf(*context), response);
+    if (status.ok()) {
+      log.fields.emplace_back("stride", std::to_string(response->stride()));
+      log.fields.emplace_back(
+          "surfaces", std::to_string(response->ground_z_m_size() + response->obstacle_z_m_size()));
+    }
+    return status;
   });
 }
 

@@ -1,11 +1,13 @@
 #pragma once
 /// strata.v1.MapService: adapts the map registry to gRPC.
+#include <cstdint>
 #include <filesystem>
 
 #include <grpcpp/grpcpp.h>
 
 #include "auth.hpp"
 #include "map_registry.hpp"
+#include "planning_slots.hpp"
 #include "strata/v1/map_service.grpc.pb.h"
 
 namespace strata::server {
@@ -20,7 +22,26 @@ struct MapServiceOptions {
   const TokenTable* tokens = nullptr;
   /// The server's memory budget, in which uploads are counted as they arrive; may be null.
   MemoryBudget* memory_budget = nullptr;
+  /// The planning slots, which GetMapGeometry with a robot takes as a plan does (building the
+  /// robot's graph is a plan's first step). Required.
+  PlanningSlots* planning_slots = nullptr;
+  /// Largest response message [bytes] (--max-send-message-bytes): GetMapGeometry's max_bytes
+  /// may not exceed it.
+  std::uint64_t max_send_message_bytes = 0;
 };
+
+/// GetMapGeometry's max_bytes when the request leaves it 0 [bytes] (capped by
+/// --max-send-message-bytes), and the least a request may ask for.
+inline constexpr std::uint64_t kDefaultGeometryBytes = std::uint64_t{4} << 20;
+inline constexpr std::uint64_t kMinGeometryBytes = std::uint64_t{64} << 10;
+
+/// GetMap's work, for every API (the gRPC handler, the web viewer's): the map's public view;
+/// kMapNotFound blaming "map_id".
+ServiceStatus GetMapFrom(const MapRegistry& registry, const v1::GetMapRequest& request,
+                         v1::Map* response);
+/// ListMaps' work, for every API; kInvalidInput blaming "page_size" or "page_token".
+ServiceStatus ListMapsFrom(const MapRegistry& registry, const v1::ListMapsRequest& request,
+                           v1::ListMapsResponse* response);
 
 /// The MapSource of a CreateMapRequest: a file confined to `map_root`, or a scene with every
 /// option resolved (seed kDefaultSceneSeed when the request has none, the scene's size and
@@ -49,10 +70,20 @@ class MapServiceImpl final : public v1::MapService::Service {
                       v1::Map* response) override;
   grpc::Status ListMaps(grpc::ServerContext* context, const v1::ListMapsRequest* request,
                         v1::ListMapsResponse* response) override;
+  grpc::Status GetMapGeometry(grpc::ServerContext* context,
+                              const v1::GetMapGeometryRequest* request,
+                              v1::MapGeometry* response) override;
   grpc::Status DeleteMap(grpc::ServerContext* context, const v1::DeleteMapRequest* request,
                          v1::DeleteMapResponse* response) override;
   grpc::Status UpdateMap(grpc::ServerContext* context, const v1::UpdateMapRequest* request,
                          v1::UpdateMapResponse* response) override;
+
+  /// GetMapGeometry's work, for every API: validates the request, then extracts the map's
+  /// surfaces (ExtractMapGeometry) at the stride asked for, or at the smallest that fits
+  /// max_bytes; with a robot, inside a planning slot (its graph is a plan's first step), within
+  /// --max-plan-time-s and the call's deadline. The caller has authorised the call.
+  ServiceStatus GetMapGeometry(const v1::GetMapGeometryRequest& request, const CallControl& call,
+                               v1::MapGeometry* response) const;
 
  private:
   // Returns the new map, waiting for it when `wait` is set (see CreateMapRequest.wait).

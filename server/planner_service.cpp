@@ -1,7 +1,9 @@
 #include "planner_service.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 
 #include "error_mapping.hpp"
@@ -10,37 +12,6 @@
 #include "rpc_boundary.hpp"
 
 namespace strata::server {
-namespace {
-
-using SteadyClock = std::chrono::steady_clock;
-
-double DeadlineLeftSeconds(const grpc::ServerContext& context) {
-  const auto deadline = context.deadline();
-  if (deadline == std::chrono::system_clock::time_point::max()) {
-    return std::numeric_limits<double>::infinity();
-  }
-  return std::chrono::duration<double>(deadline - std::chrono::system_clock::now()).count();
-}
-
-// When a queued plan stops waiting for a slot: before the deadline, leaving the margin
-// PlanTimeBudget leaves.
-SteadyClock::time_point QueueDeadline(double deadline_left_s) {
-  if (!std::isfinite(deadline_left_s)) return SteadyClock::time_point::max();
-  const double margin = std::min(0.1 * std::max(deadline_left_s, 0.0), 0.1);
-  return SteadyClock::now() + std::chrono::duration_cast<SteadyClock::duration>(
-                                  std::chrono::duration<double>(deadline_left_s - margin));
-}
-
-ServiceError BudgetExhausted(double deadline_left_s) {
-  char buf[256];
-  std::snprintf(buf, sizeof(buf),
-                "the call's deadline leaves %.3f s, too little to plan: allow more time (set "
-                "a later deadline)",
-                std::max(0.0, deadline_left_s));
-  return MakeError(ErrorCode::kDeadlineExceeded, buf);
-}
-
-}  // namespace
 
 Result<ParsedPlanRequest> ParsePlanRequest(const v1::PlanRequest& request) {
   ParsedPlanRequest parsed;
@@ -87,17 +58,14 @@ Result<ParsedPlanRequest> ParsePlanRequest(const v1::PlanRequest& request) {
     }
     parsed.sample_dt_s = dt;
   }
+  parsed.return_search_path = request.options().return_search_path();
   return parsed;
 }
 
 double PlanTimeBudget(const ParsedPlanRequest& request, double deadline_left_s,
                       double server_cap_s) {
-  double budget = std::min(request.plan.options.time_budget_s, server_cap_s);
-  if (std::isfinite(deadline_left_s)) {
-    const double margin = std::min(0.1 * std::max(deadline_left_s, 0.0), 0.1);
-    budget = std::min(budget, deadline_left_s - margin);
-  }
-  return budget;
+  return std::min(
+      {request.plan.options.time_budget_s, server_cap_s, WorkSecondsLeft(deadline_left_s)});
 }
 
 ServiceStatus PlanOnMap(const PlanningMap& map, const ParsedPlanRequest& request,
@@ -120,16 +88,85 @@ ServiceStatus PlanOnMap(const PlanningMap& map, const ParsedPlanRequest& request
         AppendSamples(plan.trajectory, *request.sample_dt_s, max_samples, response);
     if (!sampled.ok()) return sampled;
   }
+  if (request.return_search_path) AppendSearchPath(plan.path, response);
   *timings = plan.stats.timings;
   return OkStatus();
 }
 
 PlannerServiceImpl::PlannerServiceImpl(const MapRegistry* registry, Metrics* metrics,
                                        PlannerServiceOptions options)
-    : registry_(registry),
-      metrics_(metrics),
-      options_(options),
-      slots_(options.max_concurrent_plans, options.max_queued_plans) {}
+    : registry_(registry), metrics_(metrics), options_(options) {}
+
+ServiceStatus PlannerServiceImpl::RunPlan(const v1::PlanRequest& request, const CallControl& call,
+                                          std::string_view transport, v1::PlanResponse* response) {
+  const auto start = std::chrono::steady_clock::now();
+  PlanTimings timings;
+  ServiceStatus outcome = [&]() -> ServiceStatus {
+    Result<ParsedPlanRequest> parsed = ParsePlanRequest(request);
+    if (!parsed.ok()) return std::move(parsed).error();
+    Result<ActiveMap> map = registry_->GetActive(request.map_id(), request.map_version());
+    if (!map.ok()) return std::move(map).error();
+    PlanningSlots& slots = *options_.slots;
+    return slots.Run(
+        call, [&](const std::function<bool()>& should_stop, double queue_s) -> ServiceStatus {
+          ParsedPlanRequest capped = std::move(parsed).value();
+          const double budget_s =
+              PlanTimeBudget(capped, call.LeftSeconds(), slots.max_plan_time_s());
+          if (budget_s <= 0) return DeadlineLeavesNoTime(call.LeftSeconds());
+          capped.plan.options.time_budget_s = budget_s;
+          ServiceStatus status = PlanOnMap(*map.value().map, capped, should_stop,
+                                           options_.max_samples, response, &timings);
+          if (!status.ok()) return status;
+          response->set_map_version(map.value().version);
+          response->mutable_stats()->mutable_timings()->set_queue_s(queue_s);
+          return OkStatus();
+        });
+  }();
+  if (!outcome.ok() && !request.map_id().empty()) {
+    ServiceError error = std::move(outcome).error();
+    error.With("map_id", request.map_id().substr(0, 64));
+    outcome = std::move(error);
+  }
+  if (metrics_ != nullptr) {
+    metrics_->RecordPlan(
+        outcome.ok() ? std::string_view("OK") : MapError(outcome.error().code).reason,
+        outcome.ok() ? &timings : nullptr);
+  }
+  if (options_.recent_plans != nullptr) {
+    v1::RecentPlan recent;
+    const auto now = std::chrono::system_clock::now().time_since_epoch();
+    const auto seconds = std::chrono::floor<std::chrono::seconds>(now);
+    recent.mutable_time()->set_seconds(seconds.count());
+    recent.mutable_time()->set_nanos(static_cast<int>(
+        std::chrono::duration_cast<std::chrono::nanoseconds>(now - seconds).count()));
+    recent.set_duration_s(
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+    *recent.mutable_request() = request;
+    if (outcome.ok()) {
+      *recent.mutable_response() = *response;
+      recent.mutable_response()->clear_samples();  // The trajectory holds them.
+    } else {
+      ToProto(outcome.error(), recent.mutable_error());
+    }
+    recent.set_transport(std::string(transport));
+    options_.recent_plans->Record(std::move(recent));
+  }
+  return outcome;
+}
+
+ServiceStatus PlannerServiceImpl::ListRecentPlans(const v1::ListRecentPlansRequest& request,
+                                                  v1::ListRecentPlansResponse* response) const {
+  if (request.max_plans() < 0) {
+    return MakeError(ErrorCode::kInvalidInput,
+                     "max_plans = " + std::to_string(request.max_plans()) +
+                         " is out of range: must be >= 0 (0 returns every plan kept)")
+        .Blame("max_plans");
+  }
+  if (options_.recent_plans != nullptr) {
+    options_.recent_plans->List(static_cast<std::size_t>(request.max_plans()), response);
+  }
+  return OkStatus();
+}
 
 grpc::Status PlannerServiceImpl::Plan(grpc::ServerContext* context, const v1::PlanRequest* request,
                                       v1::PlanResponse* response) {
@@ -139,77 +176,25 @@ grpc::Status PlannerServiceImpl::Plan(grpc::ServerContext* context, const v1::Pl
       return allowed;
     }
     log.map_id = request->map_id();
-    PlanTimings timings;
-    auto outcome = [&]() -> ServiceStatus {
-      Result<ParsedPlanRequest> parsed = ParsePlanRequest(*request);
-      if (!parsed.ok()) return std::move(parsed).error();
-      Result<ActiveMap> map = registry_->GetActive(request->map_id(), request->map_version());
-      if (!map.ok()) return std::move(map).error();
-
-      const auto should_stop = [this, context] { return stopping_ || context->IsCancelled(); };
-      const double left_s = DeadlineLeftSeconds(*context);
-      if (left_s <= 0) return BudgetExhausted(left_s);
-      const auto queue_start = SteadyClock::now();
-      // A call waits for its slot until its own deadline (less the margin to answer); one
-      // without a deadline, at most --max-plan-time-s.
-      const bool has_deadline = std::isfinite(left_s);
-      const auto queue_deadline =
-          has_deadline ? QueueDeadline(left_s)
-                       : queue_start + std::chrono::duration_cast<SteadyClock::duration>(
-                                           std::chrono::duration<double>(options_.max_plan_time_s));
-      switch (slots_.Acquire(queue_deadline, should_stop)) {
-        case ConcurrencyLimiter::Admission::kAdmitted: break;
-        case ConcurrencyLimiter::Admission::kStopped:
-          return MakeError(ErrorCode::kCancelled, "the client cancelled the plan while queued");
-        case ConcurrencyLimiter::Admission::kQueueFull:
-          return MakeError(ServiceErrorCode::kServerBusy,
-                           "all " + std::to_string(slots_.slots()) +
-                               " planning slots are busy and " +
-                               std::to_string(slots_.max_queued()) +
-                               " plans already wait (--max-queued-plans): retry with backoff");
-        case ConcurrencyLimiter::Admission::kTimedOut:
-          return MakeError(
-              ServiceErrorCode::kServerBusy,
-              "all " + std::to_string(slots_.slots()) + " planning slots stayed busy until " +
-                  (has_deadline ? std::string("the call's deadline: retry with backoff, or allow "
-                                              "a later deadline")
-                                : "--max-plan-time-s had passed (the call set no deadline): "
-                                  "retry with backoff, or set a deadline"));
-      }
-      ConcurrencyLimiter::Slot slot(&slots_);
-      const double queue_s =
-          std::chrono::duration<double>(SteadyClock::now() - queue_start).count();
-
-      ParsedPlanRequest capped = std::move(parsed).value();
-      const double budget_s =
-          PlanTimeBudget(capped, DeadlineLeftSeconds(*context), options_.max_plan_time_s);
-      if (budget_s <= 0) return BudgetExhausted(DeadlineLeftSeconds(*context));
-      capped.plan.options.time_budget_s = budget_s;
-      ServiceStatus status = PlanOnMap(*map.value().map, capped, should_stop, options_.max_samples,
-                                       response, &timings);
-      if (!status.ok()) return status;
-      response->set_map_version(map.value().version);
-      response->mutable_stats()->mutable_timings()->set_queue_s(queue_s);
-      return OkStatus();
-    }();
-    // A plan stopped by StopPlans (the planner and the queue report it as cancelled) says why.
-    if (!outcome.ok() && stopping_ &&
-        outcome.error().code == ServiceError::Code(ErrorCode::kCancelled)) {
-      outcome = MakeError(ServiceErrorCode::kShuttingDown,
-                          "the server is shutting down and its grace (--shutdown-grace-s) ran "
-                          "out before the plan finished: plan again (another replica answers)");
-    }
-    if (!outcome.ok()) {
-      ServiceError error = std::move(outcome).error();
-      if (!request->map_id().empty()) error.With("map_id", request->map_id().substr(0, 64));
-      if (metrics_ != nullptr) metrics_->RecordPlan(MapError(error.code).reason, nullptr);
-      return error;
-    }
-    if (metrics_ != nullptr) metrics_->RecordPlan("OK", &timings);
+    ServiceStatus status = RunPlan(*request, CallControlOf(*context), "grpc", response);
+    if (!status.ok()) return status;
     char ms[32];
-    std::snprintf(ms, sizeof(ms), "%.1f", timings.total_s * 1e3);
+    std::snprintf(ms, sizeof(ms), "%.1f", response->stats().timings().total_s() * 1e3);
     log.fields.emplace_back("plan_ms", ms);
     return OkStatus();
+  });
+}
+
+grpc::Status PlannerServiceImpl::ListRecentPlans(grpc::ServerContext* context,
+                                                 const v1::ListRecentPlansRequest* request,
+                                                 v1::ListRecentPlansResponse* response) {
+  return RunRpc("ListRecentPlans", [&](CallLog& log) -> ServiceStatus {
+    if (ServiceStatus allowed = Authorize(*context, options_.tokens, Role::kPlanner);
+        !allowed.ok()) {
+      return allowed;
+    }
+    log.quiet_on_success = true;
+    return ListRecentPlans(*request, response);
   });
 }
 

@@ -1,14 +1,15 @@
 #pragma once
 /// strata.v1.PlannerService: runs strata::Plan for each request on a shared, read-only map.
-#include <atomic>
 #include <functional>
 #include <optional>
+#include <string_view>
 
 #include <grpcpp/grpcpp.h>
 
 #include "auth.hpp"
-#include "concurrency_limiter.hpp"
 #include "map_registry.hpp"
+#include "planning_slots.hpp"
+#include "recent_plans.hpp"
 #include "strata/v1/planner_service.grpc.pb.h"
 
 namespace strata::server {
@@ -18,12 +19,11 @@ class Metrics;
 /// Set from ServerConfig (server/flags.hpp), which holds the defaults and the flags: no
 /// default is repeated here.
 struct PlannerServiceOptions {
-  /// Cap on every plan's time budget [s], > 0 (--max-plan-time-s).
-  double max_plan_time_s = 0;
-  /// Plans run at the same time [-], >= 1 (--max-concurrent-plans, 0 resolved to the cores).
-  int max_concurrent_plans = 0;
-  /// Plans waiting for a slot at most [-], >= 0 (--max-queued-plans).
-  int max_queued_plans = 0;
+  /// The planning slots every plan takes (--max-concurrent-plans, --max-queued-plans,
+  /// --max-plan-time-s); shared with MapService's GetMapGeometry. Required.
+  PlanningSlots* slots = nullptr;
+  /// Where answered plans are kept for ListRecentPlans; null keeps none.
+  RecentPlans* recent_plans = nullptr;
   /// Tokens the calls must carry (--auth-tokens); null lets every call through.
   const TokenTable* tokens = nullptr;
   /// Most trajectory samples one response may carry [-], >= 2 (kMaxResponseSamples).
@@ -36,6 +36,7 @@ struct ParsedPlanRequest {
   bool time_budget_given = false;     ///< options.time_budget_s was set.
   bool inline_profile = false;        ///< The profile came inline (else by name).
   std::optional<double> sample_dt_s;  ///< options.sample_dt_s, when set.
+  bool return_search_path = false;    ///< options.return_search_path.
 };
 
 /// Converts `request`; errors blame the field ("start.position_m.x", "profile.max_tilt_rad",
@@ -44,7 +45,7 @@ Result<ParsedPlanRequest> ParsePlanRequest(const v1::PlanRequest& request);
 
 /// The time budget of one plan [s]: the request's (or the planner's default), capped by the
 /// server's cap and by the time left before the call's deadline (`deadline_left_s`, infinite
-/// without one) less a margin to send the answer (10% of it, at most 0.1 s). May be <= 0.
+/// without one) less a margin to send the answer (WorkSecondsLeft). May be <= 0.
 double PlanTimeBudget(const ParsedPlanRequest& request, double deadline_left_s,
                       double server_cap_s);
 
@@ -61,19 +62,25 @@ class PlannerServiceImpl final : public v1::PlannerService::Service {
   /// `registry` and `metrics` (may be null) must outlive the service.
   PlannerServiceImpl(const MapRegistry* registry, Metrics* metrics, PlannerServiceOptions options);
 
+  /// Plan's work, whichever API the call came through (`transport`: "grpc", "http"): parses
+  /// the request, waits for a planning slot (PlanningSlots::Run) and plans; counts the plan in
+  /// the metrics and keeps it among the recent plans. The caller has authorised the call.
+  ServiceStatus RunPlan(const v1::PlanRequest& request, const CallControl& call,
+                        std::string_view transport, v1::PlanResponse* response);
+  /// ListRecentPlans' work; kInvalidInput blaming "max_plans" when it is negative.
+  ServiceStatus ListRecentPlans(const v1::ListRecentPlansRequest& request,
+                                v1::ListRecentPlansResponse* response) const;
+
   grpc::Status Plan(grpc::ServerContext* context, const v1::PlanRequest* request,
                     v1::PlanResponse* response) override;
-
-  /// Stops every plan running or queued now and later: they answer SHUTTING_DOWN (the end of
-  /// the shutdown grace). Thread-safe.
-  void StopPlans() { stopping_ = true; }
+  grpc::Status ListRecentPlans(grpc::ServerContext* context,
+                               const v1::ListRecentPlansRequest* request,
+                               v1::ListRecentPlansResponse* response) override;
 
  private:
-  std::atomic<bool> stopping_ = false;
   const MapRegistry* registry_;
   Metrics* metrics_;
   PlannerServiceOptions options_;
-  ConcurrencyLimiter slots_;
 };
 
 }  // namespace strata::server

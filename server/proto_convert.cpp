@@ -328,21 +328,17 @@ Result<MapSnapshot> DecodeMapMetadata(const std::string& json) {
   return SnapshotFromProto(map);
 }
 
-Result<RobotProfile> ProfileFromRequest(const v1::PlanRequest& request) {
-  switch (request.robot_case()) {
-    case v1::PlanRequest::kProfileName: {
-      Expected<RobotProfile> builtin = BuiltinProfile(request.profile_name());
-      if (!builtin) return ServiceError::FromPlanner(builtin.error(), "profile_name");
-      return std::move(builtin).value();
-    }
-    case v1::PlanRequest::kProfile: break;
-    case v1::PlanRequest::ROBOT_NOT_SET:
-      return MakeError(ErrorCode::kInvalidInput,
-                       "no robot given: set profile_name (\"differential\" or \"biped\") or an "
-                       "inline profile")
-          .Blame("profile_name");
-  }
-  const v1::RobotProfile& m = request.profile();
+namespace {
+
+// A built-in profile by name.
+Result<RobotProfile> NamedProfile(const std::string& name) {
+  Expected<RobotProfile> builtin = BuiltinProfile(name);
+  if (!builtin) return ServiceError::FromPlanner(builtin.error(), "profile_name");
+  return std::move(builtin).value();
+}
+
+// An inline profile over the defaults, validated.
+Result<RobotProfile> InlineProfile(const v1::RobotProfile& m) {
   RobotProfile p;
   p.name = m.has_name() ? m.name() : "custom";
   if (m.has_footprint_radius_m()) p.footprint_radius_m = m.footprint_radius_m();
@@ -365,6 +361,33 @@ Result<RobotProfile> ProfileFromRequest(const v1::PlanRequest& request) {
     return ServiceError::FromPlanner(valid.error(), valid.error().field);
   }
   return p;
+}
+
+}  // namespace
+
+Result<RobotProfile> ProfileFromRequest(const v1::PlanRequest& request) {
+  switch (request.robot_case()) {
+    case v1::PlanRequest::kProfileName: return NamedProfile(request.profile_name());
+    case v1::PlanRequest::kProfile: return InlineProfile(request.profile());
+    case v1::PlanRequest::ROBOT_NOT_SET: break;
+  }
+  return MakeError(ErrorCode::kInvalidInput,
+                   "no robot given: set profile_name (\"differential\" or \"biped\") or an "
+                   "inline profile")
+      .Blame("profile_name");
+}
+
+Result<std::optional<RobotProfile>> ProfileFromRequest(const v1::GetMapGeometryRequest& request) {
+  Result<RobotProfile> profile = MakeError(ErrorCode::kInvalidInput, "");
+  switch (request.robot_case()) {
+    case v1::GetMapGeometryRequest::kProfileName:
+      profile = NamedProfile(request.profile_name());
+      break;
+    case v1::GetMapGeometryRequest::kProfile: profile = InlineProfile(request.profile()); break;
+    case v1::GetMapGeometryRequest::ROBOT_NOT_SET: return std::optional<RobotProfile>();
+  }
+  if (!profile.ok()) return std::move(profile).error();
+  return std::optional<RobotProfile>(std::move(profile).value());
 }
 
 void ToProto(const RobotProfile& p, v1::RobotProfile* m) {
@@ -570,6 +593,29 @@ void ToProto(const SnapResult& snap, v1::SnappedState* message) {
   ToProto(snap.position_m, message->mutable_position_m());
   message->set_level(static_cast<std::uint32_t>(std::max(0, snap.level)));
   message->set_distance_m(snap.distance_m);
+}
+
+void AppendSearchPath(const PathResult& path, v1::PlanResponse* response) {
+  for (const Eigen::Vector3d& point : path.points_m) ToProto(point, response->add_search_path_m());
+}
+
+void ToProto(const MapGeometryData& g, v1::MapGeometry* m) {
+  m->set_resolution_m(g.resolution_m);
+  m->set_stride(static_cast<std::uint32_t>(g.stride));
+  m->set_cell_size_m(g.resolution_m * g.stride);
+  m->mutable_origin_m()->set_x(g.origin_m.x());
+  m->mutable_origin_m()->set_y(g.origin_m.y());
+  m->set_nx(static_cast<std::uint32_t>(g.nx));
+  m->set_ny(static_cast<std::uint32_t>(g.ny));
+  m->set_max_levels(static_cast<std::uint32_t>(g.max_levels));
+  m->mutable_ground_cell()->Assign(g.ground_cell.begin(), g.ground_cell.end());
+  m->mutable_ground_z_m()->Assign(g.ground_z_m.begin(), g.ground_z_m.end());
+  m->mutable_ground_level()->Assign(g.ground_level.begin(), g.ground_level.end());
+  m->mutable_ground_safety()->Assign(g.ground_safety.begin(), g.ground_safety.end());
+  m->mutable_ground_component()->Assign(g.ground_component.begin(), g.ground_component.end());
+  m->mutable_obstacle_cell()->Assign(g.obstacle_cell.begin(), g.obstacle_cell.end());
+  m->mutable_obstacle_z_m()->Assign(g.obstacle_z_m.begin(), g.obstacle_z_m.end());
+  m->mutable_obstacle_level()->Assign(g.obstacle_level.begin(), g.obstacle_level.end());
 }
 
 void ToProto(const PlanStats& s, v1::PlanStats* m) {

@@ -8,9 +8,11 @@
 /// in the planner's structs, Error::field) becomes the request field at fault, e.g.
 /// "start.position_m.x", by PlanRequestField or TerrainRequestField. The proto's own
 /// structure (presence of a required message, a oneof) is checked here.
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "map_geometry.hpp"
 #include "map_registry.hpp"
 #include "service_error.hpp"
 #include "strata/planner.hpp"
@@ -60,6 +62,8 @@ Result<MapSnapshot> DecodeMapMetadata(const std::string& json);
 /// RobotProfile::Validate. kInvalidInput (unset, unknown name: "profile_name"),
 /// kInvalidConfig ("profile.<field>", the same path in the planner and in PlanRequest).
 Result<RobotProfile> ProfileFromRequest(const v1::PlanRequest& request);
+/// The robot of a GetMapGeometryRequest, as ProfileFromRequest; nullopt when none is set.
+Result<std::optional<RobotProfile>> ProfileFromRequest(const v1::GetMapGeometryRequest& request);
 /// Every field set.
 void ToProto(const RobotProfile& profile, v1::RobotProfile* message);
 
@@ -103,6 +107,10 @@ Result<Trajectory> FromProto(const v1::Trajectory& message);
 Result<WarmStart> WarmStartFromRequest(const v1::WarmStart& message);
 
 void ToProto(const SnapResult& snap, v1::SnappedState* message);
+/// The search's path into PlanResponse.search_path_m.
+void AppendSearchPath(const PathResult& path, v1::PlanResponse* response);
+/// Every field but map_id, map_version and safety_height_m, which are the caller's.
+void ToProto(const MapGeometryData& geometry, v1::MapGeometry* message);
 void ToProto(const PlanStats& stats, v1::PlanStats* message);
 
 /// Samples every `dt_s` from 0 to the end (which is always included); kInvalidInput

@@ -33,6 +33,18 @@ ServiceStatus Authorize(const grpc::ServerContext& context, const TokenTable* to
   return tokens->Authorize(value, needed);
 }
 
+CallControl CallControlOf(const grpc::ServerContext& context) {
+  CallControl call;
+  const auto deadline = context.deadline();
+  if (deadline != std::chrono::system_clock::time_point::max()) {
+    call.deadline = std::chrono::steady_clock::now() +
+                    std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                        deadline - std::chrono::system_clock::now());
+  }
+  call.cancelled = [&context] { return context.IsCancelled(); };
+  return call;
+}
+
 grpc::Status FinishRpc(std::string_view rpc, const CallLog& log, const ServiceStatus& outcome,
                        std::chrono::steady_clock::time_point start) noexcept {
   try {

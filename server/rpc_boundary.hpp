@@ -13,6 +13,7 @@
 #include <grpcpp/support/status.h>
 
 #include "auth.hpp"
+#include "planning_slots.hpp"
 #include "service_error.hpp"
 
 namespace strata::server {
@@ -38,6 +39,9 @@ grpc::Status FinishRpc(std::string_view rpc, const CallLog& log, const ServiceSt
 /// With `tokens` (--auth-tokens), the call's `authorization` metadata must hold a token that
 /// allows `needed` (TokenTable::Authorize); without, every call is allowed.
 ServiceStatus Authorize(const grpc::ServerContext& context, const TokenTable* tokens, Role needed);
+
+/// The call's deadline and cancellation, for work shared with other transports.
+CallControl CallControlOf(const grpc::ServerContext& context);
 
 /// Runs `body(CallLog&) -> ServiceStatus` inside the boundary.
 template <typename Body>

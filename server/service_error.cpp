@@ -3,7 +3,8 @@
 namespace strata::server {
 
 ServiceError ServiceError::FromPlanner(const Error& error, std::string field) {
-  ServiceError result{error.code, error.message, {}, {}};
+  // The planner's details (e.g. the nearest valid point) travel as ErrorInfo metadata.
+  ServiceError result{error.code, error.message, {}, error.details};
   if (!field.empty()) result.Blame(std::move(field));
   return result;
 }

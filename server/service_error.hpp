@@ -62,7 +62,7 @@ struct ServiceError {
   std::vector<FieldViolation> field_violations;  ///< Request fields at fault, if any.
   std::map<std::string, std::string> metadata;   ///< ErrorInfo metadata, e.g. {"map_id", "x"}.
 
-  /// A planner error, optionally blamed on one request field.
+  /// A planner error, optionally blamed on one request field; its details become metadata.
   static ServiceError FromPlanner(const Error& error, std::string field = {});
   /// Adds a field violation whose description is the message; returns *this.
   ServiceError& Blame(std::string field);

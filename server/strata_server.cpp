@@ -203,18 +203,25 @@ Result<std::unique_ptr<StrataServer>> StrataServer::Start(const ServerConfig& co
       registry_options, [raw](const MapSnapshot& map) { raw->OnMapDone(map); });
   self->metrics_->WatchMaps(self->registry_.get());
 
-  self->map_service_ = std::make_unique<MapServiceImpl>(
-      self->registry_.get(), MapServiceOptions{map_root, config.max_points, self->tokens_.get(),
-                                               self->memory_budget_.get()});
-  PlannerServiceOptions planner_options;
-  planner_options.max_plan_time_s = config.max_plan_time_s;
-  planner_options.max_samples = kMaxResponseSamples;
-  planner_options.max_queued_plans = config.max_queued_plans;
-  planner_options.tokens = self->tokens_.get();
-  planner_options.max_concurrent_plans =
+  self->planning_slots_ = std::make_unique<PlanningSlots>(
       config.max_concurrent_plans > 0
           ? config.max_concurrent_plans
-          : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+          : static_cast<int>(std::max(1u, std::thread::hardware_concurrency())),
+      config.max_queued_plans, config.max_plan_time_s);
+  self->recent_plans_ = std::make_unique<RecentPlans>();
+  MapServiceOptions map_options;
+  map_options.map_root = map_root;
+  map_options.max_points = config.max_points;
+  map_options.tokens = self->tokens_.get();
+  map_options.memory_budget = self->memory_budget_.get();
+  map_options.planning_slots = self->planning_slots_.get();
+  map_options.max_send_message_bytes = static_cast<std::uint64_t>(config.max_send_message_bytes);
+  self->map_service_ = std::make_unique<MapServiceImpl>(self->registry_.get(), map_options);
+  PlannerServiceOptions planner_options;
+  planner_options.slots = self->planning_slots_.get();
+  planner_options.recent_plans = self->recent_plans_.get();
+  planner_options.max_samples = kMaxResponseSamples;
+  planner_options.tokens = self->tokens_.get();
   self->planner_service_ = std::make_unique<PlannerServiceImpl>(
       self->registry_.get(), self->metrics_.get(), planner_options);
 
@@ -284,6 +291,29 @@ Result<std::unique_ptr<StrataServer>> StrataServer::Start(const ServerConfig& co
     const std::vector<int> ports = self->exposer_->GetListeningPorts();
     self->metrics_port_ = ports.empty() ? config.metrics_port : ports.front();
   }
+  if (config.http_port >= 0) {
+    // The viewer cannot serve HTTPS (http_server.hpp says why): with TLS on the gRPC side it
+    // is served on loopback only, where no token crosses the network in the clear.
+    if (!config.tls_cert.empty() && !IsLoopbackAddress(config.http_address)) {
+      return MakeError(
+          ErrorCode::kInvalidInput,
+          "--http-port with --tls-cert: the web viewer cannot serve HTTPS (Debian's civetweb "
+          "crashes serving TLS with OpenSSL 3), and plain HTTP beside a TLS gRPC port would "
+          "send tokens in the clear: give --http-address 127.0.0.1 and put a TLS-terminating "
+          "proxy (or an SSH tunnel) in front of it, or drop --http-port");
+    }
+    self->http_api_ = std::make_unique<HttpApi>(self->registry_.get(), self->map_service_.get(),
+                                                self->planner_service_.get(), self->tokens_.get());
+    HttpServerOptions http;
+    http.address = config.http_address;
+    http.port = config.http_port;
+    // The same request limit as gRPC's (a JSON body is larger than the binary message, so a
+    // request near the limit passes gRPC and not here: the limit is the server's memory's).
+    http.max_body_bytes = static_cast<std::size_t>(config.max_receive_message_bytes);
+    Result<std::unique_ptr<HttpServer>> started = HttpServer::Start(http, self->http_api_.get());
+    if (!started.ok()) return std::move(started).error();
+    self->http_server_ = std::move(started).value();
+  }
   for (ResolvedPreload& preload : preloads) {
     LogInfo("map_queued").Add("map", preload.id).Add("source", "preload");
     Result<MapSnapshot> created = self->registry_->Create(preload.id, std::move(preload.source),
@@ -297,6 +327,7 @@ Result<std::unique_ptr<StrataServer>> StrataServer::Start(const ServerConfig& co
 }
 
 StrataServer::~StrataServer() {
+  if (http_server_) http_server_->Stop();  // Its requests use the registry.
   {
     std::lock_guard lock(mutex_);
     shutting_down_ = true;  // Workers finishing now must not touch the health service.
@@ -357,11 +388,17 @@ void StrataServer::Shutdown(std::chrono::steady_clock::duration drain_delay,
   bool done = false;
   std::thread stopper([&] {
     std::unique_lock lock(done_mutex);
-    if (!done_cv.wait_for(lock, grace, [&] { return done; })) planner_service_->StopPlans();
+    if (!done_cv.wait_for(lock, grace, [&] { return done; })) planning_slots_->Stop();
+  });
+  // The viewer stops accepting now too; its requests in flight end as gRPC's do (a plan at
+  // the grace's end).
+  std::thread http_stopper([this] {
+    if (http_server_) http_server_->Stop();
   });
   server_->Shutdown(std::chrono::system_clock::now() +
                     std::chrono::duration_cast<std::chrono::system_clock::duration>(grace) +
                     kAnswerTime);
+  http_stopper.join();
   {
     std::lock_guard lock(done_mutex);
     done = true;

@@ -12,10 +12,14 @@
 
 #include "auth.hpp"
 #include "flags.hpp"
+#include "http_api.hpp"
+#include "http_server.hpp"
 #include "map_registry.hpp"
 #include "map_service.hpp"
 #include "metrics.hpp"
 #include "planner_service.hpp"
+#include "planning_slots.hpp"
+#include "recent_plans.hpp"
 #include "service_error.hpp"
 
 namespace strata::server {
@@ -29,14 +33,17 @@ class StrataServer {
   static Result<std::unique_ptr<StrataServer>> Start(const ServerConfig& config);
   ~StrataServer();
 
-  /// Bound gRPC address ("127.0.0.1:50051") and metrics port (-1 when disabled).
+  /// Bound gRPC address ("127.0.0.1:50051"), metrics port and viewer port (-1 when
+  /// disabled).
   const std::string& address() const { return address_; }
   int metrics_port() const { return metrics_port_; }
+  int http_port() const { return http_server_ ? http_server_->port() : -1; }
 
   /// Health to NOT_SERVING and no new maps; new calls are still served for `drain_delay`
   /// (load balancers stop sending meanwhile); then gRPC shutdown: new calls are refused,
   /// in-flight calls get until `grace` to finish, after which plans stop and answer
-  /// SHUTTING_DOWN and any other call is cancelled. Returns when every call has ended.
+  /// SHUTTING_DOWN and any other call is cancelled; the viewer stops accepting at the same
+  /// time and finishes its requests alike. Returns when every call has ended.
   /// Thread-safe; idempotent.
   void Shutdown(std::chrono::steady_clock::duration drain_delay,
                 std::chrono::steady_clock::duration grace);
@@ -61,10 +68,14 @@ class StrataServer {
   std::shared_ptr<MemoryBudget> memory_budget_;
   std::unique_ptr<Metrics> metrics_;
   std::unique_ptr<MapRegistry> registry_;
+  std::unique_ptr<PlanningSlots> planning_slots_;
+  std::unique_ptr<RecentPlans> recent_plans_;
   std::unique_ptr<MapServiceImpl> map_service_;
   std::unique_ptr<PlannerServiceImpl> planner_service_;
   std::unique_ptr<grpc::Server> server_;
   std::unique_ptr<prometheus::Exposer> exposer_;
+  std::unique_ptr<HttpApi> http_api_;
+  std::unique_ptr<HttpServer> http_server_;  // Null without --http-port.
   std::string address_;
   int metrics_port_ = -1;
 

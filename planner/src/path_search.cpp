@@ -82,10 +82,25 @@ Expected<PathResult> SearchPath(const SurfaceGraph& graph, int start_node, int g
   const Eigen::Vector3d goal_p = graph.position(goal_node);
   const Eigen::Vector3d start_p = graph.position(start_node);
   if (graph.component(start_node) != graph.component(goal_node)) {
-    return fail(ErrorCode::kGoalUnreachable,
-                "goal " + internal::FormatPoint(goal_p) + " m is not connected to start " +
-                    internal::FormatPoint(start_p) +
-                    " m over traversable ground (they lie in different connected components)");
+    // Which components, and how large, so that a viewer can show both (a linear count, only
+    // on this failure path).
+    const int start_component = graph.component(start_node);
+    const int goal_component = graph.component(goal_node);
+    std::size_t start_nodes = 0, goal_nodes = 0;
+    for (int m = 0; m < n; ++m) {
+      start_nodes += graph.component(m) == start_component ? 1 : 0;
+      goal_nodes += graph.component(m) == goal_component ? 1 : 0;
+    }
+    finish();
+    return Error{ErrorCode::kGoalUnreachable,
+                 "goal " + internal::FormatPoint(goal_p) + " m is not connected to start " +
+                     internal::FormatPoint(start_p) +
+                     " m over traversable ground (they lie in different connected components)",
+                 {},
+                 {{"start_component", std::to_string(start_component)},
+                  {"goal_component", std::to_string(goal_component)},
+                  {"start_component_nodes", std::to_string(start_nodes)},
+                  {"goal_component_nodes", std::to_string(goal_nodes)}}};
   }
 
   struct Entry {

@@ -515,7 +515,9 @@ Expected<PlanResult> Plan(const PlanningMap& map, const PlanRequest& request,
                        " m cannot be reached from start " + internal::FormatPoint(head.position_m) +
                        " m without entering the keep-out zones in the way (" + in_the_way +
                        "): every way round is closed; move or shrink a zone, or choose another "
-                       "goal"};
+                       "goal",
+                   {},
+                   {{"zones_in_the_way", in_the_way}}};
     }
     if (!in_the_way.empty())
       error.message += "; the search stepped around keep-out zones " + in_the_way;

@@ -1,5 +1,7 @@
 #include "strata/status.hpp"
 
+#include <cstdio>
+
 namespace strata {
 
 const char* ErrorCodeName(ErrorCode code) {
@@ -28,6 +30,12 @@ std::optional<ErrorCode> ErrorCodeFromName(std::string_view name) {
     if (name == ErrorCodeName(code)) return code;
   }
   return std::nullopt;
+}
+
+std::string DetailNumber(double value) {
+  char buf[32];
+  std::snprintf(buf, sizeof(buf), "%.6g", value);
+  return buf;
 }
 
 }  // namespace strata

@@ -260,13 +260,20 @@ Expected<SnapResult> SnapToSurface(const SurfaceGraph& graph, const Eigen::Vecto
   char buf[96];
   std::snprintf(buf, sizeof(buf), " m has no traversable ground within %.2f m", tolerance_m);
   std::string message = std::string(what) + " " + internal::FormatPoint(p) + buf;
+  std::map<std::string, std::string> details;
   if (nearest >= 0) {
+    const Eigen::Vector3d at = graph.position(nearest);
     std::snprintf(buf, sizeof(buf), " (%.2f m away)", nearest_d);
-    message += "; the nearest is " + internal::FormatPoint(graph.position(nearest)) + " m" + buf;
+    message += "; the nearest is " + internal::FormatPoint(at) + " m" + buf;
+    details = {{"nearest_x_m", DetailNumber(at.x())},
+               {"nearest_y_m", DetailNumber(at.y())},
+               {"nearest_z_m", DetailNumber(at.z())},
+               {"nearest_level", std::to_string(graph.level(nearest))},
+               {"nearest_distance_m", DetailNumber(nearest_d)}};
   } else {
     message += "; the map has no traversable ground for these traversability parameters";
   }
-  return Error{off_ground_code, message};
+  return Error{off_ground_code, message, {}, std::move(details)};
 }
 
 }  // namespace strata

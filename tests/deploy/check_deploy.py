@@ -239,6 +239,11 @@ def check_rules(objects, problems, required_kinds):
                 port = get(c, probe, "grpc", "port")
                 if port is not None and port not in declared:
                     problems.add(cw, f"{probe}.grpc.port {port!r} is not one of the container's ports {sorted(declared)}")
+            env = {e.get("name"): e.get("value") for e in c.get("env", []) or []}
+            http = env.get("STRATA_HTTP_PORT")
+            if http is not None and int(http) >= 0 and int(http) not in declared:
+                problems.add(cw, f"STRATA_HTTP_PORT {http} (the web viewer) is not one of the "
+                                 f"container's ports {sorted(declared)}")
             resources = c.get("resources", {}) or {}
             for section, key in (("requests", "cpu"), ("requests", "memory"), ("limits", "memory")):
                 if key not in (resources.get(section) or {}):
@@ -449,6 +454,9 @@ def check_compose(compose_path, compose):
             metrics = int(env.get("STRATA_METRICS_PORT", "9090"))
             if metrics >= 0 and metrics not in ports:
                 problems.add(sw, f"STRATA_METRICS_PORT {metrics} is not published ({sorted(ports)})")
+            http = int(env.get("STRATA_HTTP_PORT", "-1"))
+            if http >= 0 and http not in ports:
+                problems.add(sw, f"STRATA_HTTP_PORT {http} is not published ({sorted(ports)})")
             root = env.get("STRATA_MAP_ROOT")
             targets = [str(v).split(":")[1] for v in service.get("volumes") or [] if ":" in str(v)]
             if root and root not in targets:

@@ -437,6 +437,7 @@ TEST_F(KeepOutPlan, ZonesThatCloseEveryWayMakeTheGoalUnreachableNamingThem) {
   EXPECT_EQ(plan.error().code, ErrorCode::kGoalUnreachable);
   EXPECT_THAT(plan.error().message, HasSubstr("keep-out zone keep_out[1]"));
   EXPECT_THAT(plan.error().message, Not(HasSubstr("keep_out[0]")));
+  EXPECT_EQ(plan.error().details.at("zones_in_the_way"), "keep-out zone keep_out[1]");
 }
 
 TEST_F(KeepOutPlan, MalformedZonesAreBlamedByTheirPath) {
@@ -470,6 +471,23 @@ TEST(TableRoom, TheBipedCrouchesUnderTheTableWhereTheDifferentialRobotCannotPass
   auto blocked = Plan(map, wheeled);
   ASSERT_FALSE(blocked.ok());
   EXPECT_EQ(blocked.error().code, ErrorCode::kGoalUnreachable);
+  {
+    // The two components, by the labels of the graph the plan searched, and their sizes.
+    const auto graph = map.Graph(wheeled.profile.Traversability()).value();
+    const auto& details = blocked.error().details;
+    const auto component_of = [&](const Eigen::Vector3d& p) {
+      return graph->component(SnapToSurface(*graph, p, 1.0, ErrorCode::kStartOffGround)->node);
+    };
+    const int start_component = component_of(start), goal_component = component_of(goal);
+    EXPECT_NE(start_component, goal_component);
+    EXPECT_EQ(details.at("start_component"), std::to_string(start_component));
+    EXPECT_EQ(details.at("goal_component"), std::to_string(goal_component));
+    int start_nodes = 0;
+    for (int m = 0; m < graph->node_count(); ++m)
+      start_nodes += graph->component(m) == start_component;
+    EXPECT_EQ(details.at("start_component_nodes"), std::to_string(start_nodes));
+    EXPECT_GT(std::stoi(details.at("goal_component_nodes")), 0);
+  }
 
   const PlanRequest biped = Request(start, goal, "biped");
   auto plan = Plan(map, biped);

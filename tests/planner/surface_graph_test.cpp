@@ -293,6 +293,19 @@ TEST(SnapToSurface, PicksTheLevelTheHeightPointsAtAndNamesTheNearestWhenNoneIsNe
   EXPECT_EQ(snap.error().code, ErrorCode::kGoalOffGround);
   EXPECT_THAT(snap.error().message, HasSubstr("goal (3.00, 2.00, 4.00) m"));
   EXPECT_THAT(snap.error().message, HasSubstr("within 0.20 m; the nearest is"));
+  // The nearest point, machine-readable: a node's reference point, at the distance named.
+  {
+    const auto& details = snap.error().details;
+    ASSERT_EQ(details.count("nearest_x_m"), 1u);
+    const Eigen::Vector3d nearest(std::stod(details.at("nearest_x_m")),
+                                  std::stod(details.at("nearest_y_m")),
+                                  std::stod(details.at("nearest_z_m")));
+    const auto at = SnapToSurface(graph, nearest, 1e-3, ErrorCode::kGoalOffGround);
+    ASSERT_TRUE(at.ok()) << "the nearest point named is not on traversable ground";
+    EXPECT_EQ(std::to_string(graph.level(at->node)), details.at("nearest_level"));
+    EXPECT_GT(std::stod(details.at("nearest_distance_m")), 0.2);
+    EXPECT_THAT(snap.error().message, HasSubstr(details.at("nearest_distance_m").substr(0, 3)));
+  }
   // Malformed queries.
   snap = SnapToSurface(graph, {std::nan(""), 1, 1}, 1.0, ErrorCode::kStartOffGround);
   ASSERT_FALSE(snap.ok());

@@ -61,6 +61,7 @@ TEST(FlagsTest, DefaultsPreloadTheDemoScene) {
   ASSERT_EQ(outcome.action, FlagsOutcome::Action::kRun);
   EXPECT_EQ(outcome.config.listen, "0.0.0.0:50051");
   EXPECT_EQ(outcome.config.metrics_port, 9090);
+  EXPECT_EQ(outcome.config.http_port, -1);  // The viewer is off unless asked for.
   EXPECT_TRUE(outcome.config.map_root.empty());
   ASSERT_EQ(outcome.config.preload.size(), 1u);
   EXPECT_EQ(outcome.config.preload[0].id, "demo");
@@ -84,6 +85,10 @@ TEST(FlagsTest, FlagsOverrideTheEnvironment) {
   EXPECT_DOUBLE_EQ(outcome.config.max_plan_time_s, 2.5);
   // A negative number is a value, not a flag (tests/deploy disables metrics so).
   EXPECT_EQ(Parse({"--metrics-port", "-1"}).config.metrics_port, -1);
+  // The viewer as scripts/run.sh and the image turn it on, an argument moving it.
+  EXPECT_EQ(Parse({}, {{"STRATA_HTTP_PORT", "8080"}}).config.http_port, 8080);
+  EXPECT_EQ(Parse({"--http-port", "0"}, {{"STRATA_HTTP_PORT", "8080"}}).config.http_port, 0);
+  EXPECT_EQ(Parse({"--http-address", "127.0.0.1"}).config.http_address, "127.0.0.1");
 }
 
 TEST(FlagsTest, EveryFlagReadsItsVariable) {
@@ -184,6 +189,8 @@ TEST(FlagsTest, BadValuesAreRefusedWithTheValue) {
            {{"--metrics-port", "70000"}, "70000"},
            {{"--metrics-port", "-2"}, "-2"},
            {{"--metrics-address", "0.0.0.0:9090"}, "(no port: see --metrics-port)"},
+           {{"--http-port", "65536"}, "65536"},
+           {{"--http-address", "0.0.0.0:8080"}, "(no port: see --http-port)"},
            {{"--max-assessment-time-s", "0"}, "'0' is not a number of seconds > 0"},
            {{"--max-assessment-memory", "1000"}, "--max-assessment-memory"},
            {{"--max-points", "0"}, "--max-points"},
@@ -225,7 +232,7 @@ TEST(FlagsTest, BadValuesAreRefusedWithTheValue) {
 
 TEST(FlagsTest, HelpListsEveryFlagWithItsDefaultAndVariable) {
   const std::vector<FlagInfo> flags = DescribeFlags();
-  ASSERT_EQ(flags.size(), 31u);
+  ASSERT_EQ(flags.size(), 33u);
   const FlagsOutcome help = Parse({"--help"});
   EXPECT_EQ(help.text, UsageText());
   for (const FlagInfo& flag : flags) {

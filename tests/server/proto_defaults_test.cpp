@@ -182,6 +182,7 @@ TEST(ProtoDefaults, DocumentedPlanRequestDefaultsAreTheCppDefaults) {
   if (parsed->sample_dt_s.has_value()) {
     defaults.mutable_options()->set_sample_dt_s(*parsed->sample_dt_s);
   }
+  defaults.mutable_options()->set_return_search_path(parsed->return_search_path);
   // RobotProfile (14), PlanOptions (4) and CostWeights (6) at least.
   EXPECT_GE(ExpectDocumentedDefaults(documented, defaults), 24);
 }

@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <future>
 #include <regex>
@@ -73,6 +74,8 @@ void ServerProcess::ReadStderr(int fd) {
     if (address_.empty() && std::regex_search(log_, match, kListening)) {
       address_ = match[1];
       metrics_port_ = std::stoi(match[2]);
+      static const std::regex kHttp(R"(metrics_port=-?[0-9]+ http_port=(-?[0-9]+))");
+      if (std::smatch http; std::regex_search(log_, http, kHttp)) http_port_ = std::stoi(http[1]);
     }
     changed_.notify_all();
   }
@@ -138,7 +141,10 @@ bool ServerProcess::WaitForLog(const std::string& text, std::chrono::seconds tim
   }) && log_.find(text) != std::string::npos;
 }
 
-std::string HttpGet(int port, const std::string& path) {
+namespace {
+
+// Sends `request` to 127.0.0.1:port and reads the whole answer (HTTP/1.0: the server closes).
+std::string Exchange(int port, const std::string& request) {
   const int fd = socket(AF_INET, SOCK_STREAM, 0);
   if (fd < 0) return "";
   sockaddr_in address{};
@@ -147,16 +153,47 @@ std::string HttpGet(int port, const std::string& path) {
   address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
   std::string response;
   if (connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof(address)) == 0) {
-    const std::string request = "GET " + path + " HTTP/1.0\r\nHost: 127.0.0.1\r\n\r\n";
-    if (send(fd, request.data(), request.size(), 0) == static_cast<ssize_t>(request.size())) {
-      char buffer[8192];
-      ssize_t n = 0;
-      while ((n = recv(fd, buffer, sizeof(buffer), 0)) > 0) response.append(buffer, n);
+    std::size_t sent = 0;
+    while (sent < request.size()) {
+      const ssize_t n = send(fd, request.data() + sent, request.size() - sent, MSG_NOSIGNAL);
+      if (n <= 0) break;
+      sent += static_cast<std::size_t>(n);
     }
+    char buffer[8192];
+    ssize_t n = 0;
+    while ((n = recv(fd, buffer, sizeof(buffer), 0)) > 0) response.append(buffer, n);
   }
   close(fd);
+  return response;
+}
+
+}  // namespace
+
+std::string HttpGet(int port, const std::string& path) {
+  const std::string response =
+      Exchange(port, "GET " + path + " HTTP/1.0\r\nHost: 127.0.0.1\r\n\r\n");
   const std::size_t body = response.find("\r\n\r\n");
   return body == std::string::npos ? "" : response.substr(body + 4);
+}
+
+HttpReply HttpPost(int port, const std::string& path, const std::string& body,
+                   const std::vector<std::string>& headers) {
+  std::string request =
+      "POST " + path + " HTTP/1.0\r\nHost: 127.0.0.1\r\nContent-Type: application/json\r\n";
+  bool length_given = false;
+  for (const std::string& header : headers) {
+    request += header + "\r\n";
+    length_given = length_given || header.rfind("Content-Length:", 0) == 0;
+  }
+  if (!length_given) request += "Content-Length: " + std::to_string(body.size()) + "\r\n";
+  const std::string response = Exchange(port, request + "\r\n" + body);
+  HttpReply reply;
+  if (response.rfind("HTTP/1.", 0) == 0 && response.size() > 12) {
+    reply.status = std::atoi(response.c_str() + 9);
+  }
+  const std::size_t start = response.find("\r\n\r\n");
+  if (start != std::string::npos) reply.body = response.substr(start + 4);
+  return reply;
 }
 
 double MetricValue(const std::string& exposition, const std::string& metric,

@@ -27,6 +27,8 @@ class ServerProcess {
   const std::string& address() const { return address_; }
   pid_t pid() const { return pid_; }
   int metrics_port() const { return metrics_port_; }
+  /// The web viewer's port (-1 without --http-port).
+  int http_port() const { return http_port_; }
   std::shared_ptr<grpc::Channel> NewChannel() const;
 
   /// Waits (health Watch, no polling) until the overall health status is SERVING.
@@ -49,6 +51,7 @@ class ServerProcess {
   bool exited_ = false;
   std::string address_;
   int metrics_port_ = -1;
+  int http_port_ = -1;
   std::thread reader_;
   mutable std::mutex mutex_;
   mutable std::condition_variable changed_;
@@ -58,6 +61,16 @@ class ServerProcess {
 
 /// GET http://127.0.0.1:port/path over a plain socket; the body, or "" on failure.
 std::string HttpGet(int port, const std::string& path);
+
+/// An HTTP exchange's answer: status (0 when there was none) and body.
+struct HttpReply {
+  int status = 0;
+  std::string body;
+};
+/// POST `body` to http://127.0.0.1:port/path (HTTP/1.0, plain socket) with `headers` (each
+/// "Name: value"; a Content-Length among them replaces the body's own).
+HttpReply HttpPost(int port, const std::string& path, const std::string& body,
+                   const std::vector<std::string>& headers = {});
 
 /// The value of the sample of `metric` whose labels contain every one of `labels` (each like
 /// `grpc_method="Plan"`) in a Prometheus text exposition; 0 when there is none.

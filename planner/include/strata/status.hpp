@@ -2,6 +2,7 @@
 /// Error reporting for the planner library: it never throws across its API and never prints.
 /// A fallible call returns `Expected<T>` (a value or an `Error`) or `Status` (ok or an `Error`).
 
+#include <map>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -57,7 +58,19 @@ struct Error {
   /// no single field is to blame. Set where the error is made, never recovered from the
   /// message; the server maps it to the request field (server/proto_convert.hpp).
   std::string field = {};
+  /// Machine-readable facts about the failure, beside the message (the server passes them on
+  /// as google.rpc.ErrorInfo metadata): for kStartOffGround / kGoalOffGround the nearest
+  /// traversable point, "nearest_x_m", "nearest_y_m", "nearest_z_m" (its reference point [m]),
+  /// "nearest_level" and "nearest_distance_m" (SnapToSurface); for kGoalUnreachable over
+  /// disconnected ground "start_component", "goal_component" (SurfaceGraph::component labels)
+  /// and "start_component_nodes", "goal_component_nodes" (their sizes), or, when keep-out zones
+  /// close every way, "zones_in_the_way" (their names, comma-separated). Numbers are printed
+  /// with up to 6 significant digits.
+  std::map<std::string, std::string> details = {};
 };
+
+/// `value` as Error::details holds numbers ("%.6g").
+std::string DetailNumber(double value);
 
 /// Either a value or an Error.
 template <typename T>

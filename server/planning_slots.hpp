@@ -1,0 +1,66 @@
+#pragma once
+/// The planning slots every call that plans shares, whichever API it came through (gRPC Plan,
+/// GetMapGeometry with a robot, the web viewer's JSON API): --max-concurrent-plans run at
+/// once, --max-queued-plans wait for one, first come first served, each until its call's
+/// deadline (or --max-plan-time-s for a call without one). No gRPC here: a call describes its
+/// deadline and cancellation with a CallControl.
+#include <atomic>
+#include <chrono>
+#include <functional>
+#include <limits>
+
+#include "concurrency_limiter.hpp"
+#include "service_error.hpp"
+
+namespace strata::server {
+
+/// What a call brings to the work it asks for: when its client stops waiting, and whether it
+/// has gone.
+struct CallControl {
+  /// The call's deadline; max() for none.
+  std::chrono::steady_clock::time_point deadline = std::chrono::steady_clock::time_point::max();
+  /// Returns true once the client has cancelled the call; may be empty.
+  std::function<bool()> cancelled;
+
+  /// Seconds left before the deadline (negative once past); +infinity without one.
+  double LeftSeconds() const;
+};
+
+/// The latest a call may work before answering: its deadline less a margin to send the answer
+/// (10% of the time left, at most 0.1 s). `left_s` as CallControl::LeftSeconds.
+double WorkSecondsLeft(double left_s);
+
+/// kDeadlineExceeded: a deadline that leaves `left_s` [s] is too close to plan.
+ServiceError DeadlineLeavesNoTime(double left_s);
+
+class PlanningSlots {
+ public:
+  /// `slots` >= 1 run at once, `max_queued` >= 0 wait; `max_plan_time_s` > 0 caps the time
+  /// a call without a deadline waits (and every plan's budget, which the caller applies).
+  PlanningSlots(int slots, int max_queued, double max_plan_time_s);
+
+  /// Work done holding a slot: `should_stop` is true once the call is cancelled or Stop was
+  /// called; `queue_s` is how long the call waited for its slot [s].
+  using Work =
+      std::function<ServiceStatus(const std::function<bool()>& should_stop, double queue_s)>;
+
+  /// Waits for a slot and runs `work` in it. Fails without running it with kDeadlineExceeded
+  /// (the deadline leaves no time), kServerBusy (the queue is full, or the slot did not come
+  /// before the deadline), kCancelled (the client cancelled while queued). Whatever fails as
+  /// cancelled after Stop fails with kShuttingDown instead.
+  ServiceStatus Run(const CallControl& call, const Work& work);
+
+  /// Stops every call running or queued now and later: they answer SHUTTING_DOWN (the end of
+  /// the shutdown grace). Thread-safe.
+  void Stop() { stopping_ = true; }
+
+  double max_plan_time_s() const { return max_plan_time_s_; }
+  int slots() const { return limiter_.slots(); }
+
+ private:
+  ConcurrencyLimiter limiter_;
+  const double max_plan_time_s_;
+  std::atomic<bool> stopping_ = false;
+};
+
+}  // namespace strata::server

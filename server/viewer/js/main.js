@@ -1,0 +1,508 @@
+// The viewer's page: the map list, a map's views, the plan form and its result, errors in
+// plain words, and the recent plans. Everything comes from the JSON API (api.js), which
+// answers the gRPC API's messages.
+
+import { ApiError, call, errorFromPlanError, setToken, token } from './api.js';
+import { heatColor, heightColor, scaleCanvas } from './colors.js';
+import { MapModel } from './map_model.js';
+import { OrbitView } from './orbit_view.js';
+import { drawSvg, orbitItems, planDrawing } from './plan_overlay.js';
+import { drawProfile } from './profile_view.js';
+import { TopView } from './top_view.js';
+import { polylineLength, sampleTrajectory } from './trajectory.js';
+
+const $ = (id) => document.getElementById(id);
+// Added to the ground's height when a click picks a point: about a robot's reference height,
+// so that the z points at the level clicked (Plan snaps it; README "Planning through the
+// service").
+const PICK_HEIGHT_M = 0.3;
+
+const state = {
+  maps: [],
+  mapId: null,
+  map: null,
+  model: null,
+  style: { levels: new Set([0]), obstacles: true, color: 'height', components: null },
+  view: 'top',
+  shown: null,  // { request, response, error, samples }
+};
+
+const topView = new TopView($('top-canvas'), $('overlay'), {
+  onPick: (x, y) => pick(x, y),
+  onHover: (x, y) => hover(x, y),
+});
+const orbitView = new OrbitView($('orbit-canvas'));
+
+// ---- Formatting ----
+
+function text(tag, content, attributes = {}) {
+  const e = document.createElement(tag);
+  if (content !== undefined) e.textContent = content;
+  for (const [k, v] of Object.entries(attributes)) e.setAttribute(k, v);
+  return e;
+}
+
+function fixed(value, digits = 2) {
+  return Number(value || 0).toFixed(digits);
+}
+
+function point(v) {
+  return `(${fixed(v.x)}, ${fixed(v.y)}, ${fixed(v.z)})`;
+}
+
+function figures(dl, rows) {
+  dl.replaceChildren();
+  for (const [name, value, id] of rows) {
+    dl.appendChild(text('dt', name));
+    dl.appendChild(text('dd', value, id ? { id } : {}));
+  }
+}
+
+function parsePoint(value) {
+  const parts = value.split(',').map((s) => Number(s.trim()));
+  if (parts.length !== 3 || parts.some((n) => !Number.isFinite(n))) return null;
+  return { x: parts[0], y: parts[1], z: parts[2] };
+}
+
+// ---- Maps ----
+
+async function loadMaps() {
+  const error = $('maps-error');
+  try {
+    const response = await call('strata.v1.MapService/ListMaps', { page_size: 1000 });
+    state.maps = response.maps;
+    error.hidden = true;
+  } catch (e) {
+    state.maps = [];
+    error.hidden = false;
+    error.textContent = plainWords(e);
+  }
+  const body = $('maps').tBodies[0];
+  body.replaceChildren();
+  for (const map of state.maps) {
+    const row = text('tr', undefined, { 'data-map-id': map.id });
+    row.appendChild(text('td', map.id));
+    const stateName = map.state.replace('MAP_STATE_', '').toLowerCase();
+    const stateCell = text('td', map.state === 'MAP_STATE_CREATING'
+      ? `${stateName} ${Math.round(100 * map.progress)}%` : stateName, { class: `state-${map.state}` });
+    if (map.failure && map.failure.reason) stateCell.title = `${map.failure.reason}: ${map.failure.message}`;
+    row.appendChild(stateCell);
+    row.appendChild(text('td', Number(map.valid_ground_point_count).toLocaleString('en')));
+    row.appendChild(text('td', map.max_levels));
+    row.appendChild(text('td', fixed(Number(map.memory_bytes) / 1048576, 1)));
+    row.appendChild(text('td', (map.version || '').slice(0, 8), { title: map.version || '' }));
+    if (map.id === state.mapId) row.classList.add('selected');
+    row.addEventListener('click', () => selectMap(map.id));
+    body.appendChild(row);
+  }
+  $('server-note').textContent = `${state.maps.length} map${state.maps.length === 1 ? '' : 's'}`;
+  // Poll while a map is being made.
+  if (state.maps.some((m) => m.state === 'MAP_STATE_CREATING')) setTimeout(loadMaps, 2000);
+}
+
+async function selectMap(id) {
+  state.mapId = id;
+  history.replaceState(null, '', `#map=${encodeURIComponent(id)}`);  // A link to this map.
+  for (const row of $('maps').tBodies[0].rows) row.classList.toggle('selected', row.dataset.mapId === id);
+  $('map-section').hidden = false;
+  $('map-title').textContent = id;
+  $('geometry-note').textContent = 'loading…';
+  let map;
+  try {
+    map = await call('strata.v1.MapService/GetMap', { map_id: id });
+  } catch (e) {
+    $('geometry-note').textContent = plainWords(e);
+    return;
+  }
+  state.map = map;
+  const b = map.bounds_m;
+  const seconds = map.assessment_seconds;
+  figures($('map-figures'), [
+    ['state', map.state.replace('MAP_STATE_', '').toLowerCase()],
+    ['version', map.version || '—'],
+    ['bounds', b ? `${point(b.min_m)} – ${point(b.max_m)} m` : '—'],
+    ['grid', `${map.grid_size.nx} × ${map.grid_size.ny} × ${map.grid_size.nz} at ${map.terrain.resolution_m} m`],
+    ['points', `${Number(map.input_point_count).toLocaleString('en')} (valid ground ${Number(map.valid_ground_point_count).toLocaleString('en')})`],
+    ['levels', `${map.max_levels} (${Number(map.valid_surface_count).toLocaleString('en')} ground surfaces)`],
+    ['memory', `${fixed(Number(map.memory_bytes) / 1048576, 1)} MB`],
+    ['assessed in', `${fixed(seconds.total_s, 3)} s (load ${fixed(seconds.load_s, 3)} s)${map.from_saved_model ? ', saved model' : ''}`],
+  ]);
+  if (map.state !== 'MAP_STATE_ACTIVE') {
+    $('geometry-note').textContent = map.failure && map.failure.reason
+      ? `${map.failure.reason}: ${map.failure.message}` : 'not active yet';
+    $('plan-section').hidden = true;
+    return;
+  }
+  await loadGeometry(id);
+}
+
+async function loadGeometry(id, robot = null) {
+  const request = { map_id: id, include_safety: true };
+  if (robot) request.profile_name = robot;
+  const started = performance.now();
+  const geometry = await call('strata.v1.MapService/GetMapGeometry', request);
+  if (state.mapId !== id) return null;
+  const model = new MapModel(geometry);
+  state.model = model;
+  if (!robot) {
+    state.style.levels = new Set(Array.from({ length: model.maxLevels }, (_, i) => i));
+    state.style.color = $('show-safety').checked ? 'safety' : 'height';
+    state.style.components = null;
+    buildLevelControls(model.maxLevels);
+    clearPlan();
+  }
+  $('geometry-note').textContent =
+    `${model.surfaceCount.toLocaleString('en')} surfaces, display cell ${fixed(geometry.cell_size_m, 2)} m` +
+    `${geometry.stride > 1 ? ` (${geometry.stride} × ${geometry.stride} grid columns)` : ''}, ` +
+    `loaded in ${Math.round(performance.now() - started)} ms`;
+  topView.setModel(model, Boolean(robot));
+  orbitView.setModel(model, state.style);
+  if (!robot) orbitView.fit();
+  restyle();
+  $('plan-section').hidden = false;
+  // Marks the first frame with the map drawn (bench/viewer_bench.py reads it).
+  requestAnimationFrame(() => requestAnimationFrame(() => {
+    performance.mark(`strata-map-drawn:${id}`);
+    document.body.dataset.mapDrawn = id;
+  }));
+  return model;
+}
+
+function buildLevelControls(count) {
+  const box = $('levels');
+  box.replaceChildren(text('span', 'levels'));
+  for (let level = 0; level < count; ++level) {
+    const label = text('label');
+    const input = text('input', undefined, { type: 'checkbox', 'data-level': level });
+    input.checked = true;
+    input.addEventListener('change', () => {
+      if (input.checked) state.style.levels.add(level);
+      else state.style.levels.delete(level);
+      topView.requestRender();
+      orbitView.levels = state.style.levels;
+      orbitView.requestRender();
+      // What a level covers changes with it.
+      if (state.shown && state.shown.response) showPlan(state.shown.request, state.shown.response);
+    });
+    label.append(input, ` ${level}`);
+    box.appendChild(label);
+  }
+}
+
+function restyle() {
+  if (!state.model) return;
+  topView.setStyle(state.style);
+  orbitView.setModel(state.model, state.style);
+  drawLegend();
+}
+
+function drawLegend() {
+  const legend = $('legend');
+  legend.replaceChildren();
+  const row = (title, colorOf, low, high) => {
+    legend.appendChild(text('div', title));
+    legend.appendChild(scaleCanvas(colorOf));
+    const ends = text('div', undefined, { class: 'ends' });
+    ends.append(text('span', low), text('span', high));
+    legend.appendChild(ends);
+  };
+  const m = state.model;
+  if (state.style.color === 'components') {
+    legend.appendChild(text('div', "start's ground: green · goal's ground: orange · other: grey"));
+  } else if (state.style.color === 'safety') {
+    row("safety field S'", heatColor, '0', fixed(m.safetyMax, 2));
+  } else {
+    row('ground height [m]', heightColor, fixed(m.zMin, 1), fixed(m.zMax, 1));
+  }
+  if (state.shown && state.shown.response) {
+    row('speed [m/s]', heatColor, '0', fixed(state.shown.response.profile.max_speed_horizontal_mps, 1));
+  }
+}
+
+// ---- Picking ----
+
+function visibleLevel(level) {
+  return state.style.levels.has(level);
+}
+
+// Whether ground of a level shown lies over the reference point (x, y, z): more than half a
+// metre above it, so the robot's own ground never counts.
+function covered(x, y, z) {
+  const ground = state.model ? state.model.topGround(x, y, visibleLevel) : null;
+  return ground !== null && ground.z > z + 0.5;
+}
+
+function pick(x, y) {
+  if (!state.model) return;
+  const ground = state.model.topGround(x, y, visibleLevel);
+  if (!ground) return;
+  const which = document.querySelector('input[name=pick]:checked').value;
+  $(which).value = `${fixed(x)},${fixed(y)},${fixed(ground.z + PICK_HEIGHT_M)}`;
+  if (which === 'start') document.querySelector('input[name=pick][value=goal]').checked = true;
+  showRequested();
+}
+
+function hover(x, y) {
+  const cursor = $('cursor');
+  if (x === null || !state.model) {
+    cursor.textContent = '';
+    return;
+  }
+  const ground = state.model.topGround(x, y, visibleLevel);
+  cursor.textContent = `x ${fixed(x)}  y ${fixed(y)}` +
+    (ground ? `  ground ${fixed(ground.z)} m, level ${ground.level}` : '');
+}
+
+// The start and goal typed or clicked, before a plan.
+function showRequested() {
+  const request = { start: { position_m: parsePoint($('start').value) }, goal: { position_m: parsePoint($('goal').value) } };
+  if (!request.start.position_m) delete request.start.position_m;
+  if (!request.goal.position_m) delete request.goal.position_m;
+  showDrawing(planDrawing({ request }));
+}
+
+// ---- Plans ----
+
+function clearPlan() {
+  state.shown = null;
+  $('plan-result').replaceChildren();
+  showDrawing(planDrawing({}));
+  drawProfile($('profile'), [], null, null);
+}
+
+function showDrawing(drawing) {
+  drawSvg(topView.worldGroup, drawing);
+  topView.setMarkers(drawing.markers);
+  orbitView.setOverlay(orbitItems(drawing));
+}
+
+async function plan(event) {
+  event.preventDefault();
+  const start = parsePoint($('start').value);
+  const goal = parsePoint($('goal').value);
+  if (!start || !goal) {
+    showError(new ApiError({ code: 'INVALID_ARGUMENT', reason: 'INVALID_INPUT', message: 'give start and goal as x,y,z in metres (or click the map)' }), null);
+    return;
+  }
+  const request = {
+    map_id: state.mapId,
+    profile_name: $('robot').value,
+    start: { position_m: start },
+    goal: { position_m: goal },
+    options: { return_search_path: true },
+  };
+  const budget = Number($('budget').value);
+  if ($('budget').value.trim() !== '' && Number.isFinite(budget)) request.options.time_budget_s = budget;
+  const button = $('plan');
+  button.disabled = true;
+  $('plan-result').replaceChildren(text('p', 'planning…', { class: 'note' }));
+  try {
+    const response = await call('strata.v1.PlannerService/Plan', request);
+    showPlan(request, response);
+  } catch (e) {
+    showError(e, request);
+  } finally {
+    button.disabled = false;
+    loadRecent();
+  }
+}
+
+function showPlan(request, response) {
+  const samples = sampleTrajectory(response.trajectory);
+  const drawnLength = polylineLength(samples);
+  state.shown = { request, response, samples };
+  if (state.style.color === 'components') {
+    state.style.color = $('show-safety').checked ? 'safety' : 'height';
+    restyle();
+  }
+  showDrawing(planDrawing({ samples, response, request, length: drawnLength, covered }));
+  const s = response.stats;
+  const t = s.timings;
+  const result = $('plan-result');
+  result.replaceChildren();
+  const dl = text('dl', undefined, { class: 'figures', id: 'plan-figures' });
+  figures(dl, [
+    ['length', `${fixed(s.length_m)} m`, 'plan-length'],
+    ['duration', `${fixed(s.duration_s)} s`],
+    ['start', `${point(response.start.position_m)} level ${response.start.level} (${fixed(response.start.distance_m)} m off)`],
+    ['goal', `${point(response.goal.position_m)} level ${response.goal.level} (${fixed(response.goal.distance_m)} m off)`],
+    ['max speed', `${fixed(s.max_speed_horizontal_mps)} m/s horizontal, ${fixed(s.max_speed_vertical_mps)} vertical`],
+    ['max accel.', `${fixed(s.max_accel_horizontal_mps2)} m/s² horizontal, ${fixed(s.max_accel_vertical_mps2)} vertical`],
+    ['mean curvature', `${fixed(s.mean_curvature_per_m, 3)} 1/m`],
+    ['clearance', `${fixed(s.min_obstacle_distance_m)} m to obstacles, ${fixed(s.min_headroom_m)} m headroom`],
+    ['body height', response.trajectory.dimension === 4 ? `${fixed(s.min_body_height_m)} m at its lowest (commanded)` : `${fixed(response.profile.body_height_m)} m (fixed)`],
+    ['pieces', `${s.pieces}, ${s.search_expansions} A* expansions, ${s.optimizer_iterations} L-BFGS iterations`],
+    ['planned in', `${fixed(t.total_s * 1000, 1)} ms (queue ${fixed(t.queue_s * 1000, 1)}, search ${fixed(t.search_s * 1000, 1)}, optimise ${fixed(t.optimize_s * 1000, 1)})`],
+    ['map version', response.map_version.slice(0, 12)],
+  ]);
+  dl.dataset.lengthM = s.length_m;
+  result.appendChild(dl);
+  drawProfile($('profile'), samples, response.profile, state.model);
+  drawLegend();
+}
+
+// An error in plain words: what went wrong and what to do, from its reason and details.
+function plainWords(error) {
+  const m = error.metadata || {};
+  switch (error.reason) {
+    case 'START_OFF_GROUND':
+    case 'GOAL_OFF_GROUND': {
+      const which = error.reason === 'START_OFF_GROUND' ? 'start' : 'goal';
+      if (m.nearest_x_m === undefined) return `The ${which} is not on ground this robot can stand on, and the map has none for it.`;
+      return `The ${which} is not on ground this robot can stand on. The nearest point it can reach is ` +
+        `(${fixed(m.nearest_x_m)}, ${fixed(m.nearest_y_m)}, ${fixed(m.nearest_z_m)}) on level ${m.nearest_level}, ` +
+        `${fixed(m.nearest_distance_m)} m away (marked in yellow).`;
+    }
+    case 'GOAL_UNREACHABLE':
+      if (m.zones_in_the_way) return `Keep-out zones close every way from the start to the goal: ${m.zones_in_the_way}.`;
+      if (m.start_component !== undefined) {
+        return `The start and the goal lie on ground that does not connect for this robot: the start's ` +
+          `region (${Number(m.start_component_nodes).toLocaleString('en')} cells, green) and the goal's ` +
+          `(${Number(m.goal_component_nodes).toLocaleString('en')} cells, orange) are shown.`;
+      }
+      return 'The goal cannot be reached from the start.';
+    case 'START_IN_KEEP_OUT':
+    case 'GOAL_IN_KEEP_OUT':
+      return `The robot would ${error.reason === 'START_IN_KEEP_OUT' ? 'start' : 'end'} inside a keep-out zone.`;
+    case 'TIME_BUDGET_EXCEEDED': return 'The plan ran out of time: allow a larger time budget.';
+    case 'SERVER_BUSY': return 'Every planning slot of the server is busy: try again in a moment.';
+    case 'MAP_NOT_ACTIVE': return 'The map is not ready (still being made, or it failed).';
+    case 'MAP_NOT_FOUND': return 'The map is gone (deleted since the list was loaded).';
+    case 'UNAUTHENTICATED': return 'This server needs a token: enter it at the top right.';
+    case 'PERMISSION_DENIED': return "This token's role may not do that.";
+    case 'PROFILE_MISMATCH': return 'The map was assessed for a smaller robot or gentler slopes than this robot needs.';
+    case 'OPTIMIZATION_FAILED': return 'No trajectory passed the final check; the message names the first violation.';
+    case 'UNREACHABLE': return 'The server does not answer.';
+    default: return 'The server refused the request.';
+  }
+}
+
+function showError(error, request) {
+  state.shown = { request, error };
+  const result = $('plan-result');
+  result.replaceChildren();
+  const box = text('div', undefined, { class: 'error', id: 'plan-error', 'data-reason': error.reason });
+  box.appendChild(text('p', plainWords(error), { class: 'words' }));
+  const detail = text('p');
+  detail.append(text('span', error.reason, { class: 'reason' }), ` (${error.code}): ${error.message}`);
+  box.appendChild(detail);
+  for (const v of error.violations || []) box.appendChild(text('p', `${v.field}: ${v.description}`));
+  result.appendChild(box);
+  const m = error.metadata || {};
+  let nearest = null;
+  if (m.nearest_x_m !== undefined) {
+    nearest = {
+      point: [Number(m.nearest_x_m), Number(m.nearest_y_m), Number(m.nearest_z_m)],
+      level: m.nearest_level,
+      which: error.reason === 'START_OFF_GROUND' ? 'start' : 'goal',
+    };
+    const use = text('button', `use the nearest ${nearest.which}`, { type: 'button' });
+    use.addEventListener('click', () => {
+      $(nearest.which).value = nearest.point.map((v) => fixed(v)).join(',');
+      showRequested();
+    });
+    box.appendChild(use);
+  }
+  showDrawing(planDrawing({ request, nearest }));
+  drawProfile($('profile'), [], null, null);
+  if (error.reason === 'GOAL_UNREACHABLE' && m.start_component !== undefined && request) {
+    showComponents(request.profile_name, Number(m.start_component), Number(m.goal_component));
+  }
+}
+
+// Colours the two components of an unreachable goal (the robot's graph, from GetMapGeometry).
+async function showComponents(robot, start, goal) {
+  try {
+    await loadGeometry(state.mapId, robot);
+  } catch (e) {
+    return;
+  }
+  state.style.color = 'components';
+  state.style.components = { start, goal };
+  restyle();
+}
+
+// ---- Recent plans ----
+
+async function loadRecent() {
+  let response;
+  try {
+    response = await call('strata.v1.PlannerService/ListRecentPlans', { max_plans: 20 });
+  } catch (e) {
+    return;
+  }
+  const list = $('recent');
+  list.replaceChildren();
+  for (const recent of response.plans) {
+    const r = recent.request;
+    const when = new Date(recent.time).toLocaleTimeString();
+    const robot = r.profile_name || (r.profile && r.profile.name) || 'inline profile';
+    const outcome = recent.response
+      ? `${fixed(recent.response.stats.length_m, 1)} m, ${fixed(recent.response.stats.duration_s, 1)} s`
+      : recent.error.reason;
+    const item = text('li', `${when} ${r.map_id} ${robot} via ${recent.transport}: ${outcome}${recent.trimmed ? ' (trimmed)' : ''}`,
+      recent.error ? { class: 'failed' } : {});
+    item.addEventListener('click', () => showRecent(recent));
+    list.appendChild(item);
+  }
+}
+
+async function showRecent(recent) {
+  const r = recent.request;
+  if (r.map_id !== state.mapId) await selectMap(r.map_id);
+  if (r.start && r.start.position_m) $('start').value = [r.start.position_m.x, r.start.position_m.y, r.start.position_m.z].map((v) => fixed(v)).join(',');
+  if (r.goal && r.goal.position_m) $('goal').value = [r.goal.position_m.x, r.goal.position_m.y, r.goal.position_m.z].map((v) => fixed(v)).join(',');
+  if (r.profile_name) $('robot').value = r.profile_name;
+  if (recent.response && recent.response.trajectory) showPlan(r, recent.response);
+  else if (recent.error) showError(errorFromPlanError(recent.error), r);
+}
+
+// ---- Wiring ----
+
+$('plan-form').addEventListener('submit', plan);
+$('start').addEventListener('change', showRequested);
+$('goal').addEventListener('change', showRequested);
+$('refresh-maps').addEventListener('click', loadMaps);
+$('refresh-recent').addEventListener('click', loadRecent);
+$('show-obstacles').addEventListener('change', (e) => {
+  state.style.obstacles = e.target.checked;
+  restyle();
+});
+$('show-safety').addEventListener('change', (e) => {
+  state.style.color = e.target.checked ? 'safety' : 'height';
+  restyle();
+});
+for (const radio of document.querySelectorAll('input[name=view]')) {
+  radio.addEventListener('change', () => {
+    state.view = radio.value;
+    const orbit = state.view === 'orbit';
+    $('orbit-canvas').hidden = !orbit;
+    $('top-canvas').hidden = orbit;
+    $('overlay').style.visibility = orbit ? 'hidden' : 'visible';
+    if (orbit) orbitView.requestRender();
+    else topView.requestRender();
+  });
+}
+$('token').value = token();
+$('token-form').addEventListener('submit', (e) => {
+  e.preventDefault();
+  setToken($('token').value.trim());
+  loadMaps();
+  loadRecent();
+});
+if (!orbitView.available) document.querySelector('input[name=view][value=orbit]').disabled = true;
+
+// `#map=ID` in the address opens that map (a link to it; bench/viewer_bench.py times it).
+async function start() {
+  await Promise.all([loadMaps(), loadRecent()]);
+  const wanted = new URLSearchParams(location.hash.slice(1)).get('map');
+  if (wanted && state.maps.some((m) => m.id === wanted)) await selectMap(wanted);
+}
+
+// For tests and benchmarks (tests/server/viewer_browser_test.py, bench/viewer_bench.py).
+window.strataViewer = {
+  ready: start(),
+  selectMap,
+  measureFrames: (view, seconds) => (view === 'orbit' ? orbitView : topView).measureFrames(seconds),
+  state,
+};

@@ -1,0 +1,298 @@
+// The 3D view (WebGL 1): every surface as a square point at its height, coloured as in the top
+// view, the plan's lines and markers; drag to orbit, wheel to zoom, shift-drag to pan. While
+// the view moves it draws every k-th cell each way, k cells wide (k >= 2, so that about
+// MOVING_POINTS are drawn), and all of them once it rests: large maps stay interactive without
+// a GPU (Chromium's software WebGL draws the spiral's 150,000 points at under 10 frames/s).
+
+// Levels the shader shows and hides one by one (higher ones go with the last); one more slot
+// holds the plan's lines and markers, always shown.
+const MAX_LEVELS = 16;
+const OVERLAY_SLOT = MAX_LEVELS;
+// Points drawn while the view moves, about (a quarter of the spiral's surfaces at 0.2 m).
+const MOVING_POINTS = 40000;
+
+const VERTEX_SHADER = `
+attribute vec3 position;
+attribute vec3 color;
+attribute float level;
+uniform mat4 matrix;
+uniform float pointScale;
+uniform float levelVisible[${MAX_LEVELS + 1}];
+varying vec3 vColor;
+void main() {
+  float visible = levelVisible[int(min(level, ${MAX_LEVELS}.0))];
+  gl_Position = visible > 0.5 ? matrix * vec4(position, 1.0) : vec4(2.0, 2.0, 2.0, 1.0);
+  gl_PointSize = clamp(pointScale / gl_Position.w, 1.0, 48.0);
+  vColor = color;
+}`;
+
+const FRAGMENT_SHADER = `
+precision mediump float;
+varying vec3 vColor;
+void main() { gl_FragColor = vec4(vColor, 1.0); }`;
+
+function compile(gl, type, source) {
+  const shader = gl.createShader(type);
+  gl.shaderSource(shader, source);
+  gl.compileShader(shader);
+  if (!gl.getShaderParameter(shader, gl.COMPILE_STATUS)) throw new Error(gl.getShaderInfoLog(shader));
+  return shader;
+}
+
+function multiply(a, b) {
+  const out = new Float32Array(16);
+  for (let i = 0; i < 4; ++i) {
+    for (let j = 0; j < 4; ++j) {
+      let sum = 0;
+      for (let k = 0; k < 4; ++k) sum += a[k * 4 + j] * b[i * 4 + k];
+      out[i * 4 + j] = sum;
+    }
+  }
+  return out;
+}
+
+function perspective(fovY, aspect, near, far) {
+  const f = 1 / Math.tan(fovY / 2);
+  return new Float32Array([f / aspect, 0, 0, 0, 0, f, 0, 0, 0, 0, (far + near) / (near - far), -1,
+    0, 0, (2 * far * near) / (near - far), 0]);
+}
+
+function lookAt(eye, target, up) {
+  const sub = (a, b) => a.map((v, i) => v - b[i]);
+  const norm = (v) => { const l = Math.hypot(...v); return v.map((x) => x / l); };
+  const cross = (a, b) => [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
+  const dot = (a, b) => a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+  const z = norm(sub(eye, target));
+  const x = norm(cross(up, z));
+  const y = cross(z, x);
+  return new Float32Array([x[0], y[0], z[0], 0, x[1], y[1], z[1], 0, x[2], y[2], z[2], 0,
+    -dot(x, eye), -dot(y, eye), -dot(z, eye), 1]);
+}
+
+export class OrbitView {
+  constructor(canvas) {
+    this.canvas = canvas;
+    this.gl = canvas.getContext('webgl', { antialias: true, preserveDrawingBuffer: true });
+    this.available = Boolean(this.gl);
+    this.yaw = -0.6;
+    this.pitch = 0.75;
+    this.distance = 50;
+    this.target = [0, 0, 0];
+    this.batches = {};
+    this.levels = new Set([0]);
+    this.frameRequested = false;
+    this.moving = false;
+    this.restTimer = null;
+    if (!this.available) return;
+    const gl = this.gl;
+    this.program = gl.createProgram();
+    gl.attachShader(this.program, compile(gl, gl.VERTEX_SHADER, VERTEX_SHADER));
+    gl.attachShader(this.program, compile(gl, gl.FRAGMENT_SHADER, FRAGMENT_SHADER));
+    gl.linkProgram(this.program);
+    this.attributes = ['position', 'color', 'level'].map((n) => gl.getAttribLocation(this.program, n));
+    this.uniforms = {
+      matrix: gl.getUniformLocation(this.program, 'matrix'),
+      pointScale: gl.getUniformLocation(this.program, 'pointScale'),
+      levelVisible: gl.getUniformLocation(this.program, 'levelVisible'),
+    };
+    this.listen();
+    new ResizeObserver(() => this.requestRender()).observe(canvas);
+  }
+
+  listen() {
+    let down = null;
+    this.canvas.addEventListener('pointerdown', (e) => {
+      down = { x: e.clientX, y: e.clientY, yaw: this.yaw, pitch: this.pitch, target: [...this.target], pan: e.shiftKey };
+      this.canvas.setPointerCapture(e.pointerId);
+    });
+    this.canvas.addEventListener('pointermove', (e) => {
+      if (!down) return;
+      const dx = e.clientX - down.x;
+      const dy = e.clientY - down.y;
+      if (down.pan) {
+        // Drag the ground: right along the screen's right, down towards the viewer.
+        const k = this.distance / (this.canvas.clientHeight || 1);
+        const c = Math.cos(this.yaw);
+        const s = Math.sin(this.yaw);
+        this.target[0] = down.target[0] + k * (dx * s - dy * c);
+        this.target[1] = down.target[1] - k * (dx * c + dy * s);
+      } else {
+        this.yaw = down.yaw - dx * 0.008;
+        this.pitch = Math.min(1.55, Math.max(0.05, down.pitch + dy * 0.008));
+      }
+      this.moved();
+      this.requestRender();
+    });
+    this.canvas.addEventListener('pointerup', () => { down = null; });
+    this.canvas.addEventListener('wheel', (e) => {
+      e.preventDefault();
+      this.distance *= Math.exp(e.deltaY * 0.0015);
+      this.moved();
+      this.requestRender();
+    }, { passive: false });
+  }
+
+  // Uploads a batch of vertices: positions [x, y, z], colours [r, g, b] in 0..255, levels;
+  // its points are `pointFactor` cells wide.
+  setBatch(name, mode, positions, colors, levels, pointFactor = 1) {
+    if (!this.available) return;
+    const gl = this.gl;
+    const old = this.batches[name];
+    if (old) old.buffers.forEach((b) => gl.deleteBuffer(b));
+    const data = [new Float32Array(positions), new Float32Array(colors.map((c) => c / 255)), new Float32Array(levels)];
+    const buffers = data.map((array) => {
+      const buffer = gl.createBuffer();
+      gl.bindBuffer(gl.ARRAY_BUFFER, buffer);
+      gl.bufferData(gl.ARRAY_BUFFER, array, gl.STATIC_DRAW);
+      return buffer;
+    });
+    this.batches[name] = { mode, buffers, count: positions.length / 3, pointFactor };
+    this.requestRender();
+  }
+
+  // The map's surfaces under `style` (as TopView.setStyle): all of them, and the subset drawn
+  // while the view moves.
+  setModel(model, style) {
+    this.model = model;
+    this.levels = style.levels;
+    // While moving: every step-th cell each way, step cells wide, at most about
+    // MOVING_POINTS points.
+    const step = Math.max(2, Math.ceil(Math.sqrt(model.surfaceCount / MOVING_POINTS)));
+    for (const coarse of [false, true]) {
+      const positions = [];
+      const colors = [];
+      const levels = [];
+      const shift = coarse ? 0.5 * (step - 1) * model.cellSize : 0;
+      const add = (cell, z, level, color) => {
+        if (coarse && ((cell % model.nx) % step !== 0 || Math.floor(cell / model.nx) % step !== 0)) return;
+        const [x, y] = model.cellCenter(cell);
+        positions.push(x + shift, y + shift, z);
+        colors.push(...color);
+        levels.push(Math.min(level, MAX_LEVELS - 1));
+      };
+      for (let i = 0; i < model.ground.z.length; ++i) {
+        add(model.ground.cell[i], model.ground.z[i], model.ground.level[i], model.groundColor(i, style));
+      }
+      if (style.obstacles) {
+        for (let i = 0; i < model.obstacle.z.length; ++i) {
+          add(model.obstacle.cell[i], model.obstacle.z[i], model.obstacle.level[i], model.obstacleColor());
+        }
+      }
+      this.setBatch(coarse ? 'surfaces-moving' : 'surfaces', 'POINTS', positions, colors, levels,
+        coarse ? step : 1);
+    }
+  }
+
+  // Marks the view as moving: the coarse points until 200 ms after the last call.
+  moved() {
+    this.moving = true;
+    clearTimeout(this.restTimer);
+    this.restTimer = setTimeout(() => {
+      this.moving = false;
+      this.requestRender();
+    }, 200);
+  }
+
+  // Fits the whole map in the view.
+  fit() {
+    if (!this.model) return;
+    const b = this.model.bounds();
+    this.target = [(b.xMin + b.xMax) / 2, (b.yMin + b.yMax) / 2, (this.model.zMin + this.model.zMax) / 2];
+    this.distance = 0.8 * Math.max(b.xMax - b.xMin, b.yMax - b.yMin, this.model.zMax - this.model.zMin);
+    this.requestRender();
+  }
+
+  // Lines and markers of a plan: [{ name, mode: 'LINE_STRIP' | 'POINTS', points: [[x, y, z]],
+  // colors: [[r, g, b]], pointFactor (points' width in cells, default 1) }]; always drawn,
+  // whatever the levels.
+  setOverlay(items) {
+    for (const name of Object.keys(this.batches)) {
+      if (!name.startsWith('surfaces')) {
+        this.batches[name].buffers.forEach((b) => this.gl.deleteBuffer(b));
+        delete this.batches[name];
+      }
+    }
+    for (const item of items) {
+      this.setBatch(item.name, item.mode, item.points.flat(), item.colors.flat(),
+        item.points.map(() => OVERLAY_SLOT), item.pointFactor || 1);
+    }
+  }
+
+  requestRender() {
+    if (this.frameRequested || !this.available) return;
+    this.frameRequested = true;
+    requestAnimationFrame(() => {
+      this.frameRequested = false;
+      this.render();
+    });
+  }
+
+  render() {
+    if (!this.available || this.canvas.hidden) return;
+    const gl = this.gl;
+    const ratio = window.devicePixelRatio || 1;
+    const w = Math.max(1, Math.round(this.canvas.clientWidth * ratio));
+    const h = Math.max(1, Math.round(this.canvas.clientHeight * ratio));
+    if (this.canvas.width !== w || this.canvas.height !== h) {
+      this.canvas.width = w;
+      this.canvas.height = h;
+    }
+    gl.viewport(0, 0, w, h);
+    gl.clearColor(0.125, 0.14, 0.17, 1);
+    gl.clear(gl.COLOR_BUFFER_BIT | gl.DEPTH_BUFFER_BIT);
+    gl.enable(gl.DEPTH_TEST);
+    gl.useProgram(this.program);
+    const eye = [
+      this.target[0] + this.distance * Math.cos(this.pitch) * Math.cos(this.yaw),
+      this.target[1] + this.distance * Math.cos(this.pitch) * Math.sin(this.yaw),
+      this.target[2] + this.distance * Math.sin(this.pitch),
+    ];
+    const fov = 0.8;
+    const matrix = multiply(perspective(fov, w / h, this.distance / 100, this.distance * 10),
+      lookAt(eye, this.target, [0, 0, 1]));
+    gl.uniformMatrix4fv(this.uniforms.matrix, false, matrix);
+    // A point covers its cell (with some overlap, so no gaps show): cell size in pixels at
+    // unit depth.
+    const cell = this.model ? this.model.cellSize : 0.2;
+    const pointScale = (1.5 * cell * h) / (2 * Math.tan(fov / 2));
+    const visible = new Float32Array(MAX_LEVELS + 1);
+    for (let l = 0; l < MAX_LEVELS; ++l) visible[l] = this.levels.has(l) ? 1 : 0;
+    visible[OVERLAY_SLOT] = 1;
+    gl.uniform1fv(this.uniforms.levelVisible, visible);
+    for (const [name, batch] of Object.entries(this.batches)) {
+      if (name === (this.moving ? 'surfaces' : 'surfaces-moving')) continue;
+      gl.uniform1f(this.uniforms.pointScale, pointScale * batch.pointFactor);
+      batch.buffers.forEach((buffer, i) => {
+        gl.bindBuffer(gl.ARRAY_BUFFER, buffer);
+        gl.enableVertexAttribArray(this.attributes[i]);
+        gl.vertexAttribPointer(this.attributes[i], i === 2 ? 1 : 3, gl.FLOAT, false, 0, 0);
+      });
+      gl.drawArrays(gl[batch.mode], 0, batch.count);
+    }
+  }
+
+  // Orbits for `seconds`, drawing every animation frame (as the view moves: the coarse
+  // points); resolves to frames/s.
+  measureFrames(seconds) {
+    return new Promise((resolve) => {
+      const yaw0 = this.yaw;
+      let frames = 0;
+      const start = performance.now();
+      const step = (now) => {
+        const t = (now - start) / 1000;
+        this.yaw = yaw0 + t * 0.8;
+        this.moved();
+        this.render();
+        ++frames;
+        if (t < seconds) {
+          requestAnimationFrame(step);
+        } else {
+          this.yaw = yaw0;
+          this.render();
+          resolve(frames / t);
+        }
+      };
+      requestAnimationFrame(step);
+    });
+  }
+}
