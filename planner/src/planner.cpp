@@ -54,19 +54,6 @@ class StopCondition {
   bool expired_ = false;
 };
 
-// Where the trajectory starts or ends: the requested x, y on the ground when they lie in the
-// snapped node's column (the robot is where it says), else the node's reference point.
-Eigen::Vector3d BoundaryPosition(const SurfaceGraph& graph, const SnapResult& snap,
-                                 const Eigen::Vector3d& requested) {
-  Eigen::Vector3d node = snap.position_m;
-  const Eigen::Vector3d candidate(requested.x(), requested.y(), node.z());
-  if (graph.grid().CellOf(candidate).head<2>() != graph.cell(snap.node).head<2>()) return node;
-  GroundSample ground;
-  const double h_ref = graph.params().reference_height_m;
-  if (!SampleGround(graph.model(), candidate, h_ref, 0, &ground)) return node;
-  return {requested.x(), requested.y(), ground.height_m + h_ref};
-}
-
 void FillStats(const Trajectory& trajectory, const VerificationReport& v, PlanStats* stats) {
   stats->length_m = PathLength(trajectory);
   stats->duration_s = trajectory.TotalDuration();
@@ -114,6 +101,19 @@ Error InKeepOut(ErrorCode code, const char* what, const Eigen::Vector3d& p, cons
 }
 
 }  // namespace
+
+Expected<SnapResult> SnapEndpoint(const SurfaceGraph& graph, const Eigen::Vector3d& requested,
+                                  double tolerance_m, ErrorCode off_ground_code) {
+  Expected<SnapResult> snap = SnapToSurface(graph, requested, tolerance_m, off_ground_code);
+  if (!snap) return snap;
+  const Eigen::Vector3d candidate(requested.x(), requested.y(), snap->position_m.z());
+  if (graph.grid().CellOf(candidate).head<2>() != graph.cell(snap->node).head<2>()) return snap;
+  GroundSample ground;
+  const double h_ref = graph.params().reference_height_m;
+  if (!SampleGround(graph.model(), candidate, h_ref, 0, &ground)) return snap;
+  snap->position_m = {requested.x(), requested.y(), ground.height_m + h_ref};
+  return snap;
+}
 
 struct PlanningMap::GraphEntry {
   std::once_flag once;
@@ -291,19 +291,17 @@ Expected<PlanResult> Plan(const PlanningMap& map, const PlanRequest& request,
     error.field = field;
     return error;
   };
-  Expected<SnapResult> start = SnapToSurface(graph, request.start.position_m,
-                                             options.snap_tolerance_m, ErrorCode::kStartOffGround);
+  Expected<SnapResult> start = SnapEndpoint(graph, request.start.position_m,
+                                            options.snap_tolerance_m, ErrorCode::kStartOffGround);
   if (!start) return blame(std::move(start).error(), "start.position_m");
-  Expected<SnapResult> goal = SnapToSurface(graph, request.goal.position_m,
-                                            options.snap_tolerance_m, ErrorCode::kGoalOffGround);
+  Expected<SnapResult> goal = SnapEndpoint(graph, request.goal.position_m, options.snap_tolerance_m,
+                                           ErrorCode::kGoalOffGround);
   if (!goal) return blame(std::move(goal).error(), "goal.position_m");
   result.start = *start;
   result.goal = *goal;
   RobotState head = request.start, tail = request.goal;
-  head.position_m = BoundaryPosition(graph, result.start, request.start.position_m);
-  tail.position_m = BoundaryPosition(graph, result.goal, request.goal.position_m);
-  result.start.position_m = head.position_m;
-  result.goal.position_m = tail.position_m;
+  head.position_m = result.start.position_m;
+  tail.position_m = result.goal.position_m;
   stats.timings.snap_s = SecondsSince(stage);
 
   // Keep-out zones: the trajectory's ends must lie outside every zone; the search steps

@@ -155,6 +155,13 @@ struct PlanResult {
   PlanStats stats;
 };
 
+/// Where Plan puts a start or goal requested at `requested`: SnapToSurface (same tolerance,
+/// same failures), with position_m moved to exactly where the trajectory starts or ends there:
+/// the requested x, y at the reference height above the ground when they lie in the snapped
+/// node's column (the robot is where it says), else the node's reference point.
+Expected<SnapResult> SnapEndpoint(const SurfaceGraph& graph, const Eigen::Vector3d& requested,
+                                  double tolerance_m, ErrorCode off_ground_code);
+
 /// Plans one request on `map`, keeping the robot out of the map's and the request's keep-out
 /// zones (searched around, pushed out of by the optimiser's J_k, checked by the verifier).
 /// `should_stop` (may be empty) is polled throughout; returning true fails the plan with
