@@ -76,7 +76,7 @@ ErrorMapping MapError(const ServiceError::Code& code) {
           planner_code != nullptr ? ErrorCodeName(*planner_code) : "INTERNAL"};
 }
 
-grpc::Status ToGrpcStatus(const ServiceError& error) {
+google::rpc::Status ToRpcStatus(const ServiceError& error) {
   const ErrorMapping mapping = MapError(error.code);
   const std::string message = BoundedText(error.message, kMaxErrorMessageBytes);
 
@@ -102,7 +102,13 @@ grpc::Status ToGrpcStatus(const ServiceError& error) {
     }
     status.add_details()->PackFrom(bad_request);
   }
-  return grpc::Status(mapping.grpc_code, message, status.SerializeAsString());
+  return status;
+}
+
+grpc::Status ToGrpcStatus(const ServiceError& error) {
+  const google::rpc::Status status = ToRpcStatus(error);
+  return grpc::Status(static_cast<grpc::StatusCode>(status.code()), status.message(),
+                      status.SerializeAsString());
 }
 
 }  // namespace strata::server

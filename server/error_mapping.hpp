@@ -8,6 +8,7 @@
 #include <string>
 #include <string_view>
 
+#include <google/rpc/status.pb.h>
 #include <grpcpp/support/status.h>
 
 #include "service_error.hpp"
@@ -44,7 +45,12 @@ std::span<const ErrorMapping> ErrorMappingTable();
 /// INTERNAL with the planner's own name as the reason.
 ErrorMapping MapError(const ServiceError::Code& code);
 
-/// The grpc::Status for `error`: its code, message, and details.
+/// The google.rpc.Status for `error`: its code, message (cut, see kMaxErrorMessageBytes), and
+/// details: an ErrorInfo always, a BadRequest when fields are blamed.
+google::rpc::Status ToRpcStatus(const ServiceError& error);
+
+/// The grpc::Status for `error`: ToRpcStatus's code and message, and the whole google.rpc.Status
+/// as its binary details.
 grpc::Status ToGrpcStatus(const ServiceError& error);
 
 }  // namespace strata::server

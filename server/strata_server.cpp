@@ -209,6 +209,8 @@ Result<std::unique_ptr<StrataServer>> StrataServer::Start(const ServerConfig& co
   PlannerServiceOptions planner_options;
   planner_options.max_plan_time_s = config.max_plan_time_s;
   planner_options.max_samples = kMaxResponseSamples;
+  planner_options.max_cost_cells = config.max_cost_cells;
+  planner_options.max_batch_plans = config.max_batch_plans;
   planner_options.max_queued_plans = config.max_queued_plans;
   planner_options.tokens = self->tokens_.get();
   planner_options.max_concurrent_plans =

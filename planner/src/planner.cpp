@@ -71,19 +71,6 @@ void FillStats(const Trajectory& trajectory, const VerificationReport& v, PlanSt
   stats->verified_samples = v.samples;
 }
 
-// The map's zones, then the request's, named for messages.
-std::vector<KeepOutZone> CollectKeepOut(const PlanningMap& map, const PlanRequest& request) {
-  std::vector<KeepOutZone> zones;
-  zones.reserve(map.keep_out().size() + request.keep_out.size());
-  for (std::size_t i = 0; i < map.keep_out().size(); ++i) {
-    zones.emplace_back(map.keep_out()[i], "the map's keep-out zone " + std::to_string(i));
-  }
-  for (std::size_t i = 0; i < request.keep_out.size(); ++i) {
-    zones.emplace_back(request.keep_out[i], "keep-out zone keep_out[" + std::to_string(i) + "]");
-  }
-  return zones;
-}
-
 // kStartInKeepOut / kGoalInKeepOut: `what` ("start", "goal") at `p` violates `zone`.
 Error InKeepOut(ErrorCode code, const char* what, const Eigen::Vector3d& p, const KeepOutZone& zone,
                 const RobotProfile& profile, bool map_zone) {
@@ -101,6 +88,19 @@ Error InKeepOut(ErrorCode code, const char* what, const Eigen::Vector3d& p, cons
 }
 
 }  // namespace
+
+std::vector<KeepOutZone> CollectKeepOut(const PlanningMap& map,
+                                        std::span<const Prism> request_zones) {
+  std::vector<KeepOutZone> zones;
+  zones.reserve(map.keep_out().size() + request_zones.size());
+  for (std::size_t i = 0; i < map.keep_out().size(); ++i) {
+    zones.emplace_back(map.keep_out()[i], "the map's keep-out zone " + std::to_string(i));
+  }
+  for (std::size_t i = 0; i < request_zones.size(); ++i) {
+    zones.emplace_back(request_zones[i], "keep-out zone keep_out[" + std::to_string(i) + "]");
+  }
+  return zones;
+}
 
 Expected<SnapResult> SnapEndpoint(const SurfaceGraph& graph, const Eigen::Vector3d& requested,
                                   double tolerance_m, ErrorCode off_ground_code) {
@@ -307,7 +307,7 @@ Expected<PlanResult> Plan(const PlanningMap& map, const PlanRequest& request,
   // Keep-out zones: the trajectory's ends must lie outside every zone; the search steps
   // around them (the graph stays as it is, shared by every request), the optimiser's J_k
   // keeps the trajectory out with a margin and the verifier checks every sample.
-  const std::vector<KeepOutZone> zones = CollectKeepOut(map, request);
+  const std::vector<KeepOutZone> zones = CollectKeepOut(map, request.keep_out);
   const auto is_map_zone = [&](int zone) {
     return static_cast<std::size_t>(zone) < map.keep_out().size();
   };

@@ -8,6 +8,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <span>
 #include <string_view>
 #include <vector>
 
@@ -154,6 +155,12 @@ struct PlanResult {
   PathResult path;  ///< The A* path the trajectory was initialised from.
   PlanStats stats;
 };
+
+/// The keep-out zones a plan on `map` honours besides `request_zones` (valid, as
+/// PlanRequest::Validate checks them): the map's, named "the map's keep-out zone <i>", then the
+/// request's, named "keep-out zone keep_out[<i>]", as messages quote them.
+std::vector<KeepOutZone> CollectKeepOut(const PlanningMap& map,
+                                        std::span<const Prism> request_zones);
 
 /// Where Plan puts a start or goal requested at `requested`: SnapToSurface (same tolerance,
 /// same failures), with position_m moved to exactly where the trajectory starts or ends there:
