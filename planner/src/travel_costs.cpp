@@ -185,10 +185,10 @@ TravelTimeEstimate EstimateTravelTime(std::span<const Eigen::Vector3d> path_m,
   std::vector<Eigen::Vector3d>& points = scratch->points;
   points.clear();
   if (path_m.size() >= 2 && config.smoothing_m > 0) {
-    // Samples half a window apart: the averaged path holds no detail shorter than its window,
-    // and each sample costs about 0.05 µs.
+    // Samples smoothing_m apart, half the window's width: the averaged path holds no detail
+    // shorter than the window, and a sample costs about 0.05 µs.
     constexpr double kFinestSpacingM = 0.05;
-    SmoothPolyline(path_m, config.smoothing_m, std::max(config.smoothing_m / 2, kFinestSpacingM),
+    SmoothPolyline(path_m, config.smoothing_m, std::max(config.smoothing_m, kFinestSpacingM),
                    scratch, &scratch->smoothed);
     path_m = scratch->smoothed;
   }
@@ -323,6 +323,11 @@ Expected<std::shared_ptr<internal::CoarseGraph>> BuildCoarseGraph(
   std::vector<int> root;              // Union-find over members.
   std::vector<std::int32_t> group_members;
   std::vector<std::uint32_t> group_begin{0};  // Search node -> its members in group_members.
+  // Every member's neighbours, found once: the groups need them, then the edges.
+  std::vector<std::int32_t> block_neighbours;        // Of the block's members, in turn.
+  std::vector<std::uint32_t> block_neighbour_begin;  // Members + 1 offsets into it.
+  std::vector<std::int32_t> neighbours;              // Of group_members, in turn.
+  std::vector<std::uint32_t> neighbour_begin{0};     // group_members + 1 offsets into it.
   const auto find = [&root](int i) {
     while (root[i] != i) i = root[i] = root[root[i]];
     return i;
@@ -343,12 +348,16 @@ Expected<std::shared_ptr<internal::CoarseGraph>> BuildCoarseGraph(
       std::sort(members.begin(), members.end());
       root.resize(members.size());
       std::iota(root.begin(), root.end(), 0);
+      block_neighbours.clear();
+      block_neighbour_begin.assign(1, 0);
       for (std::size_t i = 0; i < members.size(); ++i) {
         graph.ForEachNeighbor(members[i], [&](int m) {
+          block_neighbours.push_back(m);
           const auto it = std::lower_bound(members.begin(), members.end(), m);
           if (it == members.end() || *it != m) return;  // Outside the block, or left out.
           root[find(static_cast<int>(i))] = find(static_cast<int>(it - members.begin()));
         });
+        block_neighbour_begin.push_back(static_cast<std::uint32_t>(block_neighbours.size()));
       }
       // One search node per group, at the member nearest the group's mean point; of members
       // equally near (the four of a full block), the first, so that the representatives of
@@ -375,6 +384,9 @@ Expected<std::shared_ptr<internal::CoarseGraph>> BuildCoarseGraph(
           }
           (*coarse_of)[static_cast<std::size_t>(members[j])] = id;
           group_members.push_back(members[j]);
+          neighbours.insert(neighbours.end(), block_neighbours.begin() + block_neighbour_begin[j],
+                            block_neighbours.begin() + block_neighbour_begin[j + 1]);
+          neighbour_begin.push_back(static_cast<std::uint32_t>(neighbours.size()));
         }
         coarse->representative.push_back(best);
         coarse->position.emplace_back(graph.position(best).cast<float>());
@@ -393,11 +405,10 @@ Expected<std::shared_ptr<internal::CoarseGraph>> BuildCoarseGraph(
   for (int a = 0; a < nodes; ++a) {
     if (a % kNodesPerPoll == 0 && should_stop && should_stop()) return Cancelled();
     adjacent.clear();
-    for (std::uint32_t k = group_begin[a]; k < group_begin[a + 1]; ++k) {
-      graph.ForEachNeighbor(group_members[k], [&](int m) {
-        const std::int32_t b = (*coarse_of)[static_cast<std::size_t>(m)];
-        if (b >= 0 && b != a) adjacent.push_back(b);
-      });
+    for (std::uint32_t k = neighbour_begin[group_begin[a]]; k < neighbour_begin[group_begin[a + 1]];
+         ++k) {
+      const std::int32_t b = (*coarse_of)[static_cast<std::size_t>(neighbours[k])];
+      if (b >= 0 && b != a) adjacent.push_back(b);
     }
     std::sort(adjacent.begin(), adjacent.end());
     adjacent.erase(std::unique(adjacent.begin(), adjacent.end()), adjacent.end());

@@ -75,8 +75,8 @@ struct TravelTimeEstimate {
 };
 
 /// The time-optimal drive along `path_m` (3D points, e.g. a search path's reference points)
-/// for `profile`, from rest to rest: the path is resampled at a third of smoothing_m and
-/// averaged over ±smoothing_m of arc length (ends fixed); each stretch may go no faster than
+/// for `profile`, from rest to rest: the path is resampled every smoothing_m and averaged
+/// over ±smoothing_m of arc length (ends fixed); each stretch may go no faster than
 /// limit_margin times the horizontal speed bound over its horizontal share and the vertical
 /// bound over its vertical share (so the vertical bound slows steep slopes), and accelerate no
 /// harder likewise; each bend no faster than its curvature κ allows, sqrt(limit_margin ·
