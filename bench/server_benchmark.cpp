@@ -7,8 +7,12 @@
 //       --preload s20=scene20.2.pcd,resolution_m=0.2
 //       --listen 127.0.0.1:50099 --metrics-port -1          (one command line)
 //   build/bench/server_benchmark --server 127.0.0.1:50099 [--seconds 5] [--runs 5]
-//       [--clients 1,2,8,32] [--mix s2|spiral] [--deadline-s 30]
+//       [--clients 1,2,8,32] [--mix s2|spiral] [--deadline-s 30] [--batch 1000] [--costs 100]
 //
+// --batch N: N plans of the mix as one PlanBatch call against the same N as Plan calls from
+// 8 parallel clients (plans/s of each, median of --runs; the latency and throughput tables are
+// then skipped). --costs N: an N × N EstimateCosts matrix on the spiral, ends drawn from a
+// lattice over the map and kept where EstimateCosts finds them reachable (median of --runs).
 // Prints markdown tables. Not part of the test path.
 #include <algorithm>
 #include <atomic>
@@ -134,6 +138,92 @@ bool WaitForMaps(const std::shared_ptr<grpc::Channel>& channel) {
   return true;
 }
 
+// N plans of `mix` as one PlanBatch call: plans/s (results counted as they stream in).
+double BatchThroughput(strata::v1::PlannerService::Stub& stub, const std::vector<Query>& mix,
+                       int plans, double deadline_s, int* failed) {
+  strata::v1::PlanBatchRequest batch;
+  for (int i = 0; i < plans; ++i) *batch.add_requests() = Request(mix[i % mix.size()]);
+  grpc::ClientContext context;
+  context.set_deadline(std::chrono::system_clock::now() +
+                       std::chrono::duration_cast<std::chrono::system_clock::duration>(
+                           std::chrono::duration<double>(deadline_s)));
+  const auto t0 = Clock::now();
+  auto reader = stub.PlanBatch(&context, batch);
+  strata::v1::PlanBatchResponse item;
+  int received = 0;
+  while (reader->Read(&item)) {
+    ++received;
+    *failed += item.has_error();
+  }
+  const grpc::Status status = reader->Finish();
+  const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+  if (!status.ok() || received != plans) {
+    std::fprintf(stderr, "PlanBatch: %d of %d results, %s\n", received, plans,
+                 status.error_message().c_str());
+  }
+  return received / seconds;
+}
+
+// The same N plans as Plan calls from `clients` threads taking them in turn: plans/s.
+double ParallelThroughput(const std::shared_ptr<grpc::Channel>& channel,
+                          const std::vector<Query>& mix, int plans, int clients, double deadline_s,
+                          int* failed) {
+  std::atomic<int> next{0}, errors{0};
+  const auto t0 = Clock::now();
+  std::vector<std::thread> threads;
+  for (int c = 0; c < clients; ++c) {
+    threads.emplace_back([&] {
+      auto own = strata::v1::PlannerService::NewStub(channel);
+      for (int i = next++; i < plans; i = next++) {
+        if (!Plan(*own, Request(mix[i % mix.size()]), deadline_s).status.ok()) ++errors;
+      }
+    });
+  }
+  for (std::thread& t : threads) t.join();
+  *failed += errors;
+  return plans / std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+// `count` reachable ends on the spiral: a lattice over its bounds at three heights per
+// level, kept where EstimateCosts from a known ground point finds them reachable.
+std::vector<strata::v1::Vector3> SpiralEnds(strata::v1::PlannerService::Stub& stub, int count) {
+  strata::v1::EstimateCostsRequest probe;
+  probe.set_map_id("spiral");
+  probe.set_profile_name("differential");
+  auto* origin = probe.add_starts_m();
+  origin->set_x(-30);
+  origin->set_y(-2);
+  origin->set_z(1.5);
+  for (double z = 1.5; z < 22; z += 4) {
+    for (double x = -58; x < 16; x += 3.1) {
+      for (double y = -30; y < 6; y += 2.9) {
+        auto* p = probe.add_goals_m();
+        p->set_x(x);
+        p->set_y(y);
+        p->set_z(z);
+      }
+    }
+  }
+  grpc::ClientContext context;
+  context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(60));
+  strata::v1::EstimateCostsResponse response;
+  const grpc::Status status = stub.EstimateCosts(&context, probe, &response);
+  std::vector<strata::v1::Vector3> ends;
+  if (!status.ok()) {
+    std::fprintf(stderr, "EstimateCosts probe: %s\n", status.error_message().c_str());
+    return ends;
+  }
+  for (int j = 0; j < response.cells_size(); ++j) {
+    if (response.cells(j).reachable()) ends.push_back(probe.goals_m(j));
+  }
+  // Spread over the lattice rather than its first rows.
+  std::vector<strata::v1::Vector3> picked;
+  for (int k = 0; k < count && !ends.empty(); ++k) {
+    picked.push_back(ends[(static_cast<std::size_t>(k) * 7919) % ends.size()]);
+  }
+  return picked;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -142,6 +232,7 @@ int main(int argc, char** argv) {
   int runs = 5;
   double deadline_s = 30;
   std::vector<int> client_counts = {1, 2, 8, 32};
+  int batch_plans = 0, cost_size = 0;
   const std::vector<Query>* mix = &kS2Mix;
   for (int i = 1; i + 1 < argc; i += 2) {
     if (!std::strcmp(argv[i], "--server")) {
@@ -152,6 +243,10 @@ int main(int argc, char** argv) {
       runs = std::atoi(argv[i + 1]);
     } else if (!std::strcmp(argv[i], "--deadline-s")) {
       deadline_s = std::atof(argv[i + 1]);
+    } else if (!std::strcmp(argv[i], "--batch")) {
+      batch_plans = std::atoi(argv[i + 1]);
+    } else if (!std::strcmp(argv[i], "--costs")) {
+      cost_size = std::atoi(argv[i + 1]);
     } else if (!std::strcmp(argv[i], "--mix") && !std::strcmp(argv[i + 1], "spiral")) {
       mix = &kSpiralMix;
     } else if (!std::strcmp(argv[i], "--mix") && !std::strcmp(argv[i + 1], "s2")) {
@@ -167,7 +262,7 @@ int main(int argc, char** argv) {
     } else {
       std::fprintf(stderr,
                    "usage: %s [--server HOST:PORT] [--seconds S] [--runs N] [--clients 1,2,8,32] "
-                   "[--mix s2|spiral] [--deadline-s S]\n",
+                   "[--mix s2|spiral] [--deadline-s S] [--batch N] [--costs N]\n",
                    argv[0]);
       return 2;
     }
@@ -183,6 +278,68 @@ int main(int argc, char** argv) {
     if (!o.status.ok())
       std::fprintf(stderr, "warm-up %s: %d %s\n", q.name, static_cast<int>(o.status.error_code()),
                    o.status.error_message().c_str());
+  }
+
+  if (batch_plans > 0 || cost_size > 0) {
+    if (batch_plans > 0) {
+      std::string names;
+      for (const Query& q : *mix) names += (names.empty() ? "" : ", ") + std::string(q.name);
+      std::printf("### %d plans (mix of %s): one PlanBatch against 8 parallel Plan clients\n\n",
+                  batch_plans, names.c_str());
+      std::printf(
+          "| run | PlanBatch plans/s | Plan × 8 clients plans/s | ratio |\n|---|---|---|---|\n");
+      std::vector<double> batch_rate, parallel_rate, ratio;
+      int failed = 0;
+      for (int run = 0; run < runs; ++run) {
+        // Alternated, so a drift of the machine touches both alike.
+        batch_rate.push_back(BatchThroughput(*stub, *mix, batch_plans, deadline_s * 10, &failed));
+        parallel_rate.push_back(
+            ParallelThroughput(channel, *mix, batch_plans, 8, deadline_s, &failed));
+        ratio.push_back(batch_rate.back() / parallel_rate.back());
+        std::printf("| %d | %.1f | %.1f | %.3f |\n", run + 1, batch_rate.back(),
+                    parallel_rate.back(), ratio.back());
+        std::fflush(stdout);
+      }
+      std::printf("| median | %.1f | %.1f | %.3f |\n\nfailed plans: %d\n\n", Median(batch_rate),
+                  Median(parallel_rate), Median(ratio), failed);
+    }
+    if (cost_size > 0) {
+      const std::vector<strata::v1::Vector3> ends = SpiralEnds(*stub, 2 * cost_size);
+      if (ends.size() < static_cast<std::size_t>(2 * cost_size)) return 1;
+      strata::v1::EstimateCostsRequest request;
+      request.set_map_id("spiral");
+      request.set_profile_name("differential");
+      for (int k = 0; k < cost_size; ++k) {
+        *request.add_starts_m() = ends[static_cast<std::size_t>(k)];
+        *request.add_goals_m() = ends[static_cast<std::size_t>(cost_size + k)];
+      }
+      std::vector<double> rpc_ms, total_ms, prepare_ms;
+      int reachable = 0, slots = 0;
+      for (int run = 0; run < runs; ++run) {
+        grpc::ClientContext context;
+        context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(60));
+        strata::v1::EstimateCostsResponse response;
+        const auto t0 = Clock::now();
+        const grpc::Status status = stub->EstimateCosts(&context, request, &response);
+        rpc_ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+        if (!status.ok()) {
+          std::fprintf(stderr, "EstimateCosts: %s\n", status.error_message().c_str());
+          return 1;
+        }
+        total_ms.push_back(response.stats().total_s() * 1e3);
+        prepare_ms.push_back(response.stats().prepare_s() * 1e3);
+        reachable = 0;
+        for (const auto& cell : response.cells()) reachable += cell.reachable();
+        slots = response.stats().slots_used();
+      }
+      std::printf(
+          "### EstimateCosts %d × %d on the spiral (median of %d)\n\n| RPC ms | server total ms | "
+          "prepare ms | slots used | reachable cells |\n|---|---|---|---|---|\n| %.1f | %.1f | "
+          "%.1f | %d | %d |\n",
+          cost_size, cost_size, runs, Median(rpc_ms), Median(total_ms), Median(prepare_ms), slots,
+          reachable);
+    }
+    return 0;
   }
 
   std::printf("### Latency through gRPC (one client, median of %d)\n\n", runs);

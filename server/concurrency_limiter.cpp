@@ -39,6 +39,14 @@ ConcurrencyLimiter::Admission ConcurrencyLimiter::Acquire(
   return outcome;
 }
 
+bool ConcurrencyLimiter::TryAcquire() {
+  std::lock_guard lock(mutex_);
+  // Free slots exist only while no one waits ungranted (Release hands a slot over first).
+  if (free_ == 0) return false;
+  --free_;
+  return true;
+}
+
 void ConcurrencyLimiter::Release() {
   std::lock_guard lock(mutex_);
   for (Waiter& waiter : queue_) {

@@ -30,6 +30,9 @@ class ConcurrencyLimiter {
   /// 50 ms, since a call's cancellation has no notification) returns true.
   Admission Acquire(std::chrono::steady_clock::time_point deadline,
                     const std::function<bool()>& should_stop);
+  /// Takes a slot only if one is free (so no one waits); never queues. For work that may use
+  /// idle slots but must not take a turn from a waiting caller (EstimateCosts' extra threads).
+  bool TryAcquire();
   /// Hands the slot to the longest waiter, or frees it.
   void Release();
 

@@ -75,7 +75,7 @@ ErrorMapping MapError(const ServiceError::Code& code) {
           planner_code != nullptr ? ErrorCodeName(*planner_code) : "INTERNAL"};
 }
 
-google::rpc::Status ToStatusProto(const ServiceError& error) {
+google::rpc::Status ToRpcStatus(const ServiceError& error) {
   const ErrorMapping mapping = MapError(error.code);
   google::rpc::ErrorInfo info;
   info.set_reason(std::string(mapping.reason));
@@ -103,7 +103,7 @@ google::rpc::Status ToStatusProto(const ServiceError& error) {
 }
 
 grpc::Status ToGrpcStatus(const ServiceError& error) {
-  const google::rpc::Status status = ToStatusProto(error);
+  const google::rpc::Status status = ToRpcStatus(error);
   return grpc::Status(static_cast<grpc::StatusCode>(status.code()), status.message(),
                       status.SerializeAsString());
 }

@@ -46,12 +46,14 @@ std::span<const ErrorMapping> ErrorMappingTable();
 /// INTERNAL with the planner's own name as the reason.
 ErrorMapping MapError(const ServiceError::Code& code);
 
-/// The google.rpc.Status of `error` (code, message, ErrorInfo, BadRequest), bounded as
-/// above: what a gRPC client receives in grpc-status-details-bin, and the web viewer's JSON
-/// API as its error body.
-google::rpc::Status ToStatusProto(const ServiceError& error);
+/// The google.rpc.Status of `error`: its code, message (cut, see kMaxErrorMessageBytes), and
+/// details: an ErrorInfo always, a BadRequest when fields are blamed. What a gRPC client
+/// receives in grpc-status-details-bin, a PlanBatch item's error, and the web viewer's JSON
+/// API's error body.
+google::rpc::Status ToRpcStatus(const ServiceError& error);
 
-/// The grpc::Status for `error`: its code, message, and details (ToStatusProto).
+/// The grpc::Status for `error`: ToRpcStatus's code and message, and the whole google.rpc.Status
+/// as its binary details.
 grpc::Status ToGrpcStatus(const ServiceError& error);
 
 /// The error as RecentPlan records it: the same code, reason, message and metadata.

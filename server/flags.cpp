@@ -231,6 +231,13 @@ void AddFlags(CLI::App& app, ParsedFlags& parsed, bool environment) {
       IntegerIn(0, 100000));
   add("--max-plan-time-s", config.max_plan_time_s, "S",
       "cap on every plan's time budget in seconds", Seconds(false));
+  add("--max-cost-cells", config.max_cost_cells, "N",
+      "most cells (starts x goals) one EstimateCosts call may ask for; more are refused with\n"
+      "RESOURCE_EXHAUSTED",
+      IntegerIn(1, 10'000'000));
+  add("--max-batch-plans", config.max_batch_plans, "N",
+      "most plans one PlanBatch call may hold; more are refused with RESOURCE_EXHAUSTED",
+      IntegerIn(1, 1'000'000));
   add("--max-points", config.max_points, "N", "most points one map may hold, file or upload",
       IntegerIn(1, std::numeric_limits<long long>::max()));
   add("--max-receive-message-bytes", config.max_receive_message_bytes, "N",

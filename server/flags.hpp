@@ -88,8 +88,14 @@ struct ServerConfig {
   /// Plans waiting for a slot at most [-], >= 0; a plan beyond them is refused at once with
   /// SERVER_BUSY (a burst of thousands of calls must not hold thousands of threads).
   int max_queued_plans = 256;
-  /// Cap on any plan's time budget [s], > 0.
+  /// Cap on any plan's time budget [s], > 0 (and on any travel-cost estimate's).
   double max_plan_time_s = 10.0;
+  /// Most cells (starts × goals) one EstimateCosts call may ask for [-], >= 1. 10,000 keeps
+  /// the largest response (every end off the ground, each with its message) under gRPC's
+  /// default 4 MiB client limit.
+  int max_cost_cells = 10000;
+  /// Most plans one PlanBatch call may hold [-], >= 1.
+  int max_batch_plans = 5000;
   /// Most points one map may hold, from a file or an upload [-], > 0.
   std::size_t max_points = 50'000'000;
   /// Largest request message accepted [bytes], >= 1 MiB + 64 KiB (an upload chunk).

@@ -36,7 +36,7 @@ HttpResponse JsonResponse(int status, const google::protobuf::Message& message) 
 }
 
 HttpResponse ErrorResponse(const ServiceError& error) {
-  const google::rpc::Status status = ToStatusProto(error);
+  const google::rpc::Status status = ToRpcStatus(error);
   return JsonResponse(HttpStatusOf(static_cast<grpc::StatusCode>(status.code())), status);
 }
 
@@ -182,7 +182,7 @@ HttpResponse HttpApi::HandleApi(const HttpRequest& request, const CallControl& c
   }
   if (method == "strata.v1.PlannerService/Plan") {
     return Call<v1::PlanRequest, v1::PlanResponse>(body, map_id, [&](const auto& in, auto* out) {
-      return planner_->RunPlan(in, call, "http", out);
+      return planner_->PlanOne(in, call, "http", out);
     });
   }
   if (method == "strata.v1.PlannerService/ListRecentPlans") {

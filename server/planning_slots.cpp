@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <string>
+#include <utility>
 
 namespace strata::server {
 namespace {
@@ -54,13 +55,14 @@ ServiceStatus PlanningSlots::Run(const CallControl& call, const Work& work) {
     switch (limiter_.Acquire(queue_deadline, should_stop)) {
       case ConcurrencyLimiter::Admission::kAdmitted: break;
       case ConcurrencyLimiter::Admission::kStopped:
-        return MakeError(ErrorCode::kCancelled, "the client cancelled the plan while queued");
+        return MakeError(ErrorCode::kCancelled,
+                         "the client cancelled the call while it was queued");
       case ConcurrencyLimiter::Admission::kQueueFull:
         return MakeError(ServiceErrorCode::kServerBusy,
                          "all " + std::to_string(limiter_.slots()) +
                              " planning slots are busy and " +
                              std::to_string(limiter_.max_queued()) +
-                             " plans already wait (--max-queued-plans): retry with backoff");
+                             " calls already wait (--max-queued-plans): retry with backoff");
       case ConcurrencyLimiter::Admission::kTimedOut:
         return MakeError(
             ServiceErrorCode::kServerBusy,
@@ -74,12 +76,15 @@ ServiceStatus PlanningSlots::Run(const CallControl& call, const Work& work) {
     const double queue_s = std::chrono::duration<double>(SteadyClock::now() - queue_start).count();
     return work(should_stop, queue_s);
   }();
-  // A call stopped by Stop (the planner and the queue report it as cancelled) says why.
+  return ExplainStop(std::move(outcome));
+}
+
+ServiceStatus PlanningSlots::ExplainStop(ServiceStatus outcome) const {
   if (!outcome.ok() && stopping_ &&
       outcome.error().code == ServiceError::Code(ErrorCode::kCancelled)) {
     return MakeError(ServiceErrorCode::kShuttingDown,
                      "the server is shutting down and its grace (--shutdown-grace-s) ran "
-                     "out before the plan finished: plan again (another replica answers)");
+                     "out before the call finished: call again (another replica answers)");
   }
   return outcome;
 }

@@ -356,25 +356,35 @@ Result<RobotProfile> InlineProfile(const v1::RobotProfile& m) {
   if (m.has_body_height_min_m()) p.body_height_min_m = m.body_height_min_m();
   if (m.has_body_height_max_m()) p.body_height_max_m = m.body_height_max_m();
   if (m.has_headroom_m()) p.headroom_m = m.headroom_m();
-  // RobotProfile::Validate blames "profile.<field>", the field's path in PlanRequest too.
+  // RobotProfile::Validate blames "profile.<field>", the field's path in the request too.
   if (Status valid = p.Validate("profile"); !valid) {
     return ServiceError::FromPlanner(valid.error(), valid.error().field);
   }
   return p;
 }
 
-}  // namespace
-
-Result<RobotProfile> ProfileFromRequest(const v1::PlanRequest& request) {
+// The robot of a request whose oneof `robot` must be set (PlanRequest, EstimateCostsRequest).
+template <typename Request>
+Result<RobotProfile> RequiredProfile(const Request& request) {
   switch (request.robot_case()) {
-    case v1::PlanRequest::kProfileName: return NamedProfile(request.profile_name());
-    case v1::PlanRequest::kProfile: return InlineProfile(request.profile());
-    case v1::PlanRequest::ROBOT_NOT_SET: break;
+    case Request::kProfileName: return NamedProfile(request.profile_name());
+    case Request::kProfile: return InlineProfile(request.profile());
+    case Request::ROBOT_NOT_SET: break;
   }
   return MakeError(ErrorCode::kInvalidInput,
                    "no robot given: set profile_name (\"differential\" or \"biped\") or an "
                    "inline profile")
       .Blame("profile_name");
+}
+
+}  // namespace
+
+Result<RobotProfile> ProfileFromRequest(const v1::PlanRequest& request) {
+  return RequiredProfile(request);
+}
+
+Result<RobotProfile> ProfileFromRequest(const v1::EstimateCostsRequest& request) {
+  return RequiredProfile(request);
 }
 
 Result<std::optional<RobotProfile>> ProfileFromRequest(const v1::GetMapGeometryRequest& request) {
@@ -453,10 +463,15 @@ void ToProto(const Prism& prism, v1::Prism* message) {
   message->set_z_max_m(prism.z_max_m);
 }
 
-Result<std::vector<Prism>> KeepOutFromRequest(const v1::PlanRequest& request) {
+namespace {
+
+// The keep-out zones of a request with PlanRequest's `keep_out` (PlanRequest,
+// EstimateCostsRequest).
+template <typename Request>
+Result<std::vector<Prism>> KeepOutOf(const Request& request) {
   std::vector<Prism> zones;
   // Only the count is checked first, so that a huge list costs nothing to refuse; the rest is
-  // PlanRequest::Validate's (the same paths).
+  // Prism::Validate's (PlanRequest::Validate's, the same paths).
   if (request.keep_out_size() > kMaxRequestKeepOutZones) {
     return MakeError(ErrorCode::kInvalidInput,
                      "keep_out has " + std::to_string(request.keep_out_size()) +
@@ -465,11 +480,59 @@ Result<std::vector<Prism>> KeepOutFromRequest(const v1::PlanRequest& request) {
         .Blame("keep_out");
   }
   for (int i = 0; i < request.keep_out_size(); ++i) {
-    Result<Prism> zone = FromProto(request.keep_out(i), "keep_out[" + std::to_string(i) + "]");
+    Result<Prism> zone =
+        server::FromProto(request.keep_out(i), "keep_out[" + std::to_string(i) + "]");
     if (!zone.ok()) return std::move(zone).error();
     zones.push_back(std::move(zone).value());
   }
   return zones;
+}
+
+}  // namespace
+
+Result<std::vector<Prism>> KeepOutFromRequest(const v1::PlanRequest& request) {
+  return KeepOutOf(request);
+}
+Result<std::vector<Prism>> KeepOutFromRequest(const v1::EstimateCostsRequest& request) {
+  return KeepOutOf(request);
+}
+
+std::vector<Eigen::Vector3d> PositionsFromProto(
+    const google::protobuf::RepeatedPtrField<v1::Vector3>& positions) {
+  std::vector<Eigen::Vector3d> result;
+  result.reserve(static_cast<std::size_t>(positions.size()));
+  for (const v1::Vector3& p : positions) result.push_back(FromProto(p));
+  return result;
+}
+
+void ToProto(const TravelCostQuery& query, const TravelCostMatrix& matrix,
+             v1::EstimateCostsResponse* response) {
+  const auto ends = [](const std::vector<Expected<SnapResult>>& from,
+                       google::protobuf::RepeatedPtrField<v1::CostEndpoint>* to) {
+    to->Reserve(static_cast<int>(from.size()));
+    for (const Expected<SnapResult>& end : from) {
+      v1::CostEndpoint* out = to->Add();
+      if (end) {
+        ToProto(*end, out->mutable_snapped());
+      } else {
+        out->set_reason(std::string(MapError(end.error().code).reason));
+        out->set_message(BoundedText(end.error().message, kMaxErrorMessageBytes));
+      }
+    }
+  };
+  ends(query.starts(), response->mutable_starts());
+  ends(query.goals(), response->mutable_goals());
+  response->mutable_cells()->Reserve(static_cast<int>(matrix.cells.size()));
+  for (const TravelCost& cell : matrix.cells) {
+    v1::CostCell* out = response->add_cells();
+    out->set_reachable(cell.reachable());
+    if (cell.reachable()) {
+      out->set_time_s(cell.time_s);
+      out->set_length_m(cell.length_m);
+    } else {
+      out->set_reason(std::string(MapError(*cell.failure).reason));
+    }
+  }
 }
 
 PlanOptions FromProto(const v1::PlanOptions& m) {
@@ -558,8 +621,8 @@ Result<WarmStart> WarmStartFromRequest(const v1::WarmStart& message) {
       static_cast<std::size_t>(message.trajectory().pieces_size()) > kMaxWarmStartPieces) {
     return MakeError(ErrorCode::kInvalidInput,
                      std::string(kPrefix) + ".pieces has " +
-                         std::to_string(message.trajectory().pieces_size()) + " pieces; give 1 to " +
-                         std::to_string(kMaxWarmStartPieces))
+                         std::to_string(message.trajectory().pieces_size()) +
+                         " pieces; give 1 to " + std::to_string(kMaxWarmStartPieces))
         .Blame(std::string(kPrefix) + ".pieces");
   }
   Result<Trajectory> trajectory = FromProto(message.trajectory());
@@ -570,8 +633,8 @@ Result<WarmStart> WarmStartFromRequest(const v1::WarmStart& message) {
     }
     // The messages start with the field they blame ("pieces[3].duration_s must be > 0"),
     // or speak of "trajectory dimension".
-    error.message = std::string(kPrefix) + (error.message.rfind("trajectory ", 0) == 0 ? ": " : ".") +
-                    error.message;
+    error.message = std::string(kPrefix) +
+                    (error.message.rfind("trajectory ", 0) == 0 ? ": " : ".") + error.message;
     return error;
   }
   WarmStart warm;
@@ -579,9 +642,9 @@ Result<WarmStart> WarmStartFromRequest(const v1::WarmStart& message) {
   if (message.has_elapsed_s()) {
     const double elapsed = message.elapsed_s();
     if (!(std::isfinite(elapsed) && elapsed >= 0)) {
-      return MakeError(ErrorCode::kInvalidInput, "warm_start.elapsed_s = " +
-                                                     std::to_string(elapsed) +
-                                                     " must be >= 0 and finite (or unset)")
+      return MakeError(ErrorCode::kInvalidInput,
+                       "warm_start.elapsed_s = " + std::to_string(elapsed) +
+                           " must be >= 0 and finite (or unset)")
           .Blame("warm_start.elapsed_s");
     }
     warm.elapsed_s = elapsed;

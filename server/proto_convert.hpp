@@ -20,6 +20,7 @@
 #include "strata/robot_profile.hpp"
 #include "strata/terrain_config.hpp"
 #include "strata/trajectory.hpp"
+#include "strata/travel_costs.hpp"
 #include "strata/v1/map_service.pb.h"
 #include "strata/v1/planner_service.pb.h"
 #include "strata/v1/trajectory.pb.h"
@@ -62,6 +63,8 @@ Result<MapSnapshot> DecodeMapMetadata(const std::string& json);
 /// RobotProfile::Validate. kInvalidInput (unset, unknown name: "profile_name"),
 /// kInvalidConfig ("profile.<field>", the same path in the planner and in PlanRequest).
 Result<RobotProfile> ProfileFromRequest(const v1::PlanRequest& request);
+/// The same for EstimateCosts, whose robot is the same oneof.
+Result<RobotProfile> ProfileFromRequest(const v1::EstimateCostsRequest& request);
 /// The robot of a GetMapGeometryRequest, as ProfileFromRequest; nullopt when none is set.
 Result<std::optional<RobotProfile>> ProfileFromRequest(const v1::GetMapGeometryRequest& request);
 /// Every field set.
@@ -79,6 +82,16 @@ void ToProto(const Prism& prism, v1::Prism* message);
 /// The request's keep-out zones, copied (FromProto above); kInvalidInput blaming "keep_out"
 /// for more than kMaxRequestKeepOutZones. PlanRequest::Validate checks the zones.
 Result<std::vector<Prism>> KeepOutFromRequest(const v1::PlanRequest& request);
+/// The same for EstimateCosts.
+Result<std::vector<Prism>> KeepOutFromRequest(const v1::EstimateCostsRequest& request);
+
+/// Positions, copied (TravelCostQuery::Prepare checks them, blaming e.g. "starts_m[2].x").
+std::vector<Eigen::Vector3d> PositionsFromProto(
+    const google::protobuf::RepeatedPtrField<v1::Vector3>& positions);
+/// The ends and cells of an estimate (everything of the response but profile, map_version and
+/// stats): a failed end or cell carries its reason from the error table (error_mapping.hpp).
+void ToProto(const TravelCostQuery& query, const TravelCostMatrix& matrix,
+             v1::EstimateCostsResponse* response);
 
 /// Options over the planner's defaults, copied (time_budget_s as given: the caller caps it,
 /// see PlannerService); PlanOptions::Validate checks them.

@@ -221,6 +221,8 @@ Result<std::unique_ptr<StrataServer>> StrataServer::Start(const ServerConfig& co
   planner_options.slots = self->planning_slots_.get();
   planner_options.recent_plans = self->recent_plans_.get();
   planner_options.max_samples = kMaxResponseSamples;
+  planner_options.max_cost_cells = config.max_cost_cells;
+  planner_options.max_batch_plans = config.max_batch_plans;
   planner_options.tokens = self->tokens_.get();
   self->planner_service_ = std::make_unique<PlannerServiceImpl>(
       self->registry_.get(), self->metrics_.get(), planner_options);

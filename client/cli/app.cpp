@@ -38,6 +38,8 @@ void AddStrataCommands(CLI::App& app, Context* ctx, Command* run) {
   AddMapsCommands(app, *ctx, run);
   AddPlanCommand(app, *ctx, run);
   AddSetpointsCommand(app, *ctx, run);
+  AddCostsCommand(app, *ctx, run);
+  AddBatchCommand(app, *ctx, run);
   app.add_subcommand("help", "print this help")->callback([&app, run] {
     *run = [&app] {
       // Not app.help(), which shows the help of the command given: `help` itself.

@@ -22,6 +22,10 @@ void AddMapsCommands(CLI::App& app, const Context& ctx, Command* run);
 void AddPlanCommand(CLI::App& app, const Context& ctx, Command* run);
 /// `strata setpoints ...`
 void AddSetpointsCommand(CLI::App& app, const Context& ctx, Command* run);
+/// `strata costs ...`
+void AddCostsCommand(CLI::App& app, const Context& ctx, Command* run);
+/// `strata batch FILE`
+void AddBatchCommand(CLI::App& app, const Context& ctx, Command* run);
 
 /// The flags of a plan request, shared by `plan` and `setpoints`.
 struct PlanFlags {

@@ -66,21 +66,6 @@ class StopCondition {
   bool expired_ = false;
 };
 
-// Where the trajectory starts or ends: the requested x, y on the ground when they lie in the
-// snapped node's column (the robot is where it says) at least `min_distance_m` from obstacles,
-// else the node's reference point.
-Eigen::Vector3d BoundaryPosition(const SurfaceGraph& graph, const SnapResult& snap,
-                                 const Eigen::Vector3d& requested, double min_distance_m) {
-  Eigen::Vector3d node = snap.position_m;
-  const Eigen::Vector3d candidate(requested.x(), requested.y(), node.z());
-  if (graph.grid().CellOf(candidate).head<2>() != graph.cell(snap.node).head<2>()) return node;
-  GroundSample ground;
-  const double h_ref = graph.params().reference_height_m;
-  if (!SampleGround(graph.model(), candidate, h_ref, 0, &ground)) return node;
-  const Eigen::Vector3d on_ground(requested.x(), requested.y(), ground.height_m + h_ref);
-  return graph.model().Distance(on_ground) >= min_distance_m ? on_ground : node;
-}
-
 void FillStats(const Trajectory& trajectory, const VerificationReport& v,
                const RobotProfile& profile, PlanStats* stats) {
   stats->length_m = PathLength(trajectory);
@@ -107,19 +92,6 @@ void FillStats(const Trajectory& trajectory, const VerificationReport& v,
                        [](const auto& a, const auto& b) { return a.second < b.second; });
   stats->limiting_bound = limiting->first;
   stats->limiting_bound_fraction = limiting->second;
-}
-
-// The map's zones, then the request's, named for messages.
-std::vector<KeepOutZone> CollectKeepOut(const PlanningMap& map, const PlanRequest& request) {
-  std::vector<KeepOutZone> zones;
-  zones.reserve(map.keep_out().size() + request.keep_out.size());
-  for (std::size_t i = 0; i < map.keep_out().size(); ++i) {
-    zones.emplace_back(map.keep_out()[i], "the map's keep-out zone " + std::to_string(i));
-  }
-  for (std::size_t i = 0; i < request.keep_out.size(); ++i) {
-    zones.emplace_back(request.keep_out[i], "keep-out zone keep_out[" + std::to_string(i) + "]");
-  }
-  return zones;
 }
 
 // kStartInKeepOut / kGoalInKeepOut: `what` ("start", "goal") at `p` violates `zone`.
@@ -165,8 +137,8 @@ Expected<Trajectory> OptimizeAndVerify(const SurfaceGraph& graph, const RobotPro
   Status verified = VerifyTrajectory(graph, profile, trajectory, verifier, &verification, zones);
   double stretch = 1;
   if (!verified) {
-    const double k =
-        RequiredTimeScale(SampleDynamicPeaks(trajectory, kPeakSampleStepS), profile, kStretchTarget);
+    const double k = RequiredTimeScale(SampleDynamicPeaks(trajectory, kPeakSampleStepS), profile,
+                                       kStretchTarget);
     if (k > 1 && k <= kMaxTimeStretch) {
       Trajectory stretched = StretchTime(trajectory, k, problem.head_pva, problem.tail_pva);
       VerificationReport stretched_report;
@@ -207,14 +179,14 @@ Status ValidateWarmStart(const WarmStart& warm, const RobotProfile& profile) {
   const Trajectory& trajectory = warm.trajectory;
   const int dim = profile.active_height ? 4 : 3;
   if (trajectory.dimension != dim) {
-    return bad("warm_start.trajectory.dimension",
-               "is " + std::to_string(trajectory.dimension) + "; this robot's trajectories have " +
-                   std::to_string(dim) + " axes");
+    return bad("warm_start.trajectory.dimension", "is " + std::to_string(trajectory.dimension) +
+                                                      "; this robot's trajectories have " +
+                                                      std::to_string(dim) + " axes");
   }
   if (trajectory.pieces.empty() || trajectory.pieces.size() > kMaxWarmStartPieces) {
-    return bad("warm_start.trajectory.pieces",
-               "has " + std::to_string(trajectory.pieces.size()) + " pieces; give 1 to " +
-                   std::to_string(kMaxWarmStartPieces));
+    return bad("warm_start.trajectory.pieces", "has " + std::to_string(trajectory.pieces.size()) +
+                                                   " pieces; give 1 to " +
+                                                   std::to_string(kMaxWarmStartPieces));
   }
   for (std::size_t i = 0; i < trajectory.pieces.size(); ++i) {
     const TrajectoryPiece& piece = trajectory.pieces[i];
@@ -232,6 +204,44 @@ Status ValidateWarmStart(const WarmStart& warm, const RobotProfile& profile) {
 }
 
 }  // namespace
+
+std::vector<KeepOutZone> CollectKeepOut(const PlanningMap& map,
+                                        std::span<const Prism> request_zones) {
+  std::vector<KeepOutZone> zones;
+  zones.reserve(map.keep_out().size() + request_zones.size());
+  for (std::size_t i = 0; i < map.keep_out().size(); ++i) {
+    zones.emplace_back(map.keep_out()[i], "the map's keep-out zone " + std::to_string(i));
+  }
+  for (std::size_t i = 0; i < request_zones.size(); ++i) {
+    zones.emplace_back(request_zones[i], "keep-out zone keep_out[" + std::to_string(i) + "]");
+  }
+  return zones;
+}
+
+Expected<SnapResult> SnapEndpoint(const SurfaceGraph& graph, const Eigen::Vector3d& requested,
+                                  double tolerance_m, ErrorCode off_ground_code,
+                                  double min_obstacle_distance_m) {
+  // Only where verification can pass: a trajectory's end whose reference point is closer to
+  // an obstacle than the verifier allows could never be returned.
+  const auto clear = [&](int node) { return graph.clearance(node) >= min_obstacle_distance_m; };
+  char refusal[112];
+  std::snprintf(refusal, sizeof(refusal),
+                "closer than %.3f m (verifier.min_obstacle_distance_m) to an obstacle",
+                min_obstacle_distance_m);
+  Expected<SnapResult> snap =
+      SnapToSurface(graph, requested, tolerance_m, off_ground_code, clear, refusal);
+  if (!snap) return snap;
+  // The requested x, y on the ground when they lie in the snapped node's column and keep the
+  // same distance from obstacles; else the node's reference point.
+  const Eigen::Vector3d candidate(requested.x(), requested.y(), snap->position_m.z());
+  if (graph.grid().CellOf(candidate).head<2>() != graph.cell(snap->node).head<2>()) return snap;
+  GroundSample ground;
+  const double h_ref = graph.params().reference_height_m;
+  if (!SampleGround(graph.model(), candidate, h_ref, 0, &ground)) return snap;
+  const Eigen::Vector3d on_ground(requested.x(), requested.y(), ground.height_m + h_ref);
+  if (graph.model().Distance(on_ground) >= min_obstacle_distance_m) snap->position_m = on_ground;
+  return snap;
+}
 
 struct PlanningMap::GraphEntry {
   std::once_flag once;
@@ -412,35 +422,25 @@ Expected<PlanResult> Plan(const PlanningMap& map, const PlanRequest& request,
     error.field = field;
     return error;
   };
-  // Only where verification can pass: a trajectory's end whose reference point is closer to
-  // an obstacle than the verifier allows could never be returned.
   const double min_distance = options.verifier.min_obstacle_distance_m;
-  const auto clear = [&](int node) { return graph.clearance(node) >= min_distance; };
-  char refusal[96];
-  std::snprintf(refusal, sizeof(refusal),
-                "closer than %.3f m (verifier.min_obstacle_distance_m) to an obstacle",
-                min_distance);
   Expected<SnapResult> start =
-      SnapToSurface(graph, request.start.position_m, options.snap_tolerance_m,
-                    ErrorCode::kStartOffGround, clear, refusal);
+      SnapEndpoint(graph, request.start.position_m, options.snap_tolerance_m,
+                   ErrorCode::kStartOffGround, min_distance);
   if (!start) return blame(std::move(start).error(), "start.position_m");
-  Expected<SnapResult> goal = SnapToSurface(graph, request.goal.position_m,
-                                            options.snap_tolerance_m, ErrorCode::kGoalOffGround,
-                                            clear, refusal);
+  Expected<SnapResult> goal = SnapEndpoint(graph, request.goal.position_m, options.snap_tolerance_m,
+                                           ErrorCode::kGoalOffGround, min_distance);
   if (!goal) return blame(std::move(goal).error(), "goal.position_m");
   result.start = *start;
   result.goal = *goal;
   RobotState head = request.start, tail = request.goal;
-  head.position_m = BoundaryPosition(graph, result.start, request.start.position_m, min_distance);
-  tail.position_m = BoundaryPosition(graph, result.goal, request.goal.position_m, min_distance);
-  result.start.position_m = head.position_m;
-  result.goal.position_m = tail.position_m;
+  head.position_m = result.start.position_m;
+  tail.position_m = result.goal.position_m;
   stats.timings.snap_s = SecondsSince(stage);
 
   // Keep-out zones: the trajectory's ends must lie outside every zone; the search steps
   // around them (the graph stays as it is, shared by every request), the optimiser's J_k
   // keeps the trajectory out with a margin and the verifier checks every sample.
-  const std::vector<KeepOutZone> zones = CollectKeepOut(map, request);
+  const std::vector<KeepOutZone> zones = CollectKeepOut(map, request.keep_out);
   const auto is_map_zone = [&](int zone) {
     return static_cast<std::size_t>(zone) < map.keep_out().size();
   };
@@ -481,7 +481,8 @@ Expected<PlanResult> Plan(const PlanningMap& map, const PlanRequest& request,
   };
   if (request.warm_start) {
     const TrajectoryCost cost(graph, config.weights, CostParams{profile, config.cost}, zones);
-    if (Expected<OptimizationProblem> warm = MakeWarmProblem(cost, *request.warm_start, head, tail)) {
+    if (Expected<OptimizationProblem> warm =
+            MakeWarmProblem(cost, *request.warm_start, head, tail)) {
       Expected<bool> done = attempt(*warm);
       if (!done) return done.error();
       if (*done) {

@@ -10,6 +10,7 @@
 #include <gmock/gmock.h>
 #include <google/protobuf/struct.pb.h>
 #include <google/protobuf/util/json_util.h>
+#include <google/rpc/error_details.pb.h>
 #include <gtest/gtest.h>
 
 #include "server_process.hpp"
@@ -402,6 +403,68 @@ TEST_F(StrataCliTest, UploadStreamsAPcdInChunksAndPlansOnIt) {
 
 // A server that wants TLS and tokens: the CLI reaches it with --tls-ca and STRATA_TOKEN, and
 // says what is wrong without the token.
+TEST_F(StrataCliTest, CostsFromOneFileOfPointsToAnother) {
+  std::ofstream(Path("robots.xyz")) << "# x y z\n2 2 0.3\n8,5.25,0.3\n100 100 0\n";
+  std::ofstream(Path("tasks.csv")) << "10,10,3.3\n12,9,0.3\n";
+  CommandResult result =
+      Strata({"costs", "--map", "demo", "--from", Path("robots.xyz"), "--to", Path("tasks.csv")});
+  EXPECT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_THAT(result.out, HasSubstr("3 starts x 2 goals, 4 reachable"));
+  EXPECT_THAT(result.out, HasSubstr("START_OFF_GROUND"));
+  EXPECT_THAT(result.out, HasSubstr("unreachable: START_OFF_GROUND"));
+
+  result = Strata({"--json", "costs", "--map", "demo", "--from", Path("robots.xyz"), "--to",
+                   Path("tasks.csv")});
+  EXPECT_EQ(result.exit_code, 0) << result.err;
+  const auto response = Parse<v1::EstimateCostsResponse>(result.out);
+  ASSERT_EQ(response.cells_size(), 6);
+  EXPECT_TRUE(response.cells(0).reachable());
+  EXPECT_GT(response.cells(0).time_s(), 0);
+  EXPECT_EQ(response.cells(4).reason(), "START_OFF_GROUND");
+
+  std::ofstream(Path("empty.xyz")) << "# nothing\n";
+  result =
+      Strata({"costs", "--map", "demo", "--from", Path("empty.xyz"), "--to", Path("tasks.csv")});
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_THAT(result.err, HasSubstr("holds no point"));
+}
+
+TEST_F(StrataCliTest, BatchPrintsEachResultAndExits1WhenOneFailed) {
+  std::ofstream(Path("plans.jsonl"))
+      << "# floor to deck, then a map that does not exist\n"
+      << R"({"map_id":"demo","profile_name":"differential","start":{"position_m":{"x":2,"y":2,"z":0.3}},"goal":{"position_m":{"x":10,"y":10,"z":3.3}}})"
+      << "\n"
+      << R"({"map_id":"atlantis","profile_name":"differential","start":{"position_m":{"x":2,"y":2,"z":0.3}},"goal":{"position_m":{"x":10,"y":10,"z":3.3}}})"
+      << "\n";
+  CommandResult result = Strata({"batch", Path("plans.jsonl")});
+  EXPECT_EQ(result.exit_code, 1) << result.err;
+  EXPECT_THAT(result.out, HasSubstr("plan 0 (map demo): "));
+  EXPECT_THAT(result.out, HasSubstr("plan 1 (map atlantis): failed: NOT_FOUND"));
+  EXPECT_THAT(result.out, HasSubstr("(MAP_NOT_FOUND)"));
+  EXPECT_THAT(result.err, HasSubstr("1 of 2 plans succeeded"));
+
+  result = Strata({"--json", "batch", Path("plans.jsonl")});
+  EXPECT_EQ(result.exit_code, 1);
+  // The errors' details are Any messages: their types must be known to parse them back.
+  ASSERT_NE(google::rpc::ErrorInfo::descriptor(), nullptr);
+  ASSERT_NE(google::rpc::BadRequest::descriptor(), nullptr);
+  int lines = 0, plans = 0;
+  for (std::size_t at = 0, end; (end = result.out.find('\n', at)) != std::string::npos;
+       at = end + 1) {
+    const auto item = Parse<v1::PlanBatchResponse>(result.out.substr(at, end - at));
+    ++lines;
+    plans += item.has_response();
+  }
+  EXPECT_EQ(lines, 2);
+  EXPECT_EQ(plans, 1);
+
+  std::ofstream(Path("bad.jsonl")) << R"({"map_id":"demo","no_such_field":1})"
+                                   << "\n";
+  result = Strata({"batch", Path("bad.jsonl")});
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_THAT(result.err, HasSubstr("line 1"));
+}
+
 TEST(StrataCliAccessTest, TlsAndATokenFromTheEnvironment) {
   const auto dir = std::filesystem::temp_directory_path() /
                    ("strata_cli_access_test_" + std::to_string(::getpid()));

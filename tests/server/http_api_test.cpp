@@ -161,7 +161,7 @@ TEST_F(HttpApiTest, AnswersWhatTheServiceFunctionsAnswer) {
                   PlanJson(R"({"x": 10, "y": 10, "z": 3.3})"), &request)
                   .ok());
   v1::PlanResponse direct_plan;
-  ASSERT_TRUE(planner_->RunPlan(request, CallControl{}, "grpc", &direct_plan).ok());
+  ASSERT_TRUE(planner_->PlanOne(request, CallControl{}, "grpc", &direct_plan).ok());
   // Planning is deterministic: the same trajectory either way (timings aside).
   EXPECT_TRUE(google::protobuf::util::MessageDifferencer::Equals(over_http.trajectory(),
                                                                  direct_plan.trajectory()));

@@ -1,5 +1,6 @@
 // The documented defaults of the public API are the C++ defaults. Every proto3 `optional`
-// scalar field reachable from PlanRequest, and every field of TerrainParameters, must say
+// scalar field reachable from PlanRequest and EstimateCostsRequest, and every field of
+// TerrainParameters, must say
 // "Default <value>." in its comment (`none` when unset means "off"), and <value> must be what
 // the server uses when the field is unset: the test converts a request with every field unset
 // through the server's converters (proto_convert) and reads the result back with the ToProto
@@ -185,6 +186,22 @@ TEST(ProtoDefaults, DocumentedPlanRequestDefaultsAreTheCppDefaults) {
   defaults.mutable_options()->set_return_search_path(parsed->return_search_path);
   // RobotProfile (14), PlanOptions (4) and CostWeights (6) at least.
   EXPECT_GE(ExpectDocumentedDefaults(documented, defaults), 24);
+}
+
+TEST(ProtoDefaults, DocumentedEstimateCostsDefaultsAreTheCppDefaults) {
+  const Descriptor* documented =
+      DocumentedPool().FindMessageTypeByName("strata.v1.EstimateCostsRequest");
+  ASSERT_NE(documented, nullptr) << "cannot read " << STRATA_API_DESCRIPTORS;
+  v1::EstimateCostsRequest unset;
+  unset.set_map_id("m");
+  unset.mutable_profile();
+  Result<ParsedCostRequest> parsed = ParseEstimateCostsRequest(unset, 1);
+  ASSERT_TRUE(parsed.ok()) << parsed.error().message;
+  v1::EstimateCostsRequest defaults;
+  ToProto(parsed->profile, defaults.mutable_profile());
+  defaults.set_snap_tolerance_m(parsed->snap_tolerance_m);
+  // RobotProfile (14) and snap_tolerance_m.
+  EXPECT_GE(ExpectDocumentedDefaults(documented, defaults), 15);
 }
 
 TEST(ProtoDefaults, DocumentedTerrainDefaultsAreTheCppDefaults) {

@@ -72,6 +72,38 @@ TEST_F(ServerAuthTest, TokensDecideWhoPlansAndWhoChangesMaps) {
   EXPECT_EQ(ErrorOf(create("")).code, grpc::StatusCode::UNAUTHENTICATED);
   const grpc::Status admin = create(kAdminToken);
   EXPECT_TRUE(admin.ok()) << admin.error_message();
+  // The dispatcher's calls are planning: a planner may make them, an unknown caller not.
+  const auto estimate = [&](const std::string& token) {
+    grpc::ClientContext context;
+    SetDeadline(&context, 30);
+    if (!token.empty()) context.AddMetadata("authorization", "Bearer " + token);
+    v1::EstimateCostsRequest request;
+    request.set_map_id("demo");
+    request.set_profile_name("differential");
+    SetXyz(request.add_starts_m(), 2, 2, 0.3);
+    SetXyz(request.add_goals_m(), 10, 10, 3.3);
+    v1::EstimateCostsResponse response;
+    return planner_->EstimateCosts(&context, request, &response);
+  };
+  const auto batch = [&](const std::string& token) {
+    grpc::ClientContext context;
+    SetDeadline(&context, 30);
+    if (!token.empty()) context.AddMetadata("authorization", "Bearer " + token);
+    v1::PlanBatchRequest request;
+    *request.add_requests() = PlanRequestFor("demo", 2, 2, 0.3, 10, 10, 3.3);
+    auto reader = planner_->PlanBatch(&context, request);
+    v1::PlanBatchResponse item;
+    int results = 0;
+    while (reader->Read(&item)) results += item.has_response();
+    const grpc::Status status = reader->Finish();
+    return status.ok() && results != 1 ? grpc::Status(grpc::StatusCode::INTERNAL, "no plan")
+                                       : status;
+  };
+  EXPECT_TRUE(estimate(kPlannerToken).ok());
+  EXPECT_TRUE(batch(kPlannerToken).ok());
+  EXPECT_EQ(ErrorOf(estimate("")).reason, "UNAUTHENTICATED");
+  EXPECT_EQ(ErrorOf(batch("not-a-token-of-this-server")).reason, "UNAUTHENTICATED");
+
   // Tokens never reach the log.
   EXPECT_THAT(server_->Log(), Not(HasSubstr(kPlannerToken)));
   EXPECT_THAT(server_->Log(), Not(HasSubstr(kAdminToken)));

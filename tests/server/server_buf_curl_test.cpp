@@ -72,6 +72,64 @@ TEST_F(BufCurlTest, PlansFromJsonAsTheReadmeShows) {
                                  HasSubstr(R"("lengthM")")));
 }
 
+// proto/README.md's EstimateCosts call, as written there: every pair has its cell, the end off
+// the map its reason.
+TEST_F(BufCurlTest, EstimatesCostsAsProtoReadmeShows) {
+  const auto costs =
+      Curl("strata.v1.PlannerService/EstimateCosts",
+           R"({"map_id":"demo","profile_name":"differential",)"
+           R"("starts_m":[{"x":2,"y":2,"z":0.3},{"x":8,"y":5.25,"z":0.3},{"x":100,"y":100,"z":0}],)"
+           R"("goals_m":[{"x":10,"y":10,"z":3.3},{"x":12,"y":9,"z":0.3}]})");
+  ASSERT_EQ(costs.exit_code, 0) << costs.output;
+  const nlohmann::json response = nlohmann::json::parse(costs.output, nullptr, false);
+  ASSERT_TRUE(response.is_object()) << costs.output;
+  ASSERT_EQ(response["cells"].size(), 6u);
+  for (int k = 0; k < 4; ++k) {
+    EXPECT_EQ(response["cells"][k].value("reachable", false), true) << k;
+    EXPECT_GT(response["cells"][k].value("timeS", 0.0), 0) << k;
+  }
+  EXPECT_EQ(response["cells"][4].value("reason", ""), "START_OFF_GROUND");
+  EXPECT_THAT(response["starts"][2].value("message", ""), HasSubstr("the nearest is"));
+}
+
+// proto/README.md's PlanBatch call: two results streamed, the bad item with Plan's error.
+TEST_F(BufCurlTest, StreamsABatchAsProtoReadmeShows) {
+  const auto batch = Curl(
+      "strata.v1.PlannerService/PlanBatch",
+      R"({"requests":[)"
+      R"({"map_id":"demo","profile_name":"differential",)"
+      R"("start":{"position_m":{"x":2,"y":2,"z":0.3}},"goal":{"position_m":{"x":10,"y":10,"z":3.3}}},)"
+      R"({"map_id":"demo","profile_name":"differential",)"
+      R"("start":{"position_m":{"x":50,"y":50,"z":0.3}},"goal":{"position_m":{"x":10,"y":10,"z":3.3}}}]})");
+  ASSERT_EQ(batch.exit_code, 0) << batch.output;
+  // One JSON object per result, one after the other.
+  std::vector<nlohmann::json> results;
+  std::size_t at = 0;
+  while (at < batch.output.size()) {
+    const std::size_t begin = batch.output.find('{', at);
+    if (begin == std::string::npos) break;
+    int depth = 0;
+    std::size_t end = begin;
+    for (; end < batch.output.size(); ++end) {
+      depth += batch.output[end] == '{' ? 1 : batch.output[end] == '}' ? -1 : 0;
+      if (depth == 0) break;
+    }
+    results.push_back(nlohmann::json::parse(batch.output.substr(begin, end - begin + 1)));
+    at = end + 1;
+  }
+  ASSERT_EQ(results.size(), 2u) << batch.output;
+  for (const nlohmann::json& result : results) {
+    if (result.value("index", -1) == 0) {
+      EXPECT_TRUE(result.contains("response")) << result.dump();
+    } else {
+      EXPECT_EQ(result.value("index", -1), 1) << result.dump();
+      EXPECT_EQ(result["error"].value("code", 0), 3);
+      EXPECT_THAT(result["error"].dump(), HasSubstr("START_OFF_GROUND"));
+      EXPECT_THAT(result["error"].dump(), HasSubstr("start.position_m"));
+    }
+  }
+}
+
 // Errors reach a JSON client with their code, message and google.rpc.ErrorInfo (which buf
 // prints as base64 of the packed message, having no descriptor for it).
 TEST_F(BufCurlTest, ErrorsCarryTheirCodeMessageAndReason) {

@@ -9,6 +9,7 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <span>
 #include <string_view>
 #include <vector>
 
@@ -114,8 +115,8 @@ struct PlanRequest {
   /// search when the remainder does not fit (the start or goal moved more than
   /// kWarmStartToleranceM from it) or does not pass verification.
   std::optional<WarmStart> warm_start;
-  /// The first bad field of start, goal, profile, options, keep_out or warm_start, blamed by its path
-  /// (e.g. "start.position_m.x", "profile.max_tilt_rad", "options.max_attempts",
+  /// The first bad field of start, goal, profile, options, keep_out or warm_start, blamed by its
+  /// path (e.g. "start.position_m.x", "profile.max_tilt_rad", "options.max_attempts",
   /// "keep_out[1].polygon_m[2].x"): kInvalidInput for a non-finite state, a malformed zone or
   /// more than kMaxRequestKeepOutZones zones ("keep_out"), kInvalidConfig for a field out of
   /// range.
@@ -184,6 +185,24 @@ struct PlanResult {
   PathResult path;  ///< The A* path the trajectory was initialised from.
   PlanStats stats;
 };
+
+/// The keep-out zones a plan on `map` honours besides `request_zones` (valid, as
+/// PlanRequest::Validate checks them): the map's, named "the map's keep-out zone <i>", then the
+/// request's, named "keep-out zone keep_out[<i>]", as messages quote them.
+std::vector<KeepOutZone> CollectKeepOut(const PlanningMap& map,
+                                        std::span<const Prism> request_zones);
+
+/// Where Plan puts a start or goal requested at `requested`: SnapToSurface (same tolerance,
+/// same failures) onto the nodes whose reference point keeps `min_obstacle_distance_m` [m]
+/// from obstacles (the verifier's bound: an end closer could never be verified; when every
+/// node within tolerance is closer, the error says so), with position_m moved to exactly where
+/// the trajectory starts or ends there: the requested x, y at the reference height above the
+/// ground when they lie in the snapped node's column and keep that distance too (the robot is
+/// where it says), else the node's reference point.
+Expected<SnapResult> SnapEndpoint(
+    const SurfaceGraph& graph, const Eigen::Vector3d& requested, double tolerance_m,
+    ErrorCode off_ground_code,
+    double min_obstacle_distance_m = VerifierConfig{}.min_obstacle_distance_m);
 
 /// Plans one request on `map`, keeping the robot out of the map's and the request's keep-out
 /// zones (searched around, pushed out of by the optimiser's J_k, checked by the verifier).

@@ -1,0 +1,99 @@
+// `strata batch`: one PlanBatch call with the plan requests of a file (JSON lines), each
+// result printed as it arrives.
+#include <fstream>
+
+#include <google/protobuf/util/json_util.h>
+
+#include "commands.hpp"
+#include "connection.hpp"
+#include "output.hpp"
+#include "strata/client/rpc.hpp"
+#include "strata/v1/planner_service.grpc.pb.h"
+
+namespace strata::cli {
+namespace {
+
+// One PlanRequest per non-blank line, in protobuf's JSON mapping (as grpcurl takes it);
+// '#' lines are comments. UsageError names the file and line of a bad one.
+v1::PlanBatchRequest ReadRequests(const std::string& path) {
+  std::ifstream file(path);
+  if (!file) throw UsageError("cannot read \"" + path + "\"");
+  v1::PlanBatchRequest batch;
+  int number = 0;
+  for (std::string line; std::getline(file, line);) {
+    ++number;
+    const std::size_t first = line.find_first_not_of(" \t\r");
+    if (first == std::string::npos || line[first] == '#') continue;
+    FromJson(line, "\"" + path + "\" line " + std::to_string(number), batch.add_requests());
+  }
+  if (batch.requests_size() == 0) throw UsageError("\"" + path + "\" holds no plan request");
+  return batch;
+}
+
+// One result a line: JSON (compact, so the output is JSON lines too) or a summary.
+void PrintResult(const Context& ctx, const v1::PlanBatchRequest& batch,
+                 const v1::PlanBatchResponse& item) {
+  std::ostream& out = *ctx.out;
+  if (ctx.json) {
+    google::protobuf::util::JsonPrintOptions options;
+    options.preserve_proto_field_names = true;
+    std::string json;
+    (void)google::protobuf::util::MessageToJsonString(item, &json, options);
+    out << json << "\n";
+    return;
+  }
+  const int index = static_cast<int>(item.index());
+  out << "plan " << index << " (map "
+      << (index < batch.requests_size() ? batch.requests(index).map_id() : std::string("?"))
+      << "): ";
+  if (item.has_response()) {
+    const v1::PlanStats& stats = item.response().stats();
+    out << Fixed(stats.length_m(), 2) << " m in " << Fixed(stats.duration_s(), 2) << " s, "
+        << stats.pieces() << " pieces, planned in " << Fixed(stats.timings().total_s() * 1e3, 1)
+        << " ms\n";
+    return;
+  }
+  const client::RpcError error = client::DescribeStatus(
+      grpc::Status(static_cast<grpc::StatusCode>(item.error().code()), item.error().message(),
+                   item.error().SerializeAsString()));
+  out << "failed: " << error.code_name << ": " << error.message;
+  if (!error.reason.empty()) out << " (" << error.reason << ")";
+  out << "\n";
+}
+
+int RunBatch(const Context& ctx, const std::string& path) {
+  const v1::PlanBatchRequest batch = ReadRequests(path);
+  auto stub = v1::PlannerService::NewStub(OpenChannel(ctx));
+  grpc::ClientContext call;
+  PrepareCall(ctx, &call);
+  auto reader = stub->PlanBatch(&call, batch);
+  v1::PlanBatchResponse item;
+  int failed = 0, received = 0;
+  while (reader->Read(&item)) {
+    ++received;
+    failed += item.has_error();
+    PrintResult(ctx, batch, item);
+  }
+  const grpc::Status status = reader->Finish();
+  if (!status.ok()) return ReportRpcError(ctx, "PlanBatch", status);
+  if (!ctx.json) {
+    *ctx.err << "strata: " << received - failed << " of " << batch.requests_size()
+             << " plans succeeded\n";
+  }
+  return failed == 0 ? kExitOk : kExitRpcError;
+}
+
+}  // namespace
+
+void AddBatchCommand(CLI::App& app, const Context& ctx, Command* run) {
+  auto [command, path] = AddCommand<std::string>(
+      app, "batch",
+      "PlanBatch: the plan requests of FILE (one PlanRequest in JSON a line), results as they "
+      "come",
+      run, [&ctx](const std::string& file) { return RunBatch(ctx, file); });
+  command->add_option("FILE", *path, "file of plan requests, one JSON PlanRequest a line")
+      ->required()
+      ->check(CLI::ExistingFile);
+}
+
+}  // namespace strata::cli
