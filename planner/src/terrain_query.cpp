@@ -147,6 +147,16 @@ double SampleEdgeDistance(const SurfaceGraph& graph, const Eigen::Vector3d& p, d
   // column), so the nearest square of the other kind within the window is the nearest at all
   // while it is closer than `window` cells.
   const int window = std::max(1, static_cast<int>(std::ceil(reach_m / r)));
+  // Deep inside (the usual case): the column's own node is farther from the rim than the
+  // window reaches, so every column in it is traversable. Edge distances are chamfer
+  // distances, within 8.3% above Euclidean, from the node's centre, at most r/√2 from p.
+  if (ci >= 0 && cj >= 0 && ci < g.size.x() && cj < g.size.y()) {
+    const int own = graph.NodeNear(ci, cj, z_ground);
+    if (own >= 0 && graph.edge_distance(own) / 1.083 - 0.5 * r >= (window + 1) * r) {
+      gradient->setZero();
+      return window * r;
+    }
+  }
   const bool inside = traversable(ci, cj);
   double nearest = window;  // In cells.
   Eigen::Vector2d away = Eigen::Vector2d::Zero();

@@ -247,10 +247,25 @@ OptimizationProblem MakeFallbackProblem(const TrajectoryCost& cost,
                                         const std::vector<Eigen::Vector3d>& path_m,
                                         const RobotState& start, const RobotState& goal) {
   const int dim = cost.params().dim();
-  // Every point of the path but its ends, which start and goal replace.
-  const std::vector<Eigen::Vector3d> interior =
-      path_m.size() > 2 ? std::vector<Eigen::Vector3d>(path_m.begin() + 1, path_m.end() - 1)
-                        : std::vector<Eigen::Vector3d>{};
+  // Every point of the path but its ends, which start and goal replace, and between them
+  // points every third of a cell on the ground: a MINCO curve through points a cell apart
+  // swings out at a right-angled corner of a one-column passage far enough to clip the
+  // missing column beside it, through points a third as far apart three times less.
+  const double spacing = cost.graph().grid().resolution_m / 3;
+  const double h_ref = cost.params().profile.reference_height_m;
+  std::vector<Eigen::Vector3d> interior;
+  for (std::size_t k = 1; k < path_m.size(); ++k) {
+    const Eigen::Vector3d from = k == 1 ? start.position_m : path_m[k - 1];
+    const Eigen::Vector3d to = k + 1 == path_m.size() ? goal.position_m : path_m[k];
+    const int steps = std::max(1, static_cast<int>(std::ceil((to - from).head<2>().norm() / spacing)));
+    for (int j = 1; j < steps; ++j) {
+      Eigen::Vector3d p = from + (to - from) * (static_cast<double>(j) / steps);
+      GroundSample ground;
+      if (SampleGround(cost.model(), p, h_ref, 0, &ground)) p.z() = ground.height_m + h_ref;
+      interior.push_back(p);
+    }
+    if (k + 1 < path_m.size()) interior.push_back(path_m[k]);
+  }
   OptimizationProblem problem;
   problem.head_pva = BoundaryState(cost, start);
   problem.tail_pva = BoundaryState(cost, goal);

@@ -72,10 +72,11 @@ OptimizationProblem MakeInitialProblem(const TrajectoryCost& cost,
                                        const OptimizerConfig& config);
 
 /// The last resort when no optimised trajectory passes verification: a minimum-jerk
-/// trajectory through every point of `path_m` (start and goal in place of its ends), timed
-/// slowly (a trapezoid at 40% of the speed bounds and 25% of the acceleration bounds), not
-/// optimised. Points a cell apart on the ground keep it on the ground and inside the corridor
-/// the path was found in; what is too fast for the bounds is then stretched in time.
+/// trajectory through every point of `path_m` (start and goal in place of its ends) and points
+/// every third of a cell between them on the ground, timed slowly (a trapezoid at 40% of the
+/// speed bounds and 25% of the acceleration bounds, slower at corners), not optimised. Points
+/// that close keep it on the ground and inside the corridor the path was found in; what is
+/// too fast for the bounds is then stretched in time.
 OptimizationProblem MakeFallbackProblem(const TrajectoryCost& cost,
                                         const std::vector<Eigen::Vector3d>& path_m,
                                         const RobotState& start, const RobotState& goal);
