@@ -198,8 +198,8 @@ TravelTimeEstimate EstimateTravelTime(std::span<const Eigen::Vector3d> path_m,
   if (points.size() < 2) return {};
 
   const double margin = config.limit_margin;
-  const double speed_h = margin * profile.max_speed_horizontal_mps;
-  const double speed_v = margin * profile.max_speed_vertical_mps;
+  const double speed_h = config.speed_fraction * profile.max_speed_horizontal_mps;
+  const double speed_v = config.speed_fraction * profile.max_speed_vertical_mps;
   const double accel_h = margin * profile.max_accel_horizontal_mps2;
   const double accel_v = margin * profile.max_accel_vertical_mps2;
   constexpr double kInfinity = std::numeric_limits<double>::infinity();
@@ -282,6 +282,9 @@ Status TravelCostConfig::Validate(std::string_view path) const {
   }
   if (!(limit_margin > 0 && limit_margin <= 1)) {
     return internal::OutOfRange(FieldPath(path, "limit_margin"), limit_margin, "in (0, 1]");
+  }
+  if (!(speed_fraction > 0 && speed_fraction <= 1)) {
+    return internal::OutOfRange(FieldPath(path, "speed_fraction"), speed_fraction, "in (0, 1]");
   }
   if (!(std::isfinite(min_obstacle_distance_m) && min_obstacle_distance_m >= 0)) {
     return internal::OutOfRange(FieldPath(path, "min_obstacle_distance_m"), min_obstacle_distance_m,

@@ -35,7 +35,8 @@ std::vector<Eigen::Vector3d> Line(const Eigen::Vector3d& a, const Eigen::Vector3
 TEST(EstimateTravelTime, AStraightFlatDriveIsATrapezoidAtTheMarginedBounds) {
   const RobotProfile profile = Differential();
   const TravelCostConfig config;
-  const double v = config.limit_margin * profile.max_speed_horizontal_mps;
+  ASSERT_NE(config.speed_fraction, config.limit_margin);  // Each bound takes its own.
+  const double v = config.speed_fraction * profile.max_speed_horizontal_mps;
   const double a = config.limit_margin * profile.max_accel_horizontal_mps2;
   const TravelTimeEstimate long_drive =
       EstimateTravelTime(Line({0, 0, 0.3}, {30, 0, 0.3}, 0.2), profile, config);
@@ -62,14 +63,14 @@ TEST(EstimateTravelTime, TheVerticalBoundSlowsASteepSlopeOnly) {
   const auto ramp = Line({0, 0, 0.3}, {20, 0, 4.3}, 0.2);
   const double relaxed = EstimateTravelTime(ramp, profile, config).time_s;
   const double length = std::hypot(20.0, 4.0);
-  const double v = config.limit_margin * profile.max_speed_horizontal_mps;
+  const double v = config.speed_fraction * profile.max_speed_horizontal_mps;
   const double horizontal_share = 20.0 / length;
   const double a = config.limit_margin * profile.max_accel_horizontal_mps2 / horizontal_share;
   EXPECT_NEAR(relaxed, length / (v / horizontal_share) + (v / horizontal_share) / a, 1e-3);
   // A vertical bound of 0.1 m/s limits the climb to 0.1 / sin(11.3°) = 0.51 m/s along it.
   profile.max_speed_vertical_mps = 0.1;
   const double bound = EstimateTravelTime(ramp, profile, config).time_s;
-  const double along = config.limit_margin * 0.1 * length / 4.0;
+  const double along = config.speed_fraction * 0.1 * length / 4.0;
   EXPECT_GT(bound, length / along);
   EXPECT_LT(bound, length / along + 2.0);
   // The same bound leaves flat ground alone.
@@ -134,6 +135,11 @@ TEST(TravelCostConfig, ValidateBlamesTheField) {
   Status s = config.Validate();
   ASSERT_FALSE(s.ok());
   EXPECT_EQ(s.error().field, "costs.limit_margin");
+  config = TravelCostConfig{};
+  config.speed_fraction = 0;
+  s = config.Validate();
+  ASSERT_FALSE(s.ok());
+  EXPECT_EQ(s.error().field, "costs.speed_fraction");
   config = TravelCostConfig{};
   config.search.clearance_weight = -1;
   s = config.Validate();
