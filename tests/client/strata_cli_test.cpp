@@ -164,9 +164,9 @@ TEST_F(StrataCliTest, PlanSummaryNamesSnappedStatesAndPieces) {
 // --via, repeated in order, with :stop to come to rest: the request carries them and the
 // summary lists when each is reached (the JSON has the same times).
 TEST_F(StrataCliTest, PlanThroughViasListsWhenEachIsReached) {
-  const std::vector<std::string> args = {"plan",      "--map",  "demo",          "--start",
-                                         "2,5.2,0.3", "--goal", "13,8,0.3",      "--via",
-                                         "7,5.8,0.3", "--via",  "10,10,3.3:stop"};
+  const std::vector<std::string> args = {"plan",       "--map",  "demo",          "--start",
+                                         "2,5.2,0.3",  "--goal", "13,8,0.3",      "--via",
+                                         "9,2.75,1.7", "--via",  "10,10,3.3:stop"};
   const CommandResult result = Strata(args);
   ASSERT_EQ(result.exit_code, 0) << result.err;
   EXPECT_THAT(result.out, HasSubstr("via[0]"));

@@ -158,7 +158,7 @@ TEST_F(PlannerServiceTest, PlansFromTheGroundToTheTopOfTheSpiralGarage) {
   EXPECT_NEAR(response.goal().position_m().z(), 21.5, 1.0);
 }
 
-// A route through a flow-through via on the floor and a stop on the deck, back to the floor:
+// A route through a flow-through via on the ramp and a stop on the deck, back to the floor:
 // the response says when each via is reached, and the trajectory, evaluated as a client
 // would, is there then (at speed through the first, at rest at the stop). A via off the
 // ground is blamed by its index; a route honours the time budget and the call's deadline.
@@ -172,7 +172,7 @@ TEST_F(PlannerServiceTest, PlansARouteThroughViasAndSaysWhenEachIsReached) {
     via->mutable_position_m()->set_z(z);
     via->set_stop(stop);
   };
-  add_via(7, 5.8, 0.3, false);
+  add_via(9, 2.75, 1.7, false);  // Half-way up the ramp.
   add_via(10, 10, 3.3, true);
   v1::PlanResponse response;
   const grpc::Status status = Plan(request, &response);
@@ -197,8 +197,8 @@ TEST_F(PlannerServiceTest, PlansARouteThroughViasAndSaysWhenEachIsReached) {
     return value;
   };
   const double through = response.via_times_s(0), stop = response.via_times_s(1);
-  EXPECT_NEAR(at(through, 0, 0), 7, 1e-3);
-  EXPECT_NEAR(at(through, 1, 0), 5.8, 1e-3);
+  EXPECT_NEAR(at(through, 0, 0), 9, 1e-3);
+  EXPECT_NEAR(at(through, 1, 0), 2.75, 1e-3);
   EXPECT_GT(std::hypot(at(through, 0, 1), at(through, 1, 1)), 0.2);
   EXPECT_NEAR(at(stop, 0, 0), 10, 0.01);
   EXPECT_NEAR(at(stop, 1, 0), 10, 0.01);
