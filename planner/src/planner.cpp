@@ -794,7 +794,7 @@ Expected<PlanResult> Plan(const PlanningMap& map, const PlanRequest& request,
     if (!last) result.via_times_s.push_back(result.trajectory.TotalDuration());
     leg_begin = i;
   }
-  if (request.via.size() > 0) stats.mean_curvature_per_m = MeanCurvature(result.trajectory);
+  if (!request.via.empty()) stats.mean_curvature_per_m = MeanCurvature(result.trajectory);
   stats.timings.total_s = SecondsSince(start_time);
   return result;
 }

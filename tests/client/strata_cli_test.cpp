@@ -174,7 +174,7 @@ TEST_F(StrataCliTest, PlanThroughViasListsWhenEachIsReached) {
   EXPECT_THAT(result.out, HasSubstr("via[1]"));
   EXPECT_THAT(result.out, HasSubstr("m stop at "));
   std::vector<std::string> json = args;
-  json.push_back("--json");
+  json.emplace_back("--json");
   const CommandResult saved = Strata(json);
   ASSERT_EQ(saved.exit_code, 0) << saved.err;
   const auto plan = Parse<v1::PlanResponse>(saved.out);
