@@ -700,21 +700,22 @@ Expected<PlanResult> Plan(const PlanningMap& map, const PlanRequest& request,
           point.name.c_str(), p, zones[zone], profile, is_map_zone(zone));
     }
   }
-  // A via the robot cannot get to from the point before it, known from the components at once
-  // (the goal's own check is the search's, as without vias).
-  for (std::size_t i = 1; i + 1 < route.size(); ++i) {
+  // A via (or the goal after one) the robot cannot get to from the point before it, known
+  // from the components at once; without vias the search says so for the goal.
+  for (std::size_t i = 1; i < route.size() && !request.via.empty(); ++i) {
     const RoutePoint& from = route[i - 1];
     const RoutePoint& to = route[i];
-    if (graph.component(from.snap.node) != graph.component(to.snap.node)) {
-      return Error{ErrorCode::kGoalUnreachable,
-                   to.name + " " + internal::FormatPoint(to.snap.position_m) +
-                       " m is not connected to " + from.name + " " +
-                       internal::FormatPoint(from.snap.position_m) +
-                       " m over traversable ground (they lie in different connected "
-                       "components): move " +
-                       to.name + " or drop it",
-                   to.name};
-    }
+    if (graph.component(from.snap.node) == graph.component(to.snap.node)) continue;
+    // The search refuses without expanding, with the components' labels and sizes.
+    Error error = SearchPath(graph, from.snap.node, to.snap.node, options.search, {}).error();
+    error.message = to.name + " " + internal::FormatPoint(to.snap.position_m) +
+                    " m is not connected to " + from.name + " " +
+                    internal::FormatPoint(from.snap.position_m) +
+                    " m over traversable ground (they lie in different connected components): "
+                    "move " +
+                    to.name + " or drop it";
+    if (i + 1 < route.size()) error.field = to.name;
+    return error;
   }
   // Two consecutive points on one node would make a leg of no length.
   for (std::size_t i = 1; i < route.size(); ++i) {

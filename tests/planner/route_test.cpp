@@ -123,6 +123,15 @@ TEST_F(TwoLevelRoute, AViaOnALevelTheRobotCannotReachNamesItsIndex) {
   EXPECT_EQ(plan.error().field, "via[1]");
   EXPECT_THAT(plan.error().message, StartsWith("via[1] ("));
   EXPECT_THAT(plan.error().message, HasSubstr("connected to via[0] ("));
+  EXPECT_EQ(plan.error().details.count("goal_component"), 1u);  // As the search gives them.
+  // The goal after a via: named as the goal, from that via.
+  request.goal.position_m = layout_.goal_example_m;
+  request.via = {{{7, 5.8, 0.3}, false}};
+  const auto goal = Plan(*map_, request);
+  ASSERT_FALSE(goal.ok());
+  EXPECT_EQ(goal.error().code, ErrorCode::kGoalUnreachable);
+  EXPECT_THAT(goal.error().message, StartsWith("goal ("));
+  EXPECT_THAT(goal.error().message, HasSubstr("connected to via[0] ("));
 }
 
 TEST_F(TwoLevelRoute, BadViaListsAreRefusedBeforePlanning) {
