@@ -50,6 +50,9 @@ Result<ParsedPlanRequest> ParsePlanRequest(const v1::PlanRequest& request) {
     if (!warm.ok()) return std::move(warm).error();
     parsed.plan.warm_start = std::move(warm).value();
   }
+  Result<std::vector<Via>> via = ViasFromRequest(request);
+  if (!via.ok()) return std::move(via).error();
+  parsed.plan.via = std::move(via).value();
   if (Status valid = parsed.plan.Validate(); !valid) {
     return ServiceError::FromPlanner(valid.error(),
                                      PlanRequestField(valid.error().field, parsed.inline_profile));
@@ -89,6 +92,7 @@ ServiceStatus PlanOnMap(const PlanningMap& map, const ParsedPlanRequest& request
   ToProto(plan.stats, response->mutable_stats());
   ToProto(request.plan.profile, response->mutable_profile());
   response->set_time_budget_s(request.plan.options.time_budget_s);
+  response->mutable_via_times_s()->Assign(plan.via_times_s.begin(), plan.via_times_s.end());
   if (request.sample_dt_s.has_value()) {
     ServiceStatus sampled =
         AppendSamples(plan.trajectory, *request.sample_dt_s, max_samples, response);

@@ -497,6 +497,27 @@ Result<std::vector<Prism>> KeepOutFromRequest(const v1::EstimateCostsRequest& re
   return KeepOutOf(request);
 }
 
+Result<std::vector<Via>> ViasFromRequest(const v1::PlanRequest& request) {
+  if (request.via_size() > kMaxVias) {
+    return MakeError(ErrorCode::kInvalidInput,
+                     "via has " + std::to_string(request.via_size()) + " points, more than the " +
+                         std::to_string(kMaxVias) +
+                         " one request may carry: split the route into several plans")
+        .Blame("via");
+  }
+  std::vector<Via> vias;
+  vias.reserve(static_cast<std::size_t>(request.via_size()));
+  for (int i = 0; i < request.via_size(); ++i) {
+    const v1::Via& via = request.via(i);
+    if (!via.has_position_m()) {
+      const std::string field = "via[" + std::to_string(i) + "].position_m";
+      return MakeError(ErrorCode::kInvalidInput, field + " is required").Blame(field);
+    }
+    vias.push_back(Via{FromProto(via.position_m()), via.stop()});
+  }
+  return vias;
+}
+
 std::vector<Eigen::Vector3d> PositionsFromProto(
     const google::protobuf::RepeatedPtrField<v1::Vector3>& positions) {
   std::vector<Eigen::Vector3d> result;

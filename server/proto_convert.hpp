@@ -85,6 +85,11 @@ Result<std::vector<Prism>> KeepOutFromRequest(const v1::PlanRequest& request);
 /// The same for EstimateCosts.
 Result<std::vector<Prism>> KeepOutFromRequest(const v1::EstimateCostsRequest& request);
 
+/// The request's vias, copied; kInvalidInput blaming "via" for more than kMaxVias (checked
+/// first, so a huge list costs nothing to refuse) and "via[i].position_m" for a missing
+/// position. PlanRequest::Validate checks the values (e.g. "via[0].position_m.x").
+Result<std::vector<Via>> ViasFromRequest(const v1::PlanRequest& request);
+
 /// Positions, copied (TravelCostQuery::Prepare checks them, blaming e.g. "starts_m[2].x").
 std::vector<Eigen::Vector3d> PositionsFromProto(
     const google::protobuf::RepeatedPtrField<v1::Vector3>& positions);

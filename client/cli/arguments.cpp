@@ -2,6 +2,7 @@
 
 #include <charconv>
 #include <cmath>
+#include <string_view>
 
 namespace strata::cli {
 namespace {
@@ -54,6 +55,18 @@ std::optional<std::array<double, 3>> ParseVector3(const std::string& text, std::
     begin = comma + 1;
   }
   return xyz;
+}
+
+std::optional<ViaPoint> ParseVia(const std::string& text, std::string* error) {
+  constexpr std::string_view kStop = ":stop";
+  const bool stop = text.ends_with(kStop);
+  const std::optional<std::array<double, 3>> xyz =
+      ParseVector3(stop ? text.substr(0, text.size() - kStop.size()) : text, error);
+  if (!xyz) {
+    *error += " (a via is x,y,z, or x,y,z:stop to come to rest there)";
+    return std::nullopt;
+  }
+  return ViaPoint{*xyz, stop};
 }
 
 CLI::Option* AddVector3(CLI::App& command, const std::string& name, const std::string& help,

@@ -41,4 +41,13 @@ CLI::Option* AddVector3(CLI::App& command, const std::string& name, const std::s
 /// "x,y,z" as three finite numbers; nullopt with the problem in *error otherwise.
 std::optional<std::array<double, 3>> ParseVector3(const std::string& text, std::string* error);
 
+/// A route's via-point on the command line (PlanRequest.via).
+struct ViaPoint {
+  std::array<double, 3> position_m{};
+  bool stop = false;
+};
+/// "x,y,z" (flow through) or "x,y,z:stop" (come to rest there); nullopt with the problem in
+/// *error otherwise.
+std::optional<ViaPoint> ParseVia(const std::string& text, std::string* error);
+
 }  // namespace strata::cli

@@ -35,9 +35,10 @@ struct PlanFlags {
   std::string robot = "differential";
   std::optional<double> time_budget_s;
   std::optional<double> sample_dt_s;
+  std::vector<ViaPoint> via;  ///< --via, in the order given.
 };
-/// Adds --map, --start, --goal (`required` or not), --robot, --time-budget, --sample-dt;
-/// returns them.
+/// Adds --map, --start, --goal (`required` or not), --robot, --time-budget, --sample-dt,
+/// --via; returns them.
 std::vector<CLI::Option*> AddPlanFlags(CLI::App& command, PlanFlags* flags, bool required);
 /// The PlanRequest; throws UsageError when --map, --start or --goal is missing.
 v1::PlanRequest PlanRequestFromFlags(const PlanFlags& flags);

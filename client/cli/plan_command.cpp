@@ -38,6 +38,11 @@ void PrintSummary(const Context& ctx, const v1::PlanRequest& request,
       << stats.pieces() << " pieces\n";
   PrintSnapped(out, "start ", response.start());
   PrintSnapped(out, "goal  ", response.goal());
+  for (int i = 0; i < request.via_size() && i < response.via_times_s_size(); ++i) {
+    out << "  via[" << i << "] " << FormatVector(request.via(i).position_m()) << " m "
+        << (request.via(i).stop() ? "stop" : "pass") << " at " << Fixed(response.via_times_s(i), 3)
+        << " s\n";
+  }
   out << "  speed       max " << Fixed(stats.max_speed_horizontal_mps(), 2) << " m/s horizontal, "
       << Fixed(stats.max_speed_vertical_mps(), 2) << " m/s vertical\n"
       << "  accel       max " << Fixed(stats.max_accel_horizontal_mps2(), 2)
@@ -88,6 +93,24 @@ std::vector<CLI::Option*> AddPlanFlags(CLI::App& command, PlanFlags* flags, bool
       command.add_option("--sample-dt", flags->sample_dt_s, "options.sample_dt_s [s]")
           ->type_name("S")
           ->check(FiniteNumber()));
+  options.push_back(
+      command
+          .add_option_function<std::vector<std::string>>(
+              "--via",
+              [flags](const std::vector<std::string>& texts) {
+                flags->via.clear();
+                std::string error;
+                for (const std::string& text : texts) flags->via.push_back(*ParseVia(text, &error));
+              },
+              "a point to pass through on the way, in order (repeat the flag); x,y,z:stop to "
+              "come to rest there")
+          ->type_name("x,y,z[:stop]")
+          ->check(CLI::Validator(
+              [](std::string& text) {  // Checked before the function above runs.
+                std::string error;
+                return ParseVia(text, &error) ? std::string() : error;
+              },
+              "")));
   return options;
 }
 
@@ -103,6 +126,11 @@ v1::PlanRequest PlanRequestFromFlags(const PlanFlags& flags) {
   request.set_profile_name(flags.robot);
   if (flags.time_budget_s) request.mutable_options()->set_time_budget_s(*flags.time_budget_s);
   if (flags.sample_dt_s) request.mutable_options()->set_sample_dt_s(*flags.sample_dt_s);
+  for (const ViaPoint& point : flags.via) {
+    v1::Via* via = request.add_via();
+    SetVector(point.position_m, via->mutable_position_m());
+    via->set_stop(point.stop);
+  }
   return request;
 }
 

@@ -66,6 +66,21 @@ class StopCondition {
   bool expired_ = false;
 };
 
+// The dynamic bound whose peak in `stats` comes closest to the profile's bound.
+void SetLimitingBound(const RobotProfile& profile, PlanStats* stats) {
+  const std::pair<const char*, double> fractions[] = {
+      {"horizontal_speed", stats->max_speed_horizontal_mps / profile.max_speed_horizontal_mps},
+      {"vertical_speed", stats->max_speed_vertical_mps / profile.max_speed_vertical_mps},
+      {"horizontal_acceleration",
+       stats->max_accel_horizontal_mps2 / profile.max_accel_horizontal_mps2},
+      {"vertical_acceleration", stats->max_accel_vertical_mps2 / profile.max_accel_vertical_mps2}};
+  const auto* limiting =
+      std::max_element(std::begin(fractions), std::end(fractions),
+                       [](const auto& a, const auto& b) { return a.second < b.second; });
+  stats->limiting_bound = limiting->first;
+  stats->limiting_bound_fraction = limiting->second;
+}
+
 void FillStats(const Trajectory& trajectory, const VerificationReport& v,
                const RobotProfile& profile, PlanStats* stats) {
   stats->length_m = PathLength(trajectory);
@@ -82,16 +97,7 @@ void FillStats(const Trajectory& trajectory, const VerificationReport& v,
   stats->min_headroom_m = v.min_headroom_m;
   stats->pieces = static_cast<int>(trajectory.pieces.size());
   stats->verified_samples = v.samples;
-  const std::pair<const char*, double> fractions[] = {
-      {"horizontal_speed", v.max_speed_horizontal_mps / profile.max_speed_horizontal_mps},
-      {"vertical_speed", v.max_speed_vertical_mps / profile.max_speed_vertical_mps},
-      {"horizontal_acceleration", v.max_accel_horizontal_mps2 / profile.max_accel_horizontal_mps2},
-      {"vertical_acceleration", v.max_accel_vertical_mps2 / profile.max_accel_vertical_mps2}};
-  const auto* limiting =
-      std::max_element(std::begin(fractions), std::end(fractions),
-                       [](const auto& a, const auto& b) { return a.second < b.second; });
-  stats->limiting_bound = limiting->first;
-  stats->limiting_bound_fraction = limiting->second;
+  SetLimitingBound(profile, stats);
 }
 
 // kStartInKeepOut / kGoalInKeepOut: `what` ("start", "goal") at `p` violates `zone`.
@@ -378,6 +384,18 @@ Status PlanRequest::Validate() const {
   if (warm_start) {
     if (Status s = ValidateWarmStart(*warm_start, profile); !s) return s;
   }
+  if (via.size() > static_cast<std::size_t>(kMaxVias)) {
+    return Error{ErrorCode::kInvalidInput,
+                 "via has " + std::to_string(via.size()) + " points, more than the " +
+                     std::to_string(kMaxVias) +
+                     " one request may carry: split the route into several plans",
+                 "via"};
+  }
+  for (std::size_t i = 0; i < via.size(); ++i) {
+    RobotState at;  // Checked as a state's position is: finite, within the coordinate bound.
+    at.position_m = via[i].position_m;
+    if (Status s = at.Validate("via[" + std::to_string(i) + "]"); !s) return s;
+  }
   for (std::size_t i = 0; i < keep_out.size(); ++i) {
     const std::string path = "keep_out[" + std::to_string(i) + "]";
     if (Status s = keep_out[i].Validate(path); !s) return s;
@@ -393,6 +411,237 @@ Status PlanRequest::Validate() const {
   }
   return Status::Ok();
 }
+
+namespace {
+
+// A point a leg passes through or ends at: where it snapped, and its name in messages.
+struct RoutePoint {
+  SnapResult snap;
+  std::string name;  // "start", "goal", "via[2]".
+};
+
+// What one plan shares with each of its legs.
+struct LegContext {
+  const SurfaceGraph& graph;
+  const RobotProfile& profile;
+  const PlanOptions& options;
+  std::span<const KeepOutZone> zones;
+  StopCondition& stop;
+};
+
+// One leg of a route: from rest (or the request's start) to rest (or the request's goal).
+struct Leg {
+  Trajectory trajectory;
+  PathResult path;
+  std::vector<double> via_times_s;  // Of the flow-through vias inside, from the leg's start.
+  PlanStats stats;
+};
+
+// The time at which `trajectory` reaches the end of waypoint column `column` (piece `column`).
+double TimeAtWaypoint(const Trajectory& trajectory, int column) {
+  double t = 0;
+  for (int i = 0; i <= column; ++i) t += trajectory.pieces[static_cast<std::size_t>(i)].duration_s;
+  return t;
+}
+
+// Adds a later leg's figures to the whole route's (the first leg's are copied as they are).
+void MergeLegStats(const PlanStats& leg, const RobotProfile& profile, PlanStats* total) {
+  total->length_m += leg.length_m;
+  total->duration_s += leg.duration_s;
+  total->max_speed_horizontal_mps =
+      std::max(total->max_speed_horizontal_mps, leg.max_speed_horizontal_mps);
+  total->max_speed_vertical_mps =
+      std::max(total->max_speed_vertical_mps, leg.max_speed_vertical_mps);
+  total->max_accel_horizontal_mps2 =
+      std::max(total->max_accel_horizontal_mps2, leg.max_accel_horizontal_mps2);
+  total->max_accel_vertical_mps2 =
+      std::max(total->max_accel_vertical_mps2, leg.max_accel_vertical_mps2);
+  total->min_obstacle_distance_m =
+      std::min(total->min_obstacle_distance_m, leg.min_obstacle_distance_m);
+  total->max_ground_offset_m = std::max(total->max_ground_offset_m, leg.max_ground_offset_m);
+  total->max_tilt_rad = std::max(total->max_tilt_rad, leg.max_tilt_rad);
+  total->min_body_height_m = std::min(total->min_body_height_m, leg.min_body_height_m);
+  total->min_headroom_m = std::min(total->min_headroom_m, leg.min_headroom_m);
+  total->pieces += leg.pieces;
+  total->search_expansions += leg.search_expansions;
+  total->optimizer_iterations += leg.optimizer_iterations;
+  total->optimizer_attempts += leg.optimizer_attempts;
+  total->verified_samples += leg.verified_samples;
+  total->time_stretch = std::max(total->time_stretch, leg.time_stretch);
+  if (leg.fallback && !total->fallback) total->fallback_reason = leg.fallback_reason;
+  total->fallback = total->fallback || leg.fallback;
+  SetLimitingBound(profile, total);
+  total->timings.snap_s += leg.timings.snap_s;
+  total->timings.search_s += leg.timings.search_s;
+  total->timings.optimize_s += leg.timings.optimize_s;
+  total->timings.verify_s += leg.timings.verify_s;
+}
+
+// Searches, optimises and verifies one leg through `points` (its first the leg's start, its
+// last the leg's end, flow-through vias between): the A* paths between consecutive points,
+// shortened and joined, initialise a trajectory that passes exactly through each via
+// (pinned waypoints); retries and the slow fallback as Plan documents.
+Expected<Leg> PlanLeg(const LegContext& ctx, std::span<const RoutePoint> points,
+                      const RobotState& head, const RobotState& tail) {
+  const SurfaceGraph& graph = ctx.graph;
+  const RobotProfile& profile = ctx.profile;
+  const PlanOptions& options = ctx.options;
+  StopCondition& stop = ctx.stop;
+  Leg leg;
+  PlanStats& stats = leg.stats;
+  const std::span<const KeepOutZone> zones = ctx.zones;
+  std::vector<int> blocked_nodes(zones.size(), 0);  // Per zone, nodes the search left out.
+  std::function<bool(int)> blocked;
+  if (!zones.empty()) {
+    blocked = [&](int node) {
+      const int zone = FirstViolatedKeepOut(zones, profile, graph.position(node));
+      if (zone < 0) return false;
+      ++blocked_nodes[zone];
+      return true;
+    };
+  }
+
+  // Search each stretch between consecutive points; the vias are where they join.
+  Clock::time_point stage = Clock::now();
+  std::vector<std::size_t> via_indices;  // Of the flow-through vias in leg.path.points_m.
+  // The searches' own grid paths, joined alike, for the fallback's second try.
+  std::vector<Eigen::Vector3d> grid_points;
+  std::vector<std::size_t> grid_via_indices;
+  for (std::size_t k = 0; k + 1 < points.size(); ++k) {
+    const RoutePoint& from = points[k];
+    const RoutePoint& to = points[k + 1];
+    // The search runs on the plan's own budget (through stop), the only one a caller sets.
+    SearchStats search_stats;
+    Expected<PathResult> path = SearchPath(graph, from.snap.node, to.snap.node, options.search,
+                                           stop.AsFunction(), &search_stats, blocked);
+    stats.search_expansions += search_stats.expansions;
+    if (!path) {
+      stats.timings.search_s += SecondsSince(stage);
+      if (stop.stopped()) return stop.Reason(options.time_budget_s, "the path search");
+      Error error = std::move(path).error();
+      std::string in_the_way;  // The zones the search met, by name.
+      for (std::size_t i = 0; i < zones.size(); ++i) {
+        if (blocked_nodes[i] == 0) continue;
+        in_the_way += (in_the_way.empty() ? "" : ", ") + zones[i].name;
+      }
+      if (!in_the_way.empty() && error.code == ErrorCode::kNoPath) {
+        // The components connect the two points; only the zones separate them.
+        return Error{ErrorCode::kGoalUnreachable,
+                     to.name + " " + internal::FormatPoint(to.snap.position_m) +
+                         " m cannot be reached from " + from.name + " " +
+                         internal::FormatPoint(from.snap.position_m) +
+                         " m without entering the keep-out zones in the way (" + in_the_way +
+                         "): every way round is closed; move or shrink a zone, or choose another " +
+                         to.name,
+                     to.name == "goal" ? std::string() : to.name,
+                     {{"zones_in_the_way", in_the_way}}};
+      }
+      if (!in_the_way.empty())
+        error.message += "; the search stepped around keep-out zones " + in_the_way;
+      return error;
+    }
+    // Straightened inside the traversable corridor: the optimiser starts near the smooth
+    // answer instead of the grid's zigzag.
+    const PathResult shortened = ShortenPath(graph, *path, options.search, {}, blocked);
+    PathResult& joined = leg.path;
+    const std::size_t skip = joined.points_m.empty() ? 0 : 1;  // The shared point.
+    joined.points_m.insert(joined.points_m.end(), shortened.points_m.begin() + skip,
+                           shortened.points_m.end());
+    joined.nodes.insert(joined.nodes.end(), shortened.nodes.begin() + skip, shortened.nodes.end());
+    joined.length_m += shortened.length_m;
+    joined.cost += shortened.cost;
+    joined.expansions += shortened.expansions;
+    if (k + 2 < points.size()) via_indices.push_back(joined.points_m.size() - 1);
+    grid_points.insert(grid_points.end(), path->points_m.begin() + (grid_points.empty() ? 0 : 1),
+                       path->points_m.end());
+    if (k + 2 < points.size()) grid_via_indices.push_back(grid_points.size() - 1);
+  }
+  stats.timings.search_s += SecondsSince(stage);
+
+  // Optimise and verify; a failed verification retries with stiffer penalties.
+  // A path's points with the route's exact ends and vias in place of their nodes' points.
+  const auto route_waypoints = [&](std::vector<Eigen::Vector3d> waypoints,
+                                   const std::vector<std::size_t>& vias) {
+    waypoints.front() = head.position_m;
+    waypoints.back() = tail.position_m;
+    for (std::size_t v = 0; v < vias.size(); ++v) {
+      waypoints[vias[v]] = points[v + 1].snap.position_m;
+    }
+    if (waypoints.size() < 2) waypoints.push_back(tail.position_m);
+    return waypoints;
+  };
+  const std::vector<Eigen::Vector3d> waypoints = route_waypoints(leg.path.points_m, via_indices);
+  // The leg's trajectory and when it passes its vias.
+  const auto finish = [&](Trajectory trajectory, const OptimizationProblem& problem) {
+    for (const int column : problem.pinned_waypoints) {
+      leg.via_times_s.push_back(TimeAtWaypoint(trajectory, column));
+    }
+    leg.trajectory = std::move(trajectory);
+    return std::move(leg);
+  };
+  OptimizerConfig config = options.optimizer;
+  Error last_failure{ErrorCode::kOptimizationFailed, "no optimisation attempt ran"};
+  for (int k = 0; k < options.max_attempts; ++k) {
+    const TrajectoryCost cost(graph, config.weights, CostParams{profile, config.cost}, zones);
+    const OptimizationProblem problem =
+        MakeInitialProblem(cost, waypoints, head, tail, config, via_indices);
+    Expected<Trajectory> trajectory =
+        OptimizeAndVerify(graph, profile, zones, problem, config, options.verifier, stop, &stats);
+    if (trajectory) return finish(std::move(trajectory).value(), problem);
+    if (stop.stopped()) return stop.Reason(options.time_budget_s, "trajectory optimisation");
+    if (trajectory.error().code != ErrorCode::kOptimizationFailed) return trajectory.error();
+    last_failure = trajectory.error();
+    if (stop()) return stop.Reason(options.time_budget_s, "trajectory verification");
+    // Stiffer penalties for the next attempt (PlanOptions::max_attempts documents them).
+    // Not S', the smooth safety field: stiffening it, which every retry used to, pushed the
+    // trajectory harder against the rim in passages whose ground is rough on both sides.
+    config.cost.distance_stiffness *= 4;
+    config.weights.edge *= 4;
+    config.weights.ground *= 4;
+    config.cost.ground_band_m *= 0.25;
+    config.weights.feasibility *= 4;
+    config.weights.keep_out *= 4;
+    config.piece_length_m *= 0.7;
+    config.cost.limit_margin *= 0.95;
+    config.initial_speed_fraction *= 0.75;
+  }
+  // The last resort: the path itself, slowly, marked as such for the dispatcher.
+  stage = Clock::now();
+  const TrajectoryCost cost(graph, config.weights, CostParams{profile, config.cost}, zones);
+  OptimizationProblem fallback = MakeFallbackProblem(cost, waypoints, head, tail, via_indices);
+  Trajectory slow = SlowTrajectory(fallback, profile);
+  VerificationReport verification;
+  Status verified = VerifyTrajectory(graph, profile, slow, options.verifier, &verification, zones);
+  if (!verified) {
+    // Through the searches' own cells: a shortened line may graze the corner of a missing
+    // column where a passage is one column wide; the grid path never cuts a corner.
+    fallback = MakeFallbackProblem(cost, route_waypoints(grid_points, grid_via_indices), head,
+                                   tail, grid_via_indices);
+    slow = SlowTrajectory(fallback, profile);
+    verified = VerifyTrajectory(graph, profile, slow, options.verifier, &verification, zones);
+  }
+  stats.timings.verify_s += SecondsSince(stage);
+  if (verified) {
+    FillStats(slow, verification, profile, &stats);
+    stats.fallback = true;
+    stats.fallback_reason = last_failure.message;
+    return finish(std::move(slow), fallback);
+  }
+  char buf[64];
+  std::snprintf(buf, sizeof(buf), " (after %d attempts and the slow fallback)",
+                options.max_attempts);
+  last_failure.message += buf;
+  return last_failure;
+}
+
+// At rest at `p`: where a leg ends at a stop and the next begins.
+RobotState AtRest(const Eigen::Vector3d& p) {
+  RobotState state;
+  state.position_m = p;
+  return state;
+}
+
+}  // namespace
 
 Expected<PlanResult> Plan(const PlanningMap& map, const PlanRequest& request,
                           const std::function<bool()>& should_stop) {
@@ -418,7 +667,7 @@ Expected<PlanResult> Plan(const PlanningMap& map, const PlanRequest& request,
   }
   const SurfaceGraph& graph = **graph_or;
   // Off the ground, the position is what the caller must change.
-  const auto blame = [](Error error, const char* field) {
+  const auto blame = [](Error error, const std::string& field) {
     error.field = field;
     return error;
   };
@@ -432,157 +681,140 @@ Expected<PlanResult> Plan(const PlanningMap& map, const PlanRequest& request,
   if (!goal) return blame(std::move(goal).error(), "goal.position_m");
   result.start = *start;
   result.goal = *goal;
+  // The route's points in order: start, the vias, goal.
+  std::vector<RoutePoint> route = {{*start, "start"}};
+  for (std::size_t i = 0; i < request.via.size(); ++i) {
+    const std::string name = "via[" + std::to_string(i) + "]";
+    Expected<SnapResult> via =
+        SnapEndpoint(graph, request.via[i].position_m, options.snap_tolerance_m,
+                     ErrorCode::kGoalOffGround, min_distance);
+    if (!via) {
+      Error error = std::move(via).error();
+      if (error.message.starts_with("goal ")) error.message.replace(0, 4, name);
+      return blame(std::move(error), name + ".position_m");
+    }
+    result.via.push_back(*via);
+    route.push_back({*via, name});
+  }
+  route.push_back({*goal, "goal"});
   RobotState head = request.start, tail = request.goal;
   head.position_m = result.start.position_m;
   tail.position_m = result.goal.position_m;
   stats.timings.snap_s = SecondsSince(stage);
 
-  // Keep-out zones: the trajectory's ends must lie outside every zone; the search steps
-  // around them (the graph stays as it is, shared by every request), the optimiser's J_k
+  // Keep-out zones: the trajectory's ends (and vias) must lie outside every zone; the search
+  // steps around them (the graph stays as it is, shared by every request), the optimiser's J_k
   // keeps the trajectory out with a margin and the verifier checks every sample.
   const std::vector<KeepOutZone> zones = CollectKeepOut(map, request.keep_out);
   const auto is_map_zone = [&](int zone) {
     return static_cast<std::size_t>(zone) < map.keep_out().size();
   };
-  if (const int zone = FirstViolatedKeepOut(zones, profile, head.position_m); zone >= 0) {
-    return InKeepOut(ErrorCode::kStartInKeepOut, "start", head.position_m, zones[zone], profile,
-                     is_map_zone(zone));
+  for (const RoutePoint& point : route) {
+    const Eigen::Vector3d& p = point.snap.position_m;
+    if (const int zone = FirstViolatedKeepOut(zones, profile, p); zone >= 0) {
+      return InKeepOut(
+          point.name == "start" ? ErrorCode::kStartInKeepOut : ErrorCode::kGoalInKeepOut,
+          point.name.c_str(), p, zones[zone], profile, is_map_zone(zone));
+    }
   }
-  if (const int zone = FirstViolatedKeepOut(zones, profile, tail.position_m); zone >= 0) {
-    return InKeepOut(ErrorCode::kGoalInKeepOut, "goal", tail.position_m, zones[zone], profile,
-                     is_map_zone(zone));
+  // A via (or the goal after one) the robot cannot get to from the point before it, known
+  // from the components at once; without vias the search says so for the goal.
+  for (std::size_t i = 1; i < route.size() && !request.via.empty(); ++i) {
+    const RoutePoint& from = route[i - 1];
+    const RoutePoint& to = route[i];
+    if (graph.component(from.snap.node) == graph.component(to.snap.node)) continue;
+    // The search refuses without expanding, with the components' labels and sizes.
+    Error error = SearchPath(graph, from.snap.node, to.snap.node, options.search, {}).error();
+    error.message = to.name + " " + internal::FormatPoint(to.snap.position_m) +
+                    " m is not connected to " + from.name + " " +
+                    internal::FormatPoint(from.snap.position_m) +
+                    " m over traversable ground (they lie in different connected components): "
+                    "move " +
+                    to.name + " or drop it";
+    if (i + 1 < route.size()) error.field = to.name;
+    return error;
   }
-  std::vector<int> blocked_nodes(zones.size(), 0);  // Per zone, nodes the search left out.
-  std::function<bool(int)> blocked;
-  if (!zones.empty()) {
-    blocked = [&](int node) {
-      const int zone = FirstViolatedKeepOut(zones, profile, graph.position(node));
-      if (zone < 0) return false;
-      ++blocked_nodes[zone];
-      return true;
-    };
+  // Two consecutive points on one node would make a leg of no length.
+  for (std::size_t i = 1; i < route.size(); ++i) {
+    if (request.via.empty() || route[i - 1].snap.node != route[i].snap.node) continue;
+    const RoutePoint& named = i + 1 < route.size() ? route[i] : route[i - 1];
+    return Error{ErrorCode::kInvalidInput,
+                 route[i].name + " " + internal::FormatPoint(route[i].snap.position_m) +
+                     " m snaps to the same ground cell as " + route[i - 1].name + " " +
+                     internal::FormatPoint(route[i - 1].snap.position_m) + " m: drop " +
+                     named.name + " or move it",
+                 named.name};
   }
 
   // A replan along the trajectory the robot follows starts from its remainder: no search.
-  OptimizerConfig config = options.optimizer;
-  Error last_failure{ErrorCode::kOptimizationFailed, "no optimisation attempt ran"};
-  const auto attempt = [&](const OptimizationProblem& problem) -> Expected<bool> {
-    const Expected<Trajectory> trajectory =
-        OptimizeAndVerify(graph, profile, zones, problem, config, options.verifier, stop, &stats);
-    if (trajectory) {
-      result.trajectory = *trajectory;
-      stats.timings.total_s = SecondsSince(start_time);
-      return true;
-    }
-    if (stop.stopped()) return stop.Reason(options.time_budget_s, "trajectory optimisation");
-    if (trajectory.error().code != ErrorCode::kOptimizationFailed) return trajectory.error();
-    last_failure = trajectory.error();
-    return false;
-  };
-  if (request.warm_start) {
+  // Not for a route through vias: its remainder would not be pinned at them.
+  if (request.warm_start && request.via.empty()) {
+    const OptimizerConfig& config = options.optimizer;
     const TrajectoryCost cost(graph, config.weights, CostParams{profile, config.cost}, zones);
     if (Expected<OptimizationProblem> warm =
             MakeWarmProblem(cost, *request.warm_start, head, tail)) {
-      Expected<bool> done = attempt(*warm);
-      if (!done) return done.error();
-      if (*done) {
+      PlanStats warm_stats = stats;
+      Expected<Trajectory> trajectory = OptimizeAndVerify(graph, profile, zones, *warm, config,
+                                                          options.verifier, stop, &warm_stats);
+      if (trajectory) {
+        result.trajectory = std::move(trajectory).value();
+        stats = warm_stats;
         stats.warm_started = true;
+        stats.timings.total_s = SecondsSince(start_time);
         return result;
       }
+      if (stop.stopped()) return stop.Reason(options.time_budget_s, "trajectory optimisation");
+      if (trajectory.error().code != ErrorCode::kOptimizationFailed) return trajectory.error();
+      // Its timings and attempts count; its figures were not kept.
+      stats.timings = warm_stats.timings;
+      stats.optimizer_attempts = warm_stats.optimizer_attempts;
+      stats.optimizer_iterations = warm_stats.optimizer_iterations;
     }
     // A warm start that does not fit, or fails verification: plan from scratch.
   }
 
-  // Search.
-  stage = Clock::now();
-  // The search runs on the plan's own budget (through stop), the only one a caller sets.
-  SearchStats search_stats;
-  Expected<PathResult> path = SearchPath(graph, start->node, goal->node, options.search,
-                                         stop.AsFunction(), &search_stats, blocked);
-  stats.timings.search_s = SecondsSince(stage);
-  stats.search_expansions = search_stats.expansions;
-  if (!path) {
-    if (stop.stopped()) return stop.Reason(options.time_budget_s, "the path search");
-    Error error = std::move(path).error();
-    std::string in_the_way;  // The zones the search met, by name.
-    for (std::size_t i = 0; i < zones.size(); ++i) {
-      if (blocked_nodes[i] == 0) continue;
-      in_the_way += (in_the_way.empty() ? "" : ", ") + zones[i].name;
+  // Legs end at the stops: each is planned from rest to rest, and their pieces are joined.
+  const LegContext context{graph, profile, options, zones, stop};
+  std::size_t leg_begin = 0;
+  for (std::size_t i = 1; i < route.size(); ++i) {
+    const bool last = i + 1 == route.size();
+    if (!last && !request.via[i - 1].stop) continue;
+    const RobotState leg_head = leg_begin == 0 ? head : AtRest(route[leg_begin].snap.position_m);
+    const RobotState leg_tail = last ? tail : AtRest(route[i].snap.position_m);
+    Expected<Leg> leg = PlanLeg(context, std::span(route).subspan(leg_begin, i - leg_begin + 1),
+                                leg_head, leg_tail);
+    if (!leg) return std::move(leg).error();
+    const double leg_start_s = result.trajectory.TotalDuration();
+    for (const double t : leg->via_times_s) result.via_times_s.push_back(leg_start_s + t);
+    if (leg_begin == 0) {
+      // The snap's timing, and a warm start's that did not pass, count too.
+      const PlanStats before = stats;
+      stats = leg->stats;
+      stats.timings.snap_s += before.timings.snap_s;
+      stats.timings.optimize_s += before.timings.optimize_s;
+      stats.timings.verify_s += before.timings.verify_s;
+      stats.optimizer_attempts += before.optimizer_attempts;
+      stats.optimizer_iterations += before.optimizer_iterations;
+      result.trajectory = std::move(leg->trajectory);
+      result.path = std::move(leg->path);
+    } else {
+      MergeLegStats(leg->stats, profile, &stats);
+      result.trajectory.pieces.insert(result.trajectory.pieces.end(),
+                                      leg->trajectory.pieces.begin(), leg->trajectory.pieces.end());
+      PathResult& path = result.path;
+      path.points_m.insert(path.points_m.end(), leg->path.points_m.begin() + 1,
+                           leg->path.points_m.end());
+      path.nodes.insert(path.nodes.end(), leg->path.nodes.begin() + 1, leg->path.nodes.end());
+      path.length_m += leg->path.length_m;
+      path.cost += leg->path.cost;
+      path.expansions += leg->path.expansions;
     }
-    if (!in_the_way.empty() && error.code == ErrorCode::kNoPath) {
-      // The components connect start and goal; only the zones separate them.
-      return Error{ErrorCode::kGoalUnreachable,
-                   "goal " + internal::FormatPoint(tail.position_m) +
-                       " m cannot be reached from start " + internal::FormatPoint(head.position_m) +
-                       " m without entering the keep-out zones in the way (" + in_the_way +
-                       "): every way round is closed; move or shrink a zone, or choose another "
-                       "goal",
-                   {},
-                   {{"zones_in_the_way", in_the_way}}};
-    }
-    if (!in_the_way.empty())
-      error.message += "; the search stepped around keep-out zones " + in_the_way;
-    return error;
+    if (!last) result.via_times_s.push_back(result.trajectory.TotalDuration());
+    leg_begin = i;
   }
-  // Straightened inside the traversable corridor: the optimiser starts near the smooth answer
-  // instead of the grid's zigzag.
-  result.path = ShortenPath(graph, *path, options.search, {}, blocked);
-  stats.timings.search_s = SecondsSince(stage);
-
-  // Optimise and verify; a failed verification retries with stiffer penalties.
-  std::vector<Eigen::Vector3d> waypoints = result.path.points_m;
-  waypoints.front() = head.position_m;
-  waypoints.back() = tail.position_m;
-  if (waypoints.size() < 2) waypoints.push_back(tail.position_m);
-  for (int k = 0; k < options.max_attempts; ++k) {
-    const TrajectoryCost cost(graph, config.weights, CostParams{profile, config.cost}, zones);
-    Expected<bool> done = attempt(MakeInitialProblem(cost, waypoints, head, tail, config));
-    if (!done) return done.error();
-    if (*done) return result;
-    if (stop()) return stop.Reason(options.time_budget_s, "trajectory verification");
-    // Stiffer penalties for the next attempt (PlanOptions::max_attempts documents them).
-    // Not S', the smooth safety field: stiffening it, which every retry used to, pushed the
-    // trajectory harder against the rim in passages whose ground is rough on both sides.
-    config.cost.distance_stiffness *= 4;
-    config.weights.edge *= 4;
-    config.weights.ground *= 4;
-    config.cost.ground_band_m *= 0.25;
-    config.weights.feasibility *= 4;
-    config.weights.keep_out *= 4;
-    config.piece_length_m *= 0.7;
-    config.cost.limit_margin *= 0.95;
-    config.initial_speed_fraction *= 0.75;
-  }
-  // The last resort: the path itself, slowly, marked as such for the dispatcher.
-  stage = Clock::now();
-  const TrajectoryCost cost(graph, config.weights, CostParams{profile, config.cost}, zones);
-  Trajectory slow = SlowTrajectory(MakeFallbackProblem(cost, waypoints, head, tail), profile);
-  VerificationReport verification;
-  Status verified = VerifyTrajectory(graph, profile, slow, options.verifier, &verification, zones);
-  if (!verified) {
-    // Through the search's own cells: a shortened line may graze the corner of a missing
-    // column where a passage is one column wide; the grid path never cuts a corner.
-    std::vector<Eigen::Vector3d> grid_path = path->points_m;
-    grid_path.front() = head.position_m;
-    grid_path.back() = tail.position_m;
-    if (grid_path.size() < 2) grid_path.push_back(tail.position_m);
-    slow = SlowTrajectory(MakeFallbackProblem(cost, grid_path, head, tail), profile);
-    verified = VerifyTrajectory(graph, profile, slow, options.verifier, &verification, zones);
-  }
-  stats.timings.verify_s += SecondsSince(stage);
-  if (verified) {
-    FillStats(slow, verification, profile, &stats);
-    stats.fallback = true;
-    stats.fallback_reason = last_failure.message;
-    result.trajectory = std::move(slow);
-    stats.timings.total_s = SecondsSince(start_time);
-    return result;
-  }
-  char buf[64];
-  std::snprintf(buf, sizeof(buf), " (after %d attempts and the slow fallback)",
-                options.max_attempts);
-  last_failure.message += buf;
-  return last_failure;
+  if (!request.via.empty()) stats.mean_curvature_per_m = MeanCurvature(result.trajectory);
+  stats.timings.total_s = SecondsSince(start_time);
+  return result;
 }
 
 }  // namespace strata

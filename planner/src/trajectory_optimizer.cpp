@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <exception>
 #include <limits>
+#include <span>
 #include <string>
 
 #include "format_internal.hpp"
@@ -23,9 +24,11 @@ constexpr int kMaxRestarts = 8;
 // [rad]: the pulled vertices of a shortened path (straight runs in between).
 constexpr double kCornerAngleRad = 0.2;
 
-// Indices of the polyline's corners, both ends included: vertices where the horizontal
-// direction between the neighbouring distinct points turns by more than kCornerAngleRad.
-std::vector<std::size_t> CornerIndices(const std::vector<Eigen::Vector3d>& path) {
+// Indices of the polyline's corners, ascending, both ends included: vertices where the
+// horizontal direction between the neighbouring distinct points turns by more than
+// kCornerAngleRad, and the `forced` ones.
+std::vector<std::size_t> CornerIndices(const std::vector<Eigen::Vector3d>& path,
+                                       std::span<const std::size_t> forced) {
   std::vector<std::size_t> corners = {0};
   const double cos_limit = std::cos(kCornerAngleRad);
   Eigen::Vector2d incoming = Eigen::Vector2d::Zero();
@@ -37,17 +40,22 @@ std::vector<std::size_t> CornerIndices(const std::vector<Eigen::Vector3d>& path)
     if (incoming.dot(out.normalized()) < cos_limit) corners.push_back(k);
   }
   if (path.size() > 1) corners.push_back(path.size() - 1);
+  corners.insert(corners.end(), forced.begin(), forced.end());
+  std::sort(corners.begin(), corners.end());
+  corners.erase(std::unique(corners.begin(), corners.end()), corners.end());
   return corners;
 }
 
 // Waypoints along the polyline, excluding both ends: every corner (CornerIndices), and between
 // consecutive corners points every ~`spacing_m` of arc length (at least one piece per run).
 // Keeping the corners keeps the initial trajectory inside the corridor the path threads,
-// where a uniform resampling would cut its corners; *pieces is the number of pieces.
+// where a uniform resampling would cut its corners; *pieces is the number of pieces. The
+// `pinned` points are corners too; *pinned_columns gets their indices among the points.
 std::vector<Eigen::Vector3d> ResampleInterior(const std::vector<Eigen::Vector3d>& path,
-                                              double spacing_m, int* pieces) {
+                                              double spacing_m, std::span<const std::size_t> pinned,
+                                              int* pieces, std::vector<int>* pinned_columns) {
   std::vector<Eigen::Vector3d> points;
-  const std::vector<std::size_t> corners = CornerIndices(path);
+  const std::vector<std::size_t> corners = CornerIndices(path, pinned);
   for (std::size_t c = 0; c + 1 < corners.size(); ++c) {
     double length = 0;
     for (std::size_t k = corners[c] + 1; k <= corners[c + 1]; ++k) {
@@ -65,7 +73,12 @@ std::vector<Eigen::Vector3d> ResampleInterior(const std::vector<Eigen::Vector3d>
       }
       travelled += segment;
     }
-    if (c + 2 < corners.size()) points.push_back(path[corners[c + 1]]);
+    if (c + 2 < corners.size()) {
+      if (std::binary_search(pinned.begin(), pinned.end(), corners[c + 1])) {
+        pinned_columns->push_back(static_cast<int>(points.size()));
+      }
+      points.push_back(path[corners[c + 1]]);
+    }
   }
   *pieces = static_cast<int>(points.size()) + 1;
   return points;
@@ -157,15 +170,14 @@ Eigen::VectorXd InitialDurations(const CostParams& params, const RobotState& sta
     const Eigen::Vector2d out = (points[k + 1] - points[k]).head<2>();
     const double shorter = std::min(in.norm(), out.norm());
     if (shorter <= 1e-9) continue;
-    const double turn =
-        std::acos(std::clamp(in.normalized().dot(out.normalized()), -1.0, 1.0));
+    const double turn = std::acos(std::clamp(in.normalized().dot(out.normalized()), -1.0, 1.0));
     if (turn > kCornerAngleRad) corners.push_back({along[k], std::sqrt(accel * shorter / turn)});
   }
   // The trapezoid's speed at horizontal arc length s, before slopes.
   const auto speed_at = [&](double s) {
-    double v = std::min({pace.speed * robot.max_speed_horizontal_mps,
-                         std::sqrt(v0 * v0 + 2 * accel * s),
-                         std::sqrt(v1 * v1 + 2 * accel * std::max(0.0, total - s))});
+    double v =
+        std::min({pace.speed * robot.max_speed_horizontal_mps, std::sqrt(v0 * v0 + 2 * accel * s),
+                  std::sqrt(v1 * v1 + 2 * accel * std::max(0.0, total - s))});
     for (const Corner& c : corners) {
       v = std::min(v, std::sqrt(c.speed_mps * c.speed_mps + 2 * accel * std::abs(s - c.along_m)));
     }
@@ -177,10 +189,9 @@ Eigen::VectorXd InitialDurations(const CostParams& params, const RobotState& sta
     const Eigen::Vector3d delta = points[k + 1] - points[k];
     const double horizontal = delta.head<2>().norm();
     // On a slope, the horizontal speed at which the vertical speed meets its bound.
-    const double slope_cap =
-        horizontal > 0 ? pace.speed * robot.max_speed_vertical_mps * horizontal /
-                             std::max(std::abs(delta.z()), 1e-9)
-                       : 0;
+    const double slope_cap = horizontal > 0 ? pace.speed * robot.max_speed_vertical_mps *
+                                                  horizontal / std::max(std::abs(delta.z()), 1e-9)
+                                            : 0;
     double t = 0;
     for (int j = 0; j < kSubsteps; ++j) {
       const double s = along[k] + (j + 0.5) / kSubsteps * horizontal;
@@ -223,20 +234,22 @@ Status OptimizerConfig::Validate(std::string_view path) const {
 OptimizationProblem MakeInitialProblem(const TrajectoryCost& cost,
                                        const std::vector<Eigen::Vector3d>& path_m,
                                        const RobotState& start, const RobotState& goal,
-                                       const OptimizerConfig& config) {
+                                       const OptimizerConfig& config,
+                                       std::span<const std::size_t> pinned) {
   const CostParams& params = cost.params();
   const int dim = params.dim();
   int pieces = 1;
-  const std::vector<Eigen::Vector3d> interior =
-      ResampleInterior(path_m, config.piece_length_m, &pieces);
-
   OptimizationProblem problem;
+  const std::vector<Eigen::Vector3d> interior =
+      ResampleInterior(path_m, config.piece_length_m, pinned, &pieces, &problem.pinned_waypoints);
+
   problem.head_pva = BoundaryState(cost, start);
   problem.tail_pva = BoundaryState(cost, goal);
   problem.initial_waypoints.resize(dim, pieces - 1);
   for (int k = 0; k < pieces - 1; ++k) {
     problem.initial_waypoints.col(k).head<3>() = interior[static_cast<std::size_t>(k)];
-    if (dim == 4) problem.initial_waypoints(3, k) = BodyHeightAt(cost, interior[static_cast<std::size_t>(k)]);
+    if (dim == 4)
+      problem.initial_waypoints(3, k) = BodyHeightAt(cost, interior[static_cast<std::size_t>(k)]);
   }
   problem.initial_durations = InitialDurations(
       params, start, goal, interior, Pace{config.initial_speed_fraction, kInitialAccelFraction});
@@ -245,8 +258,10 @@ OptimizationProblem MakeInitialProblem(const TrajectoryCost& cost,
 
 OptimizationProblem MakeFallbackProblem(const TrajectoryCost& cost,
                                         const std::vector<Eigen::Vector3d>& path_m,
-                                        const RobotState& start, const RobotState& goal) {
+                                        const RobotState& start, const RobotState& goal,
+                                        std::span<const std::size_t> pinned) {
   const int dim = cost.params().dim();
+  OptimizationProblem problem;
   // Every point of the path but its ends, which start and goal replace, and between them
   // points every third of a cell on the ground: a MINCO curve through points a cell apart
   // swings out at a right-angled corner of a one-column passage far enough to clip the
@@ -257,16 +272,21 @@ OptimizationProblem MakeFallbackProblem(const TrajectoryCost& cost,
   for (std::size_t k = 1; k < path_m.size(); ++k) {
     const Eigen::Vector3d from = k == 1 ? start.position_m : path_m[k - 1];
     const Eigen::Vector3d to = k + 1 == path_m.size() ? goal.position_m : path_m[k];
-    const int steps = std::max(1, static_cast<int>(std::ceil((to - from).head<2>().norm() / spacing)));
+    const int steps =
+        std::max(1, static_cast<int>(std::ceil((to - from).head<2>().norm() / spacing)));
     for (int j = 1; j < steps; ++j) {
       Eigen::Vector3d p = from + (to - from) * (static_cast<double>(j) / steps);
       GroundSample ground;
       if (SampleGround(cost.model(), p, h_ref, 0, &ground)) p.z() = ground.height_m + h_ref;
       interior.push_back(p);
     }
-    if (k + 1 < path_m.size()) interior.push_back(path_m[k]);
+    if (k + 1 < path_m.size()) {
+      if (std::binary_search(pinned.begin(), pinned.end(), k)) {
+        problem.pinned_waypoints.push_back(static_cast<int>(interior.size()));
+      }
+      interior.push_back(path_m[k]);
+    }
   }
-  OptimizationProblem problem;
   problem.head_pva = BoundaryState(cost, start);
   problem.tail_pva = BoundaryState(cost, goal);
   problem.initial_waypoints.resize(dim, static_cast<Eigen::Index>(interior.size()));
@@ -275,8 +295,7 @@ OptimizationProblem MakeFallbackProblem(const TrajectoryCost& cost,
     problem.initial_waypoints.col(column).head<3>() = interior[k];
     if (dim == 4) problem.initial_waypoints(3, column) = BodyHeightAt(cost, interior[k]);
   }
-  problem.initial_durations =
-      InitialDurations(cost.params(), start, goal, interior, kFallbackPace);
+  problem.initial_durations = InitialDurations(cost.params(), start, goal, interior, kFallbackPace);
   return problem;
 }
 
@@ -355,7 +374,7 @@ Expected<OptimizationReport> OptimizeTrajectory(const TrajectoryCost& cost,
   // the curvature condition keeps the L-BFGS update positive definite.
   param.linesearch = LBFGSpp::LBFGS_LINESEARCH_BACKTRACKING_WOLFE;
 
-  internal::OptimizerObjective objective(cost, minco, should_stop);
+  internal::OptimizerObjective objective(cost, minco, should_stop, problem.pinned_waypoints);
   OptimizationReport report;
   Eigen::VectorXd scratch;
   try {

@@ -3,6 +3,8 @@
 
 #include <functional>
 #include <limits>
+#include <span>
+#include <vector>
 
 #include <Eigen/Core>
 
@@ -19,12 +21,17 @@ struct StopRequested {};
 // The objective over x = [waypoints (dim×(M−1), column-major), τ (M)] in LBFGS++'s shape:
 // J(q, T(τ)) of `cost` and its gradient, T = DurationFromTau(τ). `minco` has had SetConditions
 // and is left holding the trajectory of the last x evaluated. Remembers the best point
-// evaluated, because LBFGS++ may throw from a failed line search.
+// evaluated, because LBFGS++ may throw from a failed line search. The position rows (x, y, z)
+// of the `pinned` waypoint columns get a zero gradient: L-BFGS's steps are combinations of
+// gradients, so it never moves them from where it starts.
 class OptimizerObjective {
  public:
   OptimizerObjective(const TrajectoryCost& cost, Minco3* minco,
-                     const std::function<bool()>& should_stop)
-      : cost_(cost), minco_(minco), should_stop_(should_stop) {
+                     const std::function<bool()>& should_stop, std::span<const int> pinned = {})
+      : cost_(cost),
+        minco_(minco),
+        should_stop_(should_stop),
+        pinned_(pinned.begin(), pinned.end()) {
     const int pieces = minco->piece_count();
     waypoints_.resize(minco->dim(), pieces - 1);
     durations_.resize(pieces);
@@ -41,6 +48,8 @@ class OptimizerObjective {
     grad.resize(x.size());
     grad.head(waypoint_values) =
         Eigen::Map<const Eigen::VectorXd>(grad_waypoints_.data(), waypoint_values);
+    for (const int column : pinned_)
+      grad.segment(Eigen::Index{column} * minco_->dim(), 3).setZero();
     for (int i = 0; i < pieces; ++i) {
       grad(waypoint_values + i) = grad_durations_(i) * DurationGradient(x(waypoint_values + i));
     }
@@ -69,6 +78,7 @@ class OptimizerObjective {
   const TrajectoryCost& cost_;
   Minco3* minco_;
   std::function<bool()> should_stop_;
+  std::vector<int> pinned_;
   Eigen::MatrixXd waypoints_, grad_c_, grad_waypoints_;
   Eigen::VectorXd durations_, grad_T_, grad_durations_;
   Eigen::VectorXd best_x_;

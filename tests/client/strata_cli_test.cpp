@@ -161,6 +161,28 @@ TEST_F(StrataCliTest, PlanSummaryNamesSnappedStatesAndPieces) {
   EXPECT_THAT(result.out, HasSubstr("piece   start_s  duration_s"));
 }
 
+// --via, repeated in order, with :stop to come to rest: the request carries them and the
+// summary lists when each is reached (the JSON has the same times).
+TEST_F(StrataCliTest, PlanThroughViasListsWhenEachIsReached) {
+  const std::vector<std::string> args = {"plan",       "--map",  "demo",          "--start",
+                                         "2,5.2,0.3",  "--goal", "13,8,0.3",      "--via",
+                                         "9,2.75,1.7", "--via",  "10,10,3.3:stop"};
+  const CommandResult result = Strata(args);
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_THAT(result.out, HasSubstr("via[0]"));
+  EXPECT_THAT(result.out, HasSubstr("m pass at "));
+  EXPECT_THAT(result.out, HasSubstr("via[1]"));
+  EXPECT_THAT(result.out, HasSubstr("m stop at "));
+  std::vector<std::string> json = args;
+  json.emplace_back("--json");
+  const CommandResult saved = Strata(json);
+  ASSERT_EQ(saved.exit_code, 0) << saved.err;
+  const auto plan = Parse<v1::PlanResponse>(saved.out);
+  ASSERT_EQ(plan.via_times_s_size(), 2);
+  EXPECT_GT(plan.via_times_s(1), plan.via_times_s(0));
+  EXPECT_LT(plan.via_times_s(1), plan.trajectory().duration_s());
+}
+
 TEST_F(StrataCliTest, SetpointsFromASavedPlanMatchTheLibrary) {
   const CommandResult saved =
       Strata({"plan", "--map", "demo", "--start", "2,2,0.3", "--goal", "10,10,3.3", "--json"});
@@ -243,6 +265,8 @@ TEST_F(StrataCliTest, BadArgumentsExitWith2BeforeAnyCall) {
   const std::vector<std::vector<std::string>> cases = {
       {"plan", "--map", "demo", "--start", "1,2", "--goal", "3,3,0.3"},
       {"plan", "--start", "1,2,3", "--goal", "3,3,0.3"},
+      {"plan", "--map", "demo", "--start", "1,2,3", "--goal", "3,3,0.3", "--via", "1,2:stop"},
+      {"plan", "--map", "demo", "--start", "1,2,3", "--goal", "3,3,0.3", "--via", "1,2,3:halt"},
       {"frobnicate"},
       {"maps", "rename", "demo"},
       {"maps", "create", "x", "--file", "a.pcd", "--scene", "two_level_ramp"},

@@ -186,6 +186,91 @@ TEST_P(OptimizerObjectiveGradient, MatchesCentralDifferencesPerBlock) {
 INSTANTIATE_TEST_SUITE_P(Robots, OptimizerObjectiveGradient,
                          ::testing::Values("differential", "biped"));
 
+// Pinned waypoints (a route's flow-through vias): the objective's gradient of their x, y, z
+// is exactly zero, every other component (their body height included) still matches central
+// differences, and the pinned ones would not be zero unpinned.
+TEST(OptimizerObjective, PinnedWaypointsHaveZeroPositionGradientAndTheRestStillMatches) {
+  OptimizerConfig config;
+  config.piece_length_m = 0.6;
+  const Case s("biped", {1.5, 3.2}, {4.5, 2.8}, config);  // dim 4: a free body-height row.
+  const int dim = s.problem.head_pva.rows();
+  const int pieces = static_cast<int>(s.problem.initial_durations.size());
+  ASSERT_GE(pieces, 4);
+  const std::vector<int> pinned = {1, pieces - 3};
+  Minco3 minco;
+  minco.SetConditions(s.problem.head_pva, s.problem.tail_pva, pieces);
+  internal::OptimizerObjective objective(s.cost, &minco, {}, pinned);
+  Eigen::VectorXd x = internal::InitialDecisionVector(s.problem);
+  for (Eigen::Index i = 0; i < x.size(); ++i)
+    x(i) += (i % 2 == 0 ? 1 : -1) * (i < x.size() - pieces ? 0.05 : 0.2) * std::sin(i + 1.0);
+  Eigen::VectorXd analytic;
+  const double value = objective(x, analytic);
+  const double h = 1e-6;
+  Eigen::VectorXd numeric = test_util::NumericalGradient(
+      [&](const Eigen::VectorXd& y) {
+        Eigen::VectorXd unused;
+        return objective(y, unused);
+      },
+      x, h);
+  for (const int column : pinned) {
+    for (int row = 0; row < 3; ++row) {
+      const Eigen::Index i = Eigen::Index{column} * dim + row;
+      EXPECT_EQ(analytic(i), 0.0) << "column " << column << " row " << row;
+      EXPECT_GT(std::abs(numeric(i)), 1e-6) << "the pinned component carries a gradient unpinned";
+      numeric(i) = 0;  // What pinning promises; the rest must match as before.
+    }
+    EXPECT_GT(std::abs(analytic(Eigen::Index{column} * dim + 3)), 1e-6) << "body height is free";
+  }
+  const auto by_axis = [&](const Eigen::VectorXd& g) {
+    return test_util::WaypointsByAxis(g, dim, pieces - 1);
+  };
+  EXPECT_TRUE(test_util::GradientsMatchPerBlock(
+      by_axis(analytic), by_axis(numeric),
+      test_util::WaypointAxisBlocks(dim, pieces - 1, "tau", pieces), 1e-5,
+      test_util::FiniteDifferenceNoise(value, h)));
+}
+
+// A pinned path point becomes a waypoint exactly (even mid-run, off any corner), and the
+// optimiser leaves it exactly there while it moves the others.
+TEST(OptimizeTrajectory, KeepsPinnedWaypointsExactlyWhereThePathPutsThem) {
+  const OptimizerConfig config;
+  const RobotProfile profile = BuiltinProfile("differential").value();
+  const SurfaceGraph graph =
+      SurfaceGraph::Build(test_util::YardModel(), profile.Traversability()).value();
+  const TrajectoryCost cost(graph, config.weights, ParamsFor(profile, config));
+  // Along the floor with a dog-leg, a via 13 points (1.3 m) along the first run.
+  std::vector<Eigen::Vector3d> path = StraightPath({1, 1}, {5, 1.5}, profile.reference_height_m);
+  const std::vector<Eigen::Vector3d> second =
+      StraightPath({5, 1.5}, {5.5, 5.5}, profile.reference_height_m);
+  path.insert(path.end(), second.begin() + 1, second.end());
+  const std::vector<std::size_t> vias = {13};
+  const OptimizationProblem problem =
+      MakeInitialProblem(cost, path, At(path.front()), At(path.back()), config, vias);
+  ASSERT_EQ(problem.pinned_waypoints.size(), 1u);
+  const int column = problem.pinned_waypoints[0];
+  EXPECT_EQ(Eigen::Vector3d(problem.initial_waypoints.col(column).head<3>()), path[13]);
+  Minco3 minco;
+  const auto report = OptimizeTrajectory(cost, problem, config, {}, &minco);
+  ASSERT_TRUE(report.ok()) << report.error().message;
+  const Trajectory trajectory = Trajectory::FromMinco(minco);
+  const TrajectoryPiece& after = trajectory.pieces[static_cast<std::size_t>(column) + 1];
+  EXPECT_LT((after.coefficients.row(0).transpose() - path[13]).norm(), 1e-9);
+  double moved = 0;  // The free waypoints did move.
+  for (int k = 0; k < problem.initial_waypoints.cols(); ++k) {
+    if (k == column) continue;
+    const Eigen::Vector3d now =
+        trajectory.pieces[static_cast<std::size_t>(k) + 1].coefficients.row(0).transpose();
+    moved = std::max(moved, (now - problem.initial_waypoints.col(k).head<3>()).norm());
+  }
+  EXPECT_GT(moved, 1e-3);
+  // The fallback keeps every path point; pinned_waypoints says where the via's is.
+  const OptimizationProblem fallback =
+      MakeFallbackProblem(cost, path, At(path.front()), At(path.back()), vias);
+  ASSERT_EQ(fallback.pinned_waypoints.size(), 1u);
+  EXPECT_EQ(Eigen::Vector3d(fallback.initial_waypoints.col(fallback.pinned_waypoints[0]).head<3>()),
+            path[13]);
+}
+
 TEST(OptimizeTrajectory, StopsAtThePollThatAsks) {
   const OptimizerConfig config;
   const Case s("differential", {1, 1}, {5, 1.5}, config);

@@ -381,6 +381,50 @@ TEST(ProtoConvertTest, MalformedKeepOutZonesAreBlamedByTheirRequestPath) {
   EXPECT_EQ(ParseFailureField(request), "keep_out");
 }
 
+// Vias arrive in order with their stop flag; a missing, non-finite or one-too-many via is
+// refused as INVALID_INPUT (INVALID_ARGUMENT) naming its field.
+TEST(ProtoConvertTest, ViasArriveInOrderAndBadOnesAreBlamedByTheirPath) {
+  const auto add_via = [](v1::PlanRequest* request, double x, bool stop) {
+    v1::Via* via = request->add_via();
+    via->mutable_position_m()->set_x(x);
+    via->mutable_position_m()->set_y(2);
+    via->mutable_position_m()->set_z(0.3);
+    via->set_stop(stop);
+  };
+  v1::PlanRequest request = ValidRequest();
+  add_via(&request, 3, false);
+  add_via(&request, 4, true);
+  Result<ParsedPlanRequest> parsed = ParsePlanRequest(request);
+  ASSERT_TRUE(parsed.ok()) << parsed.error().message;
+  ASSERT_EQ(parsed->plan.via.size(), 2u);
+  EXPECT_EQ(parsed->plan.via[0].position_m, Eigen::Vector3d(3, 2, 0.3));
+  EXPECT_FALSE(parsed->plan.via[0].stop);
+  EXPECT_EQ(parsed->plan.via[1].position_m, Eigen::Vector3d(4, 2, 0.3));
+  EXPECT_TRUE(parsed->plan.via[1].stop);
+
+  for (const std::string axis : {"x", "y", "z"}) {
+    v1::PlanRequest bad = request;
+    v1::Vector3* p = bad.mutable_via(1)->mutable_position_m();
+    p->GetReflection()->SetDouble(p, p->GetDescriptor()->FindFieldByName(axis),
+                                  std::numeric_limits<double>::quiet_NaN());
+    EXPECT_EQ(ParseFailureField(bad), "via[1].position_m." + axis);
+    const Result<ParsedPlanRequest> refused = ParsePlanRequest(bad);
+    ASSERT_FALSE(refused.ok());
+    EXPECT_EQ(refused.error().code, ServiceError::Code(ErrorCode::kInvalidInput));
+  }
+  v1::PlanRequest missing = request;
+  missing.mutable_via(0)->clear_position_m();
+  EXPECT_EQ(ParseFailureField(missing), "via[0].position_m");
+
+  v1::PlanRequest too_many = ValidRequest();
+  for (int i = 0; i <= kMaxVias; ++i) add_via(&too_many, i, false);
+  EXPECT_EQ(ParseFailureField(too_many), "via");
+  const Result<ParsedPlanRequest> refused = ParsePlanRequest(too_many);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.error().code, ServiceError::Code(ErrorCode::kInvalidInput));
+  EXPECT_THAT(refused.error().message, HasSubstr(std::to_string(kMaxVias)));
+}
+
 // Planner errors of Plan itself (snapping, the map's assessment) reach the request field.
 TEST(ProtoConvertTest, PlannerFieldPathsMapToRequestFields) {
   EXPECT_EQ(PlanRequestField("start.position_m", false), "start.position_m");

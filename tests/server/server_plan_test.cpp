@@ -108,8 +108,8 @@ TEST_F(PlannerServiceTest, AReplanWithTheFollowedTrajectoryStartsWarm) {
     }
     return value;
   };
-  v1::PlanRequest replan = PlanRequestFor("demo", derivative(0, 0), derivative(1, 0),
-                                          derivative(2, 0), 13, 8, 0.3);
+  v1::PlanRequest replan =
+      PlanRequestFor("demo", derivative(0, 0), derivative(1, 0), derivative(2, 0), 13, 8, 0.3);
   replan.mutable_start()->mutable_velocity_mps()->set_x(derivative(0, 1));
   replan.mutable_start()->mutable_velocity_mps()->set_y(derivative(1, 1));
   replan.mutable_start()->mutable_acceleration_mps2()->set_x(derivative(0, 2));
@@ -156,6 +156,69 @@ TEST_F(PlannerServiceTest, PlansFromTheGroundToTheTopOfTheSpiralGarage) {
   EXPECT_EQ(response.start().level(), 0u);
   EXPECT_GT(response.stats().length_m(), 40);  // Up the turns of one spiral.
   EXPECT_NEAR(response.goal().position_m().z(), 21.5, 1.0);
+}
+
+// A route through a flow-through via on the ramp and a stop on the deck, back to the floor:
+// the response says when each via is reached, and the trajectory, evaluated as a client
+// would, is there then (at speed through the first, at rest at the stop). A via off the
+// ground is blamed by its index; a route honours the time budget and the call's deadline.
+TEST_F(PlannerServiceTest, PlansARouteThroughViasAndSaysWhenEachIsReached) {
+  ASSERT_NO_FATAL_FAILURE(StartServer());
+  v1::PlanRequest request = PlanRequestFor("demo", 2, 5.2, 0.3, 13, 8, 0.3);
+  const auto add_via = [&](double x, double y, double z, bool stop) {
+    v1::Via* via = request.add_via();
+    via->mutable_position_m()->set_x(x);
+    via->mutable_position_m()->set_y(y);
+    via->mutable_position_m()->set_z(z);
+    via->set_stop(stop);
+  };
+  add_via(9, 2.75, 1.7, false);  // Half-way up the ramp.
+  add_via(10, 10, 3.3, true);
+  v1::PlanResponse response;
+  const grpc::Status status = Plan(request, &response);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  ExpectConsistentPlan(response);
+  ASSERT_EQ(response.via_times_s_size(), 2);
+  EXPECT_GT(response.via_times_s(0), 0);
+  EXPECT_GT(response.via_times_s(1), response.via_times_s(0));
+  EXPECT_LT(response.via_times_s(1), response.trajectory().duration_s());
+  // The position (order 0) or velocity (order 1) of `axis` at time t.
+  const v1::Trajectory& trajectory = response.trajectory();
+  const auto at = [&](double t, int axis, int order) {
+    int piece = 0;
+    while (piece + 1 < trajectory.pieces_size() && t > trajectory.pieces(piece).duration_s()) {
+      t -= trajectory.pieces(piece++).duration_s();
+    }
+    const v1::Polynomial& p = trajectory.pieces(piece).axes(axis);
+    double value = 0;
+    for (int k = p.coefficients_size() - 1; k >= order; --k) {
+      value = value * t + (order == 0 ? 1 : k) * p.coefficients(k);
+    }
+    return value;
+  };
+  const double through = response.via_times_s(0), stop = response.via_times_s(1);
+  EXPECT_NEAR(at(through, 0, 0), 9, 1e-3);
+  EXPECT_NEAR(at(through, 1, 0), 2.75, 1e-3);
+  EXPECT_GT(std::hypot(at(through, 0, 1), at(through, 1, 1)), 0.2);
+  EXPECT_NEAR(at(stop, 0, 0), 10, 0.01);
+  EXPECT_NEAR(at(stop, 1, 0), 10, 0.01);
+  EXPECT_NEAR(at(stop, 2, 0), 3.3, 0.15);
+  EXPECT_LT(std::hypot(at(stop, 0, 1), at(stop, 1, 1), at(stop, 2, 1)), 1e-6);
+
+  v1::PlanRequest off = request;
+  off.mutable_via(1)->mutable_position_m()->set_y(-10);
+  const CallError error = ErrorOf(Plan(off, &response));
+  EXPECT_EQ(error.code, grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(error.reason, "GOAL_OFF_GROUND");
+  EXPECT_THAT(error.fields, ElementsAre("via[1].position_m"));
+  EXPECT_THAT(error.message, HasSubstr("via[1] ("));
+
+  v1::PlanRequest hurried = request;
+  hurried.mutable_options()->set_time_budget_s(1e-12);
+  const CallError late = ErrorOf(Plan(hurried, &response));
+  EXPECT_EQ(late.code, grpc::StatusCode::DEADLINE_EXCEEDED);
+  EXPECT_EQ(late.reason, "TIME_BUDGET_EXCEEDED");
+  EXPECT_EQ(Plan(request, &response, -1).error_code(), grpc::StatusCode::DEADLINE_EXCEEDED);
 }
 
 TEST_F(PlannerServiceTest, UnknownMapIsNotFound) {

@@ -102,6 +102,19 @@ struct PlanOptions {
 /// Most pieces a warm start's trajectory may have (a kilometre in pieces of 1.5 m is ~700).
 inline constexpr std::size_t kMaxWarmStartPieces = 20000;
 
+/// A point a route passes through between start and goal (PlanRequest::via).
+struct Via {
+  /// Where [m], map frame; snapped as the goal is (SnapEndpoint, the same tolerance).
+  Eigen::Vector3d position_m = Eigen::Vector3d::Zero();
+  /// True: the robot comes to rest there (the route is planned in legs between stops, each
+  /// from rest to rest). False: it flows through at speed (a waypoint the optimiser keeps
+  /// fixed, OptimizationProblem::pinned_waypoints).
+  bool stop = false;
+};
+
+/// Most vias one request may carry: each adds a search, and each stop a whole leg's plan.
+inline constexpr int kMaxVias = 16;
+
 struct PlanRequest {
   RobotState start;
   RobotState goal;
@@ -114,12 +127,16 @@ struct PlanRequest {
   /// from its remainder (MakeWarmProblem) instead of searching, and the plan falls back to a
   /// search when the remainder does not fit (the start or goal moved more than
   /// kWarmStartToleranceM from it) or does not pass verification.
+  /// Ignored when `via` is not empty (a route is planned from scratch).
   std::optional<WarmStart> warm_start;
-  /// The first bad field of start, goal, profile, options, keep_out or warm_start, blamed by its
-  /// path (e.g. "start.position_m.x", "profile.max_tilt_rad", "options.max_attempts",
-  /// "keep_out[1].polygon_m[2].x"): kInvalidInput for a non-finite state, a malformed zone or
-  /// more than kMaxRequestKeepOutZones zones ("keep_out"), kInvalidConfig for a field out of
-  /// range.
+  /// Points the trajectory passes through in this order between start and goal, at most
+  /// kMaxVias. PlanResult::via_times_s says when each is reached.
+  std::vector<Via> via;
+  /// The first bad field of start, goal, profile, options, keep_out, warm_start or via, blamed
+  /// by its path (e.g. "start.position_m.x", "profile.max_tilt_rad", "options.max_attempts",
+  /// "keep_out[1].polygon_m[2].x", "via[0].position_m.z"): kInvalidInput for a non-finite
+  /// state, a malformed zone, more than kMaxRequestKeepOutZones zones ("keep_out") or more
+  /// than kMaxVias vias ("via"), kInvalidConfig for a field out of range.
   Status Validate() const;
 };
 
@@ -182,7 +199,13 @@ struct PlanResult {
   /// snapped node's column (the robot is where it says), else that node's reference point.
   SnapResult start;
   SnapResult goal;  ///< Where the goal snapped; position_m is where the trajectory ends.
-  PathResult path;  ///< The A* path the trajectory was initialised from.
+  /// Where each PlanRequest::via snapped, in its order; position_m is exactly where the
+  /// trajectory passes (or stops).
+  std::vector<SnapResult> via;
+  PathResult path;  ///< The A* paths the trajectory was initialised from, joined.
+  /// Per PlanRequest::via, in its order: the time from the trajectory's start at which the
+  /// trajectory is at the via's snapped point [s] (after any time stretching).
+  std::vector<double> via_times_s;
   PlanStats stats;
 };
 
@@ -212,6 +235,8 @@ Expected<SnapResult> SnapEndpoint(
 /// kStartInKeepOut / kGoalInKeepOut (where the trajectory would start or end violates a zone;
 /// the message names it), kGoalUnreachable (in milliseconds, from the components; or after the
 /// search when keep-out zones cut the goal off, naming the zones in the way),
+/// for a via the goal's codes blaming "via[i].position_m" (off the ground, in a zone) or
+/// "via[i]" (unreachable from the point before it, or on that point's ground cell),
 /// kDeadlineExceeded, kCancelled, kSearchBudgetExhausted, kOptimizationFailed (naming the
 /// first violation).
 Expected<PlanResult> Plan(const PlanningMap& map, const PlanRequest& request,

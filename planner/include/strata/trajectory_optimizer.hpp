@@ -2,6 +2,7 @@
 /// Back end of the planner: a MINCO trajectory (Minco3) whose interior waypoints and piece
 /// durations are optimised by L-BFGS (LBFGS++) over the paper's costs plus ground following.
 #include <functional>
+#include <span>
 #include <string_view>
 #include <vector>
 
@@ -50,6 +51,11 @@ struct OptimizationProblem {
   /// Initial interior waypoints (dim×(M−1)) and durations (M, each > 0).
   Eigen::MatrixXd initial_waypoints;
   Eigen::VectorXd initial_durations;
+  /// Columns of initial_waypoints, ascending, whose position rows (x, y, z) the optimiser
+  /// keeps exactly where they are: a route's flow-through vias (PlanRequest::via). Their
+  /// gradient is zeroed, so L-BFGS, which starts there, never moves them; a 4th row (body
+  /// height) stays free.
+  std::vector<int> pinned_waypoints;
 };
 
 /// How an optimisation ended.
@@ -66,21 +72,27 @@ struct OptimizationReport {
 
 /// Builds the problem from a searched path (reference points, start to goal): waypoints every
 /// ~piece_length_m of arc length, durations from the profile's speed bounds, body height from
-/// the ceiling clearance for active-height robots. The path has at least 2 points.
+/// the ceiling clearance for active-height robots. The path has at least 2 points. `pinned`:
+/// indices of interior path points (ascending, in (0, size − 1)) that become waypoints exactly
+/// (as corners do) and are pinned there (OptimizationProblem::pinned_waypoints, in the same
+/// order).
 OptimizationProblem MakeInitialProblem(const TrajectoryCost& cost,
                                        const std::vector<Eigen::Vector3d>& path_m,
                                        const RobotState& start, const RobotState& goal,
-                                       const OptimizerConfig& config);
+                                       const OptimizerConfig& config,
+                                       std::span<const std::size_t> pinned = {});
 
 /// The last resort when no optimised trajectory passes verification: a minimum-jerk
 /// trajectory through every point of `path_m` (start and goal in place of its ends) and points
 /// every third of a cell between them on the ground, timed slowly (a trapezoid at 40% of the
 /// speed bounds and 25% of the acceleration bounds, slower at corners), not optimised. Points
 /// that close keep it on the ground and inside the corridor the path was found in; what is
-/// too fast for the bounds is then stretched in time.
+/// too fast for the bounds is then stretched in time. `pinned` as for MakeInitialProblem (every
+/// path point is a waypoint here; pinned_waypoints says which columns they are).
 OptimizationProblem MakeFallbackProblem(const TrajectoryCost& cost,
                                         const std::vector<Eigen::Vector3d>& path_m,
-                                        const RobotState& start, const RobotState& goal);
+                                        const RobotState& start, const RobotState& goal,
+                                        std::span<const std::size_t> pinned = {});
 
 /// A trajectory the robot is following, to replan from (PlanRequest::warm_start): the
 /// optimiser starts from its remainder instead of a searched path.
