@@ -150,9 +150,8 @@ int main(int argc, char** argv) {
         "%.2f / %.2f | %.2f / %.2f |\n",
         q.name, s.fallback ? "ok (fallback)" : "ok", Median(total), Median(snap), Median(search),
         Median(optimize), Median(verify), original, original / Median(total), s.length_m,
-        s.duration_s, DurationRatio(s), s.mean_curvature_per_m,
-        s.max_speed_horizontal_mps, s.max_speed_vertical_mps, s.max_accel_horizontal_mps2,
-        s.max_accel_vertical_mps2);
+        s.duration_s, DurationRatio(s), s.mean_curvature_per_m, s.max_speed_horizontal_mps,
+        s.max_speed_vertical_mps, s.max_accel_horizontal_mps2, s.max_accel_vertical_mps2);
   }
 
   std::printf(

@@ -23,8 +23,8 @@ struct QueryOutcome {
   std::string reason = "OK";  ///< "OK" or an ErrorCodeName (VERIFY_FAILED: see below).
   /// The failure's message; on a success, Strata's fallback_reason (else empty).
   std::string message;
-  double plan_s = 0;          ///< Wall-clock seconds of the query (snapping included).
-  double length_m = 0;        ///< Path or trajectory length [m].
+  double plan_s = 0;    ///< Wall-clock seconds of the query (snapping included).
+  double length_m = 0;  ///< Path or trajectory length [m].
   /// κ_m, the mean curvature of paper Table 2 [1/m], over uniform arc-length samples of the
   /// curve in 3D, the same for every method (bench_metrics.hpp).
   double kappa_m = 0;

@@ -145,8 +145,7 @@ double TrajectoryMeanCurvature(const Trajectory& trajectory, CurvatureSpace spac
   double sum = 0;
   int count = 0;
   TrajectoryCursor cursor(trajectory);
-  for (const double t :
-       UniformArcParameters(TrajectoryArcTable(trajectory, space), spacing_m)) {
+  for (const double t : UniformArcParameters(TrajectoryArcTable(trajectory, space), spacing_m)) {
     const Eigen::Vector3d v = InSpace(cursor.Velocity(t).head<3>(), space);
     if (v.norm() < kStationary) continue;
     sum += Curvature(v, InSpace(cursor.Acceleration(t).head<3>(), space));

@@ -139,10 +139,9 @@ Status WriteResultsCsv(const std::string& path, const std::string& map,
     file << ',' << (o.success ? 1 : 0) << ',' << o.reason << ',' << Number(o.plan_s) << ','
          << Number(o.length_m) << ',' << Number(o.kappa_m) << ',' << Number(o.kappa_xy_m) << ','
          << o.verify_violations << ',' << Number(o.start_snap_m, "%.4f") << ','
-         << Number(o.goal_snap_m, "%.4f") << ',' << o.points_m.size() << ','
-         << Number(o.duration_s) << ',' << Number(o.duration_ratio) << ','
-         << Number(o.time_stretch) << ',' << (o.fallback ? 1 : 0) << ',' << o.iterations << ','
-         << o.limiting_bound << ','
+         << Number(o.goal_snap_m, "%.4f") << ',' << o.points_m.size() << ',' << Number(o.duration_s)
+         << ',' << Number(o.duration_ratio) << ',' << Number(o.time_stretch) << ','
+         << (o.fallback ? 1 : 0) << ',' << o.iterations << ',' << o.limiting_bound << ','
          << bench::IndependentCheckCsvValues(o.check ? &*o.check : nullptr) << ','
          << Field(o.message) << '\n';
   }

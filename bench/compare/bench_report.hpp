@@ -23,8 +23,8 @@ struct BenchRow {
 struct MethodSummary {
   std::string method;
   int queries = 0, successes = 0;
-  double assessment_s = 0;                                             ///< t_a [s].
-  double time_median_s = 0, time_p95_s = 0;                            ///< Over successful queries.
+  double assessment_s = 0;                                            ///< t_a [s].
+  double time_median_s = 0, time_p95_s = 0;                           ///< Over successful queries.
   double length_median_m = 0, kappa_median = 0, kappa_xy_median = 0;  ///< Successes.
   /// The same medians over the queries every method of the run solved (like for like).
   int common_queries = 0;

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
-#include <cstdlib>
 #include <limits>
 
 namespace strata {
@@ -125,7 +124,7 @@ PathResult ShortenPath(const SurfaceGraph& graph, const PathResult& path,
   const std::vector<int>& nodes = path.nodes;
   const std::size_t n = nodes.size();
   if (n < 3) return path;
-  std::vector<double> along(n, 0.0);     // Arc length of the path up to each node [m].
+  std::vector<double> along(n, 0.0);      // Arc length of the path up to each node [m].
   std::vector<double> path_cost(n, 0.0);  // Its EdgeCost up to each node.
   for (std::size_t k = 1; k < n; ++k) {
     along[k] = along[k - 1] + (graph.position(nodes[k]) - graph.position(nodes[k - 1])).norm();
@@ -223,8 +222,8 @@ PathResult ShortenPath(const SurfaceGraph& graph, const PathResult& path,
   out.nodes = {vertices.front()};
   out.points_m = {graph.position(vertices.front())};
   for (std::size_t k = 1; k < vertices.size(); ++k) {
-    std::vector<int> walk = line(vertices[k - 1], vertices[k],
-                                 std::numeric_limits<double>::infinity());
+    std::vector<int> walk =
+        line(vertices[k - 1], vertices[k], std::numeric_limits<double>::infinity());
     if (walk.empty()) {  // Adjacent path nodes: always walkable.
       walk = {vertices[k - 1], vertices[k]};
     }

@@ -615,8 +615,8 @@ Expected<Leg> PlanLeg(const LegContext& ctx, std::span<const RoutePoint> points,
   if (!verified) {
     // Through the searches' own cells: a shortened line may graze the corner of a missing
     // column where a passage is one column wide; the grid path never cuts a corner.
-    fallback = MakeFallbackProblem(cost, route_waypoints(grid_points, grid_via_indices), head,
-                                   tail, grid_via_indices);
+    fallback = MakeFallbackProblem(cost, route_waypoints(grid_points, grid_via_indices), head, tail,
+                                   grid_via_indices);
     slow = SlowTrajectory(fallback, profile);
     verified = VerifyTrajectory(graph, profile, slow, options.verifier, &verification, zones);
   }

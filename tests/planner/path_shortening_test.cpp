@@ -155,7 +155,8 @@ TEST_F(PillarRoom, WalkStraightFailsAcrossThePillarAndSucceedsBesideIt) {
   const auto any = [](int) { return true; };
   const int west = Snap(graph(), {3.5, 3.0, 0.3}), east = Snap(graph(), {6.5, 3.0, 0.3});
   EXPECT_TRUE(WalkStraight(graph(), west, east, any).empty());
-  const int south_west = Snap(graph(), {3.5, 1.0, 0.3}), south_east = Snap(graph(), {6.5, 1.3, 0.3});
+  const int south_west = Snap(graph(), {3.5, 1.0, 0.3}),
+            south_east = Snap(graph(), {6.5, 1.3, 0.3});
   const std::vector<int> walk = WalkStraight(graph(), south_west, south_east, any);
   ASSERT_FALSE(walk.empty());
   EXPECT_EQ(walk.front(), south_west);

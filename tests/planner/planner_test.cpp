@@ -51,8 +51,8 @@ void ExpectSound(const PlanResult& plan, const PlanRequest& request) {
   EXPECT_LT((t.Velocity(0).head<3>() - request.start.velocity_mps).norm(), 1e-9);
   EXPECT_LT((t.Velocity(t.TotalDuration()).head<3>() - request.goal.velocity_mps).norm(), 1e-9);
   EXPECT_LT((t.Acceleration(0).head<3>() - request.start.acceleration_mps2).norm(), 1e-9);
-  EXPECT_LT(
-      (t.Acceleration(t.TotalDuration()).head<3>() - request.goal.acceleration_mps2).norm(), 1e-9);
+  EXPECT_LT((t.Acceleration(t.TotalDuration()).head<3>() - request.goal.acceleration_mps2).norm(),
+            1e-9);
   // The verified limits, as reported.
   const PlanStats& s = plan.stats;
   EXPECT_LE(s.max_speed_horizontal_mps, 1.01 * robot.max_speed_horizontal_mps);
@@ -181,7 +181,7 @@ struct CountingStop {
 
 TEST_F(TwoLevelPlan, CancellationStopsAtTheFirstPollThatAsksInEveryStage) {
   const PlanRequest request = Request({2, 5.2, 0.3}, {13, 8, 0.3});  // Optimised at once.
-  ASSERT_TRUE(map_->Graph(request.profile.Traversability()).ok());  // Built: no build polls.
+  ASSERT_TRUE(map_->Graph(request.profile.Traversability()).ok());   // Built: no build polls.
   // How often a whole plan polls, then a cancellation at the first poll and at the last: the
   // plan ends at that very poll (no further poll), naming the stage.
   CountingStop never;
@@ -253,10 +253,10 @@ TEST_F(TwoLevelPlan, ATrajectoryThatNeverPassesVerificationIsOptimizationFailed)
 // a plan from scratch; the plan still ends at the goal and passes verification.
 TEST_F(TwoLevelPlan, AWarmStartReplansInFewerIterationsThanACold) {
   const std::pair<Eigen::Vector3d, Eigen::Vector3d> queries[] = {
-      {{2, 5.2, 0.3}, {13, 8, 0.3}},    // Floor, under the deck.
-      {{6, 8, 3.3}, {14, 11, 3.3}},     // Across the deck.
-      {{1, 5, 0.3}, {16, 11, 0.3}},     // Floor, between the pillars.
-      {{8, 8, 3.3}, {18, 3, 3.3}}};     // Deck to the tongue.
+      {{2, 5.2, 0.3}, {13, 8, 0.3}},  // Floor, under the deck.
+      {{6, 8, 3.3}, {14, 11, 3.3}},   // Across the deck.
+      {{1, 5, 0.3}, {16, 11, 0.3}},   // Floor, between the pillars.
+      {{8, 8, 3.3}, {18, 3, 3.3}}};   // Deck to the tongue.
   int warm_iterations = 0, cold_iterations = 0;
   for (const auto& [from, to] : queries) {
     const auto first = Plan(*map_, Request(from, to));

@@ -330,8 +330,8 @@ TEST(SnapToSurface, SnapsOnlyToAcceptedNodes) {
   EXPECT_NE(other->node, refused);
   EXPECT_LE((graph.position(other->node) - graph.position(refused)).head<2>().norm(),
             std::sqrt(2.0) * graph.grid().resolution_m + 1e-9);  // A neighbouring column.
-  const auto none = SnapToSurface(graph, p, 1.0, ErrorCode::kGoalOffGround,
-                                  [](int) { return false; }, "too close to a wall");
+  const auto none = SnapToSurface(
+      graph, p, 1.0, ErrorCode::kGoalOffGround, [](int) { return false; }, "too close to a wall");
   ASSERT_FALSE(none.ok());
   EXPECT_EQ(none.error().code, ErrorCode::kGoalOffGround);
   EXPECT_THAT(none.error().message, HasSubstr("all traversable ground within 1.00 m puts the "

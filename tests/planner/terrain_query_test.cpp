@@ -65,8 +65,7 @@ std::vector<Eigen::Vector3d> PointsNearTheRim(int count, std::uint32_t seed) {
 
 // The definition, evaluated naively: the distance from p to the nearest column square of the
 // other kind (traversable at p's level or not) within a wide window, signed, clamped at reach.
-double BruteForceEdgeDistance(const SurfaceGraph& graph, const Eigen::Vector3d& p,
-                              double reach_m) {
+double BruteForceEdgeDistance(const SurfaceGraph& graph, const Eigen::Vector3d& p, double reach_m) {
   const GridGeometry& g = graph.grid();
   const double r = g.resolution_m;
   const double z = p.z() - graph.params().reference_height_m;

@@ -83,11 +83,11 @@ TEST(TimeScaling, TheRequiredScaleBringsEveryPeakWithinItsBound) {
     EXPECT_LE(after.accel_vertical_mps2, 0.99 * profile.max_accel_vertical_mps2 + 1e-7);
     // The smallest such k: one bound sits exactly at its target.
     if (k > 1) {
-      const double closest = std::max(
-          {after.speed_horizontal_mps / (0.99 * profile.max_speed_horizontal_mps),
-           after.speed_vertical_mps / (0.99 * profile.max_speed_vertical_mps),
-           after.accel_horizontal_mps2 / (0.99 * profile.max_accel_horizontal_mps2),
-           after.accel_vertical_mps2 / (0.99 * profile.max_accel_vertical_mps2)});
+      const double closest =
+          std::max({after.speed_horizontal_mps / (0.99 * profile.max_speed_horizontal_mps),
+                    after.speed_vertical_mps / (0.99 * profile.max_speed_vertical_mps),
+                    after.accel_horizontal_mps2 / (0.99 * profile.max_accel_horizontal_mps2),
+                    after.accel_vertical_mps2 / (0.99 * profile.max_accel_vertical_mps2)});
       EXPECT_NEAR(closest, 1.0, 1e-6) << trial;
     }
   }

@@ -30,8 +30,9 @@ void SquaredDistanceTransform1D(const float* f, float* out, int n, std::int64_t 
 /// OpenMP on `num_threads` threads (<= 0: one per core; a grid too small to gain runs on the
 /// calling thread); O(cells) time, no allocation beyond the result and small per-thread
 /// buffers.
-ScalarGrid BuildSignedDistanceField(
-    const GridGeometry& geometry, const std::vector<std::uint8_t>& occupied,
-    double distance_cap_m = std::numeric_limits<double>::infinity(), int num_threads = 0);
+ScalarGrid BuildSignedDistanceField(const GridGeometry& geometry,
+                                    const std::vector<std::uint8_t>& occupied,
+                                    double distance_cap_m = std::numeric_limits<double>::infinity(),
+                                    int num_threads = 0);
 
 }  // namespace strata

@@ -7,8 +7,8 @@
 /// path did: every column it crosses has a node adjacent to the previous one, as far from the
 /// rim and from obstacles as the search's margins ask (near an end that is nearer, as near as
 /// that end, the allowance shrinking back to the margin half a metre per metre away from it),
-/// outside the request's keep-out zones. The result is a path over the same graph, cell by cell, so it
-/// stays traversable by construction.
+/// outside the request's keep-out zones. The result is a path over the same graph, cell by cell, so
+/// it stays traversable by construction.
 #include <functional>
 
 #include "strata/path_search.hpp"

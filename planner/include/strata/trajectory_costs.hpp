@@ -12,8 +12,8 @@
 ///   the traversable region (SampleEdgeDistance, terrain_query.hpp). Not in the paper: S' marks the
 ///   rim only as rough ground, so a trajectory could cut across a corner of untraversable ground.
 /// - J_g: ground following, D(z − h_G(x, y) − h_ref)² with D the dead band of
-///   CostConfig::ground_band_m (offsets within it cost nothing). Not in the paper, whose trajectories
-///   float above flat ground; the smooth ground height h_G comes from SampleGround
+///   CostConfig::ground_band_m (offsets within it cost nothing). Not in the paper, whose
+///   trajectories float above flat ground; the smooth ground height h_G comes from SampleGround
 ///   (terrain_query.hpp).
 /// - J_d: feasibility, C(‖v_xy‖² − v_h²) + C(v_z² − v_v²) and the same for acceleration.
 /// - J_k: keep-out zones (keep_out.hpp), C(r + k_margin − sd(x, y)) · g(o) per zone, with r the

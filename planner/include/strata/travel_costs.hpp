@@ -91,11 +91,11 @@ struct TravelTimeEstimate {
 /// over ±smoothing_m of arc length (ends fixed); each stretch may go no faster than
 /// speed_fraction times the horizontal speed bound over its horizontal share and the vertical
 /// bound over its vertical share (so the vertical bound slows steep slopes), and accelerate no
-/// harder than limit_margin times the acceleration bounds likewise; each bend no faster than its curvature κ allows, sqrt(limit_margin ·
-/// a_max / κ), horizontally and vertically (changes of slope). The speed profile is the
-/// fastest that meets these (forward and backward passes, exact per stretch). Fewer than two
-/// distinct points give zero. `config.search`, `config.coarse_cell_m` and
-/// `config.min_obstacle_distance_m` are not used.
+/// harder than limit_margin times the acceleration bounds likewise; each bend no faster than its
+/// curvature κ allows, sqrt(limit_margin · a_max / κ), horizontally and vertically (changes of
+/// slope). The speed profile is the fastest that meets these (forward and backward passes, exact
+/// per stretch). Fewer than two distinct points give zero. `config.search`, `config.coarse_cell_m`
+/// and `config.min_obstacle_distance_m` are not used.
 TravelTimeEstimate EstimateTravelTime(std::span<const Eigen::Vector3d> path_m,
                                       const RobotProfile& profile, const TravelCostConfig& config);
 
