@@ -15,7 +15,7 @@ std::vector<int> WalkStraight(const SurfaceGraph& graph, int from, int to,
   const int steps_x = std::abs(delta.x()), steps_y = std::abs(delta.y());
   const int sign_x = delta.x() > 0 ? 1 : -1, sign_y = delta.y() > 0 ? 1 : -1;
   std::vector<int> nodes = {from};
-  nodes.reserve(static_cast<std::size_t>(steps_x + steps_y + 1));
+  nodes.reserve(static_cast<std::size_t>(steps_x) + static_cast<std::size_t>(steps_y) + 1);
   Eigen::Vector2i cell = start;
   int node = from;
   // The line from centre to centre crosses the k-th column edge in x at parameter
