@@ -92,6 +92,25 @@ TEST_F(BufCurlTest, EstimatesCostsAsProtoReadmeShows) {
   EXPECT_THAT(response["starts"][2].value("message", ""), HasSubstr("the nearest is"));
 }
 
+// proto/README.md's route through a flow-through via and a stop, as written there: one
+// trajectory, a time per via, the stop after the via.
+TEST_F(BufCurlTest, PlansARouteThroughViasAsProtoReadmeShows) {
+  const auto route = Curl("strata.v1.PlannerService/Plan",
+                          R"({"map_id":"demo","profile_name":"differential",)"
+                          R"("start":{"position_m":{"x":2,"y":5.2,"z":0.3}},)"
+                          R"("goal":{"position_m":{"x":13,"y":8,"z":0.3}},)"
+                          R"("via":[{"position_m":{"x":9,"y":2.75,"z":1.7}},)"
+                          R"({"position_m":{"x":10,"y":10,"z":3.3},"stop":true}]})");
+  ASSERT_EQ(route.exit_code, 0) << route.output;
+  const nlohmann::json response = nlohmann::json::parse(route.output, nullptr, false);
+  ASSERT_TRUE(response.is_object()) << route.output;
+  ASSERT_EQ(response["viaTimesS"].size(), 2u) << route.output;
+  const double passed = response["viaTimesS"][0].get<double>();
+  const double stopped = response["viaTimesS"][1].get<double>();
+  EXPECT_GT(passed, 0);
+  EXPECT_GT(stopped, passed);
+}
+
 // proto/README.md's PlanBatch call: two results streamed, the bad item with Plan's error.
 TEST_F(BufCurlTest, StreamsABatchAsProtoReadmeShows) {
   const auto batch = Curl(
