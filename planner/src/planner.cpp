@@ -504,9 +504,6 @@ Expected<Leg> PlanLeg(const LegContext& ctx, std::span<const RoutePoint> points,
   // Search each stretch between consecutive points; the vias are where they join.
   Clock::time_point stage = Clock::now();
   std::vector<std::size_t> via_indices;  // Of the flow-through vias in leg.path.points_m.
-  // The searches' own grid paths, joined alike, for the fallback's second try.
-  std::vector<Eigen::Vector3d> grid_points;
-  std::vector<std::size_t> grid_via_indices;
   for (std::size_t k = 0; k + 1 < points.size(); ++k) {
     const RoutePoint& from = points[k];
     const RoutePoint& to = points[k + 1];
@@ -552,25 +549,17 @@ Expected<Leg> PlanLeg(const LegContext& ctx, std::span<const RoutePoint> points,
     joined.cost += shortened.cost;
     joined.expansions += shortened.expansions;
     if (k + 2 < points.size()) via_indices.push_back(joined.points_m.size() - 1);
-    grid_points.insert(grid_points.end(), path->points_m.begin() + (grid_points.empty() ? 0 : 1),
-                       path->points_m.end());
-    if (k + 2 < points.size()) grid_via_indices.push_back(grid_points.size() - 1);
   }
   stats.timings.search_s += SecondsSince(stage);
 
   // Optimise and verify; a failed verification retries with stiffer penalties.
-  // A path's points with the route's exact ends and vias in place of their nodes' points.
-  const auto route_waypoints = [&](std::vector<Eigen::Vector3d> waypoints,
-                                   const std::vector<std::size_t>& vias) {
-    waypoints.front() = head.position_m;
-    waypoints.back() = tail.position_m;
-    for (std::size_t v = 0; v < vias.size(); ++v) {
-      waypoints[vias[v]] = points[v + 1].snap.position_m;
-    }
-    if (waypoints.size() < 2) waypoints.push_back(tail.position_m);
-    return waypoints;
-  };
-  const std::vector<Eigen::Vector3d> waypoints = route_waypoints(leg.path.points_m, via_indices);
+  std::vector<Eigen::Vector3d> waypoints = leg.path.points_m;
+  waypoints.front() = head.position_m;
+  waypoints.back() = tail.position_m;
+  for (std::size_t v = 0; v < via_indices.size(); ++v) {
+    waypoints[via_indices[v]] = points[v + 1].snap.position_m;
+  }
+  if (waypoints.size() < 2) waypoints.push_back(tail.position_m);
   // The leg's trajectory and when it passes its vias.
   const auto finish = [&](Trajectory trajectory, const OptimizationProblem& problem) {
     for (const int column : problem.pinned_waypoints) {
@@ -608,18 +597,12 @@ Expected<Leg> PlanLeg(const LegContext& ctx, std::span<const RoutePoint> points,
   // The last resort: the path itself, slowly, marked as such for the dispatcher.
   stage = Clock::now();
   const TrajectoryCost cost(graph, config.weights, CostParams{profile, config.cost}, zones);
-  OptimizationProblem fallback = MakeFallbackProblem(cost, waypoints, head, tail, via_indices);
+  const OptimizationProblem fallback =
+      MakeFallbackProblem(cost, waypoints, head, tail, via_indices);
   Trajectory slow = SlowTrajectory(fallback, profile);
   VerificationReport verification;
-  Status verified = VerifyTrajectory(graph, profile, slow, options.verifier, &verification, zones);
-  if (!verified) {
-    // Through the searches' own cells: a shortened line may graze the corner of a missing
-    // column where a passage is one column wide; the grid path never cuts a corner.
-    fallback = MakeFallbackProblem(cost, route_waypoints(grid_points, grid_via_indices), head, tail,
-                                   grid_via_indices);
-    slow = SlowTrajectory(fallback, profile);
-    verified = VerifyTrajectory(graph, profile, slow, options.verifier, &verification, zones);
-  }
+  const Status verified =
+      VerifyTrajectory(graph, profile, slow, options.verifier, &verification, zones);
   stats.timings.verify_s += SecondsSince(stage);
   if (verified) {
     FillStats(slow, verification, profile, &stats);
