@@ -142,6 +142,14 @@ Expected<PcdHeader> ScanPcdHeader(const std::string& path, std::string_view byte
     const std::vector<std::string_view> tokens = Tokens(text);
     if (tokens.empty() || tokens[0].front() == '#') continue;
     const std::string_view keyword = tokens[0];
+    // PCL applies each line as it comes: a second COUNT after POINTS re-sizes the fields of a
+    // record PCL has already allocated POINTS of (a fuzzed 188-byte file asked for 8 GiB).
+    for (const PcdHeader::Line& seen : header.lines) {
+      if (seen.keyword == keyword) {
+        return LoadError(path, Cat("header line ", Quote(text), " repeats ", keyword,
+                                   "; a PCD header has each field once"));
+      }
+    }
     header.lines.push_back({text, keyword});
     if (keyword == "DATA") {
       header.encoding_name = tokens.size() > 1 ? tokens[1] : "";

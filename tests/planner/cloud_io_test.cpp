@@ -335,6 +335,12 @@ TEST_F(CloudIoTest, MalformedPcdIsRejectedWithReason) {
                     "FIELDS x y z\nSIZE 4 4 3\nTYPE F F F\nCOUNT 1 1 1\nPOINTS 1\nDATA binary\n" +
                         std::string(12, '\0')),
               ErrorCode::kMapLoadFailed, "disagree");
+  // Found by the pcd fuzzer: POINTS between two COUNT lines, the first -1, made PCL allocate
+  // POINTS records of the first COUNT's size (8 GiB) before the second replaced it.
+  ExpectError(Write("recount.pcd",
+                    "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT -1 1 1\nPOINTS 2\n"
+                    "COUNT 1 1 1\nDATA ascii\n1 2 3\n4 5 6\n"),
+              ErrorCode::kMapLoadFailed, "repeats COUNT; a PCD header has each field once");
 }
 
 TEST_F(CloudIoTest, CorruptCompressedPcdIsRejected) {
