@@ -56,16 +56,8 @@ def frames_per_second(browser, view, seconds=3):
 
 
 def plan(browser, start, goal, robot="differential"):
-    driver = browser.driver
-    driver.find_element("css selector", f"#robot option[value={robot}]").click()
-    for field, value in (("start", start), ("goal", goal), ("budget", "10")):
-        box = driver.find_element("id", field)
-        box.clear()
-        box.send_keys(value)
-    driver.find_element("id", "plan").click()
-    browser.wait("document.getElementById('plan-figures') || document.getElementById('plan-error')",
-                 120, "the plan")
-    error = driver.find_elements("id", "plan-error")
+    browser.plan(start, goal, 10, robot=robot)
+    error = browser.driver.find_elements("id", "plan-error")
     if error:
         raise RuntimeError("plan failed: " + error[0].text)
 

@@ -31,18 +31,6 @@ def grpc_plan_length(cli, address):
     return json.loads(out)["stats"]["length_m"]
 
 
-def plan_from_page(browser, goal, start=START):
-    """Types start and goal into the form, plans, and waits for the result or the error."""
-    driver = browser.driver
-    for field, value in (("start", start), ("goal", goal), ("budget", "30")):
-        box = driver.find_element("id", field)
-        box.clear()
-        box.send_keys(value)
-    driver.find_element("id", "plan").click()
-    browser.wait("document.getElementById('plan-figures') || document.getElementById('plan-error')",
-                 120, "the plan's result")
-
-
 def main():
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--server", required=True, help="the strata-server binary")
@@ -70,7 +58,7 @@ def main():
         assert len(levels) == 2, f"the demo has a floor and a deck, the page shows {len(levels)} levels"
 
         # A plan from the form: drawn, and as long as the gRPC answer.
-        plan_from_page(browser, GOAL)
+        browser.plan(START, GOAL, 30)
         error = driver.find_elements("id", "plan-error")
         assert not error, "the plan failed: " + error[0].text
         page_length = float(driver.find_element("id", "plan-figures").get_attribute("data-length-m"))
@@ -94,7 +82,7 @@ def main():
 
         # Along the floor under the deck: drawn dotted while the deck (level 1) is shown, solid
         # once it is hidden.
-        plan_from_page(browser, UNDER_DECK_GOAL, start=UNDER_DECK_START)
+        browser.plan(UNDER_DECK_START, UNDER_DECK_GOAL, 30)
         assert not driver.find_elements("id", "plan-error"), driver.find_element("id", "plan-error").text
         count = "[...document.querySelectorAll('#trajectory line')].filter((l) => l.classList.contains('covered')).length"
         total = len(driver.find_elements("css selector", "#trajectory line"))
@@ -109,7 +97,7 @@ def main():
         assert not errors, f"console errors: {errors}"
 
         # An impossible goal: its error in plain words, with the nearest valid point.
-        plan_from_page(browser, OFF_GROUND_GOAL)
+        browser.plan(START, OFF_GROUND_GOAL, 30)
         error = driver.find_element("id", "plan-error")
         assert error.get_attribute("data-reason") == "GOAL_OFF_GROUND", error.text
         assert "nearest point it can reach" in error.text, error.text

@@ -131,6 +131,19 @@ class Browser:
             time.sleep(0.05)
         raise AssertionError(f"timed out after {timeout_s} s waiting for {what}")
 
+    def plan(self, start, goal, budget_s, robot=None):
+        """Fills the page's plan form (robot when given, start, goal, time budget), plans,
+        and waits for the plan's figures or its error."""
+        if robot:
+            self.driver.find_element("css selector", f"#robot option[value={robot}]").click()
+        for field, value in (("start", start), ("goal", goal), ("budget", str(budget_s))):
+            box = self.driver.find_element("id", field)
+            box.clear()
+            box.send_keys(value)
+        self.driver.find_element("id", "plan").click()
+        self.wait("document.getElementById('plan-figures') || document.getElementById('plan-error')",
+                  120, "the plan's result")
+
     def quit(self):
         self.driver.quit()
         shutil.rmtree(self.profile, ignore_errors=True)
