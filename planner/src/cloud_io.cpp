@@ -32,8 +32,8 @@ Error TooBig(std::string_view path, const std::string& what, std::uint64_t limit
 std::vector<std::string_view> Tokens(std::string_view line) {
   std::vector<std::string_view> tokens;
   std::size_t pos = 0;
-  while ((pos = line.find_first_not_of(" \t\r", pos)) != std::string_view::npos) {
-    const std::size_t end = std::min(line.find_first_of(" \t\r", pos), line.size());
+  while ((pos = line.find_first_not_of(kWordSeparators, pos)) != std::string_view::npos) {
+    const std::size_t end = std::min(line.find_first_of(kWordSeparators, pos), line.size());
     tokens.push_back(line.substr(pos, end - pos));
     pos = end;
   }

@@ -37,7 +37,10 @@ Error LoadError(std::string_view path, const std::string& problem);
 Error TooBig(std::string_view path, const std::string& what, std::uint64_t limit,
              const char* field);
 
-/// The words of `line`, split at spaces, tabs and carriage returns.
+/// What separates the words of a header line: spaces, tabs and carriage returns.
+inline constexpr std::string_view kWordSeparators = " \t\r";
+
+/// The words of `line`, split at kWordSeparators.
 std::vector<std::string_view> Tokens(std::string_view line);
 
 /// A decimal count >= 0 filling the whole token; nullopt otherwise.

@@ -362,8 +362,8 @@ Expected<LoadedCloud> LoadPly(const std::string& path, std::string_view bytes,
     };
     // PCL splits some header lines at whitespace and asserts that the first piece is the
     // keyword (an abort of the whole process in Debian's build), so a keyword must start
-    // its line.
-    if (text.front() == ' ' || text.front() == '\t') {
+    // its line: no space, tab or carriage return before it.
+    if (kWordSeparators.find(text.front()) != std::string_view::npos) {
       return LoadError(path, Cat("PLY header line ", Quote(text),
                                  " starts with whitespace; a header keyword must start its line"));
     }
