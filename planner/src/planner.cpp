@@ -437,6 +437,17 @@ struct Leg {
   PlanStats stats;
 };
 
+// Appends `part` to `joined`, the point where they meet once.
+void AppendPath(const PathResult& part, PathResult* joined) {
+  const std::size_t skip = joined->points_m.empty() ? 0 : 1;
+  joined->points_m.insert(joined->points_m.end(), part.points_m.begin() + skip,
+                          part.points_m.end());
+  joined->nodes.insert(joined->nodes.end(), part.nodes.begin() + skip, part.nodes.end());
+  joined->length_m += part.length_m;
+  joined->cost += part.cost;
+  joined->expansions += part.expansions;
+}
+
 // The time at which `trajectory` reaches the end of waypoint column `column` (piece `column`).
 double TimeAtWaypoint(const Trajectory& trajectory, int column) {
   double t = 0;
@@ -504,6 +515,9 @@ Expected<Leg> PlanLeg(const LegContext& ctx, std::span<const RoutePoint> points,
   // Search each stretch between consecutive points; the vias are where they join.
   Clock::time_point stage = Clock::now();
   std::vector<std::size_t> via_indices;  // Of the flow-through vias in leg.path.points_m.
+  // The searched paths as found, joined the same way: the fallback's second way.
+  PathResult grid_path;
+  std::vector<std::size_t> grid_via_indices;
   for (std::size_t k = 0; k + 1 < points.size(); ++k) {
     const RoutePoint& from = points[k];
     const RoutePoint& to = points[k + 1];
@@ -539,27 +553,29 @@ Expected<Leg> PlanLeg(const LegContext& ctx, std::span<const RoutePoint> points,
     }
     // Straightened inside the traversable corridor: the optimiser starts near the smooth
     // answer instead of the grid's zigzag.
-    const PathResult shortened = ShortenPath(graph, *path, options.search, {}, blocked);
-    PathResult& joined = leg.path;
-    const std::size_t skip = joined.points_m.empty() ? 0 : 1;  // The shared point.
-    joined.points_m.insert(joined.points_m.end(), shortened.points_m.begin() + skip,
-                           shortened.points_m.end());
-    joined.nodes.insert(joined.nodes.end(), shortened.nodes.begin() + skip, shortened.nodes.end());
-    joined.length_m += shortened.length_m;
-    joined.cost += shortened.cost;
-    joined.expansions += shortened.expansions;
-    if (k + 2 < points.size()) via_indices.push_back(joined.points_m.size() - 1);
+    AppendPath(ShortenPath(graph, *path, options.search, {}, blocked), &leg.path);
+    AppendPath(*path, &grid_path);
+    if (k + 2 < points.size()) {
+      via_indices.push_back(leg.path.points_m.size() - 1);
+      grid_via_indices.push_back(grid_path.points_m.size() - 1);
+    }
   }
   stats.timings.search_s += SecondsSince(stage);
 
   // Optimise and verify; a failed verification retries with stiffer penalties.
-  std::vector<Eigen::Vector3d> waypoints = leg.path.points_m;
-  waypoints.front() = head.position_m;
-  waypoints.back() = tail.position_m;
-  for (std::size_t v = 0; v < via_indices.size(); ++v) {
-    waypoints[via_indices[v]] = points[v + 1].snap.position_m;
-  }
-  if (waypoints.size() < 2) waypoints.push_back(tail.position_m);
+  // The points a trajectory starts from: a path's, its ends the states' and its vias the
+  // snapped ones.
+  const auto waypoints_of = [&](std::vector<Eigen::Vector3d> path_points,
+                                std::span<const std::size_t> vias) {
+    path_points.front() = head.position_m;
+    path_points.back() = tail.position_m;
+    for (std::size_t v = 0; v < vias.size(); ++v) {
+      path_points[vias[v]] = points[v + 1].snap.position_m;
+    }
+    if (path_points.size() < 2) path_points.push_back(tail.position_m);
+    return path_points;
+  };
+  const std::vector<Eigen::Vector3d> waypoints = waypoints_of(leg.path.points_m, via_indices);
   // The leg's trajectory and when it passes its vias.
   const auto finish = [&](Trajectory trajectory, const OptimizationProblem& problem) {
     for (const int column : problem.pinned_waypoints) {
@@ -594,21 +610,31 @@ Expected<Leg> PlanLeg(const LegContext& ctx, std::span<const RoutePoint> points,
     config.cost.limit_margin *= 0.95;
     config.initial_speed_fraction *= 0.75;
   }
-  // The last resort: the path itself, slowly, marked as such for the dispatcher.
+  // The last resort: the path itself, slowly, marked as such for the dispatcher. First the
+  // shortened path, then the searched one as found: its steps go from column centre to
+  // column centre, where the shortened path's lines may cross a column whose ground the
+  // interpolation between columns misjudges (a ramp's edge).
   stage = Clock::now();
   const TrajectoryCost cost(graph, config.weights, CostParams{profile, config.cost}, zones);
-  const OptimizationProblem fallback =
-      MakeFallbackProblem(cost, waypoints, head, tail, via_indices);
-  Trajectory slow = SlowTrajectory(fallback, profile);
-  VerificationReport verification;
-  const Status verified =
-      VerifyTrajectory(graph, profile, slow, options.verifier, &verification, zones);
-  stats.timings.verify_s += SecondsSince(stage);
-  if (verified) {
-    FillStats(slow, verification, profile, &stats);
-    stats.fallback = true;
-    stats.fallback_reason = last_failure.message;
-    return finish(std::move(slow), fallback);
+  for (const bool shortened : {true, false}) {
+    const std::span<const std::size_t> vias = shortened ? via_indices : grid_via_indices;
+    const OptimizationProblem fallback =
+        MakeFallbackProblem(cost, shortened ? waypoints : waypoints_of(grid_path.points_m, vias),
+                            head, tail, options.verifier.min_obstacle_distance_m, vias);
+    Trajectory slow = SlowTrajectory(fallback, profile);
+    VerificationReport verification;
+    const Status verified =
+        VerifyTrajectory(graph, profile, slow, options.verifier, &verification, zones);
+    stats.timings.verify_s += SecondsSince(stage);
+    stage = Clock::now();
+    if (verified) {
+      FillStats(slow, verification, profile, &stats);
+      stats.fallback = true;
+      stats.fallback_reason = last_failure.message;
+      if (!shortened) leg.path = std::move(grid_path);  // The path the trajectory follows.
+      return finish(std::move(slow), fallback);
+    }
+    if (stop()) return stop.Reason(options.time_budget_s, "the slow fallback");
   }
   char buf[64];
   std::snprintf(buf, sizeof(buf), " (after %d attempts and the slow fallback)",

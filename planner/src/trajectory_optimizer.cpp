@@ -136,6 +136,27 @@ constexpr double kInitialAccelFraction = 0.5;
 // The fallback: no optimiser will smooth its corners, so slow, and stretched afterwards.
 constexpr Pace kFallbackPace{0.4, 0.25};
 
+// The fallback's points sit at the reference height above the ground interpolated between
+// columns, and on a voxel map's stepped ground that height can pass a few centimetres under
+// the top of a step that the ESDF sees, nearer to it than the verifier allows. Such a point
+// rises, a centimetre at a time, until it has kFallbackClearanceMarginM more than the
+// verifier's distance, by at most kMaxFallbackLiftM: half the verifier's least ground
+// tolerance, so that the lifted point still counts as on the ground.
+constexpr double kFallbackClearanceMarginM = 0.03;
+constexpr double kMaxFallbackLiftM = 0.05;
+Eigen::Vector3d LiftedClear(const TerrainModel& model, const Eigen::Vector3d& p,
+                            double min_obstacle_distance_m) {
+  const double wanted = min_obstacle_distance_m + kFallbackClearanceMarginM;
+  Eigen::Vector3d best = p;
+  double best_distance = model.Distance(p);
+  for (double lift = 0.01; best_distance < wanted && lift <= kMaxFallbackLiftM + 1e-9;
+       lift += 0.01) {
+    const Eigen::Vector3d q = p + Eigen::Vector3d(0, 0, lift);
+    if (const double d = model.Distance(q); d > best_distance) best = q, best_distance = d;
+  }
+  return best;
+}
+
 // Durations of the pieces between start, the interior points and goal: a trapezoidal speed
 // profile over the arc length (accelerate from the start's speed, cruise, brake to the
 // goal's), the cruise speed on each piece lowered where its slope would take the vertical
@@ -259,6 +280,7 @@ OptimizationProblem MakeInitialProblem(const TrajectoryCost& cost,
 OptimizationProblem MakeFallbackProblem(const TrajectoryCost& cost,
                                         const std::vector<Eigen::Vector3d>& path_m,
                                         const RobotState& start, const RobotState& goal,
+                                        double min_obstacle_distance_m,
                                         std::span<const std::size_t> pinned) {
   const int dim = cost.params().dim();
   OptimizationProblem problem;
@@ -278,13 +300,15 @@ OptimizationProblem MakeFallbackProblem(const TrajectoryCost& cost,
       Eigen::Vector3d p = from + (to - from) * (static_cast<double>(j) / steps);
       GroundSample ground;
       if (SampleGround(cost.model(), p, h_ref, 0, &ground)) p.z() = ground.height_m + h_ref;
-      interior.push_back(p);
+      interior.push_back(LiftedClear(cost.model(), p, min_obstacle_distance_m));
     }
     if (k + 1 < path_m.size()) {
       if (std::binary_search(pinned.begin(), pinned.end(), k)) {
         problem.pinned_waypoints.push_back(static_cast<int>(interior.size()));
+        interior.push_back(path_m[k]);
+      } else {
+        interior.push_back(LiftedClear(cost.model(), path_m[k], min_obstacle_distance_m));
       }
-      interior.push_back(path_m[k]);
     }
   }
   problem.head_pva = BoundaryState(cost, start);

@@ -630,5 +630,34 @@ TEST(SharedMaps, SpiralGroundQueriesSucceedAndAnIsolatedGoalIsRefusedWithoutSear
   EXPECT_EQ(stats.expansions, 0);
 }
 
+// A pair of strata-bench's 2000 on the spiral at 0.3 m (seed 1, index 1221) whose three
+// optimised attempts fail at a one-column pinch of the top deck, and whose slow fallback
+// along the shortened path leaves the ground's tolerance where a line crosses a ramp's edge:
+// the fallback along the searched path as found, column centre to column centre, passes.
+TEST(SharedMaps, OnTheSpiralTheFallbackFollowsTheSearchedPathWhereTheShortenedOneFails) {
+  const std::string path = SharedMapPath("spiral0.3_2.pcd");
+  if (!std::filesystem::exists(path)) GTEST_SKIP() << "shared maps not found at " << path;
+  const auto model = LoadShared(path, 0.3);
+  ASSERT_NE(model, nullptr);
+  const PlanningMap map(model);
+  PlanRequest request = Request({-54.15, -16.85, 18.7}, {-10.05, -27.05, 13.1});
+  request.options.time_budget_s = 60 * test_util::kTimeScale;  // Whatever the machine's load.
+  const auto plan = Plan(map, request);
+  ASSERT_TRUE(plan.ok()) << plan.error().message;
+  EXPECT_TRUE(plan->stats.fallback);
+  // Verified, as anyone re-verifying with the default config finds (the voxel map's ground
+  // tolerance is the verifier's, not ExpectSound's).
+  const auto graph = map.Graph(request.profile.Traversability()).value();
+  VerificationReport report;
+  EXPECT_TRUE(
+      VerifyTrajectory(*graph, request.profile, plan->trajectory, VerifierConfig{}, &report).ok());
+  // The path it follows is the search's: every step to one of the 8 neighbouring columns.
+  const std::vector<Eigen::Vector3d>& points = plan->path.points_m;
+  ASSERT_GT(points.size(), 2u);
+  for (std::size_t k = 1; k < points.size(); ++k) {
+    EXPECT_LE((points[k] - points[k - 1]).head<2>().norm(), std::sqrt(2.0) * 0.3 + 1e-6) << k;
+  }
+}
+
 }  // namespace
 }  // namespace strata

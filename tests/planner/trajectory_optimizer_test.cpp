@@ -18,6 +18,7 @@
 #include "strata/prism.hpp"
 #include "strata/robot_profile.hpp"
 #include "strata/surface_graph.hpp"
+#include "strata/terrain_query.hpp"
 #include "strata/trajectory.hpp"
 #include "strata/trajectory_verifier.hpp"
 #include "test_util/gradient_check.hpp"
@@ -265,7 +266,8 @@ TEST(OptimizeTrajectory, KeepsPinnedWaypointsExactlyWhereThePathPutsThem) {
   EXPECT_GT(moved, 1e-3);
   // The fallback keeps every path point; pinned_waypoints says where the via's is.
   const OptimizationProblem fallback =
-      MakeFallbackProblem(cost, path, At(path.front()), At(path.back()), vias);
+      MakeFallbackProblem(cost, path, At(path.front()), At(path.back()),
+                          VerifierConfig{}.min_obstacle_distance_m, vias);
   ASSERT_EQ(fallback.pinned_waypoints.size(), 1u);
   EXPECT_EQ(Eigen::Vector3d(fallback.initial_waypoints.col(fallback.pinned_waypoints[0]).head<3>()),
             path[13]);
@@ -319,6 +321,50 @@ TEST(MakeInitialProblem, SplitsThePathIntoPiecesAtTheBodyHeightTheCeilingAllows)
   for (int k = 0; k < p.initial_waypoints.cols(); ++k) {
     EXPECT_NEAR(p.initial_waypoints(0, k), 0.5 + 0.5 * (k + 1), 1e-6);
   }
+}
+
+// Stairs of 0.25 m risers and 0.6 m treads on a 0.3 m grid (a voxel map's stepped ramp): the
+// ground interpolated between columns passes under each step's edge, and a point at the
+// reference height above it comes nearer to the edge than the verifier allows. The fallback
+// lifts such points, by at most 5 cm, to where they are clear.
+TEST(MakeFallbackProblem, LiftsItsPointsClearOfTheStepEdgesTheInterpolatedGroundPassesUnder) {
+  constexpr double kRise = 0.25, kTread = 0.6, kClearance = 0.05;
+  const auto stairs_z = [](double x) {
+    return x < 2 ? 0.0 : std::min(std::floor((x - 2) / kTread + 1), 6.0) * kRise;
+  };
+  test_util::CloudBuilder cloud(0.05);
+  cloud.Surface(0, 8, 0, 3, [&](double x, double) { return stairs_z(x); });
+  AssessmentConfig assessment;
+  assessment.grid.resolution_m = 0.3;
+  const auto model = TerrainModel::Assess(cloud.cloud(), assessment).value();
+  const RobotProfile profile = BuiltinProfile("differential").value();
+  const SurfaceGraph graph = SurfaceGraph::Build(*model, profile.Traversability()).value();
+  const OptimizerConfig config;
+  const TrajectoryCost cost(graph, config.weights, ParamsFor(profile, config));
+  const double h_ref = profile.reference_height_m;
+  // The interpolated ground's height + h_ref at (x, 1.5), the surface picked near the stairs'.
+  const auto on_ground = [&](double x) {
+    GroundSample ground;
+    const Eigen::Vector3d guess(x, 1.5, stairs_z(x) + h_ref);
+    EXPECT_TRUE(SampleGround(*model, guess, h_ref, 0, &ground));
+    return Eigen::Vector3d(x, 1.5, ground.height_m + h_ref);
+  };
+  std::vector<Eigen::Vector3d> path;
+  for (double x = 0.45; x < 7.6; x += 0.3) path.push_back(on_ground(x));
+  const OptimizationProblem fallback =
+      MakeFallbackProblem(cost, path, At(path.front()), At(path.back()), kClearance);
+  double nearest_on_ground = std::numeric_limits<double>::infinity();
+  for (int k = 0; k < fallback.initial_waypoints.cols(); ++k) {
+    const Eigen::Vector3d p = fallback.initial_waypoints.col(k).head<3>();
+    const Eigen::Vector3d ground = on_ground(p.x());
+    nearest_on_ground = std::min(nearest_on_ground, model->Distance(ground));
+    const double lift = p.z() - ground.z();
+    EXPECT_GE(lift, -1e-9) << p.transpose();
+    EXPECT_LE(lift, 0.05 + 1e-9) << p.transpose();
+    EXPECT_GE(model->Distance(p), kClearance) << p.transpose();
+  }
+  // Without the lift, some point would fail the verifier's distance.
+  EXPECT_LT(nearest_on_ground, kClearance);
 }
 
 TEST(OptimizerConfig, ValidateNamesEachFieldOutOfRange) {

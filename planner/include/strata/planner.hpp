@@ -177,7 +177,8 @@ struct PlanStats {
   bool warm_started = false;
   /// True when no optimised trajectory passed verification and this one is the last resort:
   /// the searched path's own points, driven slowly (MakeFallbackProblem), verified like any
-  /// other. A dispatcher may prefer another robot or goal.
+  /// other: the shortened path's, else the search's column-to-column path as found (then
+  /// PlanResult::path). A dispatcher may prefer another robot or goal.
   bool fallback = false;
   /// With fallback: why the last optimised trajectory failed verification (its first
   /// violation), e.g. "horizontal acceleration 1.03 m/s^2 exceeds the bound 1 m/s^2 at ...".

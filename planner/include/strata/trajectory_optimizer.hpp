@@ -87,11 +87,15 @@ OptimizationProblem MakeInitialProblem(const TrajectoryCost& cost,
 /// every third of a cell between them on the ground, timed slowly (a trapezoid at 40% of the
 /// speed bounds and 25% of the acceleration bounds, slower at corners), not optimised. Points
 /// that close keep it on the ground and inside the corridor the path was found in; what is
-/// too fast for the bounds is then stretched in time. `pinned` as for MakeInitialProblem (every
-/// path point is a waypoint here; pinned_waypoints says which columns they are).
+/// too fast for the bounds is then stretched in time. A point nearer to an obstacle than
+/// `min_obstacle_distance_m` (the verifier's, VerifierConfig) and a margin is raised by up to
+/// 5 cm where that clears it (the interpolated ground passing under a step's edge). `pinned` as
+/// for MakeInitialProblem (every path point is a waypoint here; pinned_waypoints says which
+/// columns they are; pinned points stay where they are).
 OptimizationProblem MakeFallbackProblem(const TrajectoryCost& cost,
                                         const std::vector<Eigen::Vector3d>& path_m,
                                         const RobotState& start, const RobotState& goal,
+                                        double min_obstacle_distance_m,
                                         std::span<const std::size_t> pinned = {});
 
 /// A trajectory the robot is following, to replan from (PlanRequest::warm_start): the
