@@ -1,11 +1,11 @@
 #!/usr/bin/env bash
 # Builds everything once with clang, AddressSanitizer and UndefinedBehaviorSanitizer
 # (scripts/build-sanitize.sh), checks the C++ formatting (.clang-format) and clang-tidy's
-# findings (.clang-tidy), and runs the whole test suite there in parallel with CTest: a memory
-# error, a leak or undefined behaviour fails the test that meets it. The suite includes a
-# 20-second smoke run of each libFuzzer target (fuzz/, label "fuzz"). Then the gRPC-free
-# concurrency tests are built a second time under ThreadSanitizer and run (Debian's gRPC is not
-# instrumented, so that build leaves it out).
+# findings (.clang-tidy; beside the tests), and runs the whole test suite there in parallel
+# with CTest: a memory error, a leak or undefined behaviour fails the test that meets it. The
+# suite includes a 20-second smoke run of each libFuzzer target (fuzz/, label "fuzz"). Then
+# the gRPC-free concurrency tests are built a second time under ThreadSanitizer and run
+# (Debian's gRPC is not instrumented, so that build leaves it out).
 #
 # One full build, not a plain Release one beside the sanitised one: CI has two cores and 30
 # minutes, and the sanitised build runs every test the plain one would, with more checks.
@@ -18,12 +18,19 @@ root=$(cd "$(dirname "$0")/.." && pwd)
 build_dir=${STRATA_SANITIZE_BUILD_DIR:-$root/build-sanitize}
 "$root/scripts/build-sanitize.sh"
 "$root/scripts/check-format.sh"
-STRATA_BUILD_DIR=$build_dir "$root/scripts/check-tidy.sh"
 "$root/scripts/install-test-tools.sh"
+# clang-tidy parses every product source again (about 5 minutes of two cores). It runs beside
+# the test suite at the lowest priority: the suite's server and process tests leave the cores
+# idle while they wait, and the tests keep the CPU whenever they want it.
+STRATA_BUILD_DIR=$build_dir nice -n 19 "$root/scripts/check-tidy.sh" &
+tidy=$!
+trap 'kill $tidy 2>/dev/null || true' EXIT
 skip_fuzz=()
 [ "${STRATA_SKIP_FUZZ:-0}" != 1 ] || skip_fuzz=(-LE fuzz)
 # Sanitiser settings: tests/sanitize_defaults.cpp, server/map_worker_sanitizers.cpp.
 ctest --test-dir "$build_dir" --output-on-failure -j "$(nproc)" "${skip_fuzz[@]}" "$@"
+wait $tidy
+trap - EXIT
 
 if [ "${STRATA_SKIP_TSAN:-0}" = 1 ]; then exit 0; fi
 tsan_dir=${build_dir%-sanitize}-tsan
