@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Runs clang-tidy (Debian's, version 14) with the repository's .clang-tidy over the product's
 # sources (planner, scenes, server, client, tools, common, deploy; not tests or benchmarks),
-# using the compile commands of the build directory; fails on any finding. About 5 minutes
+# using the compile commands of the build directory; fails on any finding. 8-9 minutes
 # on two cores.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)

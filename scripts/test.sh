@@ -19,9 +19,10 @@ build_dir=${STRATA_SANITIZE_BUILD_DIR:-$root/build-sanitize}
 "$root/scripts/build-sanitize.sh"
 "$root/scripts/check-format.sh"
 "$root/scripts/install-test-tools.sh"
-# clang-tidy parses every product source again (about 5 minutes of two cores). It runs beside
-# the test suite at the lowest priority: the suite's server and process tests leave the cores
-# idle while they wait, and the tests keep the CPU whenever they want it.
+# clang-tidy parses every product source again (8-9 minutes of two cores). It runs beside
+# the test suite at the lowest priority, in the time the suite's server and process tests
+# leave the cores idle while they wait (a quarter of tidy's files, measured on a fresh clone);
+# the tests keep the CPU whenever they want it.
 STRATA_BUILD_DIR=$build_dir nice -n 19 "$root/scripts/check-tidy.sh" &
 tidy=$!
 trap 'kill $tidy 2>/dev/null || true' EXIT
