@@ -282,6 +282,7 @@ TEST_F(StoreTest, AServerKilledWhileWritingLeavesTheWholeVersionOrNone) {
     grpc::ClientContext again_context;
     SetDeadline(&again_context, 180);
     request.set_wait(true);
+    request.mutable_scene()->set_size_m(40);  // Any map will do: what matters is the id.
     const grpc::Status recreated = again->CreateMap(&again_context, request, &map);
     EXPECT_TRUE(recreated.ok()) << recreated.error_message();
   }
