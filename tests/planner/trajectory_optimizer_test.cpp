@@ -308,9 +308,11 @@ TEST(MakeInitialProblem, SplitsThePathIntoPiecesAtTheBodyHeightTheCeilingAllows)
   // The biped from the open floor under the slab (clearance 0.45 m).
   const Case s("biped", {0.5, 3}, {3.5, 3}, config);
   const OptimizationProblem& p = s.problem;
-  ASSERT_EQ(p.initial_durations.size(), 6);  // 3 m in pieces of 0.5 m.
+  // 3 m in pieces of 0.5 m, the first and the last split in two (from rest, to rest).
+  ASSERT_EQ(p.initial_durations.size(), 8);
   ASSERT_EQ(p.initial_waypoints.rows(), 4);
-  ASSERT_EQ(p.initial_waypoints.cols(), 5);
+  ASSERT_EQ(p.initial_waypoints.cols(), 7);
+  EXPECT_EQ(p.held_waypoints, (std::vector<int>{0, 6}));
   EXPECT_TRUE((p.initial_durations.array() > 0).all());
   EXPECT_EQ(p.head_pva.col(0).head<3>(), Eigen::Vector3d(0.5, 3, 0.2));
   EXPECT_EQ(p.tail_pva.col(0).head<3>(), Eigen::Vector3d(3.5, 3, 0.2));
@@ -318,9 +320,46 @@ TEST(MakeInitialProblem, SplitsThePathIntoPiecesAtTheBodyHeightTheCeilingAllows)
   // In the open the preferred 0.65 m; under the slab at most its clearance less headroom.
   EXPECT_NEAR(p.head_pva(3, 0), s.profile.body_height_m, 1e-9);
   EXPECT_LE(p.tail_pva(3, 0), 0.45 - s.profile.headroom_m + 1e-6);
+  const std::vector<double> xs = {0.75, 1.0, 1.5, 2.0, 2.5, 3.0, 3.25};
   for (int k = 0; k < p.initial_waypoints.cols(); ++k) {
-    EXPECT_NEAR(p.initial_waypoints(0, k), 0.5 + 0.5 * (k + 1), 1e-6);
+    EXPECT_NEAR(p.initial_waypoints(0, k), xs[static_cast<std::size_t>(k)], 1e-6) << k;
   }
+}
+
+// From rest, one polynomial over a whole piece is too stiff to speed up at anything near the
+// acceleration bound: the piece next to an end at rest is split, its middle held on the path.
+// 11 m along the yard's floor from rest to rest take 1.20 times the time of driving them at
+// the speed bound (1.26 without the split; the check leaves room for rounding between builds).
+TEST(OptimizeTrajectory, FromRestToRestTheEndPiecesAreSplitAndTheTrajectoryNearlyTimeOptimal) {
+  const OptimizerConfig config;
+  const Case s("differential", {0.5, 0.5}, {11.5, 0.5}, config);
+  const OptimizationProblem& p = s.problem;
+  const int last = static_cast<int>(p.initial_waypoints.cols()) - 1;
+  ASSERT_EQ(p.held_waypoints, (std::vector<int>{0, last}));
+  EXPECT_TRUE(p.pinned_waypoints.empty());
+  // Halfway along the first and the last piece (11 m in 7 pieces).
+  EXPECT_NEAR(p.initial_waypoints(0, 0), 0.5 + 0.5 * 11.0 / 7, 1e-6);
+  EXPECT_NEAR(p.initial_waypoints(0, last), 11.5 - 0.5 * 11.0 / 7, 1e-6);
+  Minco3 minco;
+  const auto report = OptimizeTrajectory(s.cost, p, config, {}, &minco);
+  ASSERT_TRUE(report.ok()) << report.error().message;
+  const Trajectory trajectory = Trajectory::FromMinco(minco);
+  for (const int column : {0, last}) {  // Held exactly where they are.
+    const Eigen::Vector3d at = trajectory.pieces[static_cast<std::size_t>(column) + 1]
+                                   .coefficients.row(0)
+                                   .transpose()
+                                   .head<3>();
+    EXPECT_LT((at - p.initial_waypoints.col(column).head<3>()).norm(), 1e-9) << column;
+  }
+  EXPECT_LE(trajectory.TotalDuration(), 1.22 * 11.0 / s.profile.max_speed_horizontal_mps);
+
+  // Already moving at the start: only the end at rest is split.
+  RobotState moving = At(s.path.front());
+  moving.velocity_mps = Eigen::Vector3d(0.9, 0, 0);
+  const OptimizationProblem from_moving =
+      MakeInitialProblem(s.cost, s.path, moving, At(s.path.back()), config);
+  EXPECT_EQ(from_moving.held_waypoints,
+            (std::vector<int>{static_cast<int>(from_moving.initial_waypoints.cols()) - 1}));
 }
 
 // Stairs of 0.25 m risers and 0.6 m treads on a 0.3 m grid (a voxel map's stepped ramp): the

@@ -56,6 +56,11 @@ struct OptimizationProblem {
   /// gradient is zeroed, so L-BFGS, which starts there, never moves them; a 4th row (body
   /// height) stays free.
   std::vector<int> pinned_waypoints;
+  /// Columns of initial_waypoints, ascending, that the optimiser holds in place as it does
+  /// pinned ones (the 4th row free too), without being vias: the points that split the piece
+  /// next to an end at rest (MakeInitialProblem), so that the trajectory leaves and reaches
+  /// rest along the path.
+  std::vector<int> held_waypoints;
 };
 
 /// How an optimisation ended.
@@ -71,8 +76,9 @@ struct OptimizationReport {
 };
 
 /// Builds the problem from a searched path (reference points, start to goal): waypoints every
-/// ~piece_length_m of arc length, durations from the profile's speed bounds, body height from
-/// the ceiling clearance for active-height robots. The path has at least 2 points. `pinned`:
+/// ~piece_length_m of arc length (and halfway along the piece next to an end at rest, held:
+/// held_waypoints), durations from the profile's speed bounds, body height from the ceiling
+/// clearance for active-height robots. The path has at least 2 points. `pinned`:
 /// indices of interior path points (ascending, in (0, size − 1)) that become waypoints exactly
 /// (as corners do) and are pinned there (OptimizationProblem::pinned_waypoints, in the same
 /// order).
