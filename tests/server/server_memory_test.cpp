@@ -2,8 +2,6 @@
 // strata-server: uploads in progress are counted and refused past it with the figures, and
 // robot profiles made up by clients cannot grow a map's graphs past their bound.
 #include <chrono>
-#include <functional>
-#include <thread>
 
 #include <gmock/gmock.h>
 
@@ -13,19 +11,8 @@ namespace strata::server::testing {
 namespace {
 
 using ::testing::HasSubstr;
-using Clock = std::chrono::steady_clock;
 
 constexpr std::uint64_t kMiB = 1 << 20;
-
-// Asks `check` every 10 ms until it holds or `timeout` passes; whether it held.
-bool Eventually(const std::function<bool()>& check, Clock::duration timeout) {
-  const auto end = Clock::now() + timeout;
-  while (!check()) {
-    if (Clock::now() >= end) return false;
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
-  return true;
-}
 
 class MemoryBudgetServerTest : public ServerFixture {
  protected:

@@ -255,12 +255,14 @@ TEST_F(ServerOpsTest, CallsToUnknownMethodsShareOneSeries) {
   // The server counts a call as handled after its client has the answer: scrape once it has,
   // so that the first call's series are all there before the others come.
   const std::vector<std::string> unknown = {"grpc_service=\"unknown\"", "grpc_method=\"unknown\""};
+  // If it never is, the line counts below say so.
   std::string before;
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
-  do {
-    before = HttpGet(server_->metrics_port(), "/metrics");
-  } while (MetricValue(before, "grpc_server_handled_total", unknown) < 1 &&
-           std::chrono::steady_clock::now() < deadline);
+  (void)Eventually(
+      [&] {
+        before = HttpGet(server_->metrics_port(), "/metrics");
+        return MetricValue(before, "grpc_server_handled_total", unknown) >= 1;
+      },
+      std::chrono::seconds(30));
   for (int i = 1; i < 200; ++i) call("/x" + std::to_string(i) + "/made-up-" + std::to_string(i));
   const std::string after = HttpGet(server_->metrics_port(), "/metrics");
   EXPECT_THAT(after, Not(HasSubstr("made-up")));

@@ -210,4 +210,13 @@ double MetricValue(const std::string& exposition, const std::string& metric,
   return 0;
 }
 
+bool Eventually(const std::function<bool()>& check, std::chrono::steady_clock::duration timeout) {
+  const auto end = std::chrono::steady_clock::now() + timeout;
+  while (!check()) {
+    if (std::chrono::steady_clock::now() >= end) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  return true;
+}
+
 }  // namespace strata::server::testing

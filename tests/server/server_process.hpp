@@ -5,6 +5,7 @@
 
 #include <chrono>
 #include <condition_variable>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -71,6 +72,9 @@ struct HttpReply {
 /// "Name: value"; a Content-Length among them replaces the body's own).
 HttpReply HttpPost(int port, const std::string& path, const std::string& body,
                    const std::vector<std::string>& headers = {});
+
+/// Asks `check` every 10 ms until it holds or `timeout` passes; whether it held.
+bool Eventually(const std::function<bool()>& check, std::chrono::steady_clock::duration timeout);
 
 /// The value of the sample of `metric` whose labels contain every one of `labels` (each like
 /// `grpc_method="Plan"`) in a Prometheus text exposition; 0 when there is none.

@@ -8,8 +8,6 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
-#include <functional>
-#include <thread>
 #include <vector>
 
 #include <gmock/gmock.h>
@@ -37,19 +35,8 @@ std::vector<pid_t> ChildrenOf(pid_t parent) {
 
 bool Exists(pid_t pid) { return kill(pid, 0) == 0 || errno != ESRCH; }
 
-// Asks `check` every 10 ms until it holds or `timeout` passes; whether it held.
-bool Eventually(const std::function<bool()>& check, Clock::duration timeout) {
-  const auto end = Clock::now() + timeout;
-  while (!check()) {
-    if (Clock::now() >= end) return false;
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
-  return true;
-}
-
 class MapWorkerServerTest : public ServerFixture {
  protected:
-  // A 200 m site: about 2 s of assessment, long enough to act on while it runs.
   // A 200 m site keeps its worker assessing for seconds, long enough to be caught at it.
   grpc::Status CreateSite(const std::string& id, bool wait, v1::Map* map, double size_m = 200) {
     v1::CreateMapRequest request;
