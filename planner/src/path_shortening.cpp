@@ -10,13 +10,11 @@ namespace strata {
 std::vector<int> WalkStraight(const SurfaceGraph& graph, int from, int to,
                               const std::function<bool(int node)>& accept) {
   if (!accept(from)) return {};
-  const Eigen::Vector2i start = graph.column(from);
-  const Eigen::Vector2i delta = graph.column(to) - start;
+  const Eigen::Vector2i delta = graph.column(to) - graph.column(from);
   const int steps_x = std::abs(delta.x()), steps_y = std::abs(delta.y());
   const int sign_x = delta.x() > 0 ? 1 : -1, sign_y = delta.y() > 0 ? 1 : -1;
   std::vector<int> nodes = {from};
   nodes.reserve(static_cast<std::size_t>(steps_x) + static_cast<std::size_t>(steps_y) + 1);
-  Eigen::Vector2i cell = start;
   int node = from;
   // The line from centre to centre crosses the k-th column edge in x at parameter
   // (k + 1/2) / steps_x, in y at (k + 1/2) / steps_y: step along whichever comes first,
@@ -25,19 +23,12 @@ std::vector<int> WalkStraight(const SurfaceGraph& graph, int from, int to,
   for (int kx = 0, ky = 0; kx < steps_x || ky < steps_y;) {
     const bool step_x =
         ky >= steps_y || (kx < steps_x && (2 * kx + 1) * steps_y <= (2 * ky + 1) * steps_x);
-    if (step_x) {
-      cell.x() += sign_x;
-      ++kx;
-    } else {
-      cell.y() += sign_y;
-      ++ky;
-    }
-    // The neighbour in that column; of two within a step (rare), the nearer in height.
+    (step_x ? kx : ky) += 1;
+    // The neighbour in the next column; of two within a step (rare), the nearer in height.
     int next = -1;
     double gap = std::numeric_limits<double>::infinity();
     const double z = graph.position(node).z();
-    graph.ForEachNeighbor(node, [&](int m) {
-      if (graph.column(m) != cell) return;
+    graph.ForEachNeighborToward(node, step_x ? sign_x : 0, step_x ? 0 : sign_y, [&](int m) {
       const double g = std::abs(graph.position(m).z() - z);
       if (g < gap) {
         gap = g;
@@ -188,17 +179,28 @@ PathResult ShortenPath(const SurfaceGraph& graph, const PathResult& path,
   }
 
   // 2. Tighten: the pull is greedy, so a later pass over its vertices still finds lines that
-  // skip some, for no more than the pulled path's cost between their ends.
+  // skip some, for no more than the pulled path's cost between their ends. As in the pull,
+  // only vertices within max_segment_m along the path are tried: those nearer in a straight
+  // line but farther along (the level above on a spiral, the far side of a bend) were walks
+  // that almost always failed, and on the spiral's long queries half of the shortening's time.
   for (int pass = 0; pass < kTighteningPasses; ++pass) {
+    std::vector<double> vertex_along(vertices.size(), 0.0);  // Along the pulled path [m].
+    for (std::size_t k = 1; k < vertices.size(); ++k) {
+      vertex_along[k] = vertex_along[k - 1] +
+                        (graph.position(vertices[k]) - graph.position(vertices[k - 1])).norm();
+    }
     std::vector<int> tight = {vertices.front()};
     std::vector<double> tight_cost = {0};
     bool removed = false;
     for (std::size_t a = 0; a + 1 < vertices.size();) {
       std::size_t c = a + 1;
       double cost = vertex_cost[a + 1] - vertex_cost[a];
-      for (std::size_t j = vertices.size() - 1; j >= a + 2; --j) {
-        const double span = (graph.position(vertices[j]) - graph.position(vertices[a])).norm();
-        if (span > config.max_segment_m) continue;
+      std::size_t last = a + 1;
+      while (last + 1 < vertices.size() &&
+             vertex_along[last + 1] - vertex_along[a] <= config.max_segment_m) {
+        ++last;
+      }
+      for (std::size_t j = last; j >= a + 2; --j) {
         const std::vector<int> walk =
             line(vertices[a], vertices[j], vertex_cost[j] - vertex_cost[a]);
         if (walk.empty()) continue;

@@ -18,8 +18,9 @@ namespace strata {
 
 /// Settings of ShortenPath.
 struct ShorteningConfig {
-  /// Longest straight segment tried [m], > 0. Longer ones add nothing on a straight stretch
-  /// (their vertices are collinear) and cost a walk each.
+  /// Longest stretch of path, measured along it, that one straight segment may replace [m],
+  /// > 0. Longer ones add nothing on a straight stretch (their vertices are collinear) and
+  /// cost a walk each.
   double max_segment_m = 12.0;
 };
 

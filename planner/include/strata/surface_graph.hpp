@@ -100,24 +100,30 @@ class SurfaceGraph {
   /// Calls f(neighbour_node) for every node adjacent to `node` (see the class comment).
   template <typename F>
   void ForEachNeighbor(int node, F&& f) const {
-    const Node& n = nodes_[node];
     for (int dy = -1; dy <= 1; ++dy) {
       for (int dx = -1; dx <= 1; ++dx) {
-        if (dx == 0 && dy == 0) continue;
-        const bool diagonal = dx != 0 && dy != 0;
-        for (const std::int32_t m : ColumnNodes(n.ix + dx, n.iy + dy)) {
-          const float limit = diagonal ? step_limit_diagonal_ : step_limit_axis_;
-          if (!(std::abs(nodes_[m].reference_z_m - n.reference_z_m) <= limit)) continue;
-          // No corner cutting: a diagonal move needs both columns it passes between, each
-          // with a node within an axis step of both ends, so that it is judged alike from
-          // either end (the graph is undirected).
-          if (diagonal && !(HasStepNeighbor(n, nodes_[m], n.ix + dx, n.iy) &&
-                            HasStepNeighbor(n, nodes_[m], n.ix, n.iy + dy))) {
-            continue;
-          }
-          f(int{m});
-        }
+        if (dx != 0 || dy != 0) ForEachNeighborToward(node, dx, dy, f);
       }
+    }
+  }
+
+  /// Calls f(neighbour_node) for every node adjacent to `node` in the column (dx, dy) away,
+  /// dx and dy in {-1, 0, 1} and not both 0: one direction of ForEachNeighbor.
+  template <typename F>
+  void ForEachNeighborToward(int node, int dx, int dy, F&& f) const {
+    const Node& n = nodes_[node];
+    const bool diagonal = dx != 0 && dy != 0;
+    const float limit = diagonal ? step_limit_diagonal_ : step_limit_axis_;
+    for (const std::int32_t m : ColumnNodes(n.ix + dx, n.iy + dy)) {
+      if (!(std::abs(nodes_[m].reference_z_m - n.reference_z_m) <= limit)) continue;
+      // No corner cutting: a diagonal move needs both columns it passes between, each with a
+      // node within an axis step of both ends, so that it is judged alike from either end
+      // (the graph is undirected).
+      if (diagonal && !(HasStepNeighbor(n, nodes_[m], n.ix + dx, n.iy) &&
+                        HasStepNeighbor(n, nodes_[m], n.ix, n.iy + dy))) {
+        continue;
+      }
+      f(int{m});
     }
   }
 
