@@ -752,9 +752,9 @@ ServiceStatus AppendSamples(const Trajectory& trajectory, double dt_s, int max_s
   TrajectoryCursor cursor(trajectory);
   for (int i = 0; i < count; ++i) {
     const double t = std::min(i * dt_s, total_s);
-    const Eigen::VectorXd p = cursor.Position(t);
-    const Eigen::VectorXd v = cursor.Velocity(t);
-    const Eigen::VectorXd a = cursor.Acceleration(t);
+    const StateVector p = cursor.Position(t);
+    const StateVector v = cursor.Velocity(t);
+    const StateVector a = cursor.Acceleration(t);
     v1::TrajectorySample* sample = response->add_samples();
     sample->set_time_s(t);
     ToProto(Eigen::Vector3d(p.head<3>()), sample->mutable_position_m());

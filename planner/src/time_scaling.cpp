@@ -14,8 +14,8 @@ DynamicPeaks SampleDynamicPeaks(const Trajectory& trajectory, double max_step_s)
     const int steps = std::max(1, static_cast<int>(std::ceil(duration / max_step_s)));
     for (int k = 0; k <= steps; ++k) {
       const double t = duration * k / steps;
-      const Eigen::VectorXd v = trajectory.EvaluatePiece(i, t, 1);
-      const Eigen::VectorXd a = trajectory.EvaluatePiece(i, t, 2);
+      const StateVector v = trajectory.EvaluatePiece(i, t, 1);
+      const StateVector a = trajectory.EvaluatePiece(i, t, 2);
       peaks.speed_horizontal_mps = std::max(peaks.speed_horizontal_mps, v.head<2>().norm());
       peaks.speed_vertical_mps = std::max(peaks.speed_vertical_mps, std::abs(v(2)));
       peaks.accel_horizontal_mps2 = std::max(peaks.accel_horizontal_mps2, a.head<2>().norm());

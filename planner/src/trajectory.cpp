@@ -26,14 +26,14 @@ double Trajectory::TotalDuration() const {
   return total;
 }
 
-Eigen::VectorXd Trajectory::Evaluate(double t, int order) const {
+StateVector Trajectory::Evaluate(double t, int order) const {
   return TrajectoryCursor(*this).Evaluate(t, order);
 }
 
-Eigen::VectorXd Trajectory::EvaluatePiece(std::size_t i, double t, int order) const {
+StateVector Trajectory::EvaluatePiece(std::size_t i, double t, int order) const {
   assert(i < pieces.size() && order >= 0 && order <= 5);
   // Horner on the order-th derivative: Σ_{k>=order} k!/(k-order)! c_k t^(k-order).
-  Eigen::VectorXd value = Eigen::VectorXd::Zero(dimension);
+  StateVector value = StateVector::Zero(dimension);
   for (int k = 5; k >= order; --k) {
     double factor = 1;
     for (int f = k; f > k - order; --f) factor *= f;
@@ -42,7 +42,7 @@ Eigen::VectorXd Trajectory::EvaluatePiece(std::size_t i, double t, int order) co
   return value;
 }
 
-Eigen::VectorXd TrajectoryCursor::Evaluate(double t, int order) {
+StateVector TrajectoryCursor::Evaluate(double t, int order) {
   const std::vector<TrajectoryPiece>& pieces = trajectory_.pieces;
   assert(!pieces.empty() && order >= 0 && order <= 5);
   t = std::max(t, 0.0);

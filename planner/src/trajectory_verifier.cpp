@@ -164,8 +164,8 @@ Status VerifyTrajectory(const SurfaceGraph& graph, const RobotProfile& profile,
 
   // The checks of one state at time t, in the documented order. Every comparison is written
   // !(value within bound), so a NaN fails it.
-  const auto check = [&](double t, const Eigen::VectorXd& pos, const Eigen::VectorXd& vel,
-                         const Eigen::VectorXd& acc) -> Status {
+  const auto check = [&](double t, const StateVector& pos, const StateVector& vel,
+                         const StateVector& acc) -> Status {
     const Eigen::Vector3d p = pos.head<3>();
     ++report->samples;
 

@@ -15,6 +15,11 @@ namespace strata {
 
 class Minco3;
 
+/// A state vector of the trajectory (x, y, z[, body height]) or one of its derivatives:
+/// fixed storage of 4, so that evaluating a trajectory (the optimiser's and the verifier's
+/// inner loops) never allocates.
+using StateVector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, 4, 1>;
+
 struct TrajectoryPiece {
   double duration_s = 0;                                  ///< T_i [s], > 0.
   Eigen::Matrix<double, 6, Eigen::Dynamic> coefficients;  ///< 6 × dimension, see above.
@@ -31,12 +36,12 @@ struct Trajectory {
   /// The `order`-th time derivative (0..5) at global time t [s], clamped to
   /// [0, TotalDuration()]. Precondition: at least one piece. Finds the piece by walking from
   /// the first, O(pieces): code that samples a whole trajectory uses a TrajectoryCursor.
-  Eigen::VectorXd Evaluate(double t, int order) const;
+  StateVector Evaluate(double t, int order) const;
   /// The `order`-th derivative of piece `piece` at local time t ∈ [0, T_piece] (not clamped).
-  Eigen::VectorXd EvaluatePiece(std::size_t piece, double t, int order) const;
-  Eigen::VectorXd Position(double t) const { return Evaluate(t, 0); }
-  Eigen::VectorXd Velocity(double t) const { return Evaluate(t, 1); }
-  Eigen::VectorXd Acceleration(double t) const { return Evaluate(t, 2); }
+  StateVector EvaluatePiece(std::size_t piece, double t, int order) const;
+  StateVector Position(double t) const { return Evaluate(t, 0); }
+  StateVector Velocity(double t) const { return Evaluate(t, 1); }
+  StateVector Acceleration(double t) const { return Evaluate(t, 2); }
 };
 
 /// Evaluates a trajectory at global times that mostly move forward, as dense sampling does:
@@ -48,10 +53,10 @@ class TrajectoryCursor {
   /// `trajectory` (at least one piece) must outlive the cursor.
   explicit TrajectoryCursor(const Trajectory& trajectory) : trajectory_(trajectory) {}
   /// As Trajectory::Evaluate.
-  Eigen::VectorXd Evaluate(double t, int order);
-  Eigen::VectorXd Position(double t) { return Evaluate(t, 0); }
-  Eigen::VectorXd Velocity(double t) { return Evaluate(t, 1); }
-  Eigen::VectorXd Acceleration(double t) { return Evaluate(t, 2); }
+  StateVector Evaluate(double t, int order);
+  StateVector Position(double t) { return Evaluate(t, 0); }
+  StateVector Velocity(double t) { return Evaluate(t, 1); }
+  StateVector Acceleration(double t) { return Evaluate(t, 2); }
 
  private:
   const Trajectory& trajectory_;

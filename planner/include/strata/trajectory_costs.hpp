@@ -40,12 +40,9 @@
 #include "strata/surface_graph.hpp"
 #include "strata/terrain_model.hpp"
 #include "strata/terrain_query.hpp"
+#include "strata/trajectory.hpp"
 
 namespace strata {
-
-/// A state vector of the trajectory (x, y, z[, body height]): fixed storage of 4, so the
-/// optimiser's inner loop never allocates.
-using StateVector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, 4, 1>;
 
 /// Weights λ of the cost terms, each >= 0 and finite. A zero weight skips the term.
 struct CostWeights {
