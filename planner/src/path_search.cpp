@@ -37,13 +37,7 @@ Status SearchConfig::Validate(std::string_view path) const {
 }
 
 double EdgeCost(const SurfaceGraph& graph, int a, int b, const SearchConfig& config) {
-  const double length = (graph.position(a) - graph.position(b)).norm();
-  const double c = std::min(graph.clearance(a), graph.clearance(b));
-  const double shortfall = std::max(0.0, config.clearance_margin_m - c);
-  const double e = std::min(graph.edge_distance(a), graph.edge_distance(b));
-  const double rim_shortfall = std::max(0.0, config.rim_margin_m - e);
-  return length * (1.0 + config.clearance_weight * shortfall / config.clearance_margin_m +
-                   config.rim_weight * rim_shortfall / config.rim_margin_m);
+  return graph.MoveCost(a, b, config);
 }
 
 Expected<PathResult> SearchPath(const SurfaceGraph& graph, int start_node, int goal_node,
@@ -122,7 +116,12 @@ Expected<PathResult> SearchPath(const SurfaceGraph& graph, int start_node, int g
     const double t = line_squared > 0 ? std::clamp(q.dot(line) / line_squared, 0.0, 1.0) : 0.0;
     return config.line_bias * (q - t * line).norm();
   };
-  open.push({w * graph.DistanceLowerBound(start_node, goal_node), 0.0, start_node});
+  // Only the straight line is weighted (SearchConfig::heuristic_weight).
+  const auto heuristic = [&](int node) {
+    return std::max(w * (graph.position(node) - goal_p).norm(),
+                    graph.LandmarkBound(node, goal_node, config));
+  };
+  open.push({heuristic(start_node), 0.0, start_node});
 
   while (!open.empty()) {
     const Entry top = open.top();
@@ -173,7 +172,7 @@ Expected<PathResult> SearchPath(const SurfaceGraph& graph, int start_node, int g
         reached += next.parent < 0;
         next.g = g;
         next.parent = top.node;
-        open.push({g + w * graph.DistanceLowerBound(m, goal_node) + off_line(m), g, m});
+        open.push({g + heuristic(m) + off_line(m), g, m});
       }
     });
   }

@@ -1,5 +1,5 @@
 // SurfaceGraph's landmarks (ALT), chosen and measured once per graph: see
-// SurfaceGraph::DistanceLowerBound.
+// SurfaceGraph::LandmarkBound.
 #include <algorithm>
 #include <limits>
 #include <queue>
@@ -13,14 +13,15 @@ namespace {
 
 constexpr float kUnreached = std::numeric_limits<float>::infinity();
 
-// Shortest path lengths from `source` over the graph's edges (Euclidean length between
-// reference points) to every node; kUnreached outside its component. False when should_stop
-// fired (polled every 4096 nodes settled).
+// Least costs (MoveCost under the default MoveCostTerms) of paths from `source` over the
+// graph's edges to every node; kUnreached outside its component. False when should_stop fired
+// (polled every 4096 nodes settled).
 bool Distances(const SurfaceGraph& graph, int source, const std::function<bool()>& should_stop,
                std::vector<float>* distance) {
   distance->assign(static_cast<std::size_t>(graph.node_count()), kUnreached);
   using Item = std::pair<float, int>;
   std::priority_queue<Item, std::vector<Item>, std::greater<>> queue;
+  const MoveCostTerms terms;
   (*distance)[source] = 0;
   queue.push({0.0f, source});
   for (int settled = 1; !queue.empty(); ++settled) {
@@ -29,9 +30,8 @@ bool Distances(const SurfaceGraph& graph, int source, const std::function<bool()
     const int node = queue.top().second;
     queue.pop();
     if (d > (*distance)[node]) continue;
-    const Eigen::Vector3d p = graph.position(node);
     graph.ForEachNeighbor(node, [&](int m) {
-      const float next = d + static_cast<float>((graph.position(m) - p).norm());
+      const float next = d + static_cast<float>(graph.MoveCost(node, m, terms));
       if (next < (*distance)[m]) {
         (*distance)[m] = next;
         queue.push({next, m});

@@ -268,31 +268,67 @@ TEST_F(TwoLevel, AStarMatchesDijkstra) {
       EXPECT_GE(path->cost, path->length_m - 1e-9);
     }
   }
+  // Plain A* stays optimal under move costs stiffer than the landmarks' (their bound still
+  // holds) and softer ones (the landmarks are left out).
+  SearchConfig stiffer = plain, softer = plain;
+  stiffer.rim_weight = 3;
+  softer.clearance_weight = 0;
+  for (const SearchConfig& config : {stiffer, softer}) {
+    const int a = component[rng() % component.size()];
+    const std::vector<double> dist = Dijkstra(graph(), a, config);
+    for (int k = 0; k < 4; ++k) {
+      const int b = component[rng() % component.size()];
+      auto path = SearchPath(graph(), a, b, config, {});
+      ASSERT_TRUE(path.ok()) << path.error().message;
+      EXPECT_NEAR(path->cost, dist[b], 1e-9 * std::max(1.0, dist[b]));
+    }
+  }
 }
 
-TEST_F(TwoLevel, LandmarkBoundsLieBetweenTheStraightLineAndTheShortestPath) {
+TEST_F(TwoLevel, LandmarkBoundsNeverExceedTheCheapestCostAndKnowTheRamp) {
   ASSERT_GT(graph().landmark_count(), 0);
   const int start = Snap(layout_.start_example_m);
   ASSERT_GE(start, 0);
-  SearchConfig lengths;  // EdgeCost = length: Dijkstra gives shortest path lengths.
-  lengths.clearance_weight = 0;
-  lengths.rim_weight = 0;
-  const std::vector<double> dist = Dijkstra(graph(), start, lengths);
+  const SearchConfig defaults;  // The terms the landmarks measure with.
+  SearchConfig stiffer;         // Every move costs at least as much: still a bound.
+  stiffer.rim_weight = 3;
+  stiffer.clearance_margin_m = 0.3;
+  const std::vector<double> cheapest = Dijkstra(graph(), start, defaults);
+  const std::vector<double> cheapest_stiffer = Dijkstra(graph(), start, stiffer);
   int tighter = 0, pairs = 0;
   for (int v = 0; v < graph().node_count(); v += 13) {
-    if (!std::isfinite(dist[v])) continue;
+    if (!std::isfinite(cheapest[v])) continue;
     ++pairs;
     const double straight = (graph().position(v) - graph().position(start)).norm();
-    const double bound = graph().DistanceLowerBound(start, v);
-    EXPECT_GE(bound, straight - 1e-12);
-    EXPECT_LE(bound, dist[v] + 1e-9) << graph().position(v).transpose();
+    const double bound = graph().LandmarkBound(start, v, defaults);
+    EXPECT_LE(bound, cheapest[v] + 1e-9) << graph().position(v).transpose();
+    EXPECT_LE(graph().LandmarkBound(start, v, stiffer), cheapest_stiffer[v] + 1e-9);
     tighter += bound > straight + 0.5;
   }
   // The deck lies above the floor: its straight line ignores the ramp, the landmarks do not.
   EXPECT_GT(tighter, pairs / 10) << tighter << " of " << pairs;
   const int deck = Snap(layout_.goal_example_m);
-  EXPECT_GT(graph().DistanceLowerBound(start, deck),
+  EXPECT_GT(graph().LandmarkBound(start, deck, defaults),
             (graph().position(deck) - graph().position(start)).norm() + 1.0);
+  // Under terms that make some move cheaper the landmarks' costs are no bound: none is given.
+  SearchConfig softer;
+  softer.rim_weight = 0;
+  EXPECT_EQ(graph().LandmarkBound(start, deck, softer), 0.0);
+}
+
+TEST(MoveCostTerms, CostsAtLeastComparesEveryWeightAndMargin) {
+  const MoveCostTerms defaults;
+  EXPECT_TRUE(defaults.CostsAtLeast(defaults));
+  for (double MoveCostTerms::*field :
+       {&MoveCostTerms::clearance_weight, &MoveCostTerms::clearance_margin_m,
+        &MoveCostTerms::rim_weight, &MoveCostTerms::rim_margin_m}) {
+    MoveCostTerms more = defaults, less = defaults;
+    more.*field *= 1.5;
+    less.*field *= 0.5;
+    EXPECT_TRUE(more.CostsAtLeast(defaults));
+    EXPECT_FALSE(less.CostsAtLeast(defaults));
+    EXPECT_FALSE(defaults.CostsAtLeast(more));
+  }
 }
 
 TEST_F(TwoLevel, FloorToDeckClimbsTheRampOnValidGround) {

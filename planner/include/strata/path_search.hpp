@@ -1,8 +1,8 @@
 #pragma once
 /// Front end of the planner: A* over the near-surface cells of a SurfaceGraph (26-connected,
-/// clearance-aware cost, the admissible heuristic SurfaceGraph::DistanceLowerBound (landmarks,
-/// at least the straight line) weighted by heuristic_weight, plus a small bias towards the
-/// straight start–goal line),
+/// clearance-aware cost, the admissible heuristic max(straight line weighted by
+/// heuristic_weight, SurfaceGraph::LandmarkBound), plus a small bias towards the straight
+/// start–goal line),
 /// with an expansion budget and a should_stop callable for deadlines and cancellation. Every
 /// failure names its reason.
 
@@ -17,17 +17,22 @@
 
 namespace strata {
 
-/// A* settings. Validate() blames the first bad field by its path, `path`.<field>.
-struct SearchConfig {
+/// A* settings. Validate() blames the first bad field by its path, `path`.<field>. The
+/// move-cost terms (clearance and rim) are MoveCostTerms'.
+struct SearchConfig : MoveCostTerms {
   /// Most nodes the search may expand [-], >= 1. Reaching it fails with
   /// kSearchBudgetExhausted.
   int max_expansions = 2'000'000;
-  /// Factor w on the heuristic [-], in [1, 3]: A* expands f = g + w·h, and the path found
-  /// costs at most w times the cheapest (weighted A*). 1 is plain A*, optimal. The cost's
-  /// clearance and rim terms make the cheapest path cost more than the straight line, so plain
-  /// A* explores a wide ellipse around it: on a 514 m query of the 400 m outdoor_site, w = 1
-  /// expands 465,000 nodes (370 ms), w = 1.05 28,600 (11 ms) for a path 0.4% longer, w = 1.1
-  /// 5,800 (4 ms) but the shared maps' trajectories lengthen by 2% (median; 1% at 1.05).
+  /// Factor w on the straight-line part of the heuristic [-], in [1, 3]: A* expands
+  /// f = g + max(w·‖p − p_goal‖, SurfaceGraph::LandmarkBound), and the path found costs at
+  /// most w times the cheapest (weighted A*). 1 is plain A*, optimal. The cost's clearance and
+  /// rim terms make the cheapest path cost more than the straight line, so plain A* explores a
+  /// wide ellipse around it: on a 514 m query of the 400 m outdoor_site (no landmarks at that
+  /// size), w = 1 expands 465,000 nodes (370 ms), w = 1.05 28,600 (11 ms) for a path 0.4%
+  /// longer, w = 1.1 5,800 (4 ms) but the shared maps' trajectories lengthen by 2% (median; 1%
+  /// at 1.05). The landmark bound is not weighted: it already bounds the cost, clearance and
+  /// rim terms included, and weighted it would trade the path's cost for speed where it is
+  /// tight (on the spiral at 0.3 m, seven times as many plans fell back to the searched path).
   double heuristic_weight = 1.05;
   /// Weight of a node's horizontal distance from the straight start–goal segment, added to its
   /// priority [-], in [0, 1]. Over a grid many paths round a small obstacle cost alike (an
@@ -37,17 +42,6 @@ struct SearchConfig {
   /// curvature fell by a fifth. The path found costs at most heuristic_weight times the
   /// cheapest plus line_bias times the largest such distance of a node it expanded.
   double line_bias = 0.05;
-  /// Extra cost of a move whose clearance is 0, relative to its length [-], >= 0.
-  double clearance_weight = 2.0;
-  /// Obstacle distance below which moves cost extra [m], > 0. Keep it below the reference
-  /// height: the ground itself is an obstacle, so open ground has d ≈ reference height.
-  double clearance_margin_m = 0.2;
-  /// Extra cost of a move onto the rim of the traversable ground, relative to its length
-  /// [-], >= 0. Paths that hug a drop or a too-steep patch leave the optimiser no room.
-  double rim_weight = 1.0;
-  /// Distance to the rim (SurfaceGraph::edge_distance) below which moves cost extra [m], in
-  /// (0, 1] (the graph keeps rim distances exact only up to 2 m).
-  double rim_margin_m = 0.4;
 
   Status Validate(std::string_view path = "search") const;
 };
@@ -69,12 +63,9 @@ struct SearchStats {
   double elapsed_s = 0;           ///< Wall-clock time [s].
 };
 
-/// Cost of moving between adjacent nodes a and b: the Euclidean 3D length between their
-/// reference points times 1 + w · max(0, margin − c) / margin + w_r · max(0, margin_r − e) /
-/// margin_r, with c the smaller clearance and e the smaller rim distance of the two. Never
-/// below the length, so SurfaceGraph::DistanceLowerBound, a bound on lengths, is an
-/// admissible heuristic (and weighted by w, SearchConfig::heuristic_weight, it bounds the
-/// path's cost by w times the cheapest).
+/// Cost of moving between adjacent nodes a and b: SurfaceGraph::MoveCost under the config's
+/// terms. Never below the length, so the straight line is an admissible heuristic, and so is
+/// SurfaceGraph::LandmarkBound under these terms.
 double EdgeCost(const SurfaceGraph& graph, int a, int b, const SearchConfig& config);
 
 /// Cheapest path from start_node to goal_node (e.g. SnapResult::node). Fails with:

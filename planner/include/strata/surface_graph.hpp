@@ -21,6 +21,31 @@
 
 namespace strata {
 
+/// What a move between adjacent nodes costs beyond its length (SurfaceGraph::MoveCost): extra
+/// near obstacles and near the rim, so that paths leave the optimiser room. The search's terms
+/// (SearchConfig derives from this); the graph's landmarks measure costs under the defaults.
+struct MoveCostTerms {
+  /// Extra cost of a move whose clearance is 0, relative to its length [-], >= 0.
+  double clearance_weight = 2.0;
+  /// Obstacle distance below which moves cost extra [m], > 0. Keep it below the reference
+  /// height: the ground itself is an obstacle, so open ground has d ≈ reference height.
+  double clearance_margin_m = 0.2;
+  /// Extra cost of a move onto the rim of the traversable ground, relative to its length
+  /// [-], >= 0. Paths that hug a drop or a too-steep patch leave the optimiser no room.
+  double rim_weight = 1.0;
+  /// Distance to the rim (SurfaceGraph::edge_distance) below which moves cost extra [m], in
+  /// (0, 1] (the graph keeps rim distances exact only up to 2 m).
+  double rim_margin_m = 0.4;
+
+  /// True when every move costs at least as much under these terms as under `other`: no
+  /// weight and no margin below `other`'s (the extra cost grows with each).
+  bool CostsAtLeast(const MoveCostTerms& other) const {
+    return clearance_weight >= other.clearance_weight &&
+           clearance_margin_m >= other.clearance_margin_m && rim_weight >= other.rim_weight &&
+           rim_margin_m >= other.rim_margin_m;
+  }
+};
+
 /// Near-surface cells and their connectivity.
 ///
 /// Nodes: for every column (ix, iy) and every surface s of it that is valid ground, has
@@ -134,7 +159,7 @@ class SurfaceGraph {
   double edge_distance(int node) const { return edge_distance_[node]; }
   /// Where edge distances stop growing [m]: 2 m, plus two diagonal steps so that values up to
   /// 2 m interpolate exactly between columns. Its readers' margins stay below 1 m
-  /// (SearchConfig::rim_margin_m, CostConfig::edge_margin_m), so capping changes nothing for
+  /// (MoveCostTerms::rim_margin_m, CostConfig::edge_margin_m), so capping changes nothing for
   /// them, and only the nodes within the cap of a rim are visited: a fraction of a big map.
   static double EdgeDistanceCap(double resolution_m) {
     return 2.0 + 2.0 * std::numbers::sqrt2 * resolution_m;
@@ -145,27 +170,43 @@ class SurfaceGraph {
   /// Heights further apart than this are different levels [m].
   static constexpr double kLevelGapM = 0.5;
 
-  /// A lower bound on the length of every path over graph edges between nodes a and b [m],
-  /// at least their straight-line distance: with landmarks (ALT: Goldberg and Harrelson, 2005),
-  /// max over landmarks L of |d_L(a) − d_L(b)| (triangle inequality), d_L the shortest path
-  /// length from L over edges of the reference points' Euclidean length, the least EdgeCost
-  /// can be (so the bound holds for every SearchConfig). Where the straight line crosses a
-  /// spiral's core, the landmarks know the way round.
-  double DistanceLowerBound(int a, int b) const {
-    double bound = (position(a) - position(b)).norm();
-    if (landmark_count_ == 0) return bound;
+  /// Cost of moving between adjacent nodes a and b under `terms`: the Euclidean 3D length
+  /// between their reference points times 1 + w_c · max(0, margin_c − c) / margin_c +
+  /// w_r · max(0, margin_r − e) / margin_r, with c the smaller clearance and e the smaller rim
+  /// distance of the two. Never below the length.
+  double MoveCost(int a, int b, const MoveCostTerms& terms) const {
+    const double length = (position(a) - position(b)).norm();
+    const double c = std::min(clearance(a), clearance(b));
+    const double shortfall = std::max(0.0, terms.clearance_margin_m - c);
+    const double e = std::min(edge_distance(a), edge_distance(b));
+    const double rim_shortfall = std::max(0.0, terms.rim_margin_m - e);
+    return length * (1.0 + terms.clearance_weight * shortfall / terms.clearance_margin_m +
+                     terms.rim_weight * rim_shortfall / terms.rim_margin_m);
+  }
+
+  /// A lower bound on the cost (MoveCost under `terms`) of every path over graph edges
+  /// between nodes a and b, from the landmarks (ALT: Goldberg and Harrelson, 2005): the max
+  /// over landmarks L of |d_L(a) − d_L(b)| (triangle inequality), d_L the least cost of a
+  /// path from L under the default MoveCostTerms. It bounds the cost under any `terms` that
+  /// cost at least as much (CostsAtLeast); under others, and without landmarks, it is 0. The
+  /// straight-line distance bounds every cost too; the search takes the larger. Where the
+  /// straight line crosses a spiral's core, the landmarks know the way round, and along a
+  /// ramp they know that the cheapest path keeps off its rim.
+  double LandmarkBound(int a, int b, const MoveCostTerms& terms) const {
+    double bound = 0;
+    if (landmark_count_ == 0 || !terms.CostsAtLeast(MoveCostTerms{})) return bound;
     const float* la = &landmark_distance_[static_cast<std::size_t>(a) * landmark_count_];
     const float* lb = &landmark_distance_[static_cast<std::size_t>(b) * landmark_count_];
     for (int k = 0; k < landmark_count_; ++k) {
       // Infinite: a or b outside the landmark's component. Float distances are shrunk by a
-      // part in 10⁵, more than their rounding, so the bound stays below the true length.
+      // part in 10⁵, more than their rounding, so the bound stays below the true cost.
       if (std::isfinite(la[k]) && std::isfinite(lb[k])) {
         bound = std::max(bound, (1 - 1e-5) * std::abs(double{la[k]} - double{lb[k]}));
       }
     }
     return bound;
   }
-  /// Landmarks kept for DistanceLowerBound: kMaxLandmarks in the largest component of a graph
+  /// Landmarks kept for LandmarkBound: kMaxLandmarks in the largest component of a graph
   /// of at most kMaxLandmarkNodes nodes, else none (their Dijkstra runs would cost seconds
   /// on a site-scale graph, whose open ground the straight line already bounds well).
   int landmark_count() const { return landmark_count_; }
