@@ -1,6 +1,7 @@
 #include "strata/terrain_query.hpp"
 
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 
 namespace strata {
@@ -31,10 +32,9 @@ bool SampleGround(const TerrainModel& model, const Eigen::Vector3d& p, double re
   const int own_ix = static_cast<int>(std::floor((p.x() - g.origin_m.x()) / r));
   const int own_iy = static_cast<int>(std::floor((p.y() - g.origin_m.y()) / r));
   if (own_ix < 0 || own_iy < 0 || own_ix >= g.size.x() || own_iy >= g.size.y()) return false;
-  sample->surface = NearestSurface(surfaces, own_ix, own_iy, z_ground);
 
   // Bilinear weights between the four column centres around p ("centre coordinates": the
-  // centre of column i sits at u = i).
+  // centre of column i sits at u = i). p's own column is one of the four: i0 or i0 + 1.
   const double u = (p.x() - g.origin_m.x()) / r - 0.5;
   const double v = (p.y() - g.origin_m.y()) / r - 0.5;
   const int i0 = static_cast<int>(std::floor(u));
@@ -51,6 +51,8 @@ bool SampleGround(const TerrainModel& model, const Eigen::Vector3d& p, double re
                               std::abs(corner[dj][di]->ground_z_m - z_ground) <= kLevelGapM);
     }
   }
+  assert(own_ix - i0 >= 0 && own_ix - i0 <= 1 && own_iy - j0 >= 0 && own_iy - j0 <= 1);
+  sample->surface = corner[own_iy - j0][own_ix - i0];
   // A corner on another level (a ledge, a drop) or without ground must not tilt the ground:
   // it gets no weight, and the others are renormalised. The choice only flips where the point
   // is kLevelGapM from that corner's ground, far from where a trajectory runs, so the field is

@@ -263,6 +263,11 @@ double TrajectoryCost::Evaluate(const Minco3& minco, Eigen::MatrixXd* grad_c,
   grad_T->array() += weights_.time;
 
   StateVector pos(dim), vel(dim), acc(dim), jerk(dim), g_pos(dim), g_vel(dim), g_acc(dim);
+  // A piece's last sample and the next piece's first are the same state (MINCO is C⁴ at its
+  // waypoints): its penalty is evaluated once, and g_pos, g_vel, g_acc still hold its
+  // gradients when the next piece starts.
+  double junction_penalty = 0;
+  CostBreakdown junction_terms;
   for (int i = 0; i < pieces; ++i) {
     const double duration = minco.durations()(i);
     const auto c =
@@ -276,7 +281,17 @@ double TrajectoryCost::Evaluate(const Minco3& minco, Eigen::MatrixXd* grad_c,
       acc.noalias() = (beta.row(2) * c).transpose();
       jerk.noalias() = (beta.row(3) * c).transpose();
       CostBreakdown point_terms;
-      const double penalty = PointPenalty(pos, vel, acc, &g_pos, &g_vel, &g_acc, &point_terms);
+      double penalty = 0;
+      if (j == 0 && i > 0) {
+        penalty = junction_penalty;
+        point_terms = junction_terms;
+      } else {
+        penalty = PointPenalty(pos, vel, acc, &g_pos, &g_vel, &g_acc, &point_terms);
+        if (j == kappa) {
+          junction_penalty = penalty;
+          junction_terms = point_terms;
+        }
+      }
       if (penalty == 0) continue;  // Gradients are zero too: every term is >= 0 and C¹.
       // Trapezoid weight T/κ (halved at the ends); it scales with T, hence penalty·w/T below.
       const double weight = (j == 0 || j == kappa ? 0.5 : 1.0) * duration / kappa;
