@@ -127,7 +127,11 @@ PathResult ShortenPath(const SurfaceGraph& graph, const PathResult& path,
   // the search's margin, or costs more than `budget` in the search's own terms. Where an end
   // is nearer (the path squeezed past a corner there), the line may be as near at that end,
   // the allowance growing back at half the distance travelled from it: a line may leave a
-  // tight spot, not run along the rim from it.
+  // tight spot, not run along the rim from it. The margin is capped at the graph's open-ground
+  // clearance: where the ground itself is nearer the reference point than the margin, a
+  // margin no path keeps would forbid every line longer than a few cells.
+  const double clearance_margin =
+      std::min(search.clearance_margin_m, graph.open_ground_clearance_m());
   const auto line = [&](int a, int b, double budget) {
     const Eigen::Vector2d pa = graph.position(a).head<2>(), pb = graph.position(b).head<2>();
     const double rim_a = graph.edge_distance(a), rim_b = graph.edge_distance(b);
@@ -138,7 +142,7 @@ PathResult ShortenPath(const SurfaceGraph& graph, const PathResult& path,
       const double from_b = kAllowanceSlope * (p - pb).norm();
       const double rim_floor = std::min({1.5 * r, rim_a + from_a, rim_b + from_b});
       const double clearance_floor =
-          std::min({search.clearance_margin_m, clear_a + from_a, clear_b + from_b});
+          std::min({clearance_margin, clear_a + from_a, clear_b + from_b});
       return graph.edge_distance(m) >= rim_floor && graph.clearance(m) >= clearance_floor &&
              !(blocked && m != nodes.front() && m != nodes.back() && blocked(m));
     });

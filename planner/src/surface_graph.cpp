@@ -102,6 +102,13 @@ Expected<SurfaceGraph> SurfaceGraph::Build(const TerrainModel& model,
     }
   }
   queue = {};
+  if (!graph.nodes_.empty()) {
+    std::vector<float> clearances(graph.nodes_.size());
+    for (std::size_t k = 0; k < clearances.size(); ++k) clearances[k] = graph.nodes_[k].clearance_m;
+    const auto tenth = clearances.begin() + static_cast<std::ptrdiff_t>(clearances.size() / 10);
+    std::nth_element(clearances.begin(), tenth, clearances.end());
+    graph.open_ground_clearance_m_ = *tenth;
+  }
   if (!graph.ComputeEdgeDistances(rim, should_stop)) return Cancelled();
   if (!graph.ComputeLandmarks(should_stop)) return Cancelled();
   // The node arrays grew by push_back: give back what they reserved beyond their size.

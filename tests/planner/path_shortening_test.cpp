@@ -72,8 +72,13 @@ class PillarRoom : public ::testing::Test {
 std::shared_ptr<const TerrainModel>* PillarRoom::model_ = nullptr;
 SurfaceGraph* PillarRoom::graph_ = nullptr;
 
-TEST_F(PillarRoom, AnOpenStretchBecomesOneStraightLine) {
-  const SearchConfig search;
+class OpenStretch : public PillarRoom, public ::testing::WithParamInterface<double> {};
+
+// Also where the clearance margin exceeds what open ground leaves (the ground itself is an
+// obstacle, about the reference height below): no path keeps that margin, so no line must.
+TEST_P(OpenStretch, BecomesOneStraightLine) {
+  SearchConfig search;
+  search.clearance_margin_m = GetParam();
   // South of the pillar, well inside the floor's rim on both sides.
   const int a = Snap(graph(), {1.0, 0.8, 0.3}), b = Snap(graph(), {9.0, 1.2, 0.3});
   const auto path = SearchPath(graph(), a, b, search, {});
@@ -94,6 +99,9 @@ TEST_F(PillarRoom, AnOpenStretchBecomesOneStraightLine) {
   }
 }
 
+INSTANTIATE_TEST_SUITE_P(ClearanceMargins, OpenStretch,
+                         ::testing::Values(SearchConfig{}.clearance_margin_m, 1.0));
+
 // Round a pillar: the lines cost no more than the searched path in the search's own terms
 // (length weighted by nearness to the rim and obstacles), so they shortcut the search's
 // detour only where the cost allows; they keep a cell and a half from the rim and the
@@ -113,7 +121,10 @@ TEST_F(PillarRoom, AroundAPillarTheLinesCostNoMoreThanTheSearchsPath) {
   for (const int m : shortened.nodes) {
     EXPECT_GE(graph().edge_distance(m), std::min(end_rim, 1.5 * r) - 1e-6)
         << graph().position(m).transpose();
-    EXPECT_GE(graph().clearance(m), std::min(end_clearance, search.clearance_margin_m) - 1e-6)
+    EXPECT_GE(graph().clearance(m),
+              std::min({end_clearance, search.clearance_margin_m,
+                        graph().open_ground_clearance_m()}) -
+                  1e-6)
         << graph().position(m).transpose();
   }
   for (const Eigen::Vector3d& p : shortened.points_m) {

@@ -149,6 +149,20 @@ bool Adjacent(const SurfaceGraph& graph, int a, int b) {
          side_has_step_neighbour({c.x(), c.y() + d.y()});
 }
 
+TEST(SurfaceGraph, OpenGroundClearanceIsWhatNineNodesInTenKeep) {
+  const SurfaceGraph& graph = Graph();
+  const double open = graph.open_ground_clearance_m();
+  int below = 0, at_least = 0;
+  for (int node = 0; node < graph.node_count(); ++node) {
+    (graph.clearance(node) < open ? below : at_least) += 1;
+  }
+  EXPECT_LE(below, graph.node_count() / 10);
+  EXPECT_GE(at_least, graph.node_count() * 9 / 10);
+  // The ground itself is an obstacle: open ground keeps about the reference height from it.
+  EXPECT_GT(open, 0.0);
+  EXPECT_LE(open, Params().reference_height_m + Model().grid().resolution_m);
+}
+
 TEST(SurfaceGraph, EdgesFollowTheStepRuleAndCutNoCorner) {
   const SurfaceGraph& graph = Graph();
   int edges = 0, steps_refused = 0, corners_refused = 0, climbed = 0;

@@ -5,9 +5,10 @@
 /// place. Here each vertex is joined to the farthest later one that a straight line (in x, y,
 /// following the ground from column to column) reaches over the surface graph as well as the
 /// path did: every column it crosses has a node adjacent to the previous one, as far from the
-/// rim and from obstacles as the search's margins ask (near an end that is nearer, as near as
-/// that end, the allowance shrinking back to the margin half a metre per metre away from it),
-/// outside the request's keep-out zones. The result is a path over the same graph, cell by cell, so
+/// rim and from obstacles as the search's margins ask (the clearance margin at most the
+/// graph's open-ground clearance; near an end that is nearer, as near as that end, the
+/// allowance shrinking back to the margin half a metre per metre away from it), outside the
+/// request's keep-out zones. The result is a path over the same graph, cell by cell, so
 /// it stays traversable by construction.
 #include <functional>
 

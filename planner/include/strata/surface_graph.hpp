@@ -152,6 +152,11 @@ class SurfaceGraph {
     }
   }
 
+  /// The obstacle distance nine nodes in ten keep at least [m] (0 for an empty graph). On open
+  /// ground that is the ground's own distance below the reference point: about the reference
+  /// height, less on a coarse grid (the biped's 0.2 m on a 0.2 m grid: 0.11 m). A clearance
+  /// margin above it is one no path can keep (ShortenPath caps its margin here).
+  double open_ground_clearance_m() const { return open_ground_clearance_m_; }
   /// Distance from the node's column centre to the rim of the traversable region it belongs
   /// to [m]: 0.5·r for a node missing any of its 8 neighbours (its column borders
   /// non-traversable ground), growing inwards along graph edges (chamfer distance), up to
@@ -262,6 +267,7 @@ class SurfaceGraph {
   std::vector<std::int32_t> components_;
   int component_count_ = 0;
   std::vector<float> edge_distance_;
+  double open_ground_clearance_m_ = 0;
   int landmark_count_ = 0;
   std::vector<float> landmark_distance_;  // Node-major: landmark_count_ floats per node.
 };
