@@ -118,14 +118,12 @@ TEST_F(PillarRoom, AroundAPillarTheLinesCostNoMoreThanTheSearchsPath) {
   const double r = graph().grid().resolution_m;
   const double end_rim = std::min(graph().edge_distance(a), graph().edge_distance(b));
   const double end_clearance = std::min(graph().clearance(a), graph().clearance(b));
+  const double clearance_floor =
+      std::min({end_clearance, search.clearance_margin_m, graph().open_ground_clearance_m()});
   for (const int m : shortened.nodes) {
     EXPECT_GE(graph().edge_distance(m), std::min(end_rim, 1.5 * r) - 1e-6)
         << graph().position(m).transpose();
-    EXPECT_GE(graph().clearance(m),
-              std::min({end_clearance, search.clearance_margin_m,
-                        graph().open_ground_clearance_m()}) -
-                  1e-6)
-        << graph().position(m).transpose();
+    EXPECT_GE(graph().clearance(m), clearance_floor - 1e-6) << graph().position(m).transpose();
   }
   for (const Eigen::Vector3d& p : shortened.points_m) {
     const bool in_pillar = p.x() > 4.4 && p.x() < 5.6 && p.y() > 1.9 && p.y() < 4.1;
