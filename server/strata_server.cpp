@@ -338,9 +338,17 @@ StrataServer::~StrataServer() {
 }
 
 void StrataServer::SetReady(bool ready) {
+  // The overall status ("") is SERVING only while the planner service is: set last on the
+  // way up and first on the way down, so that a client that saw it SERVING (as a readiness
+  // probe or a test waits for it) finds the planner service SERVING too.
   grpc::HealthCheckServiceInterface* health = server_->GetHealthCheckService();
-  health->SetServingStatus("", ready);
-  health->SetServingStatus(kServices[1], ready);
+  if (ready) {
+    health->SetServingStatus(kServices[1], true);
+    health->SetServingStatus("", true);
+  } else {
+    health->SetServingStatus("", false);
+    health->SetServingStatus(kServices[1], false);
+  }
 }
 
 void StrataServer::OnMapDone(const MapSnapshot& map) {
