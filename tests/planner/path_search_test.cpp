@@ -242,6 +242,14 @@ TEST_F(TwoLevel, AStarMatchesDijkstra) {
   ASSERT_GT(biased.line_bias, 0.0);
   const double diagonal =
       graph().grid().size.head<2>().cast<double>().norm() * graph().grid().resolution_m;
+  // Plain A* from a to b under `config` into *path; its cost must be `cheapest`.
+  const auto plain_search = [&](const SearchConfig& config, int a, int b, double cheapest,
+                                PathResult* path) {
+    auto found = SearchPath(graph(), a, b, config, {});
+    ASSERT_TRUE(found.ok()) << found.error().message;
+    EXPECT_NEAR(found->cost, cheapest, 1e-9 * std::max(1.0, cheapest));
+    *path = std::move(found).value();
+  };
   for (int trial = 0; trial < 6; ++trial) {
     const int a = component[rng() % component.size()];
     const std::vector<double> dist = Dijkstra(graph(), a, plain);
@@ -256,16 +264,14 @@ TEST_F(TwoLevel, AStarMatchesDijkstra) {
       EXPECT_GE(leaning->cost, dist[b] - 1e-9 * std::max(1.0, dist[b]));
       EXPECT_LE(leaning->cost,
                 biased.heuristic_weight * dist[b] + biased.line_bias * diagonal + 1e-9);
-      const SearchConfig& config = plain;
-      auto path = SearchPath(graph(), a, b, config, {});
-      ASSERT_TRUE(path.ok()) << path.error().message;
-      EXPECT_NEAR(path->cost, dist[b], 1e-9 * std::max(1.0, dist[b]));
+      PathResult path;
+      ASSERT_NO_FATAL_FAILURE(plain_search(plain, a, b, dist[b], &path));
       double cost = 0;
-      for (std::size_t i = 1; i < path->nodes.size(); ++i) {
-        cost += EdgeCost(graph(), path->nodes[i - 1], path->nodes[i], config);
+      for (std::size_t i = 1; i < path.nodes.size(); ++i) {
+        cost += EdgeCost(graph(), path.nodes[i - 1], path.nodes[i], plain);
       }
-      EXPECT_NEAR(cost, path->cost, 1e-9 * std::max(1.0, cost));
-      EXPECT_GE(path->cost, path->length_m - 1e-9);
+      EXPECT_NEAR(cost, path.cost, 1e-9 * std::max(1.0, cost));
+      EXPECT_GE(path.cost, path.length_m - 1e-9);
     }
   }
   // Plain A* stays optimal under move costs stiffer than the landmarks' (their bound still
@@ -278,9 +284,8 @@ TEST_F(TwoLevel, AStarMatchesDijkstra) {
     const std::vector<double> dist = Dijkstra(graph(), a, config);
     for (int k = 0; k < 4; ++k) {
       const int b = component[rng() % component.size()];
-      auto path = SearchPath(graph(), a, b, config, {});
-      ASSERT_TRUE(path.ok()) << path.error().message;
-      EXPECT_NEAR(path->cost, dist[b], 1e-9 * std::max(1.0, dist[b]));
+      PathResult path;
+      ASSERT_NO_FATAL_FAILURE(plain_search(config, a, b, dist[b], &path));
     }
   }
 }
