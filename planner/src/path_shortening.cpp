@@ -107,6 +107,16 @@ void AppendStraight(const SurfaceGraph& graph, const std::vector<int>& walk,
   });
 }
 
+// Whether a stretch of path from a to b, `along_m` long measured along it, is one a line may
+// replace (ShorteningConfig).
+bool SegmentCandidate(const SurfaceGraph& graph, int a, int b, double along_m,
+                      const ShorteningConfig& config) {
+  if (along_m <= config.max_segment_m) return true;
+  return along_m <= config.max_straight_segment_m &&
+         (graph.position(b) - graph.position(a)).head<2>().norm() >=
+             config.straight_ratio * along_m;
+}
+
 }  // namespace
 
 PathResult ShortenPath(const SurfaceGraph& graph, const PathResult& path,
@@ -150,16 +160,20 @@ PathResult ShortenPath(const SurfaceGraph& graph, const PathResult& path,
     return walk;
   };
 
-  // 1. Pull: from each vertex, the farthest later node of the path within max_segment_m that
-  // a line reaches for no more than the path's cost between them; a few candidates from the
-  // farthest inwards (a line that fails halfway may pass farther on, past an obstacle's
-  // edge), then, if none passes, node by node from the nearest until one fails.
+  // 1. Pull: from each vertex, the farthest later node of the path within the window
+  // (SegmentCandidate) that a line reaches for no more than the path's cost between them; a
+  // few candidates from the farthest inwards (a line that fails halfway may pass farther on,
+  // past an obstacle's edge), then, if none passes, node by node from the nearest until one
+  // fails.
   std::vector<int> vertices = {nodes.front()};
   std::vector<double> vertex_cost = {0};  // Cost of the shortened path up to each vertex.
   std::size_t i = 0;
   while (i + 1 < n) {
     std::size_t last = i + 1;
-    while (last + 1 < n && along[last + 1] - along[i] <= config.max_segment_m) ++last;
+    while (last + 1 < n &&
+           SegmentCandidate(graph, nodes[i], nodes[last + 1], along[last + 1] - along[i], config)) {
+      ++last;
+    }
     std::size_t reached = i + 1;
     double reached_cost = path_cost[i + 1] - path_cost[i];
     const std::size_t stride = std::max<std::size_t>(1, (last - i) / kFarCandidates);
@@ -184,7 +198,7 @@ PathResult ShortenPath(const SurfaceGraph& graph, const PathResult& path,
 
   // 2. Tighten: the pull is greedy, so a later pass over its vertices still finds lines that
   // skip some, for no more than the pulled path's cost between their ends. As in the pull,
-  // only vertices within max_segment_m along the path are tried: those nearer in a straight
+  // only vertices within the window along the path are tried: those nearer in a straight
   // line but farther along (the level above on a spiral, the far side of a bend) were walks
   // that almost always failed, and on the spiral's long queries half of the shortening's time.
   for (int pass = 0; pass < kTighteningPasses; ++pass) {
@@ -201,7 +215,8 @@ PathResult ShortenPath(const SurfaceGraph& graph, const PathResult& path,
       double cost = vertex_cost[a + 1] - vertex_cost[a];
       std::size_t last = a + 1;
       while (last + 1 < vertices.size() &&
-             vertex_along[last + 1] - vertex_along[a] <= config.max_segment_m) {
+             SegmentCandidate(graph, vertices[a], vertices[last + 1],
+                              vertex_along[last + 1] - vertex_along[a], config)) {
         ++last;
       }
       for (std::size_t j = last; j >= a + 2; --j) {

@@ -102,6 +102,35 @@ TEST_P(OpenStretch, BecomesOneStraightLine) {
 INSTANTIATE_TEST_SUITE_P(ClearanceMargins, OpenStretch,
                          ::testing::Values(SearchConfig{}.clearance_margin_m, 1.0));
 
+// An 8-connected path across a long open floor runs diagonally and straight, with a bend
+// between. Where the path runs nearly straight, a line may replace more than max_segment_m
+// of it, and the bend goes; with windows of max_segment_m only, it stays (rounded).
+TEST(PathShortening, ALongNearlyStraightPathBecomesOneLine) {
+  test_util::CloudBuilder cloud(0.1);
+  cloud.Plate(0, 32, 0, 12, 0);
+  AssessmentConfig config;
+  config.grid.resolution_m = 0.2;
+  const auto model = TerrainModel::Assess(cloud.cloud(), config);
+  ASSERT_TRUE(model.ok()) << model.error().message;
+  auto graph = SurfaceGraph::Build(**model, TraversabilityParams{});
+  ASSERT_TRUE(graph.ok()) << graph.error().message;
+  SearchConfig search;
+  search.line_bias = 0;  // The grid's own path: a diagonal run and a straight one.
+  const int a = Snap(*graph, {2.0, 2.0, 0.3}), b = Snap(*graph, {30.0, 10.0, 0.3});
+  const auto path = SearchPath(*graph, a, b, search, {});
+  ASSERT_TRUE(path.ok()) << path.error().message;
+  const double straight = (graph->position(b) - graph->position(a)).norm();
+  ASSERT_GT(path->length_m, ShorteningConfig{}.max_segment_m);
+  ASSERT_GT(path->length_m, straight + 1.0);
+
+  const PathResult shortened = ShortenPath(*graph, *path, search);
+  EXPECT_NEAR(shortened.length_m, straight, 1e-6);
+  ShorteningConfig windows_only;
+  windows_only.max_straight_segment_m = windows_only.max_segment_m;
+  const PathResult rounded = ShortenPath(*graph, *path, search, windows_only);
+  EXPECT_GT(rounded.length_m, straight + 0.05);
+}
+
 // Round a pillar: the lines cost no more than the searched path in the search's own terms
 // (length weighted by nearness to the rim and obstacles), so they shortcut the search's
 // detour only where the cost allows; they keep a cell and a half from the rim and the

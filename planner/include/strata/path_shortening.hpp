@@ -23,6 +23,14 @@ struct ShorteningConfig {
   /// > 0. Longer ones add nothing on a straight stretch (their vertices are collinear) and
   /// cost a walk each.
   double max_segment_m = 12.0;
+  /// Longer stretches, up to max_straight_segment_m, are tried where the path runs nearly
+  /// straight: its ends at least straight_ratio of its length apart in x, y. An 8-connected
+  /// path runs straight and diagonally with 45° bends between; windows of max_segment_m only
+  /// round such a bend, and the trajectory turned there twice (abandoned_station's median
+  /// curvature over 100 pairs 0.114 -> 0.104 with these defaults). A path that comes back on
+  /// itself (the level above on a spiral) stops the window: those walks would fail.
+  double straight_ratio = 0.9;
+  double max_straight_segment_m = 60.0;  ///< [m], >= max_segment_m.
 };
 
 /// The straightened path from path.nodes.front() to path.nodes.back(): nodes cell by cell
