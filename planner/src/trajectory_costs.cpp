@@ -35,6 +35,24 @@ Eigen::Matrix<double, 4, 6> Basis(double t) {
   return b;
 }
 
+// The product of a smoothstep of the distance to each end over fade_m, and its gradient.
+SafetyFade SafetyFadeAt(const Eigen::Vector2d& p, const Eigen::Vector2d (&ends)[2], double fade_m) {
+  SafetyFade fade;
+  if (fade_m <= 0) return fade;
+  Cubic step[2];
+  Eigen::Vector2d away[2];
+  for (int k = 0; k < 2; ++k) {
+    const Eigen::Vector2d offset = p - ends[k];
+    const double distance = offset.norm();
+    step[k] = Smoothstep(distance / fade_m);
+    away[k] = distance > 1e-12 ? Eigen::Vector2d(offset / distance) : Eigen::Vector2d::Zero();
+  }
+  fade.scale = step[0].value * step[1].value;
+  fade.gradient =
+      (step[0].slope * step[1].value * away[0] + step[0].value * step[1].slope * away[1]) / fade_m;
+  return fade;
+}
+
 }  // namespace
 
 Status CostWeights::Validate(std::string_view path) const {
@@ -63,6 +81,9 @@ Status CostConfig::Validate(std::string_view path) const {
   }
   if (!(std::isfinite(edge_margin_m) && edge_margin_m >= 0 && edge_margin_m <= 1)) {
     return bad_field("edge_margin_m", edge_margin_m, "in [0, 1] m");
+  }
+  if (!(std::isfinite(safety_fade_m) && safety_fade_m >= 0)) {
+    return bad_field("safety_fade_m", safety_fade_m, ">= 0 and finite");
   }
   if (!(std::isfinite(distance_threshold_m) && distance_threshold_m > 0)) {
     return bad_field("distance_threshold_m", distance_threshold_m, "> 0 and finite");
@@ -111,7 +132,7 @@ double TrajectoryCost::ClearanceCap() const {
 double TrajectoryCost::PointPenalty(const StateVector& pos, const StateVector& vel,
                                     const StateVector& acc, StateVector* grad_pos,
                                     StateVector* grad_vel, StateVector* grad_acc,
-                                    CostBreakdown* breakdown) const {
+                                    CostBreakdown* breakdown, const SafetyFade& fade) const {
   const CostWeights& w = weights_;
   const CostConfig& c = params_.config;
   const RobotProfile& robot = params_.profile;
@@ -128,8 +149,9 @@ double TrajectoryCost::PointPenalty(const StateVector& pos, const StateVector& v
     FieldSample fields;  // S' and d from one lookup of the eight corners they share.
     model_->SampleFields(p, &fields);
     const Cubic unsafe = CubicPenalty(fields.safety - c.safety_threshold);
-    terms.safety += w.safety * unsafe.value;
-    grad_pos->head<3>() += w.safety * unsafe.slope * fields.safety_gradient;
+    terms.safety += fade.scale * w.safety * unsafe.value;
+    grad_pos->head<3>() += fade.scale * w.safety * unsafe.slope * fields.safety_gradient;
+    grad_pos->head<2>() += w.safety * unsafe.value * fade.gradient;
     const double stiff = w.safety * c.distance_stiffness;
     const Cubic close = CubicPenalty(c.distance_threshold_m - fields.distance_m);
     terms.safety += stiff * close.value;
@@ -263,6 +285,9 @@ double TrajectoryCost::Evaluate(const Minco3& minco, Eigen::MatrixXd* grad_c,
   grad_T->array() += weights_.time;
 
   StateVector pos(dim), vel(dim), acc(dim), jerk(dim), g_pos(dim), g_vel(dim), g_acc(dim);
+  const Eigen::Vector2d ends[] = {minco.head_pva().col(0).head<2>(),
+                                  minco.tail_pva().col(0).head<2>()};
+  const double fade_m = params_.config.safety_fade_m;
   // A piece's last sample and the next piece's first are the same state (MINCO is C⁴ at its
   // waypoints): its penalty is evaluated once, and g_pos, g_vel, g_acc still hold its
   // gradients when the next piece starts.
@@ -286,7 +311,8 @@ double TrajectoryCost::Evaluate(const Minco3& minco, Eigen::MatrixXd* grad_c,
         penalty = junction_penalty;
         point_terms = junction_terms;
       } else {
-        penalty = PointPenalty(pos, vel, acc, &g_pos, &g_vel, &g_acc, &point_terms);
+        penalty = PointPenalty(pos, vel, acc, &g_pos, &g_vel, &g_acc, &point_terms,
+                               SafetyFadeAt(pos.head<2>(), ends, fade_m));
         if (j == kappa) {
           junction_penalty = penalty;
           junction_terms = point_terms;

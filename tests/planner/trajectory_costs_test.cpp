@@ -344,6 +344,43 @@ TEST_P(ObjectiveGradient, WaypointAndDurationGradientsMatchFiniteDifferences) {
 
 INSTANTIATE_TEST_SUITE_P(Dims, ObjectiveGradient, ::testing::Values(3, 4));
 
+// The S' part of J_s fades in over safety_fade_m from both ends: a trajectory whose ends lie
+// where S' exceeds its threshold pays less for it than without the fade, and the ESDF part
+// does not change.
+TEST(SafetyFade, WeighsLessNearTheEndsAndLeavesTheObstacleDistanceAlone) {
+  CostWeights safety_only{0, 0, 0, 0, 0, 0, 0};
+  safety_only.safety = 1e3;
+  std::mt19937 rng(11);
+  int compared = 0;
+  for (int trial = 0; trial < 20; ++trial) {
+    const Trajectory5 t = RandomTrajectory(rng, 3, 4);
+    Minco3 minco;
+    minco.SetConditions(t.head, t.tail, 4);
+    minco.SetParameters(t.waypoints, t.durations);
+    const auto safety = [&](double fade_m, double distance_stiffness) {
+      CostParams params = Params(false);
+      params.config.safety_fade_m = fade_m;
+      params.config.distance_stiffness = distance_stiffness;
+      const TrajectoryCost cost(Graph(), safety_only, params);
+      Eigen::MatrixXd grad_c;
+      Eigen::VectorXd grad_T;
+      CostBreakdown terms;
+      cost.Evaluate(minco, &grad_c, &grad_T, &terms);
+      return terms.safety;
+    };
+    const double unfaded = safety(0, 0);
+    if (unfaded <= 0) continue;
+    ++compared;
+    EXPECT_LT(safety(1.5, 0), unfaded) << trial;
+    // Only the distance part left: the fade changes nothing.
+    const double distance_part = safety(0, 30) - unfaded;
+    EXPECT_NEAR(safety(1.5, 30) - safety(1.5, 0), distance_part,
+                1e-9 * std::max(1.0, distance_part))
+        << trial;
+  }
+  EXPECT_GT(compared, 10);
+}
+
 TEST(SampleGround, FollowsTheRampAndFindsTheDeckAsCeiling) {
   const TwoLevelRampLayout l = GetTwoLevelRampLayout();
   GroundSample s;

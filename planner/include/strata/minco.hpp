@@ -75,6 +75,9 @@ class Minco3 {
   const Eigen::VectorXd& durations() const { return durations_; }
   int piece_count() const { return piece_count_; }
   int dim() const { return dim_; }
+  /// The boundary states SetConditions fixed (dim×3: position, velocity, acceleration).
+  const Eigen::MatrixXd& head_pva() const { return head_pva_; }
+  const Eigen::MatrixXd& tail_pva() const { return tail_pva_; }
   /// Σ T_i [s].
   double TotalDuration() const { return durations_.sum(); }
 
