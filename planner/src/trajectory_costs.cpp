@@ -35,14 +35,20 @@ Eigen::Matrix<double, 4, 6> Basis(double t) {
   return b;
 }
 
-// The product of a smoothstep of the distance to each end over fade_m, and its gradient.
-SafetyFade SafetyFadeAt(const Eigen::Vector2d& p, const Eigen::Vector2d (&ends)[2], double fade_m) {
+// How much of the S' part of J_s applies at p (CostConfig::safety_fade_m): the product of a
+// smoothstep of the distance to each end over fade_m, and its gradient in x, y [1/m].
+struct SafetyFade {
+  double scale = 1;
+  Eigen::Vector2d gradient = Eigen::Vector2d::Zero();
+};
+SafetyFade SafetyFadeAt(const Eigen::Vector2d& p, const TrajectoryEnds& ends, double fade_m) {
   SafetyFade fade;
   if (fade_m <= 0) return fade;
+  const Eigen::Vector2d end_xy[2] = {ends.start_xy, ends.goal_xy};
   Cubic step[2];
   Eigen::Vector2d away[2];
   for (int k = 0; k < 2; ++k) {
-    const Eigen::Vector2d offset = p - ends[k];
+    const Eigen::Vector2d offset = p - end_xy[k];
     const double distance = offset.norm();
     step[k] = Smoothstep(distance / fade_m);
     away[k] = distance > 1e-12 ? Eigen::Vector2d(offset / distance) : Eigen::Vector2d::Zero();
@@ -132,7 +138,7 @@ double TrajectoryCost::ClearanceCap() const {
 double TrajectoryCost::PointPenalty(const StateVector& pos, const StateVector& vel,
                                     const StateVector& acc, StateVector* grad_pos,
                                     StateVector* grad_vel, StateVector* grad_acc,
-                                    CostBreakdown* breakdown, const SafetyFade& fade) const {
+                                    CostBreakdown* breakdown, const TrajectoryEnds* ends) const {
   const CostWeights& w = weights_;
   const CostConfig& c = params_.config;
   const RobotProfile& robot = params_.profile;
@@ -149,9 +155,13 @@ double TrajectoryCost::PointPenalty(const StateVector& pos, const StateVector& v
     FieldSample fields;  // S' and d from one lookup of the eight corners they share.
     model_->SampleFields(p, &fields);
     const Cubic unsafe = CubicPenalty(fields.safety - c.safety_threshold);
-    terms.safety += fade.scale * w.safety * unsafe.value;
-    grad_pos->head<3>() += fade.scale * w.safety * unsafe.slope * fields.safety_gradient;
-    grad_pos->head<2>() += w.safety * unsafe.value * fade.gradient;
+    if (unsafe.value > 0) {  // Most samples: S' under the threshold, nothing to fade.
+      const SafetyFade fade =
+          ends != nullptr ? SafetyFadeAt(p.head<2>(), *ends, c.safety_fade_m) : SafetyFade{};
+      terms.safety += fade.scale * w.safety * unsafe.value;
+      grad_pos->head<3>() += fade.scale * w.safety * unsafe.slope * fields.safety_gradient;
+      grad_pos->head<2>() += w.safety * unsafe.value * fade.gradient;
+    }
     const double stiff = w.safety * c.distance_stiffness;
     const Cubic close = CubicPenalty(c.distance_threshold_m - fields.distance_m);
     terms.safety += stiff * close.value;
@@ -285,9 +295,7 @@ double TrajectoryCost::Evaluate(const Minco3& minco, Eigen::MatrixXd* grad_c,
   grad_T->array() += weights_.time;
 
   StateVector pos(dim), vel(dim), acc(dim), jerk(dim), g_pos(dim), g_vel(dim), g_acc(dim);
-  const Eigen::Vector2d ends[] = {minco.head_pva().col(0).head<2>(),
-                                  minco.tail_pva().col(0).head<2>()};
-  const double fade_m = params_.config.safety_fade_m;
+  const TrajectoryEnds ends{minco.head_pva().col(0).head<2>(), minco.tail_pva().col(0).head<2>()};
   // A piece's last sample and the next piece's first are the same state (MINCO is C⁴ at its
   // waypoints): its penalty is evaluated once, and g_pos, g_vel, g_acc still hold its
   // gradients when the next piece starts.
@@ -311,8 +319,7 @@ double TrajectoryCost::Evaluate(const Minco3& minco, Eigen::MatrixXd* grad_c,
         penalty = junction_penalty;
         point_terms = junction_terms;
       } else {
-        penalty = PointPenalty(pos, vel, acc, &g_pos, &g_vel, &g_acc, &point_terms,
-                               SafetyFadeAt(pos.head<2>(), ends, fade_m));
+        penalty = PointPenalty(pos, vel, acc, &g_pos, &g_vel, &g_acc, &point_terms, &ends);
         if (j == kappa) {
           junction_penalty = penalty;
           junction_terms = point_terms;

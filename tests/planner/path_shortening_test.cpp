@@ -16,9 +16,9 @@
 namespace strata {
 namespace {
 
-std::shared_ptr<const TerrainModel> Assess(const PointCloud& cloud) {
+std::shared_ptr<const TerrainModel> Assess(const PointCloud& cloud, double resolution_m = 0.1) {
   AssessmentConfig config;
-  config.grid.resolution_m = 0.1;
+  config.grid.resolution_m = resolution_m;
   auto model = TerrainModel::Assess(cloud, config);
   EXPECT_TRUE(model.ok()) << model.error().message;
   return model.ok() ? *model : nullptr;
@@ -108,11 +108,9 @@ INSTANTIATE_TEST_SUITE_P(ClearanceMargins, OpenStretch,
 TEST(PathShortening, ALongNearlyStraightPathBecomesOneLine) {
   test_util::CloudBuilder cloud(0.1);
   cloud.Plate(0, 32, 0, 12, 0);
-  AssessmentConfig config;
-  config.grid.resolution_m = 0.2;
-  const auto model = TerrainModel::Assess(cloud.cloud(), config);
-  ASSERT_TRUE(model.ok()) << model.error().message;
-  auto graph = SurfaceGraph::Build(**model, TraversabilityParams{});
+  const auto model = Assess(cloud.cloud(), 0.2);
+  ASSERT_NE(model, nullptr);
+  auto graph = SurfaceGraph::Build(*model, TraversabilityParams{});
   ASSERT_TRUE(graph.ok()) << graph.error().message;
   SearchConfig search;
   search.line_bias = 0;  // The grid's own path: a diagonal run and a straight one.

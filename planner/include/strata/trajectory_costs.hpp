@@ -153,11 +153,11 @@ struct CostBreakdown {
   }
 };
 
-/// How much of the S' part of J_s applies at a point (CostConfig::safety_fade_m): scale in
-/// [0, 1] and its gradient in x, y [1/m].
-struct SafetyFade {
-  double scale = 1;
-  Eigen::Vector2d gradient = Eigen::Vector2d::Zero();
+/// Where a trajectory starts and ends in x, y [m]: the S' part of J_s fades in from both
+/// (CostConfig::safety_fade_m).
+struct TrajectoryEnds {
+  Eigen::Vector2d start_xy;
+  Eigen::Vector2d goal_xy;
 };
 
 /// J and its gradient for one planning problem. Immutable; cheap to construct.
@@ -187,11 +187,11 @@ class TrajectoryCost {
   /// The integrand of the constraint-point terms (λ_s, λ_e, λ_g, λ_d, λ_k, λ_h parts) at one state:
   /// position (dim: x, y, z[, h]), velocity, acceleration. Writes ∂P/∂pos, ∂P/∂vel, ∂P/∂acc
   /// (each dim entries, overwritten) and adds the weighted terms into *breakdown (may be
-  /// null). `fade` weighs the S' part (Evaluate passes the fade of CostConfig::safety_fade_m
-  /// at pos). Exposed for tests.
+  /// null). With `ends` (Evaluate passes the trajectory's), the S' part fades in from them
+  /// over CostConfig::safety_fade_m; without, it applies in full. Exposed for tests.
   double PointPenalty(const StateVector& pos, const StateVector& vel, const StateVector& acc,
                       StateVector* grad_pos, StateVector* grad_vel, StateVector* grad_acc,
-                      CostBreakdown* breakdown, const SafetyFade& fade = {}) const;
+                      CostBreakdown* breakdown, const TrajectoryEnds* ends = nullptr) const;
 
   /// The most suitable body height h_S at a ceiling clearance [m] (active-height robots), and
   /// its derivative wrt the clearance.
