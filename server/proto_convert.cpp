@@ -569,6 +569,7 @@ PlanOptions FromProto(const v1::PlanOptions& m) {
   if (w.has_ground()) weights.ground = w.ground();
   if (w.has_feasibility()) weights.feasibility = w.feasibility();
   if (w.has_height()) weights.height = w.height();
+  if (w.has_turning()) weights.turning = w.turning();
   return options;
 }
 
@@ -584,6 +585,7 @@ void ToProto(const PlanOptions& options, v1::PlanOptions* m) {
   w->set_ground(weights.ground);
   w->set_feasibility(weights.feasibility);
   w->set_height(weights.height);
+  w->set_turning(weights.turning);
 }
 
 void ToProto(const Trajectory& trajectory, v1::Trajectory* message) {

@@ -19,6 +19,12 @@ Cubic CubicPenalty(double x) {
   return {x * x * x, 3 * x * x};
 }
 
+// J_ω's heading rate ω = (v × a)_z / (‖v‖² + v_floor²) [m/s]: near rest the heading is the
+// direction the robot sets off in, not a turn.
+constexpr double kTurnSpeedFloorMps = 0.1;
+// J_ω's |ω| is smoothed to sqrt(ω² + ε²) − ε with this ε [rad/s].
+constexpr double kTurnRateSmoothing = 0.05;
+
 // The smoothstep 3u² − 2u³ of u clamped to [0, 1], and its derivative (C¹: 0 at both ends).
 Cubic Smoothstep(double u) {
   if (u <= 0) return {};
@@ -66,7 +72,8 @@ Status CostWeights::Validate(std::string_view path) const {
       {"smoothness", smoothness}, {"time", time},
       {"safety", safety},         {"edge", edge},
       {"ground", ground},         {"feasibility", feasibility},
-      {"height", height},         {"keep_out", keep_out}};
+      {"height", height},         {"keep_out", keep_out},
+      {"turning", turning}};
   for (const auto& [name, value] : fields) {
     if (!(std::isfinite(value) && value >= 0)) {
       return internal::OutOfRange(internal::FieldPath(path, name), value, ">= 0 and finite");
@@ -235,6 +242,21 @@ double TrajectoryCost::PointPenalty(const StateVector& pos, const StateVector& v
                                params_.max_accel_vertical_mps2(), grad_acc);
   }
 
+  if (w.turning > 0) {
+    // ω = (v × a)_z / ‖v‖², floored below kTurnSpeedFloor so that it stays finite at rest;
+    // |ω| smoothed to sqrt(ω² + ε²) − ε, C¹ where the heading holds still.
+    const Eigen::Vector2d v = vel.head<2>(), a = acc.head<2>();
+    const double speed2 = v.squaredNorm() + kTurnSpeedFloorMps * kTurnSpeedFloorMps;
+    const double omega = (v.x() * a.y() - v.y() * a.x()) / speed2;
+    const double root = std::sqrt(omega * omega + kTurnRateSmoothing * kTurnRateSmoothing);
+    terms.turning += w.turning * (root - kTurnRateSmoothing);
+    const double slope = w.turning * omega / root / speed2;  // ∂J/∂ω over ‖v‖².
+    (*grad_vel)(0) += slope * (a.y() - 2 * omega * v.x());
+    (*grad_vel)(1) += slope * (-a.x() - 2 * omega * v.y());
+    (*grad_acc)(0) += slope * -v.y();
+    (*grad_acc)(1) += slope * v.x();
+  }
+
   if (active_height && dim == 4 && has_ground) {
     const double h = pos(3);
     if (w.height > 0) {
@@ -272,9 +294,10 @@ double TrajectoryCost::PointPenalty(const StateVector& pos, const StateVector& v
     breakdown->feasibility += terms.feasibility;
     breakdown->height += terms.height;
     breakdown->keep_out += terms.keep_out;
+    breakdown->turning += terms.turning;
   }
   return terms.safety + terms.edge + terms.ground + terms.feasibility + terms.height +
-         terms.keep_out;
+         terms.keep_out + terms.turning;
 }
 
 double TrajectoryCost::Evaluate(const Minco3& minco, Eigen::MatrixXd* grad_c,
@@ -340,6 +363,7 @@ double TrajectoryCost::Evaluate(const Minco3& minco, Eigen::MatrixXd* grad_c,
       terms.feasibility += weight * point_terms.feasibility;
       terms.height += weight * point_terms.height;
       terms.keep_out += weight * point_terms.keep_out;
+      terms.turning += weight * point_terms.turning;
     }
   }
   if (breakdown != nullptr) *breakdown = terms;

@@ -1,10 +1,12 @@
 #include "strata/trajectory_costs.hpp"
 
 #include <memory>
+#include <numbers>
 #include <random>
 #include <string>
 #include <vector>
 
+#include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
 #include "strata/keep_out.hpp"
@@ -41,13 +43,17 @@ const SurfaceGraph& Graph() {
   return graph;
 }
 
+// Every weight zero (aggregate order: smoothness, time, safety, edge, ground, feasibility,
+// height, keep_out, turning); a test turns on the terms it checks.
+constexpr CostWeights kNoTerms{0, 0, 0, 0, 0, 0, 0, 0, 0};
+
 // Each term alone, then all together.
 struct TermCase {
   std::string name;
   CostWeights weights;
 };
 std::vector<TermCase> TermCases() {
-  const CostWeights none{0, 0, 0, 0, 0, 0, 0};
+  const CostWeights none = kNoTerms;
   std::vector<TermCase> cases;
   CostWeights w = none;
   w.smoothness = 1;
@@ -70,6 +76,9 @@ std::vector<TermCase> TermCases() {
   w = none;
   w.height = 7;
   cases.push_back({"height", w});
+  w = none;
+  w.turning = 4;
+  cases.push_back({"turning", w});
   cases.push_back({"all", CostWeights{}});
   return cases;
 }
@@ -156,7 +165,7 @@ INSTANTIATE_TEST_SUITE_P(Dims, PointPenaltyGradient, ::testing::Values(3, 4));
 // margin, the margin shrinks with the room: its gradient through the clearance is checked
 // there. A body whose lowest height nearly fills the space under the deck makes such room.
 TEST(PointPenaltyGradientNearACeiling, MatchesFiniteDifferencesWhereTheMarginShrinks) {
-  CostWeights feasibility_only{0, 0, 0, 0, 0, 0, 0};
+  CostWeights feasibility_only = kNoTerms;
   feasibility_only.feasibility = 1e3;
   const TwoLevelRampLayout l = GetTwoLevelRampLayout();
   CostParams params = Params(true);
@@ -202,7 +211,7 @@ TEST(PointPenaltyGradientNearACeiling, MatchesFiniteDifferencesWhereTheMarginShr
 // matches finite differences everywhere, and nothing is charged where the robot's height range
 // is more than the margin away from the zone's.
 TEST(KeepOutPenalty, MatchesFiniteDifferencesAndActsOnlyWhereTheZoneAppliesInHeight) {
-  CostWeights keep_out_only{0, 0, 0, 0, 0, 0, 0};
+  CostWeights keep_out_only = kNoTerms;
   keep_out_only.keep_out = 1e4;
   const Prism l_shape{{{5, 1}, {9, 1}, {9, 2.5}, {6.5, 2.5}, {6.5, 4.5}, {5, 4.5}}, 0.5, 1.5};
   const std::vector<KeepOutZone> zones = {KeepOutZone(l_shape, "keep-out zone keep_out[0]")};
@@ -286,7 +295,7 @@ std::vector<std::pair<std::string, double>> Terms(const CostBreakdown& b) {
   return {{"smoothness", b.smoothness}, {"time", b.time},
           {"safety", b.safety},         {"edge", b.edge},
           {"ground", b.ground},         {"feasibility", b.feasibility},
-          {"height", b.height}};
+          {"height", b.height},         {"turning", b.turning}};
 }
 
 class ObjectiveGradient : public ::testing::TestWithParam<int> {};
@@ -348,7 +357,7 @@ INSTANTIATE_TEST_SUITE_P(Dims, ObjectiveGradient, ::testing::Values(3, 4));
 // where S' exceeds its threshold pays less for it than without the fade, and the ESDF part
 // does not change.
 TEST(SafetyFade, WeighsLessNearTheEndsAndLeavesTheObstacleDistanceAlone) {
-  CostWeights safety_only{0, 0, 0, 0, 0, 0, 0};
+  CostWeights safety_only = kNoTerms;
   safety_only.safety = 1e3;
   std::mt19937 rng(11);
   int compared = 0;
@@ -379,6 +388,66 @@ TEST(SafetyFade, WeighsLessNearTheEndsAndLeavesTheObstacleDistanceAlone) {
         << trial;
   }
   EXPECT_GT(compared, 10);
+}
+
+// J_ω is the heading's travel in x, y: a quarter circle driven at speed costs λ_ω·π/2 whether
+// it turns left or right, less what smoothing |ω| takes off (at most ε = 0.05 rad/s over its
+// 7.9 s, 0.39 rad); an S-bend of two quarter circles twice that (its turns do not cancel); a
+// straight line nothing.
+TEST(TurningCost, IsTheHeadingsTravelEitherWay) {
+  CostWeights turning_only = kNoTerms;
+  turning_only.turning = 3;
+  const TrajectoryCost cost(Graph(), turning_only, Params(false));
+  constexpr double kRadius = 4, kSpeed = 0.8, kQuarter = std::numbers::pi / 2;
+  // A curve through points along the arcs (side +1 turns left, -1 right; turns[k] the side of
+  // the k-th quarter), starting and ending along its tangent at kSpeed.
+  const auto turning = [&](const std::vector<int>& turns) {
+    constexpr int kPiecesPerQuarter = 8;
+    std::vector<Eigen::Vector3d> points = {Eigen::Vector3d::Zero()};
+    Eigen::Vector2d at = Eigen::Vector2d::Zero(), heading(1, 0);
+    for (const int side : turns) {
+      const Eigen::Vector2d normal(-heading.y() * side, heading.x() * side);
+      const Eigen::Vector2d centre = at + kRadius * normal;
+      for (int k = 1; k <= kPiecesPerQuarter; ++k) {
+        const double angle = side * kQuarter * k / kPiecesPerQuarter;
+        const Eigen::Rotation2Dd rotation(angle);
+        const Eigen::Vector2d p = centre + rotation * (at - centre);
+        points.emplace_back(p.x(), p.y(), 0);
+      }
+      at = points.back().head<2>();
+      heading = Eigen::Rotation2Dd(side * kQuarter) * heading;
+    }
+    const int pieces = static_cast<int>(points.size()) - 1;
+    Eigen::MatrixXd head = Eigen::MatrixXd::Zero(3, 3), tail = Eigen::MatrixXd::Zero(3, 3);
+    head.col(1) << kSpeed, 0, 0;
+    tail.col(0) = points.back();
+    tail.col(1).head<2>() = kSpeed * heading;
+    Eigen::MatrixXd waypoints(3, pieces - 1);
+    for (int k = 1; k < pieces; ++k) waypoints.col(k - 1) = points[static_cast<std::size_t>(k)];
+    const double piece_s = kRadius * kQuarter / kPiecesPerQuarter / kSpeed;
+    Minco3 minco;
+    minco.SetConditions(head, tail, pieces);
+    minco.SetParameters(waypoints, Eigen::VectorXd::Constant(pieces, piece_s));
+    Eigen::MatrixXd grad_c;
+    Eigen::VectorXd grad_T;
+    CostBreakdown terms;
+    cost.Evaluate(minco, &grad_c, &grad_T, &terms);
+    return terms.turning / turning_only.turning;
+  };
+  const double quarter = turning({+1});
+  EXPECT_LE(quarter, 1.01 * kQuarter);
+  EXPECT_GE(quarter, 0.97 * kQuarter - 0.05 * kRadius * kQuarter / kSpeed);
+  EXPECT_NEAR(turning({-1}), quarter, 1e-9);
+  // A little less than twice: where the heading's rate changes sign, |ω| is under ε.
+  const double s_bend = turning({+1, -1});
+  EXPECT_LE(s_bend, 2.02 * quarter);
+  EXPECT_GE(s_bend, 1.85 * quarter);
+
+  // Straight ahead, speeding up from 0.5 to 1 m/s: no turn, whatever the acceleration along.
+  StateVector g_pos, g_vel, g_acc;
+  EXPECT_EQ(cost.PointPenalty(Eigen::Vector3d(0, 0, 0.3), Eigen::Vector3d(0.5, 0.5, 0),
+                              Eigen::Vector3d(0.3, 0.3, 0.1), &g_pos, &g_vel, &g_acc, nullptr),
+            0.0);
 }
 
 TEST(SampleGround, FollowsTheRampAndFindsTheDeckAsCeiling) {

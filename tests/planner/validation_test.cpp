@@ -103,6 +103,8 @@ TEST(PlanRequestValidate, BlamesEveryOptionByItsNestedPath) {
        [](PlanOptions* o) { o->optimizer.weights.feasibility = -1; }},
       {"options.optimizer.weights.height",
        [](PlanOptions* o) { o->optimizer.weights.height = -1; }},
+      {"options.optimizer.weights.turning",
+       [](PlanOptions* o) { o->optimizer.weights.turning = kNan; }},
       {"options.optimizer.cost.limit_margin",
        [](PlanOptions* o) { o->optimizer.cost.limit_margin = 1.5; }},
       {"options.optimizer.cost.samples_per_piece",

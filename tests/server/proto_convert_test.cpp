@@ -456,8 +456,10 @@ TEST(ProtoConvertTest, OptionsRoundTripWithEveryFieldSet) {
   w->set_ground(4e4);
   w->set_feasibility(5e5);
   w->set_height(6e3);
+  w->set_turning(7);
   const PlanOptions options = FromProto(message);
   EXPECT_EQ(options.optimizer.weights.feasibility, 5e5);
+  EXPECT_EQ(options.optimizer.weights.turning, 7);
   v1::PlanOptions back;
   ToProto(options, &back);
   EXPECT_EQ(back.SerializeAsString(), message.SerializeAsString());
