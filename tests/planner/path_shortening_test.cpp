@@ -129,6 +129,39 @@ TEST(PathShortening, ALongNearlyStraightPathBecomesOneLine) {
   EXPECT_GT(rounded.length_m, straight + 0.05);
 }
 
+// On gently rolling open ground the obstacle distance at the reference point (the ground's
+// own, below it) varies by millimetres from column to column. With a clearance margin no path
+// keeps, capped at what open ground leaves, a line across it must not fail at a node a
+// millimetre under the cap: the path becomes one straight line.
+TEST(PathShortening, AcrossRollingOpenGroundTheLineIsStraight) {
+  test_util::CloudBuilder cloud(0.05);
+  cloud.Surface(0, 12, 0, 8, [](double x, double y) {
+    return 0.015 * std::sin(2.1 * x) * std::cos(1.7 * y);
+  });
+  const auto model = Assess(cloud.cloud(), 0.2);
+  ASSERT_NE(model, nullptr);
+  auto graph = SurfaceGraph::Build(*model, TraversabilityParams{});
+  ASSERT_TRUE(graph.ok()) << graph.error().message;
+  SearchConfig search;
+  search.clearance_margin_m = 1.0;  // No path keeps it: the cap applies.
+  int lines = 0, under_cap = 0;
+  for (double y0 = 1.5; y0 <= 6.5; y0 += 1.0) {
+    const int a = Snap(*graph, {1.5, y0, 0.3}), b = Snap(*graph, {10.5, 8.0 - y0, 0.3});
+    const auto path = SearchPath(*graph, a, b, search, {});
+    ASSERT_TRUE(path.ok()) << path.error().message;
+    const double straight = (graph->position(b) - graph->position(a)).norm();
+    ASSERT_GT(path->length_m, straight + 0.05) << y0;  // The grid's path has a kink.
+    const PathResult shortened = ShortenPath(*graph, *path, search);
+    EXPECT_NEAR(shortened.length_m, straight, 0.01 * straight) << y0;
+    lines += std::abs(shortened.length_m - straight) < 1e-3 * straight;
+    for (const int m : shortened.nodes) {
+      under_cap += graph->clearance(m) < graph->open_ground_clearance_m();
+    }
+  }
+  EXPECT_EQ(lines, 6);
+  EXPECT_GT(under_cap, 0);  // The lines did cross columns under the percentile.
+}
+
 // Round a pillar: the lines cost no more than the searched path in the search's own terms
 // (length weighted by nearness to the rim and obstacles), so they shortcut the search's
 // detour only where the cost allows; they keep a cell and a half from the rim and the
@@ -145,8 +178,9 @@ TEST_F(PillarRoom, AroundAPillarTheLinesCostNoMoreThanTheSearchsPath) {
   const double r = graph().grid().resolution_m;
   const double end_rim = std::min(graph().edge_distance(a), graph().edge_distance(b));
   const double end_clearance = std::min(graph().clearance(a), graph().clearance(b));
-  const double clearance_floor =
-      std::min({end_clearance, search.clearance_margin_m, graph().open_ground_clearance_m()});
+  // ShortenPath caps the margin 1 cm under the open-ground clearance (open ground's spread).
+  const double clearance_floor = std::min(
+      {end_clearance, search.clearance_margin_m, graph().open_ground_clearance_m() - 0.01});
   for (const int m : shortened.nodes) {
     EXPECT_GE(graph().edge_distance(m), std::min(end_rim, 1.5 * r) - 1e-6)
         << graph().position(m).transpose();

@@ -155,7 +155,7 @@ class SurfaceGraph {
   /// The obstacle distance nine nodes in ten keep at least [m] (0 for an empty graph). On open
   /// ground that is the ground's own distance below the reference point: about the reference
   /// height, less on a coarse grid (the biped's 0.2 m on a 0.2 m grid: 0.11 m). A clearance
-  /// margin above it is one no path can keep (ShortenPath caps its margin here).
+  /// margin above it is one no path can keep (ShortenPath caps its margin just under it).
   double open_ground_clearance_m() const { return open_ground_clearance_m_; }
   /// Distance from the node's column centre to the rim of the traversable region it belongs
   /// to [m]: 0.5·r for a node missing any of its 8 neighbours (its column borders
