@@ -135,9 +135,8 @@ TEST(PathShortening, ALongNearlyStraightPathBecomesOneLine) {
 // millimetre under the cap: the path becomes one straight line.
 TEST(PathShortening, AcrossRollingOpenGroundTheLineIsStraight) {
   test_util::CloudBuilder cloud(0.05);
-  cloud.Surface(0, 12, 0, 8, [](double x, double y) {
-    return 0.015 * std::sin(2.1 * x) * std::cos(1.7 * y);
-  });
+  cloud.Surface(0, 12, 0, 8,
+                [](double x, double y) { return 0.015 * std::sin(2.1 * x) * std::cos(1.7 * y); });
   const auto model = Assess(cloud.cloud(), 0.2);
   ASSERT_NE(model, nullptr);
   auto graph = SurfaceGraph::Build(*model, TraversabilityParams{});

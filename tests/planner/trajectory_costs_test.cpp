@@ -6,8 +6,8 @@
 #include <string>
 #include <vector>
 
-#include <Eigen/Geometry>
 #include <gtest/gtest.h>
+#include <Eigen/Geometry>
 
 #include "strata/keep_out.hpp"
 #include "strata/minco.hpp"
