@@ -288,7 +288,15 @@ TEST(OptimizeTrajectory, StopsAtThePollThatAsks) {
 }
 
 TEST(OptimizeTrajectory, ReportsItsIterationsWithinTheBudget) {
-  for (const int budget : {1, 3, 10}) {
+  // What the problem needs with the default budget; every budget below it runs out.
+  Minco3 unlimited_minco;
+  const Case unlimited("differential", {1, 1}, {5, 1.5}, OptimizerConfig{});
+  const auto needed = OptimizeTrajectory(unlimited.cost, unlimited.problem, OptimizerConfig{}, {},
+                                         &unlimited_minco);
+  ASSERT_TRUE(needed.ok()) << needed.error().message;
+  ASSERT_TRUE(needed->converged);
+  ASSERT_GT(needed->iterations, 3);
+  for (const int budget : {1, 3, needed->iterations - 1}) {
     OptimizerConfig config;
     config.max_iterations = budget;
     const Case s("differential", {1, 1}, {5, 1.5}, config);

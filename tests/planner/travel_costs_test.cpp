@@ -34,8 +34,9 @@ std::vector<Eigen::Vector3d> Line(const Eigen::Vector3d& a, const Eigen::Vector3
 
 TEST(EstimateTravelTime, AStraightFlatDriveIsATrapezoidAtTheMarginedBounds) {
   const RobotProfile profile = Differential();
-  const TravelCostConfig config;
-  ASSERT_NE(config.speed_fraction, config.limit_margin);  // Each bound takes its own.
+  TravelCostConfig config;
+  config.speed_fraction = 0.9;  // Unlike limit_margin: each bound must take its own.
+  ASSERT_NE(config.speed_fraction, config.limit_margin);
   const double v = config.speed_fraction * profile.max_speed_horizontal_mps;
   const double a = config.limit_margin * profile.max_accel_horizontal_mps2;
   const TravelTimeEstimate long_drive =
