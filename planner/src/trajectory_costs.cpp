@@ -19,8 +19,8 @@ Cubic CubicPenalty(double x) {
   return {x * x * x, 3 * x * x};
 }
 
-// J_ω's heading rate ω = (v × a)_z / (‖v‖² + v_floor²) [m/s]: near rest the heading is the
-// direction the robot sets off in, not a turn.
+// J_ω's heading rate is ω = (v × a)_z / (‖v‖² + v_f²) with this v_f [m/s]: near rest the
+// heading is the direction the robot sets off in, not a turn.
 constexpr double kTurnSpeedFloorMps = 0.1;
 // J_ω's |ω| is smoothed to sqrt(ω² + ε²) − ε with this ε [rad/s].
 constexpr double kTurnRateSmoothing = 0.05;
@@ -243,14 +243,14 @@ double TrajectoryCost::PointPenalty(const StateVector& pos, const StateVector& v
   }
 
   if (w.turning > 0) {
-    // ω = (v × a)_z / ‖v‖², floored below kTurnSpeedFloor so that it stays finite at rest;
-    // |ω| smoothed to sqrt(ω² + ε²) − ε, C¹ where the heading holds still.
+    // ω = (v × a)_z / (‖v‖² + v_f²), finite at rest (kTurnSpeedFloorMps); |ω| smoothed to
+    // sqrt(ω² + ε²) − ε, C¹ where the heading holds still.
     const Eigen::Vector2d v = vel.head<2>(), a = acc.head<2>();
     const double speed2 = v.squaredNorm() + kTurnSpeedFloorMps * kTurnSpeedFloorMps;
     const double omega = (v.x() * a.y() - v.y() * a.x()) / speed2;
     const double root = std::sqrt(omega * omega + kTurnRateSmoothing * kTurnRateSmoothing);
     terms.turning += w.turning * (root - kTurnRateSmoothing);
-    const double slope = w.turning * omega / root / speed2;  // ∂J/∂ω over ‖v‖².
+    const double slope = w.turning * omega / root / speed2;  // ∂P/∂ω over ‖v‖² + v_f².
     (*grad_vel)(0) += slope * (a.y() - 2 * omega * v.x());
     (*grad_vel)(1) += slope * (-a.x() - 2 * omega * v.y());
     (*grad_acc)(0) += slope * -v.y();
