@@ -184,8 +184,8 @@ TEST(ProtoDefaults, DocumentedPlanRequestDefaultsAreTheCppDefaults) {
     defaults.mutable_options()->set_sample_dt_s(*parsed->sample_dt_s);
   }
   defaults.mutable_options()->set_return_search_path(parsed->return_search_path);
-  // RobotProfile (14), PlanOptions (4) and CostWeights (6) at least.
-  EXPECT_GE(ExpectDocumentedDefaults(documented, defaults), 24);
+  // RobotProfile (14), PlanOptions (4) and CostWeights (7) at least.
+  EXPECT_GE(ExpectDocumentedDefaults(documented, defaults), 25);
 }
 
 TEST(ProtoDefaults, DocumentedEstimateCostsDefaultsAreTheCppDefaults) {
