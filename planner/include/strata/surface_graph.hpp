@@ -198,18 +198,19 @@ class SurfaceGraph {
   /// straight line crosses a spiral's core, the landmarks know the way round, and along a
   /// ramp they know that the cheapest path keeps off its rim.
   double LandmarkBound(int a, int b, const MoveCostTerms& terms) const {
-    double bound = 0;
-    if (landmark_count_ == 0 || !terms.CostsAtLeast(MoveCostTerms{})) return bound;
+    if (landmark_count_ == 0 || !terms.CostsAtLeast(MoveCostTerms{})) return 0;
     const float* la = &landmark_distance_[static_cast<std::size_t>(a) * landmark_count_];
     const float* lb = &landmark_distance_[static_cast<std::size_t>(b) * landmark_count_];
+    // Every landmark lies in one component (ComputeLandmarks): a node's distances are all
+    // finite, or all infinite (it lies outside that component), and then there is no bound.
+    if (!std::isfinite(la[0]) || !std::isfinite(lb[0])) return 0;
+    double gap = 0;
     for (int k = 0; k < landmark_count_; ++k) {
-      // Infinite: a or b outside the landmark's component. Float distances are shrunk by a
-      // part in 10⁵, more than their rounding, so the bound stays below the true cost.
-      if (std::isfinite(la[k]) && std::isfinite(lb[k])) {
-        bound = std::max(bound, (1 - 1e-5) * std::abs(double{la[k]} - double{lb[k]}));
-      }
+      gap = std::max(gap, std::abs(double{la[k]} - double{lb[k]}));
     }
-    return bound;
+    // Float distances are shrunk by a part in 10⁵, more than their rounding, so the bound
+    // stays below the true cost.
+    return (1 - 1e-5) * gap;
   }
   /// Landmarks kept for LandmarkBound: kMaxLandmarks in the largest component of a graph
   /// of at most kMaxLandmarkNodes nodes, else none (their Dijkstra runs would cost seconds
