@@ -374,6 +374,41 @@ TEST(OptimizeTrajectory, FromRestToRestTheEndPiecesAreSplitAndTheTrajectoryNearl
 // ground interpolated between columns passes under each step's edge, and a point at the
 // reference height above it comes nearer to the edge than the verifier allows. The fallback
 // lifts such points, by at most 5 cm, to where they are clear.
+// The biped under the yard's slab (clearance 0.45 m, so a body of at most 0.40 m): the
+// fallback's minimum-jerk curve keeps the body under the ceiling with its headroom and within
+// its range at every instant (the verifier's body checks, to 0.1 mm where they allow 7 mm),
+// crouching before the slab's edge instead of at it.
+TEST(MakeFallbackProblem, CrouchesBeforeACeilingAndKeepsTheBodyWithinItsBounds) {
+  const OptimizerConfig config;
+  const RobotProfile profile = BuiltinProfile("biped").value();
+  const SurfaceGraph graph =
+      SurfaceGraph::Build(test_util::YardModel(), profile.Traversability()).value();
+  const TrajectoryCost cost(graph, config.weights, ParamsFor(profile, config));
+  const std::vector<Eigen::Vector3d> path =
+      StraightPath({0.5, 3}, {5.5, 3}, profile.reference_height_m);
+  const OptimizationProblem fallback = MakeFallbackProblem(
+      cost, path, At(path.front()), At(path.back()), VerifierConfig{}.min_obstacle_distance_m);
+  Minco3 minco;
+  minco.SetConditions(fallback.head_pva, fallback.tail_pva,
+                      static_cast<int>(fallback.initial_durations.size()));
+  minco.SetParameters(fallback.initial_waypoints, fallback.initial_durations);
+  const Trajectory trajectory = Trajectory::FromMinco(minco);
+  double lowest_room = std::numeric_limits<double>::infinity();
+  double body_at_edge = 0;  // At the slab's edge, x = 2.
+  for (double t = 0; t <= trajectory.TotalDuration(); t += 0.005) {
+    const StateVector p = trajectory.Position(t);
+    GroundSample ground;
+    ASSERT_TRUE(SampleGround(graph.model(), p.head<3>(), profile.reference_height_m,
+                             cost.ClearanceCap(), &ground));
+    EXPECT_GE(p(3), profile.body_height_min_m - 1e-4) << "t = " << t;
+    EXPECT_LE(p(3), profile.body_height_max_m + 1e-4) << "t = " << t;
+    lowest_room = std::min(lowest_room, ground.clearance_m - profile.headroom_m - p(3));
+    if (std::abs(p(0) - 2) < 0.01) body_at_edge = p(3);
+  }
+  EXPECT_GE(lowest_room, -1e-4);
+  EXPECT_LE(body_at_edge, 0.45 - profile.headroom_m + 1e-4);
+}
+
 TEST(MakeFallbackProblem, LiftsItsPointsClearOfTheStepEdgesTheInterpolatedGroundPassesUnder) {
   constexpr double kRise = 0.25, kTread = 0.6, kClearance = 0.05;
   const auto stairs_z = [](double x) {
@@ -396,19 +431,26 @@ TEST(MakeFallbackProblem, LiftsItsPointsClearOfTheStepEdgesTheInterpolatedGround
     EXPECT_TRUE(SampleGround(*model, guess, h_ref, 0, &ground));
     return Eigen::Vector3d(x, 1.5, ground.height_m + h_ref);
   };
-  std::vector<Eigen::Vector3d> path;
-  for (double x = 0.45; x < 7.6; x += 0.3) path.push_back(on_ground(x));
-  const OptimizationProblem fallback =
-      MakeFallbackProblem(cost, path, At(path.front()), At(path.back()), kClearance);
+  // The path on that ground, and again 8 cm above it, as a node's height can be (the ground
+  // of its whole column): the fallback's points come down to the interpolated ground either way.
+  std::vector<Eigen::Vector3d> path, raised;
+  for (double x = 0.45; x < 7.6; x += 0.3) {
+    path.push_back(on_ground(x));
+    raised.push_back(path.back() + Eigen::Vector3d(0, 0, 0.08));
+  }
   double nearest_on_ground = std::numeric_limits<double>::infinity();
-  for (int k = 0; k < fallback.initial_waypoints.cols(); ++k) {
-    const Eigen::Vector3d p = fallback.initial_waypoints.col(k).head<3>();
-    const Eigen::Vector3d ground = on_ground(p.x());
-    nearest_on_ground = std::min(nearest_on_ground, model->Distance(ground));
-    const double lift = p.z() - ground.z();
-    EXPECT_GE(lift, -1e-9) << p.transpose();
-    EXPECT_LE(lift, 0.05 + 1e-9) << p.transpose();
-    EXPECT_GE(model->Distance(p), kClearance) << p.transpose();
+  for (const std::vector<Eigen::Vector3d>& given : {path, raised}) {
+    const OptimizationProblem fallback =
+        MakeFallbackProblem(cost, given, At(path.front()), At(path.back()), kClearance);
+    for (int k = 0; k < fallback.initial_waypoints.cols(); ++k) {
+      const Eigen::Vector3d p = fallback.initial_waypoints.col(k).head<3>();
+      const Eigen::Vector3d ground = on_ground(p.x());
+      nearest_on_ground = std::min(nearest_on_ground, model->Distance(ground));
+      const double lift = p.z() - ground.z();
+      EXPECT_GE(lift, -1e-9) << p.transpose();
+      EXPECT_LE(lift, 0.05 + 1e-9) << p.transpose();
+      EXPECT_GE(model->Distance(p), kClearance) << p.transpose();
+    }
   }
   // Without the lift, some point would fail the verifier's distance.
   EXPECT_LT(nearest_on_ground, kClearance);
