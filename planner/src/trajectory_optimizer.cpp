@@ -210,7 +210,7 @@ constexpr double kFallbackBodyRampM = 0.5;
 std::vector<double> FallbackBodyHeights(const TrajectoryCost& cost,
                                         const std::vector<Eigen::Vector3d>& points) {
   const std::size_t n = points.size();
-  std::vector<double> along(n, 0.0), suitable(n), lowest(n), heights(n);
+  std::vector<double> along(n, 0.0), suitable(n);
   for (std::size_t k = 0; k < n; ++k) {
     if (k > 0) along[k] = along[k - 1] + (points[k] - points[k - 1]).norm();
     suitable[k] = BodyHeightAt(cost, points[k]);
@@ -230,10 +230,10 @@ std::vector<double> FallbackBodyHeights(const TrajectoryCost& cost,
   const auto mean = [](auto from, auto to) {
     return std::accumulate(from, to, 0.0) / static_cast<double>(to - from);
   };
-  lowest = over_window(kFallbackBodyRampM, suitable,
-                       [](auto from, auto to) { return *std::min_element(from, to); });
-  heights = over_window(kFallbackBodyRampM / 4, lowest, mean);
-  return over_window(kFallbackBodyRampM / 4, heights, mean);
+  const std::vector<double> lowest = over_window(
+      kFallbackBodyRampM, suitable, [](auto from, auto to) { return *std::min_element(from, to); });
+  return over_window(kFallbackBodyRampM / 4, over_window(kFallbackBodyRampM / 4, lowest, mean),
+                     mean);
 }
 
 // Durations of the pieces between start, the interior points and goal: a trapezoidal speed

@@ -436,7 +436,7 @@ TEST(MakeFallbackProblem, LiftsItsPointsClearOfTheStepEdgesTheInterpolatedGround
   std::vector<Eigen::Vector3d> path, raised;
   for (double x = 0.45; x < 7.6; x += 0.3) {
     path.push_back(on_ground(x));
-    raised.push_back(path.back() + Eigen::Vector3d(0, 0, 0.08));
+    raised.emplace_back(path.back() + Eigen::Vector3d(0, 0, 0.08));
   }
   double nearest_on_ground = std::numeric_limits<double>::infinity();
   for (const std::vector<Eigen::Vector3d>& given : {path, raised}) {

@@ -94,16 +94,16 @@ OptimizationProblem MakeInitialProblem(const TrajectoryCost& cost,
 /// The last resort when no optimised trajectory passes verification: a minimum-jerk
 /// trajectory through every point of `path_m` (start and goal in place of its ends) and points
 /// every third of a cell between them, all on the ground interpolated between columns (the
-/// verifier's), timed slowly (a trapezoid at 40% of the
-/// speed bounds and 25% of the acceleration bounds, slower at corners), not optimised. Points
-/// that close keep it on the ground and inside the corridor the path was found in; what is
-/// too fast for the bounds is then stretched in time. A point nearer to an obstacle than
-/// `min_obstacle_distance_m` (the verifier's, VerifierConfig) and a margin is raised by up to
-/// 5 cm where that clears it (the interpolated ground passing under a step's edge). Body height
-/// (active-height robots): the suitable height, crouching up to 0.5 m ahead of a ceiling and
-/// ramping between heights instead of stepping, start and goal included. `pinned` as
-/// for MakeInitialProblem (every path point is a waypoint here; pinned_waypoints says which
-/// columns they are; pinned points stay where they are).
+/// verifier's), timed slowly (a trapezoid at 40% of the speed bounds and 25% of the
+/// acceleration bounds, slower at corners), not optimised. Points that close keep it on the
+/// ground and inside the corridor the path was found in; what is too fast for the bounds is
+/// then stretched in time. A point nearer to an obstacle than `min_obstacle_distance_m` (the
+/// verifier's, VerifierConfig) and a margin is raised by up to 5 cm where that clears it (the
+/// interpolated ground passing under a step's edge). Body height (active-height robots): the
+/// suitable height, crouching up to 0.5 m ahead of a ceiling and ramping between heights
+/// instead of stepping, start and goal included. `pinned` as for MakeInitialProblem (every
+/// path point is a waypoint here; pinned_waypoints says which columns they are; pinned points
+/// stay where they are).
 OptimizationProblem MakeFallbackProblem(const TrajectoryCost& cost,
                                         const std::vector<Eigen::Vector3d>& path_m,
                                         const RobotState& start, const RobotState& goal,
