@@ -25,9 +25,7 @@ std::array<double, kCoeffs> BasisDerivative(double t, int order) {
   std::array<double, kCoeffs> basis{};
   double power = 1.0;  // t^(k − order) by multiplication: std::pow showed in plan profiles.
   for (int k = order; k < kCoeffs; ++k) {
-    double factor = 1.0;
-    for (int m = k - order + 1; m <= k; ++m) factor *= m;
-    basis[k] = factor * power;
+    basis[k] = kQuinticDerivativeFactor[order][k] * power;
     power *= t;
   }
   return basis;

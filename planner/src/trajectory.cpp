@@ -31,30 +31,12 @@ StateVector Trajectory::Evaluate(double t, int order) const {
   return TrajectoryCursor(*this).Evaluate(t, order);
 }
 
-namespace {
-
-// kDerivativeFactor[order][k] = k!/(k-order)!: what the order-th derivative of t^k multiplies
-// t^(k-order) by (0 where k < order).
-constexpr std::array<std::array<double, 6>, 6> kDerivativeFactor = [] {
-  std::array<std::array<double, 6>, 6> factor{};
-  for (int order = 0; order < 6; ++order) {
-    for (int k = order; k < 6; ++k) {
-      double f = 1;
-      for (int m = k; m > k - order; --m) f *= m;
-      factor[order][k] = f;
-    }
-  }
-  return factor;
-}();
-
-}  // namespace
-
 StateVector Trajectory::EvaluatePiece(std::size_t i, double t, int order) const {
   assert(i < pieces.size() && order >= 0 && order <= 5 &&
          pieces[i].coefficients.cols() == dimension);
   // Horner on the order-th derivative: Σ_{k>=order} k!/(k-order)! c_k t^(k-order), axis by
   // axis over the column-major coefficients (a hot loop of verification and statistics).
-  const std::array<double, 6>& factor = kDerivativeFactor[order];
+  const std::array<double, 6>& factor = kQuinticDerivativeFactor[order];
   const double* column = pieces[i].coefficients.data();
   StateVector value(dimension);
   for (int axis = 0; axis < dimension; ++axis, column += 6) {

@@ -379,15 +379,11 @@ TEST(OptimizeTrajectory, FromRestToRestTheEndPiecesAreSplitAndTheTrajectoryNearl
 // its range at every instant (the verifier's body checks, to 0.1 mm where they allow 7 mm),
 // crouching before the slab's edge instead of at it.
 TEST(MakeFallbackProblem, CrouchesBeforeACeilingAndKeepsTheBodyWithinItsBounds) {
-  const OptimizerConfig config;
-  const RobotProfile profile = BuiltinProfile("biped").value();
-  const SurfaceGraph graph =
-      SurfaceGraph::Build(test_util::YardModel(), profile.Traversability()).value();
-  const TrajectoryCost cost(graph, config.weights, ParamsFor(profile, config));
-  const std::vector<Eigen::Vector3d> path =
-      StraightPath({0.5, 3}, {5.5, 3}, profile.reference_height_m);
-  const OptimizationProblem fallback = MakeFallbackProblem(
-      cost, path, At(path.front()), At(path.back()), VerifierConfig{}.min_obstacle_distance_m);
+  const Case s("biped", {0.5, 3}, {5.5, 3});
+  const RobotProfile& profile = s.profile;
+  const OptimizationProblem fallback =
+      MakeFallbackProblem(s.cost, s.path, At(s.path.front()), At(s.path.back()),
+                          VerifierConfig{}.min_obstacle_distance_m);
   Minco3 minco;
   minco.SetConditions(fallback.head_pva, fallback.tail_pva,
                       static_cast<int>(fallback.initial_durations.size()));
@@ -398,8 +394,8 @@ TEST(MakeFallbackProblem, CrouchesBeforeACeilingAndKeepsTheBodyWithinItsBounds) 
   for (double t = 0; t <= trajectory.TotalDuration(); t += 0.005) {
     const StateVector p = trajectory.Position(t);
     GroundSample ground;
-    ASSERT_TRUE(SampleGround(graph.model(), p.head<3>(), profile.reference_height_m,
-                             cost.ClearanceCap(), &ground));
+    ASSERT_TRUE(SampleGround(s.graph.model(), p.head<3>(), profile.reference_height_m,
+                             s.cost.ClearanceCap(), &ground));
     EXPECT_GE(p(3), profile.body_height_min_m - 1e-4) << "t = " << t;
     EXPECT_LE(p(3), profile.body_height_max_m + 1e-4) << "t = " << t;
     lowest_room = std::min(lowest_room, ground.clearance_m - profile.headroom_m - p(3));

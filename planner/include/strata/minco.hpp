@@ -16,11 +16,26 @@
 /// All inputs are preconditions (this is the optimiser's inner loop): finite values, shapes as
 /// documented, durations > 0, piece_count >= 1. Validate user input before it reaches here.
 
+#include <array>
 #include <vector>
 
 #include <Eigen/Core>
 
 namespace strata {
+
+/// kQuinticDerivativeFactor[order][k] = k!/(k − order)!: what the order-th derivative of t^k
+/// multiplies t^(k − order) by, for k and order in [0, 5] (0 where k < order).
+inline constexpr std::array<std::array<double, 6>, 6> kQuinticDerivativeFactor = [] {
+  std::array<std::array<double, 6>, 6> factor{};
+  for (int order = 0; order < 6; ++order) {
+    for (int k = order; k < 6; ++k) {
+      double f = 1;
+      for (int m = k - order + 1; m <= k; ++m) f *= m;
+      factor[order][k] = f;
+    }
+  }
+  return factor;
+}();
 
 /// A square banded matrix with lower bandwidth `lower` and upper bandwidth `upper`, stored by
 /// diagonals (O(n·(lower + upper + 1)) memory), factorised in place by LU without pivoting.
