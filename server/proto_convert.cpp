@@ -68,10 +68,13 @@ const std::vector<TerrainField>& TerrainFields() {
 }
 
 // Planner field paths (PlanRequest) whose request path differs: PlanOptions keeps the
-// weights inside its optimiser settings, the proto beside the other options. Every other path
-// is the same in both by design (RobotState, RobotProfile, PlanOptions' own fields).
+// weights, the safety threshold and the rim weight inside its optimiser and search settings,
+// the proto beside the other options. Every other path is the same in both by design
+// (RobotState, RobotProfile, PlanOptions' own fields).
 constexpr std::pair<std::string_view, std::string_view> kPlanRequestRenames[] = {
     {"options.optimizer.weights.", "options.weights."},
+    {"options.optimizer.cost.safety_threshold", "options.safety_threshold"},
+    {"options.search.rim_weight", "options.rim_weight"},
 };
 
 // Whether `path` ("options.weights.safety", "keep_out[1].polygon_m[2].x": field names joined
@@ -561,6 +564,8 @@ PlanOptions FromProto(const v1::PlanOptions& m) {
   if (m.has_time_budget_s()) options.time_budget_s = m.time_budget_s();
   if (m.has_snap_tolerance_m()) options.snap_tolerance_m = m.snap_tolerance_m();
   if (m.has_max_attempts()) options.max_attempts = m.max_attempts();
+  if (m.has_safety_threshold()) options.optimizer.cost.safety_threshold = m.safety_threshold();
+  if (m.has_rim_weight()) options.search.rim_weight = m.rim_weight();
   const v1::CostWeights& w = m.weights();
   CostWeights& weights = options.optimizer.weights;
   if (w.has_smoothness()) weights.smoothness = w.smoothness();
@@ -577,6 +582,8 @@ void ToProto(const PlanOptions& options, v1::PlanOptions* m) {
   m->set_time_budget_s(options.time_budget_s);
   m->set_snap_tolerance_m(options.snap_tolerance_m);
   m->set_max_attempts(options.max_attempts);
+  m->set_safety_threshold(options.optimizer.cost.safety_threshold);
+  m->set_rim_weight(options.search.rim_weight);
   const CostWeights& weights = options.optimizer.weights;
   v1::CostWeights* w = m->mutable_weights();
   w->set_smoothness(weights.smoothness);

@@ -12,6 +12,7 @@
 
 #include "strata/cloud_io.hpp"
 #include "strata/scenes/basic_scenes.hpp"
+#include "strata/scenes/paper_scenes.hpp"
 #include "test_util/hand_made_maps.hpp"
 #include "test_util/terrain_queries.hpp"
 #include "test_util/time_scale.hpp"
@@ -510,6 +511,54 @@ TEST(TableRoom, TheBipedCrouchesUnderTheTableWhereTheDifferentialRobotCannotPass
   EXPECT_GT(in_the_open, 0.6) << "away from the table it stands near its preferred height";
   EXPECT_LE(plan->stats.min_body_height_m, 0.45 - biped.profile.headroom_m + tolerance);
   EXPECT_GE(plan->stats.min_headroom_m, biped.profile.headroom_m - tolerance);
+}
+
+// The farthest the trajectory strays in x, y from the straight line between its ends [m].
+double LargestSidewaysOffset(const Trajectory& t) {
+  const Eigen::Vector2d a = t.Position(0).head<2>();
+  const Eigen::Vector2d along = (t.Position(t.TotalDuration()).head<2>() - a).normalized();
+  double largest = 0;
+  for (double time = 0; time <= t.TotalDuration(); time += 0.01) {
+    const Eigen::Vector2d d = t.Position(time).head<2>() - a;
+    largest = std::max(largest, (d - d.dot(along) * along).norm());
+  }
+  return largest;
+}
+
+// PlanOptions' rim settings (SearchConfig::rim_weight, CostConfig::safety_threshold): by
+// default a path between two points beside a wall keeps off the rim of the ground in between;
+// with the rim weight at 0 it runs straight along the wall, and verifies just the same.
+TEST(WallSide, WithoutTheRimWeightAPathBesideAWallRunsStraight) {
+  test_util::CloudBuilder room(0.05);
+  room.Plate(0, 10, 0, 4, 0).Block(0, 10, 0, 0.1, 0.05, 1.5);  // A floor, a wall along y = 0.
+  const PlanningMap map(Assess(room.cloud(), 0.1));
+  PlanRequest request = Request({1, 0.5, 0.3}, {9, 0.5, 0.3});
+  const Expected<PlanResult> kept_off = Plan(map, request);
+  ASSERT_TRUE(kept_off) << kept_off.error().message;
+  ExpectSound(*kept_off, request);
+  EXPECT_GT(LargestSidewaysOffset(kept_off->trajectory), 0.3);  // 0.42 m measured.
+  request.options.search.rim_weight = 0;
+  const Expected<PlanResult> straight = Plan(map, request);
+  ASSERT_TRUE(straight) << straight.error().message;
+  ExpectSound(*straight, request);
+  EXPECT_LT(LargestSidewaysOffset(straight->trajectory), 0.1);  // 0.05 m measured.
+}
+
+// indoor_tables (seed 1), between two points 0.3 and 0.5 m from its south wall, where the
+// safety field S' is 2-5: at the default threshold the trajectory swerves into the room and
+// back; above the field it runs almost straight.
+TEST(WallSide, ASafetyThresholdAboveTheWallsFieldStraightensThePathBesideIt) {
+  const PlanningMap map(Assess(GenerateIndoorTables(1), 0.2));
+  PlanRequest request = Request({8.695, 0.295, 0.205}, {4.495, 0.495, 0.205}, "biped");
+  const Expected<PlanResult> swerving = Plan(map, request);
+  ASSERT_TRUE(swerving) << swerving.error().message;
+  ExpectSound(*swerving, request);
+  EXPECT_GT(swerving->stats.mean_curvature_per_m, 0.3);  // 0.59 measured.
+  request.options.optimizer.cost.safety_threshold = 6;
+  const Expected<PlanResult> straighter = Plan(map, request);
+  ASSERT_TRUE(straighter) << straighter.error().message;
+  ExpectSound(*straighter, request);
+  EXPECT_LT(straighter->stats.mean_curvature_per_m, 0.15);  // 0.079 measured.
 }
 
 TEST(StairsRampRoomPlan, TheTrajectoryTakesTheRampNotTheStairs) {

@@ -302,6 +302,12 @@ TEST(ProtoConvertTest, EveryOptionIsBlamedByItsRequestPath) {
       {[](v1::PlanOptions* o) { o->set_max_attempts(0); }, "options.max_attempts"},
       {[](v1::PlanOptions* o) { o->set_max_attempts(11); }, "options.max_attempts"},
       {[](v1::PlanOptions* o) { o->set_sample_dt_s(-1); }, "options.sample_dt_s"},
+      // The planner blames "options.optimizer.cost.safety_threshold".
+      {[](v1::PlanOptions* o) { o->set_safety_threshold(-0.5); }, "options.safety_threshold"},
+      {[](v1::PlanOptions* o) { o->set_safety_threshold(std::nan("")); },
+       "options.safety_threshold"},
+      // ... and "options.search.rim_weight".
+      {[](v1::PlanOptions* o) { o->set_rim_weight(-1); }, "options.rim_weight"},
   };
   for (const auto& c : cases) {
     v1::PlanRequest request = ValidRequest();
@@ -433,6 +439,9 @@ TEST(ProtoConvertTest, PlannerFieldPathsMapToRequestFields) {
   EXPECT_EQ(PlanRequestField("profile.footprint_radius_m", false), "profile_name");
   EXPECT_EQ(PlanRequestField("profile.footprint_radius_m", true), "profile.footprint_radius_m");
   EXPECT_EQ(PlanRequestField("options.optimizer.weights.height", true), "options.weights.height");
+  EXPECT_EQ(PlanRequestField("options.optimizer.cost.safety_threshold", true),
+            "options.safety_threshold");
+  EXPECT_EQ(PlanRequestField("options.search.rim_weight", true), "options.rim_weight");
   EXPECT_EQ(PlanRequestField("keep_out[3].polygon_m[2].y", true), "keep_out[3].polygon_m[2].y");
   EXPECT_EQ(PlanRequestField("keep_out[0].z_min_m", false), "keep_out[0].z_min_m");
   // An index on a field that is not repeated names no request field.
@@ -440,6 +449,7 @@ TEST(ProtoConvertTest, PlannerFieldPathsMapToRequestFields) {
   // Settings a request cannot override, and errors without a field, blame no request field.
   EXPECT_EQ(PlanRequestField("options.search.max_expansions", true), "");
   EXPECT_EQ(PlanRequestField("options.optimizer.weights.edge", true), "");
+  EXPECT_EQ(PlanRequestField("options.optimizer.cost.safety_fade_m", true), "");
   EXPECT_EQ(PlanRequestField("traversability.max_tilt_rad", true), "");
   EXPECT_EQ(PlanRequestField("", true), "");
 }
@@ -449,6 +459,8 @@ TEST(ProtoConvertTest, OptionsRoundTripWithEveryFieldSet) {
   message.set_time_budget_s(3.5);
   message.set_snap_tolerance_m(0.25);
   message.set_max_attempts(5);
+  message.set_safety_threshold(4.5);
+  message.set_rim_weight(0.25);
   v1::CostWeights* w = message.mutable_weights();
   w->set_smoothness(2);
   w->set_time(20);
@@ -460,6 +472,8 @@ TEST(ProtoConvertTest, OptionsRoundTripWithEveryFieldSet) {
   const PlanOptions options = FromProto(message);
   EXPECT_EQ(options.optimizer.weights.feasibility, 5e5);
   EXPECT_EQ(options.optimizer.weights.turning, 7);
+  EXPECT_EQ(options.optimizer.cost.safety_threshold, 4.5);
+  EXPECT_EQ(options.search.rim_weight, 0.25);
   v1::PlanOptions back;
   ToProto(options, &back);
   EXPECT_EQ(back.SerializeAsString(), message.SerializeAsString());
