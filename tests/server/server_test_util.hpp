@@ -9,8 +9,10 @@
 #include <google/rpc/status.pb.h>
 #include <grpcpp/grpcpp.h>
 
+#include "strata/planner.hpp"
 #include "strata/v1/map_service.grpc.pb.h"
 #include "strata/v1/planner_service.grpc.pb.h"
+#include "test_util/time_scale.hpp"
 
 namespace strata::server::testing {
 
@@ -71,6 +73,9 @@ inline v1::PlanRequest PlanRequestFor(const std::string& map_id, double sx, doub
   request.set_profile_name("differential");
   SetXyz(request.mutable_start()->mutable_position_m(), sx, sy, sz);
   SetXyz(request.mutable_goal()->mutable_position_m(), gx, gy, gz);
+  // The product's default budget (PlanOptions), in the time of this build: a sanitised one
+  // runs several times slower, and the first plan on a map builds its graph within it.
+  request.mutable_options()->set_time_budget_s(PlanOptions().time_budget_s * test_util::kTimeScale);
   return request;
 }
 
