@@ -370,10 +370,6 @@ TEST(OptimizeTrajectory, FromRestToRestTheEndPiecesAreSplitAndTheTrajectoryNearl
             (std::vector<int>{static_cast<int>(from_moving.initial_waypoints.cols()) - 1}));
 }
 
-// Stairs of 0.25 m risers and 0.6 m treads on a 0.3 m grid (a voxel map's stepped ramp): the
-// ground interpolated between columns passes under each step's edge, and a point at the
-// reference height above it comes nearer to the edge than the verifier allows. The fallback
-// lifts such points, by at most 5 cm, to where they are clear.
 // The biped under the yard's slab (clearance 0.45 m, so a body of at most 0.40 m): the
 // fallback's minimum-jerk curve keeps the body under the ceiling with its headroom and within
 // its range at every instant (the verifier's body checks, to 0.1 mm where they allow 7 mm),
@@ -405,6 +401,10 @@ TEST(MakeFallbackProblem, CrouchesBeforeACeilingAndKeepsTheBodyWithinItsBounds) 
   EXPECT_LE(body_at_edge, 0.45 - profile.headroom_m + 1e-4);
 }
 
+// Stairs of 0.25 m risers and 0.6 m treads on a 0.3 m grid (a voxel map's stepped ramp): the
+// ground interpolated between columns passes under each step's edge, and a point at the
+// reference height above it comes nearer to the edge than the verifier allows. The fallback
+// lifts such points, by at most 5 cm, to where they are clear.
 TEST(MakeFallbackProblem, LiftsItsPointsClearOfTheStepEdgesTheInterpolatedGroundPassesUnder) {
   constexpr double kRise = 0.25, kTread = 0.6, kClearance = 0.05;
   const auto stairs_z = [](double x) {
