@@ -7,23 +7,33 @@
 namespace strata {
 namespace {
 
-// H's informative components at one projected surface.
+// H's informative components at one projected surface. A cell that projects onto nothing is
+// either inside an obstacle (within a run of occupied cells, below its top) or above a void.
 struct PoseSample {
   bool defined = false;
+  bool inside_obstacle = false;
   double center_z_m = 0;
   double tilt_rad = 0;
 };
 
 PoseSample PoseAt(const SurfaceMap& surfaces, int ix, int iy, int iz) {
-  const ColumnSurface* s = surfaces.SurfaceBelow(ix, iy, iz);
-  if (s == nullptr) return {};
-  return {true, s->plane_center_z_m, s->tilt_rad};
+  const ColumnSurface* below = nullptr;
+  for (const ColumnSurface& s : surfaces.Column(ix, iy)) {
+    if (s.bottom_layer > iz) break;
+    if (s.top_layer > iz) return {.inside_obstacle = true};
+    below = &s;
+  }
+  if (below == nullptr) return {};
+  return {.defined = true, .center_z_m = below->plane_center_z_m, .tilt_rad = below->tilt_rad};
 }
 
-// Squared derivative of (z_c, φ) along one axis from the samples before and after the cell;
-// `cap` stands in for any difference that involves an undefined neighbour.
+// Squared derivative of (z_c, φ) along one axis from the samples before and after the cell
+// (null: outside the grid). A neighbour inside an obstacle is left out like one outside the
+// grid; `cap` stands in for any difference that involves a neighbour above a void.
 double SquaredAxisDerivative(const PoseSample& centre, const PoseSample* before,
                              const PoseSample* after, double resolution, double cap) {
+  if (before != nullptr && before->inside_obstacle) before = nullptr;
+  if (after != nullptr && after->inside_obstacle) after = nullptr;
   if ((before != nullptr && !before->defined) || (after != nullptr && !after->defined)) {
     return cap * cap;
   }
@@ -108,11 +118,14 @@ ScalarGrid ComputeSafetyPenalty(const SurfaceMap& surfaces, const FieldConfig& f
         std::size_t k = passed[c];
         while (k < column.size() && column[k].top_layer <= iz) ++k;
         passed[c] = static_cast<std::uint32_t>(k);
-        const bool inside = k < column.size() && column[k].bottom_layer <= iz;
-        if (k == 0 || inside) {
+        if (k < column.size() && column[k].bottom_layer <= iz) {
+          layer[c] = {.inside_obstacle = true};
+        } else if (k == 0) {
           layer[c] = {};
         } else {
-          layer[c] = {true, column[k - 1].plane_center_z_m, column[k - 1].tilt_rad};
+          layer[c] = {.defined = true,
+                      .center_z_m = column[k - 1].plane_center_z_m,
+                      .tilt_rad = column[k - 1].tilt_rad};
         }
       }
     }
@@ -127,7 +140,7 @@ ScalarGrid ComputeSafetyPenalty(const SurfaceMap& surfaces, const FieldConfig& f
         float& value =
             out[(ix - box.min.x()) + static_cast<std::size_t>(n.x()) * (iy - box.min.y())];
         if (!c.defined) {
-          value = static_cast<float>(void_penalty);
+          value = c.inside_obstacle ? kInsideObstacle : static_cast<float>(void_penalty);
           continue;
         }
         const double grad = PoseGradientFromNeighbours(
@@ -142,7 +155,8 @@ ScalarGrid ComputeSafetyPenalty(const SurfaceMap& surfaces, const FieldConfig& f
   return ScalarGrid(box.Geometry(g), std::move(values));
 }
 
-SafetyDiffusion::SafetyDiffusion(const FieldConfig& field, double resolution_m) {
+SafetyDiffusion::SafetyDiffusion(const FieldConfig& field, double resolution_m)
+    : void_penalty_(static_cast<float>(field.VoidPenalty())) {
   const Eigen::MatrixXd kernel = ConeKernel(field.diffusion_distance_m, resolution_m);
   reach_ = static_cast<int>(kernel.rows() / 2);
   for (int i = 0; i < kernel.rows(); ++i) {
@@ -151,7 +165,6 @@ SafetyDiffusion::SafetyDiffusion(const FieldConfig& field, double resolution_m) 
         taps_.push_back({i - reach_, j - reach_, static_cast<float>(kernel(i, j))});
     }
   }
-  for (const Tap& t : taps_) total_weight_ += t.weight;
 }
 
 float SafetyDiffusion::At(const ScalarGrid& penalty, const CellBox& box,
@@ -162,21 +175,26 @@ float SafetyDiffusion::At(const ScalarGrid& penalty, const CellBox& box,
   const auto value = [&](const Tap& t) {
     return layer[(x + t.dx) + static_cast<std::size_t>(n.x()) * (y + t.dy)];
   };
-  float sum = 0;
+  // The kernel is renormalised over the cells that count: those inside the grid and not inside
+  // an obstacle.
+  float sum = 0, weight = 0;
+  const auto add = [&](const Tap& t) {
+    const float v = value(t);
+    if (v == kInsideObstacle) return;
+    sum += t.weight * v;
+    weight += t.weight;
+  };
   if (cell.x() >= reach_ && cell.x() + reach_ < grid_size.x() && cell.y() >= reach_ &&
       cell.y() + reach_ < grid_size.y()) {
-    for (const Tap& t : taps_) sum += t.weight * value(t);
-    return sum / total_weight_;
+    for (const Tap& t : taps_) add(t);
+  } else {
+    for (const Tap& t : taps_) {
+      const int gx = cell.x() + t.dx, gy = cell.y() + t.dy;
+      if (gx >= 0 && gx < grid_size.x() && gy >= 0 && gy < grid_size.y()) add(t);
+    }
   }
-  // Near the grid's edge the kernel is renormalised over the cells that exist.
-  float weight = 0;
-  for (const Tap& t : taps_) {
-    const int gx = cell.x() + t.dx, gy = cell.y() + t.dy;
-    if (gx < 0 || gx >= grid_size.x() || gy < 0 || gy >= grid_size.y()) continue;
-    sum += t.weight * value(t);
-    weight += t.weight;
-  }
-  return sum / weight;
+  // Deep inside an obstacle, where no robot can be: unknown is unsafe.
+  return weight > 0 ? sum / weight : void_penalty_;
 }
 
 ScalarGrid DiffuseSafetyPenalty(const ScalarGrid& penalty, const FieldConfig& field) {

@@ -10,6 +10,7 @@
 
 #include "strata/plane_fit.hpp"
 #include "strata/terrain_model.hpp"
+#include "test_util/hand_made_maps.hpp"
 #include "test_util/terrain_queries.hpp"
 
 namespace strata {
@@ -75,6 +76,36 @@ TEST(DiffuseSafetyPenalty, SpreadsAnImpulseAsTheNormalisedCone) {
       EXPECT_EQ(diffused.at(ix, iy, 0), 0.0f);  // Layers do not mix.
     }
   }
+}
+
+// Cells inside an obstacle are no part of S': the kernel is renormalised over the others, and
+// a cell whose whole kernel lies inside reads the void penalty.
+TEST(DiffuseSafetyPenalty, LeavesCellsInsideObstaclesOut) {
+  GridGeometry g;
+  g.resolution_m = 0.2;
+  g.size = {15, 13, 1};
+  std::vector<float> values(g.CellCount(), 2.0f);
+  for (int iy = 0; iy < g.size.y(); ++iy) {
+    for (int ix = 8; ix < g.size.x(); ++ix) values[g.Index(ix, iy, 0)] = kInsideObstacle;
+  }
+  values[g.Index(5, 6, 0)] = 4.0f;
+  FieldConfig field;
+  field.diffusion_distance_m = 0.5;  // Reach 3 cells.
+  const ScalarGrid diffused = DiffuseSafetyPenalty(ScalarGrid(g, values), field);
+  const Eigen::MatrixXd a = ConeKernel(0.5, 0.2);
+  // Beside the obstacle (x = 7), the taps at x >= 8 are left out: the mean of what is left.
+  double sum = 0, weight = 0;
+  for (int i = 0; i < a.rows(); ++i) {
+    for (int j = 0; j < a.cols(); ++j) {
+      const int ix = 7 + i - 3, iy = 6 + j - 3;
+      if (ix >= 8) continue;
+      sum += a(i, j) * (ix == 5 && iy == 6 ? 4.0 : 2.0);
+      weight += a(i, j);
+    }
+  }
+  EXPECT_NEAR(diffused.at(7, 6, 0), sum / weight, 1e-6);
+  EXPECT_NEAR(diffused.at(7, 0, 0), 2.0, 1e-6);  // Uniform ground stays uniform up to a wall.
+  EXPECT_NEAR(diffused.at(14, 6, 0), field.VoidPenalty(), 1e-5);  // 4 cells deep.
 }
 
 TEST(FitLocalPlane, RecoversKnownSlopeWithinHalfADegree) {
@@ -198,6 +229,25 @@ TEST(SafetyPenalty, GradientMatchesFiniteDifferences) {
   }
   EXPECT_GT(checked, 180);
   EXPECT_GT(varying, 20);  // The points must include places where S' actually varies.
+}
+
+// A floor with a wall 1.5 m high on one side and a drop of 1 m on the other, at indoor_tables'
+// resolution. The ground filter has taken the footprint's radius off the floor beside the
+// wall, and the distance and rim terms keep the robot from it; the wall's body adds nothing
+// to S' there (1.46 at 0.1 m inside the rim, 2.95 at the rim, while a wall's inside counted as
+// a void). Beside the drop S' is the edge's pose change, diffused, as before.
+TEST(SafetyPenalty, AWallAddsNothingBesideItButADropStaysPenalised) {
+  test_util::CloudBuilder site(0.05);
+  site.Plate(-2.5, 3, -2, 2, 0)           // The floor,
+      .Block(2.5, 2.7, -2, 2, 0.05, 1.5)  // a wall along its east side,
+      .Plate(-4, -2.55, -2, 2, -1);       // a lower floor beyond its west edge.
+  const auto model = Assess(site.cloud(), 0.2);
+  ASSERT_TRUE(model);
+  const double rim_beside_wall = 2.5 - model->config().ground.radius_m;
+  EXPECT_LT(model->SafetyPenalty({0, 0, 0.3}), 0.1);
+  EXPECT_LT(model->SafetyPenalty({rim_beside_wall - 0.1, 0, 0.3}), 0.5);  // 0.33 measured.
+  EXPECT_LT(model->SafetyPenalty({rim_beside_wall, 0, 0.3}), 0.6);        // 0.44 measured.
+  EXPECT_GT(model->SafetyPenalty({-2.5 + 0.1, 0, 0.3}), 0.6);             // 0.79 measured.
 }
 
 TEST(SafetyPenalty, VoidBelowGetsTheVoidPenalty) {

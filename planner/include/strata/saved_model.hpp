@@ -24,8 +24,10 @@
 
 namespace strata {
 
-/// The format version this build writes and reads.
-inline constexpr std::uint32_t kSavedModelFormatVersion = 1;
+/// The format version this build writes and reads. It changes whenever the stored fields mean
+/// something else, layout or not, so no model assessed by another rule is loaded (and a map's
+/// version, which hashes it, changes with it). 2: S' leaves cells inside obstacles out.
+inline constexpr std::uint32_t kSavedModelFormatVersion = 2;
 
 /// The first bytes of every saved model.
 inline constexpr std::string_view kSavedModelMagic = "STRATAMD";

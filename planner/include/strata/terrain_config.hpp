@@ -74,8 +74,9 @@ struct FieldConfig {
   double plane_inlier_distance_m = 0.05;
   /// RANSAC iterations per patch that is not already a clean plane [-], >= 1.
   int plane_ransac_iterations = 64;
-  /// Cap on ‖∇H‖ [1/m]; also the value used where a neighbour has no surface below, so a
-  /// void (a wall's inside, a drop into nothing) gets the largest pose-change penalty, > 0.
+  /// Cap on ‖∇H‖ [1/m]; also the value used where a neighbour has no surface below, so the
+  /// rim of a drop into nothing gets the largest pose-change penalty, > 0. (A neighbour inside
+  /// a wall is left out: strata/safety_field.hpp.)
   double max_pose_gradient_per_m = 25.0;
 
   Status Validate(std::string_view path = "field") const;
