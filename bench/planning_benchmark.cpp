@@ -6,7 +6,8 @@
 //
 // Also: each trajectory's duration against driving its length at the speed bound, and
 // replanning on the way (a state 30 m before the goal, with and without the trajectory as
-// a warm start).
+// a warm start). Beside the times, the work each query took (A* expansions, L-BFGS
+// iterations, MINCO pieces), which does not depend on the machine.
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -122,8 +123,8 @@ int main(int argc, char** argv) {
   std::printf(
       "| query | result | total ms (median of 5) | snap / search / optimise / verify ms | "
       "original ms | speed-up | length m | duration s (ratio) | κ_m 1/m | max v h/v m/s | "
-      "max a h/v m/s² |\n");
-  std::printf("|---|---|---|---|---|---|---|---|---|---|---|\n");
+      "max a h/v m/s² | expansions / iterations / pieces |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const Query& q : kQueries) {
     std::vector<double> total, snap, search, optimize, verify;
     strata::Expected<strata::PlanResult> last = strata::Error{strata::ErrorCode::kNoPath, ""};
@@ -139,7 +140,7 @@ int main(int argc, char** argv) {
     }
     const double original = kOriginalMs.at(q.name);
     if (!last) {
-      std::printf("| %s | %s | | | %.0f | | | | | | |\n", q.name,
+      std::printf("| %s | %s | | | %.0f | | | | | | | |\n", q.name,
                   strata::ErrorCodeName(last.error().code), original);
       std::fprintf(stderr, "%s: %s\n", q.name, last.error().message.c_str());
       continue;
@@ -147,11 +148,12 @@ int main(int argc, char** argv) {
     const strata::PlanStats& s = last->stats;
     std::printf(
         "| %s | %s | %.1f | %.1f / %.1f / %.1f / %.1f | %.0f | %.0f× | %.1f | %.1f (%.2f) | %.3f | "
-        "%.2f / %.2f | %.2f / %.2f |\n",
+        "%.2f / %.2f | %.2f / %.2f | %d / %d / %d |\n",
         q.name, s.fallback ? "ok (fallback)" : "ok", Median(total), Median(snap), Median(search),
         Median(optimize), Median(verify), original, original / Median(total), s.length_m,
         s.duration_s, DurationRatio(s), s.mean_curvature_per_m, s.max_speed_horizontal_mps,
-        s.max_speed_vertical_mps, s.max_accel_horizontal_mps2, s.max_accel_vertical_mps2);
+        s.max_speed_vertical_mps, s.max_accel_horizontal_mps2, s.max_accel_vertical_mps2,
+        s.search_expansions, s.optimizer_iterations, s.pieces);
   }
 
   std::printf(
