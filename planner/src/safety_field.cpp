@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <span>
 
 namespace strata {
 namespace {
@@ -16,15 +17,20 @@ struct PoseSample {
   double tilt_rad = 0;
 };
 
+// The sample of a cell at layer iz of `column` (its runs, lowest first), of whose runs the
+// first `passed` lie at or below iz.
+PoseSample SampleOf(std::span<const ColumnSurface> column, std::size_t passed, int iz) {
+  if (passed < column.size() && column[passed].bottom_layer <= iz) return {.inside_obstacle = true};
+  if (passed == 0) return {};
+  const ColumnSurface& below = column[passed - 1];
+  return {.defined = true, .center_z_m = below.plane_center_z_m, .tilt_rad = below.tilt_rad};
+}
+
 PoseSample PoseAt(const SurfaceMap& surfaces, int ix, int iy, int iz) {
-  const ColumnSurface* below = nullptr;
-  for (const ColumnSurface& s : surfaces.Column(ix, iy)) {
-    if (s.bottom_layer > iz) break;
-    if (s.top_layer > iz) return {.inside_obstacle = true};
-    below = &s;
-  }
-  if (below == nullptr) return {};
-  return {.defined = true, .center_z_m = below->plane_center_z_m, .tilt_rad = below->tilt_rad};
+  const std::span<const ColumnSurface> column = surfaces.Column(ix, iy);
+  std::size_t passed = 0;
+  while (passed < column.size() && column[passed].top_layer <= iz) ++passed;
+  return SampleOf(column, passed, iz);
 }
 
 // Squared derivative of (z_c, φ) along one axis from the samples before and after the cell
@@ -118,15 +124,7 @@ ScalarGrid ComputeSafetyPenalty(const SurfaceMap& surfaces, const FieldConfig& f
         std::size_t k = passed[c];
         while (k < column.size() && column[k].top_layer <= iz) ++k;
         passed[c] = static_cast<std::uint32_t>(k);
-        if (k < column.size() && column[k].bottom_layer <= iz) {
-          layer[c] = {.inside_obstacle = true};
-        } else if (k == 0) {
-          layer[c] = {};
-        } else {
-          layer[c] = {.defined = true,
-                      .center_z_m = column[k - 1].plane_center_z_m,
-                      .tilt_rad = column[k - 1].tilt_rad};
-        }
+        layer[c] = SampleOf(column, k, iz);
       }
     }
     float* out = values.data() + box.Index({box.min.x(), box.min.y(), iz});
