@@ -36,10 +36,6 @@ Status SearchConfig::Validate(std::string_view path) const {
   return Status::Ok();
 }
 
-double EdgeCost(const SurfaceGraph& graph, int a, int b, const SearchConfig& config) {
-  return graph.MoveCost(a, b, config);
-}
-
 Expected<PathResult> SearchPath(const SurfaceGraph& graph, int start_node, int goal_node,
                                 const SearchConfig& config,
                                 const std::function<bool()>& should_stop, SearchStats* stats,

@@ -65,8 +65,10 @@ struct SearchStats {
 
 /// Cost of moving between adjacent nodes a and b: SurfaceGraph::MoveCost under the config's
 /// terms. Never below the length, so the straight line is an admissible heuristic, and so is
-/// SurfaceGraph::LandmarkBound under these terms.
-double EdgeCost(const SurfaceGraph& graph, int a, int b, const SearchConfig& config);
+/// SurfaceGraph::LandmarkBound under these terms. Inline: the search calls it for every edge.
+inline double EdgeCost(const SurfaceGraph& graph, int a, int b, const SearchConfig& config) {
+  return graph.MoveCost(a, b, config);
+}
 
 /// Cheapest path from start_node to goal_node (e.g. SnapResult::node). Fails with:
 /// kInvalidConfig (bad config), kInvalidInput (node out of range), kGoalUnreachable (the
