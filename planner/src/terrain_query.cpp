@@ -152,14 +152,15 @@ double SampleEdgeDistance(const SurfaceGraph& graph, const Eigen::Vector3d& p, d
   // Deep inside (the usual case): the column's own node is farther from the rim than the
   // window reaches, so every column in it is traversable. Edge distances are chamfer
   // distances, within 8.3% above Euclidean, from the node's centre, at most r/√2 from p.
+  bool inside = false;  // traversable(ci, cj), from the node the fast path looks up anyway.
   if (ci >= 0 && cj >= 0 && ci < g.size.x() && cj < g.size.y()) {
     const int own = graph.NodeNear(ci, cj, z_ground);
     if (own >= 0 && graph.edge_distance(own) / 1.083 - 0.5 * r >= (window + 1) * r) {
       gradient->setZero();
       return window * r;
     }
+    inside = own >= 0;
   }
-  const bool inside = traversable(ci, cj);
   double nearest = window;  // In cells.
   Eigen::Vector2d away = Eigen::Vector2d::Zero();
   for (int dj = -window; dj <= window; ++dj) {
