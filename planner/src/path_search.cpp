@@ -99,13 +99,19 @@ Expected<PathResult> SearchPath(const SurfaceGraph& graph, int start_node, int g
     int node;
     bool operator>(const Entry& o) const { return f > o.f; }
   };
+  // Moves cost the same both ways, so a search from the goal finds a path as cheap. Which way
+  // floods less: SurfaceGraph::ShouldSearchBackward.
+  const bool backward = graph.ShouldSearchBackward(start_node, goal_node, config);
+  const int source = backward ? goal_node : start_node;
+  const int target = backward ? start_node : goal_node;
+  const Eigen::Vector3d target_p = graph.position(target);
   std::priority_queue<Entry, std::vector<Entry>, std::greater<>> open;
-  state.At(start_node).g = 0;
+  state.At(source).g = 0;
   reached = 1;
   const double w = config.heuristic_weight;
   // SearchConfig::line_bias: the horizontal distance from the start–goal segment.
-  const Eigen::Vector2d line_start = graph.position(start_node).head<2>();
-  const Eigen::Vector2d line = graph.position(goal_node).head<2>() - line_start;
+  const Eigen::Vector2d line_start = graph.position(source).head<2>();
+  const Eigen::Vector2d line = target_p.head<2>() - line_start;
   const double line_squared = line.squaredNorm();
   const auto off_line = [&](int node) {
     const Eigen::Vector2d q = graph.position(node).head<2>() - line_start;
@@ -114,20 +120,22 @@ Expected<PathResult> SearchPath(const SurfaceGraph& graph, int start_node, int g
   };
   // Only the straight line is weighted (SearchConfig::heuristic_weight).
   const auto heuristic = [&](int node) {
-    return std::max(w * (graph.position(node) - goal_p).norm(),
-                    graph.LandmarkBound(node, goal_node, config));
+    return std::max(w * (graph.position(node) - target_p).norm(),
+                    graph.LandmarkBound(node, target, config));
   };
-  open.push({heuristic(start_node), 0.0, start_node});
+  open.push({heuristic(source), 0.0, source});
 
   while (!open.empty()) {
     const Entry top = open.top();
     open.pop();
     internal::SearchState::Entry& top_state = state.At(top.node);
     if (top_state.closed || top.g > top_state.g) continue;  // Stale entry.
-    if (top.node == goal_node) {
+    if (top.node == target) {
       PathResult result;
-      for (int v = goal_node; v >= 0; v = state.At(v).parent) result.nodes.push_back(v);
-      std::reverse(result.nodes.begin(), result.nodes.end());
+      for (int v = target; v >= 0; v = state.At(v).parent) result.nodes.push_back(v);
+      // The parent chain runs from the target back to the source: start to goal already
+      // when the search ran backward.
+      if (!backward) std::reverse(result.nodes.begin(), result.nodes.end());
       for (std::size_t i = 0; i < result.nodes.size(); ++i) {
         result.points_m.push_back(graph.position(result.nodes[i]));
         if (i > 0) result.length_m += (result.points_m[i] - result.points_m[i - 1]).norm();
@@ -164,7 +172,7 @@ Expected<PathResult> SearchPath(const SurfaceGraph& graph, int start_node, int g
       if (g < next.g) {
         // Checked only for a node about to improve: a blocked one never does, so it is asked
         // at most once per neighbour that reaches it.
-        if (blocked && m != goal_node && blocked(m)) return;
+        if (blocked && m != target && blocked(m)) return;
         reached += next.parent < 0;
         next.g = g;
         next.parent = top.node;

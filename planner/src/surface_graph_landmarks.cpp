@@ -90,4 +90,20 @@ bool SurfaceGraph::ComputeLandmarks(const std::function<bool()>& should_stop) {
   return true;
 }
 
+bool SurfaceGraph::ShouldSearchBackward(int start, int goal, const MoveCostTerms& terms) const {
+  if (LandmarkBound(start, goal, terms) <= 0) return false;
+  const float* ls = &landmark_distance_[static_cast<std::size_t>(start) * landmark_count_];
+  const float* lg = &landmark_distance_[static_cast<std::size_t>(goal) * landmark_count_];
+  double nearer_start = 0, nearer_goal = 0;  // The largest bound from landmarks on each side.
+  for (int k = 0; k < landmark_count_; ++k) {
+    const double gap = double{lg[k]} - double{ls[k]};
+    if (gap > 0) {
+      nearer_start = std::max(nearer_start, gap);
+    } else {
+      nearer_goal = std::max(nearer_goal, -gap);
+    }
+  }
+  return nearer_start > nearer_goal;
+}
+
 }  // namespace strata

@@ -328,6 +328,48 @@ TEST_F(TwoLevel, LandmarkBoundsNeverExceedTheCheapestCostAndKnowTheRamp) {
   EXPECT_EQ(graph().LandmarkBound(start, deck, softer), 0.0);
 }
 
+TEST_F(TwoLevel, ReturnsThePathFromStartToGoalWhicheverEndItSearchesFrom) {
+  const int start = Snap(layout_.start_example_m);
+  ASSERT_GE(start, 0);
+  std::vector<int> component;
+  for (int v = 0; v < graph().node_count(); ++v) {
+    if (graph().component(v) == graph().component(start)) component.push_back(v);
+  }
+  const SearchConfig config;
+  std::mt19937 rng(7);
+  int backward = 0, forward = 0;
+  for (int trial = 0; trial < 40; ++trial) {
+    const int a = component[rng() % component.size()];
+    const int b = component[rng() % component.size()];
+    const bool from_b = graph().ShouldSearchBackward(a, b, config);
+    (from_b ? backward : forward) += 1;
+    auto path = SearchPath(graph(), a, b, config, {});
+    ASSERT_TRUE(path.ok()) << path.error().message;
+    ASSERT_FALSE(path->nodes.empty());
+    EXPECT_EQ(path->nodes.front(), a);
+    EXPECT_EQ(path->nodes.back(), b);
+    ASSERT_EQ(path->points_m.size(), path->nodes.size());
+    double cost = 0;
+    for (std::size_t i = 1; i < path->nodes.size(); ++i) {
+      ASSERT_TRUE(AreNeighbors(graph(), path->nodes[i - 1], path->nodes[i]));
+      EXPECT_EQ(path->points_m[i], graph().position(path->nodes[i]));
+      cost += EdgeCost(graph(), path->nodes[i - 1], path->nodes[i], config);
+    }
+    EXPECT_NEAR(cost, path->cost, 1e-9 * std::max(1.0, cost));
+    // Asked the other way round, the search starts from the same end (the landmarks' choice
+    // is antisymmetric): the same search, its path reversed.
+    if (from_b != graph().ShouldSearchBackward(b, a, config)) {
+      auto reverse = SearchPath(graph(), b, a, config, {});
+      ASSERT_TRUE(reverse.ok()) << reverse.error().message;
+      EXPECT_THAT(reverse->nodes,
+                  ::testing::ElementsAreArray(path->nodes.rbegin(), path->nodes.rend()));
+      EXPECT_EQ(reverse->expansions, path->expansions);
+    }
+  }
+  EXPECT_GT(backward, 0);  // Both ways were taken.
+  EXPECT_GT(forward, 0);
+}
+
 TEST(MoveCostTerms, CostsAtLeastComparesEveryWeightAndMargin) {
   const MoveCostTerms defaults;
   EXPECT_TRUE(defaults.CostsAtLeast(defaults));
@@ -526,23 +568,67 @@ TEST_P(EdgeSymmetry, EveryEdgeRunsBothWays) {
 INSTANTIATE_TEST_SUITE_P(Scenes, EdgeSymmetry,
                          ::testing::Values("uneven_terrain", "stairs_ramp_room", "parking_garage"));
 
-TEST(EdgeSymmetryOnTheSpiral, EveryEdgeRunsBothWays) {
+// The shared spiral garage, assessed once for the tests below (skipped where the shared maps
+// are not beside the checkout).
+class Spiral : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    const std::string path = std::string(STRATA_SHARED_MAPS_DIR) + "/spiral0.3_2.pcd";
+    if (!std::filesystem::exists(path)) return;
+    const Expected<LoadedCloud> cloud = LoadPointCloud(path);
+    ASSERT_TRUE(cloud.ok()) << cloud.error().message;
+    auto model = TerrainModel::Assess(cloud->points, AssessmentConfig{});
+    ASSERT_TRUE(model.ok()) << model.error().message;
+    model_ = std::move(model).value();
+    auto graph = SurfaceGraph::Build(*model_, TraversabilityParams{});
+    ASSERT_TRUE(graph.ok());
+    graph_ = std::make_unique<SurfaceGraph>(std::move(graph).value());
+  }
+  static void TearDownTestSuite() {
+    graph_.reset();
+    model_.reset();
+  }
+  void SetUp() override {
+    if (graph_ == nullptr) GTEST_SKIP() << "spiral0.3_2.pcd is not in " << STRATA_SHARED_MAPS_DIR;
+  }
+  static std::shared_ptr<const TerrainModel> model_;
+  static std::unique_ptr<SurfaceGraph> graph_;
+};
+std::shared_ptr<const TerrainModel> Spiral::model_;
+std::unique_ptr<SurfaceGraph> Spiral::graph_;
+
+TEST_F(Spiral, EveryEdgeRunsBothWays) {
   // The spiral's voxel staircases have corners where one side column is a step below a and
   // the other level with b: a rule judged from a alone let a move one way only (3 of its
   // million edges).
-  const std::string path = std::string(STRATA_SHARED_MAPS_DIR) + "/spiral0.3_2.pcd";
-  if (!std::filesystem::exists(path)) GTEST_SKIP() << path << " is not here";
-  const Expected<LoadedCloud> cloud = LoadPointCloud(path);
-  ASSERT_TRUE(cloud.ok()) << cloud.error().message;
-  auto model = TerrainModel::Assess(cloud->points, AssessmentConfig{});
-  ASSERT_TRUE(model.ok()) << model.error().message;
-  auto graph = SurfaceGraph::Build(**model, TraversabilityParams{});
-  ASSERT_TRUE(graph.ok());
   int one_way = 0;
-  for (int a = 0; a < graph->node_count(); ++a) {
-    graph->ForEachNeighbor(a, [&](int b) { one_way += !AreNeighbors(*graph, b, a); });
+  for (int a = 0; a < graph_->node_count(); ++a) {
+    graph_->ForEachNeighbor(a, [&](int b) { one_way += !AreNeighbors(*graph_, b, a); });
   }
   EXPECT_EQ(one_way, 0);
+}
+
+TEST_F(Spiral, TopDeckToGroundSearchesFromTheGroundUp) {
+  // sp_top_to_ground: the landmark that bounds its cost lies behind the start, on the top
+  // deck, so from the start the bound is flat over the helical ramp's whole width; from the
+  // goal it rises. Forward, the search expanded 12,584 nodes; from the goal about 5,100.
+  const auto node = [&](const Eigen::Vector3d& p) {
+    auto snapped = SnapToSurface(*graph_, p, 1.0, ErrorCode::kStartOffGround);
+    EXPECT_TRUE(snapped.ok());
+    return snapped.ok() ? snapped->node : -1;
+  };
+  const int start = node({-16, -23, 21.5});
+  const int goal = node({-18, 0, 1.5});
+  ASSERT_GE(start, 0);
+  ASSERT_GE(goal, 0);
+  const SearchConfig config;
+  EXPECT_TRUE(graph_->ShouldSearchBackward(start, goal, config));
+  EXPECT_FALSE(graph_->ShouldSearchBackward(goal, start, config));
+  auto path = SearchPath(*graph_, start, goal, config, {});
+  ASSERT_TRUE(path.ok()) << path.error().message;
+  EXPECT_EQ(path->nodes.front(), start);
+  EXPECT_EQ(path->nodes.back(), goal);
+  EXPECT_LT(path->expansions, 7000);
 }
 
 TEST(EdgeDistance, IsTheChamferDistanceFromTheRimUpToItsCap) {

@@ -81,6 +81,8 @@ inline double EdgeCost(const SurfaceGraph& graph, int a, int b, const SearchConf
 /// search for this call only, leaving the shared graph as it is (Plan passes the keep-out
 /// zones): a node for which it returns true is never reached, except the start and the goal.
 /// When it cuts the goal off, the search ends with kNoPath (the components do not know it).
+/// Where the landmarks say it floods less (SurfaceGraph::ShouldSearchBackward), the search
+/// runs from the goal back to the start; the path is returned from start to goal either way.
 Expected<PathResult> SearchPath(const SurfaceGraph& graph, int start_node, int goal_node,
                                 const SearchConfig& config,
                                 const std::function<bool()>& should_stop,

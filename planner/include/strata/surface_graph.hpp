@@ -212,6 +212,15 @@ class SurfaceGraph {
     // stays below the true cost.
     return (1 - 1e-5) * gap;
   }
+  /// Whether A* from `start` to `goal` had better search from the goal back to the start.
+  /// The landmark that gives LandmarkBound(start, goal) lies nearer one end, and from that
+  /// end the bound is flat: every node whose cheapest path from the landmark passes through
+  /// that end has the same g + bound, a plateau A* must flood (on a spiral ramp its whole
+  /// width, every turn), where from the other end the bound rises across it. So: true when
+  /// the largest bound from landmarks nearer the start exceeds the largest from landmarks
+  /// nearer the goal. False where LandmarkBound(start, goal, terms) is 0 (no landmarks,
+  /// other terms, other components).
+  bool ShouldSearchBackward(int start, int goal, const MoveCostTerms& terms) const;
   /// Landmarks kept for LandmarkBound: kMaxLandmarks in the largest component of a graph
   /// of at most kMaxLandmarkNodes nodes, else none (their Dijkstra runs would cost seconds
   /// on a site-scale graph, whose open ground the straight line already bounds well).
