@@ -63,65 +63,68 @@ namespace {
 // plan profiles showed the generic row operations costing about 3× as much.
 using RowMajorMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 
-// Calls f(cols) with cols a std::integral_constant where it is 3 or 4, so its loops unroll.
+// The rows of a row-major right-hand side, `cols` entries each (a std::integral_constant for
+// 3 and 4, so that the loops unroll).
+template <typename Cols>
+struct Rows {
+  double* data;
+  Cols cols;
+
+  // Row i −= factor · row j. A structural zero of the band is skipped: x − 0·y is x.
+  void Subtract(int i, int j, double factor) const {
+    if (factor == 0.0) return;
+    double* x_i = data + i * cols;
+    const double* x_j = data + j * cols;
+    for (Eigen::Index c = 0; c < cols; ++c) x_i[c] -= factor * x_j[c];
+  }
+  void Divide(int j, double divisor) const {
+    double* x_j = data + j * cols;
+    for (Eigen::Index c = 0; c < cols; ++c) x_j[c] /= divisor;
+  }
+};
+
+// Calls f(rows) with the rows of *x.
 template <typename F>
-void WithRowLength(Eigen::Index cols, F&& f) {
-  if (cols == 3) {
-    f(std::integral_constant<Eigen::Index, 3>{});
-  } else if (cols == 4) {
-    f(std::integral_constant<Eigen::Index, 4>{});
+void WithRows(RowMajorMatrix* x, F&& f) {
+  if (x->cols() == 3) {
+    f(Rows<std::integral_constant<Eigen::Index, 3>>{x->data(), {}});
+  } else if (x->cols() == 4) {
+    f(Rows<std::integral_constant<Eigen::Index, 4>>{x->data(), {}});
   } else {
-    f(cols);
+    f(Rows<Eigen::Index>{x->data(), x->cols()});
   }
 }
 
 }  // namespace
 
 void BandedSystem::Solve(Eigen::MatrixXd* b) const {
-  RowMajorMatrix rows = *b;
-  WithRowLength(rows.cols(), [&](auto cols) {
-    const auto row = [&](int i) { return rows.data() + i * cols; };
-    // x_i −= factor · x_j.
-    const auto subtract = [&](int i, int j, double factor) {
-      if (factor == 0.0) return;  // Structural zeros of the band: x − 0·y is x.
-      double* x_i = row(i);
-      const double* x_j = row(j);
-      for (Eigen::Index c = 0; c < cols; ++c) x_i[c] -= factor * x_j[c];
-    };
+  RowMajorMatrix x = *b;
+  WithRows(&x, [&](const auto& rows) {
     for (int j = 0; j < n_; ++j) {  // L y = b, L unit lower.
       const int i_max = std::min(j + lower_, n_ - 1);
-      for (int i = j + 1; i <= i_max; ++i) subtract(i, j, (*this)(i, j));
+      for (int i = j + 1; i <= i_max; ++i) rows.Subtract(i, j, (*this)(i, j));
     }
     for (int j = n_ - 1; j >= 0; --j) {  // U x = y.
-      const double pivot = (*this)(j, j);
-      for (Eigen::Index c = 0; c < cols; ++c) row(j)[c] /= pivot;
-      for (int i = std::max(0, j - upper_); i < j; ++i) subtract(i, j, (*this)(i, j));
+      rows.Divide(j, (*this)(j, j));
+      for (int i = std::max(0, j - upper_); i < j; ++i) rows.Subtract(i, j, (*this)(i, j));
     }
   });
-  *b = rows;
+  *b = x;
 }
 
 void BandedSystem::SolveTransposed(Eigen::MatrixXd* b) const {
-  RowMajorMatrix rows = *b;
-  WithRowLength(rows.cols(), [&](auto cols) {
-    const auto row = [&](int i) { return rows.data() + i * cols; };
-    const auto subtract = [&](int i, int j, double factor) {
-      if (factor == 0.0) return;  // Structural zeros of the band: x − 0·y is x.
-      double* x_i = row(i);
-      const double* x_j = row(j);
-      for (Eigen::Index c = 0; c < cols; ++c) x_i[c] -= factor * x_j[c];
-    };
+  RowMajorMatrix x = *b;
+  WithRows(&x, [&](const auto& rows) {
     for (int j = 0; j < n_; ++j) {  // Uᵀ z = b, Uᵀ lower.
-      const double pivot = (*this)(j, j);
-      for (Eigen::Index c = 0; c < cols; ++c) row(j)[c] /= pivot;
+      rows.Divide(j, (*this)(j, j));
       const int i_max = std::min(j + upper_, n_ - 1);
-      for (int i = j + 1; i <= i_max; ++i) subtract(i, j, (*this)(j, i));
+      for (int i = j + 1; i <= i_max; ++i) rows.Subtract(i, j, (*this)(j, i));
     }
     for (int j = n_ - 1; j >= 0; --j) {  // Lᵀ x = z, Lᵀ unit upper.
-      for (int i = std::max(0, j - lower_); i < j; ++i) subtract(i, j, (*this)(j, i));
+      for (int i = std::max(0, j - lower_); i < j; ++i) rows.Subtract(i, j, (*this)(j, i));
     }
   });
-  *b = rows;
+  *b = x;
 }
 
 void Minco3::SetConditions(const Eigen::MatrixXd& head_pva, const Eigen::MatrixXd& tail_pva,

@@ -94,27 +94,29 @@ std::int64_t TerrainFields::Find(std::int64_t column, int iz) const {
   return -1;
 }
 
-void TerrainFields::FindPair(std::int64_t column, int iz, std::int64_t* at_iz,
-                             std::int64_t* above) const {
+namespace {
+
+// Find(column, iz) and Find(column, iz + 1) of `parts` from one pass over the column's
+// intervals, into *at_iz and *above (-1 where not stored).
+void FindPair(const TerrainFields::Parts& parts, std::int64_t column, int iz, std::int64_t* at_iz,
+              std::int64_t* above) {
   *at_iz = -1;
   *above = -1;
-  const std::uint32_t end = parts_.column_begin[column + 1];
-  for (std::uint32_t k = parts_.column_begin[column]; k < end; ++k) {
-    const Interval& interval = parts_.intervals[k];
+  const std::uint32_t end = parts.column_begin[column + 1];
+  for (std::uint32_t k = parts.column_begin[column]; k < end; ++k) {
+    const TerrainFields::Interval& interval = parts.intervals[k];
     if (iz + 1 < interval.first_layer) break;
     const std::int64_t count =
-        std::int64_t{parts_.intervals[k + 1].offset} - std::int64_t{interval.offset};
+        std::int64_t{parts.intervals[k + 1].offset} - std::int64_t{interval.offset};
     const std::int64_t layer = iz - std::int64_t{interval.first_layer};
     if (layer >= 0 && layer < count) *at_iz = std::int64_t{interval.offset} + layer;
     if (layer + 1 >= 0 && layer + 1 < count) *above = std::int64_t{interval.offset} + layer + 1;
   }
 }
 
-namespace {
-
-// The corners of the sample at p; `find_pair(column, layer, &at_layer, &above)` gives the
-// value indices of that layer and the next, or -1.
-Corners Locate(const GridGeometry& g, const Eigen::Vector3d& p, const auto& find_pair) {
+// The corners of the sample at p.
+Corners Locate(const TerrainFields::Parts& parts, const Eigen::Vector3d& p) {
+  const GridGeometry& g = parts.geometry;
   Corners c;
   int i[3];
   int step[3];
@@ -141,7 +143,7 @@ Corners Locate(const GridGeometry& g, const Eigen::Vector3d& p, const auto& find
     const int ix = i[0] + (k & 1) * step[0], iy = i[1] + (k >> 1) * step[1];
     const std::int64_t column = ix + std::int64_t{g.size.x()} * iy;
     std::int64_t above = -1;
-    find_pair(column, i[2], &c.index[k], &above);
+    FindPair(parts, column, i[2], &c.index[k], &above);
     c.index[k + 4] = step[2] != 0 ? above : c.index[k];  // A one-layer grid: both at layer 0.
   }
   return c;
@@ -156,30 +158,21 @@ std::int64_t TerrainFields::FindCell(const Eigen::Vector3i& cell) const {
 
 double TerrainFields::Distance(const Eigen::Vector3d& p, Eigen::Vector3d* gradient) const {
   const GridGeometry& g = parts_.geometry;
-  const Corners c =
-      Locate(g, p, [this](std::int64_t col, int iz, std::int64_t* at_iz, std::int64_t* above) {
-        FindPair(col, iz, at_iz, above);
-      });
+  const Corners c = Locate(parts_, p);
   return Interpolate(
       c, [this](std::int64_t i) { return DistanceValue(i); }, 1.0 / g.resolution_m, gradient);
 }
 
 double TerrainFields::SafetyPenalty(const Eigen::Vector3d& p, Eigen::Vector3d* gradient) const {
   const GridGeometry& g = parts_.geometry;
-  const Corners c =
-      Locate(g, p, [this](std::int64_t col, int iz, std::int64_t* at_iz, std::int64_t* above) {
-        FindPair(col, iz, at_iz, above);
-      });
+  const Corners c = Locate(parts_, p);
   return Interpolate(
       c, [this](std::int64_t i) { return SafetyValue(i); }, 1.0 / g.resolution_m, gradient);
 }
 
 void TerrainFields::Sample(const Eigen::Vector3d& p, FieldSample* sample) const {
   const GridGeometry& g = parts_.geometry;
-  const Corners c =
-      Locate(g, p, [this](std::int64_t col, int iz, std::int64_t* at_iz, std::int64_t* above) {
-        FindPair(col, iz, at_iz, above);
-      });
+  const Corners c = Locate(parts_, p);
   const double inv_r = 1.0 / g.resolution_m;
   sample->distance_m = Interpolate(
       c, [this](std::int64_t i) { return DistanceValue(i); }, inv_r, &sample->distance_gradient);

@@ -100,8 +100,6 @@ class TerrainFields {
   explicit TerrainFields(Parts parts) : parts_(std::move(parts)) {}
   // Index of the value of cell (ix, iy, iz) of a column inside the grid, or -1.
   std::int64_t Find(std::int64_t column, int iz) const;
-  // Find(column, iz) and Find(column, iz + 1) from one pass over the column's intervals.
-  void FindPair(std::int64_t column, int iz, std::int64_t* at_iz, std::int64_t* above) const;
   // The same for a cell given by its indices, -1 also outside the grid.
   std::int64_t FindCell(const Eigen::Vector3i& cell) const;
   // The value of stored cell i, or the field's background (outside the band) where i < 0.
