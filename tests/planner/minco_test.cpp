@@ -204,7 +204,7 @@ TEST_P(MincoSizes, JerkEnergyGradientMatchesFiniteDifferences) {
     }
     return e;
   };
-  const Eigen::MatrixXd c0 = minco.coefficients();
+  const Eigen::MatrixXd& c0 = minco.coefficients();
   EXPECT_NEAR(energy_of(c0, p.durations), energy, 1e-9 * energy);
   const Eigen::VectorXd fd_c = NumericalGradient(
       [&](const Eigen::VectorXd& x) {
