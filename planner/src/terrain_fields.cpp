@@ -83,21 +83,10 @@ Expected<TerrainFields> TerrainFields::FromParts(Parts parts) {
   return TerrainFields(std::move(parts));
 }
 
-std::int64_t TerrainFields::Find(std::int64_t column, int iz) const {
-  const std::uint32_t end = parts_.column_begin[column + 1];
-  for (std::uint32_t k = parts_.column_begin[column]; k < end; ++k) {
-    const Interval& interval = parts_.intervals[k];
-    if (iz < interval.first_layer) return -1;
-    const std::int64_t i = std::int64_t{interval.offset} + (iz - interval.first_layer);
-    if (i < std::int64_t{parts_.intervals[k + 1].offset}) return i;
-  }
-  return -1;
-}
-
 namespace {
 
-// Find(column, iz) and Find(column, iz + 1) of `parts` from one pass over the column's
-// intervals, into *at_iz and *above (-1 where not stored).
+// The value indices of cells (column, iz) and (column, iz + 1) of `parts`, from one pass over
+// the column's intervals, into *at_iz and *above (-1 where not stored).
 void FindPair(const TerrainFields::Parts& parts, std::int64_t column, int iz, std::int64_t* at_iz,
               std::int64_t* above) {
   *at_iz = -1;
@@ -153,7 +142,10 @@ Corners Locate(const TerrainFields::Parts& parts, const Eigen::Vector3d& p) {
 
 std::int64_t TerrainFields::FindCell(const Eigen::Vector3i& cell) const {
   if (!parts_.geometry.Contains(cell)) return -1;
-  return Find(cell.x() + std::int64_t{parts_.geometry.size.x()} * cell.y(), cell.z());
+  std::int64_t at_cell = -1, above = -1;
+  FindPair(parts_, cell.x() + std::int64_t{parts_.geometry.size.x()} * cell.y(), cell.z(), &at_cell,
+           &above);
+  return at_cell;
 }
 
 double TerrainFields::Distance(const Eigen::Vector3d& p, Eigen::Vector3d* gradient) const {

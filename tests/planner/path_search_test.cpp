@@ -84,6 +84,14 @@ class TwoLevel : public ::testing::Test {
     EXPECT_TRUE(s.ok()) << s.error().message;
     return s.ok() ? s->node : -1;
   }
+  // The nodes of `node`'s connected component.
+  std::vector<int> ComponentOf(int node) const {
+    std::vector<int> component;
+    for (int v = 0; v < graph().node_count(); ++v) {
+      if (graph().component(v) == graph().component(node)) component.push_back(v);
+    }
+    return component;
+  }
 
   static std::shared_ptr<const TerrainModel>* model_;
   static SurfaceGraph* graph_;
@@ -224,10 +232,7 @@ TEST_F(TwoLevel, SnapFarOutsideNamesTheNearestValidPoint) {
 TEST_F(TwoLevel, AStarMatchesDijkstra) {
   const int start = Snap(layout_.start_example_m);
   ASSERT_GE(start, 0);
-  std::vector<int> component;
-  for (int v = 0; v < graph().node_count(); ++v) {
-    if (graph().component(v) == graph().component(start)) component.push_back(v);
-  }
+  const std::vector<int> component = ComponentOf(start);
   std::mt19937 rng(42);
   // Plain A* (w = 1) is optimal; weighted A* (the default w) costs at most w times that, and
   // with the default line bias at most line_bias times the largest distance of a node from
@@ -331,10 +336,7 @@ TEST_F(TwoLevel, LandmarkBoundsNeverExceedTheCheapestCostAndKnowTheRamp) {
 TEST_F(TwoLevel, ReturnsThePathFromStartToGoalWhicheverEndItSearchesFrom) {
   const int start = Snap(layout_.start_example_m);
   ASSERT_GE(start, 0);
-  std::vector<int> component;
-  for (int v = 0; v < graph().node_count(); ++v) {
-    if (graph().component(v) == graph().component(start)) component.push_back(v);
-  }
+  const std::vector<int> component = ComponentOf(start);
   const SearchConfig config;
   std::mt19937 rng(7);
   int backward = 0, forward = 0;

@@ -98,9 +98,7 @@ class TerrainFields {
 
  private:
   explicit TerrainFields(Parts parts) : parts_(std::move(parts)) {}
-  // Index of the value of cell (ix, iy, iz) of a column inside the grid, or -1.
-  std::int64_t Find(std::int64_t column, int iz) const;
-  // The same for a cell given by its indices, -1 also outside the grid.
+  // Index of the value of cell (ix, iy, iz), or -1 outside the band or the grid.
   std::int64_t FindCell(const Eigen::Vector3i& cell) const;
   // The value of stored cell i, or the field's background (outside the band) where i < 0.
   double DistanceValue(std::int64_t i) const {
