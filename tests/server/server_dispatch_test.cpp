@@ -356,11 +356,11 @@ TEST_F(DispatchTest, ABatchSharesTheSlotsWithPlanCalls) {
   // The first plan for a profile builds its graph: on the demo map that took 40% of a
   // 16-plan batch, and a plan queued behind it waited more than a third of the batch (1 run
   // in 30 with the cores loaded). Built here, every plan of the batch takes about as long.
+  const v1::PlanRequest request = PlanRequestFor("demo", 2, 2, 0.3, 10, 10, 3.3);
   v1::PlanResponse warm;
-  ASSERT_TRUE(Plan(PlanRequestFor("demo", 2, 2, 0.3, 10, 10, 3.3), &warm).ok());
+  ASSERT_TRUE(Plan(request, &warm).ok());
   v1::PlanBatchRequest batch;
-  for (int i = 0; i < 16; ++i)
-    *batch.add_requests() = PlanRequestFor("demo", 2, 2, 0.3, 10, 10, 3.3);
+  for (int i = 0; i < 16; ++i) *batch.add_requests() = request;
   BatchOutcome outcome;
   const auto start = Clock::now();
   Clock::duration batch_time{};
