@@ -18,8 +18,9 @@ constexpr float kInf = std::numeric_limits<float>::infinity();
 constexpr int kBlockWidth = 16;
 
 // Below this many cells the transform takes well under a millisecond on one core, less than
-// waking a team of threads (and much less on a loaded machine), so it runs serially.
-constexpr std::int64_t kMinCellsForThreads = std::int64_t{1} << 16;
+// waking a team of threads (and much less on a loaded machine), so it runs serially. Read
+// only by an OpenMP pragma: unused, not wrong, in a build without OpenMP (ThreadSanitizer's).
+[[maybe_unused]] constexpr std::int64_t kMinCellsForThreads = std::int64_t{1} << 16;
 
 // Felzenszwalb–Huttenlocher lower envelope of the parabolas (q − p)² + f[p] over the sites
 // with finite f[p], for the general strided API, in float. For integer-valued f (squared
