@@ -142,6 +142,7 @@ Expected<SurfaceMap> SurfaceMap::FromParts(const GridGeometry& geometry,
       return bad("the column index is not monotone");
     }
     std::int32_t previous_top = -1;
+    float previous_ground = -std::numeric_limits<float>::infinity();
     for (std::uint32_t k = column_begin[c]; k < column_begin[c + 1]; ++k) {
       const ColumnSurface& s = surfaces[k];
       if (s.bottom_layer <= previous_top || s.top_layer < s.bottom_layer ||
@@ -153,7 +154,13 @@ Expected<SurfaceMap> SurfaceMap::FromParts(const GridGeometry& geometry,
           !(s.clearance_m >= 0)) {
         return bad("a surface's height, tilt or clearance is not a number in range");
       }
+      // Each ground lies in its surface's top cell, so they ascend with the layers; the
+      // terrain queries stop at the first ground above a point (terrain_query.cpp).
+      if (s.ground_z_m < previous_ground) {
+        return bad("a column's ground heights do not ascend with its surfaces");
+      }
       previous_top = s.top_layer;
+      previous_ground = s.ground_z_m;
     }
   }
   SurfaceMap map;

@@ -10,13 +10,15 @@ namespace {
 constexpr double kLevelGapM = SurfaceGraph::kLevelGapM;
 
 // The surface of column (ix, iy) whose ground is nearest to height z, or nullptr if the
-// column has none.
+// column has none. A column's grounds ascend (SurfaceMap), so past the first at or above z
+// every other is farther.
 const ColumnSurface* NearestSurface(const SurfaceMap& surfaces, int ix, int iy, double z) {
   const ColumnSurface* nearest = nullptr;
   for (const ColumnSurface& s : surfaces.Column(ix, iy)) {
     if (nearest == nullptr || std::abs(s.ground_z_m - z) < std::abs(nearest->ground_z_m - z)) {
       nearest = &s;
     }
+    if (s.ground_z_m >= z) break;
   }
   return nearest;
 }

@@ -274,6 +274,28 @@ TEST(SurfaceMap, FromPartsRefusesAColumnPastTheSurfaces) {
   EXPECT_THAT(broken.error().message, HasSubstr("not monotone"));
 }
 
+TEST(SurfaceMap, FromPartsRefusesGroundsThatDescendInAColumn) {
+  // The terrain queries stop at the first ground above a point, which is right only when a
+  // column's grounds ascend with its surfaces, as every assessed map's do.
+  const Expected<PointCloud> cloud = GenerateScene("two_level_ramp", 1);
+  ASSERT_TRUE(cloud.ok());
+  const auto model = AssessOrDie(*cloud, 0.25);
+  ASSERT_TRUE(model);
+  const SurfaceMap& surfaces = model->surfaces();
+  std::vector<ColumnSurface> all = surfaces.all_surfaces();
+  const std::vector<std::uint32_t>& begin = surfaces.column_begin();
+  std::size_t upper = 0;  // The second surface of the first column with two.
+  for (std::size_t c = 0; c + 1 < begin.size() && upper == 0; ++c) {
+    if (begin[c + 1] - begin[c] >= 2) upper = begin[c] + 1;
+  }
+  ASSERT_GT(upper, 0u) << "two_level_ramp has a column with two levels";
+  ASSERT_TRUE(SurfaceMap::FromParts(surfaces.geometry(), begin, all).ok());
+  all[upper].ground_z_m = all[upper - 1].ground_z_m - 0.01f;
+  const Expected<SurfaceMap> broken = SurfaceMap::FromParts(surfaces.geometry(), begin, all);
+  ASSERT_FALSE(broken.ok());
+  EXPECT_THAT(broken.error().message, HasSubstr("do not ascend"));
+}
+
 TEST(TerrainFields, MemoryGrowsWithTheGroundNotWithTheBoundingBox) {
   // The same scene on a grid padded by 1 m and by 20 m on every side: the padded grid has
   // over 30 times the cells, but the same ground, so the model grows only by the index of the

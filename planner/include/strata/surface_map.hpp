@@ -54,7 +54,8 @@ class SurfaceMap {
 
   /// A map from its arrays, as a saved model stores them: `column_begin` holds one offset per
   /// column (x fastest) plus the total, each column's surfaces lowest first with layers inside
-  /// the grid. kInvalidInput naming the first inconsistency.
+  /// the grid and ground heights that do not descend. kInvalidInput naming the first
+  /// inconsistency.
   static Expected<SurfaceMap> FromParts(const GridGeometry& geometry,
                                         std::vector<std::uint32_t> column_begin,
                                         std::vector<ColumnSurface> surfaces);
@@ -66,7 +67,8 @@ class SurfaceMap {
   std::size_t surface_count() const { return surfaces_.size(); }
   std::size_t valid_surface_count() const;
 
-  /// Surfaces of column (ix, iy), lowest first. Precondition: inside the grid.
+  /// Surfaces of column (ix, iy), lowest first (their ground heights ascend). Precondition:
+  /// inside the grid.
   std::span<const ColumnSurface> Column(int ix, int iy) const {
     const auto c = static_cast<std::size_t>(ix + geometry_.size.x() * std::int64_t{iy});
     return {surfaces_.data() + column_begin_[c], surfaces_.data() + column_begin_[c + 1]};
