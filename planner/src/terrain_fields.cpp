@@ -1,6 +1,5 @@
 #include "strata/terrain_fields.hpp"
 
-#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -104,9 +103,8 @@ void FindPair(const TerrainFields::Parts& parts, std::int64_t column, int iz, st
   }
 }
 
-// The corners of the sample at p; with `memo`, those of its cell when p is still in it.
-Corners Locate(const TerrainFields::Parts& parts, const Eigen::Vector3d& p,
-               FieldCellMemo* memo = nullptr) {
+// The corners of the sample at p.
+Corners Locate(const TerrainFields::Parts& parts, const Eigen::Vector3d& p) {
   const GridGeometry& g = parts.geometry;
   Corners c;
   int i[3];
@@ -130,22 +128,12 @@ Corners Locate(const TerrainFields::Parts& parts, const Eigen::Vector3d& p,
     c.t[a] = u - i[a];
     step[a] = n > 1 ? 1 : 0;
   }
-  // The indices depend on the cell alone (the steps on the grid's size).
-  const Eigen::Vector3i cell(i[0], i[1], i[2]);
-  if (memo != nullptr && memo->cell == cell) {
-    std::copy(memo->index.begin(), memo->index.end(), c.index);
-    return c;
-  }
   for (int k = 0; k < 4; ++k) {
     const int ix = i[0] + (k & 1) * step[0], iy = i[1] + (k >> 1) * step[1];
     const std::int64_t column = ix + std::int64_t{g.size.x()} * iy;
     std::int64_t above = -1;
     FindPair(parts, column, i[2], &c.index[k], &above);
     c.index[k + 4] = step[2] != 0 ? above : c.index[k];  // A one-layer grid: both at layer 0.
-  }
-  if (memo != nullptr) {
-    memo->cell = cell;
-    std::copy(c.index, c.index + 8, memo->index.begin());
   }
   return c;
 }
@@ -174,10 +162,9 @@ double TerrainFields::SafetyPenalty(const Eigen::Vector3d& p, Eigen::Vector3d* g
       c, [this](std::int64_t i) { return SafetyValue(i); }, 1.0 / g.resolution_m, gradient);
 }
 
-void TerrainFields::Sample(const Eigen::Vector3d& p, FieldSample* sample,
-                           FieldCellMemo* memo) const {
+void TerrainFields::Sample(const Eigen::Vector3d& p, FieldSample* sample) const {
   const GridGeometry& g = parts_.geometry;
-  const Corners c = Locate(parts_, p, memo);
+  const Corners c = Locate(parts_, p);
   const double inv_r = 1.0 / g.resolution_m;
   sample->distance_m = Interpolate(
       c, [this](std::int64_t i) { return DistanceValue(i); }, inv_r, &sample->distance_gradient);

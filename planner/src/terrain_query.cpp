@@ -3,8 +3,6 @@
 #include <algorithm>
 #include <cassert>
 #include <cmath>
-#include <limits>
-#include <span>
 
 namespace strata {
 namespace {
@@ -25,32 +23,10 @@ const ColumnSurface* NearestSurface(const SurfaceMap& surfaces, int ix, int iy, 
   return nearest;
 }
 
-// How far inside the range where a column's nearest surface stands a ground height must lie
-// for GroundCellMemo to reuse the choice [m]: far above the rounding of |ground − z|.
-constexpr double kChoiceMarginM = 1e-6;
-
-// NearestSurface, narrowing the open range (*low, *high) of heights z to those for which it
-// stays the choice: halfway to the grounds below and above it (a column's grounds ascend).
-const ColumnSurface* NearestSurfaceInRange(const SurfaceMap& surfaces, int ix, int iy, double z,
-                                           double* low, double* high) {
-  const ColumnSurface* nearest = NearestSurface(surfaces, ix, iy, z);
-  if (nearest == nullptr) return nullptr;  // No surface at any height.
-  const std::span<const ColumnSurface> column = surfaces.Column(ix, iy);
-  const std::size_t k = static_cast<std::size_t>(nearest - column.data());
-  const double ground = nearest->ground_z_m;
-  if (k > 0) {
-    *low = std::max(*low, 0.5 * (column[k - 1].ground_z_m + ground) + kChoiceMarginM);
-  }
-  if (k + 1 < column.size()) {
-    *high = std::min(*high, 0.5 * (ground + column[k + 1].ground_z_m) - kChoiceMarginM);
-  }
-  return nearest;
-}
-
 }  // namespace
 
 bool SampleGround(const TerrainModel& model, const Eigen::Vector3d& p, double reference_height_m,
-                  double clearance_cap_m, GroundSample* sample, GroundCellMemo* memo) {
+                  double clearance_cap_m, GroundSample* sample) {
   const GridGeometry& g = model.grid();
   const SurfaceMap& surfaces = model.surfaces();
   const double r = g.resolution_m;
@@ -67,34 +43,12 @@ bool SampleGround(const TerrainModel& model, const Eigen::Vector3d& p, double re
   const int j0 = static_cast<int>(std::floor(v));
   const double fu = u - i0, fv = v - j0;
   const ColumnSurface* corner[2][2];
-  const Eigen::Vector2i cell(i0, j0);
-  const bool remembered =
-      memo != nullptr && memo->cell == cell && z_ground > memo->low_m && z_ground < memo->high_m;
-  if (remembered) {
-    std::copy(&memo->corner[0][0], &memo->corner[0][0] + 4, &corner[0][0]);
-  } else {
-    double low = -std::numeric_limits<double>::infinity();
-    double high = std::numeric_limits<double>::infinity();
-    for (int dj = 0; dj < 2; ++dj) {
-      for (int di = 0; di < 2; ++di) {
-        const int ix = std::clamp(i0 + di, 0, g.size.x() - 1);
-        const int iy = std::clamp(j0 + dj, 0, g.size.y() - 1);
-        corner[dj][di] = memo != nullptr
-                             ? NearestSurfaceInRange(surfaces, ix, iy, z_ground, &low, &high)
-                             : NearestSurface(surfaces, ix, iy, z_ground);
-      }
-    }
-    if (memo != nullptr) {
-      memo->cell = cell;
-      memo->low_m = low;
-      memo->high_m = high;
-      std::copy(&corner[0][0], &corner[0][0] + 4, &memo->corner[0][0]);
-      memo->clearance_cap_m = -1;
-    }
-  }
   bool any_near = false;
   for (int dj = 0; dj < 2; ++dj) {
     for (int di = 0; di < 2; ++di) {
+      const int ix = std::clamp(i0 + di, 0, g.size.x() - 1);
+      const int iy = std::clamp(j0 + dj, 0, g.size.y() - 1);
+      corner[dj][di] = NearestSurface(surfaces, ix, iy, z_ground);
       any_near = any_near || (corner[dj][di] != nullptr &&
                               std::abs(corner[dj][di]->ground_z_m - z_ground) <= kLevelGapM);
     }
@@ -169,22 +123,10 @@ bool SampleGround(const TerrainModel& model, const Eigen::Vector3d& p, double re
       }
       return lowest;
     };
-    double lowest[2][2] = {};
-    if (memo != nullptr && memo->clearance_cap_m == clearance_cap_m) {
-      std::copy(&memo->lowest_clearance_m[0][0], &memo->lowest_clearance_m[0][0] + 4,
-                &lowest[0][0]);
-    } else {
-      // With a memo, every corner's: which are used depends on the height, the memo not.
-      for (int dj = 0; dj < 2; ++dj) {
-        for (int di = 0; di < 2; ++di) {
-          if (used[dj][di] || (memo != nullptr && corner[dj][di] != nullptr)) {
-            lowest[dj][di] = lowest_around(i0 + di, j0 + dj, *corner[dj][di]);
-          }
-        }
-      }
-      if (memo != nullptr) {
-        std::copy(&lowest[0][0], &lowest[0][0] + 4, &memo->lowest_clearance_m[0][0]);
-        memo->clearance_cap_m = clearance_cap_m;
+    double lowest[2][2];
+    for (int dj = 0; dj < 2; ++dj) {
+      for (int di = 0; di < 2; ++di) {
+        if (used[dj][di]) lowest[dj][di] = lowest_around(i0 + di, j0 + dj, *corner[dj][di]);
       }
     }
     interpolate([&](int dj, int di) { return lowest[dj][di]; }, &sample->clearance_m,
@@ -194,7 +136,7 @@ bool SampleGround(const TerrainModel& model, const Eigen::Vector3d& p, double re
 }
 
 double SampleEdgeDistance(const SurfaceGraph& graph, const Eigen::Vector3d& p, double reach_m,
-                          Eigen::Vector2d* gradient, EdgeCellMemo* memo) {
+                          Eigen::Vector2d* gradient) {
   const GridGeometry& g = graph.grid();
   const double r = g.resolution_m;
   const double z_ground = p.z() - graph.params().reference_height_m;
@@ -213,28 +155,9 @@ double SampleEdgeDistance(const SurfaceGraph& graph, const Eigen::Vector3d& p, d
   // window reaches, so every column in it is traversable. Edge distances are chamfer
   // distances, within 8.3% above Euclidean, from the node's centre, at most r/√2 from p.
   bool inside = false;  // traversable(ci, cj), from the node the fast path looks up anyway.
-  const Eigen::Vector2i cell(ci, cj);
-  if (memo != nullptr && memo->cell == cell && memo->reach_m == reach_m && z_ground > memo->low_m &&
-      z_ground < memo->high_m) {
-    gradient->setZero();
-    return window * r;
-  }
   if (ci >= 0 && cj >= 0 && ci < g.size.x() && cj < g.size.y()) {
     const int own = graph.NodeNear(ci, cj, z_ground);
     if (own >= 0 && graph.edge_distance(own) / 1.083 - 0.5 * r >= (window + 1) * r) {
-      if (memo != nullptr) {
-        // NodeNear picks `own` while its ground is within kLevelGapM and no other node's is
-        // nearer (a tie goes to the later node): the heights short of halfway to each other.
-        const double ground = graph.ground_z(own);
-        double low = ground - kLevelGapM + kChoiceMarginM;
-        double high = ground + kLevelGapM - kChoiceMarginM;
-        for (const std::int32_t m : graph.ColumnNodes(ci, cj)) {
-          const double other = graph.ground_z(m);
-          if (other < ground) low = std::max(low, 0.5 * (other + ground) + kChoiceMarginM);
-          if (other > ground) high = std::min(high, 0.5 * (ground + other) - kChoiceMarginM);
-        }
-        *memo = EdgeCellMemo{cell, low, high, reach_m};
-      }
       gradient->setZero();
       return window * r;
     }

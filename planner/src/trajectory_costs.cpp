@@ -147,8 +147,7 @@ double TrajectoryCost::ClearanceCap() const {
 double TrajectoryCost::PointPenalty(const StateVector& pos, const StateVector& vel,
                                     const StateVector& acc, StateVector* grad_pos,
                                     StateVector* grad_vel, StateVector* grad_acc,
-                                    CostBreakdown* breakdown, const TrajectoryEnds* ends,
-                                    SampleMemo* memo) const {
+                                    CostBreakdown* breakdown, const TrajectoryEnds* ends) const {
   const CostWeights& w = weights_;
   const CostConfig& c = params_.config;
   const RobotProfile& robot = params_.profile;
@@ -163,7 +162,7 @@ double TrajectoryCost::PointPenalty(const StateVector& pos, const StateVector& v
 
   if (w.safety > 0) {
     FieldSample fields;  // S' and d from one lookup of the eight corners they share.
-    model_->SampleFields(p, &fields, memo != nullptr ? &memo->fields : nullptr);
+    model_->SampleFields(p, &fields);
     const Cubic unsafe = CubicPenalty(fields.safety - c.safety_threshold);
     if (unsafe.value > 0) {  // Most samples: S' under the threshold, nothing to fade.
       const SafetyFade fade =
@@ -181,8 +180,7 @@ double TrajectoryCost::PointPenalty(const StateVector& pos, const StateVector& v
   if (w.edge > 0) {
     Eigen::Vector2d gradient;
     const Cubic outside =
-        CubicPenalty(c.edge_margin_m - SampleEdgeDistance(*graph_, p, c.edge_margin_m, &gradient,
-                                                          memo != nullptr ? &memo->edge : nullptr));
+        CubicPenalty(c.edge_margin_m - SampleEdgeDistance(*graph_, p, c.edge_margin_m, &gradient));
     terms.edge += w.edge * outside.value;
     grad_pos->head<2>() -= w.edge * outside.slope * gradient;
   }
@@ -218,7 +216,7 @@ double TrajectoryCost::PointPenalty(const StateVector& pos, const StateVector& v
   const bool has_ground =
       (w.ground > 0 || (active_height && (w.height > 0 || w.feasibility > 0))) &&
       SampleGround(*model_, p, robot.reference_height_m, active_height ? ClearanceCap() : 0,
-                   &ground, memo != nullptr ? &memo->ground : nullptr);
+                   &ground);
   if (has_ground && w.ground > 0) {
     // Quadratic beyond the band, zero within: C¹ at its edges.
     const double raw = p.z() - ground.height_m - robot.reference_height_m;
@@ -305,8 +303,7 @@ double TrajectoryCost::PointPenalty(const StateVector& pos, const StateVector& v
 }
 
 double TrajectoryCost::Evaluate(const Minco3& minco, Eigen::MatrixXd* grad_c,
-                                Eigen::VectorXd* grad_T, CostBreakdown* breakdown,
-                                EvaluationMemo* memo) const {
+                                Eigen::VectorXd* grad_T, CostBreakdown* breakdown) const {
   const int pieces = minco.piece_count();
   const int dim = minco.dim();
   const int kappa = params_.config.samples_per_piece;
@@ -328,11 +325,6 @@ double TrajectoryCost::Evaluate(const Minco3& minco, Eigen::MatrixXd* grad_c,
   // index them directly, which profiles showed cheaper than products of dynamic blocks.
   const Eigen::Index stride = minco.coefficients().outerStride();
   assert(grad_c->outerStride() == stride);
-  SampleMemo* sample_memo = nullptr;  // Sample j of piece i at sample_memo[i·(κ + 1) + j].
-  if (memo != nullptr) {
-    memo->samples.resize(static_cast<std::size_t>(pieces) * (kappa + 1));
-    sample_memo = memo->samples.data();
-  }
   // The sample loop with the dimension (3, or 4 with the body height) a compile-time
   // constant, so that its loops over the axes unroll.
   const auto sample_pieces = [&](auto dim_constant) {
@@ -370,9 +362,7 @@ double TrajectoryCost::Evaluate(const Minco3& minco, Eigen::MatrixXd* grad_c,
           penalty = junction_penalty;
           point_terms = junction_terms;
         } else {
-          penalty =
-              PointPenalty(pos, vel, acc, &g_pos, &g_vel, &g_acc, &point_terms, &ends,
-                           sample_memo != nullptr ? sample_memo + i * (kappa + 1) + j : nullptr);
+          penalty = PointPenalty(pos, vel, acc, &g_pos, &g_vel, &g_acc, &point_terms, &ends);
           if (j == kappa) {
             junction_penalty = penalty;
             junction_terms = point_terms;

@@ -43,7 +43,7 @@ class OptimizerObjective {
     const int pieces = minco_->piece_count();
     const int waypoint_values = static_cast<int>(waypoints_.size());
     Apply(x);
-    const double value = cost_.Evaluate(*minco_, &grad_c_, &grad_T_, nullptr, &memo_);
+    const double value = cost_.Evaluate(*minco_, &grad_c_, &grad_T_);
     minco_->PropagateGradient(grad_c_, grad_T_, &grad_waypoints_, &grad_durations_);
     grad.resize(x.size());
     grad.head(waypoint_values) =
@@ -81,7 +81,6 @@ class OptimizerObjective {
   std::vector<int> pinned_;
   Eigen::MatrixXd waypoints_, grad_c_, grad_waypoints_;
   Eigen::VectorXd durations_, grad_T_, grad_durations_;
-  EvaluationMemo memo_;  // The samples' field lookups, from one evaluation to the next.
   Eigen::VectorXd best_x_;
   double best_value_ = std::numeric_limits<double>::infinity();
   int evaluations_ = 0;

@@ -7,7 +7,6 @@
 #include <cmath>
 #include <limits>
 #include <random>
-#include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -151,91 +150,6 @@ TEST(SampleGround, IsTheColumnsPlaneAtItsCentreAndSmoothAround) {
     ++checked;
   }
   EXPECT_GT(checked, 150);
-}
-
-// A seeded walk as an optimiser's samples move: small steps, mostly within a cell, now and
-// then onto another level of the same column (the two-level scene's deck and the ground
-// under it) or well off the ground.
-std::vector<Eigen::Vector3d> WalkAcrossLevels(int count, std::uint32_t seed) {
-  const SurfaceGraph& graph = Graph();
-  const double r = Scene().grid().resolution_m;
-  std::mt19937 rng(seed);
-  std::uniform_int_distribution<int> node(0, graph.node_count() - 1);
-  std::uniform_real_distribution<double> step(-0.15 * r, 0.15 * r);
-  std::uniform_real_distribution<double> rise(-0.4, 0.4);
-  std::uniform_real_distribution<double> event(0.0, 1.0);
-  Eigen::Vector3d p = graph.position(node(rng));
-  std::vector<Eigen::Vector3d> points;
-  for (int i = 0; i < count; ++i) {
-    const double e = event(rng);
-    if (e < 0.02) {
-      p = graph.position(node(rng));  // Somewhere else.
-    } else if (e < 0.12) {            // Another level of the column, if it has one.
-      const Eigen::Vector3i cell = Scene().grid().CellOf(p);
-      const auto nodes = graph.ColumnNodes(cell.x(), cell.y());
-      if (!nodes.empty()) p.z() = graph.position(nodes[i % nodes.size()]).z();
-    } else if (e < 0.2) {
-      p.z() += rise(rng);
-    } else {
-      p.x() += step(rng);
-      p.y() += step(rng);
-    }
-    points.push_back(p);
-  }
-  return points;
-}
-
-TEST(TerrainMemos, GiveTheSameAnswersAsFreshLookups) {
-  // The optimiser keeps each sample's lookups (FieldCellMemo, GroundCellMemo, EdgeCellMemo)
-  // from one evaluation to the next; they must never change an answer, only skip work.
-  const SurfaceGraph& graph = Graph();
-  const double h_ref = graph.params().reference_height_m;
-  FieldCellMemo field_memo;
-  GroundCellMemo ground_memo;
-  EdgeCellMemo edge_memo;
-  int ground_kept = 0, edge_kept = 0, levels_changed = 0;
-  const std::vector<Eigen::Vector3d> walk = WalkAcrossLevels(6000, 11);
-  for (std::size_t i = 0; i < walk.size(); ++i) {
-    const Eigen::Vector3d& p = walk[i];
-    SCOPED_TRACE("step " + std::to_string(i));
-
-    FieldSample fresh_fields, kept_fields;
-    Scene().SampleFields(p, &fresh_fields);
-    Scene().SampleFields(p, &kept_fields, &field_memo);
-    EXPECT_EQ(fresh_fields.distance_m, kept_fields.distance_m);
-    EXPECT_EQ(fresh_fields.distance_gradient, kept_fields.distance_gradient);
-    EXPECT_EQ(fresh_fields.safety, kept_fields.safety);
-    EXPECT_EQ(fresh_fields.safety_gradient, kept_fields.safety_gradient);
-
-    // Two caps in turn now and then: a memo's clearances hold for the cap they had.
-    const double cap = (i / 500) % 2 == 0 ? 3.0 : 2.0;
-    const Eigen::Vector2i ground_cell = ground_memo.cell;
-    const ColumnSurface* previous_own = ground_memo.corner[0][0];
-    GroundSample fresh_ground, kept_ground;
-    const bool fresh_ok = SampleGround(Scene(), p, h_ref, cap, &fresh_ground);
-    const bool kept_ok = SampleGround(Scene(), p, h_ref, cap, &kept_ground, &ground_memo);
-    ASSERT_EQ(fresh_ok, kept_ok);
-    ground_kept += ground_memo.cell == ground_cell;
-    levels_changed += ground_memo.cell == ground_cell && ground_memo.corner[0][0] != previous_own;
-    if (fresh_ok) {
-      EXPECT_EQ(fresh_ground.height_m, kept_ground.height_m);
-      EXPECT_EQ(fresh_ground.height_gradient, kept_ground.height_gradient);
-      EXPECT_EQ(fresh_ground.clearance_m, kept_ground.clearance_m);
-      EXPECT_EQ(fresh_ground.clearance_gradient, kept_ground.clearance_gradient);
-      EXPECT_EQ(fresh_ground.surface, kept_ground.surface);
-    }
-
-    const Eigen::Vector2i edge_cell = edge_memo.cell;
-    Eigen::Vector2d fresh_gradient, kept_gradient;
-    EXPECT_EQ(SampleEdgeDistance(graph, p, 0.25, &fresh_gradient),
-              SampleEdgeDistance(graph, p, 0.25, &kept_gradient, &edge_memo));
-    EXPECT_EQ(fresh_gradient, kept_gradient);
-    edge_kept += edge_memo.cell == edge_cell;
-  }
-  // The walk stays in its cells often enough to use the memos, and changes level within one.
-  EXPECT_GT(ground_kept, 2000);
-  EXPECT_GT(edge_kept, 1000);
-  EXPECT_GT(levels_changed, 20);
 }
 
 }  // namespace

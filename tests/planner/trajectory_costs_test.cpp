@@ -353,47 +353,6 @@ TEST_P(ObjectiveGradient, WaypointAndDurationGradientsMatchFiniteDifferences) {
 
 INSTANTIATE_TEST_SUITE_P(Dims, ObjectiveGradient, ::testing::Values(3, 4));
 
-class EvaluationMemoEffect : public ::testing::TestWithParam<int> {};
-
-TEST_P(EvaluationMemoEffect, ChangesNothingAlongAnOptimisersSteps) {
-  // The optimiser passes one EvaluationMemo to every evaluation of its trajectory; each must
-  // give the value, gradients and terms of an evaluation without it, bit for bit, while the
-  // trajectory moves by small steps and now and then by a large one.
-  const int dim = GetParam();
-  const int pieces = 6;
-  std::mt19937 rng(300 + dim);
-  std::normal_distribution<double> small(0.0, 0.01);
-  std::normal_distribution<double> large(0.0, 0.5);
-  const TrajectoryCost cost(Graph(), TermCases().back().weights, Params(dim == 4));
-  ASSERT_EQ(TermCases().back().name, "all");
-  Trajectory5 t = RandomTrajectory(rng, dim, pieces);
-  EvaluationMemo memo;
-  for (int step = 0; step < 60; ++step) {
-    SCOPED_TRACE("step " + std::to_string(step));
-    std::normal_distribution<double>& move = step % 10 == 9 ? large : small;
-    for (Eigen::Index k = 0; k < t.waypoints.size(); ++k) t.waypoints(k) += move(rng);
-    for (Eigen::Index k = 0; k < t.durations.size(); ++k) {
-      t.durations(k) = std::max(0.3, t.durations(k) * (1 + move(rng)));
-    }
-    Minco3 minco;
-    minco.SetConditions(t.head, t.tail, pieces);
-    minco.SetParameters(t.waypoints, t.durations);
-    Eigen::MatrixXd fresh_c, kept_c;
-    Eigen::VectorXd fresh_T, kept_T;
-    CostBreakdown fresh_terms, kept_terms;
-    const double fresh = cost.Evaluate(minco, &fresh_c, &fresh_T, &fresh_terms);
-    const double kept = cost.Evaluate(minco, &kept_c, &kept_T, &kept_terms, &memo);
-    EXPECT_EQ(fresh, kept);
-    EXPECT_EQ(fresh_c, kept_c);
-    EXPECT_EQ(fresh_T, kept_T);
-    EXPECT_EQ(Terms(fresh_terms), Terms(kept_terms));
-  }
-  EXPECT_EQ(memo.samples.size(),
-            static_cast<std::size_t>(pieces) * (cost.params().config.samples_per_piece + 1));
-}
-
-INSTANTIATE_TEST_SUITE_P(Dims, EvaluationMemoEffect, ::testing::Values(3, 4));
-
 // The S' part of J_s fades in over safety_fade_m from both ends: a trajectory whose ends lie
 // where S' exceeds its threshold pays less for it than without the fade, and the ESDF part
 // does not change.

@@ -21,7 +21,6 @@
 /// finite-difference tests hold). A corner outside the band reads the background: the cap for
 /// d (far from everything) and FieldConfig::VoidPenalty() for S' (unknown is unsafe).
 
-#include <array>
 #include <cstdint>
 #include <optional>
 #include <vector>
@@ -41,14 +40,6 @@ struct FieldSample {
   Eigen::Vector3d distance_gradient = Eigen::Vector3d::Zero();  ///< ∇d [-].
   double safety = 0;                                            ///< S' [-].
   Eigen::Vector3d safety_gradient = Eigen::Vector3d::Zero();    ///< ∇S' [1/m].
-};
-
-/// The corners of the cell a field sample last fell in, for the next sample at about the
-/// same point (the same trajectory sample in the optimiser's next evaluation): while the point
-/// stays in that cell, TerrainFields::Sample reuses them instead of scanning four columns.
-struct FieldCellMemo {
-  Eigen::Vector3i cell = Eigen::Vector3i::Constant(-1);  ///< Lowest corner; none yet.
-  std::array<std::int64_t, 8> index{};                   ///< Value indices, −1 outside the band.
 };
 
 class TerrainFields {
@@ -93,10 +84,8 @@ class TerrainFields {
   double Distance(const Eigen::Vector3d& p, Eigen::Vector3d* gradient = nullptr) const;
   /// S'(p) [-], likewise; gradient optional [1/m].
   double SafetyPenalty(const Eigen::Vector3d& p, Eigen::Vector3d* gradient = nullptr) const;
-  /// Both, sharing one lookup of the eight corners (what the optimiser's cost reads). With
-  /// `memo` (may be null; from the same fields), the lookup is skipped while p stays in the
-  /// memo's cell, and the memo updated otherwise: the same values either way.
-  void Sample(const Eigen::Vector3d& p, FieldSample* sample, FieldCellMemo* memo = nullptr) const;
+  /// Both, sharing one lookup of the eight corners (what the optimiser's cost reads).
+  void Sample(const Eigen::Vector3d& p, FieldSample* sample) const;
 
   /// The stored values at a cell, or nothing outside the band. For tests and tools.
   std::optional<double> DistanceAt(const Eigen::Vector3i& cell) const;

@@ -24,19 +24,6 @@ struct GroundSample {
   const ColumnSurface* surface = nullptr;
 };
 
-/// The corner surfaces a ground sample last chose, for the next sample at about the same point
-/// (the same trajectory sample in the optimiser's next evaluation): while the point stays
-/// between the same four column centres and its ground height in the range where each
-/// corner's choice stands, SampleGround reuses them instead of scanning the columns again.
-struct GroundCellMemo {
-  Eigen::Vector2i cell = Eigen::Vector2i::Constant(-2);  ///< Lower-left corner column; none yet.
-  double low_m = 0, high_m = -1;  ///< The choices stand for ground heights strictly between.
-  const ColumnSurface* corner[2][2] = {};  ///< [dy][dx], null where a column has no surface.
-  /// The lowest clearance around each corner, computed with `clearance_cap_m` (< 0: not yet).
-  double lowest_clearance_m[2][2] = {};
-  double clearance_cap_m = -1;
-};
-
 /// The ground a reference point p stands on, as a continuous function of p: bilinear
 /// interpolation between the four nearest column centres of each column's plane-fit centre
 /// height (and, when clearance_cap_m > 0, of the lowest ceiling clearance of the column and
@@ -46,19 +33,9 @@ struct GroundCellMemo {
 /// than 0.5 m from that height (another level: a ledge, a drop) or that have no surface get no
 /// weight and the rest are renormalised, so the ground does not slope into a drop; if every
 /// corner is that far, all are used. Returns false when none of the four columns has a surface
-/// or p lies outside the grid. With `memo` (may be null; from the same model), the same result
-/// from fewer lookups while the point stays where the memo's choices stand.
+/// or p lies outside the grid.
 bool SampleGround(const TerrainModel& model, const Eigen::Vector3d& p, double reference_height_m,
-                  double clearance_cap_m, GroundSample* sample, GroundCellMemo* memo = nullptr);
-
-/// Where SampleEdgeDistance last found a point deep inside the traversable region, for the
-/// next sample at about the same point: while the point stays in that column with its ground
-/// height where the column's node choice stands, the answer is the same clamped distance.
-struct EdgeCellMemo {
-  Eigen::Vector2i cell = Eigen::Vector2i::Constant(-2);  ///< The column; none yet.
-  double low_m = 0, high_m = -1;  ///< Deep inside for ground heights strictly between.
-  double reach_m = -1;            ///< The reach it was found with.
-};
+                  double clearance_cap_m, GroundSample* sample);
 
 /// Signed distance from p to the rim of the traversable region at p's level [m], measured in
 /// x, y: the region is the union of the grid columns that hold a SurfaceGraph node whose
@@ -67,9 +44,8 @@ struct EdgeCellMemo {
 /// other kind) wherever it is within `reach_m` (at least a cell) of the rim, and clamped to
 /// ± the exact range beyond, so that a penalty on e < reach_m sees the verifier's
 /// column-by-column test exactly: a point cutting a corner of a missing column is outside.
-/// Continuous in p; writes the gradient wrt (x, y) (0 where clamped). With `memo` (may be
-/// null; from the same graph), the same result from fewer lookups deep inside.
+/// Continuous in p; writes the gradient wrt (x, y) (0 where clamped).
 double SampleEdgeDistance(const SurfaceGraph& graph, const Eigen::Vector3d& p, double reach_m,
-                          Eigen::Vector2d* gradient, EdgeCellMemo* memo = nullptr);
+                          Eigen::Vector2d* gradient);
 
 }  // namespace strata

@@ -31,7 +31,6 @@
 /// gradients wrt the coefficients c and the durations T (including dt_j/dT_i = j/κ).
 #include <span>
 #include <string_view>
-#include <vector>
 
 #include <Eigen/Core>
 
@@ -168,21 +167,6 @@ struct TrajectoryEnds {
   Eigen::Vector2d goal_xy;
 };
 
-/// One sample's terrain lookups (the memos of TerrainFields::Sample, SampleGround and
-/// SampleEdgeDistance).
-struct SampleMemo {
-  FieldCellMemo fields;
-  GroundCellMemo ground;
-  EdgeCellMemo edge;
-};
-
-/// What TrajectoryCost::Evaluate may keep from one evaluation to the next of trajectories with
-/// the same pieces (an optimiser's): each sample's terrain lookups, reused while the sample
-/// stays where they hold. Evaluate returns the same with or without it.
-struct EvaluationMemo {
-  std::vector<SampleMemo> samples;  ///< Sample j of piece i at i·(κ + 1) + j.
-};
-
 /// J and its gradient for one planning problem. Immutable; cheap to construct.
 class TrajectoryCost {
  public:
@@ -204,20 +188,17 @@ class TrajectoryCost {
 
   /// J of the trajectory held by `minco` (dimension params.dim()). Writes ∂J/∂c (6M×dim) and
   /// the explicit ∂J/∂T (M), overwriting both; `breakdown` (may be null) gets the terms.
-  /// `memo` (may be null) is read and updated; one memo serves one cost.
   double Evaluate(const Minco3& minco, Eigen::MatrixXd* grad_c, Eigen::VectorXd* grad_T,
-                  CostBreakdown* breakdown = nullptr, EvaluationMemo* memo = nullptr) const;
+                  CostBreakdown* breakdown = nullptr) const;
 
   /// The integrand of the constraint-point terms (λ_s, λ_e, λ_g, λ_d, λ_k, λ_h parts) at one state:
   /// position (dim: x, y, z[, h]), velocity, acceleration. Writes ∂P/∂pos, ∂P/∂vel, ∂P/∂acc
   /// (each dim entries, overwritten) and adds the weighted terms into *breakdown (may be
   /// null). With `ends` (Evaluate passes the trajectory's), the S' part fades in from them
-  /// over CostConfig::safety_fade_m; without, it applies in full. `memo` (may be null) is
-  /// the sample's lookups (EvaluationMemo). Exposed for tests.
+  /// over CostConfig::safety_fade_m; without, it applies in full. Exposed for tests.
   double PointPenalty(const StateVector& pos, const StateVector& vel, const StateVector& acc,
                       StateVector* grad_pos, StateVector* grad_vel, StateVector* grad_acc,
-                      CostBreakdown* breakdown, const TrajectoryEnds* ends = nullptr,
-                      SampleMemo* memo = nullptr) const;
+                      CostBreakdown* breakdown, const TrajectoryEnds* ends = nullptr) const;
 
   /// The most suitable body height h_S at a ceiling clearance [m] (active-height robots), and
   /// its derivative wrt the clearance.
