@@ -41,37 +41,16 @@ void BandedSystem::Reset(int n, int lower, int upper) {
   data_.assign(static_cast<std::size_t>(n) * (lower + upper + 1), 0.0);
 }
 
-namespace {
-
-// Step k of the band LU on diagonal-major storage (BandedSystem::Index: entry (i, j) at
-// (i − j + upper)·n + j, so going down a column is +n): divides the `rows` entries below the
-// pivot by it, then subtracts their multiples of row k's next `cols` entries from the rows
-// below. `Count` is int, or a std::integral_constant for the interior steps of MINCO's band,
-// whose loops then unroll.
-template <typename Count>
-void EliminateColumn(double* data, int n, int upper, int k, Count rows, Count cols) {
-  const double pivot = data[upper * n + k];
-  double* below = data + (upper + 1) * n + k;  // (k + 1, k).
-  for (int r = 0; r < rows; ++r) below[r * n] /= pivot;
-  for (int c = 1; c <= cols; ++c) {
-    const double u = data[(upper - c) * n + k + c];  // (k, k + c).
-    if (u == 0.0) continue;
-    double* column = data + (upper + 1 - c) * n + k + c;  // (k + 1, k + c).
-    for (int r = 0; r < rows; ++r) column[r * n] -= below[r * n] * u;
-  }
-}
-
-}  // namespace
-
 void BandedSystem::Factorize() {
   for (int k = 0; k < n_; ++k) {
-    const int rows = std::min(lower_, n_ - 1 - k);
-    const int cols = std::min(upper_, n_ - 1 - k);
-    if (rows == kBandwidth && cols == kBandwidth) {
-      constexpr std::integral_constant<int, kBandwidth> kFull;
-      EliminateColumn(data_.data(), n_, upper_, k, kFull, kFull);
-    } else {
-      EliminateColumn(data_.data(), n_, upper_, k, rows, cols);
+    const int i_max = std::min(k + lower_, n_ - 1);
+    const int j_max = std::min(k + upper_, n_ - 1);
+    const double pivot = (*this)(k, k);
+    for (int i = k + 1; i <= i_max; ++i) (*this)(i, k) /= pivot;
+    for (int j = k + 1; j <= j_max; ++j) {
+      const double u = (*this)(k, j);
+      if (u == 0.0) continue;
+      for (int i = k + 1; i <= i_max; ++i) (*this)(i, j) -= (*this)(i, k) * u;
     }
   }
 }
@@ -116,36 +95,18 @@ void WithRows(RowMajorMatrix* x, F&& f) {
   }
 }
 
-// Calls f(count) with `count`, a std::integral_constant when it is MINCO's bandwidth, so that
-// the loop f runs unrolls in the interior of the band.
-template <typename F>
-void WithBandCount(int count, F&& f) {
-  if (count == kBandwidth) {
-    f(std::integral_constant<int, kBandwidth>{});
-  } else {
-    f(count);
-  }
-}
-
 }  // namespace
 
 void BandedSystem::Solve(Eigen::MatrixXd* b) const {
   RowMajorMatrix x = *b;
-  const double* data = data_.data();
-  const int n = n_, upper = upper_;
   WithRows(&x, [&](const auto& rows) {
-    for (int j = 0; j < n; ++j) {  // L y = b, L unit lower: column j below the diagonal.
-      const double* l = data + (upper + 1) * n + j;  // (j + 1, j), then down by n.
-      WithBandCount(std::min(lower_, n - 1 - j), [&](auto count) {
-        for (int r = 0; r < count; ++r) rows.Subtract(j + 1 + r, j, l[r * n]);
-      });
+    for (int j = 0; j < n_; ++j) {  // L y = b, L unit lower.
+      const int i_max = std::min(j + lower_, n_ - 1);
+      for (int i = j + 1; i <= i_max; ++i) rows.Subtract(i, j, (*this)(i, j));
     }
-    for (int j = n - 1; j >= 0; --j) {  // U x = y: column j above the diagonal.
-      rows.Divide(j, data[upper * n + j]);
-      const double* u = data + (upper - 1) * n + j;  // (j − 1, j), then up by n.
-      WithBandCount(std::min(upper, j), [&](auto count) {
-        for (int r = 0; r < count; ++r) rows.Subtract(j - 1 - r, j, u[-r * n]);
-      });
+    for (int j = n_ - 1; j >= 0; --j) {  // U x = y.
+      rows.Divide(j, (*this)(j, j));
+      for (int i = std::max(0, j - upper_); i < j; ++i) rows.Subtract(i, j, (*this)(i, j));
     }
   });
   *b = x;
@@ -153,21 +114,14 @@ void BandedSystem::Solve(Eigen::MatrixXd* b) const {
 
 void BandedSystem::SolveTransposed(Eigen::MatrixXd* b) const {
   RowMajorMatrix x = *b;
-  const double* data = data_.data();
-  const int n = n_, upper = upper_;
   WithRows(&x, [&](const auto& rows) {
-    for (int j = 0; j < n; ++j) {  // Uᵀ z = b, Uᵀ lower: row j of U right of the diagonal.
-      rows.Divide(j, data[upper * n + j]);
-      const double* u = data + (upper - 1) * n + j + 1;  // (j, j + 1), then by 1 − n.
-      WithBandCount(std::min(upper, n - 1 - j), [&](auto count) {
-        for (int r = 0; r < count; ++r) rows.Subtract(j + 1 + r, j, u[r * (1 - n)]);
-      });
+    for (int j = 0; j < n_; ++j) {  // Uᵀ z = b, Uᵀ lower.
+      rows.Divide(j, (*this)(j, j));
+      const int i_max = std::min(j + upper_, n_ - 1);
+      for (int i = j + 1; i <= i_max; ++i) rows.Subtract(i, j, (*this)(j, i));
     }
-    for (int j = n - 1; j >= 0; --j) {  // Lᵀ x = z, Lᵀ unit upper: row j of L left of it.
-      const double* l = data + (upper + 1) * n + j - 1;  // (j, j − 1), then by n − 1.
-      WithBandCount(std::min(lower_, j), [&](auto count) {
-        for (int r = 0; r < count; ++r) rows.Subtract(j - 1 - r, j, l[r * (n - 1)]);
-      });
+    for (int j = n_ - 1; j >= 0; --j) {  // Lᵀ x = z, Lᵀ unit upper.
+      for (int i = std::max(0, j - lower_); i < j; ++i) rows.Subtract(i, j, (*this)(j, i));
     }
   });
   *b = x;

@@ -358,33 +358,27 @@ TEST(Minco3, StraightLineAtConstantSpeedIsExactAndHasNoJerk) {
 TEST(BandedSystem, SolvesAndSolvesTransposedLikeADenseMatrix) {
   std::mt19937 rng(5);
   std::uniform_real_distribution<double> dist(-1.0, 1.0);
-  // Bands of 2 and 3, and MINCO's 6 and 6, whose interior steps take the unrolled loops; 2, 3
-  // and 4 right-hand sides (the row operations' generic and fixed lengths).
-  const struct {
-    int n, lower, upper, rhs;
-  } cases[] = {{20, 2, 3, 2}, {40, 6, 6, 3}, {40, 6, 6, 4}};
-  for (const auto& c : cases) {
-    SCOPED_TRACE("n " + std::to_string(c.n) + ", bands " + std::to_string(c.lower) + " and " +
-                 std::to_string(c.upper) + ", " + std::to_string(c.rhs) + " right-hand sides");
-    BandedSystem band;
-    band.Reset(c.n, c.lower, c.upper);
-    Eigen::MatrixXd dense = Eigen::MatrixXd::Zero(c.n, c.n);
-    for (int i = 0; i < c.n; ++i) {
-      for (int j = std::max(0, i - c.lower); j <= std::min(c.n - 1, i + c.upper); ++j) {
-        // Diagonally dominant so that no pivoting is needed.
-        dense(i, j) = (i == j) ? 10.0 + dist(rng) : dist(rng);
-        band(i, j) = dense(i, j);
-      }
+  const int n = 20;
+  const int lower = 2;
+  const int upper = 3;
+  BandedSystem band;
+  band.Reset(n, lower, upper);
+  Eigen::MatrixXd dense = Eigen::MatrixXd::Zero(n, n);
+  for (int i = 0; i < n; ++i) {
+    for (int j = std::max(0, i - lower); j <= std::min(n - 1, i + upper); ++j) {
+      // Diagonally dominant so that no pivoting is needed.
+      dense(i, j) = (i == j) ? 10.0 + dist(rng) : dist(rng);
+      band(i, j) = dense(i, j);
     }
-    band.Factorize();
-    const Eigen::MatrixXd rhs = RandomMatrix(&rng, c.n, c.rhs, -1.0, 1.0);
-    Eigen::MatrixXd x = rhs;
-    band.Solve(&x);
-    EXPECT_LT((dense * x - rhs).norm(), 1e-12);
-    Eigen::MatrixXd y = rhs;
-    band.SolveTransposed(&y);
-    EXPECT_LT((dense.transpose() * y - rhs).norm(), 1e-12);
   }
+  band.Factorize();
+  const Eigen::MatrixXd rhs = RandomMatrix(&rng, n, 2, -1.0, 1.0);
+  Eigen::MatrixXd x = rhs;
+  band.Solve(&x);
+  EXPECT_LT((dense * x - rhs).norm(), 1e-12);
+  Eigen::MatrixXd y = rhs;
+  band.SolveTransposed(&y);
+  EXPECT_LT((dense.transpose() * y - rhs).norm(), 1e-12);
 }
 
 TEST(DurationMap, IsPositiveIncreasingAndC2AtZero) {
