@@ -4,7 +4,6 @@
 #include <cassert>
 #include <cmath>
 #include <string>
-#include <type_traits>
 
 #include "format_internal.hpp"
 
@@ -319,87 +318,70 @@ double TrajectoryCost::Evaluate(const Minco3& minco, Eigen::MatrixXd* grad_c,
   terms.time = weights_.time * minco.TotalDuration();
   grad_T->array() += weights_.time;
 
+  StateVector pos(dim), vel(dim), acc(dim), jerk(dim), g_pos(dim), g_vel(dim), g_acc(dim);
   const TrajectoryEnds ends{minco.head_pva().col(0).head<2>(), minco.tail_pva().col(0).head<2>()};
+  // A piece's last sample and the next piece's first are the same state (MINCO is C⁴ at its
+  // waypoints): its penalty is evaluated once, and g_pos, g_vel, g_acc still hold its
+  // gradients when the next piece starts.
+  double junction_penalty = 0;
+  CostBreakdown junction_terms;
   // Piece i's coefficients of axis a are the 6 consecutive doubles at column a, row 6i of
   // the column-major coefficient matrix (and of grad_c, shaped alike): the loops below
   // index them directly, which profiles showed cheaper than products of dynamic blocks.
   const Eigen::Index stride = minco.coefficients().outerStride();
   assert(grad_c->outerStride() == stride);
-  // The sample loop with the dimension (3, or 4 with the body height) a compile-time
-  // constant, so that its loops over the axes unroll.
-  const auto sample_pieces = [&](auto dim_constant) {
-    constexpr int kDim = decltype(dim_constant)::value;
-    StateVector pos(kDim), vel(kDim), acc(kDim), jerk(kDim), g_pos(kDim), g_vel(kDim), g_acc(kDim);
-    // A piece's last sample and the next piece's first are the same state (MINCO is C⁴ at
-    // its waypoints): its penalty is evaluated once, and g_pos, g_vel, g_acc still hold its
-    // gradients when the next piece starts.
-    double junction_penalty = 0;
-    CostBreakdown junction_terms;
-    for (int i = 0; i < pieces; ++i) {
-      const double duration = minco.durations()(i);
-      const double* c = minco.coefficients().data() + Minco3::kPieceCoefficients * i;
-      double* g_c = grad_c->data() + Minco3::kPieceCoefficients * i;
-      for (int j = 0; j <= kappa; ++j) {
-        const double alpha = static_cast<double>(j) / kappa;
-        const Eigen::Matrix<double, 4, 6> beta = Basis(alpha * duration);
-        for (int a = 0; a < kDim; ++a) {
-          const double* column = c + a * stride;
-          double state[4] = {0, 0, 0, 0};  // Position, velocity, acceleration, jerk.
-          // Row `order` of β is zero before column `order`.
-          for (int k = 0; k < Minco3::kPieceCoefficients; ++k) {
-            for (int order = 0; order <= std::min(k, 3); ++order) {
-              state[order] += beta(order, k) * column[k];
-            }
-          }
-          pos(a) = state[0];
-          vel(a) = state[1];
-          acc(a) = state[2];
-          jerk(a) = state[3];
+  for (int i = 0; i < pieces; ++i) {
+    const double duration = minco.durations()(i);
+    const double* c = minco.coefficients().data() + Minco3::kPieceCoefficients * i;
+    double* g_c = grad_c->data() + Minco3::kPieceCoefficients * i;
+    for (int j = 0; j <= kappa; ++j) {
+      const double alpha = static_cast<double>(j) / kappa;
+      const Eigen::Matrix<double, 4, 6> beta = Basis(alpha * duration);
+      for (int a = 0; a < dim; ++a) {
+        const double* column = c + a * stride;
+        double state[4] = {0, 0, 0, 0};  // Position, velocity, acceleration, jerk.
+        for (int k = 0; k < Minco3::kPieceCoefficients; ++k) {
+          for (int order = 0; order < 4; ++order) state[order] += beta(order, k) * column[k];
         }
-        CostBreakdown point_terms;
-        double penalty = 0;
-        if (j == 0 && i > 0) {
-          penalty = junction_penalty;
-          point_terms = junction_terms;
-        } else {
-          penalty = PointPenalty(pos, vel, acc, &g_pos, &g_vel, &g_acc, &point_terms, &ends);
-          if (j == kappa) {
-            junction_penalty = penalty;
-            junction_terms = point_terms;
-          }
-        }
-        if (penalty == 0) continue;  // Gradients are zero too: every term is >= 0 and C¹.
-        // Trapezoid weight T/κ (halved at the ends); it scales with T, hence penalty·w/T below.
-        const double weight = (j == 0 || j == kappa ? 0.5 : 1.0) * duration / kappa;
-        // t_j = α·T moves with T: d(state)/dT = α·(next derivative), summed into state_rate.
-        double state_rate = 0;
-        for (int a = 0; a < kDim; ++a) {
-          double* column = g_c + a * stride;
-          // As above: β(1, 0), β(2, 0) and β(2, 1) are zero.
-          column[0] += weight * (beta(0, 0) * g_pos(a));
-          column[1] += weight * (beta(0, 1) * g_pos(a) + beta(1, 1) * g_vel(a));
-          for (int k = 2; k < Minco3::kPieceCoefficients; ++k) {
-            column[k] +=
-                weight * (beta(0, k) * g_pos(a) + beta(1, k) * g_vel(a) + beta(2, k) * g_acc(a));
-          }
-          state_rate += g_pos(a) * vel(a) + g_vel(a) * acc(a) + g_acc(a) * jerk(a);
-        }
-        (*grad_T)(i) += penalty * weight / duration + weight * alpha * state_rate;
-        terms.safety += weight * point_terms.safety;
-        terms.edge += weight * point_terms.edge;
-        terms.ground += weight * point_terms.ground;
-        terms.feasibility += weight * point_terms.feasibility;
-        terms.height += weight * point_terms.height;
-        terms.keep_out += weight * point_terms.keep_out;
-        terms.turning += weight * point_terms.turning;
+        pos(a) = state[0];
+        vel(a) = state[1];
+        acc(a) = state[2];
+        jerk(a) = state[3];
       }
+      CostBreakdown point_terms;
+      double penalty = 0;
+      if (j == 0 && i > 0) {
+        penalty = junction_penalty;
+        point_terms = junction_terms;
+      } else {
+        penalty = PointPenalty(pos, vel, acc, &g_pos, &g_vel, &g_acc, &point_terms, &ends);
+        if (j == kappa) {
+          junction_penalty = penalty;
+          junction_terms = point_terms;
+        }
+      }
+      if (penalty == 0) continue;  // Gradients are zero too: every term is >= 0 and C¹.
+      // Trapezoid weight T/κ (halved at the ends); it scales with T, hence penalty·w/T below.
+      const double weight = (j == 0 || j == kappa ? 0.5 : 1.0) * duration / kappa;
+      // t_j = α·T moves with T: d(state)/dT = α·(next derivative), summed into state_rate.
+      double state_rate = 0;
+      for (int a = 0; a < dim; ++a) {
+        double* column = g_c + a * stride;
+        for (int k = 0; k < Minco3::kPieceCoefficients; ++k) {
+          column[k] +=
+              weight * (beta(0, k) * g_pos(a) + beta(1, k) * g_vel(a) + beta(2, k) * g_acc(a));
+        }
+        state_rate += g_pos(a) * vel(a) + g_vel(a) * acc(a) + g_acc(a) * jerk(a);
+      }
+      (*grad_T)(i) += penalty * weight / duration + weight * alpha * state_rate;
+      terms.safety += weight * point_terms.safety;
+      terms.edge += weight * point_terms.edge;
+      terms.ground += weight * point_terms.ground;
+      terms.feasibility += weight * point_terms.feasibility;
+      terms.height += weight * point_terms.height;
+      terms.keep_out += weight * point_terms.keep_out;
+      terms.turning += weight * point_terms.turning;
     }
-  };
-  if (dim == 3) {
-    sample_pieces(std::integral_constant<int, 3>{});
-  } else {
-    assert(dim == 4);
-    sample_pieces(std::integral_constant<int, 4>{});
   }
   if (breakdown != nullptr) *breakdown = terms;
   return terms.total();
