@@ -27,6 +27,17 @@ std::shared_ptr<const TerrainModel> AssessOrDie(const PointCloud& cloud, double 
   return model.ok() ? *model : nullptr;
 }
 
+// two_level_ramp (seed 1) at 0.25 m, assessed once for the tests that break a model's parts:
+// null if the scene or its assessment failed.
+std::shared_ptr<const TerrainModel> TwoLevelRamp() {
+  static const std::shared_ptr<const TerrainModel> model = [] {
+    const Expected<PointCloud> cloud = GenerateScene("two_level_ramp", 1);
+    EXPECT_TRUE(cloud.ok());
+    return cloud.ok() ? AssessOrDie(*cloud, 0.25) : nullptr;
+  }();
+  return model;
+}
+
 // The fields on every cell of the whole grid, computed densely as a reference.
 struct DenseFields {
   ScalarGrid distance;
@@ -210,9 +221,7 @@ TEST(TerrainFields, SampleMatchesTheSingleFieldQueriesAndFiniteDifferences) {
 }
 
 TEST(TerrainFields, FromPartsRefusesInconsistentParts) {
-  const Expected<PointCloud> cloud = GenerateScene("two_level_ramp", 1);
-  ASSERT_TRUE(cloud.ok());
-  const auto model = AssessOrDie(*cloud, 0.25);
+  const auto model = TwoLevelRamp();
   ASSERT_TRUE(model);
   const TerrainFields::Parts good = model->fields().parts();
   ASSERT_TRUE(TerrainFields::FromParts(good).ok());
@@ -260,9 +269,7 @@ TEST(TerrainFields, FromPartsRefusesInconsistentParts) {
 TEST(SurfaceMap, FromPartsRefusesAColumnPastTheSurfaces) {
   // Found by fuzz/saved_model_fuzzer (heap-buffer-overflow before the fix): the index's first
   // and last entries are right, an inner one points past the surfaces.
-  const Expected<PointCloud> cloud = GenerateScene("two_level_ramp", 1);
-  ASSERT_TRUE(cloud.ok());
-  const auto model = AssessOrDie(*cloud, 0.25);
+  const auto model = TwoLevelRamp();
   ASSERT_TRUE(model);
   const SurfaceMap& surfaces = model->surfaces();
   std::vector<std::uint32_t> column_begin = surfaces.column_begin();
@@ -277,9 +284,7 @@ TEST(SurfaceMap, FromPartsRefusesAColumnPastTheSurfaces) {
 TEST(SurfaceMap, FromPartsRefusesGroundsThatDescendInAColumn) {
   // The terrain queries stop at the first ground above a point, which is right only when a
   // column's grounds ascend with its surfaces, as every assessed map's do.
-  const Expected<PointCloud> cloud = GenerateScene("two_level_ramp", 1);
-  ASSERT_TRUE(cloud.ok());
-  const auto model = AssessOrDie(*cloud, 0.25);
+  const auto model = TwoLevelRamp();
   ASSERT_TRUE(model);
   const SurfaceMap& surfaces = model->surfaces();
   std::vector<ColumnSurface> all = surfaces.all_surfaces();
