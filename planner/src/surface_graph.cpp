@@ -165,6 +165,29 @@ int SurfaceGraph::NodeNear(int ix, int iy, double ground_z) const {
   return best;
 }
 
+int SurfaceGraph::NodeNear(int ix, int iy, double height, double* low, double* high) const {
+  const int best = NodeNear(ix, iy, height);
+  *low = 0;
+  *high = 0;
+  if (best < 0) return best;
+  // The node stays the nearest up to the midpoints to its neighbours in height and within
+  // kLevelGapM of its own. The band is shrunk by far more than the rounding of the gaps
+  // NodeNear compares, so that it never claims a height where a tie could go the other way.
+  constexpr double kRoundingM = 1e-6;
+  const double own = SurfaceGraph::ground_z(best);
+  *low = own - kLevelGapM;
+  *high = own + kLevelGapM;
+  for (const std::int32_t m : ColumnNodes(ix, iy)) {
+    const double other = SurfaceGraph::ground_z(m);
+    if (m == best) continue;
+    if (other <= own) *low = std::max(*low, 0.5 * (own + other));
+    if (other >= own) *high = std::min(*high, 0.5 * (own + other));
+  }
+  *low += kRoundingM;
+  *high -= kRoundingM;
+  return best;
+}
+
 Expected<SnapResult> SnapToSurface(const SurfaceGraph& graph, const Eigen::Vector3d& p,
                                    double tolerance_m, ErrorCode off_ground_code,
                                    const std::function<bool(int node)>& accept,

@@ -1,5 +1,6 @@
 #include "strata/terrain_fields.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -103,6 +104,31 @@ void FindPair(const TerrainFields::Parts& parts, std::int64_t column, int iz, st
   }
 }
 
+// Where p falls along axis a of g (inv_r = 1 / its resolution): the lower cell centre i of its
+// pair, its weight t towards the upper one, and whether p was clamped onto the hull of centres.
+struct AxisCell {
+  int i;
+  double t;
+  bool clamped;
+};
+AxisCell LocateOnAxis(const GridGeometry& g, double inv_r, const Eigen::Vector3d& p, int a) {
+  // u is the position in "centre coordinates": cell centre i sits at u = i.
+  double u = (p[a] - g.origin_m[a]) * inv_r - 0.5;
+  const int n = g.size[a];
+  bool clamped = false;
+  if (!(u >= 0.0)) {  // Also catches NaN, which would otherwise index out of range.
+    u = 0.0;
+    clamped = true;
+  } else if (u > n - 1) {
+    u = n - 1;
+    clamped = true;
+  }
+  int i = static_cast<int>(u);
+  // The last centre belongs to the pair (n-2, n-1) with t = 1; a one-cell axis has no pair.
+  if (i > n - 2) i = n > 1 ? n - 2 : 0;
+  return {i, u - i, clamped};
+}
+
 // The corners of the sample at p.
 Corners Locate(const TerrainFields::Parts& parts, const Eigen::Vector3d& p) {
   const GridGeometry& g = parts.geometry;
@@ -111,22 +137,11 @@ Corners Locate(const TerrainFields::Parts& parts, const Eigen::Vector3d& p) {
   int step[3];
   const double inv_r = 1.0 / g.resolution_m;
   for (int a = 0; a < 3; ++a) {
-    // u is the position in "centre coordinates": cell centre i sits at u = i.
-    double u = (p[a] - g.origin_m[a]) * inv_r - 0.5;
-    const int n = g.size[a];
-    c.clamped[a] = false;
-    if (!(u >= 0.0)) {  // Also catches NaN, which would otherwise index out of range.
-      u = 0.0;
-      c.clamped[a] = true;
-    } else if (u > n - 1) {
-      u = n - 1;
-      c.clamped[a] = true;
-    }
-    i[a] = static_cast<int>(u);
-    // The last centre belongs to the pair (n-2, n-1) with t = 1; a one-cell axis has no pair.
-    if (i[a] > n - 2) i[a] = n > 1 ? n - 2 : 0;
-    c.t[a] = u - i[a];
-    step[a] = n > 1 ? 1 : 0;
+    const AxisCell cell = LocateOnAxis(g, inv_r, p, a);
+    i[a] = cell.i;
+    c.t[a] = cell.t;
+    c.clamped[a] = cell.clamped;
+    step[a] = g.size[a] > 1 ? 1 : 0;
   }
   for (int k = 0; k < 4; ++k) {
     const int ix = i[0] + (k & 1) * step[0], iy = i[1] + (k >> 1) * step[1];
@@ -162,7 +177,7 @@ double TerrainFields::SafetyPenalty(const Eigen::Vector3d& p, Eigen::Vector3d* g
       c, [this](std::int64_t i) { return SafetyValue(i); }, 1.0 / g.resolution_m, gradient);
 }
 
-void TerrainFields::Sample(const Eigen::Vector3d& p, FieldSample* sample) const {
+void TerrainFields::Sample(const Eigen::Vector3d& p, FieldSample* sample, FieldBlock* block) const {
   const GridGeometry& g = parts_.geometry;
   const Corners c = Locate(parts_, p);
   const double inv_r = 1.0 / g.resolution_m;
@@ -170,6 +185,22 @@ void TerrainFields::Sample(const Eigen::Vector3d& p, FieldSample* sample) const 
       c, [this](std::int64_t i) { return DistanceValue(i); }, inv_r, &sample->distance_gradient);
   sample->safety = Interpolate(
       c, [this](std::int64_t i) { return SafetyValue(i); }, inv_r, &sample->safety_gradient);
+  if (block == nullptr) return;
+  block->key = BlockKey(p);
+  block->max_safety = SafetyValue(c.index[0]);
+  block->min_distance = DistanceValue(c.index[0]);
+  for (int k = 1; k < 8; ++k) {
+    block->max_safety = std::max(block->max_safety, SafetyValue(c.index[k]));
+    block->min_distance = std::min(block->min_distance, DistanceValue(c.index[k]));
+  }
+}
+
+std::int64_t TerrainFields::BlockKey(const Eigen::Vector3d& p) const {
+  const GridGeometry& g = parts_.geometry;
+  const double inv_r = 1.0 / g.resolution_m;
+  std::int64_t key = 0;
+  for (int a = 2; a >= 0; --a) key = key * g.size[a] + LocateOnAxis(g, inv_r, p, a).i;
+  return key;
 }
 
 std::optional<double> TerrainFields::DistanceAt(const Eigen::Vector3i& cell) const {

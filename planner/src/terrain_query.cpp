@@ -136,7 +136,8 @@ bool SampleGround(const TerrainModel& model, const Eigen::Vector3d& p, double re
 }
 
 double SampleEdgeDistance(const SurfaceGraph& graph, const Eigen::Vector3d& p, double reach_m,
-                          Eigen::Vector2d* gradient) {
+                          Eigen::Vector2d* gradient, DeepInside* deep) {
+  if (deep != nullptr) *deep = DeepInside{};
   const GridGeometry& g = graph.grid();
   const double r = g.resolution_m;
   const double z_ground = p.z() - graph.params().reference_height_m;
@@ -156,8 +157,11 @@ double SampleEdgeDistance(const SurfaceGraph& graph, const Eigen::Vector3d& p, d
   // distances, within 8.3% above Euclidean, from the node's centre, at most r/√2 from p.
   bool inside = false;  // traversable(ci, cj), from the node the fast path looks up anyway.
   if (ci >= 0 && cj >= 0 && ci < g.size.x() && cj < g.size.y()) {
-    const int own = graph.NodeNear(ci, cj, z_ground);
+    double low = 0, high = 0;
+    const int own = deep != nullptr ? graph.NodeNear(ci, cj, z_ground, &low, &high)
+                                    : graph.NodeNear(ci, cj, z_ground);
     if (own >= 0 && graph.edge_distance(own) / 1.083 - 0.5 * r >= (window + 1) * r) {
+      if (deep != nullptr) *deep = DeepInside{ci, cj, low, high};
       gradient->setZero();
       return window * r;
     }
@@ -184,6 +188,17 @@ double SampleEdgeDistance(const SurfaceGraph& graph, const Eigen::Vector3d& p, d
   const double sign = inside ? 1.0 : -1.0;
   *gradient = nearest < window ? Eigen::Vector2d(sign * away) : Eigen::Vector2d::Zero();
   return sign * nearest * r;
+}
+
+bool IsDeepInside(const SurfaceGraph& graph, const Eigen::Vector3d& p, const DeepInside& deep) {
+  const GridGeometry& g = graph.grid();
+  const double z_ground = p.z() - graph.params().reference_height_m;
+  if (!(z_ground > deep.ground_low && z_ground < deep.ground_high)) return false;
+  // SampleEdgeDistance's column, from the same expression; within the grid a truncation is
+  // its floor, and cheaper.
+  const Eigen::Vector2d q = (p.head<2>() - g.origin_m.head<2>()) / g.resolution_m;
+  return q.x() >= 0 && q.y() >= 0 && q.x() < g.size.x() && q.y() < g.size.y() &&
+         static_cast<int>(q.x()) == deep.ix && static_cast<int>(q.y()) == deep.iy;
 }
 
 }  // namespace strata

@@ -26,6 +26,10 @@ constexpr double kTurnSpeedFloorMps = 0.1;
 // J_ω's |ω| is smoothed to sqrt(ω² + ε²) − ε with this ε [rad/s].
 constexpr double kTurnRateSmoothing = 0.05;
 
+// How far inside its threshold a field block's corners must be for TerrainMemo to call its
+// terms zero: far above the rounding of a trilinear interpolation of values of order 1–100.
+constexpr double kInterpolationRounding = 1e-9;
+
 // The smoothstep 3u² − 2u³ of u clamped to [0, 1], and its derivative (C¹: 0 at both ends).
 Cubic Smoothstep(double u) {
   if (u <= 0) return {};
@@ -146,7 +150,8 @@ double TrajectoryCost::ClearanceCap() const {
 double TrajectoryCost::PointPenalty(const StateVector& pos, const StateVector& vel,
                                     const StateVector& acc, StateVector* grad_pos,
                                     StateVector* grad_vel, StateVector* grad_acc,
-                                    CostBreakdown* breakdown, const TrajectoryEnds* ends) const {
+                                    CostBreakdown* breakdown, const TrajectoryEnds* ends,
+                                    TerrainMemo::Point* memo) const {
   const CostWeights& w = weights_;
   const CostConfig& c = params_.config;
   const RobotProfile& robot = params_.profile;
@@ -159,9 +164,12 @@ double TrajectoryCost::PointPenalty(const StateVector& pos, const StateVector& v
   const Eigen::Vector3d p = pos.head<3>();
   CostBreakdown terms;
 
-  if (w.safety > 0) {
+  const bool quiet_fields = memo != nullptr && memo->quiet_field_block >= 0 &&
+                            model_->fields().BlockKey(p) == memo->quiet_field_block;
+  if (w.safety > 0 && !quiet_fields) {
     FieldSample fields;  // S' and d from one lookup of the eight corners they share.
-    model_->SampleFields(p, &fields);
+    FieldBlock block;
+    model_->SampleFields(p, &fields, memo != nullptr ? &block : nullptr);
     const Cubic unsafe = CubicPenalty(fields.safety - c.safety_threshold);
     if (unsafe.value > 0) {  // Most samples: S' under the threshold, nothing to fade.
       const SafetyFade fade =
@@ -174,14 +182,26 @@ double TrajectoryCost::PointPenalty(const StateVector& pos, const StateVector& v
     const Cubic close = CubicPenalty(c.distance_threshold_m - fields.distance_m);
     terms.safety += stiff * close.value;
     grad_pos->head<3>() -= stiff * close.slope * fields.distance_gradient;
+    if (memo != nullptr) {
+      // Both fields are convex combinations of the block's corners anywhere in it; the margin
+      // covers the rounding of the interpolation.
+      const bool quiet = block.max_safety < c.safety_threshold - kInterpolationRounding &&
+                         block.min_distance > c.distance_threshold_m + kInterpolationRounding;
+      memo->quiet_field_block = quiet ? block.key : -1;
+    }
   }
 
-  if (w.edge > 0) {
+  const bool deep_inside =
+      memo != nullptr && memo->deep_inside.ix >= 0 && IsDeepInside(*graph_, p, memo->deep_inside);
+  if (w.edge > 0 && !deep_inside) {
     Eigen::Vector2d gradient;
+    DeepInside deep;
     const Cubic outside =
-        CubicPenalty(c.edge_margin_m - SampleEdgeDistance(*graph_, p, c.edge_margin_m, &gradient));
+        CubicPenalty(c.edge_margin_m - SampleEdgeDistance(*graph_, p, c.edge_margin_m, &gradient,
+                                                          memo != nullptr ? &deep : nullptr));
     terms.edge += w.edge * outside.value;
     grad_pos->head<2>() -= w.edge * outside.slope * gradient;
+    if (memo != nullptr) memo->deep_inside = outside.value == 0 ? deep : DeepInside{};
   }
 
   if (w.keep_out > 0 && !keep_out_.empty()) {
@@ -302,10 +322,14 @@ double TrajectoryCost::PointPenalty(const StateVector& pos, const StateVector& v
 }
 
 double TrajectoryCost::Evaluate(const Minco3& minco, Eigen::MatrixXd* grad_c,
-                                Eigen::VectorXd* grad_T, CostBreakdown* breakdown) const {
+                                Eigen::VectorXd* grad_T, CostBreakdown* breakdown,
+                                TerrainMemo* memo) const {
   const int pieces = minco.piece_count();
   const int dim = minco.dim();
   const int kappa = params_.config.samples_per_piece;
+  if (memo != nullptr && memo->points.size() != std::size_t(pieces) * (kappa + 1)) {
+    memo->points.assign(std::size_t(pieces) * (kappa + 1), TerrainMemo::Point{});
+  }
   grad_c->setZero(Minco3::kPieceCoefficients * pieces, dim);
   grad_T->setZero(pieces);
   CostBreakdown terms;
@@ -354,7 +378,10 @@ double TrajectoryCost::Evaluate(const Minco3& minco, Eigen::MatrixXd* grad_c,
         penalty = junction_penalty;
         point_terms = junction_terms;
       } else {
-        penalty = PointPenalty(pos, vel, acc, &g_pos, &g_vel, &g_acc, &point_terms, &ends);
+        TerrainMemo::Point* point_memo =
+            memo != nullptr ? &memo->points[std::size_t(i) * (kappa + 1) + j] : nullptr;
+        penalty =
+            PointPenalty(pos, vel, acc, &g_pos, &g_vel, &g_acc, &point_terms, &ends, point_memo);
         if (j == kappa) {
           junction_penalty = penalty;
           junction_terms = point_terms;

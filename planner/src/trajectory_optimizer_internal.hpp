@@ -43,7 +43,7 @@ class OptimizerObjective {
     const int pieces = minco_->piece_count();
     const int waypoint_values = static_cast<int>(waypoints_.size());
     Apply(x);
-    const double value = cost_.Evaluate(*minco_, &grad_c_, &grad_T_);
+    const double value = cost_.Evaluate(*minco_, &grad_c_, &grad_T_, nullptr, &terrain_memo_);
     minco_->PropagateGradient(grad_c_, grad_T_, &grad_waypoints_, &grad_durations_);
     grad.resize(x.size());
     grad.head(waypoint_values) =
@@ -82,6 +82,7 @@ class OptimizerObjective {
   Eigen::MatrixXd waypoints_, grad_c_, grad_waypoints_;
   Eigen::VectorXd durations_, grad_T_, grad_durations_;
   Eigen::VectorXd best_x_;
+  TerrainMemo terrain_memo_;  // Carried from one evaluation to the next.
   double best_value_ = std::numeric_limits<double>::infinity();
   int evaluations_ = 0;
 };

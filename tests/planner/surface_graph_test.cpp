@@ -276,6 +276,49 @@ TEST(SurfaceGraph, NodeNearFindsTheLevelWithinHalfAMetre) {
   EXPECT_EQ(graph.NodeNear(-5, -5, 0), -1);
 }
 
+// The band NodeNear reports (what SampleEdgeDistance's DeepInside rests on): the same node at
+// every height inside it, and another answer a little beyond each end, in every column that
+// has a node. A robot low enough for the floor under the slab has two levels 0.45 m apart
+// there, nearer than twice kLevelGapM: their bands meet halfway.
+TEST(SurfaceGraph, NodeNearGivesItsNodeAcrossItsBandAndNoFarther) {
+  TraversabilityParams low_robot = Params();
+  low_robot.reference_height_m = 0.1;
+  low_robot.body_height_m = 0.3;
+  const SurfaceGraph graph = SurfaceGraph::Build(Model(), low_robot).value();
+  const GridGeometry& g = graph.grid();
+  int bands = 0, near_levels = 0;
+  for (int iy = 0; iy < g.size.y(); ++iy) {
+    for (int ix = 0; ix < g.size.x(); ++ix) {
+      const auto nodes = graph.ColumnNodes(ix, iy);
+      if (nodes.empty()) continue;
+      near_levels +=
+          nodes.size() == 2 && std::abs(graph.ground_z(nodes[1]) - graph.ground_z(nodes[0])) <
+                                   2 * SurfaceGraph::kLevelGapM;
+      for (const std::int32_t m : nodes) {
+        double low = 0, high = 0;
+        const double ground = graph.ground_z(m) + 0.1;
+        const int node = graph.NodeNear(ix, iy, ground, &low, &high);
+        ASSERT_EQ(node, graph.NodeNear(ix, iy, ground));
+        ASSERT_GE(node, 0);
+        ASSERT_LT(low, ground);
+        ASSERT_GT(high, ground);
+        for (double z = low; z < high; z += 0.01) {
+          EXPECT_EQ(graph.NodeNear(ix, iy, z), node) << ix << " " << iy << " " << z;
+        }
+        EXPECT_EQ(graph.NodeNear(ix, iy, std::nextafter(high, 1e9)), node);
+        EXPECT_NE(graph.NodeNear(ix, iy, high + 1e-4), node) << ix << " " << iy;
+        EXPECT_NE(graph.NodeNear(ix, iy, low - 1e-4), node) << ix << " " << iy;
+        ++bands;
+      }
+    }
+  }
+  double low = 1, high = 1;
+  EXPECT_EQ(graph.NodeNear(0, 0, -100, &low, &high), -1);
+  EXPECT_GE(low, high) << "no node, an empty band";
+  EXPECT_GT(bands, 100);
+  EXPECT_GT(near_levels, 50);
+}
+
 TEST(SnapToSurface, PicksTheLevelTheHeightPointsAtAndNamesTheNearestWhenNoneIsNear) {
   const SurfaceGraph& graph = Graph();
   const double ref = Params().reference_height_m;

@@ -220,6 +220,48 @@ TEST(TerrainFields, SampleMatchesTheSingleFieldQueriesAndFiniteDifferences) {
   EXPECT_GT(varied, 50);
 }
 
+// A block's key and bounds (what the optimiser's TerrainMemo relies on): every point of a
+// block shares its key and lies within its corners' bounds, and a point a cell over has
+// another key.
+TEST(TerrainFields, ABlocksPointsShareItsKeyAndStayWithinItsBounds) {
+  const std::shared_ptr<const TerrainModel> model = TwoLevelRamp();
+  ASSERT_TRUE(model);
+  const TerrainFields& fields = model->fields();
+  const GridGeometry& g = model->grid();
+  const double r = g.resolution_m;
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  int spread = 0;
+  for (int k = 0; k < 300; ++k) {
+    // A block spans the centres of cells i and i + 1 on each axis: from origin + (i + 0.5) r.
+    // Not the last block of an axis, which also takes the points clamped beyond it.
+    const Eigen::Vector3i cell(static_cast<int>(u(rng) * (g.size.x() - 2)),
+                               static_cast<int>(u(rng) * (g.size.y() - 2)),
+                               static_cast<int>(u(rng) * (g.size.z() - 2)));
+    const Eigen::Vector3d low = g.CellCenter(cell);
+    FieldSample first;
+    FieldBlock block;
+    fields.Sample(low + Eigen::Vector3d::Constant(0.5 * r), &first, &block);
+    for (int j = 0; j < 8; ++j) {
+      const Eigen::Vector3d p =
+          low +
+          r * Eigen::Vector3d(0.01 + 0.98 * u(rng), 0.01 + 0.98 * u(rng), 0.01 + 0.98 * u(rng));
+      EXPECT_EQ(fields.BlockKey(p), block.key) << p.transpose();
+      FieldSample sample;
+      fields.Sample(p, &sample);
+      EXPECT_LE(sample.safety, block.max_safety + 1e-12);
+      EXPECT_GE(sample.distance_m, block.min_distance - 1e-12);
+    }
+    for (int axis = 0; axis < 3; ++axis) {
+      EXPECT_NE(fields.BlockKey(low + Eigen::Vector3d::Constant(0.5 * r) +
+                                r * Eigen::Vector3d::Unit(axis)),
+                block.key);
+    }
+    spread += block.max_safety > block.min_distance;  // Not every block is one value.
+  }
+  EXPECT_GT(spread, 10);
+}
+
 TEST(TerrainFields, FromPartsRefusesInconsistentParts) {
   const auto model = TwoLevelRamp();
   ASSERT_TRUE(model);

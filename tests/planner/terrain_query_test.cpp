@@ -122,6 +122,40 @@ TEST(SampleEdgeDistance, GradientMatchesFiniteDifferences) {
   EXPECT_GT(moving, 100);  // Most points are within reach of the rim, not clamped.
 }
 
+// Where SampleEdgeDistance reports p deep inside, every point IsDeepInside accepts gets the
+// same distance and a zero gradient (what the optimiser's TerrainMemo skips), and points
+// beyond the column or the band are refused.
+TEST(SampleEdgeDistance, IsTheSameWhereverItsDeepInsideAnswerHolds) {
+  const SurfaceGraph& graph = Graph();
+  const double r = Scene().grid().resolution_m, reach = 0.1;
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<double> offset(-1.0, 1.0);
+  int deep_points = 0, accepted = 0, refused = 0;
+  for (const Eigen::Vector3d& p : PointsNearNodes(300, 8)) {
+    Eigen::Vector2d gradient;
+    DeepInside deep;
+    const double e = SampleEdgeDistance(graph, p, reach, &gradient, &deep);
+    if (deep.ix < 0) continue;
+    ++deep_points;
+    EXPECT_TRUE(IsDeepInside(graph, p, deep));
+    for (int k = 0; k < 20; ++k) {
+      const Eigen::Vector3d q = p + Eigen::Vector3d(offset(rng) * r, offset(rng) * r,
+                                                    offset(rng) * 3 * SurfaceGraph::kLevelGapM);
+      if (!IsDeepInside(graph, q, deep)) {
+        ++refused;
+        continue;
+      }
+      ++accepted;
+      Eigen::Vector2d q_gradient;
+      EXPECT_EQ(SampleEdgeDistance(graph, q, reach, &q_gradient), e) << q.transpose();
+      EXPECT_EQ(q_gradient, Eigen::Vector2d::Zero());
+    }
+  }
+  EXPECT_GT(deep_points, 50);
+  EXPECT_GT(accepted, 200);
+  EXPECT_GT(refused, 500);
+}
+
 TEST(SampleGround, IsTheColumnsPlaneAtItsCentreAndSmoothAround) {
   const SurfaceGraph& graph = Graph();
   const double h_ref = graph.params().reference_height_m;

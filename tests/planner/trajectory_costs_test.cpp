@@ -450,6 +450,50 @@ TEST(TurningCost, IsTheHeadingsTravelEitherWay) {
             0.0);
 }
 
+// TerrainMemo skips the S', d and rim lookups where it knows them to be zero. Along a walk of
+// small steps, as L-BFGS takes them, the cost and gradient with it must equal a fresh
+// evaluation's to the bit, and the walk must meet points it skips and points it cannot.
+TEST(TerrainMemo, LeavesCostAndGradientUnchangedToTheBit) {
+  for (const int dim : {3, 4}) {
+    CostParams params = Params(dim == 4);
+    params.config.safety_threshold = CostConfig{}.safety_threshold;
+    params.config.distance_threshold_m = CostConfig{}.distance_threshold_m;
+    params.config.edge_margin_m = CostConfig{}.edge_margin_m;
+    const TrajectoryCost cost(Graph(), CostWeights{}, params);
+    std::mt19937 rng(7 + dim);
+    std::normal_distribution<double> step(0.0, 0.02);
+    Trajectory5 t = RandomTrajectory(rng, dim, 6);
+    TerrainMemo memo;
+    int quiet_fields = 0, deep_inside = 0, neither = 0;
+    for (int k = 0; k < 30; ++k) {
+      Minco3 minco;
+      minco.SetConditions(t.head, t.tail, 6);
+      minco.SetParameters(t.waypoints, t.durations);
+      Eigen::MatrixXd grad_c_memo, grad_c;
+      Eigen::VectorXd grad_T_memo, grad_T;
+      CostBreakdown terms_memo, terms;
+      const double with_memo = cost.Evaluate(minco, &grad_c_memo, &grad_T_memo, &terms_memo, &memo);
+      const double fresh = cost.Evaluate(minco, &grad_c, &grad_T, &terms);
+      ASSERT_EQ(with_memo, fresh) << "step " << k;
+      ASSERT_EQ(terms_memo.safety, terms.safety);
+      ASSERT_EQ(terms_memo.edge, terms.edge);
+      ASSERT_TRUE((grad_c_memo.array() == grad_c.array()).all()) << "step " << k;
+      ASSERT_TRUE((grad_T_memo.array() == grad_T.array()).all()) << "step " << k;
+      for (const TerrainMemo::Point& point : memo.points) {
+        quiet_fields += point.quiet_field_block >= 0;
+        deep_inside += point.deep_inside.ix >= 0;
+        neither += point.quiet_field_block < 0 && point.deep_inside.ix < 0;
+      }
+      for (int i = 0; i < t.waypoints.cols(); ++i) {
+        t.waypoints.col(i).head<2>() += Eigen::Vector2d(step(rng), step(rng));
+      }
+    }
+    EXPECT_GT(quiet_fields, 100) << dim;
+    EXPECT_GT(deep_inside, 100) << dim;
+    EXPECT_GT(neither, 100) << dim;
+  }
+}
+
 TEST(SampleGround, FollowsTheRampAndFindsTheDeckAsCeiling) {
   const TwoLevelRampLayout l = GetTwoLevelRampLayout();
   GroundSample s;

@@ -34,6 +34,15 @@
 
 namespace strata {
 
+/// The trilinear block a sample reads (the cell of centres around it) and the extremes of its
+/// eight corner values: both fields are convex combinations of those corners anywhere in the
+/// block, so they stay within these bounds there.
+struct FieldBlock {
+  std::int64_t key = -1;    ///< TerrainFields::BlockKey of the block.
+  double max_safety = 0;    ///< The largest S' of its corners [-].
+  double min_distance = 0;  ///< The least d of its corners [m].
+};
+
 /// Both fields at one point, with their gradients.
 struct FieldSample {
   double distance_m = 0;                                        ///< d [m].
@@ -84,8 +93,12 @@ class TerrainFields {
   double Distance(const Eigen::Vector3d& p, Eigen::Vector3d* gradient = nullptr) const;
   /// S'(p) [-], likewise; gradient optional [1/m].
   double SafetyPenalty(const Eigen::Vector3d& p, Eigen::Vector3d* gradient = nullptr) const;
-  /// Both, sharing one lookup of the eight corners (what the optimiser's cost reads).
-  void Sample(const Eigen::Vector3d& p, FieldSample* sample) const;
+  /// Both, sharing one lookup of the eight corners (what the optimiser's cost reads); with
+  /// `block`, also the block they came from and its bounds.
+  void Sample(const Eigen::Vector3d& p, FieldSample* sample, FieldBlock* block = nullptr) const;
+  /// The block a sample at p reads, as one number: equal for two points exactly when their
+  /// samples interpolate between the same eight corners. Cheaper than a sample: no lookup.
+  std::int64_t BlockKey(const Eigen::Vector3d& p) const;
 
   /// The stored values at a cell, or nothing outside the band. For tests and tools.
   std::optional<double> DistanceAt(const Eigen::Vector3i& cell) const;

@@ -37,6 +37,17 @@ struct GroundSample {
 bool SampleGround(const TerrainModel& model, const Eigen::Vector3d& p, double reference_height_m,
                   double clearance_cap_m, GroundSample* sample);
 
+/// Where SampleEdgeDistance found p's column so far inside the region that the rim is beyond
+/// reach_m whatever p's place in it: the column and the open band of ground heights,
+/// p.z − reference_height_m, over which its level is the same node. For every point in both
+/// it returns the same value and a zero gradient. Empty (ix = -1) where p was not that deep.
+struct DeepInside {
+  int ix = -1;
+  int iy = -1;
+  double ground_low = 0;
+  double ground_high = 0;
+};
+
 /// Signed distance from p to the rim of the traversable region at p's level [m], measured in
 /// x, y: the region is the union of the grid columns that hold a SurfaceGraph node whose
 /// ground lies within SurfaceGraph::kLevelGapM of p.z − reference_height_m, positive inside
@@ -44,8 +55,13 @@ bool SampleGround(const TerrainModel& model, const Eigen::Vector3d& p, double re
 /// other kind) wherever it is within `reach_m` (at least a cell) of the rim, and clamped to
 /// ± the exact range beyond, so that a penalty on e < reach_m sees the verifier's
 /// column-by-column test exactly: a point cutting a corner of a missing column is outside.
-/// Continuous in p; writes the gradient wrt (x, y) (0 where clamped).
+/// Continuous in p; writes the gradient wrt (x, y) (0 where clamped), and with `deep` where p
+/// was deep inside.
 double SampleEdgeDistance(const SurfaceGraph& graph, const Eigen::Vector3d& p, double reach_m,
-                          Eigen::Vector2d* gradient);
+                          Eigen::Vector2d* gradient, DeepInside* deep = nullptr);
+
+/// Whether p lies in `deep`'s column and band, computed as SampleEdgeDistance locates p: true
+/// only where SampleEdgeDistance(p) with the same reach_m returns what it did for `deep`.
+bool IsDeepInside(const SurfaceGraph& graph, const Eigen::Vector3d& p, const DeepInside& deep);
 
 }  // namespace strata

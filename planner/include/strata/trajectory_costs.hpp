@@ -167,6 +167,21 @@ struct TrajectoryEnds {
   Eigen::Vector2d goal_xy;
 };
 
+/// What each constraint point of one optimisation learnt of the terrain where it was last
+/// evaluated: the block of the fields where the S' and d terms are zero at every point, and
+/// the column where the rim term is. Nearly every point of a plan is far from walls and rims,
+/// and between two L-BFGS evaluations most stay in their block and column: those skip the
+/// lookups and get the same cost and gradient to the bit. Points are numbered by piece and
+/// sample, so a memo serves one piece count and samples_per_piece (Evaluate resets it on a
+/// change); OptimizerObjective keeps one per optimisation.
+struct TerrainMemo {
+  struct Point {
+    std::int64_t quiet_field_block = -1;  ///< TerrainFields::BlockKey, or -1.
+    DeepInside deep_inside;               ///< Where the rim term is zero; empty if unknown.
+  };
+  std::vector<Point> points;
+};
+
 /// J and its gradient for one planning problem. Immutable; cheap to construct.
 class TrajectoryCost {
  public:
@@ -189,16 +204,18 @@ class TrajectoryCost {
   /// J of the trajectory held by `minco` (dimension params.dim()). Writes ∂J/∂c (6M×dim) and
   /// the explicit ∂J/∂T (M), overwriting both; `breakdown` (may be null) gets the terms.
   double Evaluate(const Minco3& minco, Eigen::MatrixXd* grad_c, Eigen::VectorXd* grad_T,
-                  CostBreakdown* breakdown = nullptr) const;
+                  CostBreakdown* breakdown = nullptr, TerrainMemo* memo = nullptr) const;
 
   /// The integrand of the constraint-point terms (λ_s, λ_e, λ_g, λ_d, λ_k, λ_h parts) at one state:
   /// position (dim: x, y, z[, h]), velocity, acceleration. Writes ∂P/∂pos, ∂P/∂vel, ∂P/∂acc
   /// (each dim entries, overwritten) and adds the weighted terms into *breakdown (may be
   /// null). With `ends` (Evaluate passes the trajectory's), the S' part fades in from them
-  /// over CostConfig::safety_fade_m; without, it applies in full. Exposed for tests.
+  /// over CostConfig::safety_fade_m; without, it applies in full. With `memo`, skips what it
+  /// knows to be zero there and updates it. Exposed for tests.
   double PointPenalty(const StateVector& pos, const StateVector& vel, const StateVector& acc,
                       StateVector* grad_pos, StateVector* grad_vel, StateVector* grad_acc,
-                      CostBreakdown* breakdown, const TrajectoryEnds* ends = nullptr) const;
+                      CostBreakdown* breakdown, const TrajectoryEnds* ends = nullptr,
+                      TerrainMemo::Point* memo = nullptr) const;
 
   /// The most suitable body height h_S at a ceiling clearance [m] (active-height robots), and
   /// its derivative wrt the clearance.
