@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cassert>
 #include <cmath>
+#include <limits>
+#include <span>
 
 namespace strata {
 namespace {
@@ -23,10 +25,30 @@ const ColumnSurface* NearestSurface(const SurfaceMap& surfaces, int ix, int iy, 
   return nearest;
 }
 
+// How far inside the range where a column's nearest surface stands a ground height must lie
+// for GroundChoice to reuse the choice [m]: far above the rounding of |ground − z|.
+constexpr double kChoiceMarginM = 1e-6;
+
+// NearestSurface, narrowing the open range (*low, *high) of heights z to those for which it
+// stays the choice: halfway to the grounds below and above it (a column's grounds ascend).
+const ColumnSurface* NearestSurfaceInRange(const SurfaceMap& surfaces, int ix, int iy, double z,
+                                           double* low, double* high) {
+  const ColumnSurface* nearest = NearestSurface(surfaces, ix, iy, z);
+  if (nearest == nullptr) return nullptr;  // No surface at any height.
+  const std::span<const ColumnSurface> column = surfaces.Column(ix, iy);
+  const std::size_t k = static_cast<std::size_t>(nearest - column.data());
+  const double ground = nearest->ground_z_m;
+  if (k > 0) *low = std::max(*low, 0.5 * (column[k - 1].ground_z_m + ground) + kChoiceMarginM);
+  if (k + 1 < column.size()) {
+    *high = std::min(*high, 0.5 * (ground + column[k + 1].ground_z_m) - kChoiceMarginM);
+  }
+  return nearest;
+}
+
 }  // namespace
 
 bool SampleGround(const TerrainModel& model, const Eigen::Vector3d& p, double reference_height_m,
-                  double clearance_cap_m, GroundSample* sample) {
+                  double clearance_cap_m, GroundSample* sample, GroundChoice* choice) {
   const GridGeometry& g = model.grid();
   const SurfaceMap& surfaces = model.surfaces();
   const double r = g.resolution_m;
@@ -43,12 +65,34 @@ bool SampleGround(const TerrainModel& model, const Eigen::Vector3d& p, double re
   const int j0 = static_cast<int>(std::floor(v));
   const double fu = u - i0, fv = v - j0;
   const ColumnSurface* corner[2][2];
+  const Eigen::Vector2i cell(i0, j0);
+  const bool chosen = choice != nullptr && choice->cell == cell && z_ground > choice->low_m &&
+                      z_ground < choice->high_m;
+  if (chosen) {
+    std::copy(&choice->corner[0][0], &choice->corner[0][0] + 4, &corner[0][0]);
+  } else {
+    double low = -std::numeric_limits<double>::infinity();
+    double high = std::numeric_limits<double>::infinity();
+    for (int dj = 0; dj < 2; ++dj) {
+      for (int di = 0; di < 2; ++di) {
+        const int ix = std::clamp(i0 + di, 0, g.size.x() - 1);
+        const int iy = std::clamp(j0 + dj, 0, g.size.y() - 1);
+        corner[dj][di] = choice != nullptr
+                             ? NearestSurfaceInRange(surfaces, ix, iy, z_ground, &low, &high)
+                             : NearestSurface(surfaces, ix, iy, z_ground);
+      }
+    }
+    if (choice != nullptr) {
+      choice->cell = cell;
+      choice->low_m = low;
+      choice->high_m = high;
+      std::copy(&corner[0][0], &corner[0][0] + 4, &choice->corner[0][0]);
+      choice->clearance_cap_m = -1;
+    }
+  }
   bool any_near = false;
   for (int dj = 0; dj < 2; ++dj) {
     for (int di = 0; di < 2; ++di) {
-      const int ix = std::clamp(i0 + di, 0, g.size.x() - 1);
-      const int iy = std::clamp(j0 + dj, 0, g.size.y() - 1);
-      corner[dj][di] = NearestSurface(surfaces, ix, iy, z_ground);
       any_near = any_near || (corner[dj][di] != nullptr &&
                               std::abs(corner[dj][di]->ground_z_m - z_ground) <= kLevelGapM);
     }
@@ -123,10 +167,22 @@ bool SampleGround(const TerrainModel& model, const Eigen::Vector3d& p, double re
       }
       return lowest;
     };
-    double lowest[2][2];
-    for (int dj = 0; dj < 2; ++dj) {
-      for (int di = 0; di < 2; ++di) {
-        if (used[dj][di]) lowest[dj][di] = lowest_around(i0 + di, j0 + dj, *corner[dj][di]);
+    double lowest[2][2] = {};
+    if (choice != nullptr && choice->clearance_cap_m == clearance_cap_m) {
+      std::copy(&choice->lowest_clearance_m[0][0], &choice->lowest_clearance_m[0][0] + 4,
+                &lowest[0][0]);
+    } else {
+      // With a choice, every corner's: which are used depends on the height, the choice not.
+      for (int dj = 0; dj < 2; ++dj) {
+        for (int di = 0; di < 2; ++di) {
+          if (used[dj][di] || (choice != nullptr && corner[dj][di] != nullptr)) {
+            lowest[dj][di] = lowest_around(i0 + di, j0 + dj, *corner[dj][di]);
+          }
+        }
+      }
+      if (choice != nullptr) {
+        std::copy(&lowest[0][0], &lowest[0][0] + 4, &choice->lowest_clearance_m[0][0]);
+        choice->clearance_cap_m = clearance_cap_m;
       }
     }
     interpolate([&](int dj, int di) { return lowest[dj][di]; }, &sample->clearance_m,

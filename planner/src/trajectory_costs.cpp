@@ -235,7 +235,7 @@ double TrajectoryCost::PointPenalty(const StateVector& pos, const StateVector& v
   const bool has_ground =
       (w.ground > 0 || (active_height && (w.height > 0 || w.feasibility > 0))) &&
       SampleGround(*model_, p, robot.reference_height_m, active_height ? ClearanceCap() : 0,
-                   &ground);
+                   &ground, memo != nullptr ? &memo->ground : nullptr);
   if (has_ground && w.ground > 0) {
     // Quadratic beyond the band, zero within: C¹ at its edges.
     const double raw = p.z() - ground.height_m - robot.reference_height_m;

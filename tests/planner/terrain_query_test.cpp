@@ -156,6 +156,68 @@ TEST(SampleEdgeDistance, IsTheSameWhereverItsDeepInsideAnswerHolds) {
   EXPECT_GT(refused, 500);
 }
 
+// A seeded walk as an optimiser's constraint points move: small steps, mostly within a cell,
+// now and then onto another level of the same column (the two-level scene's deck and the
+// ground under it), well off the ground, or somewhere else.
+std::vector<Eigen::Vector3d> WalkAcrossLevels(int count, std::uint32_t seed) {
+  const SurfaceGraph& graph = Graph();
+  const double r = Scene().grid().resolution_m;
+  std::mt19937 rng(seed);
+  std::uniform_int_distribution<int> node(0, graph.node_count() - 1);
+  std::uniform_real_distribution<double> step(-0.15 * r, 0.15 * r);
+  std::uniform_real_distribution<double> rise(-0.4, 0.4);
+  std::uniform_real_distribution<double> event(0.0, 1.0);
+  Eigen::Vector3d p = graph.position(node(rng));
+  std::vector<Eigen::Vector3d> points;
+  for (int i = 0; i < count; ++i) {
+    const double e = event(rng);
+    if (e < 0.02) {
+      p = graph.position(node(rng));
+    } else if (e < 0.12) {
+      const Eigen::Vector3i cell = Scene().grid().CellOf(p);
+      const auto nodes = graph.ColumnNodes(cell.x(), cell.y());
+      if (!nodes.empty()) p.z() = graph.position(nodes[i % nodes.size()]).z();
+    } else if (e < 0.2) {
+      p.z() += rise(rng);
+    } else {
+      p.x() += step(rng);
+      p.y() += step(rng);
+    }
+    points.push_back(p);
+  }
+  return points;
+}
+
+// The optimiser keeps each constraint point's GroundChoice from one evaluation to the next: it
+// must never change an answer, only skip the column scans.
+TEST(SampleGround, AKeptChoiceGivesTheSameAnswersAsAFreshOne) {
+  const double h_ref = Graph().params().reference_height_m;
+  GroundChoice choice;
+  int kept = 0, level_changed = 0;
+  const std::vector<Eigen::Vector3d> walk = WalkAcrossLevels(6000, 11);
+  for (std::size_t i = 0; i < walk.size(); ++i) {
+    const Eigen::Vector3d& p = walk[i];
+    // Two caps in turn: a choice's clearances hold for the cap they were found with.
+    const double cap = (i / 500) % 2 == 0 ? 3.0 : 2.0;
+    const Eigen::Vector2i previous_cell = choice.cell;
+    const ColumnSurface* previous_corner = choice.corner[0][0];
+    GroundSample fresh, with_choice;
+    const bool fresh_ok = SampleGround(Scene(), p, h_ref, cap, &fresh);
+    ASSERT_EQ(SampleGround(Scene(), p, h_ref, cap, &with_choice, &choice), fresh_ok) << i;
+    kept += choice.cell == previous_cell;
+    level_changed += choice.cell == previous_cell && choice.corner[0][0] != previous_corner;
+    if (!fresh_ok) continue;
+    EXPECT_EQ(fresh.height_m, with_choice.height_m) << i;
+    EXPECT_EQ(fresh.height_gradient, with_choice.height_gradient) << i;
+    EXPECT_EQ(fresh.clearance_m, with_choice.clearance_m) << i;
+    EXPECT_EQ(fresh.clearance_gradient, with_choice.clearance_gradient) << i;
+    EXPECT_EQ(fresh.surface, with_choice.surface) << i;
+  }
+  // The walk stays in its cells often enough to use the choice, and changes level within one.
+  EXPECT_GT(kept, 2000);
+  EXPECT_GT(level_changed, 20);
+}
+
 TEST(SampleGround, IsTheColumnsPlaneAtItsCentreAndSmoothAround) {
   const SurfaceGraph& graph = Graph();
   const double h_ref = graph.params().reference_height_m;

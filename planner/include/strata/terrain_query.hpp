@@ -24,6 +24,19 @@ struct GroundSample {
   const ColumnSurface* surface = nullptr;
 };
 
+/// The corner surfaces a ground sample last chose, for the next sample at about the same point
+/// (the same constraint point in the optimiser's next evaluation): while the point stays
+/// between the same four column centres and its ground height in the range where each
+/// corner's choice stands, SampleGround reuses them instead of scanning the columns again.
+struct GroundChoice {
+  Eigen::Vector2i cell = Eigen::Vector2i::Constant(-2);  ///< Lower-left corner column; none yet.
+  double low_m = 0, high_m = -1;  ///< The choices stand for ground heights strictly between.
+  const ColumnSurface* corner[2][2] = {};  ///< [dy][dx], null where a column has no surface.
+  /// The lowest clearance around each corner, computed with `clearance_cap_m` (< 0: not yet).
+  double lowest_clearance_m[2][2] = {};
+  double clearance_cap_m = -1;
+};
+
 /// The ground a reference point p stands on, as a continuous function of p: bilinear
 /// interpolation between the four nearest column centres of each column's plane-fit centre
 /// height (and, when clearance_cap_m > 0, of the lowest ceiling clearance of the column and
@@ -33,9 +46,11 @@ struct GroundSample {
 /// than 0.5 m from that height (another level: a ledge, a drop) or that have no surface get no
 /// weight and the rest are renormalised, so the ground does not slope into a drop; if every
 /// corner is that far, all are used. Returns false when none of the four columns has a surface
-/// or p lies outside the grid.
+/// or p lies outside the grid. With `choice` (may be null; from the same model), the same
+/// result from fewer lookups while the point stays where the choice stands, and the choice
+/// made here when it does not.
 bool SampleGround(const TerrainModel& model, const Eigen::Vector3d& p, double reference_height_m,
-                  double clearance_cap_m, GroundSample* sample);
+                  double clearance_cap_m, GroundSample* sample, GroundChoice* choice = nullptr);
 
 /// Where SampleEdgeDistance found p's column so far inside the region that the rim is beyond
 /// reach_m whatever p's place in it: the column and the open band of ground heights,

@@ -168,16 +168,18 @@ struct TrajectoryEnds {
 };
 
 /// What each constraint point of one optimisation learnt of the terrain where it was last
-/// evaluated: the block of the fields where the S' and d terms are zero at every point, and
-/// the column where the rim term is. Nearly every point of a plan is far from walls and rims,
-/// and between two L-BFGS evaluations most stay in their block and column: those skip the
-/// lookups and get the same cost and gradient to the bit. Points are numbered by piece and
+/// evaluated: the block of the fields where the S' and d terms are zero at every point, the
+/// column where the rim term is, and the corner surfaces its ground stands on. Nearly every
+/// point of a plan is far from walls and rims, and between two L-BFGS evaluations most stay
+/// in their block and column: those skip the lookups and get the same cost and gradient to
+/// the bit. Points are numbered by piece and
 /// sample, so a memo serves one piece count and samples_per_piece (Evaluate resets it on a
 /// change); OptimizerObjective keeps one per optimisation.
 struct TerrainMemo {
   struct Point {
     std::int64_t quiet_field_block = -1;  ///< TerrainFields::BlockKey, or -1.
     DeepInside deep_inside;               ///< Where the rim term is zero; empty if unknown.
+    GroundChoice ground;                  ///< SampleGround's corner surfaces.
   };
   std::vector<Point> points;
 };
