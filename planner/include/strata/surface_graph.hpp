@@ -172,9 +172,9 @@ class SurfaceGraph {
   /// The node of column (ix, iy) whose ground is nearest to ground_z and within 0.5 m of it
   /// (the same level), or -1.
   int NodeNear(int ix, int iy, double ground_z) const;
-  /// NodeNear, and an open band (*low, *high) of ground heights around ground_z over which it
-  /// gives the same node (empty, low >= high, where it gives -1).
-  int NodeNear(int ix, int iy, double ground_z, double* low, double* high) const;
+  /// NodeNear at ground height `height`, and an open band (*low, *high) of ground heights
+  /// around it over which NodeNear gives the same node (empty, low >= high, where it gives -1).
+  int NodeNear(int ix, int iy, double height, double* low, double* high) const;
   /// Heights further apart than this are different levels [m].
   static constexpr double kLevelGapM = 0.5;
 

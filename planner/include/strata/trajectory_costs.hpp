@@ -172,9 +172,9 @@ struct TrajectoryEnds {
 /// column where the rim term is, and the corner surfaces its ground stands on. Nearly every
 /// point of a plan is far from walls and rims, and between two L-BFGS evaluations most stay
 /// in their block and column: those skip the lookups and get the same cost and gradient to
-/// the bit. Points are numbered by piece and
-/// sample, so a memo serves one piece count and samples_per_piece (Evaluate resets it on a
-/// change); OptimizerObjective keeps one per optimisation.
+/// the bit. Every entry is checked against its point before use, so a stale one is never
+/// wrong, only useless. Points are numbered by piece and sample (Evaluate resizes the memo to
+/// the trajectory's); OptimizerObjective keeps one per optimisation.
 struct TerrainMemo {
   struct Point {
     std::int64_t quiet_field_block = -1;  ///< TerrainFields::BlockKey, or -1.
@@ -205,6 +205,7 @@ class TrajectoryCost {
 
   /// J of the trajectory held by `minco` (dimension params.dim()). Writes ∂J/∂c (6M×dim) and
   /// the explicit ∂J/∂T (M), overwriting both; `breakdown` (may be null) gets the terms.
+  /// `memo` (may be null) is read and updated; the result is the same with or without it.
   double Evaluate(const Minco3& minco, Eigen::MatrixXd* grad_c, Eigen::VectorXd* grad_T,
                   CostBreakdown* breakdown = nullptr, TerrainMemo* memo = nullptr) const;
 
