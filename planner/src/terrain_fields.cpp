@@ -16,6 +16,7 @@ struct Corners {
   std::int64_t index[8];  // (x, y, z) bits: corner k is at offset (k & 1, k >> 1 & 1, k >> 2).
   double t[3];
   bool clamped[3];
+  int cell[3];  // The block's lower cell centre (TerrainFields::BlockKey).
 };
 
 template <typename Decode>
@@ -111,6 +112,11 @@ struct AxisCell {
   double t;
   bool clamped;
 };
+// TerrainFields::BlockKey of the block whose lower cell centre is `cell`.
+std::int64_t BlockKeyOf(const GridGeometry& g, const int cell[3]) {
+  return cell[0] + std::int64_t{g.size.x()} * (cell[1] + std::int64_t{g.size.y()} * cell[2]);
+}
+
 AxisCell LocateOnAxis(const GridGeometry& g, double inv_r, const Eigen::Vector3d& p, int a) {
   // u is the position in "centre coordinates": cell centre i sits at u = i.
   double u = (p[a] - g.origin_m[a]) * inv_r - 0.5;
@@ -133,12 +139,12 @@ AxisCell LocateOnAxis(const GridGeometry& g, double inv_r, const Eigen::Vector3d
 Corners Locate(const TerrainFields::Parts& parts, const Eigen::Vector3d& p) {
   const GridGeometry& g = parts.geometry;
   Corners c;
-  int i[3];
+  const int* i = c.cell;
   int step[3];
   const double inv_r = 1.0 / g.resolution_m;
   for (int a = 0; a < 3; ++a) {
     const AxisCell cell = LocateOnAxis(g, inv_r, p, a);
-    i[a] = cell.i;
+    c.cell[a] = cell.i;
     c.t[a] = cell.t;
     c.clamped[a] = cell.clamped;
     step[a] = g.size[a] > 1 ? 1 : 0;
@@ -186,7 +192,7 @@ void TerrainFields::Sample(const Eigen::Vector3d& p, FieldSample* sample, FieldB
   sample->safety = Interpolate(
       c, [this](std::int64_t i) { return SafetyValue(i); }, inv_r, &sample->safety_gradient);
   if (block == nullptr) return;
-  block->key = BlockKey(p);
+  block->key = BlockKeyOf(g, c.cell);
   block->max_safety = SafetyValue(c.index[0]);
   block->min_distance = DistanceValue(c.index[0]);
   for (int k = 1; k < 8; ++k) {
@@ -198,9 +204,9 @@ void TerrainFields::Sample(const Eigen::Vector3d& p, FieldSample* sample, FieldB
 std::int64_t TerrainFields::BlockKey(const Eigen::Vector3d& p) const {
   const GridGeometry& g = parts_.geometry;
   const double inv_r = 1.0 / g.resolution_m;
-  std::int64_t key = 0;
-  for (int a = 2; a >= 0; --a) key = key * g.size[a] + LocateOnAxis(g, inv_r, p, a).i;
-  return key;
+  int cell[3];
+  for (int a = 0; a < 3; ++a) cell[a] = LocateOnAxis(g, inv_r, p, a).i;
+  return BlockKeyOf(g, cell);
 }
 
 std::optional<double> TerrainFields::DistanceAt(const Eigen::Vector3i& cell) const {

@@ -169,7 +169,7 @@ double TrajectoryCost::PointPenalty(const StateVector& pos, const StateVector& v
   if (w.safety > 0 && !quiet_fields) {
     FieldSample fields;  // S' and d from one lookup of the eight corners they share.
     FieldBlock block;
-    model_->SampleFields(p, &fields, memo != nullptr ? &block : nullptr);
+    model_->fields().Sample(p, &fields, memo != nullptr ? &block : nullptr);
     const Cubic unsafe = CubicPenalty(fields.safety - c.safety_threshold);
     if (unsafe.value > 0) {  // Most samples: S' under the threshold, nothing to fade.
       const SafetyFade fade =

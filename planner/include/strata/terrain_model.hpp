@@ -135,10 +135,9 @@ class TerrainModel {
   double SafetyPenalty(const Eigen::Vector3d& p, Eigen::Vector3d* gradient = nullptr) const {
     return fields_.SafetyPenalty(p, gradient);
   }
-  /// Both, with gradients, from one lookup; with `block`, also the block they came from.
-  void SampleFields(const Eigen::Vector3d& p, FieldSample* sample,
-                    FieldBlock* block = nullptr) const {
-    fields_.Sample(p, sample, block);
+  /// Both, with gradients, from one lookup.
+  void SampleFields(const Eigen::Vector3d& p, FieldSample* sample) const {
+    fields_.Sample(p, sample);
   }
 
   /// Bytes held by the model (surfaces and fields), not counting the object itself.
