@@ -39,18 +39,61 @@ void BandedSystem::Reset(int n, int lower, int upper) {
   lower_ = lower;
   upper_ = upper;
   data_.assign(static_cast<std::size_t>(n) * (lower + upper + 1), 0.0);
+  analyzed_ = false;
+}
+
+void BandedSystem::Clear() { std::fill(data_.begin(), data_.end(), 0.0); }
+
+void BandedSystem::Analyze() {
+  // Symbolic elimination: step k fills (i, j) wherever L(i, k) and U(k, j) are in the pattern.
+  // The band holds every fill-in, because nothing is pivoted.
+  std::vector<char> filled(data_.size());
+  for (std::size_t e = 0; e < data_.size(); ++e) filled[e] = data_[e] != 0.0;
+  const auto in = [&](int i, int j) { return filled[static_cast<std::size_t>(Index(i, j))] != 0; };
+  for (int k = 0; k < n_; ++k) {
+    for (int i = k + 1; i <= std::min(k + lower_, n_ - 1); ++i) {
+      if (!in(i, k)) continue;
+      for (int j = k + 1; j <= std::min(k + upper_, n_ - 1); ++j) {
+        if (in(k, j)) filled[static_cast<std::size_t>(Index(i, j))] = 1;
+      }
+    }
+  }
+  for (Lists* lists : {&below_, &right_, &above_, &left_}) {
+    lists->start.assign(1, 0);
+    lists->entries.clear();
+  }
+  for (int k = 0; k < n_; ++k) {
+    for (int i = k + 1; i <= std::min(k + lower_, n_ - 1); ++i) {
+      if (in(i, k)) below_.entries.push_back({i, Index(i, k)});
+    }
+    for (int j = k + 1; j <= std::min(k + upper_, n_ - 1); ++j) {
+      if (in(k, j)) right_.entries.push_back({j, Index(k, j)});
+    }
+    for (int i = std::max(0, k - upper_); i < k; ++i) {
+      if (in(i, k)) above_.entries.push_back({i, Index(i, k)});
+    }
+    for (int j = std::max(0, k - lower_); j < k; ++j) {
+      if (in(k, j)) left_.entries.push_back({j, Index(k, j)});
+    }
+    for (Lists* lists : {&below_, &right_, &above_, &left_}) {
+      lists->start.push_back(static_cast<int>(lists->entries.size()));
+    }
+  }
+  analyzed_ = true;
 }
 
 void BandedSystem::Factorize() {
+  if (!analyzed_) Analyze();
+  double* a = data_.data();
   for (int k = 0; k < n_; ++k) {
-    const int i_max = std::min(k + lower_, n_ - 1);
-    const int j_max = std::min(k + upper_, n_ - 1);
-    const double pivot = (*this)(k, k);
-    for (int i = k + 1; i <= i_max; ++i) (*this)(i, k) /= pivot;
-    for (int j = k + 1; j <= j_max; ++j) {
-      const double u = (*this)(k, j);
-      if (u == 0.0) continue;
-      for (int i = k + 1; i <= i_max; ++i) (*this)(i, j) -= (*this)(i, k) * u;
+    const double pivot = a[Index(k, k)];
+    const std::span<const Entry> column = below_[k];
+    for (const Entry& l : column) a[l.index] /= pivot;
+    for (const Entry& u : right_[k]) {
+      // (i, j) lies this far from (i, k) in data_, whatever the row.
+      const int offset = Index(0, u.other) - Index(0, k);
+      const double u_kj = a[u.index];
+      for (const Entry& l : column) a[l.index + offset] -= a[l.index] * u_kj;
     }
   }
 }
@@ -70,9 +113,8 @@ struct Rows {
   double* data;
   Cols cols;
 
-  // Row i −= factor · row j. A structural zero of the band is skipped: x − 0·y is x.
+  // Row i −= factor · row j.
   void Subtract(int i, int j, double factor) const {
-    if (factor == 0.0) return;
     double* x_i = data + i * cols;
     const double* x_j = data + j * cols;
     for (Eigen::Index c = 0; c < cols; ++c) x_i[c] -= factor * x_j[c];
@@ -101,12 +143,11 @@ void BandedSystem::Solve(Eigen::MatrixXd* b) const {
   RowMajorMatrix x = *b;
   WithRows(&x, [&](const auto& rows) {
     for (int j = 0; j < n_; ++j) {  // L y = b, L unit lower.
-      const int i_max = std::min(j + lower_, n_ - 1);
-      for (int i = j + 1; i <= i_max; ++i) rows.Subtract(i, j, (*this)(i, j));
+      for (const Entry& l : below_[j]) rows.Subtract(l.other, j, data_[l.index]);
     }
     for (int j = n_ - 1; j >= 0; --j) {  // U x = y.
       rows.Divide(j, (*this)(j, j));
-      for (int i = std::max(0, j - upper_); i < j; ++i) rows.Subtract(i, j, (*this)(i, j));
+      for (const Entry& u : above_[j]) rows.Subtract(u.other, j, data_[u.index]);
     }
   });
   *b = x;
@@ -117,11 +158,10 @@ void BandedSystem::SolveTransposed(Eigen::MatrixXd* b) const {
   WithRows(&x, [&](const auto& rows) {
     for (int j = 0; j < n_; ++j) {  // Uᵀ z = b, Uᵀ lower.
       rows.Divide(j, (*this)(j, j));
-      const int i_max = std::min(j + upper_, n_ - 1);
-      for (int i = j + 1; i <= i_max; ++i) rows.Subtract(i, j, (*this)(j, i));
+      for (const Entry& u : right_[j]) rows.Subtract(u.other, j, data_[u.index]);
     }
     for (int j = n_ - 1; j >= 0; --j) {  // Lᵀ x = z, Lᵀ unit upper.
-      for (int i = std::max(0, j - lower_); i < j; ++i) rows.Subtract(i, j, (*this)(j, i));
+      for (const Entry& l : left_[j]) rows.Subtract(l.other, j, data_[l.index]);
     }
   });
   *b = x;
@@ -135,44 +175,54 @@ void Minco3::SetConditions(const Eigen::MatrixXd& head_pva, const Eigen::MatrixX
   tail_pva_ = tail_pva;
   durations_ = Eigen::VectorXd::Ones(piece_count);
   coefficients_ = Eigen::MatrixXd::Zero(kCoeffs * piece_count, dim_);
+  // A(T) is non-zero in the same entries for every T > 0 (its entries are factorials times
+  // powers of T): the pattern of A(1) serves every SetParameters.
+  system_.Reset(kCoeffs * piece_count, kBandwidth, kBandwidth);
+  FillSystem(durations_);
+  system_.Analyze();
 }
 
-void Minco3::SetParameters(const Eigen::MatrixXd& waypoints, const Eigen::VectorXd& durations) {
+void Minco3::FillSystem(const Eigen::VectorXd& durations) {
   const int m = piece_count_;
   const int n = kCoeffs * m;
-  durations_ = durations;
-  system_.Reset(n, kBandwidth, kBandwidth);
-  Eigen::MatrixXd& b = coefficients_;
-  b.setZero(n, dim_);
-
   // Head: p, p', p'' of piece 0 at t = 0 are c0, c1, 2 c2.
   system_(0, 0) = 1.0;
   system_(1, 1) = 1.0;
   system_(2, 2) = 2.0;
-  b.topRows(3) = head_pva_.transpose();
-
   for (int i = 0; i + 1 < m; ++i) {
     const int row0 = kCoeffs * i + 3;
     const int col = kCoeffs * i;
     const int next_col = col + kCoeffs;
     for (int r = 0; r < kCoeffs; ++r) {
       const int order = kJointRowOrder[r];
-      const std::array<double, kCoeffs> basis = BasisDerivative(durations_[i], order);
+      const std::array<double, kCoeffs> basis = BasisDerivative(durations[i], order);
       for (int k = order; k < kCoeffs; ++k) system_(row0 + r, col + k) = basis[k];
-      if (r == kWaypointRow) {
-        b.row(row0 + r) = waypoints.col(i).transpose();
-      } else {
+      if (r != kWaypointRow) {
         // −p_{i+1}^{(order)}(0) = −order! · c_{i+1, order}.
         system_(row0 + r, next_col + order) = -BasisDerivative(0.0, order)[order];
       }
     }
   }
-
   // Tail: p, p', p'' of the last piece at its end.
   const int last_col = kCoeffs * (m - 1);
   for (int order = 0; order < 3; ++order) {
-    const std::array<double, kCoeffs> basis = BasisDerivative(durations_[m - 1], order);
+    const std::array<double, kCoeffs> basis = BasisDerivative(durations[m - 1], order);
     for (int k = order; k < kCoeffs; ++k) system_(n - 3 + order, last_col + k) = basis[k];
+  }
+}
+
+void Minco3::SetParameters(const Eigen::MatrixXd& waypoints, const Eigen::VectorXd& durations) {
+  const int m = piece_count_;
+  const int n = kCoeffs * m;
+  durations_ = durations;
+  system_.Clear();
+  FillSystem(durations_);
+  // b: the head and tail states, the waypoints in their joints' waypoint rows, 0 elsewhere.
+  Eigen::MatrixXd& b = coefficients_;
+  b.setZero(n, dim_);
+  b.topRows(3) = head_pva_.transpose();
+  for (int i = 0; i + 1 < m; ++i) {
+    b.row(kCoeffs * i + 3 + kWaypointRow) = waypoints.col(i).transpose();
   }
   b.bottomRows(3) = tail_pva_.transpose();
 

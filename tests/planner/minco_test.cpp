@@ -381,6 +381,40 @@ TEST(BandedSystem, SolvesAndSolvesTransposedLikeADenseMatrix) {
   EXPECT_LT((dense.transpose() * y - rhs).norm(), 1e-12);
 }
 
+// A band with holes, as MINCO's: the factors fill some of them in (Analyze must find those),
+// and a second matrix of the same pattern, after Clear, reuses the first one's analysis.
+TEST(BandedSystem, SolvesASparseBandLikeADenseMatrixAndReusesItsPattern) {
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<double> dist(-1.0, 1.0);
+  const int n = 24;
+  const int lower = 3;
+  const int upper = 2;
+  // The first subdiagonal is empty, and elimination fills it in: (k + 2, k + 1) from L(k + 2, k)
+  // and U(k, k + 1).
+  const auto in_pattern = [](int i, int j) { return i - j != 1; };
+  BandedSystem band;
+  band.Reset(n, lower, upper);
+  for (int round = 0; round < 2; ++round) {
+    if (round > 0) band.Clear();
+    Eigen::MatrixXd dense = Eigen::MatrixXd::Zero(n, n);
+    for (int i = 0; i < n; ++i) {
+      for (int j = std::max(0, i - lower); j <= std::min(n - 1, i + upper); ++j) {
+        if (!in_pattern(i, j)) continue;
+        dense(i, j) = (i == j) ? 10.0 + dist(rng) : dist(rng);
+        band(i, j) = dense(i, j);
+      }
+    }
+    band.Factorize();
+    const Eigen::MatrixXd rhs = RandomMatrix(&rng, n, 3, -1.0, 1.0);
+    Eigen::MatrixXd x = rhs;
+    band.Solve(&x);
+    EXPECT_LT((dense * x - rhs).norm(), 1e-12) << "round " << round;
+    Eigen::MatrixXd y = rhs;
+    band.SolveTransposed(&y);
+    EXPECT_LT((dense.transpose() * y - rhs).norm(), 1e-12) << "round " << round;
+  }
+}
+
 TEST(DurationMap, IsPositiveIncreasingAndC2AtZero) {
   EXPECT_DOUBLE_EQ(DurationFromTau(0.0), 1.0);
   EXPECT_DOUBLE_EQ(DurationGradient(0.0), 1.0);

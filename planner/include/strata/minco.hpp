@@ -17,6 +17,7 @@
 /// documented, durations > 0, piece_count >= 1. Validate user input before it reaches here.
 
 #include <array>
+#include <span>
 #include <vector>
 
 #include <Eigen/Core>
@@ -41,14 +42,26 @@ inline constexpr std::array<std::array<double, 6>, 6> kQuinticDerivativeFactor =
 /// diagonals (O(n·(lower + upper + 1)) memory), factorised in place by LU without pivoting.
 /// No pivoting is safe for the MINCO system in the row order Minco3 uses (as in GCOPTER);
 /// it is not a general-purpose solver. Exposed for tests.
+///
+/// The factorisation and the solves visit only the entries of a recorded pattern (Analyze):
+/// MINCO's A(T) has about 6 of the 13 entries of its band per row, and its factors keep
+/// about 6 too, so the dense band loops spent most of MINCO's forward pass on zeros.
 class BandedSystem {
  public:
-  /// Resizes to n×n with the given bandwidths and sets every entry to zero. n >= 1.
+  /// Resizes to n×n with the given bandwidths, sets every entry to zero and forgets the
+  /// pattern. n >= 1.
   void Reset(int n, int lower, int upper);
+  /// Sets every entry to zero, keeping the size and the pattern: for a matrix that is non-zero
+  /// only where the analysed one was.
+  void Clear();
   /// Entry (row, col); precondition: −lower <= col − row <= upper.
   double& operator()(int row, int col) { return data_[Index(row, col)]; }
   double operator()(int row, int col) const { return data_[Index(row, col)]; }
-  /// Replaces the matrix by its LU factors (unit lower L, upper U), in O(n·lower·upper).
+  /// Records the pattern of the LU factors: the entries non-zero now, and those elimination
+  /// fills in from them.
+  void Analyze();
+  /// Replaces the matrix by its LU factors (unit lower L, upper U), in O(n·lower·upper);
+  /// analyses first if no pattern is recorded.
   void Factorize();
   /// Solves A X = B in place (B has n rows, any number of columns); after Factorize().
   void Solve(Eigen::MatrixXd* b) const;
@@ -59,10 +72,30 @@ class BandedSystem {
  private:
   int Index(int row, int col) const { return (row - col + upper_) * n_ + col; }
 
+  // An entry of the pattern, seen from row or column k: the other coordinate (its column or
+  // its row) and its place in data_.
+  struct Entry {
+    int other;
+    int index;
+  };
+  // For each k, some entries of row or column k in the pattern, in ascending `other`.
+  struct Lists {
+    std::vector<int> start;  // n + 1 offsets into entries.
+    std::vector<Entry> entries;
+    std::span<const Entry> operator[](int k) const {
+      return {entries.data() + start[k], entries.data() + start[k + 1]};
+    }
+  };
+
   int n_ = 0;
   int lower_ = 0;
   int upper_ = 0;
   std::vector<double> data_;
+  bool analyzed_ = false;
+  Lists below_;  // Rows i > k with L(i, k) in the pattern.
+  Lists right_;  // Columns j > k with U(k, j) in the pattern.
+  Lists above_;  // Rows i < k with U(i, k) in the pattern.
+  Lists left_;   // Columns j < k with L(k, j) in the pattern.
 };
 
 /// A minimum-jerk piecewise-quintic trajectory in `dim` dimensions (3: x, y, z; 4 adds body
@@ -120,6 +153,8 @@ class Minco3 {
   int LocatePiece(double t, double* local_t) const;
   // The `order`-th derivative of piece i at local time t.
   Eigen::VectorXd PieceDerivative(int piece, double t, int order) const;
+  // Writes A(durations) into system_, which holds zeros (Reset or Clear).
+  void FillSystem(const Eigen::VectorXd& durations);
 
   int dim_ = 0;
   int piece_count_ = 0;
