@@ -29,6 +29,10 @@ const ColumnSurface* NearestSurface(const SurfaceMap& surfaces, int ix, int iy, 
 // for GroundChoice to reuse the choice [m]: far above the rounding of |ground − z|.
 constexpr double kChoiceMarginM = 1e-6;
 
+// How far inside its bounds GroundWithinBand wants a point [m]: far above the rounding of
+// the coordinates and heights it compares (metres to hundreds of metres).
+constexpr double kInsideM = 1e-9;
+
 // NearestSurface, narrowing the open range (*low, *high) of heights z to those for which it
 // stays the choice: halfway to the grounds below and above it (a column's grounds ascend).
 const ColumnSurface* NearestSurfaceInRange(const SurfaceMap& surfaces, int ix, int iy, double z,
@@ -64,7 +68,7 @@ bool SampleGround(const TerrainModel& model, const Eigen::Vector3d& p, double re
   const int i0 = static_cast<int>(std::floor(u));
   const int j0 = static_cast<int>(std::floor(v));
   const double fu = u - i0, fv = v - j0;
-  const ColumnSurface* corner[2][2];
+  const ColumnSurface* corner[2][2] = {};
   const Eigen::Vector2i cell(i0, j0);
   const bool chosen = choice != nullptr && choice->cell == cell && z_ground > choice->low_m &&
                       z_ground < choice->high_m;
@@ -84,9 +88,20 @@ bool SampleGround(const TerrainModel& model, const Eigen::Vector3d& p, double re
     }
     if (choice != nullptr) {
       choice->cell = cell;
+      // u = i0 at x = origin + (i0 + 0.5)·r.
+      const Eigen::Array2d low_corner =
+          g.origin_m.head<2>().array() + (cell.cast<double>().array() + 0.5) * r;
+      choice->area = Eigen::AlignedBox2d(low_corner + kInsideM, low_corner + r - kInsideM);
       choice->low_m = low;
       choice->high_m = high;
       std::copy(&corner[0][0], &corner[0][0] + 4, &choice->corner[0][0]);
+      choice->center_low_m = std::numeric_limits<double>::infinity();
+      choice->center_high_m = -std::numeric_limits<double>::infinity();
+      for (const ColumnSurface* s : {corner[0][0], corner[0][1], corner[1][0], corner[1][1]}) {
+        if (s == nullptr) continue;
+        choice->center_low_m = std::min(choice->center_low_m, double{s->plane_center_z_m});
+        choice->center_high_m = std::max(choice->center_high_m, double{s->plane_center_z_m});
+      }
       choice->clearance_cap_m = -1;
     }
   }
@@ -189,6 +204,17 @@ bool SampleGround(const TerrainModel& model, const Eigen::Vector3d& p, double re
                 &sample->clearance_gradient);
   }
   return true;
+}
+
+bool GroundWithinBand(const GroundChoice& choice, const Eigen::Vector3d& p,
+                      double reference_height_m, double band_m) {
+  const double z_ground = p.z() - reference_height_m;
+  // Without corners, center_low_m is +∞ and the band test passes: SampleGround finds no
+  // ground there.
+  return choice.area.contains(p.head<2>()) && z_ground > choice.low_m + kInsideM &&
+         z_ground < choice.high_m - kInsideM &&
+         z_ground - band_m + kInsideM < choice.center_low_m &&
+         choice.center_high_m < z_ground + band_m - kInsideM;
 }
 
 double SampleEdgeDistance(const SurfaceGraph& graph, const Eigen::Vector3d& p, double reach_m,

@@ -231,9 +231,15 @@ double TrajectoryCost::PointPenalty(const StateVector& pos, const StateVector& v
     }
   }
 
+  // Only J_g needs the ground when the body's height is fixed, and J_g is zero within the
+  // band: where the memo's choice shows the ground there, the sample is skipped.
+  const bool height_terms = active_height && (w.height > 0 || w.feasibility > 0);
+  const bool ground_in_band =
+      memo != nullptr && !height_terms &&
+      GroundWithinBand(memo->ground, p, robot.reference_height_m, c.ground_band_m);
   GroundSample ground;
   const bool has_ground =
-      (w.ground > 0 || (active_height && (w.height > 0 || w.feasibility > 0))) &&
+      !ground_in_band && (w.ground > 0 || height_terms) &&
       SampleGround(*model_, p, robot.reference_height_m, active_height ? ClearanceCap() : 0,
                    &ground, memo != nullptr ? &memo->ground : nullptr);
   if (has_ground && w.ground > 0) {

@@ -218,6 +218,26 @@ TEST(SampleGround, AKeptChoiceGivesTheSameAnswersAsAFreshOne) {
   EXPECT_GT(level_changed, 20);
 }
 
+// Where GroundWithinBand answers for a kept choice, SampleGround must find the ground within
+// the band (or none); and on the scene's floors and ramp it must answer often.
+TEST(GroundWithinBand, HoldsOnlyWhereTheSampledGroundIsWithinTheBand) {
+  const double h_ref = Graph().params().reference_height_m;
+  const double band = 0.01;
+  GroundChoice choice;
+  int within = 0, not_within = 0;
+  for (const Eigen::Vector3d& p : WalkAcrossLevels(6000, 12)) {
+    const bool claimed = GroundWithinBand(choice, p, h_ref, band);
+    GroundSample ground;
+    const bool found = SampleGround(Scene(), p, h_ref, 0, &ground, &choice);
+    (claimed ? within : not_within) += 1;
+    if (claimed && found) {
+      EXPECT_LE(std::abs(p.z() - h_ref - ground.height_m), band) << p.transpose();
+    }
+  }
+  EXPECT_GT(within, 1000);
+  EXPECT_GT(not_within, 1000);
+}
+
 TEST(SampleGround, IsTheColumnsPlaneAtItsCentreAndSmoothAround) {
   const SurfaceGraph& graph = Graph();
   const double h_ref = graph.params().reference_height_m;

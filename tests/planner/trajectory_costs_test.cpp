@@ -494,6 +494,76 @@ TEST(TerrainMemo, LeavesCostAndGradientUnchangedToTheBit) {
   }
 }
 
+// With the body height fixed, TerrainMemo also skips the ground sample where its choice shows
+// the ground within J_g's band. A walk over the floor, its waypoints within about a centimetre
+// of the ground, must meet points it skips and points it cannot (off the band, or where the
+// pieces swing onto the ramp), and get the fresh cost and gradient to the bit.
+TEST(TerrainMemo, SkipsTheGroundSampleOnlyWhereJgIsZero) {
+  const TwoLevelRampLayout l = GetTwoLevelRampLayout();
+  const CostParams params = Params(false);
+  const double reference_m = params.profile.reference_height_m;
+  const TrajectoryCost cost(Graph(), CostWeights{}, params);
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> unit(0, 1);
+  // A point over the floor, at the ground height the cost sees plus the reference height,
+  // ±12 mm (J_g's band is ±10 mm).
+  const auto on_floor = [&] {
+    for (;;) {
+      const double x = unit(rng) * l.room_x_max_m, y = unit(rng) * l.room_y_max_m;
+      GroundSample ground;
+      if (SampleGround(Scene(), {x, y, l.floor_z_m + reference_m}, reference_m, 0, &ground) &&
+          std::abs(ground.height_m - l.floor_z_m) < 0.05) {
+        return Eigen::Vector3d(x, y, ground.height_m + reference_m + 0.024 * (unit(rng) - 0.5));
+      }
+    }
+  };
+  const int pieces = 8;
+  Trajectory5 t;
+  t.head = Eigen::MatrixXd::Zero(3, 3);
+  t.tail = Eigen::MatrixXd::Zero(3, 3);
+  t.head.col(0) = on_floor();
+  t.tail.col(0) = on_floor();
+  t.waypoints.resize(3, pieces - 1);
+  for (int k = 0; k < pieces - 1; ++k) t.waypoints.col(k) = on_floor();
+  t.durations = Eigen::VectorXd::Constant(pieces, 4.0);
+  std::normal_distribution<double> step(0.0, 0.01);
+  TerrainMemo memo;
+  int skipped = 0, sampled = 0;
+  for (int k = 0; k < 30; ++k) {
+    Minco3 minco;
+    minco.SetConditions(t.head, t.tail, pieces);
+    minco.SetParameters(t.waypoints, t.durations);
+    // Which constraint points the memo will skip, from where Evaluate samples them (a piece's
+    // first point is the previous one's last, evaluated once).
+    const int kappa = params.config.samples_per_piece;
+    if (!memo.points.empty()) {
+      for (int i = 0; i < pieces; ++i) {
+        const double start = minco.durations().head(i).sum();
+        for (int j = i > 0 ? 1 : 0; j <= kappa; ++j) {
+          const Eigen::Vector3d p = minco.Position(start + minco.durations()(i) * j / kappa);
+          const bool skip = GroundWithinBand(memo.points[std::size_t(i) * (kappa + 1) + j].ground,
+                                             p, reference_m, params.config.ground_band_m);
+          (skip ? skipped : sampled) += 1;
+        }
+      }
+    }
+    Eigen::MatrixXd grad_c_memo, grad_c;
+    Eigen::VectorXd grad_T_memo, grad_T;
+    CostBreakdown terms_memo, terms;
+    const double with_memo = cost.Evaluate(minco, &grad_c_memo, &grad_T_memo, &terms_memo, &memo);
+    const double fresh = cost.Evaluate(minco, &grad_c, &grad_T, &terms);
+    ASSERT_EQ(with_memo, fresh) << "step " << k;
+    ASSERT_EQ(terms_memo.ground, terms.ground) << "step " << k;
+    ASSERT_TRUE((grad_c_memo.array() == grad_c.array()).all()) << "step " << k;
+    ASSERT_TRUE((grad_T_memo.array() == grad_T.array()).all()) << "step " << k;
+    for (int i = 0; i < t.waypoints.cols(); ++i) {
+      t.waypoints.col(i).head<2>() += Eigen::Vector2d(step(rng), step(rng));
+    }
+  }
+  EXPECT_GT(skipped, 200) << sampled;
+  EXPECT_GT(sampled, 200) << skipped;
+}
+
 TEST(SampleGround, FollowsTheRampAndFindsTheDeckAsCeiling) {
   const TwoLevelRampLayout l = GetTwoLevelRampLayout();
   GroundSample s;

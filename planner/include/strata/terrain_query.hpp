@@ -5,6 +5,7 @@
 /// verification (trajectory_verifier.hpp) share them and nothing else, so the last check
 /// depends on the map, not on the optimiser.
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
 #include "strata/surface_graph.hpp"
 #include "strata/surface_map.hpp"
@@ -30,8 +31,12 @@ struct GroundSample {
 /// corner's choice stands, SampleGround reuses them instead of scanning the columns again.
 struct GroundChoice {
   Eigen::Vector2i cell = Eigen::Vector2i::Constant(-2);  ///< Lower-left corner column; none yet.
+  /// The points (x, y) whose lower-left corner column is `cell`, a nanometre inside.
+  Eigen::AlignedBox2d area;
   double low_m = 0, high_m = -1;  ///< The choices stand for ground heights strictly between.
   const ColumnSurface* corner[2][2] = {};  ///< [dy][dx], null where a column has no surface.
+  /// The lowest and highest plane-centre height of the corners (low > high without any).
+  double center_low_m = 0, center_high_m = -1;
   /// The lowest clearance around each corner, computed with `clearance_cap_m` (< 0: not yet).
   double lowest_clearance_m[2][2] = {};
   double clearance_cap_m = -1;
@@ -51,6 +56,13 @@ struct GroundChoice {
 /// made here when it does not.
 bool SampleGround(const TerrainModel& model, const Eigen::Vector3d& p, double reference_height_m,
                   double clearance_cap_m, GroundSample* sample, GroundChoice* choice = nullptr);
+
+/// Whether SampleGround at p, with `choice`, reuses the choice and gives a ground height
+/// within band_m of p.z − reference_height_m, or no ground; decided without sampling, from
+/// the choice's area and range and its corners' heights (the sample is a weighted mean of some
+/// of them), a nanometre inside each bound. False where that is not certain.
+bool GroundWithinBand(const GroundChoice& choice, const Eigen::Vector3d& p,
+                      double reference_height_m, double band_m);
 
 /// Where SampleEdgeDistance found p's column so far inside the region that the rim is beyond
 /// reach_m whatever p's place in it: the column and the open band of ground heights,

@@ -172,9 +172,10 @@ struct TrajectoryEnds {
 /// column where the rim term is, and the corner surfaces its ground stands on. Nearly every
 /// point of a plan is far from walls and rims, and between two L-BFGS evaluations most stay
 /// in their block and column: those skip the lookups and get the same cost and gradient to
-/// the bit. Every entry is checked against its point before use, so a stale one is never
-/// wrong, only useless. Points are numbered by piece and sample (Evaluate resizes the memo to
-/// the trajectory's); OptimizerObjective keeps one per optimisation.
+/// the bit. With the body height fixed, a point whose corners show the ground within J_g's
+/// band (GroundWithinBand) skips the ground sample too. Every entry is checked against its point
+/// before use, so a stale one is never wrong, only useless. Points are numbered by piece and sample
+/// (Evaluate resizes the memo to the trajectory's); OptimizerObjective keeps one per optimisation.
 struct TerrainMemo {
   struct Point {
     std::int64_t quiet_field_block = -1;  ///< TerrainFields::BlockKey, or -1.
