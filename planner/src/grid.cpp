@@ -140,4 +140,17 @@ double ScalarGrid::Sample(const Eigen::Vector3d& p, Eigen::Vector3d* gradient) c
   return value;
 }
 
+GridGeometry::OffsetRange GridGeometry::OffsetsOfIndex(double index) const {
+  // Division rounds monotonically, so each end is the first double on its index's side, a
+  // few ulps from index·r.
+  const double r = resolution_m;
+  const auto first_reaching = [r](double value) {
+    double d = value * r;
+    while (d / r >= value) d = std::nextafter(d, -std::numeric_limits<double>::infinity());
+    while (d / r < value) d = std::nextafter(d, std::numeric_limits<double>::infinity());
+    return d;
+  };
+  return {first_reaching(index), first_reaching(index + 1)};
+}
+
 }  // namespace strata

@@ -319,10 +319,18 @@ Status VerifyTrajectory(const SurfaceGraph& graph, const RobotProfile& profile,
         double from = previous_t;
         Eigen::Vector2d column = column_at(from);
         for (int crossings = 0; column != target && crossings < kMaxCrossingsPerStep; ++crossings) {
+          // column_at(mid) == column, by comparisons: the halvings wait on each other, and a
+          // division and a floor were most of each one.
+          const GridGeometry::OffsetRange x = grid.OffsetsOfIndex(column.x());
+          const GridGeometry::OffsetRange y = grid.OffsetsOfIndex(column.y());
+          const auto in_column = [&](double time) {
+            const Eigen::Vector2d d = cursor.Position(time).head<2>() - grid.origin_m.head<2>();
+            return d.x() >= x.low && d.x() < x.high && d.y() >= y.low && d.y() < y.high;
+          };
           double lo = from, hi = t;
           for (int halving = 0; halving < 60 && hi - lo > 1e-9; ++halving) {
             const double mid = 0.5 * (lo + hi);
-            (column_at(mid) == column ? lo : hi) = mid;
+            (in_column(mid) ? lo : hi) = mid;
           }
           if (Status s =
                   check(hi, cursor.Position(hi), cursor.Velocity(hi), cursor.Acceleration(hi));

@@ -84,6 +84,27 @@ TEST(GridGeometryTest, CellOfAndCellCenterRoundTrip) {
   EXPECT_FALSE(g.Contains(Eigen::Vector3i(40, 0, 0)));
 }
 
+// OffsetsOfIndex must agree with floor(d / r) to the bit, at its ends and one ulp beside
+// them, for resolutions that are no binary fractions and for negative cells too.
+TEST(GridGeometryTest, OffsetsOfIndexAgreeWithTheDivisionAtTheirEnds) {
+  int off_product = 0;  // Ends that differ from index·r: the search for them matters.
+  for (const double r : {0.1, 0.2, 0.3, 0.05, 0.15, 1.0}) {
+    GridGeometry g;
+    g.resolution_m = r;
+    for (int index = -300; index <= 300; ++index) {
+      const GridGeometry::OffsetRange range = g.OffsetsOfIndex(index);
+      const auto cell = [r](double d) { return std::floor(d / r); };
+      const double inf = std::numeric_limits<double>::infinity();
+      EXPECT_EQ(cell(range.low), index) << r << " " << index;
+      EXPECT_EQ(cell(std::nextafter(range.low, -inf)), index - 1) << r << " " << index;
+      EXPECT_EQ(cell(std::nextafter(range.high, -inf)), index) << r << " " << index;
+      EXPECT_EQ(cell(range.high), index + 1) << r << " " << index;
+      off_product += range.low != index * r;
+    }
+  }
+  EXPECT_GT(off_product, 100);
+}
+
 TEST(MakeGridGeometryTest, CoversBoundsGrownByPadding) {
   std::mt19937 rng(11);
   std::uniform_real_distribution<double> coord(-50.0, 50.0);

@@ -35,6 +35,13 @@ struct GridGeometry {
   Eigen::Vector3d CellCenter(const Eigen::Vector3i& c) const {
     return origin_m + (c.cast<double>().array() + 0.5).matrix() * resolution_m;
   }
+  /// The offsets d from origin_m along an axis that CellOf puts in cell `index`, floor(d /
+  /// resolution_m) = index to the bit: [low, high). For a loop that would otherwise divide.
+  struct OffsetRange {
+    double low;
+    double high;
+  };
+  OffsetRange OffsetsOfIndex(double index) const;
 };
 
 /// The cells [min, max] of a grid, bounds included on every axis; empty when min > max on some
