@@ -124,6 +124,12 @@ bool SegmentCandidate(const SurfaceGraph& graph, int a, int b, double along_m,
              config.straight_ratio * along_m;
 }
 
+// A walk of a straight line (empty when refused) and its LineCost.
+struct Line {
+  std::vector<int> walk;
+  double cost;
+};
+
 }  // namespace
 
 PathResult ShortenPath(const SurfaceGraph& graph, const PathResult& path,
@@ -139,15 +145,15 @@ PathResult ShortenPath(const SurfaceGraph& graph, const PathResult& path,
     path_cost[k] = path_cost[k - 1] + EdgeCost(graph, nodes[k - 1], nodes[k], search);
   }
   const double r = graph.grid().resolution_m;
-  // The walk of the line from node a to node b, or empty when it leaves the graph, crosses a
-  // blocked node, passes nearer the rim than one and a half cells or nearer an obstacle than
-  // the search's margin, or costs more than `budget` in the search's own terms. Where an end
-  // is nearer (the path squeezed past a corner there), the line may be as near at that end,
-  // the allowance growing back at half the distance travelled from it: a line may leave a
-  // tight spot, not run along the rim from it. The margin is capped just under the graph's
-  // open-ground clearance (kOpenGroundClearanceSpreadM): where the ground itself is nearer
-  // the reference point than the margin, a margin no path keeps would forbid every line
-  // longer than a few cells.
+  // The line from node a to node b: its walk and LineCost, the walk empty when it leaves the
+  // graph, crosses a blocked node, passes nearer the rim than one and a half cells or nearer
+  // an obstacle than the search's margin, or costs more than `budget` in the search's own
+  // terms. Where an end is nearer (the path squeezed past a corner there), the line may be as
+  // near at that end, the allowance growing back at half the distance travelled from it: a
+  // line may leave a tight spot, not run along the rim from it. The margin is capped just
+  // under the graph's open-ground clearance (kOpenGroundClearanceSpreadM): where the ground
+  // itself is nearer the reference point than the margin, a margin no path keeps would forbid
+  // every line longer than a few cells.
   const double clearance_margin = std::min(
       search.clearance_margin_m, graph.open_ground_clearance_m() - kOpenGroundClearanceSpreadM);
   const auto line = [&](int a, int b, double budget) {
@@ -164,8 +170,10 @@ PathResult ShortenPath(const SurfaceGraph& graph, const PathResult& path,
       return graph.edge_distance(m) >= rim_floor && graph.clearance(m) >= clearance_floor &&
              !(blocked && m != nodes.front() && m != nodes.back() && blocked(m));
     });
-    if (!walk.empty() && LineCost(graph, walk, search) > budget + 1e-9) walk.clear();
-    return walk;
+    Line result{std::move(walk), 0};
+    if (!result.walk.empty()) result.cost = LineCost(graph, result.walk, search);
+    if (result.cost > budget + 1e-9) result.walk.clear();
+    return result;
   };
 
   // 1. Pull: from each vertex, the farthest later node of the path within the window
@@ -186,10 +194,10 @@ PathResult ShortenPath(const SurfaceGraph& graph, const PathResult& path,
     double reached_cost = path_cost[i + 1] - path_cost[i];
     const std::size_t stride = std::max<std::size_t>(1, (last - i) / kFarCandidates);
     const auto try_line = [&](std::size_t j) {
-      const std::vector<int> walk = line(nodes[i], nodes[j], path_cost[j] - path_cost[i]);
-      if (walk.empty()) return false;
+      const Line l = line(nodes[i], nodes[j], path_cost[j] - path_cost[i]);
+      if (l.walk.empty()) return false;
       reached = j;
-      reached_cost = LineCost(graph, walk, search);
+      reached_cost = l.cost;
       return true;
     };
     for (std::size_t j = last; j >= i + 2 && reached == i + 1; j = j >= stride ? j - stride : 0) {
@@ -228,11 +236,10 @@ PathResult ShortenPath(const SurfaceGraph& graph, const PathResult& path,
         ++last;
       }
       for (std::size_t j = last; j >= a + 2; --j) {
-        const std::vector<int> walk =
-            line(vertices[a], vertices[j], vertex_cost[j] - vertex_cost[a]);
-        if (walk.empty()) continue;
+        const Line l = line(vertices[a], vertices[j], vertex_cost[j] - vertex_cost[a]);
+        if (l.walk.empty()) continue;
         c = j;
-        cost = LineCost(graph, walk, search);
+        cost = l.cost;
         removed = true;
         break;
       }
@@ -252,7 +259,7 @@ PathResult ShortenPath(const SurfaceGraph& graph, const PathResult& path,
   out.points_m = {graph.position(vertices.front())};
   for (std::size_t k = 1; k < vertices.size(); ++k) {
     std::vector<int> walk =
-        line(vertices[k - 1], vertices[k], std::numeric_limits<double>::infinity());
+        line(vertices[k - 1], vertices[k], std::numeric_limits<double>::infinity()).walk;
     if (walk.empty()) {  // Adjacent path nodes: always walkable.
       walk = {vertices[k - 1], vertices[k]};
     }
