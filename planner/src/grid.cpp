@@ -143,6 +143,9 @@ double ScalarGrid::Sample(const Eigen::Vector3d& p, Eigen::Vector3d* gradient) c
 GridGeometry::OffsetRange GridGeometry::OffsetsOfIndex(double index) const {
   // Division rounds monotonically, so each end is the first double on its index's side, a
   // few ulps from index·r.
+  // An infinite index (a position that overflowed) has no offsets; nor, by its comparisons,
+  // a NaN. Returning early also keeps the search below from stepping away from −∞ forever.
+  if (!std::isfinite(index)) return {index, index};
   const double r = resolution_m;
   const auto first_reaching = [r](double value) {
     double d = value * r;

@@ -103,6 +103,14 @@ TEST(GridGeometryTest, OffsetsOfIndexAgreeWithTheDivisionAtTheirEnds) {
     }
   }
   EXPECT_GT(off_product, 100);
+  // A position that overflowed has no cell, and the search for the ends must not hang on it.
+  GridGeometry g;
+  for (const double index :
+       {-std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()}) {
+    const GridGeometry::OffsetRange range = g.OffsetsOfIndex(index);
+    EXPECT_FALSE(range.low < range.high) << index;
+  }
+  EXPECT_FALSE(g.OffsetsOfIndex(std::numeric_limits<double>::quiet_NaN()).low <= 0);
 }
 
 TEST(MakeGridGeometryTest, CoversBoundsGrownByPadding) {

@@ -36,7 +36,8 @@ struct GridGeometry {
     return origin_m + (c.cast<double>().array() + 0.5).matrix() * resolution_m;
   }
   /// The offsets d from origin_m along an axis that CellOf puts in cell `index`, floor(d /
-  /// resolution_m) = index to the bit: [low, high). For a loop that would otherwise divide.
+  /// resolution_m) = index to the bit: [low, high), empty for a non-finite index. For a loop
+  /// that would otherwise divide.
   struct OffsetRange {
     double low;
     double high;
