@@ -355,63 +355,64 @@ TEST(Minco3, StraightLineAtConstantSpeedIsExactAndHasNoJerk) {
   }
 }
 
-TEST(BandedSystem, SolvesAndSolvesTransposedLikeADenseMatrix) {
-  std::mt19937 rng(5);
+// Fills the entries (i, j) of *band's band for which in_pattern(i, j) holds with random values,
+// diagonally dominant so that no pivoting is needed, and returns the same matrix dense.
+template <typename Pattern>
+Eigen::MatrixXd FillDiagonallyDominant(int lower, int upper, Pattern in_pattern, std::mt19937* rng,
+                                       BandedSystem* band) {
   std::uniform_real_distribution<double> dist(-1.0, 1.0);
-  const int n = 20;
-  const int lower = 2;
-  const int upper = 3;
-  BandedSystem band;
-  band.Reset(n, lower, upper);
+  const int n = band->size();
   Eigen::MatrixXd dense = Eigen::MatrixXd::Zero(n, n);
   for (int i = 0; i < n; ++i) {
     for (int j = std::max(0, i - lower); j <= std::min(n - 1, i + upper); ++j) {
-      // Diagonally dominant so that no pivoting is needed.
-      dense(i, j) = (i == j) ? 10.0 + dist(rng) : dist(rng);
-      band(i, j) = dense(i, j);
+      if (!in_pattern(i, j)) continue;
+      dense(i, j) = (i == j) ? 10.0 + dist(*rng) : dist(*rng);
+      (*band)(i, j) = dense(i, j);
     }
   }
-  band.Factorize();
-  const Eigen::MatrixXd rhs = RandomMatrix(&rng, n, 2, -1.0, 1.0);
+  return dense;
+}
+
+// Factorises *band and checks both solves against `dense` on a random right-hand side.
+void ExpectSolvesLikeDense(const Eigen::MatrixXd& dense, int columns, std::mt19937* rng,
+                           BandedSystem* band) {
+  band->Factorize();
+  const Eigen::MatrixXd rhs = RandomMatrix(rng, static_cast<int>(dense.rows()), columns, -1.0, 1.0);
   Eigen::MatrixXd x = rhs;
-  band.Solve(&x);
+  band->Solve(&x);
   EXPECT_LT((dense * x - rhs).norm(), 1e-12);
   Eigen::MatrixXd y = rhs;
-  band.SolveTransposed(&y);
+  band->SolveTransposed(&y);
   EXPECT_LT((dense.transpose() * y - rhs).norm(), 1e-12);
+}
+
+TEST(BandedSystem, SolvesAndSolvesTransposedLikeADenseMatrix) {
+  std::mt19937 rng(5);
+  const int lower = 2;
+  const int upper = 3;
+  BandedSystem band;
+  band.Reset(20, lower, upper);
+  const Eigen::MatrixXd dense = FillDiagonallyDominant(
+      lower, upper, [](int, int) { return true; }, &rng, &band);
+  ExpectSolvesLikeDense(dense, 2, &rng, &band);
 }
 
 // A band with holes, as MINCO's: the factors fill some of them in (Analyze must find those),
 // and a second matrix of the same pattern, after Clear, reuses the first one's analysis.
 TEST(BandedSystem, SolvesASparseBandLikeADenseMatrixAndReusesItsPattern) {
   std::mt19937 rng(9);
-  std::uniform_real_distribution<double> dist(-1.0, 1.0);
-  const int n = 24;
   const int lower = 3;
   const int upper = 2;
   // The first subdiagonal is empty, and elimination fills it in: (k + 2, k + 1) from L(k + 2, k)
   // and U(k, k + 1).
   const auto in_pattern = [](int i, int j) { return i - j != 1; };
   BandedSystem band;
-  band.Reset(n, lower, upper);
+  band.Reset(24, lower, upper);
   for (int round = 0; round < 2; ++round) {
+    SCOPED_TRACE("round " + std::to_string(round));
     if (round > 0) band.Clear();
-    Eigen::MatrixXd dense = Eigen::MatrixXd::Zero(n, n);
-    for (int i = 0; i < n; ++i) {
-      for (int j = std::max(0, i - lower); j <= std::min(n - 1, i + upper); ++j) {
-        if (!in_pattern(i, j)) continue;
-        dense(i, j) = (i == j) ? 10.0 + dist(rng) : dist(rng);
-        band(i, j) = dense(i, j);
-      }
-    }
-    band.Factorize();
-    const Eigen::MatrixXd rhs = RandomMatrix(&rng, n, 3, -1.0, 1.0);
-    Eigen::MatrixXd x = rhs;
-    band.Solve(&x);
-    EXPECT_LT((dense * x - rhs).norm(), 1e-12) << "round " << round;
-    Eigen::MatrixXd y = rhs;
-    band.SolveTransposed(&y);
-    EXPECT_LT((dense.transpose() * y - rhs).norm(), 1e-12) << "round " << round;
+    const Eigen::MatrixXd dense = FillDiagonallyDominant(lower, upper, in_pattern, &rng, &band);
+    ExpectSolvesLikeDense(dense, 3, &rng, &band);
   }
 }
 

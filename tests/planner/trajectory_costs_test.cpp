@@ -450,6 +450,25 @@ TEST(TurningCost, IsTheHeadingsTravelEitherWay) {
             0.0);
 }
 
+// One evaluation of J: its value, gradients and terms.
+struct Evaluation {
+  double value = 0;
+  Eigen::MatrixXd grad_c;
+  Eigen::VectorXd grad_T;
+  CostBreakdown terms;
+};
+// The trajectory of `minco` evaluated with *memo (which it updates) and fresh, without one.
+struct BothWays {
+  Evaluation with_memo, fresh;
+};
+BothWays EvaluateBothWays(const TrajectoryCost& cost, const Minco3& minco, TerrainMemo* memo) {
+  BothWays e;
+  e.with_memo.value =
+      cost.Evaluate(minco, &e.with_memo.grad_c, &e.with_memo.grad_T, &e.with_memo.terms, memo);
+  e.fresh.value = cost.Evaluate(minco, &e.fresh.grad_c, &e.fresh.grad_T, &e.fresh.terms);
+  return e;
+}
+
 // TerrainMemo skips the S', d and rim lookups where it knows them to be zero. Along a walk of
 // small steps, as L-BFGS takes them, the cost and gradient with it must equal a fresh
 // evaluation's to the bit, and the walk must meet points it skips and points it cannot.
@@ -469,16 +488,12 @@ TEST(TerrainMemo, LeavesCostAndGradientUnchangedToTheBit) {
       Minco3 minco;
       minco.SetConditions(t.head, t.tail, 6);
       minco.SetParameters(t.waypoints, t.durations);
-      Eigen::MatrixXd grad_c_memo, grad_c;
-      Eigen::VectorXd grad_T_memo, grad_T;
-      CostBreakdown terms_memo, terms;
-      const double with_memo = cost.Evaluate(minco, &grad_c_memo, &grad_T_memo, &terms_memo, &memo);
-      const double fresh = cost.Evaluate(minco, &grad_c, &grad_T, &terms);
-      ASSERT_EQ(with_memo, fresh) << "step " << k;
-      ASSERT_EQ(terms_memo.safety, terms.safety);
-      ASSERT_EQ(terms_memo.edge, terms.edge);
-      ASSERT_TRUE((grad_c_memo.array() == grad_c.array()).all()) << "step " << k;
-      ASSERT_TRUE((grad_T_memo.array() == grad_T.array()).all()) << "step " << k;
+      const BothWays e = EvaluateBothWays(cost, minco, &memo);
+      ASSERT_EQ(e.with_memo.value, e.fresh.value) << "step " << k;
+      ASSERT_EQ(e.with_memo.terms.safety, e.fresh.terms.safety);
+      ASSERT_EQ(e.with_memo.terms.edge, e.fresh.terms.edge);
+      ASSERT_TRUE((e.with_memo.grad_c.array() == e.fresh.grad_c.array()).all()) << "step " << k;
+      ASSERT_TRUE((e.with_memo.grad_T.array() == e.fresh.grad_T.array()).all()) << "step " << k;
       for (const TerrainMemo::Point& point : memo.points) {
         quiet_fields += point.quiet_field_block >= 0;
         deep_inside += point.deep_inside.ix >= 0;
@@ -547,15 +562,11 @@ TEST(TerrainMemo, SkipsTheGroundSampleOnlyWhereJgIsZero) {
         }
       }
     }
-    Eigen::MatrixXd grad_c_memo, grad_c;
-    Eigen::VectorXd grad_T_memo, grad_T;
-    CostBreakdown terms_memo, terms;
-    const double with_memo = cost.Evaluate(minco, &grad_c_memo, &grad_T_memo, &terms_memo, &memo);
-    const double fresh = cost.Evaluate(minco, &grad_c, &grad_T, &terms);
-    ASSERT_EQ(with_memo, fresh) << "step " << k;
-    ASSERT_EQ(terms_memo.ground, terms.ground) << "step " << k;
-    ASSERT_TRUE((grad_c_memo.array() == grad_c.array()).all()) << "step " << k;
-    ASSERT_TRUE((grad_T_memo.array() == grad_T.array()).all()) << "step " << k;
+    const BothWays e = EvaluateBothWays(cost, minco, &memo);
+    ASSERT_EQ(e.with_memo.value, e.fresh.value) << "step " << k;
+    ASSERT_EQ(e.with_memo.terms.ground, e.fresh.terms.ground) << "step " << k;
+    ASSERT_TRUE((e.with_memo.grad_c.array() == e.fresh.grad_c.array()).all()) << "step " << k;
+    ASSERT_TRUE((e.with_memo.grad_T.array() == e.fresh.grad_T.array()).all()) << "step " << k;
     for (int i = 0; i < t.waypoints.cols(); ++i) {
       t.waypoints.col(i).head<2>() += Eigen::Vector2d(step(rng), step(rng));
     }
