@@ -52,7 +52,13 @@ server::MapSource SourceOf(const std::string& map) {
     return *scene;
   }
   const std::filesystem::path path = std::filesystem::canonical(map);
-  return FileMapSource{path, map};
+  Result<std::shared_ptr<const OpenedMapFile>> file =
+      OpenMapFile(path.parent_path(), path.filename().string(), "map");
+  if (!file.ok()) {
+    std::fprintf(stderr, "%s\n", file.error().message.c_str());
+    std::exit(2);
+  }
+  return FileMapSource{std::move(file).value(), map};
 }
 
 MapSnapshot CreateAndWait(MapRegistry& registry, const std::string& id, const std::string& map,

@@ -115,6 +115,13 @@ void AddFlags(CLI::App& app, ParsedFlags& parsed, bool environment) {
                                                        : std::string();
           },
           ""));
+  CLI::Option* reuse_port = app.add_flag(
+      "--reuse-port", config.reuse_port,
+      "share --listen's port with other processes that ask for it too (SO_REUSEPORT: the\n"
+      "kernel splits new connections between them); without it a port in use is an error");
+  finish(reuse_port, "--reuse-port",
+         CLI::IsMember({"1", "0", "true", "false", "yes", "no", "on", "off"}, CLI::ignore_case)
+             .description(""));
   add("--metrics-port", config.metrics_port, "PORT",
       "Prometheus /metrics HTTP port, on --metrics-address; 0 picks a free port,\n"
       "-1 disables metrics",

@@ -37,6 +37,9 @@ inline constexpr int kMaxResponseSamples = 20000;
 struct ServerConfig {
   /// gRPC listen address host:port; port 0 picks a free port (printed at start).
   std::string listen = "0.0.0.0:50051";
+  /// Let other processes listen on the same port too (SO_REUSEPORT: the kernel splits new
+  /// connections between them). Off, a port another process listens on is an error at start.
+  bool reuse_port = false;
   /// Port of the Prometheus /metrics endpoint, on metrics_address; 0 picks a free port,
   /// negative disables it.
   int metrics_port = 9090;

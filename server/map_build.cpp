@@ -16,8 +16,8 @@ double SecondsSince(std::chrono::steady_clock::time_point start) {
 }  // namespace
 
 Expected<LoadedCloud> LoadMapSource(MapSource source, const CloudLoadLimits& limits) {
-  if (auto* file = std::get_if<FileMapSource>(&source)) {
-    return ::strata::LoadMapSource(FileSource{file->resolved_path.string()}, limits);
+  if (const auto* file = std::get_if<FileMapSource>(&source)) {
+    return LoadPointCloud(file->ToRead(), limits);
   }
   if (auto* scene = std::get_if<SceneMapSource>(&source)) {
     return ::strata::LoadMapSource(*scene, limits);
@@ -31,13 +31,13 @@ Expected<BuiltMap> BuildMapHere(MapBuildJob job, const BuildMonitor& monitor,
   BuiltMap built;
   const auto load_start = std::chrono::steady_clock::now();
   if (job.saved_model) {
-    const std::string path = std::get<FileMapSource>(job.source).resolved_path.string();
-    Expected<std::shared_ptr<const TerrainModel>> model = LoadModel(path);
+    const FileMapSource& file = std::get<FileMapSource>(job.source);
+    Expected<std::shared_ptr<const TerrainModel>> model = LoadModel(file.ToRead());
     if (!model) return model.error();
     built.model = std::move(model).value();
     built.raw_point_count = built.model->summary().input_points;
     built.load_s = SecondsSince(load_start);
-    built.version = MapStore::VersionOfSavedModel(path);
+    built.version = MapStore::VersionOfSavedModel(file.file->ProcPath());
     if (monitor.on_loaded) monitor.on_loaded(built.raw_point_count, 0, built.load_s);
     return built;
   }

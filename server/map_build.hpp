@@ -11,6 +11,7 @@
 #include <string>
 #include <variant>
 
+#include "map_root.hpp"
 #include "memory_budget.hpp"
 #include "service_error.hpp"
 #include "strata/cloud_io.hpp"
@@ -21,10 +22,14 @@
 
 namespace strata::server {
 
-/// A point-cloud file, already confined to the map root (ResolveMapPath).
+/// A point-cloud file (or saved model), opened inside the map root (OpenMapFile).
 struct FileMapSource {
-  std::filesystem::path resolved_path;  ///< Canonical path that is loaded.
-  std::string requested_path;           ///< As the client gave it, for display.
+  std::shared_ptr<const OpenedMapFile> file;  ///< What is read.
+  std::string
+      requested_path;  ///< As the client gave it: messages name it, its extension the format.
+
+  /// The file to read, named as the client named it.
+  NamedFile ToRead() const { return NamedFile(file->ProcPath(), requested_path); }
 };
 
 /// A built-in scene (strata/scenes/map_source.hpp; seed kDefaultSceneSeed unless given).

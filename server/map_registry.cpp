@@ -54,14 +54,6 @@ MapSourceInfo InfoOf(const MapSource& source) {
 
 namespace {
 
-void ReplaceAll(std::string* text, const std::string& from, const std::string& to) {
-  if (from.empty()) return;
-  for (std::size_t at = text->find(from); at != std::string::npos;
-       at = text->find(from, at + to.size())) {
-    text->replace(at, from.size(), to);
-  }
-}
-
 // Most valid surfaces stacked in one column of the model.
 int MaxLevels(const TerrainModel& model) {
   const SurfaceMap& surfaces = model.surfaces();
@@ -218,10 +210,10 @@ Result<MapSnapshot> MapRegistry::Create(const std::string& id, MapSource source,
   }
   bool saved_model = false;
   if (const auto* file = std::get_if<FileMapSource>(&source);
-      file != nullptr && IsSavedModelFile(file->resolved_path.string())) {
+      file != nullptr && IsSavedModelFile(file->file->ProcPath())) {
     // A saved model is assessed already: its parameters hold. Asking for others is an error
     // the client hears now, not after a queue.
-    Expected<AssessmentConfig> saved = ReadSavedModelConfig(file->resolved_path.string());
+    Expected<AssessmentConfig> saved = ReadSavedModelConfig(file->ToRead());
     if (!saved) return ServiceError::FromPlanner(saved.error(), "file.path");
     if (config_given) {
       if (const std::optional<std::string> field = FirstDifference(config, *saved)) {
@@ -477,6 +469,23 @@ ServiceStatus MapRegistry::Delete(const std::string& id) {
 Result<MapUpdate> MapRegistry::Update(const std::string& id, const std::string& base_version,
                                       const std::vector<MapEdit>& edits,
                                       const std::vector<Prism>& add_keep_out, bool clear_keep_out) {
+  // Without a base version the edits apply to whatever version is current when they are
+  // published: a compare-and-swap lost to another edit is redone on the new current one.
+  constexpr int kMaxAttempts = 8;
+  for (int attempt = 1;; ++attempt) {
+    Result<MapUpdate> update = UpdateOnce(id, base_version, edits, add_keep_out, clear_keep_out);
+    const auto* code = update.ok() ? nullptr : std::get_if<ServiceErrorCode>(&update.error().code);
+    const bool lost_race = code != nullptr && (*code == ServiceErrorCode::kMapChanged ||
+                                               *code == ServiceErrorCode::kMapVersionNotFound);
+    if (!lost_race || !base_version.empty() || attempt == kMaxAttempts) return update;
+    LogInfo("map_update_retry").Add("map", id).Add("attempt", attempt);
+  }
+}
+
+Result<MapUpdate> MapRegistry::UpdateOnce(const std::string& id, const std::string& base_version,
+                                          const std::vector<MapEdit>& edits,
+                                          const std::vector<Prism>& add_keep_out,
+                                          bool clear_keep_out) {
   const auto start = SteadyClock::now();
   if (!options_.store) {
     return MakeError(ServiceErrorCode::kMapStoreRequired,
@@ -549,6 +558,8 @@ Result<MapUpdate> MapRegistry::Update(const std::string& id, const std::string& 
   const std::string version = MapStore::VersionOf(cloud, model->config(), keep_out);
 
   snapshot.summary = model->summary();
+  // The version's source is the edited cloud: raw = dropped + input holds for every version.
+  snapshot.raw_point_count = cloud.size() + snapshot.dropped_nonfinite_point_count;
   snapshot.grid = model->grid();
   snapshot.max_levels = MaxLevels(*model);
   snapshot.keep_out = keep_out;
@@ -834,10 +845,6 @@ void MapRegistry::Finish(const std::shared_ptr<Entry>& entry,
       entry->failure = std::move(outcome).error();
       entry->failure->field_violations.clear();  // Fields of the planner, not of a request.
       entry->failure->metadata["map_id"] = entry->id;
-      // Messages name the file as the client gave it, not where it lives on the server.
-      if (const auto* file = std::get_if<FileMapSource>(&entry->source_info)) {
-        ReplaceAll(&entry->failure->message, file->resolved_path.string(), file->requested_path);
-      }
     }
     snapshot = SnapshotLocked(*entry);
     planning = entry->planning;

@@ -198,7 +198,9 @@ class MapRegistry {
   /// Makes a new version of ACTIVE map `id` from `edits` of version `base_version` (empty:
   /// the current one): the cloud edited, the touched terrain reassessed (ReassessRegion), the
   /// keep-out zones cleared first when `clear_keep_out`, then `add_keep_out` added; written to
-  /// the store and published if the map is still at the base. Needs a store
+  /// the store and published if the map is still at the base. Without a base version, an
+  /// edit that another one overtook is redone on the new current version (a few times at
+  /// most, then kMapChanged). Needs a store
   /// (kMapStoreRequired). Fails with kMapNotFound, kMapNotActive (CREATING here), kMapChanged,
   /// kEditNeedsCloud (a map made from a saved model), kInvalidInput naming the edit field, or
   /// as the store does.
@@ -248,6 +250,10 @@ class MapRegistry {
  private:
   struct Entry;
 
+  // One attempt of Update: kMapChanged when another edit published first.
+  Result<MapUpdate> UpdateOnce(const std::string& id, const std::string& base_version,
+                               const std::vector<MapEdit>& edits,
+                               const std::vector<Prism>& add_keep_out, bool clear_keep_out);
   void WorkerLoop();
   void Assess(const std::shared_ptr<Entry>& entry);
   // Builds the snapshot of `entry`; call with mutex_ held. Leaves memory_bytes to the caller

@@ -1,6 +1,11 @@
 #include "map_root.hpp"
 
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <system_error>
 
 namespace strata::server {
@@ -18,10 +23,42 @@ bool IsInside(const fs::path& path, const fs::path& root) {
   return root_it == root_end;
 }
 
+ServiceError Outside(const std::string& shown, const std::string& field) {
+  return MakeError(ServiceErrorCode::kPathOutsideMapRoot,
+                   "map file " + shown +
+                       " is outside the server's map root (after resolving '..' and symbolic "
+                       "links): give a path inside the map root")
+      .Blame(field);
+}
+
+ServiceError TooLong(const std::string& shown, const std::string& field) {
+  return MakeError(ErrorCode::kInvalidInput,
+                   "map file " + shown +
+                       " is too long: a file name holds at most 255 bytes and a path 4096")
+      .Blame(field);
+}
+
+ServiceError Missing(const std::string& shown, const std::string& field) {
+  return MakeError(
+             ErrorCode::kMapLoadFailed,
+             "map file " + shown + " does not exist under the map root or is not a regular file")
+      .Blame(field);
+}
+
 }  // namespace
 
-Result<fs::path> ResolveMapPath(const fs::path& root, std::string_view requested,
-                                const std::string& field) {
+OpenedMapFile::OpenedMapFile(int fd, fs::path real_path)
+    : fd_(fd), real_path_(std::move(real_path)) {}
+
+OpenedMapFile::~OpenedMapFile() {
+  if (fd_ >= 0) close(fd_);
+}
+
+std::string OpenedMapFile::ProcPath() const { return "/proc/self/fd/" + std::to_string(fd_); }
+
+Result<std::shared_ptr<const OpenedMapFile>> OpenMapFile(const fs::path& root,
+                                                         std::string_view requested,
+                                                         const std::string& field) {
   if (root.empty()) {
     return MakeError(ServiceErrorCode::kPathOutsideMapRoot,
                      "this server has no map root, so maps cannot be loaded from files: start "
@@ -45,35 +82,45 @@ Result<fs::path> ResolveMapPath(const fs::path& root, std::string_view requested
   shown += '\'';
   const fs::path candidate =
       fs::path(requested).is_absolute() ? fs::path(requested) : root / fs::path(requested);
+  // First the path as text: one that leaves the root is refused before anything outside is
+  // touched, so the refusal tells nothing about what is there.
   std::error_code ec;
-  const fs::path resolved = fs::weakly_canonical(candidate, ec);
-  // A path that cannot be resolved is not one outside the root: say what failed.
-  if (ec == std::errc::filename_too_long) {
-    return MakeError(ErrorCode::kInvalidInput,
-                     "map file " + shown +
-                         " is too long: a file name holds at most 255 bytes and a path 4096")
-        .Blame(field);
-  }
+  const fs::path normal = fs::weakly_canonical(candidate, ec);
+  if (ec == std::errc::filename_too_long) return TooLong(shown, field);
   if (ec) {
     return MakeError(ErrorCode::kMapLoadFailed, "map file " + shown +
                                                     " cannot be resolved under the map root (" +
                                                     ec.message() + ")")
         .Blame(field);
   }
-  if (!IsInside(resolved, root)) {
-    return MakeError(ServiceErrorCode::kPathOutsideMapRoot,
-                     "map file " + shown +
-                         " is outside the server's map root (after resolving '..' and "
-                         "symbolic links): give a path inside the map root")
+  if (!IsInside(normal, root)) return Outside(shown, field);
+  // Then the file itself. O_NONBLOCK: opening a FIFO must not wait for a writer (it is
+  // refused below as not a regular file).
+  const int fd = open(candidate.c_str(), O_RDONLY | O_CLOEXEC | O_NOCTTY | O_NONBLOCK);
+  if (fd < 0) {
+    const int error = errno;
+    if (error == ENAMETOOLONG) return TooLong(shown, field);
+    if (error == ENOENT || error == ENOTDIR) return Missing(shown, field);
+    return MakeError(ErrorCode::kMapLoadFailed, "map file " + shown +
+                                                    " cannot be opened under the map root (" +
+                                                    std::system_category().message(error) + ")")
         .Blame(field);
   }
-  if (!fs::is_regular_file(resolved, ec)) {
-    return MakeError(
-               ErrorCode::kMapLoadFailed,
-               "map file " + shown + " does not exist under the map root or is not a regular file")
-        .Blame(field);
+  // Where the open file really is, every link resolved by the kernel as it opened it.
+  const fs::path real = fs::read_symlink("/proc/self/fd/" + std::to_string(fd), ec);
+  struct stat status {};
+  const bool regular = fstat(fd, &status) == 0 && S_ISREG(status.st_mode);
+  if (ec || !IsInside(real, root)) {
+    close(fd);
+    return Outside(shown, field);
   }
-  return resolved;
+  if (!regular) {
+    close(fd);
+    return Missing(shown, field);
+  }
+  // Regular files ignore O_NONBLOCK; it is cleared all the same for the readers to come.
+  fcntl(fd, F_SETFL, fcntl(fd, F_GETFL) & ~O_NONBLOCK);
+  return std::make_shared<const OpenedMapFile>(fd, real);
 }
 
 Result<fs::path> CanonicalMapRoot(const fs::path& root) {

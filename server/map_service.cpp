@@ -33,10 +33,10 @@ Result<MapSource> SourceFromRequest(const v1::CreateMapRequest& request,
                                     const std::filesystem::path& map_root, std::size_t max_points) {
   switch (request.source_case()) {
     case v1::CreateMapRequest::kFile: {
-      Result<std::filesystem::path> path =
-          ResolveMapPath(map_root, request.file().path(), "file.path");
-      if (!path.ok()) return std::move(path).error();
-      return MapSource(FileMapSource{path.value(), request.file().path()});
+      Result<std::shared_ptr<const OpenedMapFile>> file =
+          OpenMapFile(map_root, request.file().path(), "file.path");
+      if (!file.ok()) return std::move(file).error();
+      return MapSource(FileMapSource{std::move(file).value(), request.file().path()});
     }
     case v1::CreateMapRequest::kScene: {
       const std::vector<std::string> names = SceneNames();

@@ -573,6 +573,11 @@ ServiceStatus MapStore::PublishUpdate(const std::string& id, const std::string& 
   const std::vector<std::string>& kept = **head;
   if (kept.front() == version) return OkStatus();
   if (kept.front() != expected_current) {
+    // The version put for this change will never be published: no leftover stays behind,
+    // unless the head lists it already (the same content published earlier).
+    if (std::find(kept.begin(), kept.end(), version) == kept.end()) {
+      Discard(VersionDir(id, version));
+    }
     return MakeError(ServiceErrorCode::kMapChanged,
                      "map '" + id + "' changed: its current version is " + kept.front() + ", not " +
                          expected_current + ": apply the change to the current version")

@@ -118,7 +118,9 @@ class MapStore {
   /// `expected_current` (compare-and-swap), keeping the newest `keep_versions` (>= 1) in the
   /// head and deleting the directories of those dropped. Success also when `version` is
   /// current already (another replica made the same edit). Fails with kMapChanged (naming the
-  /// current version: read it and redo the edit) when the current is another, kMapNotFound,
+  /// current version: read it and redo the edit) when the current is another, and then
+  /// removes `version`'s directory unless the head lists it (a lost race leaves nothing behind
+  /// that no head lists; put it again to retry); kMapNotFound,
   /// kMapVersionNotFound when `version` was not put, kInvalidInput (bad names,
   /// keep_versions < 1), kMapCorrupted, kMapStoreUnavailable.
   ServiceStatus PublishUpdate(const std::string& id, const std::string& expected_current,

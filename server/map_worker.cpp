@@ -89,7 +89,7 @@ Result<WorkerJob> WorkerJobOf(MapBuildJob& job, const MapWorkerOptions& options,
   WorkerJob worker;
   if (const auto* file = std::get_if<FileMapSource>(&job.source)) {
     worker.kind = WorkerJob::Source::kFile;
-    worker.source = file->resolved_path.string();
+    worker.source = file->requested_path;
   } else if (const auto* scene = std::get_if<SceneMapSource>(&job.source)) {
     worker.kind = WorkerJob::Source::kScene;
     worker.source = FormatSceneSource(*scene);
@@ -113,8 +113,10 @@ Result<WorkerJob> WorkerJobOf(MapBuildJob& job, const MapWorkerOptions& options,
   return worker;
 }
 
-Result<pid_t> Spawn(const fs::path& program, const std::vector<std::string>& args, Pipe& out,
-                    Pipe& err) {
+// Starts the worker with `args`, its output and errors on the pipes and, when `source_fd` is
+// not negative, that descriptor as its kWorkerSourceFd.
+Result<pid_t> Spawn(const fs::path& program, const std::vector<std::string>& args, int source_fd,
+                    Pipe& out, Pipe& err) {
   if (out.read < 0 || err.read < 0) {
     const int error = errno;
     return MakeError(ServiceErrorCode::kInternal,
@@ -132,6 +134,7 @@ Result<pid_t> Spawn(const fs::path& program, const std::vector<std::string>& arg
   posix_spawn_file_actions_addopen(&actions, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
   posix_spawn_file_actions_adddup2(&actions, out.write, STDOUT_FILENO);
   posix_spawn_file_actions_adddup2(&actions, err.write, STDERR_FILENO);
+  if (source_fd >= 0) posix_spawn_file_actions_adddup2(&actions, source_fd, kWorkerSourceFd);
   posix_spawnattr_t attributes;
   posix_spawnattr_init(&attributes);
   // The server blocks SIGTERM and SIGINT in every thread (main.cpp) and the worker would
@@ -256,15 +259,22 @@ ServiceError FailureOf(const Outcome& outcome, const MapBuildJob& job,
   const std::string what = job.saved_model  ? "loading the saved model"
                            : outcome.loaded ? "assessing the terrain"
                                             : "reading the points";
-  if ((WIFEXITED(status) && WEXITSTATUS(status) == kWorkerExitOutOfMemory) ||
-      (WIFSIGNALED(status) && WTERMSIG(status) == SIGKILL)) {
-    // SIGKILL that we did not send: the kernel's out-of-memory killer, most likely.
+  if (WIFEXITED(status) && WEXITSTATUS(status) == kWorkerExitOutOfMemory) {
     return MakeError(ErrorCode::kResourceExhausted,
                      what + " needed more memory than a map may use (--max-assessment-memory " +
                          MiB(options.memory_bytes) +
-                         (WIFSIGNALED(status) ? ", or the machine ran out of memory" : "") +
                          "): use a coarser terrain.resolution_m or a smaller cloud, or raise "
                          "the limit");
+  }
+  if (WIFSIGNALED(status) && WTERMSIG(status) == SIGKILL) {
+    // Not sent by this server (outcome.killed says so). All that is known is the signal.
+    return MakeError(ErrorCode::kResourceExhausted,
+                     "the map worker was killed by signal 9 (SIGKILL) while " + what +
+                         ", not by this server: the kernel's out-of-memory killer sends it "
+                         "when the machine or the server's container runs out of memory (a "
+                         "worker may use up to --max-assessment-memory " +
+                         MiB(options.memory_bytes) +
+                         "), and so can an operator; the kernel log (dmesg) says which");
   }
   if (WIFSIGNALED(status) && WTERMSIG(status) == SIGXCPU) {
     return MakeError(ErrorCode::kResourceExhausted,
@@ -318,7 +328,9 @@ Result<BuiltMap> BuildInWorker(const MapWorkerOptions& options, MapBuildJob job,
   if (!worker.ok()) return std::move(worker).error();
   Pipe out;
   Pipe err;
-  Result<pid_t> pid = Spawn(options.program, WorkerArguments(worker.value()), out, err);
+  const auto* file = std::get_if<FileMapSource>(&job.source);
+  Result<pid_t> pid = Spawn(options.program, WorkerArguments(worker.value()),
+                            file != nullptr ? file->file->fd() : -1, out, err);
   if (!pid.ok()) return std::move(pid).error();
   const Outcome outcome = Follow(pid.value(), out, err, monitor);
   if (!outcome.stderr_tail.empty()) {

@@ -29,8 +29,9 @@ struct MapWorkerOptions {
 
 /// A MapBuilder that makes each map in a new worker process. The build fails with:
 /// - the worker's own error, as BuildMapHere reports it (a malformed file: kMapLoadFailed);
-/// - kResourceExhausted when the worker reached options.memory_bytes or options.cpu_s (or
-///   was killed by the system, which happens when the machine runs out of memory);
+/// - kResourceExhausted when the worker reached options.memory_bytes or options.cpu_s, or was
+///   killed by SIGKILL that this server did not send (the kernel's out-of-memory killer, or
+///   an operator: the message says what is known);
 /// - kMapLoadFailed when it crashed (a signal), naming the signal and whether it was reading
 ///   the source or assessing it;
 /// - kCancelled when monitor.should_stop asked to stop (the worker is killed at once);

@@ -3,6 +3,7 @@
 // more memory or CPU time than allowed, fails that map and not the server. The server starts
 // it (map_worker.hpp); the command line, the report lines and the exit codes are
 // map_worker_protocol.hpp's. Not meant to be run by hand.
+#include <fcntl.h>
 #include <sys/prctl.h>
 #include <sys/resource.h>
 #include <unistd.h>
@@ -12,6 +13,7 @@
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <exception>
 #include <fstream>
 #include <mutex>
@@ -107,8 +109,22 @@ strata::Expected<strata::server::MapBuildJob> BuildJobOf(const WorkerJob& job) {
     strata::Expected<strata::SceneSource> scene = strata::ParseSceneSource(job.source);
     if (!scene) return scene.error();
     build.source = std::move(scene).value();
+  } else if (job.kind == WorkerJob::Source::kFile) {
+    // The file the server opened and checked, inherited on kWorkerSourceFd.
+    build.source =
+        strata::server::FileMapSource{std::make_shared<const strata::server::OpenedMapFile>(
+                                          strata::server::kWorkerSourceFd, std::filesystem::path()),
+                                      job.source};
   } else {
-    build.source = strata::server::FileMapSource{job.source, job.source};
+    // Uploaded points, which the server wrote in the job's directory.
+    const int fd = open(job.source.c_str(), O_RDONLY | O_CLOEXEC);
+    if (fd < 0) {
+      return strata::Error{
+          strata::ErrorCode::kMapLoadFailed,
+          "cannot open the uploaded points at " + job.source + ": " + std::strerror(errno)};
+    }
+    build.source = strata::server::FileMapSource{
+        std::make_shared<const strata::server::OpenedMapFile>(fd, job.source), job.source};
   }
   return build;
 }

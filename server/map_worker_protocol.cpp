@@ -42,9 +42,10 @@ bool ParseNumber(std::string_view text, Number* value) {
 std::vector<std::string> WorkerArguments(const WorkerJob& job) {
   std::vector<std::string> args = {"--out", job.out_dir.string()};
   switch (job.kind) {
-    case WorkerJob::Source::kFile: args.insert(args.end(), {"--file", job.source}); break;
-    case WorkerJob::Source::kScene: args.insert(args.end(), {"--scene", job.source}); break;
-    case WorkerJob::Source::kPoints: args.insert(args.end(), {"--points", job.source}); break;
+    // One argument with '=': a client's file name may begin with '-'.
+    case WorkerJob::Source::kFile: args.push_back("--file=" + job.source); break;
+    case WorkerJob::Source::kScene: args.push_back("--scene=" + job.source); break;
+    case WorkerJob::Source::kPoints: args.push_back("--points=" + job.source); break;
   }
   if (job.saved_model) args.emplace_back("--saved-model");
   if (job.keep_cloud) args.emplace_back("--keep-cloud");

@@ -22,7 +22,9 @@ namespace strata::server {
 /// limits the worker sets on itself before it reads anything.
 struct WorkerJob {
   enum class Source {
-    kFile,    ///< `source` is a point-cloud file (or a saved model with `saved_model`).
+    /// A point-cloud file (or a saved model with `saved_model`), open on kWorkerSourceFd;
+    /// `source` is its name as the client gave it (messages, and the format by extension).
+    kFile,
     kScene,   ///< `source` is "scene:NAME:SEED[...]" (strata/scenes/map_source.hpp).
     kPoints,  ///< `source` is a binary PCD of uploaded points the server wrote.
   };
@@ -44,6 +46,10 @@ std::vector<std::string> WorkerArguments(const WorkerJob& job);
 
 /// The job `argv` (from the program name on) describes; kInvalidInput naming the problem.
 Expected<WorkerJob> ParseWorkerArguments(int argc, const char* const* argv);
+
+/// The descriptor a kFile job's file is open on in the worker: the server opened and checked
+/// it (OpenMapFile), and the worker reads that same file, never a path.
+inline constexpr int kWorkerSourceFd = 3;
 
 /// Files in the job's out_dir.
 inline constexpr const char* kWorkerModelFile = "model.smd";  ///< The saved model made.

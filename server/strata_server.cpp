@@ -50,9 +50,9 @@ Result<ResolvedPreload> ResolvePreload(const PreloadSpec& spec,
     if (!source.ok()) return fail(source.error());
     preload.source = std::move(source).value();
   } else {
-    Result<std::filesystem::path> path = ResolveMapPath(map_root, spec.path, "preload");
-    if (!path.ok()) return fail(path.error());
-    preload.source = FileMapSource{path.value(), spec.path};
+    Result<std::shared_ptr<const OpenedMapFile>> file = OpenMapFile(map_root, spec.path, "preload");
+    if (!file.ok()) return fail(file.error());
+    preload.source = FileMapSource{std::move(file).value(), spec.path};
   }
   v1::TerrainParameters terrain;
   if (spec.resolution_m) terrain.set_resolution_m(*spec.resolution_m);
@@ -246,6 +246,9 @@ Result<std::unique_ptr<StrataServer>> StrataServer::Start(const ServerConfig& co
   grpc::ServerBuilder builder;
   int port = 0;
   builder.AddListeningPort(config.listen, credentials.value(), &port);
+  // gRPC turns SO_REUSEPORT on unless told otherwise: a second server on a taken port would
+  // start and take a share of its calls at random.
+  builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, config.reuse_port ? 1 : 0);
   builder.SetMaxReceiveMessageSize(config.max_receive_message_bytes);
   builder.SetMaxSendMessageSize(config.max_send_message_bytes);
   // Robots on Wi-Fi: notice dead links within keepalive time + timeout, keep idle
@@ -266,7 +269,8 @@ Result<std::unique_ptr<StrataServer>> StrataServer::Start(const ServerConfig& co
   if (!self->server_ || port == 0) {
     return MakeError(ErrorCode::kInvalidInput,
                      "--listen " + config.listen +
-                         ": cannot listen there (address in use, or not a local address" +
+                         ": cannot listen there (address in use by another process, or not a "
+                         "local address" +
                          (config.tls_cert.empty()
                               ? std::string(")")
                               : std::string("; or --tls-cert and --tls-key are not a matching "
@@ -294,14 +298,14 @@ Result<std::unique_ptr<StrataServer>> StrataServer::Start(const ServerConfig& co
     self->metrics_port_ = ports.empty() ? config.metrics_port : ports.front();
   }
   if (config.http_port >= 0) {
-    // The viewer cannot serve HTTPS (http_server.hpp says why): with TLS on the gRPC side it
-    // is served on loopback only, where no token crosses the network in the clear.
+    // The viewer serves plain HTTP only: with TLS on the gRPC side it is served on loopback
+    // only, where no token crosses the network in the clear.
     if (!config.tls_cert.empty() && !IsLoopbackAddress(config.http_address)) {
       return MakeError(
           ErrorCode::kInvalidInput,
-          "--http-port with --tls-cert: the web viewer cannot serve HTTPS (Debian's civetweb "
-          "crashes serving TLS with OpenSSL 3), and plain HTTP beside a TLS gRPC port would "
-          "send tokens in the clear: give --http-address 127.0.0.1 and put a TLS-terminating "
+          "--http-port with --tls-cert: the web viewer serves plain HTTP only, and plain "
+          "HTTP beside a TLS gRPC port would send tokens in the clear: give --http-address "
+          "127.0.0.1 and put a TLS-terminating "
           "proxy (or an SSH tunnel) in front of it, or drop --http-port");
     }
     self->http_api_ = std::make_unique<HttpApi>(self->registry_.get(), self->map_service_.get(),

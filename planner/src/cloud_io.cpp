@@ -76,56 +76,59 @@ Status CheckLimits(const CloudLoadLimits& limits) {
 
 // Every format is read from memory: the limits are checked against the real size before
 // anything is allocated, and the readers all see the same bytes the checks saw.
-Expected<std::string> ReadWholeFile(const std::string& path, const CloudLoadLimits& limits) {
+Expected<std::string> ReadWholeFile(const NamedFile& file, const CloudLoadLimits& limits) {
+  const std::string& path = file.path;
+  const std::string& name = file.name;
   std::error_code ec;
   const std::filesystem::file_status status = std::filesystem::status(path, ec);
   if (status.type() == std::filesystem::file_type::not_found) {
-    return LoadError(path, "file not found; check the path");
+    return LoadError(name, "file not found; check the path");
   }
-  if (ec) return LoadError(path, "cannot access the file: " + ec.message());
+  if (ec) return LoadError(name, "cannot access the file: " + ec.message());
   if (std::filesystem::is_directory(status)) {
-    return LoadError(path, "is a directory, not a point-cloud file");
+    return LoadError(name, "is a directory, not a point-cloud file");
   }
   // A FIFO or a device could block forever or never end.
-  if (!std::filesystem::is_regular_file(status)) return LoadError(path, "is not a regular file");
+  if (!std::filesystem::is_regular_file(status)) return LoadError(name, "is not a regular file");
   const std::uintmax_t size = std::filesystem::file_size(path, ec);
-  if (ec) return LoadError(path, "cannot read the file size: " + ec.message());
-  if (size == 0) return LoadError(path, "file is empty (0 bytes)");
+  if (ec) return LoadError(name, "cannot read the file size: " + ec.message());
+  if (size == 0) return LoadError(name, "file is empty (0 bytes)");
   if (size > limits.max_file_bytes) {
-    return internal::TooBig(path, Cat("file is ", size, " bytes"), limits.max_file_bytes,
+    return internal::TooBig(name, Cat("file is ", size, " bytes"), limits.max_file_bytes,
                             "max_file_bytes");
   }
   std::ifstream in(path, std::ios::binary);
-  if (!in) return LoadError(path, "cannot open the file for reading; check its permissions");
+  if (!in) return LoadError(name, "cannot open the file for reading; check its permissions");
   std::string bytes(size, '\0');
   in.read(bytes.data(), static_cast<std::streamsize>(size));
   if (static_cast<std::uintmax_t>(in.gcount()) != size) {
-    return LoadError(path, "could not read the whole file (did it change while loading?)");
+    return LoadError(name, "could not read the whole file (did it change while loading?)");
   }
   return bytes;
 }
 
 }  // namespace
 
-Expected<LoadedCloud> LoadPointCloud(const std::string& path, const CloudLoadLimits& limits) {
+Expected<LoadedCloud> LoadPointCloud(const NamedFile& file, const CloudLoadLimits& limits) {
+  const std::string& name = file.name;
   if (Status status = CheckLimits(limits); !status.ok()) return status.error();
-  std::string extension = std::filesystem::path(path).extension().string();
+  std::string extension = std::filesystem::path(name).extension().string();
   std::transform(extension.begin(), extension.end(), extension.begin(),
                  [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
   if (extension != ".pcd" && extension != ".ply" && extension != ".bt" && extension != ".ot") {
-    return LoadError(path, Cat("unsupported extension ", internal::Quote(extension),
+    return LoadError(name, Cat("unsupported extension ", internal::Quote(extension),
                                "; supported: .pcd, .ply, .bt, .ot"));
   }
   // PCL and OctoMap are third-party code: whatever they throw becomes an error here.
   try {
-    Expected<std::string> bytes = ReadWholeFile(path, limits);
+    Expected<std::string> bytes = ReadWholeFile(file, limits);
     if (!bytes.ok()) return bytes.error();
     Expected<LoadedCloud> cloud =
-        extension == ".pcd"   ? internal::LoadPcd(path, *bytes, limits)
-        : extension == ".ply" ? internal::LoadPly(path, *bytes, limits)
-                              : internal::LoadOctree(path, *bytes, limits, extension == ".bt");
+        extension == ".pcd"   ? internal::LoadPcd(name, *bytes, limits)
+        : extension == ".ply" ? internal::LoadPly(name, *bytes, limits)
+                              : internal::LoadOctree(name, *bytes, limits, extension == ".bt");
     if (cloud.ok() && cloud->points.empty()) {
-      return LoadError(path, cloud->raw_point_count == 0
+      return LoadError(name, cloud->raw_point_count == 0
                                  ? std::string("contains no points")
                                  : Cat("contains no finite points (all ", cloud->raw_point_count,
                                        " have NaN/Inf coordinates)"));
@@ -133,11 +136,11 @@ Expected<LoadedCloud> LoadPointCloud(const std::string& path, const CloudLoadLim
     return cloud;
   } catch (const std::bad_alloc&) {
     return Error{ErrorCode::kResourceExhausted,
-                 Cat(path, ": ran out of memory while loading; lower CloudLoadLimits")};
+                 Cat(name, ": ran out of memory while loading; lower CloudLoadLimits")};
   } catch (const std::exception& e) {
-    return LoadError(path, Cat("could not be read: ", e.what()));
+    return LoadError(name, Cat("could not be read: ", e.what()));
   } catch (...) {
-    return LoadError(path, "could not be read (the reader failed)");
+    return LoadError(name, "could not be read (the reader failed)");
   }
 }
 

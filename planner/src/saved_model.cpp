@@ -546,21 +546,23 @@ bool IsSavedModelFile(const std::string& path) {
   return file.gcount() == sizeof(magic) && IsSavedModel(std::string_view(magic, sizeof(magic)));
 }
 
-Expected<AssessmentConfig> ReadSavedModelConfig(const std::string& path) {
+Expected<AssessmentConfig> ReadSavedModelConfig(const NamedFile& named) {
+  const std::string& path = named.path;
+  const std::string& name = named.name;
   std::error_code error;
   const std::uintmax_t size = std::filesystem::file_size(path, error);
   std::ifstream file(path, std::ios::binary);
   if (error || !file) {
-    return Error{ErrorCode::kMapLoadFailed, "saved model " + path + " cannot be read"};
+    return Error{ErrorCode::kMapLoadFailed, "saved model " + name + " cannot be read"};
   }
   FileSource source(&file);
   std::string writer;
-  if (Status s = ReadHeader(source, size, path, &writer); !s) return s.error();
+  if (Status s = ReadHeader(source, size, name, &writer); !s) return s.error();
   Reader reader(&source);
   AssessmentConfig config;
   std::string problem;
   if (!ReadFields(reader, &config, &problem)) {
-    return Error{ErrorCode::kMapLoadFailed, "saved model " + path + " written by " + writer +
+    return Error{ErrorCode::kMapLoadFailed, "saved model " + name + " written by " + writer +
                                                 " has unreadable parameters" +
                                                 (problem.empty() ? "" : ": " + problem)};
   }
@@ -609,19 +611,21 @@ Expected<std::shared_ptr<const TerrainModel>> DeserializeModel(std::string_view 
   return Read(source, bytes.size(), name);
 }
 
-Expected<std::shared_ptr<const TerrainModel>> LoadModel(const std::string& path) {
+Expected<std::shared_ptr<const TerrainModel>> LoadModel(const NamedFile& named) {
+  const std::string& path = named.path;
+  const std::string& name = named.name;
   std::error_code error;
   const std::uintmax_t size = std::filesystem::file_size(path, error);
   if (error) {
-    return Error{ErrorCode::kMapLoadFailed, "saved model " + path + ": " + error.message()};
+    return Error{ErrorCode::kMapLoadFailed, "saved model " + name + ": " + error.message()};
   }
   std::ifstream file(path, std::ios::binary);
   if (!file) {
     return Error{ErrorCode::kMapLoadFailed,
-                 "saved model " + path + " cannot be opened: " + std::strerror(errno)};
+                 "saved model " + name + " cannot be opened: " + std::strerror(errno)};
   }
   FileSource source(&file);
-  return Read(source, size, path);
+  return Read(source, size, name);
 }
 
 }  // namespace strata

@@ -5,6 +5,7 @@
 #include <atomic>
 #include <chrono>
 #include <filesystem>
+#include <fstream>
 #include <future>
 #include <thread>
 
@@ -20,6 +21,7 @@ namespace {
 
 using std::chrono::steady_clock;
 using ::testing::HasSubstr;
+using ::testing::Not;
 
 constexpr auto kLongWait = std::chrono::seconds(60);
 
@@ -391,7 +393,9 @@ TEST(MapRegistryTest, ASavedModelIsLoadedNotAssessedAndKeepsItsParameters) {
     ASSERT_TRUE(model.ok());
     ASSERT_TRUE(SaveModel(**model, path.string()).ok());
   }
-  const FileMapSource source{path, "room.stratamodel"};
+  const FileMapSource source{
+      OpenMapFile(std::filesystem::canonical(dir), "room.stratamodel", "f").value(),
+      "room.stratamodel"};
   MapRegistry registry(Options());
   // Nothing asked: the file's parameters.
   ASSERT_TRUE(registry.Create("saved", source, AssessmentConfig{}).ok());
@@ -409,6 +413,17 @@ TEST(MapRegistryTest, ASavedModelIsLoadedNotAssessedAndKeepsItsParameters) {
   EXPECT_EQ(std::get<ErrorCode>(refused.error().code), ErrorCode::kInvalidConfig);
   EXPECT_THAT(refused.error().message, HasSubstr("grid.resolution_m"));
   EXPECT_THAT(refused.error().message, HasSubstr("saved model"));
+
+  // A damaged saved model is named as the client named it, never by the server's own path.
+  std::ofstream(dir / "damaged.stratamodel") << "STRATAMD" << std::string(40, '\x7f');
+  const FileMapSource damaged{
+      OpenMapFile(std::filesystem::canonical(dir), "damaged.stratamodel", "f").value(),
+      "maps/damaged.stratamodel"};
+  Result<MapSnapshot> unreadable = registry.Create("damaged", damaged, AssessmentConfig{});
+  ASSERT_FALSE(unreadable.ok());
+  EXPECT_THAT(unreadable.error().message, HasSubstr("maps/damaged.stratamodel"));
+  EXPECT_THAT(unreadable.error().message, Not(HasSubstr(dir.string())));
+  EXPECT_THAT(unreadable.error().message, Not(HasSubstr("/proc/self")));
   std::filesystem::remove_all(dir);
 }
 

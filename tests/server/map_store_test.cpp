@@ -370,6 +370,13 @@ TEST_F(MapStoreTest, PublishUpdateIsACompareAndSwap) {
     }
   }
   EXPECT_EQ(wins, 1);
+  // A lost race leaves nothing behind: every version directory left is one the head lists.
+  const std::vector<std::string> listed = *store_->Versions("edited");
+  std::set<std::string> on_disk;
+  for (const auto& entry : fs::directory_iterator(root_ / "maps" / "edited" / "versions")) {
+    on_disk.insert(entry.path().filename().string());
+  }
+  EXPECT_EQ(on_disk, std::set<std::string>(listed.begin(), listed.end()));
 }
 
 TEST_F(MapStoreTest, PruningKeepsTheNewestVersions) {

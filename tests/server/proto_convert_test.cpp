@@ -512,7 +512,7 @@ TEST(ProtoConvertTest, FailedMapsShowTheReasonOfTheTable) {
   snapshot.state = MapState::kFailed;
   snapshot.stage = CreationStage::kDone;
   snapshot.failure = MakeError(ErrorCode::kMapLoadFailed, "truncated");
-  snapshot.source = FileMapSource{"/srv/maps/a.pcd", "a.pcd"};
+  snapshot.source = FileMapSource{nullptr, "a.pcd"};
   v1::Map map;
   ToProto(snapshot, &map);
   EXPECT_EQ(map.state(), v1::MAP_STATE_FAILED);

@@ -20,6 +20,7 @@
 
 #include "planner_service.hpp"
 #include "proto_convert.hpp"
+#include "strata/map_edit.hpp"
 
 namespace strata::server {
 namespace {
@@ -220,6 +221,22 @@ TEST(ProtoDefaults, RoundingToleranceFollowsTheLastDigitWritten) {
   EXPECT_DOUBLE_EQ(RoundingTolerance("1e4"), 4e3);
   EXPECT_DOUBLE_EQ(RoundingTolerance("2"), 0.4);
   EXPECT_DOUBLE_EQ(RoundingTolerance("1.5e-3"), 4e-5);
+}
+
+// The API's figure for an edit's points is the planner's limit (it once said 20 million
+// while the planner refused past 4 million).
+TEST(ProtoDefaults, TheEditPointLimitIsThePlanners) {
+  const Descriptor* edit = DocumentedPool().FindMessageTypeByName("strata.v1.MapEdit");
+  ASSERT_NE(edit, nullptr);
+  google::protobuf::SourceLocation location;
+  ASSERT_TRUE(edit->FindFieldByName("add_obstacle")->GetSourceLocation(&location));
+  std::smatch match;
+  static const std::regex kLimit(R"(at most\s+([0-9,]+)\s+points)");
+  ASSERT_TRUE(std::regex_search(location.leading_comments, match, kLimit))
+      << location.leading_comments;
+  std::string digits = match[1];
+  std::erase(digits, ',');
+  EXPECT_EQ(std::stoull(digits), kMaxEditPoints);
 }
 
 }  // namespace

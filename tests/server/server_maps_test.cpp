@@ -8,8 +8,10 @@
 #include <grpc/health/v1/health.grpc.pb.h>
 
 #include "server_fixture.hpp"
+#include "strata/cloud_io.hpp"
 #include "strata/saved_model.hpp"
 #include "strata/scenes/map_source.hpp"
+#include "test_util/run_command.hpp"
 
 namespace strata::server::testing {
 namespace {
@@ -274,6 +276,51 @@ TEST_F(MapServiceTest, RefusesPathsOutsideTheMapRoot) {
   const CallError missing = ErrorOf(maps_->CreateMap(&context, request, &map));
   EXPECT_EQ(missing.code, grpc::StatusCode::INVALID_ARGUMENT);
   EXPECT_EQ(missing.reason, "MAP_LOAD_FAILED");
+}
+
+// A link in the map root that points out of it was refused when named directly but read
+// when the path reached it through a directory that does not exist ("missing/../link.pcd"):
+// the check resolved the text, the worker opened the link. Now the file is opened once and
+// the opened file's real path decides, for CreateMap and --preload alike.
+TEST_F(MapServiceTest, ALinkOutOfTheMapRootIsRefusedHoweverThePathReachesIt) {
+  namespace fs = std::filesystem;
+  const fs::path base =
+      fs::temp_directory_path() / ("strata_link_root_" + std::to_string(::getpid()));
+  fs::remove_all(base);
+  fs::create_directories(base / "root" / "sub");
+  fs::create_directories(base / "outside");
+  Expected<LoadedCloud> cloud = strata::LoadMapSource(SceneSource{"two_level_ramp", 1});
+  ASSERT_TRUE(cloud.ok());
+  ASSERT_TRUE(SavePcd(cloud->points, (base / "outside" / "secret.pcd").string()).ok());
+  fs::create_symlink(base / "outside" / "secret.pcd", base / "root" / "link.pcd");
+  fs::create_directory_symlink(base / "outside", base / "root" / "linked_dir");
+  server_ = ServerProcess::Start({"--map-root", (base / "root").string(), "--no-preload"});
+  ASSERT_NE(server_, nullptr);
+  maps_ = v1::MapService::NewStub(server_->NewChannel());
+  int n = 0;
+  for (const char* path : {"link.pcd", "./link.pcd", "missing/../link.pcd", "sub/../link.pcd",
+                           "sub/./../link.pcd", "sub/../../root/link.pcd", "linked_dir/secret.pcd",
+                           "missing/../linked_dir/secret.pcd", "sub/../linked_dir/secret.pcd"}) {
+    grpc::ClientContext context;
+    SetDeadline(&context, 60);
+    v1::CreateMapRequest request;
+    request.set_map_id("escape-" + std::to_string(n++));
+    request.mutable_file()->set_path(path);
+    request.set_wait(true);
+    v1::Map map;
+    const grpc::Status status = maps_->CreateMap(&context, request, &map);
+    ASSERT_FALSE(status.ok()) << path << " was read: " << map.ShortDebugString();
+    const CallError error = ErrorOf(status);
+    EXPECT_TRUE(error.reason == "PATH_OUTSIDE_MAP_ROOT" || error.reason == "MAP_LOAD_FAILED")
+        << path << ": " << error.reason << " " << error.message;
+  }
+  // --preload resolves its paths the same way: the server does not start.
+  const auto preload = test_util::RunCommand(
+      {STRATA_SERVER_BINARY, "--listen", "127.0.0.1:0", "--metrics-port", "-1", "--map-root",
+       (base / "root").string(), "--preload", "x=sub/../link.pcd"});
+  EXPECT_EQ(preload.exit_code, 1);
+  EXPECT_THAT(preload.err, HasSubstr("outside the server's map root"));
+  fs::remove_all(base);
 }
 
 TEST_F(MapServiceTest, RefusesBadRequestsNamingTheField) {

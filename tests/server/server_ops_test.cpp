@@ -13,6 +13,7 @@
 #include <grpcpp/impl/codegen/rpc_method.h>
 
 #include "server_fixture.hpp"
+#include "test_util/run_command.hpp"
 
 namespace strata::server::testing {
 namespace {
@@ -21,6 +22,29 @@ using ::testing::HasSubstr;
 using ::testing::Not;
 
 class ServerOpsTest : public ServerFixture {};
+
+// gRPC turns SO_REUSEPORT on unless told not to: a second server on a taken port used to log
+// "listening" and take a random share of the first one's calls.
+TEST_F(ServerOpsTest, ASecondServerOnATakenPortRefusesToStartUnlessBothShareIt) {
+  server_ = ServerProcess::Start({"--no-preload"});
+  ASSERT_NE(server_, nullptr);
+  const std::vector<std::string> second = {"--listen", server_->address(), "--metrics-port", "-1",
+                                           "--no-preload"};
+  ASSERT_EQ(ServerProcess::Start(second), nullptr);
+  std::vector<std::string> command = {STRATA_SERVER_BINARY};
+  command.insert(command.end(), second.begin(), second.end());
+  const test_util::CommandResult refused = test_util::RunCommand(command);
+  EXPECT_EQ(refused.exit_code, 1);
+  EXPECT_THAT(refused.err, HasSubstr("address in use"));
+
+  // Two that both ask to share the port both serve.
+  const auto first_sharing = ServerProcess::Start({"--no-preload", "--reuse-port"});
+  ASSERT_NE(first_sharing, nullptr);
+  const auto second_sharing =
+      ServerProcess::Start({"--listen", first_sharing->address(), "--metrics-port", "-1",
+                            "--no-preload", "--reuse-port"});
+  EXPECT_NE(second_sharing, nullptr);
+}
 
 TEST_F(ServerOpsTest, SixteenClientsPlanOnTwoMapsWhileAThirdComesAndGoes) {
   ASSERT_NO_FATAL_FAILURE(StartServer(

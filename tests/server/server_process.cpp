@@ -5,9 +5,11 @@
 #include <netinet/in.h>
 #include <signal.h>
 #include <sys/socket.h>
+#include <sys/time.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -21,8 +23,13 @@ namespace strata::server::testing {
 
 std::unique_ptr<ServerProcess> ServerProcess::Start(const std::vector<std::string>& args,
                                                     std::chrono::seconds timeout) {
-  std::vector<std::string> argv_strings = {STRATA_SERVER_BINARY, "--listen", "127.0.0.1:0",
-                                           "--metrics-port", "0"};
+  std::vector<std::string> argv_strings = {STRATA_SERVER_BINARY};
+  for (const auto& [flag, fallback] :
+       {std::pair{"--listen", "127.0.0.1:0"}, std::pair{"--metrics-port", "0"}}) {
+    if (std::find(args.begin(), args.end(), flag) == args.end()) {
+      argv_strings.insert(argv_strings.end(), {flag, fallback});
+    }
+  }
   argv_strings.insert(argv_strings.end(), args.begin(), args.end());
   std::vector<char*> argv;
   for (std::string& arg : argv_strings) argv.push_back(arg.data());
@@ -144,9 +151,12 @@ bool ServerProcess::WaitForLog(const std::string& text, std::chrono::seconds tim
 namespace {
 
 // Sends `request` to 127.0.0.1:port and reads the whole answer (HTTP/1.0: the server closes).
+// A server that stays silent for 30 s fails the exchange rather than hang the test.
 std::string Exchange(int port, const std::string& request) {
   const int fd = socket(AF_INET, SOCK_STREAM, 0);
   if (fd < 0) return "";
+  const timeval patience{30, 0};
+  setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &patience, sizeof patience);
   sockaddr_in address{};
   address.sin_family = AF_INET;
   address.sin_port = htons(static_cast<std::uint16_t>(port));
@@ -186,7 +196,11 @@ HttpReply HttpPost(int port, const std::string& path, const std::string& body,
     length_given = length_given || header.rfind("Content-Length:", 0) == 0;
   }
   if (!length_given) request += "Content-Length: " + std::to_string(body.size()) + "\r\n";
-  const std::string response = Exchange(port, request + "\r\n" + body);
+  return HttpExchange(port, request + "\r\n" + body);
+}
+
+HttpReply HttpExchange(int port, const std::string& request) {
+  const std::string response = Exchange(port, request);
   HttpReply reply;
   if (response.rfind("HTTP/1.", 0) == 0 && response.size() > 12) {
     reply.status = std::atoi(response.c_str() + 9);

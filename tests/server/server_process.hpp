@@ -18,8 +18,9 @@ namespace strata::server::testing {
 
 class ServerProcess {
  public:
-  /// Starts the server with `args` after "--listen 127.0.0.1:0 --metrics-port 0"; returns
-  /// null (and prints the log) if it does not report listening within `timeout`.
+  /// Starts the server with `args` after "--listen 127.0.0.1:0 --metrics-port 0" (each unless
+  /// `args` sets it); returns null (and prints the log) if it does not report listening within
+  /// `timeout`, or exits first.
   static std::unique_ptr<ServerProcess> Start(
       const std::vector<std::string>& args,
       std::chrono::seconds timeout = std::chrono::seconds(30));
@@ -68,6 +69,9 @@ struct HttpReply {
   int status = 0;
   std::string body;
 };
+/// Sends `request` (request line, headers and body, as they go on the wire) to
+/// 127.0.0.1:port and reads the answer until the server closes (or stays silent for 30 s).
+HttpReply HttpExchange(int port, const std::string& request);
 /// POST `body` to http://127.0.0.1:port/path (HTTP/1.0, plain socket) with `headers` (each
 /// "Name: value"; a Content-Length among them replaces the body's own).
 HttpReply HttpPost(int port, const std::string& path, const std::string& body,

@@ -6,6 +6,7 @@
 
 #include <filesystem>
 #include <future>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -161,6 +162,10 @@ TEST_F(StoreTest, AnyReplicaServesEditsAndDeletesEveryMap) {
   ASSERT_TRUE(updated.ok()) << updated.error_message();
   const std::string v2 = edited.map().version();
   EXPECT_NE(v2, v1);
+  // The edited cloud is the version's source: its counts add up (raw = dropped + input).
+  EXPECT_GT(edited.map().input_point_count(), uploaded.input_point_count());
+  EXPECT_EQ(edited.map().raw_point_count(),
+            edited.map().dropped_nonfinite_point_count() + edited.map().input_point_count());
   EXPECT_THAT(edited.map().versions(), ::testing::ElementsAre(v2, v1));
   v1::PlanResponse around;
   const grpc::Status planned_around = Plan(*a, request, &around);
@@ -204,6 +209,39 @@ TEST_F(StoreTest, AnyReplicaServesEditsAndDeletesEveryMap) {
   v1::Map after;
   EXPECT_EQ(ErrorOf(Get(*b, "floor", &after)).reason, "MAP_NOT_FOUND");
   EXPECT_EQ(ErrorOf(Plan(*b, request, &on_b)).reason, "MAP_NOT_FOUND");
+}
+
+// Edits without a base version apply to the current version whenever they land: four at once
+// used to lose three with MAP_CHANGED and leave their versions on disk, listed nowhere.
+TEST_F(StoreTest, ConcurrentEditsWithoutABaseVersionAllLandAndLeaveNothingBehind) {
+  ServerProcess* a = StartReplica();
+  ServerProcess* b = StartReplica();
+  ASSERT_TRUE(a != nullptr && b != nullptr);
+  v1::Map uploaded;
+  ASSERT_TRUE(Upload(*a, "floor", &uploaded).ok());
+  constexpr int kEdits = 4;
+  std::vector<std::future<grpc::Status>> edits;
+  for (int i = 0; i < kEdits; ++i) {
+    edits.push_back(std::async(std::launch::async, [&, i] {
+      v1::UpdateMapRequest edit;
+      edit.set_map_id("floor");
+      SetBox(edit.add_edits()->mutable_add_keep_out(), 2 + 5 * i, 1, 4 + 5 * i, 3, -1, 3);
+      v1::UpdateMapResponse response;
+      return Update(i % 2 == 0 ? *a : *b, edit, &response);
+    }));
+  }
+  for (auto& edit : edits) {
+    const grpc::Status status = edit.get();
+    EXPECT_TRUE(status.ok()) << status.error_message();
+  }
+  v1::Map after;
+  ASSERT_TRUE(Get(*a, "floor", &after).ok());
+  EXPECT_EQ(after.keep_out_size(), kEdits);
+  std::set<std::string> on_disk;
+  for (const auto& entry : fs::directory_iterator(store_ / "maps" / "floor" / "versions")) {
+    on_disk.insert(entry.path().filename().string());
+  }
+  EXPECT_EQ(on_disk, std::set<std::string>(after.versions().begin(), after.versions().end()));
 }
 
 TEST_F(StoreTest, TwoReplicasCreatingOneMapAtOnceMakeOneVersion) {

@@ -6,6 +6,7 @@
 #include <cstddef>
 #include <string>
 
+#include "strata/named_file.hpp"
 #include "strata/point_cloud.hpp"
 #include "strata/status.hpp"
 
@@ -26,7 +27,8 @@ struct LoadedCloud {
   std::size_t dropped_nonfinite = 0;  ///< Points dropped because a coordinate was NaN/Inf.
 };
 
-/// Loads `path`. Fails with kMapLoadFailed naming the file and the problem when the file is
+/// Loads `file.path`, in the format `file.name`'s extension says. Fails with kMapLoadFailed
+/// naming the file (as `file.name`) and the problem when the file is
 /// missing, unreadable, empty, truncated, not a point cloud, lacks x/y/z fields, or promises
 /// more points than it holds; with kResourceExhausted when it exceeds `limits`; with
 /// kInvalidInput when a coordinate is beyond limits.max_abs_coordinate_m. PCD headers that say
@@ -34,7 +36,7 @@ struct LoadedCloud {
 /// points are all NaN/Inf fails with kMapLoadFailed; invalid `limits` with kInvalidConfig.
 /// OctoMap files give one point per occupied voxel at the tree's resolution (a pruned leaf gives
 /// every voxel it covers), and limits.max_points also bounds the number of tree nodes read.
-Expected<LoadedCloud> LoadPointCloud(const std::string& path, const CloudLoadLimits& limits = {});
+Expected<LoadedCloud> LoadPointCloud(const NamedFile& file, const CloudLoadLimits& limits = {});
 
 /// Drops non-finite points and rejects coordinates beyond `max_abs_coordinate_m`, the same
 /// sanitising LoadPointCloud applies; for clouds that arrive from elsewhere (uploads, generated

@@ -19,6 +19,7 @@
 #include <string>
 #include <string_view>
 
+#include "strata/named_file.hpp"
 #include "strata/status.hpp"
 #include "strata/terrain_model.hpp"
 
@@ -41,7 +42,7 @@ bool IsSavedModelFile(const std::string& path);
 /// The assessment parameters a saved model holds, read from the start of the file without
 /// loading the rest (nor checking its checksum): to decide quickly whether a request's
 /// parameters agree with the file's. Fails as LoadModel does on the header.
-Expected<AssessmentConfig> ReadSavedModelConfig(const std::string& path);
+Expected<AssessmentConfig> ReadSavedModelConfig(const NamedFile& file);
 
 /// The saved model of `model`, in memory.
 std::string SerializeModel(const TerrainModel& model);
@@ -55,7 +56,8 @@ Status SaveModel(const TerrainModel& model, const std::string& path);
 Expected<std::shared_ptr<const TerrainModel>> DeserializeModel(std::string_view bytes,
                                                                const std::string& name);
 
-/// The model saved at `path`, read in one pass (memory: the model, not the file twice).
-Expected<std::shared_ptr<const TerrainModel>> LoadModel(const std::string& path);
+/// The model saved at `file.path`, read in one pass (memory: the model, not the file twice);
+/// messages name it `file.name`.
+Expected<std::shared_ptr<const TerrainModel>> LoadModel(const NamedFile& file);
 
 }  // namespace strata
