@@ -2,6 +2,8 @@
 // else is refused (map_worker_protocol.hpp).
 #include "map_worker_protocol.hpp"
 
+#include <algorithm>
+#include <iterator>
 #include <string>
 #include <vector>
 
@@ -65,14 +67,18 @@ TEST(WorkerArguments, ReadBackAsTheSameJob) {
   EXPECT_EQ(back->memory_bytes, job.memory_bytes);
   EXPECT_EQ(back->cpu_s, job.cpu_s);
 
+  // A kFile source is the client's own name for the file, which may begin with '-'.
   for (const auto kind : {WorkerJob::Source::kFile, WorkerJob::Source::kPoints}) {
-    WorkerJob other = job;
-    other.kind = kind;
-    other.source = "/maps/a b.pcd";
-    Expected<WorkerJob> parsed = Parse(WorkerArguments(other));
-    ASSERT_TRUE(parsed.ok()) << parsed.error().message;
-    EXPECT_EQ(parsed->kind, kind);
-    EXPECT_EQ(parsed->source, other.source);
+    for (const char* source : {"/maps/a b.pcd", "-x.pcd", "--keep-cloud"}) {
+      WorkerJob other = job;
+      other.kind = kind;
+      other.source = source;
+      Expected<WorkerJob> parsed = Parse(WorkerArguments(other));
+      ASSERT_TRUE(parsed.ok()) << source << ": " << parsed.error().message;
+      EXPECT_EQ(parsed->kind, kind);
+      EXPECT_EQ(parsed->source, other.source);
+      EXPECT_EQ(parsed->keep_cloud, other.keep_cloud);
+    }
   }
 }
 
@@ -105,16 +111,12 @@ TEST(WorkerArguments, EveryConfigFieldMustBeGivenOnce) {
 TEST(WorkerArguments, OneSourceExactly) {
   std::vector<std::string> args = WorkerArguments(OddJob());
   std::vector<std::string> two = args;
-  two.insert(two.end(), {"--file", "/maps/x.pcd"});
+  two.emplace_back("--file=/maps/x.pcd");
   EXPECT_FALSE(Parse(two).ok());
   std::vector<std::string> none;
-  for (std::size_t i = 0; i < args.size(); ++i) {
-    if (args[i] == "--scene") {
-      ++i;
-      continue;
-    }
-    none.push_back(args[i]);
-  }
+  std::copy_if(args.begin(), args.end(), std::back_inserter(none),
+               [](const std::string& arg) { return !arg.starts_with("--scene="); });
+  ASSERT_EQ(none.size() + 1, args.size());
   EXPECT_FALSE(Parse(none).ok());
 }
 
