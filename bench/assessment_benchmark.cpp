@@ -9,8 +9,8 @@
 #include <filesystem>
 #include <string>
 
+#include "strata/assessment/terrain_model.hpp"
 #include "strata/scenes/map_source.hpp"
-#include "strata/terrain_model.hpp"
 
 namespace {
 

@@ -16,8 +16,8 @@
 #include <CLI/CLI.hpp>
 
 #include "statistics.hpp"
-#include "strata/map_edit.hpp"
-#include "strata/saved_model.hpp"
+#include "strata/assessment/map_edit.hpp"
+#include "strata/io/saved_model.hpp"
 #include "strata/scenes/map_source.hpp"
 #include "strata/scenes/outdoor_site.hpp"
 

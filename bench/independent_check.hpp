@@ -13,10 +13,10 @@
 /// - it counts every sample that breaks each rule instead of stopping at the first.
 #include <string>
 
-#include "strata/robot_profile.hpp"
-#include "strata/terrain_model.hpp"
-#include "strata/trajectory.hpp"
-#include "strata/trajectory_verifier.hpp"
+#include "strata/assessment/terrain_model.hpp"
+#include "strata/planning/robot_profile.hpp"
+#include "strata/planning/trajectory.hpp"
+#include "strata/verification/trajectory_verifier.hpp"
 
 namespace strata::bench {
 

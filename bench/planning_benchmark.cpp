@@ -18,7 +18,7 @@
 
 #include "compare/bench_pairs.hpp"
 #include "statistics.hpp"
-#include "strata/cloud_io.hpp"
+#include "strata/io/cloud_io.hpp"
 #include "strata/planner.hpp"
 
 namespace {

@@ -17,8 +17,8 @@
 #include <CLI/CLI.hpp>
 
 #include "statistics.hpp"
+#include "strata/io/saved_model.hpp"
 #include "strata/planner.hpp"
-#include "strata/saved_model.hpp"
 #include "strata/scenes/outdoor_site.hpp"
 
 namespace {

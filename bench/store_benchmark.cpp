@@ -16,8 +16,8 @@
 
 #include <CLI/CLI.hpp>
 
-#include "map_registry.hpp"
-#include "proto_convert.hpp"
+#include "maps/map_registry.hpp"
+#include "rpc/proto_convert.hpp"
 #include "statistics.hpp"
 #include "strata/scenes/map_source.hpp"
 
@@ -224,17 +224,18 @@ int main(int argc, char** argv) {
         } else {
           edits.push_back(MapEdit{edit.kind, region});
         }
-        Result<MapUpdate> update = editor.Update("m", {}, edits, keep_out, true);
+        Result<MapUpdate> update =
+            editor.Update(MapEditRequest{"m", {}, edits, true, keep_out}, CallControl{});
         if (!update.ok()) {
           std::fprintf(stderr, "%s: %s\n", edit.name, update.error().message.c_str());
           return 1;
         }
-        apply.push_back(update->apply_s);
-        reassess.push_back(update->reassess_s);
+        apply.push_back(update->edit.apply_s);
+        reassess.push_back(update->edit.reassess_s);
         write.push_back(update->write_s);
         total.push_back(update->total_s);
-        columns = update->reassessed_columns;
-        full = update->full_reassessment;
+        columns = update->edit.reassessed_columns;
+        full = update->edit.full_reassessment;
       }
       std::printf(
           "edit %-17s median apply %.3f s, reassess %.3f s (%lld columns%s), write "

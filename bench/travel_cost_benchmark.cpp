@@ -20,7 +20,7 @@
 
 #include "compare/bench_pairs.hpp"
 #include "statistics.hpp"
-#include "strata/cloud_io.hpp"
+#include "strata/io/cloud_io.hpp"
 #include "strata/planner.hpp"
 #include "strata/travel_costs.hpp"
 

@@ -10,7 +10,7 @@
 #include <string>
 
 #include "fuzz_file.hpp"
-#include "strata/cloud_io.hpp"
+#include "strata/io/cloud_io.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   std::string extension = STRATA_FUZZ_EXTENSION;

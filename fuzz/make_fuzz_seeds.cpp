@@ -15,10 +15,10 @@
 #include <pcl/io/ply_io.h>
 #include <pcl/point_types.h>
 
-#include "strata/cloud_io.hpp"
-#include "strata/saved_model.hpp"
+#include "strata/assessment/terrain_model.hpp"
+#include "strata/io/cloud_io.hpp"
+#include "strata/io/saved_model.hpp"
 #include "strata/scenes/scenes.hpp"
-#include "strata/terrain_model.hpp"
 #include "strata/v1/map_service.pb.h"
 #include "strata/v1/planner_service.pb.h"
 

@@ -5,7 +5,7 @@
 #include <cstddef>
 #include <cstdint>
 
-#include "proto_convert.hpp"
+#include "rpc/proto_convert.hpp"
 #include "strata/v1/planner_service.pb.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {

@@ -11,7 +11,7 @@
 #include <cstring>
 #include <string>
 
-#include "strata/saved_model.hpp"
+#include "strata/io/saved_model.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   std::string bytes(reinterpret_cast<const char*>(data), size);

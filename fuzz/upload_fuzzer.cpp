@@ -1,4 +1,4 @@
-// libFuzzer target: the UploadMap stream assembler (server/upload_assembler.hpp). The input
+// libFuzzer target: the UploadMap stream assembler (server/rpc/upload_assembler.hpp). The input
 // is a stream of messages, each a 2-byte little-endian length and that many bytes of a
 // serialised strata.v1.UploadMapRequest (an unparsable one is skipped, as gRPC would refuse
 // it); the assembler, counting in a small memory budget, must refuse or take each message and
@@ -6,9 +6,9 @@
 #include <cstddef>
 #include <cstdint>
 
-#include "memory_budget.hpp"
+#include "maps/memory_budget.hpp"
+#include "rpc/upload_assembler.hpp"
 #include "strata/v1/map_service.pb.h"
-#include "upload_assembler.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   strata::server::MemoryBudget budget(std::uint64_t{64} << 20);

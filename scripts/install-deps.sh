@@ -8,7 +8,7 @@ packages=(
   protobuf-compiler libprotobuf-dev protobuf-compiler-grpc libgrpc++-dev grpc-proto
   golang-github-gogo-googleapis-dev
   libeigen3-dev libpcl-dev liboctomap-dev liblbfgspp-dev prometheus-cpp-dev libxxhash-dev
-  libmicrohttpd-dev  # the web viewer's HTTP server (server/http_server.cpp)
+  libmicrohttpd-dev  # the web viewer's HTTP server (server/http/http_server.cpp)
   libgtest-dev libgmock-dev libbenchmark-dev nlohmann-json3-dev
   libompl-dev
   libcli11-dev  # command-line parsing of the programs (header-only)

@@ -4,7 +4,7 @@
 
 #include <Eigen/Core>
 
-#include "strata/robot_profile.hpp"
+#include "strata/planning/robot_profile.hpp"
 
 namespace strata::baselines {
 

@@ -12,8 +12,8 @@
 #include "compare/bench_pairs.hpp"
 #include "independent_check.hpp"
 #include "strata/planner.hpp"
+#include "strata/planning/robot_profile.hpp"
 #include "strata/point_cloud.hpp"
-#include "strata/robot_profile.hpp"
 
 namespace strata::bench {
 

@@ -13,7 +13,7 @@
 #include <Eigen/Core>
 
 #include "statistics.hpp"
-#include "strata/trajectory.hpp"
+#include "strata/planning/trajectory.hpp"
 
 namespace strata::bench {
 

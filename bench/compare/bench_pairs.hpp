@@ -8,7 +8,7 @@
 
 #include <Eigen/Core>
 
-#include "strata/surface_graph.hpp"
+#include "strata/planning/surface_graph.hpp"
 
 namespace strata::bench {
 

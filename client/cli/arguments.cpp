@@ -1,21 +1,12 @@
 #include "arguments.hpp"
 
-#include <charconv>
-#include <cmath>
+#include "strata/common/parse_numbers.hpp"
+
 #include <string_view>
 
 namespace strata::cli {
-namespace {
 
-std::optional<double> ParseFinite(const std::string& text) {
-  double value = 0;
-  const char* end = text.data() + text.size();
-  const auto [ptr, ec] = std::from_chars(text.data(), end, value);
-  if (ec != std::errc() || ptr != end || !std::isfinite(value)) return std::nullopt;
-  return value;
-}
-
-}  // namespace
+using common::ParseFinite;
 
 CLI::Validator FiniteNumber() {
   return CLI::Validator(
@@ -35,26 +26,7 @@ CLI::Validator PositiveNumber() {
 }
 
 std::optional<std::array<double, 3>> ParseVector3(const std::string& text, std::string* error) {
-  std::array<double, 3> xyz{};
-  std::size_t begin = 0;
-  for (int i = 0; i < 3; ++i) {
-    const std::size_t comma = text.find(',', begin);
-    const bool last = i == 2;
-    if (last != (comma == std::string::npos)) {
-      *error = "must be x,y,z (three numbers in metres), got \"" + text + "\"";
-      return std::nullopt;
-    }
-    const std::string part = text.substr(begin, last ? std::string::npos : comma - begin);
-    const auto value = ParseFinite(part);
-    if (!value) {
-      *error =
-          std::string("component ") + "xyz"[i] + " must be a finite number, got \"" + part + "\"";
-      return std::nullopt;
-    }
-    xyz[i] = *value;
-    begin = comma + 1;
-  }
-  return xyz;
+  return common::ParseXyz(text, error);
 }
 
 std::optional<ViaPoint> ParseVia(const std::string& text, std::string* error) {

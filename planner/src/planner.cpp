@@ -1,5 +1,7 @@
 #include "strata/planner.hpp"
 
+#include "strata/common/seconds_since.hpp"
+
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -10,10 +12,10 @@
 #include <utility>
 
 #include "format_internal.hpp"
-#include "strata/keep_out.hpp"
-#include "strata/path_shortening.hpp"
-#include "strata/terrain_query.hpp"
-#include "strata/time_scaling.hpp"
+#include "strata/planning/keep_out.hpp"
+#include "strata/planning/path_shortening.hpp"
+#include "strata/planning/terrain_query.hpp"
+#include "strata/planning/time_scaling.hpp"
 
 namespace strata {
 namespace {
@@ -27,9 +29,7 @@ constexpr double kMaxTimeStretch = 1.5;
 constexpr double kStretchTarget = 0.995;
 constexpr double kPeakSampleStepS = 0.01;
 
-double SecondsSince(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
+using common::SecondsSince;
 
 // One should_stop for every stage: the caller's cancellation and the plan's own deadline,
 // remembering which fired so the failure names the right reason.

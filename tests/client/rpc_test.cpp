@@ -1,4 +1,4 @@
-// DescribeStatus unpacks the details strata-server packs (see server/error_mapping.cpp), and
+// DescribeStatus unpacks the details strata-server packs (see server/rpc/error_mapping.cpp), and
 // the CLI's error report prints them, as text and as JSON.
 #include "strata/client/rpc.hpp"
 

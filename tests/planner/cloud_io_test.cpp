@@ -1,4 +1,4 @@
-#include "strata/cloud_io.hpp"
+#include "strata/io/cloud_io.hpp"
 
 #include <unistd.h>
 

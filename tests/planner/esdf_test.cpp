@@ -1,4 +1,4 @@
-#include "strata/esdf.hpp"
+#include "strata/assessment/esdf.hpp"
 
 #include <algorithm>
 #include <cmath>

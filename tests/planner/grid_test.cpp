@@ -1,4 +1,4 @@
-#include "strata/grid.hpp"
+#include "strata/assessment/grid.hpp"
 
 #include <cmath>
 #include <cstdint>

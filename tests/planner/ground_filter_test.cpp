@@ -1,4 +1,4 @@
-#include "strata/ground_filter.hpp"
+#include "strata/assessment/ground_filter.hpp"
 
 #include <cmath>
 #include <numbers>

@@ -1,4 +1,4 @@
-#include "strata/map_edit.hpp"
+#include "strata/assessment/map_edit.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -9,7 +9,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "strata/saved_model.hpp"
+#include "strata/io/saved_model.hpp"
 #include "strata/scenes/basic_scenes.hpp"
 #include "strata/scenes/paper_scenes.hpp"
 #include "test_util/model_bytes.hpp"

@@ -1,4 +1,4 @@
-#include "strata/minco.hpp"
+#include "strata/planning/minco.hpp"
 
 #include <algorithm>
 #include <cmath>

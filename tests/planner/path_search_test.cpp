@@ -1,4 +1,4 @@
-#include "strata/path_search.hpp"
+#include "strata/planning/path_search.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -13,12 +13,12 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "strata/cloud_io.hpp"
-#include "strata/robot_profile.hpp"
+#include "strata/assessment/terrain_model.hpp"
+#include "strata/io/cloud_io.hpp"
+#include "strata/planning/robot_profile.hpp"
+#include "strata/planning/surface_graph.hpp"
 #include "strata/scenes/basic_scenes.hpp"
 #include "strata/scenes/scenes.hpp"
-#include "strata/surface_graph.hpp"
-#include "strata/terrain_model.hpp"
 #include "test_util/terrain_queries.hpp"
 
 namespace strata {

@@ -1,4 +1,4 @@
-#include "strata/path_shortening.hpp"
+#include "strata/planning/path_shortening.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -8,9 +8,9 @@
 
 #include <gtest/gtest.h>
 
+#include "strata/assessment/terrain_model.hpp"
+#include "strata/planning/surface_graph.hpp"
 #include "strata/scenes/basic_scenes.hpp"
-#include "strata/surface_graph.hpp"
-#include "strata/terrain_model.hpp"
 #include "test_util/hand_made_maps.hpp"
 
 namespace strata {

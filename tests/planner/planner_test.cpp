@@ -10,7 +10,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "strata/cloud_io.hpp"
+#include "strata/io/cloud_io.hpp"
 #include "strata/scenes/basic_scenes.hpp"
 #include "strata/scenes/paper_scenes.hpp"
 #include "test_util/hand_made_maps.hpp"

@@ -10,7 +10,7 @@
 
 #include <gtest/gtest.h>
 
-#include "strata/terrain_config.hpp"
+#include "strata/assessment/terrain_config.hpp"
 
 namespace strata {
 namespace {

@@ -1,7 +1,7 @@
 // RobotProfile: every Validate branch names its field, the built-in profiles are what their
 // documentation says, Traversability() carries the profile into the graph's terms, and
 // CheckProfileFitsMap refuses both ways a map can be assessed too loosely for a robot.
-#include "strata/robot_profile.hpp"
+#include "strata/planning/robot_profile.hpp"
 
 #include <cmath>
 #include <functional>

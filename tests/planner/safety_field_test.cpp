@@ -1,4 +1,4 @@
-#include "strata/safety_field.hpp"
+#include "strata/assessment/safety_field.hpp"
 
 #include <cmath>
 #include <numbers>
@@ -8,8 +8,8 @@
 
 #include "test_util/gradient_check.hpp"
 
-#include "strata/plane_fit.hpp"
-#include "strata/terrain_model.hpp"
+#include "strata/assessment/plane_fit.hpp"
+#include "strata/assessment/terrain_model.hpp"
 #include "test_util/hand_made_maps.hpp"
 #include "test_util/terrain_queries.hpp"
 

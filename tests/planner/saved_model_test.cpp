@@ -1,4 +1,4 @@
-#include "strata/saved_model.hpp"
+#include "strata/io/saved_model.hpp"
 
 #include <cstring>
 #include <filesystem>

@@ -1,7 +1,7 @@
 // SurfaceGraph on a small hand-made map, against brute-force readings of its class comment:
 // the nodes, the step rule and the corner rule of the edges, the components, the edge
 // distance, and SnapToSurface.
-#include "strata/surface_graph.hpp"
+#include "strata/planning/surface_graph.hpp"
 
 #include <cmath>
 #include <limits>
@@ -16,7 +16,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "strata/terrain_model.hpp"
+#include "strata/assessment/terrain_model.hpp"
 #include "test_util/hand_made_maps.hpp"
 
 namespace strata {

@@ -1,4 +1,4 @@
-#include "strata/terrain_fields.hpp"
+#include "strata/assessment/terrain_fields.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -9,10 +9,10 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "strata/esdf.hpp"
-#include "strata/safety_field.hpp"
+#include "strata/assessment/esdf.hpp"
+#include "strata/assessment/safety_field.hpp"
+#include "strata/assessment/terrain_model.hpp"
 #include "strata/scenes/scenes.hpp"
-#include "strata/terrain_model.hpp"
 
 namespace strata {
 namespace {

@@ -1,4 +1,4 @@
-#include "strata/terrain_model.hpp"
+#include "strata/assessment/terrain_model.hpp"
 
 #include <cmath>
 #include <filesystem>
@@ -10,11 +10,11 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "strata/cloud_io.hpp"
-#include "strata/ground_filter.hpp"
+#include "assessment/terrain_model_internal.hpp"
+#include "strata/assessment/ground_filter.hpp"
+#include "strata/io/cloud_io.hpp"
+#include "strata/planning/surface_graph.hpp"
 #include "strata/scenes/basic_scenes.hpp"
-#include "strata/surface_graph.hpp"
-#include "terrain_model_internal.hpp"
 #include "test_util/terrain_queries.hpp"
 
 namespace strata {

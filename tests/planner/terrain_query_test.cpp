@@ -1,7 +1,7 @@
 // The terrain queries shared by the optimiser's costs and the final verification: exact at
 // column centres, and their gradients match finite differences where the interpolation is
 // smooth.
-#include "strata/terrain_query.hpp"
+#include "strata/planning/terrain_query.hpp"
 
 #include <algorithm>
 #include <cmath>

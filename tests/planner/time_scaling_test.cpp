@@ -1,13 +1,13 @@
-#include "strata/time_scaling.hpp"
+#include "strata/planning/time_scaling.hpp"
 
 #include <cmath>
 #include <random>
 
 #include <gtest/gtest.h>
 
-#include "strata/minco.hpp"
-#include "strata/robot_profile.hpp"
-#include "strata/trajectory.hpp"
+#include "strata/planning/minco.hpp"
+#include "strata/planning/robot_profile.hpp"
+#include "strata/planning/trajectory.hpp"
 
 namespace strata {
 namespace {

@@ -1,4 +1,4 @@
-#include "strata/trajectory_costs.hpp"
+#include "strata/planning/trajectory_costs.hpp"
 
 #include <memory>
 #include <numbers>
@@ -9,10 +9,10 @@
 #include <gtest/gtest.h>
 #include <Eigen/Geometry>
 
-#include "strata/keep_out.hpp"
-#include "strata/minco.hpp"
+#include "strata/assessment/terrain_model.hpp"
+#include "strata/planning/keep_out.hpp"
+#include "strata/planning/minco.hpp"
 #include "strata/scenes/basic_scenes.hpp"
-#include "strata/terrain_model.hpp"
 #include "test_util/gradient_check.hpp"
 #include "test_util/terrain_queries.hpp"
 #include "test_util/two_level_scene.hpp"

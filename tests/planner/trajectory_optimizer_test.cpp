@@ -2,7 +2,7 @@
 // objective's gradient wrt the decision variables (waypoints q, duration parameters τ) matches
 // central differences block by block, it honours should_stop at once, and it reports its
 // iterations within the budget.
-#include "strata/trajectory_optimizer.hpp"
+#include "strata/planning/trajectory_optimizer.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -14,16 +14,16 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "strata/keep_out.hpp"
+#include "planning/trajectory_optimizer_internal.hpp"
+#include "strata/planning/keep_out.hpp"
+#include "strata/planning/robot_profile.hpp"
+#include "strata/planning/surface_graph.hpp"
+#include "strata/planning/terrain_query.hpp"
+#include "strata/planning/trajectory.hpp"
 #include "strata/prism.hpp"
-#include "strata/robot_profile.hpp"
-#include "strata/surface_graph.hpp"
-#include "strata/terrain_query.hpp"
-#include "strata/trajectory.hpp"
-#include "strata/trajectory_verifier.hpp"
+#include "strata/verification/trajectory_verifier.hpp"
 #include "test_util/gradient_check.hpp"
 #include "test_util/hand_made_maps.hpp"
-#include "trajectory_optimizer_internal.hpp"
 
 namespace strata {
 namespace {

@@ -1,6 +1,6 @@
 // TrajectoryCursor against a lookup written out here: the piece from the running sum of the
 // durations, the time local to it.
-#include "strata/trajectory.hpp"
+#include "strata/planning/trajectory.hpp"
 
 #include <algorithm>
 #include <random>

@@ -1,7 +1,7 @@
 // The verifier against hand-made trajectories on a hand-made map (test_util::Yard). For every kind
 // of violation a trajectory that violates it by a small margin is refused, with a message that
 // names the quantity, and the same trajectory just inside the bound passes.
-#include "strata/trajectory_verifier.hpp"
+#include "strata/verification/trajectory_verifier.hpp"
 
 #include <cmath>
 #include <limits>
@@ -12,9 +12,9 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "strata/robot_profile.hpp"
-#include "strata/surface_graph.hpp"
-#include "strata/terrain_model.hpp"
+#include "strata/assessment/terrain_model.hpp"
+#include "strata/planning/robot_profile.hpp"
+#include "strata/planning/surface_graph.hpp"
 #include "test_util/hand_made_maps.hpp"
 #include "test_util/trajectory_builders.hpp"
 

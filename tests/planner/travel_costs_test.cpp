@@ -9,8 +9,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "strata/keep_out.hpp"
 #include "strata/planner.hpp"
+#include "strata/planning/keep_out.hpp"
 #include "strata/scenes/basic_scenes.hpp"
 #include "test_util/hand_made_maps.hpp"
 #include "test_util/two_level_scene.hpp"

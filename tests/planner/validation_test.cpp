@@ -1,6 +1,6 @@
 // Every Validate() blames the field at fault by its path in the planner's structs
 // (Error::field), and the message names the same path: the server maps these paths to request
-// fields without reading messages (server/proto_convert.hpp).
+// fields without reading messages (server/rpc/proto_convert.hpp).
 #include <cmath>
 #include <functional>
 #include <limits>
@@ -9,8 +9,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "strata/assessment/terrain_config.hpp"
 #include "strata/planner.hpp"
-#include "strata/terrain_config.hpp"
 
 namespace strata {
 namespace {

@@ -8,7 +8,7 @@
 #include <string>
 #include <utility>
 
-#include "strata/cloud_io.hpp"
+#include "strata/io/cloud_io.hpp"
 #include "strata/scenes/scenes.hpp"
 
 namespace strata {

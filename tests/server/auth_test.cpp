@@ -1,5 +1,5 @@
-// Bearer tokens and roles (server/auth.hpp).
-#include "auth.hpp"
+// Bearer tokens and roles (server/rpc/auth.hpp).
+#include "rpc/auth.hpp"
 
 #include <unistd.h>
 

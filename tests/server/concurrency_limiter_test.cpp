@@ -1,5 +1,5 @@
 // The planning slots' queue: first come first served, bounded, each waiter's own deadline.
-#include "concurrency_limiter.hpp"
+#include "rpc/concurrency_limiter.hpp"
 
 #include <atomic>
 #include <mutex>

@@ -1,5 +1,5 @@
 // The one table from failures to gRPC codes and reasons, and the richer error details.
-#include "error_mapping.hpp"
+#include "rpc/error_mapping.hpp"
 
 #include <cctype>
 #include <set>

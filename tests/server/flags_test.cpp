@@ -1,5 +1,5 @@
 // Flags and their environment variables, --help, and the READMEs' flag tables against the code.
-#include "flags.hpp"
+#include "ops/flags.hpp"
 
 #include <cstdlib>
 #include <fstream>
@@ -246,7 +246,11 @@ TEST(FlagsTest, HelpListsEveryFlagWithItsDefaultAndVariable) {
     EXPECT_THAT(help.text, HasSubstr("\n  " + flag.name + " ")) << flag.name;
     EXPECT_THAT(help.text, HasSubstr("env " + flag.env + "]")) << flag.name;
     if (!flag.default_text.empty()) {
-      EXPECT_THAT(help.text, HasSubstr("[default " + flag.default_text + ", env " + flag.env))
+      // The range too, unless the placeholder says it already.
+      const std::string range =
+          flag.range.empty() || flag.range == flag.placeholder ? "" : flag.range + ", ";
+      EXPECT_THAT(help.text,
+                  HasSubstr("[default " + flag.default_text + ", " + range + "env " + flag.env))
           << flag.name;
     }
   }
@@ -262,17 +266,22 @@ TEST(FlagsTest, HelpListsEveryFlagWithItsDefaultAndVariable) {
   EXPECT_EQ(by_name["--map-root"], "");
 }
 
-// The flag rows of the markdown tables in the section of `path` headed `heading`: flag name ->
-// its default cell without backticks and without an explanation in parentheses ("0 (every
-// core)" -> "0"); "none" reads as no default.
-std::map<std::string, std::string> ReadmeFlagDefaults(const std::string& path,
-                                                      const std::string& heading) {
-  std::ifstream file(std::string(STRATA_SOURCE_DIR) + "/" + path);
-  EXPECT_TRUE(file) << path;
-  std::map<std::string, std::string> defaults;
+// A flag's row of server/README.md's "Flags" table, its cells without backticks: the flag
+// with its placeholder, the default ("none" for none), the range, the variable, the meaning.
+struct ReadmeRow {
+  std::string flag;
+  std::string default_text;
+  std::string range;
+  std::string env;
+};
+
+std::map<std::string, ReadmeRow> ReadmeFlagRows() {
+  std::ifstream file(std::string(STRATA_SOURCE_DIR) + "/server/README.md");
+  EXPECT_TRUE(file);
+  std::map<std::string, ReadmeRow> rows;
   bool in_section = false;
   for (std::string line; std::getline(file, line);) {
-    if (line.rfind('#', 0) == 0) in_section = line.find(heading) != std::string::npos;
+    if (line.rfind('#', 0) == 0) in_section = line.find("## Flags") != std::string::npos;
     if (!in_section || line.rfind("| `--", 0) != 0) continue;
     std::vector<std::string> cells;
     std::istringstream row(line.substr(1));
@@ -282,34 +291,36 @@ std::map<std::string, std::string> ReadmeFlagDefaults(const std::string& path,
       cell.erase(cell.find_last_not_of(' ') + 1);
       cells.push_back(cell);
     }
-    EXPECT_GE(cells.size(), 3u) << line;
-    if (cells.size() < 3) continue;
-    std::string fallback = cells[1].substr(0, cells[1].find(" ("));
-    if (fallback == "none") fallback.clear();
-    defaults[cells[0].substr(0, cells[0].find(' '))] = fallback;
+    EXPECT_GE(cells.size(), 5u) << line;
+    if (cells.size() < 5) continue;
+    rows[cells[0].substr(0, cells[0].find(' '))] = {cells[0], cells[1] == "none" ? "" : cells[1],
+                                                    cells[2] == "-" ? "" : cells[2], cells[3]};
   }
-  EXPECT_FALSE(defaults.empty()) << "no flag table under \"" << heading << "\" in " << path;
-  return defaults;
+  EXPECT_FALSE(rows.empty()) << "no flag table under \"## Flags\" in server/README.md";
+  return rows;
 }
 
-TEST(FlagsTest, ReadmeTablesShowEveryFlagWithTheCodesDefault) {
-  std::map<std::string, std::string> code;
-  for (const FlagInfo& flag : DescribeFlags()) code[flag.name] = flag.default_text;
-  // server/README.md lists every flag, README.md the main ones.
-  const std::map<std::string, std::string> server_readme =
-      ReadmeFlagDefaults("server/README.md", "## Flags");
-  for (const auto& [name, fallback] : code) {
-    const auto row = server_readme.find(name);
-    ASSERT_NE(row, server_readme.end()) << name << " is missing from server/README.md";
-    EXPECT_EQ(row->second, fallback) << name << "'s default in server/README.md";
+// The table is what the code says, in full: every flag, with its placeholder, default, range
+// and variable, in --help's order.
+TEST(FlagsTest, TheReadmeTableIsTheFlagTable) {
+  const std::map<std::string, ReadmeRow> rows = ReadmeFlagRows();
+  std::size_t rows_seen = 0;
+  for (const FlagInfo& flag : DescribeFlags()) {
+    const std::string expected =
+        "| `" + flag.name + (flag.placeholder.empty() ? "" : " " + flag.placeholder) + "` | " +
+        (flag.default_text.empty() ? "none" : "`" + flag.default_text + "`") + " | " +
+        (flag.range.empty() ? "-" : flag.range) + " | `" + flag.env + "` | ...";
+    const auto row = rows.find(flag.name);
+    ASSERT_NE(row, rows.end()) << flag.name << " is missing from server/README.md: " << expected;
+    ++rows_seen;
+    EXPECT_EQ(row->second.flag,
+              flag.name + (flag.placeholder.empty() ? "" : " " + flag.placeholder))
+        << expected;
+    EXPECT_EQ(row->second.default_text, flag.default_text) << expected;
+    EXPECT_EQ(row->second.range, flag.range) << expected;
+    EXPECT_EQ(row->second.env, flag.env) << expected;
   }
-  for (const std::string readme : {"server/README.md", "README.md"}) {
-    const std::string heading = readme == "README.md" ? "### Server parameters" : "## Flags";
-    for (const auto& [name, fallback] : ReadmeFlagDefaults(readme, heading)) {
-      ASSERT_EQ(code.count(name), 1u) << name << " in " << readme << " is no strata-server flag";
-      EXPECT_EQ(fallback, code[name]) << name << "'s default in " << readme;
-    }
-  }
+  EXPECT_EQ(rows.size(), rows_seen) << "server/README.md lists a flag strata-server lacks";
 }
 
 }  // namespace

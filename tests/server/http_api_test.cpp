@@ -1,7 +1,7 @@
-// The web viewer's JSON API (server/http_api.hpp) without sockets, on a real registry with the
+// The web viewer's JSON API (server/http/http_api.hpp) without sockets, on a real registry with the
 // demo scene: it answers the same messages as the service functions the gRPC handlers call,
 // errors as the google.rpc.Status a gRPC client gets, and it honours tokens and limits.
-#include "http_api.hpp"
+#include "http/http_api.hpp"
 
 #include <chrono>
 

@@ -1,6 +1,6 @@
 // JobThreads: every job runs, on a thread whose stack is the size asked for, and the queue's
 // bound and Stop hold.
-#include "job_threads.hpp"
+#include "http/job_threads.hpp"
 
 #include <pthread.h>
 

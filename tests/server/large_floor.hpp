@@ -2,7 +2,7 @@
 // A map that takes seconds to assess, for tests that watch an assessment under way or stop it.
 #include <utility>
 
-#include "map_registry.hpp"
+#include "maps/map_registry.hpp"
 
 namespace strata::server::testing {
 

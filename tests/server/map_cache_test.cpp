@@ -1,7 +1,7 @@
 // MapCache: one load per version however many ask at once, least recently used maps dropped
 // when over the budget but never one a caller still holds (this test also runs under
 // ThreadSanitizer).
-#include "map_cache.hpp"
+#include "maps/map_cache.hpp"
 
 #include <atomic>
 #include <future>

@@ -1,7 +1,7 @@
-// The map's geometry for display (server/map_geometry.hpp) against the model it is drawn from:
+// The map's geometry for display (server/rpc/map_geometry.hpp) against the model it is drawn from:
 // at stride 1 every column surface comes out once, as it is; merged blocks keep each block's
 // highest ground; S' and components are the model's and the graph's own.
-#include "map_geometry.hpp"
+#include "rpc/map_geometry.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -10,7 +10,7 @@
 
 #include <gtest/gtest.h>
 
-#include "strata/robot_profile.hpp"
+#include "strata/planning/robot_profile.hpp"
 #include "test_util/two_level_scene.hpp"
 
 namespace strata::server {

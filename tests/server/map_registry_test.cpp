@@ -1,6 +1,6 @@
 // The map store without gRPC: lifecycle, errors, paging, deletion while creating, and
 // concurrent use (this test also runs under ThreadSanitizer).
-#include "map_registry.hpp"
+#include "maps/map_registry.hpp"
 
 #include <atomic>
 #include <chrono>
@@ -13,7 +13,7 @@
 #include <gtest/gtest.h>
 
 #include "large_floor.hpp"
-#include "strata/saved_model.hpp"
+#include "strata/io/saved_model.hpp"
 #include "test_util/time_scale.hpp"
 
 namespace strata::server {

@@ -1,6 +1,6 @@
 // Map files are confined to the map root: '..', absolute paths and symbolic links that
 // leave it are refused, however the path reaches them, and what was checked is what is read.
-#include "map_root.hpp"
+#include "maps/map_root.hpp"
 
 #include <sys/stat.h>
 #include <unistd.h>

@@ -1,4 +1,4 @@
-#include "map_store.hpp"
+#include "maps/map_store.hpp"
 
 #include <signal.h>
 #include <sys/types.h>
@@ -19,7 +19,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "strata/saved_model.hpp"
+#include "strata/io/saved_model.hpp"
 #include "strata/scenes/basic_scenes.hpp"
 
 namespace strata::server {

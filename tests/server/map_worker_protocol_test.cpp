@@ -1,6 +1,6 @@
 // The worker's command line and report lines read back as what was written, and anything
 // else is refused (map_worker_protocol.hpp).
-#include "map_worker_protocol.hpp"
+#include "maps/map_worker_protocol.hpp"
 
 #include <algorithm>
 #include <iterator>
@@ -136,7 +136,9 @@ TEST(WorkerReport, LinesReadBackAsTheirReports) {
                        "grid.max_columns"};
   WorkerReport done;
   done.version = "57b2470b769fbc7020073d736f8b88cc";
-  for (const WorkerReport& report : {loaded, progress, failed, done}) {
+  WorkerReport edited = done;
+  edited.edit = EditFigures{0.25, 1.0 / 3, true, "the edited cloud's bounds change the grid", 4242};
+  for (const WorkerReport& report : {loaded, progress, failed, done, edited}) {
     const std::string line = FormatWorkerReport(report);
     ASSERT_FALSE(line.empty());
     ASSERT_EQ(line.back(), '\n');
@@ -153,6 +155,43 @@ TEST(WorkerReport, LinesReadBackAsTheirReports) {
     EXPECT_EQ(back->error.message, report.error.message) << line;
     EXPECT_EQ(back->error.field, report.error.field) << line;
     EXPECT_EQ(back->version, report.version) << line;
+    ASSERT_EQ(back->edit.has_value(), report.edit.has_value()) << line;
+    if (report.edit) {
+      EXPECT_EQ(back->edit->apply_s, report.edit->apply_s) << line;
+      EXPECT_EQ(back->edit->reassess_s, report.edit->reassess_s) << line;
+      EXPECT_EQ(back->edit->full_reassessment, report.edit->full_reassessment) << line;
+      EXPECT_EQ(back->edit->full_reason, report.edit->full_reason) << line;
+      EXPECT_EQ(back->edit->reassessed_columns, report.edit->reassessed_columns) << line;
+    }
+  }
+}
+
+// An edit job's edits go to the worker as a file: every number reads back exactly, and a
+// line that is not an edit is refused naming it.
+TEST(WorkerEdits, EditsReadBackExactlyAndAnythingElseIsRefused) {
+  MapEdit obstacle;
+  obstacle.region.polygon_m = {{0.1, 0.2}, {1.0 / 3, 0.2}, {1.0 / 3, 2.0 / 3}};
+  obstacle.region.z_min_m = -0.1;
+  obstacle.region.z_max_m = 1e-3;
+  MapEdit removal = obstacle;
+  removal.kind = MapEdit::Kind::kRemovePoints;
+  removal.region.polygon_m.push_back({-5e10, 7});
+  const std::vector<MapEdit> edits = {obstacle, removal};
+  const Expected<std::vector<MapEdit>> back = ParseEdits(FormatEdits(edits));
+  ASSERT_TRUE(back.ok()) << back.error().message;
+  ASSERT_EQ(back->size(), 2u);
+  for (std::size_t i = 0; i < edits.size(); ++i) {
+    EXPECT_EQ((*back)[i].kind, edits[i].kind);
+    EXPECT_EQ((*back)[i].region.polygon_m, edits[i].region.polygon_m);
+    EXPECT_EQ((*back)[i].region.z_min_m, edits[i].region.z_min_m);
+    EXPECT_EQ((*back)[i].region.z_max_m, edits[i].region.z_max_m);
+  }
+  EXPECT_TRUE(ParseEdits("").ok());
+  for (const char* bad : {"add_obstacle 0 1 2\n", "grow 0 1 2 3\n", "add_obstacle 0 x 1 1\n", "\n",
+                          "remove_points 0 1 1 1 2\n"}) {
+    const Expected<std::vector<MapEdit>> refused = ParseEdits(bad);
+    ASSERT_FALSE(refused.ok()) << bad;
+    EXPECT_THAT(refused.error().message, HasSubstr("line 1")) << bad;
   }
 }
 

@@ -1,7 +1,7 @@
 // Maps made in the real strata-map-worker process (map_worker.hpp): the same model as on the
 // registry's own thread, and every way a worker can end badly (an error, a crash, its memory
 // or CPU limit, being stopped) failing that map with its own reason.
-#include "map_worker.hpp"
+#include "maps/map_worker.hpp"
 
 #include <signal.h>
 #include <unistd.h>
@@ -20,7 +20,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "strata/saved_model.hpp"
+#include "strata/io/saved_model.hpp"
 #include "test_util/model_bytes.hpp"
 #include "test_util/time_scale.hpp"
 

@@ -1,6 +1,6 @@
 // The server's one memory budget (memory_budget.hpp): reservations and maps under one limit,
 // refusals that give the figures, and maps let go before anything is refused.
-#include "memory_budget.hpp"
+#include "maps/memory_budget.hpp"
 
 #include <atomic>
 #include <fstream>

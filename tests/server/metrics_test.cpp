@@ -1,5 +1,5 @@
 // Map metrics read from the registry at scrape time (no server needed).
-#include "metrics.hpp"
+#include "rpc/metrics.hpp"
 
 #include <thread>
 

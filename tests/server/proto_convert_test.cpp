@@ -1,6 +1,6 @@
 // Conversions between strata.v1 messages and planner types: round trips, defaults, and the
 // request field each validation error blames.
-#include "proto_convert.hpp"
+#include "rpc/proto_convert.hpp"
 
 #include <cmath>
 #include <limits>
@@ -9,7 +9,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "planner_service.hpp"
+#include "rpc/planner_service.hpp"
 
 namespace strata::server {
 namespace {
@@ -512,7 +512,7 @@ TEST(ProtoConvertTest, FailedMapsShowTheReasonOfTheTable) {
   snapshot.state = MapState::kFailed;
   snapshot.stage = CreationStage::kDone;
   snapshot.failure = MakeError(ErrorCode::kMapLoadFailed, "truncated");
-  snapshot.source = FileMapSource{nullptr, "a.pcd"};
+  snapshot.source = FileSourceInfo{"a.pcd"};
   v1::Map map;
   ToProto(snapshot, &map);
   EXPECT_EQ(map.state(), v1::MAP_STATE_FAILED);

@@ -18,9 +18,9 @@
 #include <google/protobuf/descriptor.h>
 #include <google/protobuf/descriptor.pb.h>
 
-#include "planner_service.hpp"
-#include "proto_convert.hpp"
-#include "strata/map_edit.hpp"
+#include "rpc/planner_service.hpp"
+#include "rpc/proto_convert.hpp"
+#include "strata/assessment/map_edit.hpp"
 
 namespace strata::server {
 namespace {

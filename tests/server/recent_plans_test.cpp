@@ -1,6 +1,6 @@
-// The ring of recent plans (server/recent_plans.hpp): newest first, bounded in count and in
+// The ring of recent plans (server/rpc/recent_plans.hpp): newest first, bounded in count and in
 // bytes whatever is recorded, large plans trimmed instead of evicting everything.
-#include "recent_plans.hpp"
+#include "rpc/recent_plans.hpp"
 
 #include <string>
 #include <thread>

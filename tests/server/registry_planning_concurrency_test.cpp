@@ -10,9 +10,9 @@
 
 #include <gtest/gtest.h>
 
-#include "map_registry.hpp"
+#include "maps/map_registry.hpp"
 #include "strata/planner.hpp"
-#include "strata/robot_profile.hpp"
+#include "strata/planning/robot_profile.hpp"
 
 namespace strata::server {
 namespace {

@@ -8,8 +8,8 @@
 #include <optional>
 #include <string>
 
-#include "map_registry.hpp"
-#include "map_service.hpp"
+#include "maps/map_registry.hpp"
+#include "rpc/map_service.hpp"
 #include "strata/scenes/map_source.hpp"
 #include "strata/scenes/scenes.hpp"
 

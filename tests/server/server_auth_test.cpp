@@ -6,9 +6,14 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <set>
 
 #include <gmock/gmock.h>
+#include <google/protobuf/descriptor.h>
+#include <google/protobuf/empty.pb.h>
 #include <grpc/health/v1/health.grpc.pb.h>
+#include <grpcpp/impl/codegen/client_unary_call.h>
+#include <grpcpp/impl/codegen/rpc_method.h>
 
 #include "server_fixture.hpp"
 
@@ -107,6 +112,68 @@ TEST_F(ServerAuthTest, TokensDecideWhoPlansAndWhoChangesMaps) {
   // Tokens never reach the log.
   EXPECT_THAT(server_->Log(), Not(HasSubstr(kPlannerToken)));
   EXPECT_THAT(server_->Log(), Not(HasSubstr(kAdminToken)));
+}
+
+// Every method of both services, from every kind of caller, over gRPC and through the web
+// viewer's API: the role table decides, in one place for both. The policy is written here on
+// its own: the four calls that change maps need an admin, every other one a planner.
+TEST_F(ServerAuthTest, EveryMethodAnswersEachCallerAsTheRoleTableSays) {
+  const fs::path tokens = dir_ / "tokens";
+  std::ofstream(tokens) << kPlannerToken << " planner\n" << kAdminToken << " admin\n";
+  ASSERT_NO_FATAL_FAILURE(StartServer({"--auth-tokens", tokens.string(), "--http-port", "0"}));
+  const std::set<std::string> kChangesMaps = {"CreateMap", "UploadMap", "UpdateMap", "DeleteMap"};
+  const std::set<std::string> kServedOverHttp = {"ListMaps", "GetMap", "GetMapGeometry", "Plan",
+                                                 "ListRecentPlans"};
+  const std::string kUnknownToken = "not-a-token-of-this-server";
+  const auto auth_error = [](grpc::StatusCode code) {
+    return code == grpc::StatusCode::UNAUTHENTICATED || code == grpc::StatusCode::PERMISSION_DENIED;
+  };
+  int methods = 0;
+  const auto* pool = google::protobuf::DescriptorPool::generated_pool();
+  for (const google::protobuf::ServiceDescriptor* service :
+       {pool->FindServiceByName("strata.v1.MapService"),
+        pool->FindServiceByName("strata.v1.PlannerService")}) {
+    ASSERT_NE(service, nullptr);
+    for (int i = 0; i < service->method_count(); ++i) {
+      ++methods;
+      const std::string name = service->method(i)->name();
+      const std::string path = "/" + service->full_name() + "/" + name;
+      const bool admin_only = kChangesMaps.count(name) != 0;
+      for (const std::string& token : {std::string(), kUnknownToken, kPlannerToken, kAdminToken}) {
+        SCOPED_TRACE(path + " with " + (token.empty() ? "no token" : token));
+        // gRPC: an empty message is every request's default; the answer's kind is all we read.
+        const grpc::internal::RpcMethod method(path.c_str(), grpc::internal::RpcMethod::NORMAL_RPC);
+        grpc::ClientContext context;
+        SetDeadline(&context, 30);
+        if (!token.empty()) context.AddMetadata("authorization", "Bearer " + token);
+        google::protobuf::Empty request;
+        google::protobuf::Empty response;
+        const grpc::StatusCode code =
+            grpc::internal::BlockingUnaryCall(channel_.get(), method, &context, request, &response)
+                .error_code();
+        // Through the viewer's API: the same, for what it serves.
+        std::vector<std::string> headers;
+        if (!token.empty()) headers.push_back("Authorization: Bearer " + token);
+        const int http = HttpPost(server_->http_port(), "/api" + path, "{}", headers).status;
+        if (token.empty() || token == kUnknownToken) {
+          EXPECT_EQ(code, grpc::StatusCode::UNAUTHENTICATED);
+        } else if (token == kPlannerToken && admin_only) {
+          EXPECT_EQ(code, grpc::StatusCode::PERMISSION_DENIED);
+        } else {
+          EXPECT_FALSE(auth_error(code)) << code;
+        }
+        if (kServedOverHttp.count(name) == 0) {
+          EXPECT_EQ(http, 404);
+        } else if (token.empty() || token == kUnknownToken) {
+          EXPECT_EQ(http, 401);
+        } else {
+          EXPECT_NE(http, 401);
+          EXPECT_NE(http, 403);
+        }
+      }
+    }
+  }
+  EXPECT_EQ(methods, 11);
 }
 
 TEST_F(ServerAuthTest, TlsServesAClientThatTrustsItsCertificateAndNoPlaintextOne) {

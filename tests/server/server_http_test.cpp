@@ -16,7 +16,7 @@
 #include <google/protobuf/util/json_util.h>
 #include <google/protobuf/util/message_differencer.h>
 
-#include "http_server.hpp"
+#include "http/http_server.hpp"
 #include "server_fixture.hpp"
 #include "test_util/run_command.hpp"
 

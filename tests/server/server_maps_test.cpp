@@ -8,8 +8,8 @@
 #include <grpc/health/v1/health.grpc.pb.h>
 
 #include "server_fixture.hpp"
-#include "strata/cloud_io.hpp"
-#include "strata/saved_model.hpp"
+#include "strata/io/cloud_io.hpp"
+#include "strata/io/saved_model.hpp"
 #include "strata/scenes/map_source.hpp"
 #include "test_util/run_command.hpp"
 

@@ -244,6 +244,52 @@ TEST_F(StoreTest, ConcurrentEditsWithoutABaseVersionAllLandAndLeaveNothingBehind
   EXPECT_EQ(on_disk, std::set<std::string>(after.versions().begin(), after.versions().end()));
 }
 
+// An edit used to run on the RPC thread to its end whatever the call's deadline: the client
+// heard DEADLINE_EXCEEDED while the server published the version, and a retry applied it
+// twice. Now what a client hears is what happened: an edit it gave up on is never published.
+TEST_F(StoreTest, AnEditPastItsDeadlineIsPublishedOnlyIfItsClientHeardSo) {
+  ServerProcess* a = StartReplica();
+  ASSERT_TRUE(a != nullptr);
+  v1::Map uploaded;
+  ASSERT_TRUE(Upload(*a, "floor", &uploaded).ok());
+  auto stub = v1::MapService::NewStub(a->NewChannel());
+  int published = 0;
+  int zones = 0;
+  for (const bool obstacle : {true, false}) {
+    v1::UpdateMapRequest edit;
+    edit.set_map_id("floor");
+    SetBox(obstacle ? edit.add_edits()->mutable_add_obstacle()
+                    : edit.add_edits()->mutable_add_keep_out(),
+           11, 5, 13, 11, -0.1, 1.5);
+    grpc::ClientContext context;
+    context.set_deadline(std::chrono::system_clock::now() + std::chrono::milliseconds(200));
+    v1::UpdateMapResponse response;
+    const grpc::Status status = stub->UpdateMap(&context, edit, &response);
+    if (status.ok()) {
+      ++published;
+      zones += obstacle ? 0 : 1;
+    } else {
+      EXPECT_EQ(status.error_code(), grpc::StatusCode::DEADLINE_EXCEEDED);
+    }
+  }
+  // Once the server has stopped, every call it saw has ended: what the store holds is final.
+  a->Signal(SIGTERM);
+  ASSERT_EQ(a->WaitExit(std::chrono::seconds(60)), 0);
+  ServerProcess* b = StartReplica();
+  ASSERT_TRUE(b != nullptr);
+  v1::Map after;
+  ASSERT_TRUE(Get(*b, "floor", &after).ok());
+  EXPECT_EQ(after.versions_size(), 1 + published);
+  EXPECT_EQ(after.keep_out_size(), zones);
+  if (published == 0) EXPECT_EQ(after.version(), uploaded.version());
+  int on_disk = 0;
+  for ([[maybe_unused]] const auto& entry :
+       fs::directory_iterator(store_ / "maps" / "floor" / "versions")) {
+    ++on_disk;
+  }
+  EXPECT_EQ(on_disk, after.versions_size());
+}
+
 TEST_F(StoreTest, TwoReplicasCreatingOneMapAtOnceMakeOneVersion) {
   ServerProcess* a = StartReplica();
   ServerProcess* b = StartReplica();

@@ -1,4 +1,4 @@
-// Maps are made in worker processes (server/map_worker.hpp): against the real strata-server,
+// Maps are made in worker processes (server/maps/map_worker.hpp): against the real strata-server,
 // a worker that crashes, runs past its memory or time, or whose map is deleted, fails or
 // stops that one map at once while the server goes on serving every other map and client.
 #include <signal.h>

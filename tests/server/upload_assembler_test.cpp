@@ -1,11 +1,11 @@
 // The UploadMap stream protocol, message by message.
-#include "upload_assembler.hpp"
+#include "rpc/upload_assembler.hpp"
 
 #include <cstring>
 
 #include <gtest/gtest.h>
 
-#include "error_mapping.hpp"
+#include "rpc/error_mapping.hpp"
 
 namespace strata::server {
 namespace {

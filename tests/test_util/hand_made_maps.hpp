@@ -7,8 +7,8 @@
 #include <memory>
 #include <numbers>
 
+#include "strata/assessment/terrain_model.hpp"
 #include "strata/point_cloud.hpp"
-#include "strata/terrain_model.hpp"
 
 namespace strata::test_util {
 

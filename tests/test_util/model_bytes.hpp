@@ -5,8 +5,8 @@
 
 #include <gtest/gtest.h>
 
-#include "strata/saved_model.hpp"
-#include "strata/terrain_model.hpp"
+#include "strata/assessment/terrain_model.hpp"
+#include "strata/io/saved_model.hpp"
 
 namespace strata::test_util {
 

@@ -10,8 +10,8 @@
 
 #include <Eigen/Core>
 
-#include "strata/surface_graph.hpp"
-#include "strata/terrain_model.hpp"
+#include "strata/assessment/terrain_model.hpp"
+#include "strata/planning/surface_graph.hpp"
 
 namespace strata::test_util {
 

@@ -6,8 +6,8 @@
 
 #include <Eigen/Core>
 
-#include "strata/robot_profile.hpp"
-#include "strata/trajectory.hpp"
+#include "strata/planning/robot_profile.hpp"
+#include "strata/planning/trajectory.hpp"
 
 namespace strata::test_util {
 

@@ -4,8 +4,8 @@
 // every cost term and terrain query has something to bite on.
 #include <memory>
 
+#include "strata/assessment/terrain_model.hpp"
 #include "strata/scenes/basic_scenes.hpp"
-#include "strata/terrain_model.hpp"
 
 namespace strata::test_util {
 

@@ -9,8 +9,8 @@
 
 #include "offline/assessed_map.hpp"
 #include "offline/command_line.hpp"
-#include "strata/saved_model.hpp"
-#include "strata/terrain_model.hpp"
+#include "strata/assessment/terrain_model.hpp"
+#include "strata/io/saved_model.hpp"
 
 namespace strata::offline {
 namespace {
@@ -84,9 +84,11 @@ int RunAssess(const AssessArgs& parsed) {
   if (!map) {
     std::fprintf(stderr, "strata-offline assess: %s: %s\n", ErrorCodeName(map.error().code),
                  map.error().message.c_str());
-    return map.error().code == ErrorCode::kInvalidInput && !map.error().field.empty()
-               ? kExitBadArguments
-               : kExitFailed;
+    // An error that blames a field blames an option given: the command line is at fault.
+    const bool blames_option = (map.error().code == ErrorCode::kInvalidInput ||
+                                map.error().code == ErrorCode::kInvalidConfig) &&
+                               !map.error().field.empty();
+    return blames_option ? kExitBadArguments : kExitFailed;
   }
   nlohmann::json summary = SummaryJson(parsed.map, *map);
   if (!parsed.save_path.empty()) {

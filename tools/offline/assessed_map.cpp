@@ -1,19 +1,19 @@
 #include "offline/assessed_map.hpp"
 
+#include "strata/common/seconds_since.hpp"
+
 #include <unistd.h>
 
 #include <chrono>
 #include <cstdio>
 
-#include "strata/saved_model.hpp"
+#include "strata/io/saved_model.hpp"
 #include "strata/scenes/map_source.hpp"
 
 namespace strata::offline {
 namespace {
 
-double SecondsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
+using common::SecondsSince;
 
 Expected<AssessedMap> LoadSaved(const std::string& path, const AssessmentConfig& config) {
   const auto start = std::chrono::steady_clock::now();
@@ -21,13 +21,7 @@ Expected<AssessedMap> LoadSaved(const std::string& path, const AssessmentConfig&
   if (!model) return model.error();
   const AssessmentConfig& saved = (*model)->config();
   if (FirstDifference(config, AssessmentConfig{}).has_value()) {
-    if (const std::optional<std::string> field = FirstDifference(config, saved)) {
-      return Error{ErrorCode::kInvalidInput,
-                   path + " is a saved model, assessed already: its " + *field +
-                       " differs from the one asked for; drop the assessment options or give "
-                       "the point cloud to assess it again",
-                   *field};
-    }
+    if (Status same = CheckSavedModelParameters(config, saved, path); !same) return same.error();
   }
   AssessedMap map;
   map.load_s = SecondsSince(start);

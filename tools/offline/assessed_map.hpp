@@ -1,13 +1,13 @@
 #pragma once
 // A MAP argument of the offline tools, loaded and assessed: a point-cloud file (PCD, PLY, .bt,
 // .ot), a built-in scene written as "scene:NAME" or "scene:NAME:SEED"
-// (strata/scenes/map_source.hpp), or a saved model (strata/saved_model.hpp), loaded as saved.
+// (strata/scenes/map_source.hpp), or a saved model (strata/io/saved_model.hpp), loaded as saved.
 
 #include <cstddef>
 #include <memory>
 #include <string>
 
-#include "strata/terrain_model.hpp"
+#include "strata/assessment/terrain_model.hpp"
 
 namespace strata::offline {
 

@@ -7,7 +7,7 @@
 #include <numbers>
 #include <sstream>
 
-#include "strata/robot_profile.hpp"
+#include "strata/planning/robot_profile.hpp"
 #include "strata/scenes/map_source.hpp"
 
 namespace strata::offline {

@@ -8,7 +8,7 @@
 
 #include <CLI/CLI.hpp>
 
-#include "strata/terrain_config.hpp"
+#include "strata/assessment/terrain_config.hpp"
 
 namespace strata::offline {
 

@@ -1,5 +1,6 @@
 #include "offline/plan_command.hpp"
 
+#include <array>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -15,6 +16,7 @@
 #include "offline/assessed_map.hpp"
 #include "offline/command_line.hpp"
 #include "offline/plan_svg.hpp"
+#include "strata/common/parse_numbers.hpp"
 #include "strata/planner.hpp"
 
 namespace strata::offline {
@@ -32,24 +34,12 @@ struct PlanArgs {
   bool progress = false;
 };
 
-// "x,y,z" in metres, each a decimal number spanning its part.
+// "x,y,z" in metres, three finite numbers.
 std::optional<Eigen::Vector3d> ParsePoint(const std::string& text) {
-  Eigen::Vector3d p;
-  std::size_t begin = 0;
-  for (int axis = 0; axis < 3; ++axis) {
-    const std::size_t end = axis < 2 ? text.find(',', begin) : text.size();
-    if (end == std::string::npos) return std::nullopt;
-    const std::string part = text.substr(begin, end - begin);
-    try {
-      std::size_t used = 0;
-      p(axis) = std::stod(part, &used);
-      if (used != part.size()) return std::nullopt;
-    } catch (const std::exception&) {
-      return std::nullopt;
-    }
-    begin = end + 1;
-  }
-  return p;
+  std::string error;
+  const std::optional<std::array<double, 3>> xyz = common::ParseXyz(text, &error);
+  if (!xyz) return std::nullopt;
+  return Eigen::Vector3d((*xyz)[0], (*xyz)[1], (*xyz)[2]);
 }
 
 // Adds --start or --goal, a required point written x,y,z, parsed into *point.

@@ -11,7 +11,7 @@
 #include <utility>
 #include <vector>
 
-#include "strata/trajectory_costs.hpp"
+#include "strata/planning/trajectory_costs.hpp"
 
 namespace strata::offline {
 namespace {

@@ -6,8 +6,8 @@
 #include <string>
 
 #include "strata/planner.hpp"
-#include "strata/robot_profile.hpp"
-#include "strata/surface_graph.hpp"
+#include "strata/planning/robot_profile.hpp"
+#include "strata/planning/surface_graph.hpp"
 
 namespace strata::offline {
 

@@ -5,7 +5,7 @@
 #include <memory>
 
 #include "offline/command_line.hpp"
-#include "strata/cloud_io.hpp"
+#include "strata/io/cloud_io.hpp"
 #include "strata/scenes/map_source.hpp"
 #include "strata/scenes/scenes.hpp"
 

@@ -15,16 +15,16 @@
 
 #include <Eigen/Core>
 
-#include "strata/keep_out.hpp"
-#include "strata/path_search.hpp"
+#include "strata/assessment/terrain_model.hpp"
+#include "strata/planning/keep_out.hpp"
+#include "strata/planning/path_search.hpp"
+#include "strata/planning/robot_profile.hpp"
+#include "strata/planning/surface_graph.hpp"
+#include "strata/planning/trajectory.hpp"
+#include "strata/planning/trajectory_optimizer.hpp"
 #include "strata/prism.hpp"
-#include "strata/robot_profile.hpp"
 #include "strata/status.hpp"
-#include "strata/surface_graph.hpp"
-#include "strata/terrain_model.hpp"
-#include "strata/trajectory.hpp"
-#include "strata/trajectory_optimizer.hpp"
-#include "strata/trajectory_verifier.hpp"
+#include "strata/verification/trajectory_verifier.hpp"
 
 namespace strata {
 

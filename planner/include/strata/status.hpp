@@ -56,7 +56,7 @@ struct Error {
   /// Path of the field at fault in the planner's structs, e.g. "profile.max_tilt_rad",
   /// "options.optimizer.weights.safety", "start.position_m.x", "grid.resolution_m"; empty when
   /// no single field is to blame. Set where the error is made, never recovered from the
-  /// message; the server maps it to the request field (server/proto_convert.hpp).
+  /// message; the server maps it to the request field (server/rpc/proto_convert.hpp).
   std::string field = {};
   /// Machine-readable facts about the failure, beside the message (the server passes them on
   /// as google.rpc.ErrorInfo metadata): for kStartOffGround / kGoalOffGround the nearest

@@ -29,14 +29,14 @@
 
 #include <Eigen/Core>
 
-#include "strata/keep_out.hpp"
-#include "strata/path_search.hpp"
-#include "strata/robot_profile.hpp"
+#include "strata/planning/keep_out.hpp"
+#include "strata/planning/path_search.hpp"
+#include "strata/planning/robot_profile.hpp"
+#include "strata/planning/surface_graph.hpp"
+#include "strata/planning/trajectory_costs.hpp"
+#include "strata/planning/trajectory_optimizer.hpp"
 #include "strata/status.hpp"
-#include "strata/surface_graph.hpp"
-#include "strata/trajectory_costs.hpp"
-#include "strata/trajectory_optimizer.hpp"
-#include "strata/trajectory_verifier.hpp"
+#include "strata/verification/trajectory_verifier.hpp"
 
 namespace strata {
 

@@ -13,7 +13,7 @@
 #include <gtest/gtest.h>
 
 #include "run_offline.hpp"
-#include "strata/cloud_io.hpp"
+#include "strata/io/cloud_io.hpp"
 #include "strata/scenes/outdoor_site.hpp"
 #include "strata/scenes/paper_scenes.hpp"
 #include "strata/scenes/scenes.hpp"

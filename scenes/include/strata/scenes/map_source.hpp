@@ -9,7 +9,7 @@
 #include <string_view>
 #include <variant>
 
-#include "strata/cloud_io.hpp"
+#include "strata/io/cloud_io.hpp"
 #include "strata/scenes/scenes.hpp"
 #include "strata/status.hpp"
 

@@ -20,7 +20,7 @@
 #include <string>
 #include <vector>
 
-#include "strata/cloud_io.hpp"
+#include "strata/io/cloud_io.hpp"
 #include "strata/point_cloud.hpp"
 #include "strata/status.hpp"
 

@@ -1,0 +1,93 @@
+#pragma once
+/// The surfaces of the map, column by column: the top of every run of occupied cells in a
+/// vertical column of the grid, with its ground height, free clearance above, and the local
+/// plane fit. This is the "downward projection" of the paper (Sec. IV) made explicit: any
+/// point projects onto the highest surface below it in its column.
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "strata/assessment/grid.hpp"
+#include "strata/assessment/terrain_config.hpp"
+#include "strata/point_cloud.hpp"
+
+namespace strata {
+namespace internal {
+struct ColumnCloud;
+class ProgressReporter;
+}  // namespace internal
+
+/// One upper surface in a column (a "level").
+struct ColumnSurface {
+  float ground_z_m = 0;           ///< Height of the ground: highest valid point in the top cell
+                                  ///< (highest point if none is valid) [m].
+  float clearance_m = 0;          ///< Free height from ground_z_m to the next obstacle above in
+                                  ///< the column; +infinity when nothing is above [m].
+  float tilt_rad = 0;             ///< φ of the local plane fit [rad], in [0, π/2].
+  float plane_center_z_m = 0;     ///< Height of the local plane above the column centre, p_c [m].
+  std::int32_t top_layer = 0;     ///< Grid layer of the run's top cell.
+  std::int32_t bottom_layer = 0;  ///< Grid layer of the run's bottom cell.
+  bool valid = false;             ///< The top cell holds Valid-Ground-Filter points.
+};
+
+/// Surfaces of every column, stored compactly (columns in x-fastest order).
+class SurfaceMap {
+ public:
+  SurfaceMap() = default;
+
+  /// Extracts the surfaces of `cloud` (all points, finite, inside `geometry`) on `geometry`,
+  /// marking as valid those whose top cell holds a point with `valid_ground[i] != 0`, and fits
+  /// each surface's local plane with the points of the cylinder of radius
+  /// field.plane_fit_radius_m and half-height field.plane_fit_half_height_m around it.
+  static SurfaceMap Build(const GridGeometry& geometry, const PointCloud& cloud,
+                          const std::vector<std::uint8_t>& valid_ground, const FieldConfig& field,
+                          int num_threads);
+
+  /// The same from a cloud already sorted into the columns of `geometry`, with its valid flags
+  /// set (terrain assessment's path). `progress` (may be null) counts columns and may stop
+  /// the build: kCancelled.
+  static Expected<SurfaceMap> BuildFromColumns(const GridGeometry& geometry,
+                                               const internal::ColumnCloud& sorted,
+                                               const FieldConfig& field, int num_threads,
+                                               internal::ProgressReporter* progress);
+
+  /// A map from its arrays, as a saved model stores them: `column_begin` holds one offset per
+  /// column (x fastest) plus the total, each column's surfaces lowest first with layers inside
+  /// the grid and ground heights that do not descend. kInvalidInput naming the first
+  /// inconsistency.
+  static Expected<SurfaceMap> FromParts(const GridGeometry& geometry,
+                                        std::vector<std::uint32_t> column_begin,
+                                        std::vector<ColumnSurface> surfaces);
+  /// The arrays FromParts takes.
+  const std::vector<std::uint32_t>& column_begin() const { return column_begin_; }
+  const std::vector<ColumnSurface>& all_surfaces() const { return surfaces_; }
+
+  const GridGeometry& geometry() const { return geometry_; }
+  std::size_t surface_count() const { return surfaces_.size(); }
+  std::size_t valid_surface_count() const;
+
+  /// Surfaces of column (ix, iy), lowest first (their ground heights ascend). Precondition:
+  /// inside the grid.
+  std::span<const ColumnSurface> Column(int ix, int iy) const {
+    const auto c = static_cast<std::size_t>(ix + geometry_.size.x() * std::int64_t{iy});
+    return {surfaces_.data() + column_begin_[c], surfaces_.data() + column_begin_[c + 1]};
+  }
+
+  /// Where cell (ix, iy, iz) projects down to: the highest surface whose top cell is at or
+  /// below iz. nullptr when the cell lies inside an obstacle (within a run, below its top) or
+  /// nothing is below it.
+  const ColumnSurface* SurfaceBelow(int ix, int iy, int iz) const;
+
+  std::size_t MemoryBytes() const {
+    return column_begin_.capacity() * sizeof(std::uint32_t) +
+           surfaces_.capacity() * sizeof(ColumnSurface);
+  }
+
+ private:
+  GridGeometry geometry_;
+  std::vector<std::uint32_t> column_begin_;  // CellCount()/nz + 1 offsets into surfaces_.
+  std::vector<ColumnSurface> surfaces_;
+};
+
+}  // namespace strata

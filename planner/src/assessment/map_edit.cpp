@@ -1,0 +1,511 @@
+#include "strata/assessment/map_edit.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "assessment/assessment_progress.hpp"
+#include "assessment/column_cloud.hpp"
+#include "assessment/ground_filter_internal.hpp"
+#include "assessment/surface_map_build.hpp"
+#include "assessment/terrain_fields_build.hpp"
+#include "assessment/terrain_model_internal.hpp"
+#include "format_internal.hpp"
+
+namespace strata {
+namespace {
+
+std::string EditPath(std::size_t i) { return "edits[" + std::to_string(i) + "]"; }
+
+std::string Format(const char* format, double value) {
+  char buffer[64];
+  std::snprintf(buffer, sizeof(buffer), format, value);
+  return buffer;
+}
+
+// The heights of an obstacle's points within [z_min, z_max]: on a voxelised cloud the
+// lattice's levels (`lattice_z` + k·quantum), else the centres of the grid's layers.
+std::vector<float> FillLevels(const Prism& region, const GridGeometry& g, double quantum_m,
+                              double lattice_z_m, std::size_t max_levels, bool* too_many) {
+  // A level on the prism's top or bottom face counts as inside, despite the rounding of k·q.
+  constexpr double kSlack = 1e-6;
+  const double step = quantum_m > 0 ? quantum_m : g.resolution_m;
+  const double first = quantum_m > 0 ? lattice_z_m : g.origin_m.z() + 0.5 * g.resolution_m;
+  const double k_min = std::ceil((region.z_min_m - kSlack - first) / step);
+  const double k_max = std::floor((region.z_max_m + kSlack - first) / step);
+  std::vector<float> levels;
+  *too_many = k_max - k_min + 1 > static_cast<double>(max_levels);
+  if (*too_many || k_max < k_min) return levels;
+  for (double k = k_min; k <= k_max; ++k) levels.push_back(static_cast<float>(first + k * step));
+  return levels;
+}
+
+// The grid columns (x, y indices, outside the grid too) whose centres lie inside the polygon,
+// row by row. Stops once more than `max_columns` are found (*too_many).
+std::vector<Eigen::Vector2i> FillColumns(const Prism& region, const GridGeometry& g,
+                                         std::size_t max_columns, bool* too_many) {
+  std::vector<Eigen::Vector2i> columns;
+  *too_many = false;
+  const Eigen::AlignedBox3d box = region.Bounds();
+  const double r = g.resolution_m;
+  // Column i's centre is at origin + (i + 0.5) r.
+  const auto first_index = [&](double v, int axis) {
+    return static_cast<std::int64_t>(std::ceil((v - g.origin_m[axis]) / r - 0.5));
+  };
+  const auto last_index = [&](double v, int axis) {
+    return static_cast<std::int64_t>(std::floor((v - g.origin_m[axis]) / r - 0.5));
+  };
+  const std::int64_t y0 = first_index(box.min().y(), 1), y1 = last_index(box.max().y(), 1);
+  const std::size_t n = region.polygon_m.size();
+  std::vector<double> xs;
+  for (std::int64_t iy = y0; iy <= y1; ++iy) {
+    const double y = g.origin_m.y() + (static_cast<double>(iy) + 0.5) * r;
+    // The polygon's extent along this row: the x of every edge point at height y.
+    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+    for (std::size_t i = 0, j = n - 1; i < n; j = i++) {
+      const Eigen::Vector2d& a = region.polygon_m[j];
+      const Eigen::Vector2d& b = region.polygon_m[i];
+      if (y < std::min(a.y(), b.y()) || y > std::max(a.y(), b.y())) continue;
+      if (a.y() == b.y()) {
+        lo = std::min({lo, a.x(), b.x()});
+        hi = std::max({hi, a.x(), b.x()});
+      } else {
+        const double x = a.x() + (y - a.y()) * (b.x() - a.x()) / (b.y() - a.y());
+        lo = std::min(lo, x);
+        hi = std::max(hi, x);
+      }
+    }
+    if (!(lo <= hi)) continue;
+    // One column of slack each side: ContainsXY decides, the extent only bounds the search.
+    for (std::int64_t ix = first_index(lo, 0) - 1; ix <= last_index(hi, 0) + 1; ++ix) {
+      const double x = g.origin_m.x() + (static_cast<double>(ix) + 0.5) * r;
+      if (!region.ContainsXY({x, y})) continue;
+      if (columns.size() >= max_columns) {
+        *too_many = true;
+        return columns;
+      }
+      columns.emplace_back(static_cast<int>(ix), static_cast<int>(iy));
+    }
+  }
+  return columns;
+}
+
+// A height of the base cloud's lattice: the most common height (to 0.1 mm) of the sample
+// DetectVerticalQuantum reads, as one of its points holds it.
+double LatticeHeight(const PointCloud& cloud) {
+  constexpr std::size_t kSample = 20000;
+  constexpr double kResolution = 1e-4;
+  std::vector<std::pair<std::int64_t, float>> sampled;
+  const std::size_t stride = std::max<std::size_t>(1, cloud.size() / kSample);
+  for (std::size_t i = 0; i < cloud.size(); i += stride) {
+    sampled.emplace_back(std::llround(cloud[i].z() / kResolution), cloud[i].z());
+  }
+  std::sort(sampled.begin(), sampled.end());
+  std::size_t best = 0, best_count = 0;
+  for (std::size_t i = 0, j = 0; i < sampled.size(); i = j) {
+    while (j < sampled.size() && sampled[j].first == sampled[i].first) ++j;
+    if (j - i > best_count) {
+      best = i;
+      best_count = j - i;
+    }
+  }
+  return sampled.empty() ? 0.0 : double{sampled[best].second};
+}
+
+// The points obstacle `edit` adds (ApplyEdits), or an error naming `path`.
+Expected<PointCloud> FillObstacle(const MapEdit& edit, const std::string& path,
+                                  const GridGeometry& g, double quantum_m, double lattice_z_m,
+                                  std::size_t budget) {
+  const auto exhausted = [&] {
+    return Error{ErrorCode::kResourceExhausted,
+                 path + ": the obstacles would add more than kMaxEditPoints = " +
+                     std::to_string(kMaxEditPoints) +
+                     " points; split it into smaller edits or use a coarser grid",
+                 path};
+  };
+  bool too_many = false;
+  const std::vector<float> levels =
+      FillLevels(edit.region, g, quantum_m, lattice_z_m, budget, &too_many);
+  if (too_many) return exhausted();
+  if (levels.empty()) {
+    const std::string field = internal::FieldPath(path, "region");
+    return Error{ErrorCode::kInvalidInput,
+                 field + " holds no level of the map between z " +
+                     Format("%.3f", edit.region.z_min_m) + " and " +
+                     Format("%.3f m", edit.region.z_max_m) + ": make it at least " +
+                     Format("%.3g m", quantum_m > 0 ? quantum_m : g.resolution_m) + " high",
+                 field};
+  }
+  const std::vector<Eigen::Vector2i> columns =
+      FillColumns(edit.region, g, budget / levels.size(), &too_many);
+  if (too_many) return exhausted();
+  if (columns.empty()) {
+    const std::string field = internal::FieldPath(path, "region.polygon_m");
+    return Error{ErrorCode::kInvalidInput,
+                 field + " holds no column centre of the map's " +
+                     Format("%.3g m", g.resolution_m) + " grid: make it at least one cell wide",
+                 field};
+  }
+  PointCloud points;
+  points.reserve(columns.size() * levels.size());
+  for (const Eigen::Vector2i& c : columns) {
+    const Eigen::Vector3d centre = g.CellCenter({c.x(), c.y(), 0});
+    for (const float z : levels) {
+      points.emplace_back(static_cast<float>(centre.x()), static_cast<float>(centre.y()), z);
+    }
+  }
+  return points;
+}
+
+bool InsideAny(std::span<const MapEdit> edits, std::span<const Eigen::AlignedBox3d> bounds,
+               std::size_t first, const Eigen::Vector3f& p) {
+  const Eigen::Vector3d q = p.cast<double>();
+  for (std::size_t j = first; j < edits.size(); ++j) {
+    if (edits[j].kind == MapEdit::Kind::kRemovePoints && bounds[j].contains(q) &&
+        edits[j].region.Contains(q)) {
+      return true;
+    }
+  }
+  return false;
+}
+
+}  // namespace
+
+Status MapEdit::Validate(std::string_view path) const {
+  if (kind != Kind::kAddObstacle && kind != Kind::kRemovePoints) {
+    const std::string field = internal::FieldPath(path, "kind");
+    return Error{ErrorCode::kInvalidInput,
+                 field + " = " + std::to_string(static_cast<int>(kind)) +
+                     " is not a kind of edit: add an obstacle or remove points",
+                 field};
+  }
+  return region.Validate(internal::FieldPath(path, "region"));
+}
+
+Eigen::AlignedBox3d EditBounds(std::span<const MapEdit> edits) {
+  Eigen::AlignedBox3d box;
+  for (const MapEdit& edit : edits) box.extend(edit.region.Bounds());
+  return box;
+}
+
+Expected<PointCloud> ApplyEdits(const PointCloud& cloud, std::span<const MapEdit> edits,
+                                const TerrainModel& base) {
+  for (std::size_t i = 0; i < edits.size(); ++i) {
+    if (Status s = edits[i].Validate(EditPath(i)); !s) return s.error();
+  }
+  const GridGeometry& g = base.grid();
+  const double quantum = base.summary().vertical_quantum_m;
+  const double lattice_z = quantum > 0 ? LatticeHeight(cloud) : 0.0;
+  std::vector<Eigen::AlignedBox3d> bounds;
+  std::vector<PointCloud> fills(edits.size());
+  std::size_t added = 0;
+  bool removes = false;
+  for (std::size_t i = 0; i < edits.size(); ++i) {
+    bounds.push_back(edits[i].region.Bounds());
+    if (edits[i].kind == MapEdit::Kind::kRemovePoints) {
+      removes = true;
+      continue;
+    }
+    Expected<PointCloud> fill =
+        FillObstacle(edits[i], EditPath(i), g, quantum, lattice_z, kMaxEditPoints - added);
+    if (!fill) return fill.error();
+    added += fill->size();
+    fills[i] = std::move(fill).value();
+  }
+
+  PointCloud out;
+  out.reserve(cloud.size() + added);
+  if (!removes) {
+    out.insert(out.end(), cloud.begin(), cloud.end());
+  } else {
+    for (const Eigen::Vector3f& p : cloud) {
+      if (!InsideAny(edits, bounds, 0, p)) out.push_back(p);
+    }
+  }
+  for (std::size_t i = 0; i < edits.size(); ++i) {
+    for (const Eigen::Vector3f& p : fills[i]) {
+      if (!InsideAny(edits, bounds, i + 1, p)) out.push_back(p);
+    }
+  }
+  return out;
+}
+
+const char* ReassessmentPathName(ReassessmentPath path) {
+  switch (path) {
+    case ReassessmentPath::kLocal: return "local";
+    case ReassessmentPath::kFull: return "full";
+  }
+  return "unknown";
+}
+
+namespace {
+
+std::string FormatSize(const Eigen::Vector3i& size) {
+  return std::to_string(size.x()) + " × " + std::to_string(size.y()) + " × " +
+         std::to_string(size.z());
+}
+
+// The grid's columns in x-fastest order as runs of consecutive columns taken from the base
+// model (all columns) or from the arrays of `window`'s columns.
+struct ColumnRun {
+  bool from_window = false;
+  std::int64_t first = 0;  // Column index in its source.
+  std::int64_t count = 0;
+};
+
+std::vector<ColumnRun> SpliceRuns(const GridGeometry& g, const CellBox& window) {
+  std::vector<ColumnRun> runs;
+  const std::int64_t nx = g.size.x();
+  const std::int64_t wx = window.size().x();
+  std::int64_t next = 0;  // First grid column not yet covered.
+  for (int y = window.min.y(); y <= window.max.y(); ++y) {
+    const std::int64_t start = window.min.x() + nx * y;
+    if (start > next) runs.push_back({false, next, start - next});
+    runs.push_back({true, wx * (y - window.min.y()), wx});
+    next = start + wx;
+  }
+  if (g.LayerCellCount() > next) runs.push_back({false, next, g.LayerCellCount() - next});
+  return runs;
+}
+
+// The surfaces of `base` with those of `window`'s columns replaced by `local`'s.
+Expected<SurfaceMap> SpliceSurfaces(const SurfaceMap& base, const CellBox& window,
+                                    const internal::ColumnSurfaces& local) {
+  const std::vector<std::uint32_t>& base_begin = base.column_begin();
+  const std::vector<ColumnSurface>& base_surfaces = base.all_surfaces();
+  std::vector<std::uint32_t> begin(base_begin.size());
+  std::vector<ColumnSurface> surfaces;
+  surfaces.reserve(base_surfaces.size() + local.surfaces.size());
+  std::int64_t column = 0;
+  for (const ColumnRun& run : SpliceRuns(base.geometry(), window)) {
+    const std::vector<std::uint32_t>& from_begin =
+        run.from_window ? local.column_begin : base_begin;
+    const std::vector<ColumnSurface>& from = run.from_window ? local.surfaces : base_surfaces;
+    const std::uint32_t first = from_begin[run.first];
+    const std::uint32_t last = from_begin[run.first + run.count];
+    const auto shift = static_cast<std::uint32_t>(surfaces.size()) - first;
+    for (std::int64_t c = 0; c < run.count; ++c)
+      begin[column + c] = from_begin[run.first + c] + shift;
+    surfaces.insert(surfaces.end(), from.begin() + first, from.begin() + last);
+    column += run.count;
+  }
+  begin.back() = static_cast<std::uint32_t>(surfaces.size());
+  return SurfaceMap::FromParts(base.geometry(), std::move(begin), std::move(surfaces));
+}
+
+// The fields of `base` with those of `window`'s columns replaced by `local`'s.
+Expected<TerrainFields> SpliceFields(const TerrainFields& base, const CellBox& window,
+                                     const TerrainFields::Parts& local) {
+  const TerrainFields::Parts& from_base = base.parts();
+  TerrainFields::Parts out;
+  out.geometry = from_base.geometry;
+  out.distance_cap_m = from_base.distance_cap_m;
+  out.safety_step = from_base.safety_step;
+  out.safety_background = from_base.safety_background;
+  out.column_begin.resize(from_base.column_begin.size());
+  out.intervals.reserve(from_base.intervals.size() + local.intervals.size());
+  out.distance.reserve(from_base.distance.size() + local.distance.size());
+  out.safety.reserve(out.distance.capacity());
+  std::int64_t column = 0;
+  for (const ColumnRun& run : SpliceRuns(from_base.geometry, window)) {
+    const TerrainFields::Parts& from = run.from_window ? local : from_base;
+    const std::uint32_t first = from.column_begin[run.first];
+    const std::uint32_t last = from.column_begin[run.first + run.count];
+    const std::uint32_t values_first = from.intervals[first].offset;
+    const std::uint32_t values_last = from.intervals[last].offset;  // The sentinel at the end.
+    const auto shift = static_cast<std::uint32_t>(out.intervals.size()) - first;
+    for (std::int64_t c = 0; c < run.count; ++c) {
+      out.column_begin[column + c] = from.column_begin[run.first + c] + shift;
+    }
+    const auto value_shift = static_cast<std::uint32_t>(out.distance.size()) - values_first;
+    for (std::uint32_t k = first; k < last; ++k) {
+      out.intervals.push_back(
+          {from.intervals[k].first_layer, from.intervals[k].offset + value_shift});
+    }
+    out.distance.insert(out.distance.end(), from.distance.begin() + values_first,
+                        from.distance.begin() + values_last);
+    out.safety.insert(out.safety.end(), from.safety.begin() + values_first,
+                      from.safety.begin() + values_last);
+    column += run.count;
+  }
+  out.column_begin.back() = static_cast<std::uint32_t>(out.intervals.size());
+  out.intervals.push_back({0, static_cast<std::uint32_t>(out.distance.size())});
+  return TerrainFields::FromParts(std::move(out));
+}
+
+std::size_t ValidPointsIn(const internal::ColumnCloud& sorted, const CellBox& columns) {
+  std::size_t count = 0;
+  for (int iy = columns.min.y(); iy <= columns.max.y(); ++iy) {
+    for (int ix = columns.min.x(); ix <= columns.max.x(); ++ix) {
+      const std::int64_t c = sorted.ColumnIndex(ix, iy);
+      for (std::uint32_t k = sorted.begin[c]; k < sorted.begin[c + 1]; ++k)
+        count += sorted.valid[k];
+    }
+  }
+  return count;
+}
+
+std::size_t ValidSurfacesIn(const SurfaceMap& surfaces, const CellBox& columns) {
+  std::size_t count = 0;
+  for (int iy = columns.min.y(); iy <= columns.max.y(); ++iy) {
+    for (int ix = columns.min.x(); ix <= columns.max.x(); ++ix) {
+      for (const ColumnSurface& s : surfaces.Column(ix, iy)) count += s.valid;
+    }
+  }
+  return count;
+}
+
+}  // namespace
+
+Expected<Reassessment> ReassessRegion(const TerrainModel& base, const PointCloud& base_cloud,
+                                      const PointCloud& edited_cloud,
+                                      const Eigen::AlignedBox3d& touched_m,
+                                      const AssessmentControl& control) {
+  if (touched_m.isEmpty() || !touched_m.min().allFinite() || !touched_m.max().allFinite()) {
+    return Error{ErrorCode::kInvalidInput,
+                 "the touched box " + internal::FormatPoint(touched_m.min()) + " – " +
+                     internal::FormatPoint(touched_m.max()) +
+                     " m is empty or not finite: pass EditBounds of the edits"};
+  }
+  const AssessmentConfig& config = base.config();
+  const GridGeometry& g = base.grid();
+  const auto full = [&](std::string reason) -> Expected<Reassessment> {
+    Expected<std::shared_ptr<const TerrainModel>> model =
+        TerrainModel::Assess(edited_cloud, config, control);
+    if (!model) return model.error();
+    Reassessment out;
+    out.model = std::move(model).value();
+    out.path = ReassessmentPath::kFull;
+    out.full_reason = std::move(reason);
+    out.reassessed_columns = out.model->grid().LayerCellCount();
+    return out;
+  };
+  if (edited_cloud.empty()) return full("the edited cloud is empty");
+  if (edited_cloud.size() >= std::numeric_limits<std::uint32_t>::max()) {
+    return full("the edited cloud holds 2^32 points or more");
+  }
+  internal::Stopwatch total;
+  internal::Stopwatch stage;
+  internal::ProgressReporter progress(&control);
+  const auto cancelled = [](const char* during) {
+    return Error{ErrorCode::kCancelled, std::string("terrain reassessment cancelled ") + during};
+  };
+
+  AssessmentSummary summary = base.summary();
+  summary.input_points = edited_cloud.size();
+  summary.cloud_bounds_m.setEmpty();  // Extended by the pass that crops the edited cloud.
+  summary.vertical_quantum_m = DetectVerticalQuantum(edited_cloud);
+  if (summary.vertical_quantum_m != base.summary().vertical_quantum_m) {
+    return full("the edit changes the cloud's vertical quantum from " +
+                Format("%g", base.summary().vertical_quantum_m) + " to " +
+                Format("%g m", summary.vertical_quantum_m));
+  }
+
+  // The columns the edit touches (a point's column is monotonic in its position, so every
+  // point inside touched_m lies in them), and around them every column whose assessment can
+  // change (docs/design.md, "Map edits").
+  const FieldConfig field =
+      FieldConfigForQuantum(config.field, summary.vertical_quantum_m, config.grid.resolution_m);
+  const int ground_reach = internal::GroundFilterReach(config.ground, g.resolution_m);
+  const int fit_reach = internal::PlaneFitReach(field, g.resolution_m);
+  const internal::FieldReach field_reach =
+      internal::FieldReachOf(field, config.grid, g.resolution_m);
+  const int surface_reach = std::max(ground_reach, fit_reach);
+  const int fields_reach = std::max(surface_reach + field_reach.surfaces, field_reach.points);
+  const int crop_reach = std::max(fields_reach + field_reach.points, 2 * surface_reach);
+  const auto clamp_column = [&](const Eigen::Vector3d& p) {
+    const Eigen::Vector3i cell = g.CellOf(p);
+    return Eigen::Vector3i(std::clamp(cell.x(), 0, g.size.x() - 1),
+                           std::clamp(cell.y(), 0, g.size.y() - 1), 0);
+  };
+  const CellBox touched{clamp_column(touched_m.min()), clamp_column(touched_m.max())};
+  const auto grown = [&](int reach) { return touched.Grown({reach, reach, 0}, g); };
+  const CellBox flags_changed = grown(ground_reach);  // Valid flags may change here.
+  const CellBox surfaces_changed = grown(surface_reach);
+  const CellBox fields_changed = grown(fields_reach);
+  const CellBox crop = grown(crop_reach);
+  const CellBox base_crop = grown(2 * ground_reach);
+
+  progress.BeginStage(AssessmentStage::kSorting, 1);
+  PointCloud near =
+      internal::CropToColumns(g, crop, edited_cloud, config.num_threads, &summary.cloud_bounds_m);
+  Expected<GridGeometry> geometry = internal::AssessmentGrid(summary, config.grid);
+  if (!geometry) return full("the edited cloud's bounds give no grid");
+  if (geometry->size != g.size || geometry->origin_m != g.origin_m ||
+      geometry->resolution_m != g.resolution_m) {
+    return full("the edited cloud's bounds change the grid from " + FormatSize(g.size) +
+                " cells at " + internal::FormatPoint(g.origin_m) + " m to " +
+                FormatSize(geometry->size) + " at " + internal::FormatPoint(geometry->origin_m) +
+                " m");
+  }
+  PointCloud near_base = internal::CropToColumns(g, base_crop, base_cloud, config.num_threads);
+  internal::ColumnCloud sorted = internal::SortIntoColumnWindow(g, crop, near, config.num_threads);
+  internal::ColumnCloud sorted_base =
+      internal::SortIntoColumnWindow(g, base_crop, near_base, config.num_threads);
+  internal::ThinColumns(&sorted, g, config.num_threads);
+  internal::ThinColumns(&sorted_base, g, config.num_threads);
+  near = {};
+  near_base = {};
+  if (!progress.Advance(1)) return cancelled("while sorting the points");
+
+  // The valid flags of the surfaces' columns in the edited cloud, and of the columns where
+  // they may change in both clouds: the summary's count changes by the difference.
+  progress.BeginStage(AssessmentStage::kGroundFilter,
+                      surfaces_changed.size().y() + flags_changed.size().y());
+  const double step_tolerance = internal::StepTolerance(summary.vertical_quantum_m);
+  if (Status s = internal::FilterValidGroundInColumns(&sorted, config.ground, g.resolution_m,
+                                                      step_tolerance, config.num_threads, &progress,
+                                                      &surfaces_changed);
+      !s) {
+    return s.error();
+  }
+  if (Status s = internal::FilterValidGroundInColumns(&sorted_base, config.ground, g.resolution_m,
+                                                      step_tolerance, config.num_threads, &progress,
+                                                      &flags_changed);
+      !s) {
+    return s.error();
+  }
+  summary.valid_ground_points = summary.valid_ground_points + ValidPointsIn(sorted, flags_changed) -
+                                ValidPointsIn(sorted_base, flags_changed);
+  sorted_base = {};
+  summary.timings.ground_filter_s = stage.Lap();
+
+  progress.BeginStage(AssessmentStage::kSurfaces,
+                      surfaces_changed.size().x() * std::int64_t{surfaces_changed.size().y()});
+  Expected<internal::ColumnSurfaces> local_surfaces = internal::BuildColumnSurfaces(
+      g, sorted, surfaces_changed, field, config.num_threads, &progress);
+  if (!local_surfaces) return local_surfaces.error();
+  std::size_t local_valid = 0;
+  for (const ColumnSurface& s : local_surfaces->surfaces) local_valid += s.valid;
+  summary.valid_surface_count = summary.valid_surface_count + local_valid -
+                                ValidSurfacesIn(base.surfaces(), surfaces_changed);
+  Expected<SurfaceMap> surfaces =
+      SpliceSurfaces(base.surfaces(), surfaces_changed, *local_surfaces);
+  if (!surfaces) return surfaces.error();
+  summary.surface_count = surfaces->surface_count();
+  summary.timings.surfaces_s = stage.Lap();
+
+  Expected<TerrainFields::Parts> local_fields = internal::BuildFieldParts(
+      *surfaces, sorted, fields_changed, field, config.grid, config.num_threads, &progress);
+  if (!local_fields) return local_fields.error();
+  Expected<TerrainFields> fields = SpliceFields(base.fields(), fields_changed, *local_fields);
+  if (!fields) return fields.error();
+  summary.timings.fields_s = stage.Lap();
+  summary.timings.total_s = total.Lap();
+
+  Expected<std::shared_ptr<const TerrainModel>> model = TerrainModel::FromParts(
+      config, summary, std::move(surfaces).value(), std::move(fields).value());
+  if (!model) return model.error();
+  Reassessment out;
+  out.model = std::move(model).value();
+  out.path = ReassessmentPath::kLocal;
+  out.reassessed_columns = fields_changed.size().x() * std::int64_t{fields_changed.size().y()};
+  return out;
+}
+
+}  // namespace strata

@@ -1,0 +1,231 @@
+#include "strata/assessment/terrain_fields.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+namespace strata {
+namespace {
+
+Error Inconsistent(const std::string& what) {
+  return Error{ErrorCode::kInvalidInput, "terrain fields are inconsistent: " + what};
+}
+
+// The eight corners of a trilinear sample: value indices (−1 outside the band) and weights.
+struct Corners {
+  std::int64_t index[8];  // (x, y, z) bits: corner k is at offset (k & 1, k >> 1 & 1, k >> 2).
+  double t[3];
+  bool clamped[3];
+  int cell[3];  // The block's lower cell centre (TerrainFields::BlockKey).
+};
+
+template <typename Decode>
+double Interpolate(const Corners& c, const Decode& decode, double inv_r,
+                   Eigen::Vector3d* gradient) {
+  double v[8];
+  for (int k = 0; k < 8; ++k) v[k] = decode(c.index[k]);
+  const double tx = c.t[0], ty = c.t[1], tz = c.t[2];
+  const double c00 = v[0] + tx * (v[1] - v[0]);
+  const double c10 = v[2] + tx * (v[3] - v[2]);
+  const double c01 = v[4] + tx * (v[5] - v[4]);
+  const double c11 = v[6] + tx * (v[7] - v[6]);
+  const double c0 = c00 + ty * (c10 - c00);
+  const double c1 = c01 + ty * (c11 - c01);
+  if (gradient != nullptr) {
+    const double dx = (1.0 - tz) * ((1.0 - ty) * (v[1] - v[0]) + ty * (v[3] - v[2])) +
+                      tz * ((1.0 - ty) * (v[5] - v[4]) + ty * (v[7] - v[6]));
+    const double dy = (1.0 - tz) * (c10 - c00) + tz * (c11 - c01);
+    const double dz = c1 - c0;
+    *gradient = Eigen::Vector3d(c.clamped[0] ? 0.0 : dx * inv_r, c.clamped[1] ? 0.0 : dy * inv_r,
+                                c.clamped[2] ? 0.0 : dz * inv_r);
+  }
+  return c0 + tz * (c1 - c0);
+}
+
+}  // namespace
+
+Expected<TerrainFields> TerrainFields::FromParts(Parts parts) {
+  const GridGeometry& g = parts.geometry;
+  if (!(g.resolution_m > 0) || (g.size.array() < 1).any()) return Inconsistent("empty grid");
+  if (!(parts.distance_cap_m > 0 && parts.distance_cap_m <= kMaxDistanceM)) {
+    return Inconsistent("distance cap out of (0, 32] m");
+  }
+  if (!(std::isfinite(parts.safety_step) && parts.safety_step >= 0) ||
+      !(std::isfinite(parts.safety_background) && parts.safety_background >= 0)) {
+    return Inconsistent("safety step or background not finite and >= 0");
+  }
+  const std::int64_t columns = g.LayerCellCount();
+  if (static_cast<std::int64_t>(parts.column_begin.size()) != columns + 1 ||
+      parts.column_begin.front() != 0 ||
+      parts.column_begin.back() + std::size_t{1} != parts.intervals.size()) {
+    return Inconsistent("column index does not match the grid and the intervals");
+  }
+  if (parts.distance.size() != parts.safety.size() ||
+      parts.intervals.back().offset != parts.distance.size()) {
+    return Inconsistent("value arrays do not match the intervals");
+  }
+  for (std::int64_t c = 0; c < columns; ++c) {
+    const std::uint32_t begin = parts.column_begin[c], end = parts.column_begin[c + 1];
+    // Past the last entry, intervals[k + 1] below would read beyond the intervals.
+    if (end < begin || end > parts.column_begin.back()) {
+      return Inconsistent("column index is not monotone");
+    }
+    std::int64_t previous_end = -1;
+    for (std::uint32_t k = begin; k < end; ++k) {
+      const Interval& interval = parts.intervals[k];
+      const std::int64_t count =
+          std::int64_t{parts.intervals[k + 1].offset} - std::int64_t{interval.offset};
+      if (count < 1 || interval.first_layer <= previous_end ||
+          std::int64_t{interval.first_layer} + count > g.size.z()) {
+        return Inconsistent("an interval is empty, unsorted or outside the grid's layers");
+      }
+      previous_end = interval.first_layer + count - 1;
+    }
+  }
+  return TerrainFields(std::move(parts));
+}
+
+namespace {
+
+// The value indices of cells (column, iz) and (column, iz + 1) of `parts`, from one pass over
+// the column's intervals, into *at_iz and *above (-1 where not stored).
+void FindPair(const TerrainFields::Parts& parts, std::int64_t column, int iz, std::int64_t* at_iz,
+              std::int64_t* above) {
+  *at_iz = -1;
+  *above = -1;
+  const std::uint32_t end = parts.column_begin[column + 1];
+  for (std::uint32_t k = parts.column_begin[column]; k < end; ++k) {
+    const TerrainFields::Interval& interval = parts.intervals[k];
+    if (iz + 1 < interval.first_layer) break;
+    const std::int64_t count =
+        std::int64_t{parts.intervals[k + 1].offset} - std::int64_t{interval.offset};
+    const std::int64_t layer = iz - std::int64_t{interval.first_layer};
+    if (layer >= 0 && layer < count) *at_iz = std::int64_t{interval.offset} + layer;
+    if (layer + 1 >= 0 && layer + 1 < count) *above = std::int64_t{interval.offset} + layer + 1;
+  }
+}
+
+// Where p falls along axis a of g (inv_r = 1 / its resolution): the lower cell centre i of its
+// pair, its weight t towards the upper one, and whether p was clamped onto the hull of centres.
+struct AxisCell {
+  int i;
+  double t;
+  bool clamped;
+};
+// TerrainFields::BlockKey of the block whose lower cell centre is `cell`.
+std::int64_t BlockKeyOf(const GridGeometry& g, const int cell[3]) {
+  return cell[0] + std::int64_t{g.size.x()} * (cell[1] + std::int64_t{g.size.y()} * cell[2]);
+}
+
+AxisCell LocateOnAxis(const GridGeometry& g, double inv_r, const Eigen::Vector3d& p, int a) {
+  // u is the position in "centre coordinates": cell centre i sits at u = i.
+  double u = (p[a] - g.origin_m[a]) * inv_r - 0.5;
+  const int n = g.size[a];
+  bool clamped = false;
+  if (!(u >= 0.0)) {  // Also catches NaN, which would otherwise index out of range.
+    u = 0.0;
+    clamped = true;
+  } else if (u > n - 1) {
+    u = n - 1;
+    clamped = true;
+  }
+  int i = static_cast<int>(u);
+  // The last centre belongs to the pair (n-2, n-1) with t = 1; a one-cell axis has no pair.
+  if (i > n - 2) i = n > 1 ? n - 2 : 0;
+  return {i, u - i, clamped};
+}
+
+// The corners of the sample at p.
+Corners Locate(const TerrainFields::Parts& parts, const Eigen::Vector3d& p) {
+  const GridGeometry& g = parts.geometry;
+  Corners c;
+  const int* i = c.cell;
+  int step[3];
+  const double inv_r = 1.0 / g.resolution_m;
+  for (int a = 0; a < 3; ++a) {
+    const AxisCell cell = LocateOnAxis(g, inv_r, p, a);
+    c.cell[a] = cell.i;
+    c.t[a] = cell.t;
+    c.clamped[a] = cell.clamped;
+    step[a] = g.size[a] > 1 ? 1 : 0;
+  }
+  for (int k = 0; k < 4; ++k) {
+    const int ix = i[0] + (k & 1) * step[0], iy = i[1] + (k >> 1) * step[1];
+    const std::int64_t column = ix + std::int64_t{g.size.x()} * iy;
+    std::int64_t above = -1;
+    FindPair(parts, column, i[2], &c.index[k], &above);
+    c.index[k + 4] = step[2] != 0 ? above : c.index[k];  // A one-layer grid: both at layer 0.
+  }
+  return c;
+}
+
+}  // namespace
+
+std::int64_t TerrainFields::FindCell(const Eigen::Vector3i& cell) const {
+  if (!parts_.geometry.Contains(cell)) return -1;
+  std::int64_t at_cell = -1, above = -1;
+  FindPair(parts_, cell.x() + std::int64_t{parts_.geometry.size.x()} * cell.y(), cell.z(), &at_cell,
+           &above);
+  return at_cell;
+}
+
+double TerrainFields::Distance(const Eigen::Vector3d& p, Eigen::Vector3d* gradient) const {
+  const GridGeometry& g = parts_.geometry;
+  const Corners c = Locate(parts_, p);
+  return Interpolate(
+      c, [this](std::int64_t i) { return DistanceValue(i); }, 1.0 / g.resolution_m, gradient);
+}
+
+double TerrainFields::SafetyPenalty(const Eigen::Vector3d& p, Eigen::Vector3d* gradient) const {
+  const GridGeometry& g = parts_.geometry;
+  const Corners c = Locate(parts_, p);
+  return Interpolate(
+      c, [this](std::int64_t i) { return SafetyValue(i); }, 1.0 / g.resolution_m, gradient);
+}
+
+void TerrainFields::Sample(const Eigen::Vector3d& p, FieldSample* sample, FieldBlock* block) const {
+  const GridGeometry& g = parts_.geometry;
+  const Corners c = Locate(parts_, p);
+  const double inv_r = 1.0 / g.resolution_m;
+  sample->distance_m = Interpolate(
+      c, [this](std::int64_t i) { return DistanceValue(i); }, inv_r, &sample->distance_gradient);
+  sample->safety = Interpolate(
+      c, [this](std::int64_t i) { return SafetyValue(i); }, inv_r, &sample->safety_gradient);
+  if (block == nullptr) return;
+  block->key = BlockKeyOf(g, c.cell);
+  block->max_safety = SafetyValue(c.index[0]);
+  block->min_distance = DistanceValue(c.index[0]);
+  for (int k = 1; k < 8; ++k) {
+    block->max_safety = std::max(block->max_safety, SafetyValue(c.index[k]));
+    block->min_distance = std::min(block->min_distance, DistanceValue(c.index[k]));
+  }
+}
+
+std::int64_t TerrainFields::BlockKey(const Eigen::Vector3d& p) const {
+  const GridGeometry& g = parts_.geometry;
+  const double inv_r = 1.0 / g.resolution_m;
+  int cell[3];
+  for (int a = 0; a < 3; ++a) cell[a] = LocateOnAxis(g, inv_r, p, a).i;
+  return BlockKeyOf(g, cell);
+}
+
+std::optional<double> TerrainFields::DistanceAt(const Eigen::Vector3i& cell) const {
+  const std::int64_t i = FindCell(cell);
+  if (i < 0) return std::nullopt;
+  return DistanceValue(i);
+}
+
+std::optional<double> TerrainFields::SafetyAt(const Eigen::Vector3i& cell) const {
+  const std::int64_t i = FindCell(cell);
+  if (i < 0) return std::nullopt;
+  return SafetyValue(i);
+}
+
+std::size_t TerrainFields::MemoryBytes() const {
+  return parts_.column_begin.capacity() * sizeof(std::uint32_t) +
+         parts_.intervals.capacity() * sizeof(Interval) +
+         parts_.distance.capacity() * sizeof(std::int16_t) +
+         parts_.safety.capacity() * sizeof(std::uint16_t);
+}
+
+}  // namespace strata

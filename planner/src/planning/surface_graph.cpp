@@ -1,0 +1,309 @@
+#include "strata/planning/surface_graph.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <queue>
+#include <string>
+#include <utility>
+
+#include "format_internal.hpp"
+
+namespace strata {
+namespace {
+
+// Nodes handled between two polls of should_stop.
+constexpr int kNodesPerPoll = 4096;
+
+Error Cancelled() { return Error{ErrorCode::kCancelled, "building the surface graph was stopped"}; }
+
+}  // namespace
+
+Expected<SurfaceGraph> SurfaceGraph::Build(const TerrainModel& model,
+                                           const TraversabilityParams& params,
+                                           const std::function<bool()>& should_stop) {
+  const auto stopped = [&should_stop] { return should_stop && should_stop(); };
+  if (Status s = params.Validate(); !s.ok()) return s.error();
+  const double map_tilt = model.config().ground.max_tilt_rad;
+  if (params.max_tilt_rad > map_tilt) {
+    char buf[256];
+    std::snprintf(buf, sizeof(buf),
+                  "traversability.max_tilt_rad = %g exceeds the map's ground filter "
+                  "ground.max_tilt_rad = %g: steeper ground was never marked valid",
+                  params.max_tilt_rad, map_tilt);
+    return Error{ErrorCode::kInvalidConfig, buf, "traversability.max_tilt_rad"};
+  }
+
+  SurfaceGraph graph;
+  graph.model_ = &model;
+  graph.params_ = params;
+  const double slope = std::tan(params.max_tilt_rad) * model.grid().resolution_m;
+  graph.step_limit_axis_ = static_cast<float>(params.max_step_m + slope);
+  graph.step_limit_diagonal_ = static_cast<float>(params.max_step_m + std::sqrt(2.0) * slope);
+  const GridGeometry& g = model.grid();
+  const SurfaceMap& surfaces = model.surfaces();
+  const std::int64_t columns = g.LayerCellCount();
+  graph.column_begin_.assign(static_cast<std::size_t>(columns) + 1, 0);
+  const double z_min = g.origin_m.z();
+  const double z_max = z_min + g.size.z() * g.resolution_m;
+
+  for (int iy = 0; iy < g.size.y(); ++iy) {
+    if (stopped()) return Cancelled();
+    for (int ix = 0; ix < g.size.x(); ++ix) {
+      const std::span<const ColumnSurface> column = surfaces.Column(ix, iy);
+      int level = 0;
+      for (std::size_t k = 0; k < column.size(); ++k) {
+        const ColumnSurface& s = column[k];
+        if (!s.valid) continue;
+        const int this_level = level++;
+        const double reference_z = s.ground_z_m + params.reference_height_m;
+        if (s.tilt_rad > params.max_tilt_rad || s.clearance_m < params.body_height_m ||
+            reference_z < z_min || reference_z >= z_max) {
+          continue;
+        }
+        const Eigen::Vector3d p(g.origin_m.x() + (ix + 0.5) * g.resolution_m,
+                                g.origin_m.y() + (iy + 0.5) * g.resolution_m, reference_z);
+        graph.column_nodes_.push_back(static_cast<std::int32_t>(graph.nodes_.size()));
+        graph.nodes_.push_back(
+            Node{ix, iy, static_cast<std::int16_t>(k), static_cast<std::int16_t>(this_level),
+                 static_cast<float>(reference_z), static_cast<float>(model.Distance(p))});
+      }
+      graph.column_begin_[ix + std::int64_t{g.size.x()} * iy + 1] =
+          static_cast<std::uint32_t>(graph.column_nodes_.size());
+    }
+  }
+
+  // Component labels by breadth-first search; the queue is the label array's visit order.
+  // The same pass finds the rim: the nodes missing one of their 8 neighbours.
+  const int n = graph.node_count();
+  graph.components_.assign(n, -1);
+  std::vector<std::int32_t> rim;
+  std::vector<std::int32_t> queue;
+  queue.reserve(n);
+  int visited = 0;
+  for (int seed = 0; seed < n; ++seed) {
+    if (graph.components_[seed] >= 0) continue;
+    const int label = graph.component_count_++;
+    queue.clear();
+    queue.push_back(seed);
+    graph.components_[seed] = label;
+    for (std::size_t head = 0; head < queue.size(); ++head) {
+      if (++visited % kNodesPerPoll == 0 && stopped()) return Cancelled();
+      int neighbours = 0;
+      graph.ForEachNeighbor(queue[head], [&](int m) {
+        ++neighbours;
+        if (graph.components_[m] < 0) {
+          graph.components_[m] = label;
+          queue.push_back(m);
+        }
+      });
+      if (neighbours < 8) rim.push_back(queue[head]);
+    }
+  }
+  queue = {};
+  if (!graph.nodes_.empty()) {
+    std::vector<float> clearances(graph.nodes_.size());
+    for (std::size_t k = 0; k < clearances.size(); ++k) clearances[k] = graph.nodes_[k].clearance_m;
+    const auto tenth = clearances.begin() + static_cast<std::ptrdiff_t>(clearances.size() / 10);
+    std::nth_element(clearances.begin(), tenth, clearances.end());
+    graph.open_ground_clearance_m_ = *tenth;
+  }
+  if (!graph.ComputeEdgeDistances(rim, should_stop)) return Cancelled();
+  if (!graph.ComputeLandmarks(should_stop)) return Cancelled();
+  // The node arrays grew by push_back: give back what they reserved beyond their size.
+  graph.nodes_.shrink_to_fit();
+  graph.column_nodes_.shrink_to_fit();
+  return graph;
+}
+
+bool SurfaceGraph::ComputeEdgeDistances(const std::vector<std::int32_t>& rim,
+                                        const std::function<bool()>& should_stop) {
+  // Multi-source Dijkstra over the graph's own edges (lengths r and r√2) from the rim nodes: a
+  // chamfer distance, within 8% of Euclidean, cheap and exact at the rim. It stops at the
+  // cap, so it visits only the band of nodes within the cap of a rim.
+  const double r = grid().resolution_m;
+  const auto cap = static_cast<float>(EdgeDistanceCap(r));
+  edge_distance_.assign(static_cast<std::size_t>(node_count()), cap);
+  using Item = std::pair<float, std::int32_t>;
+  std::priority_queue<Item, std::vector<Item>, std::greater<>> queue;
+  for (const std::int32_t m : rim) {
+    edge_distance_[m] = static_cast<float>(0.5 * r);
+    queue.push({edge_distance_[m], m});
+  }
+  for (int popped = 1; !queue.empty(); ++popped) {
+    if (popped % kNodesPerPoll == 0 && should_stop && should_stop()) return false;
+    // Named variables, not a structured binding: the lambda below captures them, which
+    // clang 14 (clang-tidy's) does not accept for bindings.
+    const float d = queue.top().first;
+    const int m = queue.top().second;
+    queue.pop();
+    if (d > edge_distance_[m]) continue;
+    const Node& a = nodes_[m];
+    ForEachNeighbor(m, [&](int k) {
+      const Node& b = nodes_[k];
+      const float step = static_cast<float>(a.ix != b.ix && a.iy != b.iy ? std::sqrt(2.0) * r : r);
+      if (d + step < edge_distance_[k]) {
+        edge_distance_[k] = d + step;
+        queue.push({edge_distance_[k], k});
+      }
+    });
+  }
+  return true;
+}
+
+int SurfaceGraph::NodeNear(int ix, int iy, double ground_z) const {
+  int best = -1;
+  double best_gap = kLevelGapM;
+  for (const std::int32_t m : ColumnNodes(ix, iy)) {
+    const double gap = std::abs(SurfaceGraph::ground_z(m) - ground_z);
+    if (gap <= best_gap) {
+      best_gap = gap;
+      best = m;
+    }
+  }
+  return best;
+}
+
+int SurfaceGraph::NodeNear(int ix, int iy, double height, double* low, double* high) const {
+  const int best = NodeNear(ix, iy, height);
+  *low = 0;
+  *high = 0;
+  if (best < 0) return best;
+  // The node stays the nearest up to the midpoints to its neighbours in height and within
+  // kLevelGapM of its own. The band is shrunk by far more than the rounding of the gaps
+  // NodeNear compares, so that it never claims a height where a tie could go the other way.
+  constexpr double kRoundingM = 1e-6;
+  const double own = SurfaceGraph::ground_z(best);
+  *low = own - kLevelGapM;
+  *high = own + kLevelGapM;
+  for (const std::int32_t m : ColumnNodes(ix, iy)) {
+    const double other = SurfaceGraph::ground_z(m);
+    if (m == best) continue;
+    if (other <= own) *low = std::max(*low, 0.5 * (own + other));
+    if (other >= own) *high = std::min(*high, 0.5 * (own + other));
+  }
+  *low += kRoundingM;
+  *high -= kRoundingM;
+  return best;
+}
+
+Expected<SnapResult> SnapToSurface(const SurfaceGraph& graph, const Eigen::Vector3d& p,
+                                   double tolerance_m, ErrorCode off_ground_code,
+                                   const std::function<bool(int node)>& accept,
+                                   std::string_view refusal) {
+  const char* what = off_ground_code == ErrorCode::kStartOffGround  ? "start"
+                     : off_ground_code == ErrorCode::kGoalOffGround ? "goal"
+                                                                    : "point";
+  if (!p.allFinite()) {
+    return Error{ErrorCode::kInvalidInput,
+                 std::string(what) + " " + internal::FormatPoint(p) + " m is not finite"};
+  }
+  if (!(std::isfinite(tolerance_m) && tolerance_m >= 0)) {
+    char buf[128];
+    std::snprintf(buf, sizeof(buf), "snap tolerance %g m must be finite and >= 0", tolerance_m);
+    return Error{ErrorCode::kInvalidInput, buf};
+  }
+  const GridGeometry& g = graph.grid();
+  const double r = g.resolution_m;
+  const double slack = 0.5 * r;
+  // Under open sky (or a high roof) a level's air space ends this far above its ground: a z
+  // far above every ground does not point at the top one.
+  constexpr double kMaxAirSpaceM = 2.5;
+  // Distance from p to a node's level: horizontal to its reference point, plus how far p's z
+  // lies outside the free space of that level (from its ground up to its ceiling). So a z
+  // anywhere in a level's air space selects that level, as a z "pointing at" it should.
+  const auto level_distance = [&](int node) {
+    const Eigen::Vector3d pos = graph.position(node);
+    const double ground = graph.ground_z(node);
+    const double ceiling = ground + std::min<double>(graph.ceiling_clearance(node), kMaxAirSpaceM);
+    const double below = std::max(0.0, ground - slack - p.z());
+    const double above = std::max(0.0, p.z() - ceiling);
+    return std::hypot((pos - p).head<2>().norm(), below + above);
+  };
+  const auto make = [&](int node) {
+    return SnapResult{node, graph.position(node), graph.level(node), level_distance(node)};
+  };
+
+  // 1. p's own column, at the level its z points at.
+  const Eigen::Vector3i c = g.CellOf(p);
+  {
+    int chosen = -1;
+    for (const std::int32_t m : graph.ColumnNodes(c.x(), c.y())) {
+      if (graph.ground_z(m) <= p.z() + slack) chosen = m;  // Lowest first: keep the highest.
+    }
+    if (chosen >= 0 && level_distance(chosen) <= tolerance_m && (!accept || accept(chosen))) {
+      return make(chosen);
+    }
+  }
+
+  // 2. Columns within tolerance, ring by ring. Score = level distance, plus a penalty larger
+  // than any in-tolerance distance for ground above p, so ground below always wins.
+  const double above_penalty = 2.0 * tolerance_m + r;
+  const int max_ring = static_cast<int>(std::ceil(tolerance_m / r)) + 1;
+  int best = -1;
+  bool turned_down = false;  // A node within tolerance that `accept` refused.
+  double best_score = std::numeric_limits<double>::infinity();
+  for (int ring = 0; ring <= max_ring; ++ring) {
+    // Columns of this ring lie at least (ring - 1) · r horizontally from p.
+    if (best >= 0 && best_score <= (ring - 1) * r) break;
+    for (int dy = -ring; dy <= ring; ++dy) {
+      const bool edge_row = std::abs(dy) == ring;
+      for (int dx = -ring; dx <= ring; dx += edge_row ? 1 : 2 * std::max(ring, 1)) {
+        for (const std::int32_t m : graph.ColumnNodes(c.x() + dx, c.y() + dy)) {
+          const double d = level_distance(m);
+          if (d > tolerance_m) continue;
+          if (accept && !accept(m)) {
+            turned_down = true;
+            continue;
+          }
+          const double score = d + (graph.ground_z(m) > p.z() + slack ? above_penalty : 0.0);
+          if (score < best_score) {
+            best_score = score;
+            best = m;
+          }
+        }
+        if (ring == 0) break;
+      }
+    }
+  }
+  if (best >= 0) return make(best);
+  if (turned_down) {
+    char buf[96];
+    std::snprintf(buf, sizeof(buf), " m: all traversable ground within %.2f m", tolerance_m);
+    return Error{off_ground_code, std::string(what) + " " + internal::FormatPoint(p) + buf +
+                                      " puts the robot's reference point " + std::string(refusal) +
+                                      "; move it into open space"};
+  }
+
+  // 3. Nothing within tolerance: name the nearest node anywhere (a linear scan, only on
+  // this failure path).
+  int nearest = -1;
+  double nearest_d = std::numeric_limits<double>::infinity();
+  for (int m = 0; m < graph.node_count(); ++m) {
+    const double d = level_distance(m);
+    if (d < nearest_d) {
+      nearest_d = d;
+      nearest = m;
+    }
+  }
+  char buf[96];
+  std::snprintf(buf, sizeof(buf), " m has no traversable ground within %.2f m", tolerance_m);
+  std::string message = std::string(what) + " " + internal::FormatPoint(p) + buf;
+  std::map<std::string, std::string> details;
+  if (nearest >= 0) {
+    const Eigen::Vector3d at = graph.position(nearest);
+    std::snprintf(buf, sizeof(buf), " (%.2f m away)", nearest_d);
+    message += "; the nearest is " + internal::FormatPoint(at) + " m" + buf;
+    details = {{"nearest_x_m", DetailNumber(at.x())},
+               {"nearest_y_m", DetailNumber(at.y())},
+               {"nearest_z_m", DetailNumber(at.z())},
+               {"nearest_level", std::to_string(graph.level(nearest))},
+               {"nearest_distance_m", DetailNumber(nearest_d)}};
+  } else {
+    message += "; the map has no traversable ground for these traversability parameters";
+  }
+  return Error{off_ground_code, message, {}, std::move(details)};
+}
+
+}  // namespace strata

@@ -1,0 +1,109 @@
+// SurfaceGraph's landmarks (ALT), chosen and measured once per graph: see
+// SurfaceGraph::LandmarkBound.
+#include <algorithm>
+#include <limits>
+#include <queue>
+#include <utility>
+#include <vector>
+
+#include "strata/planning/surface_graph.hpp"
+
+namespace strata {
+namespace {
+
+constexpr float kUnreached = std::numeric_limits<float>::infinity();
+
+// Least costs (MoveCost under the default MoveCostTerms) of paths from `source` over the
+// graph's edges to every node; kUnreached outside its component. False when should_stop fired
+// (polled every 4096 nodes settled).
+bool Distances(const SurfaceGraph& graph, int source, const std::function<bool()>& should_stop,
+               std::vector<float>* distance) {
+  distance->assign(static_cast<std::size_t>(graph.node_count()), kUnreached);
+  using Item = std::pair<float, int>;
+  std::priority_queue<Item, std::vector<Item>, std::greater<>> queue;
+  const MoveCostTerms terms;
+  (*distance)[source] = 0;
+  queue.push({0.0f, source});
+  for (int settled = 1; !queue.empty(); ++settled) {
+    if (settled % 4096 == 0 && should_stop && should_stop()) return false;
+    const float d = queue.top().first;
+    const int node = queue.top().second;
+    queue.pop();
+    if (d > (*distance)[node]) continue;
+    graph.ForEachNeighbor(node, [&](int m) {
+      const float next = d + static_cast<float>(graph.MoveCost(node, m, terms));
+      if (next < (*distance)[m]) {
+        (*distance)[m] = next;
+        queue.push({next, m});
+      }
+    });
+  }
+  return true;
+}
+
+}  // namespace
+
+bool SurfaceGraph::ComputeLandmarks(const std::function<bool()>& should_stop) {
+  landmark_count_ = 0;
+  landmark_distance_.clear();
+  const int n = node_count();
+  if (n == 0 || n > kMaxLandmarkNodes) return true;
+  // The largest component: where long searches and detours are.
+  std::vector<int> sizes(static_cast<std::size_t>(component_count_), 0);
+  for (const std::int32_t c : components_) ++sizes[c];
+  const int largest =
+      static_cast<int>(std::max_element(sizes.begin(), sizes.end()) - sizes.begin());
+  if (sizes[largest] < 2) return true;
+  int seed = 0;
+  while (components_[seed] != largest) ++seed;
+
+  // Farthest-point selection: the first landmark is the node farthest from an arbitrary one,
+  // each next the node farthest from every landmark so far (the periphery, where the bounds
+  // are tightest).
+  std::vector<float> distance;
+  if (!Distances(*this, seed, should_stop, &distance)) return false;
+  std::vector<float> nearest_landmark(static_cast<std::size_t>(n), kUnreached);
+  std::vector<std::vector<float>> tables;
+  int next = seed;
+  for (int k = 0; k < kMaxLandmarks; ++k) {
+    float farthest = -1;
+    const std::vector<float>& from = tables.empty() ? distance : nearest_landmark;
+    for (int m = 0; m < n; ++m) {
+      if (components_[m] == largest && from[m] > farthest) {
+        farthest = from[m];
+        next = m;
+      }
+    }
+    if (farthest <= 0) break;  // Every node is a landmark already (a tiny component).
+    std::vector<float> table;
+    if (!Distances(*this, next, should_stop, &table)) return false;
+    for (int m = 0; m < n; ++m) nearest_landmark[m] = std::min(nearest_landmark[m], table[m]);
+    tables.push_back(std::move(table));
+  }
+  landmark_count_ = static_cast<int>(tables.size());
+  landmark_distance_.resize(static_cast<std::size_t>(n) * landmark_count_);
+  for (int m = 0; m < n; ++m) {
+    for (int k = 0; k < landmark_count_; ++k) {
+      landmark_distance_[static_cast<std::size_t>(m) * landmark_count_ + k] = tables[k][m];
+    }
+  }
+  return true;
+}
+
+bool SurfaceGraph::ShouldSearchBackward(int start, int goal, const MoveCostTerms& terms) const {
+  if (LandmarkBound(start, goal, terms) <= 0) return false;
+  const float* ls = &landmark_distance_[static_cast<std::size_t>(start) * landmark_count_];
+  const float* lg = &landmark_distance_[static_cast<std::size_t>(goal) * landmark_count_];
+  double nearer_start = 0, nearer_goal = 0;  // The largest bound from landmarks on each side.
+  for (int k = 0; k < landmark_count_; ++k) {
+    const double gap = double{lg[k]} - double{ls[k]};
+    if (gap > 0) {
+      nearer_start = std::max(nearer_start, gap);
+    } else {
+      nearer_goal = std::max(nearer_goal, -gap);
+    }
+  }
+  return nearer_start > nearer_goal;
+}
+
+}  // namespace strata

@@ -1,0 +1,74 @@
+#pragma once
+/// The web viewer's side of strata-server, without sockets: its page (viewer_assets.hpp) and a
+/// JSON API over the same service functions the gRPC handlers call, so the viewer shows
+/// exactly what a gRPC client gets. http_server.hpp serves it over HTTP.
+///
+/// The API: `POST /api/<service>/<method>` with the method's request message in protobuf's
+/// JSON mapping as the body (an empty body is the empty message), answering its response
+/// message in the same mapping (field names as in the .proto, every field printed), for the
+/// read-only methods and Plan:
+///   strata.v1.MapService/ListMaps, strata.v1.MapService/GetMap,
+///   strata.v1.MapService/GetMapGeometry, strata.v1.PlannerService/Plan,
+///   strata.v1.PlannerService/ListRecentPlans.
+/// A failure answers the google.rpc.Status a gRPC client would get (code, message, and the
+/// ErrorInfo and BadRequest details, as JSON with "@type"), with the HTTP status Google's API
+/// guidelines map its code to (INVALID_ARGUMENT 400, NOT_FOUND 404, UNAVAILABLE 503, ...).
+/// With --auth-tokens, every API call needs `Authorization: Bearer TOKEN` of role planner (or
+/// admin); the page itself holds no data and needs none.
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+#include "rpc/auth.hpp"
+#include "rpc/map_service.hpp"
+#include "rpc/planner_service.hpp"
+#include "rpc/planning_slots.hpp"
+
+namespace strata::server {
+
+/// One HTTP request, as the API sees it.
+struct HttpRequest {
+  std::string method;         ///< "GET", "POST", ...
+  std::string path;           ///< Decoded, without the query: "/api/strata.v1.MapService/GetMap".
+  std::string authorization;  ///< The Authorization header; empty when absent.
+  std::string body;           ///< Within the server's request limit (HttpServer enforces it).
+};
+
+/// The answer to send.
+struct HttpResponse {
+  int status = 200;
+  std::string content_type;
+  std::string body;
+  std::vector<std::pair<std::string, std::string>> headers;  ///< Besides the content type.
+};
+
+/// The HTTP status that Google's API design guide maps a gRPC code to (google/rpc/code.proto).
+int HttpStatusOf(grpc::StatusCode code);
+
+/// 413, with the status gRPC answers a message above its limit with (RESOURCE_EXHAUSTED,
+/// without details), naming the limit (--max-receive-message-bytes).
+HttpResponse RequestTooLarge(std::size_t max_bytes);
+
+class HttpApi {
+ public:
+  /// The services must outlive the API; `tokens` may be null (every call allowed).
+  HttpApi(const MapRegistry* registry, const MapServiceImpl* maps, PlannerServiceImpl* planner,
+          const TokenTable* tokens);
+
+  /// Answers `request` (the page's assets on GET, the API on POST), logging one line for an
+  /// API call. `call` carries the request's deadline and cancellation. Thread-safe; never
+  /// throws (an exception answers INTERNAL).
+  HttpResponse Handle(const HttpRequest& request, const CallControl& call) const;
+
+ private:
+  HttpResponse HandleApi(const HttpRequest& request, const CallControl& call,
+                         std::string_view method, std::string* map_id) const;
+
+  const MapRegistry* registry_;
+  const MapServiceImpl* maps_;
+  PlannerServiceImpl* planner_;
+  const TokenTable* tokens_;
+};
+
+}  // namespace strata::server

@@ -1,0 +1,117 @@
+#include "maps/map_build.hpp"
+
+#include "strata/common/seconds_since.hpp"
+
+#include <chrono>
+#include <limits>
+#include <utility>
+
+#include "maps/map_store.hpp"
+#include "strata/io/saved_model.hpp"
+
+namespace strata::server {
+namespace {
+
+using common::SecondsSince;
+
+}  // namespace
+
+Expected<LoadedCloud> LoadMapSource(MapSource source, const CloudLoadLimits& limits) {
+  if (const auto* file = std::get_if<FileMapSource>(&source)) {
+    return LoadPointCloud(file->ToRead(), limits);
+  }
+  if (auto* scene = std::get_if<SceneMapSource>(&source)) {
+    return ::strata::LoadMapSource(*scene, limits);
+  }
+  // The points move into the sanitised cloud, whose memory the build's reservation covers.
+  return SanitizeCloud(std::move(std::get<UploadMapSource>(source).points), limits);
+}
+
+namespace {
+
+// The next version of a published map: its cloud edited, the touched terrain reassessed.
+Expected<BuiltMap> BuildEditHere(const EditSource& edit, const MapBuildJob& job,
+                                 const BuildMonitor& monitor) {
+  BuiltMap built;
+  const auto load_start = std::chrono::steady_clock::now();
+  Expected<std::shared_ptr<const TerrainModel>> base =
+      LoadModel(NamedFile(edit.model->ProcPath(), "the map's current model"));
+  if (!base) return base.error();
+  // The stored cloud passed the limits when it was accepted; these only guard the reader.
+  CloudLoadLimits unbounded;
+  unbounded.max_points = std::numeric_limits<std::size_t>::max();
+  unbounded.max_file_bytes = std::numeric_limits<std::size_t>::max();
+  unbounded.max_abs_coordinate_m = std::numeric_limits<double>::max();
+  Expected<LoadedCloud> cloud =
+      LoadPointCloud(NamedFile(edit.cloud->ProcPath(), "the map's current cloud.pcd"), unbounded);
+  if (!cloud) return cloud.error();
+  built.raw_point_count = cloud->points.size();
+  built.load_s = SecondsSince(load_start);
+  if (monitor.on_loaded) monitor.on_loaded(built.raw_point_count, 0, built.load_s);
+  EditFigures figures;
+  const auto apply_start = std::chrono::steady_clock::now();
+  Expected<PointCloud> edited = ApplyEdits(cloud->points, edit.edits, **base);
+  if (!edited) return edited.error();
+  figures.apply_s = SecondsSince(apply_start);
+  const auto reassess_start = std::chrono::steady_clock::now();
+  const AssessmentControl control{monitor.on_progress, monitor.should_stop};
+  Expected<Reassessment> reassessed =
+      ReassessRegion(**base, cloud->points, *edited, EditBounds(edit.edits), control);
+  if (!reassessed) return reassessed.error();
+  figures.reassess_s = SecondsSince(reassess_start);
+  figures.full_reassessment = reassessed->path == ReassessmentPath::kFull;
+  figures.full_reason = reassessed->full_reason;
+  figures.reassessed_columns = reassessed->reassessed_columns;
+  built.model = std::move(reassessed->model);
+  built.version = MapStore::VersionOf(*edited, built.model->config(), {});
+  if (job.keep_cloud) built.cloud = std::move(edited).value();
+  built.edit = std::move(figures);
+  return built;
+}
+
+// A new map's source, out of a build's that is not an edit.
+MapSource NewMapSource(BuildSource source) {
+  if (auto* file = std::get_if<FileMapSource>(&source)) return std::move(*file);
+  if (auto* scene = std::get_if<SceneMapSource>(&source)) return std::move(*scene);
+  return std::move(std::get<UploadMapSource>(source));
+}
+
+}  // namespace
+
+Expected<BuiltMap> BuildMapHere(MapBuildJob job, const BuildMonitor& monitor,
+                                const CloudLoader& loader) {
+  if (const auto* edit = std::get_if<EditSource>(&job.source)) {
+    return BuildEditHere(*edit, job, monitor);
+  }
+  BuiltMap built;
+  const auto load_start = std::chrono::steady_clock::now();
+  if (job.saved_model) {
+    const FileMapSource& file = std::get<FileMapSource>(job.source);
+    Expected<std::shared_ptr<const TerrainModel>> model = LoadModel(file.ToRead());
+    if (!model) return model.error();
+    built.model = std::move(model).value();
+    built.raw_point_count = built.model->summary().input_points;
+    built.load_s = SecondsSince(load_start);
+    built.version = MapStore::VersionOfSavedModel(file.file->ProcPath());
+    if (monitor.on_loaded) monitor.on_loaded(built.raw_point_count, 0, built.load_s);
+    return built;
+  }
+  Expected<LoadedCloud> loaded = loader(NewMapSource(std::move(job.source)), job.limits);
+  if (!loaded) return loaded.error();
+  built.raw_point_count = loaded->raw_point_count;
+  built.dropped_nonfinite = loaded->dropped_nonfinite;
+  built.load_s = SecondsSince(load_start);
+  if (monitor.on_loaded) {
+    monitor.on_loaded(built.raw_point_count, built.dropped_nonfinite, built.load_s);
+  }
+  const AssessmentControl control{monitor.on_progress, monitor.should_stop};
+  Expected<std::shared_ptr<const TerrainModel>> model =
+      TerrainModel::Assess(loaded->points, job.config, control);
+  if (!model) return model.error();
+  built.model = std::move(model).value();
+  built.version = MapStore::VersionOf(loaded->points, job.config, {});
+  if (job.keep_cloud) built.cloud = std::move(loaded->points);
+  return built;
+}
+
+}  // namespace strata::server

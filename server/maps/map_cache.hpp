@@ -1,0 +1,81 @@
+#pragma once
+/// The map versions a server holds in memory when its maps live in a map store
+/// (map_store.hpp): loaded on demand, once, and dropped least recently used first when their
+/// bytes pass what the server's memory budget leaves them (memory_budget.hpp). Dropping only
+/// forgets the map here; the store keeps it, and a plan holding it finishes on it (it is freed when
+/// that plan lets go). No gRPC here.
+#include <condition_variable>
+#include <cstdint>
+#include <functional>
+#include <list>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <utility>
+
+#include "common/service_error.hpp"
+#include "strata/planner.hpp"
+
+namespace strata::server {
+
+class MapCache {
+ public:
+  using Loader = std::function<Result<std::shared_ptr<const PlanningMap>>()>;
+  /// The bytes the maps held may take now (MemoryBudget::MapAllowance); it may change
+  /// between calls, and is asked with the cache's lock held.
+  using Allowance = std::function<std::uint64_t()>;
+
+  /// Without an allowance, maps are never dropped for room.
+  explicit MapCache(Allowance allowance = {}) : allowance_(std::move(allowance)) {}
+
+  /// The planning map of version `version` of map `id`: held already, or made by `load`
+  /// (outside the lock). Concurrent callers for one version wait for the same load and share
+  /// its outcome; a failed load is not remembered. After a load, the least recently used maps
+  /// no caller holds are dropped until the held bytes fit the allowance; a map that alone
+  /// needs more than the allowance is not kept and fails with kResourceExhausted.
+  Result<std::shared_ptr<const PlanningMap>> Get(const std::string& id, const std::string& version,
+                                                 const Loader& load);
+
+  /// Holds a map made here (a map just created or edited on this server), as Get would.
+  void Insert(const std::string& id, const std::string& version,
+              std::shared_ptr<const PlanningMap> map);
+
+  /// Forgets every version of `id` (deleted from the store).
+  void Drop(const std::string& id);
+
+  /// Drops the least recently used maps no caller holds until the maps held take at most
+  /// `target_bytes` (or none is left to drop): to make room for other uses of memory.
+  void TrimTo(std::uint64_t target_bytes);
+
+  /// The version of `id` held, if one is (the most recently used).
+  std::shared_ptr<const PlanningMap> Peek(const std::string& id, const std::string& version) const;
+
+  /// Bytes of the maps held (their models and the graphs built on them so far).
+  std::uint64_t ResidentBytes() const;
+  /// Versions held.
+  int Count() const;
+
+ private:
+  using Key = std::pair<std::string, std::string>;  // Map id, version.
+  struct Slot {
+    std::shared_ptr<const PlanningMap> map;  // Null while loading.
+    bool loading = false;
+    std::list<Key>::iterator recency;  // In recency_ once loaded.
+  };
+
+  // Drops least recently used maps nobody else holds until they take at most `target`
+  // bytes, never the most recently used one when `keep_newest`; call with mutex_.
+  void EvictLocked(std::uint64_t target, bool keep_newest);
+  // The allowance now (no limit without one).
+  std::uint64_t AllowanceBytes() const;
+  void TouchLocked(Slot& slot, const Key& key);
+
+  const Allowance allowance_;
+  mutable std::mutex mutex_;
+  std::condition_variable loaded_;  // A load finished (or failed).
+  std::map<Key, Slot> slots_;
+  std::list<Key> recency_;  // Most recently used first.
+};
+
+}  // namespace strata::server

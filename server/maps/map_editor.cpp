@@ -1,0 +1,241 @@
+#include "maps/map_editor.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <condition_variable>
+#include <mutex>
+#include <optional>
+#include <utility>
+
+#include <fmt/format.h>
+
+#include "common/log.hpp"
+#include "maps/map_store.hpp"
+#include "strata/common/seconds_since.hpp"
+
+namespace strata::server {
+namespace {
+
+using SteadyClock = std::chrono::steady_clock;
+using common::SecondsSince;
+
+// How often a caller waiting for its edit looks at its cancellation (it has no notification).
+constexpr auto kCancellationPollPeriod = std::chrono::milliseconds(50);
+
+// The call's end, when it came before the version was ready: nothing is published.
+std::optional<ServiceError> CallEnded(const CallControl& call, const std::string& id,
+                                      const std::string& current) {
+  if (call.cancelled && call.cancelled()) {
+    return MakeError(ErrorCode::kCancelled,
+                     "the call was cancelled before the new version of map '" + id +
+                         "' was made: the map stays at version " + current)
+        .With("map_id", id);
+  }
+  if (WorkSecondsLeft(call.LeftSeconds()) <= 0) {
+    return MakeError(ErrorCode::kDeadlineExceeded,
+                     "the call's deadline passed before the new version of map '" + id +
+                         "' was made: the map stays at version " + current +
+                         "; allow more time (the stats of an UpdateMap that succeeds say how "
+                         "long an edit takes)")
+        .With("map_id", id);
+  }
+  return std::nullopt;
+}
+
+ServiceError ShuttingDown() {
+  return MakeError(ServiceErrorCode::kShuttingDown,
+                   "the server is shutting down and makes no new versions; retry on another "
+                   "replica");
+}
+
+// An edit job between the caller and the queue's thread.
+struct EditRun {
+  enum class State { kQueued, kRunning, kDone };
+  std::mutex mutex;
+  std::condition_variable changed;
+  State state = State::kQueued;
+  bool abandoned = false;  // The caller stopped waiting: a running job stops.
+  std::optional<Result<BuiltMap>> result;
+
+  void Finish(Result<BuiltMap> outcome) {
+    {
+      std::lock_guard lock(mutex);
+      result = std::move(outcome);
+      state = State::kDone;
+    }
+    changed.notify_all();
+  }
+};
+
+}  // namespace
+
+Result<MapUpdate> MapEditor::Update(const MapEditRequest& request, const CallControl& call) {
+  // Without a base version the edits apply to whatever version is current when they are
+  // published: a compare-and-swap lost to another edit is redone on the new current one.
+  constexpr int kMaxAttempts = 8;
+  for (int attempt = 1;; ++attempt) {
+    Result<MapUpdate> update = UpdateOnce(request, call);
+    const auto* code = update.ok() ? nullptr : std::get_if<ServiceErrorCode>(&update.error().code);
+    const bool lost_race = code != nullptr && (*code == ServiceErrorCode::kMapChanged ||
+                                               *code == ServiceErrorCode::kMapVersionNotFound);
+    if (!lost_race || !request.base_version.empty() || attempt == kMaxAttempts) return update;
+    LogInfo("map_update_retry").Add("map", request.id).Add("attempt", attempt);
+  }
+}
+
+Result<MapUpdate> MapEditor::UpdateOnce(const MapEditRequest& request, const CallControl& call) {
+  const auto start = SteadyClock::now();
+  const std::string& id = request.id;
+  PublishedMaps& published = *options_.published;
+  if (!published.KeepsClouds()) return MapStoreRequired(id);
+  Result<std::vector<std::string>> versions = published.Versions(id);
+  if (!versions.ok()) return std::move(versions).error();
+  const std::string current = versions.value().front();
+  if (!request.base_version.empty() && request.base_version != current) {
+    return MakeError(ServiceErrorCode::kMapChanged,
+                     "map '" + id + "' is at version " + current + ", not " + request.base_version +
+                         ": read it again (GetMap) and redo the edits on it")
+        .With("map_id", id)
+        .With("current_version", current)
+        .Blame("base_version");
+  }
+  Result<MapSnapshot> described = published.Describe(id);
+  if (!described.ok()) return std::move(described).error();
+  MapSnapshot map = std::move(described).value();
+  if (map.from_saved_model) {
+    return MakeError(ServiceErrorCode::kEditNeedsCloud,
+                     "map '" + id + "' was made from a saved model, which keeps no point cloud " +
+                         "to edit: create the map from its point cloud to edit it")
+        .With("map_id", id);
+  }
+  // The base cloud, its edited copy and the new model are held while the version is made:
+  // memory is set aside for them as for making a map.
+  MemoryBudget::Reservation making;
+  if (options_.memory_budget) {
+    Result<MemoryBudget::Reservation> reserved = options_.memory_budget->Reserve(
+        MemoryBudget::Use::kAssessments, options_.assessment_memory_bytes,
+        "editing map '" + id + "' (--max-assessment-memory)");
+    if (!reserved.ok()) return std::move(reserved).error();
+    making = std::move(reserved).value();
+  }
+  BuiltMap built;
+  if (!request.edits.empty()) {
+    Result<BuiltMap> edited = RunEditJob(request, current, call);
+    if (!edited.ok()) return std::move(edited).error();
+    built = std::move(edited).value();
+  } else {
+    // Keep-out zones alone: the same cloud and model under a new version.
+    Result<ActiveMap> base = published.Get(id, current);
+    if (!base.ok()) return std::move(base).error();
+    Result<PointCloud> cloud = published.LoadCloud(id, current);
+    if (!cloud.ok()) return std::move(cloud).error();
+    built.model = base.value().map->model_ptr();
+    built.cloud = std::move(cloud).value();
+  }
+  if (std::optional<ServiceError> ended = CallEnded(call, id, current)) return *ended;
+
+  std::vector<Prism> keep_out = request.clear_keep_out ? std::vector<Prism>{} : map.keep_out;
+  keep_out.insert(keep_out.end(), request.add_keep_out.begin(), request.add_keep_out.end());
+  const TerrainModel& model = *built.model;
+  map.version = MapStore::VersionOf(built.cloud, model.config(), keep_out);
+  map.summary = model.summary();
+  // The version's source is the edited cloud: raw = dropped + input holds for every version.
+  map.raw_point_count = built.cloud.size() + map.dropped_nonfinite_point_count;
+  map.grid = model.grid();
+  map.max_levels = MaxLevels(model);
+  map.keep_out = keep_out;
+  map.done_time = std::chrono::system_clock::now();
+  map.versions = {map.version};
+  for (const std::string& kept : versions.value()) {
+    if (static_cast<int>(map.versions.size()) == options_.versions_kept) break;
+    if (kept != map.version) map.versions.push_back(kept);
+  }
+  const auto write_start = SteadyClock::now();
+  std::shared_ptr<const PlanningMap> planning =
+      options_.make_planning(built.model, std::move(keep_out));
+  if (ServiceStatus put = published.PublishEdit(current, map, planning, built.cloud); !put.ok()) {
+    return std::move(put).error();
+  }
+  MapUpdate update;
+  update.write_s = SecondsSince(write_start);
+  map.memory_bytes = planning->MemoryBytes();
+  update.map = std::move(map);
+  update.edit = built.edit.value_or(EditFigures{});
+  update.total_s = SecondsSince(start);
+  return update;
+}
+
+Result<BuiltMap> MapEditor::RunEditJob(const MapEditRequest& request, const std::string& current,
+                                       const CallControl& call) {
+  Result<VersionFiles> files = options_.published->OpenFiles(request.id, current);
+  if (!files.ok()) return std::move(files).error();
+  MapBuildJob job;
+  job.source = EditSource{files.value().cloud, files.value().model, request.edits};
+  job.keep_cloud = true;
+  auto run = std::make_shared<EditRun>();
+  AssessmentQueue::Job queued;
+  queued.run = [this, run, job = std::move(job)]() mutable {
+    {
+      std::lock_guard lock(run->mutex);
+      if (run->abandoned) {
+        run->state = EditRun::State::kDone;
+        return;
+      }
+      run->state = EditRun::State::kRunning;
+    }
+    run->changed.notify_all();
+    const double limit_s = options_.max_assessment_time_s;
+    const auto limit = limit_s > 0
+                           ? SteadyClock::now() + std::chrono::duration_cast<SteadyClock::duration>(
+                                                      std::chrono::duration<double>(limit_s))
+                           : SteadyClock::time_point::max();
+    std::atomic<bool> timed_out{false};
+    std::atomic<bool> stopping{false};
+    BuildMonitor monitor;
+    monitor.should_stop = [&] {
+      if (SteadyClock::now() >= limit) timed_out = true;
+      if (options_.stopping && options_.stopping()) stopping = true;
+      std::lock_guard lock(run->mutex);
+      return run->abandoned || timed_out || stopping;
+    };
+    Result<BuiltMap> built = options_.build(std::move(job), monitor);
+    if (!built.ok() && built.error().code == ServiceError::Code(ErrorCode::kCancelled)) {
+      if (timed_out) {
+        built = MakeError(ErrorCode::kDeadlineExceeded,
+                          fmt::format("reassessing the edited map took longer than the server "
+                                      "allows (--max-assessment-time-s {} s): edit a smaller "
+                                      "region, or raise the limit",
+                                      limit_s));
+      } else if (stopping) {
+        built = ShuttingDown();
+      }
+    }
+    run->Finish(std::move(built));
+  };
+  queued.drop = [run] { run->Finish(ShuttingDown()); };
+  if (!options_.queue->Post(std::move(queued))) return ShuttingDown();
+
+  std::unique_lock lock(run->mutex);
+  while (run->state != EditRun::State::kDone) {
+    if (std::optional<ServiceError> ended = CallEnded(call, request.id, current)) {
+      run->abandoned = true;
+      // A job still queued is skipped when its turn comes; a running one stops at once (its
+      // worker is killed), and the caller waits for that so its memory is free again.
+      run->changed.wait(lock, [&] { return run->state != EditRun::State::kRunning; });
+      return *ended;
+    }
+    const double left_s = WorkSecondsLeft(call.LeftSeconds());
+    const auto poll = SteadyClock::now() + kCancellationPollPeriod;
+    run->changed.wait_until(
+        lock,
+        std::isfinite(left_s)
+            ? std::min(poll, SteadyClock::now() + std::chrono::duration_cast<SteadyClock::duration>(
+                                                      std::chrono::duration<double>(left_s)))
+            : poll);
+  }
+  return std::move(*run->result);
+}
+
+}  // namespace strata::server

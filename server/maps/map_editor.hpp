@@ -1,0 +1,87 @@
+#pragma once
+/// Makes new versions of published maps from edits (UpdateMap). Edits of the cloud run where
+/// new maps are made: as a job of the assessment queue, in a worker process, under the same
+/// limits (--max-concurrent-assessments, --max-assessment-time-s, --max-assessment-memory), and
+/// they stop when the call's deadline passes or its client cancels. Keep-out zones alone
+/// change no terrain: their version is written on the calling thread. A version is published
+/// only when it is whole and the call still waits for it, so a call that ends early leaves the
+/// map at its old version. Without a base version, an edit that another one overtook is made
+/// again on the new current version. No gRPC here.
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "common/call_control.hpp"
+#include "common/service_error.hpp"
+#include "maps/assessment_queue.hpp"
+#include "maps/map_build.hpp"
+#include "maps/map_snapshot.hpp"
+#include "maps/memory_budget.hpp"
+#include "maps/published_maps.hpp"
+#include "strata/assessment/map_edit.hpp"
+#include "strata/prism.hpp"
+
+namespace strata::server {
+
+/// One UpdateMap request, in the planner's types.
+struct MapEditRequest {
+  std::string id;
+  std::string base_version;     ///< Empty: whatever version is current.
+  std::vector<MapEdit> edits;   ///< Of the cloud, in order.
+  bool clear_keep_out = false;  ///< Remove the map's keep-out zones first.
+  std::vector<Prism> add_keep_out;
+};
+
+/// A new version made by MapEditor::Update, and what it cost.
+struct MapUpdate {
+  MapSnapshot map;
+  EditFigures edit;    ///< How the model was made (zero for keep-out zones alone).
+  double write_s = 0;  ///< Writing and publishing the version [s].
+  double total_s = 0;  ///< All of it, waiting for a slot and loading the base included [s].
+};
+
+/// What an editor uses; every pointer must outlive it.
+struct MapEditorOptions {
+  PublishedMaps* published = nullptr;
+  AssessmentQueue* queue = nullptr;
+  /// How a job is made (RegistryOptions::build).
+  MapBuilder build;
+  /// The planning map of a model, with its keep-out zones.
+  std::function<std::shared_ptr<const PlanningMap>(std::shared_ptr<const TerrainModel>,
+                                                   std::vector<Prism>)>
+      make_planning;
+  /// Set aside in `memory_budget` (may be null) while a version is made [bytes].
+  std::shared_ptr<MemoryBudget> memory_budget;
+  std::uint64_t assessment_memory_bytes = 0;
+  /// Longest one job may run once started [s], >= 0; 0: no limit.
+  double max_assessment_time_s = 0;
+  /// Versions kept per map [-], >= 1 (for the snapshot's list).
+  int versions_kept = 5;
+  /// True once the server shuts down: a job running stops.
+  std::function<bool()> stopping;
+};
+
+class MapEditor {
+ public:
+  explicit MapEditor(MapEditorOptions options) : options_(std::move(options)) {}
+
+  /// Makes and publishes the next version of `request.id`. Fails with kMapStoreRequired (no
+  /// store: versions keep no clouds), kMapNotFound, kMapChanged (the base version is not the
+  /// current one, or a few attempts without one were all overtaken), kEditNeedsCloud (a map
+  /// made from a saved model), kInvalidInput naming the edit field, kDeadlineExceeded or
+  /// kCancelled (the call ended first: nothing was published), kShuttingDown, as a worker's
+  /// job fails (map_worker.hpp), or as the store does.
+  Result<MapUpdate> Update(const MapEditRequest& request, const CallControl& call);
+
+ private:
+  Result<MapUpdate> UpdateOnce(const MapEditRequest& request, const CallControl& call);
+  // Runs the edit job for `current` of `id` on the queue and waits for it within `call`.
+  Result<BuiltMap> RunEditJob(const MapEditRequest& request, const std::string& current,
+                              const CallControl& call);
+
+  MapEditorOptions options_;
+};
+
+}  // namespace strata::server

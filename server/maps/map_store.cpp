@@ -1,0 +1,800 @@
+#include "maps/map_store.hpp"
+
+#include "common/map_id.hpp"
+
+#include <fcntl.h>
+#include <sys/file.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <bit>
+#include <cerrno>
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <iterator>
+#include <limits>
+#include <map>
+#include <mutex>
+#include <random>
+#include <sstream>
+#include <system_error>
+#include <type_traits>
+#include <utility>
+
+#include <xxhash.h>
+
+#include "strata/io/cloud_io.hpp"
+#include "strata/io/saved_model.hpp"
+
+namespace strata::server {
+namespace {
+
+namespace fs = std::filesystem;
+
+static_assert(std::endian::native == std::endian::little,
+              "version names hash little-endian bytes: a big-endian build needs byte swapping");
+static_assert(sizeof(Eigen::Vector3f) == 3 * sizeof(float), "points are three packed floats");
+
+constexpr std::string_view kMarkerName = "strata-map-store";
+constexpr std::string_view kMarkerText = "strata map store, layout 1\n";
+constexpr const char* kHeadName = "head";
+constexpr const char* kLockName = "lock";
+constexpr const char* kVersionsName = "versions";
+constexpr const char* kCloudName = "cloud.pcd";
+constexpr const char* kModelName = "model.stratamodel";
+constexpr const char* kMetadataName = "metadata";
+constexpr std::size_t kVersionDigits = 32;  // XXH3-128 in hex.
+// A deletion racing a writer (the map directory renamed away between mkdir and rename) is
+// retried this often before the writer gives up.
+constexpr int kMaxAttempts = 8;
+
+// Callers validate ids already; this keeps any other id from naming something outside
+// maps/<id> ("..", a slash, a NUL).
+ServiceStatus CheckId(const std::string& id) { return ValidateMapId(id); }
+
+ServiceStatus CheckVersion(const std::string& version) {
+  if (MapStore::IsVersion(version)) return OkStatus();
+  return MakeError(ErrorCode::kInvalidInput,
+                   "map version '" + version.substr(0, 64) +
+                       "' is not valid: a version is 32 lowercase hex digits, as the map's "
+                       "versions list shows")
+      .Blame("version");
+}
+
+std::string ErrnoText(int error) { return std::generic_category().message(error); }
+
+ServiceError Unavailable(const fs::path& path, const std::string& what, int error) {
+  return MakeError(ServiceErrorCode::kMapStoreUnavailable,
+                   "map store: cannot " + what + " '" + path.string() + "': " + ErrnoText(error) +
+                       " (check that the store volume is mounted, writable and not full)");
+}
+
+ServiceError Unavailable(const fs::path& path, const std::string& what, const std::error_code& ec) {
+  return Unavailable(path, what, ec.value());
+}
+
+// A name no other writer (thread, process or host) picks: kind, pid and 64 random bits.
+std::string UniqueName(std::string_view kind) {
+  static std::mutex mutex;
+  static std::mt19937_64 random{std::random_device{}()};
+  std::uint64_t bits = 0;
+  {
+    const std::lock_guard lock(mutex);
+    bits = random();
+  }
+  char hex[17];
+  std::snprintf(hex, sizeof(hex), "%016llx", static_cast<unsigned long long>(bits));
+  return std::string(kind) + "." + std::to_string(::getpid()) + "." + hex;
+}
+
+// A file descriptor closed on scope exit.
+class Fd {
+ public:
+  explicit Fd(int fd = -1) : fd_(fd) {}
+  Fd(Fd&& other) noexcept : fd_(std::exchange(other.fd_, -1)) {}
+  Fd& operator=(Fd&& other) noexcept {
+    if (this != &other) {
+      Close();
+      fd_ = std::exchange(other.fd_, -1);
+    }
+    return *this;
+  }
+  Fd(const Fd&) = delete;
+  Fd& operator=(const Fd&) = delete;
+  ~Fd() { Close(); }
+  int get() const { return fd_; }
+  bool valid() const { return fd_ >= 0; }
+
+ private:
+  void Close() {
+    if (fd_ >= 0) ::close(fd_);
+    fd_ = -1;
+  }
+  int fd_;
+};
+
+// fsync of a file or a directory: what was written (or renamed into it) is durable.
+ServiceStatus Sync(const fs::path& path) {
+  const Fd fd(::open(path.c_str(), O_RDONLY | O_CLOEXEC));
+  if (!fd.valid()) return Unavailable(path, "open for fsync", errno);
+  if (::fsync(fd.get()) != 0) return Unavailable(path, "fsync", errno);
+  return OkStatus();
+}
+
+// Creates `path` (which must not exist), writes `bytes` and makes them durable.
+ServiceStatus WriteNewFile(const fs::path& path, std::string_view bytes) {
+  const Fd fd(::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644));
+  if (!fd.valid()) return Unavailable(path, "create", errno);
+  while (!bytes.empty()) {
+    const ssize_t n = ::write(fd.get(), bytes.data(), bytes.size());
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) return Unavailable(path, "write", errno);
+    bytes.remove_prefix(static_cast<std::size_t>(n));
+  }
+  if (::fsync(fd.get()) != 0) return Unavailable(path, "fsync", errno);
+  return OkStatus();
+}
+
+// The whole file, or nothing when it does not exist.
+Result<std::optional<std::string>> ReadFileIfExists(const fs::path& path) {
+  const Fd fd(::open(path.c_str(), O_RDONLY | O_CLOEXEC));
+  if (!fd.valid()) {
+    if (errno == ENOENT || errno == ENOTDIR) return std::optional<std::string>();
+    return Unavailable(path, "open", errno);
+  }
+  std::string bytes;
+  char buffer[1 << 16];
+  while (true) {
+    const ssize_t n = ::read(fd.get(), buffer, sizeof(buffer));
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) return Unavailable(path, "read", errno);
+    if (n == 0) break;
+    bytes.append(buffer, static_cast<std::size_t>(n));
+  }
+  return std::optional<std::string>(std::move(bytes));
+}
+
+// Renames `from` to `to` and syncs the directory that received it.
+ServiceStatus RenameDurably(const fs::path& from, const fs::path& to) {
+  if (::rename(from.c_str(), to.c_str()) != 0) return Unavailable(to, "rename into place", errno);
+  return Sync(to.parent_path());
+}
+
+// The kept versions a head lists, or nothing when the map has no head.
+Result<std::optional<std::vector<std::string>>> ReadHead(const fs::path& map_dir) {
+  const fs::path path = map_dir / kHeadName;
+  Result<std::optional<std::string>> bytes = ReadFileIfExists(path);
+  if (!bytes) return std::move(bytes).error();
+  if (!bytes->has_value()) return std::optional<std::vector<std::string>>();
+  std::vector<std::string> versions;
+  std::istringstream lines(**bytes);
+  for (std::string line; std::getline(lines, line);) versions.push_back(line);
+  const bool well_formed =
+      !versions.empty() && std::all_of(versions.begin(), versions.end(), MapStore::IsVersion);
+  if (!well_formed) {
+    return MakeError(ServiceErrorCode::kMapCorrupted,
+                     "map store: '" + path.string() +
+                         "' is not a list of versions (edited by hand?): restore it, or delete "
+                         "the map and create it again");
+  }
+  return std::optional<std::vector<std::string>>(std::move(versions));
+}
+
+std::string JoinVersions(const std::vector<std::string>& versions) {
+  std::string text;
+  for (const std::string& version : versions) text += (text.empty() ? "" : ", ") + version;
+  return text.empty() ? "none" : text;
+}
+
+// The modification time of `path` and of its direct children, whichever is newest: a
+// directory's own time changes only when entries are added or removed, its files' when
+// they are written.
+fs::file_time_type NewestWrite(const fs::path& path) {
+  std::error_code ec;
+  fs::file_time_type newest = fs::last_write_time(path, ec);
+  if (ec) return fs::file_time_type::max();  // Unknown: treat as new, keep it.
+  if (fs::is_directory(path, ec)) {
+    for (const fs::directory_entry& child : fs::directory_iterator(path, ec)) {
+      const fs::file_time_type time = fs::last_write_time(child.path(), ec);
+      if (ec) return fs::file_time_type::max();
+      newest = std::max(newest, time);
+    }
+  }
+  return newest;
+}
+
+bool IsStale(const fs::path& path) {
+  return NewestWrite(path) < fs::file_time_type::clock::now() - kStaleTemporaryAge;
+}
+
+// Serialises changes to one map (its head, its deletion) among every thread and process:
+// a mutex per map directory for this process's threads (flock between two descriptors of
+// one process is not exclusive on every file system: Linux's NFS client turns it into a
+// per-process POSIX lock), then flock on maps/<id>/lock for other processes and hosts.
+class MapLock {
+ public:
+  // Locks the map at `map_dir`. With `create`, makes its directory when absent; without,
+  // fails with kMapNotFound then. The lock file checked after locking to be the one at the
+  // path: a deletion may have renamed the directory away while this waited.
+  static Result<MapLock> Acquire(const fs::path& map_dir, const std::string& id, bool create) {
+    std::unique_lock<std::mutex> process_lock(ProcessMutex(map_dir));
+    const fs::path lock_path = map_dir / kLockName;
+    for (int attempt = 0; attempt < kMaxAttempts; ++attempt) {
+      if (create && ::mkdir(map_dir.c_str(), 0755) != 0 && errno != EEXIST) {
+        return Unavailable(map_dir, "create the map directory", errno);
+      }
+      Fd fd(::open(lock_path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644));
+      if (!fd.valid()) {
+        if (errno == ENOENT && !create) return NotFound(id);
+        if (errno == ENOENT) continue;  // Deleted between mkdir and open.
+        return Unavailable(lock_path, "open the lock file", errno);
+      }
+      int locked = 0;
+      do {
+        locked = ::flock(fd.get(), LOCK_EX);
+      } while (locked != 0 && errno == EINTR);
+      if (locked != 0) return Unavailable(lock_path, "lock", errno);
+      struct stat held {};
+      struct stat current {};
+      if (::fstat(fd.get(), &held) != 0) return Unavailable(lock_path, "stat", errno);
+      if (::stat(lock_path.c_str(), &current) == 0 && current.st_ino == held.st_ino &&
+          current.st_dev == held.st_dev) {
+        return MapLock(std::move(process_lock), std::move(fd));
+      }
+      // Deleted (and perhaps created again) while this waited: lock the one there now.
+    }
+    return MakeError(ServiceErrorCode::kMapStoreUnavailable,
+                     "map store: map '" + id +
+                         "' was deleted and created again repeatedly while waiting for its "
+                         "lock: try again");
+  }
+
+  static ServiceError NotFound(const std::string& id) {
+    return MakeError(ServiceErrorCode::kMapNotFound, "no map '" + id + "' in the map store")
+        .With("map_id", id);
+  }
+
+ private:
+  MapLock(std::unique_lock<std::mutex> process_lock, Fd fd)
+      : process_lock_(std::move(process_lock)), fd_(std::move(fd)) {}
+
+  static std::mutex& ProcessMutex(const fs::path& map_dir) {
+    static std::mutex registry_mutex;
+    // One per map directory ever locked: a few bytes each, never freed, so a reference
+    // handed out stays valid.
+    static std::map<std::string, std::unique_ptr<std::mutex>> mutexes;
+    const std::lock_guard lock(registry_mutex);
+    std::unique_ptr<std::mutex>& mutex = mutexes[map_dir.string()];
+    if (!mutex) mutex = std::make_unique<std::mutex>();
+    return *mutex;
+  }
+
+  // Released in reverse order: the file lock (closing the descriptor), then the mutex.
+  std::unique_lock<std::mutex> process_lock_;
+  Fd fd_;
+};
+
+// Replaces the head of `map_dir` with `versions`: a temporary in `tmp_dir`, then a rename.
+ServiceStatus WriteHead(const fs::path& tmp_dir, const fs::path& map_dir,
+                        const std::vector<std::string>& versions) {
+  std::string text;
+  for (const std::string& version : versions) text += version + "\n";
+  const fs::path temporary = tmp_dir / UniqueName("head");
+  ServiceStatus status = WriteNewFile(temporary, text);
+  if (status) status = RenameDurably(temporary, map_dir / kHeadName);
+  if (!status) {
+    std::error_code ignored;
+    fs::remove(temporary, ignored);
+  }
+  return status;
+}
+
+template <typename T>
+void HashValue(XXH3_state_t* state, T value) {
+  XXH3_128bits_update(state, &value, sizeof(value));
+}
+
+void HashString(XXH3_state_t* state, std::string_view text) {
+  HashValue(state, static_cast<std::uint64_t>(text.size()));
+  XXH3_128bits_update(state, text.data(), text.size());
+}
+
+}  // namespace
+
+namespace {
+
+std::string Hex(const XXH128_canonical_t& canonical) {
+  std::string hex;
+  hex.reserve(kVersionDigits);
+  constexpr char kDigits[] = "0123456789abcdef";
+  for (const unsigned char byte : canonical.digest) {
+    hex += kDigits[byte >> 4];
+    hex += kDigits[byte & 15];
+  }
+  return hex;
+}
+
+}  // namespace
+
+std::string MapStore::VersionOf(const PointCloud& cloud, const AssessmentConfig& config,
+                                std::span<const Prism> keep_out) {
+  XXH3_state_t* state = XXH3_createState();
+  XXH3_128bits_reset(state);
+  HashString(state, "strata map version");
+  HashValue(state, kSavedModelFormatVersion);
+  HashValue(state, static_cast<std::uint64_t>(cloud.size()));
+  XXH3_128bits_update(state, cloud.data(), cloud.size() * sizeof(Eigen::Vector3f));
+  ForEachField(config, [&](const char* name, const auto& value) {
+    using Value = std::remove_cvref_t<decltype(value)>;
+    if (std::string_view(name) == "num_threads") return;
+    HashString(state, name);
+    if constexpr (std::is_floating_point_v<Value>) {
+      HashValue(state, static_cast<double>(value) + 0.0);  // -0.0 assesses as 0.0.
+    } else {
+      HashValue(state, static_cast<std::int64_t>(value));
+    }
+  });
+  HashValue(state, static_cast<std::uint64_t>(keep_out.size()));
+  for (const Prism& zone : keep_out) {
+    HashValue(state, static_cast<std::uint64_t>(zone.polygon_m.size()));
+    for (const Eigen::Vector2d& corner : zone.polygon_m) {
+      HashValue(state, corner.x() + 0.0);
+      HashValue(state, corner.y() + 0.0);
+    }
+    HashValue(state, zone.z_min_m + 0.0);
+    HashValue(state, zone.z_max_m + 0.0);
+  }
+  XXH128_canonical_t canonical;
+  XXH128_canonicalFromHash(&canonical, XXH3_128bits_digest(state));
+  XXH3_freeState(state);
+  return Hex(canonical);
+}
+
+std::string MapStore::VersionOfSavedModel(const std::string& path) {
+  // The file's bytes determine the model (its format version and parameters are inside), so
+  // they name it, apart from any cloud's versions by the prefix.
+  XXH3_state_t* state = XXH3_createState();
+  XXH3_128bits_reset(state);
+  HashString(state, "strata saved model");
+  std::vector<char> buffer(std::size_t{1} << 20);
+  if (std::FILE* file = std::fopen(path.c_str(), "rb")) {
+    std::size_t read = 0;
+    while ((read = std::fread(buffer.data(), 1, buffer.size(), file)) > 0) {
+      XXH3_128bits_update(state, buffer.data(), read);
+    }
+    std::fclose(file);
+  }
+  XXH128_canonical_t canonical;
+  XXH128_canonicalFromHash(&canonical, XXH3_128bits_digest(state));
+  XXH3_freeState(state);
+  return Hex(canonical);
+}
+
+bool MapStore::IsVersion(std::string_view version) {
+  return version.size() == kVersionDigits &&
+         std::all_of(version.begin(), version.end(),
+                     [](char c) { return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'); });
+}
+
+Result<std::unique_ptr<MapStore>> MapStore::Open(fs::path root) {
+  const auto invalid = [&](const std::string& why) {
+    return MakeError(ErrorCode::kInvalidConfig,
+                     "map store '" + root.string() + "' " + why +
+                         ": give --map-store a writable directory (in Kubernetes, a "
+                         "ReadWriteMany volume mounted with lock support)");
+  };
+  if (root.empty()) return invalid("is an empty path");
+  std::error_code ec;
+  fs::create_directories(root, ec);
+  if (!fs::is_directory(root, ec)) {
+    return invalid("is not a directory and cannot be created (" + ec.message() + ")");
+  }
+  root = fs::canonical(root, ec);
+  if (ec) return invalid("cannot be resolved (" + ec.message() + ")");
+  for (const char* sub : {"maps", "tmp", "trash"}) {
+    fs::create_directory(root / sub, ec);
+    if (ec)
+      return invalid(std::string("has no ") + sub + "/ and it cannot be made (" + ec.message() +
+                     ")");
+  }
+
+  // Writable, and locks work: a probe file, created, locked, removed.
+  const fs::path probe = root / "tmp" / UniqueName("probe");
+  if (ServiceStatus written = WriteNewFile(probe, "probe"); !written) {
+    return invalid("is not writable (" + written.error().message + ")");
+  }
+  {
+    const Fd fd(::open(probe.c_str(), O_RDWR | O_CLOEXEC));
+    if (!fd.valid() || ::flock(fd.get(), LOCK_EX) != 0) {
+      const int error = errno;
+      fs::remove(probe, ec);
+      return invalid("refuses file locks (" + ErrnoText(error) +
+                     "; an NFS mount needs lock support, not 'nolock')");
+    }
+  }
+  fs::remove(probe, ec);
+
+  // The marker: written by the first server (temporary + rename), checked by every other.
+  const fs::path marker = root / kMarkerName;
+  Result<std::optional<std::string>> text = ReadFileIfExists(marker);
+  if (text && !text->has_value()) {
+    const fs::path temporary = root / "tmp" / UniqueName("marker");
+    ServiceStatus written = WriteNewFile(temporary, kMarkerText);
+    if (written) written = RenameDurably(temporary, marker);
+    if (!written) return invalid("cannot be initialised (" + written.error().message + ")");
+    text = ReadFileIfExists(marker);
+  }
+  if (!text) return invalid("cannot be read (" + text.error().message + ")");
+  if (!text->has_value() || **text != kMarkerText) {
+    return invalid("holds a map store of another layout (its " + std::string(kMarkerName) +
+                   " is not '" + std::string(kMarkerText.substr(0, kMarkerText.size() - 1)) + "')");
+  }
+
+  std::unique_ptr<MapStore> store(new MapStore(std::move(root)));
+  store->CollectGarbage();
+  return store;
+}
+
+fs::path MapStore::MapDir(const std::string& id) const { return root_ / "maps" / id; }
+
+fs::path MapStore::VersionDir(const std::string& id, const std::string& version) const {
+  return MapDir(id) / kVersionsName / version;
+}
+
+bool MapStore::Discard(const fs::path& path) const {
+  const fs::path trash = root_ / "trash" / UniqueName("discarded");
+  if (::rename(path.c_str(), trash.c_str()) != 0) return false;
+  (void)Sync(path.parent_path());
+  std::error_code ignored;  // Left in trash/ for CollectGarbage (e.g. NFS files still open).
+  fs::remove_all(trash, ignored);
+  return true;
+}
+
+ServiceStatus MapStore::PutVersion(const std::string& id, const std::string& version,
+                                   const PointCloud& cloud, const TerrainModel& model,
+                                   const std::string& metadata) {
+  if (ServiceStatus ok = CheckId(id); !ok) return ok;
+  if (ServiceStatus ok = CheckVersion(version); !ok) return ok;
+  const fs::path target = VersionDir(id, version);
+  std::error_code ec;
+  if (fs::is_directory(target, ec)) {
+    // Fresh again, so that CollectGarbage does not take it for a dead writer's leftover
+    // before the caller publishes it.
+    fs::last_write_time(target, fs::file_time_type::clock::now(), ec);
+    return OkStatus();
+  }
+
+  const fs::path temporary = root_ / "tmp" / UniqueName("version");
+  const auto fail = [&](ServiceError error) {
+    std::error_code ignored;
+    fs::remove_all(temporary, ignored);
+    return error;
+  };
+  if (::mkdir(temporary.c_str(), 0755) != 0) {
+    return Unavailable(temporary, "create the temporary directory", errno);
+  }
+  const fs::path cloud_path = temporary / kCloudName;
+  const fs::path model_path = temporary / kModelName;
+  if (!cloud.empty()) {  // A map made from a saved model has no cloud to keep.
+    if (Status saved = SavePcd(cloud, cloud_path.string()); !saved) {
+      return fail(MakeError(ServiceErrorCode::kMapStoreUnavailable,
+                            "map store: cannot write the cloud: " + saved.error().message));
+    }
+    if (ServiceStatus synced = Sync(cloud_path); !synced) return fail(std::move(synced).error());
+  }
+  if (Status saved = SaveModel(model, model_path.string()); !saved) {
+    return fail(MakeError(ServiceErrorCode::kMapStoreUnavailable,
+                          "map store: cannot write the model: " + saved.error().message));
+  }
+  if (ServiceStatus synced = Sync(model_path); !synced) return fail(std::move(synced).error());
+  if (ServiceStatus written = WriteNewFile(temporary / kMetadataName, metadata); !written) {
+    return fail(std::move(written).error());
+  }
+  if (ServiceStatus synced = Sync(temporary); !synced) return fail(std::move(synced).error());
+
+  // A deletion of the map may rename maps/<id> away between the mkdir and the rename: then
+  // make it again (a version put after a deletion belongs to the map created next).
+  const fs::path versions_dir = target.parent_path();
+  for (int attempt = 0; attempt < kMaxAttempts; ++attempt) {
+    fs::create_directories(versions_dir, ec);
+    if (ec) return fail(Unavailable(versions_dir, "create", ec));
+    if (::rename(temporary.c_str(), target.c_str()) == 0) {
+      if (ServiceStatus synced = Sync(versions_dir); !synced) return synced;
+      return OkStatus();
+    }
+    const int error = errno;
+    // Another writer put the same version first: its bytes are the same.
+    if (error == EEXIST || error == ENOTEMPTY) {
+      fs::remove_all(temporary, ec);
+      return OkStatus();
+    }
+    if (error != ENOENT) return fail(Unavailable(target, "rename the version into place", error));
+  }
+  return fail(Unavailable(target, "rename the version into place", ENOENT));
+}
+
+ServiceStatus MapStore::PublishNew(const std::string& id, const std::string& version) {
+  if (ServiceStatus ok = CheckId(id); !ok) return ok;
+  if (ServiceStatus ok = CheckVersion(version); !ok) return ok;
+  const fs::path map_dir = MapDir(id);
+  Result<MapLock> lock = MapLock::Acquire(map_dir, id, /*create=*/true);
+  if (!lock) return std::move(lock).error();
+  Result<std::optional<std::vector<std::string>>> head = ReadHead(map_dir);
+  if (!head) return std::move(head).error();
+  if (head->has_value()) {
+    const std::string& current = (**head).front();
+    if (current == version) return OkStatus();
+    return MakeError(ServiceErrorCode::kMapAlreadyExists,
+                     "map '" + id + "' exists already (current version " + current +
+                         "): choose another id, or delete the map first")
+        .With("map_id", id);
+  }
+  std::error_code ec;
+  if (!fs::is_directory(VersionDir(id, version), ec)) {
+    return MakeError(ServiceErrorCode::kMapVersionNotFound,
+                     "map store: version " + version + " of map '" + id +
+                         "' was not written (or the map was deleted since): put it again")
+        .With("map_id", id);
+  }
+  return WriteHead(root_ / "tmp", map_dir, {version});
+}
+
+ServiceStatus MapStore::PublishUpdate(const std::string& id, const std::string& expected_current,
+                                      const std::string& version, int keep_versions) {
+  if (ServiceStatus ok = CheckId(id); !ok) return ok;
+  if (ServiceStatus ok = CheckVersion(expected_current); !ok) return ok;
+  if (ServiceStatus ok = CheckVersion(version); !ok) return ok;
+  if (keep_versions < 1) {
+    return MakeError(ErrorCode::kInvalidInput,
+                     "map store: keep_versions is " + std::to_string(keep_versions) +
+                         ", must be >= 1 (the current version is always kept)");
+  }
+  const fs::path map_dir = MapDir(id);
+  Result<MapLock> lock = MapLock::Acquire(map_dir, id, /*create=*/false);
+  if (!lock) return std::move(lock).error();
+  Result<std::optional<std::vector<std::string>>> head = ReadHead(map_dir);
+  if (!head) return std::move(head).error();
+  if (!head->has_value()) return MapLock::NotFound(id);
+  const std::vector<std::string>& kept = **head;
+  if (kept.front() == version) return OkStatus();
+  if (kept.front() != expected_current) {
+    // The version put for this change will never be published: no leftover stays behind,
+    // unless the head lists it already (the same content published earlier).
+    if (std::find(kept.begin(), kept.end(), version) == kept.end()) {
+      Discard(VersionDir(id, version));
+    }
+    return MakeError(ServiceErrorCode::kMapChanged,
+                     "map '" + id + "' changed: its current version is " + kept.front() + ", not " +
+                         expected_current + ": apply the change to the current version")
+        .With("map_id", id)
+        .With("current_version", kept.front());
+  }
+  std::error_code ec;
+  if (!fs::is_directory(VersionDir(id, version), ec)) {
+    return MakeError(ServiceErrorCode::kMapVersionNotFound, "map store: version " + version +
+                                                                " of map '" + id +
+                                                                "' was not written: put it again")
+        .With("map_id", id);
+  }
+  std::vector<std::string> next = {version};
+  std::copy_if(kept.begin(), kept.end(), std::back_inserter(next),
+               [&](const std::string& v) { return v != version; });
+  std::vector<std::string> dropped;
+  if (next.size() > static_cast<std::size_t>(keep_versions)) {
+    dropped.assign(next.begin() + keep_versions, next.end());
+    next.resize(static_cast<std::size_t>(keep_versions));
+  }
+  if (ServiceStatus written = WriteHead(root_ / "tmp", map_dir, next); !written) return written;
+  // Only now that no head lists them: a reader that still loads one finds it gone (and is
+  // told which versions are kept), never a head naming a missing version.
+  for (const std::string& old : dropped) Discard(VersionDir(id, old));
+  return OkStatus();
+}
+
+Result<std::vector<std::string>> MapStore::Versions(const std::string& id) const {
+  if (ServiceStatus ok = CheckId(id); !ok) return std::move(ok).error();
+  Result<std::optional<std::vector<std::string>>> head = ReadHead(MapDir(id));
+  if (!head) return std::move(head).error();
+  if (!head->has_value()) return MapLock::NotFound(id);
+  return std::move(**head);
+}
+
+Result<std::string> MapStore::Current(const std::string& id) const {
+  Result<std::vector<std::string>> versions = Versions(id);
+  if (!versions) return std::move(versions).error();
+  return versions->front();
+}
+
+ServiceError MapStore::MissingVersion(const std::string& id, const std::string& version) const {
+  Result<std::vector<std::string>> kept = Versions(id);
+  if (!kept) return std::move(kept).error();
+  return MakeError(ServiceErrorCode::kMapVersionNotFound,
+                   "map '" + id + "' has no version " + version + " (kept: " + JoinVersions(*kept) +
+                       "): plan on one of those, or leave the version unset "
+                       "for the current one")
+      .With("map_id", id)
+      .With("version", version);
+}
+
+Result<fs::path> MapStore::VersionFile(const std::string& id, const std::string& version,
+                                       const char* name) const {
+  if (ServiceStatus ok = CheckId(id); !ok) return std::move(ok).error();
+  if (ServiceStatus ok = CheckVersion(version); !ok) return std::move(ok).error();
+  const fs::path dir = VersionDir(id, version);
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) return MissingVersion(id, version);
+  return dir / name;
+}
+
+Result<std::shared_ptr<const TerrainModel>> MapStore::LoadModel(const std::string& id,
+                                                                const std::string& version) const {
+  Result<fs::path> path = VersionFile(id, version, kModelName);
+  if (!path) return std::move(path).error();
+  Expected<std::shared_ptr<const TerrainModel>> model = strata::LoadModel(path->string());
+  if (model) return std::move(*model);
+  std::error_code ec;
+  // Pruned or deleted while this read it.
+  if (!fs::exists(*path, ec)) return MissingVersion(id, version);
+  return MakeError(ServiceErrorCode::kMapCorrupted,
+                   "map store: version " + version + " of map '" + id + "' cannot be loaded: " +
+                       model.error().message + " (delete the map and create it again)")
+      .With("map_id", id)
+      .With("version", version);
+}
+
+Result<PointCloud> MapStore::LoadCloud(const std::string& id, const std::string& version) const {
+  Result<fs::path> path = VersionFile(id, version, kCloudName);
+  if (!path) return std::move(path).error();
+  // The cloud passed the server's limits when it was accepted; these only guard the reader.
+  CloudLoadLimits limits;
+  limits.max_points = std::numeric_limits<std::size_t>::max();
+  limits.max_file_bytes = std::numeric_limits<std::size_t>::max();
+  limits.max_abs_coordinate_m = std::numeric_limits<double>::max();
+  Expected<LoadedCloud> cloud = LoadPointCloud(path->string(), limits);
+  if (cloud) return std::move(cloud->points);
+  std::error_code ec;
+  if (!fs::exists(*path, ec)) {
+    if (fs::is_directory(path->parent_path(), ec)) {
+      return MakeError(ServiceErrorCode::kEditNeedsCloud,
+                       "map '" + id + "' was made from a saved model, which keeps no point " +
+                           "cloud: create it from its point cloud to edit it")
+          .With("map_id", id);
+    }
+    return MissingVersion(id, version);
+  }
+  return MakeError(ServiceErrorCode::kMapCorrupted,
+                   "map store: the cloud of version " + version + " of map '" + id +
+                       "' cannot be loaded: " + cloud.error().message +
+                       " (delete the map and create it again)")
+      .With("map_id", id)
+      .With("version", version);
+}
+
+Result<std::shared_ptr<const OpenedMapFile>> MapStore::OpenVersionFile(const std::string& id,
+                                                                       const std::string& version,
+                                                                       const char* name) const {
+  Result<fs::path> path = VersionFile(id, version, name);
+  if (!path) return std::move(path).error();
+  const int fd = open(path->c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd >= 0) return std::make_shared<const OpenedMapFile>(fd, *path);
+  const int error = errno;
+  std::error_code ec;
+  if (error == ENOENT && std::strcmp(name, kCloudName) == 0 &&
+      fs::is_directory(path->parent_path(), ec)) {
+    return MakeError(ServiceErrorCode::kEditNeedsCloud,
+                     "map '" + id + "' was made from a saved model, which keeps no point " +
+                         "cloud: create it from its point cloud to edit it")
+        .With("map_id", id);
+  }
+  if (error == ENOENT) return MissingVersion(id, version);
+  return Unavailable(*path, "open", error);
+}
+
+Result<std::shared_ptr<const OpenedMapFile>> MapStore::OpenCloud(const std::string& id,
+                                                                 const std::string& version) const {
+  return OpenVersionFile(id, version, kCloudName);
+}
+
+Result<std::shared_ptr<const OpenedMapFile>> MapStore::OpenModel(const std::string& id,
+                                                                 const std::string& version) const {
+  return OpenVersionFile(id, version, kModelName);
+}
+
+Result<std::string> MapStore::LoadMetadata(const std::string& id,
+                                           const std::string& version) const {
+  Result<fs::path> path = VersionFile(id, version, kMetadataName);
+  if (!path) return std::move(path).error();
+  Result<std::optional<std::string>> bytes = ReadFileIfExists(*path);
+  if (!bytes) return std::move(bytes).error();
+  if (!bytes->has_value()) return MissingVersion(id, version);
+  return std::move(**bytes);
+}
+
+Result<std::vector<std::string>> MapStore::ListIds(const std::string& after_id, int max) const {
+  const fs::path maps = root_ / "maps";
+  std::vector<std::string> candidates;
+  std::error_code ec;
+  for (fs::directory_iterator it(maps, ec), end; !ec && it != end; it.increment(ec)) {
+    std::string id = it->path().filename().string();
+    if (id > after_id && CheckId(id).ok()) candidates.push_back(std::move(id));
+  }
+  if (ec) return Unavailable(maps, "list", ec);
+  std::sort(candidates.begin(), candidates.end());
+  std::vector<std::string> ids;
+  for (std::string& id : candidates) {
+    if (max > 0 && ids.size() >= static_cast<std::size_t>(max)) break;
+    if (fs::exists(MapDir(id) / kHeadName, ec)) ids.push_back(std::move(id));
+  }
+  return ids;
+}
+
+ServiceStatus MapStore::Delete(const std::string& id) {
+  if (ServiceStatus ok = CheckId(id); !ok) return ok;
+  const fs::path map_dir = MapDir(id);
+  Result<MapLock> lock = MapLock::Acquire(map_dir, id, /*create=*/false);
+  if (!lock) return std::move(lock).error();
+  Result<std::optional<std::vector<std::string>>> head = ReadHead(map_dir);
+  // A corrupted head is still deleted: that is the way out the error messages offer.
+  if (!head && head.error().code != ServiceError::Code(ServiceErrorCode::kMapCorrupted)) {
+    return std::move(head).error();
+  }
+  if (head && !head->has_value()) return MapLock::NotFound(id);
+  if (!Discard(map_dir)) return Unavailable(map_dir, "move to trash/", errno);
+  return OkStatus();
+}
+
+int MapStore::CollectGarbage() {
+  int removed = 0;
+  std::error_code ec;
+  const auto entries = [&](const fs::path& dir) {
+    std::vector<fs::path> paths;
+    for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+      paths.push_back(it->path());
+    }
+    return paths;
+  };
+  const auto remove = [&](const fs::path& path) {
+    std::error_code error;
+    fs::remove_all(path, error);
+    removed += error ? 0 : 1;
+  };
+  for (const fs::path& path : entries(root_ / "trash")) remove(path);
+  for (const fs::path& path : entries(root_ / "tmp")) {
+    if (IsStale(path)) remove(path);
+  }
+  for (const fs::path& map_dir : entries(root_ / "maps")) {
+    const std::string id = map_dir.filename().string();
+    if (!CheckId(id).ok()) continue;
+    // Stale leftovers only, and under the map's lock so that no publisher is between its
+    // check of a version and its new head.
+    const fs::path versions_dir = map_dir / kVersionsName;
+    // The map directory's age is taken before locking: locking may create its lock file.
+    const bool map_dir_stale = IsStale(map_dir);
+    bool any_stale = map_dir_stale;
+    for (const fs::path& version : entries(versions_dir)) any_stale |= IsStale(version);
+    if (!any_stale) continue;
+    Result<MapLock> lock = MapLock::Acquire(map_dir, id, /*create=*/false);
+    if (!lock) continue;
+    Result<std::optional<std::vector<std::string>>> head = ReadHead(map_dir);
+    if (!head) continue;
+    if (!head->has_value()) {
+      // No head: a writer died before publishing, unless versions/ changed lately (one
+      // renamed in by a writer that is about to publish).
+      const bool versions_stale = !fs::exists(versions_dir, ec) || IsStale(versions_dir);
+      if (map_dir_stale && versions_stale && Discard(map_dir)) ++removed;
+      continue;
+    }
+    const std::vector<std::string>& kept = **head;
+    for (const fs::path& version : entries(versions_dir)) {
+      const bool listed =
+          std::find(kept.begin(), kept.end(), version.filename().string()) != kept.end();
+      if (!listed && IsStale(version) && Discard(version)) ++removed;
+    }
+  }
+  return removed;
+}
+
+}  // namespace strata::server

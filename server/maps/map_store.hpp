@@ -1,0 +1,190 @@
+#pragma once
+/// Every map as immutable versions in one directory (--map-store DIR) that several
+/// strata-server processes share, on one machine or, in Kubernetes, on a ReadWriteMany volume
+/// (possibly NFS). No gRPC here: tests link it without a server.
+///
+/// Layout under the root:
+///
+///   strata-map-store            marker: "strata map store, layout 1"; Open refuses another
+///   maps/<id>/head              the map's kept versions, newest (current) first, one per
+///                               line; replaced whole (temporary + rename). A map exists
+///                               exactly when its head does.
+///   maps/<id>/lock              empty; flock'ed by whoever changes the head or deletes the map
+///   maps/<id>/versions/<v>/     one version, never changed once renamed into place:
+///       cloud.pcd               the source cloud (binary PCD, float32 x y z); absent for a
+///                               map made from a saved model
+///       model.stratamodel       the assessed model (strata/io/saved_model.hpp, checksummed)
+///       metadata                the caller's bytes (the server's Map message as JSON)
+///   tmp/                        temporaries (a version being written, a head being
+///                               replaced), named <kind>.<pid>.<random>
+///   trash/                      deleted maps and pruned versions, renamed here (the moment
+///                               they are gone for everyone) and then removed
+///
+/// <v> is VersionOf(): 32 lowercase hex digits naming the content, so replicas that assess
+/// the same thing write the same version (the second writer finds it there and is done).
+///
+/// What it relies on, and nothing else (no mmap, no O_DIRECT, no hard links):
+/// - rename(2) of a file or a directory within one file system is atomic, and fails on a
+///   non-empty directory: a version appears complete or not at all, a head is old or new;
+/// - open(O_CREAT | O_EXCL) and mkdir(2) fail when the name exists (unique temporaries);
+/// - flock(2) excludes other processes and hosts. Linux's NFS client implements it with
+///   NFS byte-range locks (NFSv4, or NLM for v3); a mount with `nolock` or
+///   `local_lock=flock|all` breaks the exclusion between hosts. Threads of one process are
+///   serialised by a process-wide mutex per map as well, whatever the mount;
+/// - fsync(2) on files and directories makes what was written durable before the rename that
+///   publishes it;
+/// - NFS close-to-open consistency: a reader that opens a head after it was replaced sees
+///   the new one, once the client's cached view of the directory expires (the mount's
+///   acdirmax / lookupcache, 60 s by default). That bounds how late another host sees a new
+///   version or a deletion.
+///
+/// A process killed at any point leaves at most a temporary in tmp/ (removed by the next
+/// Open or CollectGarbage once older than kStaleTemporaryAge), a version directory no head
+/// lists (same), or a map directory without a head (same): never something a reader takes
+/// for a version or a map.
+///
+/// Thread-safe: any number of threads and MapStore objects (in this process or others) may
+/// use one root at once.
+#include <chrono>
+#include <filesystem>
+#include <memory>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "common/service_error.hpp"
+#include "maps/map_root.hpp"
+#include "strata/assessment/terrain_config.hpp"
+#include "strata/assessment/terrain_model.hpp"
+#include "strata/point_cloud.hpp"
+#include "strata/prism.hpp"
+
+namespace strata::server {
+
+/// How old a temporary, an unlisted version or a map without a head must be before Open and
+/// CollectGarbage remove it as a dead writer's leftover. Writing a version takes seconds; an
+/// hour also covers clock skew between the hosts that share an NFS volume (the age is the
+/// file server's modification time against this host's clock).
+inline constexpr std::chrono::hours kStaleTemporaryAge{1};
+
+class MapStore {
+ public:
+  /// The version that `cloud` assessed with `config`, with `keep_out` zones marked, gets: the
+  /// XXH3-128 (lowercase hex, 32 digits) of the saved-model format version, the points' float
+  /// bytes in order, every assessment parameter by name except num_threads (how to assess,
+  /// not what: the rule of FirstDifference in strata/assessment/terrain_config.hpp), and each
+  /// zone's corners and height range, in order. Equal inputs give equal names in any process.
+  static std::string VersionOf(const PointCloud& cloud, const AssessmentConfig& config,
+                               std::span<const Prism> keep_out);
+
+  /// The version of a map loaded from a saved-model file: the XXH3-128 of the file's bytes
+  /// (which hold its format version and parameters), in the same form as VersionOf's.
+  static std::string VersionOfSavedModel(const std::string& path);
+
+  /// Whether `version` is a well-formed version name (what VersionOf returns).
+  static bool IsVersion(std::string_view version);
+
+  /// The store at `root`, created (with its layout) when absent; removes dead writers'
+  /// leftovers (CollectGarbage). kInvalidConfig when `root` is empty, not a directory, not
+  /// writable, refuses locks (an NFS mount without lock support), or holds another layout.
+  static Result<std::unique_ptr<MapStore>> Open(std::filesystem::path root);
+
+  MapStore(const MapStore&) = delete;
+  MapStore& operator=(const MapStore&) = delete;
+  ~MapStore() = default;
+
+  /// The store's directory (absolute, symbolic links resolved).
+  const std::filesystem::path& root() const { return root_; }
+
+  /// Writes version `version` of map `id`: `cloud` (empty for a map made from a saved model:
+  /// LoadCloud then fails with kEditNeedsCloud), `model` and `metadata` go to
+  /// a fresh temporary directory, are made durable, and the directory is renamed into place.
+  /// When the version is there already (another writer put it), that is success and nothing
+  /// is written. Does not publish: PublishNew or PublishUpdate makes it the map's current
+  /// version. kInvalidInput for a bad id or version name,
+  /// kMapStoreUnavailable when the store cannot be written (naming the path and the reason).
+  ServiceStatus PutVersion(const std::string& id, const std::string& version,
+                           const PointCloud& cloud, const TerrainModel& model,
+                           const std::string& metadata);
+
+  /// Creates map `id` with `version` (put before) as its only version. Success also when the
+  /// map exists with `version` current (another replica created the same map). Fails with
+  /// kMapAlreadyExists (naming the current version) when its current version is another,
+  /// kMapVersionNotFound when `version` was not put (or the map was deleted since: put it
+  /// again), kInvalidInput, kMapCorrupted (an unreadable head), kMapStoreUnavailable.
+  ServiceStatus PublishNew(const std::string& id, const std::string& version);
+
+  /// Makes `version` (put before) the current version of `id` if the current one is still
+  /// `expected_current` (compare-and-swap), keeping the newest `keep_versions` (>= 1) in the
+  /// head and deleting the directories of those dropped. Success also when `version` is
+  /// current already (another replica made the same edit). Fails with kMapChanged (naming the
+  /// current version: read it and redo the edit) when the current is another, and then
+  /// removes `version`'s directory unless the head lists it (a lost race leaves nothing behind
+  /// that no head lists; put it again to retry); kMapNotFound,
+  /// kMapVersionNotFound when `version` was not put, kInvalidInput (bad names,
+  /// keep_versions < 1), kMapCorrupted, kMapStoreUnavailable.
+  ServiceStatus PublishUpdate(const std::string& id, const std::string& expected_current,
+                              const std::string& version, int keep_versions);
+
+  /// The kept versions of `id`, newest (current) first. kMapNotFound, kInvalidInput (bad id),
+  /// kMapCorrupted (a head that is not a list of versions), kMapStoreUnavailable.
+  Result<std::vector<std::string>> Versions(const std::string& id) const;
+
+  /// The current version of `id`; fails as Versions does.
+  Result<std::string> Current(const std::string& id) const;
+
+  /// The saved model of a version. kMapVersionNotFound naming the id, the version and the
+  /// kept ones when the version is not in the store (pruned, never put); kMapNotFound when
+  /// the map is not; kMapCorrupted naming the file when it fails to load (truncated, bad
+  /// checksum, another format version); kInvalidInput for a bad id or version name.
+  Result<std::shared_ptr<const TerrainModel>> LoadModel(const std::string& id,
+                                                        const std::string& version) const;
+
+  /// The source cloud of a version; fails as LoadModel does.
+  Result<PointCloud> LoadCloud(const std::string& id, const std::string& version) const;
+
+  /// The cloud and the model file of a version, opened for reading: whoever reads them reads
+  /// the version whole even if it is pruned meanwhile. Fail as LoadCloud and LoadModel do.
+  Result<std::shared_ptr<const OpenedMapFile>> OpenCloud(const std::string& id,
+                                                         const std::string& version) const;
+  Result<std::shared_ptr<const OpenedMapFile>> OpenModel(const std::string& id,
+                                                         const std::string& version) const;
+
+  /// The metadata of a version, byte for byte as put; fails as LoadModel does.
+  Result<std::string> LoadMetadata(const std::string& id, const std::string& version) const;
+
+  /// Ids of the maps (those with a head) after `after_id` in byte order, at most `max` of
+  /// them (all when `max` <= 0). kMapStoreUnavailable when the store cannot be listed.
+  Result<std::vector<std::string>> ListIds(const std::string& after_id, int max) const;
+
+  /// Deletes map `id`, every version of it, for everyone at once (its directory is renamed
+  /// into trash/, then removed). kMapNotFound, kInvalidInput, kMapStoreUnavailable.
+  ServiceStatus Delete(const std::string& id);
+
+  /// Removes dead writers' leftovers older than kStaleTemporaryAge (temporaries, versions no
+  /// head lists, map directories without a head) and whatever is in trash/. Best effort:
+  /// what cannot be removed now is tried again next time. Returns how many entries it removed.
+  int CollectGarbage();
+
+ private:
+  explicit MapStore(std::filesystem::path root) : root_(std::move(root)) {}
+
+  std::filesystem::path MapDir(const std::string& id) const;
+  std::filesystem::path VersionDir(const std::string& id, const std::string& version) const;
+  /// Why `version` of `id` cannot be read: kMapNotFound or kMapVersionNotFound.
+  ServiceError MissingVersion(const std::string& id, const std::string& version) const;
+  /// The path of file `name` of an existing version, or why there is none.
+  Result<std::filesystem::path> VersionFile(const std::string& id, const std::string& version,
+                                            const char* name) const;
+  /// Opens file `name` of a version; kEditNeedsCloud for the cloud of a saved model's map.
+  Result<std::shared_ptr<const OpenedMapFile>> OpenVersionFile(const std::string& id,
+                                                               const std::string& version,
+                                                               const char* name) const;
+  /// Renames `path` into trash/ and removes it; false when the rename failed.
+  bool Discard(const std::filesystem::path& path) const;
+
+  std::filesystem::path root_;
+};
+
+}  // namespace strata::server

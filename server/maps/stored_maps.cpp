@@ -1,0 +1,128 @@
+#include "maps/stored_maps.hpp"
+
+#include <utility>
+
+#include "common/log.hpp"
+
+namespace strata::server {
+
+StoredMaps::StoredMaps(StoredMapsOptions options)
+    : options_(std::move(options)), cache_(options_.allowance) {}
+
+Result<std::vector<std::string>> StoredMaps::Versions(const std::string& id) const {
+  Result<std::vector<std::string>> versions = options_.store->Versions(id);
+  if (!versions.ok() || versions.value().empty()) {
+    cache_.Drop(id);  // Deleted, perhaps by another replica: free it here too.
+    return MapNotFound(id).Blame("map_id");
+  }
+  return versions;
+}
+
+Result<ActiveMap> StoredMaps::Get(const std::string& id, const std::string& version) const {
+  Result<std::vector<std::string>> versions = Versions(id);
+  if (!versions.ok()) return std::move(versions).error();
+  const std::vector<std::string>& kept = versions.value();
+  if (!version.empty() && std::find(kept.begin(), kept.end(), version) == kept.end()) {
+    return MapVersionNotFound(id, version, kept);
+  }
+  const std::string& wanted = version.empty() ? kept.front() : version;
+  Result<std::shared_ptr<const PlanningMap>> map =
+      cache_.Get(id, wanted, [&]() -> Result<std::shared_ptr<const PlanningMap>> {
+        Result<std::string> metadata = options_.store->LoadMetadata(id, wanted);
+        if (!metadata.ok()) return std::move(metadata).error();
+        Result<MapSnapshot> described = options_.decode_metadata(metadata.value());
+        if (!described.ok()) return std::move(described).error();
+        Result<std::shared_ptr<const TerrainModel>> model = options_.store->LoadModel(id, wanted);
+        if (!model.ok()) return std::move(model).error();
+        return options_.make_planning(std::move(model).value(), described.value().keep_out);
+      });
+  if (!map.ok()) return std::move(map).error();
+  return ActiveMap{std::move(map).value(), wanted};
+}
+
+Result<MapSnapshot> StoredMaps::SnapshotOf(const std::string& id,
+                                           const std::vector<std::string>& versions) const {
+  Result<std::string> metadata = options_.store->LoadMetadata(id, versions.front());
+  if (!metadata.ok()) return std::move(metadata).error();
+  Result<MapSnapshot> snapshot = options_.decode_metadata(metadata.value());
+  if (!snapshot.ok()) return snapshot;
+  MapSnapshot& map = snapshot.value();
+  map.id = id;
+  map.version = versions.front();
+  map.versions = versions;
+  if (const auto held = cache_.Peek(id, map.version)) map.memory_bytes = held->MemoryBytes();
+  return snapshot;
+}
+
+Result<MapSnapshot> StoredMaps::Describe(const std::string& id) const {
+  Result<std::vector<std::string>> versions = Versions(id);
+  if (!versions.ok()) return std::move(versions).error();
+  return SnapshotOf(id, versions.value());
+}
+
+std::vector<MapSnapshot> StoredMaps::List(const std::string& after_id, int max) const {
+  std::vector<MapSnapshot> maps;
+  Result<std::vector<std::string>> ids = options_.store->ListIds(after_id, max);
+  for (const std::string& id : ids.ok() ? ids.value() : std::vector<std::string>{}) {
+    Result<std::vector<std::string>> versions = options_.store->Versions(id);
+    if (!versions.ok() || versions.value().empty()) continue;  // Deleted meanwhile.
+    Result<MapSnapshot> snapshot = SnapshotOf(id, versions.value());
+    if (snapshot.ok()) maps.push_back(std::move(snapshot).value());
+  }
+  return maps;
+}
+
+ServiceStatus StoredMaps::Put(const MapSnapshot& map,
+                              const std::shared_ptr<const PlanningMap>& planning,
+                              const PointCloud& cloud,
+                              const std::function<ServiceStatus()>& publish) {
+  LogInfo("map_version_writing").Add("map", map.id).Add("version", map.version);
+  if (ServiceStatus put = options_.store->PutVersion(map.id, map.version, cloud, planning->model(),
+                                                     options_.encode_metadata(map));
+      !put.ok()) {
+    return put;
+  }
+  if (ServiceStatus published = publish(); !published.ok()) return published;
+  cache_.Insert(map.id, map.version, planning);
+  return OkStatus();
+}
+
+ServiceStatus StoredMaps::PublishNew(const MapSnapshot& map,
+                                     std::shared_ptr<const PlanningMap> planning,
+                                     const PointCloud& cloud) {
+  return Put(map, planning, cloud, [&] { return options_.store->PublishNew(map.id, map.version); });
+}
+
+ServiceStatus StoredMaps::PublishEdit(const std::string& base_version, const MapSnapshot& map,
+                                      std::shared_ptr<const PlanningMap> planning,
+                                      const PointCloud& cloud) {
+  return Put(map, planning, cloud, [&] {
+    return options_.store->PublishUpdate(map.id, base_version, map.version, options_.versions_kept);
+  });
+}
+
+ServiceStatus StoredMaps::Delete(const std::string& id) {
+  cache_.Drop(id);
+  return options_.store->Delete(id);
+}
+
+Result<VersionFiles> StoredMaps::OpenFiles(const std::string& id,
+                                           const std::string& version) const {
+  Result<std::shared_ptr<const OpenedMapFile>> cloud = options_.store->OpenCloud(id, version);
+  if (!cloud.ok()) return std::move(cloud).error();
+  Result<std::shared_ptr<const OpenedMapFile>> model = options_.store->OpenModel(id, version);
+  if (!model.ok()) return std::move(model).error();
+  return VersionFiles{std::move(cloud).value(), std::move(model).value()};
+}
+
+Result<PointCloud> StoredMaps::LoadCloud(const std::string& id, const std::string& version) const {
+  return options_.store->LoadCloud(id, version);
+}
+
+std::uint64_t StoredMaps::HeldBytes() const { return cache_.ResidentBytes(); }
+
+int StoredMaps::HeldCount() const { return cache_.Count(); }
+
+void StoredMaps::TrimTo(std::uint64_t target_bytes) { cache_.TrimTo(target_bytes); }
+
+}  // namespace strata::server

@@ -1,0 +1,431 @@
+#include "ops/strata_server.hpp"
+
+#include <condition_variable>
+#include <fstream>
+#include <iterator>
+#include <thread>
+
+#include <google/protobuf/descriptor.h>
+#include <grpc/grpc.h>
+#include <grpcpp/ext/proto_server_reflection_plugin.h>
+#include <grpcpp/health_check_service_interface.h>
+
+#include "common/log.hpp"
+#include "common/map_id.hpp"
+#include "maps/map_root.hpp"
+#include "maps/map_worker.hpp"
+#include "rpc/proto_convert.hpp"
+
+namespace strata::server {
+namespace {
+
+constexpr const char* kServices[] = {"strata.v1.MapService", "strata.v1.PlannerService"};
+
+struct ResolvedPreload {
+  std::string id;
+  MapSource source;
+  AssessmentConfig config;
+  bool config_given = false;  // A KEY=VALUE terrain parameter was given.
+};
+
+Result<ResolvedPreload> ResolvePreload(const PreloadSpec& spec,
+                                       const std::filesystem::path& map_root,
+                                       std::size_t max_points) {
+  const std::string flag = "--preload " + spec.id;
+  auto fail = [&](const ServiceError& error) {
+    return MakeError(ErrorCode::kInvalidInput, flag + ": " + error.message);
+  };
+  if (ServiceStatus valid = ValidateMapId(spec.id); !valid.ok()) {
+    return fail(valid.error());
+  }
+  ResolvedPreload preload{spec.id, SceneMapSource{}, {}};
+  if (spec.scene) {
+    // The same checks as a CreateMap request for the scene.
+    v1::CreateMapRequest request;
+    v1::SceneSource* scene = request.mutable_scene();
+    scene->set_name(spec.scene->name);
+    scene->set_seed(spec.scene->seed);
+    if (spec.scene->options.size_m) scene->set_size_m(*spec.scene->options.size_m);
+    if (spec.scene->options.spacing_m) scene->set_spacing_m(*spec.scene->options.spacing_m);
+    Result<MapSource> source = SourceFromRequest(request, map_root, max_points);
+    if (!source.ok()) return fail(source.error());
+    preload.source = std::move(source).value();
+  } else {
+    Result<std::shared_ptr<const OpenedMapFile>> file = OpenMapFile(map_root, spec.path, "preload");
+    if (!file.ok()) return fail(file.error());
+    preload.source = FileMapSource{std::move(file).value(), spec.path};
+  }
+  v1::TerrainParameters terrain;
+  if (spec.resolution_m) terrain.set_resolution_m(*spec.resolution_m);
+  if (spec.ground_radius_m) terrain.set_ground_radius_m(*spec.ground_radius_m);
+  if (spec.max_tilt_rad) terrain.set_max_tilt_rad(*spec.max_tilt_rad);
+  Result<AssessmentConfig> config = FromProto(terrain, "terrain");
+  if (!config.ok()) return fail(config.error());
+  preload.config = config.value();
+  preload.config_given = terrain.ByteSizeLong() > 0;
+  return preload;
+}
+
+std::string ReadFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+// Plaintext, TLS (--tls-cert, --tls-key) or mutual TLS (and --tls-client-ca).
+Result<std::shared_ptr<grpc::ServerCredentials>> ServerCredentialsFor(const ServerConfig& config) {
+  if (config.tls_cert.empty() != config.tls_key.empty()) {
+    return MakeError(ErrorCode::kInvalidInput,
+                     "--tls-cert and --tls-key go together: give both for TLS, or neither");
+  }
+  if (config.tls_cert.empty()) {
+    if (!config.tls_client_ca.empty()) {
+      return MakeError(ErrorCode::kInvalidInput,
+                       "--tls-client-ca needs TLS: give --tls-cert and --tls-key too");
+    }
+    if (!config.auth_tokens.empty()) {
+      LogWarning("plaintext_tokens")
+          .Add("message",
+               "--auth-tokens without TLS: tokens cross the network in the clear; give "
+               "--tls-cert and --tls-key");
+    }
+    return grpc::InsecureServerCredentials();
+  }
+  grpc::SslServerCredentialsOptions options(
+      config.tls_client_ca.empty() ? GRPC_SSL_DONT_REQUEST_CLIENT_CERTIFICATE
+                                   : GRPC_SSL_REQUEST_AND_REQUIRE_CLIENT_CERTIFICATE_AND_VERIFY);
+  grpc::SslServerCredentialsOptions::PemKeyCertPair pair{ReadFile(config.tls_key),
+                                                         ReadFile(config.tls_cert)};
+  if (pair.private_key.empty() || pair.cert_chain.empty()) {
+    return MakeError(ErrorCode::kInvalidInput,
+                     "--tls-cert / --tls-key: cannot read a PEM certificate and key there");
+  }
+  options.pem_key_cert_pairs.push_back(std::move(pair));
+  if (!config.tls_client_ca.empty()) {
+    options.pem_root_certs = ReadFile(config.tls_client_ca);
+    if (options.pem_root_certs.empty()) {
+      return MakeError(ErrorCode::kInvalidInput, "--tls-client-ca: cannot read a PEM file there");
+    }
+  }
+  return grpc::SslServerCredentials(options);
+}
+
+// "0.0.0.0:0" with port 43125 bound -> "0.0.0.0:43125".
+std::string BoundAddress(const std::string& listen, int port) {
+  return listen.substr(0, listen.rfind(':')) + ":" + std::to_string(port);
+}
+
+}  // namespace
+
+Result<std::unique_ptr<StrataServer>> StrataServer::Start(const ServerConfig& config) {
+  std::unique_ptr<StrataServer> self(new StrataServer());
+  self->config_ = config;
+
+  std::filesystem::path map_root;
+  if (!config.map_root.empty()) {
+    Result<std::filesystem::path> root = CanonicalMapRoot(config.map_root);
+    if (!root.ok())
+      return MakeError(ErrorCode::kInvalidInput, "--map-root: " + root.error().message);
+    map_root = root.value();
+  }
+  std::vector<ResolvedPreload> preloads;
+  for (const PreloadSpec& spec : config.preload) {
+    Result<ResolvedPreload> preload = ResolvePreload(spec, map_root, config.max_points);
+    if (!preload.ok()) return std::move(preload).error();
+    preloads.push_back(std::move(preload).value());
+  }
+
+  if (!config.auth_tokens.empty()) {
+    Result<TokenTable> tokens = TokenTable::Load(config.auth_tokens);
+    if (!tokens.ok()) {
+      return MakeError(ErrorCode::kInvalidInput, "--auth-tokens: " + tokens.error().message);
+    }
+    self->tokens_ = std::make_unique<TokenTable>(std::move(tokens).value());
+  }
+  Result<std::shared_ptr<grpc::ServerCredentials>> credentials = ServerCredentialsFor(config);
+  if (!credentials.ok()) return std::move(credentials).error();
+
+  self->metrics_ = std::make_unique<Metrics>();
+  RegistryOptions registry_options;
+  registry_options.max_concurrent_assessments = config.max_concurrent_assessments;
+  registry_options.max_maps = config.max_maps;
+  registry_options.assessment_threads = config.assessment_threads;
+  registry_options.load_limits.max_points = config.max_points;
+  // Every new map is made in a worker process of its own: a reader that crashes on a
+  // malformed file, or an assessment past its memory or time, fails that map only.
+  MapWorkerOptions worker;
+  worker.program = config.map_worker.empty() ? MapWorkerBesideThisProgram()
+                                             : std::filesystem::path(config.map_worker);
+  if (worker.program.empty()) {
+    return MakeError(ErrorCode::kInvalidInput,
+                     "--map-worker: there is no strata-map-worker beside strata-server; give "
+                     "its path");
+  }
+  worker.memory_bytes = config.max_assessment_memory_bytes;
+  // The wall-clock limit is the registry's; CPU time is a backstop at every core busy for it.
+  const unsigned threads = config.assessment_threads > 0
+                               ? static_cast<unsigned>(config.assessment_threads)
+                               : std::max(1u, std::thread::hardware_concurrency());
+  worker.cpu_s = config.max_assessment_time_s * threads + 10;
+  registry_options.build = MapWorkerBuilder(std::move(worker));
+  registry_options.max_assessment_time_s = config.max_assessment_time_s;
+  self->memory_budget_ = std::make_shared<MemoryBudget>(
+      config.max_memory_bytes > 0 ? config.max_memory_bytes : AutomaticMemoryLimit());
+  if (const std::uint64_t limit = self->memory_budget_->limit();
+      limit > 0 && config.max_assessment_memory_bytes > limit) {
+    // A replica that only serves maps from the store needs no room to make one.
+    LogWarning("no_room_to_make_maps")
+        .Add("message", "--max-assessment-memory " +
+                            MebibytesText(config.max_assessment_memory_bytes) +
+                            " is more than the whole memory budget (--max-memory " +
+                            MebibytesText(limit) + "): this server will refuse to make maps");
+  }
+  registry_options.memory_budget = self->memory_budget_;
+  registry_options.assessment_memory_bytes = config.max_assessment_memory_bytes;
+  registry_options.max_graph_bytes = config.max_graph_memory_bytes;
+  if (!config.map_store.empty()) {
+    Result<std::unique_ptr<MapStore>> store = MapStore::Open(config.map_store);
+    if (!store.ok()) {
+      return MakeError(ErrorCode::kInvalidInput, "--map-store: " + store.error().message);
+    }
+    registry_options.store = std::move(store).value();
+    registry_options.versions_kept = config.map_versions_kept;
+    registry_options.encode_metadata = EncodeMapMetadata;
+    registry_options.decode_metadata = DecodeMapMetadata;
+    // A map the store holds already is served from there (loaded on its first request): a
+    // new replica assesses nothing at start.
+    std::erase_if(preloads, [&](const ResolvedPreload& preload) {
+      if (!registry_options.store->Current(preload.id).ok()) return false;
+      LogInfo("preload_in_store").Add("map", preload.id);
+      return true;
+    });
+  }
+  StrataServer* raw = self.get();
+  self->registry_ = std::make_unique<MapRegistry>(
+      registry_options, [raw](const MapSnapshot& map) { raw->OnMapDone(map); });
+  self->metrics_->WatchMaps(self->registry_.get());
+
+  self->planning_slots_ = std::make_unique<PlanningSlots>(
+      config.max_concurrent_plans > 0
+          ? config.max_concurrent_plans
+          : static_cast<int>(std::max(1u, std::thread::hardware_concurrency())),
+      config.max_queued_plans, config.max_plan_time_s);
+  self->recent_plans_ = std::make_unique<RecentPlans>();
+  MapServiceOptions map_options;
+  map_options.map_root = map_root;
+  map_options.max_points = config.max_points;
+  map_options.tokens = self->tokens_.get();
+  map_options.memory_budget = self->memory_budget_.get();
+  map_options.planning_slots = self->planning_slots_.get();
+  map_options.max_send_message_bytes = static_cast<std::uint64_t>(config.max_send_message_bytes);
+  self->map_service_ = std::make_unique<MapServiceImpl>(self->registry_.get(), map_options);
+  PlannerServiceOptions planner_options;
+  planner_options.slots = self->planning_slots_.get();
+  planner_options.recent_plans = self->recent_plans_.get();
+  planner_options.max_samples = kMaxResponseSamples;
+  planner_options.max_cost_cells = config.max_cost_cells;
+  planner_options.max_batch_plans = config.max_batch_plans;
+  planner_options.tokens = self->tokens_.get();
+  self->planner_service_ = std::make_unique<PlannerServiceImpl>(
+      self->registry_.get(), self->metrics_.get(), planner_options);
+
+  // Every method served gets its own metric series before the first call; calls to any
+  // other path are counted as "unknown" (Metrics::InitializeMethod).
+  const auto* pool = google::protobuf::DescriptorPool::generated_pool();
+  for (const char* name : {kServices[0], kServices[1], "grpc.health.v1.Health",
+                           "grpc.reflection.v1alpha.ServerReflection"}) {
+    const google::protobuf::ServiceDescriptor* service = pool->FindServiceByName(name);
+    for (int i = 0; service != nullptr && i < service->method_count(); ++i) {
+      const google::protobuf::MethodDescriptor* method = service->method(i);
+      const char* type = method->client_streaming()
+                             ? (method->server_streaming() ? "bidi_stream" : "client_stream")
+                             : (method->server_streaming() ? "server_stream" : "unary");
+      self->metrics_->InitializeMethod(type, name, method->name());
+    }
+  }
+  grpc::EnableDefaultHealthCheckService(true);
+  grpc::reflection::InitProtoReflectionServerBuilderPlugin();
+  grpc::ServerBuilder builder;
+  int port = 0;
+  builder.AddListeningPort(config.listen, credentials.value(), &port);
+  // gRPC turns SO_REUSEPORT on unless told otherwise: a second server on a taken port would
+  // start and take a share of its calls at random.
+  builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, config.reuse_port ? 1 : 0);
+  builder.SetMaxReceiveMessageSize(config.max_receive_message_bytes);
+  builder.SetMaxSendMessageSize(config.max_send_message_bytes);
+  // Robots on Wi-Fi: notice dead links within keepalive time + timeout, keep idle
+  // connections (and NAT entries) alive, and let clients ping often without being cut off.
+  builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_TIME_MS,
+                             static_cast<int>(config.keepalive_time_s * 1000));
+  builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_TIMEOUT_MS,
+                             static_cast<int>(config.keepalive_timeout_s * 1000));
+  builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_PERMIT_WITHOUT_CALLS, 1);
+  builder.AddChannelArgument(GRPC_ARG_HTTP2_MAX_PINGS_WITHOUT_DATA, 0);
+  builder.AddChannelArgument(GRPC_ARG_HTTP2_MIN_RECV_PING_INTERVAL_WITHOUT_DATA_MS, 5000);
+  std::vector<std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>> creators;
+  creators.push_back(self->metrics_->MakeInterceptorFactory());
+  builder.experimental().SetInterceptorCreators(std::move(creators));
+  builder.RegisterService(self->map_service_.get());
+  builder.RegisterService(self->planner_service_.get());
+  self->server_ = builder.BuildAndStart();
+  if (!self->server_ || port == 0) {
+    return MakeError(ErrorCode::kInvalidInput,
+                     "--listen " + config.listen +
+                         ": cannot listen there (address in use by another process, or not a "
+                         "local address" +
+                         (config.tls_cert.empty()
+                              ? std::string(")")
+                              : std::string("; or --tls-cert and --tls-key are not a matching "
+                                            "PEM certificate and key)")));
+  }
+  self->address_ = BoundAddress(config.listen, port);
+  {
+    std::lock_guard lock(self->mutex_);
+    for (const ResolvedPreload& preload : preloads) self->pending_preloads_.insert(preload.id);
+  }
+  self->server_->GetHealthCheckService()->SetServingStatus(kServices[0], true);
+  self->SetReady(preloads.empty());
+
+  if (config.metrics_port >= 0) {
+    const std::string address = config.metrics_address + ":" + std::to_string(config.metrics_port);
+    try {
+      self->exposer_ = std::make_unique<prometheus::Exposer>(address);
+    } catch (const std::exception& e) {
+      return MakeError(ErrorCode::kInvalidInput,
+                       "--metrics-address, --metrics-port: cannot serve metrics on " + address +
+                           ": " + e.what());
+    }
+    self->metrics_->ServeOn(*self->exposer_);
+    const std::vector<int> ports = self->exposer_->GetListeningPorts();
+    self->metrics_port_ = ports.empty() ? config.metrics_port : ports.front();
+  }
+  if (config.http_port >= 0) {
+    // The viewer serves plain HTTP only: with TLS on the gRPC side it is served on loopback
+    // only, where no token crosses the network in the clear.
+    if (!config.tls_cert.empty() && !IsLoopbackAddress(config.http_address)) {
+      return MakeError(
+          ErrorCode::kInvalidInput,
+          "--http-port with --tls-cert: the web viewer serves plain HTTP only, and plain "
+          "HTTP beside a TLS gRPC port would send tokens in the clear: give --http-address "
+          "127.0.0.1 and put a TLS-terminating "
+          "proxy (or an SSH tunnel) in front of it, or drop --http-port");
+    }
+    self->http_api_ = std::make_unique<HttpApi>(self->registry_.get(), self->map_service_.get(),
+                                                self->planner_service_.get(), self->tokens_.get());
+    HttpServerOptions http;
+    http.address = config.http_address;
+    http.port = config.http_port;
+    // The same request limit as gRPC's (a JSON body is larger than the binary message, so a
+    // request near the limit passes gRPC and not here: the limit is the server's memory's).
+    http.max_body_bytes = static_cast<std::size_t>(config.max_receive_message_bytes);
+    Result<std::unique_ptr<HttpServer>> started = HttpServer::Start(http, self->http_api_.get());
+    if (!started.ok()) return std::move(started).error();
+    self->http_server_ = std::move(started).value();
+  }
+  for (ResolvedPreload& preload : preloads) {
+    LogInfo("map_queued").Add("map", preload.id).Add("source", "preload");
+    Result<MapSnapshot> created = self->registry_->Create(preload.id, std::move(preload.source),
+                                                          preload.config, preload.config_given);
+    if (!created.ok()) {
+      return MakeError(ErrorCode::kInvalidInput,
+                       "--preload " + preload.id + ": " + created.error().message);
+    }
+  }
+  return self;
+}
+
+StrataServer::~StrataServer() {
+  if (http_server_) http_server_->Stop();  // Its requests use the registry.
+  {
+    std::lock_guard lock(mutex_);
+    shutting_down_ = true;  // Workers finishing now must not touch the health service.
+  }
+  registry_.reset();
+}
+
+void StrataServer::SetReady(bool ready) {
+  // The overall status ("") is SERVING only while the planner service is: set last on the
+  // way up and first on the way down, so that a client that saw it SERVING (as a readiness
+  // probe or a test waits for it) finds the planner service SERVING too.
+  grpc::HealthCheckServiceInterface* health = server_->GetHealthCheckService();
+  if (ready) {
+    health->SetServingStatus(kServices[1], true);
+    health->SetServingStatus("", true);
+  } else {
+    health->SetServingStatus("", false);
+    health->SetServingStatus(kServices[1], false);
+  }
+}
+
+void StrataServer::OnMapDone(const MapSnapshot& map) {
+  metrics_->RecordMapDone(map);
+  if (map.state == MapState::kActive) {
+    LogInfo("map_active")
+        .Add("map", map.id)
+        .Add("points", map.summary.input_points)
+        .Add("valid_ground_points", map.summary.valid_ground_points)
+        .Add("load_s", map.load_s)
+        .Add("assessment_s", map.summary.timings.total_s)
+        .Add("memory_bytes", map.memory_bytes);
+  } else {
+    LogWarning("map_failed")
+        .Add("map", map.id)
+        .Add("message", map.failure.has_value() ? map.failure->message : "");
+  }
+  std::lock_guard lock(mutex_);
+  if (pending_preloads_.erase(map.id) == 0 || shutting_down_) return;
+  if (map.state != MapState::kActive) {
+    preload_failed_ = true;
+    LogError("preload_failed")
+        .Add("map", map.id)
+        .Add("message", "a preloaded map failed: health stays NOT_SERVING; fix --preload");
+  }
+  if (pending_preloads_.empty() && !preload_failed_) {
+    SetReady(true);
+    LogInfo("ready").Add("message", "every preloaded map is ACTIVE: health is SERVING");
+  }
+}
+
+void StrataServer::Shutdown(std::chrono::steady_clock::duration drain_delay,
+                            std::chrono::steady_clock::duration grace) {
+  {
+    std::lock_guard lock(mutex_);
+    if (shutting_down_) return;
+    shutting_down_ = true;
+    server_->GetHealthCheckService()->SetServingStatus(false);
+  }
+  registry_->Shutdown();
+  std::this_thread::sleep_for(drain_delay);
+  // At the grace's end, plans stop and answer SHUTTING_DOWN; gRPC cancels what is left a
+  // moment later, once they have had time to send that answer.
+  constexpr auto kAnswerTime = std::chrono::milliseconds(500);
+  std::mutex done_mutex;
+  std::condition_variable done_cv;
+  bool done = false;
+  std::thread stopper([&] {
+    std::unique_lock lock(done_mutex);
+    if (!done_cv.wait_for(lock, grace, [&] { return done; })) planning_slots_->Stop();
+  });
+  // The viewer stops accepting now too; its requests in flight end as gRPC's do (a plan at
+  // the grace's end).
+  std::thread http_stopper([this] {
+    if (http_server_) http_server_->Stop();
+  });
+  server_->Shutdown(std::chrono::system_clock::now() +
+                    std::chrono::duration_cast<std::chrono::system_clock::duration>(grace) +
+                    kAnswerTime);
+  http_stopper.join();
+  {
+    std::lock_guard lock(done_mutex);
+    done = true;
+  }
+  done_cv.notify_one();
+  stopper.join();
+}
+
+void StrataServer::Wait() { server_->Wait(); }
+
+bool StrataServer::WaitAssessmentsIdle(std::chrono::steady_clock::duration timeout) {
+  return registry_->WaitIdle(std::chrono::steady_clock::now() + timeout);
+}
+
+}  // namespace strata::server

@@ -1,0 +1,303 @@
+#include "rpc/metrics.hpp"
+
+#include "rpc/error_mapping.hpp"
+
+#include <chrono>
+#include <sstream>
+
+#include <prometheus/text_serializer.h>
+
+namespace strata::server {
+namespace {
+
+using SteadyClock = std::chrono::steady_clock;
+using grpc::experimental::InterceptionHookPoints;
+using grpc::experimental::ServerRpcInfo;
+
+// prometheus.DefBuckets, as go-grpc-prometheus uses for grpc_server_handling_seconds.
+const prometheus::Histogram::BucketBoundaries kRpcBuckets = {0.005, 0.01, 0.025, 0.05, 0.1, 0.25,
+                                                             0.5,   1,    2.5,   5,    10};
+const prometheus::Histogram::BucketBoundaries kPlanBuckets = {
+    0.001, 0.0025, 0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 0.5, 1, 2.5, 5, 10, 30};
+const prometheus::Histogram::BucketBoundaries kAssessmentBuckets = {
+    0.01, 0.05, 0.1, 0.25, 0.5, 1, 2.5, 5, 10, 25, 50, 100, 250, 600};
+
+std::string_view TypeName(ServerRpcInfo::Type type) {
+  switch (type) {
+    case ServerRpcInfo::Type::UNARY: return "unary";
+    case ServerRpcInfo::Type::CLIENT_STREAMING: return "client_stream";
+    case ServerRpcInfo::Type::SERVER_STREAMING: return "server_stream";
+    case ServerRpcInfo::Type::BIDI_STREAMING: return "bidi_stream";
+  }
+  return "unary";
+}
+
+class MetricsInterceptor final : public grpc::experimental::Interceptor {
+ public:
+  MetricsInterceptor(Metrics* metrics, Metrics::MethodLabels labels)
+      : metrics_(metrics), labels_(std::move(labels)), start_(SteadyClock::now()) {
+    metrics_->RecordStarted(labels_);
+  }
+
+  ~MetricsInterceptor() override {
+    // A call that ended without sending a status (the client went away).
+    if (!handled_) metrics_->RecordHandled(labels_, grpc::StatusCode::CANCELLED, Elapsed());
+  }
+
+  void Intercept(grpc::experimental::InterceptorBatchMethods* methods) override {
+    if (methods->QueryInterceptionHookPoint(InterceptionHookPoints::POST_RECV_MESSAGE) &&
+        methods->GetRecvMessage() != nullptr) {
+      metrics_->RecordReceived(labels_);
+    }
+    if (methods->QueryInterceptionHookPoint(InterceptionHookPoints::PRE_SEND_MESSAGE)) {
+      metrics_->RecordSent(labels_);
+    }
+    if (methods->QueryInterceptionHookPoint(InterceptionHookPoints::PRE_SEND_STATUS)) {
+      handled_ = true;
+      metrics_->RecordHandled(labels_, methods->GetSendStatus().error_code(), Elapsed());
+    }
+    methods->Proceed();
+  }
+
+ private:
+  double Elapsed() const {
+    return std::chrono::duration<double>(SteadyClock::now() - start_).count();
+  }
+
+  Metrics* metrics_;
+  Metrics::MethodLabels labels_;
+  SteadyClock::time_point start_;
+  bool handled_ = false;
+};
+
+class MetricsInterceptorFactory final
+    : public grpc::experimental::ServerInterceptorFactoryInterface {
+ public:
+  explicit MetricsInterceptorFactory(Metrics* metrics) : metrics_(metrics) {}
+  grpc::experimental::Interceptor* CreateServerInterceptor(ServerRpcInfo* info) override {
+    return new MetricsInterceptor(metrics_, metrics_->LabelsOf(*info));
+  }
+
+ private:
+  Metrics* metrics_;
+};
+
+// Map gauges read from the registry at scrape time, so they are never stale (a map's memory
+// grows when a new robot profile first plans on it).
+class MapCollector final : public prometheus::Collectable {
+ public:
+  explicit MapCollector(const MapRegistry* maps) : maps_(maps) {}
+
+  std::vector<prometheus::MetricFamily> Collect() const override {
+    const MapTotals totals = maps_->Totals();
+    prometheus::MetricFamily states{
+        "strata_maps", "Maps hosted, by state.", prometheus::MetricType::Gauge, {}};
+    const std::pair<const char*, int> counts[] = {
+        {"creating", totals.creating}, {"active", totals.active}, {"failed", totals.failed}};
+    for (const auto& [state, count] : counts) {
+      prometheus::ClientMetric metric;
+      metric.label = {{"state", state}};
+      metric.gauge.value = count;
+      states.metric.push_back(metric);
+    }
+    prometheus::MetricFamily memory{
+        "strata_map_memory_bytes",
+        "Bytes held by ACTIVE maps in memory (terrain models and cached traversability "
+        "graphs); with a map store, the maps loaded here.",
+        prometheus::MetricType::Gauge,
+        {}};
+    prometheus::ClientMetric bytes;
+    bytes.gauge.value = static_cast<double>(totals.active_memory_bytes);
+    memory.metric.push_back(bytes);
+    prometheus::MetricFamily budget{
+        "strata_memory_budget_bytes",
+        "--max-memory: the server's memory budget for maps, uploads and maps being made.",
+        prometheus::MetricType::Gauge,
+        {}};
+    prometheus::MetricFamily reserved{
+        "strata_memory_reserved_bytes",
+        "Bytes of the memory budget set aside beside the maps: uploads (and maps waiting to "
+        "be made from them), and --max-assessment-memory for each map being made.",
+        prometheus::MetricType::Gauge,
+        {}};
+    if (const MemoryBudget* memory = maps_->options().memory_budget.get()) {
+      prometheus::ClientMetric limit;
+      limit.gauge.value = static_cast<double>(memory->limit());
+      budget.metric.push_back(limit);
+      const std::pair<const char*, MemoryBudget::Use> uses[] = {
+          {"uploads", MemoryBudget::Use::kUploads},
+          {"assessments", MemoryBudget::Use::kAssessments}};
+      for (const auto& [name, use] : uses) {
+        prometheus::ClientMetric metric;
+        metric.label = {{"use", name}};
+        metric.gauge.value = static_cast<double>(memory->reserved(use));
+        reserved.metric.push_back(metric);
+      }
+    }
+    // One series per map while it is created, gone once it is ACTIVE or FAILED: at most
+    // --max-maps series at a time.
+    prometheus::MetricFamily creation{
+        "strata_map_creation_progress",
+        "Progress of each map being created, in [0, 1], with the step under way.",
+        prometheus::MetricType::Gauge,
+        {}};
+    for (const CreationProgress& map : totals.creating_progress) {
+      prometheus::ClientMetric metric;
+      metric.label = {{"map_id", map.id}, {"step", map.step}};
+      metric.gauge.value = map.progress;
+      creation.metric.push_back(metric);
+    }
+    return {states, memory, budget, reserved, creation};
+  }
+
+ private:
+  const MapRegistry* maps_;
+};
+
+}  // namespace
+
+Metrics::Metrics()
+    : registry_(std::make_shared<prometheus::Registry>()),
+      started_(prometheus::BuildCounter()
+                   .Name("grpc_server_started_total")
+                   .Help("Total number of RPCs started on the server.")
+                   .Register(*registry_)),
+      handled_(prometheus::BuildCounter()
+                   .Name("grpc_server_handled_total")
+                   .Help("Total number of RPCs completed on the server, regardless of success "
+                         "or failure.")
+                   .Register(*registry_)),
+      received_(prometheus::BuildCounter()
+                    .Name("grpc_server_msg_received_total")
+                    .Help("Total number of RPC stream messages received on the server.")
+                    .Register(*registry_)),
+      sent_(prometheus::BuildCounter()
+                .Name("grpc_server_msg_sent_total")
+                .Help("Total number of gRPC stream messages sent by the server.")
+                .Register(*registry_)),
+      handling_seconds_(prometheus::BuildHistogram()
+                            .Name("grpc_server_handling_seconds")
+                            .Help("Histogram of response latency (seconds) of gRPC that had "
+                                  "been application-level handled by the server.")
+                            .Register(*registry_)),
+      plans_(prometheus::BuildCounter()
+                 .Name("strata_plans_total")
+                 .Help("Plans finished, by result: OK or the error reason.")
+                 .Register(*registry_)),
+      plan_seconds_(prometheus::BuildHistogram()
+                        .Name("strata_plan_duration_seconds")
+                        .Help("Wall-clock seconds of successful plans, by stage.")
+                        .Register(*registry_)),
+      assessment_seconds_(prometheus::BuildHistogram()
+                              .Name("strata_map_assessment_seconds")
+                              .Help("Wall-clock seconds of map creation, by stage (maps that "
+                                    "became ACTIVE).")
+                              .Register(*registry_)) {}
+
+std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>
+Metrics::MakeInterceptorFactory() {
+  return std::make_unique<MetricsInterceptorFactory>(this);
+}
+
+void Metrics::ServeOn(prometheus::Exposer& exposer) {
+  exposer.RegisterCollectable(registry_);
+  if (map_collector_) exposer.RegisterCollectable(map_collector_);
+}
+
+std::string Metrics::Serialize() const {
+  std::vector<prometheus::MetricFamily> families = registry_->Collect();
+  if (map_collector_) {
+    for (auto& family : map_collector_->Collect()) families.push_back(std::move(family));
+  }
+  return prometheus::TextSerializer().Serialize(families);
+}
+
+// "/strata.v1.MapService/GetMap" -> service "strata.v1.MapService", method "GetMap".
+Metrics::MethodLabels Metrics::LabelsOf(const ServerRpcInfo& info) const {
+  const std::string_view full = info.method() != nullptr ? info.method() : "";
+  MethodLabels labels{std::string(TypeName(info.type())), "unknown", "unknown"};
+  {
+    std::shared_lock lock(known_mutex_);
+    if (!known_methods_.contains(full)) return labels;
+  }
+  const std::size_t slash = full.find('/', 1);
+  labels.service = full.substr(1, slash - 1);
+  labels.method = full.substr(slash + 1);
+  return labels;
+}
+
+void Metrics::InitializeMethod(std::string_view type, std::string_view service,
+                               std::string_view method) {
+  const MethodLabels labels{std::string(type), std::string(service), std::string(method)};
+  {
+    std::lock_guard lock(known_mutex_);
+    known_methods_.insert("/" + labels.service + "/" + labels.method);
+  }
+  started_.Add({{"grpc_type", labels.type},
+                {"grpc_service", labels.service},
+                {"grpc_method", labels.method}});
+  handling_seconds_.Add({{"grpc_type", labels.type},
+                         {"grpc_service", labels.service},
+                         {"grpc_method", labels.method}},
+                        kRpcBuckets);
+}
+
+void Metrics::WatchMaps(const MapRegistry* maps) {
+  map_collector_ = std::make_shared<MapCollector>(maps);
+}
+
+void Metrics::RecordPlan(std::string_view result, const PlanTimings* timings) {
+  plans_.Add({{"result", std::string(result)}}).Increment();
+  if (timings == nullptr) return;
+  const std::pair<const char*, double> stages[] = {{"snap", timings->snap_s},
+                                                   {"search", timings->search_s},
+                                                   {"optimize", timings->optimize_s},
+                                                   {"verify", timings->verify_s},
+                                                   {"total", timings->total_s}};
+  for (const auto& [stage, seconds] : stages) {
+    plan_seconds_.Add({{"stage", stage}}, kPlanBuckets).Observe(seconds);
+  }
+}
+
+void Metrics::RecordMapDone(const MapSnapshot& map) {
+  if (map.state != MapState::kActive) return;
+  const AssessmentTimings& t = map.summary.timings;
+  const std::pair<const char*, double> stages[] = {{"load", map.load_s},
+                                                   {"ground_filter", t.ground_filter_s},
+                                                   {"surfaces", t.surfaces_s},
+                                                   {"fields", t.fields_s},
+                                                   {"total", t.total_s}};
+  for (const auto& [stage, seconds] : stages) {
+    assessment_seconds_.Add({{"stage", stage}}, kAssessmentBuckets).Observe(seconds);
+  }
+}
+
+void Metrics::RecordStarted(const MethodLabels& l) {
+  started_.Add({{"grpc_type", l.type}, {"grpc_service", l.service}, {"grpc_method", l.method}})
+      .Increment();
+}
+
+void Metrics::RecordHandled(const MethodLabels& l, grpc::StatusCode code, double seconds) {
+  handled_
+      .Add({{"grpc_type", l.type},
+            {"grpc_service", l.service},
+            {"grpc_method", l.method},
+            {"grpc_code", std::string(GoCodeName(code))}})
+      .Increment();
+  handling_seconds_
+      .Add({{"grpc_type", l.type}, {"grpc_service", l.service}, {"grpc_method", l.method}},
+           kRpcBuckets)
+      .Observe(seconds);
+}
+
+void Metrics::RecordReceived(const MethodLabels& l) {
+  received_.Add({{"grpc_type", l.type}, {"grpc_service", l.service}, {"grpc_method", l.method}})
+      .Increment();
+}
+
+void Metrics::RecordSent(const MethodLabels& l) {
+  sent_.Add({{"grpc_type", l.type}, {"grpc_service", l.service}, {"grpc_method", l.method}})
+      .Increment();
+}
+
+}  // namespace strata::server

@@ -1,0 +1,248 @@
+// Edits made as the registry makes them: a job of the assessment queue under the same limit
+// as new maps, bounded by the call's deadline and its cancellation, published only when the
+// call still waits, and redone on the new current version when another edit overtook it.
+#include "maps/map_editor.hpp"
+
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <filesystem>
+#include <future>
+#include <map>
+#include <mutex>
+#include <thread>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "maps/map_registry.hpp"
+#include "strata/scenes/map_source.hpp"
+
+namespace strata::server {
+namespace {
+
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+using Clock = std::chrono::steady_clock;
+
+// Metadata kept in memory: the store holds a key, the table the snapshot it stands for.
+class MemoryMetadata {
+ public:
+  std::string Encode(const MapSnapshot& map) {
+    std::lock_guard lock(mutex_);
+    const std::string key = "snapshot-" + std::to_string(table_.size());
+    table_.emplace(key, map);
+    return key;
+  }
+  Result<MapSnapshot> Decode(const std::string& key) {
+    std::lock_guard lock(mutex_);
+    const auto it = table_.find(key);
+    if (it == table_.end()) return MakeError(ErrorCode::kInvalidInput, "unknown metadata " + key);
+    return it->second;
+  }
+
+ private:
+  std::mutex mutex_;
+  std::map<std::string, MapSnapshot> table_;
+};
+
+// An edit job that holds its slot until it is told to stop (as a long reassessment does when
+// its worker is killed), counting how many run at once.
+class StallingEdits {
+ public:
+  MapBuilder builder() {
+    return [this](MapBuildJob job, const BuildMonitor& monitor) -> Result<BuiltMap> {
+      if (!std::holds_alternative<EditSource>(job.source)) {
+        Expected<BuiltMap> built = BuildMapHere(std::move(job), monitor);  // A new map: for real.
+        if (!built) return ServiceError::FromPlanner(built.error());
+        return std::move(built).value();
+      }
+      {
+        std::lock_guard lock(mutex_);
+        most_ = std::max(most_, ++running_);
+        ++started_;
+      }
+      changed_.notify_all();
+      while (!monitor.should_stop()) {
+        std::unique_lock lock(mutex_);
+        changed_.wait_for(lock, std::chrono::milliseconds(5));
+      }
+      {
+        std::lock_guard lock(mutex_);
+        --running_;
+      }
+      changed_.notify_all();
+      return MakeError(ErrorCode::kCancelled, "stopped");
+    };
+  }
+  void WaitStarted(int count) {
+    std::unique_lock lock(mutex_);
+    changed_.wait(lock, [&] { return started_ >= count; });
+  }
+  int running() {
+    std::lock_guard lock(mutex_);
+    return running_;
+  }
+  int most() {
+    std::lock_guard lock(mutex_);
+    return most_;
+  }
+
+ private:
+  std::mutex mutex_;
+  std::condition_variable changed_;
+  int running_ = 0;
+  int most_ = 0;
+  int started_ = 0;
+};
+
+class MapEditorTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    root_ = fs::temp_directory_path() /
+            ("strata_map_editor_test_" + std::to_string(::getpid()) + "_" +
+             ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(root_);
+  }
+  void TearDown() override {
+    registry_.reset();
+    fs::remove_all(root_);
+  }
+
+  // A registry on a fresh store with `slots` assessment slots whose jobs `build` makes, and
+  // map "floor" (the two-level ramp scene) created on it; returns the map's version.
+  std::string StartWithFloor(int slots, MapBuilder build) {
+    RegistryOptions options;
+    options.assessment_threads = 1;
+    options.max_concurrent_assessments = slots;
+    options.build = std::move(build);
+    options.store = std::move(MapStore::Open(root_).value());
+    options.encode_metadata = [this](const MapSnapshot& map) { return metadata_.Encode(map); };
+    options.decode_metadata = [this](const std::string& key) { return metadata_.Decode(key); };
+    registry_ = std::make_unique<MapRegistry>(std::move(options));
+    EXPECT_TRUE(registry_->Create("floor", SceneMapSource{"two_level_ramp", 1}, {}).ok());
+    const Result<MapSnapshot> done =
+        registry_->WaitUntilDone("floor", Clock::time_point::max(), {});
+    EXPECT_TRUE(done.ok() && done->state == MapState::kActive);
+    return done.ok() ? done->version : "";
+  }
+
+  static MapEditRequest Obstacle(double x) {
+    MapEditRequest request;
+    request.id = "floor";
+    MapEdit edit;
+    edit.region.polygon_m = {{x, 2}, {x + 1, 2}, {x + 1, 3}, {x, 3}};
+    edit.region.z_min_m = -0.5;
+    edit.region.z_max_m = 1;
+    request.edits.push_back(edit);
+    return request;
+  }
+
+  std::string Current() { return registry_->Get("floor").value().version; }
+
+  fs::path root_;
+  MemoryMetadata metadata_;
+  std::unique_ptr<MapRegistry> registry_;
+};
+
+TEST_F(MapEditorTest, AnEditWhoseDeadlinePassesMidReassessmentLeavesTheMapAsItWas) {
+  StallingEdits edits;
+  const std::string before = StartWithFloor(1, edits.builder());
+  CallControl call;
+  call.deadline = Clock::now() + std::chrono::milliseconds(300);
+  const Result<MapUpdate> update = registry_->Update(Obstacle(2), call);
+  ASSERT_FALSE(update.ok());
+  EXPECT_EQ(update.error().code, ServiceError::Code(ErrorCode::kDeadlineExceeded));
+  EXPECT_THAT(update.error().message, HasSubstr("stays at version " + before));
+  EXPECT_EQ(edits.most(), 1);     // It was under way,
+  EXPECT_EQ(edits.running(), 0);  // and it stopped before the call answered.
+  EXPECT_EQ(Current(), before);
+  EXPECT_EQ(registry_->Get("floor").value().versions, std::vector<std::string>{before});
+}
+
+TEST_F(MapEditorTest, ACancelledEditLeavesTheMapAsItWas) {
+  StallingEdits edits;
+  const std::string before = StartWithFloor(1, edits.builder());
+  std::atomic<bool> cancelled{false};
+  CallControl call;
+  call.cancelled = [&] { return cancelled.load(); };
+  std::future<Result<MapUpdate>> update =
+      std::async(std::launch::async, [&] { return registry_->Update(Obstacle(2), call); });
+  edits.WaitStarted(1);
+  cancelled = true;
+  const Result<MapUpdate> ended = update.get();
+  ASSERT_FALSE(ended.ok());
+  EXPECT_EQ(ended.error().code, ServiceError::Code(ErrorCode::kCancelled));
+  EXPECT_EQ(Current(), before);
+}
+
+// Four edits at once with one slot ran side by side on the RPC threads; now they take turns
+// with each other (and with new maps).
+TEST_F(MapEditorTest, ConcurrentEditsNeverRunMoreJobsAtOnceThanTheLimit) {
+  for (const int slots : {1, 2}) {
+    StallingEdits edits;
+    StartWithFloor(slots, edits.builder());
+    std::atomic<bool> cancelled{false};
+    CallControl call;
+    call.cancelled = [&] { return cancelled.load(); };
+    std::vector<std::future<Result<MapUpdate>>> updates;
+    for (int i = 0; i < 4; ++i) {
+      updates.push_back(
+          std::async(std::launch::async, [&, i] { return registry_->Update(Obstacle(i), call); }));
+    }
+    edits.WaitStarted(slots);
+    cancelled = true;  // Every call ends: the ones waiting are skipped, the running ones stop.
+    for (auto& update : updates) EXPECT_FALSE(update.get().ok());
+    EXPECT_EQ(edits.most(), slots) << slots << " slots";
+    registry_.reset();
+    fs::remove_all(root_);
+  }
+}
+
+TEST_F(MapEditorTest, AnEditMakesTheNextVersionAsTheQueueRunsIt) {
+  const std::string before = StartWithFloor(1, {});  // Jobs made here, for real.
+  const Result<MapUpdate> update = registry_->Update(Obstacle(2), CallControl{});
+  ASSERT_TRUE(update.ok()) << update.error().message;
+  EXPECT_NE(update->map.version, before);
+  EXPECT_EQ(update->map.versions, (std::vector<std::string>{update->map.version, before}));
+  EXPECT_GT(update->edit.reassessed_columns, 0);
+  EXPECT_EQ(Current(), update->map.version);
+  // The new version's model is the one a fresh assessment of its cloud makes.
+  const ActiveMap edited = registry_->GetActive("floor").value();
+  Expected<LoadedCloud> cloud = strata::LoadMapSource(SceneSource{"two_level_ramp", 1});
+  ASSERT_TRUE(cloud.ok());
+  EXPECT_EQ(edited.map->model().summary().input_points, update->map.summary.input_points);
+  EXPECT_GT(update->map.summary.input_points, cloud->points.size());
+  // Against an old base version: refused, naming the current one.
+  MapEditRequest stale = Obstacle(5);
+  stale.base_version = before;
+  const Result<MapUpdate> refused = registry_->Update(stale, CallControl{});
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.error().code, ServiceError::Code(ServiceErrorCode::kMapChanged));
+  EXPECT_THAT(refused.error().message, HasSubstr(update->map.version));
+}
+
+// Keep-out zones change no terrain: they take no slot, even while the queue is busy.
+TEST_F(MapEditorTest, KeepOutZonesAloneWaitForNoSlot) {
+  StallingEdits edits;
+  const std::string before = StartWithFloor(1, edits.builder());
+  std::atomic<bool> cancelled{false};
+  CallControl held;
+  held.cancelled = [&] { return cancelled.load(); };
+  std::future<Result<MapUpdate>> busy =
+      std::async(std::launch::async, [&] { return registry_->Update(Obstacle(2), held); });
+  edits.WaitStarted(1);
+  MapEditRequest zone;
+  zone.id = "floor";
+  zone.add_keep_out.push_back(Obstacle(6).edits.front().region);
+  const Result<MapUpdate> zoned = registry_->Update(zone, CallControl{});
+  cancelled = true;
+  ASSERT_TRUE(zoned.ok()) << zoned.error().message;
+  EXPECT_EQ(zoned->map.keep_out.size(), 1u);
+  EXPECT_NE(zoned->map.version, before);
+  EXPECT_FALSE(busy.get().ok());
+}
+
+}  // namespace
+}  // namespace strata::server

@@ -1,0 +1,179 @@
+// The two homes of published maps keep one contract: the same answers from memory and from
+// the map store, but for what only a store can do (edits, letting a map go and loading it
+// again).
+#include "maps/published_maps.hpp"
+
+#include <unistd.h>
+
+#include <filesystem>
+#include <map>
+#include <mutex>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "maps/map_store.hpp"
+#include "maps/memory_maps.hpp"
+#include "maps/stored_maps.hpp"
+
+namespace strata::server {
+namespace {
+
+namespace fs = std::filesystem;
+using ::testing::ElementsAre;
+using ::testing::HasSubstr;
+
+// A flat 3 m x 3 m floor sampled every 5 cm, `height` m up: assessed in milliseconds.
+std::shared_ptr<const PlanningMap> FloorAt(float height, PointCloud* cloud) {
+  for (int i = 0; i < 60; ++i) {
+    for (int j = 0; j < 60; ++j) cloud->emplace_back(0.05f * i, 0.05f * j, height);
+  }
+  AssessmentConfig config;
+  config.num_threads = 1;
+  return std::make_shared<PlanningMap>(TerrainModel::Assess(*cloud, config).value(),
+                                       std::vector<Prism>{}, 0);
+}
+
+ServiceError::Code CodeOf(const ServiceStatus& status) {
+  return status.ok() ? ServiceError::Code(ErrorCode::kInvalidInput) : status.error().code;
+}
+
+class PublishedMapsTest : public ::testing::TestWithParam<bool> {
+ protected:
+  void SetUp() override {
+    if (!GetParam()) {
+      published_ = std::make_unique<MemoryMaps>();
+      return;
+    }
+    static int next = 0;
+    root_ = fs::temp_directory_path() / ("strata_published_maps_test_" +
+                                         std::to_string(::getpid()) + "_" + std::to_string(next++));
+    fs::remove_all(root_);
+    StoredMapsOptions options;
+    options.store = std::move(MapStore::Open(root_).value());
+    options.encode_metadata = [this](const MapSnapshot& map) {
+      std::lock_guard lock(mutex_);
+      const std::string key = "m" + std::to_string(metadata_.size());
+      metadata_[key] = map;
+      return key;
+    };
+    options.decode_metadata = [this](const std::string& key) -> Result<MapSnapshot> {
+      std::lock_guard lock(mutex_);
+      return metadata_.at(key);
+    };
+    options.make_planning = [](std::shared_ptr<const TerrainModel> model,
+                               std::vector<Prism> keep_out) {
+      return std::make_shared<PlanningMap>(std::move(model), std::move(keep_out), 0);
+    };
+    published_ = std::make_unique<StoredMaps>(std::move(options));
+  }
+  void TearDown() override {
+    published_.reset();
+    if (!root_.empty()) fs::remove_all(root_);
+  }
+
+  // Publishes map `id` at `version` (a floor `height` m up).
+  ServiceStatus Publish(const std::string& id, const std::string& version, float height) {
+    MapSnapshot map;
+    map.id = id;
+    map.state = MapState::kActive;
+    map.version = version;
+    map.versions = {version};
+    PointCloud cloud;
+    const auto planning = FloorAt(height, &cloud);
+    return published_->PublishNew(map, planning, cloud);
+  }
+
+  fs::path root_;
+  std::mutex mutex_;
+  std::map<std::string, MapSnapshot> metadata_;
+  std::unique_ptr<PublishedMaps> published_;
+};
+
+const std::string kV1(32, 'a');
+const std::string kV2(32, 'b');
+
+TEST_P(PublishedMapsTest, AnswersForWhatItPublished) {
+  ASSERT_TRUE(Publish("floor", kV1, 0).ok());
+  EXPECT_THAT(published_->Versions("floor").value(), ElementsAre(kV1));
+  const ActiveMap current = published_->Get("floor", "").value();
+  EXPECT_EQ(current.version, kV1);
+  EXPECT_EQ(published_->Get("floor", kV1).value().map, current.map);
+  const Result<ActiveMap> other = published_->Get("floor", kV2);
+  ASSERT_FALSE(other.ok());
+  EXPECT_EQ(other.error().code, ServiceError::Code(ServiceErrorCode::kMapVersionNotFound));
+  EXPECT_THAT(other.error().message, HasSubstr(kV1));
+  const MapSnapshot described = published_->Describe("floor").value();
+  EXPECT_EQ(described.version, kV1);
+  EXPECT_EQ(described.state, MapState::kActive);
+  EXPECT_GT(described.memory_bytes, 0u);
+  EXPECT_EQ(published_->HeldCount(), 1);
+  EXPECT_GT(published_->HeldBytes(), 0u);
+  EXPECT_EQ(published_->PinnedCount(), GetParam() ? 0 : 1);
+
+  ASSERT_TRUE(Publish("ramp", kV2, 1).ok());
+  std::vector<std::string> listed;
+  for (const MapSnapshot& map : published_->List("", 10)) listed.push_back(map.id);
+  EXPECT_THAT(listed, ElementsAre("floor", "ramp"));
+  ASSERT_EQ(published_->List("floor", 10).size(), 1u);
+  EXPECT_EQ(published_->List("", 1).size(), 1u);
+}
+
+TEST_P(PublishedMapsTest, AnIdIsPublishedOnceAndDeletedOnce) {
+  ASSERT_TRUE(Publish("floor", kV1, 0).ok());
+  EXPECT_TRUE(Publish("floor", kV1, 0).ok());  // The same map made twice: one map.
+  EXPECT_EQ(CodeOf(Publish("floor", kV2, 1)),
+            ServiceError::Code(ServiceErrorCode::kMapAlreadyExists));
+  ASSERT_TRUE(published_->Delete("floor").ok());
+  EXPECT_EQ(CodeOf(published_->Delete("floor")),
+            ServiceError::Code(ServiceErrorCode::kMapNotFound));
+  const Result<std::vector<std::string>> gone = published_->Versions("floor");
+  ASSERT_FALSE(gone.ok());
+  EXPECT_EQ(gone.error().code, ServiceError::Code(ServiceErrorCode::kMapNotFound));
+  EXPECT_FALSE(published_->Get("floor", "").ok());
+  EXPECT_FALSE(published_->Describe("floor").ok());
+}
+
+TEST_P(PublishedMapsTest, OnlyAStoreKeepsWhatEditsNeed) {
+  ASSERT_TRUE(Publish("floor", kV1, 0).ok());
+  EXPECT_EQ(published_->KeepsClouds(), GetParam());
+  MapSnapshot next = published_->Describe("floor").value();
+  next.version = kV2;
+  next.versions = {kV2, kV1};
+  PointCloud cloud;
+  std::shared_ptr<const PlanningMap> planning = FloorAt(0.5f, &cloud);
+  const ServiceStatus edited = published_->PublishEdit(kV1, next, planning, cloud);
+  if (!GetParam()) {
+    EXPECT_EQ(CodeOf(edited), ServiceError::Code(ServiceErrorCode::kMapStoreRequired));
+    EXPECT_EQ(CodeOf(published_->OpenFiles("floor", kV1).error()),
+              ServiceError::Code(ServiceErrorCode::kMapStoreRequired));
+    return;
+  }
+  ASSERT_TRUE(edited.ok()) << edited.error().message;
+  EXPECT_THAT(published_->Versions("floor").value(), ElementsAre(kV2, kV1));
+  EXPECT_EQ(published_->Get("floor", "").value().map, planning);
+  // A second edit of the old base loses the compare-and-swap.
+  MapSnapshot stale = next;
+  stale.version = std::string(32, 'c');
+  EXPECT_EQ(CodeOf(published_->PublishEdit(kV1, stale, planning, cloud)),
+            ServiceError::Code(ServiceErrorCode::kMapChanged));
+  // The files an edit reads, and the cloud.
+  const VersionFiles files = published_->OpenFiles("floor", kV2).value();
+  EXPECT_GE(files.cloud->fd(), 0);
+  EXPECT_GE(files.model->fd(), 0);
+  EXPECT_EQ(published_->LoadCloud("floor", kV2).value().size(), cloud.size());
+  // A version no plan holds is let go, and loaded again on demand.
+  planning.reset();
+  published_->TrimTo(0);
+  EXPECT_EQ(published_->HeldCount(), 0);
+  EXPECT_EQ(published_->Get("floor", kV1).value().map->model().summary().input_points,
+            cloud.size());
+}
+
+INSTANTIATE_TEST_SUITE_P(MemoryAndStore, PublishedMapsTest, ::testing::Bool(),
+                         [](const ::testing::TestParamInfo<bool>& info) {
+                           return info.param ? "StoredMaps" : "MemoryMaps";
+                         });
+
+}  // namespace
+}  // namespace strata::server
