@@ -488,47 +488,43 @@ void MergeLegStats(const PlanStats& leg, const RobotProfile& profile, PlanStats*
   total->timings.verify_s += leg.timings.verify_s;
 }
 
-// Searches, optimises and verifies one leg through `points` (its first the leg's start, its
-// last the leg's end, flow-through vias between): the A* paths between consecutive points,
-// shortened and joined, initialise a trajectory that passes exactly through each via
-// (pinned waypoints); retries and the slow fallback as Plan documents.
-Expected<Leg> PlanLeg(const LegContext& ctx, std::span<const RoutePoint> points,
-                      const RobotState& head, const RobotState& tail) {
+// A leg's paths: the A* paths between its consecutive points, shortened and joined, and as
+// found (the fallback's second way), with where the flow-through vias lie in each.
+struct LegPaths {
+  PathResult shortened;
+  std::vector<std::size_t> shortened_vias;
+  PathResult searched;
+  std::vector<std::size_t> searched_vias;
+};
+
+// Searches each stretch of the leg between consecutive `points`; the vias are where they join.
+Expected<LegPaths> SearchLeg(const LegContext& ctx, std::span<const RoutePoint> points,
+                             PlanStats* stats) {
   const SurfaceGraph& graph = ctx.graph;
-  const RobotProfile& profile = ctx.profile;
-  const PlanOptions& options = ctx.options;
-  StopCondition& stop = ctx.stop;
-  Leg leg;
-  PlanStats& stats = leg.stats;
   const std::span<const KeepOutZone> zones = ctx.zones;
   std::vector<int> blocked_nodes(zones.size(), 0);  // Per zone, nodes the search left out.
   std::function<bool(int)> blocked;
   if (!zones.empty()) {
     blocked = [&](int node) {
-      const int zone = FirstViolatedKeepOut(zones, profile, graph.position(node));
+      const int zone = FirstViolatedKeepOut(zones, ctx.profile, graph.position(node));
       if (zone < 0) return false;
       ++blocked_nodes[zone];
       return true;
     };
   }
-
-  // Search each stretch between consecutive points; the vias are where they join.
-  Clock::time_point stage = Clock::now();
-  std::vector<std::size_t> via_indices;  // Of the flow-through vias in leg.path.points_m.
-  // The searched paths as found, joined the same way: the fallback's second way.
-  PathResult grid_path;
-  std::vector<std::size_t> grid_via_indices;
+  const Clock::time_point stage = Clock::now();
+  LegPaths paths;
   for (std::size_t k = 0; k + 1 < points.size(); ++k) {
     const RoutePoint& from = points[k];
     const RoutePoint& to = points[k + 1];
     // The search runs on the plan's own budget (through stop), the only one a caller sets.
     SearchStats search_stats;
-    Expected<PathResult> path = SearchPath(graph, from.snap.node, to.snap.node, options.search,
-                                           stop.AsFunction(), &search_stats, blocked);
-    stats.search_expansions += search_stats.expansions;
+    Expected<PathResult> path = SearchPath(graph, from.snap.node, to.snap.node, ctx.options.search,
+                                           ctx.stop.AsFunction(), &search_stats, blocked);
+    stats->search_expansions += search_stats.expansions;
     if (!path) {
-      stats.timings.search_s += SecondsSince(stage);
-      if (stop.stopped()) return stop.Reason(options.time_budget_s, "the path search");
+      stats->timings.search_s += SecondsSince(stage);
+      if (ctx.stop.stopped()) return ctx.stop.Reason(ctx.options.time_budget_s, "the path search");
       Error error = std::move(path).error();
       std::string in_the_way;  // The zones the search met, by name.
       for (std::size_t i = 0; i < zones.size(); ++i) {
@@ -553,88 +549,90 @@ Expected<Leg> PlanLeg(const LegContext& ctx, std::span<const RoutePoint> points,
     }
     // Straightened inside the traversable corridor: the optimiser starts near the smooth
     // answer instead of the grid's zigzag.
-    AppendPath(ShortenPath(graph, *path, options.search, {}, blocked), &leg.path);
-    AppendPath(*path, &grid_path);
+    AppendPath(ShortenPath(graph, *path, ctx.options.search, {}, blocked), &paths.shortened);
+    AppendPath(*path, &paths.searched);
     if (k + 2 < points.size()) {
-      via_indices.push_back(leg.path.points_m.size() - 1);
-      grid_via_indices.push_back(grid_path.points_m.size() - 1);
+      paths.shortened_vias.push_back(paths.shortened.points_m.size() - 1);
+      paths.searched_vias.push_back(paths.searched.points_m.size() - 1);
     }
   }
-  stats.timings.search_s += SecondsSince(stage);
+  stats->timings.search_s += SecondsSince(stage);
+  return paths;
+}
 
-  // Optimise and verify; a failed verification retries with stiffer penalties.
-  // The points a trajectory starts from: a path's, its ends the states' and its vias the
-  // snapped ones.
-  const auto waypoints_of = [&](std::vector<Eigen::Vector3d> path_points,
-                                std::span<const std::size_t> vias) {
-    path_points.front() = head.position_m;
-    path_points.back() = tail.position_m;
-    for (std::size_t v = 0; v < vias.size(); ++v) {
-      path_points[vias[v]] = points[v + 1].snap.position_m;
-    }
-    if (path_points.size() < 2) path_points.push_back(tail.position_m);
-    return path_points;
-  };
-  const std::vector<Eigen::Vector3d> waypoints = waypoints_of(leg.path.points_m, via_indices);
-  // The leg's trajectory and when it passes its vias.
-  const auto finish = [&](Trajectory trajectory, const OptimizationProblem& problem) {
-    for (const int column : problem.pinned_waypoints) {
-      leg.via_times_s.push_back(TimeAtWaypoint(trajectory, column));
-    }
-    leg.trajectory = std::move(trajectory);
-    return std::move(leg);
-  };
-  OptimizerConfig config = options.optimizer;
-  Error last_failure{ErrorCode::kOptimizationFailed, "no optimisation attempt ran"};
-  for (int k = 0; k < options.max_attempts; ++k) {
-    const TrajectoryCost cost(graph, config.weights, CostParams{profile, config.cost}, zones);
-    const OptimizationProblem problem =
-        MakeInitialProblem(cost, waypoints, head, tail, config, via_indices);
-    Expected<Trajectory> trajectory =
-        OptimizeAndVerify(graph, profile, zones, problem, config, options.verifier, stop, &stats);
-    if (trajectory) return finish(std::move(trajectory).value(), problem);
-    if (stop.stopped()) return stop.Reason(options.time_budget_s, "trajectory optimisation");
-    if (trajectory.error().code != ErrorCode::kOptimizationFailed) return trajectory.error();
-    last_failure = trajectory.error();
-    if (stop()) return stop.Reason(options.time_budget_s, "trajectory verification");
-    // Stiffer penalties for the next attempt (PlanOptions::max_attempts documents them).
-    // Not S', the smooth safety field: stiffening it, which every retry used to, pushed the
-    // trajectory harder against the rim in passages whose ground is rough on both sides.
-    config.cost.distance_stiffness *= 4;
-    config.weights.edge *= 4;
-    config.weights.ground *= 4;
-    config.cost.ground_band_m *= 0.25;
-    config.weights.feasibility *= 4;
-    config.weights.keep_out *= 4;
-    config.piece_length_m *= 0.7;
-    config.cost.limit_margin *= 0.95;
-    config.initial_speed_fraction *= 0.75;
+// The points a leg's trajectory starts from: a path's, its ends the states' and its vias the
+// snapped ones.
+std::vector<Eigen::Vector3d> WaypointsOf(std::vector<Eigen::Vector3d> path_points,
+                                         std::span<const std::size_t> vias,
+                                         std::span<const RoutePoint> points, const RobotState& head,
+                                         const RobotState& tail) {
+  path_points.front() = head.position_m;
+  path_points.back() = tail.position_m;
+  for (std::size_t v = 0; v < vias.size(); ++v) {
+    path_points[vias[v]] = points[v + 1].snap.position_m;
   }
-  // The last resort: the path itself, slowly, marked as such for the dispatcher. First the
-  // shortened path, then the searched one as found: its steps go from column centre to
-  // column centre, where the shortened path's lines may cross a column whose ground the
-  // interpolation between columns misjudges (a ramp's edge).
-  stage = Clock::now();
-  const TrajectoryCost cost(graph, config.weights, CostParams{profile, config.cost}, zones);
+  if (path_points.size() < 2) path_points.push_back(tail.position_m);
+  return path_points;
+}
+
+// Stiffer penalties for the next attempt (PlanOptions::max_attempts documents them). Not S',
+// the smooth safety field: stiffening it, which every retry used to, pushed the trajectory
+// harder against the rim in passages whose ground is rough on both sides.
+void StiffenForRetry(OptimizerConfig* config) {
+  config->cost.distance_stiffness *= 4;
+  config->weights.edge *= 4;
+  config->weights.ground *= 4;
+  config->cost.ground_band_m *= 0.25;
+  config->weights.feasibility *= 4;
+  config->weights.keep_out *= 4;
+  config->piece_length_m *= 0.7;
+  config->cost.limit_margin *= 0.95;
+  config->initial_speed_fraction *= 0.75;
+}
+
+// The leg's trajectory and when it passes its vias.
+Leg FinishLeg(Leg leg, Trajectory trajectory, const OptimizationProblem& problem) {
+  for (const int column : problem.pinned_waypoints) {
+    leg.via_times_s.push_back(TimeAtWaypoint(trajectory, column));
+  }
+  leg.trajectory = std::move(trajectory);
+  return leg;
+}
+
+// The last resort: the path itself, slowly, marked as such for the dispatcher. First the
+// shortened path, then the searched one as found: its steps go from column centre to column
+// centre, where the shortened path's lines may cross a column whose ground the interpolation
+// between columns misjudges (a ramp's edge).
+Expected<Leg> FallbackLeg(const LegContext& ctx, std::span<const RoutePoint> points,
+                          const RobotState& head, const RobotState& tail, LegPaths paths,
+                          const std::vector<Eigen::Vector3d>& waypoints,
+                          const OptimizerConfig& config, Error last_failure, Leg leg) {
+  const PlanOptions& options = ctx.options;
+  PlanStats& stats = leg.stats;
+  Clock::time_point stage = Clock::now();
+  const TrajectoryCost cost(ctx.graph, config.weights, CostParams{ctx.profile, config.cost},
+                            ctx.zones);
   for (const bool shortened : {true, false}) {
-    const std::span<const std::size_t> vias = shortened ? via_indices : grid_via_indices;
-    const OptimizationProblem fallback =
-        MakeFallbackProblem(cost, shortened ? waypoints : waypoints_of(grid_path.points_m, vias),
-                            head, tail, options.verifier.min_obstacle_distance_m, vias);
-    Trajectory slow = SlowTrajectory(fallback, profile);
+    const std::span<const std::size_t> vias =
+        shortened ? paths.shortened_vias : paths.searched_vias;
+    const OptimizationProblem fallback = MakeFallbackProblem(
+        cost,
+        shortened ? waypoints : WaypointsOf(paths.searched.points_m, vias, points, head, tail),
+        head, tail, options.verifier.min_obstacle_distance_m, vias);
+    Trajectory slow = SlowTrajectory(fallback, ctx.profile);
     VerificationReport verification;
     const Status verified =
-        VerifyTrajectory(graph, profile, slow, options.verifier, &verification, zones);
+        VerifyTrajectory(ctx.graph, ctx.profile, slow, options.verifier, &verification, ctx.zones);
     stats.timings.verify_s += SecondsSince(stage);
     stage = Clock::now();
     if (verified) {
-      FillStats(slow, verification, profile, &stats);
+      FillStats(slow, verification, ctx.profile, &stats);
       stats.fallback = true;
       stats.fallback_reason = last_failure.message;
-      if (!shortened) leg.path = std::move(grid_path);  // The path the trajectory follows.
-      return finish(std::move(slow), fallback);
+      if (!shortened) leg.path = std::move(paths.searched);  // The path the trajectory follows.
+      return FinishLeg(std::move(leg), std::move(slow), fallback);
     }
-    if (stop()) return stop.Reason(options.time_budget_s, "the slow fallback");
+    if (ctx.stop()) return ctx.stop.Reason(options.time_budget_s, "the slow fallback");
   }
   char buf[64];
   std::snprintf(buf, sizeof(buf), " (after %d attempts and the slow fallback)",
@@ -643,11 +641,214 @@ Expected<Leg> PlanLeg(const LegContext& ctx, std::span<const RoutePoint> points,
   return last_failure;
 }
 
+// Searches, optimises and verifies one leg through `points` (its first the leg's start, its
+// last the leg's end, flow-through vias between): the A* paths between consecutive points,
+// shortened and joined, initialise a trajectory that passes exactly through each via
+// (pinned waypoints); retries and the slow fallback as Plan documents.
+Expected<Leg> PlanLeg(const LegContext& ctx, std::span<const RoutePoint> points,
+                      const RobotState& head, const RobotState& tail) {
+  const PlanOptions& options = ctx.options;
+  Leg leg;
+  Expected<LegPaths> paths = SearchLeg(ctx, points, &leg.stats);
+  if (!paths) return std::move(paths).error();
+  leg.path = paths->shortened;
+  const std::vector<Eigen::Vector3d> waypoints =
+      WaypointsOf(leg.path.points_m, paths->shortened_vias, points, head, tail);
+  // Optimise and verify; a failed verification retries with stiffer penalties.
+  OptimizerConfig config = options.optimizer;
+  Error last_failure{ErrorCode::kOptimizationFailed, "no optimisation attempt ran"};
+  for (int k = 0; k < options.max_attempts; ++k) {
+    const TrajectoryCost cost(ctx.graph, config.weights, CostParams{ctx.profile, config.cost},
+                              ctx.zones);
+    const OptimizationProblem problem =
+        MakeInitialProblem(cost, waypoints, head, tail, config, paths->shortened_vias);
+    Expected<Trajectory> trajectory = OptimizeAndVerify(
+        ctx.graph, ctx.profile, ctx.zones, problem, config, options.verifier, ctx.stop, &leg.stats);
+    if (trajectory) return FinishLeg(std::move(leg), std::move(trajectory).value(), problem);
+    if (ctx.stop.stopped()) {
+      return ctx.stop.Reason(options.time_budget_s, "trajectory optimisation");
+    }
+    if (trajectory.error().code != ErrorCode::kOptimizationFailed) return trajectory.error();
+    last_failure = trajectory.error();
+    if (ctx.stop()) return ctx.stop.Reason(options.time_budget_s, "trajectory verification");
+    StiffenForRetry(&config);
+  }
+  return FallbackLeg(ctx, points, head, tail, std::move(paths).value(), waypoints, config,
+                     std::move(last_failure), std::move(leg));
+}
+
 // At rest at `p`: where a leg ends at a stop and the next begins.
 RobotState AtRest(const Eigen::Vector3d& p) {
   RobotState state;
   state.position_m = p;
   return state;
+}
+
+// Off the ground, the position is what the caller must change.
+Error Blame(Error error, const std::string& field) {
+  error.field = field;
+  return error;
+}
+
+// The route's points in order (start, the vias, goal), snapped onto `graph`; the snaps go
+// into `result` too.
+Expected<std::vector<RoutePoint>> SnapRoute(const SurfaceGraph& graph, const PlanRequest& request,
+                                            PlanResult* result) {
+  const PlanOptions& options = request.options;
+  const double min_distance = options.verifier.min_obstacle_distance_m;
+  Expected<SnapResult> start =
+      SnapEndpoint(graph, request.start.position_m, options.snap_tolerance_m,
+                   ErrorCode::kStartOffGround, min_distance);
+  if (!start) return Blame(std::move(start).error(), "start.position_m");
+  Expected<SnapResult> goal = SnapEndpoint(graph, request.goal.position_m, options.snap_tolerance_m,
+                                           ErrorCode::kGoalOffGround, min_distance);
+  if (!goal) return Blame(std::move(goal).error(), "goal.position_m");
+  result->start = *start;
+  result->goal = *goal;
+  std::vector<RoutePoint> route = {{*start, "start"}};
+  for (std::size_t i = 0; i < request.via.size(); ++i) {
+    const std::string name = "via[" + std::to_string(i) + "]";
+    Expected<SnapResult> via =
+        SnapEndpoint(graph, request.via[i].position_m, options.snap_tolerance_m,
+                     ErrorCode::kGoalOffGround, min_distance);
+    if (!via) {
+      Error error = std::move(via).error();
+      if (error.message.starts_with("goal ")) error.message.replace(0, 4, name);
+      return Blame(std::move(error), name + ".position_m");
+    }
+    result->via.push_back(*via);
+    route.push_back({*via, name});
+  }
+  route.push_back({*goal, "goal"});
+  return route;
+}
+
+// What makes a route impossible before any search: an end (or a via) inside a keep-out zone
+// (the search steps around the zones, the graph stays as it is, shared by every request), a
+// via (or the goal after one) in another connected component than the point before it
+// (without vias the search says so for the goal), two consecutive points on one node (a leg
+// of no length).
+Status CheckRoute(const PlanningMap& map, const SurfaceGraph& graph, const PlanRequest& request,
+                  std::span<const RoutePoint> route, std::span<const KeepOutZone> zones) {
+  const RobotProfile& profile = request.profile;
+  for (const RoutePoint& point : route) {
+    const Eigen::Vector3d& p = point.snap.position_m;
+    if (const int zone = FirstViolatedKeepOut(zones, profile, p); zone >= 0) {
+      return InKeepOut(
+          point.name == "start" ? ErrorCode::kStartInKeepOut : ErrorCode::kGoalInKeepOut,
+          point.name.c_str(), p, zones[zone], profile,
+          static_cast<std::size_t>(zone) < map.keep_out().size());
+    }
+  }
+  for (std::size_t i = 1; i < route.size() && !request.via.empty(); ++i) {
+    const RoutePoint& from = route[i - 1];
+    const RoutePoint& to = route[i];
+    if (graph.component(from.snap.node) == graph.component(to.snap.node)) continue;
+    // The search refuses without expanding, with the components' labels and sizes.
+    Error error =
+        SearchPath(graph, from.snap.node, to.snap.node, request.options.search, {}).error();
+    error.message = to.name + " " + internal::FormatPoint(to.snap.position_m) +
+                    " m is not connected to " + from.name + " " +
+                    internal::FormatPoint(from.snap.position_m) +
+                    " m over traversable ground (they lie in different connected components): "
+                    "move " +
+                    to.name + " or drop it";
+    if (i + 1 < route.size()) error.field = to.name;
+    return error;
+  }
+  for (std::size_t i = 1; i < route.size(); ++i) {
+    if (request.via.empty() || route[i - 1].snap.node != route[i].snap.node) continue;
+    const RoutePoint& named = i + 1 < route.size() ? route[i] : route[i - 1];
+    return Error{ErrorCode::kInvalidInput,
+                 route[i].name + " " + internal::FormatPoint(route[i].snap.position_m) +
+                     " m snaps to the same ground cell as " + route[i - 1].name + " " +
+                     internal::FormatPoint(route[i - 1].snap.position_m) + " m: drop " +
+                     named.name + " or move it",
+                 named.name};
+  }
+  return Status::Ok();
+}
+
+// A replan along the trajectory the robot follows starts from its remainder, with no search:
+// true when that verified (the result is complete). A warm start that does not fit, or fails
+// verification, leaves the plan to be made from scratch, its timings and attempts counted.
+Expected<bool> TryWarmStart(const LegContext& ctx, const WarmStart& warm_start,
+                            const RobotState& head, const RobotState& tail, PlanResult* result) {
+  const OptimizerConfig& config = ctx.options.optimizer;
+  PlanStats& stats = result->stats;
+  const TrajectoryCost cost(ctx.graph, config.weights, CostParams{ctx.profile, config.cost},
+                            ctx.zones);
+  Expected<OptimizationProblem> warm = MakeWarmProblem(cost, warm_start, head, tail);
+  if (!warm) return false;
+  PlanStats warm_stats = stats;
+  Expected<Trajectory> trajectory =
+      OptimizeAndVerify(ctx.graph, ctx.profile, ctx.zones, *warm, config, ctx.options.verifier,
+                        ctx.stop, &warm_stats);
+  if (trajectory) {
+    result->trajectory = std::move(trajectory).value();
+    stats = warm_stats;
+    stats.warm_started = true;
+    return true;
+  }
+  if (ctx.stop.stopped()) {
+    return ctx.stop.Reason(ctx.options.time_budget_s, "trajectory optimisation");
+  }
+  if (trajectory.error().code != ErrorCode::kOptimizationFailed) return trajectory.error();
+  // Its timings and attempts count; its figures were not kept.
+  stats.timings = warm_stats.timings;
+  stats.optimizer_attempts = warm_stats.optimizer_attempts;
+  stats.optimizer_iterations = warm_stats.optimizer_iterations;
+  return false;
+}
+
+// Adds a later leg's pieces and path to the route's.
+void AppendLeg(Leg leg, PlanResult* result) {
+  result->trajectory.pieces.insert(result->trajectory.pieces.end(), leg.trajectory.pieces.begin(),
+                                   leg.trajectory.pieces.end());
+  PathResult& path = result->path;
+  path.points_m.insert(path.points_m.end(), leg.path.points_m.begin() + 1, leg.path.points_m.end());
+  path.nodes.insert(path.nodes.end(), leg.path.nodes.begin() + 1, leg.path.nodes.end());
+  path.length_m += leg.path.length_m;
+  path.cost += leg.path.cost;
+  path.expansions += leg.path.expansions;
+}
+
+// Plans the route leg by leg: legs end at the stops, each planned from rest to rest, and their
+// pieces are joined.
+Status PlanLegs(const LegContext& ctx, const PlanRequest& request,
+                std::span<const RoutePoint> route, const RobotState& head, const RobotState& tail,
+                PlanResult* result) {
+  PlanStats& stats = result->stats;
+  std::size_t leg_begin = 0;
+  for (std::size_t i = 1; i < route.size(); ++i) {
+    const bool last = i + 1 == route.size();
+    if (!last && !request.via[i - 1].stop) continue;
+    const RobotState leg_head = leg_begin == 0 ? head : AtRest(route[leg_begin].snap.position_m);
+    const RobotState leg_tail = last ? tail : AtRest(route[i].snap.position_m);
+    Expected<Leg> leg =
+        PlanLeg(ctx, route.subspan(leg_begin, i - leg_begin + 1), leg_head, leg_tail);
+    if (!leg) return std::move(leg).error();
+    const double leg_start_s = result->trajectory.TotalDuration();
+    for (const double t : leg->via_times_s) result->via_times_s.push_back(leg_start_s + t);
+    if (leg_begin == 0) {
+      // The snap's timing, and a warm start's that did not pass, count too.
+      const PlanStats before = stats;
+      stats = leg->stats;
+      stats.timings.snap_s += before.timings.snap_s;
+      stats.timings.optimize_s += before.timings.optimize_s;
+      stats.timings.verify_s += before.timings.verify_s;
+      stats.optimizer_attempts += before.optimizer_attempts;
+      stats.optimizer_iterations += before.optimizer_iterations;
+      result->trajectory = std::move(leg->trajectory);
+      result->path = std::move(leg->path);
+    } else {
+      MergeLegStats(leg->stats, request.profile, &stats);
+      AppendLeg(std::move(leg).value(), result);
+    }
+    if (!last) result->via_times_s.push_back(result->trajectory.TotalDuration());
+    leg_begin = i;
+  }
+  return Status::Ok();
 }
 
 }  // namespace
@@ -662,12 +863,11 @@ Expected<PlanResult> Plan(const PlanningMap& map, const PlanRequest& request,
   const auto deadline = start_time + std::chrono::duration_cast<Clock::duration>(
                                          std::chrono::duration<double>(options.time_budget_s));
   StopCondition stop(should_stop, deadline);
-
   PlanResult result;
   PlanStats& stats = result.stats;
 
-  // Snap.
-  Clock::time_point stage = Clock::now();
+  // Snap the route's points onto the robot's graph.
+  const Clock::time_point stage = Clock::now();
   Expected<std::shared_ptr<const SurfaceGraph>> graph_or =
       map.Graph(profile.Traversability(), stop.AsFunction());
   if (!graph_or) {
@@ -675,151 +875,32 @@ Expected<PlanResult> Plan(const PlanningMap& map, const PlanRequest& request,
     return graph_or.error();
   }
   const SurfaceGraph& graph = **graph_or;
-  // Off the ground, the position is what the caller must change.
-  const auto blame = [](Error error, const std::string& field) {
-    error.field = field;
-    return error;
-  };
-  const double min_distance = options.verifier.min_obstacle_distance_m;
-  Expected<SnapResult> start =
-      SnapEndpoint(graph, request.start.position_m, options.snap_tolerance_m,
-                   ErrorCode::kStartOffGround, min_distance);
-  if (!start) return blame(std::move(start).error(), "start.position_m");
-  Expected<SnapResult> goal = SnapEndpoint(graph, request.goal.position_m, options.snap_tolerance_m,
-                                           ErrorCode::kGoalOffGround, min_distance);
-  if (!goal) return blame(std::move(goal).error(), "goal.position_m");
-  result.start = *start;
-  result.goal = *goal;
-  // The route's points in order: start, the vias, goal.
-  std::vector<RoutePoint> route = {{*start, "start"}};
-  for (std::size_t i = 0; i < request.via.size(); ++i) {
-    const std::string name = "via[" + std::to_string(i) + "]";
-    Expected<SnapResult> via =
-        SnapEndpoint(graph, request.via[i].position_m, options.snap_tolerance_m,
-                     ErrorCode::kGoalOffGround, min_distance);
-    if (!via) {
-      Error error = std::move(via).error();
-      if (error.message.starts_with("goal ")) error.message.replace(0, 4, name);
-      return blame(std::move(error), name + ".position_m");
-    }
-    result.via.push_back(*via);
-    route.push_back({*via, name});
-  }
-  route.push_back({*goal, "goal"});
+  Expected<std::vector<RoutePoint>> route = SnapRoute(graph, request, &result);
+  if (!route) return std::move(route).error();
   RobotState head = request.start, tail = request.goal;
   head.position_m = result.start.position_m;
   tail.position_m = result.goal.position_m;
   stats.timings.snap_s = SecondsSince(stage);
 
   // Keep-out zones: the trajectory's ends (and vias) must lie outside every zone; the search
-  // steps around them (the graph stays as it is, shared by every request), the optimiser's J_k
-  // keeps the trajectory out with a margin and the verifier checks every sample.
+  // steps around them, the optimiser's J_k keeps the trajectory out with a margin and the
+  // verifier checks every sample.
   const std::vector<KeepOutZone> zones = CollectKeepOut(map, request.keep_out);
-  const auto is_map_zone = [&](int zone) {
-    return static_cast<std::size_t>(zone) < map.keep_out().size();
-  };
-  for (const RoutePoint& point : route) {
-    const Eigen::Vector3d& p = point.snap.position_m;
-    if (const int zone = FirstViolatedKeepOut(zones, profile, p); zone >= 0) {
-      return InKeepOut(
-          point.name == "start" ? ErrorCode::kStartInKeepOut : ErrorCode::kGoalInKeepOut,
-          point.name.c_str(), p, zones[zone], profile, is_map_zone(zone));
-    }
+  if (Status possible = CheckRoute(map, graph, request, *route, zones); !possible) {
+    return std::move(possible).error();
   }
-  // A via (or the goal after one) the robot cannot get to from the point before it, known
-  // from the components at once; without vias the search says so for the goal.
-  for (std::size_t i = 1; i < route.size() && !request.via.empty(); ++i) {
-    const RoutePoint& from = route[i - 1];
-    const RoutePoint& to = route[i];
-    if (graph.component(from.snap.node) == graph.component(to.snap.node)) continue;
-    // The search refuses without expanding, with the components' labels and sizes.
-    Error error = SearchPath(graph, from.snap.node, to.snap.node, options.search, {}).error();
-    error.message = to.name + " " + internal::FormatPoint(to.snap.position_m) +
-                    " m is not connected to " + from.name + " " +
-                    internal::FormatPoint(from.snap.position_m) +
-                    " m over traversable ground (they lie in different connected components): "
-                    "move " +
-                    to.name + " or drop it";
-    if (i + 1 < route.size()) error.field = to.name;
-    return error;
-  }
-  // Two consecutive points on one node would make a leg of no length.
-  for (std::size_t i = 1; i < route.size(); ++i) {
-    if (request.via.empty() || route[i - 1].snap.node != route[i].snap.node) continue;
-    const RoutePoint& named = i + 1 < route.size() ? route[i] : route[i - 1];
-    return Error{ErrorCode::kInvalidInput,
-                 route[i].name + " " + internal::FormatPoint(route[i].snap.position_m) +
-                     " m snaps to the same ground cell as " + route[i - 1].name + " " +
-                     internal::FormatPoint(route[i - 1].snap.position_m) + " m: drop " +
-                     named.name + " or move it",
-                 named.name};
-  }
-
-  // A replan along the trajectory the robot follows starts from its remainder: no search.
-  // Not for a route through vias: its remainder would not be pinned at them.
-  if (request.warm_start && request.via.empty()) {
-    const OptimizerConfig& config = options.optimizer;
-    const TrajectoryCost cost(graph, config.weights, CostParams{profile, config.cost}, zones);
-    if (Expected<OptimizationProblem> warm =
-            MakeWarmProblem(cost, *request.warm_start, head, tail)) {
-      PlanStats warm_stats = stats;
-      Expected<Trajectory> trajectory = OptimizeAndVerify(graph, profile, zones, *warm, config,
-                                                          options.verifier, stop, &warm_stats);
-      if (trajectory) {
-        result.trajectory = std::move(trajectory).value();
-        stats = warm_stats;
-        stats.warm_started = true;
-        stats.timings.total_s = SecondsSince(start_time);
-        return result;
-      }
-      if (stop.stopped()) return stop.Reason(options.time_budget_s, "trajectory optimisation");
-      if (trajectory.error().code != ErrorCode::kOptimizationFailed) return trajectory.error();
-      // Its timings and attempts count; its figures were not kept.
-      stats.timings = warm_stats.timings;
-      stats.optimizer_attempts = warm_stats.optimizer_attempts;
-      stats.optimizer_iterations = warm_stats.optimizer_iterations;
-    }
-    // A warm start that does not fit, or fails verification: plan from scratch.
-  }
-
-  // Legs end at the stops: each is planned from rest to rest, and their pieces are joined.
   const LegContext context{graph, profile, options, zones, stop};
-  std::size_t leg_begin = 0;
-  for (std::size_t i = 1; i < route.size(); ++i) {
-    const bool last = i + 1 == route.size();
-    if (!last && !request.via[i - 1].stop) continue;
-    const RobotState leg_head = leg_begin == 0 ? head : AtRest(route[leg_begin].snap.position_m);
-    const RobotState leg_tail = last ? tail : AtRest(route[i].snap.position_m);
-    Expected<Leg> leg = PlanLeg(context, std::span(route).subspan(leg_begin, i - leg_begin + 1),
-                                leg_head, leg_tail);
-    if (!leg) return std::move(leg).error();
-    const double leg_start_s = result.trajectory.TotalDuration();
-    for (const double t : leg->via_times_s) result.via_times_s.push_back(leg_start_s + t);
-    if (leg_begin == 0) {
-      // The snap's timing, and a warm start's that did not pass, count too.
-      const PlanStats before = stats;
-      stats = leg->stats;
-      stats.timings.snap_s += before.timings.snap_s;
-      stats.timings.optimize_s += before.timings.optimize_s;
-      stats.timings.verify_s += before.timings.verify_s;
-      stats.optimizer_attempts += before.optimizer_attempts;
-      stats.optimizer_iterations += before.optimizer_iterations;
-      result.trajectory = std::move(leg->trajectory);
-      result.path = std::move(leg->path);
-    } else {
-      MergeLegStats(leg->stats, profile, &stats);
-      result.trajectory.pieces.insert(result.trajectory.pieces.end(),
-                                      leg->trajectory.pieces.begin(), leg->trajectory.pieces.end());
-      PathResult& path = result.path;
-      path.points_m.insert(path.points_m.end(), leg->path.points_m.begin() + 1,
-                           leg->path.points_m.end());
-      path.nodes.insert(path.nodes.end(), leg->path.nodes.begin() + 1, leg->path.nodes.end());
-      path.length_m += leg->path.length_m;
-      path.cost += leg->path.cost;
-      path.expansions += leg->path.expansions;
+  // Not for a route through vias: the remainder of a warm start would not be pinned at them.
+  if (request.warm_start && request.via.empty()) {
+    Expected<bool> warm = TryWarmStart(context, *request.warm_start, head, tail, &result);
+    if (!warm) return std::move(warm).error();
+    if (*warm) {
+      stats.timings.total_s = SecondsSince(start_time);
+      return result;
     }
-    if (!last) result.via_times_s.push_back(result.trajectory.TotalDuration());
-    leg_begin = i;
+  }
+  if (Status planned = PlanLegs(context, request, *route, head, tail, &result); !planned) {
+    return std::move(planned).error();
   }
   if (!request.via.empty()) stats.mean_curvature_per_m = MeanCurvature(result.trajectory);
   stats.timings.total_s = SecondsSince(start_time);

@@ -1,10 +1,12 @@
 #include "strata/io/saved_model.hpp"
 
+#include <atomic>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <random>
 #include <string>
+#include <thread>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -131,7 +133,18 @@ TEST_F(SavedModel, SavesAtomicallyAndLoadsFromAFile) {
   std::filesystem::create_directories(dir);
   const std::string path = (dir / "garage.stratamodel").string();
   ASSERT_TRUE(SaveModel(model(), path).ok());
-  ASSERT_TRUE(SaveModel(model(), path).ok());  // Over an existing file.
+  // Saved over while it is read, again and again: a reader finds the whole file every time,
+  // never half of one (the save writes a temporary and renames it over the file).
+  std::atomic<bool> saving{true};
+  std::thread saver([&] {
+    while (saving) ASSERT_TRUE(SaveModel(model(), path).ok());
+  });
+  for (int read = 0; read < 200; ++read) {
+    const auto whole = LoadModel(path);
+    ASSERT_TRUE(whole.ok()) << "read " << read << ": " << whole.error().message;
+  }
+  saving = false;
+  saver.join();
   // Only the saved file: no temporary left behind.
   EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir), {}), 1);
   const auto loaded = LoadModel(path);
@@ -206,7 +219,9 @@ TEST_F(SavedModel, RefusesInconsistentContentsWithAGoodChecksum) {
     Rechecksum(&crafted);
     const auto loaded = DeserializeModel(crafted, "crafted");
     if (loaded.ok()) {
-      // Whatever loaded must still answer queries inside its grid without going astray.
+      // What loads is what the file says, every value of it: saved again, the same bytes.
+      EXPECT_EQ(SerializeModel(**loaded), crafted) << "trial " << trial;
+      // And it answers queries inside its grid without going astray.
       const GridGeometry& g = (*loaded)->grid();
       (void)(*loaded)->Distance(g.CellCenter(g.size / 2));
       (void)(*loaded)->SafetyPenalty(g.CellCenter(g.size / 3));
@@ -215,15 +230,61 @@ TEST_F(SavedModel, RefusesInconsistentContentsWithAGoodChecksum) {
     ++refused;
     EXPECT_THAT(loaded.error().message, HasSubstr("crafted"));
   }
-  EXPECT_GT(refused, 0);
-  // A length that promises more than the file holds.
-  std::string crafted = bytes();
+  // Most bytes are values any number may take; a sizeable share are counts, offsets and
+  // intervals that must agree with the rest.
+  EXPECT_GT(refused, 30);
   const std::string name = "grid.max_columns";
-  const std::size_t at = crafted.find(name);
+  const std::size_t at = bytes().find(name);
   ASSERT_NE(at, std::string::npos);
-  crafted[at] = 'G';  // An unknown field name.
-  Rechecksum(&crafted);
-  EXPECT_THAT(RefusalOf(crafted).message, HasSubstr("Grid.max_columns"));
+  // An unknown field name.
+  std::string renamed = bytes();
+  renamed[at] = 'G';
+  Rechecksum(&renamed);
+  EXPECT_THAT(RefusalOf(renamed).message, HasSubstr("Grid.max_columns"));
+  // A length that promises more than the file holds: the name's own length prefix.
+  std::string overlong = bytes();
+  const std::uint32_t huge = 0x7fffffff;
+  std::memcpy(overlong.data() + at - sizeof(huge), &huge, sizeof(huge));
+  Rechecksum(&overlong);
+  (void)RefusalOf(overlong);
+}
+
+// The header alone is read to compare parameters, without the checksum: every truncation and
+// every flipped byte of it is refused or read as a whole config, never read past or crashed on.
+TEST_F(SavedModel, ReadingTheParametersAloneRefusesACorruptHeader) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() /
+                                    ("strata_saved_config_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const std::string path = (dir / "header.stratamodel").string();
+  const auto write = [&](std::string_view bytes) {
+    std::ofstream(path, std::ios::binary | std::ios::trunc) << bytes;
+  };
+  write(bytes());
+  const Expected<AssessmentConfig> whole = ReadSavedModelConfig(path);
+  ASSERT_TRUE(whole.ok()) << whole.error().message;
+  EXPECT_FALSE(FirstDifference(*whole, model().config()).has_value());
+  const std::size_t fields_end = bytes().find("num_threads") + 64;
+  for (std::size_t cut = 0; cut < fields_end; cut += 7) {
+    write(std::string_view(bytes()).substr(0, cut));
+    const Expected<AssessmentConfig> truncated = ReadSavedModelConfig(path);
+    ASSERT_FALSE(truncated.ok()) << "cut at " << cut;
+    EXPECT_EQ(truncated.error().code, ErrorCode::kMapLoadFailed);
+    EXPECT_THAT(truncated.error().message, HasSubstr("header.stratamodel"));
+  }
+  std::mt19937 rng(5);
+  int refused = 0;
+  for (std::size_t at = 0; at < fields_end; ++at) {
+    std::string flipped = bytes();
+    flipped[at] = static_cast<char>(flipped[at] ^ (1 << (rng() % 8)));
+    write(flipped);
+    const Expected<AssessmentConfig> read = ReadSavedModelConfig(path);
+    if (!read.ok()) {
+      ++refused;
+      EXPECT_EQ(read.error().code, ErrorCode::kMapLoadFailed);
+    }
+  }
+  EXPECT_GT(refused, 0);
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

@@ -131,20 +131,21 @@ TEST_P(PointPenaltyGradient, MatchesFiniteDifferencesForEveryTerm) {
       const StateVector pos = RandomPosition(rng, dim);
       StateVector vel(dim), acc(dim);
       for (int a = 0; a < dim; ++a) vel(a) = symmetric(rng), acc(a) = symmetric(rng);
-      StateVector g_pos, g_vel, g_acc;
-      const double value = cost.PointPenalty(pos, vel, acc, &g_pos, &g_vel, &g_acc, nullptr);
+      PointGradient gradient(dim);
+      const double value = cost.PointPenalty({pos, vel, acc}, &gradient, nullptr);
       if (value > 0) ++active;
 
       // x = [pos, vel, acc].
       Eigen::VectorXd x(3 * dim);
       x << pos, vel, acc;
       const auto f = [&](const Eigen::VectorXd& y) {
-        StateVector gp, gv, ga;
-        return cost.PointPenalty(y.segment(0, dim), y.segment(dim, dim), y.segment(2 * dim, dim),
-                                 &gp, &gv, &ga, nullptr);
+        PointGradient ignored(dim);
+        const StateVector p = y.segment(0, dim), v = y.segment(dim, dim),
+                          a = y.segment(2 * dim, dim);
+        return cost.PointPenalty({p, v, a}, &ignored, nullptr);
       };
       Eigen::VectorXd analytic(3 * dim);
-      analytic << g_pos, g_vel, g_acc;
+      analytic << gradient.pos, gradient.vel, gradient.acc;
       const Eigen::VectorXd numeric = NumericalGradient(f, x, kStep);
       EXPECT_TRUE(GradientsMatchPerBlock(
           analytic, numeric,
@@ -190,16 +191,18 @@ TEST(PointPenaltyGradientNearACeiling, MatchesFiniteDifferencesWhereTheMarginShr
     // A body height around the shrunken bounds, so that the low or ceiling penalty is active.
     pos(3) = robot.body_height_min_m + room * (1.5 * unit(rng) - 0.25);
     const StateVector zero = StateVector::Zero(4);
-    StateVector g_pos, g_vel, g_acc;
-    cost.PointPenalty(pos, zero, zero, &g_pos, &g_vel, &g_acc, nullptr);
+    PointGradient gradient(4);
+    cost.PointPenalty({pos, zero, zero}, &gradient, nullptr);
     const auto f = [&](const Eigen::VectorXd& y) {
-      StateVector gp, gv, ga;
-      return cost.PointPenalty(y, zero, zero, &gp, &gv, &ga, nullptr);
+      PointGradient ignored(4);
+      const StateVector q = y;
+      return cost.PointPenalty({q, zero, zero}, &ignored, nullptr);
     };
     const Eigen::VectorXd numeric = NumericalGradient(f, pos, kStep);
     const double value = f(pos);
-    EXPECT_TRUE(GradientsMatchPerBlock(g_pos, numeric, {{"xy", 0, 2}, {"z", 2, 1}, {"h", 3, 1}},
-                                       kTolerance, NoiseFloor(value)))
+    EXPECT_TRUE(GradientsMatchPerBlock(gradient.pos, numeric,
+                                       {{"xy", 0, 2}, {"z", 2, 1}, {"h", 3, 1}}, kTolerance,
+                                       NoiseFloor(value)))
         << "room " << room;
     ++checked;
   }
@@ -229,25 +232,26 @@ TEST(KeepOutPenalty, MatchesFiniteDifferencesAndActsOnlyWhereTheZoneAppliesInHei
       pos.head<3>() << x(rng), y(rng), z(rng);
       if (dim == 4) pos(3) = 0.5;
       const StateVector zero = StateVector::Zero(dim);
-      StateVector g_pos, g_vel, g_acc;
+      PointGradient gradient(3);
       CostBreakdown terms;
-      const double value = cost.PointPenalty(pos, zero, zero, &g_pos, &g_vel, &g_acc, &terms);
+      const double value = cost.PointPenalty({pos, zero, zero}, &gradient, &terms);
       EXPECT_DOUBLE_EQ(terms.keep_out, value);
       const double overlap = KeepOutVerticalOverlap(l_shape, robot, pos(2));
       if (overlap <= -margin) {
         ++other_storey;
         EXPECT_EQ(value, 0) << pos.transpose();
-        EXPECT_EQ(g_pos.norm(), 0) << pos.transpose();
+        EXPECT_EQ(gradient.pos.norm(), 0) << pos.transpose();
         continue;
       }
       if (value > 0) ++charged;
       if (value > 0 && overlap < 0) ++fading;
       const auto f = [&](const Eigen::VectorXd& q) {
-        StateVector gp, gv, ga;
-        return cost.PointPenalty(q, zero, zero, &gp, &gv, &ga, nullptr);
+        PointGradient ignored(3);
+        const StateVector state = q;
+        return cost.PointPenalty({state, zero, zero}, &ignored, nullptr);
       };
       const Eigen::VectorXd numeric = NumericalGradient(f, pos, kStep);
-      EXPECT_TRUE(GradientsMatchPerBlock(g_pos, numeric, {{"xy", 0, 2}, {"z", 2, dim - 2}},
+      EXPECT_TRUE(GradientsMatchPerBlock(gradient.pos, numeric, {{"xy", 0, 2}, {"z", 2, dim - 2}},
                                          kTolerance, NoiseFloor(value)))
           << pos.transpose() << " overlap " << overlap;
     }
@@ -444,10 +448,10 @@ TEST(TurningCost, IsTheHeadingsTravelEitherWay) {
   EXPECT_GE(s_bend, 1.85 * quarter);
 
   // Straight ahead, speeding up from 0.5 to 1 m/s: no turn, whatever the acceleration along.
-  StateVector g_pos, g_vel, g_acc;
-  EXPECT_EQ(cost.PointPenalty(Eigen::Vector3d(0, 0, 0.3), Eigen::Vector3d(0.5, 0.5, 0),
-                              Eigen::Vector3d(0.3, 0.3, 0.1), &g_pos, &g_vel, &g_acc, nullptr),
-            0.0);
+  PointGradient gradient(3);
+  const StateVector pos = Eigen::Vector3d(0, 0, 0.3), vel = Eigen::Vector3d(0.5, 0.5, 0),
+                    acc = Eigen::Vector3d(0.3, 0.3, 0.1);
+  EXPECT_EQ(cost.PointPenalty({pos, vel, acc}, &gradient, nullptr), 0.0);
 }
 
 // One evaluation of J: its value, gradients and terms.

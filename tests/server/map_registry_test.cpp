@@ -386,12 +386,14 @@ TEST(MapRegistryTest, ASavedModelIsLoadedNotAssessedAndKeepsItsParameters) {
   const std::filesystem::path path = dir / "room.stratamodel";
   AssessmentConfig assessed_with;
   assessed_with.grid.resolution_m = 0.1;
+  AssessmentSummary saved_summary;
   {
     Expected<LoadedCloud> cloud = strata::LoadMapSource(SceneSource{"stairs_ramp_room", 3});
     ASSERT_TRUE(cloud.ok());
     auto model = TerrainModel::Assess(cloud->points, assessed_with);
     ASSERT_TRUE(model.ok());
     ASSERT_TRUE(SaveModel(**model, path.string()).ok());
+    saved_summary = (*model)->summary();
   }
   const FileMapSource source{
       OpenMapFile(std::filesystem::canonical(dir), "room.stratamodel", "f").value(),
@@ -403,7 +405,9 @@ TEST(MapRegistryTest, ASavedModelIsLoadedNotAssessedAndKeepsItsParameters) {
   ASSERT_EQ(done.state, MapState::kActive) << done.failure->message;
   EXPECT_TRUE(done.from_saved_model);
   EXPECT_EQ(done.config.grid.resolution_m, 0.1);
-  EXPECT_EQ(done.summary.timings.total_s, done.summary.timings.total_s);  // As saved.
+  // The figures the file holds, its assessment's time among them: loaded, not assessed again.
+  EXPECT_EQ(done.summary.timings.total_s, saved_summary.timings.total_s);
+  EXPECT_EQ(done.summary.input_points, saved_summary.input_points);
   EXPECT_GT(done.raw_point_count, 0u);
   // The same parameters asked again: fine. Others: refused at once, naming the field.
   EXPECT_TRUE(registry.Create("again", source, assessed_with, /*config_given=*/true).ok());

@@ -15,6 +15,7 @@
 
 #include "server_process.hpp"
 #include "server_test_util.hpp"
+#include "strata/scenes/outdoor_site.hpp"
 
 namespace strata::server::testing {
 namespace {
@@ -346,15 +347,27 @@ TEST_F(StoreTest, AServerKilledWhileWritingLeavesTheWholeVersionOrNone) {
   writer->Signal(SIGKILL);
   EXPECT_EQ(writer->WaitExit(std::chrono::seconds(30)), -1);  // Died of the signal.
 
-  // Whatever the observer and a restarted replica see is whole: no map, or one that plans.
+  // Whatever the observer and a restarted replica see is whole: no map, or one that plans
+  // the site's own query, on the ground from end to end.
   ServerProcess* restarted = StartReplica();
   ASSERT_NE(restarted, nullptr);
+  const OutdoorSiteLayout layout = GetOutdoorSiteLayout(1, 120);
+  ASSERT_FALSE(layout.queries.empty());
+  const SceneQuery& query = layout.queries.front();
   for (const ServerProcess* server : {observer, restarted}) {
     v1::Map map;
     const grpc::Status got = Get(*server, "site", &map);
     if (got.ok()) {
       EXPECT_EQ(map.state(), v1::MAP_STATE_ACTIVE);
       EXPECT_GT(map.valid_surface_count(), 0u);
+      v1::PlanRequest plan =
+          PlanRequestFor("site", query.start_m.x(), query.start_m.y(), query.start_m.z() + 0.3,
+                         query.goal_m.x(), query.goal_m.y(), query.goal_m.z() + 0.3);
+      plan.mutable_options()->set_time_budget_s(30);
+      v1::PlanResponse planned;
+      const grpc::Status status = Plan(*server, plan, &planned);
+      EXPECT_TRUE(status.ok()) << query.name << ": " << status.error_message();
+      EXPECT_GT(planned.trajectory().pieces_size(), 0);
     } else {
       EXPECT_EQ(ErrorOf(got).reason, "MAP_NOT_FOUND") << got.error_message();
     }

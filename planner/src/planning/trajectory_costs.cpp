@@ -147,90 +147,23 @@ double TrajectoryCost::ClearanceCap() const {
   return std::max(robot.MaxBodyHeight(), robot.body_height_m) + robot.headroom_m + 1.0;
 }
 
-double TrajectoryCost::PointPenalty(const StateVector& pos, const StateVector& vel,
-                                    const StateVector& acc, StateVector* grad_pos,
-                                    StateVector* grad_vel, StateVector* grad_acc,
+double TrajectoryCost::PointPenalty(const PointState& state, PointGradient* gradient,
                                     CostBreakdown* breakdown, const TrajectoryEnds* ends,
                                     TerrainMemo::Point* memo) const {
   const CostWeights& w = weights_;
   const CostConfig& c = params_.config;
   const RobotProfile& robot = params_.profile;
   const bool active_height = robot.active_height;
-  const double h_min = robot.MinBodyHeight(), h_max = robot.MaxBodyHeight();
-  const int dim = static_cast<int>(pos.size());
-  grad_pos->setZero(dim);
-  grad_vel->setZero(dim);
-  grad_acc->setZero(dim);
-  const Eigen::Vector3d p = pos.head<3>();
+  const int dim = static_cast<int>(state.pos.size());
+  gradient->pos.setZero(dim);
+  gradient->vel.setZero(dim);
+  gradient->acc.setZero(dim);
+  const Eigen::Vector3d p = state.pos.head<3>();
   CostBreakdown terms;
 
-  const bool quiet_fields = memo != nullptr && memo->quiet_field_block >= 0 &&
-                            model_->fields().BlockKey(p) == memo->quiet_field_block;
-  if (w.safety > 0 && !quiet_fields) {
-    FieldSample fields;  // S' and d from one lookup of the eight corners they share.
-    FieldBlock block;
-    model_->fields().Sample(p, &fields, memo != nullptr ? &block : nullptr);
-    const Cubic unsafe = CubicPenalty(fields.safety - c.safety_threshold);
-    if (unsafe.value > 0) {  // Most samples: S' under the threshold, nothing to fade.
-      const SafetyFade fade =
-          ends != nullptr ? SafetyFadeAt(p.head<2>(), *ends, c.safety_fade_m) : SafetyFade{};
-      terms.safety += fade.scale * w.safety * unsafe.value;
-      grad_pos->head<3>() += fade.scale * w.safety * unsafe.slope * fields.safety_gradient;
-      grad_pos->head<2>() += w.safety * unsafe.value * fade.gradient;
-    }
-    const double stiff = w.safety * c.distance_stiffness;
-    const Cubic close = CubicPenalty(c.distance_threshold_m - fields.distance_m);
-    terms.safety += stiff * close.value;
-    grad_pos->head<3>() -= stiff * close.slope * fields.distance_gradient;
-    if (memo != nullptr) {
-      // Both fields are convex combinations of the block's corners anywhere in it; the margin
-      // covers the rounding of the interpolation.
-      const bool quiet = block.max_safety < c.safety_threshold - kInterpolationRounding &&
-                         block.min_distance > c.distance_threshold_m + kInterpolationRounding;
-      memo->quiet_field_block = quiet ? block.key : -1;
-    }
-  }
-
-  const bool deep_inside =
-      memo != nullptr && memo->deep_inside.ix >= 0 && IsDeepInside(*graph_, p, memo->deep_inside);
-  if (w.edge > 0 && !deep_inside) {
-    Eigen::Vector2d gradient;
-    DeepInside deep;
-    const Cubic outside =
-        CubicPenalty(c.edge_margin_m - SampleEdgeDistance(*graph_, p, c.edge_margin_m, &gradient,
-                                                          memo != nullptr ? &deep : nullptr));
-    terms.edge += w.edge * outside.value;
-    grad_pos->head<2>() -= w.edge * outside.slope * gradient;
-    if (memo != nullptr) memo->deep_inside = outside.value == 0 ? deep : DeepInside{};
-  }
-
-  if (w.keep_out > 0 && !keep_out_.empty()) {
-    const double margin = c.keep_out_margin_m;
-    const double reach = robot.footprint_radius_m + margin;
-    for (const KeepOutZone& zone : keep_out_) {
-      // Vertical gate: 1 where the robot's height range overlaps the zone's, fading to 0 at
-      // k_margin apart (a step when k_margin is 0).
-      double overlap_slope = 0;
-      const double overlap = KeepOutVerticalOverlap(zone.prism, robot, p.z(), &overlap_slope);
-      if (overlap <= -margin || (margin == 0 && overlap <= 0)) continue;
-      const Cubic gate = margin > 0 ? Smoothstep(overlap / margin + 1) : Cubic{1, 0};
-      const Eigen::Vector2d lo = zone.bounds_m.min().head<2>().array() - reach;
-      const Eigen::Vector2d hi = zone.bounds_m.max().head<2>().array() + reach;
-      if ((p.head<2>().array() <= lo.array()).any() || (p.head<2>().array() >= hi.array()).any()) {
-        continue;
-      }
-      Eigen::Vector2d gradient;
-      const Cubic inside =
-          CubicPenalty(reach - zone.prism.SignedDistanceXY(p.head<2>(), &gradient));
-      if (inside.value == 0) continue;
-      terms.keep_out += w.keep_out * gate.value * inside.value;
-      grad_pos->head<2>() -= w.keep_out * gate.value * inside.slope * gradient;
-      if (gate.slope != 0) {  // Only inside the fade, so margin > 0.
-        (*grad_pos)(2) += w.keep_out * inside.value * gate.slope / margin * overlap_slope;
-      }
-    }
-  }
-
+  AddSafety(p, ends, memo, gradient, &terms);
+  AddEdge(p, memo, gradient, &terms);
+  AddKeepOut(p, gradient, &terms);
   // Only J_g needs the ground when the body's height is fixed, and J_g is zero within the
   // band: where the memo's choice shows the ground there, the sample is skipped.
   const bool height_terms = active_height && (w.height > 0 || w.feasibility > 0);
@@ -242,77 +175,11 @@ double TrajectoryCost::PointPenalty(const StateVector& pos, const StateVector& v
       !ground_in_band && (w.ground > 0 || height_terms) &&
       SampleGround(*model_, p, robot.reference_height_m, active_height ? ClearanceCap() : 0,
                    &ground, memo != nullptr ? &memo->ground : nullptr);
-  if (has_ground && w.ground > 0) {
-    // Quadratic beyond the band, zero within: C¹ at its edges.
-    const double raw = p.z() - ground.height_m - robot.reference_height_m;
-    const double band = c.ground_band_m;
-    const double offset = raw > band ? raw - band : (raw < -band ? raw + band : 0.0);
-    terms.ground += w.ground * offset * offset;
-    (*grad_pos)(0) -= w.ground * 2 * offset * ground.height_gradient.x();
-    (*grad_pos)(1) -= w.ground * 2 * offset * ground.height_gradient.y();
-    (*grad_pos)(2) += w.ground * 2 * offset;
-  }
-
-  if (w.feasibility > 0) {
-    // Cubic penalties on squared norms (as in Fast-Planner), horizontal and vertical apart.
-    const auto bound = [&](const StateVector& x, double max_h, double max_v, StateVector* g) {
-      const Cubic h = CubicPenalty(x(0) * x(0) + x(1) * x(1) - max_h * max_h);
-      const Cubic v = CubicPenalty(x(2) * x(2) - max_v * max_v);
-      (*g)(0) += w.feasibility * h.slope * 2 * x(0);
-      (*g)(1) += w.feasibility * h.slope * 2 * x(1);
-      (*g)(2) += w.feasibility * v.slope * 2 * x(2);
-      return w.feasibility * (h.value + v.value);
-    };
-    terms.feasibility +=
-        bound(vel, params_.max_speed_horizontal_mps(), params_.max_speed_vertical_mps(), grad_vel);
-    terms.feasibility += bound(acc, params_.max_accel_horizontal_mps2(),
-                               params_.max_accel_vertical_mps2(), grad_acc);
-  }
-
-  if (w.turning > 0) {
-    // ω = (v × a)_z / (‖v‖² + v_f²), finite at rest (kTurnSpeedFloorMps); |ω| smoothed to
-    // sqrt(ω² + ε²) − ε, C¹ where the heading holds still.
-    const Eigen::Vector2d v = vel.head<2>(), a = acc.head<2>();
-    const double speed2 = v.squaredNorm() + kTurnSpeedFloorMps * kTurnSpeedFloorMps;
-    const double omega = (v.x() * a.y() - v.y() * a.x()) / speed2;
-    const double root = std::sqrt(omega * omega + kTurnRateSmoothing * kTurnRateSmoothing);
-    terms.turning += w.turning * (root - kTurnRateSmoothing);
-    const double slope = w.turning * omega / root / speed2;  // ∂P/∂ω over ‖v‖² + v_f².
-    (*grad_vel)(0) += slope * (a.y() - 2 * omega * v.x());
-    (*grad_vel)(1) += slope * (-a.x() - 2 * omega * v.y());
-    (*grad_acc)(0) += slope * -v.y();
-    (*grad_acc)(1) += slope * v.x();
-  }
-
-  if (active_height && dim == 4 && has_ground) {
-    const double h = pos(3);
-    if (w.height > 0) {
-      double slope = 0;
-      const double error = h - SuitableBodyHeight(ground.clearance_m, &slope);
-      terms.height += w.height * error * error;
-      (*grad_pos)(3) += w.height * 2 * error;
-      grad_pos->head<2>() -= w.height * 2 * error * slope * ground.clearance_gradient;
-    }
-    if (w.feasibility > 0) {
-      // The body stays within its range and under the ceiling, a margin inside each. The
-      // margin is at most half the range, and half the room between the lowest body and the
-      // ceiling, so that no two bounds cross where the graph let the robot in.
-      const double range_margin = std::min(c.body_height_margin_m, (h_max - h_min) / 2);
-      const double room = ground.clearance_m - robot.headroom_m - h_min;
-      const bool room_limited = 0 < room && room < 2 * range_margin;
-      const double margin = room_limited ? room / 2 : (room <= 0 ? 0 : range_margin);
-      const double margin_slope = room_limited ? 0.5 : 0;  // ∂margin/∂clearance.
-      const Cubic high = CubicPenalty(h - (h_max - range_margin));
-      const Cubic low = CubicPenalty(h_min + margin - h);
-      const Cubic ceiling = CubicPenalty(h + robot.headroom_m + margin - ground.clearance_m);
-      const double weight = c.body_height_stiffness * w.feasibility;
-      terms.height += weight * (high.value + low.value + ceiling.value);
-      (*grad_pos)(3) += weight * (high.slope - low.slope + ceiling.slope);
-      grad_pos->head<2>() += weight *
-                             (low.slope * margin_slope + ceiling.slope * (margin_slope - 1)) *
-                             ground.clearance_gradient;
-    }
-  }
+  if (has_ground && w.ground > 0) AddGround(p, ground, gradient, &terms);
+  AddFeasibility(state, gradient, &terms);
+  AddTurning(state, gradient, &terms);
+  if (active_height && dim == 4 && has_ground)
+    AddBodyHeight(state.pos(3), ground, gradient, &terms);
 
   if (breakdown != nullptr) {
     breakdown->safety += terms.safety;
@@ -325,6 +192,177 @@ double TrajectoryCost::PointPenalty(const StateVector& pos, const StateVector& v
   }
   return terms.safety + terms.edge + terms.ground + terms.feasibility + terms.height +
          terms.keep_out + terms.turning;
+}
+
+// J_s (paper eq. (8)-(12)): S' over its threshold, faded in from the trajectory's ends, and
+// the stiff distance term below the distance threshold.
+void TrajectoryCost::AddSafety(const Eigen::Vector3d& p, const TrajectoryEnds* ends,
+                               TerrainMemo::Point* memo, PointGradient* gradient,
+                               CostBreakdown* terms) const {
+  const CostWeights& w = weights_;
+  const CostConfig& c = params_.config;
+  const bool quiet_fields = memo != nullptr && memo->quiet_field_block >= 0 &&
+                            model_->fields().BlockKey(p) == memo->quiet_field_block;
+  if (!(w.safety > 0 && !quiet_fields)) return;
+  FieldSample fields;  // S' and d from one lookup of the eight corners they share.
+  FieldBlock block;
+  model_->fields().Sample(p, &fields, memo != nullptr ? &block : nullptr);
+  const Cubic unsafe = CubicPenalty(fields.safety - c.safety_threshold);
+  if (unsafe.value > 0) {  // Most samples: S' under the threshold, nothing to fade.
+    const SafetyFade fade =
+        ends != nullptr ? SafetyFadeAt(p.head<2>(), *ends, c.safety_fade_m) : SafetyFade{};
+    terms->safety += fade.scale * w.safety * unsafe.value;
+    gradient->pos.head<3>() += fade.scale * w.safety * unsafe.slope * fields.safety_gradient;
+    gradient->pos.head<2>() += w.safety * unsafe.value * fade.gradient;
+  }
+  const double stiff = w.safety * c.distance_stiffness;
+  const Cubic close = CubicPenalty(c.distance_threshold_m - fields.distance_m);
+  terms->safety += stiff * close.value;
+  gradient->pos.head<3>() -= stiff * close.slope * fields.distance_gradient;
+  if (memo != nullptr) {
+    // Both fields are convex combinations of the block's corners anywhere in it; the margin
+    // covers the rounding of the interpolation.
+    const bool quiet = block.max_safety < c.safety_threshold - kInterpolationRounding &&
+                       block.min_distance > c.distance_threshold_m + kInterpolationRounding;
+    memo->quiet_field_block = quiet ? block.key : -1;
+  }
+}
+
+// J_e: the footprint kept off the rim of the valid ground.
+void TrajectoryCost::AddEdge(const Eigen::Vector3d& p, TerrainMemo::Point* memo,
+                             PointGradient* gradient, CostBreakdown* terms) const {
+  const CostWeights& w = weights_;
+  const bool deep_inside =
+      memo != nullptr && memo->deep_inside.ix >= 0 && IsDeepInside(*graph_, p, memo->deep_inside);
+  if (!(w.edge > 0 && !deep_inside)) return;
+  const CostConfig& c = params_.config;
+  Eigen::Vector2d edge_gradient;
+  DeepInside deep;
+  const Cubic outside =
+      CubicPenalty(c.edge_margin_m - SampleEdgeDistance(*graph_, p, c.edge_margin_m, &edge_gradient,
+                                                        memo != nullptr ? &deep : nullptr));
+  terms->edge += w.edge * outside.value;
+  gradient->pos.head<2>() -= w.edge * outside.slope * edge_gradient;
+  if (memo != nullptr) memo->deep_inside = outside.value == 0 ? deep : DeepInside{};
+}
+
+// J_k: the footprint kept out of every keep-out zone whose height range it shares.
+void TrajectoryCost::AddKeepOut(const Eigen::Vector3d& p, PointGradient* gradient,
+                                CostBreakdown* terms) const {
+  const CostWeights& w = weights_;
+  if (!(w.keep_out > 0 && !keep_out_.empty())) return;
+  const RobotProfile& robot = params_.profile;
+  const double margin = params_.config.keep_out_margin_m;
+  const double reach = robot.footprint_radius_m + margin;
+  for (const KeepOutZone& zone : keep_out_) {
+    // Vertical gate: 1 where the robot's height range overlaps the zone's, fading to 0 at
+    // k_margin apart (a step when k_margin is 0).
+    double overlap_slope = 0;
+    const double overlap = KeepOutVerticalOverlap(zone.prism, robot, p.z(), &overlap_slope);
+    if (overlap <= -margin || (margin == 0 && overlap <= 0)) continue;
+    const Cubic gate = margin > 0 ? Smoothstep(overlap / margin + 1) : Cubic{1, 0};
+    const Eigen::Vector2d lo = zone.bounds_m.min().head<2>().array() - reach;
+    const Eigen::Vector2d hi = zone.bounds_m.max().head<2>().array() + reach;
+    if ((p.head<2>().array() <= lo.array()).any() || (p.head<2>().array() >= hi.array()).any()) {
+      continue;
+    }
+    Eigen::Vector2d zone_gradient;
+    const Cubic inside =
+        CubicPenalty(reach - zone.prism.SignedDistanceXY(p.head<2>(), &zone_gradient));
+    if (inside.value == 0) continue;
+    terms->keep_out += w.keep_out * gate.value * inside.value;
+    gradient->pos.head<2>() -= w.keep_out * gate.value * inside.slope * zone_gradient;
+    if (gate.slope != 0) {  // Only inside the fade, so margin > 0.
+      gradient->pos(2) += w.keep_out * inside.value * gate.slope / margin * overlap_slope;
+    }
+  }
+}
+
+// J_g: the reference point at its height above the smoothed ground. Quadratic beyond the
+// band, zero within: C¹ at its edges.
+void TrajectoryCost::AddGround(const Eigen::Vector3d& p, const GroundSample& ground,
+                               PointGradient* gradient, CostBreakdown* terms) const {
+  const CostWeights& w = weights_;
+  const double raw = p.z() - ground.height_m - params_.profile.reference_height_m;
+  const double band = params_.config.ground_band_m;
+  const double offset = raw > band ? raw - band : (raw < -band ? raw + band : 0.0);
+  terms->ground += w.ground * offset * offset;
+  gradient->pos(0) -= w.ground * 2 * offset * ground.height_gradient.x();
+  gradient->pos(1) -= w.ground * 2 * offset * ground.height_gradient.y();
+  gradient->pos(2) += w.ground * 2 * offset;
+}
+
+// J_d: speed and acceleration within their bounds. Cubic penalties on squared norms (as in
+// Fast-Planner), horizontal and vertical apart.
+void TrajectoryCost::AddFeasibility(const PointState& state, PointGradient* gradient,
+                                    CostBreakdown* terms) const {
+  const CostWeights& w = weights_;
+  if (!(w.feasibility > 0)) return;
+  const auto bound = [&](const StateVector& x, double max_h, double max_v, StateVector* g) {
+    const Cubic h = CubicPenalty(x(0) * x(0) + x(1) * x(1) - max_h * max_h);
+    const Cubic v = CubicPenalty(x(2) * x(2) - max_v * max_v);
+    (*g)(0) += w.feasibility * h.slope * 2 * x(0);
+    (*g)(1) += w.feasibility * h.slope * 2 * x(1);
+    (*g)(2) += w.feasibility * v.slope * 2 * x(2);
+    return w.feasibility * (h.value + v.value);
+  };
+  terms->feasibility += bound(state.vel, params_.max_speed_horizontal_mps(),
+                              params_.max_speed_vertical_mps(), &gradient->vel);
+  terms->feasibility += bound(state.acc, params_.max_accel_horizontal_mps2(),
+                              params_.max_accel_vertical_mps2(), &gradient->acc);
+}
+
+// J_t: the turn rate. ω = (v × a)_z / (‖v‖² + v_f²), finite at rest (kTurnSpeedFloorMps);
+// |ω| smoothed to sqrt(ω² + ε²) − ε, C¹ where the heading holds still.
+void TrajectoryCost::AddTurning(const PointState& state, PointGradient* gradient,
+                                CostBreakdown* terms) const {
+  const CostWeights& w = weights_;
+  if (!(w.turning > 0)) return;
+  const Eigen::Vector2d v = state.vel.head<2>(), a = state.acc.head<2>();
+  const double speed2 = v.squaredNorm() + kTurnSpeedFloorMps * kTurnSpeedFloorMps;
+  const double omega = (v.x() * a.y() - v.y() * a.x()) / speed2;
+  const double root = std::sqrt(omega * omega + kTurnRateSmoothing * kTurnRateSmoothing);
+  terms->turning += w.turning * (root - kTurnRateSmoothing);
+  const double slope = w.turning * omega / root / speed2;  // ∂P/∂ω over ‖v‖² + v_f².
+  gradient->vel(0) += slope * (a.y() - 2 * omega * v.x());
+  gradient->vel(1) += slope * (-a.x() - 2 * omega * v.y());
+  gradient->acc(0) += slope * -v.y();
+  gradient->acc(1) += slope * v.x();
+}
+
+// J_h (paper eq. (13)) and the body height's bounds (active-height robots): the body at the
+// height that suits the ceiling, within its range and under the ceiling, a margin inside each.
+void TrajectoryCost::AddBodyHeight(double h, const GroundSample& ground, PointGradient* gradient,
+                                   CostBreakdown* terms) const {
+  const CostWeights& w = weights_;
+  const CostConfig& c = params_.config;
+  const RobotProfile& robot = params_.profile;
+  if (w.height > 0) {
+    double slope = 0;
+    const double error = h - SuitableBodyHeight(ground.clearance_m, &slope);
+    terms->height += w.height * error * error;
+    gradient->pos(3) += w.height * 2 * error;
+    gradient->pos.head<2>() -= w.height * 2 * error * slope * ground.clearance_gradient;
+  }
+  if (w.feasibility > 0) {
+    // The margin is at most half the range, and half the room between the lowest body and the
+    // ceiling, so that no two bounds cross where the graph let the robot in.
+    const double h_min = robot.MinBodyHeight(), h_max = robot.MaxBodyHeight();
+    const double range_margin = std::min(c.body_height_margin_m, (h_max - h_min) / 2);
+    const double room = ground.clearance_m - robot.headroom_m - h_min;
+    const bool room_limited = 0 < room && room < 2 * range_margin;
+    const double margin = room_limited ? room / 2 : (room <= 0 ? 0 : range_margin);
+    const double margin_slope = room_limited ? 0.5 : 0;  // ∂margin/∂clearance.
+    const Cubic high = CubicPenalty(h - (h_max - range_margin));
+    const Cubic low = CubicPenalty(h_min + margin - h);
+    const Cubic ceiling = CubicPenalty(h + robot.headroom_m + margin - ground.clearance_m);
+    const double weight = c.body_height_stiffness * w.feasibility;
+    terms->height += weight * (high.value + low.value + ceiling.value);
+    gradient->pos(3) += weight * (high.slope - low.slope + ceiling.slope);
+    gradient->pos.head<2>() += weight *
+                               (low.slope * margin_slope + ceiling.slope * (margin_slope - 1)) *
+                               ground.clearance_gradient;
+  }
 }
 
 double TrajectoryCost::Evaluate(const Minco3& minco, Eigen::MatrixXd* grad_c,
@@ -348,7 +386,11 @@ double TrajectoryCost::Evaluate(const Minco3& minco, Eigen::MatrixXd* grad_c,
   terms.time = weights_.time * minco.TotalDuration();
   grad_T->array() += weights_.time;
 
-  StateVector pos(dim), vel(dim), acc(dim), jerk(dim), g_pos(dim), g_vel(dim), g_acc(dim);
+  StateVector pos(dim), vel(dim), acc(dim), jerk(dim);
+  PointGradient point_gradient(dim);
+  StateVector& g_pos = point_gradient.pos;
+  StateVector& g_vel = point_gradient.vel;
+  StateVector& g_acc = point_gradient.acc;
   const TrajectoryEnds ends{minco.head_pva().col(0).head<2>(), minco.tail_pva().col(0).head<2>()};
   // A piece's last sample and the next piece's first are the same state (MINCO is C⁴ at its
   // waypoints): its penalty is evaluated once, and g_pos, g_vel, g_acc still hold its
@@ -386,8 +428,7 @@ double TrajectoryCost::Evaluate(const Minco3& minco, Eigen::MatrixXd* grad_c,
       } else {
         TerrainMemo::Point* point_memo =
             memo != nullptr ? &memo->points[std::size_t(i) * (kappa + 1) + j] : nullptr;
-        penalty =
-            PointPenalty(pos, vel, acc, &g_pos, &g_vel, &g_acc, &point_terms, &ends, point_memo);
+        penalty = PointPenalty({pos, vel, acc}, &point_gradient, &point_terms, &ends, point_memo);
         if (j == kappa) {
           junction_penalty = penalty;
           junction_terms = point_terms;

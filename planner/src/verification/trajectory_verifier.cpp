@@ -95,16 +95,242 @@ double BodyHeightTolerance(const RobotProfile& profile, const VerifierConfig& co
          (profile.active_height ? profile.body_height_max_m : profile.body_height_m);
 }
 
-Status VerifyTrajectory(const SurfaceGraph& graph, const RobotProfile& profile,
-                        const Trajectory& trajectory, const VerifierConfig& config,
-                        VerificationReport* report, std::span<const KeepOutZone> keep_out) {
-  if (Status s = config.Validate(); !s) return s;
-  if (Status s = profile.Validate(); !s) return s;
-  const TerrainModel& model = graph.model();
-  *report = VerificationReport{};
-  report->min_obstacle_distance_m = std::numeric_limits<double>::infinity();
-  report->min_body_height_m = std::numeric_limits<double>::infinity();
-  report->min_headroom_m = std::numeric_limits<double>::infinity();
+namespace {
+
+// The checks of one state, one function per rule of VerifyTrajectory's list, in its order,
+// each recording its figure in the report first. Every comparison is written
+// !(value within bound), so a NaN fails it.
+class StateChecker {
+ public:
+  StateChecker(const SurfaceGraph& graph, const RobotProfile& profile, const VerifierConfig& config,
+               std::span<const KeepOutZone> keep_out, VerificationReport* report)
+      : graph_(graph),
+        model_(graph.model()),
+        grid_(graph.grid()),
+        profile_(profile),
+        config_(config),
+        keep_out_(keep_out),
+        report_(report),
+        tolerance_(1 + config.limit_tolerance),
+        body_slack_m_(BodyHeightTolerance(profile, config)),
+        // A voxelised cloud knows its ground only to within half a quantum; the check allows
+        // that plus a quarter quantum of tracking, or every staircase ramp would fail it by
+        // noise.
+        ground_tolerance_m_(
+            std::max(config.ground_tolerance_m, 0.75 * model_.summary().vertical_quantum_m)),
+        // How far the plane-fit ground at the centre of the robot's own column may lie from
+        // its feet: the ground tolerance plus the rise from the centre to a corner of the
+        // column on the steepest slope the robot may stand on.
+        level_tolerance_m_(ground_tolerance_m_ +
+                           grid_.resolution_m / std::sqrt(2.0) * std::tan(profile.max_tilt_rad)),
+        grid_max_(grid_.origin_m + grid_.size.cast<double>() * grid_.resolution_m) {}
+
+  // Every rule at time t, in order; the first violation.
+  Status Check(double t, const StateVector& pos, const StateVector& vel, const StateVector& acc) {
+    const Eigen::Vector3d p = pos.head<3>();
+    ++report_->samples;
+    if (Status s = Kinematics(t, p, vel, acc); !s) return s;
+    if (Status s = InsideGrid(t, p); !s) return s;
+    GroundSample ground;
+    const Eigen::Vector3i cell = grid_.CellOf(p);
+    if (Status s = GroundOfOwnColumn(t, p, cell, &ground); !s) return s;
+    const ColumnSurface& surface = *ground.surface;
+    if (Status s = GroundAtRobotsLevel(t, p, surface); !s) return s;
+    if (Status s = ValidGround(t, p, surface); !s) return s;
+    if (Status s = Tilt(t, p, surface); !s) return s;
+    if (Status s = GroundOffset(t, p, ground); !s) return s;
+    if (Status s = ObstacleDistance(t, p); !s) return s;
+    const double body = profile_.active_height ? pos(3) : profile_.body_height_m;
+    if (Status s = Headroom(t, p, surface, body); !s) return s;
+    if (Status s = BodyHeightRange(t, p, body); !s) return s;
+    if (Status s = GraphNode(t, p, cell, ground.surface); !s) return s;
+    return KeepOut(t, p);
+  }
+
+ private:
+  // Horizontal and vertical speed and acceleration within the profile's bounds.
+  Status Kinematics(double t, const Eigen::Vector3d& p, const StateVector& vel,
+                    const StateVector& acc) {
+    const double speed_h = vel.head<2>().norm(), speed_v = std::abs(vel(2));
+    const double accel_h = acc.head<2>().norm(), accel_v = std::abs(acc(2));
+    report_->max_speed_horizontal_mps = std::max(report_->max_speed_horizontal_mps, speed_h);
+    report_->max_speed_vertical_mps = std::max(report_->max_speed_vertical_mps, speed_v);
+    report_->max_accel_horizontal_mps2 = std::max(report_->max_accel_horizontal_mps2, accel_h);
+    report_->max_accel_vertical_mps2 = std::max(report_->max_accel_vertical_mps2, accel_v);
+    if (!(speed_h <= tolerance_ * profile_.max_speed_horizontal_mps)) {
+      return Violation(
+          t, p, Exceeds("horizontal speed", speed_h, profile_.max_speed_horizontal_mps, "m/s"));
+    }
+    if (!(speed_v <= tolerance_ * profile_.max_speed_vertical_mps)) {
+      return Violation(t, p,
+                       Exceeds("vertical speed", speed_v, profile_.max_speed_vertical_mps, "m/s"));
+    }
+    if (!(accel_h <= tolerance_ * profile_.max_accel_horizontal_mps2)) {
+      return Violation(
+          t, p,
+          Exceeds("horizontal acceleration", accel_h, profile_.max_accel_horizontal_mps2, "m/s^2"));
+    }
+    if (!(accel_v <= tolerance_ * profile_.max_accel_vertical_mps2)) {
+      return Violation(
+          t, p,
+          Exceeds("vertical acceleration", accel_v, profile_.max_accel_vertical_mps2, "m/s^2"));
+    }
+    return Status::Ok();
+  }
+
+  Status InsideGrid(double t, const Eigen::Vector3d& p) const {
+    if (!((p.array() >= grid_.origin_m.array()).all() && (p.array() < grid_max_.array()).all())) {
+      return Violation(t, p, "no ground: the reference point is outside the map's grid");
+    }
+    return Status::Ok();
+  }
+
+  // The surface the robot stands on is the one of its own column nearest to its feet
+  // (SampleGround), never another level of that column (the deck above a passage too low for
+  // it).
+  Status GroundOfOwnColumn(double t, const Eigen::Vector3d& p, const Eigen::Vector3i& cell,
+                           GroundSample* ground) {
+    if (!SampleGround(model_, p, profile_.reference_height_m, 0, ground, &ground_choice_) ||
+        SurfaceOfColumn(model_, cell, ground->surface) == nullptr) {
+      return Violation(t, p, "no ground in the column below the reference point");
+    }
+    return Status::Ok();
+  }
+
+  // The column's nearest surface may be another level: the top of a post, a table leg or a
+  // wall the reference point is inside of, while the smoothed ground comes from the columns
+  // around.
+  Status GroundAtRobotsLevel(double t, const Eigen::Vector3d& p,
+                             const ColumnSurface& surface) const {
+    const double feet_m = p.z() - profile_.reference_height_m;
+    if (!(std::abs(surface.plane_center_z_m - feet_m) <= level_tolerance_m_)) {
+      char buf[256];
+      std::snprintf(buf, sizeof(buf),
+                    "no ground in the column below at the robot's level: its nearest surface "
+                    "is %.3f m from the reference point's ground height %.3f m (more than "
+                    "%.3f m; a post, a table leg or a wall?)",
+                    surface.plane_center_z_m - feet_m, feet_m, level_tolerance_m_);
+      return Violation(t, p, buf);
+    }
+    return Status::Ok();
+  }
+
+  static Status ValidGround(double t, const Eigen::Vector3d& p, const ColumnSurface& surface) {
+    if (!surface.valid) {
+      return Violation(t, p,
+                       "the ground below is not valid ground (the Valid Ground Filter found "
+                       "an obstacle, an overhang or a steep rise within its radius)");
+    }
+    return Status::Ok();
+  }
+
+  Status Tilt(double t, const Eigen::Vector3d& p, const ColumnSurface& surface) {
+    const double tilt = surface.tilt_rad;
+    report_->max_tilt_rad = std::max(report_->max_tilt_rad, tilt);
+    if (!(tilt <= profile_.max_tilt_rad)) {
+      return Violation(
+          t, p, Exceeds("ground tilt", tilt / kDegree, profile_.max_tilt_rad / kDegree, "deg"));
+    }
+    return Status::Ok();
+  }
+
+  // z within the ground tolerance of the smoothed ground + the reference height.
+  Status GroundOffset(double t, const Eigen::Vector3d& p, const GroundSample& ground) {
+    const double offset = p.z() - ground.height_m - profile_.reference_height_m;
+    report_->max_ground_offset_m = std::max(report_->max_ground_offset_m, std::abs(offset));
+    if (!(std::abs(offset) <= ground_tolerance_m_)) {
+      return Violation(t, p,
+                       Exceeds("distance from the reference height above ground", std::abs(offset),
+                               ground_tolerance_m_, "m"));
+    }
+    return Status::Ok();
+  }
+
+  Status ObstacleDistance(double t, const Eigen::Vector3d& p) {
+    const double distance = model_.Distance(p);
+    report_->min_obstacle_distance_m = std::min(report_->min_obstacle_distance_m, distance);
+    if (!(distance >= config_.min_obstacle_distance_m)) {
+      char buf[128];
+      std::snprintf(buf, sizeof(buf), "obstacle distance %.3f m is below %.3f m", distance,
+                    config_.min_obstacle_distance_m);
+      return Violation(t, p, buf);
+    }
+    return Status::Ok();
+  }
+
+  // The body under the ceiling with the profile's headroom above it.
+  Status Headroom(double t, const Eigen::Vector3d& p, const ColumnSurface& surface, double body) {
+    const double clearance = surface.clearance_m;
+    report_->min_body_height_m = std::min(report_->min_body_height_m, body);
+    report_->min_headroom_m = std::min(report_->min_headroom_m, clearance - body);
+    if (!(body + profile_.headroom_m <= clearance + body_slack_m_)) {
+      char buf[192];
+      std::snprintf(buf, sizeof(buf),
+                    "headroom %.3f m between the body (height %.3f m) and the ceiling (%.3f m "
+                    "above ground) is below the profile's headroom_m %.3f m",
+                    clearance - body, body, clearance, profile_.headroom_m);
+      return Violation(t, p, buf);
+    }
+    return Status::Ok();
+  }
+
+  // A commanded body height within the profile's range.
+  Status BodyHeightRange(double t, const Eigen::Vector3d& p, double body) const {
+    if (profile_.active_height && !(body <= profile_.body_height_max_m + body_slack_m_ &&
+                                    body >= profile_.body_height_min_m - body_slack_m_)) {
+      char buf[128];
+      std::snprintf(buf, sizeof(buf), "body height %.3f m is outside [%.3f, %.3f] m", body,
+                    profile_.body_height_min_m, profile_.body_height_max_m);
+      return Violation(t, p, buf);
+    }
+    return Status::Ok();
+  }
+
+  // The graph the path was searched on must hold this surface too (it does when it was built
+  // from profile.Traversability(); another robot's graph may not).
+  Status GraphNode(double t, const Eigen::Vector3d& p, const Eigen::Vector3i& cell,
+                   const ColumnSurface* surface) const {
+    if (!HasNodeOn(graph_, cell, surface)) {
+      return Violation(t, p,
+                       "the ground below is not a node of the traversability graph (a graph "
+                       "built for other traversability parameters than this profile's?)");
+    }
+    return Status::Ok();
+  }
+
+  Status KeepOut(double t, const Eigen::Vector3d& p) const {
+    if (const int zone = FirstViolatedKeepOut(keep_out_, profile_, p); zone >= 0) {
+      char buf[160];
+      std::snprintf(buf, sizeof(buf),
+                    ": the footprint (radius %.3f m) reaches %.3f m into its polygon within its "
+                    "height range",
+                    profile_.footprint_radius_m,
+                    KeepOutPenetration(keep_out_[zone].prism, profile_, p));
+      return Violation(t, p, "inside " + keep_out_[zone].name + buf);
+    }
+    return Status::Ok();
+  }
+
+  const SurfaceGraph& graph_;
+  const TerrainModel& model_;
+  const GridGeometry& grid_;
+  const RobotProfile& profile_;
+  const VerifierConfig& config_;
+  std::span<const KeepOutZone> keep_out_;
+  VerificationReport* report_;
+  const double tolerance_;
+  const double body_slack_m_;
+  const double ground_tolerance_m_;
+  const double level_tolerance_m_;
+  const Eigen::Vector3d grid_max_;
+  // Consecutive samples, 2 cm apart, mostly stand on the same column corners: SampleGround
+  // reuses their choice where it holds (the same answers, fewer column scans).
+  GroundChoice ground_choice_;
+};
+
+// The trajectory's shape before anything is sampled: the profile's dimension, pieces with
+// finite coefficients and finite positive durations.
+Status CheckShape(const Trajectory& trajectory, const RobotProfile& profile) {
   const int dimension = profile.active_height ? 4 : 3;
   if (trajectory.dimension != dimension) {
     char buf[160];
@@ -136,6 +362,59 @@ Status VerifyTrajectory(const SurfaceGraph& graph, const RobotProfile& profile,
       return Error{ErrorCode::kOptimizationFailed, buf};
     }
   }
+  return Status::Ok();
+}
+
+// Where the reference point changed columns between `from` and `to`, the state at its first
+// instant in each column entered (bisection to 1e-9 s): a ceiling, the ground's validity and
+// the graph's nodes change at column edges, not between samples.
+Status CheckColumnEntries(double from, double to, const GridGeometry& grid,
+                          TrajectoryCursor& cursor, StateChecker& checker) {
+  // The column at global time t (floored cell coordinates, as doubles so that no cast can
+  // overflow).
+  const auto column_at = [&](double t) -> Eigen::Vector2d {
+    const Eigen::Vector2d p = cursor.Position(t).head<2>();
+    return ((p - grid.origin_m.head<2>()) / grid.resolution_m).array().floor();
+  };
+  const Eigen::Vector2d target = column_at(to);
+  Eigen::Vector2d column = column_at(from);
+  for (int crossings = 0; column != target && crossings < kMaxCrossingsPerStep; ++crossings) {
+    // column_at(mid) == column, by comparisons: the halvings wait on each other, and a
+    // division and a floor were most of each one.
+    const GridGeometry::OffsetRange x = grid.OffsetsOfIndex(column.x());
+    const GridGeometry::OffsetRange y = grid.OffsetsOfIndex(column.y());
+    const auto in_column = [&](double time) {
+      const Eigen::Vector2d d = cursor.Position(time).head<2>() - grid.origin_m.head<2>();
+      return d.x() >= x.low && d.x() < x.high && d.y() >= y.low && d.y() < y.high;
+    };
+    double lo = from, hi = to;
+    for (int halving = 0; halving < 60 && hi - lo > 1e-9; ++halving) {
+      const double mid = 0.5 * (lo + hi);
+      (in_column(mid) ? lo : hi) = mid;
+    }
+    if (Status s =
+            checker.Check(hi, cursor.Position(hi), cursor.Velocity(hi), cursor.Acceleration(hi));
+        !s) {
+      return s;
+    }
+    from = hi;
+    column = column_at(hi);
+  }
+  return Status::Ok();
+}
+
+}  // namespace
+
+Status VerifyTrajectory(const SurfaceGraph& graph, const RobotProfile& profile,
+                        const Trajectory& trajectory, const VerifierConfig& config,
+                        VerificationReport* report, std::span<const KeepOutZone> keep_out) {
+  if (Status s = config.Validate(); !s) return s;
+  if (Status s = profile.Validate(); !s) return s;
+  *report = VerificationReport{};
+  report->min_obstacle_distance_m = std::numeric_limits<double>::infinity();
+  report->min_body_height_m = std::numeric_limits<double>::infinity();
+  report->min_headroom_m = std::numeric_limits<double>::infinity();
+  if (Status s = CheckShape(trajectory, profile); !s) return s;
   // Speed is at most ~1.1× the coarse peak between coarse samples of a quintic (and the 1%
   // limit check bounds it anyway), so this step keeps consecutive samples <= the spacing.
   const double peak_speed = 1.1 * PeakSpeed(trajectory);
@@ -148,157 +427,9 @@ Status VerifyTrajectory(const SurfaceGraph& graph, const RobotProfile& profile,
                   sample_count, config.max_sample_spacing_m, kMaxSamples);
     return Error{ErrorCode::kOptimizationFailed, buf};
   }
-  const double tolerance = 1 + config.limit_tolerance;
-  const double body_slack_m = BodyHeightTolerance(profile, config);
-  // A voxelised cloud knows its ground only to within half a quantum; the check allows that
-  // plus a quarter quantum of tracking, or every staircase ramp would fail it by noise.
-  const double ground_tolerance_m =
-      std::max(config.ground_tolerance_m, 0.75 * model.summary().vertical_quantum_m);
-  const GridGeometry& grid = graph.grid();
-  // How far the plane-fit ground at the centre of the robot's own column may lie from its
-  // feet: the ground tolerance plus the rise from the centre to a corner of the column on the
-  // steepest slope the robot may stand on.
-  const double level_tolerance_m =
-      ground_tolerance_m + grid.resolution_m / std::sqrt(2.0) * std::tan(profile.max_tilt_rad);
-  const Eigen::Vector3d grid_max = grid.origin_m + grid.size.cast<double>() * grid.resolution_m;
-
-  // Consecutive samples, 2 cm apart, mostly stand on the same column corners: SampleGround
-  // reuses their choice where it holds (the same answers, fewer column scans).
-  GroundChoice ground_choice;
-  // The checks of one state at time t, in the documented order. Every comparison is written
-  // !(value within bound), so a NaN fails it.
-  const auto check = [&](double t, const StateVector& pos, const StateVector& vel,
-                         const StateVector& acc) -> Status {
-    const Eigen::Vector3d p = pos.head<3>();
-    ++report->samples;
-
-    const double speed_h = vel.head<2>().norm(), speed_v = std::abs(vel(2));
-    const double accel_h = acc.head<2>().norm(), accel_v = std::abs(acc(2));
-    report->max_speed_horizontal_mps = std::max(report->max_speed_horizontal_mps, speed_h);
-    report->max_speed_vertical_mps = std::max(report->max_speed_vertical_mps, speed_v);
-    report->max_accel_horizontal_mps2 = std::max(report->max_accel_horizontal_mps2, accel_h);
-    report->max_accel_vertical_mps2 = std::max(report->max_accel_vertical_mps2, accel_v);
-    if (!(speed_h <= tolerance * profile.max_speed_horizontal_mps)) {
-      return Violation(
-          t, p, Exceeds("horizontal speed", speed_h, profile.max_speed_horizontal_mps, "m/s"));
-    }
-    if (!(speed_v <= tolerance * profile.max_speed_vertical_mps)) {
-      return Violation(t, p,
-                       Exceeds("vertical speed", speed_v, profile.max_speed_vertical_mps, "m/s"));
-    }
-    if (!(accel_h <= tolerance * profile.max_accel_horizontal_mps2)) {
-      return Violation(
-          t, p,
-          Exceeds("horizontal acceleration", accel_h, profile.max_accel_horizontal_mps2, "m/s^2"));
-    }
-    if (!(accel_v <= tolerance * profile.max_accel_vertical_mps2)) {
-      return Violation(
-          t, p,
-          Exceeds("vertical acceleration", accel_v, profile.max_accel_vertical_mps2, "m/s^2"));
-    }
-
-    // Ground: the surface the robot stands on is the one of its own column nearest to its
-    // feet (SampleGround), never another level of that column (the deck above a passage
-    // too low for it). It must be valid ground, not too steep, and a node of the graph.
-    if (!((p.array() >= grid.origin_m.array()).all() && (p.array() < grid_max.array()).all())) {
-      return Violation(t, p, "no ground: the reference point is outside the map's grid");
-    }
-    GroundSample ground;
-    const Eigen::Vector3i cell = grid.CellOf(p);
-    if (!SampleGround(model, p, profile.reference_height_m, 0, &ground, &ground_choice) ||
-        SurfaceOfColumn(model, cell, ground.surface) == nullptr) {
-      return Violation(t, p, "no ground in the column below the reference point");
-    }
-    const ColumnSurface& surface = *ground.surface;
-    // The column's nearest surface may be another level: the top of a post, a table leg or
-    // a wall the reference point is inside of, while the smoothed ground comes from the
-    // columns around.
-    const double feet_m = p.z() - profile.reference_height_m;
-    if (!(std::abs(surface.plane_center_z_m - feet_m) <= level_tolerance_m)) {
-      char buf[256];
-      std::snprintf(buf, sizeof(buf),
-                    "no ground in the column below at the robot's level: its nearest surface "
-                    "is %.3f m from the reference point's ground height %.3f m (more than "
-                    "%.3f m; a post, a table leg or a wall?)",
-                    surface.plane_center_z_m - feet_m, feet_m, level_tolerance_m);
-      return Violation(t, p, buf);
-    }
-    if (!surface.valid) {
-      return Violation(t, p,
-                       "the ground below is not valid ground (the Valid Ground Filter found "
-                       "an obstacle, an overhang or a steep rise within its radius)");
-    }
-    const double tilt = surface.tilt_rad;
-    report->max_tilt_rad = std::max(report->max_tilt_rad, tilt);
-    if (!(tilt <= profile.max_tilt_rad)) {
-      return Violation(
-          t, p, Exceeds("ground tilt", tilt / kDegree, profile.max_tilt_rad / kDegree, "deg"));
-    }
-    const double offset = p.z() - ground.height_m - profile.reference_height_m;
-    report->max_ground_offset_m = std::max(report->max_ground_offset_m, std::abs(offset));
-    if (!(std::abs(offset) <= ground_tolerance_m)) {
-      return Violation(t, p,
-                       Exceeds("distance from the reference height above ground", std::abs(offset),
-                               ground_tolerance_m, "m"));
-    }
-    const double distance = model.Distance(p);
-    report->min_obstacle_distance_m = std::min(report->min_obstacle_distance_m, distance);
-    if (!(distance >= config.min_obstacle_distance_m)) {
-      char buf[128];
-      std::snprintf(buf, sizeof(buf), "obstacle distance %.3f m is below %.3f m", distance,
-                    config.min_obstacle_distance_m);
-      return Violation(t, p, buf);
-    }
-
-    // Body: under the ceiling with the profile's headroom above it, within its range.
-    const double body = profile.active_height ? pos(3) : profile.body_height_m;
-    const double clearance = surface.clearance_m;
-    report->min_body_height_m = std::min(report->min_body_height_m, body);
-    report->min_headroom_m = std::min(report->min_headroom_m, clearance - body);
-    if (!(body + profile.headroom_m <= clearance + body_slack_m)) {
-      char buf[192];
-      std::snprintf(buf, sizeof(buf),
-                    "headroom %.3f m between the body (height %.3f m) and the ceiling (%.3f m "
-                    "above ground) is below the profile's headroom_m %.3f m",
-                    clearance - body, body, clearance, profile.headroom_m);
-      return Violation(t, p, buf);
-    }
-    if (profile.active_height && !(body <= profile.body_height_max_m + body_slack_m &&
-                                   body >= profile.body_height_min_m - body_slack_m)) {
-      char buf[128];
-      std::snprintf(buf, sizeof(buf), "body height %.3f m is outside [%.3f, %.3f] m", body,
-                    profile.body_height_min_m, profile.body_height_max_m);
-      return Violation(t, p, buf);
-    }
-
-    // The graph the path was searched on must hold this surface too (it does when it was
-    // built from profile.Traversability(); another robot's graph may not).
-    if (!HasNodeOn(graph, cell, ground.surface)) {
-      return Violation(t, p,
-                       "the ground below is not a node of the traversability graph (a graph "
-                       "built for other traversability parameters than this profile's?)");
-    }
-
-    if (const int zone = FirstViolatedKeepOut(keep_out, profile, p); zone >= 0) {
-      char buf[160];
-      std::snprintf(buf, sizeof(buf),
-                    ": the footprint (radius %.3f m) reaches %.3f m into its polygon within its "
-                    "height range",
-                    profile.footprint_radius_m,
-                    KeepOutPenetration(keep_out[zone].prism, profile, p));
-      return Violation(t, p, "inside " + keep_out[zone].name + buf);
-    }
-    return Status::Ok();
-  };
-  // Between samples (the column entries below) the cursor finds the piece from the last one.
+  StateChecker checker(graph, profile, config, keep_out, report);
+  // Between samples (the column entries) the cursor finds the piece from the last one.
   TrajectoryCursor cursor(trajectory);
-  // The column of the reference point at global time t (floored cell coordinates, as doubles
-  // so that no cast can overflow).
-  const auto column_at = [&](double t) -> Eigen::Vector2d {
-    const Eigen::Vector2d p = cursor.Position(t).head<2>();
-    return ((p - grid.origin_m.head<2>()) / grid.resolution_m).array().floor();
-  };
-
   double piece_start = 0;
   double previous_t = -1;
   for (std::size_t i = 0; i < trajectory.pieces.size(); ++i) {
@@ -310,40 +441,14 @@ Status VerifyTrajectory(const SurfaceGraph& graph, const RobotProfile& profile,
     for (int k = 0; k <= last; ++k) {
       const double local_t = piece_duration * k / steps;
       const double t = piece_start + local_t;
-      // A ceiling, the ground's validity and the graph's nodes change at column edges, not
-      // between samples: where the reference point changed columns since the last sample,
-      // the state at its first instant in each column entered (bisection to 1e-9 s) is
-      // checked too.
       if (previous_t >= 0) {
-        const Eigen::Vector2d target = column_at(t);
-        double from = previous_t;
-        Eigen::Vector2d column = column_at(from);
-        for (int crossings = 0; column != target && crossings < kMaxCrossingsPerStep; ++crossings) {
-          // column_at(mid) == column, by comparisons: the halvings wait on each other, and a
-          // division and a floor were most of each one.
-          const GridGeometry::OffsetRange x = grid.OffsetsOfIndex(column.x());
-          const GridGeometry::OffsetRange y = grid.OffsetsOfIndex(column.y());
-          const auto in_column = [&](double time) {
-            const Eigen::Vector2d d = cursor.Position(time).head<2>() - grid.origin_m.head<2>();
-            return d.x() >= x.low && d.x() < x.high && d.y() >= y.low && d.y() < y.high;
-          };
-          double lo = from, hi = t;
-          for (int halving = 0; halving < 60 && hi - lo > 1e-9; ++halving) {
-            const double mid = 0.5 * (lo + hi);
-            (in_column(mid) ? lo : hi) = mid;
-          }
-          if (Status s =
-                  check(hi, cursor.Position(hi), cursor.Velocity(hi), cursor.Acceleration(hi));
-              !s) {
-            return s;
-          }
-          from = hi;
-          column = column_at(hi);
+        if (Status s = CheckColumnEntries(previous_t, t, graph.grid(), cursor, checker); !s) {
+          return s;
         }
       }
-      if (Status s = check(t, trajectory.EvaluatePiece(i, local_t, 0),
-                           trajectory.EvaluatePiece(i, local_t, 1),
-                           trajectory.EvaluatePiece(i, local_t, 2));
+      if (Status s = checker.Check(t, trajectory.EvaluatePiece(i, local_t, 0),
+                                   trajectory.EvaluatePiece(i, local_t, 1),
+                                   trajectory.EvaluatePiece(i, local_t, 2));
           !s) {
         return s;
       }

@@ -116,10 +116,6 @@ class TerrainModel {
   double SafetyPenalty(const Eigen::Vector3d& p, Eigen::Vector3d* gradient = nullptr) const {
     return fields_.SafetyPenalty(p, gradient);
   }
-  /// Both, with gradients, from one lookup.
-  void SampleFields(const Eigen::Vector3d& p, FieldSample* sample) const {
-    fields_.Sample(p, sample);
-  }
 
   /// Bytes held by the model (surfaces and fields), not counting the object itself.
   std::size_t MemoryBytes() const { return surfaces_.MemoryBytes() + fields_.MemoryBytes(); }

@@ -27,12 +27,9 @@ struct SearchConfig : MoveCostTerms {
   /// f = g + max(w·‖p − p_goal‖, SurfaceGraph::LandmarkBound), and the path found costs at
   /// most w times the cheapest (weighted A*). 1 is plain A*, optimal. The cost's clearance and
   /// rim terms make the cheapest path cost more than the straight line, so plain A* explores a
-  /// wide ellipse around it: on a 514 m query of the 400 m outdoor_site (no landmarks at that
-  /// size), w = 1 expands 465,000 nodes (370 ms), w = 1.05 28,600 (11 ms) for a path 0.4%
-  /// longer, w = 1.1 5,800 (4 ms) but the shared maps' trajectories lengthen by 2% (median; 1%
-  /// at 1.05). The landmark bound is not weighted: it already bounds the cost, clearance and
-  /// rim terms included, and weighted it would trade the path's cost for speed where it is
-  /// tight (on the spiral at 0.3 m, seven times as many plans fell back to the searched path).
+  /// wide ellipse around it (docs/benchmarks.md, "Why the planner's defaults"). The landmark
+  /// bound is not weighted: it already bounds the cost, clearance and rim terms included, and
+  /// weighted it would trade the path's cost for speed where it is tight.
   double heuristic_weight = 1.05;
   /// Weight of a node's horizontal distance from the straight start–goal segment, added to its
   /// priority [-], in [0, 1]. Over a grid many paths round a small obstacle cost alike (an

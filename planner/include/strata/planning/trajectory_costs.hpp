@@ -58,10 +58,8 @@ struct CostWeights {
   double keep_out = 1.0e6;
   /// λ_ω [1/rad]: J_ω, the robot's total turning in x, y (∫|ω| dt, ω its heading rate), so a
   /// radian of turning weighs as much as 2 s of travel (λ_t = 10). Without it the time term
-  /// swung trajectories wide before corners, to take them faster, which added a turn the
-  /// other way: on 100 random pairs the median x–y curvature fell from 0.104 to 0.078 on
-  /// abandoned_station and from 0.084 to 0.050 on uneven_forest, the median duration/(length /
-  /// v_max) moved by under 1%.
+  /// swings trajectories wide before corners, to take them faster, which adds a turn the
+  /// other way (docs/benchmarks.md, "Why the planner's defaults").
   double turning = 20.0;
   /// kInvalidConfig blaming the first bad weight by its path, `path`.<field>.
   Status Validate(std::string_view path = "weights") const;
@@ -106,15 +104,12 @@ struct CostConfig {
   /// Active-height robots: how far inside [h_min, h_max] and below the ceiling (less
   /// headroom) the optimiser keeps the body [m], >= 0. Like limit_margin, it lets the
   /// polynomial between constraint points stay within the verified range. Where a passage
-  /// leaves less room than twice this, the margin shrinks to half the room. On the
-  /// indoor_tables benchmark (2000 biped pairs) 0.02 m left 30 plans failing verification
-  /// (the body a centimetre or two into the headroom or below h_min), 0.04 m 11.
+  /// leaves less room than twice this, the margin shrinks to half the room.
   double body_height_margin_m = 0.04;
   /// The body-height range and ceiling penalties weigh this many times λ_d [-], >= 0. They
   /// are cubic in metres, so without it a centimetre's overshoot costs 1e-6·λ_d, less than
   /// the time it saves, and the verifier refuses the plan; the speed and acceleration
-  /// penalties, cubic in squared speeds, need no such factor. On the indoor_tables benchmark
-  /// (2000 biped pairs) 10 took the plans that pass verification from 96.8% to 99.5%.
+  /// penalties, cubic in squared speeds, need no such factor.
   double body_height_stiffness = 10.0;
   /// How far beyond the robot's footprint J_k keeps the reference point from a keep-out
   /// zone's polygon, and how far above or below the zone's height range it starts to act
@@ -185,6 +180,20 @@ struct TerrainMemo {
   std::vector<Point> points;
 };
 
+/// One state of the trajectory at a constraint point: position (dim: x, y, z[, h]),
+/// velocity, acceleration.
+struct PointState {
+  const StateVector& pos;
+  const StateVector& vel;
+  const StateVector& acc;
+};
+
+/// The gradient of a constraint point's penalty with respect to its state (dim entries each).
+struct PointGradient {
+  StateVector pos, vel, acc;
+  explicit PointGradient(int dim = 3) : pos(dim), vel(dim), acc(dim) {}
+};
+
 /// J and its gradient for one planning problem. Immutable; cheap to construct.
 class TrajectoryCost {
  public:
@@ -210,15 +219,13 @@ class TrajectoryCost {
   double Evaluate(const Minco3& minco, Eigen::MatrixXd* grad_c, Eigen::VectorXd* grad_T,
                   CostBreakdown* breakdown = nullptr, TerrainMemo* memo = nullptr) const;
 
-  /// The integrand of the constraint-point terms (λ_s, λ_e, λ_g, λ_d, λ_k, λ_h parts) at one state:
-  /// position (dim: x, y, z[, h]), velocity, acceleration. Writes ∂P/∂pos, ∂P/∂vel, ∂P/∂acc
-  /// (each dim entries, overwritten) and adds the weighted terms into *breakdown (may be
-  /// null). With `ends` (Evaluate passes the trajectory's), the S' part fades in from them
+  /// The integrand of the constraint-point terms (λ_s, λ_e, λ_g, λ_d, λ_k, λ_h parts) at one
+  /// state. Writes its gradient (overwritten) and adds the weighted terms into *breakdown (may
+  /// be null). With `ends` (Evaluate passes the trajectory's), the S' part fades in from them
   /// over CostConfig::safety_fade_m; without, it applies in full. With `memo`, skips what it
   /// knows to be zero there and updates it. Exposed for tests.
-  double PointPenalty(const StateVector& pos, const StateVector& vel, const StateVector& acc,
-                      StateVector* grad_pos, StateVector* grad_vel, StateVector* grad_acc,
-                      CostBreakdown* breakdown, const TrajectoryEnds* ends = nullptr,
+  double PointPenalty(const PointState& state, PointGradient* gradient, CostBreakdown* breakdown,
+                      const TrajectoryEnds* ends = nullptr,
                       TerrainMemo::Point* memo = nullptr) const;
 
   /// The most suitable body height h_S at a ceiling clearance [m] (active-height robots), and
@@ -229,6 +236,20 @@ class TrajectoryCost {
   double ClearanceCap() const;
 
  private:
+  // The terms of PointPenalty, one function each, in the order it adds them: each adds its
+  // weighted value into *terms and its gradient into *gradient.
+  void AddSafety(const Eigen::Vector3d& p, const TrajectoryEnds* ends, TerrainMemo::Point* memo,
+                 PointGradient* gradient, CostBreakdown* terms) const;
+  void AddEdge(const Eigen::Vector3d& p, TerrainMemo::Point* memo, PointGradient* gradient,
+               CostBreakdown* terms) const;
+  void AddKeepOut(const Eigen::Vector3d& p, PointGradient* gradient, CostBreakdown* terms) const;
+  void AddGround(const Eigen::Vector3d& p, const GroundSample& ground, PointGradient* gradient,
+                 CostBreakdown* terms) const;
+  void AddFeasibility(const PointState& state, PointGradient* gradient, CostBreakdown* terms) const;
+  void AddTurning(const PointState& state, PointGradient* gradient, CostBreakdown* terms) const;
+  void AddBodyHeight(double h, const GroundSample& ground, PointGradient* gradient,
+                     CostBreakdown* terms) const;
+
   const SurfaceGraph* graph_;
   const TerrainModel* model_;
   CostWeights weights_;

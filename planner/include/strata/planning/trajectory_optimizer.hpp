@@ -24,14 +24,9 @@ struct OptimizerConfig {
   /// Target length of one MINCO piece along the initial path [m], > 0.
   double piece_length_m = 1.5;
   /// Cruise speed of the initial timing, as a fraction of the profile's speed bounds, in
-  /// (0, 1] (MakeInitialProblem: a trapezoid at half the acceleration bounds). Faster starts
-  /// end faster (the optimiser rarely slows a trajectory down by much, nor speeds it up): on
-  /// the spiral, 0.5 left trajectories at 1.85 times the time of driving their length at the
-  /// speed bound, 0.8 at 1.23 and 0.9 at 1.12 (median of 150 random pairs, the same success;
-  /// on uneven_terrain and two_level_ramp the same 1.19 and 25% fewer iterations). With the
-  /// turning term, 0.96 against 0.9 over the comparison's 22,000 pairs: fewer iterations on
-  /// nine of its eleven rows, parking_garage's slow fallbacks 8 -> 3, the spiral's duration ratio
-  /// 1.09 -> 1.07, median curvature up by at most 4% (uneven_terrain 0.0227 -> 0.0235).
+  /// (0, 1] (MakeInitialProblem: a trapezoid at half the acceleration bounds). The optimiser
+  /// rarely slows a trajectory down or speeds it up by much, so faster starts end faster
+  /// (docs/benchmarks.md, "Why the planner's defaults").
   double initial_speed_fraction = 0.96;
   /// L-BFGS: most iterations per attempt, >= 1.
   int max_iterations = 200;
