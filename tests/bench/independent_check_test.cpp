@@ -1,4 +1,4 @@
-// The benchmark's own check (bench/independent_check.hpp) on hand-made trajectories over the
+// The benchmark's own check (oracle/independent_check.hpp) on hand-made trajectories over the
 // hand-made yard (test_util::Yard): a clean trajectory breaks no rule, and each rule counts
 // the trajectory that breaks it, and no other rule.
 #include "independent_check.hpp"

@@ -10,6 +10,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "independent_check.hpp"
 #include "strata/io/cloud_io.hpp"
 #include "strata/scenes/basic_scenes.hpp"
 #include "strata/scenes/paper_scenes.hpp"
@@ -41,11 +42,20 @@ PlanRequest Request(const Eigen::Vector3d& start, const Eigen::Vector3d& goal,
 }
 
 // Properties every successful plan must have, whatever the map.
-void ExpectSound(const PlanResult& plan, const PlanRequest& request) {
+void ExpectSound(const PlanningMap& map, const PlanResult& plan, const PlanRequest& request) {
   const Trajectory& t = plan.trajectory;
   ASSERT_FALSE(t.pieces.empty());
   const RobotProfile& robot = request.profile;
   EXPECT_EQ(t.dimension, robot.active_height ? 4 : 3);
+  // Safe by a check written apart from the verifier, at its own dense samples: the stats
+  // below are the verifier's own figures and could not catch a verifier that misses a fault.
+  bench::IndependentCheckConfig check;
+  check.bounds = request.options.verifier;
+  const bench::IndependentCheckCounts broken = bench::CheckTrajectory(map.model(), robot, t, check);
+  EXPECT_FALSE(broken.Any()) << "independent check: ground " << broken.ground << ", clearance "
+                             << broken.clearance << ", headroom " << broken.headroom
+                             << ", body height " << broken.body_height << ", speed " << broken.speed
+                             << ", acceleration " << broken.acceleration;
   // Boundary states: the snapped positions, the requested velocity and acceleration.
   EXPECT_LT((t.Position(0).head<3>() - plan.start.position_m).norm(), 1e-9);
   EXPECT_LT((t.Position(t.TotalDuration()).head<3>() - plan.goal.position_m).norm(), 1e-9);
@@ -95,7 +105,7 @@ TEST_F(TwoLevelPlan, FloorToDeckClimbsTheRampOnTheGround) {
   const PlanRequest request = Request(layout_.start_example_m, layout_.goal_example_m);
   auto plan = Plan(*map_, request);
   ASSERT_TRUE(plan.ok()) << plan.error().message;
-  ExpectSound(*plan, request);
+  ExpectSound(*map_, *plan, request);
   EXPECT_EQ(plan->start.level, 0);
   EXPECT_EQ(plan->goal.level, 1);
   // Every sample is at the reference height above the ground, so the way up is the ramp.
@@ -227,7 +237,7 @@ TEST_F(TwoLevelPlan, WhenEveryAttemptFailsTheSlowFallbackIsReturnedAndMarked) {
   EXPECT_TRUE(plan->stats.fallback);
   EXPECT_THAT(plan->stats.fallback_reason, HasSubstr("trajectory verification failed"));
   EXPECT_EQ(plan->stats.optimizer_attempts, request.options.max_attempts);
-  ExpectSound(*plan, request);
+  ExpectSound(*map_, *plan, request);
   // An ordinary plan is not marked (on the floor: on this map's ramp, rough at 0.1 m, the
   // floor-to-deck plan itself ends in the fallback).
   const auto ordinary = Plan(*map_, Request({2, 5.2, 0.3}, {13, 8, 0.3}));
@@ -277,7 +287,7 @@ TEST_F(TwoLevelPlan, AWarmStartReplansInFewerIterationsThanACold) {
     EXPECT_TRUE(warm->stats.warm_started);
     EXPECT_FALSE(cold->stats.warm_started);
     EXPECT_EQ(warm->stats.search_expansions, 0);
-    ExpectSound(*warm, replan);
+    ExpectSound(*map_, *warm, replan);
     warm_iterations += warm->stats.optimizer_iterations;
     cold_iterations += cold->stats.optimizer_iterations;
   }
@@ -351,7 +361,7 @@ TEST_F(KeepOutPlan, ThePlanGoesAroundAZoneItWouldCrossAndStillVerifies) {
   request.keep_out = {zone_};
   const auto around = Plan(*map_, request);
   ASSERT_TRUE(around.ok()) << around.error().message;
-  ExpectSound(*around, request);
+  ExpectSound(*map_, *around, request);
   for (const Eigen::Vector3d& p : DenseSamples(around->trajectory)) {
     EXPECT_GE(zone_.SignedDistanceXY(p.head<2>()), request.profile.footprint_radius_m)
         << p.transpose();
@@ -370,7 +380,7 @@ TEST_F(KeepOutPlan, AMapZoneIsHonouredLikeARequestZone) {
   const PlanRequest request = Request(west_, east_);
   const auto around = Plan(map, request);
   ASSERT_TRUE(around.ok()) << around.error().message;
-  ExpectSound(*around, request);
+  ExpectSound(map, *around, request);
   for (const Eigen::Vector3d& p : DenseSamples(around->trajectory)) {
     EXPECT_GE(zone_.SignedDistanceXY(p.head<2>()), request.profile.footprint_radius_m)
         << p.transpose();
@@ -493,7 +503,7 @@ TEST(TableRoom, TheBipedCrouchesUnderTheTableWhereTheDifferentialRobotCannotPass
   const PlanRequest biped = Request(start, goal, "biped");
   auto plan = Plan(map, biped);
   ASSERT_TRUE(plan.ok()) << plan.error().message;
-  ExpectSound(*plan, biped);
+  ExpectSound(map, *plan, biped);
   const Trajectory& t = plan->trajectory;
   ASSERT_EQ(t.dimension, 4);
   double under_table = 1e9, in_the_open = 0;
@@ -535,12 +545,12 @@ TEST(WallSide, WithoutTheRimWeightAPathBesideAWallRunsStraight) {
   PlanRequest request = Request({1, 0.5, 0.3}, {9, 0.5, 0.3});
   const Expected<PlanResult> kept_off = Plan(map, request);
   ASSERT_TRUE(kept_off) << kept_off.error().message;
-  ExpectSound(*kept_off, request);
+  ExpectSound(map, *kept_off, request);
   EXPECT_GT(LargestSidewaysOffset(kept_off->trajectory), 0.3);  // 0.42 m measured.
   request.options.search.rim_weight = 0;
   const Expected<PlanResult> straight = Plan(map, request);
   ASSERT_TRUE(straight) << straight.error().message;
-  ExpectSound(*straight, request);
+  ExpectSound(map, *straight, request);
   EXPECT_LT(LargestSidewaysOffset(straight->trajectory), 0.1);  // 0.05 m measured.
 }
 
@@ -552,7 +562,7 @@ TEST(WallSide, APathAlongAWallRunsStraight) {
   const PlanRequest request = Request({8.695, 0.295, 0.205}, {4.495, 0.495, 0.205}, "biped");
   const Expected<PlanResult> plan = Plan(map, request);
   ASSERT_TRUE(plan) << plan.error().message;
-  ExpectSound(*plan, request);
+  ExpectSound(map, *plan, request);
   EXPECT_LT(plan->stats.mean_curvature_per_m, 0.15);  // 0.073 measured.
 }
 
@@ -565,7 +575,7 @@ TEST(StairsRampRoomPlan, TheTrajectoryTakesTheRampNotTheStairs) {
               {stairs_x, 0.5 * (L.landing_y_min_m + L.room_y_max_m), L.landing_z_m + 0.3});
   auto plan = Plan(map, request);
   ASSERT_TRUE(plan.ok()) << plan.error().message;
-  ExpectSound(*plan, request);
+  ExpectSound(map, *plan, request);
   const Trajectory& t = plan->trajectory;
   for (double time = 0; time <= t.TotalDuration(); time += 0.05) {
     const Eigen::Vector3d p = t.Position(time).head<3>();
@@ -601,7 +611,7 @@ TEST(SharedMaps, Scene20QueriesSucceedOnTheGround) {
     const PlanRequest request = Request(start, goal);
     auto plan = Plan(map, request);
     ASSERT_TRUE(plan.ok()) << start.transpose() << ": " << plan.error().message;
-    ExpectSound(*plan, request);
+    ExpectSound(map, *plan, request);
   }
   // s2_ground_to_deck and s2_deck_to_ground: up and down the corridor's stepped ramp (0.15 m
   // risers on a 0.15 m voxel lattice, within the profile's step) to the deck at z = 2.9 m.
@@ -611,7 +621,7 @@ TEST(SharedMaps, Scene20QueriesSucceedOnTheGround) {
     const PlanRequest request = Request(start, goal);
     auto plan = Plan(map, request);
     ASSERT_TRUE(plan.ok()) << start.transpose() << ": " << plan.error().message;
-    ExpectSound(*plan, request);
+    ExpectSound(map, *plan, request);
     const Eigen::Vector3d deck_end =
         start.z() > goal.z() ? plan->start.position_m : plan->goal.position_m;
     EXPECT_NEAR(deck_end.z(), 2.9 + request.profile.reference_height_m, 0.1);
@@ -635,7 +645,7 @@ TEST(SharedMaps, SpiralGroundQueriesSucceedAndAnIsolatedGoalIsRefusedWithoutSear
     const PlanRequest request = Request(start, goal);
     auto plan = Plan(map, request);
     ASSERT_TRUE(plan.ok()) << start.transpose() << ": " << plan.error().message;
-    ExpectSound(*plan, request);
+    ExpectSound(map, *plan, request);
     // On the level the goal's z points at (the top deck's ground is at 20.2 m).
     EXPECT_NEAR(plan->goal.position_m.z() - goal.z(), 0.3 - 1.3, 0.25) << goal.transpose();
     // Anyone re-verifying with the default config gets the planner's verdict (the voxel

@@ -6,7 +6,10 @@
 
 #include <gmock/gmock.h>
 
+#include "independent_check.hpp"
+#include "rpc/proto_convert.hpp"
 #include "server_fixture.hpp"
+#include "strata/scenes/scenes.hpp"
 
 namespace strata::server::testing {
 namespace {
@@ -30,9 +33,21 @@ double Evaluate(const v1::Polynomial& polynomial, double t) {
   return value;
 }
 
+// The demo map as the server assesses it by default (--preload demo=scene:two_level_ramp: seed
+// 0, the terrain parameters' defaults), for the independent check of its plans.
+const TerrainModel& DemoModel() {
+  static const std::shared_ptr<const TerrainModel> model =
+      TerrainModel::Assess(GenerateScene("two_level_ramp", 0).value(),
+                           FromProto(v1::TerrainParameters(), "terrain").value())
+          .value();
+  return *model;
+}
+
 // Checks what any successful plan promises: pieces as the proto describes, continuous, from
-// the snapped start to the snapped goal, samples on the polynomials, stats consistent.
-void ExpectConsistentPlan(const v1::PlanResponse& response) {
+// the snapped start to the snapped goal, samples on the polynomials, stats consistent; on the
+// demo map, also safe by the benchmarks' independent check (the stats are the server's own
+// verifier's figures and could not catch a verifier that misses a fault).
+void ExpectConsistentPlan(const v1::PlanRequest& request, const v1::PlanResponse& response) {
   const v1::Trajectory& trajectory = response.trajectory();
   ASSERT_EQ(trajectory.frame(), "map");
   ASSERT_EQ(trajectory.dimension(), 3);
@@ -53,10 +68,27 @@ void ExpectConsistentPlan(const v1::PlanResponse& response) {
   }
   EXPECT_NEAR(trajectory.duration_s(), total, 1e-9);
   EXPECT_NEAR(response.stats().duration_s(), total, 1e-6);
+  const v1::TrajectoryPiece& first = trajectory.pieces(0);
+  const v1::Vector3& start = response.start().position_m();
+  EXPECT_NEAR(Evaluate(first.axes(0), 0), start.x(), 1e-6);
+  EXPECT_NEAR(Evaluate(first.axes(1), 0), start.y(), 1e-6);
+  EXPECT_NEAR(Evaluate(first.axes(2), 0), start.z(), 1e-6);
   const v1::TrajectoryPiece& last = trajectory.pieces(trajectory.pieces_size() - 1);
   const v1::Vector3& goal = response.goal().position_m();
-  // The trajectory ends on the goal's ground (x, y may be the requested ones in its cell).
-  EXPECT_NEAR(Evaluate(last.axes(2), last.duration_s()), goal.z(), 0.15);
+  EXPECT_NEAR(Evaluate(last.axes(0), last.duration_s()), goal.x(), 1e-6);
+  EXPECT_NEAR(Evaluate(last.axes(1), last.duration_s()), goal.y(), 1e-6);
+  EXPECT_NEAR(Evaluate(last.axes(2), last.duration_s()), goal.z(), 1e-6);
+  if (request.map_id() == "demo") {
+    const Result<Trajectory> returned = FromProto(trajectory);
+    ASSERT_TRUE(returned.ok()) << returned.error().message;
+    const Result<RobotProfile> profile = ProfileFromRequest(request);
+    ASSERT_TRUE(profile.ok()) << profile.error().message;
+    const bench::IndependentCheckCounts broken =
+        bench::CheckTrajectory(DemoModel(), profile.value(), returned.value());
+    EXPECT_FALSE(broken.Any()) << "independent check: ground " << broken.ground << ", clearance "
+                               << broken.clearance << ", headroom " << broken.headroom << ", speed "
+                               << broken.speed << ", acceleration " << broken.acceleration;
+  }
   EXPECT_LE(response.stats().max_speed_horizontal_mps(),
             1.01 * response.profile().max_speed_horizontal_mps());
   EXPECT_GT(response.stats().length_m(), 0);
@@ -71,7 +103,7 @@ TEST_F(PlannerServiceTest, PlansFromTheFloorOntoTheDeckOfTheDemo) {
   v1::PlanResponse response;
   const grpc::Status status = Plan(request, &response);
   ASSERT_TRUE(status.ok()) << status.error_message();
-  ExpectConsistentPlan(response);
+  ExpectConsistentPlan(request, response);
   EXPECT_EQ(response.start().level(), 0u);
   EXPECT_EQ(response.goal().level(), 1u);
   EXPECT_LT(Distance(response.start().position_m(), 2, 2, 0.3), 0.5);
@@ -119,7 +151,7 @@ TEST_F(PlannerServiceTest, AReplanWithTheFollowedTrajectoryStartsWarm) {
   v1::PlanResponse warm;
   const grpc::Status status = Plan(replan, &warm);
   ASSERT_TRUE(status.ok()) << status.error_message();
-  ExpectConsistentPlan(warm);
+  ExpectConsistentPlan(replan, warm);
   EXPECT_TRUE(warm.stats().warm_started());
   EXPECT_EQ(warm.stats().search_expansions(), 0);
   replan.mutable_warm_start()->mutable_trajectory()->mutable_pieces(0)->set_duration_s(0);
@@ -132,11 +164,11 @@ TEST_F(PlannerServiceTest, PlansUpTheFirstTurnOfTheSpiralGarage) {
   if (!HaveSpiral()) GTEST_SKIP() << "shared maps not found in " << STRATA_SHARED_MAPS_DIR;
   ASSERT_NO_FATAL_FAILURE(StartServer());
   CreateSpiral("spiral", 0.2);  // The resolution docs/benchmarks.md plans at.
+  const v1::PlanRequest request = PlanRequestFor("spiral", -30, -2, 1.5, -45, -29, 5.5);
   v1::PlanResponse response;
-  const grpc::Status status =
-      Plan(PlanRequestFor("spiral", -30, -2, 1.5, -45, -29, 5.5), &response, 60);
+  const grpc::Status status = Plan(request, &response, 60);
   ASSERT_TRUE(status.ok()) << status.error_message();
-  ExpectConsistentPlan(response);
+  ExpectConsistentPlan(request, response);
   // One half turn (4 m) up: the goal's ground is above the start's.
   EXPECT_GT(response.goal().position_m().z(), response.start().position_m().z() + 3);
 }
@@ -152,7 +184,7 @@ TEST_F(PlannerServiceTest, PlansFromTheGroundToTheTopOfTheSpiralGarage) {
   v1::PlanResponse response;
   const grpc::Status status = Plan(request, &response, 60);
   ASSERT_TRUE(status.ok()) << status.error_message();
-  ExpectConsistentPlan(response);
+  ExpectConsistentPlan(request, response);
   EXPECT_EQ(response.start().level(), 0u);
   EXPECT_GT(response.stats().length_m(), 40);  // Up the turns of one spiral.
   EXPECT_NEAR(response.goal().position_m().z(), 21.5, 1.0);
@@ -177,7 +209,7 @@ TEST_F(PlannerServiceTest, PlansARouteThroughViasAndSaysWhenEachIsReached) {
   v1::PlanResponse response;
   const grpc::Status status = Plan(request, &response);
   ASSERT_TRUE(status.ok()) << status.error_message();
-  ExpectConsistentPlan(response);
+  ExpectConsistentPlan(request, response);
   ASSERT_EQ(response.via_times_s_size(), 2);
   EXPECT_GT(response.via_times_s(0), 0);
   EXPECT_GT(response.via_times_s(1), response.via_times_s(0));
@@ -286,7 +318,7 @@ TEST_F(PlannerServiceTest, KeepOutZonesAreAvoidedAndAGoalInsideOneHasItsOwnReaso
   v1::PlanResponse response;
   const grpc::Status status = Plan(request, &response);
   ASSERT_TRUE(status.ok()) << status.error_message();
-  ExpectConsistentPlan(response);
+  ExpectConsistentPlan(request, response);
   const double radius = response.profile().footprint_radius_m();
   for (const v1::TrajectorySample& sample : response.samples()) {
     const v1::Vector3& p = sample.position_m();
