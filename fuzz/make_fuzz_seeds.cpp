@@ -147,6 +147,49 @@ void PlanRequestSeeds(const fs::path& dir) {
   Write(dir / "plan_request" / "inline_with_zone", request.SerializeAsString());
 }
 
+// request_fuzzer's seeds: its selector byte, then a valid request of that kind.
+void RequestSeeds(const fs::path& dir) {
+  const auto write = [&](char selector, const std::string& name, const auto& message) {
+    Write(dir / "request" / name, std::string(1, selector) + message.SerializeAsString());
+  };
+  strata::v1::Prism zone;
+  for (const auto& [x, y] : {std::pair{0., 0.}, {2., 0.}, {2., 2.}, {0., 2.}}) {
+    strata::v1::Vector2* corner = zone.add_polygon_m();
+    corner->set_x(x);
+    corner->set_y(y);
+  }
+  zone.set_z_min_m(0);
+  zone.set_z_max_m(1);
+  strata::v1::UpdateMapRequest update;
+  update.set_map_id("demo");
+  *update.add_edits()->mutable_add_obstacle() = zone;
+  *update.add_edits()->mutable_remove_points() = zone;
+  *update.add_edits()->mutable_add_keep_out() = zone;
+  write(0, "update_map", update);
+  strata::v1::PlanBatchRequest batch;
+  for (int i = 0; i < 2; ++i) {
+    strata::v1::PlanRequest* item = batch.add_requests();
+    item->set_map_id("demo");
+    item->set_profile_name(i == 0 ? "differential" : "biped");
+    item->mutable_goal()->mutable_position_m()->set_x(10);
+    *item->add_keep_out() = zone;
+  }
+  write(1, "plan_batch", batch);
+  strata::v1::EstimateCostsRequest costs;
+  costs.set_map_id("demo");
+  costs.set_profile_name("differential");
+  costs.add_starts_m()->set_x(1);
+  costs.add_goals_m()->set_y(8);
+  costs.add_goals_m()->set_z(3.3);
+  *costs.add_keep_out() = zone;
+  write(2, "estimate_costs", costs);
+  strata::v1::GetMapGeometryRequest geometry;
+  geometry.set_map_id("demo");
+  geometry.set_stride(2);
+  geometry.mutable_profile()->set_max_step_m(0.12);
+  write(3, "get_map_geometry", geometry);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -160,7 +203,9 @@ int main(int argc, char** argv) {
   SavedModelSeeds(dir);
   UploadSeeds(dir);
   PlanRequestSeeds(dir);
-  for (const char* target : {"pcd", "ply", "octomap", "saved_model", "upload", "plan_request"}) {
+  RequestSeeds(dir);
+  for (const char* target :
+       {"pcd", "ply", "octomap", "saved_model", "upload", "plan_request", "request"}) {
     std::size_t files = 0;
     for ([[maybe_unused]] const auto& entry : fs::directory_iterator(dir / target)) ++files;
     std::printf("%s: %zu seeds\n", target, files);

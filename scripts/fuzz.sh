@@ -7,7 +7,7 @@
 # script exit 1.
 #
 #   bash scripts/fuzz.sh [--seconds N | --runs N] [TARGET...]
-#     TARGET: pcd ply octomap saved_model upload plan_request (default: all)
+#     TARGET: pcd ply octomap saved_model upload plan_request request (default: all)
 #     default: --seconds 60 each; the corpus grows in BUILD/fuzz/corpus/TARGET between runs
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -20,7 +20,7 @@ case "${1:-}" in
   --runs) limit=(-runs="$2"); shift 2 ;;
 esac
 targets=("$@")
-[ ${#targets[@]} -gt 0 ] || targets=(pcd ply octomap saved_model upload plan_request)
+[ ${#targets[@]} -gt 0 ] || targets=(pcd ply octomap saved_model upload plan_request request)
 
 "$root/scripts/build-sanitize.sh" make_fuzz_seeds "${targets[@]/%/_fuzzer}"
 fuzz_dir=$build_dir/fuzz

@@ -269,6 +269,21 @@ Result<MapSnapshot> SnapshotFromProto(const v1::Map& map) {
 
 }  // namespace
 
+namespace {
+
+// FromProto, then Prism::Validate blaming the same request path.
+Result<Prism> ValidPrism(const v1::Prism& message, const std::string& field) {
+  Result<Prism> prism = server::FromProto(message, field);
+  if (!prism.ok()) return prism;
+  if (Status valid = prism.value().Validate(field); !valid) {
+    const std::string blamed = valid.error().field.empty() ? field : valid.error().field;
+    return ServiceError::FromPlanner(valid.error(), blamed);
+  }
+  return prism;
+}
+
+}  // namespace
+
 Result<ParsedMapEdits> MapEditsFromProto(const v1::UpdateMapRequest& request) {
   if (ServiceStatus given = RequireMapId(request.map_id()); !given.ok()) {
     return std::move(given).error();
@@ -288,8 +303,8 @@ Result<ParsedMapEdits> MapEditsFromProto(const v1::UpdateMapRequest& request) {
       case v1::MapEdit::kAddObstacle:
       case v1::MapEdit::kRemovePoints: {
         const bool obstacle = edit.kind_case() == v1::MapEdit::kAddObstacle;
-        Result<Prism> region = FromProto(obstacle ? edit.add_obstacle() : edit.remove_points(),
-                                         path + (obstacle ? ".add_obstacle" : ".remove_points"));
+        Result<Prism> region = ValidPrism(obstacle ? edit.add_obstacle() : edit.remove_points(),
+                                          path + (obstacle ? ".add_obstacle" : ".remove_points"));
         if (!region.ok()) return std::move(region).error();
         parsed.edits.push_back(
             MapEdit{obstacle ? MapEdit::Kind::kAddObstacle : MapEdit::Kind::kRemovePoints,
@@ -297,7 +312,9 @@ Result<ParsedMapEdits> MapEditsFromProto(const v1::UpdateMapRequest& request) {
         break;
       }
       case v1::MapEdit::kAddKeepOut: {
-        Result<Prism> zone = FromProto(edit.add_keep_out(), path + ".add_keep_out");
+        // Kept in the map and read by every plan on it: checked here, where the client hears
+        // which field to fix (a zone a plan request carries is checked by the planner).
+        Result<Prism> zone = ValidPrism(edit.add_keep_out(), path + ".add_keep_out");
         if (!zone.ok()) return std::move(zone).error();
         parsed.add_keep_out.push_back(std::move(zone).value());
         break;

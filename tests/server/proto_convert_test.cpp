@@ -387,6 +387,72 @@ TEST(ProtoConvertTest, MalformedKeepOutZonesAreBlamedByTheirRequestPath) {
   EXPECT_EQ(ParseFailureField(request), "keep_out");
 }
 
+// UpdateMap's edits arrive in order, keep-out zones apart; a request with no edit, more
+// than kMaxMapEdits, an edit of no kind or a bad prism is blamed by its field.
+TEST(ProtoConvertTest, MapEditsArriveInOrderAndBadOnesAreBlamedByTheirPath) {
+  v1::PlanRequest zones;  // Prisms to copy.
+  AddZone(&zones, 3, 4);
+  AddZone(&zones, 7, 8);
+  v1::UpdateMapRequest request;
+  request.set_map_id("site");
+  *request.add_edits()->mutable_remove_points() = zones.keep_out(0);
+  *request.add_edits()->mutable_add_keep_out() = zones.keep_out(1);
+  *request.add_edits()->mutable_add_obstacle() = zones.keep_out(1);
+  Result<ParsedMapEdits> parsed = MapEditsFromProto(request);
+  ASSERT_TRUE(parsed.ok()) << parsed.error().message;
+  ASSERT_EQ(parsed->edits.size(), 2u);
+  EXPECT_EQ(parsed->edits[0].kind, MapEdit::Kind::kRemovePoints);
+  EXPECT_EQ(parsed->edits[0].region.polygon_m[0], Eigen::Vector2d(3, 4));
+  EXPECT_EQ(parsed->edits[1].kind, MapEdit::Kind::kAddObstacle);
+  EXPECT_EQ(parsed->edits[1].region.polygon_m[0], Eigen::Vector2d(7, 8));
+  ASSERT_EQ(parsed->add_keep_out.size(), 1u);
+  EXPECT_EQ(parsed->add_keep_out[0].polygon_m[0], Eigen::Vector2d(7, 8));
+
+  const auto field_of = [](const v1::UpdateMapRequest& edited) {
+    Result<ParsedMapEdits> result = MapEditsFromProto(edited);
+    return result.ok() ? std::string("(accepted)") : FieldOf(result.error());
+  };
+  v1::UpdateMapRequest empty;
+  empty.set_map_id("site");
+  EXPECT_EQ(field_of(empty), "edits");
+  empty.set_clear_keep_out(true);  // Clearing the zones alone is an edit.
+  EXPECT_EQ(field_of(empty), "(accepted)");
+
+  v1::UpdateMapRequest too_many;
+  too_many.set_map_id("site");
+  for (int i = 0; i < kMaxMapEdits; ++i) {
+    *too_many.add_edits()->mutable_add_keep_out() = zones.keep_out(0);
+  }
+  EXPECT_EQ(field_of(too_many), "(accepted)");
+  *too_many.add_edits()->mutable_add_keep_out() = zones.keep_out(0);
+  EXPECT_EQ(field_of(too_many), "edits");
+
+  v1::UpdateMapRequest unset = request;
+  unset.mutable_edits(1)->clear_kind();
+  EXPECT_EQ(field_of(unset), "edits[1]");
+  EXPECT_THAT(MapEditsFromProto(unset).error().message,
+              HasSubstr("set add_obstacle, remove_points or add_keep_out"));
+
+  v1::UpdateMapRequest bad_prism = request;
+  bad_prism.mutable_edits(2)->mutable_add_obstacle()->clear_z_max_m();
+  EXPECT_EQ(field_of(bad_prism), "edits[2].add_obstacle.z_max_m");
+
+  // Checked whole here, before any queue: a keep-out zone is kept in the map and read by every
+  // plan on it (request_fuzzer found these passing).
+  v1::UpdateMapRequest crossed = request;
+  v1::Prism* zone = crossed.mutable_edits(1)->mutable_add_keep_out();
+  std::swap(*zone->mutable_polygon_m(1), *zone->mutable_polygon_m(2));  // A bow tie.
+  EXPECT_EQ(field_of(crossed), "edits[1].add_keep_out.polygon_m");
+  v1::UpdateMapRequest not_finite = request;
+  not_finite.mutable_edits(2)->mutable_add_obstacle()->mutable_polygon_m(0)->set_x(
+      std::numeric_limits<double>::quiet_NaN());
+  EXPECT_EQ(field_of(not_finite), "edits[2].add_obstacle.polygon_m[0].x");
+
+  v1::UpdateMapRequest no_id = request;
+  no_id.clear_map_id();
+  EXPECT_EQ(field_of(no_id), "map_id");
+}
+
 // Vias arrive in order with their stop flag; a missing, non-finite or one-too-many via is
 // refused as INVALID_INPUT (INVALID_ARGUMENT) naming its field.
 TEST(ProtoConvertTest, ViasArriveInOrderAndBadOnesAreBlamedByTheirPath) {
