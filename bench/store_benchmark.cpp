@@ -262,7 +262,10 @@ int main(int argc, char** argv) {
         if (got.ok()) largest = std::max<std::uint64_t>(largest, got->memory_bytes);
       }
     }
-    const std::uint64_t budget = static_cast<std::uint64_t>(0.4 * churn_maps * largest);
+    // Room for 40% of the maps, and never less than one and a half (with fewer than four maps
+    // 40% would not hold the largest, and every load would be refused).
+    const std::uint64_t budget =
+        static_cast<std::uint64_t>(std::max(0.4 * churn_maps, 1.5) * static_cast<double>(largest));
     MapRegistry reader(StoreOptions(store, budget));
     std::uint64_t peak = 0;
     std::vector<double> request_s;
