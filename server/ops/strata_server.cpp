@@ -2,6 +2,7 @@
 
 #include <condition_variable>
 #include <fstream>
+#include <functional>
 #include <iterator>
 #include <thread>
 
@@ -20,13 +21,6 @@ namespace strata::server {
 namespace {
 
 constexpr const char* kServices[] = {"strata.v1.MapService", "strata.v1.PlannerService"};
-
-struct ResolvedPreload {
-  std::string id;
-  MapSource source;
-  AssessmentConfig config;
-  bool config_given = false;  // A KEY=VALUE terrain parameter was given.
-};
 
 Result<ResolvedPreload> ResolvePreload(const PreloadSpec& spec,
                                        const std::filesystem::path& map_root,
@@ -116,35 +110,66 @@ std::string BoundAddress(const std::string& listen, int port) {
 
 }  // namespace
 
+// Start-up order, each step a function below:
+//   1. CheckFlags: everything the flags name (map root, preloads, tokens, TLS files) is
+//      checked before anything runs, so that a bad flag costs nothing and names itself;
+//   2. StartMaps: the memory budget, the metrics, the map registry with its worker and store;
+//   3. StartServices: the planning slots, the recent plans, the two services, a metric series
+//      for every method;
+//   4. Listen: the gRPC port (health NOT_SERVING until the preloads are ACTIVE);
+//   5. ServeMetrics, ServeViewer: the metrics and the web viewer, on ports of their own;
+//   6. QueuePreloads: last, so that their progress shows through all of the above.
 Result<std::unique_ptr<StrataServer>> StrataServer::Start(const ServerConfig& config) {
   std::unique_ptr<StrataServer> self(new StrataServer());
   self->config_ = config;
+  Result<StartInputs> inputs = self->CheckFlags();
+  if (!inputs.ok()) return std::move(inputs).error();
+  const std::function<ServiceStatus()> steps[] = {
+      [&] { return self->StartMaps(&inputs.value()); },
+      [&] { return self->StartServices(inputs.value()); },
+      [&] { return self->Listen(inputs.value()); },
+      [&] { return self->ServeMetrics(); },
+      [&] { return self->ServeViewer(); },
+      [&] { return self->QueuePreloads(&inputs.value().preloads); },
+  };
+  for (const auto& step : steps) {
+    if (ServiceStatus done = step(); !done.ok()) return std::move(done).error();
+  }
+  return self;
+}
 
-  std::filesystem::path map_root;
+Result<StrataServer::StartInputs> StrataServer::CheckFlags() {
+  const ServerConfig& config = config_;
+  StartInputs inputs;
   if (!config.map_root.empty()) {
     Result<std::filesystem::path> root = CanonicalMapRoot(config.map_root);
     if (!root.ok())
       return MakeError(ErrorCode::kInvalidInput, "--map-root: " + root.error().message);
-    map_root = root.value();
+    inputs.map_root = root.value();
   }
-  std::vector<ResolvedPreload> preloads;
   for (const PreloadSpec& spec : config.preload) {
-    Result<ResolvedPreload> preload = ResolvePreload(spec, map_root, config.max_points);
+    Result<ResolvedPreload> preload = ResolvePreload(spec, inputs.map_root, config.max_points);
     if (!preload.ok()) return std::move(preload).error();
-    preloads.push_back(std::move(preload).value());
+    inputs.preloads.push_back(std::move(preload).value());
   }
-
   if (!config.auth_tokens.empty()) {
     Result<TokenTable> tokens = TokenTable::Load(config.auth_tokens);
     if (!tokens.ok()) {
       return MakeError(ErrorCode::kInvalidInput, "--auth-tokens: " + tokens.error().message);
     }
-    self->tokens_ = std::make_unique<TokenTable>(std::move(tokens).value());
+    tokens_ = std::make_unique<TokenTable>(std::move(tokens).value());
   }
   Result<std::shared_ptr<grpc::ServerCredentials>> credentials = ServerCredentialsFor(config);
   if (!credentials.ok()) return std::move(credentials).error();
+  inputs.credentials = std::move(credentials).value();
+  return inputs;
+}
 
-  self->metrics_ = std::make_unique<Metrics>();
+ServiceStatus StrataServer::StartMaps(StartInputs* inputs) {
+  const ServerConfig& config = config_;
+  std::vector<ResolvedPreload>& preloads = inputs->preloads;
+  memory_budget_ = std::make_shared<MemoryBudget>(
+      config.max_memory_bytes > 0 ? config.max_memory_bytes : AutomaticMemoryLimit());
   RegistryOptions registry_options;
   registry_options.max_concurrent_assessments = config.max_concurrent_assessments;
   registry_options.max_maps = config.max_maps;
@@ -168,9 +193,7 @@ Result<std::unique_ptr<StrataServer>> StrataServer::Start(const ServerConfig& co
   worker.cpu_s = config.max_assessment_time_s * threads + 10;
   registry_options.build = MapWorkerBuilder(std::move(worker));
   registry_options.max_assessment_time_s = config.max_assessment_time_s;
-  self->memory_budget_ = std::make_shared<MemoryBudget>(
-      config.max_memory_bytes > 0 ? config.max_memory_bytes : AutomaticMemoryLimit());
-  if (const std::uint64_t limit = self->memory_budget_->limit();
+  if (const std::uint64_t limit = memory_budget_->limit();
       limit > 0 && config.max_assessment_memory_bytes > limit) {
     // A replica that only serves maps from the store needs no room to make one.
     LogWarning("no_room_to_make_maps")
@@ -179,7 +202,7 @@ Result<std::unique_ptr<StrataServer>> StrataServer::Start(const ServerConfig& co
                             " is more than the whole memory budget (--max-memory " +
                             MebibytesText(limit) + "): this server will refuse to make maps");
   }
-  registry_options.memory_budget = self->memory_budget_;
+  registry_options.memory_budget = memory_budget_;
   registry_options.assessment_memory_bytes = config.max_assessment_memory_bytes;
   registry_options.max_graph_bytes = config.max_graph_memory_bytes;
   if (!config.map_store.empty()) {
@@ -199,34 +222,38 @@ Result<std::unique_ptr<StrataServer>> StrataServer::Start(const ServerConfig& co
       return true;
     });
   }
-  StrataServer* raw = self.get();
-  self->registry_ = std::make_unique<MapRegistry>(
-      registry_options, [raw](const MapSnapshot& map) { raw->OnMapDone(map); });
-  self->metrics_->WatchMaps(self->registry_.get());
+  metrics_ = std::make_unique<Metrics>();
+  registry_ = std::make_unique<MapRegistry>(registry_options,
+                                            [this](const MapSnapshot& map) { OnMapDone(map); });
+  metrics_->WatchMaps(registry_.get());
+  return OkStatus();
+}
 
-  self->planning_slots_ = std::make_unique<PlanningSlots>(
+ServiceStatus StrataServer::StartServices(const StartInputs& inputs) {
+  const ServerConfig& config = config_;
+  planning_slots_ = std::make_unique<PlanningSlots>(
       config.max_concurrent_plans > 0
           ? config.max_concurrent_plans
           : static_cast<int>(std::max(1u, std::thread::hardware_concurrency())),
       config.max_queued_plans, config.max_plan_time_s);
-  self->recent_plans_ = std::make_unique<RecentPlans>();
+  recent_plans_ = std::make_unique<RecentPlans>();
   MapServiceOptions map_options;
-  map_options.map_root = map_root;
+  map_options.map_root = inputs.map_root;
   map_options.max_points = config.max_points;
-  map_options.tokens = self->tokens_.get();
-  map_options.memory_budget = self->memory_budget_.get();
-  map_options.planning_slots = self->planning_slots_.get();
+  map_options.tokens = tokens_.get();
+  map_options.memory_budget = memory_budget_.get();
+  map_options.planning_slots = planning_slots_.get();
   map_options.max_send_message_bytes = static_cast<std::uint64_t>(config.max_send_message_bytes);
-  self->map_service_ = std::make_unique<MapServiceImpl>(self->registry_.get(), map_options);
+  map_service_ = std::make_unique<MapServiceImpl>(registry_.get(), map_options);
   PlannerServiceOptions planner_options;
-  planner_options.slots = self->planning_slots_.get();
-  planner_options.recent_plans = self->recent_plans_.get();
+  planner_options.slots = planning_slots_.get();
+  planner_options.recent_plans = recent_plans_.get();
   planner_options.max_samples = kMaxResponseSamples;
   planner_options.max_cost_cells = config.max_cost_cells;
   planner_options.max_batch_plans = config.max_batch_plans;
-  planner_options.tokens = self->tokens_.get();
-  self->planner_service_ = std::make_unique<PlannerServiceImpl>(
-      self->registry_.get(), self->metrics_.get(), planner_options);
+  planner_options.tokens = tokens_.get();
+  planner_service_ =
+      std::make_unique<PlannerServiceImpl>(registry_.get(), metrics_.get(), planner_options);
 
   // Every method served gets its own metric series before the first call; calls to any
   // other path are counted as "unknown" (Metrics::InitializeMethod).
@@ -239,14 +266,19 @@ Result<std::unique_ptr<StrataServer>> StrataServer::Start(const ServerConfig& co
       const char* type = method->client_streaming()
                              ? (method->server_streaming() ? "bidi_stream" : "client_stream")
                              : (method->server_streaming() ? "server_stream" : "unary");
-      self->metrics_->InitializeMethod(type, name, method->name());
+      metrics_->InitializeMethod(type, name, method->name());
     }
   }
+  return OkStatus();
+}
+
+ServiceStatus StrataServer::Listen(const StartInputs& inputs) {
+  const ServerConfig& config = config_;
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
   int port = 0;
-  builder.AddListeningPort(config.listen, credentials.value(), &port);
+  builder.AddListeningPort(config.listen, inputs.credentials, &port);
   // gRPC turns SO_REUSEPORT on unless told otherwise: a second server on a taken port would
   // start and take a share of its calls at random.
   builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, config.reuse_port ? 1 : 0);
@@ -262,12 +294,12 @@ Result<std::unique_ptr<StrataServer>> StrataServer::Start(const ServerConfig& co
   builder.AddChannelArgument(GRPC_ARG_HTTP2_MAX_PINGS_WITHOUT_DATA, 0);
   builder.AddChannelArgument(GRPC_ARG_HTTP2_MIN_RECV_PING_INTERVAL_WITHOUT_DATA_MS, 5000);
   std::vector<std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>> creators;
-  creators.push_back(self->metrics_->MakeInterceptorFactory());
+  creators.push_back(metrics_->MakeInterceptorFactory());
   builder.experimental().SetInterceptorCreators(std::move(creators));
-  builder.RegisterService(self->map_service_.get());
-  builder.RegisterService(self->planner_service_.get());
-  self->server_ = builder.BuildAndStart();
-  if (!self->server_ || port == 0) {
+  builder.RegisterService(map_service_.get());
+  builder.RegisterService(planner_service_.get());
+  server_ = builder.BuildAndStart();
+  if (!server_ || port == 0) {
     return MakeError(ErrorCode::kInvalidInput,
                      "--listen " + config.listen +
                          ": cannot listen there (address in use by another process, or not a "
@@ -277,27 +309,36 @@ Result<std::unique_ptr<StrataServer>> StrataServer::Start(const ServerConfig& co
                               : std::string("; or --tls-cert and --tls-key are not a matching "
                                             "PEM certificate and key)")));
   }
-  self->address_ = BoundAddress(config.listen, port);
+  address_ = BoundAddress(config.listen, port);
   {
-    std::lock_guard lock(self->mutex_);
-    for (const ResolvedPreload& preload : preloads) self->pending_preloads_.insert(preload.id);
+    std::lock_guard lock(mutex_);
+    for (const ResolvedPreload& preload : inputs.preloads) pending_preloads_.insert(preload.id);
   }
-  self->server_->GetHealthCheckService()->SetServingStatus(kServices[0], true);
-  self->SetReady(preloads.empty());
+  server_->GetHealthCheckService()->SetServingStatus(kServices[0], true);
+  SetReady(inputs.preloads.empty());
+  return OkStatus();
+}
 
+ServiceStatus StrataServer::ServeMetrics() {
+  const ServerConfig& config = config_;
   if (config.metrics_port >= 0) {
     const std::string address = config.metrics_address + ":" + std::to_string(config.metrics_port);
     try {
-      self->exposer_ = std::make_unique<prometheus::Exposer>(address);
+      exposer_ = std::make_unique<prometheus::Exposer>(address);
     } catch (const std::exception& e) {
       return MakeError(ErrorCode::kInvalidInput,
                        "--metrics-address, --metrics-port: cannot serve metrics on " + address +
                            ": " + e.what());
     }
-    self->metrics_->ServeOn(*self->exposer_);
-    const std::vector<int> ports = self->exposer_->GetListeningPorts();
-    self->metrics_port_ = ports.empty() ? config.metrics_port : ports.front();
+    metrics_->ServeOn(*exposer_);
+    const std::vector<int> ports = exposer_->GetListeningPorts();
+    metrics_port_ = ports.empty() ? config.metrics_port : ports.front();
   }
+  return OkStatus();
+}
+
+ServiceStatus StrataServer::ServeViewer() {
+  const ServerConfig& config = config_;
   if (config.http_port >= 0) {
     // The viewer serves plain HTTP only: with TLS on the gRPC side it is served on loopback
     // only, where no token crosses the network in the clear.
@@ -309,28 +350,32 @@ Result<std::unique_ptr<StrataServer>> StrataServer::Start(const ServerConfig& co
           "127.0.0.1 and put a TLS-terminating "
           "proxy (or an SSH tunnel) in front of it, or drop --http-port");
     }
-    self->http_api_ = std::make_unique<HttpApi>(self->registry_.get(), self->map_service_.get(),
-                                                self->planner_service_.get(), self->tokens_.get());
+    http_api_ = std::make_unique<HttpApi>(registry_.get(), map_service_.get(),
+                                          planner_service_.get(), tokens_.get());
     HttpServerOptions http;
     http.address = config.http_address;
     http.port = config.http_port;
     // The same request limit as gRPC's (a JSON body is larger than the binary message, so a
     // request near the limit passes gRPC and not here: the limit is the server's memory's).
     http.max_body_bytes = static_cast<std::size_t>(config.max_receive_message_bytes);
-    Result<std::unique_ptr<HttpServer>> started = HttpServer::Start(http, self->http_api_.get());
+    Result<std::unique_ptr<HttpServer>> started = HttpServer::Start(http, http_api_.get());
     if (!started.ok()) return std::move(started).error();
-    self->http_server_ = std::move(started).value();
+    http_server_ = std::move(started).value();
   }
-  for (ResolvedPreload& preload : preloads) {
+  return OkStatus();
+}
+
+ServiceStatus StrataServer::QueuePreloads(std::vector<ResolvedPreload>* preloads) {
+  for (ResolvedPreload& preload : *preloads) {
     LogInfo("map_queued").Add("map", preload.id).Add("source", "preload");
-    Result<MapSnapshot> created = self->registry_->Create(preload.id, std::move(preload.source),
-                                                          preload.config, preload.config_given);
+    Result<MapSnapshot> created = registry_->Create(preload.id, std::move(preload.source),
+                                                    preload.config, preload.config_given);
     if (!created.ok()) {
       return MakeError(ErrorCode::kInvalidInput,
                        "--preload " + preload.id + ": " + created.error().message);
     }
   }
-  return self;
+  return OkStatus();
 }
 
 StrataServer::~StrataServer() {

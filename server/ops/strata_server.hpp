@@ -2,10 +2,12 @@
 /// The assembled server: map registry, services, health, reflection, metrics, preloads.
 /// main.cpp adds flags and signals around it; tests may embed it.
 #include <chrono>
+#include <filesystem>
 #include <memory>
 #include <mutex>
 #include <set>
 #include <string>
+#include <vector>
 
 #include <grpcpp/grpcpp.h>
 #include <prometheus/exposer.h>
@@ -23,6 +25,14 @@
 #include "rpc/recent_plans.hpp"
 
 namespace strata::server {
+
+/// A --preload checked: its map's source opened (or its scene checked) and its parameters.
+struct ResolvedPreload {
+  std::string id;
+  MapSource source;
+  AssessmentConfig config;
+  bool config_given = false;  ///< A KEY=VALUE terrain parameter was given.
+};
 
 class StrataServer {
  public:
@@ -59,7 +69,22 @@ class StrataServer {
   Metrics& metrics() { return *metrics_; }
 
  private:
+  /// What CheckFlags resolved, for the steps of Start after it.
+  struct StartInputs {
+    std::filesystem::path map_root;  ///< Canonical; empty without --map-root.
+    std::vector<ResolvedPreload> preloads;
+    std::shared_ptr<grpc::ServerCredentials> credentials;
+  };
+
   StrataServer() = default;
+  // The steps of Start, in its order (strata_server.cpp says why that order).
+  Result<StartInputs> CheckFlags();
+  ServiceStatus StartMaps(StartInputs* inputs);
+  ServiceStatus StartServices(const StartInputs& inputs);
+  ServiceStatus Listen(const StartInputs& inputs);
+  ServiceStatus ServeMetrics();
+  ServiceStatus ServeViewer();
+  ServiceStatus QueuePreloads(std::vector<ResolvedPreload>* preloads);
   void OnMapDone(const MapSnapshot& map);
   void SetReady(bool ready);
 
