@@ -189,8 +189,10 @@ TEST_F(MapWorkerTest, MemoryBeyondTheLimitIsResourceExhausted) {
 }
 
 TEST_F(MapWorkerTest, CpuTimeBeyondTheLimitIsResourceExhausted) {
-  options_.cpu_s = 1;  // The 200 m site takes about 2 s of CPU time.
-  Result<BuiltMap> built = Build(SceneJob("outdoor_site", 200.0));
+  // The 400 m site takes about 8 s of CPU time (the 200 m one 2 s, in a Release build on the
+  // CI machine): a machine several times faster still meets the limit of 1 s.
+  options_.cpu_s = 1;
+  Result<BuiltMap> built = Build(SceneJob("outdoor_site", 400.0));
   ASSERT_FALSE(built.ok());
   EXPECT_EQ(CodeOf(built.error()), ErrorCode::kResourceExhausted) << built.error().message;
   EXPECT_THAT(built.error().message, HasSubstr("1 s of CPU time"));
@@ -198,18 +200,18 @@ TEST_F(MapWorkerTest, CpuTimeBeyondTheLimitIsResourceExhausted) {
 
 TEST_F(MapWorkerTest, StoppingKillsTheWorkerAtOnce) {
   std::atomic<bool> stop{false};
-  std::chrono::steady_clock::time_point asked;
   BuildMonitor monitor;
+  // The worker is frozen (SIGSTOP) before the stop is asked for: it can neither finish nor
+  // notice anything, so Build returns only if the worker is killed, whatever the machine's
+  // speed. A stop that waited for the worker would hang here (and fail on the test timeout).
   monitor.on_loaded = [&](std::size_t, std::size_t, double) {
-    asked = std::chrono::steady_clock::now();
+    for (const pid_t child : ChildProcesses()) kill(child, SIGSTOP);
     stop = true;
   };
   monitor.should_stop = [&] { return stop.load(); };
   Result<BuiltMap> built = Build(SceneJob("outdoor_site", 200.0), monitor);
-  const auto took = std::chrono::steady_clock::now() - asked;
   ASSERT_FALSE(built.ok());
   EXPECT_EQ(CodeOf(built.error()), ErrorCode::kCancelled);
-  EXPECT_LT(took, std::chrono::milliseconds(500) * test_util::kTimeScale);
   EXPECT_TRUE(ChildProcesses().empty());  // Killed and reaped.
 }
 
