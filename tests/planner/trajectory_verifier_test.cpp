@@ -3,6 +3,7 @@
 // names the quantity, and the same trajectory just inside the bound passes.
 #include "strata/verification/trajectory_verifier.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <memory>
@@ -119,7 +120,14 @@ INSTANTIATE_TEST_SUITE_P(
                       LimitCase{"horizontal acceleration", &RobotProfile::max_accel_horizontal_mps2,
                                 kMinimumJerkPeakAcceleration* kRunM / (kRunS * kRunS)},
                       LimitCase{"vertical acceleration", &RobotProfile::max_accel_vertical_mps2,
-                                kMinimumJerkPeakAcceleration * 0.1 / (kRunS * kRunS)}));
+                                kMinimumJerkPeakAcceleration * 0.1 / (kRunS * kRunS)}),
+    // Named by the quantity: gtest's default prints the case's bytes, a pointer among them,
+    // so the test names changed from build to build.
+    [](const ::testing::TestParamInfo<LimitCase>& info) {
+      std::string name = info.param.quantity;
+      std::replace(name.begin(), name.end(), ' ', '_');
+      return name;
+    });
 
 TEST(VerifyTrajectory, RefusesFloatingAboveOrSinkingBelowTheReferenceHeight) {
   const RobotProfile profile = Loose("differential");
