@@ -2,6 +2,7 @@
 // result printed as it arrives.
 #include <fstream>
 
+#include <fmt/format.h>
 #include <google/protobuf/util/json_util.h>
 
 #include "commands.hpp"
@@ -24,7 +25,7 @@ v1::PlanBatchRequest ReadRequests(const std::string& path) {
     ++number;
     const std::size_t first = line.find_first_not_of(" \t\r");
     if (first == std::string::npos || line[first] == '#') continue;
-    FromJson(line, "\"" + path + "\" line " + std::to_string(number), batch.add_requests());
+    FromJson(line, fmt::format("\"{}\" line {}", path, number), batch.add_requests());
   }
   if (batch.requests_size() == 0) throw UsageError("\"" + path + "\" holds no plan request");
   return batch;

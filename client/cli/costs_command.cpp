@@ -3,6 +3,8 @@
 #include <cstring>
 #include <optional>
 
+#include <fmt/format.h>
+
 #include "commands.hpp"
 #include "connection.hpp"
 #include "output.hpp"
@@ -75,15 +77,11 @@ void PrintSummary(const Context& ctx, const v1::EstimateCostsRequest& request,
   const int goals = response.goals_size();
   for (int k = 0; k < response.cells_size(); ++k) {
     const v1::CostCell& cell = response.cells(k);
-    char line[96];
-    if (cell.reachable()) {
-      std::snprintf(line, sizeof(line), "  %5d %5d  %10.2f %10.2f\n", k / goals, k % goals,
-                    cell.time_s(), cell.length_m());
-    } else {
-      std::snprintf(line, sizeof(line), "  %5d %5d  unreachable: %s\n", k / goals, k % goals,
-                    cell.reason().c_str());
-    }
-    out << line;
+    // Explicit right alignment: fmt would left-align inf and nan in a width.
+    out << (cell.reachable() ? fmt::format("  {:5} {:5}  {:>10.2f} {:>10.2f}\n", k / goals,
+                                           k % goals, cell.time_s(), cell.length_m())
+                             : fmt::format("  {:5} {:5}  unreachable: {}\n", k / goals, k % goals,
+                                           cell.reason()));
   }
 }
 

@@ -6,6 +6,8 @@
 #include <thread>
 #include <tuple>
 
+#include <fmt/format.h>
+
 #include "commands.hpp"
 #include "connection.hpp"
 #include "output.hpp"
@@ -39,13 +41,12 @@ std::string SourceText(const v1::MapSource& source) {
   if (source.has_scene()) {
     // NAME:SEED[:size_m=M][:spacing_m=M], as strata-offline takes it after "scene:".
     const v1::SceneSource& scene = source.scene();
-    std::string text = "scene " + scene.name() + ":" + std::to_string(scene.seed());
+    std::string text = fmt::format("scene {}:{}", scene.name(), scene.seed());
     if (scene.has_size_m()) text += ":size_m=" + JsonNumber(scene.size_m());
     if (scene.has_spacing_m()) text += ":spacing_m=" + JsonNumber(scene.spacing_m());
     return text;
   }
-  if (source.has_upload())
-    return "upload " + std::to_string(source.upload().received_bytes()) + " B";
+  if (source.has_upload()) return fmt::format("upload {} B", source.upload().received_bytes());
   return "-";
 }
 
@@ -283,12 +284,11 @@ int List(const Context& ctx, const ListFlags& flags) {
   std::ostream& out = *ctx.out;
   out << "ID                STATE      POINTS      VALID GROUND  MEMORY_MB  SOURCE\n";
   for (const v1::Map& map : all.maps()) {
-    char line[256];
-    std::snprintf(line, sizeof(line), "%-17s %-10s %-11llu %-13llu %-10s ", map.id().c_str(),
-                  StateName(map.state()), static_cast<unsigned long long>(map.input_point_count()),
-                  static_cast<unsigned long long>(map.valid_ground_point_count()),
-                  Megabytes(map.memory_bytes()).c_str());
-    out << line << SourceText(map.source()) << "\n";
+    // Map ids are ASCII (the server checks them), so the widths count bytes.
+    out << fmt::format("{:<17} {:<10} {:<11} {:<13} {:<10} ", map.id(), StateName(map.state()),
+                       map.input_point_count(), map.valid_ground_point_count(),
+                       Megabytes(map.memory_bytes()))
+        << SourceText(map.source()) << "\n";
   }
   if (!all.next_page_token().empty())
     out << "next page: --page-token " << all.next_page_token() << "\n";

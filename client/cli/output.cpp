@@ -5,6 +5,7 @@
 #include <fstream>
 #include <sstream>
 
+#include <fmt/format.h>
 #include <google/protobuf/util/json_util.h>
 
 #include "context.hpp"
@@ -42,14 +43,10 @@ std::string ReadFile(const std::string& path) {
   return contents.str();
 }
 
-std::string Fixed(double value, int decimals) {
-  char buffer[64];
-  std::snprintf(buffer, sizeof(buffer), "%.*f", decimals, value);
-  return buffer;
-}
+std::string Fixed(double value, int decimals) { return fmt::format("{:.{}f}", value, decimals); }
 
 std::string FormatVector(const v1::Vector3& v) {
-  return "(" + Fixed(v.x(), 3) + ", " + Fixed(v.y(), 3) + ", " + Fixed(v.z(), 3) + ")";
+  return fmt::format("({:.3f}, {:.3f}, {:.3f})", v.x(), v.y(), v.z());
 }
 
 std::string JsonNumber(double value) {

@@ -1,4 +1,6 @@
 // `strata plan`: one Plan call, printed as a summary or as the PlanResponse in JSON.
+#include <fmt/format.h>
+
 #include "commands.hpp"
 #include "connection.hpp"
 #include "output.hpp"
@@ -64,11 +66,10 @@ void PrintSummary(const Context& ctx, const v1::PlanRequest& request,
   }
   out << "  piece   start_s  duration_s  start position [m]\n";
   for (std::size_t i = 0; i < trajectory->piece_count(); ++i) {
-    char line[64];
-    std::snprintf(line, sizeof(line), "  %5zu  %7.3f  %10.3f  ", i, trajectory->piece_start_s(i),
-                  trajectory->piece_duration_s(i));
-    out << line << FormatVector(ToVector(trajectory->PositionAt(trajectory->piece_start_s(i))))
-        << "\n";
+    // Explicit right alignment: fmt would left-align inf and nan in a width.
+    out << fmt::format("  {:5}  {:>7.3f}  {:>10.3f}  ", i, trajectory->piece_start_s(i),
+                       trajectory->piece_duration_s(i))
+        << FormatVector(ToVector(trajectory->PositionAt(trajectory->piece_start_s(i)))) << "\n";
   }
   out << "  end     " << Fixed(trajectory->duration_s(), 3) << "               "
       << FormatVector(ToVector(trajectory->PositionAt(trajectory->duration_s()))) << "\n";

@@ -6,6 +6,8 @@
 #include <limits>
 #include <sstream>
 
+#include <fmt/format.h>
+
 #include "context.hpp"
 
 namespace strata::cli {
@@ -58,8 +60,8 @@ PointFileReader::PointFileReader(const std::string& path, PointFileFormat format
   } else if (format_ == PointFileFormat::kRawF32) {
     const std::uintmax_t bytes = std::filesystem::file_size(path);
     if (bytes % 12 != 0) {
-      throw UsageError("\"" + path + "\" has " + std::to_string(bytes) +
-                       " bytes, not a multiple of 12 (raw float32 x, y, z points)");
+      throw UsageError(fmt::format(
+          "\"{}\" has {} bytes, not a multiple of 12 (raw float32 x, y, z points)", path, bytes));
     }
     point_count_ = bytes / 12;
   }
@@ -90,8 +92,7 @@ void PointFileReader::ReadPcdHeader() {
         have_points = true;
       }
     } catch (const std::exception&) {
-      throw UsageError("\"" + path_ + "\" line " + std::to_string(line_) +
-                       ": bad PCD header value");
+      throw UsageError(fmt::format("\"{}\" line {}: bad PCD header value", path_, line_));
     }
     if (key != "DATA") continue;
     if (values.empty() || (values[0] != "ascii" && values[0] != "binary")) {
@@ -148,9 +149,8 @@ bool PointFileReader::NextBinary(std::size_t max_points, std::string* chunk) {
   std::string records(n * record_bytes_, '\0');
   file_.read(records.data(), static_cast<std::streamsize>(records.size()));
   if (static_cast<std::size_t>(file_.gcount()) != records.size()) {
-    throw UsageError("\"" + path_ + "\" ends after " +
-                     std::to_string(points_read_ + file_.gcount() / record_bytes_) + " of " +
-                     std::to_string(point_count_) + " points");
+    throw UsageError(fmt::format("\"{}\" ends after {} of {} points", path_,
+                                 points_read_ + file_.gcount() / record_bytes_, point_count_));
   }
   if (format_ == PointFileFormat::kRawF32) {
     *chunk = std::move(records);
@@ -183,9 +183,8 @@ bool PointFileReader::NextText(std::size_t max_points, std::string* chunk, bool 
     if (tokens.empty() || tokens[0][0] == '#') continue;
     const std::size_t needed = pcd_ascii ? record_bytes_ : 3;
     if (tokens.size() < needed) {
-      throw UsageError("\"" + path_ + "\" line " + std::to_string(line_) + " has " +
-                       std::to_string(tokens.size()) + " values; " + std::to_string(needed) +
-                       " expected");
+      throw UsageError(fmt::format("\"{}\" line {} has {} values; {} expected", path_, line_,
+                                   tokens.size(), needed));
     }
     float xyz[3];
     for (int a = 0; a < 3; ++a) {
@@ -197,8 +196,8 @@ bool PointFileReader::NextText(std::size_t max_points, std::string* chunk, bool 
       } catch (const std::out_of_range&) {
         xyz[a] = std::numeric_limits<float>::infinity();  // Dropped by the server, as NaN.
       } catch (const std::exception&) {
-        throw UsageError("\"" + path_ + "\" line " + std::to_string(line_) + ": \"" + token +
-                         "\" is not a number");
+        throw UsageError(
+            fmt::format("\"{}\" line {}: \"{}\" is not a number", path_, line_, token));
       }
     }
     AppendPoint(xyz[0], xyz[1], xyz[2], chunk);

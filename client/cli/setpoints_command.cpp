@@ -1,6 +1,8 @@
 // `strata setpoints`: MPC setpoints from a fresh plan or a saved PlanResponse (JSON).
 #include <cmath>
 
+#include <fmt/format.h>
+
 #include "commands.hpp"
 #include "output.hpp"
 #include "strata/client/polynomial_trajectory.hpp"
@@ -43,13 +45,13 @@ void PrintTable(std::ostream& out, const client::PolynomialTrajectory& trajector
       << (height ? "  body_height_m" : "") << "\n";
   bool any_held = false;
   for (const client::MpcSetpoint& s : setpoints) {
-    char line[200];
-    std::snprintf(line, sizeof(line),
-                  "%8.3f %8.3f %8.3f %8.3f %8.4f%c %8.4f %12.4f %9.4f %9.4f %9.4f", s.time_s,
-                  s.position_m.x(), s.position_m.y(), s.position_m.z(), s.yaw_rad,
-                  s.yaw_held ? '*' : ' ', s.speed_mps, s.yaw_rate_radps, s.acceleration_mps2.x(),
-                  s.acceleration_mps2.y(), s.acceleration_mps2.z());
-    out << line;
+    // Explicit right alignment: fmt would left-align inf and nan in a width.
+    out << fmt::format(
+        "{:>8.3f} {:>8.3f} {:>8.3f} {:>8.3f} {:>8.4f}{} {:>8.4f} {:>12.4f} {:>9.4f} {:>9.4f} "
+        "{:>9.4f}",
+        s.time_s, s.position_m.x(), s.position_m.y(), s.position_m.z(), s.yaw_rad,
+        s.yaw_held ? '*' : ' ', s.speed_mps, s.yaw_rate_radps, s.acceleration_mps2.x(),
+        s.acceleration_mps2.y(), s.acceleration_mps2.z());
     if (height) out << "  " << Fixed(*s.body_height_m, 4);
     out << "\n";
     any_held = any_held || s.yaw_held;

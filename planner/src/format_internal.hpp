@@ -2,10 +2,10 @@
 // Message helpers shared by the planner's validation and error paths; not installed.
 
 #include <cctype>
-#include <cstdio>
 #include <string>
 #include <string_view>
 
+#include <fmt/format.h>
 #include <Eigen/Core>
 
 #include "strata/status.hpp"
@@ -23,10 +23,8 @@ inline std::string FieldPath(std::string_view path, std::string_view name) {
 /// kInvalidConfig blaming `field` (a path, see Error::field): "<field> = <value> is out of
 /// range: must be <range>".
 inline Error OutOfRange(const std::string& field, double value, const std::string& range) {
-  char buf[64];
-  std::snprintf(buf, sizeof(buf), "%g", value);
   return Error{ErrorCode::kInvalidConfig,
-               field + " = " + buf + " is out of range: must be " + range, field};
+               fmt::format("{} = {:g} is out of range: must be {}", field, value, range), field};
 }
 
 /// `text` in single quotes for a message, cut to its first 64 bytes ("...'" marks a cut)
@@ -43,9 +41,7 @@ inline std::string Quote(std::string_view text) {
 
 /// "(x, y, z)" with centimetre precision, for messages in metres.
 inline std::string FormatPoint(const Eigen::Vector3d& p) {
-  char buf[128];
-  std::snprintf(buf, sizeof(buf), "(%.2f, %.2f, %.2f)", p.x(), p.y(), p.z());
-  return buf;
+  return fmt::format("({:.2f}, {:.2f}, {:.2f})", p.x(), p.y(), p.z());
 }
 
 }  // namespace strata::internal

@@ -11,6 +11,8 @@
 #include <string>
 #include <utility>
 
+#include <fmt/format.h>
+
 #include "format_internal.hpp"
 #include "strata/planning/keep_out.hpp"
 #include "strata/planning/path_shortening.hpp"
@@ -50,12 +52,10 @@ class StopCondition {
   Error Reason(double budget_s, const char* stage) const {
     if (cancelled_)
       return Error{ErrorCode::kCancelled, std::string("plan cancelled during ") + stage};
-    char buf[200];
-    std::snprintf(buf, sizeof(buf),
-                  "the plan's time budget of %.3f s ran out during %s; allow more time "
-                  "(options.time_budget_s or the call's deadline)",
-                  budget_s, stage);
-    return Error{ErrorCode::kDeadlineExceeded, buf};
+    return Error{ErrorCode::kDeadlineExceeded,
+                 fmt::format("the plan's time budget of {:.3f} s ran out during {}; allow more "
+                             "time (options.time_budget_s or the call's deadline)",
+                             budget_s, stage)};
   }
   bool stopped() const { return cancelled_ || expired_; }
 
@@ -104,16 +104,16 @@ void FillStats(const Trajectory& trajectory, const VerificationReport& v,
 Error InKeepOut(ErrorCode code, const char* what, const Eigen::Vector3d& p, const KeepOutZone& zone,
                 const RobotProfile& profile, bool map_zone) {
   const double penetration = KeepOutPenetration(zone.prism, profile, p);
-  char buf[320];
-  std::snprintf(buf, sizeof(buf),
-                " m puts the robot inside %s: its footprint (radius %.2f m) reaches %.2f m "
-                "into the zone's polygon and its height range overlaps the zone's [%.2f, %.2f] "
-                "m; move the %s at least %.2f m away from the zone%s",
-                zone.name.c_str(), profile.footprint_radius_m, penetration, zone.prism.z_min_m,
-                zone.prism.z_max_m, what, penetration,
-                map_zone ? " (the map's zones change only with the map)" : " or drop the zone");
-  return Error{code, std::string(what) + " " + internal::FormatPoint(p) + buf,
-               std::string(what) + ".position_m"};
+  return Error{
+      code,
+      fmt::format("{} {} m puts the robot inside {}: its footprint (radius {:.2f} m) "
+                  "reaches {:.2f} m into the zone's polygon and its height range "
+                  "overlaps the zone's [{:.2f}, {:.2f}] m; move the {} at least {:.2f} "
+                  "m away from the zone{}",
+                  what, internal::FormatPoint(p), zone.name, profile.footprint_radius_m,
+                  penetration, zone.prism.z_min_m, zone.prism.z_max_m, what, penetration,
+                  map_zone ? " (the map's zones change only with the map)" : " or drop the zone"),
+      std::string(what) + ".position_m"};
 }
 
 // Optimises `problem` and verifies the result; when its only fault is being too fast
@@ -185,14 +185,14 @@ Status ValidateWarmStart(const WarmStart& warm, const RobotProfile& profile) {
   const Trajectory& trajectory = warm.trajectory;
   const int dim = profile.active_height ? 4 : 3;
   if (trajectory.dimension != dim) {
-    return bad("warm_start.trajectory.dimension", "is " + std::to_string(trajectory.dimension) +
-                                                      "; this robot's trajectories have " +
-                                                      std::to_string(dim) + " axes");
+    return bad(
+        "warm_start.trajectory.dimension",
+        fmt::format("is {}; this robot's trajectories have {} axes", trajectory.dimension, dim));
   }
   if (trajectory.pieces.empty() || trajectory.pieces.size() > kMaxWarmStartPieces) {
-    return bad("warm_start.trajectory.pieces", "has " + std::to_string(trajectory.pieces.size()) +
-                                                   " pieces; give 1 to " +
-                                                   std::to_string(kMaxWarmStartPieces));
+    return bad(
+        "warm_start.trajectory.pieces",
+        fmt::format("has {} pieces; give 1 to {}", trajectory.pieces.size(), kMaxWarmStartPieces));
   }
   for (std::size_t i = 0; i < trajectory.pieces.size(); ++i) {
     const TrajectoryPiece& piece = trajectory.pieces[i];
@@ -216,10 +216,10 @@ std::vector<KeepOutZone> CollectKeepOut(const PlanningMap& map,
   std::vector<KeepOutZone> zones;
   zones.reserve(map.keep_out().size() + request_zones.size());
   for (std::size_t i = 0; i < map.keep_out().size(); ++i) {
-    zones.emplace_back(map.keep_out()[i], "the map's keep-out zone " + std::to_string(i));
+    zones.emplace_back(map.keep_out()[i], fmt::format("the map's keep-out zone {}", i));
   }
   for (std::size_t i = 0; i < request_zones.size(); ++i) {
-    zones.emplace_back(request_zones[i], "keep-out zone keep_out[" + std::to_string(i) + "]");
+    zones.emplace_back(request_zones[i], fmt::format("keep-out zone keep_out[{}]", i));
   }
   return zones;
 }
@@ -230,10 +230,9 @@ Expected<SnapResult> SnapEndpoint(const SurfaceGraph& graph, const Eigen::Vector
   // Only where verification can pass: a trajectory's end whose reference point is closer to
   // an obstacle than the verifier allows could never be returned.
   const auto clear = [&](int node) { return graph.clearance(node) >= min_obstacle_distance_m; };
-  char refusal[112];
-  std::snprintf(refusal, sizeof(refusal),
-                "closer than %.3f m (verifier.min_obstacle_distance_m) to an obstacle",
-                min_obstacle_distance_m);
+  const std::string refusal =
+      fmt::format("closer than {:.3f} m (verifier.min_obstacle_distance_m) to an obstacle",
+                  min_obstacle_distance_m);
   Expected<SnapResult> snap =
       SnapToSurface(graph, requested, tolerance_m, off_ground_code, clear, refusal);
   if (!snap) return snap;
@@ -375,10 +374,9 @@ Status PlanRequest::Validate() const {
   if (Status s = options.Validate("options"); !s) return s;
   if (keep_out.size() > static_cast<std::size_t>(kMaxRequestKeepOutZones)) {
     return Error{ErrorCode::kInvalidInput,
-                 "keep_out has " + std::to_string(keep_out.size()) + " zones, more than the " +
-                     std::to_string(kMaxRequestKeepOutZones) +
-                     " one request may carry: merge neighbouring zones, or make lasting ones "
-                     "part of the map",
+                 fmt::format("keep_out has {} zones, more than the {} one request may carry: "
+                             "merge neighbouring zones, or make lasting ones part of the map",
+                             keep_out.size(), kMaxRequestKeepOutZones),
                  "keep_out"};
   }
   if (warm_start) {
@@ -386,9 +384,9 @@ Status PlanRequest::Validate() const {
   }
   if (via.size() > static_cast<std::size_t>(kMaxVias)) {
     return Error{ErrorCode::kInvalidInput,
-                 "via has " + std::to_string(via.size()) + " points, more than the " +
-                     std::to_string(kMaxVias) +
-                     " one request may carry: split the route into several plans",
+                 fmt::format("via has {} points, more than the {} one request may carry: split "
+                             "the route into several plans",
+                             via.size(), kMaxVias),
                  "via"};
   }
   for (std::size_t i = 0; i < via.size(); ++i) {
@@ -634,10 +632,8 @@ Expected<Leg> FallbackLeg(const LegContext& ctx, std::span<const RoutePoint> poi
     }
     if (ctx.stop()) return ctx.stop.Reason(options.time_budget_s, "the slow fallback");
   }
-  char buf[64];
-  std::snprintf(buf, sizeof(buf), " (after %d attempts and the slow fallback)",
-                options.max_attempts);
-  last_failure.message += buf;
+  last_failure.message +=
+      fmt::format(" (after {} attempts and the slow fallback)", options.max_attempts);
   return last_failure;
 }
 

@@ -2,9 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <limits>
 #include <string>
+
+#include <fmt/format.h>
 
 #include "format_internal.hpp"
 
@@ -41,8 +42,7 @@ Status Prism::Validate(std::string_view path) const {
   const int n = static_cast<int>(polygon_m.size());
   if (n < 3 || n > kMaxPrismVertices) {
     return Error{ErrorCode::kInvalidInput,
-                 polygon_path + " has " + std::to_string(n) + " corners: give 3 to " +
-                     std::to_string(kMaxPrismVertices),
+                 fmt::format("{} has {} corners: give 3 to {}", polygon_path, n, kMaxPrismVertices),
                  polygon_path};
   }
   for (int i = 0; i < n; ++i) {
@@ -67,8 +67,9 @@ Status Prism::Validate(std::string_view path) const {
       if (SegmentsIntersect(polygon_m[i], polygon_m[(i + 1) % n], polygon_m[j],
                             polygon_m[(j + 1) % n])) {
         return Error{ErrorCode::kInvalidInput,
-                     polygon_path + ": edge " + std::to_string(i) + " crosses edge " +
-                         std::to_string(j) + "; give the corners in order around the polygon",
+                     fmt::format("{}: edge {} crosses edge {}; give the corners in order around "
+                                 "the polygon",
+                                 polygon_path, i, j),
                      polygon_path};
       }
     }
@@ -79,9 +80,10 @@ Status Prism::Validate(std::string_view path) const {
   }
   if (!(std::isfinite(z_max_m) && z_max_m >= z_min_m)) {
     const std::string field = internal::FieldPath(path, "z_max_m");
-    char buf[96];
-    std::snprintf(buf, sizeof(buf), " = %g must be finite and >= z_min_m = %g", z_max_m, z_min_m);
-    return Error{ErrorCode::kInvalidInput, field + buf, field};
+    return Error{
+        ErrorCode::kInvalidInput,
+        fmt::format("{} = {:g} must be finite and >= z_min_m = {:g}", field, z_max_m, z_min_m),
+        field};
   }
   return Status::Ok();
 }

@@ -4,10 +4,11 @@
 #include <bit>
 #include <cmath>
 #include <cstdint>
-#include <cstdio>
 #include <limits>
 #include <numeric>
 #include <string>
+
+#include <fmt/format.h>
 
 #include "format_internal.hpp"
 #include "strata/planner.hpp"
@@ -104,13 +105,11 @@ Status CheckPosition(const Eigen::Vector3d& p, const std::string& path) {
   for (int i = 0; i < 3; ++i) {
     if (std::abs(p(i)) <= kMaxAbsCoordinateM) continue;  // False for NaN too.
     const std::string field = internal::FieldPath(path, std::string(1, "xyz"[i]));
-    char buf[128];
-    if (std::isfinite(p(i))) {
-      std::snprintf(buf, sizeof(buf), " = %g m is beyond ±%g m", p(i), kMaxAbsCoordinateM);
-    } else {
-      std::snprintf(buf, sizeof(buf), " must be finite, got %g", p(i));
-    }
-    return Error{ErrorCode::kInvalidInput, field + buf, field};
+    return Error{ErrorCode::kInvalidInput,
+                 std::isfinite(p(i))
+                     ? fmt::format("{} = {:g} m is beyond ±{:g} m", field, p(i), kMaxAbsCoordinateM)
+                     : fmt::format("{} must be finite, got {:g}", field, p(i)),
+                 field};
   }
   return Status::Ok();
 }
@@ -459,10 +458,8 @@ Expected<TravelCostQuery> TravelCostQuery::Prepare(
       return s.error();
   }
   if (!(std::isfinite(snap_tolerance_m) && snap_tolerance_m >= 0)) {
-    char buf[128];
-    std::snprintf(buf, sizeof(buf), "snap tolerance %g m must be finite and >= 0",
-                  snap_tolerance_m);
-    return Error{ErrorCode::kInvalidInput, buf};
+    return Error{ErrorCode::kInvalidInput,
+                 fmt::format("snap tolerance {:g} m must be finite and >= 0", snap_tolerance_m)};
   }
 
   TravelCostQuery query;
@@ -513,13 +510,12 @@ Expected<TravelCostQuery> TravelCostQuery::Prepare(
     nodes += searched[static_cast<std::size_t>(graph.component(n))];
   }
   if (nodes > config.max_nodes) {
-    char buf[256];
-    std::snprintf(buf, sizeof(buf),
-                  "the ground connecting these starts and goals holds %lld graph nodes, more than "
-                  "the %d one estimate may search (costs.max_nodes): ask for ends on a smaller "
-                  "part of the map, or plan the pairs one by one",
-                  static_cast<long long>(nodes), config.max_nodes);
-    return Error{ErrorCode::kResourceExhausted, buf, "costs.max_nodes"};
+    return Error{ErrorCode::kResourceExhausted,
+                 fmt::format("the ground connecting these starts and goals holds {} graph nodes, "
+                             "more than the {} one estimate may search (costs.max_nodes): ask "
+                             "for ends on a smaller part of the map, or plan the pairs one by one",
+                             nodes, config.max_nodes),
+                 "costs.max_nodes"};
   }
   const auto included = [&](int n) {
     if (!searched[static_cast<std::size_t>(graph.component(n))]) return false;

@@ -2,8 +2,9 @@
 #include "strata/scenes/scenes.hpp"
 
 #include <cmath>
-#include <cstdio>
 #include <string>
+
+#include <fmt/format.h>
 
 #include "scenes_internal.hpp"
 #include "strata/scenes/basic_scenes.hpp"
@@ -72,12 +73,6 @@ Expected<const SceneEntry*> FindScene(const std::string& name) {
                                              JoinedNames([](const SceneEntry&) { return true; })};
 }
 
-std::string Number(double value) {
-  char text[32];
-  std::snprintf(text, sizeof(text), "%g", value);
-  return text;
-}
-
 // The entry and its options, every one it has set.
 struct ResolvedScene {
   const SceneEntry* entry;
@@ -98,18 +93,18 @@ Expected<ResolvedScene> Resolve(const std::string& name, const SceneOptions& opt
   if (entry.size != nullptr) {
     const double size = options.size_m.value_or(entry.size->default_m);
     if (!(size >= entry.size->min_m && size <= entry.size->max_m)) {
-      return Error{ErrorCode::kInvalidInput, "scene " + name + ": size_m = " + Number(size) +
-                                                 " is out of range: must be in [" +
-                                                 Number(entry.size->min_m) + ", " +
-                                                 Number(entry.size->max_m) + "] m"};
+      return Error{ErrorCode::kInvalidInput,
+                   fmt::format("scene {}: size_m = {:g} is out of range: must be in [{:g}, {:g}] m",
+                               name, size, entry.size->min_m, entry.size->max_m)};
     }
     resolved.options.size_m = size;
   }
   const double spacing = options.spacing_m.value_or(entry.default_spacing_m);
   if (!IsValidSpacing(spacing)) {
-    return Error{ErrorCode::kInvalidInput, "scene " + name + ": spacing_m = " + Number(spacing) +
-                                               " is out of range: must be finite and >= " +
-                                               Number(internal::kMinSpacingM) + " m"};
+    return Error{ErrorCode::kInvalidInput,
+                 fmt::format("scene {}: spacing_m = {:g} is out of range: must be finite and "
+                             ">= {:g} m",
+                             name, spacing, internal::kMinSpacingM)};
   }
   resolved.options.spacing_m = spacing;
   return resolved;
@@ -130,13 +125,12 @@ Status CheckPoints(const ResolvedScene& scene, std::uint32_t seed, std::size_t m
   const SceneOptions& o = scene.options;
   // Points fall with the square of the spacing; name the next centimetre that fits.
   const double fits = std::ceil(100.0 * *o.spacing_m * std::sqrt(points / max_points)) / 100.0;
-  std::string what = "scene " + std::string(scene.entry->name) + " (";
-  if (o.size_m) what += "size_m = " + Number(*o.size_m) + ", ";
-  what += "spacing_m = " + Number(*o.spacing_m) + ")";
+  const std::string size = o.size_m ? fmt::format("size_m = {:g}, ", *o.size_m) : "";
   return Error{ErrorCode::kResourceExhausted,
-               what + " would have about " + Number(points) + " points, above the limit of " +
-                   std::to_string(max_points) + ": use spacing_m >= " + Number(fits) +
-                   (o.size_m ? " or a smaller size_m" : "")};
+               fmt::format("scene {} ({}spacing_m = {:g}) would have about {:g} points, above "
+                           "the limit of {}: use spacing_m >= {:g}{}",
+                           scene.entry->name, size, *o.spacing_m, points, max_points, fits,
+                           o.size_m ? " or a smaller size_m" : "")};
 }
 
 }  // namespace

@@ -2,20 +2,19 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <limits>
+
+#include <fmt/format.h>
 
 namespace strata::server {
 
 using SteadyClock = std::chrono::steady_clock;
 
 ServiceError DeadlineLeavesNoTime(double left_s) {
-  char buf[256];
-  std::snprintf(buf, sizeof(buf),
-                "the call's deadline leaves %.3f s, too little to plan: allow more time (set "
-                "a later deadline)",
-                std::max(0.0, left_s));
-  return MakeError(ErrorCode::kDeadlineExceeded, buf);
+  return MakeError(ErrorCode::kDeadlineExceeded,
+                   fmt::format("the call's deadline leaves {:.3f} s, too little to plan: allow "
+                               "more time (set a later deadline)",
+                               std::max(0.0, left_s)));
 }
 
 double CallControl::LeftSeconds() const {

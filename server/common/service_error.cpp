@@ -1,5 +1,7 @@
 #include "common/service_error.hpp"
 
+#include <fmt/format.h>
+
 namespace strata::server {
 
 ServiceError ServiceError::FromPlanner(const Error& error, std::string field) {
@@ -32,8 +34,7 @@ std::string BoundedText(std::string_view text, std::size_t max_bytes) {
   std::size_t cut = max_bytes;
   // Back off to the start of a UTF-8 character (continuation bytes are 10xxxxxx).
   while (cut > 0 && (static_cast<unsigned char>(text[cut]) & 0xC0) == 0x80) --cut;
-  return std::string(text.substr(0, cut)) + "…[" + std::to_string(text.size() - cut) +
-         " more bytes]";
+  return fmt::format("{}…[{} more bytes]", text.substr(0, cut), text.size() - cut);
 }
 
 }  // namespace strata::server

@@ -7,6 +7,7 @@
 #include <functional>
 #include <iterator>
 
+#include <fmt/format.h>
 #include <google/protobuf/util/json_util.h>
 
 #include "common/log.hpp"
@@ -99,8 +100,9 @@ int HttpStatusOf(grpc::StatusCode code) {
 
 HttpResponse RequestTooLarge(std::size_t max_bytes) {
   return PlainError(413, grpc::StatusCode::RESOURCE_EXHAUSTED,
-                    "the request body is larger than " + std::to_string(max_bytes) +
-                        " bytes, the server's --max-receive-message-bytes");
+                    fmt::format("the request body is larger than {} bytes, the server's "
+                                "--max-receive-message-bytes",
+                                max_bytes));
 }
 
 HttpApi::HttpApi(const MapRegistry* registry, const MapServiceImpl* maps,

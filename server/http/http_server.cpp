@@ -14,6 +14,8 @@
 #include <optional>
 #include <utility>
 
+#include <fmt/format.h>
+
 #include "common/log.hpp"
 
 namespace strata::server {
@@ -96,11 +98,11 @@ HttpResponse ShuttingDown() {
 }
 
 HttpResponse Busy() {
-  return HttpResponse{503,
-                      "text/plain; charset=utf-8",
-                      "the viewer has " + std::to_string(kHttpQueuedRequests) +
-                          " requests waiting; retry shortly\n",
-                      {{"Retry-After", "1"}}};
+  return HttpResponse{
+      503,
+      "text/plain; charset=utf-8",
+      fmt::format("the viewer has {} requests waiting; retry shortly\n", kHttpQueuedRequests),
+      {{"Retry-After", "1"}}};
 }
 
 }  // namespace
@@ -205,7 +207,7 @@ Result<std::unique_ptr<HttpServer>> HttpServer::Start(const HttpServerOptions& o
   std::unique_ptr<HttpServer> self(new HttpServer());
   self->api_ = api;
   self->max_body_bytes_ = options.max_body_bytes;
-  const std::string where = options.address + ":" + std::to_string(options.port);
+  const std::string where = fmt::format("{}:{}", options.address, options.port);
   const auto fail = [&where](const std::string& why) {
     return MakeError(ErrorCode::kInvalidInput,
                      "--http-address, --http-port: cannot serve the viewer on " + where + ": " +

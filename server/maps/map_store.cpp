@@ -24,6 +24,7 @@
 #include <type_traits>
 #include <utility>
 
+#include <fmt/format.h>
 #include <xxhash.h>
 
 #include "strata/io/cloud_io.hpp"
@@ -549,8 +550,9 @@ ServiceStatus MapStore::PublishUpdate(const std::string& id, const std::string& 
   if (ServiceStatus ok = CheckVersion(version); !ok) return ok;
   if (keep_versions < 1) {
     return MakeError(ErrorCode::kInvalidInput,
-                     "map store: keep_versions is " + std::to_string(keep_versions) +
-                         ", must be >= 1 (the current version is always kept)");
+                     fmt::format("map store: keep_versions is {}, must be >= 1 (the current "
+                                 "version is always kept)",
+                                 keep_versions));
   }
   const fs::path map_dir = MapDir(id);
   Result<MapLock> lock = MapLock::Acquire(map_dir, id, /*create=*/false);

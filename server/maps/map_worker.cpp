@@ -17,6 +17,8 @@
 #include <utility>
 #include <vector>
 
+#include <fmt/format.h>
+
 #include "common/log.hpp"
 #include "maps/map_worker_protocol.hpp"
 #include "strata/io/saved_model.hpp"
@@ -269,11 +271,11 @@ std::string SignalText(int signal_number) {
   const char* abbreviation = sigabbrev_np(signal_number);
   const char* description = strsignal(signal_number);
   return (abbreviation != nullptr ? "SIG" + std::string(abbreviation)
-                                  : "signal " + std::to_string(signal_number)) +
+                                  : fmt::format("signal {}", signal_number)) +
          (description != nullptr ? std::string(", ") + description : std::string());
 }
 
-std::string MiB(std::uint64_t bytes) { return std::to_string(bytes >> 20) + " MiB"; }
+std::string MiB(std::uint64_t bytes) { return fmt::format("{} MiB", bytes >> 20); }
 
 // The failure an unsuccessful end of the worker means.
 ServiceError FailureOf(const Outcome& outcome, const MapBuildJob& job,
@@ -291,26 +293,27 @@ ServiceError FailureOf(const Outcome& outcome, const MapBuildJob& job,
                                             : "reading the points";
   if (WIFEXITED(status) && WEXITSTATUS(status) == kWorkerExitOutOfMemory) {
     return MakeError(ErrorCode::kResourceExhausted,
-                     what + " needed more memory than a map may use (--max-assessment-memory " +
-                         MiB(options.memory_bytes) +
-                         "): use a coarser terrain.resolution_m or a smaller cloud, or raise "
-                         "the limit");
+                     fmt::format("{} needed more memory than a map may use "
+                                 "(--max-assessment-memory {}): use a coarser "
+                                 "terrain.resolution_m or a smaller cloud, or raise the limit",
+                                 what, MiB(options.memory_bytes)));
   }
   if (WIFSIGNALED(status) && WTERMSIG(status) == SIGKILL) {
     // Not sent by this server (outcome.killed says so). All that is known is the signal.
     return MakeError(ErrorCode::kResourceExhausted,
-                     "the map worker was killed by signal 9 (SIGKILL) while " + what +
-                         ", not by this server: the kernel's out-of-memory killer sends it "
-                         "when the machine or the server's container runs out of memory (a "
-                         "worker may use up to --max-assessment-memory " +
-                         MiB(options.memory_bytes) +
-                         "), and so can an operator; the kernel log (dmesg) says which");
+                     fmt::format("the map worker was killed by signal 9 (SIGKILL) while {}, not "
+                                 "by this server: the kernel's out-of-memory killer sends it "
+                                 "when the machine or the server's container runs out of memory "
+                                 "(a worker may use up to --max-assessment-memory {}), and so "
+                                 "can an operator; the kernel log (dmesg) says which",
+                                 what, MiB(options.memory_bytes)));
   }
   if (WIFSIGNALED(status) && WTERMSIG(status) == SIGXCPU) {
     return MakeError(ErrorCode::kResourceExhausted,
-                     what + " used the " + std::to_string(static_cast<long>(options.cpu_s)) +
-                         " s of CPU time a map may use: use a coarser terrain.resolution_m or "
-                         "a smaller cloud, or raise --max-assessment-time-s");
+                     fmt::format("{} used the {} s of CPU time a map may use: use a coarser "
+                                 "terrain.resolution_m or a smaller cloud, or raise "
+                                 "--max-assessment-time-s",
+                                 what, static_cast<long>(options.cpu_s)));
   }
   if (WIFSIGNALED(status)) {
     return MakeError(ErrorCode::kMapLoadFailed,
@@ -322,9 +325,9 @@ ServiceError FailureOf(const Outcome& outcome, const MapBuildJob& job,
                          "; the server is unaffected");
   }
   return MakeError(ServiceErrorCode::kInternal,
-                   "the map worker ended with exit code " +
-                       std::to_string(WIFEXITED(status) ? WEXITSTATUS(status) : -1) + " while " +
-                       what + " without saying why (the server's log has its output)");
+                   fmt::format("the map worker ended with exit code {} while {} without saying "
+                               "why (the server's log has its output)",
+                               WIFEXITED(status) ? WEXITSTATUS(status) : -1, what));
 }
 
 // The map the worker left in `directory`.

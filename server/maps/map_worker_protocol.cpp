@@ -9,6 +9,7 @@
 
 #include <Eigen/Core>
 
+#include <fmt/format.h>
 #include <CLI/CLI.hpp>
 
 namespace strata::server {
@@ -174,8 +175,9 @@ Expected<std::vector<MapEdit>> ParseEdits(std::string_view text) {
       edit.region.polygon_m.push_back(corner);
     }
     if (!good) {
-      return Error{ErrorCode::kInvalidInput, "bad edits file: line " + std::to_string(line_number) +
-                                                 " is not KIND Z_MIN Z_MAX X Y ..."};
+      return Error{
+          ErrorCode::kInvalidInput,
+          fmt::format("bad edits file: line {} is not KIND Z_MIN Z_MAX X Y ...", line_number)};
     }
     edits.push_back(std::move(edit));
   }

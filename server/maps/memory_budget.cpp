@@ -1,10 +1,11 @@
 #include "maps/memory_budget.hpp"
 
 #include <algorithm>
-#include <cstdio>
 #include <fstream>
 #include <limits>
 #include <utility>
+
+#include <fmt/format.h>
 
 namespace strata::server {
 namespace {
@@ -42,9 +43,7 @@ std::uint64_t MachineMemory() {
 }  // namespace
 
 std::string MebibytesText(std::uint64_t bytes) {
-  char text[32];
-  std::snprintf(text, sizeof text, "%.1f MiB", static_cast<double>(bytes) / (1 << 20));
-  return text;
+  return fmt::format("{:.1f} MiB", static_cast<double>(bytes) / (1 << 20));
 }
 
 std::uint64_t AutomaticMemoryLimit() {

@@ -3,6 +3,7 @@
 #include "strata/common/parse_numbers.hpp"
 #include "strata/version.hpp"
 
+#include <fmt/format.h>
 #include <CLI/CLI.hpp>
 #include <cctype>
 #include <charconv>
@@ -72,9 +73,8 @@ struct Check {
 
 Check IntegerIn(long long min, long long max) {
   return {CLI::Range(min, max).description(""),  // The placeholder alone in --help.
-          max == std::numeric_limits<long long>::max()
-              ? ">= " + std::to_string(min)
-              : std::to_string(min) + " to " + std::to_string(max)};
+          max == std::numeric_limits<long long>::max() ? fmt::format(">= {}", min)
+                                                       : fmt::format("{} to {}", min, max)};
 }
 
 Check Seconds(bool allow_zero) {

@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <thread>
 
+#include <fmt/format.h>
 #include <grpc/health/v1/health.pb.h>
 
 #include "common/log.hpp"
@@ -62,8 +63,8 @@ int main(int argc, char** argv) {
   if (server->http_port() >= 0) {
     const std::string host =
         config.http_address == "0.0.0.0" ? std::string("localhost") : config.http_address;
-    LogInfo("viewer").Add("message", "web viewer on http://" + host + ":" +
-                                         std::to_string(server->http_port()) + "/");
+    LogInfo("viewer").Add("message",
+                          fmt::format("web viewer on http://{}:{}/", host, server->http_port()));
   }
 
   std::thread signal_thread([&server, &signals, &config] {

@@ -3,6 +3,8 @@
 #include <fstream>
 #include <sstream>
 
+#include <fmt/format.h>
+
 namespace strata::server {
 namespace {
 
@@ -45,7 +47,7 @@ Result<TokenTable> TokenTable::Load(const std::filesystem::path& path) {
     words >> token;
     if (token.empty() || token[0] == '#') continue;
     words >> role >> extra;
-    const std::string where = path.string() + " line " + std::to_string(number);
+    const std::string where = fmt::format("{} line {}", path.string(), number);
     if (role.empty() || !extra.empty()) {
       return MakeError(ErrorCode::kInvalidInput, where + ": expected `TOKEN ROLE`");
     }

@@ -5,6 +5,8 @@
 #include <span>
 #include <string>
 
+#include <fmt/format.h>
+
 namespace strata::server {
 namespace {
 
@@ -28,10 +30,10 @@ Expected<MapGeometryData> ExtractMapGeometry(const TerrainModel& model,
                                              const std::function<bool()>& should_stop) {
   const int stride = request.stride;
   if (stride < 1 || stride > kMaxGeometryStride) {
-    return Error{ErrorCode::kInvalidConfig,
-                 "stride = " + std::to_string(stride) + " is out of range: must be in [1, " +
-                     std::to_string(kMaxGeometryStride) + "]",
-                 "stride"};
+    return Error{
+        ErrorCode::kInvalidConfig,
+        fmt::format("stride = {} is out of range: must be in [1, {}]", stride, kMaxGeometryStride),
+        "stride"};
   }
   if (request.graph != nullptr && &request.graph->model() != &model) {
     return Error{ErrorCode::kInvalidConfig, "the graph was built on another terrain model"};

@@ -4,8 +4,9 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <optional>
+
+#include <fmt/format.h>
 
 #include "maps/map_root.hpp"
 #include "rpc/map_geometry.hpp"
@@ -195,8 +196,9 @@ ServiceStatus ListMapsFrom(const MapRegistry& registry, const v1::ListMapsReques
                            v1::ListMapsResponse* response) {
   if (request.page_size() < 0 || request.page_size() > kMaxPageSize) {
     return MakeError(ErrorCode::kInvalidInput,
-                     "page_size = " + std::to_string(request.page_size()) +
-                         " is out of range: must be in [0, 1000] (0 means 100)")
+                     fmt::format("page_size = {} is out of range: must be in [0, 1000] (0 means "
+                                 "100)",
+                                 request.page_size()))
         .Blame("page_size");
   }
   const int page_size = request.page_size() == 0 ? kDefaultPageSize : request.page_size();
@@ -249,17 +251,16 @@ ServiceStatus MapServiceImpl::GetMapGeometry(const v1::GetMapGeometryRequest& re
   if (request.max_bytes() != 0 &&
       (request.max_bytes() < kMinGeometryBytes || request.max_bytes() > cap)) {
     return MakeError(ErrorCode::kInvalidInput,
-                     "max_bytes = " + std::to_string(request.max_bytes()) +
-                         " is out of range: must be 0 (the default) or in [" +
-                         std::to_string(kMinGeometryBytes) + ", " + std::to_string(cap) +
-                         "] (--max-send-message-bytes)")
+                     fmt::format("max_bytes = {} is out of range: must be 0 (the default) or in "
+                                 "[{}, {}] (--max-send-message-bytes)",
+                                 request.max_bytes(), kMinGeometryBytes, cap))
         .Blame("max_bytes");
   }
   if (request.stride() > static_cast<std::uint32_t>(kMaxGeometryStride)) {
     return MakeError(ErrorCode::kInvalidInput,
-                     "stride = " + std::to_string(request.stride()) +
-                         " is out of range: must be in [0, " + std::to_string(kMaxGeometryStride) +
-                         "] (0 lets the server pick one that fits max_bytes)")
+                     fmt::format("stride = {} is out of range: must be in [0, {}] (0 lets the "
+                                 "server pick one that fits max_bytes)",
+                                 request.stride(), kMaxGeometryStride))
         .Blame("stride");
   }
   const std::uint64_t max_bytes =
@@ -309,15 +310,16 @@ ServiceStatus MapServiceImpl::GetMapGeometry(const v1::GetMapGeometryRequest& re
       if (request.stride() != 0 || stride == kMaxGeometryStride) {
         response->Clear();
         return MakeError(ErrorCode::kResourceExhausted,
-                         "the map's geometry at stride " + std::to_string(stride) + " takes " +
-                             std::to_string(bytes) + " bytes, more than max_bytes " +
-                             std::to_string(max_bytes) + ": " +
-                             (stride == kMaxGeometryStride
-                                  ? std::string("allow a larger max_bytes")
-                                  : "ask for stride " + std::to_string(fits) +
-                                        " or more (0 lets the server pick one that fits), "
-                                        "or a larger max_bytes (up to "
-                                        "--max-send-message-bytes)"))
+                         fmt::format("the map's geometry at stride {} takes {} bytes, more than "
+                                     "max_bytes {}: {}",
+                                     stride, bytes, max_bytes,
+                                     stride == kMaxGeometryStride
+                                         ? std::string("allow a larger max_bytes")
+                                         : fmt::format("ask for stride {} or more (0 lets the "
+                                                       "server pick one that fits), or a larger "
+                                                       "max_bytes (up to "
+                                                       "--max-send-message-bytes)",
+                                                       fits)))
             .Blame(request.stride() != 0 ? "stride" : "max_bytes");
       }
       stride = fits;
@@ -335,12 +337,10 @@ ServiceStatus MapServiceImpl::GetMapGeometry(const v1::GetMapGeometryRequest& re
                                                    std::chrono::duration<double>(budget_s));
     const auto stop = [&] { return should_stop() || SteadyClock::now() > deadline; };
     const auto out_of_time = [&](const char* what) {
-      char buf[200];
-      std::snprintf(buf, sizeof(buf),
-                    "%s took longer than the %.3f s allowed (the smaller of --max-plan-time-s "
-                    "and the call's deadline)",
-                    what, budget_s);
-      return MakeError(ErrorCode::kDeadlineExceeded, buf);
+      return MakeError(ErrorCode::kDeadlineExceeded,
+                       fmt::format("{} took longer than the {:.3f} s allowed (the smaller of "
+                                   "--max-plan-time-s and the call's deadline)",
+                                   what, budget_s));
     };
     Expected<std::shared_ptr<const SurfaceGraph>> graph = map.Graph(robot->Traversability(), stop);
     if (!graph) {

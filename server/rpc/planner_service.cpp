@@ -7,12 +7,13 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
-#include <cstdio>
 #include <limits>
 #include <mutex>
 #include <optional>
 #include <thread>
 #include <vector>
+
+#include <fmt/format.h>
 
 #include "rpc/error_mapping.hpp"
 #include "rpc/metrics.hpp"
@@ -62,8 +63,10 @@ Result<ParsedPlanRequest> ParsePlanRequest(const v1::PlanRequest& request) {
   if (request.options().has_sample_dt_s()) {
     const double dt = request.options().sample_dt_s();
     if (!(std::isfinite(dt) && dt > 0)) {
-      return MakeError(ErrorCode::kInvalidConfig, "options.sample_dt_s = " + std::to_string(dt) +
-                                                      " is out of range: must be > 0 and finite")
+      return MakeError(ErrorCode::kInvalidConfig,
+                       fmt::format("options.sample_dt_s = {:f} is out of range: must be > 0 and "
+                                   "finite",
+                                   dt))
           .Blame("options.sample_dt_s");
     }
     parsed.sample_dt_s = dt;
@@ -114,12 +117,10 @@ Result<ParsedCostRequest> ParseEstimateCostsRequest(const v1::EstimateCostsReque
       std::int64_t{request.starts_m_size()} * std::int64_t{request.goals_m_size()};
   if (cells > max_cells) {
     return MakeError(ErrorCode::kResourceExhausted,
-                     std::to_string(request.starts_m_size()) + " starts × " +
-                         std::to_string(request.goals_m_size()) + " goals make " +
-                         std::to_string(cells) + " cells, more than the " +
-                         std::to_string(max_cells) +
-                         " one estimate may hold on this server (--max-cost-cells): split the "
-                         "starts or the goals over several calls")
+                     fmt::format("{} starts × {} goals make {} cells, more than the {} one "
+                                 "estimate may hold on this server (--max-cost-cells): split the "
+                                 "starts or the goals over several calls",
+                                 request.starts_m_size(), request.goals_m_size(), cells, max_cells))
         .Blame(request.starts_m_size() >= request.goals_m_size() ? "starts_m" : "goals_m");
   }
   Result<RobotProfile> profile = ProfileFromRequest(request);
@@ -215,8 +216,9 @@ ServiceStatus PlannerServiceImpl::ListRecentPlans(const v1::ListRecentPlansReque
                                                   v1::ListRecentPlansResponse* response) const {
   if (request.max_plans() < 0) {
     return MakeError(ErrorCode::kInvalidInput,
-                     "max_plans = " + std::to_string(request.max_plans()) +
-                         " is out of range: must be >= 0 (0 returns every plan kept)")
+                     fmt::format("max_plans = {} is out of range: must be >= 0 (0 returns every "
+                                 "plan kept)",
+                                 request.max_plans()))
         .Blame("max_plans");
   }
   if (options_.recent_plans != nullptr) {
@@ -231,9 +233,8 @@ grpc::Status PlannerServiceImpl::Plan(grpc::ServerContext* context, const v1::Pl
     log.map_id = request->map_id();
     ServiceStatus status = PlanOne(*request, CallControlOf(*context), "grpc", response);
     if (!status.ok()) return status;
-    char ms[32];
-    std::snprintf(ms, sizeof(ms), "%.1f", response->stats().timings().total_s() * 1e3);
-    log.fields.emplace_back("plan_ms", ms);
+    log.fields.emplace_back("plan_ms",
+                            fmt::format("{:.1f}", response->stats().timings().total_s() * 1e3));
     return OkStatus();
   });
 }
@@ -258,10 +259,9 @@ grpc::Status PlannerServiceImpl::PlanBatch(grpc::ServerContext* context,
     }
     if (count > options_.max_batch_plans) {
       return MakeError(ErrorCode::kResourceExhausted,
-                       std::to_string(count) + " plans are more than the " +
-                           std::to_string(options_.max_batch_plans) +
-                           " one batch may hold on this server (--max-batch-plans): split them "
-                           "over several calls")
+                       fmt::format("{} plans are more than the {} one batch may hold on this "
+                                   "server (--max-batch-plans): split them over several calls",
+                                   count, options_.max_batch_plans))
           .Blame("requests");
     }
     log.fields.emplace_back("plans", std::to_string(count));
@@ -301,7 +301,7 @@ grpc::Status PlannerServiceImpl::PlanBatch(grpc::ServerContext* context,
     for (std::thread& helper : helpers) helper.join();
     log.fields.emplace_back("planned", std::to_string(planned.load()));
     log.fields.emplace_back("failed", std::to_string(failed.load()));
-    const std::string done = std::to_string(planned + failed) + " of " + std::to_string(count);
+    const std::string done = fmt::format("{} of {}", planned + failed, count);
     if (call.LeftSeconds() <= 0) {
       return MakeError(ErrorCode::kDeadlineExceeded,
                        "the call's deadline passed after " + done +
@@ -329,9 +329,8 @@ grpc::Status PlannerServiceImpl::EstimateCosts(grpc::ServerContext* context,
       if (!request->map_id().empty()) error.With("map_id", request->map_id().substr(0, 64));
       return error;
     }
-    char ms[32];
-    std::snprintf(ms, sizeof(ms), "%.1f", response->stats().total_s() * 1e3);
-    log.fields.emplace_back("estimate_ms", ms);
+    log.fields.emplace_back("estimate_ms",
+                            fmt::format("{:.1f}", response->stats().total_s() * 1e3));
     return OkStatus();
   });
 }
@@ -379,12 +378,10 @@ ServiceStatus PlannerServiceImpl::EstimateInSlot(const ParsedCostRequest& costs,
   // apart); stopped by the budget is kDeadlineExceeded.
   const auto stopped = [&](const Error& error) -> ServiceStatus {
     if (!expired) return ServiceError::FromPlanner(error);
-    char buf[200];
-    std::snprintf(buf, sizeof(buf),
-                  "the estimate's time budget of %.3f s ran out: allow more time (the call's "
-                  "deadline), or ask for fewer starts and goals",
-                  budget_s);
-    return MakeError(ErrorCode::kDeadlineExceeded, buf);
+    return MakeError(ErrorCode::kDeadlineExceeded,
+                     fmt::format("the estimate's time budget of {:.3f} s ran out: allow more "
+                                 "time (the call's deadline), or ask for fewer starts and goals",
+                                 budget_s));
   };
 
   const PlanningMap& planning_map = *map.map;

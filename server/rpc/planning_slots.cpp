@@ -6,6 +6,8 @@
 #include <string>
 #include <utility>
 
+#include <fmt/format.h>
+
 namespace strata::server {
 namespace {
 
@@ -40,18 +42,17 @@ ServiceStatus PlanningSlots::Run(const CallControl& call, const Work& work) {
                          "the client cancelled the call while it was queued");
       case ConcurrencyLimiter::Admission::kQueueFull:
         return MakeError(ServiceErrorCode::kServerBusy,
-                         "all " + std::to_string(limiter_.slots()) +
-                             " planning slots are busy and " +
-                             std::to_string(limiter_.max_queued()) +
-                             " calls already wait (--max-queued-plans): retry with backoff");
+                         fmt::format("all {} planning slots are busy and {} calls already wait "
+                                     "(--max-queued-plans): retry with backoff",
+                                     limiter_.slots(), limiter_.max_queued()));
       case ConcurrencyLimiter::Admission::kTimedOut:
         return MakeError(
             ServiceErrorCode::kServerBusy,
-            "all " + std::to_string(limiter_.slots()) + " planning slots stayed busy until " +
-                (has_deadline ? std::string("the call's deadline: retry with backoff, or allow "
-                                            "a later deadline")
-                              : "--max-plan-time-s had passed (the call set no deadline): "
-                                "retry with backoff, or set a deadline"));
+            fmt::format("all {} planning slots stayed busy until {}", limiter_.slots(),
+                        has_deadline ? "the call's deadline: retry with backoff, or allow a "
+                                       "later deadline"
+                                     : "--max-plan-time-s had passed (the call set no "
+                                       "deadline): retry with backoff, or set a deadline"));
     }
     ConcurrencyLimiter::Slot slot(&limiter_);
     const double queue_s = std::chrono::duration<double>(SteadyClock::now() - queue_start).count();

@@ -4,11 +4,11 @@
 
 #include <chrono>
 #include <cmath>
-#include <cstdio>
 #include <functional>
 #include <string_view>
 #include <utility>
 
+#include <fmt/format.h>
 #include <google/protobuf/util/json_util.h>
 
 #include "rpc/error_mapping.hpp"
@@ -17,12 +17,6 @@ namespace strata::server {
 namespace {
 
 using google::protobuf::Timestamp;
-
-std::string Format(double value) {
-  char buf[32];
-  std::snprintf(buf, sizeof(buf), "%g", value);
-  return buf;
-}
 
 void ToProto(const Eigen::Vector3d& v, v1::Vector3* message) {
   message->set_x(v.x());
@@ -291,8 +285,8 @@ Result<ParsedMapEdits> MapEditsFromProto(const v1::UpdateMapRequest& request) {
   const int count = request.edits_size();
   if ((count == 0 && !request.clear_keep_out()) || count > kMaxMapEdits) {
     return MakeError(ErrorCode::kInvalidInput,
-                     "edits has " + std::to_string(count) + " edits: give 1 to " +
-                         std::to_string(kMaxMapEdits) + " (or none with clear_keep_out)")
+                     fmt::format("edits has {} edits: give 1 to {} (or none with clear_keep_out)",
+                                 count, kMaxMapEdits))
         .Blame("edits");
   }
   ParsedMapEdits parsed;
@@ -495,9 +489,9 @@ Result<std::vector<Prism>> KeepOutOf(const Request& request) {
   // Prism::Validate's (PlanRequest::Validate's, the same paths).
   if (request.keep_out_size() > kMaxRequestKeepOutZones) {
     return MakeError(ErrorCode::kInvalidInput,
-                     "keep_out has " + std::to_string(request.keep_out_size()) +
-                         " zones, more than the " + std::to_string(kMaxRequestKeepOutZones) +
-                         " one request may carry: merge neighbouring zones")
+                     fmt::format("keep_out has {} zones, more than the {} one request may carry: "
+                                 "merge neighbouring zones",
+                                 request.keep_out_size(), kMaxRequestKeepOutZones))
         .Blame("keep_out");
   }
   for (int i = 0; i < request.keep_out_size(); ++i) {
@@ -521,9 +515,9 @@ Result<std::vector<Prism>> KeepOutFromRequest(const v1::EstimateCostsRequest& re
 Result<std::vector<Via>> ViasFromRequest(const v1::PlanRequest& request) {
   if (request.via_size() > kMaxVias) {
     return MakeError(ErrorCode::kInvalidInput,
-                     "via has " + std::to_string(request.via_size()) + " points, more than the " +
-                         std::to_string(kMaxVias) +
-                         " one request may carry: split the route into several plans")
+                     fmt::format("via has {} points, more than the {} one request may carry: "
+                                 "split the route into several plans",
+                                 request.via_size(), kMaxVias))
         .Blame("via");
   }
   std::vector<Via> vias;
@@ -631,8 +625,9 @@ void ToProto(const Trajectory& trajectory, v1::Trajectory* message) {
 
 Result<Trajectory> FromProto(const v1::Trajectory& message) {
   if (message.dimension() != 3 && message.dimension() != 4) {
-    return MakeError(ErrorCode::kInvalidInput, "trajectory dimension must be 3 or 4, got " +
-                                                   std::to_string(message.dimension()))
+    return MakeError(
+               ErrorCode::kInvalidInput,
+               fmt::format("trajectory dimension must be 3 or 4, got {}", message.dimension()))
         .Blame("dimension");
   }
   Trajectory trajectory;
@@ -668,9 +663,8 @@ Result<WarmStart> WarmStartFromRequest(const v1::WarmStart& message) {
   if (message.trajectory().pieces_size() < 1 ||
       static_cast<std::size_t>(message.trajectory().pieces_size()) > kMaxWarmStartPieces) {
     return MakeError(ErrorCode::kInvalidInput,
-                     std::string(kPrefix) + ".pieces has " +
-                         std::to_string(message.trajectory().pieces_size()) +
-                         " pieces; give 1 to " + std::to_string(kMaxWarmStartPieces))
+                     fmt::format("{}.pieces has {} pieces; give 1 to {}", kPrefix,
+                                 message.trajectory().pieces_size(), kMaxWarmStartPieces))
         .Blame(std::string(kPrefix) + ".pieces");
   }
   Result<Trajectory> trajectory = FromProto(message.trajectory());
@@ -691,8 +685,8 @@ Result<WarmStart> WarmStartFromRequest(const v1::WarmStart& message) {
     const double elapsed = message.elapsed_s();
     if (!(std::isfinite(elapsed) && elapsed >= 0)) {
       return MakeError(ErrorCode::kInvalidInput,
-                       "warm_start.elapsed_s = " + std::to_string(elapsed) +
-                           " must be >= 0 and finite (or unset)")
+                       fmt::format("warm_start.elapsed_s = {:f} must be >= 0 and finite (or unset)",
+                                   elapsed))
           .Blame("warm_start.elapsed_s");
     }
     warm.elapsed_s = elapsed;
@@ -769,10 +763,9 @@ ServiceStatus AppendSamples(const Trajectory& trajectory, double dt_s, int max_s
   const double steps = std::ceil(total_s / dt_s - 1e-9);
   if (!(steps + 1 <= max_samples)) {
     return MakeError(ErrorCode::kInvalidInput,
-                     "options.sample_dt_s = " + Format(dt_s) + " gives more than " +
-                         std::to_string(max_samples) + " samples over the trajectory's " +
-                         Format(total_s) + " s: use at least " +
-                         Format(total_s / (max_samples - 1)) + " s")
+                     fmt::format("options.sample_dt_s = {:g} gives more than {} samples over the "
+                                 "trajectory's {:g} s: use at least {:g} s",
+                                 dt_s, max_samples, total_s, total_s / (max_samples - 1)))
         .Blame("options.sample_dt_s");
   }
   const auto count = static_cast<int>(steps) + 1;

@@ -7,6 +7,8 @@
 #include <cstring>
 #include <string>
 
+#include <fmt/format.h>
+
 #include "rpc/proto_convert.hpp"
 
 namespace strata::server {
@@ -26,7 +28,7 @@ float ReadLittleEndianFloat(const char* bytes) {
 
 ServiceStatus UploadAssembler::Add(const v1::UploadMapRequest& message) {
   ++messages_;
-  const std::string where = "message " + std::to_string(messages_) + " of the stream";
+  const std::string where = fmt::format("message {} of the stream", messages_);
   switch (message.part_case()) {
     case v1::UploadMapRequest::kHeader: {
       if (have_header_) {
@@ -54,9 +56,9 @@ ServiceStatus UploadAssembler::Add(const v1::UploadMapRequest& message) {
       config_ = config.value();
       if (header_.point_count() > max_points_) {
         return MakeError(ErrorCode::kResourceExhausted,
-                         "header.point_count = " + std::to_string(header_.point_count()) +
-                             " is above this server's limit of " + std::to_string(max_points_) +
-                             " points per map (--max-points): downsample the cloud")
+                         fmt::format("header.point_count = {} is above this server's limit of {} "
+                                     "points per map (--max-points): downsample the cloud",
+                                     header_.point_count(), max_points_))
             .Blame("header.point_count");
       }
       return Reserve(static_cast<std::size_t>(header_.point_count()), "header.point_count");
@@ -70,30 +72,32 @@ ServiceStatus UploadAssembler::Add(const v1::UploadMapRequest& message) {
       const std::string& bytes = message.chunk().points();
       if (bytes.size() > kMaxChunkBytes) {
         return MakeError(ErrorCode::kMapLoadFailed,
-                         where + " holds " + std::to_string(bytes.size()) +
-                             " bytes of points, more than the 1 MiB (1048576 bytes) a chunk "
-                             "may hold: split it")
+                         fmt::format("{} holds {} bytes of points, more than the 1 MiB (1048576 "
+                                     "bytes) a chunk may hold: split it",
+                                     where, bytes.size()))
             .Blame("chunk.points");
       }
       if (bytes.size() % kPointBytes != 0) {
         return MakeError(ErrorCode::kMapLoadFailed,
-                         where + " holds " + std::to_string(bytes.size()) +
-                             " bytes, not a whole number of 12-byte points (float32 x, y, z)")
+                         fmt::format("{} holds {} bytes, not a whole number of 12-byte points "
+                                     "(float32 x, y, z)",
+                                     where, bytes.size()))
             .Blame("chunk.points");
       }
       const std::size_t count = bytes.size() / kPointBytes;
       const std::size_t total = source_.points.size() + count;
       if (total > max_points_) {
         return MakeError(ErrorCode::kResourceExhausted,
-                         "the upload passed this server's limit of " + std::to_string(max_points_) +
-                             " points per map (--max-points): downsample the cloud")
+                         fmt::format("the upload passed this server's limit of {} points per map "
+                                     "(--max-points): downsample the cloud",
+                                     max_points_))
             .Blame("chunk.points");
       }
       if (header_.point_count() != 0 && total > header_.point_count()) {
-        return MakeError(ErrorCode::kMapLoadFailed, where + " brings the upload to " +
-                                                        std::to_string(total) +
-                                                        " points, more than header.point_count = " +
-                                                        std::to_string(header_.point_count()))
+        return MakeError(ErrorCode::kMapLoadFailed,
+                         fmt::format("{} brings the upload to {} points, more than "
+                                     "header.point_count = {}",
+                                     where, total, header_.point_count()))
             .Blame("header.point_count");
       }
       if (total > source_.points.capacity()) {
@@ -157,11 +161,10 @@ ServiceStatus UploadAssembler::Finish() {
         .Blame("chunk");
   }
   if (header_.point_count() != 0 && source_.points.size() != header_.point_count()) {
-    return MakeError(
-               ErrorCode::kMapLoadFailed,
-               "the upload carried " + std::to_string(source_.points.size()) +
-                   " points but header.point_count = " + std::to_string(header_.point_count()) +
-                   ": the stream was cut short or the count is wrong" + kCutOff)
+    return MakeError(ErrorCode::kMapLoadFailed,
+                     fmt::format("the upload carried {} points but header.point_count = {}: the "
+                                 "stream was cut short or the count is wrong{}",
+                                 source_.points.size(), header_.point_count(), kCutOff))
         .Blame("header.point_count");
   }
   return OkStatus();

@@ -7,6 +7,8 @@
 #include <numbers>
 #include <sstream>
 
+#include <fmt/format.h>
+
 #include "strata/planning/robot_profile.hpp"
 #include "strata/scenes/map_source.hpp"
 
@@ -82,10 +84,11 @@ CLI::Validator AtLeast(double min) {
 }
 
 std::string MapHelp() {
-  return "a .pcd, .ply, .bt or .ot file, or a built-in scene "
-         "scene:NAME[:SEED][:size_m=M][:spacing_m=M] (NAME as for the scene command; SEED "
-         "default " +
-         std::to_string(kDefaultSceneSeed) + "; size and spacing default: the scene's own)";
+  return fmt::format(
+      "a .pcd, .ply, .bt or .ot file, or a built-in scene "
+      "scene:NAME[:SEED][:size_m=M][:spacing_m=M] (NAME as for the scene command; SEED default "
+      "{}; size and spacing default: the scene's own)",
+      kDefaultSceneSeed);
 }
 
 CLI::Validator BuiltinRobotName() {

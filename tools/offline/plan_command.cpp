@@ -10,6 +10,7 @@
 #include <numbers>
 #include <optional>
 
+#include <fmt/format.h>
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
 
@@ -152,9 +153,7 @@ nlohmann::json PlanJson(const PlanArgs& args, const RobotProfile& profile, const
 }
 
 std::string FormatPoint(const Eigen::Vector3d& p) {
-  char buf[96];
-  std::snprintf(buf, sizeof(buf), "(%.2f, %.2f, %.2f)", p.x(), p.y(), p.z());
-  return buf;
+  return fmt::format("({:.2f}, {:.2f}, {:.2f})", p.x(), p.y(), p.z());
 }
 
 void PrintEndpoint(const char* name, const Eigen::Vector3d& requested, const SnapResult& snap) {

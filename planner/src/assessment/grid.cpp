@@ -3,27 +3,22 @@
 #include <algorithm>
 #include <cassert>
 #include <cmath>
-#include <cstdio>
 #include <limits>
 #include <string>
 #include <utility>
 
+#include <fmt/format.h>
+
 namespace strata {
 namespace {
 
-// Short %g rendering for messages: extents and cell counts span many orders of magnitude.
-std::string FormatShort(double x) {
-  char buffer[32];
-  std::snprintf(buffer, sizeof(buffer), "%.3g", x);
-  return buffer;
-}
-
+// Numbers in these messages are short {:.3g}: extents and cell counts span many orders of
+// magnitude.
 std::string FormatBox(const Eigen::AlignedBox3d& box) {
   const Eigen::Vector3d& lo = box.min();
   const Eigen::Vector3d& hi = box.max();
-  return "[(" + FormatShort(lo.x()) + ", " + FormatShort(lo.y()) + ", " + FormatShort(lo.z()) +
-         "), (" + FormatShort(hi.x()) + ", " + FormatShort(hi.y()) + ", " + FormatShort(hi.z()) +
-         ")] m";
+  return fmt::format("[({:.3g}, {:.3g}, {:.3g}), ({:.3g}, {:.3g}, {:.3g})] m", lo.x(), lo.y(),
+                     lo.z(), hi.x(), hi.y(), hi.z());
 }
 
 }  // namespace
@@ -31,12 +26,13 @@ std::string FormatBox(const Eigen::AlignedBox3d& box) {
 Expected<GridGeometry> MakeGridGeometry(const Eigen::AlignedBox3d& bounds, double resolution_m,
                                         double padding_m, std::int64_t max_columns) {
   if (!std::isfinite(resolution_m) || resolution_m <= 0.0) {
-    return Error{ErrorCode::kInvalidInput, "grid resolution " + FormatShort(resolution_m) +
-                                               " m must be a finite positive number"};
+    return Error{
+        ErrorCode::kInvalidInput,
+        fmt::format("grid resolution {:.3g} m must be a finite positive number", resolution_m)};
   }
   if (!std::isfinite(padding_m) || padding_m < 0.0) {
     return Error{ErrorCode::kInvalidInput,
-                 "grid padding " + FormatShort(padding_m) + " m must be finite and >= 0"};
+                 fmt::format("grid padding {:.3g} m must be finite and >= 0", padding_m)};
   }
   if (!bounds.min().allFinite() || !bounds.max().allFinite()) {
     return Error{ErrorCode::kInvalidInput,
@@ -64,11 +60,11 @@ Expected<GridGeometry> MakeGridGeometry(const Eigen::AlignedBox3d& bounds, doubl
   const double max_layers = static_cast<double>(std::numeric_limits<int>::max()) / 4;
   if (column_count > static_cast<double>(max_columns) || cells_per_axis.maxCoeff() > max_layers) {
     return Error{ErrorCode::kResourceExhausted,
-                 "a " + FormatShort(resolution_m) + " m grid over " + FormatShort(extent.x()) +
-                     " × " + FormatShort(extent.y()) + " × " + FormatShort(extent.z()) +
-                     " m needs " + FormatShort(column_count) + " columns, above the limit of " +
-                     FormatShort(static_cast<double>(max_columns)) +
-                     "; check the map's units or use a coarser resolution"};
+                 fmt::format("a {:.3g} m grid over {:.3g} × {:.3g} × {:.3g} m needs {:.3g} "
+                             "columns, above the limit of {:.3g}; check the map's units or use a "
+                             "coarser resolution",
+                             resolution_m, extent.x(), extent.y(), extent.z(), column_count,
+                             static_cast<double>(max_columns))};
   }
 
   GridGeometry geometry;

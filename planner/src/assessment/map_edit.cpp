@@ -3,11 +3,12 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <cstdio>
 #include <limits>
 #include <string>
 #include <utility>
 #include <vector>
+
+#include <fmt/format.h>
 
 #include "assessment/assessment_progress.hpp"
 #include "assessment/column_cloud.hpp"
@@ -21,12 +22,6 @@ namespace strata {
 namespace {
 
 std::string EditPath(std::size_t i) { return "edits[" + std::to_string(i) + "]"; }
-
-std::string Format(const char* format, double value) {
-  char buffer[64];
-  std::snprintf(buffer, sizeof(buffer), format, value);
-  return buffer;
-}
 
 // The heights of an obstacle's points within [z_min, z_max]: on a voxelised cloud the
 // lattice's levels (`lattice_z` + k·quantum), else the centres of the grid's layers.
@@ -123,9 +118,9 @@ Expected<PointCloud> FillObstacle(const MapEdit& edit, const std::string& path,
                                   std::size_t budget) {
   const auto exhausted = [&] {
     return Error{ErrorCode::kResourceExhausted,
-                 path + ": the obstacles would add more than kMaxEditPoints = " +
-                     std::to_string(kMaxEditPoints) +
-                     " points; split it into smaller edits or use a coarser grid",
+                 fmt::format("{}: the obstacles would add more than kMaxEditPoints = {} points; "
+                             "split it into smaller edits or use a coarser grid",
+                             path, kMaxEditPoints),
                  path};
   };
   bool too_many = false;
@@ -135,10 +130,10 @@ Expected<PointCloud> FillObstacle(const MapEdit& edit, const std::string& path,
   if (levels.empty()) {
     const std::string field = internal::FieldPath(path, "region");
     return Error{ErrorCode::kInvalidInput,
-                 field + " holds no level of the map between z " +
-                     Format("%.3f", edit.region.z_min_m) + " and " +
-                     Format("%.3f m", edit.region.z_max_m) + ": make it at least " +
-                     Format("%.3g m", quantum_m > 0 ? quantum_m : g.resolution_m) + " high",
+                 fmt::format("{} holds no level of the map between z {:.3f} and {:.3f} m: make "
+                             "it at least {:.3g} m high",
+                             field, edit.region.z_min_m, edit.region.z_max_m,
+                             quantum_m > 0 ? quantum_m : g.resolution_m),
                  field};
   }
   const std::vector<Eigen::Vector2i> columns =
@@ -147,8 +142,9 @@ Expected<PointCloud> FillObstacle(const MapEdit& edit, const std::string& path,
   if (columns.empty()) {
     const std::string field = internal::FieldPath(path, "region.polygon_m");
     return Error{ErrorCode::kInvalidInput,
-                 field + " holds no column centre of the map's " +
-                     Format("%.3g m", g.resolution_m) + " grid: make it at least one cell wide",
+                 fmt::format("{} holds no column centre of the map's {:.3g} m grid: make it at "
+                             "least one cell wide",
+                             field, g.resolution_m),
                  field};
   }
   PointCloud points;
@@ -180,8 +176,8 @@ Status MapEdit::Validate(std::string_view path) const {
   if (kind != Kind::kAddObstacle && kind != Kind::kRemovePoints) {
     const std::string field = internal::FieldPath(path, "kind");
     return Error{ErrorCode::kInvalidInput,
-                 field + " = " + std::to_string(static_cast<int>(kind)) +
-                     " is not a kind of edit: add an obstacle or remove points",
+                 fmt::format("{} = {} is not a kind of edit: add an obstacle or remove points",
+                             field, static_cast<int>(kind)),
                  field};
   }
   return region.Validate(internal::FieldPath(path, "region"));
@@ -244,11 +240,6 @@ const char* ReassessmentPathName(ReassessmentPath path) {
 }
 
 namespace {
-
-std::string FormatSize(const Eigen::Vector3i& size) {
-  return std::to_string(size.x()) + " × " + std::to_string(size.y()) + " × " +
-         std::to_string(size.z());
-}
 
 // The grid's columns in x-fastest order as runs of consecutive columns taken from the base
 // model (all columns) or from the arrays of `window`'s columns.
@@ -401,9 +392,8 @@ Expected<Reassessment> ReassessRegion(const TerrainModel& base, const PointCloud
   summary.cloud_bounds_m.setEmpty();  // Extended by the pass that crops the edited cloud.
   summary.vertical_quantum_m = DetectVerticalQuantum(edited_cloud);
   if (summary.vertical_quantum_m != base.summary().vertical_quantum_m) {
-    return full("the edit changes the cloud's vertical quantum from " +
-                Format("%g", base.summary().vertical_quantum_m) + " to " +
-                Format("%g m", summary.vertical_quantum_m));
+    return full(fmt::format("the edit changes the cloud's vertical quantum from {:g} to {:g} m",
+                            base.summary().vertical_quantum_m, summary.vertical_quantum_m));
   }
 
   // The columns the edit touches (a point's column is monotonic in its position, so every
@@ -438,10 +428,11 @@ Expected<Reassessment> ReassessRegion(const TerrainModel& base, const PointCloud
   if (!geometry) return full("the edited cloud's bounds give no grid");
   if (geometry->size != g.size || geometry->origin_m != g.origin_m ||
       geometry->resolution_m != g.resolution_m) {
-    return full("the edited cloud's bounds change the grid from " + FormatSize(g.size) +
-                " cells at " + internal::FormatPoint(g.origin_m) + " m to " +
-                FormatSize(geometry->size) + " at " + internal::FormatPoint(geometry->origin_m) +
-                " m");
+    return full(fmt::format(
+        "the edited cloud's bounds change the grid from {} × {} × {} cells "
+        "at {} m to {} × {} × {} at {} m",
+        g.size.x(), g.size.y(), g.size.z(), internal::FormatPoint(g.origin_m), geometry->size.x(),
+        geometry->size.y(), geometry->size.z(), internal::FormatPoint(geometry->origin_m)));
   }
   PointCloud near_base = internal::CropToColumns(g, base_crop, base_cloud, config.num_threads);
   internal::ColumnCloud sorted = internal::SortIntoColumnWindow(g, crop, near, config.num_threads);

@@ -11,6 +11,7 @@
 #include <utility>
 #include <vector>
 
+#include <fmt/format.h>
 #include <xxhash.h>
 
 #include "strata/version.hpp"
@@ -472,9 +473,10 @@ Status ReadHeader(Source& source, std::uint64_t total_bytes, const std::string& 
   }
   if (!reader.Value(&version)) return fail("is truncated in its header");
   if (version != kSavedModelFormatVersion) {
-    return fail("has format version " + std::to_string(version) + "; this build (" +
-                WriterVersion() + ") reads version " + std::to_string(kSavedModelFormatVersion) +
-                ": assess the map again and save it with this build");
+    return fail(
+        fmt::format("has format version {}; this build ({}) reads version {}: assess the "
+                    "map again and save it with this build",
+                    version, WriterVersion(), kSavedModelFormatVersion));
   }
   std::uint32_t writer_bytes = 0;
   if (!reader.Value(&writer_bytes)) return fail("is truncated in its header");
@@ -488,9 +490,10 @@ Status ReadHeader(Source& source, std::uint64_t total_bytes, const std::string& 
   const std::uint64_t header_bytes = kFixedHeaderBytes + writer_bytes + sizeof(payload_bytes);
   if (total_bytes < header_bytes + sizeof(std::uint64_t) ||
       payload_bytes != total_bytes - header_bytes - sizeof(std::uint64_t)) {
-    return fail("is truncated or has trailing bytes: " + std::to_string(total_bytes) +
-                " bytes where its header promises " +
-                std::to_string(header_bytes + payload_bytes + sizeof(std::uint64_t)));
+    return fail(
+        fmt::format("is truncated or has trailing bytes: {} bytes where its header "
+                    "promises {}",
+                    total_bytes, header_bytes + payload_bytes + sizeof(std::uint64_t)));
   }
   source.set_remaining(payload_bytes);
   *writer = std::move(writer_text);

@@ -3,10 +3,11 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <cstdio>
 #include <limits>
 #include <queue>
 #include <string>
+
+#include <fmt/format.h>
 
 #include "format_internal.hpp"
 #include "planning/search_state.hpp"
@@ -64,10 +65,9 @@ Expected<PathResult> SearchPath(const SurfaceGraph& graph, int start_node, int g
   }
   const int n = graph.node_count();
   if (start_node < 0 || start_node >= n || goal_node < 0 || goal_node >= n) {
-    char buf[160];
-    std::snprintf(buf, sizeof(buf), "start node %d or goal node %d is outside [0, %d)", start_node,
-                  goal_node, n);
-    return fail(ErrorCode::kInvalidInput, buf);
+    return fail(
+        ErrorCode::kInvalidInput,
+        fmt::format("start node {} or goal node {} is outside [0, {})", start_node, goal_node, n));
   }
   const Eigen::Vector3d goal_p = graph.position(goal_node);
   const Eigen::Vector3d start_p = graph.position(start_node);
@@ -147,21 +147,18 @@ Expected<PathResult> SearchPath(const SurfaceGraph& graph, int start_node, int g
     }
     if (expansions % 1024 == 0) {
       if (should_stop && should_stop()) {
-        char buf[96];
-        std::snprintf(buf, sizeof(buf), " m was cancelled after %d expansions", expansions);
-        return fail(ErrorCode::kCancelled, "search from " + internal::FormatPoint(start_p) +
-                                               " m to " + internal::FormatPoint(goal_p) + buf);
+        return fail(
+            ErrorCode::kCancelled,
+            fmt::format("search from {} m to {} m was cancelled after {} expansions",
+                        internal::FormatPoint(start_p), internal::FormatPoint(goal_p), expansions));
       }
     }
     if (expansions >= config.max_expansions) {
-      char buf[160];
-      std::snprintf(buf, sizeof(buf),
-                    " m used its budget of %d expansions (search.max_expansions) without "
-                    "reaching the goal",
-                    config.max_expansions);
-      return fail(ErrorCode::kSearchBudgetExhausted, "search from " +
-                                                         internal::FormatPoint(start_p) + " m to " +
-                                                         internal::FormatPoint(goal_p) + buf);
+      return fail(ErrorCode::kSearchBudgetExhausted,
+                  fmt::format("search from {} m to {} m used its budget of {} expansions "
+                              "(search.max_expansions) without reaching the goal",
+                              internal::FormatPoint(start_p), internal::FormatPoint(goal_p),
+                              config.max_expansions));
     }
     top_state.closed = true;
     ++expansions;
@@ -180,10 +177,9 @@ Expected<PathResult> SearchPath(const SurfaceGraph& graph, int start_node, int g
       }
     });
   }
-  char buf[96];
-  std::snprintf(buf, sizeof(buf), " m after %d expansions", expansions);
-  return fail(ErrorCode::kNoPath, "no path found from " + internal::FormatPoint(start_p) +
-                                      " m to " + internal::FormatPoint(goal_p) + buf);
+  return fail(ErrorCode::kNoPath, fmt::format("no path found from {} m to {} m after {} expansions",
+                                              internal::FormatPoint(start_p),
+                                              internal::FormatPoint(goal_p), expansions));
 }
 
 }  // namespace strata

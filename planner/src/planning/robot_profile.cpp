@@ -1,8 +1,9 @@
 #include "strata/planning/robot_profile.hpp"
 
 #include <cmath>
-#include <cstdio>
 #include <string>
+
+#include <fmt/format.h>
 
 #include "format_internal.hpp"
 
@@ -18,13 +19,11 @@ Status CheckWithin(const Eigen::Vector3d& v, std::string_view path, double bound
   for (int i = 0; i < 3; ++i) {
     if (std::abs(v(i)) <= bound) continue;  // False for NaN too.
     const std::string field = internal::FieldPath(path, std::string(1, "xyz"[i]));
-    char buf[128];
-    if (std::isfinite(v(i))) {
-      std::snprintf(buf, sizeof(buf), " = %g %s is beyond ±%g %s", v(i), unit, bound, unit);
-    } else {
-      std::snprintf(buf, sizeof(buf), " must be finite, got %g", v(i));
-    }
-    return Error{ErrorCode::kInvalidInput, field + buf, field};
+    return Error{ErrorCode::kInvalidInput,
+                 std::isfinite(v(i)) ? fmt::format("{} = {:g} {} is beyond ±{:g} {}", field, v(i),
+                                                   unit, bound, unit)
+                                     : fmt::format("{} must be finite, got {:g}", field, v(i)),
+                 field};
   }
   return Status::Ok();
 }
@@ -148,25 +147,27 @@ Expected<RobotProfile> BuiltinProfile(const std::string& name) {
 }
 
 Status CheckProfileFitsMap(const RobotProfile& profile, const AssessmentConfig& assessment) {
-  char buf[384];
   if (profile.footprint_radius_m > assessment.ground.radius_m) {
-    std::snprintf(buf, sizeof(buf),
-                  "profile '%s' has footprint_radius_m = %g but the map was assessed with "
-                  "ground.radius_m = %g: its valid ground may pass too close to walls for this "
-                  "robot; assess the map with a ground filter radius of at least %g m",
-                  profile.name.c_str(), profile.footprint_radius_m, assessment.ground.radius_m,
-                  profile.footprint_radius_m);
-    return Error{ErrorCode::kProfileMismatch, buf, "profile.footprint_radius_m"};
+    return Error{ErrorCode::kProfileMismatch,
+                 fmt::format("profile '{}' has footprint_radius_m = {:g} but the map was "
+                             "assessed with ground.radius_m = {:g}: its valid ground may pass "
+                             "too close to walls for this robot; assess the map with a ground "
+                             "filter radius of at least {:g} m",
+                             profile.name, profile.footprint_radius_m, assessment.ground.radius_m,
+                             profile.footprint_radius_m),
+                 "profile.footprint_radius_m"};
   }
   if (profile.max_tilt_rad > assessment.ground.max_tilt_rad + 1e-9) {
-    std::snprintf(buf, sizeof(buf),
-                  "profile '%s' has max_tilt_rad = %g (%.1f deg) but the map was assessed with "
-                  "ground.max_tilt_rad = %g (%.1f deg): ground the robot could climb was "
-                  "filtered out; assess the map with a max tilt of at least %.1f deg",
-                  profile.name.c_str(), profile.max_tilt_rad, profile.max_tilt_rad / kDegree,
-                  assessment.ground.max_tilt_rad, assessment.ground.max_tilt_rad / kDegree,
-                  profile.max_tilt_rad / kDegree);
-    return Error{ErrorCode::kProfileMismatch, buf, "profile.max_tilt_rad"};
+    return Error{
+        ErrorCode::kProfileMismatch,
+        fmt::format("profile '{}' has max_tilt_rad = {:g} ({:.1f} deg) but the map "
+                    "was assessed with ground.max_tilt_rad = {:g} ({:.1f} deg): ground "
+                    "the robot could climb was filtered out; assess the map with a max "
+                    "tilt of at least {:.1f} deg",
+                    profile.name, profile.max_tilt_rad, profile.max_tilt_rad / kDegree,
+                    assessment.ground.max_tilt_rad, assessment.ground.max_tilt_rad / kDegree,
+                    profile.max_tilt_rad / kDegree),
+        "profile.max_tilt_rad"};
   }
   return Status::Ok();
 }

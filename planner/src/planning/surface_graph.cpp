@@ -2,11 +2,12 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <limits>
 #include <queue>
 #include <string>
 #include <utility>
+
+#include <fmt/format.h>
 
 #include "format_internal.hpp"
 
@@ -27,12 +28,12 @@ Expected<SurfaceGraph> SurfaceGraph::Build(const TerrainModel& model,
   if (Status s = params.Validate(); !s.ok()) return s.error();
   const double map_tilt = model.config().ground.max_tilt_rad;
   if (params.max_tilt_rad > map_tilt) {
-    char buf[256];
-    std::snprintf(buf, sizeof(buf),
-                  "traversability.max_tilt_rad = %g exceeds the map's ground filter "
-                  "ground.max_tilt_rad = %g: steeper ground was never marked valid",
-                  params.max_tilt_rad, map_tilt);
-    return Error{ErrorCode::kInvalidConfig, buf, "traversability.max_tilt_rad"};
+    return Error{ErrorCode::kInvalidConfig,
+                 fmt::format("traversability.max_tilt_rad = {:g} exceeds the map's ground "
+                             "filter ground.max_tilt_rad = {:g}: steeper ground was never "
+                             "marked valid",
+                             params.max_tilt_rad, map_tilt),
+                 "traversability.max_tilt_rad"};
   }
 
   SurfaceGraph graph;
@@ -200,9 +201,8 @@ Expected<SnapResult> SnapToSurface(const SurfaceGraph& graph, const Eigen::Vecto
                  std::string(what) + " " + internal::FormatPoint(p) + " m is not finite"};
   }
   if (!(std::isfinite(tolerance_m) && tolerance_m >= 0)) {
-    char buf[128];
-    std::snprintf(buf, sizeof(buf), "snap tolerance %g m must be finite and >= 0", tolerance_m);
-    return Error{ErrorCode::kInvalidInput, buf};
+    return Error{ErrorCode::kInvalidInput,
+                 fmt::format("snap tolerance {:g} m must be finite and >= 0", tolerance_m)};
   }
   const GridGeometry& g = graph.grid();
   const double r = g.resolution_m;
@@ -269,11 +269,10 @@ Expected<SnapResult> SnapToSurface(const SurfaceGraph& graph, const Eigen::Vecto
   }
   if (best >= 0) return make(best);
   if (turned_down) {
-    char buf[96];
-    std::snprintf(buf, sizeof(buf), " m: all traversable ground within %.2f m", tolerance_m);
-    return Error{off_ground_code, std::string(what) + " " + internal::FormatPoint(p) + buf +
-                                      " puts the robot's reference point " + std::string(refusal) +
-                                      "; move it into open space"};
+    return Error{off_ground_code,
+                 fmt::format("{} {} m: all traversable ground within {:.2f} m puts the robot's "
+                             "reference point {}; move it into open space",
+                             what, internal::FormatPoint(p), tolerance_m, refusal)};
   }
 
   // 3. Nothing within tolerance: name the nearest node anywhere (a linear scan, only on
@@ -287,14 +286,13 @@ Expected<SnapResult> SnapToSurface(const SurfaceGraph& graph, const Eigen::Vecto
       nearest = m;
     }
   }
-  char buf[96];
-  std::snprintf(buf, sizeof(buf), " m has no traversable ground within %.2f m", tolerance_m);
-  std::string message = std::string(what) + " " + internal::FormatPoint(p) + buf;
+  std::string message = fmt::format("{} {} m has no traversable ground within {:.2f} m", what,
+                                    internal::FormatPoint(p), tolerance_m);
   std::map<std::string, std::string> details;
   if (nearest >= 0) {
     const Eigen::Vector3d at = graph.position(nearest);
-    std::snprintf(buf, sizeof(buf), " (%.2f m away)", nearest_d);
-    message += "; the nearest is " + internal::FormatPoint(at) + " m" + buf;
+    message +=
+        fmt::format("; the nearest is {} m ({:.2f} m away)", internal::FormatPoint(at), nearest_d);
     details = {{"nearest_x_m", DetailNumber(at.x())},
                {"nearest_y_m", DetailNumber(at.y())},
                {"nearest_z_m", DetailNumber(at.z())},

@@ -4,12 +4,13 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <exception>
 #include <limits>
 #include <numeric>
 #include <span>
 #include <string>
+
+#include <fmt/format.h>
 
 #include "format_internal.hpp"
 #include "planning/trajectory_optimizer_internal.hpp"
@@ -432,9 +433,10 @@ Expected<OptimizationProblem> MakeWarmProblem(const TrajectoryCost& cost, const 
     return Error{ErrorCode::kInvalidInput, "the warm start does not fit this plan: " + why};
   };
   if (previous.pieces.empty() || previous.dimension != dim) {
-    return refuse("its trajectory has " + std::to_string(previous.pieces.size()) +
-                  " pieces of dimension " + std::to_string(previous.dimension) +
-                  ", this robot's have dimension " + std::to_string(dim));
+    return refuse(
+        fmt::format("its trajectory has {} pieces of dimension {}, this robot's have "
+                    "dimension {}",
+                    previous.pieces.size(), previous.dimension, dim));
   }
   const double total = previous.TotalDuration();
   const double now = warm.elapsed_s >= 0 ? std::min(warm.elapsed_s, total)
@@ -442,11 +444,10 @@ Expected<OptimizationProblem> MakeWarmProblem(const TrajectoryCost& cost, const 
   const double off_start = (previous.Position(now).head<3>() - start.position_m).norm();
   const double off_goal = (previous.Position(total).head<3>() - goal.position_m).norm();
   if (off_start > kWarmStartToleranceM || off_goal > kWarmStartToleranceM) {
-    char buf[160];
-    std::snprintf(buf, sizeof(buf),
-                  "the start is %.2f m and the goal %.2f m from it (at most %.2f m each)",
-                  off_start, off_goal, kWarmStartToleranceM);
-    return refuse(buf);
+    return refuse(
+        fmt::format("the start is {:.2f} m and the goal {:.2f} m from it (at most "
+                    "{:.2f} m each)",
+                    off_start, off_goal, kWarmStartToleranceM));
   }
   // The piece the robot is on, and how far into it.
   std::size_t piece = 0;

@@ -2,10 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <limits>
 #include <numbers>
 #include <string>
+
+#include <fmt/format.h>
 
 #include "format_internal.hpp"
 #include "strata/planning/terrain_query.hpp"
@@ -15,18 +16,14 @@ namespace {
 
 // "at t = 12.34 s, (x, y, z): <what>".
 Error Violation(double t, const Eigen::Vector3d& p, const std::string& what) {
-  char buf[64];
-  std::snprintf(buf, sizeof(buf), "at t = %.3f s, ", t);
-  return Error{ErrorCode::kOptimizationFailed, "trajectory verification failed " +
-                                                   std::string(buf) + internal::FormatPoint(p) +
-                                                   ": " + what};
+  return Error{ErrorCode::kOptimizationFailed,
+               fmt::format("trajectory verification failed at t = {:.3f} s, {}: {}", t,
+                           internal::FormatPoint(p), what)};
 }
 
 std::string Exceeds(const char* quantity, double value, double bound, const char* unit) {
-  char buf[160];
-  std::snprintf(buf, sizeof(buf), "%s %.4g %s exceeds the bound %.4g %s", quantity, value, unit,
-                bound, unit);
-  return buf;
+  return fmt::format("{} {:.4g} {} exceeds the bound {:.4g} {}", quantity, value, unit, bound,
+                     unit);
 }
 
 // Largest speed of the x, y, z path, from 32 samples per piece; only sets the step size.
@@ -204,13 +201,12 @@ class StateChecker {
                              const ColumnSurface& surface) const {
     const double feet_m = p.z() - profile_.reference_height_m;
     if (!(std::abs(surface.plane_center_z_m - feet_m) <= level_tolerance_m_)) {
-      char buf[256];
-      std::snprintf(buf, sizeof(buf),
-                    "no ground in the column below at the robot's level: its nearest surface "
-                    "is %.3f m from the reference point's ground height %.3f m (more than "
-                    "%.3f m; a post, a table leg or a wall?)",
-                    surface.plane_center_z_m - feet_m, feet_m, level_tolerance_m_);
-      return Violation(t, p, buf);
+      return Violation(t, p,
+                       fmt::format("no ground in the column below at the robot's level: its "
+                                   "nearest surface is {:.3f} m from the reference point's "
+                                   "ground height {:.3f} m (more than {:.3f} m; a post, a "
+                                   "table leg or a wall?)",
+                                   surface.plane_center_z_m - feet_m, feet_m, level_tolerance_m_));
     }
     return Status::Ok();
   }
@@ -250,10 +246,9 @@ class StateChecker {
     const double distance = model_.Distance(p);
     report_->min_obstacle_distance_m = std::min(report_->min_obstacle_distance_m, distance);
     if (!(distance >= config_.min_obstacle_distance_m)) {
-      char buf[128];
-      std::snprintf(buf, sizeof(buf), "obstacle distance %.3f m is below %.3f m", distance,
-                    config_.min_obstacle_distance_m);
-      return Violation(t, p, buf);
+      return Violation(t, p,
+                       fmt::format("obstacle distance {:.3f} m is below {:.3f} m", distance,
+                                   config_.min_obstacle_distance_m));
     }
     return Status::Ok();
   }
@@ -264,12 +259,11 @@ class StateChecker {
     report_->min_body_height_m = std::min(report_->min_body_height_m, body);
     report_->min_headroom_m = std::min(report_->min_headroom_m, clearance - body);
     if (!(body + profile_.headroom_m <= clearance + body_slack_m_)) {
-      char buf[192];
-      std::snprintf(buf, sizeof(buf),
-                    "headroom %.3f m between the body (height %.3f m) and the ceiling (%.3f m "
-                    "above ground) is below the profile's headroom_m %.3f m",
-                    clearance - body, body, clearance, profile_.headroom_m);
-      return Violation(t, p, buf);
+      return Violation(t, p,
+                       fmt::format("headroom {:.3f} m between the body (height {:.3f} m) and "
+                                   "the ceiling ({:.3f} m above ground) is below the profile's "
+                                   "headroom_m {:.3f} m",
+                                   clearance - body, body, clearance, profile_.headroom_m));
     }
     return Status::Ok();
   }
@@ -278,10 +272,9 @@ class StateChecker {
   Status BodyHeightRange(double t, const Eigen::Vector3d& p, double body) const {
     if (profile_.active_height && !(body <= profile_.body_height_max_m + body_slack_m_ &&
                                     body >= profile_.body_height_min_m - body_slack_m_)) {
-      char buf[128];
-      std::snprintf(buf, sizeof(buf), "body height %.3f m is outside [%.3f, %.3f] m", body,
-                    profile_.body_height_min_m, profile_.body_height_max_m);
-      return Violation(t, p, buf);
+      return Violation(t, p,
+                       fmt::format("body height {:.3f} m is outside [{:.3f}, {:.3f}] m", body,
+                                   profile_.body_height_min_m, profile_.body_height_max_m));
     }
     return Status::Ok();
   }
@@ -300,13 +293,11 @@ class StateChecker {
 
   Status KeepOut(double t, const Eigen::Vector3d& p) const {
     if (const int zone = FirstViolatedKeepOut(keep_out_, profile_, p); zone >= 0) {
-      char buf[160];
-      std::snprintf(buf, sizeof(buf),
-                    ": the footprint (radius %.3f m) reaches %.3f m into its polygon within its "
-                    "height range",
-                    profile_.footprint_radius_m,
-                    KeepOutPenetration(keep_out_[zone].prism, profile_, p));
-      return Violation(t, p, "inside " + keep_out_[zone].name + buf);
+      return Violation(t, p,
+                       fmt::format("inside {}: the footprint (radius {:.3f} m) reaches {:.3f} m "
+                                   "into its polygon within its height range",
+                                   keep_out_[zone].name, profile_.footprint_radius_m,
+                                   KeepOutPenetration(keep_out_[zone].prism, profile_, p)));
     }
     return Status::Ok();
   }
@@ -333,12 +324,10 @@ class StateChecker {
 Status CheckShape(const Trajectory& trajectory, const RobotProfile& profile) {
   const int dimension = profile.active_height ? 4 : 3;
   if (trajectory.dimension != dimension) {
-    char buf[160];
-    std::snprintf(buf, sizeof(buf),
-                  "trajectory has dimension %d but profile '%s' needs %d (x, y, z%s)",
-                  trajectory.dimension, profile.name.c_str(), dimension,
-                  profile.active_height ? ", body height" : "");
-    return Error{ErrorCode::kInvalidInput, buf};
+    return Error{ErrorCode::kInvalidInput,
+                 fmt::format("trajectory has dimension {} but profile '{}' needs {} (x, y, z{})",
+                             trajectory.dimension, profile.name, dimension,
+                             profile.active_height ? ", body height" : "")};
   }
   if (trajectory.pieces.empty()) {
     return Error{ErrorCode::kOptimizationFailed, "trajectory verification failed: no pieces"};
@@ -346,20 +335,18 @@ Status CheckShape(const Trajectory& trajectory, const RobotProfile& profile) {
   for (std::size_t i = 0; i < trajectory.pieces.size(); ++i) {
     const TrajectoryPiece& piece = trajectory.pieces[i];
     if (piece.coefficients.cols() != dimension) {
-      return Error{ErrorCode::kInvalidInput, "trajectory piece " + std::to_string(i) + " has " +
-                                                 std::to_string(piece.coefficients.cols()) +
-                                                 " axes, the trajectory " +
-                                                 std::to_string(dimension)};
+      return Error{ErrorCode::kInvalidInput,
+                   fmt::format("trajectory piece {} has {} axes, the trajectory {}", i,
+                               piece.coefficients.cols(), dimension)};
     }
     // Everything below evaluates these; a NaN would also make the step count undefined.
     if (!(std::isfinite(piece.duration_s) && piece.duration_s > 0) ||
         !piece.coefficients.allFinite()) {
-      char buf[160];
-      std::snprintf(buf, sizeof(buf),
-                    "trajectory verification failed: piece %zu has duration %g s and %s "
-                    "coefficients; both must be finite, the duration > 0",
-                    i, piece.duration_s, piece.coefficients.allFinite() ? "finite" : "non-finite");
-      return Error{ErrorCode::kOptimizationFailed, buf};
+      return Error{ErrorCode::kOptimizationFailed,
+                   fmt::format("trajectory verification failed: piece {} has duration {:g} s "
+                               "and {} coefficients; both must be finite, the duration > 0",
+                               i, piece.duration_s,
+                               piece.coefficients.allFinite() ? "finite" : "non-finite")};
     }
   }
   return Status::Ok();
@@ -420,12 +407,10 @@ Status VerifyTrajectory(const SurfaceGraph& graph, const RobotProfile& profile,
   const double peak_speed = 1.1 * PeakSpeed(trajectory);
   const double sample_count = peak_speed * trajectory.TotalDuration() / config.max_sample_spacing_m;
   if (!(sample_count <= kMaxSamples)) {
-    char buf[160];
-    std::snprintf(buf, sizeof(buf),
-                  "trajectory verification failed: %.3g samples %.3g m apart are too many "
-                  "(at most %.0f); the trajectory is too long or too fast",
-                  sample_count, config.max_sample_spacing_m, kMaxSamples);
-    return Error{ErrorCode::kOptimizationFailed, buf};
+    return Error{ErrorCode::kOptimizationFailed,
+                 fmt::format("trajectory verification failed: {:.3g} samples {:.3g} m apart are "
+                             "too many (at most {:.0f}); the trajectory is too long or too fast",
+                             sample_count, config.max_sample_spacing_m, kMaxSamples)};
   }
   StateChecker checker(graph, profile, config, keep_out, report);
   // Between samples (the column entries) the cursor finds the piece from the last one.
