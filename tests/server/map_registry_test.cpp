@@ -4,17 +4,15 @@
 
 #include <atomic>
 #include <chrono>
-#include <condition_variable>
 #include <filesystem>
 #include <fstream>
 #include <future>
-#include <mutex>
-#include <optional>
 #include <thread>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "held_assessment.hpp"
 #include "large_floor.hpp"
 #include "strata/io/saved_model.hpp"
 
@@ -353,38 +351,12 @@ TEST(MapRegistryTest, ConcurrentCreateDeleteAndReadsStayConsistent) {
 // The assessment is held at the start of its surfaces step until its map is deleted, then let
 // go: it must stop there (kCancelled) instead of finishing, whatever the machine's speed.
 TEST(MapRegistryTest, AnAssessmentReportsItsStepsAndStopsWhenItsMapIsDeleted) {
-  std::mutex mutex;
-  std::condition_variable changed;
-  bool held = false, deleted = false, ended = false;
-  std::string steps;              // The steps the assessment reported, in order, once each.
-  std::optional<ErrorCode> code;  // How the build ended: empty when it made the map.
+  testing::HeldAssessment held(AssessmentStage::kSurfaces);
   RegistryOptions options = Options();
-  options.build = [&](MapBuildJob job, const BuildMonitor& monitor) -> Result<BuiltMap> {
-    BuildMonitor holding = monitor;
-    holding.on_progress = [&, report = monitor.on_progress](AssessmentStage step, double fraction) {
-      if (report) report(step, fraction);
-      std::unique_lock lock(mutex);
-      const std::string name = AssessmentStageName(step);
-      if (steps.find(name) == std::string::npos) steps += name + " ";
-      if (step != AssessmentStage::kSurfaces) return;
-      held = true;
-      changed.notify_all();
-      changed.wait(lock, [&] { return deleted; });
-    };
-    Expected<BuiltMap> built = BuildMapHere(std::move(job), holding);
-    std::lock_guard lock(mutex);
-    ended = true;
-    if (!built) code = built.error().code;
-    changed.notify_all();
-    if (!built) return ServiceError::FromPlanner(built.error());
-    return std::move(built).value();
-  };
+  options.build = held.Builder();
   MapRegistry registry(std::move(options));
   ASSERT_TRUE(registry.Create("big", testing::LargeFloorSource(), AssessmentConfig{}).ok());
-  {
-    std::unique_lock lock(mutex);
-    changed.wait(lock, [&] { return held; });
-  }
+  held.WaitHeld();
   // Held in its surfaces: the map shows the step and a fraction past the ground filter.
   const MapSnapshot snapshot = registry.Get("big").value();
   EXPECT_EQ(snapshot.state, MapState::kCreating);
@@ -393,14 +365,9 @@ TEST(MapRegistryTest, AnAssessmentReportsItsStepsAndStopsWhenItsMapIsDeleted) {
   EXPECT_GT(snapshot.progress(), 0.15);
   EXPECT_LT(snapshot.progress(), 0.9);
   ASSERT_TRUE(registry.Delete("big").ok());
-  {
-    std::unique_lock lock(mutex);
-    deleted = true;
-    changed.notify_all();
-    changed.wait(lock, [&] { return ended; });
-    EXPECT_THAT(steps, HasSubstr("ground_filter"));
-    EXPECT_EQ(code, ErrorCode::kCancelled) << "the assessment of a deleted map went on";
-  }
+  held.Release();
+  EXPECT_EQ(held.WaitEnded(), ErrorCode::kCancelled) << "the assessment of a deleted map went on";
+  EXPECT_THAT(held.Steps(), HasSubstr("ground_filter"));
   registry.Shutdown();
   EXPECT_TRUE(registry.WaitIdle(steady_clock::now() + kLongWait));
 }

@@ -1,12 +1,10 @@
 // Map metrics read from the registry at scrape time (no server needed).
 #include "rpc/metrics.hpp"
 
-#include <condition_variable>
-#include <mutex>
-
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "held_assessment.hpp"
 #include "large_floor.hpp"
 
 namespace strata::server {
@@ -18,33 +16,15 @@ using ::testing::Not;
 // The assessment is held in its ground filter while the metrics are scraped, so that the map is
 // seen creating whatever the machine's speed.
 TEST(MetricsTest, AMapBeingCreatedShowsItsProgressUntilItIsGone) {
-  std::mutex mutex;
-  std::condition_variable changed;
-  bool held = false, released = false;
+  testing::HeldAssessment held(AssessmentStage::kGroundFilter);
   RegistryOptions options;
   options.assessment_threads = 1;
-  options.build = [&](MapBuildJob job, const BuildMonitor& monitor) -> Result<BuiltMap> {
-    BuildMonitor holding = monitor;
-    holding.on_progress = [&, report = monitor.on_progress](AssessmentStage step, double fraction) {
-      if (report) report(step, fraction);
-      if (step != AssessmentStage::kGroundFilter) return;
-      std::unique_lock lock(mutex);
-      held = true;
-      changed.notify_all();
-      changed.wait(lock, [&] { return released; });
-    };
-    Expected<BuiltMap> built = BuildMapHere(std::move(job), holding);
-    if (!built) return ServiceError::FromPlanner(built.error());
-    return std::move(built).value();
-  };
+  options.build = held.Builder();
   MapRegistry registry(std::move(options));
   Metrics metrics;
   metrics.WatchMaps(&registry);
   ASSERT_TRUE(registry.Create("big", testing::LargeFloorSource(), AssessmentConfig{}).ok());
-  {
-    std::unique_lock lock(mutex);
-    changed.wait(lock, [&] { return held; });
-  }
+  held.WaitHeld();
   // The series names the map and its step.
   const std::string scrape = metrics.Serialize();
   EXPECT_THAT(scrape,
@@ -53,11 +33,7 @@ TEST(MetricsTest, AMapBeingCreatedShowsItsProgressUntilItIsGone) {
   // Gone with the map.
   ASSERT_TRUE(registry.Delete("big").ok());
   EXPECT_THAT(metrics.Serialize(), Not(HasSubstr("map_id=\"big\"")));
-  {
-    std::lock_guard lock(mutex);
-    released = true;
-    changed.notify_all();
-  }
+  held.Release();
   registry.Shutdown();
 }
 
