@@ -117,6 +117,12 @@ IndependentCheckCounts CheckTrajectory(const TerrainModel& model, const RobotPro
   return counts;
 }
 
+std::string IndependentCheckCounts::Describe() const {
+  return "ground " + std::to_string(ground) + ", clearance " + std::to_string(clearance) +
+         ", headroom " + std::to_string(headroom) + ", body height " + std::to_string(body_height) +
+         ", speed " + std::to_string(speed) + ", acceleration " + std::to_string(acceleration);
+}
+
 void IndependentCheckTally::Add(const IndependentCheckCounts& counts) {
   ++plans;
   ground += counts.ground > 0;

@@ -49,6 +49,8 @@ struct IndependentCheckCounts {
   bool Any() const {
     return ground + clearance + headroom + body_height + speed + acceleration > 0;
   }
+  /// "ground 0, clearance 3, ...": the samples that broke each rule, for a failure message.
+  std::string Describe() const;
 };
 
 /// Checks `trajectory` (dimension 3, or 4 with the body height for active-height profiles) on

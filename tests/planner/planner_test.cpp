@@ -52,10 +52,7 @@ void ExpectSound(const PlanningMap& map, const PlanResult& plan, const PlanReque
   bench::IndependentCheckConfig check;
   check.bounds = request.options.verifier;
   const bench::IndependentCheckCounts broken = bench::CheckTrajectory(map.model(), robot, t, check);
-  EXPECT_FALSE(broken.Any()) << "independent check: ground " << broken.ground << ", clearance "
-                             << broken.clearance << ", headroom " << broken.headroom
-                             << ", body height " << broken.body_height << ", speed " << broken.speed
-                             << ", acceleration " << broken.acceleration;
+  EXPECT_FALSE(broken.Any()) << "independent check: " << broken.Describe();
   // Boundary states: the snapped positions, the requested velocity and acceleration.
   EXPECT_LT((t.Position(0).head<3>() - plan.start.position_m).norm(), 1e-9);
   EXPECT_LT((t.Position(t.TotalDuration()).head<3>() - plan.goal.position_m).norm(), 1e-9);

@@ -85,9 +85,7 @@ void ExpectConsistentPlan(const v1::PlanRequest& request, const v1::PlanResponse
     ASSERT_TRUE(profile.ok()) << profile.error().message;
     const bench::IndependentCheckCounts broken =
         bench::CheckTrajectory(DemoModel(), profile.value(), returned.value());
-    EXPECT_FALSE(broken.Any()) << "independent check: ground " << broken.ground << ", clearance "
-                               << broken.clearance << ", headroom " << broken.headroom << ", speed "
-                               << broken.speed << ", acceleration " << broken.acceleration;
+    EXPECT_FALSE(broken.Any()) << "independent check: " << broken.Describe();
   }
   EXPECT_LE(response.stats().max_speed_horizontal_mps(),
             1.01 * response.profile().max_speed_horizontal_mps());
