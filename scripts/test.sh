@@ -16,22 +16,29 @@
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 build_dir=${STRATA_SANITIZE_BUILD_DIR:-$root/build-sanitize}
+# Each stage says how long it took, so a slow CI run shows where its time went.
+stage_start=$SECONDS
+stage_done() { echo "test.sh: $1 took $((SECONDS - stage_start)) s (total $SECONDS s)"; stage_start=$SECONDS; }
 "$root/scripts/build-sanitize.sh"
+stage_done "the sanitised build"
 "$root/scripts/check-format.sh"
 "$root/scripts/install-test-tools.sh"
 # clang-tidy parses every product source again (8-9 minutes of two cores). It runs beside
 # the test suite at the lowest priority, in the time the suite's server and process tests
 # leave the cores idle while they wait (a quarter of tidy's files, measured on a fresh clone);
 # the tests keep the CPU whenever they want it.
-STRATA_BUILD_DIR=$build_dir nice -n 19 "$root/scripts/check-tidy.sh" &
+(STRATA_BUILD_DIR=$build_dir nice -n 19 "$root/scripts/check-tidy.sh"
+ echo "test.sh: clang-tidy finished at total $SECONDS s") &
 tidy=$!
 trap 'kill $tidy 2>/dev/null || true' EXIT
 skip_fuzz=()
 [ "${STRATA_SKIP_FUZZ:-0}" != 1 ] || skip_fuzz=(-LE fuzz)
 # Sanitiser settings: tests/sanitize_defaults.cpp, server/map_worker_sanitizers.cpp.
 ctest --test-dir "$build_dir" --output-on-failure -j "$(nproc)" "${skip_fuzz[@]}" "$@"
+stage_done "the sanitised suite"
 wait $tidy
 trap - EXIT
+stage_done "waiting for clang-tidy"
 
 if [ "${STRATA_SKIP_TSAN:-0}" = 1 ]; then exit 0; fi
 tsan_dir=${build_dir%-sanitize}-tsan
@@ -40,4 +47,6 @@ if [ ! -f "$tsan_dir/build.ninja" ]; then
     -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ -DSTRATA_TSAN=ON
 fi
 cmake --build "$tsan_dir"
+stage_done "the ThreadSanitizer build"
 ctest --test-dir "$tsan_dir" --output-on-failure -j "$(nproc)"  # Options: tests/tsan_defaults.cpp
+stage_done "the ThreadSanitizer suite"
