@@ -2,7 +2,6 @@
 
 #include <condition_variable>
 #include <fstream>
-#include <functional>
 #include <iterator>
 #include <thread>
 
@@ -124,16 +123,14 @@ Result<std::unique_ptr<StrataServer>> StrataServer::Start(const ServerConfig& co
   self->config_ = config;
   Result<StartInputs> inputs = self->CheckFlags();
   if (!inputs.ok()) return std::move(inputs).error();
-  const std::function<ServiceStatus()> steps[] = {
-      [&] { return self->StartMaps(&inputs.value()); },
-      [&] { return self->StartServices(inputs.value()); },
-      [&] { return self->Listen(inputs.value()); },
-      [&] { return self->ServeMetrics(); },
-      [&] { return self->ServeViewer(); },
-      [&] { return self->QueuePreloads(&inputs.value().preloads); },
-  };
-  for (const auto& step : steps) {
-    if (ServiceStatus done = step(); !done.ok()) return std::move(done).error();
+  StartInputs& checked = inputs.value();
+  if (ServiceStatus done = self->StartMaps(&checked); !done.ok()) return std::move(done).error();
+  if (ServiceStatus done = self->StartServices(checked); !done.ok()) return std::move(done).error();
+  if (ServiceStatus done = self->Listen(checked); !done.ok()) return std::move(done).error();
+  if (ServiceStatus done = self->ServeMetrics(); !done.ok()) return std::move(done).error();
+  if (ServiceStatus done = self->ServeViewer(); !done.ok()) return std::move(done).error();
+  if (ServiceStatus done = self->QueuePreloads(&checked.preloads); !done.ok()) {
+    return std::move(done).error();
   }
   return self;
 }

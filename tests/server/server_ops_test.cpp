@@ -195,11 +195,11 @@ TEST_F(ServerOpsTest, APlanRunningPastTheGraceAnswersShuttingDown) {
   v1::CreateMapRequest create;
   create.set_map_id("site");
   create.mutable_scene()->set_name("outdoor_site");
-  create.mutable_scene()->set_size_m(200);
+  create.mutable_scene()->set_size_m(120);
   CreateAndWait(create);
-  // A profile of its own: the plan first builds its graph (a quarter of a second here), long
-  // enough to be caught in flight.
-  v1::PlanRequest request = PlanRequestFor("site", 10, 10, 5, 190, 190, 5);
+  // A profile of its own: the plan first builds its graph (a tenth of a second in a Release
+  // build, several times that under the sanitisers), long enough to be caught in flight.
+  v1::PlanRequest request = PlanRequestFor("site", 10, 10, 5, 110, 110, 5);
   request.clear_profile_name();
   request.mutable_profile()->set_max_step_m(0.123);
   v1::PlanResponse response;
