@@ -21,6 +21,7 @@ const char* ErrorCodeName(ErrorCode code) {
     case ErrorCode::kSearchBudgetExhausted: return "SEARCH_BUDGET_EXHAUSTED";
     case ErrorCode::kProfileMismatch: return "PROFILE_MISMATCH";
     case ErrorCode::kOptimizationFailed: return "OPTIMIZATION_FAILED";
+    case ErrorCode::kReservationConflict: return "RESERVATION_CONFLICT";
   }
   return "UNKNOWN";
 }

@@ -40,6 +40,9 @@ const ErrorMapping kTable[] = {
     // and not the client's input as such; ABORTED says "this attempt did not succeed", and
     // the message names the violation (e.g. a speed bound) so the client can relax it.
     {PE::kOptimizationFailed, StatusCode::ABORTED, "OPTIMIZATION_FAILED"},
+    // Another robot's committed trajectory is in the way: the schedule must change (a
+    // reservation released or expired) before this plan can be made.
+    {PE::kReservationConflict, StatusCode::FAILED_PRECONDITION, "RESERVATION_CONFLICT"},
 
     {SE::kMapNotFound, StatusCode::NOT_FOUND, "MAP_NOT_FOUND"},
     {SE::kMapNotActive, StatusCode::FAILED_PRECONDITION, "MAP_NOT_ACTIVE"},

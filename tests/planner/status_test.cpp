@@ -21,7 +21,7 @@ TEST(Status, EveryCodeIsListedOnceInDeclarationOrder) {
   // The enum's values are 0, 1, ... in declaration order: the list must be exactly them.
   int expected = 0;
   for (const ErrorCode code : kAllErrorCodes) EXPECT_EQ(static_cast<int>(code), expected++);
-  EXPECT_EQ(expected, static_cast<int>(ErrorCode::kOptimizationFailed) + 1);
+  EXPECT_EQ(expected, static_cast<int>(ErrorCode::kReservationConflict) + 1);
 }
 
 TEST(Status, NamesReadBackAsTheirCodes) {

@@ -424,5 +424,46 @@ TEST(VerifierConfig, ValidateNamesEachFieldOutOfRange) {
   EXPECT_TRUE(edges.Validate().ok());
 }
 
+// Fleet traffic: the trajectory across the floor (x 1 → 4 at y = 1 in 4 s) against another
+// robot parked at `parked_at` over [parked_from_s, parked_until_s] after the departure.
+Status VerifyAmongTraffic(const RobotProfile& profile, const Eigen::Vector3d& parked_at,
+                          double parked_from_s, double parked_until_s) {
+  constexpr std::int64_t kDeparture = 1'795'000'000'000'000'000;
+  ReservedMotion other;
+  other.robot_id = "R7";
+  other.motion.start_ns = AddSeconds(kDeparture, parked_from_s);
+  TrajectoryPiece stand;
+  stand.duration_s = parked_until_s - parked_from_s;
+  stand.coefficients = Eigen::Matrix<double, 6, 3>::Zero();
+  stand.coefficients.row(0) = parked_at.transpose();
+  other.motion.trajectory.pieces.push_back(stand);
+  other.motion.end_ns = other.motion.ArrivalNs();
+  const std::vector<ReservedMotion> others = {other};
+  Traffic traffic;
+  traffic.departure_ns = kDeparture;
+  traffic.parked_until_ns = AddSeconds(kDeparture, kRunS);
+  traffic.body = FleetBody::FromProfile(profile);
+  traffic.others = others;
+  VerificationReport report;
+  return VerifyTrajectory(GraphFor(profile), profile, AcrossTheFloor(profile), {}, &report, {},
+                          &traffic);
+}
+
+TEST(VerifyTrajectory, ATrajectoryThatMeetsAnotherRobotIsRefusedNamingIt) {
+  const RobotProfile profile = Loose("differential");
+  const double z = profile.reference_height_m;
+  // Parked on the way from 1 s to 3 s: the trajectory reaches it.
+  const Status met = VerifyAmongTraffic(profile, {2.5, 1.2, z}, 1.0, 3.0);
+  ASSERT_FALSE(met.ok());
+  EXPECT_EQ(met.error().code, ErrorCode::kReservationConflict);
+  EXPECT_THAT(met.error().message, HasSubstr("robot 'R7'"));
+  EXPECT_EQ(met.error().details.at("robot_id"), "R7");
+  // The same place, but gone before the robot comes (it is at x = 2.5 after 2 s), beside
+  // the way (0.8 m from it; the two radii and the separation need 0.7 m), or under the floor.
+  ExpectPasses(VerifyAmongTraffic(profile, {2.5, 1.2, z}, 0.0, 1.0));
+  ExpectPasses(VerifyAmongTraffic(profile, {2.5, 1.8, z}, 0.0, 4.0));
+  ExpectPasses(VerifyAmongTraffic(profile, {2.5, 1.2, z - 3.0}, 0.0, 4.0));
+}
+
 }  // namespace
 }  // namespace strata

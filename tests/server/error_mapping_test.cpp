@@ -16,7 +16,7 @@ using grpc::StatusCode;
 // Every planner code, by walking the enum up to its last value.
 std::vector<ErrorCode> AllPlannerCodes() {
   std::vector<ErrorCode> codes;
-  for (int i = 0; i <= static_cast<int>(ErrorCode::kOptimizationFailed); ++i) {
+  for (int i = 0; i <= static_cast<int>(ErrorCode::kReservationConflict); ++i) {
     codes.push_back(static_cast<ErrorCode>(i));
   }
   return codes;
@@ -73,6 +73,7 @@ TEST(ErrorMappingTest, MapsAsDocumented) {
        "SEARCH_BUDGET_EXHAUSTED"},
       {ErrorCode::kProfileMismatch, StatusCode::FAILED_PRECONDITION, "PROFILE_MISMATCH"},
       {ErrorCode::kOptimizationFailed, StatusCode::ABORTED, "OPTIMIZATION_FAILED"},
+      {ErrorCode::kReservationConflict, StatusCode::FAILED_PRECONDITION, "RESERVATION_CONFLICT"},
       {ServiceErrorCode::kMapNotFound, StatusCode::NOT_FOUND, "MAP_NOT_FOUND"},
       {ServiceErrorCode::kMapNotActive, StatusCode::FAILED_PRECONDITION, "MAP_NOT_ACTIVE"},
       {ServiceErrorCode::kMapAlreadyExists, StatusCode::ALREADY_EXISTS, "MAP_ALREADY_EXISTS"},

@@ -27,7 +27,8 @@ enum class ErrorCode {
   kCancelled,              ///< The caller cancelled the request (should_stop returned true).
   kSearchBudgetExhausted,  ///< The search used its expansion budget without reaching the goal.
   kProfileMismatch,        ///< The robot profile needs terrain assessed with other parameters.
-  kOptimizationFailed,  ///< The optimised trajectory failed verification (first violation named).
+  kOptimizationFailed,   ///< The optimised trajectory failed verification (first violation named).
+  kReservationConflict,  ///< The trajectory would meet another robot's reservation (named).
 };
 
 /// Every ErrorCode, in declaration order.
@@ -39,7 +40,7 @@ inline constexpr ErrorCode kAllErrorCodes[] = {
     ErrorCode::kGoalUnreachable,       ErrorCode::kNoPath,
     ErrorCode::kDeadlineExceeded,      ErrorCode::kCancelled,
     ErrorCode::kSearchBudgetExhausted, ErrorCode::kProfileMismatch,
-    ErrorCode::kOptimizationFailed,
+    ErrorCode::kOptimizationFailed,    ErrorCode::kReservationConflict,
 };
 
 /// Stable UPPER_SNAKE_CASE name of a code, e.g. "MAP_LOAD_FAILED".

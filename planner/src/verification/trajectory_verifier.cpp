@@ -394,9 +394,14 @@ Status CheckColumnEntries(double from, double to, const GridGeometry& grid,
 
 Status VerifyTrajectory(const SurfaceGraph& graph, const RobotProfile& profile,
                         const Trajectory& trajectory, const VerifierConfig& config,
-                        VerificationReport* report, std::span<const KeepOutZone> keep_out) {
+                        VerificationReport* report, std::span<const KeepOutZone> keep_out,
+                        const Traffic* traffic) {
   if (Status s = config.Validate(); !s) return s;
   if (Status s = profile.Validate(); !s) return s;
+  if (traffic != nullptr) {
+    if (Status s = traffic->rule.Validate("traffic.rule"); !s) return s;
+    if (Status s = traffic->body.Validate("traffic.body"); !s) return s;
+  }
   *report = VerificationReport{};
   report->min_obstacle_distance_m = std::numeric_limits<double>::infinity();
   report->min_body_height_m = std::numeric_limits<double>::infinity();
@@ -440,6 +445,9 @@ Status VerifyTrajectory(const SurfaceGraph& graph, const RobotProfile& profile,
       previous_t = t;
     }
     piece_start += piece_duration;
+  }
+  if (traffic != nullptr) {
+    return CheckSeparation(traffic->MotionOf(trajectory), traffic->others, traffic->rule);
   }
   return Status::Ok();
 }

@@ -6,6 +6,7 @@
 #include <string>
 #include <string_view>
 
+#include "strata/fleet/traffic.hpp"
 #include "strata/planning/keep_out.hpp"
 #include "strata/planning/robot_profile.hpp"
 #include "strata/planning/surface_graph.hpp"
@@ -73,14 +74,18 @@ struct VerificationReport {
 /// - the surface is a node of `graph` (true when the graph was built from
 ///   profile.Traversability(), as Plan does);
 /// - the robot outside every zone of `keep_out` (keep_out.hpp defines when it is inside;
-///   the message names the zone and how far the footprint reaches into it).
+///   the message names the zone and how far the footprint reaches into it);
+/// then, when `traffic` is given, the trajectory placed at its departure and parked at its
+/// end keeps apart from every other robot's motion, exactly over continuous time
+/// (CheckSeparation: kReservationConflict naming the first robot in the way, when and where).
 /// Every comparison fails on NaN. Fails before sampling with kInvalidConfig for a bad config
 /// or profile, kInvalidInput when the trajectory's dimension is not the profile's (4 with
 /// active height, else 3), and kOptimizationFailed for no pieces, a non-finite coefficient, a
 /// duration that is not finite and > 0, or more than 2e7 samples.
 Status VerifyTrajectory(const SurfaceGraph& graph, const RobotProfile& profile,
                         const Trajectory& trajectory, const VerifierConfig& config,
-                        VerificationReport* report, std::span<const KeepOutZone> keep_out = {});
+                        VerificationReport* report, std::span<const KeepOutZone> keep_out = {},
+                        const Traffic* traffic = nullptr);
 
 /// Mean curvature κ_m [1/m] (paper Table 2): the mean of ‖p′×p″‖/‖p′‖³ of the x, y, z path
 /// over `samples` uniform time samples, skipping samples slower than 1 cm/s (where the

@@ -1,0 +1,74 @@
+#pragma once
+/// A robot's committed motion on a shared site: a trajectory placed at an absolute time, the
+/// body it moves, and how long it then stays parked at its end. Fleet planning keeps the
+/// motions of other robots apart from each other (strata/fleet/motion_conflict.hpp).
+///
+/// Time: absolute times are nanoseconds since the Unix epoch on the server's clock (robots and
+/// servers keep NTP time). The motion exists over [start_ns, end_ns]: it follows the
+/// trajectory from start_ns, then holds the trajectory's last position until end_ns.
+#include <cstdint>
+#include <string_view>
+
+#include <Eigen/Core>
+
+#include "strata/planning/trajectory.hpp"
+#include "strata/status.hpp"
+
+namespace strata {
+
+struct RobotProfile;
+
+/// The space a robot occupies around its trajectory's reference point: a vertical cylinder
+/// of radius radius_m from the ground under the reference point to the top of the body.
+struct FleetBody {
+  double radius_m = 0.3;            ///< Footprint radius [m], > 0 and finite.
+  double reference_height_m = 0.3;  ///< Reference point above the ground [m], > 0, finite.
+  /// Top of the body above the ground [m], > 0, finite, for trajectories of dimension 3. A
+  /// trajectory of dimension 4 commands its body height on axis 3, which is used instead.
+  double height_m = 0.5;
+
+  /// The body of a robot with this profile: its footprint radius, reference height, and body
+  /// height (the highest it can take for an active-height robot, which a 3-D trajectory
+  /// cannot tell).
+  static FleetBody FromProfile(const RobotProfile& profile);
+
+  /// kInvalidInput blaming the first bad field, `path`.<field>.
+  Status Validate(std::string_view path) const;
+};
+
+/// The vertical extent of a body at one moment [m, map frame]: from the ground to its top.
+struct VerticalExtent {
+  double bottom_m = 0;
+  double top_m = 0;
+};
+
+struct FleetMotion {
+  std::int64_t start_ns = 0;  ///< Absolute time of the trajectory's t = 0 [ns].
+  Trajectory trajectory;      ///< At least one piece; dimension 3 or 4.
+  FleetBody body;
+  /// Absolute time until which the robot stays parked at the trajectory's end [ns], at least
+  /// start_ns + the trajectory's duration.
+  std::int64_t end_ns = 0;
+
+  /// When the trajectory ends and the parked time begins [ns].
+  std::int64_t ArrivalNs() const;
+
+  /// The reference point at absolute time `time_ns`, clamped to [start_ns, end_ns]: before
+  /// the start the trajectory's first point, after the arrival its last.
+  Eigen::Vector3d ReferencePointAt(std::int64_t time_ns) const;
+  /// The body's vertical extent at absolute time `time_ns`, clamped as ReferencePointAt.
+  VerticalExtent ExtentAt(std::int64_t time_ns) const;
+
+  /// kInvalidInput blaming the first bad field, `path`.<field>: an empty trajectory, a piece
+  /// whose duration is not positive and finite or whose coefficients are not finite, a
+  /// dimension other than 3 or 4, a bad body, or end_ns before the arrival.
+  Status Validate(std::string_view path) const;
+};
+
+/// Seconds between two absolute times (to - from) [s]. Differences of at most centuries are
+/// exact to well under a microsecond.
+double SecondsBetween(std::int64_t from_ns, std::int64_t to_ns);
+/// `time_ns` moved by `seconds` [s], rounded to the nanosecond.
+std::int64_t AddSeconds(std::int64_t time_ns, double seconds);
+
+}  // namespace strata

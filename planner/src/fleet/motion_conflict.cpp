@@ -1,0 +1,294 @@
+#include "strata/fleet/motion_conflict.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "format_internal.hpp"
+
+namespace strata {
+namespace {
+
+constexpr int kPieceDegree = 5;
+constexpr int kDistanceDegree = 2 * kPieceDegree;
+// A stretch halved this often spans 2^-52 of its length, where its polynomials are constant
+// to double precision: the search stops there whatever the bounds say.
+constexpr int kMaxHalvings = 52;
+
+/// Coefficients of a polynomial of degree N on u ∈ [0, 1]: monomial (lowest order first) or
+/// Bernstein, as the name of the variable says.
+template <int N>
+using Coefficients = std::array<double, N + 1>;
+using Quintic = Coefficients<kPieceDegree>;
+using Decic = Coefficients<kDistanceDegree>;
+
+/// One stretch of a motion over which it follows one polynomial: a trajectory piece or the
+/// parked time after the last. Times are seconds from the check's origin.
+struct Segment {
+  double begin_s = 0;
+  double end_s = 0;
+  double local_begin_s = 0;                // The piece's own time at begin_s.
+  const TrajectoryPiece* piece = nullptr;  // Null: parked at `parked`.
+  StateVector parked;
+  // Bounds over the whole segment (Bernstein hull), to rule pairs out cheaply.
+  double min_x = 0, max_x = 0, min_y = 0, max_y = 0;
+  double min_bottom = 0, max_top = 0;
+};
+
+/// The motion's polynomials on one window, in u ∈ [0, 1]: x, y, and the body's bottom and top.
+struct WindowPolynomials {
+  Quintic x{}, y{}, bottom{}, top{};
+};
+
+template <int N>
+double Binomial(int n, int k) {
+  static const auto table = [] {
+    std::array<std::array<double, N + 1>, N + 1> c{};
+    for (int i = 0; i <= N; ++i) {
+      c[i][0] = 1;
+      for (int j = 1; j <= i; ++j) c[i][j] = c[i - 1][j - 1] + (j < i ? c[i - 1][j] : 0);
+    }
+    return c;
+  }();
+  return table[n][k];
+}
+
+/// Bernstein coefficients of the polynomial with monomial coefficients `q` on [0, 1].
+template <int N>
+Coefficients<N> ToBernstein(const Coefficients<N>& q) {
+  Coefficients<N> b{};
+  for (int i = 0; i <= N; ++i) {
+    for (int k = 0; k <= i; ++k) b[i] += Binomial<N>(i, k) / Binomial<N>(N, k) * q[k];
+  }
+  return b;
+}
+
+/// Splits Bernstein coefficients at u = 1/2 into those of the two halves (de Casteljau).
+template <int N>
+void Halve(const Coefficients<N>& b, Coefficients<N>* left, Coefficients<N>* right) {
+  Coefficients<N> w = b;
+  (*left)[0] = w[0];
+  (*right)[N] = w[N];
+  for (int r = 1; r <= N; ++r) {
+    for (int i = 0; i <= N - r; ++i) w[i] = 0.5 * (w[i] + w[i + 1]);
+    (*left)[r] = w[0];
+    (*right)[N - r] = w[N - r];
+  }
+}
+
+template <int N>
+std::pair<double, double> Range(const Coefficients<N>& b) {
+  const auto [lo, hi] = std::minmax_element(b.begin(), b.end());
+  return {*lo, *hi};
+}
+
+/// Monomial coefficients in u of axis `axis` of `segment` on the window [begin_s, begin_s + h].
+Quintic AxisOnWindow(const Segment& segment, int axis, double begin_s, double h) {
+  Quintic q{};
+  if (segment.piece == nullptr) {
+    q[0] = segment.parked(axis);
+    return q;
+  }
+  // p(τ0 + h·u) by Horner's rule over polynomials in u.
+  const double tau0 = segment.local_begin_s + (begin_s - segment.begin_s);
+  const auto& c = segment.piece->coefficients;
+  q[0] = c(kPieceDegree, axis);
+  for (int k = kPieceDegree - 1; k >= 0; --k) {
+    for (int j = kPieceDegree; j >= 1; --j) q[j] = tau0 * q[j] + h * q[j - 1];
+    q[0] = tau0 * q[0] + c(k, axis);
+  }
+  return q;
+}
+
+WindowPolynomials OnWindow(const Segment& segment, const FleetMotion& motion, double begin_s,
+                           double h) {
+  WindowPolynomials w;
+  w.x = AxisOnWindow(segment, 0, begin_s, h);
+  w.y = AxisOnWindow(segment, 1, begin_s, h);
+  const Quintic z = AxisOnWindow(segment, 2, begin_s, h);
+  const bool commanded_height = motion.trajectory.dimension == 4;
+  const Quintic height = commanded_height ? AxisOnWindow(segment, 3, begin_s, h) : Quintic{};
+  for (int k = 0; k <= kPieceDegree; ++k) {
+    w.bottom[k] = z[k] - (k == 0 ? motion.body.reference_height_m : 0.0);
+    w.top[k] = w.bottom[k] + (commanded_height ? height[k] : (k == 0 ? motion.body.height_m : 0));
+  }
+  return w;
+}
+
+void SetBounds(const FleetMotion& motion, Segment* segment) {
+  const WindowPolynomials w =
+      OnWindow(*segment, motion, segment->begin_s, segment->end_s - segment->begin_s);
+  std::tie(segment->min_x, segment->max_x) = Range<kPieceDegree>(ToBernstein<kPieceDegree>(w.x));
+  std::tie(segment->min_y, segment->max_y) = Range<kPieceDegree>(ToBernstein<kPieceDegree>(w.y));
+  segment->min_bottom = Range<kPieceDegree>(ToBernstein<kPieceDegree>(w.bottom)).first;
+  segment->max_top = Range<kPieceDegree>(ToBernstein<kPieceDegree>(w.top)).second;
+}
+
+/// The motion's segments from `origin_ns` on, in time order.
+std::vector<Segment> Segments(const FleetMotion& motion, std::int64_t origin_ns) {
+  std::vector<Segment> segments;
+  segments.reserve(motion.trajectory.pieces.size() + 1);
+  double t = SecondsBetween(origin_ns, motion.start_ns);
+  for (const TrajectoryPiece& piece : motion.trajectory.pieces) {
+    Segment s;
+    s.begin_s = t;
+    s.end_s = t + piece.duration_s;
+    s.piece = &piece;
+    t = s.end_s;
+    if (s.end_s <= 0) continue;
+    segments.push_back(s);
+  }
+  const double end_s = SecondsBetween(origin_ns, motion.end_ns);
+  if (end_s > t) {
+    Segment s;
+    s.begin_s = std::max(t, 0.0);
+    s.end_s = end_s;
+    s.parked = motion.trajectory.Evaluate(motion.trajectory.TotalDuration(), 0);
+    segments.push_back(s);
+  }
+  for (Segment& s : segments) {
+    if (s.begin_s < 0) {  // Starts before the origin: keep only what follows it.
+      s.local_begin_s = -s.begin_s;
+      s.begin_s = 0;
+    }
+    SetBounds(motion, &s);
+  }
+  return segments;
+}
+
+bool OutOfReach(const Segment& a, const Segment& b, double limit_m) {
+  const double gap_x = std::max({0.0, a.min_x - b.max_x, b.min_x - a.max_x});
+  const double gap_y = std::max({0.0, a.min_y - b.max_y, b.min_y - a.max_y});
+  return gap_x * gap_x + gap_y * gap_y >= limit_m * limit_m || a.max_top <= b.min_bottom ||
+         b.max_top <= a.min_bottom;
+}
+
+/// What a conflict needs on a window, each as Bernstein coefficients over u ∈ [0, 1]: all
+/// three positive at once.
+struct ConflictFunctions {
+  Decic closeness{};   // limit² − horizontal distance²
+  Quintic a_over_b{};  // a's top − b's bottom
+  Quintic b_over_a{};  // b's top − a's bottom
+};
+
+ConflictFunctions OnWindow(const WindowPolynomials& a, const WindowPolynomials& b, double limit_m) {
+  Quintic dx{}, dy{};
+  for (int k = 0; k <= kPieceDegree; ++k) {
+    dx[k] = a.x[k] - b.x[k];
+    dy[k] = a.y[k] - b.y[k];
+  }
+  Decic closeness{};
+  closeness[0] = limit_m * limit_m;
+  for (int i = 0; i <= kPieceDegree; ++i) {
+    for (int j = 0; j <= kPieceDegree; ++j) closeness[i + j] -= dx[i] * dx[j] + dy[i] * dy[j];
+  }
+  Quintic a_over_b{}, b_over_a{};
+  for (int k = 0; k <= kPieceDegree; ++k) {
+    a_over_b[k] = a.top[k] - b.bottom[k];
+    b_over_a[k] = b.top[k] - a.bottom[k];
+  }
+  return {ToBernstein<kDistanceDegree>(closeness), ToBernstein<kPieceDegree>(a_over_b),
+          ToBernstein<kPieceDegree>(b_over_a)};
+}
+
+/// The first u ∈ [0, 1] at which the functions are all positive, within the tolerances
+/// (see motion_conflict.hpp), earliest first by halving.
+std::optional<double> FirstPositive(const ConflictFunctions& window, double closeness_tolerance,
+                                    double vertical_tolerance) {
+  struct Stretch {
+    ConflictFunctions f;
+    double u0, u1;
+    int halvings;
+  };
+  std::vector<Stretch> stack{{window, 0.0, 1.0, 0}};
+  while (!stack.empty()) {
+    const Stretch s = stack.back();
+    stack.pop_back();
+    const auto [close_min, close_max] = Range<kDistanceDegree>(s.f.closeness);
+    const auto [ab_min, ab_max] = Range<kPieceDegree>(s.f.a_over_b);
+    const auto [ba_min, ba_max] = Range<kPieceDegree>(s.f.b_over_a);
+    if (close_max <= 0 || ab_max <= 0 || ba_max <= 0) continue;  // Ruled out throughout.
+    // The first coefficient is the value at u0: a conflict there is exact.
+    if (s.f.closeness[0] > 0 && s.f.a_over_b[0] > 0 && s.f.b_over_a[0] > 0) return s.u0;
+    // Each range holds its value at u0 and reaches above 0: narrow ranges put u0 within the
+    // tolerances of a conflict.
+    const bool narrow = close_max - close_min <= closeness_tolerance &&
+                        ab_max - ab_min <= vertical_tolerance &&
+                        ba_max - ba_min <= vertical_tolerance;
+    if (narrow || s.halvings == kMaxHalvings) return s.u0;
+    Stretch left{{}, s.u0, 0.5 * (s.u0 + s.u1), s.halvings + 1};
+    Stretch right{{}, left.u1, s.u1, s.halvings + 1};
+    Halve<kDistanceDegree>(s.f.closeness, &left.f.closeness, &right.f.closeness);
+    Halve<kPieceDegree>(s.f.a_over_b, &left.f.a_over_b, &right.f.a_over_b);
+    Halve<kPieceDegree>(s.f.b_over_a, &left.f.b_over_a, &right.f.b_over_a);
+    stack.push_back(right);
+    stack.push_back(left);  // Examined first: the earlier half.
+  }
+  return std::nullopt;
+}
+
+}  // namespace
+
+Status SeparationRule::Validate(std::string_view path) const {
+  const auto check = [&](std::string_view field, double value, bool allow_zero) -> Status {
+    if (std::isfinite(value) && (value > 0 || (allow_zero && value == 0))) return Status::Ok();
+    const std::string name = internal::FieldPath(path, field);
+    return Error{ErrorCode::kInvalidInput,
+                 fmt::format("{} = {:g} m must be {} and finite", name, value,
+                             allow_zero ? "at least 0" : "positive"),
+                 name};
+  };
+  if (Status s = check("separation_m", separation_m, true); !s) return s;
+  if (Status s = check("distance_tolerance_m", distance_tolerance_m, false); !s) return s;
+  return check("vertical_tolerance_m", vertical_tolerance_m, false);
+}
+
+std::optional<MotionConflict> FirstConflict(const FleetMotion& a, const FleetMotion& b,
+                                            const SeparationRule& rule) {
+  const std::int64_t origin_ns = std::max(a.start_ns, b.start_ns);
+  const std::int64_t until_ns = std::min(a.end_ns, b.end_ns);
+  if (until_ns < origin_ns) return std::nullopt;  // Never both present.
+  const double until_s = SecondsBetween(origin_ns, until_ns);
+  const double limit_m = a.body.radius_m + b.body.radius_m + rule.separation_m;
+  const double reach_m = limit_m + rule.distance_tolerance_m;
+  const double closeness_tolerance = reach_m * reach_m - limit_m * limit_m;
+
+  const std::vector<Segment> sa = Segments(a, origin_ns);
+  const std::vector<Segment> sb = Segments(b, origin_ns);
+  std::size_t i = 0, j = 0;
+  while (i < sa.size() && j < sb.size()) {
+    const Segment& x = sa[i];
+    const Segment& y = sb[j];
+    const double lo = std::max(x.begin_s, y.begin_s);
+    if (lo > until_s) break;
+    const double hi = std::min({x.end_s, y.end_s, until_s});
+    // A window of no length is compared only when it is all the time both motions share.
+    const bool compare = hi > lo || (hi == lo && until_s == 0);
+    if (compare && !OutOfReach(x, y, limit_m)) {
+      const double h = hi - lo;
+      const ConflictFunctions f = OnWindow(OnWindow(x, a, lo, h), OnWindow(y, b, lo, h), limit_m);
+      if (const std::optional<double> u =
+              FirstPositive(f, closeness_tolerance, rule.vertical_tolerance_m)) {
+        MotionConflict conflict;
+        conflict.time_ns = AddSeconds(origin_ns, lo + *u * h);
+        conflict.point_a = a.ReferencePointAt(conflict.time_ns);
+        conflict.point_b = b.ReferencePointAt(conflict.time_ns);
+        conflict.horizontal_distance_m = (conflict.point_a - conflict.point_b).head<2>().norm();
+        conflict.limit_m = limit_m;
+        return conflict;
+      }
+    }
+    if (x.end_s < y.end_s) {
+      ++i;
+    } else {
+      ++j;
+    }
+  }
+  return std::nullopt;
+}
+
+}  // namespace strata

@@ -1,0 +1,55 @@
+#include "strata/fleet/traffic.hpp"
+
+#include <algorithm>
+
+#include <fmt/format.h>
+
+#include "format_internal.hpp"
+
+namespace strata {
+
+FleetMotion Traffic::MotionOf(const Trajectory& trajectory) const {
+  FleetMotion motion;
+  motion.start_ns = departure_ns;
+  motion.trajectory = trajectory;
+  motion.body = body;
+  motion.end_ns = std::max(parked_until_ns, motion.ArrivalNs());
+  return motion;
+}
+
+std::optional<TrafficConflict> FirstTrafficConflict(const FleetMotion& own,
+                                                    std::span<const ReservedMotion> others,
+                                                    const SeparationRule& rule) {
+  std::optional<TrafficConflict> first;
+  for (std::size_t i = 0; i < others.size(); ++i) {
+    std::optional<MotionConflict> conflict = FirstConflict(own, others[i].motion, rule);
+    if (conflict && (!first || conflict->time_ns < first->conflict.time_ns)) {
+      first = TrafficConflict{i, *conflict};
+    }
+  }
+  return first;
+}
+
+Status CheckSeparation(const FleetMotion& own, std::span<const ReservedMotion> others,
+                       const SeparationRule& rule) {
+  const std::optional<TrafficConflict> first = FirstTrafficConflict(own, others, rule);
+  if (!first) return Status::Ok();
+  const MotionConflict& c = first->conflict;
+  const std::string& robot = others[first->other].robot_id;
+  Error error{ErrorCode::kReservationConflict,
+              fmt::format("the trajectory meets robot {}'s reservation {:.3f} s after it starts: "
+                          "at ({:.2f}, {:.2f}, {:.2f}) m it comes within {:.3f} m of that robot "
+                          "at ({:.2f}, {:.2f}, {:.2f}) m, closer than the {:.3f} m the two bodies "
+                          "and the separation need",
+                          internal::Quote(robot), SecondsBetween(own.start_ns, c.time_ns),
+                          c.point_a.x(), c.point_a.y(), c.point_a.z(), c.horizontal_distance_m,
+                          c.point_b.x(), c.point_b.y(), c.point_b.z(), c.limit_m)};
+  error.details = {{"robot_id", robot},
+                   {"time_ns", std::to_string(c.time_ns)},
+                   {"x_m", DetailNumber(c.point_a.x())},
+                   {"y_m", DetailNumber(c.point_a.y())},
+                   {"z_m", DetailNumber(c.point_a.z())}};
+  return error;
+}
+
+}  // namespace strata

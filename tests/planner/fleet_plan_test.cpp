@@ -1,0 +1,221 @@
+// Planning one robot among others' committed motions, on a hand-made site: a head-on meeting
+// on a one-lane ramp, a crossing on an open floor, a robot passing under another on a deck,
+// and robots parked in the way. Every plan is checked by sampling every millisecond.
+#include "strata/fleet/fleet_plan.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "strata/assessment/terrain_model.hpp"
+#include "test_util/hand_made_maps.hpp"
+
+namespace strata {
+namespace {
+
+using ::testing::HasSubstr;
+
+constexpr std::int64_t kDeparture = 1'795'000'000'000'000'000;  // A time in 2026 [ns].
+constexpr double kLeaseS = 600;
+constexpr double kRampRiseM = 0.5;
+
+/// A site 16 × 9 m: a floor at z = 0 (x 0-6), a one-lane ramp between walls (x 6-11, the lane
+/// 1 m wide around y = 4.5) up to a plateau at 0.5 m (x 11-16), and a deck 2 m over the floor
+/// (x 1-5, y 5.5-7.5) that is an island of its own. Points 5 cm apart.
+PointCloud FleetSite() {
+  test_util::CloudBuilder b(0.05);
+  b.Plate(0, 5.95, 0, 9, 0.0);
+  b.Surface(6, 11, 4.0, 5.0, [](double x, double) { return (x - 6) / 5 * kRampRiseM; });
+  b.Block(6, 11, 3.7, 3.85, 0, 2.5);
+  b.Block(6, 11, 5.15, 5.3, 0, 2.5);
+  b.Plate(11.05, 16, 0, 9, kRampRiseM);
+  b.Plate(1, 5, 5.5, 7.5, 2.0);
+  return b.cloud();
+}
+
+const PlanningMap& Site() {
+  static const PlanningMap* map = [] {
+    AssessmentConfig config;
+    config.grid.resolution_m = 0.1;
+    return new PlanningMap(TerrainModel::Assess(FleetSite(), config).value());
+  }();
+  return *map;
+}
+
+const RobotProfile& Profile() {
+  static const RobotProfile profile = BuiltinProfile("differential").value();
+  return profile;
+}
+
+PlanRequest Between(const Eigen::Vector3d& from, const Eigen::Vector3d& to) {
+  PlanRequest request;
+  request.start.position_m = from;
+  request.goal.position_m = to;
+  request.profile = Profile();
+  return request;
+}
+
+FleetPlanRequest AmongOthers(const PlanRequest& plan, const std::vector<ReservedMotion>& others) {
+  FleetPlanRequest request;
+  request.plan = plan;
+  request.departure_ns = kDeparture;
+  request.parked_until_ns = AddSeconds(kDeparture, kLeaseS);
+  request.others = others;
+  return request;
+}
+
+/// A robot's committed motion: `plan` planned alone, leaving at the departure.
+ReservedMotion Committed(const std::string& robot, const PlanRequest& plan) {
+  Expected<PlanResult> result = Plan(Site(), plan);
+  EXPECT_TRUE(result) << result.error().message;
+  ReservedMotion reserved;
+  reserved.robot_id = robot;
+  reserved.motion.start_ns = kDeparture;
+  reserved.motion.trajectory = result.value().trajectory;
+  reserved.motion.body = FleetBody::FromProfile(plan.profile);
+  reserved.motion.end_ns = AddSeconds(kDeparture, kLeaseS);
+  return reserved;
+}
+
+/// A robot standing at `at` for the whole lease.
+ReservedMotion Parked(const std::string& robot, const Eigen::Vector3d& at) {
+  ReservedMotion reserved;
+  reserved.robot_id = robot;
+  reserved.motion.start_ns = kDeparture;
+  TrajectoryPiece stand;
+  stand.duration_s = 0.1;
+  stand.coefficients = Eigen::Matrix<double, 6, 3>::Zero();
+  stand.coefficients.row(0) = at.transpose();
+  reserved.motion.trajectory.pieces.push_back(stand);
+  reserved.motion.body = FleetBody::FromProfile(Profile());
+  reserved.motion.end_ns = AddSeconds(kDeparture, kLeaseS);
+  return reserved;
+}
+
+// The test's own conflict check: both motions sampled every millisecond.
+struct Sampled {
+  bool conflict = false;
+  double closest_horizontal_m = 1e9;  // Over the moments both exist.
+};
+
+Sampled SampleEveryMillisecond(const FleetMotion& a, const FleetMotion& b, double limit_m) {
+  Sampled s;
+  const std::int64_t until = std::min(a.end_ns, b.end_ns);
+  for (std::int64_t t = std::max(a.start_ns, b.start_ns); t <= until; t += 1'000'000) {
+    const Eigen::Vector3d pa = a.ReferencePointAt(t);
+    const Eigen::Vector3d pb = b.ReferencePointAt(t);
+    const double bottom_a = pa.z() - a.body.reference_height_m;
+    const double bottom_b = pb.z() - b.body.reference_height_m;
+    const bool overlap =
+        bottom_a < bottom_b + b.body.height_m && bottom_b < bottom_a + a.body.height_m;
+    const double d = (pa - pb).head<2>().norm();
+    s.closest_horizontal_m = std::min(s.closest_horizontal_m, d);
+    s.conflict = s.conflict || (overlap && d < limit_m);
+  }
+  return s;
+}
+
+double Limit() { return 2 * Profile().footprint_radius_m + SeparationRule{}.separation_m; }
+
+void ExpectClearOfAll(const FleetMotion& motion, const std::vector<ReservedMotion>& others) {
+  for (const ReservedMotion& other : others) {
+    EXPECT_FALSE(SampleEveryMillisecond(motion, other.motion, Limit()).conflict)
+        << "meets " << other.robot_id;
+  }
+}
+
+/// Plans alone, then among `others`: the lone plan must meet them (else the case tests
+/// nothing), the fleet plan must not.
+FleetPlanResult PlanBoth(const PlanRequest& plan, const std::vector<ReservedMotion>& others) {
+  const FleetPlanRequest request = AmongOthers(plan, others);
+  const ReservedMotion alone = Committed("alone", plan);
+  bool met = false;
+  for (const ReservedMotion& other : others) {
+    met = met || SampleEveryMillisecond(alone.motion, other.motion, Limit()).conflict;
+  }
+  EXPECT_TRUE(met) << "planned alone, the robot would not meet the others";
+  Expected<FleetPlanResult> result = PlanAmongTraffic(Site(), request);
+  EXPECT_TRUE(result) << result.error().message;
+  if (!result) return {};
+  ExpectClearOfAll(result.value().motion, others);
+  return std::move(result).value();
+}
+
+TEST(FleetPlan, HeadOnOnAOneLaneRampTheLaterRobotWaitsForTheLaneToClear) {
+  // A drives up the ramp from the floor to the plateau; B, committed later, drives down.
+  const std::vector<ReservedMotion> others = {
+      Committed("A", Between({2, 4.5, 0.3}, {14.5, 4.5, 0.8}))};
+  const FleetPlanResult b = PlanBoth(Between({13, 7.5, 0.8}, {2, 1.5, 0.3}), others);
+  EXPECT_GT(b.wait_s, 0);
+  EXPECT_EQ(b.plan.trajectory.pieces.front().duration_s, b.wait_s);
+  EXPECT_DOUBLE_EQ(b.plan.stats.duration_s, b.plan.trajectory.TotalDuration());
+}
+
+TEST(FleetPlan, AtAFourWayCrossingTheLaterRobotLetsTheOtherPass) {
+  const std::vector<ReservedMotion> others = {
+      Committed("A", Between({0.5, 2.5, 0.3}, {5.5, 2.5, 0.3}))};
+  const FleetPlanResult b = PlanBoth(Between({3, 0.5, 0.3}, {3, 4.5, 0.3}), others);
+  EXPECT_GT(b.wait_s, 0);
+  EXPECT_LT(b.wait_s, 10);
+}
+
+TEST(FleetPlan, ARobotUnderADeckPassesOneOnTheDeckWithoutWaiting) {
+  // A crosses the deck along x while B crosses the floor under it along y, at the same time.
+  const std::vector<ReservedMotion> others = {
+      Committed("A", Between({1.5, 6.5, 2.3}, {4.5, 6.5, 2.3}))};
+  const PlanRequest b_request = Between({3, 4.6, 0.3}, {3, 8.5, 0.3});
+  Expected<FleetPlanResult> b = PlanAmongTraffic(Site(), AmongOthers(b_request, others));
+  ASSERT_TRUE(b) << b.error().message;
+  EXPECT_EQ(b.value().wait_s, 0);
+  EXPECT_EQ(b.value().parked_robots_avoided, 0);
+  // They do pass within the limit horizontally: only the heights keep them apart.
+  const Sampled s = SampleEveryMillisecond(b.value().motion, others[0].motion, Limit());
+  EXPECT_FALSE(s.conflict);
+  EXPECT_LT(s.closest_horizontal_m, Limit());
+}
+
+TEST(FleetPlan, ARobotParkedInTheWayIsDrivenAround) {
+  const std::vector<ReservedMotion> others = {Parked("C", {3, 2.5, 0.3})};
+  const FleetPlanResult b = PlanBoth(Between({0.5, 2.5, 0.3}, {5.5, 2.5, 0.3}), others);
+  EXPECT_EQ(b.parked_robots_avoided, 1);
+  EXPECT_EQ(b.wait_s, 0);
+}
+
+TEST(FleetPlan, AGoalOrStartWhereAnotherRobotIsParkedIsRefusedNamingIt) {
+  const std::vector<ReservedMotion> others = {Parked("C", {5.5, 2.5, 0.3})};
+  Expected<FleetPlanResult> to_c =
+      PlanAmongTraffic(Site(), AmongOthers(Between({0.5, 2.5, 0.3}, {5.4, 2.6, 0.3}), others));
+  ASSERT_FALSE(to_c);
+  EXPECT_EQ(to_c.error().code, ErrorCode::kReservationConflict);
+  EXPECT_THAT(to_c.error().message, HasSubstr("the goal is where robot 'C' stays parked"));
+  EXPECT_EQ(to_c.error().details.at("robot_id"), "C");
+
+  Expected<FleetPlanResult> from_c =
+      PlanAmongTraffic(Site(), AmongOthers(Between({5.3, 2.5, 0.3}, {0.5, 2.5, 0.3}), others));
+  ASSERT_FALSE(from_c);
+  EXPECT_EQ(from_c.error().code, ErrorCode::kReservationConflict);
+  EXPECT_THAT(from_c.error().message, HasSubstr("robot 'C'"));
+}
+
+TEST(FleetPlan, WithNoWaitAllowedAMeetingIsRefusedNamingWhoWhenAndWhere) {
+  const std::vector<ReservedMotion> others = {
+      Committed("A", Between({0.5, 2.5, 0.3}, {5.5, 2.5, 0.3}))};
+  FleetPlanRequest request = AmongOthers(Between({3, 0.5, 0.3}, {3, 4.5, 0.3}), others);
+  request.fleet.max_wait_s = 0;
+  Expected<FleetPlanResult> refused = PlanAmongTraffic(Site(), request);
+  ASSERT_FALSE(refused);
+  EXPECT_EQ(refused.error().code, ErrorCode::kReservationConflict);
+  EXPECT_THAT(refused.error().message, HasSubstr("the trajectory meets robot 'A'"));
+  EXPECT_THAT(refused.error().message, HasSubstr("s after the departure"));
+  EXPECT_EQ(refused.error().details.at("robot_id"), "A");
+}
+
+}  // namespace
+}  // namespace strata
