@@ -52,6 +52,11 @@ TEST(BenchmarkSmokeTest, TravelCostBenchmark) {
   ExpectRuns(STRATA_TRAVEL_COST_BENCHMARK, "--size 2 --runs 1 --pairs 2", "|");
 }
 
+TEST(BenchmarkSmokeTest, FleetBenchmark) {
+  ExpectRuns(STRATA_FLEET_BENCHMARK, "--minutes 0.25 --robots 3 --sites parking_garage",
+             "| parking_garage | 3 | yes |");
+}
+
 TEST(BenchmarkSmokeTest, SiteBenchmark) { ExpectRuns(STRATA_SITE_BENCHMARK, "40 --plans", "|"); }
 
 TEST(BenchmarkSmokeTest, EditBenchmark) {

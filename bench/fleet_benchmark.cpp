@@ -1,0 +1,340 @@
+// Fleet figures for docs/benchmarks.md: N robots on one site, each given random reachable
+// tasks over simulated minutes, every robot leaving at once at the start. Each fleet size runs
+// twice: every robot planned alone (the count of conflicting pairs of committed trajectories
+// shows the problem), and planned among the others' committed motions (PlanAmongTraffic:
+// 0 conflicts is the target). Both counted by the benchmark's own sampled check
+// (oracle/sampled_separation.hpp, 1 ms), never by the planner's. Not part of the test path.
+//
+//   build/bench/fleet_benchmark [--minutes 10] [--seed 1] [--robots 10 25 50]
+//                               [--sites parking_garage spiral]
+//
+// The spiral is the shared map spiral0.3_2 at 0.2 m, read from STRATA_MAPS_DIR. A robot's
+// goal is drawn at least 1.5 m from every other robot's position and goal; on arrival it
+// gets the next one. A refused task (RESERVATION_CONFLICT) is counted, and the robot is given
+// another 5 simulated seconds later. Prints a markdown table; STRATA_FLEET_VERBOSE=1 also
+// prints every refusal and every conflict the check finds to stderr.
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <map>
+#include <memory>
+#include <optional>
+#include <queue>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+#include "compare/bench_pairs.hpp"
+#include "sampled_separation.hpp"
+#include "statistics.hpp"
+#include "strata/fleet/fleet_plan.hpp"
+#include "strata/io/cloud_io.hpp"
+#include "strata/planner.hpp"
+#include "strata/scenes/scenes.hpp"
+
+namespace {
+
+using strata::FleetMotion;
+using strata::PlanningMap;
+using strata::bench::Median;
+using strata::bench::Quantile;
+
+constexpr std::int64_t kStartNs = 1'795'000'000'000'000'000;  // The simulation's t = 0.
+constexpr double kMinGoalDistanceM = 1.5;  // From every other robot's position and goal.
+constexpr double kMinTaskLengthM = 3.0;
+constexpr double kRetryAfterS = 5.0;
+constexpr double kLeaseS = 3600;  // Robots stay parked until their next plan replaces it.
+constexpr double kHorizontalSpeedSlack = 1.01;  // The verifier's limit tolerance.
+
+struct Site {
+  std::string name;
+  std::unique_ptr<PlanningMap> map;
+  std::vector<Eigen::Vector3d> nodes;  // Reference points of the largest component.
+};
+
+std::optional<Site> MakeSite(const std::string& name, const strata::PointCloud& cloud,
+                             double resolution_m, const strata::RobotProfile& profile) {
+  strata::AssessmentConfig config;
+  config.grid.resolution_m = resolution_m;
+  auto model = strata::TerrainModel::Assess(cloud, config);
+  if (!model) {
+    std::fprintf(stderr, "%s: %s\n", name.c_str(), model.error().message.c_str());
+    return std::nullopt;
+  }
+  Site site{name, std::make_unique<PlanningMap>(std::move(model).value()), {}};
+  auto graph = site.map->Graph(profile.Traversability());
+  if (!graph) return std::nullopt;
+  const auto component = strata::bench::FindLargestComponent(*graph.value());
+  for (int node : component.nodes) site.nodes.push_back(graph.value()->position(node));
+  return site;
+}
+
+struct Committed {
+  int robot;
+  FleetMotion motion;
+};
+
+struct RunFigures {
+  int tasks_asked = 0;
+  int tasks_planned = 0;
+  int refused_conflict = 0;              // RESERVATION_CONFLICT
+  int failed_other = 0;                  // Any other error.
+  int tasks_completed = 0;               // Arrived within the simulated time.
+  std::vector<double> latency_ms;        // Plan (+ checks) per task.
+  std::vector<double> plain_latency_ms;  // The same task planned alone (fleet runs only).
+  std::vector<double> delay_ratio;       // (fleet duration − alone duration) / alone duration.
+  std::vector<double> waits_s;
+  int parked_avoided = 0;
+  std::vector<Committed> committed;
+  int conflicting_pairs = 0;  // Pairs of robots whose committed motions conflict.
+  int robots_in_conflict = 0;
+  long check_samples = 0;
+};
+
+double Ms(std::chrono::steady_clock::duration d) {
+  return std::chrono::duration<double, std::milli>(d).count();
+}
+
+/// Runs one fleet on one site for `minutes`; `with_reservations` plans among the others.
+RunFigures RunFleet(const Site& site, int robots, double minutes, unsigned seed,
+                    bool with_reservations, const strata::RobotProfile& profile) {
+  RunFigures figures;
+  std::mt19937 rng(seed);
+  std::uniform_int_distribution<std::size_t> pick(0, site.nodes.size() - 1);
+  const std::int64_t end_ns = strata::AddSeconds(kStartNs, minutes * 60);
+  const strata::FleetBody body = strata::FleetBody::FromProfile(profile);
+  const double limit_m = 2 * body.radius_m + strata::SeparationRule{}.separation_m;
+
+  // Each robot's current motion (an index into figures.committed), starting parked.
+  std::vector<std::size_t> current(robots);
+  std::vector<Eigen::Vector3d> goals(robots);
+  for (int r = 0; r < robots; ++r) {
+    Eigen::Vector3d at;
+    for (int tries = 0; tries < 1000; ++tries) {
+      at = site.nodes[pick(rng)];
+      bool apart = true;
+      for (int k = 0; k < r; ++k) apart = apart && (goals[k] - at).norm() >= kMinGoalDistanceM;
+      if (apart) break;
+    }
+    goals[r] = at;
+    Committed parked{r, {}};
+    parked.motion.start_ns = kStartNs;
+    strata::TrajectoryPiece stand;
+    stand.duration_s = 0.1;
+    stand.coefficients = Eigen::Matrix<double, 6, 3>::Zero();
+    stand.coefficients.row(0) = at.transpose();
+    parked.motion.trajectory.pieces.push_back(stand);
+    parked.motion.body = body;
+    parked.motion.end_ns = strata::AddSeconds(kStartNs, kLeaseS);
+    current[r] = figures.committed.size();
+    figures.committed.push_back(std::move(parked));
+  }
+
+  using Event = std::pair<std::int64_t, int>;  // (time, robot), earliest first.
+  std::priority_queue<Event, std::vector<Event>, std::greater<>> events;
+  for (int r = 0; r < robots; ++r) events.emplace(kStartNs, r);
+  while (!events.empty()) {
+    const auto [now, robot] = events.top();
+    events.pop();
+    if (now >= end_ns) continue;
+    FleetMotion& mine = figures.committed[current[robot]].motion;
+    const Eigen::Vector3d at = mine.ReferencePointAt(now);
+    // A goal apart from every other robot's position now and its goal.
+    Eigen::Vector3d goal = at;
+    for (int tries = 0; tries < 1000; ++tries) {
+      goal = site.nodes[pick(rng)];
+      bool apart = (goal - at).norm() >= kMinTaskLengthM;
+      for (int k = 0; k < robots && apart; ++k) {
+        if (k == robot) continue;
+        const FleetMotion& other = figures.committed[current[k]].motion;
+        apart = (goal - other.ReferencePointAt(now)).norm() >= kMinGoalDistanceM &&
+                (goal - goals[k]).norm() >= kMinGoalDistanceM;
+      }
+      if (apart) break;
+    }
+    ++figures.tasks_asked;
+    strata::PlanRequest request;
+    request.start.position_m = at;
+    request.goal.position_m = goal;
+    request.profile = profile;
+
+    const auto t0 = std::chrono::steady_clock::now();
+    std::optional<strata::Trajectory> trajectory;
+    if (with_reservations) {
+      std::vector<strata::ReservedMotion> others;
+      others.reserve(robots - 1);
+      for (int k = 0; k < robots; ++k) {
+        if (k != robot) others.push_back({std::to_string(k), figures.committed[current[k]].motion});
+      }
+      strata::FleetPlanRequest fleet;
+      fleet.plan = request;
+      fleet.departure_ns = now;
+      fleet.parked_until_ns = strata::AddSeconds(now, kLeaseS);
+      fleet.others = others;
+      auto planned = strata::PlanAmongTraffic(*site.map, fleet);
+      figures.latency_ms.push_back(Ms(std::chrono::steady_clock::now() - t0));
+      if (planned) {
+        trajectory = planned.value().plan.trajectory;
+        figures.parked_avoided += planned.value().parked_robots_avoided;
+        figures.waits_s.push_back(planned.value().wait_s);
+      } else if (planned.error().code == strata::ErrorCode::kReservationConflict) {
+        ++figures.refused_conflict;
+        if (std::getenv("STRATA_FLEET_VERBOSE"))
+          std::fprintf(stderr, "refused: %s\n", planned.error().message.c_str());
+      } else {
+        ++figures.failed_other;
+      }
+      // The same task alone, for the delay and the plain latency.
+      const auto t1 = std::chrono::steady_clock::now();
+      auto alone = strata::Plan(*site.map, request);
+      figures.plain_latency_ms.push_back(Ms(std::chrono::steady_clock::now() - t1));
+      if (alone && trajectory) {
+        const double plain = alone.value().trajectory.TotalDuration();
+        figures.delay_ratio.push_back((trajectory->TotalDuration() - plain) / plain);
+      }
+    } else {
+      auto alone = strata::Plan(*site.map, request);
+      figures.latency_ms.push_back(Ms(std::chrono::steady_clock::now() - t0));
+      if (alone) {
+        trajectory = alone.value().trajectory;
+      } else {
+        ++figures.failed_other;
+      }
+    }
+    if (!trajectory) {
+      events.emplace(strata::AddSeconds(now, kRetryAfterS), robot);
+      continue;
+    }
+    ++figures.tasks_planned;
+    // The new motion replaces the robot's current one from now on.
+    mine.end_ns = std::max(now, mine.ArrivalNs());
+    Committed next{robot, {}};
+    next.motion.start_ns = now;
+    next.motion.trajectory = std::move(*trajectory);
+    next.motion.body = body;
+    next.motion.end_ns = strata::AddSeconds(now, kLeaseS);
+    const std::int64_t arrival = next.motion.ArrivalNs();
+    if (arrival <= end_ns) ++figures.tasks_completed;
+    goals[robot] = goal;
+    current[robot] = figures.committed.size();
+    figures.committed.push_back(std::move(next));
+    events.emplace(arrival, robot);
+  }
+
+  // The benchmark's own check over every pair of committed motions of two robots, over the
+  // simulated time (the last motions stay parked for their lease beyond it).
+  for (Committed& c : figures.committed) {
+    c.motion.end_ns = std::min(c.motion.end_ns, std::max(end_ns, c.motion.ArrivalNs()));
+  }
+  const double relative_speed = 2 * profile.max_speed_horizontal_mps * kHorizontalSpeedSlack;
+  std::map<std::pair<int, int>, bool> conflicting;
+  for (std::size_t i = 0; i < figures.committed.size(); ++i) {
+    for (std::size_t j = i + 1; j < figures.committed.size(); ++j) {
+      const Committed& a = figures.committed[i];
+      const Committed& b = figures.committed[j];
+      if (a.robot == b.robot) continue;
+      const auto key = std::minmax(a.robot, b.robot);
+      if (conflicting.count(key)) continue;
+      const auto s = strata::bench::SampleSeparation(a.motion, b.motion, limit_m, relative_speed);
+      figures.check_samples += s.samples;
+      if (s.first_conflict_ns) {
+        conflicting[key] = true;
+        if (std::getenv("STRATA_FLEET_VERBOSE")) {
+          const auto pa = a.motion.ReferencePointAt(*s.first_conflict_ns);
+          const auto pb = b.motion.ReferencePointAt(*s.first_conflict_ns);
+          std::fprintf(stderr, "conflict %d-%d at %.3f s: (%.2f %.2f %.2f) (%.2f %.2f %.2f)\n",
+                       a.robot, b.robot, strata::SecondsBetween(kStartNs, *s.first_conflict_ns),
+                       pa.x(), pa.y(), pa.z(), pb.x(), pb.y(), pb.z());
+        }
+      }
+    }
+  }
+  figures.conflicting_pairs = static_cast<int>(conflicting.size());
+  std::vector<bool> involved(robots, false);
+  for (const auto& [pair, _] : conflicting) involved[pair.first] = involved[pair.second] = true;
+  figures.robots_in_conflict = static_cast<int>(std::count(involved.begin(), involved.end(), true));
+  return figures;
+}
+
+std::string Percent(int part, int whole) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.1f%%", whole > 0 ? 100.0 * part / whole : 0.0);
+  return text;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  double minutes = 10;
+  unsigned seed = 1;
+  std::vector<int> fleet_sizes = {10, 25, 50};
+  std::vector<std::string> site_names = {"parking_garage", "spiral"};
+  CLI::App app{"Fleet figures: robots planned alone and among each other's reservations"};
+  app.add_option("--minutes", minutes, "Simulated minutes per run")->check(CLI::PositiveNumber);
+  app.add_option("--seed", seed, "Seed of the start positions and tasks");
+  app.add_option("--robots", fleet_sizes, "Fleet sizes")->check(CLI::Range(1, 500));
+  app.add_option("--sites", site_names, "parking_garage (generated), spiral (STRATA_MAPS_DIR)")
+      ->check(CLI::IsMember({"parking_garage", "spiral"}));
+  CLI11_PARSE(app, argc, argv);
+  const strata::RobotProfile profile = strata::BuiltinProfile("differential").value();
+
+  std::vector<Site> sites;
+  for (const std::string& name : site_names) {
+    if (name == "parking_garage") {
+      auto cloud = strata::GenerateScene("parking_garage", 1);
+      if (!cloud) return 1;
+      auto site = MakeSite(name, *cloud, 0.2, profile);  // docs/scenes.md: its resolution.
+      if (!site) return 1;
+      sites.push_back(std::move(*site));
+    } else if (const char* dir = std::getenv("STRATA_MAPS_DIR")) {
+      auto cloud = strata::LoadPointCloud(std::string(dir) + "/spiral0.3_2.pcd", {});
+      if (!cloud) return 1;
+      auto site = MakeSite("spiral@0.2", cloud->points, 0.2, profile);
+      if (!site) return 1;
+      sites.push_back(std::move(*site));
+    } else {
+      std::fprintf(stderr, "spiral: set STRATA_MAPS_DIR to the shared maps; skipped\n");
+    }
+  }
+
+  std::printf(
+      "Fleets of differential robots (radius 0.3 m, separation 0.1 m), %.0f simulated "
+      "minutes, seed %u.\n\n",
+      minutes, seed);
+  std::printf(
+      "| site | robots | reservations | tasks planned | refused (conflict) | failed "
+      "(other) | conflicting pairs (robots) | plan p50 / p95 [ms] | alone p50 / p95 "
+      "[ms] | mean delay | waits | parked robots avoided |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+  for (const Site& site : sites) {
+    for (const int robots : fleet_sizes) {
+      for (const bool with : {false, true}) {
+        const RunFigures f = RunFleet(site, robots, minutes, seed, with, profile);
+        double mean_delay = 0;
+        for (double d : f.delay_ratio) mean_delay += d;
+        if (!f.delay_ratio.empty()) mean_delay /= static_cast<double>(f.delay_ratio.size());
+        const int waited = static_cast<int>(
+            std::count_if(f.waits_s.begin(), f.waits_s.end(), [](double w) { return w > 0; }));
+        std::printf(
+            "| %s | %d | %s | %d of %d (%s) | %d | %d | %d (%d) | %.1f / %.1f | %s | %s | %s | "
+            "%s |\n",
+            site.name.c_str(), robots, with ? "yes" : "no", f.tasks_planned, f.tasks_asked,
+            Percent(f.tasks_planned, f.tasks_asked).c_str(), f.refused_conflict, f.failed_other,
+            f.conflicting_pairs, f.robots_in_conflict, Median(f.latency_ms),
+            Quantile(f.latency_ms, 0.95),
+            with ? (std::to_string(Median(f.plain_latency_ms)).substr(0, 5) + " / " +
+                    std::to_string(Quantile(f.plain_latency_ms, 0.95)).substr(0, 5))
+                       .c_str()
+                 : "-",
+            with ? Percent(static_cast<int>(mean_delay * 1000), 1000).c_str() : "-",
+            with ? (std::to_string(waited) + " tasks").c_str() : "-",
+            with ? std::to_string(f.parked_avoided).c_str() : "-");
+        std::fflush(stdout);
+      }
+    }
+  }
+  return 0;
+}
