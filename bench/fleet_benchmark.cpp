@@ -47,7 +47,8 @@ constexpr double kMinGoalDistanceM = 1.5;  // From every other robot's position 
 constexpr double kMinTaskLengthM = 3.0;
 constexpr double kRetryAfterS = 5.0;
 constexpr double kLeaseS = 3600;  // Robots stay parked until their next plan replaces it.
-constexpr double kHorizontalSpeedSlack = 1.01;  // The verifier's limit tolerance.
+constexpr double kHorizontalSpeedSlack = 1.01;              // The verifier's limit tolerance.
+double max_wait_s = strata::FleetPlanOptions{}.max_wait_s;  // --max-wait
 
 struct Site {
   std::string name;
@@ -174,6 +175,7 @@ RunFigures RunFleet(const Site& site, int robots, double minutes, unsigned seed,
       fleet.departure_ns = now;
       fleet.parked_until_ns = strata::AddSeconds(now, kLeaseS);
       fleet.others = others;
+      fleet.fleet.max_wait_s = max_wait_s;
       auto planned = strata::PlanAmongTraffic(*site.map, fleet);
       figures.latency_ms.push_back(Ms(std::chrono::steady_clock::now() - t0));
       if (planned) {
@@ -278,6 +280,8 @@ int main(int argc, char** argv) {
   app.add_option("--robots", fleet_sizes, "Fleet sizes")->check(CLI::Range(1, 500));
   app.add_option("--sites", site_names, "parking_garage (generated), spiral (STRATA_MAPS_DIR)")
       ->check(CLI::IsMember({"parking_garage", "spiral"}));
+  app.add_option("--max-wait", max_wait_s, "Longest wait at the start [s]")
+      ->check(CLI::Range(0.0, 3600.0));
   CLI11_PARSE(app, argc, argv);
   const strata::RobotProfile profile = strata::BuiltinProfile("differential").value();
 
