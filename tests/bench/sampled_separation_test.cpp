@@ -39,7 +39,9 @@ TEST(SampledSeparation, FindsACloseCrossingBetweenCoarseSamplesAndClearsAWideOne
   Crossing(0.69, &a, &b);
   const SampledSeparation close = SampleSeparation(a, b, 0.7, 2.02);
   ASSERT_TRUE(close.first_conflict_ns);
-  EXPECT_NEAR(static_cast<double>(*close.first_conflict_ns - kEpoch) * 1e-9, 5.0123, 0.06);
+  // The distance² is 0.69² + 2·(t − 5.0123)²: below 0.7² from 5.0123 − √((0.49 − 0.4761) / 2).
+  const double enter_s = 5.0123 - std::sqrt((0.49 - 0.4761) / 2);
+  EXPECT_NEAR(static_cast<double>(*close.first_conflict_ns - kEpoch) * 1e-9, enter_s, 0.0011);
   Crossing(0.71, &a, &b);
   const SampledSeparation wide = SampleSeparation(a, b, 0.7, 2.02);
   EXPECT_FALSE(wide.first_conflict_ns);

@@ -39,9 +39,14 @@ std::string Point(const Eigen::Vector3d& p) {
   return text.str();
 }
 
+// A time budget for plans that only the sanitisers' slowness and a busy machine could reach:
+// these tests check what the tool prints, never how fast it plans (the default 2 s was spent
+// building the surface graph alone under ASan beside a full test run).
+const std::string kPlanBudget = " --time-budget 120";
+
 // The scene's documented start (ground floor) and goal (deck) as plan arguments.
 std::string RampQuery(const Eigen::Vector3d& goal) {
-  return "plan scene:two_level_ramp --threads 1 --start " +
+  return "plan scene:two_level_ramp --threads 1" + kPlanBudget + " --start " +
          Point(GetTwoLevelRampLayout().start_example_m) + " --goal " + Point(goal);
 }
 
@@ -249,7 +254,8 @@ TEST(StrataOfflineSavedModel, AssessSaveThenEveryCommandLoadsItWithoutAssessing)
 
   // Planning on it gives the plan the scene gives.
   const TwoLevelRampLayout layout = GetTwoLevelRampLayout();
-  const std::string query = " --threads 1 --start " + Point(layout.start_example_m) + " --goal " +
+  const std::string query = " --threads 1" + kPlanBudget + " --start " +
+                            Point(layout.start_example_m) + " --goal " +
                             Point(layout.goal_example_m) + " --json";
   const Outcome from_scene = RunOffline("plan scene:two_level_ramp" + query);
   const Outcome from_file = RunOffline("plan " + path + query);
