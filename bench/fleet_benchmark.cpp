@@ -25,6 +25,7 @@
 #include <string>
 #include <vector>
 
+#include <fmt/format.h>
 #include <CLI/CLI.hpp>
 
 #include "compare/bench_pairs.hpp"
@@ -286,9 +287,7 @@ RunFigures RunFleet(const Site& site, int robots, double minutes, unsigned seed,
 }
 
 std::string Percent(int part, int whole) {
-  char text[32];
-  std::snprintf(text, sizeof text, "%.1f%%", whole > 0 ? 100.0 * part / whole : 0.0);
-  return text;
+  return fmt::format("{:.1f}%", whole > 0 ? 100.0 * part / whole : 0.0);
 }
 
 }  // namespace
@@ -346,20 +345,23 @@ int main(int argc, char** argv) {
         if (!f.delay_ratio.empty()) mean_delay /= static_cast<double>(f.delay_ratio.size());
         const int waited = static_cast<int>(
             std::count_if(f.waits_s.begin(), f.waits_s.end(), [](double w) { return w > 0; }));
-        std::printf(
-            "| %s | %d | %s | %d of %d (%s) | %d | %d | %d (%d) | %.1f / %.1f | %s | %s | %s | "
-            "%s | %.0f |\n",
-            site.name.c_str(), robots, with ? "yes" : "no", f.tasks_planned, f.tasks_asked,
-            Percent(f.tasks_planned, f.tasks_asked).c_str(), f.refused_conflict, f.failed_other,
-            f.conflicting_pairs, f.robots_in_conflict, Median(f.latency_ms),
-            Quantile(f.latency_ms, 0.95),
-            with ? (std::to_string(Median(f.plain_latency_ms)).substr(0, 5) + " / " +
-                    std::to_string(Quantile(f.plain_latency_ms, 0.95)).substr(0, 5))
-                       .c_str()
-                 : "-",
-            with ? Percent(static_cast<int>(mean_delay * 1000), 1000).c_str() : "-",
-            with ? (std::to_string(waited) + " tasks").c_str() : "-",
-            with ? std::to_string(f.parked_avoided).c_str() : "-", f.exact_checks_per_s);
+        // The columns of the runs among reservations only: "-" for the runs alone.
+        const auto among = [with](const std::string& text) { return with ? text : "-"; };
+        std::fputs(
+            fmt::format(
+                "| {} | {} | {} | {} of {} ({}) | {} | {} | {} ({}) | {:.1f} / {:.1f} | {} | {} | "
+                "{} | {} | {:.0f} |\n",
+                site.name, robots, with ? "yes" : "no", f.tasks_planned, f.tasks_asked,
+                Percent(f.tasks_planned, f.tasks_asked), f.refused_conflict, f.failed_other,
+                f.conflicting_pairs, f.robots_in_conflict, Median(f.latency_ms),
+                Quantile(f.latency_ms, 0.95),
+                among(fmt::format("{:.1f} / {:.1f}", Median(f.plain_latency_ms),
+                                  Quantile(f.plain_latency_ms, 0.95))),
+                among(fmt::format("{:.1f}%", 100 * mean_delay)),
+                among(fmt::format("{} tasks", waited)), among(std::to_string(f.parked_avoided)),
+                f.exact_checks_per_s)
+                .c_str(),
+            stdout);
         std::fflush(stdout);
       }
     }

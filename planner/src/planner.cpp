@@ -189,21 +189,8 @@ Status ValidateWarmStart(const WarmStart& warm, const RobotProfile& profile) {
         "warm_start.trajectory.dimension",
         fmt::format("is {}; this robot's trajectories have {} axes", trajectory.dimension, dim));
   }
-  if (trajectory.pieces.empty() || trajectory.pieces.size() > kMaxWarmStartPieces) {
-    return bad(
-        "warm_start.trajectory.pieces",
-        fmt::format("has {} pieces; give 1 to {}", trajectory.pieces.size(), kMaxWarmStartPieces));
-  }
-  for (std::size_t i = 0; i < trajectory.pieces.size(); ++i) {
-    const TrajectoryPiece& piece = trajectory.pieces[i];
-    const std::string field = "warm_start.trajectory.pieces[" + std::to_string(i) + "]";
-    if (!(std::isfinite(piece.duration_s) && piece.duration_s > 0)) {
-      return bad(field + ".duration_s", "must be > 0 and finite");
-    }
-    if (piece.coefficients.rows() != 6 || piece.coefficients.cols() != dim ||
-        !piece.coefficients.allFinite()) {
-      return bad(field, "must hold 6 finite coefficients per axis");
-    }
+  if (Status s = trajectory.ValidatePieces("warm_start.trajectory", kMaxWarmStartPieces); !s) {
+    return s;
   }
   if (!std::isfinite(warm.elapsed_s)) return bad("warm_start.elapsed_s", "must be finite");
   return Status::Ok();

@@ -99,8 +99,8 @@ struct PlanOptions {
   Status Validate(std::string_view path = "options") const;
 };
 
-/// Most pieces a warm start's trajectory may have (a kilometre in pieces of 1.5 m is ~700).
-inline constexpr std::size_t kMaxWarmStartPieces = 20000;
+/// Most pieces a warm start's trajectory may have.
+inline constexpr std::size_t kMaxWarmStartPieces = kMaxTrajectoryPieces;
 
 /// A point a route passes through between start and goal (PlanRequest::via).
 struct Via {

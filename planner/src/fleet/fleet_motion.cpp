@@ -24,25 +24,7 @@ Status ValidateTrajectory(const Trajectory& trajectory, std::string_view path) {
                                     "z, body height)",
                                     trajectory.dimension));
   }
-  if (trajectory.pieces.empty()) return InvalidField(path, "pieces", "is empty; give a piece");
-  for (std::size_t i = 0; i < trajectory.pieces.size(); ++i) {
-    const TrajectoryPiece& piece = trajectory.pieces[i];
-    const std::string at = fmt::format("pieces[{}]", i);
-    if (!std::isfinite(piece.duration_s) || piece.duration_s <= 0) {
-      return InvalidField(
-          path, at + ".duration_s",
-          fmt::format("is {} s; a piece lasts a positive, finite time", piece.duration_s));
-    }
-    if (piece.coefficients.cols() != trajectory.dimension) {
-      return InvalidField(path, at + ".coefficients",
-                          fmt::format("has {} columns for a trajectory of dimension {}",
-                                      piece.coefficients.cols(), trajectory.dimension));
-    }
-    if (!piece.coefficients.allFinite()) {
-      return InvalidField(path, at + ".coefficients", "holds a value that is not finite");
-    }
-  }
-  return Status::Ok();
+  return trajectory.ValidatePieces(path, kMaxTrajectoryPieces);
 }
 
 }  // namespace
@@ -69,14 +51,16 @@ std::int64_t FleetMotion::ArrivalNs() const {
   return AddSeconds(start_ns, trajectory.TotalDuration());
 }
 
+StateVector FleetMotion::StateAt(std::int64_t time_ns) const {
+  return trajectory.Evaluate(SecondsBetween(start_ns, std::clamp(time_ns, start_ns, end_ns)), 0);
+}
+
 Eigen::Vector3d FleetMotion::ReferencePointAt(std::int64_t time_ns) const {
-  const double t = SecondsBetween(start_ns, std::clamp(time_ns, start_ns, end_ns));
-  return trajectory.Evaluate(t, 0).head<3>();
+  return StateAt(time_ns).head<3>();
 }
 
 VerticalExtent FleetMotion::ExtentAt(std::int64_t time_ns) const {
-  const double t = SecondsBetween(start_ns, std::clamp(time_ns, start_ns, end_ns));
-  const StateVector state = trajectory.Evaluate(t, 0);
+  const StateVector state = StateAt(time_ns);
   VerticalExtent extent;
   extent.bottom_m = state(2) - body.reference_height_m;
   extent.top_m = extent.bottom_m + (trajectory.dimension == 4 ? state(3) : body.height_m);

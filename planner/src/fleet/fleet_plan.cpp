@@ -92,6 +92,51 @@ bool ParkedThroughout(const FleetMotion& other, std::int64_t conflict_ns,
   return conflict_ns >= other.ArrivalNs() && other.end_ns >= latest_passage_ns;
 }
 
+/// What the waits at the start found for one planned trajectory.
+struct WaitOutcome {
+  std::optional<double> clear_wait_s;  ///< The shortest wait that clears every motion.
+  std::optional<TrafficConflict> first_at_departure;  ///< What the trajectory meets unwaited.
+  /// Robots the trajectory meets where they stand parked for as long as it could take to
+  /// pass (waiting cannot clear them, going around can), none already `zoned`.
+  std::vector<std::size_t> parked_in_the_way;
+  int waits_tried = 0;  ///< Waits longer than zero checked.
+};
+
+WaitOutcome TryWaits(const Trajectory& trajectory, const Traffic& traffic, double max_wait_s,
+                     const std::vector<bool>& zoned) {
+  WaitOutcome outcome;
+  const std::vector<double> waits =
+      StartsAtRest(trajectory) ? WaitLadder(max_wait_s) : std::vector{0.0};
+  const std::int64_t latest_passage_ns =
+      AddSeconds(traffic.departure_ns, max_wait_s + trajectory.TotalDuration());
+  for (const double wait : waits) {
+    const FleetMotion motion = traffic.MotionOf(WithWaitAtStart(trajectory, wait));
+    outcome.waits_tried += wait > 0 ? 1 : 0;
+    const std::optional<TrafficConflict> first =
+        FirstTrafficConflict(motion, traffic.others, traffic.rule);
+    if (!first) {
+      outcome.clear_wait_s = wait;
+      return outcome;
+    }
+    if (wait == 0) outcome.first_at_departure = first;
+    if (zoned[first->other] || !ParkedThroughout(traffic.others[first->other].motion,
+                                                 first->conflict.time_ns, latest_passage_ns)) {
+      continue;
+    }
+    // Plan around it, and around every other robot this trajectory meets parked, at once.
+    for (std::size_t i = 0; i < traffic.others.size(); ++i) {
+      if (zoned[i]) continue;
+      const std::optional<MotionConflict> met =
+          FirstConflict(motion, traffic.others[i].motion, traffic.rule);
+      if (met && ParkedThroughout(traffic.others[i].motion, met->time_ns, latest_passage_ns)) {
+        outcome.parked_in_the_way.push_back(i);
+      }
+    }
+    return outcome;
+  }
+  return outcome;
+}
+
 }  // namespace
 
 Status FleetPlanOptions::Validate(std::string_view path) const {
@@ -116,13 +161,15 @@ Expected<FleetPlanResult> PlanAmongTraffic(const PlanningMap& map, const FleetPl
 
   PlanRequest plan_request = request.plan;
   std::vector<bool> zoned(request.others.size(), false);
-  int parked_avoided = 0;
+  const auto zoned_count = [&] {
+    return static_cast<int>(std::count(zoned.begin(), zoned.end(), true));
+  };
   int waits_tried = 0;
   std::optional<TrafficConflict> first_at_departure;
   for (int round = 0; round < kMaxPlanRounds; ++round) {
     Expected<PlanResult> plan = Plan(map, plan_request, should_stop);
     if (!plan) {
-      if (parked_avoided > 0 && plan.error().code == ErrorCode::kGoalUnreachable) {
+      if (zoned_count() > 0 && plan.error().code == ErrorCode::kGoalUnreachable) {
         std::string robots;
         for (std::size_t i = 0; i < zoned.size(); ++i) {
           if (zoned[i]) robots += (robots.empty() ? "" : ", ") + request.others[i].robot_id;
@@ -133,66 +180,35 @@ Expected<FleetPlanResult> PlanAmongTraffic(const PlanningMap& map, const FleetPl
       }
       return plan.error();
     }
-    const Trajectory& trajectory = plan.value().trajectory;
-    const std::vector<double> waits =
-        StartsAtRest(trajectory) ? WaitLadder(request.fleet.max_wait_s) : std::vector{0.0};
-    const std::int64_t latest_passage_ns =
-        AddSeconds(request.departure_ns, request.fleet.max_wait_s + trajectory.TotalDuration());
-    std::vector<std::size_t> parked_in_the_way;
-    for (const double wait : waits) {
-      if (should_stop && should_stop()) {
-        return Error{ErrorCode::kCancelled, "the plan was cancelled while waits were tried"};
-      }
-      const Trajectory candidate = WithWaitAtStart(trajectory, wait);
-      const FleetMotion motion = traffic.MotionOf(candidate);
-      waits_tried += wait > 0 ? 1 : 0;
-      const std::optional<TrafficConflict> first =
-          FirstTrafficConflict(motion, request.others, traffic.rule);
-      if (!first) {
-        Expected<std::shared_ptr<const SurfaceGraph>> graph =
-            map.Graph(request.plan.profile.Traversability(), should_stop);
-        if (!graph) return graph.error();
-        VerificationReport report;
-        const std::vector<KeepOutZone> zones = CollectKeepOut(map, plan_request.keep_out);
-        if (Status s = VerifyTrajectory(*graph.value(), request.plan.profile, candidate,
-                                        request.plan.options.verifier, &report, zones, &traffic);
-            !s) {
-          return s.error();
-        }
-        FleetPlanResult result;
-        result.plan = std::move(plan).value();
-        result.plan.trajectory = candidate;
-        result.plan.stats.duration_s += wait;
-        result.plan.stats.pieces = static_cast<int>(candidate.pieces.size());
-        for (double& t : result.plan.via_times_s) t += wait;
-        result.motion = motion;
-        result.wait_s = wait;
-        result.parked_robots_avoided = parked_avoided;
-        result.waits_tried = waits_tried;
-        return result;
-      }
-      if (wait == 0) first_at_departure = first;
-      const FleetMotion& other = request.others[first->other].motion;
-      if (!zoned[first->other] &&
-          ParkedThroughout(other, first->conflict.time_ns, latest_passage_ns)) {
-        // Waiting cannot clear it: plan around it, and around every other robot this
-        // trajectory meets where it stands parked, at once.
-        for (std::size_t i = 0; i < request.others.size(); ++i) {
-          if (zoned[i]) continue;
-          const std::optional<MotionConflict> met =
-              FirstConflict(motion, request.others[i].motion, traffic.rule);
-          if (met && ParkedThroughout(request.others[i].motion, met->time_ns, latest_passage_ns)) {
-            parked_in_the_way.push_back(i);
-          }
-        }
-        break;
-      }
+    if (should_stop && should_stop()) {
+      return Error{ErrorCode::kCancelled, "the plan was cancelled while waits were tried"};
     }
-    if (parked_in_the_way.empty() || plan_request.keep_out.size() + parked_in_the_way.size() >
-                                         static_cast<std::size_t>(kMaxRequestKeepOutZones)) {
+    const WaitOutcome waits =
+        TryWaits(plan.value().trajectory, traffic, request.fleet.max_wait_s, zoned);
+    waits_tried += waits.waits_tried;
+    if (waits.first_at_departure) first_at_departure = waits.first_at_departure;
+    if (waits.clear_wait_s) {
+      // Plan verified the trajectory on the map; the wait holds its verified start at rest,
+      // and TryWaits checked the whole of it against the traffic exactly.
+      const double wait = *waits.clear_wait_s;
+      FleetPlanResult result;
+      result.plan = std::move(plan).value();
+      result.plan.trajectory = WithWaitAtStart(result.plan.trajectory, wait);
+      result.plan.stats.duration_s += wait;
+      result.plan.stats.pieces = static_cast<int>(result.plan.trajectory.pieces.size());
+      for (double& t : result.plan.via_times_s) t += wait;
+      result.motion = traffic.MotionOf(result.plan.trajectory);
+      result.wait_s = wait;
+      result.parked_robots_avoided = zoned_count();
+      result.waits_tried = waits_tried;
+      return result;
+    }
+    if (waits.parked_in_the_way.empty() ||
+        plan_request.keep_out.size() + waits.parked_in_the_way.size() >
+            static_cast<std::size_t>(kMaxRequestKeepOutZones)) {
       break;
     }
-    for (const std::size_t i : parked_in_the_way) {
+    for (const std::size_t i : waits.parked_in_the_way) {
       const ReservedMotion& parked = request.others[i];
       Prism zone = ParkedZone(parked.motion, traffic.rule);
       const RobotProfile& profile = request.plan.profile;
@@ -204,7 +220,6 @@ Expected<FleetPlanResult> PlanAmongTraffic(const PlanningMap& map, const FleetPl
       }
       plan_request.keep_out.push_back(std::move(zone));
       zoned[i] = true;
-      ++parked_avoided;
     }
   }
   // Nothing cleared the traffic: name what the plan without waiting met.
@@ -225,11 +240,7 @@ Expected<FleetPlanResult> PlanAmongTraffic(const PlanningMap& map, const FleetPl
                   internal::Quote(other.robot_id), c.point_a.x(), c.point_a.y(), c.point_a.z(),
                   TimeText(request.departure_ns, c.time_ns), c.horizontal_distance_m, c.limit_m,
                   request.fleet.max_wait_s)};
-  error.details = {{"robot_id", other.robot_id},
-                   {"time_ns", std::to_string(c.time_ns)},
-                   {"x_m", DetailNumber(c.point_a.x())},
-                   {"y_m", DetailNumber(c.point_a.y())},
-                   {"z_m", DetailNumber(c.point_a.z())}};
+  error.details = ConflictDetails(other.robot_id, c);
   return error;
 }
 

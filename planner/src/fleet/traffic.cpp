@@ -30,6 +30,15 @@ std::optional<TrafficConflict> FirstTrafficConflict(const FleetMotion& own,
   return first;
 }
 
+std::map<std::string, std::string> ConflictDetails(const std::string& robot_id,
+                                                   const MotionConflict& conflict) {
+  return {{"robot_id", robot_id},
+          {"time_ns", std::to_string(conflict.time_ns)},
+          {"x_m", DetailNumber(conflict.point_a.x())},
+          {"y_m", DetailNumber(conflict.point_a.y())},
+          {"z_m", DetailNumber(conflict.point_a.z())}};
+}
+
 Status CheckSeparation(const FleetMotion& own, std::span<const ReservedMotion> others,
                        const SeparationRule& rule) {
   const std::optional<TrafficConflict> first = FirstTrafficConflict(own, others, rule);
@@ -44,11 +53,7 @@ Status CheckSeparation(const FleetMotion& own, std::span<const ReservedMotion> o
                           internal::Quote(robot), SecondsBetween(own.start_ns, c.time_ns),
                           c.point_a.x(), c.point_a.y(), c.point_a.z(), c.horizontal_distance_m,
                           c.point_b.x(), c.point_b.y(), c.point_b.z(), c.limit_m)};
-  error.details = {{"robot_id", robot},
-                   {"time_ns", std::to_string(c.time_ns)},
-                   {"x_m", DetailNumber(c.point_a.x())},
-                   {"y_m", DetailNumber(c.point_a.y())},
-                   {"z_m", DetailNumber(c.point_a.z())}};
+  error.details = ConflictDetails(robot, c);
   return error;
 }
 

@@ -3,10 +3,37 @@
 #include <algorithm>
 #include <array>
 #include <cassert>
+#include <cmath>
+#include <string>
 
+#include <fmt/format.h>
+
+#include "format_internal.hpp"
 #include "strata/planning/minco.hpp"
 
 namespace strata {
+
+Status Trajectory::ValidatePieces(std::string_view path, std::size_t max_pieces) const {
+  const auto bad = [&](const std::string& field, const std::string& what) {
+    std::string name = internal::FieldPath(path, field);
+    return Error{ErrorCode::kInvalidInput, name + " " + what, name};
+  };
+  if (pieces.empty() || pieces.size() > max_pieces) {
+    return bad("pieces", fmt::format("has {} pieces; give 1 to {}", pieces.size(), max_pieces));
+  }
+  for (std::size_t i = 0; i < pieces.size(); ++i) {
+    const TrajectoryPiece& piece = pieces[i];
+    const std::string at = fmt::format("pieces[{}]", i);
+    if (!(std::isfinite(piece.duration_s) && piece.duration_s > 0)) {
+      return bad(at + ".duration_s", "must be > 0 and finite");
+    }
+    if (piece.coefficients.rows() != 6 || piece.coefficients.cols() != dimension ||
+        !piece.coefficients.allFinite()) {
+      return bad(at + ".coefficients", "must hold 6 finite coefficients per axis");
+    }
+  }
+  return Status::Ok();
+}
 
 Trajectory Trajectory::FromMinco(const Minco3& minco) {
   Trajectory trajectory;

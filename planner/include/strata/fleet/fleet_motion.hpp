@@ -53,15 +53,17 @@ struct FleetMotion {
   /// When the trajectory ends and the parked time begins [ns].
   std::int64_t ArrivalNs() const;
 
-  /// The reference point at absolute time `time_ns`, clamped to [start_ns, end_ns]: before
-  /// the start the trajectory's first point, after the arrival its last.
+  /// The trajectory's state (x, y, z[, body height]) at absolute time `time_ns`, clamped to
+  /// [start_ns, end_ns]: before the start its first point, after the arrival its last.
+  StateVector StateAt(std::int64_t time_ns) const;
+  /// The reference point at absolute time `time_ns`, clamped as StateAt.
   Eigen::Vector3d ReferencePointAt(std::int64_t time_ns) const;
   /// The body's vertical extent at absolute time `time_ns`, clamped as ReferencePointAt.
   VerticalExtent ExtentAt(std::int64_t time_ns) const;
 
-  /// kInvalidInput blaming the first bad field, `path`.<field>: an empty trajectory, a piece
-  /// whose duration is not positive and finite or whose coefficients are not finite, a
-  /// dimension other than 3 or 4, a bad body, or end_ns before the arrival.
+  /// kInvalidInput blaming the first bad field, `path`.<field>: a dimension other than 3 or 4,
+  /// pieces Trajectory::ValidatePieces refuses (at most kMaxTrajectoryPieces), a bad body, or
+  /// end_ns before the arrival.
   Status Validate(std::string_view path) const;
 };
 

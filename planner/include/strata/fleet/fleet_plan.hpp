@@ -7,7 +7,7 @@
 /// its departure and checked exactly against every other motion (traffic.hpp). When it meets
 /// one, the robot waits at its start, holding its position at rest as the trajectory's first
 /// piece, for the shortest of a ladder of waits that clears every motion. The trajectory
-/// returned has passed the verifier's map checks and its exact separation check.
+/// returned is Plan's verified one behind that rest, checked exactly against every motion.
 #include <cstdint>
 #include <functional>
 #include <span>

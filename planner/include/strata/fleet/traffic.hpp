@@ -3,6 +3,7 @@
 /// check that it does: exact over continuous time (motion_conflict.hpp), earliest conflict
 /// first, named by the robot in the way.
 #include <cstdint>
+#include <map>
 #include <span>
 #include <string>
 
@@ -46,10 +47,14 @@ std::optional<TrafficConflict> FirstTrafficConflict(const FleetMotion& own,
                                                     std::span<const ReservedMotion> others,
                                                     const SeparationRule& rule);
 
+/// Error::details of a reservation conflict with robot `robot_id`: "robot_id", "time_ns",
+/// and "x_m", "y_m", "z_m", the reference point of the robot being planned then.
+std::map<std::string, std::string> ConflictDetails(const std::string& robot_id,
+                                                   const MotionConflict& conflict);
+
 /// Ok when `own` conflicts with none of `others`; otherwise kReservationConflict naming the
 /// first conflict: the robot in the way, when (absolute and since `own` starts), where both
-/// reference points are, their distance and the limit. Error::details carries "robot_id",
-/// "time_ns", "x_m", "y_m", "z_m" (own reference point) for machines.
+/// reference points are, their distance and the limit; Error::details as ConflictDetails.
 Status CheckSeparation(const FleetMotion& own, std::span<const ReservedMotion> others,
                        const SeparationRule& rule);
 

@@ -7,9 +7,13 @@
 /// Axes 0, 1, 2 are x, y, z of the reference point (ground height + the profile's
 /// reference_height_m). For active-height robots axis 3 is the commanded body height above
 /// the ground [m]. Position, velocity and acceleration are continuous across pieces (C⁴).
+#include <cstddef>
+#include <string_view>
 #include <vector>
 
 #include <Eigen/Core>
+
+#include "strata/status.hpp"
 
 namespace strata {
 
@@ -25,9 +29,19 @@ struct TrajectoryPiece {
   Eigen::Matrix<double, 6, Eigen::Dynamic> coefficients;  ///< 6 × dimension, see above.
 };
 
+/// Most pieces a trajectory from outside may have (a warm start, a reservation): a kilometre in
+/// pieces of 1.5 m is ~700.
+inline constexpr std::size_t kMaxTrajectoryPieces = 20000;
+
 struct Trajectory {
   int dimension = 3;  ///< 3 (x, y, z) or 4 (x, y, z, body height).
   std::vector<TrajectoryPiece> pieces;
+
+  /// kInvalidInput blaming `path`.<field> for no pieces or more than `max_pieces`
+  /// ("pieces"), a duration that is not finite and > 0 ("pieces[i].duration_s"), or
+  /// coefficients that are not 6 finite values per axis of `dimension`
+  /// ("pieces[i].coefficients"). The dimension itself is the caller's to check.
+  Status ValidatePieces(std::string_view path, std::size_t max_pieces) const;
 
   /// Copies the pieces of an optimised MINCO trajectory.
   static Trajectory FromMinco(const Minco3& minco);
