@@ -2,7 +2,10 @@
 // ../shared/maps/README.md (median of 5 runs each) and random start/goal pairs on each shared
 // map (fixed seed). Prints markdown tables. Not part of the test path.
 //
-//   STRATA_MAPS_DIR=../shared/maps build/bench/planning_benchmark [PAIRS] [SEED]
+//   STRATA_MAPS_DIR=../shared/maps build/bench/planning_benchmark [PAIRS] [SEED] [BUDGET_S]
+//
+// BUDGET_S is each plan's time budget, the product's default (PlanOptions) unless given: a
+// sanitised build's smoke run gives it more, so that it checks the plans, not that build's speed.
 //
 // Also: each trajectory's duration against driving its length at the speed bound, and
 // replanning on the way (a state 30 m before the goal, with and without the trajectory as
@@ -98,8 +101,11 @@ double TimeWithRemaining(const strata::Trajectory& t, double remaining_m) {
   return 0;
 }
 
+double g_time_budget_s = strata::PlanOptions().time_budget_s;  // Set once, from BUDGET_S.
+
 strata::PlanRequest Request(const Eigen::Vector3d& start, const Eigen::Vector3d& goal) {
   strata::PlanRequest r;
+  r.options.time_budget_s = g_time_budget_s;
   r.start.position_m = start;
   r.goal.position_m = goal;
   r.profile = strata::BuiltinProfile("differential").value();
@@ -113,6 +119,7 @@ int main(int argc, char** argv) {
   const std::string dir = env ? env : "../shared/maps";
   const int pairs = argc > 1 ? std::atoi(argv[1]) : 200;
   const unsigned seed = argc > 2 ? static_cast<unsigned>(std::atoi(argv[2])) : 1;
+  if (argc > 3) g_time_budget_s = std::atof(argv[3]);
   std::map<std::string, std::unique_ptr<PlanningMap>> maps;  // By label.
   for (const MapSetting& m : kPairMaps) maps[m.label] = LoadMap(dir, m.file, m.resolution_m);
   for (auto& [name, map] : maps) {  // Build the differential robot's graph before timing.

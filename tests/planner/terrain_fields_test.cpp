@@ -368,7 +368,7 @@ TEST(TerrainFields, MemoryGrowsWithTheGroundNotWithTheBoundingBox) {
       << columns[1];
 }
 
-TEST(TerrainModel, ATooLargeGridIsRefusedBeforeAnyHeavyWork) {
+TEST(AssessTerrain, ATooLargeGridIsRefusedBeforeAnyHeavyWork) {
   // Two clusters of points 40 km apart: a grid of 4e10 columns at 0.2 m. Refused from the
   // bounds, before the points are even sorted (no stage starts).
   PointCloud cloud;
@@ -386,7 +386,7 @@ TEST(TerrainModel, ATooLargeGridIsRefusedBeforeAnyHeavyWork) {
   EXPECT_EQ(reports, 0);
 }
 
-TEST(TerrainModel, ReportsEveryStageInOrderAndCanBeCancelled) {
+TEST(AssessTerrain, ReportsEveryStageInOrderAndCanBeCancelled) {
   const Expected<PointCloud> cloud = GenerateScene("two_level_ramp", 1);
   ASSERT_TRUE(cloud.ok());
   AssessmentConfig config;

@@ -579,7 +579,7 @@ TEST(TerrainMemo, SkipsTheGroundSampleOnlyWhereJgIsZero) {
   EXPECT_GT(sampled, 200) << skipped;
 }
 
-TEST(SampleGround, FollowsTheRampAndFindsTheDeckAsCeiling) {
+TEST(SampleGroundOnTheRamp, FollowsTheRampAndFindsTheDeckAsCeiling) {
   const TwoLevelRampLayout l = GetTwoLevelRampLayout();
   GroundSample s;
   // Mid-ramp: the ground rises along the ramp's uphill direction at its slope.
