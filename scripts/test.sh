@@ -44,7 +44,7 @@ stage_done "waiting for clang-tidy"
 if [ "${STRATA_SKIP_TSAN:-0}" = 1 ]; then exit 0; fi
 tsan_dir=${build_dir%-sanitize}-tsan
 if [ ! -f "$tsan_dir/build.ninja" ]; then
-  cmake -S "$root" -B "$tsan_dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+  cmake -S "$root" -B "$tsan_dir" -G Ninja -DCMAKE_BUILD_TYPE=Release \
     -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ -DSTRATA_TSAN=ON
 fi
 cmake --build "$tsan_dir"
