@@ -40,6 +40,7 @@ void AddStrataCommands(CLI::App& app, Context* ctx, Command* run) {
   AddSetpointsCommand(app, *ctx, run);
   AddCostsCommand(app, *ctx, run);
   AddBatchCommand(app, *ctx, run);
+  AddReservationsCommands(app, *ctx, run);
   app.add_subcommand("help", "print this help")->callback([&app, run] {
     *run = [&app] {
       // Not app.help(), which shows the help of the command given: `help` itself.

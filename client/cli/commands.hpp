@@ -26,6 +26,8 @@ void AddSetpointsCommand(CLI::App& app, const Context& ctx, Command* run);
 void AddCostsCommand(CLI::App& app, const Context& ctx, Command* run);
 /// `strata batch FILE`
 void AddBatchCommand(CLI::App& app, const Context& ctx, Command* run);
+/// `strata reservations list|renew|release ...`
+void AddReservationsCommands(CLI::App& app, const Context& ctx, Command* run);
 
 /// The flags of a plan request, shared by `plan` and `setpoints`.
 struct PlanFlags {
@@ -36,11 +38,16 @@ struct PlanFlags {
   std::optional<double> time_budget_s;
   std::optional<double> sample_dt_s;
   std::vector<ViaPoint> via;  ///< --via, in the order given.
+  std::string robot_id;       ///< --robot-id: plan among the other robots' reservations.
+  bool reserve = false;       ///< --reserve: commit the plan as the robot's reservation.
+  std::optional<double> lease_s;
+  std::optional<double> max_wait_s;
 };
 /// Adds --map, --start, --goal (`required` or not), --robot, --time-budget, --sample-dt,
-/// --via; returns them.
+/// --via, --robot-id, --reserve, --lease, --max-wait; returns them.
 std::vector<CLI::Option*> AddPlanFlags(CLI::App& command, PlanFlags* flags, bool required);
-/// The PlanRequest; throws UsageError when --map, --start or --goal is missing.
+/// The PlanRequest; throws UsageError when --map, --start or --goal is missing, or --reserve,
+/// --lease or --max-wait comes without --robot-id.
 v1::PlanRequest PlanRequestFromFlags(const PlanFlags& flags);
 /// Calls Plan with the context's deadline; on failure reports it and returns false.
 bool CallPlan(const Context& ctx, const v1::PlanRequest& request, v1::PlanResponse* response);

@@ -4,6 +4,7 @@
 #include <string>
 
 #include <google/protobuf/message.h>
+#include <google/protobuf/timestamp.pb.h>
 #include <grpcpp/grpcpp.h>
 
 #include "context.hpp"
@@ -24,6 +25,8 @@ std::string ReadFile(const std::string& path);
 
 /// "(x, y, z)" with 3 decimals.
 std::string FormatVector(const v1::Vector3& v);
+/// An absolute time as RFC 3339 in UTC ("2026-11-29T05:01:02.500Z").
+std::string FormatTime(const google::protobuf::Timestamp& time);
 /// A number with `decimals` decimals.
 std::string Fixed(double value, int decimals);
 /// A number that reads back as the same double (shortest round-trip form).

@@ -58,6 +58,16 @@ void PrintSummary(const Context& ctx, const v1::PlanRequest& request,
       << Fixed(stats.timings().optimize_s(), 3) << " s, verify "
       << Fixed(stats.timings().verify_s(), 3) << " s; " << stats.optimizer_iterations()
       << " iterations, " << stats.optimizer_attempts() << " attempt(s))\n";
+  if (request.has_fleet()) {
+    out << "  fleet       robot " << request.fleet().robot_id() << " waits "
+        << Fixed(response.wait_s(), 2) << " s at the start for the others";
+    if (response.has_reservation()) {
+      const v1::Reservation& reserved = response.reservation();
+      out << "; reserved from " << FormatTime(reserved.start_time()) << " until "
+          << FormatTime(reserved.expiry_time()) << " (revision " << reserved.revision() << ")";
+    }
+    out << "\n";
+  }
 
   const auto trajectory = client::PolynomialTrajectory::FromPlanResponse(response);
   if (!trajectory) {
@@ -112,6 +122,25 @@ std::vector<CLI::Option*> AddPlanFlags(CLI::App& command, PlanFlags* flags, bool
                 return ParseVia(text, &error) ? std::string() : error;
               },
               "")));
+  options.push_back(command
+                        .add_option("--robot-id", flags->robot_id,
+                                    "plan among the other robots' reservations on the map, as "
+                                    "this robot (fleet.robot_id): wait or go around them")
+                        ->type_name("ID"));
+  options.push_back(command.add_flag("--reserve", flags->reserve,
+                                     "commit the plan as the robot's reservation (fleet.reserve)"));
+  options.push_back(command
+                        .add_option("--lease", flags->lease_s,
+                                    "how long from now the reservation holds the goal "
+                                    "(fleet.lease_s) [s]")
+                        ->type_name("S")
+                        ->check(PositiveNumber()));
+  options.push_back(command
+                        .add_option("--max-wait", flags->max_wait_s,
+                                    "longest wait at the start for others to pass "
+                                    "(fleet.max_wait_s) [s]")
+                        ->type_name("S")
+                        ->check(FiniteNumber()));
   return options;
 }
 
@@ -132,6 +161,17 @@ v1::PlanRequest PlanRequestFromFlags(const PlanFlags& flags) {
     SetVector(point.position_m, via->mutable_position_m());
     via->set_stop(point.stop);
   }
+  if (flags.robot_id.empty()) {
+    if (flags.reserve || flags.lease_s || flags.max_wait_s) {
+      throw UsageError("--reserve, --lease and --max-wait need --robot-id: the robot they are for");
+    }
+    return request;
+  }
+  v1::FleetOptions* fleet = request.mutable_fleet();
+  fleet->set_robot_id(flags.robot_id);
+  fleet->set_reserve(flags.reserve);
+  if (flags.lease_s) fleet->set_lease_s(*flags.lease_s);
+  if (flags.max_wait_s) fleet->set_max_wait_s(*flags.max_wait_s);
   return request;
 }
 

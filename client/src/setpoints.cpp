@@ -5,6 +5,8 @@
 #include <numbers>
 #include <string>
 
+#include "strata/v1/planner_service.pb.h"
+
 namespace strata::client {
 namespace {
 
@@ -143,6 +145,23 @@ Expected<std::vector<MpcSetpoint>> ComputeSetpoints(const PolynomialTrajectory& 
     setpoints.push_back(std::move(setpoint));
   }
   return setpoints;
+}
+
+Expected<std::vector<MpcSetpoint>> ComputeSetpointsAt(const PolynomialTrajectory& trajectory,
+                                                      std::chrono::system_clock::time_point start,
+                                                      std::chrono::system_clock::time_point from,
+                                                      double dt_s, int steps,
+                                                      const SetpointOptions& options) {
+  const double t0_s = std::chrono::duration<double>(from - start).count();
+  return ComputeSetpoints(trajectory, t0_s, dt_s, steps, options);
+}
+
+std::optional<std::chrono::system_clock::time_point> DepartureOf(const v1::PlanResponse& response) {
+  if (!response.has_departure_time()) return std::nullopt;
+  const auto& time = response.departure_time();
+  return std::chrono::system_clock::time_point(
+      std::chrono::duration_cast<std::chrono::system_clock::duration>(
+          std::chrono::seconds(time.seconds()) + std::chrono::nanoseconds(time.nanos())));
 }
 
 }  // namespace strata::client

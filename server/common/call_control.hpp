@@ -4,6 +4,7 @@
 /// gRPC call).
 #include <chrono>
 #include <functional>
+#include <string>
 
 #include "common/service_error.hpp"
 
@@ -16,6 +17,9 @@ struct CallControl {
   std::chrono::steady_clock::time_point deadline = std::chrono::steady_clock::time_point::max();
   /// Returns true once the client has cancelled the call; may be empty.
   std::function<bool()> cancelled;
+  /// The call's credentials ("Bearer TOKEN", the "authorization" metadata or header), empty
+  /// without: who owns what the call commits (a robot's reservation).
+  std::string authorization;
 
   /// Seconds left before the deadline (negative once past); +infinity without one.
   double LeftSeconds() const;

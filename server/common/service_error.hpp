@@ -32,6 +32,7 @@ enum class ServiceErrorCode {
   kEditNeedsCloud,       ///< UpdateMap on a map made from a saved model, which keeps no cloud.
   kUnauthenticated,      ///< The server needs a token and the call has none, or an unknown one.
   kPermissionDenied,     ///< The call's token has a role that may not make this call.
+  kReservationNotFound,  ///< The robot holds no live reservation on the map.
 };
 
 /// Every ServiceErrorCode, for exhaustive tests.
@@ -44,6 +45,7 @@ inline constexpr ServiceErrorCode kAllServiceErrorCodes[] = {
     ServiceErrorCode::kMapStoreUnavailable, ServiceErrorCode::kMapCorrupted,
     ServiceErrorCode::kMapStoreRequired,    ServiceErrorCode::kEditNeedsCloud,
     ServiceErrorCode::kUnauthenticated,     ServiceErrorCode::kPermissionDenied,
+    ServiceErrorCode::kReservationNotFound,
 };
 
 /// A request field that is wrong (google.rpc.BadRequest.FieldViolation). `field` is the

@@ -106,8 +106,8 @@ HttpResponse RequestTooLarge(std::size_t max_bytes) {
 }
 
 HttpApi::HttpApi(const MapRegistry* registry, const MapServiceImpl* maps,
-                 PlannerServiceImpl* planner, const TokenTable* tokens)
-    : registry_(registry), maps_(maps), planner_(planner), tokens_(tokens) {}
+                 PlannerServiceImpl* planner, TrafficServiceImpl* traffic, const TokenTable* tokens)
+    : registry_(registry), maps_(maps), planner_(planner), traffic_(traffic), tokens_(tokens) {}
 
 HttpResponse HttpApi::Handle(const HttpRequest& request, const CallControl& call) const {
   const auto start = std::chrono::steady_clock::now();
@@ -156,8 +156,10 @@ HttpResponse HttpApi::Handle(const HttpRequest& request, const CallControl& call
   return response;
 }
 
-HttpResponse HttpApi::HandleApi(const HttpRequest& request, const CallControl& call,
+HttpResponse HttpApi::HandleApi(const HttpRequest& request, const CallControl& transport_call,
                                 std::string_view method, std::string* map_id) const {
+  CallControl call = transport_call;
+  call.authorization = request.authorization;
   if (request.method != "POST") {
     HttpResponse response = PlainError(405, grpc::StatusCode::UNIMPLEMENTED,
                                        "the API takes POST with the request message as JSON");
@@ -193,6 +195,11 @@ HttpResponse HttpApi::HandleApi(const HttpRequest& request, const CallControl& c
          return Call<v1::PlanRequest, v1::PlanResponse>(
              body, map_id,
              [&](const auto& in, auto* out) { return planner_->PlanOne(in, call, "http", out); });
+       }},
+      {"strata.v1.TrafficService/ListReservations",
+       [&] {
+         return Call<v1::ListReservationsRequest, v1::ListReservationsResponse>(
+             body, map_id, [&](const auto& in, auto* out) { return traffic_->List(in, out); });
        }},
       {"strata.v1.PlannerService/ListRecentPlans",
        [&] {

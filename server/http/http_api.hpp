@@ -24,6 +24,7 @@
 #include "rpc/map_service.hpp"
 #include "rpc/planner_service.hpp"
 #include "rpc/planning_slots.hpp"
+#include "rpc/traffic_service.hpp"
 
 namespace strata::server {
 
@@ -54,7 +55,7 @@ class HttpApi {
  public:
   /// The services must outlive the API; `tokens` may be null (every call allowed).
   HttpApi(const MapRegistry* registry, const MapServiceImpl* maps, PlannerServiceImpl* planner,
-          const TokenTable* tokens);
+          TrafficServiceImpl* traffic, const TokenTable* tokens);
 
   /// Answers `request` (the page's assets on GET, the API on POST), logging one line for an
   /// API call. `call` carries the request's deadline and cancellation. Thread-safe; never
@@ -68,6 +69,7 @@ class HttpApi {
   const MapRegistry* registry_;
   const MapServiceImpl* maps_;
   PlannerServiceImpl* planner_;
+  TrafficServiceImpl* traffic_;
   const TokenTable* tokens_;
 };
 

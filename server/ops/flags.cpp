@@ -88,6 +88,17 @@ Check Seconds(bool allow_zero) {
           allow_zero ? ">= 0" : "> 0"};
 }
 
+Check Meters() {
+  return {CLI::Validator(
+              [](std::string& text) {
+                const auto value = common::ParseFinite(text);
+                if (value && *value >= 0) return std::string();
+                return "'" + text + "' is not a distance >= 0 in metres";
+              },
+              ""),
+          ">= 0"};
+}
+
 Check Switch() {
   return {CLI::IsMember({"1", "0", "true", "false", "yes", "no", "on", "off"}, CLI::ignore_case)
               .description(""),
@@ -270,6 +281,19 @@ void AddFlags(CLI::App& app, ParsedFlags& parsed, bool environment) {
   add("--max-batch-plans", config.max_batch_plans, "N",
       "most plans one PlanBatch call may hold; more are refused with RESOURCE_EXHAUSTED",
       IntegerIn(1, 1'000'000));
+  add("--max-reservations", config.max_reservations, "N",
+      "most robots' reservations one map may hold; more are refused with RESOURCE_EXHAUSTED",
+      IntegerIn(1, 1'000'000));
+  add("--default-lease-s", config.default_lease_s, "S",
+      "how long a reservation holds its robot's goal from when it is made, unless the\n"
+      "request says (it always holds until the robot arrives)",
+      Seconds(false));
+  add("--max-lease-s", config.max_lease_s, "S", "longest lease a request may ask for",
+      Seconds(false));
+  add("--max-reservation-horizon-s", config.max_reservation_horizon_s, "S",
+      "how far ahead of now a reserved trajectory may start", Seconds(false));
+  add("--separation-m", config.separation_m, "M",
+      "free distance kept between two robots' bodies, unless the request says", Meters());
   add("--max-points", config.max_points, "N", "most points one map may hold, file or upload",
       IntegerIn(1, std::numeric_limits<long long>::max()));
   add("--max-receive-message-bytes", config.max_receive_message_bytes, "N",
@@ -388,6 +412,12 @@ FlagsOutcome ParseFlags(int argc, const char* const* argv) {
   const bool preload_given = line_app.get_option("--preload")->count() > 0;
   if (parsed.no_preload && !preload_given) parsed.preload.clear();
   outcome.config = parsed.config;
+  if (outcome.config.default_lease_s > outcome.config.max_lease_s) {
+    return fail(
+        fmt::format("--default-lease-s {:g} exceeds --max-lease-s {:g}: raise the "
+                    "second or lower the first",
+                    outcome.config.default_lease_s, outcome.config.max_lease_s));
+  }
   for (const std::string& text : parsed.preload) {
     std::string error;
     std::optional<PreloadSpec> spec = ParsePreloadSpec(text, &error);

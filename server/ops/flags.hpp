@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "common/log.hpp"
+#include "strata/fleet/motion_conflict.hpp"
 #include "strata/scenes/map_source.hpp"
 
 namespace strata::server {
@@ -59,23 +60,28 @@ struct ServerConfig {
   std::uint64_t max_memory_bytes = 0;  ///< --max-memory (0: AutomaticMemoryLimit())
   std::uint64_t max_graph_memory_bytes = std::uint64_t{1} << 30;  ///< --max-graph-memory
   int map_versions_kept = 5;                                      ///< --map-versions-kept
-  int max_concurrent_plans = 0;             ///< --max-concurrent-plans (0: one per core)
-  int max_queued_plans = 256;               ///< --max-queued-plans
-  double max_plan_time_s = 10.0;            ///< --max-plan-time-s
-  int max_cost_cells = 10000;               ///< --max-cost-cells
-  int max_batch_plans = 5000;               ///< --max-batch-plans
-  std::size_t max_points = 50'000'000;      ///< --max-points
-  int max_receive_message_bytes = 4 << 20;  ///< --max-receive-message-bytes
-  int max_send_message_bytes = 16 << 20;    ///< --max-send-message-bytes
-  double drain_delay_s = 0.0;               ///< --drain-delay-s
-  double shutdown_grace_s = 10.0;           ///< --shutdown-grace-s
-  double keepalive_time_s = 20.0;           ///< --keepalive-time-s
-  double keepalive_timeout_s = 10.0;        ///< --keepalive-timeout-s
-  std::string tls_cert;                     ///< --tls-cert (empty, with tls_key: plaintext)
-  std::string tls_key;                      ///< --tls-key
-  std::string tls_client_ca;                ///< --tls-client-ca (empty: no client certificates)
-  std::string auth_tokens;                  ///< --auth-tokens (empty: every call allowed)
-  LogLevel log_level = LogLevel::kInfo;     ///< --log-level
+  int max_concurrent_plans = 0;               ///< --max-concurrent-plans (0: one per core)
+  int max_queued_plans = 256;                 ///< --max-queued-plans
+  double max_plan_time_s = 10.0;              ///< --max-plan-time-s
+  int max_cost_cells = 10000;                 ///< --max-cost-cells
+  int max_batch_plans = 5000;                 ///< --max-batch-plans
+  int max_reservations = 1000;                ///< --max-reservations (per map)
+  double default_lease_s = 60.0;              ///< --default-lease-s
+  double max_lease_s = 3600.0;                ///< --max-lease-s
+  double max_reservation_horizon_s = 3600.0;  ///< --max-reservation-horizon-s
+  double separation_m = SeparationRule{}.separation_m;  ///< --separation-m
+  std::size_t max_points = 50'000'000;                  ///< --max-points
+  int max_receive_message_bytes = 4 << 20;              ///< --max-receive-message-bytes
+  int max_send_message_bytes = 16 << 20;                ///< --max-send-message-bytes
+  double drain_delay_s = 0.0;                           ///< --drain-delay-s
+  double shutdown_grace_s = 10.0;                       ///< --shutdown-grace-s
+  double keepalive_time_s = 20.0;                       ///< --keepalive-time-s
+  double keepalive_timeout_s = 10.0;                    ///< --keepalive-timeout-s
+  std::string tls_cert;                  ///< --tls-cert (empty, with tls_key: plaintext)
+  std::string tls_key;                   ///< --tls-key
+  std::string tls_client_ca;             ///< --tls-client-ca (empty: no client certificates)
+  std::string auth_tokens;               ///< --auth-tokens (empty: every call allowed)
+  LogLevel log_level = LogLevel::kInfo;  ///< --log-level
 };
 
 /// What the command line asks for.

@@ -19,7 +19,8 @@
 namespace strata::server {
 namespace {
 
-constexpr const char* kServices[] = {"strata.v1.MapService", "strata.v1.PlannerService"};
+constexpr const char* kServices[] = {"strata.v1.MapService", "strata.v1.PlannerService",
+                                     "strata.v1.TrafficService"};
 
 Result<ResolvedPreload> ResolvePreload(const PreloadSpec& spec,
                                        const std::filesystem::path& map_root,
@@ -223,6 +224,7 @@ ServiceStatus StrataServer::StartMaps(StartInputs* inputs) {
   registry_ = std::make_unique<MapRegistry>(registry_options,
                                             [this](const MapSnapshot& map) { OnMapDone(map); });
   metrics_->WatchMaps(registry_.get());
+  metrics_->WatchReservations(reservations_.get());
   return OkStatus();
 }
 
@@ -234,6 +236,12 @@ ServiceStatus StrataServer::StartServices(const StartInputs& inputs) {
           : static_cast<int>(std::max(1u, std::thread::hardware_concurrency())),
       config.max_queued_plans, config.max_plan_time_s);
   recent_plans_ = std::make_unique<RecentPlans>();
+  reservations_ = std::make_unique<ReservationSchedule>(
+      ScheduleLimits{.max_reservations_per_map = config.max_reservations,
+                     .default_lease_s = config.default_lease_s,
+                     .max_lease_s = config.max_lease_s,
+                     .max_horizon_s = config.max_reservation_horizon_s,
+                     .default_separation_m = config.separation_m});
   MapServiceOptions map_options;
   map_options.map_root = inputs.map_root;
   map_options.max_points = config.max_points;
@@ -241,6 +249,7 @@ ServiceStatus StrataServer::StartServices(const StartInputs& inputs) {
   map_options.memory_budget = memory_budget_.get();
   map_options.planning_slots = planning_slots_.get();
   map_options.max_send_message_bytes = static_cast<std::uint64_t>(config.max_send_message_bytes);
+  map_options.reservations = reservations_.get();
   map_service_ = std::make_unique<MapServiceImpl>(registry_.get(), map_options);
   PlannerServiceOptions planner_options;
   planner_options.slots = planning_slots_.get();
@@ -249,13 +258,16 @@ ServiceStatus StrataServer::StartServices(const StartInputs& inputs) {
   planner_options.max_cost_cells = config.max_cost_cells;
   planner_options.max_batch_plans = config.max_batch_plans;
   planner_options.tokens = tokens_.get();
+  planner_options.reservations = reservations_.get();
   planner_service_ =
       std::make_unique<PlannerServiceImpl>(registry_.get(), metrics_.get(), planner_options);
+  traffic_service_ =
+      std::make_unique<TrafficServiceImpl>(registry_.get(), reservations_.get(), tokens_.get());
 
   // Every method served gets its own metric series before the first call; calls to any
   // other path are counted as "unknown" (Metrics::InitializeMethod).
   const auto* pool = google::protobuf::DescriptorPool::generated_pool();
-  for (const char* name : {kServices[0], kServices[1], "grpc.health.v1.Health",
+  for (const char* name : {kServices[0], kServices[1], kServices[2], "grpc.health.v1.Health",
                            "grpc.reflection.v1alpha.ServerReflection"}) {
     const google::protobuf::ServiceDescriptor* service = pool->FindServiceByName(name);
     for (int i = 0; service != nullptr && i < service->method_count(); ++i) {
@@ -295,6 +307,7 @@ ServiceStatus StrataServer::Listen(const StartInputs& inputs) {
   builder.experimental().SetInterceptorCreators(std::move(creators));
   builder.RegisterService(map_service_.get());
   builder.RegisterService(planner_service_.get());
+  builder.RegisterService(traffic_service_.get());
   server_ = builder.BuildAndStart();
   if (!server_ || port == 0) {
     return MakeError(ErrorCode::kInvalidInput,
@@ -312,6 +325,7 @@ ServiceStatus StrataServer::Listen(const StartInputs& inputs) {
     for (const ResolvedPreload& preload : inputs.preloads) pending_preloads_.insert(preload.id);
   }
   server_->GetHealthCheckService()->SetServingStatus(kServices[0], true);
+  server_->GetHealthCheckService()->SetServingStatus(kServices[2], true);  // Traffic.
   SetReady(inputs.preloads.empty());
   return OkStatus();
 }
@@ -347,8 +361,9 @@ ServiceStatus StrataServer::ServeViewer() {
           "127.0.0.1 and put a TLS-terminating "
           "proxy (or an SSH tunnel) in front of it, or drop --http-port");
     }
-    http_api_ = std::make_unique<HttpApi>(registry_.get(), map_service_.get(),
-                                          planner_service_.get(), tokens_.get());
+    http_api_ =
+        std::make_unique<HttpApi>(registry_.get(), map_service_.get(), planner_service_.get(),
+                                  traffic_service_.get(), tokens_.get());
     HttpServerOptions http;
     http.address = config.http_address;
     http.port = config.http_port;

@@ -23,6 +23,7 @@
 #include "rpc/planner_service.hpp"
 #include "rpc/planning_slots.hpp"
 #include "rpc/recent_plans.hpp"
+#include "rpc/traffic_service.hpp"
 
 namespace strata::server {
 
@@ -96,7 +97,9 @@ class StrataServer {
   std::unique_ptr<PlanningSlots> planning_slots_;
   std::unique_ptr<RecentPlans> recent_plans_;
   std::unique_ptr<MapServiceImpl> map_service_;
+  std::unique_ptr<ReservationSchedule> reservations_;
   std::unique_ptr<PlannerServiceImpl> planner_service_;
+  std::unique_ptr<TrafficServiceImpl> traffic_service_;
   std::unique_ptr<grpc::Server> server_;
   std::unique_ptr<prometheus::Exposer> exposer_;
   std::unique_ptr<HttpApi> http_api_;

@@ -35,6 +35,13 @@ inline constexpr MethodRole kMethodRoles[] = {
     {"/strata.v1.PlannerService/PlanBatch", Role::kPlanner},
     {"/strata.v1.PlannerService/EstimateCosts", Role::kPlanner},
     {"/strata.v1.PlannerService/ListRecentPlans", Role::kPlanner},
+    // A planner token changes only the reservations it made (ReservationSchedule's owner);
+    // an admin one any.
+    {"/strata.v1.TrafficService/ReserveTrajectory", Role::kPlanner},
+    {"/strata.v1.TrafficService/ReleaseReservation", Role::kPlanner},
+    {"/strata.v1.TrafficService/RenewReservation", Role::kPlanner},
+    {"/strata.v1.TrafficService/ListReservations", Role::kPlanner},
+    {"/strata.v1.TrafficService/ReportProgress", Role::kPlanner},
 };
 
 /// The role `method` (a full gRPC name) needs, or nothing when it is not in kMethodRoles.

@@ -65,6 +65,7 @@ const ErrorMapping kTable[] = {
     {SE::kEditNeedsCloud, StatusCode::FAILED_PRECONDITION, "EDIT_NEEDS_CLOUD"},
     {SE::kUnauthenticated, StatusCode::UNAUTHENTICATED, "UNAUTHENTICATED"},
     {SE::kPermissionDenied, StatusCode::PERMISSION_DENIED, "PERMISSION_DENIED"},
+    {SE::kReservationNotFound, StatusCode::NOT_FOUND, "RESERVATION_NOT_FOUND"},
 };
 
 }  // namespace

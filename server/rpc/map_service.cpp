@@ -380,6 +380,7 @@ grpc::Status MapServiceImpl::DeleteMap(grpc::ServerContext* context,
     log.map_id = request->map_id();
     ServiceStatus deleted = registry_->Delete(request->map_id());
     if (!deleted.ok()) return std::move(deleted).error().Blame("map_id");
+    if (options_.reservations != nullptr) options_.reservations->DropMap(request->map_id());
     return OkStatus();
   });
 }

@@ -10,6 +10,7 @@
 #include "rpc/planning_slots.hpp"
 #include "rpc/rpc_boundary.hpp"
 #include "strata/v1/map_service.grpc.pb.h"
+#include "traffic/reservation_schedule.hpp"
 
 namespace strata::server {
 
@@ -29,6 +30,8 @@ struct MapServiceOptions {
   /// Largest response message [bytes] (--max-send-message-bytes): GetMapGeometry's max_bytes
   /// may not exceed it.
   std::uint64_t max_send_message_bytes = 0;
+  /// The robots' reservations, which a deleted map's go with it; may be null.
+  ReservationSchedule* reservations = nullptr;
 };
 
 /// GetMapGeometry's max_bytes when the request leaves it 0 [bytes] (capped by

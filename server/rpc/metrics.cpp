@@ -154,6 +154,34 @@ class MapCollector final : public prometheus::Collectable {
   const MapRegistry* maps_;
 };
 
+// The schedule's gauges, read at scrape time.
+class ReservationCollector final : public prometheus::Collectable {
+ public:
+  explicit ReservationCollector(const ReservationSchedule* schedule) : schedule_(schedule) {}
+
+  std::vector<prometheus::MetricFamily> Collect() const override {
+    prometheus::MetricFamily live{
+        "strata_reservations",
+        "Robots' reservations whose lease has not expired, over all maps.",
+        prometheus::MetricType::Gauge,
+        {}};
+    prometheus::ClientMetric count;
+    count.gauge.value = static_cast<double>(schedule_->size());
+    live.metric.push_back(count);
+    prometheus::MetricFamily expired{"strata_reservations_expired_total",
+                                     "Reservations collected because their lease expired.",
+                                     prometheus::MetricType::Counter,
+                                     {}};
+    prometheus::ClientMetric collected;
+    collected.counter.value = static_cast<double>(schedule_->collected());
+    expired.metric.push_back(collected);
+    return {live, expired};
+  }
+
+ private:
+  const ReservationSchedule* schedule_;
+};
+
 }  // namespace
 
 Metrics::Metrics()
@@ -202,12 +230,16 @@ Metrics::MakeInterceptorFactory() {
 void Metrics::ServeOn(prometheus::Exposer& exposer) {
   exposer.RegisterCollectable(registry_);
   if (map_collector_) exposer.RegisterCollectable(map_collector_);
+  if (reservation_collector_) exposer.RegisterCollectable(reservation_collector_);
 }
 
 std::string Metrics::Serialize() const {
   std::vector<prometheus::MetricFamily> families = registry_->Collect();
   if (map_collector_) {
     for (auto& family : map_collector_->Collect()) families.push_back(std::move(family));
+  }
+  if (reservation_collector_) {
+    for (auto& family : reservation_collector_->Collect()) families.push_back(std::move(family));
   }
   return prometheus::TextSerializer().Serialize(families);
 }
@@ -244,6 +276,10 @@ void Metrics::InitializeMethod(std::string_view type, std::string_view service,
 
 void Metrics::WatchMaps(const MapRegistry* maps) {
   map_collector_ = std::make_shared<MapCollector>(maps);
+}
+
+void Metrics::WatchReservations(const ReservationSchedule* schedule) {
+  reservation_collector_ = std::make_shared<ReservationCollector>(schedule);
 }
 
 void Metrics::RecordPlan(std::string_view result, const PlanTimings* timings) {

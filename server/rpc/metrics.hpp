@@ -16,6 +16,8 @@
 ///   strata_memory_budget_bytes                 --max-memory (read at scrape)
 ///   strata_memory_reserved_bytes{use}          uploads, assessments (read at scrape)
 ///   strata_map_creation_progress{map_id,step}  per CREATING map, in [0, 1] (read at scrape)
+///   strata_reservations                        robots' live reservations, all maps (at scrape)
+///   strata_reservations_expired_total          expired leases collected (read at scrape)
 #include <memory>
 #include <set>
 #include <shared_mutex>
@@ -32,6 +34,7 @@
 
 #include "maps/map_registry.hpp"
 #include "strata/planner.hpp"
+#include "traffic/reservation_schedule.hpp"
 
 namespace strata::server {
 
@@ -58,6 +61,9 @@ class Metrics {
   /// Serves strata_maps{state} and strata_map_memory_bytes from `maps` at each scrape.
   /// Call before ServeOn; `maps` must outlive the exposer.
   void WatchMaps(const MapRegistry* maps);
+  /// Serves strata_reservations and strata_reservations_expired_total from `schedule` at each
+  /// scrape. Call before ServeOn; `schedule` must outlive the exposer.
+  void WatchReservations(const ReservationSchedule* schedule);
 
   /// One finished plan: `result` is "OK" or the error's reason; timings only on success.
   void RecordPlan(std::string_view result, const PlanTimings* timings);
@@ -87,6 +93,7 @@ class Metrics {
   prometheus::Family<prometheus::Histogram>& plan_seconds_;
   prometheus::Family<prometheus::Histogram>& assessment_seconds_;
   std::shared_ptr<prometheus::Collectable> map_collector_;
+  std::shared_ptr<prometheus::Collectable> reservation_collector_;
   mutable std::shared_mutex known_mutex_;
   std::set<std::string, std::less<>> known_methods_;  // "/service/method" of InitializeMethod.
 };

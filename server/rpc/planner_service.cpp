@@ -16,11 +16,37 @@
 #include <fmt/format.h>
 
 #include "rpc/error_mapping.hpp"
+#include "rpc/fleet_planning.hpp"
 #include "rpc/metrics.hpp"
 #include "rpc/proto_convert.hpp"
 #include "rpc/rpc_boundary.hpp"
+#include "rpc/traffic_convert.hpp"
 
 namespace strata::server {
+
+namespace {
+
+Result<ParsedFleet> ParseFleet(const v1::PlanRequest& request) {
+  const v1::FleetOptions& fleet = request.fleet();
+  ParsedFleet parsed;
+  parsed.robot_id = fleet.robot_id();
+  parsed.avoid_reservations = !fleet.has_avoid_reservations() || fleet.avoid_reservations();
+  parsed.reserve = fleet.reserve();
+  if (fleet.has_lease_s()) parsed.lease_s = fleet.lease_s();
+  if (fleet.has_separation_m()) parsed.separation_m = fleet.separation_m();
+  if (fleet.has_max_wait_s()) parsed.options.max_wait_s = fleet.max_wait_s();
+  if (Status valid = parsed.options.Validate("fleet"); !valid) {
+    return ServiceError::FromPlanner(valid.error(), valid.error().field);
+  }
+  if (request.has_departure_time()) {
+    Result<std::int64_t> departure = FromProto(request.departure_time(), "departure_time");
+    if (!departure.ok()) return std::move(departure).error();
+    parsed.departure_ns = departure.value();
+  }
+  return parsed;
+}
+
+}  // namespace
 
 Result<ParsedPlanRequest> ParsePlanRequest(const v1::PlanRequest& request) {
   ParsedPlanRequest parsed;
@@ -72,6 +98,15 @@ Result<ParsedPlanRequest> ParsePlanRequest(const v1::PlanRequest& request) {
     parsed.sample_dt_s = dt;
   }
   parsed.return_search_path = request.options().return_search_path();
+  if (request.has_fleet()) {
+    Result<ParsedFleet> fleet = ParseFleet(request);
+    if (!fleet.ok()) return std::move(fleet).error();
+    parsed.fleet = std::move(fleet).value();
+  } else if (request.has_departure_time()) {
+    return MakeError(ErrorCode::kInvalidInput,
+                     "departure_time is for plans among other robots: set fleet too")
+        .Blame("departure_time");
+  }
   return parsed;
 }
 
@@ -89,7 +124,12 @@ ServiceStatus PlanOnMap(const PlanningMap& map, const ParsedPlanRequest& request
     return ServiceError::FromPlanner(
         result.error(), PlanRequestField(result.error().field, request.inline_profile));
   }
-  const PlanResult& plan = result.value();
+  *timings = result.value().stats.timings;
+  return WritePlan(result.value(), request, max_samples, response);
+}
+
+ServiceStatus WritePlan(const PlanResult& plan, const ParsedPlanRequest& request, int max_samples,
+                        v1::PlanResponse* response) {
   ToProto(plan.trajectory, response->mutable_trajectory());
   ToProto(plan.start, response->mutable_start());
   ToProto(plan.goal, response->mutable_goal());
@@ -103,7 +143,6 @@ ServiceStatus PlanOnMap(const PlanningMap& map, const ParsedPlanRequest& request
     if (!sampled.ok()) return sampled;
   }
   if (request.return_search_path) AppendSearchPath(plan.path, response);
-  *timings = plan.stats.timings;
   return OkStatus();
 }
 
@@ -172,8 +211,20 @@ ServiceStatus PlannerServiceImpl::PlanOne(const v1::PlanRequest& request, const 
               PlanTimeBudget(capped, call.LeftSeconds(), slots.max_plan_time_s());
           if (budget_s <= 0) return DeadlineLeavesNoTime(call.LeftSeconds());
           capped.plan.options.time_budget_s = budget_s;
-          ServiceStatus status = PlanOnMap(*map.value().map, capped, should_stop,
-                                           options_.max_samples, response, &timings);
+          ServiceStatus status = OkStatus();
+          if (!capped.fleet.has_value()) {
+            status = PlanOnMap(*map.value().map, capped, should_stop, options_.max_samples,
+                               response, &timings);
+          } else if (options_.reservations == nullptr) {
+            status = MakeError(ErrorCode::kInvalidInput,
+                               "this server keeps no reservations: plan without fleet")
+                         .Blame("fleet");
+          } else {
+            status =
+                PlanAmongReservations(map.value(), request.map_id(), capped, *options_.reservations,
+                                      CallerOf(options_.tokens, call.authorization), should_stop,
+                                      options_.max_samples, response, &timings);
+          }
           if (!status.ok()) return status;
           response->set_map_version(map.value().version);
           response->mutable_stats()->mutable_timings()->set_queue_s(queue_s);

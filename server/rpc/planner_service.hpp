@@ -2,8 +2,10 @@
 /// strata.v1.PlannerService: runs strata::Plan for each request on a shared, read-only map
 /// (Plan, many at once for PlanBatch, and the web viewer's JSON API) and travel-cost
 /// estimates (EstimateCosts), all on the same planning slots.
+#include <cstdint>
 #include <functional>
 #include <optional>
+#include <string>
 #include <string_view>
 #include <vector>
 
@@ -14,7 +16,9 @@
 #include "rpc/planning_slots.hpp"
 #include "rpc/recent_plans.hpp"
 #include "rpc/rpc_boundary.hpp"
+#include "strata/fleet/fleet_plan.hpp"
 #include "strata/v1/planner_service.grpc.pb.h"
+#include "traffic/reservation_schedule.hpp"
 
 namespace strata::server {
 
@@ -37,6 +41,21 @@ struct PlannerServiceOptions {
   int max_cost_cells = 0;
   /// Most plans of one PlanBatch call [-], >= 1 (--max-batch-plans).
   int max_batch_plans = 0;
+  /// The robots' reservations, which plans with a fleet block plan among and commit to;
+  /// null refuses such plans.
+  ReservationSchedule* reservations = nullptr;
+};
+
+/// PlanRequest.fleet and departure_time, converted (defaults the server's are applied when
+/// planning: they live in ScheduleLimits).
+struct ParsedFleet {
+  std::string robot_id;
+  bool avoid_reservations = true;
+  bool reserve = false;
+  std::optional<double> lease_s;
+  std::optional<double> separation_m;
+  FleetPlanOptions options;                  ///< max_wait_s; the rule is set when planning.
+  std::optional<std::int64_t> departure_ns;  ///< Unset: now.
 };
 
 /// A request converted and validated, before any map is touched.
@@ -46,6 +65,7 @@ struct ParsedPlanRequest {
   bool inline_profile = false;        ///< The profile came inline (else by name).
   std::optional<double> sample_dt_s;  ///< options.sample_dt_s, when set.
   bool return_search_path = false;    ///< options.return_search_path.
+  std::optional<ParsedFleet> fleet;   ///< When the request has a fleet block.
 };
 
 /// Converts `request`; errors blame the field ("start.position_m.x", "profile.max_tilt_rad",
@@ -65,6 +85,11 @@ double PlanTimeBudget(const ParsedPlanRequest& request, double deadline_left_s,
 ServiceStatus PlanOnMap(const PlanningMap& map, const ParsedPlanRequest& request,
                         const std::function<bool()>& should_stop, int max_samples,
                         v1::PlanResponse* response, PlanTimings* timings);
+
+/// Writes `plan`, made for `request`, into `response` (everything but stats.timings.queue_s
+/// and the map version); kResourceExhausted when its samples would exceed `max_samples`.
+ServiceStatus WritePlan(const PlanResult& plan, const ParsedPlanRequest& request, int max_samples,
+                        v1::PlanResponse* response);
 
 /// An EstimateCosts request converted and validated, before any map is touched.
 struct ParsedCostRequest {

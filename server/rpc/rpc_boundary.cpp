@@ -44,6 +44,10 @@ CallControl CallControlOf(const grpc::ServerContext& context) {
                         deadline - std::chrono::system_clock::now());
   }
   call.cancelled = [&context] { return context.IsCancelled(); };
+  const auto& metadata = context.client_metadata();
+  if (const auto found = metadata.find("authorization"); found != metadata.end()) {
+    call.authorization.assign(found->second.data(), found->second.size());
+  }
   return call;
 }
 

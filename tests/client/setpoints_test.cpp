@@ -2,6 +2,7 @@
 // yaw, held yaw at rest (start, end, past the end), body height, and argument checks.
 #include "strata/client/setpoints.hpp"
 
+#include <chrono>
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -10,6 +11,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "strata/v1/planner_service.pb.h"
 #include "trajectory_builders.hpp"
 
 namespace strata::client::testing {
@@ -177,6 +179,28 @@ TEST(SetpointsTest, HorizonSamplesTheTrajectoryAtT0PlusKDt) {
     EXPECT_FALSE(s.body_height_m.has_value());
   }
   EXPECT_TRUE(setpoints.value()[5].yaw_held);  // t = 1.25: past the end.
+}
+
+TEST(SetpointsTest, OnTheWallClockTheRobotHoldsItsStartUntilItsDeparture) {
+  const PolynomialTrajectory trajectory = Build(RestToRest());
+  v1::PlanResponse response;
+  response.mutable_departure_time()->set_seconds(1'795'000'000);
+  response.mutable_departure_time()->set_nanos(500'000'000);
+  const auto departure = DepartureOf(response);
+  ASSERT_TRUE(departure.has_value());
+  EXPECT_EQ(departure->time_since_epoch(), std::chrono::milliseconds(1'795'000'000'500));
+  EXPECT_FALSE(DepartureOf(v1::PlanResponse()).has_value());
+
+  const auto setpoints = ComputeSetpointsAt(trajectory, *departure,
+                                            *departure - std::chrono::milliseconds(500), 0.25, 4);
+  ASSERT_TRUE(setpoints.ok());
+  // Half a second before the departure, then a quarter: the robot waits at the start.
+  EXPECT_DOUBLE_EQ(setpoints.value()[0].time_s, -0.5);
+  EXPECT_EQ(setpoints.value()[0].position_m, trajectory.PositionAt(0));
+  EXPECT_EQ(setpoints.value()[1].position_m, trajectory.PositionAt(0));
+  EXPECT_DOUBLE_EQ(setpoints.value()[3].time_s, 0.25);
+  EXPECT_EQ(setpoints.value()[3].position_m, trajectory.PositionAt(0.25));
+  EXPECT_NE(setpoints.value()[3].position_m, trajectory.PositionAt(0));
 }
 
 TEST(SetpointsTest, DimensionFourCarriesTheBodyHeight) {

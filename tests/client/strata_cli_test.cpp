@@ -18,6 +18,7 @@
 #include "strata/client/setpoints.hpp"
 #include "strata/v1/map_service.pb.h"
 #include "strata/v1/planner_service.pb.h"
+#include "strata/v1/traffic_service.pb.h"
 #include "test_util/run_command.hpp"
 
 namespace strata::client::testing {
@@ -487,6 +488,41 @@ TEST_F(StrataCliTest, BatchPrintsEachResultAndExits1WhenOneFailed) {
   result = Strata({"batch", Path("bad.jsonl")});
   EXPECT_EQ(result.exit_code, 2);
   EXPECT_THAT(result.err, HasSubstr("line 1"));
+}
+
+TEST_F(StrataCliTest, PlansAsAFleetRobotReservesListsAndReleases) {
+  CommandResult result = Strata({"plan", "--map", "demo", "--start", "3,5,0.3", "--goal",
+                                 "13,10,0.3", "--robot-id", "cli-r1", "--reserve"});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_THAT(result.out, HasSubstr("fleet       robot cli-r1 waits 0.00 s"));
+  EXPECT_THAT(result.out, HasSubstr("; reserved from 20"));  // An RFC 3339 time.
+
+  result = Strata({"reservations", "list", "--map", "demo"});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_THAT(result.out, HasSubstr("1 reservation(s)"));
+  EXPECT_THAT(result.out, HasSubstr("cli-r1"));
+  result = Strata({"--json", "reservations", "list", "--map", "demo"});
+  EXPECT_EQ(Parse<v1::ListReservationsResponse>(result.out).reservations(0).robot_id(), "cli-r1");
+
+  result =
+      Strata({"reservations", "renew", "--map", "demo", "--robot-id", "cli-r1", "--lease", "120"});
+  EXPECT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_THAT(result.out, HasSubstr("holds its reservation on map demo until 20"));
+  result =
+      Strata({"reservations", "report", "--map", "demo", "--robot-id", "cli-r1", "--delay", "2.5"});
+  EXPECT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_THAT(result.out, HasSubstr("it meets 0 other robot(s)"));
+  result = Strata({"reservations", "release", "--map", "demo", "--robot-id", "cli-r1"});
+  EXPECT_EQ(result.exit_code, 0) << result.err;
+  result = Strata({"reservations", "release", "--map", "demo", "--robot-id", "cli-r1"});
+  EXPECT_EQ(result.exit_code, 1);
+  EXPECT_THAT(result.err, HasSubstr("RESERVATION_NOT_FOUND"));
+
+  // The fleet flags are for a robot: without --robot-id nothing is sent.
+  result =
+      Strata({"plan", "--map", "demo", "--start", "3,5,0.3", "--goal", "13,10,0.3", "--reserve"});
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_THAT(result.err, HasSubstr("need --robot-id"));
 }
 
 TEST(StrataCliAccessTest, TlsAndATokenFromTheEnvironment) {

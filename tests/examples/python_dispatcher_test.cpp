@@ -1,5 +1,6 @@
 // examples/python/dispatcher.py against a real strata-server: it creates its map, estimates
-// the costs, assigns greedily and plans the assignments in a batch. It runs with Debian's
+// the costs, assigns greedily, plans the assignments in a batch among each other's
+// reservations, and checks those with its own sampling. It runs with Debian's
 // /usr/bin/python3 and python3-grpcio (scripts/install-test-tools.sh) on the code the build
 // generated from proto/; without python3-grpcio the test skips and says so.
 #include <gmock/gmock.h>
@@ -38,6 +39,9 @@ TEST(PythonDispatcher, CreatesAMapEstimatesAssignsAndPlansInABatch) {
   EXPECT_THAT(run.out, HasSubstr("task nowhere: GOAL_OFF_GROUND"));
   EXPECT_THAT(run.out, HasSubstr("assign r3 -> pick-deck"));  // The robot already on the deck.
   EXPECT_THAT(run.out, HasSubstr("planned 3 of 3 assignments"));
+  // Planned among each other's reservations, and checked by the example's own sampling.
+  EXPECT_THAT(run.out, HasSubstr("checked 3 pairs of 3 reservations every 5 ms: 0 meet"));
+  EXPECT_THAT(run.out, HasSubstr("released 3 reservations"));
   // The server saw the three kinds of call.
   EXPECT_THAT(server->Log(), HasSubstr("rpc=EstimateCosts"));
   EXPECT_THAT(server->Log(), HasSubstr("rpc=PlanBatch"));

@@ -91,6 +91,7 @@ TEST(ErrorMappingTest, MapsAsDocumented) {
       {ServiceErrorCode::kEditNeedsCloud, StatusCode::FAILED_PRECONDITION, "EDIT_NEEDS_CLOUD"},
       {ServiceErrorCode::kUnauthenticated, StatusCode::UNAUTHENTICATED, "UNAUTHENTICATED"},
       {ServiceErrorCode::kPermissionDenied, StatusCode::PERMISSION_DENIED, "PERMISSION_DENIED"},
+      {ServiceErrorCode::kReservationNotFound, StatusCode::NOT_FOUND, "RESERVATION_NOT_FOUND"},
   };
   EXPECT_EQ(std::size(expected), ErrorMappingTable().size());
   for (const auto& row : expected) {

@@ -52,10 +52,18 @@ class HttpApiTest : public ::testing::Test {
     planner_options.recent_plans = recent_;
     planner_options.max_samples = 20000;
     planner_ = new PlannerServiceImpl(registry_, nullptr, planner_options);
+    reservations_ = new ReservationSchedule(ScheduleLimits{.max_reservations_per_map = 8,
+                                                           .default_lease_s = 60,
+                                                           .max_lease_s = 600,
+                                                           .max_horizon_s = 3600,
+                                                           .default_separation_m = 0.1});
+    traffic_ = new TrafficServiceImpl(registry_, reservations_, nullptr);
     tokens_ = new TokenTable({{kPlannerToken, Role::kPlanner}});
   }
   static void TearDownTestSuite() {
     delete tokens_;
+    delete traffic_;
+    delete reservations_;
     delete planner_;
     delete maps_;
     delete recent_;
@@ -66,7 +74,7 @@ class HttpApiTest : public ::testing::Test {
   static HttpResponse Post(const std::string& method, const std::string& body,
                            const TokenTable* tokens = nullptr,
                            const std::string& authorization = "") {
-    const HttpApi api(registry_, maps_, planner_, tokens);
+    const HttpApi api(registry_, maps_, planner_, traffic_, tokens);
     return api.Handle(HttpRequest{"POST", "/api/" + method, authorization, body}, CallControl{});
   }
 
@@ -100,6 +108,8 @@ class HttpApiTest : public ::testing::Test {
   static RecentPlans* recent_;
   static MapServiceImpl* maps_;
   static PlannerServiceImpl* planner_;
+  static ReservationSchedule* reservations_;
+  static TrafficServiceImpl* traffic_;
   static TokenTable* tokens_;
 };
 
@@ -108,10 +118,12 @@ PlanningSlots* HttpApiTest::slots_ = nullptr;
 RecentPlans* HttpApiTest::recent_ = nullptr;
 MapServiceImpl* HttpApiTest::maps_ = nullptr;
 PlannerServiceImpl* HttpApiTest::planner_ = nullptr;
+ReservationSchedule* HttpApiTest::reservations_ = nullptr;
+TrafficServiceImpl* HttpApiTest::traffic_ = nullptr;
 TokenTable* HttpApiTest::tokens_ = nullptr;
 
 TEST_F(HttpApiTest, ServesThePageFromTheBinary) {
-  const HttpApi api(registry_, maps_, planner_, tokens_);  // The page needs no token.
+  const HttpApi api(registry_, maps_, planner_, traffic_, tokens_);  // The page needs no token.
   HttpResponse page = api.Handle({"GET", "/", "", ""}, {});
   EXPECT_EQ(page.status, 200);
   EXPECT_THAT(page.content_type, HasSubstr("text/html"));
@@ -183,6 +195,18 @@ TEST_F(HttpApiTest, AnswersWhatTheServiceFunctionsAnswer) {
   EXPECT_EQ(recent.plans(1).response().samples_size(), 0);
 }
 
+// The viewer's traffic view reads the reservations as a gRPC client would.
+TEST_F(HttpApiTest, ListsTheReservationsOfAMap) {
+  const auto listed = Parse<v1::ListReservationsResponse>(
+      Post("strata.v1.TrafficService/ListReservations", R"({"map_id": "demo"})"));
+  EXPECT_EQ(listed.reservations_size(), 0);
+  EXPECT_DOUBLE_EQ(listed.separation_m(), 0.1);
+  const HttpResponse missing =
+      Post("strata.v1.TrafficService/ListReservations", R"({"map_id": "nope"})");
+  EXPECT_EQ(missing.status, 404);
+  EXPECT_EQ(InfoOf(Parse<google::rpc::Status>(missing)).reason(), "MAP_NOT_FOUND");
+}
+
 TEST_F(HttpApiTest, ErrorsAreTheStatusAGrpcClientGets) {
   // Off the ground: 400 with the reason, the field and the nearest valid point.
   const HttpResponse off =
@@ -218,7 +242,7 @@ TEST_F(HttpApiTest, ErrorsAreTheStatusAGrpcClientGets) {
   EXPECT_EQ(unknown_field.status, 400);
   EXPECT_THAT(unknown_field.body, HasSubstr("strata.v1.GetMapRequest"));
 
-  const HttpApi api(registry_, maps_, planner_, nullptr);
+  const HttpApi api(registry_, maps_, planner_, traffic_, nullptr);
   const HttpResponse get = api.Handle({"GET", "/api/strata.v1.MapService/ListMaps", "", ""}, {});
   EXPECT_EQ(get.status, 405);
   const HttpResponse unknown = Post("strata.v1.MapService/DeleteMap", R"({"map_id": "demo"})");

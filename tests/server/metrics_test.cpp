@@ -1,4 +1,4 @@
-// Map metrics read from the registry at scrape time (no server needed).
+// Map and reservation metrics read at scrape time (no server needed).
 #include "rpc/metrics.hpp"
 
 #include <gmock/gmock.h>
@@ -35,6 +35,35 @@ TEST(MetricsTest, AMapBeingCreatedShowsItsProgressUntilItIsGone) {
   EXPECT_THAT(metrics.Serialize(), Not(HasSubstr("map_id=\"big\"")));
   held.Release();
   registry.Shutdown();
+}
+
+// The schedule's figures, read at scrape time: live reservations, and expired leases collected.
+TEST(MetricsTest, ReservationsAreCountedAndTheirExpiryToo) {
+  std::int64_t now = 1'795'000'000'000'000'000;
+  ReservationSchedule schedule(ScheduleLimits{.max_reservations_per_map = 4,
+                                              .default_lease_s = 60,
+                                              .max_lease_s = 600,
+                                              .max_horizon_s = 3600,
+                                              .default_separation_m = 0.1},
+                               [&now] { return now; });
+  Metrics metrics;
+  metrics.WatchReservations(&schedule);
+  Reservation parked;
+  parked.map_id = "site";
+  parked.reserved.robot_id = "r1";
+  TrajectoryPiece piece;
+  piece.duration_s = 1;
+  piece.coefficients = Eigen::Matrix<double, 6, 3>::Zero();
+  parked.reserved.motion.trajectory.pieces.push_back(piece);
+  parked.reserved.motion.start_ns = now;
+  parked.reserved.motion.end_ns = AddSeconds(now, 10);
+  ASSERT_TRUE(schedule.Commit(parked, SeparationRule{}, Caller{.owner = "", .admin = true}).ok());
+  EXPECT_THAT(metrics.Serialize(), HasSubstr("strata_reservations 1\n"));
+  EXPECT_THAT(metrics.Serialize(), HasSubstr("strata_reservations_expired_total 0\n"));
+  now = AddSeconds(now, 11);
+  EXPECT_THAT(metrics.Serialize(), HasSubstr("strata_reservations 0\n"));
+  schedule.List("site");  // Collects it.
+  EXPECT_THAT(metrics.Serialize(), HasSubstr("strata_reservations_expired_total 1\n"));
 }
 
 }  // namespace

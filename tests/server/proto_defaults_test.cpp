@@ -18,6 +18,7 @@
 #include <google/protobuf/descriptor.h>
 #include <google/protobuf/descriptor.pb.h>
 
+#include "ops/flags.hpp"
 #include "rpc/planner_service.hpp"
 #include "rpc/proto_convert.hpp"
 #include "strata/assessment/map_edit.hpp"
@@ -176,9 +177,17 @@ TEST(ProtoDefaults, DocumentedPlanRequestDefaultsAreTheCppDefaults) {
   unset.mutable_profile();
   unset.mutable_start()->mutable_position_m();
   unset.mutable_goal()->mutable_position_m();
+  unset.mutable_fleet();
   Result<ParsedPlanRequest> parsed = ParsePlanRequest(unset);
   ASSERT_TRUE(parsed.ok()) << parsed.error().message;
   v1::PlanRequest defaults;
+  // The fleet block's: the planner's, and the server's flags' that a plan applies.
+  const ParsedFleet& fleet = parsed->fleet.value();
+  const ServerConfig server;
+  defaults.mutable_fleet()->set_avoid_reservations(fleet.avoid_reservations);
+  defaults.mutable_fleet()->set_max_wait_s(fleet.options.max_wait_s);
+  defaults.mutable_fleet()->set_lease_s(fleet.lease_s.value_or(server.default_lease_s));
+  defaults.mutable_fleet()->set_separation_m(fleet.separation_m.value_or(server.separation_m));
   ToProto(parsed->plan.profile, defaults.mutable_profile());
   ToProto(parsed->plan.options, defaults.mutable_options());
   if (parsed->sample_dt_s.has_value()) {

@@ -4,7 +4,8 @@ demo map, Debian's headless Chromium through Selenium. Checks that the page load
 console error, lists the demo map, plans floor to deck from the form and draws the trajectory
 with the length a gRPC client gets (the strata CLI), draws a plan under the deck dotted until
 the deck's level is hidden, and shows an impossible goal's error with the nearest valid
-point. Exits 77 (CTest's skip) only when the browser cannot run here."""
+point, and draws two robots' reservations at the traffic slider's times. Exits 77 (CTest's
+skip) only when the browser cannot run here."""
 
 import argparse
 import json
@@ -107,6 +108,29 @@ def main():
         browser.wait("document.querySelectorAll('#recent li').length >= 2", 20, "the recent plans")
         recent = driver.find_element("id", "recent").text
         assert "GOAL_OFF_GROUND" in recent and "via http" in recent, recent
+
+        # Two robots' reservations across the floor (the second crosses the first's way): the
+        # traffic section draws each as a disc on its route at the slider's time, at their
+        # starts at the slider's start and at their goals at its end, never in conflict.
+        for robot, start, goal in (("r1", "3,5,0.3", "13,10,0.3"), ("r2", "3,10,0.3", "13,5,0.3")):
+            subprocess.run(
+                [args.cli, "--server", server.address, "plan", "--map", "demo", "--start", start,
+                 "--goal", goal, "--robot-id", robot, "--reserve", "--time-budget", "30"],
+                check=True, capture_output=True, text=True, timeout=120)
+        driver.find_element("id", "refresh-traffic").click()
+        browser.wait("document.querySelectorAll('#traffic circle.robot').length === 2", 20,
+                     "the two reserved robots drawn")
+        assert len(driver.find_elements("css selector", "#traffic polyline.route")) == 2
+        slide = ("const s = document.getElementById('traffic-time'); s.value = s.{};"
+                 "s.dispatchEvent(new Event('input'));")
+        for end, expected in (("min", {"r1": (3, 5)}), ("max", {"r1": (13, 10), "r2": (13, 5)})):
+            driver.execute_script(slide.format(end))
+            for robot, (x, y) in expected.items():
+                disc = driver.find_element("css selector", f'#traffic circle[data-robot-id="{robot}"]')
+                cx, cy = float(disc.get_attribute("cx")), float(disc.get_attribute("cy"))
+                assert math.hypot(cx - x, cy - y) < 0.5, (end, robot, cx, cy)
+            conflicts = driver.find_element("id", "traffic").get_attribute("data-conflicts")
+            assert conflicts == "0", f"{conflicts} robots drawn in conflict at the slider's {end}"
 
         # The only console entry since: Chromium reporting the refused plan's HTTP 400.
         errors = [e for e in browser.console_errors()

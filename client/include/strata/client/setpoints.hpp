@@ -16,6 +16,7 @@
 /// or before τ = 0) it is the first direction of motion after τ instead, so the robot turns
 /// towards where it will go. ω is 0 where the yaw is held. A trajectory that never reaches
 /// the threshold has yaw 0 everywhere, with `yaw_held` set.
+#include <chrono>
 #include <optional>
 #include <vector>
 
@@ -66,5 +67,20 @@ MpcSetpoint SetpointAt(const PolynomialTrajectory& trajectory, double t_s,
 Expected<std::vector<MpcSetpoint>> ComputeSetpoints(const PolynomialTrajectory& trajectory,
                                                     double t0_s, double dt_s, int steps,
                                                     const SetpointOptions& options = {});
+
+/// The same horizon on the wall clock, for a trajectory that starts at absolute time
+/// `start` (a fleet plan's PlanResponse.departure_time, see DepartureOf): `steps` setpoints at
+/// `from` + k·dt_s. Before `start` the robot holds the trajectory's first state (it waits for
+/// its departure); the times in the setpoints are on the trajectory's clock (from − start).
+/// Fails as ComputeSetpoints.
+Expected<std::vector<MpcSetpoint>> ComputeSetpointsAt(const PolynomialTrajectory& trajectory,
+                                                      std::chrono::system_clock::time_point start,
+                                                      std::chrono::system_clock::time_point from,
+                                                      double dt_s, int steps,
+                                                      const SetpointOptions& options = {});
+
+/// When a plan's trajectory starts on the wall clock: its departure_time (a fleet plan's), or
+/// nullopt for a plan without one (its t = 0 is whenever the robot starts it).
+std::optional<std::chrono::system_clock::time_point> DepartureOf(const v1::PlanResponse& response);
 
 }  // namespace strata::client

@@ -9,6 +9,7 @@ import { OrbitView } from './orbit_view.js';
 import { drawSvg, orbitItems, planDrawing } from './plan_overlay.js';
 import { drawProfile } from './profile_view.js';
 import { TopView } from './top_view.js';
+import { Traffic } from './traffic.js';
 import { polylineLength, sampleTrajectory } from './trajectory.js';
 
 const $ = (id) => document.getElementById(id);
@@ -25,6 +26,7 @@ const state = {
   style: { levels: new Set([0]), obstacles: true, color: 'height', components: null },
   view: 'top',
   shown: null,  // { request, response, error, samples }
+  traffic: null,  // Traffic of the map shown, when it has reservations.
 };
 
 const topView = new TopView($('top-canvas'), $('overlay'), {
@@ -134,6 +136,44 @@ async function selectMap(id) {
     return;
   }
   await loadGeometry(id);
+  await loadTraffic(id);
+}
+
+// ---- Traffic: the robots' reservations, at the slider's time ----
+
+function showTrafficAt(time) {
+  const traffic = state.traffic;
+  traffic.draw($('traffic'), time);
+  const conflicts = Number($('traffic').dataset.conflicts);
+  $('traffic-note').textContent = `${new Date(time * 1000).toISOString()}: ${traffic.robots.length} `
+    + `robot(s)${conflicts ? `, ${conflicts} in conflict` : ''}`;
+}
+
+async function loadTraffic(id) {
+  let listing;
+  try {
+    listing = await call('strata.v1.TrafficService/ListReservations', { map_id: id });
+  } catch (e) {
+    $('traffic-section').hidden = false;
+    $('traffic-note').textContent = plainWords(e);
+    return;
+  }
+  if (id !== state.mapId) return;
+  $('traffic').replaceChildren();
+  $('traffic-section').hidden = false;
+  const slider = $('traffic-time');
+  if (!(listing.reservations || []).length) {
+    state.traffic = null;
+    slider.hidden = true;
+    $('traffic-note').textContent = 'no reservations on this map';
+    return;
+  }
+  state.traffic = new Traffic(listing);
+  slider.hidden = false;
+  slider.min = state.traffic.from;
+  slider.max = state.traffic.until;
+  slider.value = Math.min(Math.max(Date.now() / 1000, state.traffic.from), state.traffic.until);
+  showTrafficAt(Number(slider.value));
 }
 
 async function loadGeometry(id, robot = null) {
@@ -271,7 +311,7 @@ function clearPlan() {
 }
 
 function showDrawing(drawing) {
-  drawSvg(topView.worldGroup, drawing);
+  drawSvg($('plan-layer'), drawing);
   topView.setMarkers(drawing.markers);
   orbitView.setOverlay(orbitItems(drawing));
 }
@@ -464,6 +504,8 @@ $('start').addEventListener('change', showRequested);
 $('goal').addEventListener('change', showRequested);
 $('refresh-maps').addEventListener('click', loadMaps);
 $('refresh-recent').addEventListener('click', loadRecent);
+$('refresh-traffic').addEventListener('click', () => { if (state.mapId) loadTraffic(state.mapId); });
+$('traffic-time').addEventListener('input', (e) => { if (state.traffic) showTrafficAt(Number(e.target.value)); });
 $('show-obstacles').addEventListener('change', (e) => {
   state.style.obstacles = e.target.checked;
   restyle();
@@ -503,6 +545,7 @@ async function start() {
 window.strataViewer = {
   ready: start(),
   selectMap,
+  loadTraffic,
   measureFrames: (view, seconds) => (view === 'orbit' ? orbitView : topView).measureFrames(seconds),
   state,
 };

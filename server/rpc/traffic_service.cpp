@@ -1,0 +1,232 @@
+#include "rpc/traffic_service.hpp"
+
+#include <optional>
+#include <utility>
+
+#include <fmt/format.h>
+
+#include "common/map_id.hpp"
+#include "rpc/proto_convert.hpp"
+#include "rpc/traffic_convert.hpp"
+#include "strata/planning/robot_profile.hpp"
+
+namespace strata::server {
+namespace {
+
+std::optional<double> Optional(bool has, double value) {
+  return has ? std::optional<double>(value) : std::nullopt;
+}
+
+// The body of ReserveTrajectory's robot: a built-in profile's, or the one given.
+Result<FleetBody> BodyOf(const v1::ReserveTrajectoryRequest& request) {
+  switch (request.robot_case()) {
+    case v1::ReserveTrajectoryRequest::kProfileName: {
+      Expected<RobotProfile> profile = BuiltinProfile(request.profile_name());
+      if (!profile) return ServiceError::FromPlanner(profile.error(), "profile_name");
+      return FleetBody::FromProfile(profile.value());
+    }
+    case v1::ReserveTrajectoryRequest::kBody: return FromProto(request.body(), "body");
+    default:
+      return MakeError(ErrorCode::kInvalidInput, "the robot is missing: set profile_name or body")
+          .Blame("robot");
+  }
+}
+
+}  // namespace
+
+TrafficServiceImpl::TrafficServiceImpl(const MapRegistry* registry, ReservationSchedule* schedule,
+                                       const TokenTable* tokens)
+    : registry_(registry), schedule_(schedule), tokens_(tokens) {}
+
+Result<std::string> TrafficServiceImpl::CurrentVersion(const std::string& map_id) const {
+  if (ServiceStatus given = RequireMapId(map_id); !given.ok()) return std::move(given).error();
+  Result<MapSnapshot> map = registry_->Get(map_id);
+  if (!map.ok()) return std::move(map).error();
+  return map.value().version;
+}
+
+ServiceStatus TrafficServiceImpl::Reserve(const v1::ReserveTrajectoryRequest& request,
+                                          const CallControl& call, v1::Reservation* response) {
+  Result<std::string> current = CurrentVersion(request.map_id());
+  if (!current.ok()) return std::move(current).error();
+  const ScheduleLimits& limits = schedule_->limits();
+  if (!request.has_start_time()) {
+    return MakeError(ErrorCode::kInvalidInput, "start_time is required").Blame("start_time");
+  }
+  Result<std::int64_t> start_ns = FromProto(request.start_time(), "start_time");
+  if (!start_ns.ok()) return std::move(start_ns).error();
+  const double lease_s = request.has_lease_s() ? request.lease_s() : limits.default_lease_s;
+  if (ServiceStatus ok =
+          schedule_->CheckRequest(request.robot_id(), "robot_id", start_ns.value(), lease_s);
+      !ok.ok()) {
+    return std::move(ok).error();
+  }
+  if (!request.has_trajectory()) {
+    return MakeError(ErrorCode::kInvalidInput, "trajectory is required").Blame("trajectory");
+  }
+  Result<Trajectory> trajectory = FromProto(request.trajectory());
+  if (!trajectory.ok()) return std::move(trajectory).error();
+  Result<FleetBody> body = BodyOf(request);
+  if (!body.ok()) return std::move(body).error();
+  Result<SeparationRule> rule = SeparationFrom(
+      Optional(request.has_separation_m(), request.separation_m()), limits, "separation_m");
+  if (!rule.ok()) return std::move(rule).error();
+
+  Reservation reservation;
+  reservation.map_id = request.map_id();
+  reservation.map_version = request.map_version().empty() ? current.value() : request.map_version();
+  reservation.reserved.robot_id = request.robot_id();
+  FleetMotion& motion = reservation.reserved.motion;
+  motion.start_ns = start_ns.value();
+  motion.trajectory = std::move(trajectory).value();
+  motion.body = body.value();
+  motion.end_ns = std::max(AddSeconds(schedule_->NowNs(), lease_s), motion.ArrivalNs());
+  if (Status valid = motion.Validate("trajectory"); !valid) {
+    return ServiceError::FromPlanner(valid.error(), valid.error().field);
+  }
+  Result<Reservation> committed = schedule_->Commit(std::move(reservation), rule.value(),
+                                                    CallerOf(tokens_, call.authorization));
+  if (!committed.ok()) return std::move(committed).error();
+  ToProto(committed.value(), response);
+  return OkStatus();
+}
+
+ServiceStatus TrafficServiceImpl::Release(const v1::ReleaseReservationRequest& request,
+                                          const CallControl& call,
+                                          v1::ReleaseReservationResponse* response) {
+  if (Result<std::string> map = CurrentVersion(request.map_id()); !map.ok()) {
+    return std::move(map).error();
+  }
+  Result<std::uint64_t> revision = schedule_->Release(request.map_id(), request.robot_id(),
+                                                      CallerOf(tokens_, call.authorization));
+  if (!revision.ok()) return std::move(revision).error();
+  response->set_revision(revision.value());
+  return OkStatus();
+}
+
+ServiceStatus TrafficServiceImpl::Renew(const v1::RenewReservationRequest& request,
+                                        const CallControl& call, v1::Reservation* response) {
+  if (Result<std::string> map = CurrentVersion(request.map_id()); !map.ok()) {
+    return std::move(map).error();
+  }
+  const ScheduleLimits& limits = schedule_->limits();
+  const double lease_s = request.has_lease_s() ? request.lease_s() : limits.default_lease_s;
+  if (!(lease_s > 0 && lease_s <= limits.max_lease_s)) {
+    return MakeError(ErrorCode::kInvalidInput,
+                     fmt::format("lease_s = {:g} is out of range: must be > 0 and at most {:g} "
+                                 "(--max-lease-s)",
+                                 lease_s, limits.max_lease_s))
+        .Blame("lease_s");
+  }
+  Result<SeparationRule> rule = SeparationFrom(
+      Optional(request.has_separation_m(), request.separation_m()), limits, "separation_m");
+  if (!rule.ok()) return std::move(rule).error();
+  Result<Reservation> renewed =
+      schedule_->Renew(request.map_id(), request.robot_id(), lease_s, rule.value(),
+                       CallerOf(tokens_, call.authorization));
+  if (!renewed.ok()) return std::move(renewed).error();
+  ToProto(renewed.value(), response);
+  return OkStatus();
+}
+
+ServiceStatus TrafficServiceImpl::List(const v1::ListReservationsRequest& request,
+                                       v1::ListReservationsResponse* response) {
+  Result<std::string> current = CurrentVersion(request.map_id());
+  if (!current.ok()) return std::move(current).error();
+  std::int64_t from_ns = INT64_MIN, to_ns = INT64_MAX;
+  if (request.has_from_time()) {
+    Result<std::int64_t> from = FromProto(request.from_time(), "from_time");
+    if (!from.ok()) return std::move(from).error();
+    from_ns = from.value();
+  }
+  if (request.has_to_time()) {
+    Result<std::int64_t> to = FromProto(request.to_time(), "to_time");
+    if (!to.ok()) return std::move(to).error();
+    to_ns = to.value();
+  }
+  const ReservationSchedule::Listing listing = schedule_->List(request.map_id(), from_ns, to_ns);
+  for (const Reservation& reservation : listing.reservations) {
+    ToProto(reservation, response->add_reservations());
+  }
+  response->set_revision(listing.revision);
+  response->set_separation_m(schedule_->limits().default_separation_m);
+  return OkStatus();
+}
+
+ServiceStatus TrafficServiceImpl::Report(const v1::ReportProgressRequest& request,
+                                         const CallControl& call,
+                                         v1::ReportProgressResponse* response) {
+  if (Result<std::string> map = CurrentVersion(request.map_id()); !map.ok()) {
+    return std::move(map).error();
+  }
+  Result<SeparationRule> rule = SeparationFrom(std::nullopt, schedule_->limits(), "");
+  if (!rule.ok()) return std::move(rule).error();
+  Result<ReservationSchedule::Moved> moved =
+      schedule_->Shift(request.map_id(), request.robot_id(), request.delay_s(), rule.value(),
+                       CallerOf(tokens_, call.authorization));
+  if (!moved.ok()) return std::move(moved).error();
+  ToProto(moved.value().reservation, response->mutable_reservation());
+  for (const ReservationSchedule::Meeting& meeting : moved.value().meetings) {
+    v1::ReservationMeeting* out = response->add_meetings();
+    out->set_robot_id(meeting.robot_id);
+    ToProto(meeting.conflict.time_ns, out->mutable_time());
+    const Eigen::Vector3d& where = meeting.conflict.point_a;
+    out->mutable_position_m()->set_x(where.x());
+    out->mutable_position_m()->set_y(where.y());
+    out->mutable_position_m()->set_z(where.z());
+  }
+  return OkStatus();
+}
+
+grpc::Status TrafficServiceImpl::ReserveTrajectory(grpc::ServerContext* context,
+                                                   const v1::ReserveTrajectoryRequest* request,
+                                                   v1::Reservation* response) {
+  return RunRpc(Rpc(), "ReserveTrajectory", *context, [&](CallLog& log) -> ServiceStatus {
+    log.map_id = request->map_id();
+    log.fields.emplace_back("robot", BoundedText(request->robot_id(), 64));
+    return Reserve(*request, CallControlOf(*context), response);
+  });
+}
+
+grpc::Status TrafficServiceImpl::ReleaseReservation(grpc::ServerContext* context,
+                                                    const v1::ReleaseReservationRequest* request,
+                                                    v1::ReleaseReservationResponse* response) {
+  return RunRpc(Rpc(), "ReleaseReservation", *context, [&](CallLog& log) -> ServiceStatus {
+    log.map_id = request->map_id();
+    log.fields.emplace_back("robot", BoundedText(request->robot_id(), 64));
+    return Release(*request, CallControlOf(*context), response);
+  });
+}
+
+grpc::Status TrafficServiceImpl::RenewReservation(grpc::ServerContext* context,
+                                                  const v1::RenewReservationRequest* request,
+                                                  v1::Reservation* response) {
+  return RunRpc(Rpc(), "RenewReservation", *context, [&](CallLog& log) -> ServiceStatus {
+    log.map_id = request->map_id();
+    log.fields.emplace_back("robot", BoundedText(request->robot_id(), 64));
+    return Renew(*request, CallControlOf(*context), response);
+  });
+}
+
+grpc::Status TrafficServiceImpl::ReportProgress(grpc::ServerContext* context,
+                                                const v1::ReportProgressRequest* request,
+                                                v1::ReportProgressResponse* response) {
+  return RunRpc(Rpc(), "ReportProgress", *context, [&](CallLog& log) -> ServiceStatus {
+    log.map_id = request->map_id();
+    log.fields.emplace_back("robot", BoundedText(request->robot_id(), 64));
+    log.fields.emplace_back("delay_s", fmt::format("{:.3f}", request->delay_s()));
+    return Report(*request, CallControlOf(*context), response);
+  });
+}
+
+grpc::Status TrafficServiceImpl::ListReservations(grpc::ServerContext* context,
+                                                  const v1::ListReservationsRequest* request,
+                                                  v1::ListReservationsResponse* response) {
+  return RunRpc(Rpc(), "ListReservations", *context, [&](CallLog& log) -> ServiceStatus {
+    log.map_id = request->map_id();
+    log.quiet_on_success = true;
+    return List(*request, response);
+  });
+}
+
+}  // namespace strata::server

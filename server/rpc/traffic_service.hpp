@@ -1,0 +1,58 @@
+#pragma once
+/// strata.v1.TrafficService: the robots' reservations on each map (traffic/
+/// reservation_schedule.hpp), committed, renewed, released and listed over gRPC.
+#include <grpcpp/grpcpp.h>
+
+#include "maps/map_registry.hpp"
+#include "rpc/auth.hpp"
+#include "rpc/rpc_boundary.hpp"
+#include "strata/v1/traffic_service.grpc.pb.h"
+#include "traffic/reservation_schedule.hpp"
+
+namespace strata::server {
+
+class TrafficServiceImpl final : public v1::TrafficService::Service {
+ public:
+  /// `registry`, `schedule` and `tokens` (null: no tokens) must outlive the service.
+  TrafficServiceImpl(const MapRegistry* registry, ReservationSchedule* schedule,
+                     const TokenTable* tokens);
+
+  /// The calls' work, without gRPC (`call` says who asks).
+  ServiceStatus Reserve(const v1::ReserveTrajectoryRequest& request, const CallControl& call,
+                        v1::Reservation* response);
+  ServiceStatus Release(const v1::ReleaseReservationRequest& request, const CallControl& call,
+                        v1::ReleaseReservationResponse* response);
+  ServiceStatus Renew(const v1::RenewReservationRequest& request, const CallControl& call,
+                      v1::Reservation* response);
+  ServiceStatus List(const v1::ListReservationsRequest& request,
+                     v1::ListReservationsResponse* response);
+  ServiceStatus Report(const v1::ReportProgressRequest& request, const CallControl& call,
+                       v1::ReportProgressResponse* response);
+
+  grpc::Status ReserveTrajectory(grpc::ServerContext* context,
+                                 const v1::ReserveTrajectoryRequest* request,
+                                 v1::Reservation* response) override;
+  grpc::Status ReleaseReservation(grpc::ServerContext* context,
+                                  const v1::ReleaseReservationRequest* request,
+                                  v1::ReleaseReservationResponse* response) override;
+  grpc::Status RenewReservation(grpc::ServerContext* context,
+                                const v1::RenewReservationRequest* request,
+                                v1::Reservation* response) override;
+  grpc::Status ListReservations(grpc::ServerContext* context,
+                                const v1::ListReservationsRequest* request,
+                                v1::ListReservationsResponse* response) override;
+  grpc::Status ReportProgress(grpc::ServerContext* context,
+                              const v1::ReportProgressRequest* request,
+                              v1::ReportProgressResponse* response) override;
+
+ private:
+  // NOT_FOUND MAP_NOT_FOUND unless the registry holds `map_id`; its current version.
+  Result<std::string> CurrentVersion(const std::string& map_id) const;
+  RpcService Rpc() const { return {v1::TrafficService::service_full_name(), tokens_}; }
+
+  const MapRegistry* registry_;
+  ReservationSchedule* schedule_;
+  const TokenTable* tokens_;
+};
+
+}  // namespace strata::server

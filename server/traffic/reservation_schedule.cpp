@@ -1,0 +1,243 @@
+#include "traffic/reservation_schedule.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <climits>
+#include <cmath>
+#include <span>
+#include <utility>
+
+#include <fmt/format.h>
+
+namespace strata::server {
+namespace {
+
+constexpr std::size_t kMaxRobotIdLength = 128;
+// How far in the past a reservation may start [s]: a robot that asked a moment ago, or whose
+// clock is slightly behind the server's, is not refused.
+constexpr double kMaxStartInPastS = 60;
+
+bool Printable(const std::string& text) {
+  return std::all_of(text.begin(), text.end(), [](char c) { return c > ' ' && c != 0x7f; });
+}
+
+}  // namespace
+
+std::int64_t SystemNowNs() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+ReservationSchedule::ReservationSchedule(ScheduleLimits limits,
+                                         std::function<std::int64_t()> now_ns)
+    : limits_(limits), now_ns_(std::move(now_ns)) {}
+
+ServiceStatus ReservationSchedule::CheckRequest(const std::string& robot_id,
+                                                std::string_view robot_field, std::int64_t start_ns,
+                                                double lease_s) const {
+  if (robot_id.empty() || robot_id.size() > kMaxRobotIdLength || !Printable(robot_id)) {
+    return MakeError(ErrorCode::kInvalidInput,
+                     fmt::format("{} must be 1 to {} printable characters without spaces; got "
+                                 "{} characters",
+                                 robot_field, kMaxRobotIdLength, robot_id.size()))
+        .Blame(std::string(robot_field));
+  }
+  const double ahead_s = SecondsBetween(now_ns_(), start_ns);
+  if (ahead_s > limits_.max_horizon_s || ahead_s < -kMaxStartInPastS) {
+    return MakeError(ErrorCode::kInvalidInput,
+                     fmt::format("the trajectory would start {:.1f} s from now: this server "
+                                 "takes starts from {:.0f} s ago to {:.0f} s ahead "
+                                 "(--max-reservation-horizon-s)",
+                                 ahead_s, kMaxStartInPastS, limits_.max_horizon_s));
+  }
+  if (!(lease_s > 0 && lease_s <= limits_.max_lease_s)) {
+    return MakeError(ErrorCode::kInvalidInput,
+                     fmt::format("lease_s = {:g} is out of range: must be > 0 and at most {:g} "
+                                 "(--max-lease-s)",
+                                 lease_s, limits_.max_lease_s));
+  }
+  return OkStatus();
+}
+
+ReservationSchedule::MapSchedule& ReservationSchedule::Live(const std::string& map_id) {
+  MapSchedule& schedule = maps_[map_id];
+  const std::int64_t now = now_ns_();
+  const std::size_t expired = std::erase_if(schedule.by_robot, [now](const auto& entry) {
+    return entry.second.reserved.motion.end_ns < now;
+  });
+  if (expired > 0) {
+    collected_ += expired;
+    ++schedule.revision;
+  }
+  return schedule;
+}
+
+std::vector<ReservedMotion> ReservationSchedule::Others(const MapSchedule& schedule,
+                                                        const std::string& robot_id) {
+  std::vector<ReservedMotion> others;
+  others.reserve(schedule.by_robot.size());
+  for (const auto& [robot, reservation] : schedule.by_robot) {
+    if (robot != robot_id) others.push_back(reservation.reserved);
+  }
+  return others;
+}
+
+ServiceStatus ReservationSchedule::MayChange(const Reservation& existing, const Caller& caller) {
+  if (caller.admin || existing.owner == caller.owner) return OkStatus();
+  return MakeError(ServiceErrorCode::kPermissionDenied,
+                   fmt::format("robot {}'s reservation was made with another token: only that "
+                               "token or an admin one may change it",
+                               existing.reserved.robot_id));
+}
+
+ReservationSchedule::Traffic ReservationSchedule::OthersOf(const std::string& map_id,
+                                                           const std::string& robot_id) {
+  std::lock_guard lock(mutex_);
+  const MapSchedule& schedule = Live(map_id);
+  return {schedule.revision, Others(schedule, robot_id)};
+}
+
+Result<Reservation> ReservationSchedule::Commit(Reservation reservation, const SeparationRule& rule,
+                                                const Caller& caller) {
+  std::lock_guard lock(mutex_);
+  MapSchedule& schedule = Live(reservation.map_id);
+  const std::string& robot_id = reservation.reserved.robot_id;
+  const auto existing = schedule.by_robot.find(robot_id);
+  if (existing != schedule.by_robot.end()) {
+    if (ServiceStatus may = MayChange(existing->second, caller); !may.ok()) return may.error();
+  } else if (static_cast<int>(schedule.by_robot.size()) >= limits_.max_reservations_per_map) {
+    return MakeError(ErrorCode::kResourceExhausted,
+                     fmt::format("map {} holds {} reservations, the most this server keeps per "
+                                 "map (--max-reservations): release some first",
+                                 reservation.map_id, schedule.by_robot.size()));
+  }
+  const std::vector<ReservedMotion> others = Others(schedule, robot_id);
+  if (Status clear = CheckSeparation(reservation.reserved.motion, others, rule); !clear) {
+    return ServiceError::FromPlanner(clear.error());
+  }
+  reservation.owner = caller.owner;
+  reservation.revision = ++schedule.revision;
+  schedule.by_robot[robot_id] = reservation;
+  return reservation;
+}
+
+Result<Reservation> ReservationSchedule::Renew(const std::string& map_id,
+                                               const std::string& robot_id, double lease_s,
+                                               const SeparationRule& rule, const Caller& caller) {
+  std::lock_guard lock(mutex_);
+  MapSchedule& schedule = Live(map_id);
+  const auto found = schedule.by_robot.find(robot_id);
+  if (found == schedule.by_robot.end()) {
+    return MakeError(ServiceErrorCode::kReservationNotFound,
+                     fmt::format("robot {} holds no reservation on map {} (never made, released, "
+                                 "or its lease expired): plan or reserve again",
+                                 robot_id, map_id));
+  }
+  if (ServiceStatus may = MayChange(found->second, caller); !may.ok()) return may.error();
+  Reservation renewed = found->second;
+  FleetMotion& motion = renewed.reserved.motion;
+  motion.end_ns = std::max(motion.end_ns, AddSeconds(now_ns_(), lease_s));
+  const std::vector<ReservedMotion> others = Others(schedule, robot_id);
+  if (Status clear = CheckSeparation(motion, others, rule); !clear) {
+    return ServiceError::FromPlanner(clear.error());
+  }
+  renewed.revision = ++schedule.revision;
+  found->second = renewed;
+  return renewed;
+}
+
+Result<ReservationSchedule::Moved> ReservationSchedule::Shift(const std::string& map_id,
+                                                              const std::string& robot_id,
+                                                              double delay_s,
+                                                              const SeparationRule& rule,
+                                                              const Caller& caller) {
+  if (!(std::isfinite(delay_s) && std::abs(delay_s) <= limits_.max_horizon_s)) {
+    return MakeError(ErrorCode::kInvalidInput,
+                     fmt::format("delay_s = {:g} is out of range: must be finite and at most {:g} "
+                                 "s either way (--max-reservation-horizon-s)",
+                                 delay_s, limits_.max_horizon_s))
+        .Blame("delay_s");
+  }
+  std::lock_guard lock(mutex_);
+  MapSchedule& schedule = Live(map_id);
+  const auto found = schedule.by_robot.find(robot_id);
+  if (found == schedule.by_robot.end()) {
+    return MakeError(ServiceErrorCode::kReservationNotFound,
+                     fmt::format("robot {} holds no reservation on map {} (never made, released, "
+                                 "or its lease expired)",
+                                 robot_id, map_id));
+  }
+  if (ServiceStatus may = MayChange(found->second, caller); !may.ok()) return may.error();
+  Moved moved{found->second, {}};
+  FleetMotion& motion = moved.reservation.reserved.motion;
+  motion.start_ns = AddSeconds(motion.start_ns, delay_s);
+  motion.end_ns = AddSeconds(motion.end_ns, delay_s);
+  moved.reservation.revision = ++schedule.revision;
+  found->second = moved.reservation;
+  for (const auto& [robot, other] : schedule.by_robot) {
+    if (robot == robot_id) continue;
+    const std::optional<TrafficConflict> meeting =
+        FirstTrafficConflict(motion, std::span(&other.reserved, 1), rule);
+    if (meeting) moved.meetings.push_back({robot, meeting->conflict});
+  }
+  std::sort(moved.meetings.begin(), moved.meetings.end(), [](const Meeting& a, const Meeting& b) {
+    return a.conflict.time_ns < b.conflict.time_ns;
+  });
+  return moved;
+}
+
+Result<std::uint64_t> ReservationSchedule::Release(const std::string& map_id,
+                                                   const std::string& robot_id,
+                                                   const Caller& caller) {
+  std::lock_guard lock(mutex_);
+  MapSchedule& schedule = Live(map_id);
+  const auto found = schedule.by_robot.find(robot_id);
+  if (found == schedule.by_robot.end()) {
+    return MakeError(ServiceErrorCode::kReservationNotFound,
+                     fmt::format("robot {} holds no reservation on map {} (never made, released, "
+                                 "or its lease expired)",
+                                 robot_id, map_id));
+  }
+  if (ServiceStatus may = MayChange(found->second, caller); !may.ok()) return may.error();
+  schedule.by_robot.erase(found);
+  return ++schedule.revision;
+}
+
+ReservationSchedule::Listing ReservationSchedule::List(const std::string& map_id,
+                                                       std::int64_t from_ns, std::int64_t to_ns) {
+  std::lock_guard lock(mutex_);
+  const MapSchedule& schedule = Live(map_id);
+  Listing listing{schedule.revision, {}};
+  for (const auto& [robot, reservation] : schedule.by_robot) {
+    const FleetMotion& motion = reservation.reserved.motion;
+    if (motion.end_ns >= from_ns && motion.start_ns <= to_ns) {
+      listing.reservations.push_back(reservation);
+    }
+  }
+  return listing;
+}
+
+void ReservationSchedule::DropMap(const std::string& map_id) {
+  std::lock_guard lock(mutex_);
+  maps_.erase(map_id);
+}
+
+std::size_t ReservationSchedule::size() const {
+  std::lock_guard lock(mutex_);
+  const std::int64_t now = now_ns_();
+  std::size_t total = 0;
+  for (const auto& [id, schedule] : maps_) {
+    total += std::count_if(
+        schedule.by_robot.begin(), schedule.by_robot.end(),
+        [now](const auto& entry) { return entry.second.reserved.motion.end_ns >= now; });
+  }
+  return total;
+}
+
+std::uint64_t ReservationSchedule::collected() const {
+  std::lock_guard lock(mutex_);
+  return collected_;
+}
+
+}  // namespace strata::server

@@ -1,0 +1,147 @@
+#pragma once
+/// The reservations of every map: each robot's committed motion, kept in this server's
+/// memory, committed atomically against the others (checked exactly, under one lock per
+/// schedule), renewed, released and collected when their leases expire. No gRPC here: the
+/// traffic service and Plan adapt protobuf to it (rpc/traffic_service.hpp).
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "common/service_error.hpp"
+#include "strata/fleet/traffic.hpp"
+
+namespace strata::server {
+
+/// Set from ServerConfig (server/ops/flags.hpp), which holds the defaults and the flags.
+struct ScheduleLimits {
+  int max_reservations_per_map = 0;  ///< --max-reservations, >= 1.
+  double default_lease_s = 0;        ///< --default-lease-s, in (0, max_lease_s].
+  double max_lease_s = 0;            ///< --max-lease-s, > 0.
+  /// --max-reservation-horizon-s: how far ahead of now a reservation may start, > 0.
+  double max_horizon_s = 0;
+  double default_separation_m = 0;  ///< --separation-m, >= 0.
+};
+
+/// One robot's committed motion on one map.
+struct Reservation {
+  std::string map_id;
+  std::string map_version;
+  ReservedMotion reserved;  ///< reserved.robot_id names the robot; reserved.motion.end_ns is
+                            ///< the lease's expiry.
+  /// Who made it: a fingerprint of the caller's token (OwnerOf), empty without tokens. Only the
+  /// same owner, or an admin, may change it.
+  std::string owner;
+  std::uint64_t revision = 0;  ///< The map's schedule revision that committed or last changed it.
+};
+
+/// Who is asking to change a reservation.
+struct Caller {
+  std::string owner;   ///< As Reservation::owner.
+  bool admin = false;  ///< May change any robot's reservation.
+};
+
+/// The nanoseconds since the Unix epoch now (the server's clock).
+std::int64_t SystemNowNs();
+
+class ReservationSchedule {
+ public:
+  /// `now_ns` is the clock (tests pass their own).
+  explicit ReservationSchedule(ScheduleLimits limits,
+                               std::function<std::int64_t()> now_ns = SystemNowNs);
+
+  const ScheduleLimits& limits() const { return limits_; }
+  std::int64_t NowNs() const { return now_ns_(); }
+
+  /// What a robot plans against on `map_id`: the others' live motions, and the revision.
+  struct Traffic {
+    std::uint64_t revision = 0;
+    std::vector<ReservedMotion> others;
+  };
+  Traffic OthersOf(const std::string& map_id, const std::string& robot_id);
+
+  /// Checks what a new reservation may be, before any work: a robot id of 1 to 128 printable
+  /// characters (blamed as `robot_field`), a start no earlier than a minute ago nor further
+  /// ahead than the horizon, a lease in (0, max_lease_s]. kInvalidInput naming the bound.
+  ServiceStatus CheckRequest(const std::string& robot_id, std::string_view robot_field,
+                             std::int64_t start_ns, double lease_s) const;
+
+  /// Commits `reservation` (its revision is set here) as its robot's, replacing the robot's
+  /// own earlier one, when its motion meets no other live reservation on its map under `rule`
+  /// (CheckSeparation, exact); otherwise kReservationConflict naming the first meeting.
+  /// kResourceExhausted when the map holds max_reservations_per_map others already;
+  /// kPermissionDenied when the robot's reservation belongs to another owner and `caller` is
+  /// no admin. Returns the reservation as committed.
+  Result<Reservation> Commit(Reservation reservation, const SeparationRule& rule,
+                             const Caller& caller);
+
+  /// Extends robot_id's lease to now + lease_s (never shortening it), when the longer stay
+  /// meets no other reservation under `rule`. kReservationNotFound, kPermissionDenied,
+  /// kReservationConflict (the lease stays as it was).
+  Result<Reservation> Renew(const std::string& map_id, const std::string& robot_id, double lease_s,
+                            const SeparationRule& rule, const Caller& caller);
+
+  /// Where a moved reservation meets another robot's: that robot, and the first moment.
+  struct Meeting {
+    std::string robot_id;
+    MotionConflict conflict;
+  };
+  struct Moved {
+    Reservation reservation;
+    std::vector<Meeting> meetings;  ///< Earliest first.
+  };
+  /// Moves robot_id's reservation by `delay_s` (its start and its expiry alike): the robot is
+  /// late (> 0) or early. Committed even when it then meets others (the robot is where it is);
+  /// returns it with its first meeting with each other robot under `rule`. kInvalidInput for a
+  /// delay that is not finite or longer than the horizon, kReservationNotFound,
+  /// kPermissionDenied.
+  Result<Moved> Shift(const std::string& map_id, const std::string& robot_id, double delay_s,
+                      const SeparationRule& rule, const Caller& caller);
+
+  /// Removes robot_id's reservation; returns the map's revision after it.
+  /// kReservationNotFound, kPermissionDenied.
+  Result<std::uint64_t> Release(const std::string& map_id, const std::string& robot_id,
+                                const Caller& caller);
+
+  /// The live reservations on `map_id` whose time overlaps [from_ns, to_ns], by robot id,
+  /// and the revision.
+  struct Listing {
+    std::uint64_t revision = 0;
+    std::vector<Reservation> reservations;
+  };
+  Listing List(const std::string& map_id, std::int64_t from_ns = INT64_MIN,
+               std::int64_t to_ns = INT64_MAX);
+
+  /// Forgets every reservation of `map_id` (the map was deleted).
+  void DropMap(const std::string& map_id);
+
+  /// Reservations whose lease has not expired, over every map, and how many expired ones were
+  /// collected so far.
+  std::size_t size() const;
+  std::uint64_t collected() const;
+
+ private:
+  struct MapSchedule {
+    std::uint64_t revision = 0;
+    std::map<std::string, Reservation> by_robot;
+  };
+  // The map's schedule with expired leases collected (a collection moves the revision).
+  // Call with mutex_ held.
+  MapSchedule& Live(const std::string& map_id);
+  // The reservations of `schedule` but robot_id's, as the planner takes them.
+  static std::vector<ReservedMotion> Others(const MapSchedule& schedule,
+                                            const std::string& robot_id);
+  // kPermissionDenied unless `caller` may change `existing`.
+  static ServiceStatus MayChange(const Reservation& existing, const Caller& caller);
+
+  const ScheduleLimits limits_;
+  const std::function<std::int64_t()> now_ns_;
+  mutable std::mutex mutex_;
+  std::map<std::string, MapSchedule> maps_;  // By map id; guarded by mutex_.
+  std::uint64_t collected_ = 0;              // Guarded by mutex_.
+};
+
+}  // namespace strata::server

@@ -1,0 +1,248 @@
+// Robots of a fleet through the real server: plans with a fleet block wait or go around the
+// reservations of the others and commit their own; TrafficService reserves, renews, releases
+// and lists them. Every committed pair is checked exactly by the planner's own check, from the
+// reservations as the server lists them.
+#include <future>
+#include <string>
+#include <vector>
+
+#include <gmock/gmock.h>
+
+#include "rpc/proto_convert.hpp"
+#include "rpc/traffic_convert.hpp"
+#include "server_fixture.hpp"
+#include "strata/fleet/traffic.hpp"
+#include "strata/v1/traffic_service.grpc.pb.h"
+
+namespace strata::server::testing {
+namespace {
+
+using ::testing::HasSubstr;
+
+// Two diagonals across the demo's ground floor (beside the ramp, under the deck's edge), of the
+// same length: two robots leaving at once meet in the middle.
+constexpr double kFloorZ = 0.3;
+
+v1::PlanRequest FleetPlan(const std::string& robot, double sx, double sy, double gx, double gy,
+                          std::int64_t departure_ns, bool reserve = true) {
+  v1::PlanRequest request = PlanRequestFor("demo", sx, sy, kFloorZ, gx, gy, kFloorZ);
+  ToProto(departure_ns, request.mutable_departure_time());
+  request.mutable_fleet()->set_robot_id(robot);
+  request.mutable_fleet()->set_reserve(reserve);
+  return request;
+}
+
+FleetMotion MotionOf(const v1::Reservation& reservation) {
+  FleetMotion motion;
+  motion.start_ns = FromProto(reservation.start_time(), "start_time").value();
+  motion.end_ns = FromProto(reservation.expiry_time(), "expiry_time").value();
+  motion.trajectory = FromProto(reservation.trajectory()).value();
+  motion.body = FromProto(reservation.body(), "body").value();
+  return motion;
+}
+
+class ServerFleetTest : public ServerFixture {
+ protected:
+  void SetUp() override {
+    ASSERT_NO_FATAL_FAILURE(StartServer());
+    traffic_ = v1::TrafficService::NewStub(channel_);
+    // A common departure a little ahead, so that the plans' timing does not depend on how long
+    // each took to make.
+    departure_ns_ = AddSeconds(SystemNowNs(), 30);
+  }
+
+  v1::ListReservationsResponse List() {
+    grpc::ClientContext context;
+    SetDeadline(&context, 10);
+    v1::ListReservationsRequest request;
+    request.set_map_id("demo");
+    v1::ListReservationsResponse response;
+    EXPECT_TRUE(traffic_->ListReservations(&context, request, &response).ok());
+    return response;
+  }
+
+  // No two listed reservations meet (the planner's exact check).
+  void ExpectNoTwoMeet() {
+    const v1::ListReservationsResponse listed = List();
+    std::vector<ReservedMotion> all;
+    for (const v1::Reservation& r : listed.reservations())
+      all.push_back({r.robot_id(), MotionOf(r)});
+    for (std::size_t i = 0; i < all.size(); ++i) {
+      const std::span<const ReservedMotion> later(all.data() + i + 1, all.size() - i - 1);
+      EXPECT_FALSE(FirstTrafficConflict(all[i].motion, later, SeparationRule{}).has_value())
+          << all[i].robot_id << " meets another robot";
+    }
+  }
+
+  std::unique_ptr<v1::TrafficService::Stub> traffic_;
+  std::int64_t departure_ns_ = 0;
+};
+
+TEST_F(ServerFleetTest, ASecondRobotIntoTheSameCrossingWaitsOrGoesAroundAndBothAreReserved) {
+  v1::PlanResponse first;
+  const grpc::Status a = Plan(FleetPlan("a", 3, 5, 13, 10, departure_ns_), &first, 120);
+  ASSERT_TRUE(a.ok()) << a.error_message();
+  EXPECT_EQ(first.reservation().robot_id(), "a");
+  EXPECT_EQ(first.wait_s(), 0);
+
+  // Alone (not avoiding, not reserving), the second robot's plan meets the first one.
+  v1::PlanRequest alone = FleetPlan("b", 3, 10, 13, 5, departure_ns_, /*reserve=*/false);
+  alone.mutable_fleet()->set_avoid_reservations(false);
+  v1::PlanResponse blind;
+  ASSERT_TRUE(Plan(alone, &blind, 120).ok());
+  FleetMotion blind_motion = MotionOf(first.reservation());
+  blind_motion.start_ns = departure_ns_;
+  blind_motion.trajectory = FromProto(blind.trajectory()).value();
+  blind_motion.end_ns = blind_motion.ArrivalNs();
+  const std::vector<ReservedMotion> first_only = {{"a", MotionOf(first.reservation())}};
+  ASSERT_TRUE(FirstTrafficConflict(blind_motion, first_only, SeparationRule{}).has_value())
+      << "the scenario must make the two robots meet when the second ignores the first";
+
+  v1::PlanResponse second;
+  const grpc::Status b = Plan(FleetPlan("b", 3, 10, 13, 5, departure_ns_), &second, 120);
+  ASSERT_TRUE(b.ok()) << b.error_message();
+  EXPECT_EQ(second.reservation().robot_id(), "b");
+  EXPECT_GT(second.reservation().revision(), first.reservation().revision());
+  EXPECT_EQ(List().reservations_size(), 2);
+  ExpectNoTwoMeet();
+}
+
+TEST_F(ServerFleetTest, TwoRobotsPlanningIntoOneCrossingAtOnceAreBothServedAndNeverMeet) {
+  auto plan = [this](const std::string& robot, double sx, double sy, double gx, double gy) {
+    auto stub = v1::PlannerService::NewStub(channel_);
+    grpc::ClientContext context;
+    SetDeadline(&context, 120);
+    v1::PlanResponse response;
+    return stub->Plan(&context, FleetPlan(robot, sx, sy, gx, gy, departure_ns_), &response);
+  };
+  auto a = std::async(std::launch::async, plan, "a", 3, 5, 13, 10);
+  auto b = std::async(std::launch::async, plan, "b", 3, 10, 13, 5);
+  const grpc::Status first = a.get(), second = b.get();
+  EXPECT_TRUE(first.ok()) << first.error_message();
+  EXPECT_TRUE(second.ok()) << second.error_message();
+  EXPECT_EQ(List().reservations_size(), 2);
+  ExpectNoTwoMeet();
+}
+
+TEST_F(ServerFleetTest, ReservingATrajectoryThatMeetsAnotherIsRefusedNamingTheRobot) {
+  v1::PlanResponse first;
+  ASSERT_TRUE(Plan(FleetPlan("a", 3, 5, 13, 10, departure_ns_), &first, 120).ok());
+  v1::PlanResponse blind;
+  v1::PlanRequest alone = FleetPlan("b", 3, 10, 13, 5, departure_ns_, /*reserve=*/false);
+  alone.mutable_fleet()->set_avoid_reservations(false);
+  ASSERT_TRUE(Plan(alone, &blind, 120).ok());
+
+  v1::ReserveTrajectoryRequest reserve;
+  reserve.set_map_id("demo");
+  reserve.set_robot_id("b");
+  *reserve.mutable_start_time() = blind.departure_time();
+  *reserve.mutable_trajectory() = blind.trajectory();
+  reserve.set_profile_name("differential");
+  grpc::ClientContext context;
+  SetDeadline(&context, 30);
+  v1::Reservation committed;
+  const CallError refused = ErrorOf(traffic_->ReserveTrajectory(&context, reserve, &committed));
+  EXPECT_EQ(refused.code, grpc::StatusCode::FAILED_PRECONDITION);
+  EXPECT_EQ(refused.reason, "RESERVATION_CONFLICT");
+  EXPECT_THAT(refused.message, HasSubstr("robot 'a'"));
+  EXPECT_EQ(List().reservations_size(), 1);
+
+  // The same trajectory a minute later is clear, and is reserved as given.
+  ToProto(AddSeconds(departure_ns_, 60), reserve.mutable_start_time());
+  grpc::ClientContext later;
+  SetDeadline(&later, 30);
+  const grpc::Status ok = traffic_->ReserveTrajectory(&later, reserve, &committed);
+  ASSERT_TRUE(ok.ok()) << ok.error_message();
+  EXPECT_EQ(committed.trajectory().pieces_size(), blind.trajectory().pieces_size());
+  ExpectNoTwoMeet();
+}
+
+TEST_F(ServerFleetTest, ReservationsAreRenewedReleasedAndRefusedWhenMissing) {
+  v1::PlanResponse first;
+  ASSERT_TRUE(Plan(FleetPlan("a", 3, 5, 13, 10, departure_ns_), &first, 120).ok());
+  const std::int64_t expiry = FromProto(first.reservation().expiry_time(), "").value();
+
+  v1::RenewReservationRequest renew;
+  renew.set_map_id("demo");
+  renew.set_robot_id("a");
+  renew.set_lease_s(600);
+  v1::Reservation renewed;
+  grpc::ClientContext renew_context;
+  ASSERT_TRUE(traffic_->RenewReservation(&renew_context, renew, &renewed).ok());
+  EXPECT_GT(FromProto(renewed.expiry_time(), "").value(), expiry);
+
+  v1::ReleaseReservationRequest release;
+  release.set_map_id("demo");
+  release.set_robot_id("a");
+  v1::ReleaseReservationResponse released;
+  grpc::ClientContext release_context;
+  ASSERT_TRUE(traffic_->ReleaseReservation(&release_context, release, &released).ok());
+  EXPECT_GT(released.revision(), renewed.revision());
+  EXPECT_EQ(List().reservations_size(), 0);
+
+  grpc::ClientContext again;
+  const CallError missing = ErrorOf(traffic_->ReleaseReservation(&again, release, &released));
+  EXPECT_EQ(missing.code, grpc::StatusCode::NOT_FOUND);
+  EXPECT_EQ(missing.reason, "RESERVATION_NOT_FOUND");
+
+  release.set_map_id("no_such_map");
+  grpc::ClientContext unknown;
+  EXPECT_EQ(ErrorOf(traffic_->ReleaseReservation(&unknown, release, &released)).reason,
+            "MAP_NOT_FOUND");
+}
+
+TEST_F(ServerFleetTest, ALateRobotReportsItAndLearnsWhomItNowMeets) {
+  // b crosses a's way 30 s after a: clear. Then a reports 30 s late: now they meet.
+  v1::PlanResponse first, second;
+  ASSERT_TRUE(Plan(FleetPlan("a", 3, 5, 13, 10, departure_ns_), &first, 120).ok());
+  ASSERT_TRUE(Plan(FleetPlan("b", 3, 10, 13, 5, AddSeconds(departure_ns_, 30)), &second, 120).ok());
+  EXPECT_EQ(second.wait_s(), 0);
+  v1::ReportProgressRequest late;
+  late.set_map_id("demo");
+  late.set_robot_id("a");
+  late.set_delay_s(30);
+  v1::ReportProgressResponse moved;
+  grpc::ClientContext context;
+  const grpc::Status reported = traffic_->ReportProgress(&context, late, &moved);
+  ASSERT_TRUE(reported.ok()) << reported.error_message();
+  EXPECT_EQ(FromProto(moved.reservation().start_time(), "").value(), AddSeconds(departure_ns_, 30));
+  ASSERT_EQ(moved.meetings_size(), 1);
+  EXPECT_EQ(moved.meetings(0).robot_id(), "b");
+  const std::int64_t when = FromProto(moved.meetings(0).time(), "").value();
+  EXPECT_GT(when, AddSeconds(departure_ns_, 30));
+  // The list holds the late reservation: the two now meet, as the answer said.
+  v1::ListReservationsResponse listed = List();
+  EXPECT_EQ(listed.separation_m(), SeparationRule{}.separation_m);
+  std::vector<ReservedMotion> all;
+  for (const v1::Reservation& r : listed.reservations()) all.push_back({r.robot_id(), MotionOf(r)});
+  ASSERT_EQ(all.size(), 2u);
+  EXPECT_TRUE(FirstTrafficConflict(all[0].motion, std::span(&all[1], 1), SeparationRule{}));
+}
+
+TEST_F(ServerFleetTest, BadFleetRequestsNameTheFieldToFix) {
+  v1::PlanRequest no_robot = FleetPlan("", 3, 5, 13, 10, departure_ns_);
+  v1::PlanResponse response;
+  CallError error = ErrorOf(Plan(no_robot, &response));
+  EXPECT_EQ(error.code, grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_THAT(error.fields, ::testing::Contains("fleet.robot_id"));
+
+  v1::PlanRequest waits_too_long = FleetPlan("a", 3, 5, 13, 10, departure_ns_);
+  waits_too_long.mutable_fleet()->set_max_wait_s(7200);
+  error = ErrorOf(Plan(waits_too_long, &response));
+  EXPECT_EQ(error.code, grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_THAT(error.fields, ::testing::Contains("fleet.max_wait_s"));
+
+  v1::PlanRequest far_ahead = FleetPlan("a", 3, 5, 13, 10, AddSeconds(departure_ns_, 86400));
+  error = ErrorOf(Plan(far_ahead, &response));
+  EXPECT_EQ(error.code, grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_THAT(error.message, HasSubstr("--max-reservation-horizon-s"));
+
+  v1::PlanRequest departure_alone = PlanRequestFor("demo", 3, 5, kFloorZ, 13, 10, kFloorZ);
+  ToProto(departure_ns_, departure_alone.mutable_departure_time());
+  error = ErrorOf(Plan(departure_alone, &response));
+  EXPECT_THAT(error.fields, ::testing::Contains("departure_time"));
+  EXPECT_EQ(List().reservations_size(), 0);
+}
+
+}  // namespace
+}  // namespace strata::server::testing
