@@ -47,9 +47,9 @@ Status CheckSeparation(const FleetMotion& own, std::span<const ReservedMotion> o
   const std::string& robot = others[first->other].robot_id;
   Error error{ErrorCode::kReservationConflict,
               fmt::format("the trajectory meets robot {}'s reservation {:.3f} s after it starts: "
-                          "at ({:.2f}, {:.2f}, {:.2f}) m it comes within {:.3f} m of that robot "
-                          "at ({:.2f}, {:.2f}, {:.2f}) m, closer than the {:.3f} m the two bodies "
-                          "and the separation need",
+                          "at ({:.2f}, {:.2f}, {:.2f}) m it is {:.3f} m from that robot at "
+                          "({:.2f}, {:.2f}, {:.2f}) m, where the two bodies and the separation "
+                          "need {:.3f} m",
                           internal::Quote(robot), SecondsBetween(own.start_ns, c.time_ns),
                           c.point_a.x(), c.point_a.y(), c.point_a.z(), c.horizontal_distance_m,
                           c.point_b.x(), c.point_b.y(), c.point_b.z(), c.limit_m)};
