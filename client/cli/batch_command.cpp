@@ -3,7 +3,6 @@
 #include <fstream>
 
 #include <fmt/format.h>
-#include <google/protobuf/util/json_util.h>
 
 #include "commands.hpp"
 #include "connection.hpp"
@@ -36,11 +35,7 @@ void PrintResult(const Context& ctx, const v1::PlanBatchRequest& batch,
                  const v1::PlanBatchResponse& item) {
   std::ostream& out = *ctx.out;
   if (ctx.json) {
-    google::protobuf::util::JsonPrintOptions options;
-    options.preserve_proto_field_names = true;
-    std::string json;
-    (void)google::protobuf::util::MessageToJsonString(item, &json, options);
-    out << json << "\n";
+    out << ToJsonLine(item);
     return;
   }
   const int index = static_cast<int>(item.index());

@@ -16,6 +16,10 @@ namespace strata::cli {
 /// proto/README.md), every field printed even when zero (keys do not come and go), indented.
 std::string ToJson(const google::protobuf::Message& message);
 
+/// The message as one line of compact JSON (proto field names), newline included: a stream's
+/// items as JSON lines.
+std::string ToJsonLine(const google::protobuf::Message& message);
+
 /// Parses JSON (as ToJson or grpcurl print it) into `message`; throws UsageError naming
 /// `what` when it is not valid JSON for the message.
 void FromJson(const std::string& json, const std::string& what, google::protobuf::Message* message);

@@ -1,4 +1,4 @@
-// `strata reservations list|renew|report|release`: the robots' reservations on a map
+// `strata reservations list|watch|renew|report|release`: the robots' reservations on a map
 // (TrafficService).
 #include <fmt/format.h>
 
@@ -113,6 +113,33 @@ int Report(const Context& ctx, const RobotFlags& flags) {
   return kExitOk;
 }
 
+// Prints each change as it comes, until the deadline (--deadline), which ends it normally.
+int Watch(const Context& ctx, const std::string& map) {
+  v1::WatchScheduleRequest request;
+  request.set_map_id(map);
+  grpc::ClientContext call;
+  PrepareCall(ctx, &call);
+  auto stream = Stub(ctx)->WatchSchedule(&call, request);
+  v1::ScheduleChange change;
+  while (stream->Read(&change)) {
+    if (ctx.json) {
+      *ctx.out << ToJsonLine(change);
+    } else {
+      *ctx.out << "revision " << change.revision() << ": robot " << change.robot_id() << " "
+               << v1::ScheduleChange::Kind_Name(change.kind());
+      if (change.has_reservation()) {
+        *ctx.out << " from " << FormatTime(change.reservation().start_time()) << " until "
+                 << FormatTime(change.reservation().expiry_time());
+      }
+      *ctx.out << "\n";
+    }
+    ctx.out->flush();
+  }
+  const grpc::Status status = stream->Finish();
+  if (status.ok() || status.error_code() == grpc::StatusCode::DEADLINE_EXCEEDED) return kExitOk;
+  return ReportRpcError(ctx, "WatchSchedule", status);
+}
+
 }  // namespace
 
 void AddReservationsCommands(CLI::App& app, const Context& ctx, Command* run) {
@@ -123,6 +150,12 @@ void AddReservationsCommands(CLI::App& app, const Context& ctx, Command* run) {
       AddCommand<std::string>(*reservations, "list", "ListReservations: every live one, by robot",
                               run, [&ctx](const std::string& map) { return List(ctx, map); });
   list->add_option("--map", *list_map, "map id")->type_name("ID")->required();
+
+  auto [watch, watch_map] = AddCommand<std::string>(
+      *reservations, "watch",
+      "WatchSchedule: each change as it happens, until --deadline (then exit 0)", run,
+      [&ctx](const std::string& map) { return Watch(ctx, map); });
+  watch->add_option("--map", *watch_map, "map id")->type_name("ID")->required();
 
   auto [renew, renew_flags] = AddCommand<RobotFlags>(
       *reservations, "renew", "RenewReservation: hold the robot's goal longer", run,

@@ -224,7 +224,6 @@ ServiceStatus StrataServer::StartMaps(StartInputs* inputs) {
   registry_ = std::make_unique<MapRegistry>(registry_options,
                                             [this](const MapSnapshot& map) { OnMapDone(map); });
   metrics_->WatchMaps(registry_.get());
-  metrics_->WatchReservations(reservations_.get());
   return OkStatus();
 }
 
@@ -242,6 +241,7 @@ ServiceStatus StrataServer::StartServices(const StartInputs& inputs) {
                      .max_lease_s = config.max_lease_s,
                      .max_horizon_s = config.max_reservation_horizon_s,
                      .default_separation_m = config.separation_m});
+  metrics_->WatchReservations(reservations_.get());
   MapServiceOptions map_options;
   map_options.map_root = inputs.map_root;
   map_options.max_points = config.max_points;
@@ -452,6 +452,7 @@ void StrataServer::Shutdown(std::chrono::steady_clock::duration drain_delay,
   }
   registry_->Shutdown();
   std::this_thread::sleep_for(drain_delay);
+  reservations_->Close();  // Schedule watches end now, not at the grace's end.
   // At the grace's end, plans stop and answer SHUTTING_DOWN; gRPC cancels what is left a
   // moment later, once they have had time to send that answer.
   constexpr auto kAnswerTime = std::chrono::milliseconds(500);

@@ -42,6 +42,7 @@ inline constexpr MethodRole kMethodRoles[] = {
     {"/strata.v1.TrafficService/RenewReservation", Role::kPlanner},
     {"/strata.v1.TrafficService/ListReservations", Role::kPlanner},
     {"/strata.v1.TrafficService/ReportProgress", Role::kPlanner},
+    {"/strata.v1.TrafficService/WatchSchedule", Role::kPlanner},
 };
 
 /// The role `method` (a full gRPC name) needs, or nothing when it is not in kMethodRoles.

@@ -1,5 +1,7 @@
 #include "rpc/traffic_service.hpp"
 
+#include <algorithm>
+#include <map>
 #include <optional>
 #include <utility>
 
@@ -178,6 +180,73 @@ ServiceStatus TrafficServiceImpl::Report(const v1::ReportProgressRequest& reques
   return OkStatus();
 }
 
+ServiceStatus TrafficServiceImpl::Watch(
+    const v1::WatchScheduleRequest& request, const CallControl& call,
+    const std::function<bool(const v1::ScheduleChange&)>& write) {
+  const std::string& map_id = request.map_id();
+  if (Result<std::string> map = CurrentVersion(map_id); !map.ok()) return std::move(map).error();
+  if (++watches_ > kMaxWatches) {
+    --watches_;
+    return MakeError(ErrorCode::kResourceExhausted,
+                     fmt::format("this server already serves {} schedule watches: close one, or "
+                                 "watch through another replica",
+                                 kMaxWatches));
+  }
+  struct Release {
+    std::atomic<int>& count;
+    ~Release() { --count; }
+  } release{watches_};
+  // Each robot's reservation as last sent: the next listing is compared with it, so a slow
+  // client gets every robot's latest state and never a backlog.
+  std::map<std::string, Reservation> sent;
+  std::uint64_t revision = 0;
+  for (bool first = true;; first = false) {
+    const ReservationSchedule::Listing listing = schedule_->List(map_id);
+    if (first || listing.revision != revision) {
+      std::map<std::string, Reservation> now;
+      for (const Reservation& r : listing.reservations) now.emplace(r.reserved.robot_id, r);
+      const std::int64_t now_ns = schedule_->NowNs();
+      for (const auto& [robot, before] : sent) {
+        if (now.contains(robot)) continue;
+        v1::ScheduleChange change;
+        change.set_kind(before.reserved.motion.end_ns < now_ns ? v1::ScheduleChange::EXPIRED
+                                                               : v1::ScheduleChange::RELEASED);
+        change.set_robot_id(robot);
+        change.set_revision(listing.revision);
+        if (!write(change)) return OkStatus();  // The client has gone.
+      }
+      for (const auto& [robot, reservation] : now) {
+        const auto before = sent.find(robot);
+        if (before != sent.end() && before->second.revision == reservation.revision) continue;
+        v1::ScheduleChange change;
+        change.set_kind(v1::ScheduleChange::RESERVED);
+        change.set_robot_id(robot);
+        ToProto(reservation, change.mutable_reservation());
+        change.set_revision(listing.revision);
+        if (!write(change)) return OkStatus();
+      }
+      sent = std::move(now);
+      revision = listing.revision;
+    }
+    if (call.cancelled && call.cancelled()) return OkStatus();
+    if (schedule_->closed()) {
+      return MakeError(ServiceErrorCode::kShuttingDown,
+                       "the server is shutting down: watch again through another replica");
+    }
+    if (!registry_->Get(map_id).ok()) {
+      return MakeError(ServiceErrorCode::kMapNotFound,
+                       fmt::format("map {} was deleted, and its schedule with it", map_id));
+    }
+    if (call.LeftSeconds() <= 0) {
+      return MakeError(ErrorCode::kDeadlineExceeded, "the watch ran until its deadline");
+    }
+    // Wake on a change, or within a second to collect expired leases and see a cancellation.
+    schedule_->WaitForChange(
+        map_id, revision,
+        std::min(call.deadline, std::chrono::steady_clock::now() + std::chrono::seconds(1)));
+  }
+}
+
 grpc::Status TrafficServiceImpl::ReserveTrajectory(grpc::ServerContext* context,
                                                    const v1::ReserveTrajectoryRequest* request,
                                                    v1::Reservation* response) {
@@ -216,6 +285,16 @@ grpc::Status TrafficServiceImpl::ReportProgress(grpc::ServerContext* context,
     log.fields.emplace_back("robot", BoundedText(request->robot_id(), 64));
     log.fields.emplace_back("delay_s", fmt::format("{:.3f}", request->delay_s()));
     return Report(*request, CallControlOf(*context), response);
+  });
+}
+
+grpc::Status TrafficServiceImpl::WatchSchedule(grpc::ServerContext* context,
+                                               const v1::WatchScheduleRequest* request,
+                                               grpc::ServerWriter<v1::ScheduleChange>* writer) {
+  return RunRpc(Rpc(), "WatchSchedule", *context, [&](CallLog& log) -> ServiceStatus {
+    log.map_id = request->map_id();
+    return Watch(*request, CallControlOf(*context),
+                 [writer](const v1::ScheduleChange& change) { return writer->Write(change); });
   });
 }
 

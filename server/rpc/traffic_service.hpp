@@ -1,6 +1,9 @@
 #pragma once
 /// strata.v1.TrafficService: the robots' reservations on each map (traffic/
 /// reservation_schedule.hpp), committed, renewed, released and listed over gRPC.
+#include <atomic>
+#include <functional>
+
 #include <grpcpp/grpcpp.h>
 
 #include "maps/map_registry.hpp"
@@ -10,6 +13,9 @@
 #include "traffic/reservation_schedule.hpp"
 
 namespace strata::server {
+
+/// Most WatchSchedule streams a server serves at once: each holds one of gRPC's threads.
+inline constexpr int kMaxWatches = 64;
 
 class TrafficServiceImpl final : public v1::TrafficService::Service {
  public:
@@ -28,6 +34,9 @@ class TrafficServiceImpl final : public v1::TrafficService::Service {
                      v1::ListReservationsResponse* response);
   ServiceStatus Report(const v1::ReportProgressRequest& request, const CallControl& call,
                        v1::ReportProgressResponse* response);
+  /// WatchSchedule's work: `write` sends one change (false: the stream is broken).
+  ServiceStatus Watch(const v1::WatchScheduleRequest& request, const CallControl& call,
+                      const std::function<bool(const v1::ScheduleChange&)>& write);
 
   grpc::Status ReserveTrajectory(grpc::ServerContext* context,
                                  const v1::ReserveTrajectoryRequest* request,
@@ -44,6 +53,8 @@ class TrafficServiceImpl final : public v1::TrafficService::Service {
   grpc::Status ReportProgress(grpc::ServerContext* context,
                               const v1::ReportProgressRequest* request,
                               v1::ReportProgressResponse* response) override;
+  grpc::Status WatchSchedule(grpc::ServerContext* context, const v1::WatchScheduleRequest* request,
+                             grpc::ServerWriter<v1::ScheduleChange>* writer) override;
 
  private:
   // NOT_FOUND MAP_NOT_FOUND unless the registry holds `map_id`; its current version.
@@ -53,6 +64,7 @@ class TrafficServiceImpl final : public v1::TrafficService::Service {
   const MapRegistry* registry_;
   ReservationSchedule* schedule_;
   const TokenTable* tokens_;
+  std::atomic<int> watches_{0};  // WatchSchedule streams open, at most kMaxWatches.
 };
 
 }  // namespace strata::server

@@ -60,6 +60,11 @@ ServiceStatus ReservationSchedule::CheckRequest(const std::string& robot_id,
   return OkStatus();
 }
 
+std::uint64_t ReservationSchedule::NextRevision(MapSchedule& schedule) {
+  changed_.notify_all();
+  return ++schedule.revision;
+}
+
 ReservationSchedule::MapSchedule& ReservationSchedule::Live(const std::string& map_id) {
   MapSchedule& schedule = maps_[map_id];
   const std::int64_t now = now_ns_();
@@ -68,7 +73,7 @@ ReservationSchedule::MapSchedule& ReservationSchedule::Live(const std::string& m
   });
   if (expired > 0) {
     collected_ += expired;
-    ++schedule.revision;
+    NextRevision(schedule);
   }
   return schedule;
 }
@@ -117,7 +122,7 @@ Result<Reservation> ReservationSchedule::Commit(Reservation reservation, const S
     return ServiceError::FromPlanner(clear.error());
   }
   reservation.owner = caller.owner;
-  reservation.revision = ++schedule.revision;
+  reservation.revision = NextRevision(schedule);
   schedule.by_robot[robot_id] = reservation;
   return reservation;
 }
@@ -142,7 +147,7 @@ Result<Reservation> ReservationSchedule::Renew(const std::string& map_id,
   if (Status clear = CheckSeparation(motion, others, rule); !clear) {
     return ServiceError::FromPlanner(clear.error());
   }
-  renewed.revision = ++schedule.revision;
+  renewed.revision = NextRevision(schedule);
   found->second = renewed;
   return renewed;
 }
@@ -173,7 +178,7 @@ Result<ReservationSchedule::Moved> ReservationSchedule::Shift(const std::string&
   FleetMotion& motion = moved.reservation.reserved.motion;
   motion.start_ns = AddSeconds(motion.start_ns, delay_s);
   motion.end_ns = AddSeconds(motion.end_ns, delay_s);
-  moved.reservation.revision = ++schedule.revision;
+  moved.reservation.revision = NextRevision(schedule);
   found->second = moved.reservation;
   for (const auto& [robot, other] : schedule.by_robot) {
     if (robot == robot_id) continue;
@@ -201,7 +206,7 @@ Result<std::uint64_t> ReservationSchedule::Release(const std::string& map_id,
   }
   if (ServiceStatus may = MayChange(found->second, caller); !may.ok()) return may.error();
   schedule.by_robot.erase(found);
-  return ++schedule.revision;
+  return NextRevision(schedule);
 }
 
 ReservationSchedule::Listing ReservationSchedule::List(const std::string& map_id,
@@ -218,9 +223,31 @@ ReservationSchedule::Listing ReservationSchedule::List(const std::string& map_id
   return listing;
 }
 
+std::uint64_t ReservationSchedule::WaitForChange(const std::string& map_id, std::uint64_t revision,
+                                                 std::chrono::steady_clock::time_point deadline) {
+  std::unique_lock lock(mutex_);
+  changed_.wait_until(lock, deadline, [&] {
+    const auto found = maps_.find(map_id);
+    return closed_ || found == maps_.end() || found->second.revision != revision;
+  });
+  return Live(map_id).revision;
+}
+
+void ReservationSchedule::Close() {
+  std::lock_guard lock(mutex_);
+  closed_ = true;
+  changed_.notify_all();
+}
+
+bool ReservationSchedule::closed() const {
+  std::lock_guard lock(mutex_);
+  return closed_;
+}
+
 void ReservationSchedule::DropMap(const std::string& map_id) {
   std::lock_guard lock(mutex_);
   maps_.erase(map_id);
+  changed_.notify_all();
 }
 
 std::size_t ReservationSchedule::size() const {

@@ -3,6 +3,8 @@
 /// memory, committed atomically against the others (checked exactly, under one lock per
 /// schedule), renewed, released and collected when their leases expire. No gRPC here: the
 /// traffic service and Plan adapt protobuf to it (rpc/traffic_service.hpp).
+#include <chrono>
+#include <condition_variable>
 #include <cstdint>
 #include <functional>
 #include <map>
@@ -115,6 +117,16 @@ class ReservationSchedule {
   Listing List(const std::string& map_id, std::int64_t from_ns = INT64_MIN,
                std::int64_t to_ns = INT64_MAX);
 
+  /// Blocks until `map_id`'s revision differs from `revision`, its map is dropped, the
+  /// schedule is closed, or `deadline` passes; returns the revision then (collecting expired
+  /// leases first).
+  std::uint64_t WaitForChange(const std::string& map_id, std::uint64_t revision,
+                              std::chrono::steady_clock::time_point deadline);
+
+  /// Wakes every WaitForChange for good: the server is shutting down.
+  void Close();
+  bool closed() const;
+
   /// Forgets every reservation of `map_id` (the map was deleted).
   void DropMap(const std::string& map_id);
 
@@ -128,6 +140,8 @@ class ReservationSchedule {
     std::uint64_t revision = 0;
     std::map<std::string, Reservation> by_robot;
   };
+  // Moves the schedule's revision and wakes the watchers. Call with mutex_ held.
+  std::uint64_t NextRevision(MapSchedule& schedule);
   // The map's schedule with expired leases collected (a collection moves the revision).
   // Call with mutex_ held.
   MapSchedule& Live(const std::string& map_id);
@@ -140,8 +154,10 @@ class ReservationSchedule {
   const ScheduleLimits limits_;
   const std::function<std::int64_t()> now_ns_;
   mutable std::mutex mutex_;
+  std::condition_variable changed_;  // Notified whenever a revision moves or a map is dropped.
   std::map<std::string, MapSchedule> maps_;  // By map id; guarded by mutex_.
   std::uint64_t collected_ = 0;              // Guarded by mutex_.
+  bool closed_ = false;                      // Guarded by mutex_.
 };
 
 }  // namespace strata::server

@@ -504,6 +504,11 @@ TEST_F(StrataCliTest, PlansAsAFleetRobotReservesListsAndReleases) {
   result = Strata({"--json", "reservations", "list", "--map", "demo"});
   EXPECT_EQ(Parse<v1::ListReservationsResponse>(result.out).reservations(0).robot_id(), "cli-r1");
 
+  // A watch prints the schedule as it is, then its changes, until its deadline: exit 0.
+  result = Strata({"--deadline", "2", "reservations", "watch", "--map", "demo"});
+  EXPECT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_THAT(result.out, HasSubstr("robot cli-r1 RESERVED from 20"));
+
   result =
       Strata({"reservations", "renew", "--map", "demo", "--robot-id", "cli-r1", "--lease", "120"});
   EXPECT_EQ(result.exit_code, 0) << result.err;

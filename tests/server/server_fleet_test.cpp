@@ -219,6 +219,45 @@ TEST_F(ServerFleetTest, ALateRobotReportsItAndLearnsWhomItNowMeets) {
   EXPECT_TRUE(FirstTrafficConflict(all[0].motion, std::span(&all[1], 1), SeparationRule{}));
 }
 
+TEST_F(ServerFleetTest, AWatchSeesEachReservationMadeAndReleasedAndEndsWithItsMap) {
+  grpc::ClientContext context;
+  SetDeadline(&context, 120);
+  v1::WatchScheduleRequest watch;
+  watch.set_map_id("demo");
+  auto stream = traffic_->WatchSchedule(&context, watch);
+  v1::PlanResponse first;
+  ASSERT_TRUE(Plan(FleetPlan("a", 3, 5, 13, 10, departure_ns_), &first, 120).ok());
+  v1::ScheduleChange change;
+  ASSERT_TRUE(stream->Read(&change));
+  EXPECT_EQ(change.kind(), v1::ScheduleChange::RESERVED);
+  EXPECT_EQ(change.robot_id(), "a");
+  EXPECT_EQ(change.reservation().revision(), first.reservation().revision());
+  EXPECT_EQ(change.reservation().trajectory().pieces_size(), first.trajectory().pieces_size());
+
+  v1::ReleaseReservationRequest release;
+  release.set_map_id("demo");
+  release.set_robot_id("a");
+  v1::ReleaseReservationResponse released;
+  grpc::ClientContext release_context;
+  ASSERT_TRUE(traffic_->ReleaseReservation(&release_context, release, &released).ok());
+  ASSERT_TRUE(stream->Read(&change));
+  EXPECT_EQ(change.kind(), v1::ScheduleChange::RELEASED);
+  EXPECT_EQ(change.robot_id(), "a");
+  EXPECT_EQ(change.revision(), released.revision());
+
+  // The map goes, and the watch with it.
+  grpc::ClientContext delete_context;
+  v1::DeleteMapRequest remove;
+  remove.set_map_id("demo");
+  v1::DeleteMapResponse removed;
+  ASSERT_TRUE(maps_->DeleteMap(&delete_context, remove, &removed).ok());
+  while (stream->Read(&change)) {
+  }
+  const CallError ended = ErrorOf(stream->Finish());
+  EXPECT_EQ(ended.code, grpc::StatusCode::NOT_FOUND);
+  EXPECT_EQ(ended.reason, "MAP_NOT_FOUND");
+}
+
 TEST_F(ServerFleetTest, BadFleetRequestsNameTheFieldToFix) {
   v1::PlanRequest no_robot = FleetPlan("", 3, 5, 13, 10, departure_ns_);
   v1::PlanResponse response;

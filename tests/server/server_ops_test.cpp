@@ -241,9 +241,13 @@ TEST_F(ServerOpsTest, MetricsShowTheCountersMoving) {
   EXPECT_EQ(MetricValue(before, "strata_maps", {"state=\"active\""}), 1);
   EXPECT_GT(MetricValue(before, "strata_map_memory_bytes", {}), 0);
   EXPECT_EQ(MetricValue(before, "strata_map_assessment_seconds_count", {"stage=\"total\""}), 1);
+  EXPECT_EQ(MetricValue(before, "strata_reservations", {}), 0);
 
+  v1::PlanRequest reserved = PlanRequestFor("demo", 2, 2, 0.3, 10, 10, 3.3);
+  reserved.mutable_fleet()->set_robot_id("m1");
+  reserved.mutable_fleet()->set_reserve(true);
   v1::PlanResponse response;
-  ASSERT_TRUE(Plan(PlanRequestFor("demo", 2, 2, 0.3, 10, 10, 3.3), &response).ok());
+  ASSERT_TRUE(Plan(reserved, &response).ok());
   ASSERT_FALSE(Plan(PlanRequestFor("nowhere", 2, 2, 0.3, 10, 10, 3.3), &response).ok());
 
   const std::string after = HttpGet(server_->metrics_port(), "/metrics");
@@ -260,6 +264,8 @@ TEST_F(ServerOpsTest, MetricsShowTheCountersMoving) {
   EXPECT_EQ(MetricValue(after, "grpc_server_handling_seconds_count", plan), 2);
   EXPECT_EQ(MetricValue(after, "grpc_server_msg_received_total", plan), 2);
   EXPECT_EQ(MetricValue(after, "strata_plans_total", {"result=\"OK\""}), 1);
+  EXPECT_EQ(MetricValue(after, "strata_reservations", {}), 1);
+  EXPECT_EQ(MetricValue(after, "strata_reservations_expired_total", {}), 0);
   EXPECT_EQ(MetricValue(after, "strata_plans_total", {"result=\"MAP_NOT_FOUND\""}), 1);
   EXPECT_EQ(MetricValue(after, "strata_plan_duration_seconds_count", {"stage=\"search\""}), 1);
   // Health checks (the harness waits for SERVING with Watch) are counted like any other
