@@ -113,12 +113,8 @@ ServiceStatus TrafficServiceImpl::Renew(const v1::RenewReservationRequest& reque
   }
   const ScheduleLimits& limits = schedule_->limits();
   const double lease_s = request.has_lease_s() ? request.lease_s() : limits.default_lease_s;
-  if (!(lease_s > 0 && lease_s <= limits.max_lease_s)) {
-    return MakeError(ErrorCode::kInvalidInput,
-                     fmt::format("lease_s = {:g} is out of range: must be > 0 and at most {:g} "
-                                 "(--max-lease-s)",
-                                 lease_s, limits.max_lease_s))
-        .Blame("lease_s");
+  if (ServiceStatus lease = schedule_->CheckLease(lease_s); !lease.ok()) {
+    return std::move(lease).error().Blame("lease_s");
   }
   Result<SeparationRule> rule = SeparationFrom(
       Optional(request.has_separation_m(), request.separation_m()), limits, "separation_m");

@@ -51,13 +51,15 @@ ServiceStatus ReservationSchedule::CheckRequest(const std::string& robot_id,
                                  "(--max-reservation-horizon-s)",
                                  ahead_s, kMaxStartInPastS, limits_.max_horizon_s));
   }
-  if (!(lease_s > 0 && lease_s <= limits_.max_lease_s)) {
-    return MakeError(ErrorCode::kInvalidInput,
-                     fmt::format("lease_s = {:g} is out of range: must be > 0 and at most {:g} "
-                                 "(--max-lease-s)",
-                                 lease_s, limits_.max_lease_s));
-  }
-  return OkStatus();
+  return CheckLease(lease_s);
+}
+
+ServiceStatus ReservationSchedule::CheckLease(double lease_s) const {
+  if (lease_s > 0 && lease_s <= limits_.max_lease_s) return OkStatus();
+  return MakeError(ErrorCode::kInvalidInput,
+                   fmt::format("lease_s = {:g} is out of range: must be > 0 and at most {:g} "
+                               "(--max-lease-s)",
+                               lease_s, limits_.max_lease_s));
 }
 
 std::uint64_t ReservationSchedule::NextRevision(MapSchedule& schedule) {
@@ -96,6 +98,20 @@ ServiceStatus ReservationSchedule::MayChange(const Reservation& existing, const 
                                existing.reserved.robot_id));
 }
 
+Result<ReservationSchedule::RobotReservations::iterator> ReservationSchedule::Changeable(
+    MapSchedule& schedule, const std::string& map_id, const std::string& robot_id,
+    const Caller& caller) {
+  const auto found = schedule.by_robot.find(robot_id);
+  if (found == schedule.by_robot.end()) {
+    return MakeError(ServiceErrorCode::kReservationNotFound,
+                     fmt::format("robot {} holds no reservation on map {} (never made, released, "
+                                 "or its lease expired): plan or reserve again",
+                                 robot_id, map_id));
+  }
+  if (ServiceStatus may = MayChange(found->second, caller); !may.ok()) return may.error();
+  return found;
+}
+
 ReservationSchedule::Traffic ReservationSchedule::OthersOf(const std::string& map_id,
                                                            const std::string& robot_id) {
   std::lock_guard lock(mutex_);
@@ -132,14 +148,9 @@ Result<Reservation> ReservationSchedule::Renew(const std::string& map_id,
                                                const SeparationRule& rule, const Caller& caller) {
   std::lock_guard lock(mutex_);
   MapSchedule& schedule = Live(map_id);
-  const auto found = schedule.by_robot.find(robot_id);
-  if (found == schedule.by_robot.end()) {
-    return MakeError(ServiceErrorCode::kReservationNotFound,
-                     fmt::format("robot {} holds no reservation on map {} (never made, released, "
-                                 "or its lease expired): plan or reserve again",
-                                 robot_id, map_id));
-  }
-  if (ServiceStatus may = MayChange(found->second, caller); !may.ok()) return may.error();
+  Result<RobotReservations::iterator> changeable = Changeable(schedule, map_id, robot_id, caller);
+  if (!changeable.ok()) return std::move(changeable).error();
+  const auto found = changeable.value();
   Reservation renewed = found->second;
   FleetMotion& motion = renewed.reserved.motion;
   motion.end_ns = std::max(motion.end_ns, AddSeconds(now_ns_(), lease_s));
@@ -166,14 +177,9 @@ Result<ReservationSchedule::Moved> ReservationSchedule::Shift(const std::string&
   }
   std::lock_guard lock(mutex_);
   MapSchedule& schedule = Live(map_id);
-  const auto found = schedule.by_robot.find(robot_id);
-  if (found == schedule.by_robot.end()) {
-    return MakeError(ServiceErrorCode::kReservationNotFound,
-                     fmt::format("robot {} holds no reservation on map {} (never made, released, "
-                                 "or its lease expired)",
-                                 robot_id, map_id));
-  }
-  if (ServiceStatus may = MayChange(found->second, caller); !may.ok()) return may.error();
+  Result<RobotReservations::iterator> changeable = Changeable(schedule, map_id, robot_id, caller);
+  if (!changeable.ok()) return std::move(changeable).error();
+  const auto found = changeable.value();
   Moved moved{found->second, {}};
   FleetMotion& motion = moved.reservation.reserved.motion;
   motion.start_ns = AddSeconds(motion.start_ns, delay_s);
@@ -197,14 +203,9 @@ Result<std::uint64_t> ReservationSchedule::Release(const std::string& map_id,
                                                    const Caller& caller) {
   std::lock_guard lock(mutex_);
   MapSchedule& schedule = Live(map_id);
-  const auto found = schedule.by_robot.find(robot_id);
-  if (found == schedule.by_robot.end()) {
-    return MakeError(ServiceErrorCode::kReservationNotFound,
-                     fmt::format("robot {} holds no reservation on map {} (never made, released, "
-                                 "or its lease expired)",
-                                 robot_id, map_id));
-  }
-  if (ServiceStatus may = MayChange(found->second, caller); !may.ok()) return may.error();
+  Result<RobotReservations::iterator> changeable = Changeable(schedule, map_id, robot_id, caller);
+  if (!changeable.ok()) return std::move(changeable).error();
+  const auto found = changeable.value();
   schedule.by_robot.erase(found);
   return NextRevision(schedule);
 }

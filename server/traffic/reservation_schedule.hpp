@@ -71,6 +71,9 @@ class ReservationSchedule {
   ServiceStatus CheckRequest(const std::string& robot_id, std::string_view robot_field,
                              std::int64_t start_ns, double lease_s) const;
 
+  /// kInvalidInput naming --max-lease-s unless `lease_s` is in (0, max_lease_s].
+  ServiceStatus CheckLease(double lease_s) const;
+
   /// Commits `reservation` (its revision is set here) as its robot's, replacing the robot's
   /// own earlier one, when its motion meets no other live reservation on its map under `rule`
   /// (CheckSeparation, exact); otherwise kReservationConflict naming the first meeting.
@@ -136,9 +139,10 @@ class ReservationSchedule {
   std::uint64_t collected() const;
 
  private:
+  using RobotReservations = std::map<std::string, Reservation>;  // By robot id.
   struct MapSchedule {
     std::uint64_t revision = 0;
-    std::map<std::string, Reservation> by_robot;
+    RobotReservations by_robot;
   };
   // Moves the schedule's revision and wakes the watchers. Call with mutex_ held.
   std::uint64_t NextRevision(MapSchedule& schedule);
@@ -148,6 +152,12 @@ class ReservationSchedule {
   // The reservations of `schedule` but robot_id's, as the planner takes them.
   static std::vector<ReservedMotion> Others(const MapSchedule& schedule,
                                             const std::string& robot_id);
+  // robot_id's reservation in `schedule` when `caller` may change it; kReservationNotFound
+  // naming `map_id`, or kPermissionDenied.
+  static Result<RobotReservations::iterator> Changeable(MapSchedule& schedule,
+                                                        const std::string& map_id,
+                                                        const std::string& robot_id,
+                                                        const Caller& caller);
   // kPermissionDenied unless `caller` may change `existing`.
   static ServiceStatus MayChange(const Reservation& existing, const Caller& caller);
 
