@@ -16,6 +16,7 @@ packages=(
   openssl  # TLS tests make a throwaway certificate
   clang-format clang-tidy  # scripts/check-format.sh, check-tidy.sh (CI): .clang-format, .clang-tidy
   clang libclang-rt-14-dev libomp-dev  # the sanitised build (clang, its OpenMP) and libFuzzer
+  lld  # links the sanitised and ThreadSanitizer builds (CMakeLists.txt)
 )
 
 missing=()

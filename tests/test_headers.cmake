@@ -1,32 +1,32 @@
-# The tests' precompiled headers (tests/CMakeLists.txt says why). Each is compiled once, by a
-# host target of its own that has the flags and definitions its users share, and reused by
-# every test that is marked for it (clang and g++ refuse a precompiled header whose
-# optimisation level or definitions differ from the including file's: the tests compiled at
-# another level, STRATA_TESTS_OPTIMISED, parse their headers themselves).
+# The tests' precompiled headers (tests/CMakeLists.txt says why), in the builds that have them
+# (STRATA_PRECOMPILED_HEADERS, the top CMakeLists.txt). Each is compiled once, by a host target
+# of its own that has the flags and definitions its users share, and reused by every test
+# marked for it: clang refuses a precompiled header whose optimisation level, thread support
+# or position independence differ from the including file's, or that defines a macro the file
+# does not. The tests compiled otherwise (strata_use_test_headers' argument) parse their
+# headers themselves.
 #
-# Only headers from outside the project: a test that forgets to include one of Strata's own
-# headers must still fail to compile.
-set(strata_test_headers
-  <algorithm> <atomic> <chrono> <cmath> <cstdint> <filesystem> <fstream> <functional>
-  <future> <limits> <map> <memory> <mutex> <optional> <random> <set> <span> <sstream>
-  <string> <string_view> <thread> <vector>
-  <Eigen/Core> <Eigen/Geometry> <gmock/gmock.h> <gtest/gtest.h>)
-set(strata_server_test_headers
-  ${strata_test_headers} <fmt/format.h> <grpcpp/grpcpp.h> <google/rpc/error_details.pb.h>
-  <strata/v1/map_service.grpc.pb.h> <strata/v1/planner_service.grpc.pb.h>
-  <strata/v1/traffic_service.grpc.pb.h>)
-
-add_library(strata_test_headers OBJECT test_util/precompiled_headers.cpp)
-target_link_libraries(strata_test_headers PRIVATE GTest::gmock Eigen3::Eigen)
-target_precompile_headers(strata_test_headers PRIVATE ${strata_test_headers})
-# What linking these libraries defines (FMT_SHARED, for one) must be defined for every user too:
-# strata_use_test_headers links them to each.
+# Only headers from outside the project: a test that forgets one of Strata's own headers must
+# still fail to compile.
+set(strata_test_headers ${STRATA_STANDARD_HEADERS} <future> <limits> <random>
+    <Eigen/Core> <Eigen/Geometry> <gmock/gmock.h> <gtest/gtest.h>)
+set(strata_server_test_headers ${strata_test_headers} <fmt/format.h> <grpcpp/grpcpp.h>
+    <google/rpc/error_details.pb.h> <strata/v1/map_service.grpc.pb.h>
+    <strata/v1/planner_service.grpc.pb.h> <strata/v1/traffic_service.grpc.pb.h>)
+# Linking these defines what the server's header is compiled with (FMT_SHARED, -pthread):
+# strata_use_test_headers links them to each of its users too.
 set(strata_server_test_header_libraries GTest::gmock Eigen3::Eigen fmt::fmt gRPC::grpc++
     strata::proto)
-if(TARGET strata::proto)
-  add_library(strata_server_test_headers OBJECT test_util/precompiled_headers.cpp)
-  target_link_libraries(strata_server_test_headers PRIVATE ${strata_server_test_header_libraries})
-  target_precompile_headers(strata_server_test_headers PRIVATE ${strata_server_test_headers})
+
+if(STRATA_PRECOMPILED_HEADERS)
+  add_library(strata_test_headers OBJECT test_util/precompiled_headers.cpp)
+  target_link_libraries(strata_test_headers PRIVATE GTest::gmock Eigen3::Eigen)
+  target_precompile_headers(strata_test_headers PRIVATE ${strata_test_headers})
+  if(TARGET strata::proto)
+    add_library(strata_server_test_headers OBJECT test_util/precompiled_headers.cpp)
+    target_link_libraries(strata_server_test_headers PRIVATE ${strata_server_test_header_libraries})
+    target_precompile_headers(strata_server_test_headers PRIVATE ${strata_server_test_headers})
+  endif()
 endif()
 
 # strata_test_uses_server_headers(<target>...): these tests take the server's precompiled
@@ -35,9 +35,12 @@ function(strata_test_uses_server_headers)
   set_property(TARGET ${ARGN} PROPERTY STRATA_SERVER_TEST_HEADERS ON)
 endfunction()
 
-# strata_use_test_headers(<tests to leave out>): every test made by strata_add_test or
+# strata_use_test_headers(<tests to leave out>): every other test made by strata_add_test or
 # strata_add_client_test reuses its precompiled header. Called once, after the tests exist.
 function(strata_use_test_headers excluded)
+  if(NOT STRATA_PRECOMPILED_HEADERS)
+    return()
+  endif()
   get_property(tests GLOBAL PROPERTY STRATA_TEST_TARGETS)
   foreach(test ${tests})
     if(test IN_LIST excluded)
