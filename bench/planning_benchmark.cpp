@@ -1,11 +1,12 @@
 // Planning figures for docs/benchmarks.md: the eleven reference queries of
-// ../shared/maps/README.md (median of 5 runs each) and random start/goal pairs on each shared
-// map (fixed seed). Prints markdown tables. Not part of the test path.
+// ../shared/maps/README.md (median of RUNS runs each, 5 unless given) and random start/goal
+// pairs on each shared map (fixed seed). Prints markdown tables. Not part of the test path.
 //
-//   STRATA_MAPS_DIR=../shared/maps build/bench/planning_benchmark [PAIRS] [SEED] [BUDGET_S]
+//   STRATA_MAPS_DIR=../shared/maps build/bench/planning_benchmark [PAIRS] [SEED] [BUDGET_S] [RUNS]
 //
 // BUDGET_S is each plan's time budget, the product's default (PlanOptions) unless given: a
-// sanitised build's smoke run gives it more, so that it checks the plans, not that build's speed.
+// sanitised build's smoke run gives it more, so that it checks the plans, not that build's
+// speed, and plans each query once.
 //
 // Also: each trajectory's duration against driving its length at the speed bound, and
 // replanning on the way (a state 30 m before the goal, with and without the trajectory as
@@ -120,6 +121,7 @@ int main(int argc, char** argv) {
   const int pairs = argc > 1 ? std::atoi(argv[1]) : 200;
   const unsigned seed = argc > 2 ? static_cast<unsigned>(std::atoi(argv[2])) : 1;
   if (argc > 3) g_time_budget_s = std::atof(argv[3]);
+  const int runs = argc > 4 ? std::max(1, std::atoi(argv[4])) : 5;
   std::map<std::string, std::unique_ptr<PlanningMap>> maps;  // By label.
   for (const MapSetting& m : kPairMaps) maps[m.label] = LoadMap(dir, m.file, m.resolution_m);
   for (auto& [name, map] : maps) {  // Build the differential robot's graph before timing.
@@ -128,14 +130,15 @@ int main(int argc, char** argv) {
   const auto at_02 = [&maps](const std::string& file) { return maps.at(file + " @0.2").get(); };
 
   std::printf(
-      "| query | result | total ms (median of 5) | snap / search / optimise / verify ms | "
+      "| query | result | total ms (median of %d) | snap / search / optimise / verify ms | "
       "original ms | speed-up | length m | duration s (ratio) | κ_m 1/m | max v h/v m/s | "
-      "max a h/v m/s² | expansions / iterations / pieces |\n");
+      "max a h/v m/s² | expansions / iterations / pieces |\n",
+      runs);
   std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const Query& q : kQueries) {
     std::vector<double> total, snap, search, optimize, verify;
     strata::Expected<strata::PlanResult> last = strata::Error{strata::ErrorCode::kNoPath, ""};
-    for (int run = 0; run < 5; ++run) {
+    for (int run = 0; run < runs; ++run) {
       last = strata::Plan(*at_02(q.map), Request(q.start, q.goal));
       const auto& t = last ? last->stats.timings : strata::PlanTimings{};
       if (!last) break;

@@ -5,7 +5,7 @@
 // Not part of the test path.
 //
 //   STRATA_MAPS_DIR=../shared/maps build/bench/travel_cost_benchmark [--size 100] [--runs 7]
-//       [--pairs 500] [--seed 1] [--coarse-cell M]
+//       [--pairs 500] [--seed 1] [--coarse-cell M] [--maps scene20.2 spiral0.3_2]
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -94,13 +94,16 @@ int main(int argc, char** argv) {
   app.add_option("--seed", seed, "seed of the random ends")->capture_default_str();
   app.add_option("--coarse-cell", config.coarse_cell_m, "TravelCostConfig::coarse_cell_m [m]")
       ->capture_default_str();
+  std::vector<std::string> map_names = {"scene20.2", "spiral0.3_2"};
+  app.add_option("--maps", map_names, "shared maps to run on (file names without .pcd)")
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   const char* env = std::getenv("STRATA_MAPS_DIR");
   const std::string dir = env ? env : "../shared/maps";
   const strata::RobotProfile profile = strata::BuiltinProfile("differential").value();
 
   std::map<std::string, std::unique_ptr<strata::PlanningMap>> maps;
-  for (const char* name : {"scene20.2", "spiral0.3_2"}) {
+  for (const std::string& name : map_names) {
     maps[name] = LoadMap(dir + "/" + name + ".pcd");
   }
 

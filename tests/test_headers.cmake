@@ -3,8 +3,7 @@
 # of its own that has the flags and definitions its users share, and reused by every test
 # marked for it: clang refuses a precompiled header whose optimisation level, thread support
 # or position independence differ from the including file's, or that defines a macro the file
-# does not. The tests compiled otherwise (strata_use_test_headers' argument) parse their
-# headers themselves.
+# does not. The tests compiled at -O3 take a third one, compiled at -O3.
 #
 # Only headers from outside the project: a test that forgets one of Strata's own headers must
 # still fail to compile.
@@ -22,6 +21,12 @@ if(STRATA_PRECOMPILED_HEADERS)
   add_library(strata_test_headers OBJECT test_util/precompiled_headers.cpp)
   target_link_libraries(strata_test_headers PRIVATE GTest::gmock Eigen3::Eigen)
   target_precompile_headers(strata_test_headers PRIVATE ${strata_test_headers})
+  if(STRATA_SANITIZE)  # Its tests: STRATA_TESTS_OPTIMISED (tests/CMakeLists.txt).
+    add_library(strata_optimised_test_headers OBJECT test_util/precompiled_headers.cpp)
+    target_link_libraries(strata_optimised_test_headers PRIVATE GTest::gmock Eigen3::Eigen)
+    target_compile_options(strata_optimised_test_headers PRIVATE -O3)
+    target_precompile_headers(strata_optimised_test_headers PRIVATE ${strata_test_headers})
+  endif()
   if(TARGET strata::proto)
     add_library(strata_server_test_headers OBJECT test_util/precompiled_headers.cpp)
     target_link_libraries(strata_server_test_headers PRIVATE ${strata_server_test_header_libraries})
@@ -35,19 +40,22 @@ function(strata_test_uses_server_headers)
   set_property(TARGET ${ARGN} PROPERTY STRATA_SERVER_TEST_HEADERS ON)
 endfunction()
 
-# strata_use_test_headers(<tests to leave out>): every other test made by strata_add_test or
-# strata_add_client_test reuses its precompiled header. Called once, after the tests exist.
-function(strata_use_test_headers excluded)
+# strata_use_test_headers(<tests compiled at -O3> <tests to leave out>...): every other test
+# made by strata_add_test or strata_add_client_test reuses its precompiled header. Called once,
+# after the tests exist.
+function(strata_use_test_headers optimised)
   if(NOT STRATA_PRECOMPILED_HEADERS)
     return()
   endif()
   get_property(tests GLOBAL PROPERTY STRATA_TEST_TARGETS)
   foreach(test ${tests})
-    if(test IN_LIST excluded)
+    if(test IN_LIST ARGN)
       continue()
     endif()
     get_target_property(server_headers ${test} STRATA_SERVER_TEST_HEADERS)
-    if(server_headers)
+    if(test IN_LIST optimised)
+      target_precompile_headers(${test} REUSE_FROM strata_optimised_test_headers)
+    elseif(server_headers)
       target_link_libraries(${test} PRIVATE ${strata_server_test_header_libraries})
       target_precompile_headers(${test} REUSE_FROM strata_server_test_headers)
     else()

@@ -49,13 +49,13 @@ TEST(PlanningBenchmark, SmokeRun) {
   // The hardest reference query plans within the product's budget in a plain build; a
   // sanitised one, beside other tests, may need its time scale more.
   const double budget_s = PlanOptions().time_budget_s * test_util::kTimeScale;
-  ExpectRuns(STRATA_PLANNING_BENCHMARK, "1 1 " + std::to_string(budget_s),
+  ExpectRuns(STRATA_PLANNING_BENCHMARK, "1 1 " + std::to_string(budget_s) + " 1",
              "| sp_cross_wall | ok |");
 }
 
 TEST(TravelCostBenchmark, SmokeRun) {
   if (!HaveSharedMaps()) GTEST_SKIP() << "shared maps not found in " << STRATA_SHARED_MAPS_DIR;
-  ExpectRuns(STRATA_TRAVEL_COST_BENCHMARK, "--size 2 --runs 1 --pairs 2", "|");
+  ExpectRuns(STRATA_TRAVEL_COST_BENCHMARK, "--size 2 --runs 1 --pairs 2 --maps scene20.2", "|");
 }
 
 TEST(FleetBenchmark, SmokeRun) {
