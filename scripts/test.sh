@@ -3,7 +3,7 @@
 # (scripts/build-sanitize.sh), checks the C++ formatting (.clang-format) and clang-tidy's
 # findings (.clang-tidy; beside the tests), and runs the whole test suite there in parallel
 # with CTest: a memory error, a leak or undefined behaviour fails the test that meets it. The
-# suite includes a 20-second smoke run of each libFuzzer target (fuzz/, label "fuzz"). Then
+# suite includes a 10-second smoke run of each libFuzzer target (fuzz/, label "fuzz"). Then
 # the gRPC-free concurrency tests are built a second time under ThreadSanitizer and run
 # (Debian's gRPC is not instrumented, so that build leaves it out).
 #
