@@ -9,28 +9,30 @@
 # still fail to compile.
 set(strata_test_headers ${STRATA_STANDARD_HEADERS} <future> <limits> <random>
     <Eigen/Core> <Eigen/Geometry> <gmock/gmock.h> <gtest/gtest.h>)
-set(strata_server_test_headers ${strata_test_headers} <fmt/format.h> <grpcpp/grpcpp.h>
-    <google/rpc/error_details.pb.h> <strata/v1/map_service.grpc.pb.h>
-    <strata/v1/planner_service.grpc.pb.h> <strata/v1/traffic_service.grpc.pb.h>)
+set(strata_server_test_headers ${strata_test_headers} <fmt/format.h> ${STRATA_API_HEADERS})
 # Linking these defines what the server's header is compiled with (FMT_SHARED, -pthread):
 # strata_use_test_headers links them to each of its users too.
 set(strata_server_test_header_libraries GTest::gmock Eigen3::Eigen fmt::fmt gRPC::grpc++
     strata::proto)
 
+# strata_test_header_host(<host> <headers variable> <libraries>...): the target that compiles
+# one precompiled header, with what linking <libraries> defines.
+function(strata_test_header_host host headers)
+  add_library(${host} OBJECT test_util/precompiled_headers.cpp)
+  target_link_libraries(${host} PRIVATE ${ARGN})
+  target_precompile_headers(${host} PRIVATE ${${headers}})
+endfunction()
+
 if(STRATA_PRECOMPILED_HEADERS)
-  add_library(strata_test_headers OBJECT test_util/precompiled_headers.cpp)
-  target_link_libraries(strata_test_headers PRIVATE GTest::gmock Eigen3::Eigen)
-  target_precompile_headers(strata_test_headers PRIVATE ${strata_test_headers})
+  strata_test_header_host(strata_test_headers strata_test_headers GTest::gmock Eigen3::Eigen)
   if(STRATA_SANITIZE)  # Its tests: STRATA_TESTS_OPTIMISED (tests/CMakeLists.txt).
-    add_library(strata_optimised_test_headers OBJECT test_util/precompiled_headers.cpp)
-    target_link_libraries(strata_optimised_test_headers PRIVATE GTest::gmock Eigen3::Eigen)
+    strata_test_header_host(strata_optimised_test_headers strata_test_headers GTest::gmock
+                            Eigen3::Eigen)
     target_compile_options(strata_optimised_test_headers PRIVATE -O3)
-    target_precompile_headers(strata_optimised_test_headers PRIVATE ${strata_test_headers})
   endif()
   if(TARGET strata::proto)
-    add_library(strata_server_test_headers OBJECT test_util/precompiled_headers.cpp)
-    target_link_libraries(strata_server_test_headers PRIVATE ${strata_server_test_header_libraries})
-    target_precompile_headers(strata_server_test_headers PRIVATE ${strata_server_test_headers})
+    strata_test_header_host(strata_server_test_headers strata_server_test_headers
+                            ${strata_server_test_header_libraries})
   endif()
 endif()
 
