@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Runs Strata's libFuzzer targets (fuzz/) for as long as asked, one after another: builds them
 # if needed into build-fuzz/ (scripts/build-sanitize.sh's tree, with comparison tracing added
-# to the coverage the test suite's tree has, so that mutations find magic values), writes the
+# to the coverage the test suite's tree has, so that mutations find magic values, and on every
+# source, not only the fuzzed code's), writes the
 # seed corpora, and prints each target's executions, speed and findings. A finding (crash,
 # abort, leak, timeout) leaves its input in build-fuzz/fuzz/fuzz-artifacts/ and makes the
 # script exit 1.
@@ -14,6 +15,7 @@ root=$(cd "$(dirname "$0")/.." && pwd)
 build_dir=${STRATA_FUZZ_BUILD_DIR:-$root/build-fuzz}
 export STRATA_SANITIZE_BUILD_DIR=$build_dir
 export STRATA_SANITIZE_COVERAGE=inline-8bit-counters,indirect-calls,trace-cmp,pc-table
+export STRATA_SANITIZE_COVERAGE_EVERYWHERE=ON
 limit=(-max_total_time=60)
 case "${1:-}" in
   --seconds) limit=(-max_total_time="$2"); shift 2 ;;
