@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <string>
 
 namespace strata::bench {
@@ -43,6 +44,34 @@ const ColumnSurface* SurfaceBelow(const TerrainModel& model, const Eigen::Vector
   return below;
 }
 
+// Horizontal distance from (x, y) to the polygon's boundary, negative inside (even-odd rule).
+double SignedDistanceToPolygon(const std::vector<Eigen::Vector2d>& polygon,
+                               const Eigen::Vector2d& p) {
+  double nearest = std::numeric_limits<double>::infinity();
+  bool inside = false;
+  for (std::size_t i = 0, j = polygon.size() - 1; i < polygon.size(); j = i++) {
+    const Eigen::Vector2d& a = polygon[j];
+    const Eigen::Vector2d& b = polygon[i];
+    const Eigen::Vector2d edge = b - a;
+    const double along = std::clamp((p - a).dot(edge) / edge.squaredNorm(), 0.0, 1.0);
+    nearest = std::min(nearest, (a + along * edge - p).norm());
+    if ((a.y() > p.y()) != (b.y() > p.y()) &&
+        p.x() < a.x() + (p.y() - a.y()) / (b.y() - a.y()) * edge.x()) {
+      inside = !inside;
+    }
+  }
+  return inside ? -nearest : nearest;
+}
+
+// Whether the robot at reference point p is inside `zone` (IndependentCheckConfig::keep_out).
+bool InsideZone(const Prism& zone, const RobotProfile& profile, const Eigen::Vector3d& p) {
+  const double ground = p.z() - profile.reference_height_m;
+  const double top = ground + std::max(profile.MaxBodyHeight(), profile.reference_height_m);
+  const double overlap = std::min(top, zone.z_max_m) - std::max(ground, zone.z_min_m);
+  return overlap > 0 &&
+         SignedDistanceToPolygon(zone.polygon_m, p.head<2>()) < profile.footprint_radius_m;
+}
+
 }  // namespace
 
 IndependentCheckCounts CheckTrajectory(const TerrainModel& model, const RobotProfile& profile,
@@ -51,12 +80,12 @@ IndependentCheckCounts CheckTrajectory(const TerrainModel& model, const RobotPro
   IndependentCheckCounts counts;
   if (!Checkable(trajectory, profile.active_height ? 4 : 3)) {
     counts.ground = counts.clearance = counts.headroom = counts.body_height = counts.speed =
-        counts.acceleration = 1;
+        counts.acceleration = counts.keep_out = 1;
     return counts;
   }
-  const VerifierConfig& bounds = config.bounds;
+  const IndependentCheckBounds& bounds = config.bounds;
   const double limit = 1 + bounds.limit_tolerance;
-  const double body_tolerance = BodyHeightTolerance(profile, bounds);
+  const double body_tolerance = bounds.limit_tolerance * profile.MaxBodyHeight();
   const double ground_tolerance =
       std::max(bounds.ground_tolerance_m, 0.75 * model.summary().vertical_quantum_m) +
       model.grid().resolution_m * std::sqrt(2.0) * std::tan(profile.max_tilt_rad);
@@ -90,6 +119,8 @@ IndependentCheckCounts CheckTrajectory(const TerrainModel& model, const RobotPro
       counts.headroom += !(surface->clearance_m - body >= profile.headroom_m - body_tolerance);
     }
     counts.clearance += !(model.Distance(p) >= bounds.min_obstacle_distance_m);
+    counts.keep_out += std::any_of(config.keep_out.begin(), config.keep_out.end(),
+                                   [&](const Prism& zone) { return InsideZone(zone, profile, p); });
   };
 
   // Motion rules at every time step, map rules every spacing_m of arc length (and at both
@@ -120,7 +151,8 @@ IndependentCheckCounts CheckTrajectory(const TerrainModel& model, const RobotPro
 std::string IndependentCheckCounts::Describe() const {
   return "ground " + std::to_string(ground) + ", clearance " + std::to_string(clearance) +
          ", headroom " + std::to_string(headroom) + ", body height " + std::to_string(body_height) +
-         ", speed " + std::to_string(speed) + ", acceleration " + std::to_string(acceleration);
+         ", speed " + std::to_string(speed) + ", acceleration " + std::to_string(acceleration) +
+         ", keep-out " + std::to_string(keep_out);
 }
 
 void IndependentCheckTally::Add(const IndependentCheckCounts& counts) {
@@ -131,25 +163,27 @@ void IndependentCheckTally::Add(const IndependentCheckCounts& counts) {
   body_height += counts.body_height > 0;
   speed += counts.speed > 0;
   acceleration += counts.acceleration > 0;
+  keep_out += counts.keep_out > 0;
 }
 
 std::string IndependentCheckTally::Describe() const {
   return std::to_string(plans) + " checked: ground " + std::to_string(ground) + ", clearance " +
          std::to_string(clearance) + ", headroom " + std::to_string(headroom) + ", body height " +
          std::to_string(body_height) + ", speed " + std::to_string(speed) + ", acceleration " +
-         std::to_string(acceleration);
+         std::to_string(acceleration) + ", keep-out " + std::to_string(keep_out);
 }
 
 std::string IndependentCheckCsvHeader() {
   return "check_ground,check_clearance,check_headroom,check_body_height,check_speed,"
-         "check_acceleration";
+         "check_acceleration,check_keep_out";
 }
 
 std::string IndependentCheckCsvValues(const IndependentCheckCounts* c) {
-  if (c == nullptr) return "-1,-1,-1,-1,-1,-1";
+  if (c == nullptr) return "-1,-1,-1,-1,-1,-1,-1";
   return std::to_string(c->ground) + ',' + std::to_string(c->clearance) + ',' +
          std::to_string(c->headroom) + ',' + std::to_string(c->body_height) + ',' +
-         std::to_string(c->speed) + ',' + std::to_string(c->acceleration);
+         std::to_string(c->speed) + ',' + std::to_string(c->acceleration) + ',' +
+         std::to_string(c->keep_out);
 }
 
 }  // namespace strata::bench

@@ -6,6 +6,7 @@
 #include "baselines/krusi_planner.hpp"
 #include "baselines/liu_planner.hpp"
 #include "compare/bench_metrics.hpp"
+#include "verifier_bounds.hpp"
 
 namespace strata::bench {
 namespace {
@@ -77,7 +78,8 @@ class StrataMethod : public BenchMethod {
         graph ? VerifyTrajectory(**graph, profile_, plan->trajectory, VerifierConfig{}, &report)
               : Status(graph.error());
     out.verify_violations = verified ? 0 : 1;
-    out.check = bench::CheckTrajectory(map_->model(), profile_, plan->trajectory);
+    out.check = bench::CheckTrajectory(map_->model(), profile_, plan->trajectory,
+                                       bench::CheckConfigFor(VerifierConfig{}));
     if (!verified) {
       out.success = false;
       out.reason = "VERIFY_FAILED";

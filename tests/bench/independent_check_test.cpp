@@ -12,6 +12,7 @@
 
 #include "test_util/hand_made_maps.hpp"
 #include "test_util/trajectory_builders.hpp"
+#include "verifier_bounds.hpp"
 
 namespace strata::bench {
 namespace {
@@ -30,7 +31,7 @@ Trajectory AcrossTheFloor(const RobotProfile& profile, double offset_m = 0, doub
 }
 
 IndependentCheckCounts Check(const RobotProfile& profile, const Trajectory& trajectory,
-                             const IndependentCheckConfig& config = {}) {
+                             const IndependentCheckConfig& config = CheckConfigFor({})) {
   return CheckTrajectory(test_util::YardModel(), profile, trajectory, config);
 }
 
@@ -39,7 +40,8 @@ std::string Broken(const IndependentCheckCounts& c) {
   std::string names;
   const std::pair<const char*, int> rules[] = {
       {"ground", c.ground},           {"clearance", c.clearance}, {"headroom", c.headroom},
-      {"body_height", c.body_height}, {"speed", c.speed},         {"acceleration", c.acceleration}};
+      {"body_height", c.body_height}, {"speed", c.speed},         {"acceleration", c.acceleration},
+      {"keep_out", c.keep_out}};
   for (const auto& [name, count] : rules) {
     if (count > 0) names += std::string(names.empty() ? "" : " ") + name;
   }
@@ -122,7 +124,7 @@ TEST(IndependentCheck, CountsNoGroundInvalidGroundAndSteepGround) {
 
 TEST(IndependentCheck, CountsAnObstacleCloserThanTheBound) {
   const RobotProfile profile = LooseProfile("differential");
-  IndependentCheckConfig config;
+  IndependentCheckConfig config = CheckConfigFor({});
   // The floor is the nearest obstacle, 0.25-0.35 m below the reference point.
   config.bounds.min_obstacle_distance_m = 0.4;
   EXPECT_EQ(Broken(Check(profile, AcrossTheFloor(profile), config)), "clearance");
@@ -150,11 +152,34 @@ TEST(IndependentCheck, ABrokenTrajectoryBreaksEveryRule) {
   const RobotProfile profile = LooseProfile("differential");
   Trajectory t = AcrossTheFloor(profile);
   t.pieces[1].coefficients(2, 0) = std::nan("");
-  EXPECT_EQ(Broken(Check(profile, t)), "ground clearance headroom body_height speed acceleration");
+  EXPECT_EQ(Broken(Check(profile, t)),
+            "ground clearance headroom body_height speed acceleration keep_out");
   EXPECT_EQ(Broken(Check(profile, Trajectory{})),
-            "ground clearance headroom body_height speed acceleration");
+            "ground clearance headroom body_height speed acceleration keep_out");
   EXPECT_EQ(Broken(Check(LooseProfile("biped"), AcrossTheFloor(profile))),
-            "ground clearance headroom body_height speed acceleration");
+            "ground clearance headroom body_height speed acceleration keep_out");
+}
+
+// A zone beside the way across the floor (y = 1): the footprint (radius 0.3 m) reaches a
+// polygon 0.29 m away and not one 0.31 m away; a zone above the robot's top is no obstacle.
+TEST(IndependentCheck, CountsTheFootprintReachingIntoAKeepOutZone) {
+  const RobotProfile profile = LooseProfile("differential");
+  const double top = std::max(profile.MaxBodyHeight(), profile.reference_height_m);
+  const auto beside = [&](double gap_m, double bottom_m) {
+    IndependentCheckConfig config = CheckConfigFor({});
+    Prism zone;
+    const double y = 1 + gap_m;
+    zone.polygon_m = {{2, y}, {3, y}, {3, y + 1}, {2, y + 1}};
+    zone.z_min_m = bottom_m;
+    zone.z_max_m = bottom_m + 2;
+    config.keep_out = {zone};
+    return config;
+  };
+  const double ground = -1;  // Below the floor: the zone spans the robot's whole height.
+  EXPECT_EQ(Broken(Check(profile, AcrossTheFloor(profile), beside(0.29, ground))), "keep_out");
+  EXPECT_EQ(Broken(Check(profile, AcrossTheFloor(profile), beside(0.31, ground))), "");
+  // The way rises 0.1 m around the reference height: the robot's top reaches top + 0.05.
+  EXPECT_EQ(Broken(Check(profile, AcrossTheFloor(profile), beside(0.29, top + kRiseM))), "");
 }
 
 TEST(IndependentCheck, TheTallyCountsPlansPerRuleAndTheCsvKeepsItsOrder) {
@@ -166,12 +191,13 @@ TEST(IndependentCheck, TheTallyCountsPlansPerRuleAndTheCsvKeepsItsOrder) {
   tally.Add(broken);
   tally.Add(broken);
   EXPECT_EQ(tally.Describe(),
-            "3 checked: ground 0, clearance 0, headroom 2, body height 0, speed 2, acceleration 0");
+            "3 checked: ground 0, clearance 0, headroom 2, body height 0, speed 2, acceleration 0, "
+            "keep-out 0");
   EXPECT_EQ(IndependentCheckCsvHeader(),
             "check_ground,check_clearance,check_headroom,check_body_height,check_speed,"
-            "check_acceleration");
-  EXPECT_EQ(IndependentCheckCsvValues(&broken), "0,0,3,0,1,0");
-  EXPECT_EQ(IndependentCheckCsvValues(nullptr), "-1,-1,-1,-1,-1,-1");
+            "check_acceleration,check_keep_out");
+  EXPECT_EQ(IndependentCheckCsvValues(&broken), "0,0,3,0,1,0,0");
+  EXPECT_EQ(IndependentCheckCsvValues(nullptr), "-1,-1,-1,-1,-1,-1,-1");
 }
 
 }  // namespace

@@ -17,6 +17,7 @@
 #include "test_util/hand_made_maps.hpp"
 #include "test_util/terrain_queries.hpp"
 #include "test_util/time_scale.hpp"
+#include "verifier_bounds.hpp"
 
 namespace strata {
 namespace {
@@ -49,8 +50,10 @@ void ExpectSound(const PlanningMap& map, const PlanResult& plan, const PlanReque
   EXPECT_EQ(t.dimension, robot.active_height ? 4 : 3);
   // Safe by a check written apart from the verifier, at its own dense samples: the stats
   // below are the verifier's own figures and could not catch a verifier that misses a fault.
-  bench::IndependentCheckConfig check;
-  check.bounds = request.options.verifier;
+  std::vector<Prism> zones = map.keep_out();
+  zones.insert(zones.end(), request.keep_out.begin(), request.keep_out.end());
+  const bench::IndependentCheckConfig check =
+      bench::CheckConfigFor(request.options.verifier, std::move(zones));
   const bench::IndependentCheckCounts broken = bench::CheckTrajectory(map.model(), robot, t, check);
   EXPECT_FALSE(broken.Any()) << "independent check: " << broken.Describe();
   // Boundary states: the snapped positions, the requested velocity and acceleration.

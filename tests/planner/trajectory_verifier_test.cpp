@@ -16,6 +16,7 @@
 #include "strata/assessment/terrain_model.hpp"
 #include "strata/planning/robot_profile.hpp"
 #include "strata/planning/surface_graph.hpp"
+#include "strata/prism.hpp"
 #include "test_util/hand_made_maps.hpp"
 #include "test_util/trajectory_builders.hpp"
 
@@ -269,6 +270,94 @@ TEST(VerifyTrajectory, ChecksTheHeadroomWhereTheBodyEntersUnderTheCeiling) {
   // At the edge (halfway in time and space) the body is halfway between its ends.
   ExpectRefused(Verify(biped, entering(0.47)), "headroom");
   ExpectPasses(Verify(biped, entering(0.44)));
+}
+
+// Between the samples. Each trajectory below breaks its rule only between the instants a
+// sampled check would look at (samples 2 cm apart along the path, column entries; with the
+// spacing raised where the rule changes over more than 2 cm), and is refused; the same
+// trajectory kept just inside the bound passes.
+
+// `trajectory` (one piece) with a bump added on `axis`: h·16 s²(1 − s)², s = t / T, 0 with zero
+// slope at both ends and h at s = 1/2.
+Trajectory WithBump(Trajectory trajectory, int axis, double h) {
+  TrajectoryPiece& piece = trajectory.pieces.at(0);
+  const double T = piece.duration_s;
+  piece.coefficients(2, axis) += 16 * h / (T * T);
+  piece.coefficients(3, axis) += -32 * h / (T * T * T);
+  piece.coefficients(4, axis) += 16 * h / (T * T * T * T);
+  return trajectory;
+}
+
+// Standing still at (x, y) for 2 s, the reference point at the reference height.
+Trajectory Standing(const RobotProfile& profile, double x, double y, double body_m = 0.65) {
+  return test_util::FloorMotion(profile, {x, y}, {x, y}, 2, {.body_m = body_m});
+}
+
+// 2 cm in 1 s: samples 2 cm apart fall at s = 0, 1/3, 2/3 and 1, where the acceleration is at
+// most 77% of its peak (s = 1/2 ∓ √3/6).
+TEST(VerifyBetweenSamples, RefusesAnAccelerationPeakBetweenTwoSamples) {
+  RobotProfile profile = Loose("differential");
+  const double z = profile.reference_height_m;
+  const Trajectory nudge =
+      MinimumJerk(Eigen::Vector3d(1.03, 1.05, z), Eigen::Vector3d(1.05, 1.05, z), 1);
+  const double peak = kMinimumJerkPeakAcceleration * 0.02;
+  const double allowed = 1 + VerifierConfig{}.limit_tolerance;
+  profile.max_accel_horizontal_mps2 = peak / allowed * 0.9;
+  ExpectRefused(Verify(profile, nudge), "horizontal acceleration");
+  profile.max_accel_horizontal_mps2 = peak / allowed * (1 + kRelativeMargin);
+  ExpectPasses(Verify(profile, nudge));
+}
+
+// The biped stands under the slab and raises its body for a moment: no sample but the two
+// ends (it does not move), where the body is low.
+TEST(VerifyBetweenSamples, RefusesTheBodyRisingIntoTheHeadroomBetweenTwoSamples) {
+  const RobotProfile biped = Loose("biped");
+  const double highest = SlabClearance() - biped.headroom_m + BodyHeightTolerance(biped, {});
+  const double low = 0.36;
+  ExpectRefused(Verify(biped, WithBump(Standing(biped, 3, 3, low), 3, highest + kMarginM - low)),
+                "headroom");
+  ExpectPasses(Verify(biped, WithBump(Standing(biped, 3, 3, low), 3, highest - kMarginM - low)));
+}
+
+// The robot dips 4 cm towards the floor, its nearest obstacle, and comes back up, with
+// samples 0.5 m apart: only the two ends are sampled.
+TEST(VerifyBetweenSamples, RefusesComingCloserToAnObstacleBetweenTwoSamples) {
+  const RobotProfile profile = Loose("differential");
+  const Trajectory dip = WithBump(Standing(profile, 1.05, 1.05), 2, -0.04);
+  double closest = std::numeric_limits<double>::infinity();
+  for (int k = 0; k <= 20000; ++k) {
+    closest = std::min(closest, Model().Distance(dip.Evaluate(2.0 * k / 20000, 0).head<3>()));
+  }
+  VerifierConfig config;
+  config.max_sample_spacing_m = 0.5;
+  ASSERT_LT(closest, Model().Distance(dip.Evaluate(0, 0).head<3>()) - 0.03);
+  config.min_obstacle_distance_m = closest + kMarginM;
+  ExpectRefused(Verify(profile, dip, config), "obstacle distance");
+  config.min_obstacle_distance_m = closest - kMarginM;
+  ExpectPasses(Verify(profile, dip, config));
+}
+
+// A zone hangs over the robot; it rises 5 cm towards it and back, with samples 0.5 m apart.
+TEST(VerifyBetweenSamples, RefusesReachingIntoAKeepOutZoneBetweenTwoSamples) {
+  const RobotProfile profile = Loose("differential");
+  const Trajectory lift = WithBump(Standing(profile, 1.05, 1.05), 2, 0.05);
+  VerifierConfig config;
+  config.max_sample_spacing_m = 0.5;
+  // The robot's top at rest: its ground plus its highest body.
+  const double top = std::max(profile.MaxBodyHeight(), profile.reference_height_m);
+  const auto zone_from = [&](double bottom_m) {
+    Prism prism;
+    prism.polygon_m = {{0.8, 0.8}, {1.3, 0.8}, {1.3, 1.3}, {0.8, 1.3}};
+    prism.z_min_m = bottom_m;
+    prism.z_max_m = bottom_m + 1;
+    return std::vector<KeepOutZone>{KeepOutZone(prism, "the hanging zone")};
+  };
+  VerificationReport report;
+  const SurfaceGraph graph = GraphFor(profile);
+  ExpectRefused(VerifyTrajectory(graph, profile, lift, config, &report, zone_from(top + 0.03)),
+                "the hanging zone");
+  ExpectPasses(
+      VerifyTrajectory(graph, profile, lift, config, &report, zone_from(top + 0.05 + kMarginM)));
 }
 
 // A post 0.5 m tall on a floor, assessed with a ground filter radius so small that the floor

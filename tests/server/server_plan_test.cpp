@@ -10,6 +10,7 @@
 #include "rpc/proto_convert.hpp"
 #include "server_fixture.hpp"
 #include "strata/scenes/scenes.hpp"
+#include "verifier_bounds.hpp"
 
 namespace strata::server::testing {
 namespace {
@@ -83,8 +84,8 @@ void ExpectConsistentPlan(const v1::PlanRequest& request, const v1::PlanResponse
     ASSERT_TRUE(returned.ok()) << returned.error().message;
     const Result<RobotProfile> profile = ProfileFromRequest(request);
     ASSERT_TRUE(profile.ok()) << profile.error().message;
-    const bench::IndependentCheckCounts broken =
-        bench::CheckTrajectory(DemoModel(), profile.value(), returned.value());
+    const bench::IndependentCheckCounts broken = bench::CheckTrajectory(
+        DemoModel(), profile.value(), returned.value(), bench::CheckConfigFor(VerifierConfig{}));
     EXPECT_FALSE(broken.Any()) << "independent check: " << broken.Describe();
   }
   EXPECT_LE(response.stats().max_speed_horizontal_mps(),

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <vector>
 
 namespace strata {
 namespace {
@@ -199,6 +200,46 @@ void TerrainFields::Sample(const Eigen::Vector3d& p, FieldSample* sample, FieldB
     block->max_safety = std::max(block->max_safety, SafetyValue(c.index[k]));
     block->min_distance = std::min(block->min_distance, DistanceValue(c.index[k]));
   }
+}
+
+TerrainFields::DistanceBounds TerrainFields::DistanceBoundsIn(
+    const Eigen::AlignedBox3d& box) const {
+  const GridGeometry& g = parts_.geometry;
+  const double inv_r = 1.0 / g.resolution_m;
+  // The corners of the blocks of the box's two extreme points and of every block between.
+  int low[3], count[3];
+  for (int a = 0; a < 3; ++a) {
+    low[a] = LocateOnAxis(g, inv_r, box.min(), a).i;
+    const int high = std::min(LocateOnAxis(g, inv_r, box.max(), a).i + 1, g.size[a] - 1);
+    count[a] = high - low[a] + 1;
+  }
+  // Values x fastest; a column's layers found once each.
+  std::vector<double> value(static_cast<std::size_t>(count[0]) * count[1] * count[2]);
+  const auto at = [&](int x, int y, int z) -> double& {
+    return value[x +
+                 static_cast<std::size_t>(count[0]) * (y + static_cast<std::size_t>(count[1]) * z)];
+  };
+  for (int z = 0; z < count[2]; ++z) {
+    for (int y = 0; y < count[1]; ++y) {
+      for (int x = 0; x < count[0]; ++x) {
+        at(x, y, z) = DistanceValue(FindCell({low[0] + x, low[1] + y, low[2] + z}));
+      }
+    }
+  }
+  DistanceBounds bounds{*std::min_element(value.begin(), value.end()), 0};
+  double largest[3] = {0, 0, 0};  // The largest neighbour difference along each axis.
+  for (int z = 0; z < count[2]; ++z) {
+    for (int y = 0; y < count[1]; ++y) {
+      for (int x = 0; x < count[0]; ++x) {
+        const double v = at(x, y, z);
+        if (x + 1 < count[0]) largest[0] = std::max(largest[0], std::abs(at(x + 1, y, z) - v));
+        if (y + 1 < count[1]) largest[1] = std::max(largest[1], std::abs(at(x, y + 1, z) - v));
+        if (z + 1 < count[2]) largest[2] = std::max(largest[2], std::abs(at(x, y, z + 1) - v));
+      }
+    }
+  }
+  bounds.max_slope = Eigen::Vector3d(largest[0], largest[1], largest[2]).norm() * inv_r;
+  return bounds;
 }
 
 std::int64_t TerrainFields::BlockKey(const Eigen::Vector3d& p) const {

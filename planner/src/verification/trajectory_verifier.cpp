@@ -5,11 +5,14 @@
 #include <limits>
 #include <numbers>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include <fmt/format.h>
 
 #include "format_internal.hpp"
 #include "strata/planning/terrain_query.hpp"
+#include "strata/verification/polynomial_bounds.hpp"
 
 namespace strata {
 namespace {
@@ -26,24 +29,22 @@ std::string Exceeds(const char* quantity, double value, double bound, const char
                      unit);
 }
 
-// Largest speed of the x, y, z path, from 32 samples per piece; only sets the step size.
-double PeakSpeed(const Trajectory& trajectory) {
-  double peak = 0;
-  for (std::size_t i = 0; i < trajectory.pieces.size(); ++i) {
-    const double duration = trajectory.pieces[i].duration_s;
-    for (int k = 0; k <= 32; ++k) {
-      peak = std::max(peak, trajectory.EvaluatePiece(i, duration * k / 32, 1).head<3>().norm());
-    }
-  }
-  return peak;
-}
-
-// Column edges one step between samples (<= max_sample_spacing_m) may cross: more than a
-// corner's worth only on a curve that winds within one step.
-constexpr int kMaxCrossingsPerStep = 4;
-
 // Most samples one verification takes (2e7 samples 2 cm apart: 400 km).
 constexpr double kMaxSamples = 2e7;
+
+// The shortest stretch between two checked instants that the verifier still splits when it
+// cannot show a rule over the stretch [s]: below it, the stretch is refused.
+constexpr double kShortestStretchS = 1e-9;
+
+// How far past its column's edge an enclosure of the path may reach and still count as inside
+// it [m]: the instant a column is entered is found to kShortestStretchS, in which the path
+// moves far less.
+constexpr double kColumnEdgeSlackM = 1e-6;
+
+// Branch and bound settles a kinematic maximum to this fraction of its bound for the report,
+// and, where that leaves it undecided against the bound, to the second.
+constexpr double kReportTolerance = 1e-4;
+constexpr double kDecisionTolerance = 1e-9;
 
 constexpr double kDegree = std::numbers::pi / 180.0;
 
@@ -94,18 +95,98 @@ double BodyHeightTolerance(const RobotProfile& profile, const VerifierConfig& co
 
 namespace {
 
-// The checks of one state, one function per rule of VerifyTrajectory's list, in its order,
-// each recording its figure in the report first. Every comparison is written
-// !(value within bound), so a NaN fails it.
+// One piece as polynomials of local time: position, velocity and acceleration per axis, and a
+// bound on its x, y, z speed.
+struct PiecePolynomials {
+  PiecePolynomials(const TrajectoryPiece& piece, int dimension) : duration_s(piece.duration_s) {
+    for (int axis = 0; axis < dimension; ++axis) {
+      position[axis] = piece.coefficients.col(axis);
+      velocity[axis] = Derivative(position[axis]);
+      acceleration[axis] = Derivative(velocity[axis]);
+    }
+    const Polynomial speed_squared = Product(velocity[0], velocity[0]) +
+                                     Product(velocity[1], velocity[1]) +
+                                     Product(velocity[2], velocity[2]);
+    // A bound, not the maximum: 0.1% above it costs 0.1% more samples.
+    const double coarse = RangeOn(speed_squared, 0, duration_s).high;
+    const PolynomialMaximum peak = MaximumOn(speed_squared, 0, duration_s, 1e-3 * coarse);
+    speed_bound_mps = std::sqrt(std::max(0.0, peak.upper));
+  }
+
+  // The enclosure of the x, y, z path over local times [a, b].
+  Eigen::AlignedBox3d PathBox(double a, double b) const {
+    Eigen::AlignedBox3d box;
+    for (int axis = 0; axis < 3; ++axis) {
+      const PolynomialRange range = RangeOn(position[axis], a, b);
+      box.min()(axis) = range.low;
+      box.max()(axis) = range.high;
+    }
+    return box;
+  }
+
+  double duration_s;
+  Polynomial position[4], velocity[4], acceleration[4];
+  double speed_bound_mps = 0;  // >= ‖(vx, vy, vz)‖ over the whole piece.
+};
+
+// The maximum of p over [0, duration], settled far enough to say whether it exceeds `limit`
+// (on p's own scale): to kReportTolerance of the limit, and to kDecisionTolerance when the
+// maximum found is within the limit but its bound is not.
+PolynomialMaximum MaximumAgainst(const Polynomial& p, double duration, double limit) {
+  const double scale = std::max(std::abs(limit), 1e-12);
+  PolynomialMaximum m = MaximumOn(p, 0, duration, kReportTolerance * scale);
+  if (!(m.upper <= limit) && m.value <= limit) {
+    m = MaximumOn(p, 0, duration, kDecisionTolerance * scale);
+  }
+  return m;
+}
+
+// The largest of ‖(q_0, q_1)‖ (two axes) or |q_0| (one) over a piece, against `limit`
+// (MaximumAgainst), with the local time where it is reached.
+struct NormMaximum {
+  double upper = 0;  // >= the norm everywhere on the piece.
+  double value = 0;  // The norm at `at`.
+  double at = 0;
+};
+NormMaximum LargestNorm(const Polynomial* axes, int count, double duration, double limit) {
+  if (count == 2) {
+    const Polynomial squared = Product(axes[0], axes[0]) + Product(axes[1], axes[1]);
+    const PolynomialMaximum m = MaximumAgainst(squared, duration, limit * limit);
+    return {std::sqrt(std::max(0.0, m.upper)), std::sqrt(std::max(0.0, m.value)), m.at};
+  }
+  const PolynomialMaximum up = MaximumAgainst(axes[0], duration, limit);
+  const PolynomialMaximum down = MaximumAgainst(-axes[0], duration, limit);
+  const PolynomialMaximum& m = up.upper >= down.upper ? up : down;
+  return {m.upper, m.value, m.at};
+}
+
+// The instant the verifier last checked, and what held there.
+struct CheckedInstant {
+  double t = -1;                                     // Global time [s]; < 0 before the first.
+  std::size_t piece = 0;                             // The piece the stretch from here on lies in.
+  double piece_start = 0;                            // Its global start [s].
+  Eigen::Vector2d column = Eigen::Vector2d::Zero();  // Floored cell coordinates.
+  GridGeometry::OffsetRange x{0, 0}, y{0, 0};        // The column's (GridGeometry).
+  const ColumnSurface* surface = nullptr;
+  double distance_m = 0;
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();
+};
+
+// The checks of one instant, one function per rule of VerifyTrajectory's list, in its order,
+// each recording its figure in the report first, and the proofs that the rules hold between
+// consecutive instants. Every comparison is written !(value within bound), so a NaN fails it.
 class StateChecker {
  public:
   StateChecker(const SurfaceGraph& graph, const RobotProfile& profile, const VerifierConfig& config,
+               const Trajectory& trajectory, const std::vector<PiecePolynomials>& pieces,
                std::span<const KeepOutZone> keep_out, VerificationReport* report)
       : graph_(graph),
         model_(graph.model()),
         grid_(graph.grid()),
         profile_(profile),
         config_(config),
+        pieces_(pieces),
+        cursor_(trajectory),
         keep_out_(keep_out),
         report_(report),
         tolerance_(1 + config.limit_tolerance),
@@ -122,11 +203,229 @@ class StateChecker {
                            grid_.resolution_m / std::sqrt(2.0) * std::tan(profile.max_tilt_rad)),
         grid_max_(grid_.origin_m + grid_.size.cast<double>() * grid_.resolution_m) {}
 
-  // Every rule at time t, in order; the first violation.
-  Status Check(double t, const StateVector& pos, const StateVector& vel, const StateVector& acc) {
-    const Eigen::Vector3d p = pos.head<3>();
+  // Speed, acceleration and body height over the whole of piece i (starting at global time
+  // `start`), exactly: their maxima by branch and bound, not at samples.
+  Status PieceKinematics(std::size_t i, double start) {
+    const PiecePolynomials& piece = pieces_[i];
+    const auto check = [&](const Polynomial* axes, int count, double bound, double* reported,
+                           const char* quantity, const char* unit) -> Status {
+      const NormMaximum m = LargestNorm(axes, count, piece.duration_s, tolerance_ * bound);
+      *reported = std::max(*reported, m.value);
+      if (!(m.upper <= tolerance_ * bound)) {
+        return Violation(start + m.at, Position(start + m.at),
+                         Exceeds(quantity, std::max(m.value, m.upper), bound, unit));
+      }
+      return Status::Ok();
+    };
+    if (Status s = check(piece.velocity, 2, profile_.max_speed_horizontal_mps,
+                         &report_->max_speed_horizontal_mps, "horizontal speed", "m/s");
+        !s) {
+      return s;
+    }
+    if (Status s = check(piece.velocity + 2, 1, profile_.max_speed_vertical_mps,
+                         &report_->max_speed_vertical_mps, "vertical speed", "m/s");
+        !s) {
+      return s;
+    }
+    if (Status s = check(piece.acceleration, 2, profile_.max_accel_horizontal_mps2,
+                         &report_->max_accel_horizontal_mps2, "horizontal acceleration", "m/s^2");
+        !s) {
+      return s;
+    }
+    if (Status s = check(piece.acceleration + 2, 1, profile_.max_accel_vertical_mps2,
+                         &report_->max_accel_vertical_mps2, "vertical acceleration", "m/s^2");
+        !s) {
+      return s;
+    }
+    if (!profile_.active_height) return Status::Ok();
+    // The commanded body height within the profile's range.
+    const PolynomialMaximum high = MaximumAgainst(piece.position[3], piece.duration_s,
+                                                  profile_.body_height_max_m + body_slack_m_);
+    const PolynomialMaximum low = MaximumAgainst(-piece.position[3], piece.duration_s,
+                                                 -(profile_.body_height_min_m - body_slack_m_));
+    report_->min_body_height_m = std::min(report_->min_body_height_m, -low.value);
+    const bool too_high = !(high.upper <= profile_.body_height_max_m + body_slack_m_);
+    const bool too_low = !(-low.upper >= profile_.body_height_min_m - body_slack_m_);
+    if (too_high || too_low) {
+      const double at = too_high ? high.at : low.at;
+      return Violation(start + at, Position(start + at),
+                       fmt::format("body height {:.3f} m is outside [{:.3f}, {:.3f}] m",
+                                   too_high ? high.value : -low.value, profile_.body_height_min_m,
+                                   profile_.body_height_max_m));
+    }
+    return Status::Ok();
+  }
+
+  // The rules at global time t, once they are shown to hold from the last checked instant
+  // to t, with instants checked in between where that takes them: where the reference
+  // point enters a column, and wherever a stretch is too long for its proof. Piece `piece`
+  // (from `piece_start`) holds the stretch after t. Instants must come in increasing order.
+  Status Reach(double t, std::size_t piece, double piece_start) {
+    if (last_.t >= 0) {
+      if (Status s = ReachFromLast(t); !s) return s;
+    } else if (Status s = CheckInstant(t); !s) {
+      return s;
+    }
+    last_.piece = piece;
+    last_.piece_start = piece_start;
+    return Status::Ok();
+  }
+
+ private:
+  Eigen::Vector3d Position(double t) { return cursor_.Position(t).head<3>(); }
+
+  // Floored cell coordinates of (x, y), as doubles so that no cast can overflow.
+  Eigen::Vector2d ColumnOf(const Eigen::Vector3d& p) const {
+    return ((p.head<2>() - grid_.origin_m.head<2>()) / grid_.resolution_m).array().floor();
+  }
+
+  // Whether the reference point is in last_'s column at time t (by comparisons with the
+  // column's offsets: a division and a floor were most of the test).
+  bool InLastColumn(double t) {
+    const Eigen::Vector2d d = Position(t).head<2>() - grid_.origin_m.head<2>();
+    return d.x() >= last_.x.low && d.x() < last_.x.high && d.y() >= last_.y.low &&
+           d.y() < last_.y.high;
+  }
+
+  // The first instant after last_.t, to kShortestStretchS, at which the reference point is
+  // outside last_'s column; it is outside at `to`.
+  double LeavesColumn(double to) {
+    double lo = last_.t, hi = to;
+    for (int halving = 0; halving < 80 && hi - lo > kShortestStretchS; ++halving) {
+      const double mid = 0.5 * (lo + hi);
+      (InLastColumn(mid) ? lo : hi) = mid;
+    }
+    return hi;
+  }
+
+  Status ReachFromLast(double t) {
+    while (last_.t < t) {
+      double next = t;
+      if (!InLastColumn(next)) next = LeavesColumn(next);
+      if (const char* unproven = ProveStretch(next); unproven != nullptr) {
+        if (!(next - last_.t > kShortestStretchS)) {
+          // Mostly the instant a rule starts to fail: name the violation at the stretch's end.
+          if (Status s = CheckInstant(next); !s) return s;
+          return Violation(next, Position(next),
+                           fmt::format("{} cannot be shown to hold between t = {:.9f} s and "
+                                       "this instant",
+                                       unproven, last_.t));
+        }
+        // Check halfway, then prove the two halves.
+        if (Status s = ReachFromLast(0.5 * (last_.t + next)); !s) return s;
+        continue;
+      }
+      if (Status s = CheckInstant(next); !s) return s;
+    }
+    return Status::Ok();
+  }
+
+  // Whether every rule holds from last_ to `to` (in last_'s column but possibly `to` itself,
+  // where a column is entered), or the first rule it could not show.
+  const char* ProveStretch(double to) {
+    const PiecePolynomials& piece = pieces_[last_.piece];
+    const double a = std::clamp(last_.t - last_.piece_start, 0.0, piece.duration_s);
+    const double b = std::clamp(to - last_.piece_start, a, piece.duration_s);
+    const Eigen::AlignedBox3d box = piece.PathBox(a, b);
+    // The column, and so the surface's validity, tilt, ceiling and graph node, stay last_'s.
+    const GridGeometry::OffsetRange& x = last_.x;
+    const GridGeometry::OffsetRange& y = last_.y;
+    const Eigen::Vector2d low = box.min().head<2>() - grid_.origin_m.head<2>();
+    const Eigen::Vector2d high = box.max().head<2>() - grid_.origin_m.head<2>();
+    if (!(low.x() >= x.low - kColumnEdgeSlackM && high.x() <= x.high + kColumnEdgeSlackM &&
+          low.y() >= y.low - kColumnEdgeSlackM && high.y() <= y.high + kColumnEdgeSlackM &&
+          box.min().z() >= grid_.origin_m.z() && box.max().z() < grid_max_.z())) {
+      return "staying in one column of the grid";
+    }
+    // The feet stay nearest to the same surface of the column (SampleGround's choice), at
+    // its level: the feet's heights over the stretch lie in [box z − reference height].
+    const double feet_low = box.min().z() - profile_.reference_height_m;
+    const double feet_high = box.max().z() - profile_.reference_height_m;
+    const std::span<const ColumnSurface> column = model_.surfaces().Column(
+        static_cast<int>(last_.column.x()), static_cast<int>(last_.column.y()));
+    const std::size_t k = static_cast<std::size_t>(last_.surface - column.data());
+    const double ground = last_.surface->ground_z_m;
+    if ((k > 0 && !(feet_low > 0.5 * (column[k - 1].ground_z_m + ground))) ||
+        (k + 1 < column.size() && !(feet_high <= 0.5 * (ground + column[k + 1].ground_z_m))) ||
+        !(std::abs(last_.surface->plane_center_z_m - feet_low) <= level_tolerance_m_ &&
+          std::abs(last_.surface->plane_center_z_m - feet_high) <= level_tolerance_m_)) {
+      return "standing on the same ground of the column";
+    }
+    // The body under that surface's ceiling.
+    const double body_high =
+        profile_.active_height ? RangeOn(piece.position[3], a, b).high : profile_.body_height_m;
+    if (!(body_high + profile_.headroom_m <= last_.surface->clearance_m + body_slack_m_)) {
+      return "the headroom";
+    }
+    // d at least the bound: its corners' least value in the box, or its slope bound over the
+    // path's length from both ends' values (ℓ <= speed bound × duration).
+    const TerrainFields::DistanceBounds field = DistanceBoundsIn(box);
+    if (!(field.min_m >= config_.min_obstacle_distance_m)) {
+      const double length = piece.speed_bound_mps * (b - a);
+      const double end_distance = DistanceAt(to);
+      if (!(0.5 * (last_.distance_m + end_distance - field.max_slope * length) >=
+            config_.min_obstacle_distance_m)) {
+        return "the obstacle distance";
+      }
+    }
+    if (!KeepOutStretch(piece, a, b, box, Position(to))) return "staying out of keep-out zones";
+    return nullptr;
+  }
+
+  // The distance field's bounds in `box`, from the last box's when both read the same blocks
+  // (consecutive stretches, 2 cm long, mostly do).
+  TerrainFields::DistanceBounds DistanceBoundsIn(const Eigen::AlignedBox3d& box) {
+    const TerrainFields& fields = model_.fields();
+    const std::int64_t low = fields.BlockKey(box.min()), high = fields.BlockKey(box.max());
+    if (low != bounds_of_.low || high != bounds_of_.high) {
+      bounds_of_ = {low, high, fields.DistanceBoundsIn(box)};
+    }
+    return bounds_of_.bounds;
+  }
+
+  // d at time t, kept for the check of the instant t that follows a stretch's proof.
+  double DistanceAt(double t) {
+    if (t != distance_at_.t) distance_at_ = {t, model_.Distance(Position(t))};
+    return distance_at_.value;
+  }
+
+  // Whether the robot stays out of every keep-out zone from last_ to local time b: for each
+  // zone, its height range clear of the zone's for every reference height of the box, or its
+  // footprint clear of the polygon by half the path's length (the footprint's penetration is
+  // 1-Lipschitz in x, y).
+  bool KeepOutStretch(const PiecePolynomials& piece, double a, double b,
+                      const Eigen::AlignedBox3d& box, const Eigen::Vector3d& end) const {
+    const double half_length = 0.5 * piece.speed_bound_mps * (b - a);
+    const double radius = profile_.footprint_radius_m;
+    for (const KeepOutZone& zone : keep_out_) {
+      if ((box.min().head<2>().array() > zone.bounds_m.max().head<2>().array() + radius).any() ||
+          (box.max().head<2>().array() < zone.bounds_m.min().head<2>().array() - radius).any()) {
+        continue;
+      }
+      // Below the zone even at the box's highest reference height (the overlap, at most 0,
+      // still rises with z), or above it even at the lowest (it falls).
+      double rise = 0;
+      if (KeepOutVerticalOverlap(zone.prism, profile_, box.max().z(), &rise) <= 0 && rise > 0) {
+        continue;
+      }
+      if (KeepOutVerticalOverlap(zone.prism, profile_, box.min().z(), &rise) <= 0 && rise < 0) {
+        continue;
+      }
+      if (0.5 * (KeepOutPenetration(zone.prism, profile_, last_.position) +
+                 KeepOutPenetration(zone.prism, profile_, end)) +
+              half_length <=
+          0) {
+        continue;
+      }
+      return false;
+    }
+    return true;
+  }
+
+  // Every rule of one instant, in order; the first violation. Records the instant in last_.
+  Status CheckInstant(double t) {
+    const Eigen::Vector3d p = Position(t);
     ++report_->samples;
-    if (Status s = Kinematics(t, p, vel, acc); !s) return s;
     if (Status s = InsideGrid(t, p); !s) return s;
     GroundSample ground;
     const Eigen::Vector3i cell = grid_.CellOf(p);
@@ -136,42 +435,21 @@ class StateChecker {
     if (Status s = ValidGround(t, p, surface); !s) return s;
     if (Status s = Tilt(t, p, surface); !s) return s;
     if (Status s = GroundOffset(t, p, ground); !s) return s;
-    if (Status s = ObstacleDistance(t, p); !s) return s;
-    const double body = profile_.active_height ? pos(3) : profile_.body_height_m;
+    double distance = 0;
+    if (Status s = ObstacleDistance(t, p, &distance); !s) return s;
+    const double body = profile_.active_height ? cursor_.Position(t)(3) : profile_.body_height_m;
     if (Status s = Headroom(t, p, surface, body); !s) return s;
-    if (Status s = BodyHeightRange(t, p, body); !s) return s;
     if (Status s = GraphNode(t, p, cell, ground.surface); !s) return s;
-    return KeepOut(t, p);
-  }
-
- private:
-  // Horizontal and vertical speed and acceleration within the profile's bounds.
-  Status Kinematics(double t, const Eigen::Vector3d& p, const StateVector& vel,
-                    const StateVector& acc) {
-    const double speed_h = vel.head<2>().norm(), speed_v = std::abs(vel(2));
-    const double accel_h = acc.head<2>().norm(), accel_v = std::abs(acc(2));
-    report_->max_speed_horizontal_mps = std::max(report_->max_speed_horizontal_mps, speed_h);
-    report_->max_speed_vertical_mps = std::max(report_->max_speed_vertical_mps, speed_v);
-    report_->max_accel_horizontal_mps2 = std::max(report_->max_accel_horizontal_mps2, accel_h);
-    report_->max_accel_vertical_mps2 = std::max(report_->max_accel_vertical_mps2, accel_v);
-    if (!(speed_h <= tolerance_ * profile_.max_speed_horizontal_mps)) {
-      return Violation(
-          t, p, Exceeds("horizontal speed", speed_h, profile_.max_speed_horizontal_mps, "m/s"));
+    if (Status s = KeepOut(t, p); !s) return s;
+    if (const Eigen::Vector2d column = ColumnOf(p); column != last_.column || last_.t < 0) {
+      last_.column = column;
+      last_.x = grid_.OffsetsOfIndex(column.x());
+      last_.y = grid_.OffsetsOfIndex(column.y());
     }
-    if (!(speed_v <= tolerance_ * profile_.max_speed_vertical_mps)) {
-      return Violation(t, p,
-                       Exceeds("vertical speed", speed_v, profile_.max_speed_vertical_mps, "m/s"));
-    }
-    if (!(accel_h <= tolerance_ * profile_.max_accel_horizontal_mps2)) {
-      return Violation(
-          t, p,
-          Exceeds("horizontal acceleration", accel_h, profile_.max_accel_horizontal_mps2, "m/s^2"));
-    }
-    if (!(accel_v <= tolerance_ * profile_.max_accel_vertical_mps2)) {
-      return Violation(
-          t, p,
-          Exceeds("vertical acceleration", accel_v, profile_.max_accel_vertical_mps2, "m/s^2"));
-    }
+    last_.t = t;
+    last_.surface = ground.surface;
+    last_.distance_m = distance;
+    last_.position = p;
     return Status::Ok();
   }
 
@@ -242,8 +520,9 @@ class StateChecker {
     return Status::Ok();
   }
 
-  Status ObstacleDistance(double t, const Eigen::Vector3d& p) {
-    const double distance = model_.Distance(p);
+  Status ObstacleDistance(double t, const Eigen::Vector3d& p, double* distance_out) {
+    const double distance = t == distance_at_.t ? distance_at_.value : model_.Distance(p);
+    *distance_out = distance;
     report_->min_obstacle_distance_m = std::min(report_->min_obstacle_distance_m, distance);
     if (!(distance >= config_.min_obstacle_distance_m)) {
       return Violation(t, p,
@@ -264,17 +543,6 @@ class StateChecker {
                                    "the ceiling ({:.3f} m above ground) is below the profile's "
                                    "headroom_m {:.3f} m",
                                    clearance - body, body, clearance, profile_.headroom_m));
-    }
-    return Status::Ok();
-  }
-
-  // A commanded body height within the profile's range.
-  Status BodyHeightRange(double t, const Eigen::Vector3d& p, double body) const {
-    if (profile_.active_height && !(body <= profile_.body_height_max_m + body_slack_m_ &&
-                                    body >= profile_.body_height_min_m - body_slack_m_)) {
-      return Violation(t, p,
-                       fmt::format("body height {:.3f} m is outside [{:.3f}, {:.3f}] m", body,
-                                   profile_.body_height_min_m, profile_.body_height_max_m));
     }
     return Status::Ok();
   }
@@ -307,6 +575,8 @@ class StateChecker {
   const GridGeometry& grid_;
   const RobotProfile& profile_;
   const VerifierConfig& config_;
+  const std::vector<PiecePolynomials>& pieces_;
+  TrajectoryCursor cursor_;
   std::span<const KeepOutZone> keep_out_;
   VerificationReport* report_;
   const double tolerance_;
@@ -317,6 +587,15 @@ class StateChecker {
   // Consecutive samples, 2 cm apart, mostly stand on the same column corners: SampleGround
   // reuses their choice where it holds (the same answers, fewer column scans).
   GroundChoice ground_choice_;
+  CheckedInstant last_;
+  struct {
+    std::int64_t low = -1, high = -1;  // The BlockKeys of a box's corners.
+    TerrainFields::DistanceBounds bounds;
+  } bounds_of_;
+  struct {
+    double t = -1;
+    double value = 0;
+  } distance_at_;
 };
 
 // The trajectory's shape before anything is sampled: the profile's dimension, pieces with
@@ -352,44 +631,6 @@ Status CheckShape(const Trajectory& trajectory, const RobotProfile& profile) {
   return Status::Ok();
 }
 
-// Where the reference point changed columns between `from` and `to`, the state at its first
-// instant in each column entered (bisection to 1e-9 s): a ceiling, the ground's validity and
-// the graph's nodes change at column edges, not between samples.
-Status CheckColumnEntries(double from, double to, const GridGeometry& grid,
-                          TrajectoryCursor& cursor, StateChecker& checker) {
-  // The column at global time t (floored cell coordinates, as doubles so that no cast can
-  // overflow).
-  const auto column_at = [&](double t) -> Eigen::Vector2d {
-    const Eigen::Vector2d p = cursor.Position(t).head<2>();
-    return ((p - grid.origin_m.head<2>()) / grid.resolution_m).array().floor();
-  };
-  const Eigen::Vector2d target = column_at(to);
-  Eigen::Vector2d column = column_at(from);
-  for (int crossings = 0; column != target && crossings < kMaxCrossingsPerStep; ++crossings) {
-    // column_at(mid) == column, by comparisons: the halvings wait on each other, and a
-    // division and a floor were most of each one.
-    const GridGeometry::OffsetRange x = grid.OffsetsOfIndex(column.x());
-    const GridGeometry::OffsetRange y = grid.OffsetsOfIndex(column.y());
-    const auto in_column = [&](double time) {
-      const Eigen::Vector2d d = cursor.Position(time).head<2>() - grid.origin_m.head<2>();
-      return d.x() >= x.low && d.x() < x.high && d.y() >= y.low && d.y() < y.high;
-    };
-    double lo = from, hi = to;
-    for (int halving = 0; halving < 60 && hi - lo > 1e-9; ++halving) {
-      const double mid = 0.5 * (lo + hi);
-      (in_column(mid) ? lo : hi) = mid;
-    }
-    if (Status s =
-            checker.Check(hi, cursor.Position(hi), cursor.Velocity(hi), cursor.Acceleration(hi));
-        !s) {
-      return s;
-    }
-    from = hi;
-    column = column_at(hi);
-  }
-  return Status::Ok();
-}
-
 }  // namespace
 
 Status VerifyTrajectory(const SurfaceGraph& graph, const RobotProfile& profile,
@@ -407,42 +648,34 @@ Status VerifyTrajectory(const SurfaceGraph& graph, const RobotProfile& profile,
   report->min_body_height_m = std::numeric_limits<double>::infinity();
   report->min_headroom_m = std::numeric_limits<double>::infinity();
   if (Status s = CheckShape(trajectory, profile); !s) return s;
-  // Speed is at most ~1.1× the coarse peak between coarse samples of a quintic (and the 1%
-  // limit check bounds it anyway), so this step keeps consecutive samples <= the spacing.
-  const double peak_speed = 1.1 * PeakSpeed(trajectory);
-  const double sample_count = peak_speed * trajectory.TotalDuration() / config.max_sample_spacing_m;
+  std::vector<PiecePolynomials> pieces;
+  pieces.reserve(trajectory.pieces.size());
+  double sample_count = 0;
+  for (const TrajectoryPiece& piece : trajectory.pieces) {
+    pieces.emplace_back(piece, trajectory.dimension);
+    sample_count += pieces.back().speed_bound_mps * piece.duration_s / config.max_sample_spacing_m;
+  }
   if (!(sample_count <= kMaxSamples)) {
     return Error{ErrorCode::kOptimizationFailed,
                  fmt::format("trajectory verification failed: {:.3g} samples {:.3g} m apart are "
                              "too many (at most {:.0f}); the trajectory is too long or too fast",
                              sample_count, config.max_sample_spacing_m, kMaxSamples)};
   }
-  StateChecker checker(graph, profile, config, keep_out, report);
-  // Between samples (the column entries) the cursor finds the piece from the last one.
-  TrajectoryCursor cursor(trajectory);
+  StateChecker checker(graph, profile, config, trajectory, pieces, keep_out, report);
   double piece_start = 0;
-  double previous_t = -1;
   for (std::size_t i = 0; i < trajectory.pieces.size(); ++i) {
     const double piece_duration = trajectory.pieces[i].duration_s;
-    const int steps = std::max(
-        1, static_cast<int>(std::ceil(piece_duration * peak_speed / config.max_sample_spacing_m)));
+    if (Status s = checker.PieceKinematics(i, piece_start); !s) return s;
+    // Samples no farther apart than the spacing along the path: the speed bound is exact.
+    const int steps =
+        std::max(1, static_cast<int>(std::ceil(piece_duration * pieces[i].speed_bound_mps /
+                                               config.max_sample_spacing_m)));
     // Each piece's samples include its start; the last piece also its end.
     const int last = i + 1 == trajectory.pieces.size() ? steps : steps - 1;
     for (int k = 0; k <= last; ++k) {
-      const double local_t = piece_duration * k / steps;
-      const double t = piece_start + local_t;
-      if (previous_t >= 0) {
-        if (Status s = CheckColumnEntries(previous_t, t, graph.grid(), cursor, checker); !s) {
-          return s;
-        }
-      }
-      if (Status s = checker.Check(t, trajectory.EvaluatePiece(i, local_t, 0),
-                                   trajectory.EvaluatePiece(i, local_t, 1),
-                                   trajectory.EvaluatePiece(i, local_t, 2));
-          !s) {
+      if (Status s = checker.Reach(piece_start + piece_duration * k / steps, i, piece_start); !s) {
         return s;
       }
-      previous_t = t;
     }
     piece_start += piece_duration;
   }

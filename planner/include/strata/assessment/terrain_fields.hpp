@@ -26,6 +26,7 @@
 #include <vector>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
 #include "strata/assessment/grid.hpp"
 #include "strata/assessment/surface_map.hpp"
@@ -99,6 +100,18 @@ class TerrainFields {
   /// The block a sample at p reads, as one number: equal for two points exactly when their
   /// samples interpolate between the same eight corners. Cheaper than a sample: no lookup.
   std::int64_t BlockKey(const Eigen::Vector3d& p) const;
+
+  /// What d can be anywhere in `box` (the verifier's enclosure of a stretch of path between
+  /// two samples): the least corner value of every trilinear block the box meets, and a bound
+  /// on |∇d| there. In a block ∂d/∂x is a weighted mean of the block's four differences
+  /// along x over the resolution (likewise y, z), so the norm of the largest difference along
+  /// each axis between neighbouring corners of those blocks, over the resolution, bounds it.
+  /// A box beyond the hull of cell centres reads the clamped blocks (their gradient is smaller).
+  struct DistanceBounds {
+    double min_m = 0;      ///< d >= this in the box [m].
+    double max_slope = 0;  ///< |∇d| <= this in the box [-].
+  };
+  DistanceBounds DistanceBoundsIn(const Eigen::AlignedBox3d& box) const;
 
   /// The stored values at a cell, or nothing outside the band. For tests and tools.
   std::optional<double> DistanceAt(const Eigen::Vector3i& cell) const;

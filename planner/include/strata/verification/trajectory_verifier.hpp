@@ -1,7 +1,8 @@
 #pragma once
-/// The last gate before a plan is returned: the trajectory is sampled densely and every sample
-/// is checked against the map and the robot's limits. A trajectory that fails is reported
-/// with its first violation, never returned as success.
+/// The last gate before a plan is returned: the trajectory is checked against the map and the
+/// robot's limits at every instant (exactly for its kinematics, by proofs between dense
+/// samples for the map). A trajectory that fails is reported with its first violation, never
+/// returned as success.
 #include <span>
 #include <string>
 #include <string_view>
@@ -38,8 +39,8 @@ struct VerifierConfig {
 /// highest body height (body_height_max_m, or body_height_m for a fixed height).
 double BodyHeightTolerance(const RobotProfile& profile, const VerifierConfig& config);
 
-/// What verification measured over all samples (extremes; filled even on failure up to the
-/// first violation).
+/// What verification measured (extremes: exact maxima of the kinematics, the map's figures
+/// over the instants checked; filled even on failure up to the first violation).
 struct VerificationReport {
   int samples = 0;
   double max_speed_horizontal_mps = 0;
@@ -53,24 +54,29 @@ struct VerificationReport {
   double min_headroom_m = 0;
 };
 
-/// Checks every sample (spacing <= max_sample_spacing_m in 3D, both ends, and the first instant
-/// in every grid column the reference point enters, where ceilings and ground change), in this
-/// order, and fails with kOptimizationFailed naming the first violation (time, position, the
-/// quantity, its value and its bound):
+/// Checks the trajectory at every instant, not only at samples (docs/design.md §13 says how
+/// and what is proven): per piece, speed, acceleration and body height exactly (branch and
+/// bound over Bernstein coefficients, polynomial_bounds.hpp); at samples at most
+/// max_sample_spacing_m apart in 3D, at the first instant in every grid column the reference
+/// point enters, and between them wherever a rule could change, proven over each stretch or
+/// the stretch split and checked in its middle. The rules, in this order, failing with
+/// kOptimizationFailed naming the first violation (time, position, the quantity, its value
+/// and its bound), or a rule that cannot be shown over a stretch of 1e-9 s:
 /// - horizontal and vertical speed and acceleration within the profile's bounds
-///   (+ limit_tolerance);
+///   (+ limit_tolerance), and the commanded body height within [body_height_min_m,
+///   body_height_max_m] (within BodyHeightTolerance);
 /// - the reference point inside the map's grid, over ground of its own column: the surface
-///   SampleGround picks there (the one nearest to z − reference height, never another level of
-///   the column), whose plane-fit height at the column's centre lies within the ground
+///   SampleGround picks there (the one nearest to z − reference height, never another level
+///   of the column), whose plane-fit height at the column's centre lies within the ground
 ///   tolerance (below) + (r/√2)·tan(max_tilt_rad) of z − reference height (r the grid
 ///   resolution; else the robot is inside a post, a leg or a wall, or cuts across a ledge
 ///   that the smoothed ground rounds off), which is valid ground with tilt <= max_tilt_rad;
 /// - z within the ground tolerance of the smoothed ground of SampleGround + reference height:
-///   ground_tolerance_m, or 0.75 quanta on a voxelised cloud if more;
+///   ground_tolerance_m, or 0.75 quanta on a voxelised cloud if more (at the samples only:
+///   docs/design.md §13 says why);
 /// - ESDF distance >= min_obstacle_distance_m;
 /// - the surface's ceiling clearance at least the body height (commanded for active-height
-///   robots, else body_height_m) + headroom_m, and the commanded body height within
-///   [body_height_min_m, body_height_max_m], both within BodyHeightTolerance;
+///   robots, else body_height_m) + headroom_m, within BodyHeightTolerance;
 /// - the surface is a node of `graph` (true when the graph was built from
 ///   profile.Traversability(), as Plan does);
 /// - the robot outside every zone of `keep_out` (keep_out.hpp defines when it is inside;
