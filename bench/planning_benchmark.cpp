@@ -1,6 +1,7 @@
 // Planning figures for docs/benchmarks.md: the eleven reference queries of
 // ../shared/maps/README.md (median of RUNS runs each, 5 unless given) and random start/goal
-// pairs on each shared map (fixed seed). Prints markdown tables. Not part of the test path.
+// pairs on each shared map (fixed seed), each returned trajectory also checked by the
+// benchmark's own check (stderr). Prints markdown tables. Not part of the test path.
 //
 //   STRATA_MAPS_DIR=../shared/maps build/bench/planning_benchmark [PAIRS] [SEED] [BUDGET_S] [RUNS]
 //
@@ -24,6 +25,7 @@
 #include "statistics.hpp"
 #include "strata/io/cloud_io.hpp"
 #include "strata/planner.hpp"
+#include "verifier_bounds.hpp"
 
 namespace {
 
@@ -189,13 +191,19 @@ int main(int argc, char** argv) {
     double max_v = 0, max_a = 0;
     std::map<std::string, int> failures;
     int ok = 0;
+    // The benchmark's own check of every returned trajectory (oracle/independent_check.hpp).
+    strata::bench::IndependentCheckTally checked;
     for (const strata::bench::QueryPair& pair : query_pairs) {
-      const auto plan = strata::Plan(*map, Request(pair.start_m, pair.goal_m));
+      const strata::PlanRequest query = Request(pair.start_m, pair.goal_m);
+      const auto plan = strata::Plan(*map, query);
       if (!plan) {
         ++failures[strata::ErrorCodeName(plan.error().code)];
         continue;
       }
       ++ok;
+      checked.Add(strata::bench::CheckTrajectory(
+          map->model(), query.profile, plan->trajectory,
+          strata::bench::CheckConfigFor(query.options.verifier, map->keep_out())));
       const strata::PlanStats& s = plan->stats;
       total.push_back(s.timings.total_s * 1e3);
       search.push_back(s.timings.search_s * 1e3);
@@ -244,6 +252,7 @@ int main(int argc, char** argv) {
     }
     std::fprintf(stderr, "%s: unreachable goal refused in %.3f ms (median of 5)\n", name.c_str(),
                  Median(refusal));
+    std::fprintf(stderr, "%s: independent check of %s\n", name.c_str(), checked.Describe().c_str());
     std::string reasons;
     for (const auto& [reason, count] : failures)
       reasons += reason + " " + std::to_string(count) + " ";

@@ -308,6 +308,34 @@ TEST(VerifyBetweenSamples, RefusesAnAccelerationPeakBetweenTwoSamples) {
   ExpectPasses(Verify(profile, nudge));
 }
 
+// The same 2 cm nudge: its speed peaks at s = 1/2, between the samples at 1/3 and 2/3, where
+// it is 79% of the peak.
+TEST(VerifyBetweenSamples, RefusesASpeedPeakBetweenTwoSamples) {
+  RobotProfile profile = Loose("differential");
+  const double z = profile.reference_height_m;
+  const Trajectory nudge =
+      MinimumJerk(Eigen::Vector3d(1.03, 1.05, z), Eigen::Vector3d(1.05, 1.05, z), 1);
+  const double peak = kMinimumJerkPeakSpeed * 0.02;
+  const double allowed = 1 + VerifierConfig{}.limit_tolerance;
+  profile.max_speed_horizontal_mps = peak / allowed * 0.95;
+  ExpectRefused(Verify(profile, nudge), "horizontal speed");
+  profile.max_speed_horizontal_mps = peak / allowed * (1 + kRelativeMargin);
+  ExpectPasses(Verify(profile, nudge));
+}
+
+// Standing still, the biped stretches above its highest body height for a moment: only the
+// two ends are sampled.
+TEST(VerifyBetweenSamples, RefusesTheBodyLeavingItsRangeBetweenTwoSamples) {
+  const RobotProfile biped = Loose("biped");
+  const double highest = biped.body_height_max_m + BodyHeightTolerance(biped, {});
+  const double rest = 0.6;
+  ExpectRefused(
+      Verify(biped, WithBump(Standing(biped, 1.05, 1.05, rest), 3, highest + kMarginM - rest)),
+      "body height");
+  ExpectPasses(
+      Verify(biped, WithBump(Standing(biped, 1.05, 1.05, rest), 3, highest - kMarginM - rest)));
+}
+
 // The biped stands under the slab and raises its body for a moment: no sample but the two
 // ends (it does not move), where the body is low.
 TEST(VerifyBetweenSamples, RefusesTheBodyRisingIntoTheHeadroomBetweenTwoSamples) {
