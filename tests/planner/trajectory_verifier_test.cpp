@@ -293,35 +293,42 @@ Trajectory Standing(const RobotProfile& profile, double x, double y, double body
   return test_util::FloorMotion(profile, {x, y}, {x, y}, 2, {.body_m = body_m});
 }
 
-// 2 cm in 1 s: samples 2 cm apart fall at s = 0, 1/3, 2/3 and 1, where the acceleration is at
-// most 77% of its peak (s = 1/2 ∓ √3/6).
-TEST(VerifyBetweenSamples, RefusesAnAccelerationPeakBetweenTwoSamples) {
+// A 2 cm nudge in 1 s: samples 2 cm apart fall at s = 0, 1/3, 2/3 and 1, where the speed is
+// 79% of its peak (s = 1/2) and the acceleration at most 77% of its (s = 1/2 ∓ √3/6). The bound
+// is set between the sampled and the true peak (refused), then just above the peak (passes).
+struct PeakCase {
+  const char* quantity;
+  double RobotProfile::*bound;
+  double peak;               // Over the nudge.
+  double below_peak_factor;  // The refused bound, as a fraction of peak / allowed.
+};
+
+class VerifyPeaksBetweenSamples : public ::testing::TestWithParam<PeakCase> {};
+
+TEST_P(VerifyPeaksBetweenSamples, RefusesAPeakBetweenTwoSamples) {
+  const PeakCase& c = GetParam();
   RobotProfile profile = Loose("differential");
   const double z = profile.reference_height_m;
   const Trajectory nudge =
       MinimumJerk(Eigen::Vector3d(1.03, 1.05, z), Eigen::Vector3d(1.05, 1.05, z), 1);
-  const double peak = kMinimumJerkPeakAcceleration * 0.02;
   const double allowed = 1 + VerifierConfig{}.limit_tolerance;
-  profile.max_accel_horizontal_mps2 = peak / allowed * 0.9;
-  ExpectRefused(Verify(profile, nudge), "horizontal acceleration");
-  profile.max_accel_horizontal_mps2 = peak / allowed * (1 + kRelativeMargin);
+  profile.*c.bound = c.peak / allowed * c.below_peak_factor;
+  ExpectRefused(Verify(profile, nudge), c.quantity);
+  profile.*c.bound = c.peak / allowed * (1 + kRelativeMargin);
   ExpectPasses(Verify(profile, nudge));
 }
 
-// The same 2 cm nudge: its speed peaks at s = 1/2, between the samples at 1/3 and 2/3, where
-// it is 79% of the peak.
-TEST(VerifyBetweenSamples, RefusesASpeedPeakBetweenTwoSamples) {
-  RobotProfile profile = Loose("differential");
-  const double z = profile.reference_height_m;
-  const Trajectory nudge =
-      MinimumJerk(Eigen::Vector3d(1.03, 1.05, z), Eigen::Vector3d(1.05, 1.05, z), 1);
-  const double peak = kMinimumJerkPeakSpeed * 0.02;
-  const double allowed = 1 + VerifierConfig{}.limit_tolerance;
-  profile.max_speed_horizontal_mps = peak / allowed * 0.95;
-  ExpectRefused(Verify(profile, nudge), "horizontal speed");
-  profile.max_speed_horizontal_mps = peak / allowed * (1 + kRelativeMargin);
-  ExpectPasses(Verify(profile, nudge));
-}
+INSTANTIATE_TEST_SUITE_P(
+    SpeedAndAcceleration, VerifyPeaksBetweenSamples,
+    ::testing::Values(PeakCase{"horizontal speed", &RobotProfile::max_speed_horizontal_mps,
+                               kMinimumJerkPeakSpeed * 0.02, 0.95},
+                      PeakCase{"horizontal acceleration", &RobotProfile::max_accel_horizontal_mps2,
+                               kMinimumJerkPeakAcceleration * 0.02, 0.9}),
+    [](const ::testing::TestParamInfo<PeakCase>& info) {
+      std::string name = info.param.quantity;
+      std::replace(name.begin(), name.end(), ' ', '_');
+      return name;
+    });
 
 // Standing still, the biped stretches above its highest body height for a moment: only the
 // two ends are sampled.

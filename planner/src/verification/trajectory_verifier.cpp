@@ -207,35 +207,32 @@ class StateChecker {
   // `start`), exactly: their maxima by branch and bound, not at samples.
   Status PieceKinematics(std::size_t i, double start) {
     const PiecePolynomials& piece = pieces_[i];
-    const auto check = [&](const Polynomial* axes, int count, double bound, double* reported,
-                           const char* quantity, const char* unit) -> Status {
-      const NormMaximum m = LargestNorm(axes, count, piece.duration_s, tolerance_ * bound);
-      *reported = std::max(*reported, m.value);
-      if (!(m.upper <= tolerance_ * bound)) {
-        return Violation(start + m.at, Position(start + m.at),
-                         Exceeds(quantity, std::max(m.value, m.upper), bound, unit));
-      }
-      return Status::Ok();
+    struct Rule {
+      const Polynomial* axes;
+      int count;
+      double bound;
+      double* reported;
+      const char* quantity;
+      const char* unit;
     };
-    if (Status s = check(piece.velocity, 2, profile_.max_speed_horizontal_mps,
-                         &report_->max_speed_horizontal_mps, "horizontal speed", "m/s");
-        !s) {
-      return s;
-    }
-    if (Status s = check(piece.velocity + 2, 1, profile_.max_speed_vertical_mps,
-                         &report_->max_speed_vertical_mps, "vertical speed", "m/s");
-        !s) {
-      return s;
-    }
-    if (Status s = check(piece.acceleration, 2, profile_.max_accel_horizontal_mps2,
-                         &report_->max_accel_horizontal_mps2, "horizontal acceleration", "m/s^2");
-        !s) {
-      return s;
-    }
-    if (Status s = check(piece.acceleration + 2, 1, profile_.max_accel_vertical_mps2,
-                         &report_->max_accel_vertical_mps2, "vertical acceleration", "m/s^2");
-        !s) {
-      return s;
+    const Rule rules[] = {
+        {piece.velocity, 2, profile_.max_speed_horizontal_mps, &report_->max_speed_horizontal_mps,
+         "horizontal speed", "m/s"},
+        {piece.velocity + 2, 1, profile_.max_speed_vertical_mps, &report_->max_speed_vertical_mps,
+         "vertical speed", "m/s"},
+        {piece.acceleration, 2, profile_.max_accel_horizontal_mps2,
+         &report_->max_accel_horizontal_mps2, "horizontal acceleration", "m/s^2"},
+        {piece.acceleration + 2, 1, profile_.max_accel_vertical_mps2,
+         &report_->max_accel_vertical_mps2, "vertical acceleration", "m/s^2"},
+    };
+    for (const Rule& rule : rules) {
+      const NormMaximum m =
+          LargestNorm(rule.axes, rule.count, piece.duration_s, tolerance_ * rule.bound);
+      *rule.reported = std::max(*rule.reported, m.value);
+      if (!(m.upper <= tolerance_ * rule.bound)) {
+        return Violation(start + m.at, Position(start + m.at),
+                         Exceeds(rule.quantity, std::max(m.value, m.upper), rule.bound, rule.unit));
+      }
     }
     if (!profile_.active_height) return Status::Ok();
     // The commanded body height within the profile's range.
@@ -327,6 +324,7 @@ class StateChecker {
     const double a = std::clamp(last_.t - last_.piece_start, 0.0, piece.duration_s);
     const double b = std::clamp(to - last_.piece_start, a, piece.duration_s);
     const Eigen::AlignedBox3d box = piece.PathBox(a, b);
+    const Eigen::Vector3d end = Position(to);
     // The column, and so the surface's validity, tilt, ceiling and graph node, stay last_'s.
     const GridGeometry::OffsetRange& x = last_.x;
     const GridGeometry::OffsetRange& y = last_.y;
@@ -362,13 +360,13 @@ class StateChecker {
     const TerrainFields::DistanceBounds field = DistanceBoundsIn(box);
     if (!(field.min_m >= config_.min_obstacle_distance_m)) {
       const double length = piece.speed_bound_mps * (b - a);
-      const double end_distance = DistanceAt(to);
+      const double end_distance = DistanceAt(to, end);
       if (!(0.5 * (last_.distance_m + end_distance - field.max_slope * length) >=
             config_.min_obstacle_distance_m)) {
         return "the obstacle distance";
       }
     }
-    if (!KeepOutStretch(piece, a, b, box, Position(to))) return "staying out of keep-out zones";
+    if (!KeepOutStretch(piece, a, b, box, end)) return "staying out of keep-out zones";
     return nullptr;
   }
 
@@ -383,9 +381,10 @@ class StateChecker {
     return bounds_of_.bounds;
   }
 
-  // d at time t, kept for the check of the instant t that follows a stretch's proof.
-  double DistanceAt(double t) {
-    if (t != distance_at_.t) distance_at_ = {t, model_.Distance(Position(t))};
+  // d at time t (position p), kept for the check of the instant t that follows a stretch's
+  // proof.
+  double DistanceAt(double t, const Eigen::Vector3d& p) {
+    if (t != distance_at_.t) distance_at_ = {t, model_.Distance(p)};
     return distance_at_.value;
   }
 
