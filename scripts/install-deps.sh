@@ -12,6 +12,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev nlohmann-json3-dev
   libompl-dev
   libcli11-dev  # command-line parsing of the programs (header-only)
+  libfmt-dev  # messages: fmt::format (CMakeLists.txt find_package(fmt 9))
   python3-yaml  # tests/deploy: manifest checks with Debian's /usr/bin/python3
   openssl  # TLS tests make a throwaway certificate
   clang-format clang-tidy  # scripts/check-format.sh, check-tidy.sh (CI): .clang-format, .clang-tidy
