@@ -238,6 +238,57 @@ TEST(GroundWithinBand, HoldsOnlyWhereTheSampledGroundIsWithinTheBand) {
   EXPECT_GT(not_within, 1000);
 }
 
+// Where GroundHeightRange answers for a box between a choice's column centres and a band of
+// ground heights, SampleGround's ground at every point of both lies in its range; on the
+// scene's floors and ramp it must answer often, and the range must be attained (at a corner).
+TEST(GroundHeightRange, BoundsTheSampledGroundOverABoxAndABand) {
+  const GridGeometry& grid = Scene().grid();
+  const double h_ref = Graph().params().reference_height_m;
+  const double r = grid.resolution_m;
+  std::mt19937 rng(13);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  GroundChoice choice;
+  int answered = 0, unanswered = 0;
+  for (const Eigen::Vector3d& p : WalkAcrossLevels(3000, 14)) {
+    GroundSample at_p;
+    if (!SampleGround(Scene(), p, h_ref, 0, &at_p, &choice)) continue;
+    const Eigen::Vector2d half(0.3 * r * unit(rng), 0.3 * r * unit(rng));
+    const Eigen::AlignedBox2d box =
+        Eigen::AlignedBox2d(p.head<2>() - half, p.head<2>() + half).intersection(choice.area);
+    const double feet = p.z() - h_ref;
+    const double band = 0.05 * unit(rng);
+    double low = 0, high = 0;
+    if (!GroundHeightRange(Scene(), choice, box, 0, feet - band, feet + band, &low, &high)) {
+      ++unanswered;
+      continue;
+    }
+    ++answered;
+    ASSERT_LE(low, high);
+    for (int k = 0; k < 40; ++k) {
+      const Eigen::Vector3d q(box.min().x() + box.sizes().x() * unit(rng),
+                              box.min().y() + box.sizes().y() * unit(rng),
+                              p.z() + band * (2 * unit(rng) - 1));
+      GroundSample at_q;
+      ASSERT_TRUE(SampleGround(Scene(), q, h_ref, 0, &at_q)) << q.transpose();
+      EXPECT_GE(at_q.height_m, low - 1e-9) << q.transpose();
+      EXPECT_LE(at_q.height_m, high + 1e-9) << q.transpose();
+    }
+    double lowest = std::numeric_limits<double>::infinity(), highest = -lowest;
+    for (const auto corner : {Eigen::AlignedBox2d::BottomLeft, Eigen::AlignedBox2d::BottomRight,
+                              Eigen::AlignedBox2d::TopLeft, Eigen::AlignedBox2d::TopRight}) {
+      GroundSample at_corner;
+      const Eigen::Vector2d c = box.corner(corner);
+      ASSERT_TRUE(SampleGround(Scene(), {c.x(), c.y(), p.z()}, h_ref, 0, &at_corner));
+      lowest = std::min(lowest, at_corner.height_m);
+      highest = std::max(highest, at_corner.height_m);
+    }
+    EXPECT_NEAR(low, lowest, 1e-9);
+    EXPECT_NEAR(high, highest, 1e-9);
+  }
+  EXPECT_GT(answered, 1000);
+  EXPECT_GT(unanswered, 10);
+}
+
 TEST(SampleGround, IsTheColumnsPlaneAtItsCentreAndSmoothAround) {
   const SurfaceGraph& graph = Graph();
   const double h_ref = graph.params().reference_height_m;

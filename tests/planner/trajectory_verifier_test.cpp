@@ -372,6 +372,25 @@ TEST(VerifyBetweenSamples, RefusesComingCloserToAnObstacleBetweenTwoSamples) {
   ExpectPasses(Verify(profile, dip, config));
 }
 
+// Standing still, the robot bobs up (or down) past the ground tolerance and back, with
+// samples 0.5 m apart: only the two ends are sampled. The tolerance is tightened to 3 cm so
+// that the level rule, whose tolerance is 2.6 cm wider, holds over the whole bob and splits
+// nothing.
+TEST(VerifyBetweenSamples, RefusesLeavingTheReferenceHeightBetweenTwoSamples) {
+  const RobotProfile profile = Loose("differential");
+  VerifierConfig config;
+  config.max_sample_spacing_m = 0.5;
+  config.ground_tolerance_m = 0.03;
+  const double tolerance = config.ground_tolerance_m;
+  for (const double sign : {1.0, -1.0}) {
+    SCOPED_TRACE(sign > 0 ? "up" : "down");
+    const Trajectory standing = Standing(profile, 1.05, 1.05);
+    ExpectRefused(Verify(profile, WithBump(standing, 2, sign * (tolerance + kMarginM)), config),
+                  "distance from the reference height above ground");
+    ExpectPasses(Verify(profile, WithBump(standing, 2, sign * (tolerance - kMarginM)), config));
+  }
+}
+
 // A zone hangs over the robot; it rises 5 cm towards it and back, with samples 0.5 m apart.
 TEST(VerifyBetweenSamples, RefusesReachingIntoAKeepOutZoneBetweenTwoSamples) {
   const RobotProfile profile = Loose("differential");
@@ -414,10 +433,16 @@ TEST(VerifyTrajectory, RefusesAColumnWhoseOnlyGroundIsAnotherLevel) {
   const Eigen::Vector3i post = model->grid().CellOf({2, 2, 0});
   ASSERT_EQ(model->surfaces().Column(post.x(), post.y()).size(), 1u);
   const auto along = [&](double y) { return Along(profile, {1.5, y}, {2.5, y}); };
+  // The smoothed ground rises towards the post's top, past the default ground tolerance a
+  // centimetre before the post's column; with a looser one the level rule alone must refuse.
+  VerifierConfig config;
+  config.ground_tolerance_m = 0.3;
   VerificationReport report;
   ExpectRefused(VerifyTrajectory(graph, profile, along(2.0), {}, &report),
+                "distance from the reference height above ground");
+  ExpectRefused(VerifyTrajectory(graph, profile, along(2.0), config, &report),
                 "no ground in the column below at the robot's level");
-  ExpectPasses(VerifyTrajectory(graph, profile, along(2.3), {}, &report));
+  ExpectPasses(VerifyTrajectory(graph, profile, along(2.3), config, &report));
 }
 
 // A robot of fixed height too tall for the passage under the slab: its graph has no node on

@@ -49,6 +49,13 @@ const ColumnSurface* NearestSurfaceInRange(const SurfaceMap& surfaces, int ix, i
   return nearest;
 }
 
+// p's coordinates in units of cells, with the centre of column i at i ("centre coordinates"):
+// the four column centres SampleGround blends at p are those of their floor and the next.
+Eigen::Vector2d CentreCoordinates(const GridGeometry& g, const Eigen::Vector2d& p) {
+  return {(p.x() - g.origin_m.x()) / g.resolution_m - 0.5,
+          (p.y() - g.origin_m.y()) / g.resolution_m - 0.5};
+}
+
 }  // namespace
 
 bool SampleGround(const TerrainModel& model, const Eigen::Vector3d& p, double reference_height_m,
@@ -61,10 +68,11 @@ bool SampleGround(const TerrainModel& model, const Eigen::Vector3d& p, double re
   const int own_iy = static_cast<int>(std::floor((p.y() - g.origin_m.y()) / r));
   if (own_ix < 0 || own_iy < 0 || own_ix >= g.size.x() || own_iy >= g.size.y()) return false;
 
-  // Bilinear weights between the four column centres around p ("centre coordinates": the
-  // centre of column i sits at u = i). p's own column is one of the four: i0 or i0 + 1.
-  const double u = (p.x() - g.origin_m.x()) / r - 0.5;
-  const double v = (p.y() - g.origin_m.y()) / r - 0.5;
+  // Bilinear weights between the four column centres around p. p's own column is one of the
+  // four: i0 or i0 + 1.
+  const Eigen::Vector2d centre = CentreCoordinates(g, p.head<2>());
+  const double u = centre.x();
+  const double v = centre.y();
   const int i0 = static_cast<int>(std::floor(u));
   const int j0 = static_cast<int>(std::floor(v));
   const double fu = u - i0, fv = v - j0;
@@ -215,6 +223,94 @@ bool GroundWithinBand(const GroundChoice& choice, const Eigen::Vector3d& p,
          z_ground < choice.high_m - kInsideM &&
          z_ground - band_m + kInsideM < choice.center_low_m &&
          choice.center_high_m < z_ground + band_m - kInsideM;
+}
+
+Eigen::Vector2i BlendCell(const GridGeometry& grid, const Eigen::Vector2d& p) {
+  const Eigen::Vector2d centre = CentreCoordinates(grid, p);
+  return {static_cast<int>(std::floor(centre.x())), static_cast<int>(std::floor(centre.y()))};
+}
+
+bool GroundHeightRange(const TerrainModel& model, const GroundChoice& choice,
+                       const Eigen::AlignedBox2d& area, double reach_m, double ground_low_m,
+                       double ground_high_m, double* low_m, double* high_m) {
+  const Eigen::Vector2d reach = Eigen::Vector2d::Constant(reach_m);
+  if (!Eigen::AlignedBox2d(choice.area.min() - reach, choice.area.max() + reach).contains(area)) {
+    return false;
+  }
+  const auto near_over_band = [&](const ColumnSurface& s) {
+    return s.ground_z_m - kLevelGapM <= ground_low_m && ground_high_m <= s.ground_z_m + kLevelGapM;
+  };
+  const auto far_over_band = [&](const ColumnSurface& s) {
+    return ground_high_m < s.ground_z_m - kLevelGapM || ground_low_m > s.ground_z_m + kLevelGapM;
+  };
+  // Each corner's surface over the band: the choice's where it stands for the whole band.
+  // Elsewhere a corner may change surface inside the band (its nearest one changes halfway
+  // between two grounds); that is harmless only if every surface it may take there is far
+  // from the band, so that it carries no weight while another corner is near.
+  const ColumnSurface* corner[2][2] = {};
+  bool changes_far[2][2] = {};
+  const bool choice_stands = ground_low_m > choice.low_m && ground_high_m < choice.high_m;
+  const GridGeometry& g = model.grid();
+  for (int dj = 0; dj < 2; ++dj) {
+    for (int di = 0; di < 2; ++di) {
+      if (choice_stands) {
+        corner[dj][di] = choice.corner[dj][di];
+        continue;
+      }
+      const int ix = std::clamp(choice.cell.x() + di, 0, g.size.x() - 1);
+      const int iy = std::clamp(choice.cell.y() + dj, 0, g.size.y() - 1);
+      const ColumnSurface* first = NearestSurface(model.surfaces(), ix, iy, ground_low_m);
+      const ColumnSurface* last = NearestSurface(model.surfaces(), ix, iy, ground_high_m);
+      corner[dj][di] = first;
+      if (first == last) continue;
+      // A column's grounds ascend, and so does its nearest one with the height.
+      for (const ColumnSurface* s = first; s <= last; ++s) {
+        if (!far_over_band(*s)) return false;
+      }
+      changes_far[dj][di] = true;
+    }
+  }
+  // SampleGround's weighted corners: with a corner within kLevelGapM of the feet, those
+  // corners; else every corner with a surface. Each corner must be near over the whole band or
+  // far over all of it.
+  bool near[2][2] = {};
+  bool any_near = false, any_changes = false;
+  for (int dj = 0; dj < 2; ++dj) {
+    for (int di = 0; di < 2; ++di) {
+      const ColumnSurface* s = corner[dj][di];
+      if (s == nullptr) continue;
+      near[dj][di] = near_over_band(*s);
+      if (near[dj][di] == far_over_band(*s)) return false;
+      any_near = any_near || near[dj][di];
+      any_changes = any_changes || changes_far[dj][di];
+    }
+  }
+  // Without a near corner every corner is weighted, one that changes surface included.
+  if (any_changes && !any_near) return false;
+  *low_m = std::numeric_limits<double>::infinity();
+  *high_m = -std::numeric_limits<double>::infinity();
+  for (const Eigen::Vector2d& p :
+       {area.corner(Eigen::AlignedBox2d::BottomLeft), area.corner(Eigen::AlignedBox2d::BottomRight),
+        area.corner(Eigen::AlignedBox2d::TopLeft), area.corner(Eigen::AlignedBox2d::TopRight)}) {
+    // SampleGround's weights at p, from choice.cell's corner.
+    const Eigen::Vector2d f = CentreCoordinates(g, p) - choice.cell.cast<double>();
+    const double fu = f.x(), fv = f.y();
+    double total = 0, sum = 0;
+    for (int dj = 0; dj < 2; ++dj) {
+      for (int di = 0; di < 2; ++di) {
+        const ColumnSurface* s = corner[dj][di];
+        if (s == nullptr || (any_near && !near[dj][di])) continue;
+        const double w = (di ? fu : 1 - fu) * (dj ? fv : 1 - fv);
+        total += w;
+        sum += w * s->plane_center_z_m;
+      }
+    }
+    // The total weight is bilinear too: positive at the corners, positive throughout.
+    if (!(total > kInsideM)) return false;
+    *low_m = std::min(*low_m, sum / total);
+    *high_m = std::max(*high_m, sum / total);
+  }
+  return true;
 }
 
 double SampleEdgeDistance(const SurfaceGraph& graph, const Eigen::Vector3d& p, double reach_m,

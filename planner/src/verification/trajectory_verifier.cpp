@@ -349,6 +349,9 @@ class StateChecker {
           std::abs(last_.surface->plane_center_z_m - feet_high) <= level_tolerance_m_)) {
       return "standing on the same ground of the column";
     }
+    if (!GroundOffsetHolds(box, feet_low, feet_high)) {
+      return "the distance from the reference height above ground";
+    }
     // The body under that surface's ceiling.
     const double body_high =
         profile_.active_height ? RangeOn(piece.position[3], a, b).high : profile_.body_height_m;
@@ -368,6 +371,56 @@ class StateChecker {
     }
     if (!KeepOutStretch(piece, a, b, box, end)) return "staying out of keep-out zones";
     return nullptr;
+  }
+
+  // Whether the reference point stays within the ground tolerance of h_G over `box`, whose
+  // feet's heights lie in [feet_low, feet_high]: on each part of the box between four column
+  // centres (a column meets at most two such squares along each axis), h_G's range there
+  // (GroundHeightRange) against the range of the feet.
+  bool GroundOffsetHolds(const Eigen::AlignedBox3d& box, double feet_low, double feet_high) {
+    const Eigen::AlignedBox2d area(box.min().head<2>(), box.max().head<2>());
+    const Eigen::Vector2i first = BlendCell(grid_, area.min());
+    const Eigen::Vector2i last = BlendCell(grid_, area.max());
+    if (((last - first).array() > 1).any()) return false;
+    const Eigen::Vector2d slack = Eigen::Vector2d::Constant(kColumnEdgeSlackM);
+    for (int cy = first.y(); cy <= last.y(); ++cy) {
+      for (int cx = first.x(); cx <= last.x(); ++cx) {
+        const GroundChoice* choice = ChoiceFor({cx, cy}, area, 0.5 * (feet_low + feet_high));
+        if (choice == nullptr) return false;
+        const Eigen::AlignedBox2d part = area.intersection(
+            Eigen::AlignedBox2d(choice->area.min() - slack, choice->area.max() + slack));
+        if (part.isEmpty()) continue;
+        double ground_low = 0, ground_high = 0;
+        if (!GroundHeightRange(model_, *choice, part, kColumnEdgeSlackM, feet_low, feet_high,
+                               &ground_low, &ground_high) ||
+            !(feet_high - ground_low <= ground_tolerance_m_ &&
+              ground_high - feet_low <= ground_tolerance_m_)) {
+          return false;
+        }
+      }
+    }
+    return true;
+  }
+
+  // SampleGround's choice of corners for the square between four column centres whose
+  // lower-left one is `cell`, made at the point of `area` nearest to the square's middle and
+  // feet height `feet` (kept while it stands: one slot per parity of the cell, so the up to
+  // four squares of one box never evict each other); null where none is made (outside the
+  // grid).
+  const GroundChoice* ChoiceFor(const Eigen::Vector2i& cell, const Eigen::AlignedBox2d& area,
+                                double feet) {
+    GroundChoice& choice = proof_choices_[(cell.x() & 1) + 2 * (cell.y() & 1)];
+    const double r = grid_.resolution_m;
+    const Eigen::Array2d square_low =
+        grid_.origin_m.head<2>().array() + (cell.cast<double>().array() + 0.5) * r;
+    // Inside the square by a hair more than the choice's own margin (1 nm).
+    const Eigen::Array2d low = area.min().array().max(square_low + 1e-8);
+    const Eigen::Array2d high = area.max().array().min(square_low + r - 1e-8);
+    const Eigen::Array2d at = (square_low + 0.5 * r).max(low).min(high);
+    GroundSample scratch;
+    SampleGround(model_, {at.x(), at.y(), feet + profile_.reference_height_m},
+                 profile_.reference_height_m, 0, &scratch, &choice);
+    return choice.cell == cell ? &choice : nullptr;
   }
 
   // The distance field's bounds in `box`, from the last box's when both read the same blocks
@@ -586,6 +639,8 @@ class StateChecker {
   // Consecutive samples, 2 cm apart, mostly stand on the same column corners: SampleGround
   // reuses their choice where it holds (the same answers, fewer column scans).
   GroundChoice ground_choice_;
+  // The stretches' choices, by the parity of their cell (ChoiceFor).
+  GroundChoice proof_choices_[4];
   CheckedInstant last_;
   struct {
     std::int64_t low = -1, high = -1;  // The BlockKeys of a box's corners.

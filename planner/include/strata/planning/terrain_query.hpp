@@ -64,6 +64,24 @@ bool SampleGround(const TerrainModel& model, const Eigen::Vector3d& p, double re
 bool GroundWithinBand(const GroundChoice& choice, const Eigen::Vector3d& p,
                       double reference_height_m, double band_m);
 
+/// The lower-left column of the four whose centres SampleGround blends at (x, y) = p (by the
+/// same arithmetic; GroundChoice::cell): p lies in their square. For a p of the grid, each
+/// coordinate is p's column's or the one before; it may be -1 or the grid's size at its edges.
+Eigen::Vector2i BlendCell(const GridGeometry& grid, const Eigen::Vector2d& p);
+
+/// The lowest and highest ground height h_G that SampleGround gives with the corners of
+/// choice.cell over the points whose (x, y) lie in `area` and whose ground height
+/// p.z − reference height lies in [ground_low_m, ground_high_m], into *low_m and *high_m (a
+/// choice made by SampleGround on `model`). `area` may reach up to reach_m past choice.area,
+/// where the same corners' blend is continued. While the same corners carry the same weights,
+/// h_G is a quotient of two bilinear functions of (x, y) with a positive denominator, monotone
+/// along x and along y, so its extremes over a box are at the box's corners. False where that
+/// is not certain: a corner's weight switches inside the band, a weighted corner changes
+/// surface inside it (h_G jumps there), or the weights can vanish in `area`.
+bool GroundHeightRange(const TerrainModel& model, const GroundChoice& choice,
+                       const Eigen::AlignedBox2d& area, double reach_m, double ground_low_m,
+                       double ground_high_m, double* low_m, double* high_m);
+
 /// Where SampleEdgeDistance found p's column so far inside the region that the rim is beyond
 /// reach_m whatever p's place in it: the column and the open band of ground heights,
 /// p.z − reference_height_m, over which its level is the same node. For every point in both

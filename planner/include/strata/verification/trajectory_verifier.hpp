@@ -72,8 +72,7 @@ struct VerificationReport {
 ///   resolution; else the robot is inside a post, a leg or a wall, or cuts across a ledge
 ///   that the smoothed ground rounds off), which is valid ground with tilt <= max_tilt_rad;
 /// - z within the ground tolerance of the smoothed ground of SampleGround + reference height:
-///   ground_tolerance_m, or 0.75 quanta on a voxelised cloud if more (at the samples only:
-///   docs/design.md §13 says why);
+///   ground_tolerance_m, or 0.75 quanta on a voxelised cloud if more;
 /// - ESDF distance >= min_obstacle_distance_m;
 /// - the surface's ceiling clearance at least the body height (commanded for active-height
 ///   robots, else body_height_m) + headroom_m, within BodyHeightTolerance;
