@@ -230,70 +230,33 @@ Eigen::Vector2i BlendCell(const GridGeometry& grid, const Eigen::Vector2d& p) {
   return {static_cast<int>(std::floor(centre.x())), static_cast<int>(std::floor(centre.y()))};
 }
 
-bool GroundHeightRange(const TerrainModel& model, const GroundChoice& choice,
-                       const Eigen::AlignedBox2d& area, double reach_m, double ground_low_m,
-                       double ground_high_m, double* low_m, double* high_m) {
-  const Eigen::Vector2d reach = Eigen::Vector2d::Constant(reach_m);
-  if (!Eigen::AlignedBox2d(choice.area.min() - reach, choice.area.max() + reach).contains(area)) {
-    return false;
-  }
-  const auto near_over_band = [&](const ColumnSurface& s) {
-    return s.ground_z_m - kLevelGapM <= ground_low_m && ground_high_m <= s.ground_z_m + kLevelGapM;
-  };
-  const auto far_over_band = [&](const ColumnSurface& s) {
-    return ground_high_m < s.ground_z_m - kLevelGapM || ground_low_m > s.ground_z_m + kLevelGapM;
-  };
-  // Each corner's surface over the band: the choice's where it stands for the whole band.
-  // Elsewhere a corner may change surface inside the band (its nearest one changes halfway
-  // between two grounds); that is harmless only if every surface it may take there is far
-  // from the band, so that it carries no weight while another corner is near.
-  const ColumnSurface* corner[2][2] = {};
-  bool changes_far[2][2] = {};
-  const bool choice_stands = ground_low_m > choice.low_m && ground_high_m < choice.high_m;
-  const GridGeometry& g = model.grid();
-  for (int dj = 0; dj < 2; ++dj) {
-    for (int di = 0; di < 2; ++di) {
-      if (choice_stands) {
-        corner[dj][di] = choice.corner[dj][di];
-        continue;
-      }
-      const int ix = std::clamp(choice.cell.x() + di, 0, g.size.x() - 1);
-      const int iy = std::clamp(choice.cell.y() + dj, 0, g.size.y() - 1);
-      const ColumnSurface* first = NearestSurface(model.surfaces(), ix, iy, ground_low_m);
-      const ColumnSurface* last = NearestSurface(model.surfaces(), ix, iy, ground_high_m);
-      corner[dj][di] = first;
-      if (first == last) continue;
-      // A column's grounds ascend, and so does its nearest one with the height.
-      for (const ColumnSurface* s = first; s <= last; ++s) {
-        if (!far_over_band(*s)) return false;
-      }
-      changes_far[dj][di] = true;
-    }
-  }
-  // SampleGround's weighted corners: with a corner within kLevelGapM of the feet, those
-  // corners; else every corner with a surface. Each corner must be near over the whole band or
-  // far over all of it.
+// The range of the blend of `corner`'s plane heights (SampleGround's, from the square whose
+// lower-left column is `cell`) over `area` and the band of feet heights [low, high], with
+// these corners throughout: each must be near the band throughout or far throughout, so that
+// the same ones are weighted; then the blend is monotone along x and y, and its extremes are
+// at the area's corners. False where that does not hold or the weights can vanish.
+bool BlendRange(const GridGeometry& g, const Eigen::Vector2i& cell,
+                const ColumnSurface* const (&corner)[2][2], const Eigen::AlignedBox2d& area,
+                double ground_low_m, double ground_high_m, double* low_m, double* high_m) {
   bool near[2][2] = {};
-  bool any_near = false, any_changes = false;
+  bool any_near = false;
   for (int dj = 0; dj < 2; ++dj) {
     for (int di = 0; di < 2; ++di) {
       const ColumnSurface* s = corner[dj][di];
       if (s == nullptr) continue;
-      near[dj][di] = near_over_band(*s);
-      if (near[dj][di] == far_over_band(*s)) return false;
+      near[dj][di] =
+          s->ground_z_m - kLevelGapM <= ground_low_m && ground_high_m <= s->ground_z_m + kLevelGapM;
+      const bool far =
+          ground_high_m < s->ground_z_m - kLevelGapM || ground_low_m > s->ground_z_m + kLevelGapM;
+      if (near[dj][di] == far) return false;
       any_near = any_near || near[dj][di];
-      any_changes = any_changes || changes_far[dj][di];
     }
   }
-  // Without a near corner every corner is weighted, one that changes surface included.
-  if (any_changes && !any_near) return false;
-  *low_m = std::numeric_limits<double>::infinity();
-  *high_m = -std::numeric_limits<double>::infinity();
   for (const Eigen::Vector2d& p :
        {area.corner(Eigen::AlignedBox2d::BottomLeft), area.corner(Eigen::AlignedBox2d::BottomRight),
         area.corner(Eigen::AlignedBox2d::TopLeft), area.corner(Eigen::AlignedBox2d::TopRight)}) {
-    // SampleGround's weights at p, from choice.cell's corner.
-    const Eigen::Vector2d f = CentreCoordinates(g, p) - choice.cell.cast<double>();
+    // SampleGround's weights at p.
+    const Eigen::Vector2d f = CentreCoordinates(g, p) - cell.cast<double>();
     const double fu = f.x(), fv = f.y();
     double total = 0, sum = 0;
     for (int dj = 0; dj < 2; ++dj) {
@@ -309,6 +272,60 @@ bool GroundHeightRange(const TerrainModel& model, const GroundChoice& choice,
     if (!(total > kInsideM)) return false;
     *low_m = std::min(*low_m, sum / total);
     *high_m = std::max(*high_m, sum / total);
+  }
+  return true;
+}
+
+// Most combinations of the corners' surfaces GroundHeightRange takes the union over.
+constexpr int kMaxSurfaceCombinations = 16;
+
+bool GroundHeightRange(const TerrainModel& model, const GroundChoice& choice,
+                       const Eigen::AlignedBox2d& area, double reach_m, double ground_low_m,
+                       double ground_high_m, double* low_m, double* high_m) {
+  const Eigen::Vector2d reach = Eigen::Vector2d::Constant(reach_m);
+  if (!Eigen::AlignedBox2d(choice.area.min() - reach, choice.area.max() + reach).contains(area)) {
+    return false;
+  }
+  // The surfaces each corner may take over the band: the choice's where it stands for the
+  // whole band; elsewhere those between its nearest at the band's ends (a column's grounds
+  // ascend, and so does its nearest one with the height), as where the feet sit halfway
+  // between two grounds of a corner. h_G at a point is then the blend of one combination of
+  // them, so the union of every combination's range bounds it, across the jump too.
+  const bool choice_stands = ground_low_m > choice.low_m && ground_high_m < choice.high_m;
+  const GridGeometry& g = model.grid();
+  const ColumnSurface* first[2][2] = {};
+  int count[2][2] = {};
+  int combinations = 1;
+  for (int dj = 0; dj < 2; ++dj) {
+    for (int di = 0; di < 2; ++di) {
+      const ColumnSurface* last = nullptr;
+      if (choice_stands) {
+        first[dj][di] = last = choice.corner[dj][di];
+      } else {
+        const int ix = std::clamp(choice.cell.x() + di, 0, g.size.x() - 1);
+        const int iy = std::clamp(choice.cell.y() + dj, 0, g.size.y() - 1);
+        first[dj][di] = NearestSurface(model.surfaces(), ix, iy, ground_low_m);
+        last = NearestSurface(model.surfaces(), ix, iy, ground_high_m);
+      }
+      count[dj][di] = first[dj][di] == nullptr ? 1 : static_cast<int>(last - first[dj][di]) + 1;
+      combinations *= count[dj][di];
+      if (combinations > kMaxSurfaceCombinations) return false;
+    }
+  }
+  *low_m = std::numeric_limits<double>::infinity();
+  *high_m = -std::numeric_limits<double>::infinity();
+  for (int combination = 0; combination < combinations; ++combination) {
+    const ColumnSurface* corner[2][2] = {};
+    int rest = combination;
+    for (int dj = 0; dj < 2; ++dj) {
+      for (int di = 0; di < 2; ++di) {
+        if (first[dj][di] != nullptr) corner[dj][di] = first[dj][di] + rest % count[dj][di];
+        rest /= count[dj][di];
+      }
+    }
+    if (!BlendRange(g, choice.cell, corner, area, ground_low_m, ground_high_m, low_m, high_m)) {
+      return false;
+    }
   }
   return true;
 }

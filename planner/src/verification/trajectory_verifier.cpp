@@ -385,7 +385,7 @@ class StateChecker {
     const Eigen::Vector2d slack = Eigen::Vector2d::Constant(kColumnEdgeSlackM);
     for (int cy = first.y(); cy <= last.y(); ++cy) {
       for (int cx = first.x(); cx <= last.x(); ++cx) {
-        const GroundChoice* choice = ChoiceFor({cx, cy}, area, 0.5 * (feet_low + feet_high));
+        const GroundChoice* choice = ChoiceFor({cx, cy}, area, feet_low, feet_high);
         if (choice == nullptr) return false;
         const Eigen::AlignedBox2d part = area.intersection(
             Eigen::AlignedBox2d(choice->area.min() - slack, choice->area.max() + slack));
@@ -403,13 +403,16 @@ class StateChecker {
   }
 
   // SampleGround's choice of corners for the square between four column centres whose
-  // lower-left one is `cell`, made at the point of `area` nearest to the square's middle and
-  // feet height `feet` (kept while it stands: one slot per parity of the cell, so the up to
-  // four squares of one box never evict each other); null where none is made (outside the
-  // grid).
+  // lower-left one is `cell`: the last one made there while it stands for the feet's band
+  // [feet_low, feet_high], else made at the point of `area` nearest to the square's middle and
+  // the band's middle (one slot per parity of the cell, so the up to four squares of one box
+  // never evict each other); null where none is made (outside the grid).
   const GroundChoice* ChoiceFor(const Eigen::Vector2i& cell, const Eigen::AlignedBox2d& area,
-                                double feet) {
+                                double feet_low, double feet_high) {
     GroundChoice& choice = proof_choices_[(cell.x() & 1) + 2 * (cell.y() & 1)];
+    if (choice.cell == cell && feet_low > choice.low_m && feet_high < choice.high_m) {
+      return &choice;
+    }
     const double r = grid_.resolution_m;
     const Eigen::Array2d square_low =
         grid_.origin_m.head<2>().array() + (cell.cast<double>().array() + 0.5) * r;
@@ -418,6 +421,7 @@ class StateChecker {
     const Eigen::Array2d high = area.max().array().min(square_low + r - 1e-8);
     const Eigen::Array2d at = (square_low + 0.5 * r).max(low).min(high);
     GroundSample scratch;
+    const double feet = 0.5 * (feet_low + feet_high);
     SampleGround(model_, {at.x(), at.y(), feet + profile_.reference_height_m},
                  profile_.reference_height_m, 0, &scratch, &choice);
     return choice.cell == cell ? &choice : nullptr;

@@ -75,9 +75,10 @@ Eigen::Vector2i BlendCell(const GridGeometry& grid, const Eigen::Vector2d& p);
 /// choice made by SampleGround on `model`). `area` may reach up to reach_m past choice.area,
 /// where the same corners' blend is continued. While the same corners carry the same weights,
 /// h_G is a quotient of two bilinear functions of (x, y) with a positive denominator, monotone
-/// along x and along y, so its extremes over a box are at the box's corners. False where that
-/// is not certain: a corner's weight switches inside the band, a weighted corner changes
-/// surface inside it (h_G jumps there), or the weights can vanish in `area`.
+/// along x and along y, so its extremes over a box are at the box's corners. Where a corner
+/// changes surface inside the band (h_G jumps there), the range is the union over the surfaces
+/// it may take. False where that is not certain: a corner's weight switches inside the band,
+/// the weights can vanish in `area`, or the corners may take over 16 combinations of surfaces.
 bool GroundHeightRange(const TerrainModel& model, const GroundChoice& choice,
                        const Eigen::AlignedBox2d& area, double reach_m, double ground_low_m,
                        double ground_high_m, double* low_m, double* high_m);
