@@ -11,8 +11,12 @@
 // The spiral is the shared map spiral0.3_2 at 0.2 m, read from STRATA_MAPS_DIR. A robot's
 // goal is drawn at least 1.5 m from every other robot's position and goal; on arrival it
 // gets the next one. A refused task (RESERVATION_CONFLICT) is counted, and the robot is given
-// another 5 simulated seconds later. Prints a markdown table; STRATA_FLEET_VERBOSE=1 also
-// prints every refusal and every conflict the check finds to stderr.
+// another 5 simulated seconds later. Every planned trajectory also goes through the
+// benchmark's independent check against the map (oracle/independent_check.hpp). A robot
+// refused again and again shows as a stall (from its first refusal to its next plan, or to the
+// end); a deadlock would be robots stalled to the end. Prints a markdown table;
+// STRATA_FLEET_VERBOSE=1 also prints every refusal and every conflict the check finds to
+// stderr.
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -29,12 +33,14 @@
 #include <CLI/CLI.hpp>
 
 #include "compare/bench_pairs.hpp"
+#include "independent_check.hpp"
 #include "sampled_separation.hpp"
 #include "statistics.hpp"
 #include "strata/fleet/fleet_plan.hpp"
 #include "strata/io/cloud_io.hpp"
 #include "strata/planner.hpp"
 #include "strata/scenes/scenes.hpp"
+#include "verifier_bounds.hpp"
 
 namespace {
 
@@ -96,6 +102,9 @@ struct RunFigures {
   int robots_in_conflict = 0;
   long check_samples = 0;
   double exact_checks_per_s = 0;  // FirstConflict over the committed pairs that overlap in time.
+  strata::bench::IndependentCheckTally map_check;  // Every planned trajectory against the map.
+  double longest_stall_s = 0;  // A robot's first refusal to its next plan (or the end).
+  int stalled_at_end = 0;      // Robots refused from over a minute before the end to the end.
 };
 
 double Ms(std::chrono::steady_clock::duration d) {
@@ -115,6 +124,14 @@ RunFigures RunFleet(const Site& site, int robots, double minutes, unsigned seed,
   // Each robot's current motion (an index into figures.committed), starting parked.
   std::vector<std::size_t> current(robots);
   std::vector<Eigen::Vector3d> goals(robots);
+  // When each robot's current run of refusals began (none: nullopt).
+  std::vector<std::optional<std::int64_t>> refused_since(robots);
+  const auto end_stall = [&](int robot, std::int64_t at) {
+    if (!refused_since[robot]) return;
+    figures.longest_stall_s =
+        std::max(figures.longest_stall_s, strata::SecondsBetween(*refused_since[robot], at));
+    refused_since[robot].reset();
+  };
   for (int r = 0; r < robots; ++r) {
     Eigen::Vector3d at;
     for (int tries = 0; tries < 1000; ++tries) {
@@ -210,10 +227,15 @@ RunFigures RunFleet(const Site& site, int robots, double minutes, unsigned seed,
       }
     }
     if (!trajectory) {
+      if (!refused_since[robot]) refused_since[robot] = now;
       events.emplace(strata::AddSeconds(now, kRetryAfterS), robot);
       continue;
     }
+    end_stall(robot, now);
     ++figures.tasks_planned;
+    figures.map_check.Add(strata::bench::CheckTrajectory(
+        site.map->model(), profile, *trajectory,
+        strata::bench::CheckConfigFor(request.options.verifier, site.map->keep_out())));
     // The new motion replaces the robot's current one from now on.
     mine.end_ns = std::max(now, mine.ArrivalNs());
     Committed next{robot, {}};
@@ -229,6 +251,12 @@ RunFigures RunFleet(const Site& site, int robots, double minutes, unsigned seed,
     events.emplace(arrival, robot);
   }
 
+  for (int r = 0; r < robots; ++r) {
+    if (refused_since[r] && strata::SecondsBetween(*refused_since[r], end_ns) > 60) {
+      ++figures.stalled_at_end;
+    }
+    end_stall(r, end_ns);
+  }
   // The benchmark's own check over every pair of committed motions of two robots, over the
   // simulated time (the last motions stay parked for their lease beyond it).
   for (Committed& c : figures.committed) {
@@ -334,8 +362,9 @@ int main(int argc, char** argv) {
   std::printf(
       "| site | robots | reservations | tasks planned | refused (conflict) | failed "
       "(other) | conflicting pairs (robots) | plan p50 / p95 [ms] | alone p50 / p95 "
-      "[ms] | mean delay | waits | parked robots avoided | exact checks/s |\n");
-  std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+      "[ms] | mean delay | waits | parked robots avoided | exact checks/s | map check | "
+      "longest stall (stalled at the end) |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const Site& site : sites) {
     for (const int robots : fleet_sizes) {
       for (const bool with : {false, true}) {
@@ -350,7 +379,7 @@ int main(int argc, char** argv) {
         std::fputs(
             fmt::format(
                 "| {} | {} | {} | {} of {} ({}) | {} | {} | {} ({}) | {:.1f} / {:.1f} | {} | {} | "
-                "{} | {} | {:.0f} |\n",
+                "{} | {} | {:.0f} | {} | {:.0f} s ({}) |\n",
                 site.name, robots, with ? "yes" : "no", f.tasks_planned, f.tasks_asked,
                 Percent(f.tasks_planned, f.tasks_asked), f.refused_conflict, f.failed_other,
                 f.conflicting_pairs, f.robots_in_conflict, Median(f.latency_ms),
@@ -359,7 +388,8 @@ int main(int argc, char** argv) {
                                   Quantile(f.plain_latency_ms, 0.95))),
                 among(fmt::format("{:.1f}%", 100 * mean_delay)),
                 among(fmt::format("{} tasks", waited)), among(std::to_string(f.parked_avoided)),
-                f.exact_checks_per_s)
+                f.exact_checks_per_s, f.map_check.Describe(), f.longest_stall_s,
+                f.stalled_at_end)
                 .c_str(),
             stdout);
         std::fflush(stdout);

@@ -12,12 +12,10 @@ namespace strata::bench {
 
 inline IndependentCheckConfig CheckConfigFor(const VerifierConfig& verifier,
                                              std::vector<Prism> keep_out = {}) {
-  IndependentCheckConfig config{
-      .bounds = {.limit_tolerance = verifier.limit_tolerance,
-                 .ground_tolerance_m = verifier.ground_tolerance_m,
-                 .min_obstacle_distance_m = verifier.min_obstacle_distance_m}};
-  config.keep_out = std::move(keep_out);
-  return config;
+  return {.bounds = {.limit_tolerance = verifier.limit_tolerance,
+                     .ground_tolerance_m = verifier.ground_tolerance_m,
+                     .min_obstacle_distance_m = verifier.min_obstacle_distance_m},
+          .keep_out = std::move(keep_out)};
 }
 
 }  // namespace strata::bench
