@@ -6,9 +6,13 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
+#include <fstream>
+#include <iomanip>
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <gmock/gmock.h>
@@ -131,9 +135,34 @@ void ExpectClearOfAll(const FleetMotion& motion, const std::vector<ReservedMotio
   }
 }
 
+using NamedMotions = std::vector<std::pair<std::string, const FleetMotion*>>;
+
+/// With STRATA_FLEET_SCENARIO_DIR set, writes `motions` to <dir>/<scenario>.csv (robot, t_s,
+/// x, y, z every 50 ms from the departure to a second after the last arrival), for
+/// bench/plots/plot_fleet_scenarios.py's pictures in docs/design.md §19; else nothing.
+void WriteScenario(const std::string& scenario, const NamedMotions& motions) {
+  const char* dir = std::getenv("STRATA_FLEET_SCENARIO_DIR");
+  if (dir == nullptr) return;
+  std::int64_t last_arrival = kDeparture;
+  for (const auto& [robot, motion] : motions) {
+    last_arrival = std::max(last_arrival, motion->ArrivalNs());
+  }
+  std::ofstream out(std::string(dir) + "/" + scenario + ".csv");
+  out << std::fixed << std::setprecision(4) << "robot,t_s,x,y,z\n";
+  for (const auto& [robot, motion] : motions) {
+    for (std::int64_t t = kDeparture; t <= AddSeconds(last_arrival, 1); t += 50'000'000) {
+      const Eigen::Vector3d p = motion->ReferencePointAt(std::max(t, motion->start_ns));
+      out << robot << ',' << SecondsBetween(kDeparture, t) << ',' << p.x() << ',' << p.y() << ','
+          << p.z() << '\n';
+    }
+  }
+  ASSERT_TRUE(out.good()) << "could not write " << scenario << ".csv to " << dir;
+}
+
 /// Plans alone, then among `others`: the lone plan must meet them (else the case tests
-/// nothing), the fleet plan must not.
-FleetPlanResult PlanBoth(const PlanRequest& plan, const std::vector<ReservedMotion>& others) {
+/// nothing), the fleet plan must not. Writes the scenario (WriteScenario) as `scenario`.
+FleetPlanResult PlanBoth(const std::string& scenario, const PlanRequest& plan,
+                         const std::vector<ReservedMotion>& others) {
   const FleetPlanRequest request = AmongOthers(plan, others);
   const ReservedMotion alone = Committed("alone", plan);
   bool met = false;
@@ -145,6 +174,9 @@ FleetPlanResult PlanBoth(const PlanRequest& plan, const std::vector<ReservedMoti
   EXPECT_TRUE(result) << result.error().message;
   if (!result) return {};
   ExpectClearOfAll(result.value().motion, others);
+  NamedMotions motions = {{"B alone", &alone.motion}, {"B", &result.value().motion}};
+  for (const ReservedMotion& other : others) motions.emplace_back(other.robot_id, &other.motion);
+  WriteScenario(scenario, motions);
   return std::move(result).value();
 }
 
@@ -152,7 +184,8 @@ TEST(FleetPlan, HeadOnOnAOneLaneRampTheLaterRobotWaitsForTheLaneToClear) {
   // A drives up the ramp from the floor to the plateau; B, committed later, drives down.
   const std::vector<ReservedMotion> others = {
       Committed("A", Between({2, 4.5, 0.3}, {14.5, 4.5, 0.8}))};
-  const FleetPlanResult b = PlanBoth(Between({13, 7.5, 0.8}, {2, 1.5, 0.3}), others);
+  const FleetPlanResult b =
+      PlanBoth("head_on_ramp", Between({13, 7.5, 0.8}, {2, 1.5, 0.3}), others);
   EXPECT_GT(b.wait_s, 0);
   EXPECT_EQ(b.plan.trajectory.pieces.front().duration_s, b.wait_s);
   EXPECT_DOUBLE_EQ(b.plan.stats.duration_s, b.plan.trajectory.TotalDuration());
@@ -161,7 +194,8 @@ TEST(FleetPlan, HeadOnOnAOneLaneRampTheLaterRobotWaitsForTheLaneToClear) {
 TEST(FleetPlan, AtAFourWayCrossingTheLaterRobotLetsTheOtherPass) {
   const std::vector<ReservedMotion> others = {
       Committed("A", Between({0.5, 2.5, 0.3}, {5.5, 2.5, 0.3}))};
-  const FleetPlanResult b = PlanBoth(Between({3, 0.5, 0.3}, {3, 4.5, 0.3}), others);
+  const FleetPlanResult b =
+      PlanBoth("four_way_crossing", Between({3, 0.5, 0.3}, {3, 4.5, 0.3}), others);
   EXPECT_GT(b.wait_s, 0);
   EXPECT_LT(b.wait_s, 10);
 }
@@ -179,11 +213,13 @@ TEST(FleetPlan, ARobotUnderADeckPassesOneOnTheDeckWithoutWaiting) {
   const Sampled s = SampleEveryMillisecond(b.value().motion, others[0].motion, Limit());
   EXPECT_FALSE(s.conflict);
   EXPECT_LT(s.closest_horizontal_m, Limit());
+  WriteScenario("under_the_deck", {{"B", &b.value().motion}, {"A", &others[0].motion}});
 }
 
 TEST(FleetPlan, ARobotParkedInTheWayIsDrivenAround) {
   const std::vector<ReservedMotion> others = {Parked("C", {3, 2.5, 0.3})};
-  const FleetPlanResult b = PlanBoth(Between({0.5, 2.5, 0.3}, {5.5, 2.5, 0.3}), others);
+  const FleetPlanResult b =
+      PlanBoth("parked_in_the_way", Between({0.5, 2.5, 0.3}, {5.5, 2.5, 0.3}), others);
   EXPECT_EQ(b.parked_robots_avoided, 1);
   EXPECT_EQ(b.wait_s, 0);
 }
