@@ -388,8 +388,7 @@ int main(int argc, char** argv) {
                                   Quantile(f.plain_latency_ms, 0.95))),
                 among(fmt::format("{:.1f}%", 100 * mean_delay)),
                 among(fmt::format("{} tasks", waited)), among(std::to_string(f.parked_avoided)),
-                f.exact_checks_per_s, f.map_check.Describe(), f.longest_stall_s,
-                f.stalled_at_end)
+                f.exact_checks_per_s, f.map_check.Describe(), f.longest_stall_s, f.stalled_at_end)
                 .c_str(),
             stdout);
         std::fflush(stdout);
