@@ -13,9 +13,15 @@
 namespace strata::cli {
 namespace {
 
+struct BatchFlags {
+  std::string file;
+  std::string robot = kDefaultRobot;  ///< For the requests that name no robot.
+};
+
 // One PlanRequest per non-blank line, in protobuf's JSON mapping (as grpcurl takes it);
-// '#' lines are comments. UsageError names the file and line of a bad one.
-v1::PlanBatchRequest ReadRequests(const std::string& path) {
+// '#' lines are comments; a request that names no robot gets `robot`, as `strata plan` does.
+// UsageError names the file and line of a bad one.
+v1::PlanBatchRequest ReadRequests(const std::string& path, const std::string& robot) {
   std::ifstream file(path);
   if (!file) throw UsageError("cannot read \"" + path + "\"");
   v1::PlanBatchRequest batch;
@@ -24,7 +30,9 @@ v1::PlanBatchRequest ReadRequests(const std::string& path) {
     ++number;
     const std::size_t first = line.find_first_not_of(" \t\r");
     if (first == std::string::npos || line[first] == '#') continue;
-    FromJson(line, fmt::format("\"{}\" line {}", path, number), batch.add_requests());
+    v1::PlanRequest* request = batch.add_requests();
+    FromJson(line, fmt::format("\"{}\" line {}", path, number), request);
+    if (request->robot_case() == v1::PlanRequest::ROBOT_NOT_SET) request->set_profile_name(robot);
   }
   if (batch.requests_size() == 0) throw UsageError("\"" + path + "\" holds no plan request");
   return batch;
@@ -57,8 +65,8 @@ void PrintResult(const Context& ctx, const v1::PlanBatchRequest& batch,
   out << "\n";
 }
 
-int RunBatch(const Context& ctx, const std::string& path) {
-  const v1::PlanBatchRequest batch = ReadRequests(path);
+int RunBatch(const Context& ctx, const BatchFlags& flags) {
+  const v1::PlanBatchRequest batch = ReadRequests(flags.file, flags.robot);
   auto stub = v1::PlannerService::NewStub(OpenChannel(ctx));
   grpc::ClientContext call;
   PrepareCall(ctx, &call);
@@ -82,14 +90,17 @@ int RunBatch(const Context& ctx, const std::string& path) {
 }  // namespace
 
 void AddBatchCommand(CLI::App& app, const Context& ctx, Command* run) {
-  auto [command, path] = AddCommand<std::string>(
+  auto [command, flags] = AddCommand<BatchFlags>(
       app, "batch",
       "PlanBatch: the plan requests of FILE (one PlanRequest in JSON a line), results as they "
       "come",
-      run, [&ctx](const std::string& file) { return RunBatch(ctx, file); });
-  command->add_option("FILE", *path, "file of plan requests, one JSON PlanRequest a line")
+      run, [&ctx](const BatchFlags& flags) { return RunBatch(ctx, flags); });
+  command->add_option("FILE", flags->file, "file of plan requests, one JSON PlanRequest a line")
       ->required()
       ->check(CLI::ExistingFile);
+  command->add_option("--robot", flags->robot, "robot profile of the requests that name none")
+      ->type_name("NAME")
+      ->capture_default_str();
 }
 
 }  // namespace strata::cli

@@ -29,12 +29,16 @@ void AddBatchCommand(CLI::App& app, const Context& ctx, Command* run);
 /// `strata reservations list|renew|release ...`
 void AddReservationsCommands(CLI::App& app, const Context& ctx, Command* run);
 
+/// The robot profile of a request that names none, for every command that sends one (`plan`,
+/// `setpoints`, `costs`, `batch`).
+inline constexpr const char* kDefaultRobot = "differential";
+
 /// The flags of a plan request, shared by `plan` and `setpoints`.
 struct PlanFlags {
   std::string map;
   std::optional<std::array<double, 3>> start;
   std::optional<std::array<double, 3>> goal;
-  std::string robot = "differential";
+  std::string robot = kDefaultRobot;
   std::optional<double> time_budget_s;
   std::optional<double> sample_dt_s;
   std::vector<ViaPoint> via;  ///< --via, in the order given.

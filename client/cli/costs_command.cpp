@@ -19,7 +19,7 @@ struct CostsFlags {
   std::string from;
   std::string to;
   std::optional<std::string> format;
-  std::string robot = "differential";
+  std::string robot = kDefaultRobot;
   std::optional<double> snap_tolerance_m;
 };
 

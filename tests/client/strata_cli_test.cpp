@@ -28,6 +28,7 @@ using server::testing::ServerProcess;
 using test_util::CommandResult;
 using test_util::RunCommand;
 using ::testing::HasSubstr;
+using ::testing::Not;
 
 class StrataCliTest : public ::testing::Test {
  protected:
@@ -460,13 +461,18 @@ TEST_F(StrataCliTest, BatchPrintsEachResultAndExits1WhenOneFailed) {
       << R"({"map_id":"demo","profile_name":"differential","start":{"position_m":{"x":2,"y":2,"z":0.3}},"goal":{"position_m":{"x":10,"y":10,"z":3.3}}})"
       << "\n"
       << R"({"map_id":"atlantis","profile_name":"differential","start":{"position_m":{"x":2,"y":2,"z":0.3}},"goal":{"position_m":{"x":10,"y":10,"z":3.3}}})"
+      << "\n"
+      << "# no robot named: the default one, as for strata plan\n"
+      << R"({"map_id":"demo","start":{"position_m":{"x":2,"y":2,"z":0.3}},"goal":{"position_m":{"x":6,"y":3,"z":0.3}}})"
       << "\n";
   CommandResult result = Strata({"batch", Path("plans.jsonl")});
   EXPECT_EQ(result.exit_code, 1) << result.err;
   EXPECT_THAT(result.out, HasSubstr("plan 0 (map demo): "));
   EXPECT_THAT(result.out, HasSubstr("plan 1 (map atlantis): failed: NOT_FOUND"));
   EXPECT_THAT(result.out, HasSubstr("(MAP_NOT_FOUND)"));
-  EXPECT_THAT(result.err, HasSubstr("1 of 2 plans succeeded"));
+  EXPECT_THAT(result.out, HasSubstr("plan 2 (map demo): "));
+  EXPECT_THAT(result.out, Not(HasSubstr("no robot given")));
+  EXPECT_THAT(result.err, HasSubstr("2 of 3 plans succeeded"));
 
   result = Strata({"--json", "batch", Path("plans.jsonl")});
   EXPECT_EQ(result.exit_code, 1);
@@ -480,8 +486,8 @@ TEST_F(StrataCliTest, BatchPrintsEachResultAndExits1WhenOneFailed) {
     ++lines;
     plans += item.has_response();
   }
-  EXPECT_EQ(lines, 2);
-  EXPECT_EQ(plans, 1);
+  EXPECT_EQ(lines, 3);
+  EXPECT_EQ(plans, 2);
 
   std::ofstream(Path("bad.jsonl")) << R"({"map_id":"demo","no_such_field":1})"
                                    << "\n";
