@@ -59,6 +59,15 @@ void ExpectRefused(const Status& status, const std::string& quantity) {
 
 void ExpectPasses(const Status& status) { EXPECT_TRUE(status.ok()) << status.error().message; }
 
+// A parameterised case's name: its quantity, spaces as underscores. gtest's default prints the
+// case's bytes, a pointer among them, so the test names changed from build to build.
+template <typename Case>
+std::string NamedByQuantity(const ::testing::TestParamInfo<Case>& info) {
+  std::string name = info.param.quantity;
+  std::replace(name.begin(), name.end(), ' ', '_');
+  return name;
+}
+
 // Rest to rest along the floor at y = 1 from x = 1 to 4 (3 m) in 4 s, the reference point
 // rising by `rise_m` (centred on the reference height, plus `offset_m`); active-height
 // profiles hold the body at `body_m`.
@@ -122,13 +131,7 @@ INSTANTIATE_TEST_SUITE_P(
                                 kMinimumJerkPeakAcceleration* kRunM / (kRunS * kRunS)},
                       LimitCase{"vertical acceleration", &RobotProfile::max_accel_vertical_mps2,
                                 kMinimumJerkPeakAcceleration * 0.1 / (kRunS * kRunS)}),
-    // Named by the quantity: gtest's default prints the case's bytes, a pointer among them,
-    // so the test names changed from build to build.
-    [](const ::testing::TestParamInfo<LimitCase>& info) {
-      std::string name = info.param.quantity;
-      std::replace(name.begin(), name.end(), ' ', '_');
-      return name;
-    });
+    NamedByQuantity<LimitCase>);
 
 TEST(VerifyTrajectory, RefusesFloatingAboveOrSinkingBelowTheReferenceHeight) {
   const RobotProfile profile = Loose("differential");
@@ -324,11 +327,7 @@ INSTANTIATE_TEST_SUITE_P(
                                kMinimumJerkPeakSpeed * 0.02, 0.95},
                       PeakCase{"horizontal acceleration", &RobotProfile::max_accel_horizontal_mps2,
                                kMinimumJerkPeakAcceleration * 0.02, 0.9}),
-    [](const ::testing::TestParamInfo<PeakCase>& info) {
-      std::string name = info.param.quantity;
-      std::replace(name.begin(), name.end(), ' ', '_');
-      return name;
-    });
+    NamedByQuantity<PeakCase>);
 
 // Standing still, the biped stretches above its highest body height for a moment: only the
 // two ends are sampled.
