@@ -13,6 +13,7 @@ packages=(
   libompl-dev
   libcli11-dev  # command-line parsing of the programs (header-only)
   libfmt-dev  # messages: fmt::format (CMakeLists.txt find_package(fmt 9))
+  etcd-server  # tests/server: the shared schedule's tests run a real etcd (--etcd)
   python3-yaml  # tests/deploy: manifest checks with Debian's /usr/bin/python3
   openssl  # TLS tests make a throwaway certificate
   clang-format clang-tidy  # scripts/check-format.sh, check-tidy.sh (CI): .clang-format, .clang-tidy

@@ -33,6 +33,9 @@ enum class ServiceErrorCode {
   kUnauthenticated,      ///< The server needs a token and the call has none, or an unknown one.
   kPermissionDenied,     ///< The call's token has a role that may not make this call.
   kReservationNotFound,  ///< The robot holds no live reservation on the map.
+  /// The shared state (etcd, --etcd) cannot be reached, or this replica's view of it is
+  /// behind: nothing was changed.
+  kSharedStateUnavailable,
 };
 
 /// Every ServiceErrorCode, for exhaustive tests.
@@ -45,7 +48,7 @@ inline constexpr ServiceErrorCode kAllServiceErrorCodes[] = {
     ServiceErrorCode::kMapStoreUnavailable, ServiceErrorCode::kMapCorrupted,
     ServiceErrorCode::kMapStoreRequired,    ServiceErrorCode::kEditNeedsCloud,
     ServiceErrorCode::kUnauthenticated,     ServiceErrorCode::kPermissionDenied,
-    ServiceErrorCode::kReservationNotFound,
+    ServiceErrorCode::kReservationNotFound, ServiceErrorCode::kSharedStateUnavailable,
 };
 
 /// A request field that is wrong (google.rpc.BadRequest.FieldViolation). `field` is the

@@ -249,6 +249,20 @@ void AddFlags(CLI::App& app, ParsedFlags& parsed, bool environment) {
       "bearer tokens, one `TOKEN ROLE` a line (ROLE planner: plan and read maps; admin: also\n"
       "create, upload, update and delete maps); none lets every client make every call",
       ExistingFile());
+  add("--etcd", config.etcd, "ENDPOINTS",
+      "etcd members, host:port separated by commas, that hold the fleet's reservations for\n"
+      "every replica started with the same list; none keeps them in this process only",
+      AnyText());
+  add("--etcd-prefix", config.etcd_prefix, "KEY",
+      "the keys under which this deployment's shared state lives in etcd", AnyText());
+  add("--etcd-ca", config.etcd_ca, "FILE",
+      "TLS to etcd: the CA (PEM) that signed its certificate; none speaks plaintext unless\n"
+      "--etcd-cert is given",
+      ExistingFile());
+  add("--etcd-cert", config.etcd_cert, "FILE",
+      "TLS to etcd: this server's client certificate (PEM); with --etcd-key", ExistingFile());
+  add("--etcd-key", config.etcd_key, "FILE", "TLS to etcd: the client certificate's key (PEM)",
+      ExistingFile());
   add("--map-store", config.map_store, "DIR",
       "map store shared by every replica (a ReadWriteMany volume in Kubernetes): maps are\n"
       "written there as immutable versions and loaded on demand; none keeps maps in memory",
@@ -314,6 +328,10 @@ void AddFlags(CLI::App& app, ParsedFlags& parsed, bool environment) {
       "keepalive ping period on idle connections, in seconds", Seconds(false));
   add("--keepalive-timeout-s", config.keepalive_timeout_s, "S",
       "seconds to wait for a keepalive ack before closing the connection", Seconds(false));
+  add("--max-connection-age-s", config.max_connection_age_s, "S",
+      "seconds after which a client's connection is asked to reconnect (calls in flight\n"
+      "finish first), so that replicas added by a scale-out get calls too; 0 = never",
+      Seconds(true));
   finish(app.add_option_function<std::string>(
                 "--log-level",
                 [&config](const std::string& text) { ParseLogLevel(text, &config.log_level); },

@@ -77,10 +77,16 @@ struct ServerConfig {
   double shutdown_grace_s = 10.0;                       ///< --shutdown-grace-s
   double keepalive_time_s = 20.0;                       ///< --keepalive-time-s
   double keepalive_timeout_s = 10.0;                    ///< --keepalive-timeout-s
+  double max_connection_age_s = 300.0;                  ///< --max-connection-age-s (0: none)
   std::string tls_cert;                  ///< --tls-cert (empty, with tls_key: plaintext)
   std::string tls_key;                   ///< --tls-key
   std::string tls_client_ca;             ///< --tls-client-ca (empty: no client certificates)
   std::string auth_tokens;               ///< --auth-tokens (empty: every call allowed)
+  std::string etcd;                      ///< --etcd (empty: this process's memory only)
+  std::string etcd_prefix = "/strata";   ///< --etcd-prefix
+  std::string etcd_ca;                   ///< --etcd-ca
+  std::string etcd_cert;                 ///< --etcd-cert
+  std::string etcd_key;                  ///< --etcd-key
   LogLevel log_level = LogLevel::kInfo;  ///< --log-level
 };
 

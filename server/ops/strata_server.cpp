@@ -242,6 +242,28 @@ ServiceStatus StrataServer::StartServices(const StartInputs& inputs) {
                      .max_horizon_s = config.max_reservation_horizon_s,
                      .default_separation_m = config.separation_m});
   metrics_->WatchReservations(reservations_.get());
+  if (!config.etcd.empty()) {
+    Result<std::vector<std::string>> endpoints = EtcdOptions::ParseEndpoints(config.etcd);
+    if (!endpoints.ok()) return std::move(endpoints).error();
+    EtcdOptions etcd;
+    etcd.endpoints = std::move(endpoints).value();
+    etcd.ca_file = config.etcd_ca;
+    etcd.cert_file = config.etcd_cert;
+    etcd.key_file = config.etcd_key;
+    Result<std::unique_ptr<EtcdClient>> client = EtcdClient::Create(etcd);
+    if (!client.ok()) return std::move(client).error();
+    etcd_ = std::move(client).value();
+    // The traffic service is SERVING while reservations can be committed: while etcd is
+    // unreachable, plans are still answered and commits fail with SHARED_STATE_UNAVAILABLE.
+    shared_schedule_ = std::make_unique<EtcdScheduleLedger>(
+        etcd_.get(), config.etcd_prefix, reservations_.get(), [this](bool connected) {
+          std::lock_guard lock(mutex_);
+          etcd_connected_ = connected;
+          if (server_ != nullptr && !shutting_down_) {
+            server_->GetHealthCheckService()->SetServingStatus(kServices[2], connected);
+          }
+        });
+  }
   MapServiceOptions map_options;
   map_options.map_root = inputs.map_root;
   map_options.max_points = config.max_points;
@@ -302,13 +324,25 @@ ServiceStatus StrataServer::Listen(const StartInputs& inputs) {
   builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_PERMIT_WITHOUT_CALLS, 1);
   builder.AddChannelArgument(GRPC_ARG_HTTP2_MAX_PINGS_WITHOUT_DATA, 0);
   builder.AddChannelArgument(GRPC_ARG_HTTP2_MIN_RECV_PING_INTERVAL_WITHOUT_DATA_MS, 5000);
+  // A client keeps one HTTP/2 connection for as long as it lives: without an age limit, the
+  // replicas a scale-out adds would get no calls from clients already connected.
+  if (config.max_connection_age_s > 0) {
+    builder.AddChannelArgument(
+        GRPC_ARG_MAX_CONNECTION_AGE_MS,
+        static_cast<int>(std::min(config.max_connection_age_s * 1000, double{INT_MAX})));
+    builder.AddChannelArgument(GRPC_ARG_MAX_CONNECTION_AGE_GRACE_MS,
+                               static_cast<int>(config.shutdown_grace_s * 1000));
+  }
   std::vector<std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>> creators;
   creators.push_back(metrics_->MakeInterceptorFactory());
   builder.experimental().SetInterceptorCreators(std::move(creators));
   builder.RegisterService(map_service_.get());
   builder.RegisterService(planner_service_.get());
   builder.RegisterService(traffic_service_.get());
-  server_ = builder.BuildAndStart();
+  {
+    std::lock_guard lock(mutex_);  // The etcd ledger's thread reads it.
+    server_ = builder.BuildAndStart();
+  }
   if (!server_ || port == 0) {
     return MakeError(ErrorCode::kInvalidInput,
                      "--listen " + config.listen +
@@ -325,7 +359,11 @@ ServiceStatus StrataServer::Listen(const StartInputs& inputs) {
     for (const ResolvedPreload& preload : inputs.preloads) pending_preloads_.insert(preload.id);
   }
   server_->GetHealthCheckService()->SetServingStatus(kServices[0], true);
-  server_->GetHealthCheckService()->SetServingStatus(kServices[2], true);  // Traffic.
+  {
+    std::lock_guard lock(mutex_);
+    server_->GetHealthCheckService()->SetServingStatus(kServices[2],  // Traffic.
+                                                       config.etcd.empty() || etcd_connected_);
+  }
   SetReady(inputs.preloads.empty());
   return OkStatus();
 }

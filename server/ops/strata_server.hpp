@@ -24,6 +24,8 @@
 #include "rpc/planning_slots.hpp"
 #include "rpc/recent_plans.hpp"
 #include "rpc/traffic_service.hpp"
+#include "shared/etcd_client.hpp"
+#include "shared/etcd_schedule_ledger.hpp"
 
 namespace strata::server {
 
@@ -98,6 +100,9 @@ class StrataServer {
   std::unique_ptr<RecentPlans> recent_plans_;
   std::unique_ptr<MapServiceImpl> map_service_;
   std::unique_ptr<ReservationSchedule> reservations_;
+  // --etcd: the reservations' ledger there (null without), after the schedule it feeds.
+  std::unique_ptr<EtcdClient> etcd_;
+  std::unique_ptr<EtcdScheduleLedger> shared_schedule_;
   std::unique_ptr<PlannerServiceImpl> planner_service_;
   std::unique_ptr<TrafficServiceImpl> traffic_service_;
   std::unique_ptr<grpc::Server> server_;
@@ -111,6 +116,7 @@ class StrataServer {
   std::set<std::string> pending_preloads_;
   bool preload_failed_ = false;
   bool shutting_down_ = false;
+  bool etcd_connected_ = false;  // Whether the shared schedule follows etcd now.
 };
 
 }  // namespace strata::server

@@ -66,6 +66,8 @@ const ErrorMapping kTable[] = {
     {SE::kUnauthenticated, StatusCode::UNAUTHENTICATED, "UNAUTHENTICATED"},
     {SE::kPermissionDenied, StatusCode::PERMISSION_DENIED, "PERMISSION_DENIED"},
     {SE::kReservationNotFound, StatusCode::NOT_FOUND, "RESERVATION_NOT_FOUND"},
+    // etcd is down or out of reach: plans that commit nothing are still answered.
+    {SE::kSharedStateUnavailable, StatusCode::UNAVAILABLE, "SHARED_STATE_UNAVAILABLE"},
 };
 
 }  // namespace

@@ -61,6 +61,31 @@ void ToProto(const Reservation& reservation, v1::Reservation* message) {
   message->set_revision(reservation.revision);
 }
 
+Result<Reservation> FromProto(const v1::Reservation& message) {
+  Reservation reservation;
+  reservation.map_id = message.map_id();
+  reservation.map_version = message.map_version();
+  reservation.reserved.robot_id = message.robot_id();
+  reservation.revision = message.revision();
+  FleetMotion& motion = reservation.reserved.motion;
+  Result<std::int64_t> start = FromProto(message.start_time(), "start_time");
+  if (!start.ok()) return std::move(start).error();
+  motion.start_ns = start.value();
+  Result<std::int64_t> end = FromProto(message.expiry_time(), "expiry_time");
+  if (!end.ok()) return std::move(end).error();
+  motion.end_ns = end.value();
+  Result<Trajectory> trajectory = FromProto(message.trajectory());
+  if (!trajectory.ok()) return std::move(trajectory).error();
+  motion.trajectory = std::move(trajectory).value();
+  Result<FleetBody> body = FromProto(message.body(), "body");
+  if (!body.ok()) return std::move(body).error();
+  motion.body = body.value();
+  if (Status valid = motion.Validate("reservation"); !valid) {
+    return ServiceError::FromPlanner(valid.error(), valid.error().field);
+  }
+  return reservation;
+}
+
 Result<SeparationRule> SeparationFrom(const std::optional<double>& separation_m,
                                       const ScheduleLimits& limits, std::string_view field) {
   SeparationRule rule;

@@ -9,6 +9,8 @@
 
 #include <fmt/format.h>
 
+#include "common/log.hpp"
+
 namespace strata::server {
 namespace {
 
@@ -16,6 +18,9 @@ constexpr std::size_t kMaxRobotIdLength = 128;
 // How far in the past a reservation may start [s]: a robot that asked a moment ago, or whose
 // clock is slightly behind the server's, is not refused.
 constexpr double kMaxStartInPastS = 60;
+// How often a change is tried again when the ledger keeps having newer changes of its map
+// than this replica (each try reads the map afresh).
+constexpr int kMaxStaleAttempts = 5;
 
 bool Printable(const std::string& text) {
   return std::all_of(text.begin(), text.end(), [](char c) { return c > ' ' && c != 0x7f; });
@@ -62,9 +67,57 @@ ServiceStatus ReservationSchedule::CheckLease(double lease_s) const {
                                lease_s, limits_.max_lease_s));
 }
 
+void ReservationSchedule::AttachLedger(ScheduleLedger* ledger) { ledger_ = ledger; }
+
 std::uint64_t ReservationSchedule::NextRevision(MapSchedule& schedule) {
   changed_.notify_all();
-  return ++schedule.revision;
+  return ledger_ != nullptr ? schedule.revision : ++schedule.revision;
+}
+
+Result<std::optional<std::uint64_t>> ReservationSchedule::Store(MapSchedule& schedule,
+                                                                const std::string& map_id,
+                                                                const std::string& robot_id,
+                                                                Reservation* value) {
+  if (ledger_ == nullptr) {
+    const std::uint64_t revision = NextRevision(schedule);
+    if (value == nullptr) {
+      schedule.by_robot.erase(robot_id);
+    } else {
+      value->revision = revision;
+      schedule.by_robot[robot_id] = *value;
+    }
+    return std::optional(revision);
+  }
+  // The call is made under the lock: this replica's changes stay in the order the ledger
+  // takes them (a round trip, about a millisecond on a local network).
+  Result<ScheduleLedger::Written> written =
+      value != nullptr ? ledger_->Put(*value, schedule.revision, now_ns_())
+                       : ledger_->Erase(map_id, robot_id, schedule.revision);
+  if (!written.ok()) return std::move(written).error();
+  const std::uint64_t revision = written.value().revision;
+  if (written.value().stale) {
+    // Another replica changed the map after what this one has seen: take the map as the
+    // ledger holds it now, and let the caller look again.
+    ReplaceMap(schedule, std::move(written.value().current), revision);
+    return std::optional<std::uint64_t>();
+  }
+  if (value == nullptr) {
+    schedule.by_robot.erase(robot_id);
+  } else {
+    value->revision = revision;
+    schedule.by_robot[robot_id] = *value;
+  }
+  schedule.revision = std::max(schedule.revision, revision);
+  changed_.notify_all();
+  return std::optional(revision);
+}
+
+ServiceError ReservationSchedule::KeptStale(const std::string& map_id) const {
+  return MakeError(ServiceErrorCode::kSharedStateUnavailable,
+                   fmt::format("map {}'s reservations kept changing on other replicas faster "
+                               "than this replica's watch of the shared schedule caught up ({} "
+                               "tries): retry",
+                               map_id, kMaxStaleAttempts));
 }
 
 ReservationSchedule::MapSchedule& ReservationSchedule::Live(const std::string& map_id) {
@@ -119,48 +172,67 @@ ReservationSchedule::Traffic ReservationSchedule::OthersOf(const std::string& ma
   return {schedule.revision, Others(schedule, robot_id)};
 }
 
+template <typename T, typename Change>
+Result<T> ReservationSchedule::Retrying(const std::string& map_id, const Change& change) {
+  for (int attempt = 0; attempt < kMaxStaleAttempts; ++attempt) {
+    std::lock_guard lock(mutex_);
+    Result<std::optional<T>> changed = change(Live(map_id));
+    if (!changed.ok()) return std::move(changed).error();
+    if (changed.value()) return *std::move(changed).value();
+  }
+  return KeptStale(map_id);
+}
+
 Result<Reservation> ReservationSchedule::Commit(Reservation reservation, const SeparationRule& rule,
                                                 const Caller& caller) {
-  std::lock_guard lock(mutex_);
-  MapSchedule& schedule = Live(reservation.map_id);
   const std::string& robot_id = reservation.reserved.robot_id;
-  const auto existing = schedule.by_robot.find(robot_id);
-  if (existing != schedule.by_robot.end()) {
-    if (ServiceStatus may = MayChange(existing->second, caller); !may.ok()) return may.error();
-  } else if (static_cast<int>(schedule.by_robot.size()) >= limits_.max_reservations_per_map) {
-    return MakeError(ErrorCode::kResourceExhausted,
-                     fmt::format("map {} holds {} reservations, the most this server keeps per "
-                                 "map (--max-reservations): release some first",
-                                 reservation.map_id, schedule.by_robot.size()));
-  }
-  const std::vector<ReservedMotion> others = Others(schedule, robot_id);
-  if (Status clear = CheckSeparation(reservation.reserved.motion, others, rule); !clear) {
-    return ServiceError::FromPlanner(clear.error());
-  }
-  reservation.owner = caller.owner;
-  reservation.revision = NextRevision(schedule);
-  schedule.by_robot[robot_id] = reservation;
-  return reservation;
+  return Retrying<Reservation>(
+      reservation.map_id, [&](MapSchedule& schedule) -> Result<std::optional<Reservation>> {
+        const auto existing = schedule.by_robot.find(robot_id);
+        if (existing != schedule.by_robot.end()) {
+          if (ServiceStatus may = MayChange(existing->second, caller); !may.ok()) {
+            return may.error();
+          }
+        } else if (static_cast<int>(schedule.by_robot.size()) >= limits_.max_reservations_per_map) {
+          return MakeError(ErrorCode::kResourceExhausted,
+                           fmt::format("map {} holds {} reservations, the most this server "
+                                       "keeps per map (--max-reservations): release some first",
+                                       reservation.map_id, schedule.by_robot.size()));
+        }
+        const std::vector<ReservedMotion> others = Others(schedule, robot_id);
+        if (Status clear = CheckSeparation(reservation.reserved.motion, others, rule); !clear) {
+          return ServiceError::FromPlanner(clear.error());
+        }
+        Reservation committed = reservation;
+        committed.owner = caller.owner;
+        Result<std::optional<std::uint64_t>> stored =
+            Store(schedule, committed.map_id, robot_id, &committed);
+        if (!stored.ok()) return std::move(stored).error();
+        if (!stored.value()) return std::optional<Reservation>();
+        return std::optional(std::move(committed));
+      });
 }
 
 Result<Reservation> ReservationSchedule::Renew(const std::string& map_id,
                                                const std::string& robot_id, double lease_s,
                                                const SeparationRule& rule, const Caller& caller) {
-  std::lock_guard lock(mutex_);
-  MapSchedule& schedule = Live(map_id);
-  Result<RobotReservations::iterator> changeable = Changeable(schedule, map_id, robot_id, caller);
-  if (!changeable.ok()) return std::move(changeable).error();
-  const auto found = changeable.value();
-  Reservation renewed = found->second;
-  FleetMotion& motion = renewed.reserved.motion;
-  motion.end_ns = std::max(motion.end_ns, AddSeconds(now_ns_(), lease_s));
-  const std::vector<ReservedMotion> others = Others(schedule, robot_id);
-  if (Status clear = CheckSeparation(motion, others, rule); !clear) {
-    return ServiceError::FromPlanner(clear.error());
-  }
-  renewed.revision = NextRevision(schedule);
-  found->second = renewed;
-  return renewed;
+  return Retrying<Reservation>(
+      map_id, [&](MapSchedule& schedule) -> Result<std::optional<Reservation>> {
+        Result<RobotReservations::iterator> changeable =
+            Changeable(schedule, map_id, robot_id, caller);
+        if (!changeable.ok()) return std::move(changeable).error();
+        Reservation renewed = changeable.value()->second;
+        FleetMotion& motion = renewed.reserved.motion;
+        motion.end_ns = std::max(motion.end_ns, AddSeconds(now_ns_(), lease_s));
+        const std::vector<ReservedMotion> others = Others(schedule, robot_id);
+        if (Status clear = CheckSeparation(motion, others, rule); !clear) {
+          return ServiceError::FromPlanner(clear.error());
+        }
+        Result<std::optional<std::uint64_t>> stored = Store(schedule, map_id, robot_id, &renewed);
+        if (!stored.ok()) return std::move(stored).error();
+        if (!stored.value()) return std::optional<Reservation>();
+        return std::optional(std::move(renewed));
+      });
 }
 
 Result<ReservationSchedule::Moved> ReservationSchedule::Shift(const std::string& map_id,
@@ -175,39 +247,40 @@ Result<ReservationSchedule::Moved> ReservationSchedule::Shift(const std::string&
                                  delay_s, limits_.max_horizon_s))
         .Blame("delay_s");
   }
-  std::lock_guard lock(mutex_);
-  MapSchedule& schedule = Live(map_id);
-  Result<RobotReservations::iterator> changeable = Changeable(schedule, map_id, robot_id, caller);
-  if (!changeable.ok()) return std::move(changeable).error();
-  const auto found = changeable.value();
-  Moved moved{found->second, {}};
-  FleetMotion& motion = moved.reservation.reserved.motion;
-  motion.start_ns = AddSeconds(motion.start_ns, delay_s);
-  motion.end_ns = AddSeconds(motion.end_ns, delay_s);
-  moved.reservation.revision = NextRevision(schedule);
-  found->second = moved.reservation;
-  for (const auto& [robot, other] : schedule.by_robot) {
-    if (robot == robot_id) continue;
-    const std::optional<TrafficConflict> meeting =
-        FirstTrafficConflict(motion, std::span(&other.reserved, 1), rule);
-    if (meeting) moved.meetings.push_back({robot, meeting->conflict});
-  }
-  std::sort(moved.meetings.begin(), moved.meetings.end(), [](const Meeting& a, const Meeting& b) {
-    return a.conflict.time_ns < b.conflict.time_ns;
+  return Retrying<Moved>(map_id, [&](MapSchedule& schedule) -> Result<std::optional<Moved>> {
+    Result<RobotReservations::iterator> changeable = Changeable(schedule, map_id, robot_id, caller);
+    if (!changeable.ok()) return std::move(changeable).error();
+    Moved moved{changeable.value()->second, {}};
+    FleetMotion& motion = moved.reservation.reserved.motion;
+    motion.start_ns = AddSeconds(motion.start_ns, delay_s);
+    motion.end_ns = AddSeconds(motion.end_ns, delay_s);
+    Result<std::optional<std::uint64_t>> stored =
+        Store(schedule, map_id, robot_id, &moved.reservation);
+    if (!stored.ok()) return std::move(stored).error();
+    if (!stored.value()) return std::optional<Moved>();
+    for (const auto& [robot, other] : schedule.by_robot) {
+      if (robot == robot_id) continue;
+      const std::optional<TrafficConflict> meeting =
+          FirstTrafficConflict(motion, std::span(&other.reserved, 1), rule);
+      if (meeting) moved.meetings.push_back({robot, meeting->conflict});
+    }
+    std::sort(moved.meetings.begin(), moved.meetings.end(), [](const Meeting& a, const Meeting& b) {
+      return a.conflict.time_ns < b.conflict.time_ns;
+    });
+    return std::optional(std::move(moved));
   });
-  return moved;
 }
 
 Result<std::uint64_t> ReservationSchedule::Release(const std::string& map_id,
                                                    const std::string& robot_id,
                                                    const Caller& caller) {
-  std::lock_guard lock(mutex_);
-  MapSchedule& schedule = Live(map_id);
-  Result<RobotReservations::iterator> changeable = Changeable(schedule, map_id, robot_id, caller);
-  if (!changeable.ok()) return std::move(changeable).error();
-  const auto found = changeable.value();
-  schedule.by_robot.erase(found);
-  return NextRevision(schedule);
+  return Retrying<std::uint64_t>(
+      map_id, [&](MapSchedule& schedule) -> Result<std::optional<std::uint64_t>> {
+        Result<RobotReservations::iterator> changeable =
+            Changeable(schedule, map_id, robot_id, caller);
+        if (!changeable.ok()) return std::move(changeable).error();
+        return Store(schedule, map_id, robot_id, nullptr);
+      });
 }
 
 ReservationSchedule::Listing ReservationSchedule::List(const std::string& map_id,
@@ -246,8 +319,63 @@ bool ReservationSchedule::closed() const {
 }
 
 void ReservationSchedule::DropMap(const std::string& map_id) {
+  if (ledger_ != nullptr) {
+    // The other replicas learn of it through the ledger. A failure leaves the reservations
+    // to their leases, which end them anyway.
+    if (ServiceStatus erased = ledger_->EraseMap(map_id); !erased.ok()) {
+      LogWarning("shared_reservations_kept")
+          .Add("map", map_id)
+          .Add("message", erased.error().message + "; they end with their leases");
+    }
+  }
   std::lock_guard lock(mutex_);
   maps_.erase(map_id);
+  changed_.notify_all();
+}
+
+void ReservationSchedule::ReplaceMap(MapSchedule& schedule, std::vector<Reservation> reservations,
+                                     std::uint64_t revision) {
+  std::erase_if(schedule.by_robot,
+                [&](const auto& entry) { return entry.second.revision <= revision; });
+  for (Reservation& reservation : reservations) {
+    Reservation& held = schedule.by_robot[reservation.reserved.robot_id];
+    if (held.revision <= reservation.revision) held = std::move(reservation);
+  }
+  schedule.revision = std::max(schedule.revision, revision);
+  changed_.notify_all();
+}
+
+void ReservationSchedule::ReplaceShared(std::vector<Reservation> reservations,
+                                        std::uint64_t revision) {
+  std::map<std::string, std::vector<Reservation>> by_map;
+  for (Reservation& reservation : reservations) {
+    by_map[reservation.map_id].push_back(std::move(reservation));
+  }
+  std::lock_guard lock(mutex_);
+  for (auto& [id, schedule] : maps_) {
+    const auto read = by_map.find(id);
+    ReplaceMap(schedule,
+               read == by_map.end() ? std::vector<Reservation>() : std::move(read->second),
+               revision);
+    if (read != by_map.end()) by_map.erase(read);
+  }
+  for (auto& [id, read] : by_map) ReplaceMap(maps_[id], std::move(read), revision);
+}
+
+void ReservationSchedule::ApplyShared(const std::string& map_id, const std::string& robot_id,
+                                      std::optional<Reservation> reservation,
+                                      std::uint64_t revision) {
+  std::lock_guard lock(mutex_);
+  MapSchedule& schedule = maps_[map_id];
+  const auto held = schedule.by_robot.find(robot_id);
+  const bool newer = held == schedule.by_robot.end() || held->second.revision < revision;
+  if (newer && reservation) {
+    reservation->revision = revision;
+    schedule.by_robot[robot_id] = std::move(*reservation);
+  } else if (newer && held != schedule.by_robot.end()) {
+    schedule.by_robot.erase(held);
+  }
+  schedule.revision = std::max(schedule.revision, revision);
   changed_.notify_all();
 }
 

@@ -1,8 +1,10 @@
 #pragma once
-/// The reservations of every map: each robot's committed motion, kept in this server's
-/// memory, committed atomically against the others (checked exactly, under one lock per
-/// schedule), renewed, released and collected when their leases expire. No gRPC here: the
-/// traffic service and Plan adapt protobuf to it (rpc/traffic_service.hpp).
+/// The reservations of every map: each robot's committed motion, committed atomically against
+/// the others (checked exactly, under one lock per schedule), renewed, released and collected
+/// when their leases expire. Kept in this server's memory, and, with a ledger (etcd, --etcd),
+/// written there and shared with every replica: the memory is then the replica's cache of
+/// the ledger, which plans read without a call. No gRPC here: the traffic service and Plan
+/// adapt protobuf to it (rpc/traffic_service.hpp).
 #include <chrono>
 #include <condition_variable>
 #include <cstdint>
@@ -15,6 +17,7 @@
 
 #include "common/service_error.hpp"
 #include "strata/fleet/traffic.hpp"
+#include "traffic/schedule_ledger.hpp"
 
 namespace strata::server {
 
@@ -37,7 +40,9 @@ struct Reservation {
   /// Who made it: a fingerprint of the caller's token (OwnerOf), empty without tokens. Only the
   /// same owner, or an admin, may change it.
   std::string owner;
-  std::uint64_t revision = 0;  ///< The map's schedule revision that committed or last changed it.
+  /// The map's schedule revision that committed or last changed it (with a ledger, the
+  /// ledger's revision of the write).
+  std::uint64_t revision = 0;
 };
 
 /// Who is asking to change a reservation.
@@ -56,6 +61,10 @@ class ReservationSchedule {
                                std::function<std::int64_t()> now_ns = SystemNowNs);
 
   const ScheduleLimits& limits() const { return limits_; }
+
+  /// Makes every change go through `ledger` first (set once, before the first call; the ledger
+  /// stays until the schedule is no longer called). Revisions are then the ledger's.
+  void AttachLedger(ScheduleLedger* ledger);
   std::int64_t NowNs() const { return now_ns_(); }
 
   /// What a robot plans against on `map_id`: the others' live motions, and the revision.
@@ -133,6 +142,15 @@ class ReservationSchedule {
   /// Forgets every reservation of `map_id` (the map was deleted).
   void DropMap(const std::string& map_id);
 
+  /// From the ledger: every reservation it held at `revision` (a first read, or a read afresh
+  /// after its history was compacted). Replaces what this replica knew as of `revision`;
+  /// anything it learnt of a later revision stays.
+  void ReplaceShared(std::vector<Reservation> reservations, std::uint64_t revision);
+  /// From the ledger: robot_id's reservation on map_id became `reservation` (nullopt: removed)
+  /// at `revision`. Older news than what this replica holds is ignored.
+  void ApplyShared(const std::string& map_id, const std::string& robot_id,
+                   std::optional<Reservation> reservation, std::uint64_t revision);
+
   /// Reservations whose lease has not expired, over every map, and how many expired ones were
   /// collected so far.
   std::size_t size() const;
@@ -144,8 +162,25 @@ class ReservationSchedule {
     std::uint64_t revision = 0;
     RobotReservations by_robot;
   };
-  // Moves the schedule's revision and wakes the watchers. Call with mutex_ held.
+  // Moves the schedule's revision (in memory only; with a ledger, the ledger moves it) and
+  // wakes the watchers. Call with mutex_ held.
   std::uint64_t NextRevision(MapSchedule& schedule);
+  // Makes robot_id's reservation on the map `value` (nullptr: removes it), through the ledger
+  // when there is one; returns the revision of the change, with value->revision set to it.
+  // nullopt when the ledger had newer changes of the map than this replica: the map is then
+  // as the ledger holds it, and the caller must look again.
+  Result<std::optional<std::uint64_t>> Store(MapSchedule& schedule, const std::string& map_id,
+                                             const std::string& robot_id, Reservation* value);
+  // Runs `change(schedule)` on map_id's live schedule under the lock until it is not stale
+  // (Store); kSharedStateUnavailable (KeptStale) after kMaxStaleAttempts.
+  template <typename T, typename Change>
+  Result<T> Retrying(const std::string& map_id, const Change& change);
+  // kSharedStateUnavailable: the ledger kept having newer changes than this replica.
+  ServiceError KeptStale(const std::string& map_id) const;
+  // `schedule` as the ledger held it at `revision`: `reservations`, and whatever this
+  // replica learnt of a later revision. Call with mutex_ held.
+  void ReplaceMap(MapSchedule& schedule, std::vector<Reservation> reservations,
+                  std::uint64_t revision);
   // The map's schedule with expired leases collected (a collection moves the revision).
   // Call with mutex_ held.
   MapSchedule& Live(const std::string& map_id);
@@ -163,6 +198,7 @@ class ReservationSchedule {
 
   const ScheduleLimits limits_;
   const std::function<std::int64_t()> now_ns_;
+  ScheduleLedger* ledger_ = nullptr;  // Set once before any call; null in memory only.
   mutable std::mutex mutex_;
   std::condition_variable changed_;  // Notified whenever a revision moves or a map is dropped.
   std::map<std::string, MapSchedule> maps_;  // By map id; guarded by mutex_.

@@ -2,7 +2,8 @@
 """Offline checks of Strata's deployment files (run by CTest, see CMakeLists.txt beside).
 
   k8s        renders deploy/k8s with `kubectl kustomize` and checks every object against the
-             hand-written schema (k8s_schema.yaml) and the cross-object rules below
+             hand-written schema (k8s_schema.yaml) and the cross-object rules below; then each
+             file of deploy/k8s/optional/ the same way, with the rendered objects it would join
   broken     applies each deliberate breakage of broken_cases.yaml to the good files and
              requires the matching check to reject it with the expected message; also requires
              `kubectl kustomize` to fail on a broken kustomization
@@ -206,44 +207,76 @@ def check_rules(objects, problems, required_kinds):
         if kind not in by_kind:
             problems.add("render", f"no {kind} rendered")
     deployments = by_kind.get("Deployment", [])
+    statefulsets = by_kind.get("StatefulSet", [])
+    workloads = deployments + statefulsets
+    services = {get(o, "metadata", "name"): o for o in by_kind.get("Service", [])}
     pvcs = {get(o, "metadata", "name") for o in by_kind.get("PersistentVolumeClaim", [])}
-    hpa_targets = {(get(h, "spec", "scaleTargetRef", "kind"), get(h, "spec", "scaleTargetRef", "name"))
-                   for h in by_kind.get("HorizontalPodAutoscaler", [])}
+    hpas = {(get(h, "spec", "scaleTargetRef", "kind"), get(h, "spec", "scaleTargetRef", "name")): h
+            for h in by_kind.get("HorizontalPodAutoscaler", [])}
 
-    def ports_of(deployment):
+    def pod_labels(workload):
+        return get(workload, "spec", "template", "metadata", "labels", default={}) or {}
+
+    def ports_of(workload):
         ports = {}
-        for container in get(deployment, "spec", "template", "spec", "containers", default=[]) or []:
+        for container in get(workload, "spec", "template", "spec", "containers", default=[]) or []:
             for port in container.get("ports", []) or []:
                 ports[port.get("name")] = port.get("containerPort")
         return ports
 
-    for d in deployments:
+    def workloads_selected(selector):
+        return [w for w in workloads if labels_match(selector, pod_labels(w))]
+
+    def least_replicas(workload):
+        """The fewest pods the workload runs: its HPA's floor, else spec.replicas (default 1)."""
+        hpa = hpas.get((workload.get("kind"), get(workload, "metadata", "name")))
+        if hpa is not None:
+            return get(hpa, "spec", "minReplicas", default=1)
+        return get(workload, "spec", "replicas", default=1)
+
+    for d in workloads:
         where = object_name(d)
-        template_labels = get(d, "spec", "template", "metadata", "labels", default={}) or {}
-        if not labels_match(get(d, "spec", "selector", "matchLabels", default={}), template_labels):
+        kind = d.get("kind")
+        if not labels_match(get(d, "spec", "selector", "matchLabels", default={}), pod_labels(d)):
             problems.add(where, "spec.selector.matchLabels does not match the pod template's labels")
-        if ("Deployment", get(d, "metadata", "name")) in hpa_targets and "replicas" in d.get("spec", {}):
-            problems.add(where, "spec.replicas is set but an HPA scales this Deployment "
+        if (kind, get(d, "metadata", "name")) in hpas and "replicas" in d.get("spec", {}):
+            problems.add(where, f"spec.replicas is set but an HPA scales this {kind} "
                                 "(every apply would reset the HPA's count)")
         pod = get(d, "spec", "template", "spec", default={}) or {}
         pod_security = pod.get("securityContext", {}) or {}
         volumes = {v.get("name"): v for v in pod.get("volumes", []) or []}
+        claim_templates = {get(t, "metadata", "name") for t in get(d, "spec", "volumeClaimTemplates", default=[]) or []}
         mounted = set()
         for i, c in enumerate(pod.get("containers", []) or []):
             cw = f"{where} container {c.get('name', i)}"
             declared = {p.get("containerPort") for p in c.get("ports", []) or []}
-            for probe in ("readinessProbe", "livenessProbe"):
-                if "grpc" not in (c.get(probe) or {}):
-                    problems.add(cw, f"{probe} must be a native gRPC probe (grpc:)")
+            names = {p.get("name") for p in c.get("ports", []) or []} - {None}
+            # strata-server: readiness is its health service (preloads ACTIVE, SIGTERM drains).
+            if kind == "Deployment":
+                for probe in ("readinessProbe", "livenessProbe"):
+                    if "grpc" not in (c.get(probe) or {}):
+                        problems.add(cw, f"{probe} must be a native gRPC probe (grpc:)")
             for probe in ("startupProbe", "readinessProbe", "livenessProbe"):
                 port = get(c, probe, "grpc", "port")
                 if port is not None and port not in declared:
                     problems.add(cw, f"{probe}.grpc.port {port!r} is not one of the container's ports {sorted(declared)}")
+                for handler in ("httpGet", "tcpSocket"):
+                    port = get(c, probe, handler, "port")
+                    if port is not None and port not in (names if isinstance(port, str) else declared):
+                        problems.add(cw, f"{probe}.{handler}.port {port!r} is not one of the container's "
+                                         f"ports {sorted(names)} {sorted(declared)}")
             env = {e.get("name"): e.get("value") for e in c.get("env", []) or []}
             http = env.get("STRATA_HTTP_PORT")
             if http is not None and int(http) >= 0 and int(http) not in declared:
                 problems.add(cw, f"STRATA_HTTP_PORT {http} (the web viewer) is not one of the "
                                  f"container's ports {sorted(declared)}")
+            if env.get("STRATA_ETCD") is not None:
+                check_etcd_endpoints(cw, env["STRATA_ETCD"], services, statefulsets, ports_of, problems)
+            tokens = env.get("STRATA_AUTH_TOKENS")
+            if tokens and not any(tokens.startswith(str(m.get("mountPath", "")).rstrip("/") + "/")
+                                  for m in c.get("volumeMounts", []) or []):
+                problems.add(cw, f"STRATA_AUTH_TOKENS {tokens} is under no volumeMount (the server "
+                                 "refuses to start without the file)")
             resources = c.get("resources", {}) or {}
             for section, key in (("requests", "cpu"), ("requests", "memory"), ("limits", "memory")):
                 if key not in (resources.get(section) or {}):
@@ -260,25 +293,38 @@ def check_rules(objects, problems, required_kinds):
                 problems.add(cw, "securityContext.allowPrivilegeEscalation is not false")
             for mount in c.get("volumeMounts", []) or []:
                 mounted.add(mount.get("name"))
-                if mount.get("name") not in volumes:
-                    problems.add(cw, f"volumeMount {mount.get('name')!r} names no pod volume")
+                if mount.get("name") not in volumes and mount.get("name") not in claim_templates:
+                    problems.add(cw, f"volumeMount {mount.get('name')!r} names no pod volume"
+                                     + (" or volumeClaimTemplate" if kind == "StatefulSet" else ""))
         for name, volume in volumes.items():
             if name not in mounted:
                 problems.add(where, f"volume {name!r} is mounted by no container")
             claim = get(volume, "persistentVolumeClaim", "claimName")
             if claim is not None and claim not in pvcs:
                 problems.add(where, f"volume {name!r} claims PersistentVolumeClaim {claim!r}, which is not rendered")
+        for name in claim_templates - mounted:
+            problems.add(where, f"volumeClaimTemplate {name!r} is mounted by no container")
+        for i, spread in enumerate(pod.get("topologySpreadConstraints", []) or []):
+            if not labels_match(get(spread, "labelSelector", "matchLabels", default={}) or {}, pod_labels(d)):
+                problems.add(where, f"topologySpreadConstraints[{i}].labelSelector does not select "
+                                    "this workload's own pods (it would spread nothing)")
 
-    def deployments_selected(selector):
-        return [d for d in deployments
-                if labels_match(selector, get(d, "spec", "template", "metadata", "labels", default={}) or {})]
+    # A StatefulSet's pods are named through its governing Service: headless, selecting them.
+    for st in statefulsets:
+        where = object_name(st)
+        governing = services.get(get(st, "spec", "serviceName"))
+        if governing is None or get(governing, "spec", "clusterIP") != "None":
+            problems.add(where, f"spec.serviceName {get(st, 'spec', 'serviceName')!r} names no rendered "
+                                "headless Service (its pods' DNS names come from it)")
+        elif st not in workloads_selected(get(governing, "spec", "selector", default={}) or {}):
+            problems.add(where, f"its Service {get(st, 'spec', 'serviceName')!r} does not select its pods")
 
     for s in by_kind.get("Service", []):
         where = object_name(s)
         spec = s.get("spec", {}) or {}
-        selected = deployments_selected(spec.get("selector") or {})
+        selected = workloads_selected(spec.get("selector") or {})
         if not selected:
-            problems.add(where, "spec.selector matches no Deployment's pods")
+            problems.add(where, "spec.selector matches no workload's pods (Deployment, StatefulSet)")
         headless = spec.get("clusterIP") == "None"
         for port in spec.get("ports", []) or []:
             pw = f"{where} port {port.get('name', port.get('port'))}"
@@ -303,12 +349,82 @@ def check_rules(objects, problems, required_kinds):
         low, high = get(h, "spec", "minReplicas", default=1), get(h, "spec", "maxReplicas")
         if is_int(low) and is_int(high) and not 1 <= low <= high:
             problems.add(where, f"want 1 <= minReplicas ({low}) <= maxReplicas ({high})")
-        if not any(get(m, "resource", "name") == "cpu" for m in get(h, "spec", "metrics", default=[]) or []):
+        metrics = get(h, "spec", "metrics", default=[]) or []
+        for i, metric in enumerate(metrics):
+            wanted = {"Resource": "resource", "ContainerResource": "containerResource", "Pods": "pods",
+                      "Object": "object", "External": "external"}.get(metric.get("type"))
+            if wanted and wanted not in metric:
+                problems.add(where, f"metrics[{i}]: type {metric.get('type')} wants the field '{wanted}'")
+        # CPU stays as the fallback beside any custom metric: the HPA still scales up on it
+        # when the metrics adapter is down.
+        if not any(get(m, "resource", "name") == "cpu" for m in metrics):
             problems.add(where, "no CPU resource metric")
 
     for p in by_kind.get("PodDisruptionBudget", []):
-        if not deployments_selected(get(p, "spec", "selector", "matchLabels", default={}) or {}):
-            problems.add(object_name(p), "spec.selector matches no Deployment's pods")
+        where = object_name(p)
+        selected = workloads_selected(get(p, "spec", "selector", "matchLabels", default={}) or {})
+        if not selected:
+            problems.add(where, "spec.selector matches no workload's pods (Deployment, StatefulSet)")
+        least = get(p, "spec", "minAvailable")
+        for w in selected:
+            replicas = least_replicas(w)
+            if is_int(least) and is_int(replicas) and least >= replicas:
+                problems.add(where, f"minAvailable {least} >= the {replicas} pods {object_name(w)} runs at "
+                                    "least: no node could ever be drained")
+
+    for n in by_kind.get("NetworkPolicy", []):
+        where = object_name(n)
+        selected = workloads_selected(get(n, "spec", "podSelector", "matchLabels", default={}) or {})
+        if not selected:
+            problems.add(where, "spec.podSelector matches no workload's pods (Deployment, StatefulSet)")
+        for direction, peers_key in (("ingress", "from"), ("egress", "to")):
+            for i, rule in enumerate(get(n, "spec", direction, default=[]) or []):
+                rw = f"{where} {direction}[{i}]"
+                if direction == "ingress":
+                    for port in rule.get("ports", []) or []:
+                        number = port.get("port")
+                        for w in selected:
+                            ports = ports_of(w)
+                            if number is not None and number not in (ports if isinstance(number, str) else ports.values()):
+                                problems.add(rw, f"port {number!r} is not a container port of {object_name(w)} "
+                                                 f"({sorted(k for k in ports if k)})")
+                for peer in rule.get(peers_key, []) or []:
+                    # A podSelector alone means pods of this namespace: they should exist here.
+                    if "podSelector" in peer and "namespaceSelector" not in peer:
+                        if not workloads_selected(get(peer, "podSelector", "matchLabels", default={}) or {}):
+                            problems.add(rw, f"peer podSelector {get(peer, 'podSelector', 'matchLabels')} "
+                                             "matches no workload's pods")
+
+
+def check_etcd_endpoints(where, value, services, statefulsets, ports_of, problems):
+    """STRATA_ETCD: HOST:PORT,... (an http:// or https:// prefix allowed, as the server does).
+    Endpoints named POD.SERVICE after a rendered Service must be pods of the StatefulSet it
+    governs, on one of its ports; other hosts are an etcd outside."""
+    for endpoint in value.split(","):
+        endpoint = re.sub(r"^https?://", "", endpoint.strip())
+        if not endpoint:
+            continue
+        host, _, port = endpoint.rpartition(":")
+        if not host or not port.isdigit():
+            problems.add(where, f"STRATA_ETCD endpoint {endpoint!r}: want HOST:PORT")
+            continue
+        labels = host.split(".")
+        if len(labels) < 2 or labels[1] not in services:
+            continue
+        owners = [st for st in statefulsets if get(st, "spec", "serviceName") == labels[1]]
+        pod = re.match(r"^(.+)-([0-9]+)$", labels[0])
+        owner = next((st for st in owners if pod and get(st, "metadata", "name") == pod.group(1)), None)
+        if owner is None or int(pod.group(2)) >= get(owner, "spec", "replicas", default=1):
+            known = [f"{object_name(st)} with {get(st, 'spec', 'replicas', default=1)} replicas" for st in owners]
+            problems.add(where, f"STRATA_ETCD endpoint {endpoint!r} names no pod of a StatefulSet "
+                                f"governed by Service {labels[1]!r} ({', '.join(known) or 'none'})")
+        else:
+            ports = ports_of(owner)
+            # etcd's port named client when it names one (not peer 2380 or metrics).
+            wanted = {ports["client"]} if "client" in ports else set(ports.values())
+            if int(port) not in wanted:
+                problems.add(where, f"STRATA_ETCD endpoint {endpoint!r}: port {port} is not the client port "
+                                    f"of {object_name(owner)} {sorted(wanted)}")
 
 
 def render_kustomization(kubectl, directory):
@@ -325,7 +441,8 @@ def render_kustomization(kubectl, directory):
 def check_k8s_objects(objects, schema):
     problems = Problems()
     validate_objects(objects, schema, problems)
-    check_rules(objects, problems, ["Deployment", "Service", "HorizontalPodAutoscaler"])
+    check_rules(objects, problems, ["Deployment", "Service", "HorizontalPodAutoscaler",
+                                    "PodDisruptionBudget", "NetworkPolicy"])
     return problems.errors
 
 
@@ -588,7 +705,31 @@ def cmd_k8s(args):
     if error:
         return report([error], "kubectl kustomize")
     print(f"rendered {len(objects)} objects: {', '.join(object_name(o) for o in objects)}")
-    return report(check_k8s_objects(objects, schema), f"{len(objects)} objects against the schema and rules")
+    status = report(check_k8s_objects(objects, schema), f"{len(objects)} objects against the schema and rules")
+    # deploy/k8s/optional/: files an operator adds to (or swaps into) kustomization.yaml. Each is
+    # checked with the rendered objects it would join: an object of the same kind and name is
+    # replaced (optional/hpa-queue.yaml for hpa.yaml), any other added.
+    optional = os.path.join(args.dir, "optional")
+    for name in sorted(os.listdir(optional)) if os.path.isdir(optional) else []:
+        if not name.endswith((".yaml", ".yml")):
+            continue
+        try:
+            extra = [o for o in yaml.safe_load_all(open(os.path.join(optional, name))) if o is not None]
+        except yaml.YAMLError as e:
+            status |= report([f"optional/{name}: not YAML: {e}"], f"optional/{name}")
+            continue
+        status |= report(check_k8s_objects(with_variant(objects, extra), schema),
+                         f"optional/{name} ({', '.join(object_name(o) for o in extra)}) with the others")
+    return status
+
+
+def with_variant(objects, extra):
+    """The objects with each of `extra` in place of the one of the same kind and name, or added."""
+    def key(obj):
+        return (obj.get("kind"), get(obj, "metadata", "name")) if isinstance(obj, dict) else None
+    replaced = {key(o): o for o in extra}
+    result = [replaced.pop(key(o), o) for o in objects]
+    return result + [o for o in extra if key(o) in replaced]
 
 
 def cmd_broken(args):

@@ -92,6 +92,8 @@ TEST(ErrorMappingTest, MapsAsDocumented) {
       {ServiceErrorCode::kUnauthenticated, StatusCode::UNAUTHENTICATED, "UNAUTHENTICATED"},
       {ServiceErrorCode::kPermissionDenied, StatusCode::PERMISSION_DENIED, "PERMISSION_DENIED"},
       {ServiceErrorCode::kReservationNotFound, StatusCode::NOT_FOUND, "RESERVATION_NOT_FOUND"},
+      {ServiceErrorCode::kSharedStateUnavailable, StatusCode::UNAVAILABLE,
+       "SHARED_STATE_UNAVAILABLE"},
   };
   EXPECT_EQ(std::size(expected), ErrorMappingTable().size());
   for (const auto& row : expected) {
