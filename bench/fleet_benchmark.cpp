@@ -32,7 +32,7 @@
 #include <fmt/format.h>
 #include <CLI/CLI.hpp>
 
-#include "compare/bench_pairs.hpp"
+#include "fleet_site.hpp"
 #include "independent_check.hpp"
 #include "sampled_separation.hpp"
 #include "statistics.hpp"
@@ -58,28 +58,7 @@ constexpr double kHorizontalSpeedSlack = 1.01;              // The verifier's li
 double max_wait_s = strata::FleetPlanOptions{}.max_wait_s;  // --max-wait
 int benchmark_sink = 0;  // Keeps the timed checks' results alive.
 
-struct Site {
-  std::string name;
-  std::unique_ptr<PlanningMap> map;
-  std::vector<Eigen::Vector3d> nodes;  // Reference points of the largest component.
-};
-
-std::optional<Site> MakeSite(const std::string& name, const strata::PointCloud& cloud,
-                             double resolution_m, const strata::RobotProfile& profile) {
-  strata::AssessmentConfig config;
-  config.grid.resolution_m = resolution_m;
-  auto model = strata::TerrainModel::Assess(cloud, config);
-  if (!model) {
-    std::fprintf(stderr, "%s: %s\n", name.c_str(), model.error().message.c_str());
-    return std::nullopt;
-  }
-  Site site{name, std::make_unique<PlanningMap>(std::move(model).value()), {}};
-  auto graph = site.map->Graph(profile.Traversability());
-  if (!graph) return std::nullopt;
-  const auto component = strata::bench::FindLargestComponent(*graph.value());
-  for (int node : component.nodes) site.nodes.push_back(graph.value()->position(node));
-  return site;
-}
+using Site = strata::bench::FleetSite;
 
 struct Committed {
   int robot;
@@ -341,13 +320,13 @@ int main(int argc, char** argv) {
     if (name == "parking_garage") {
       auto cloud = strata::GenerateScene("parking_garage", 1);
       if (!cloud) return 1;
-      auto site = MakeSite(name, *cloud, 0.2, profile);  // docs/scenes.md: its resolution.
+      auto site = strata::bench::MakeFleetSite(name, *cloud, 0.2, profile);  // docs/scenes.md: its resolution.
       if (!site) return 1;
       sites.push_back(std::move(*site));
     } else if (const char* dir = std::getenv("STRATA_MAPS_DIR")) {
       auto cloud = strata::LoadPointCloud(std::string(dir) + "/spiral0.3_2.pcd", {});
       if (!cloud) return 1;
-      auto site = MakeSite("spiral@0.2", cloud->points, 0.2, profile);
+      auto site = strata::bench::MakeFleetSite("spiral@0.2", cloud->points, 0.2, profile);
       if (!site) return 1;
       sites.push_back(std::move(*site));
     } else {

@@ -13,6 +13,7 @@
 #include "test_util/run_command.hpp"
 #include "test_util/time_scale.hpp"
 #ifdef STRATA_SERVER_BENCHMARK  // Built with the server only.
+#include "etcd_process.hpp"
 #include "server_process.hpp"
 #endif
 
@@ -85,6 +86,13 @@ TEST(ServerBenchmark, SmokeRun) {
   ASSERT_NE(server, nullptr);
   ExpectRuns(STRATA_SERVER_BENCHMARK,
              "--server " + server->address() + " --seconds 0.2 --runs 1 --clients 1", "|");
+}
+
+TEST(SharedScheduleBenchmark, SmokeRun) {
+  auto etcd = server::testing::EtcdProcess::Start();
+  ASSERT_NE(etcd, nullptr) << "a real etcd is needed (scripts/install-deps.sh installs it)";
+  ExpectRuns(STRATA_SHARED_SCHEDULE_BENCHMARK,
+             "--etcd " + etcd->endpoint() + " --commits 5 --robots 4 --seconds 1", "| 4 | 2 |");
 }
 #endif
 
