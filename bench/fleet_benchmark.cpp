@@ -320,7 +320,8 @@ int main(int argc, char** argv) {
     if (name == "parking_garage") {
       auto cloud = strata::GenerateScene("parking_garage", 1);
       if (!cloud) return 1;
-      auto site = strata::bench::MakeFleetSite(name, *cloud, 0.2, profile);  // docs/scenes.md: its resolution.
+      auto site = strata::bench::MakeFleetSite(name, *cloud, 0.2,
+                                               profile);  // docs/scenes.md: its resolution.
       if (!site) return 1;
       sites.push_back(std::move(*site));
     } else if (const char* dir = std::getenv("STRATA_MAPS_DIR")) {

@@ -135,8 +135,9 @@ void MeasureCommits(const std::string& endpoint, int commits) {
     (void)alone.Commit(r, {}, kCaller);
     memory_ms.push_back(Ms(Clock::now() - t2));
   }
-  std::printf("| commits | through etcd p50 / p99 [ms] | in memory p50 / p99 [ms] | "
-              "A's commit → B holds it p50 / p99 [ms] |\n|---|---|---|---|\n");
+  std::printf(
+      "| commits | through etcd p50 / p99 [ms] | in memory p50 / p99 [ms] | "
+      "A's commit → B holds it p50 / p99 [ms] |\n|---|---|---|---|\n");
   std::printf("| %d | %.2f / %.2f | %.3f / %.3f | %.2f / %.2f |\n\n", commits, Median(shared_ms),
               Quantile(shared_ms, 0.99), Median(memory_ms), Quantile(memory_ms, 0.99),
               Median(propagation_ms), Quantile(propagation_ms, 0.99));
@@ -181,8 +182,8 @@ void DriveRobots(Replica& replica, const std::string& map, const strata::bench::
       goal = site.nodes[pick(rng)];
       bool apart = (goal - at).norm() >= kMinTaskLengthM;
       for (const strata::ReservedMotion& other : traffic.others) {
-        apart = apart && (goal - other.motion.ReferencePointAt(departure)).norm() >=
-                             kMinGoalDistanceM;
+        apart =
+            apart && (goal - other.motion.ReferencePointAt(departure)).norm() >= kMinGoalDistanceM;
       }
       if (apart) break;
     }
@@ -232,9 +233,8 @@ void RunFleet(const std::string& endpoint, const strata::bench::FleetSite& site,
   const auto wall_start = Clock::now();
   const std::int64_t clock_start = strata::server::SystemNowNs();
   const auto now_ns = [=] {
-    return AddSeconds(clock_start, speedup * std::chrono::duration<double>(Clock::now() -
-                                                                           wall_start)
-                                                 .count());
+    return AddSeconds(clock_start,
+                      speedup * std::chrono::duration<double>(Clock::now() - wall_start).count());
   };
   const auto wall_of = [=](std::int64_t time_ns) {
     return wall_start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(
@@ -306,19 +306,19 @@ void RunFleet(const std::string& endpoint, const strata::bench::FleetSite& site,
   for (std::size_t i = 0; i < all.size(); ++i) {
     for (std::size_t j = i + 1; j < all.size(); ++j) {
       if (all[i].first == all[j].first) continue;
-      const auto s = strata::bench::SampleSeparation(all[i].second, all[j].second, limit_m,
-                                                     relative_speed);
+      const auto s =
+          strata::bench::SampleSeparation(all[i].second, all[j].second, limit_m, relative_speed);
       conflicts += s.first_conflict_ns ? 1 : 0;
     }
   }
-  std::printf("| %d | %d | %.0f s | %d of %d (%.1f%%) | %d | %d | %.2f | %.1f / %.1f / %.1f | "
-              "%.2f / %.2f | %d |\n",
-              robots, replicas, wall_s, figures.planned.load(), figures.asked.load(),
-              100.0 * figures.planned.load() / std::max(1, figures.asked.load()),
-              figures.refused.load(), figures.races.load(), figures.planned.load() / wall_s,
-              Median(figures.plan_commit_ms), Quantile(figures.plan_commit_ms, 0.95),
-              Quantile(figures.plan_commit_ms, 0.99), Median(figures.commit_ms),
-              Quantile(figures.commit_ms, 0.99), conflicts);
+  std::printf(
+      "| %d | %d | %.0f s | %d of %d (%.1f%%) | %d | %d | %.2f | %.1f / %.1f / %.1f | "
+      "%.2f / %.2f | %d |\n",
+      robots, replicas, wall_s, figures.planned.load(), figures.asked.load(),
+      100.0 * figures.planned.load() / std::max(1, figures.asked.load()), figures.refused.load(),
+      figures.races.load(), figures.planned.load() / wall_s, Median(figures.plan_commit_ms),
+      Quantile(figures.plan_commit_ms, 0.95), Quantile(figures.plan_commit_ms, 0.99),
+      Median(figures.commit_ms), Quantile(figures.commit_ms, 0.99), conflicts);
   std::fflush(stdout);
 }
 
@@ -351,10 +351,11 @@ int main(int argc, char** argv) {
   if (!cloud) return 1;
   auto site = strata::bench::MakeFleetSite("parking_garage", *cloud, 0.2, profile);
   if (!site) return 1;
-  std::printf("| robots | replicas | wall | tasks planned | refused (conflict) | commits lost "
-              "to another replica (replanned) | plans/s | plan + commit p50 / p95 / p99 [ms] | "
-              "commit p50 / p99 [ms] | conflicting pairs (1 ms check) |\n"
-              "|---|---|---|---|---|---|---|---|---|---|\n");
+  std::printf(
+      "| robots | replicas | wall | tasks planned | refused (conflict) | commits lost "
+      "to another replica (replanned) | plans/s | plan + commit p50 / p95 / p99 [ms] | "
+      "commit p50 / p99 [ms] | conflicting pairs (1 ms check) |\n"
+      "|---|---|---|---|---|---|---|---|---|---|\n");
   for (const int replicas : {1, 2}) RunFleet(etcd, *site, robots, replicas, seconds, speedup, seed);
   return 0;
 }

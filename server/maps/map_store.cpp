@@ -293,6 +293,50 @@ ServiceStatus WriteHead(const fs::path& tmp_dir, const fs::path& map_dir,
   return status;
 }
 
+ServiceError AlreadyExists(const std::string& id, const std::string& current) {
+  return MakeError(ServiceErrorCode::kMapAlreadyExists,
+                   "map '" + id + "' exists already (current version " + current +
+                       "): choose another id, or delete the map first")
+      .With("map_id", id);
+}
+
+ServiceError NotPut(const std::string& id, const std::string& version) {
+  return MakeError(ServiceErrorCode::kMapVersionNotFound,
+                   "map store: version " + version + " of map '" + id +
+                       "' was not written (or the map was deleted since): put it again")
+      .With("map_id", id);
+}
+
+ServiceError Changed(const std::string& id, const std::string& current,
+                     const std::string& expected) {
+  return MakeError(ServiceErrorCode::kMapChanged,
+                   "map '" + id + "' changed: its current version is " + current + ", not " +
+                       expected + ": apply the change to the current version")
+      .With("map_id", id)
+      .With("current_version", current);
+}
+
+ServiceError BadKeep(int keep_versions) {
+  return MakeError(ErrorCode::kInvalidInput,
+                   fmt::format("map store: keep_versions is {}, must be >= 1 (the current "
+                               "version is always kept)",
+                               keep_versions));
+}
+
+// The head after `version` is published over `kept`: it first, then the others, the newest
+// `keep_versions`; `dropped` gets the rest.
+std::vector<std::string> NextHead(const std::vector<std::string>& kept, const std::string& version,
+                                  int keep_versions, std::vector<std::string>* dropped) {
+  std::vector<std::string> next = {version};
+  std::copy_if(kept.begin(), kept.end(), std::back_inserter(next),
+               [&](const std::string& v) { return v != version; });
+  if (next.size() > static_cast<std::size_t>(keep_versions)) {
+    dropped->assign(next.begin() + keep_versions, next.end());
+    next.resize(static_cast<std::size_t>(keep_versions));
+  }
+  return next;
+}
+
 template <typename T>
 void HashValue(XXH3_state_t* state, T value) {
   XXH3_128bits_update(state, &value, sizeof(value));
@@ -380,7 +424,7 @@ bool MapStore::IsVersion(std::string_view version) {
                      [](char c) { return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'); });
 }
 
-Result<std::unique_ptr<MapStore>> MapStore::Open(fs::path root) {
+Result<std::unique_ptr<MapStore>> MapStore::Open(fs::path root, std::shared_ptr<MapHeads> heads) {
   const auto invalid = [&](const std::string& why) {
     return MakeError(ErrorCode::kInvalidConfig,
                      "map store '" + root.string() + "' " + why +
@@ -434,7 +478,7 @@ Result<std::unique_ptr<MapStore>> MapStore::Open(fs::path root) {
                    " is not '" + std::string(kMarkerText.substr(0, kMarkerText.size() - 1)) + "')");
   }
 
-  std::unique_ptr<MapStore> store(new MapStore(std::move(root)));
+  std::unique_ptr<MapStore> store(new MapStore(std::move(root), std::move(heads)));
   store->CollectGarbage();
   return store;
 }
@@ -520,6 +564,7 @@ ServiceStatus MapStore::PutVersion(const std::string& id, const std::string& ver
 ServiceStatus MapStore::PublishNew(const std::string& id, const std::string& version) {
   if (ServiceStatus ok = CheckId(id); !ok) return ok;
   if (ServiceStatus ok = CheckVersion(version); !ok) return ok;
+  if (shared_heads_) return PublishNewShared(id, version);
   const fs::path map_dir = MapDir(id);
   Result<MapLock> lock = MapLock::Acquire(map_dir, id, /*create=*/true);
   if (!lock) return std::move(lock).error();
@@ -528,19 +573,30 @@ ServiceStatus MapStore::PublishNew(const std::string& id, const std::string& ver
   if (head->has_value()) {
     const std::string& current = (**head).front();
     if (current == version) return OkStatus();
-    return MakeError(ServiceErrorCode::kMapAlreadyExists,
-                     "map '" + id + "' exists already (current version " + current +
-                         "): choose another id, or delete the map first")
-        .With("map_id", id);
+    return AlreadyExists(id, current);
   }
   std::error_code ec;
-  if (!fs::is_directory(VersionDir(id, version), ec)) {
-    return MakeError(ServiceErrorCode::kMapVersionNotFound,
-                     "map store: version " + version + " of map '" + id +
-                         "' was not written (or the map was deleted since): put it again")
-        .With("map_id", id);
-  }
+  if (!fs::is_directory(VersionDir(id, version), ec)) return NotPut(id, version);
   return WriteHead(root_ / "tmp", map_dir, {version});
+}
+
+ServiceStatus MapStore::PublishNewShared(const std::string& id, const std::string& version) {
+  for (int attempt = 0; attempt < kMaxAttempts; ++attempt) {
+    Result<MapHeads::Head> head = shared_heads_->Read(id);
+    if (!head) return std::move(head).error();
+    if (head->has_value()) {
+      const std::string& current = (**head).front();
+      if (current == version) return OkStatus();
+      return AlreadyExists(id, current);
+    }
+    std::error_code ec;
+    if (!fs::is_directory(VersionDir(id, version), ec)) return NotPut(id, version);
+    Result<bool> swapped = shared_heads_->Swap(id, std::nullopt, std::vector{version});
+    if (!swapped) return std::move(swapped).error();
+    if (*swapped) return OkStatus();
+  }
+  return MakeError(ServiceErrorCode::kMapStoreUnavailable,
+                   "map store: map '" + id + "' kept changing on other replicas: try again");
 }
 
 ServiceStatus MapStore::PublishUpdate(const std::string& id, const std::string& expected_current,
@@ -548,12 +604,8 @@ ServiceStatus MapStore::PublishUpdate(const std::string& id, const std::string& 
   if (ServiceStatus ok = CheckId(id); !ok) return ok;
   if (ServiceStatus ok = CheckVersion(expected_current); !ok) return ok;
   if (ServiceStatus ok = CheckVersion(version); !ok) return ok;
-  if (keep_versions < 1) {
-    return MakeError(ErrorCode::kInvalidInput,
-                     fmt::format("map store: keep_versions is {}, must be >= 1 (the current "
-                                 "version is always kept)",
-                                 keep_versions));
-  }
+  if (keep_versions < 1) return BadKeep(keep_versions);
+  if (shared_heads_) return PublishUpdateShared(id, expected_current, version, keep_versions);
   const fs::path map_dir = MapDir(id);
   Result<MapLock> lock = MapLock::Acquire(map_dir, id, /*create=*/false);
   if (!lock) return std::move(lock).error();
@@ -568,27 +620,12 @@ ServiceStatus MapStore::PublishUpdate(const std::string& id, const std::string& 
     if (std::find(kept.begin(), kept.end(), version) == kept.end()) {
       Discard(VersionDir(id, version));
     }
-    return MakeError(ServiceErrorCode::kMapChanged,
-                     "map '" + id + "' changed: its current version is " + kept.front() + ", not " +
-                         expected_current + ": apply the change to the current version")
-        .With("map_id", id)
-        .With("current_version", kept.front());
+    return Changed(id, kept.front(), expected_current);
   }
   std::error_code ec;
-  if (!fs::is_directory(VersionDir(id, version), ec)) {
-    return MakeError(ServiceErrorCode::kMapVersionNotFound, "map store: version " + version +
-                                                                " of map '" + id +
-                                                                "' was not written: put it again")
-        .With("map_id", id);
-  }
-  std::vector<std::string> next = {version};
-  std::copy_if(kept.begin(), kept.end(), std::back_inserter(next),
-               [&](const std::string& v) { return v != version; });
+  if (!fs::is_directory(VersionDir(id, version), ec)) return NotPut(id, version);
   std::vector<std::string> dropped;
-  if (next.size() > static_cast<std::size_t>(keep_versions)) {
-    dropped.assign(next.begin() + keep_versions, next.end());
-    next.resize(static_cast<std::size_t>(keep_versions));
-  }
+  const std::vector<std::string> next = NextHead(kept, version, keep_versions, &dropped);
   if (ServiceStatus written = WriteHead(root_ / "tmp", map_dir, next); !written) return written;
   // Only now that no head lists them: a reader that still loads one finds it gone (and is
   // told which versions are kept), never a head naming a missing version.
@@ -596,9 +633,40 @@ ServiceStatus MapStore::PublishUpdate(const std::string& id, const std::string& 
   return OkStatus();
 }
 
+ServiceStatus MapStore::PublishUpdateShared(const std::string& id,
+                                            const std::string& expected_current,
+                                            const std::string& version, int keep_versions) {
+  for (int attempt = 0; attempt < kMaxAttempts; ++attempt) {
+    Result<MapHeads::Head> head = shared_heads_->Read(id);
+    if (!head) return std::move(head).error();
+    if (!head->has_value()) return MapLock::NotFound(id);
+    const std::vector<std::string>& kept = **head;
+    if (kept.front() == version) return OkStatus();
+    if (kept.front() != expected_current) {
+      if (std::find(kept.begin(), kept.end(), version) == kept.end()) {
+        Discard(VersionDir(id, version));
+      }
+      return Changed(id, kept.front(), expected_current);
+    }
+    std::error_code ec;
+    if (!fs::is_directory(VersionDir(id, version), ec)) return NotPut(id, version);
+    std::vector<std::string> dropped;
+    Result<bool> swapped =
+        shared_heads_->Swap(id, kept, NextHead(kept, version, keep_versions, &dropped));
+    if (!swapped) return std::move(swapped).error();
+    if (*swapped) {
+      for (const std::string& old : dropped) Discard(VersionDir(id, old));
+      return OkStatus();
+    }
+  }
+  return MakeError(ServiceErrorCode::kMapStoreUnavailable,
+                   "map store: map '" + id + "' kept changing on other replicas: try again");
+}
+
 Result<std::vector<std::string>> MapStore::Versions(const std::string& id) const {
   if (ServiceStatus ok = CheckId(id); !ok) return std::move(ok).error();
-  Result<std::optional<std::vector<std::string>>> head = ReadHead(MapDir(id));
+  Result<std::optional<std::vector<std::string>>> head =
+      shared_heads_ ? shared_heads_->Read(id) : ReadHead(MapDir(id));
   if (!head) return std::move(head).error();
   if (!head->has_value()) return MapLock::NotFound(id);
   return std::move(**head);
@@ -716,6 +784,16 @@ Result<std::string> MapStore::LoadMetadata(const std::string& id,
 }
 
 Result<std::vector<std::string>> MapStore::ListIds(const std::string& after_id, int max) const {
+  if (shared_heads_) {
+    Result<std::vector<std::string>> all = shared_heads_->Ids();
+    if (!all) return std::move(all).error();
+    std::vector<std::string> ids;
+    for (std::string& id : *all) {
+      if (max > 0 && ids.size() >= static_cast<std::size_t>(max)) break;
+      if (id > after_id) ids.push_back(std::move(id));
+    }
+    return ids;
+  }
   const fs::path maps = root_ / "maps";
   std::vector<std::string> candidates;
   std::error_code ec;
@@ -735,6 +813,7 @@ Result<std::vector<std::string>> MapStore::ListIds(const std::string& after_id, 
 
 ServiceStatus MapStore::Delete(const std::string& id) {
   if (ServiceStatus ok = CheckId(id); !ok) return ok;
+  if (shared_heads_) return DeleteShared(id);
   const fs::path map_dir = MapDir(id);
   Result<MapLock> lock = MapLock::Acquire(map_dir, id, /*create=*/false);
   if (!lock) return std::move(lock).error();
@@ -746,6 +825,23 @@ ServiceStatus MapStore::Delete(const std::string& id) {
   if (head && !head->has_value()) return MapLock::NotFound(id);
   if (!Discard(map_dir)) return Unavailable(map_dir, "move to trash/", errno);
   return OkStatus();
+}
+
+ServiceStatus MapStore::DeleteShared(const std::string& id) {
+  for (int attempt = 0; attempt < kMaxAttempts; ++attempt) {
+    Result<MapHeads::Head> head = shared_heads_->Read(id);
+    if (!head) return std::move(head).error();
+    if (!head->has_value()) return MapLock::NotFound(id);
+    Result<bool> swapped = shared_heads_->Swap(id, *head, std::nullopt);
+    if (!swapped) return std::move(swapped).error();
+    if (*swapped) {
+      // Gone for everyone with its head; its files follow (or CollectGarbage takes them).
+      Discard(MapDir(id));
+      return OkStatus();
+    }
+  }
+  return MakeError(ServiceErrorCode::kMapStoreUnavailable,
+                   "map store: map '" + id + "' kept changing on other replicas: try again");
 }
 
 int MapStore::CollectGarbage() {
@@ -767,6 +863,7 @@ int MapStore::CollectGarbage() {
   for (const fs::path& path : entries(root_ / "tmp")) {
     if (IsStale(path)) remove(path);
   }
+  if (shared_heads_) return removed + CollectSharedGarbage();
   for (const fs::path& map_dir : entries(root_ / "maps")) {
     const std::string id = map_dir.filename().string();
     if (!CheckId(id).ok()) continue;
@@ -791,6 +888,35 @@ int MapStore::CollectGarbage() {
     }
     const std::vector<std::string>& kept = **head;
     for (const fs::path& version : entries(versions_dir)) {
+      const bool listed =
+          std::find(kept.begin(), kept.end(), version.filename().string()) != kept.end();
+      if (!listed && IsStale(version) && Discard(version)) ++removed;
+    }
+  }
+  return removed;
+}
+
+int MapStore::CollectSharedGarbage() {
+  int removed = 0;
+  std::error_code ec;
+  for (fs::directory_iterator it(root_ / "maps", ec), end; !ec && it != end; it.increment(ec)) {
+    const fs::path map_dir = it->path();
+    const std::string id = map_dir.filename().string();
+    if (!CheckId(id).ok()) continue;
+    Result<MapHeads::Head> head = shared_heads_->Read(id);
+    if (!head) continue;  // Unknown now: keep everything.
+    if (!head->has_value()) {
+      if (IsStale(map_dir) && IsStale(map_dir / kVersionsName) && Discard(map_dir)) ++removed;
+      continue;
+    }
+    const std::vector<std::string>& kept = **head;
+    std::error_code versions_ec;
+    std::vector<fs::path> versions;
+    for (fs::directory_iterator v(map_dir / kVersionsName, versions_ec), v_end;
+         !versions_ec && v != v_end; v.increment(versions_ec)) {
+      versions.push_back(v->path());
+    }
+    for (const fs::path& version : versions) {
       const bool listed =
           std::find(kept.begin(), kept.end(), version.filename().string()) != kept.end();
       if (!listed && IsStale(version) && Discard(version)) ++removed;

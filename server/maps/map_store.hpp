@@ -54,6 +54,7 @@
 #include <vector>
 
 #include "common/service_error.hpp"
+#include "maps/map_heads.hpp"
 #include "maps/map_root.hpp"
 #include "strata/assessment/terrain_config.hpp"
 #include "strata/assessment/terrain_model.hpp"
@@ -88,7 +89,11 @@ class MapStore {
   /// The store at `root`, created (with its layout) when absent; removes dead writers'
   /// leftovers (CollectGarbage). kInvalidConfig when `root` is empty, not a directory, not
   /// writable, refuses locks (an NFS mount without lock support), or holds another layout.
-  static Result<std::unique_ptr<MapStore>> Open(std::filesystem::path root);
+  /// With `heads` (etcd), the maps' heads live there instead of in maps/<id>/head: publishing
+  /// and deleting are compare-and-swaps on them, reads take what `heads` knows (no file read,
+  /// no flock), and a version no shared head lists is a leftover like any other.
+  static Result<std::unique_ptr<MapStore>> Open(std::filesystem::path root,
+                                                std::shared_ptr<MapHeads> heads = nullptr);
 
   MapStore(const MapStore&) = delete;
   MapStore& operator=(const MapStore&) = delete;
@@ -168,7 +173,18 @@ class MapStore {
   int CollectGarbage();
 
  private:
-  explicit MapStore(std::filesystem::path root) : root_(std::move(root)) {}
+  MapStore(std::filesystem::path root, std::shared_ptr<MapHeads> heads)
+      : root_(std::move(root)), shared_heads_(std::move(heads)) {}
+
+  // PublishNew, PublishUpdate and Delete on shared heads: read, decide, compare-and-swap,
+  // again when another replica swapped first.
+  ServiceStatus PublishNewShared(const std::string& id, const std::string& version);
+  ServiceStatus PublishUpdateShared(const std::string& id, const std::string& expected_current,
+                                    const std::string& version, int keep_versions);
+  ServiceStatus DeleteShared(const std::string& id);
+  // CollectGarbage's pass over the maps on shared heads (no lock: only leftovers older than
+  // kStaleTemporaryAge go, which no publisher still holds).
+  int CollectSharedGarbage();
 
   std::filesystem::path MapDir(const std::string& id) const;
   std::filesystem::path VersionDir(const std::string& id, const std::string& version) const;
@@ -185,6 +201,7 @@ class MapStore {
   bool Discard(const std::filesystem::path& path) const;
 
   std::filesystem::path root_;
+  std::shared_ptr<MapHeads> shared_heads_;  // Null: heads are files under root_.
 };
 
 }  // namespace strata::server

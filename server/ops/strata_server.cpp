@@ -203,8 +203,34 @@ ServiceStatus StrataServer::StartMaps(StartInputs* inputs) {
   registry_options.memory_budget = memory_budget_;
   registry_options.assessment_memory_bytes = config.max_assessment_memory_bytes;
   registry_options.max_graph_bytes = config.max_graph_memory_bytes;
+  std::shared_ptr<EtcdMapHeads> shared_heads;
+  if (!config.etcd.empty()) {
+    Result<std::vector<std::string>> endpoints = EtcdOptions::ParseEndpoints(config.etcd);
+    if (!endpoints.ok()) return std::move(endpoints).error();
+    EtcdOptions etcd;
+    etcd.endpoints = std::move(endpoints).value();
+    etcd.ca_file = config.etcd_ca;
+    etcd.cert_file = config.etcd_cert;
+    etcd.key_file = config.etcd_key;
+    Result<std::unique_ptr<EtcdClient>> client = EtcdClient::Create(etcd);
+    if (!client.ok()) return std::move(client).error();
+    etcd_ = std::move(client).value();
+    if (!config.map_store.empty()) {
+      // The maps' heads on etcd: read once before the store is opened (its leftovers are
+      // judged against them); while etcd is unreachable the store answers
+      // MAP_STORE_UNAVAILABLE and the watch keeps trying.
+      shared_heads = std::make_shared<EtcdMapHeads>(etcd_.get(), config.etcd_prefix);
+      if (!shared_heads->WaitUntilRead(std::chrono::seconds(10))) {
+        LogWarning("etcd_unreachable")
+            .Add("endpoints", etcd_->endpoints_text())
+            .Add("message",
+                 "the maps' heads could not be read within 10 s: maps in the store "
+                 "are unavailable until etcd answers");
+      }
+    }
+  }
   if (!config.map_store.empty()) {
-    Result<std::unique_ptr<MapStore>> store = MapStore::Open(config.map_store);
+    Result<std::unique_ptr<MapStore>> store = MapStore::Open(config.map_store, shared_heads);
     if (!store.ok()) {
       return MakeError(ErrorCode::kInvalidInput, "--map-store: " + store.error().message);
     }
@@ -242,17 +268,7 @@ ServiceStatus StrataServer::StartServices(const StartInputs& inputs) {
                      .max_horizon_s = config.max_reservation_horizon_s,
                      .default_separation_m = config.separation_m});
   metrics_->WatchReservations(reservations_.get());
-  if (!config.etcd.empty()) {
-    Result<std::vector<std::string>> endpoints = EtcdOptions::ParseEndpoints(config.etcd);
-    if (!endpoints.ok()) return std::move(endpoints).error();
-    EtcdOptions etcd;
-    etcd.endpoints = std::move(endpoints).value();
-    etcd.ca_file = config.etcd_ca;
-    etcd.cert_file = config.etcd_cert;
-    etcd.key_file = config.etcd_key;
-    Result<std::unique_ptr<EtcdClient>> client = EtcdClient::Create(etcd);
-    if (!client.ok()) return std::move(client).error();
-    etcd_ = std::move(client).value();
+  if (etcd_) {
     // The traffic service is SERVING while reservations can be committed: while etcd is
     // unreachable, plans are still answered and commits fail with SHARED_STATE_UNAVAILABLE.
     shared_schedule_ = std::make_unique<EtcdScheduleLedger>(

@@ -25,6 +25,7 @@
 #include "rpc/recent_plans.hpp"
 #include "rpc/traffic_service.hpp"
 #include "shared/etcd_client.hpp"
+#include "shared/etcd_map_heads.hpp"
 #include "shared/etcd_schedule_ledger.hpp"
 
 namespace strata::server {
@@ -94,6 +95,8 @@ class StrataServer {
   ServerConfig config_;
   std::unique_ptr<TokenTable> tokens_;  // --auth-tokens; null when every call is allowed.
   std::shared_ptr<MemoryBudget> memory_budget_;
+  // --etcd: the connection to etcd (null without), before everything that calls it.
+  std::unique_ptr<EtcdClient> etcd_;
   std::unique_ptr<Metrics> metrics_;
   std::unique_ptr<MapRegistry> registry_;
   std::unique_ptr<PlanningSlots> planning_slots_;
@@ -101,7 +104,6 @@ class StrataServer {
   std::unique_ptr<MapServiceImpl> map_service_;
   std::unique_ptr<ReservationSchedule> reservations_;
   // --etcd: the reservations' ledger there (null without), after the schedule it feeds.
-  std::unique_ptr<EtcdClient> etcd_;
   std::unique_ptr<EtcdScheduleLedger> shared_schedule_;
   std::unique_ptr<PlannerServiceImpl> planner_service_;
   std::unique_ptr<TrafficServiceImpl> traffic_service_;

@@ -13,6 +13,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "etcd_process.hpp"
 #include "server_process.hpp"
 #include "server_test_util.hpp"
 #include "strata/scenes/outdoor_site.hpp"
@@ -53,6 +54,7 @@ class StoreTest : public ::testing::Test {
   // A replica on the shared store, SERVING.
   ServerProcess* StartReplica(std::vector<std::string> extra = {}) {
     std::vector<std::string> args = {"--no-preload", "--map-store", store_.string()};
+    args.insert(args.end(), shared_.begin(), shared_.end());
     args.insert(args.end(), extra.begin(), extra.end());
     servers_.push_back(ServerProcess::Start(args));
     ServerProcess* server = servers_.back().get();
@@ -60,6 +62,12 @@ class StoreTest : public ::testing::Test {
     if (server != nullptr) EXPECT_TRUE(server->WaitServing(std::chrono::seconds(60)));
     return server;
   }
+
+  void ServesEditsAndDeletesOnAnyReplica();
+  void ConcurrentEditsAllLand();
+
+  // Flags every replica gets: with heads on etcd, --etcd (StoreOnEtcdTest).
+  std::vector<std::string> shared_;
 
   static grpc::Status Upload(const ServerProcess& server, const std::string& id, v1::Map* map) {
     auto stub = v1::MapService::NewStub(server.NewChannel());
@@ -130,7 +138,26 @@ double ClosestApproach(const v1::PlanResponse& response, double x, double y) {
   return closest;
 }
 
-TEST_F(StoreTest, AnyReplicaServesEditsAndDeletesEveryMap) {
+// The maps' heads on etcd (--etcd with --map-store): the same behaviour, no head file.
+class StoreOnEtcdTest : public StoreTest {
+ protected:
+  void SetUp() override {
+    StoreTest::SetUp();
+    etcd_ = EtcdProcess::Start();
+    ASSERT_NE(etcd_, nullptr) << "a real etcd is needed (scripts/install-deps.sh installs it)";
+    shared_ = {"--etcd", etcd_->endpoint()};
+  }
+  std::unique_ptr<EtcdProcess> etcd_;
+};
+
+TEST_F(StoreTest, AnyReplicaServesEditsAndDeletesEveryMap) { ServesEditsAndDeletesOnAnyReplica(); }
+
+TEST_F(StoreOnEtcdTest, AnyReplicaServesEditsAndDeletesEveryMapWithHeadsOnEtcd) {
+  ServesEditsAndDeletesOnAnyReplica();
+  EXPECT_FALSE(fs::exists(store_ / "maps" / "floor" / "head")) << "a head file was written";
+}
+
+void StoreTest::ServesEditsAndDeletesOnAnyReplica() {
   ServerProcess* a = StartReplica();
   ServerProcess* b = StartReplica();
   ASSERT_TRUE(a != nullptr && b != nullptr);
@@ -215,6 +242,14 @@ TEST_F(StoreTest, AnyReplicaServesEditsAndDeletesEveryMap) {
 // Edits without a base version apply to the current version whenever they land: four at once
 // used to lose three with MAP_CHANGED and leave their versions on disk, listed nowhere.
 TEST_F(StoreTest, ConcurrentEditsWithoutABaseVersionAllLandAndLeaveNothingBehind) {
+  ConcurrentEditsAllLand();
+}
+
+TEST_F(StoreOnEtcdTest, ConcurrentEditsOnTwoReplicasAllLandWithHeadsOnEtcd) {
+  ConcurrentEditsAllLand();
+}
+
+void StoreTest::ConcurrentEditsAllLand() {
   ServerProcess* a = StartReplica();
   ServerProcess* b = StartReplica();
   ASSERT_TRUE(a != nullptr && b != nullptr);
