@@ -4,7 +4,9 @@
 #include <chrono>
 #include <climits>
 #include <cmath>
+#include <random>
 #include <span>
+#include <thread>
 #include <utility>
 
 #include <fmt/format.h>
@@ -19,8 +21,8 @@ constexpr std::size_t kMaxRobotIdLength = 128;
 // clock is slightly behind the server's, is not refused.
 constexpr double kMaxStartInPastS = 60;
 // How often a change is tried again when the ledger keeps having newer changes of its map
-// than this replica (each try reads the map afresh).
-constexpr int kMaxStaleAttempts = 5;
+// than this replica (each try reads the map afresh, after a random back-off).
+constexpr int kMaxStaleAttempts = 10;
 
 bool Printable(const std::string& text) {
   return std::all_of(text.begin(), text.end(), [](char c) { return c > ' ' && c != 0x7f; });
@@ -174,11 +176,19 @@ ReservationSchedule::Traffic ReservationSchedule::OthersOf(const std::string& ma
 
 template <typename T, typename Change>
 Result<T> ReservationSchedule::Retrying(const std::string& map_id, const Change& change) {
+  thread_local std::minstd_rand jitter(std::random_device{}());
   for (int attempt = 0; attempt < kMaxStaleAttempts; ++attempt) {
-    std::lock_guard lock(mutex_);
-    Result<std::optional<T>> changed = change(Live(map_id));
-    if (!changed.ok()) return std::move(changed).error();
-    if (changed.value()) return *std::move(changed).value();
+    {
+      std::lock_guard lock(mutex_);
+      Result<std::optional<T>> changed = change(Live(map_id));
+      if (!changed.ok()) return std::move(changed).error();
+      if (changed.value()) return *std::move(changed).value();
+    }
+    // Another replica wrote the map first. Replicas writing one map as fast as they can would
+    // otherwise keep colliding in step: back off a random while, longer each time.
+    const int ceiling_us = 500 << std::min(attempt, 5);
+    std::this_thread::sleep_for(
+        std::chrono::microseconds(std::uniform_int_distribution<int>(0, ceiling_us)(jitter)));
   }
   return KeptStale(map_id);
 }
