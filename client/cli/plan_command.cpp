@@ -1,4 +1,6 @@
 // `strata plan`: one Plan call, printed as a summary or as the PlanResponse in JSON.
+#include <cmath>
+
 #include <fmt/format.h>
 
 #include "commands.hpp"
@@ -25,10 +27,24 @@ v1::Vector3 ToVector(const Eigen::Vector3d& p) {
   return v;
 }
 
-void PrintSnapped(std::ostream& out, const char* name, const v1::SnappedState& state) {
-  out << "  " << name << FormatVector(state.position_m()) << " m, level " << state.level()
-      << ", its column " << Fixed(state.distance_m(), 3)
-      << " m (level distance) from the requested point\n";
+// Where a start or goal landed, said from the requested point: on it (only z set to the
+// reference height above the ground), or moved to the centre of the nearest column.
+void PrintSnapped(std::ostream& out, const char* name, const v1::SnappedState& state,
+                  const v1::Vector3* requested) {
+  if (requested == nullptr) {
+    out << "  " << name << FormatVector(state.position_m()) << " m, level " << state.level()
+        << "\n";
+    return;
+  }
+  const double moved_m =
+      std::hypot(state.position_m().x() - requested->x(), state.position_m().y() - requested->y());
+  out << "  " << name << FormatVector(state.position_m()) << " m, level " << state.level();
+  if (moved_m < 1e-3) {
+    out << ", at the requested x, y\n";
+  } else {
+    out << ", moved " << Fixed(moved_m, 3) << " m from the requested x, y (to the nearest "
+        << "column with ground)\n";
+  }
 }
 
 void PrintSummary(const Context& ctx, const v1::PlanRequest& request,
@@ -38,8 +54,11 @@ void PrintSummary(const Context& ctx, const v1::PlanRequest& request,
   out << "plan on map " << request.map_id() << " for robot " << response.profile().name() << ": "
       << Fixed(stats.length_m(), 2) << " m in " << Fixed(stats.duration_s(), 2) << " s, "
       << stats.pieces() << " pieces\n";
-  PrintSnapped(out, "start ", response.start());
-  PrintSnapped(out, "goal  ", response.goal());
+  const auto asked = [](const auto& end) {
+    return end.has_position_m() ? &end.position_m() : nullptr;
+  };
+  PrintSnapped(out, "start ", response.start(), asked(request.start()));
+  PrintSnapped(out, "goal  ", response.goal(), asked(request.goal()));
   for (int i = 0; i < request.via_size() && i < response.via_times_s_size(); ++i) {
     out << "  via[" << i << "] " << FormatVector(request.via(i).position_m()) << " m "
         << (request.via(i).stop() ? "stop" : "pass") << " at " << Fixed(response.via_times_s(i), 3)

@@ -172,6 +172,11 @@ void AddFlags(CLI::App& app, ParsedFlags& parsed, bool environment) {
       "share --listen's port with other processes that ask for it too (SO_REUSEPORT: the\n"
       "kernel splits new connections between them); without it a port in use is an error");
   finish(reuse_port, "--reuse-port", Switch());
+  CLI::Option* exit_on_preload_failure = app.add_flag(
+      "--exit-on-preload-failure", config.exit_on_preload_failure,
+      "exit 1 as soon as a preloaded map fails (so that an orchestrator restarts or reports\n"
+      "the pod at once); without it the server keeps serving, NOT_SERVING");
+  finish(exit_on_preload_failure, "--exit-on-preload-failure", Switch());
   add("--metrics-port", config.metrics_port, "PORT",
       "Prometheus /metrics HTTP port, on --metrics-address; 0 picks a free port,\n"
       "-1 disables metrics",

@@ -43,6 +43,7 @@ inline constexpr int kMaxResponseSamples = 20000;
 struct ServerConfig {
   std::string listen = "0.0.0.0:50051";       ///< --listen
   bool reuse_port = false;                    ///< --reuse-port
+  bool exit_on_preload_failure = false;       ///< --exit-on-preload-failure
   int metrics_port = 9090;                    ///< --metrics-port (negative: none)
   std::string metrics_address = "127.0.0.1";  ///< --metrics-address
   int http_port = -1;                         ///< --http-port (negative: none)

@@ -98,6 +98,10 @@ int main(int argc, char** argv) {
     LogWarning("stopped").Add("message", "exiting with a map assessment unfinished");
     std::_Exit(0);
   }
+  if (config.exit_on_preload_failure && server->preload_failed()) {
+    LogError("stopped").Add("message", "a preloaded map failed (--exit-on-preload-failure)");
+    std::_Exit(1);
+  }
   LogInfo("stopped").Add("message", "every call finished");
   // Everything a client can observe is done and the log is written (unbuffered). Skipping
   // the destructors saves the metrics HTTP server's stop, which waits out its 2 s poll.

@@ -260,6 +260,7 @@ ServiceStatus StrataServer::StartServices(const StartInputs& inputs) {
           ? config.max_concurrent_plans
           : static_cast<int>(std::max(1u, std::thread::hardware_concurrency())),
       config.max_queued_plans, config.max_plan_time_s);
+  metrics_->WatchPlanningSlots(planning_slots_.get());
   recent_plans_ = std::make_unique<RecentPlans>();
   reservations_ = std::make_unique<ReservationSchedule>(
       ScheduleLimits{.max_reservations_per_map = config.max_reservations,
@@ -453,6 +454,11 @@ StrataServer::~StrataServer() {
   registry_.reset();
 }
 
+bool StrataServer::preload_failed() const {
+  std::lock_guard lock(mutex_);
+  return preload_failed_;
+}
+
 void StrataServer::SetReady(bool ready) {
   // The overall status ("") is SERVING only while the planner service is: set last on the
   // way up and first on the way down, so that a client that saw it SERVING (as a readiness
@@ -488,7 +494,18 @@ void StrataServer::OnMapDone(const MapSnapshot& map) {
     preload_failed_ = true;
     LogError("preload_failed")
         .Add("map", map.id)
-        .Add("message", "a preloaded map failed: health stays NOT_SERVING; fix --preload");
+        .Add("message", config_.exit_on_preload_failure
+                            ? "a preloaded map failed: exiting (--exit-on-preload-failure); "
+                              "fix --preload"
+                            : "a preloaded map failed: health stays NOT_SERVING; fix --preload");
+    if (config_.exit_on_preload_failure) {
+      // Not on this thread, which the registry's assessment runs on and Shutdown waits for.
+      std::thread([this] {
+        Shutdown(std::chrono::seconds(0),
+                 std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                     std::chrono::duration<double>(config_.shutdown_grace_s)));
+      }).detach();
+    }
   }
   if (pending_preloads_.empty() && !preload_failed_) {
     SetReady(true);

@@ -69,6 +69,10 @@ class StrataServer {
   /// interrupted) to end; false if one is still running.
   bool WaitAssessmentsIdle(std::chrono::steady_clock::duration timeout);
 
+  /// Whether a preloaded map failed (with --exit-on-preload-failure the server then shuts
+  /// down by itself, and main exits 1).
+  bool preload_failed() const;
+
   MapRegistry& registry() { return *registry_; }
   Metrics& metrics() { return *metrics_; }
 
@@ -114,7 +118,7 @@ class StrataServer {
   std::string address_;
   int metrics_port_ = -1;
 
-  std::mutex mutex_;  // Guards the fields below.
+  mutable std::mutex mutex_;  // Guards the fields below.
   std::set<std::string> pending_preloads_;
   bool preload_failed_ = false;
   bool shutting_down_ = false;

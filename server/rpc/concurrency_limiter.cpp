@@ -58,6 +58,11 @@ void ConcurrencyLimiter::Release() {
   ++free_;
 }
 
+int ConcurrencyLimiter::busy() const {
+  std::lock_guard lock(mutex_);
+  return slots_ - free_;
+}
+
 std::size_t ConcurrencyLimiter::queued() const {
   std::lock_guard lock(mutex_);
   return queue_.size();

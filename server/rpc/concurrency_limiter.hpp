@@ -40,6 +40,8 @@ class ConcurrencyLimiter {
   int max_queued() const { return max_queued_; }
   /// Calls waiting now (for tests and metrics).
   std::size_t queued() const;
+  /// Slots held now (for metrics).
+  int busy() const;
 
   /// Holds a slot for a scope.
   class Slot {

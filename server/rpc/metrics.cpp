@@ -1,10 +1,19 @@
 #include "rpc/metrics.hpp"
 
 #include "rpc/error_mapping.hpp"
+#include "strata/version.hpp"
+
+#include <sys/resource.h>
+#include <unistd.h>
 
 #include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <limits>
 #include <sstream>
 
+#include <prometheus/gauge.h>
 #include <prometheus/text_serializer.h>
 
 namespace strata::server {
@@ -137,7 +146,7 @@ class MapCollector final : public prometheus::Collectable {
     // One series per map while it is created, gone once it is ACTIVE or FAILED: at most
     // --max-maps series at a time.
     prometheus::MetricFamily creation{
-        "strata_map_creation_progress",
+        "strata_map_creation_progress_ratio",
         "Progress of each map being created, in [0, 1], with the step under way.",
         prometheus::MetricType::Gauge,
         {}};
@@ -182,6 +191,98 @@ class ReservationCollector final : public prometheus::Collectable {
   const ReservationSchedule* schedule_;
 };
 
+// A gauge family of one unlabelled series.
+prometheus::MetricFamily OneGauge(std::string name, std::string help, double value) {
+  prometheus::MetricFamily family{
+      std::move(name), std::move(help), prometheus::MetricType::Gauge, {}};
+  prometheus::ClientMetric metric;
+  metric.gauge.value = value;
+  family.metric.push_back(metric);
+  return family;
+}
+
+// The planning slots' gauges, read at scrape time.
+class PlanningCollector final : public prometheus::Collectable {
+ public:
+  explicit PlanningCollector(const PlanningSlots* slots) : slots_(slots) {}
+
+  std::vector<prometheus::MetricFamily> Collect() const override {
+    return {
+        OneGauge("strata_plans_queued",
+                 "Calls waiting for a planning slot now: above zero, this replica is "
+                 "saturated (scale on it).",
+                 static_cast<double>(slots_->queued())),
+        OneGauge("strata_planning_slots_busy", "Planning slots running work now.", slots_->busy()),
+        OneGauge("strata_planning_slots", "Planning slots (--max-concurrent-plans).",
+                 slots_->slots())};
+  }
+
+ private:
+  const PlanningSlots* slots_;
+};
+
+// Prometheus' standard process metrics, read from /proc/self at scrape time (as the Go and
+// Python clients export them; prometheus-cpp has none).
+class ProcessCollector final : public prometheus::Collectable {
+ public:
+  std::vector<prometheus::MetricFamily> Collect() const override {
+    std::vector<prometheus::MetricFamily> families;
+    const long ticks = ::sysconf(_SC_CLK_TCK);
+    const long page = ::sysconf(_SC_PAGESIZE);
+    std::ifstream stat_file("/proc/self/stat");
+    std::string stat((std::istreambuf_iterator<char>(stat_file)), {});
+    // Fields after the command's closing parenthesis (which may hold spaces): state is 3rd.
+    std::istringstream fields(stat.substr(stat.rfind(')') + 2));
+    std::vector<std::string> f((std::istream_iterator<std::string>(fields)), {});
+    if (f.size() > 21 && ticks > 0) {
+      const double cpu_s = (std::stod(f[11]) + std::stod(f[12])) / static_cast<double>(ticks);
+      prometheus::MetricFamily cpu{"process_cpu_seconds_total",
+                                   "Total user and system CPU time spent in seconds.",
+                                   prometheus::MetricType::Counter,
+                                   {}};
+      prometheus::ClientMetric seconds;
+      seconds.counter.value = cpu_s;
+      cpu.metric.push_back(seconds);
+      families.push_back(std::move(cpu));
+      families.push_back(OneGauge("process_virtual_memory_bytes", "Virtual memory size in bytes.",
+                                  std::stod(f[20])));
+      families.push_back(OneGauge("process_resident_memory_bytes", "Resident memory size in bytes.",
+                                  std::stod(f[21]) * static_cast<double>(page)));
+      families.push_back(OneGauge("process_start_time_seconds",
+                                  "Start time of the process since unix epoch in seconds.",
+                                  BootTimeS() + std::stod(f[19]) / static_cast<double>(ticks)));
+    }
+    std::error_code ec;
+    double fds = 0;
+    for (std::filesystem::directory_iterator it("/proc/self/fd", ec), end; !ec && it != end;
+         it.increment(ec)) {
+      ++fds;
+    }
+    families.push_back(OneGauge("process_open_fds", "Number of open file descriptors.", fds));
+    rlimit limit{};
+    if (::getrlimit(RLIMIT_NOFILE, &limit) == 0) {
+      families.push_back(OneGauge("process_max_fds", "Maximum number of open file descriptors.",
+                                  static_cast<double>(limit.rlim_cur)));
+    }
+    return families;
+  }
+
+ private:
+  // The system's boot time [s since the epoch] (/proc/stat's btime).
+  static double BootTimeS() {
+    std::ifstream in("/proc/stat");
+    for (std::string key; in >> key;) {
+      if (key == "btime") {
+        double boot = 0;
+        in >> boot;
+        return boot;
+      }
+      in.ignore(std::numeric_limits<std::streamsize>::max(), '\n');
+    }
+    return 0;
+  }
+};
+
 }  // namespace
 
 Metrics::Metrics()
@@ -220,7 +321,15 @@ Metrics::Metrics()
                               .Name("strata_map_assessment_seconds")
                               .Help("Wall-clock seconds of map creation, by stage (maps that "
                                     "became ACTIVE).")
-                              .Register(*registry_)) {}
+                              .Register(*registry_)),
+      process_collector_(std::make_shared<ProcessCollector>()) {
+  prometheus::BuildGauge()
+      .Name("strata_build_info")
+      .Help("1, labelled with this server's version.")
+      .Register(*registry_)
+      .Add({{"version", kStrataVersion}})
+      .Set(1);
+}
 
 std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>
 Metrics::MakeInterceptorFactory() {
@@ -231,15 +340,16 @@ void Metrics::ServeOn(prometheus::Exposer& exposer) {
   exposer.RegisterCollectable(registry_);
   if (map_collector_) exposer.RegisterCollectable(map_collector_);
   if (reservation_collector_) exposer.RegisterCollectable(reservation_collector_);
+  if (planning_collector_) exposer.RegisterCollectable(planning_collector_);
+  exposer.RegisterCollectable(process_collector_);
 }
 
 std::string Metrics::Serialize() const {
   std::vector<prometheus::MetricFamily> families = registry_->Collect();
-  if (map_collector_) {
-    for (auto& family : map_collector_->Collect()) families.push_back(std::move(family));
-  }
-  if (reservation_collector_) {
-    for (auto& family : reservation_collector_->Collect()) families.push_back(std::move(family));
+  for (const auto& collector :
+       {map_collector_, reservation_collector_, planning_collector_, process_collector_}) {
+    if (!collector) continue;
+    for (auto& family : collector->Collect()) families.push_back(std::move(family));
   }
   return prometheus::TextSerializer().Serialize(families);
 }
@@ -280,6 +390,10 @@ void Metrics::WatchMaps(const MapRegistry* maps) {
 
 void Metrics::WatchReservations(const ReservationSchedule* schedule) {
   reservation_collector_ = std::make_shared<ReservationCollector>(schedule);
+}
+
+void Metrics::WatchPlanningSlots(const PlanningSlots* slots) {
+  planning_collector_ = std::make_shared<PlanningCollector>(slots);
 }
 
 void Metrics::RecordPlan(std::string_view result, const PlanTimings* timings) {

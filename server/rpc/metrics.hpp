@@ -15,9 +15,16 @@
 ///   strata_map_memory_bytes                    sum over ACTIVE maps (read at scrape)
 ///   strata_memory_budget_bytes                 --max-memory (read at scrape)
 ///   strata_memory_reserved_bytes{use}          uploads, assessments (read at scrape)
-///   strata_map_creation_progress{map_id,step}  per CREATING map, in [0, 1] (read at scrape)
+///   strata_map_creation_progress_ratio{map_id,step}  per CREATING map, in [0, 1] (at scrape)
 ///   strata_reservations                        robots' live reservations, all maps (at scrape)
 ///   strata_reservations_expired_total          expired leases collected (read at scrape)
+///   strata_plans_queued                        calls waiting for a planning slot (at scrape):
+///                                              the figure an autoscaler scales on
+///   strata_planning_slots_busy, strata_planning_slots  slots running work, and all of them
+///   strata_build_info{version}                 1
+///   process_cpu_seconds_total, process_resident_memory_bytes, process_virtual_memory_bytes,
+///   process_open_fds, process_max_fds, process_start_time_seconds  (Prometheus' standard
+///                                              process metrics, from /proc at scrape)
 #include <memory>
 #include <set>
 #include <shared_mutex>
@@ -33,6 +40,7 @@
 #include <prometheus/registry.h>
 
 #include "maps/map_registry.hpp"
+#include "rpc/planning_slots.hpp"
 #include "strata/planner.hpp"
 #include "traffic/reservation_schedule.hpp"
 
@@ -64,6 +72,9 @@ class Metrics {
   /// Serves strata_reservations and strata_reservations_expired_total from `schedule` at each
   /// scrape. Call before ServeOn; `schedule` must outlive the exposer.
   void WatchReservations(const ReservationSchedule* schedule);
+  /// Serves strata_plans_queued and strata_planning_slots{,_busy} from `slots` at each
+  /// scrape. Call before ServeOn; `slots` must outlive the exposer.
+  void WatchPlanningSlots(const PlanningSlots* slots);
 
   /// One finished plan: `result` is "OK" or the error's reason; timings only on success.
   void RecordPlan(std::string_view result, const PlanTimings* timings);
@@ -94,6 +105,8 @@ class Metrics {
   prometheus::Family<prometheus::Histogram>& assessment_seconds_;
   std::shared_ptr<prometheus::Collectable> map_collector_;
   std::shared_ptr<prometheus::Collectable> reservation_collector_;
+  std::shared_ptr<prometheus::Collectable> planning_collector_;
+  std::shared_ptr<prometheus::Collectable> process_collector_;  // Always.
   mutable std::shared_mutex known_mutex_;
   std::set<std::string, std::less<>> known_methods_;  // "/service/method" of InitializeMethod.
 };

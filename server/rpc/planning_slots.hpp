@@ -61,6 +61,9 @@ class PlanningSlots {
 
   double max_plan_time_s() const { return max_plan_time_s_; }
   int slots() const { return limiter_.slots(); }
+  /// Slots running work now, and calls waiting for one (metrics: what an autoscaler reads).
+  int busy() const { return limiter_.busy(); }
+  std::size_t queued() const { return limiter_.queued(); }
 
  private:
   ConcurrencyLimiter limiter_;

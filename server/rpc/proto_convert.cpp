@@ -735,7 +735,7 @@ void ToProto(const PlanStats& s, v1::PlanStats* m) {
   m->set_max_ground_offset_m(s.max_ground_offset_m);
   m->set_max_tilt_rad(s.max_tilt_rad);
   m->set_min_body_height_m(s.min_body_height_m);
-  m->set_min_headroom_m(s.min_headroom_m);
+  if (std::isfinite(s.min_headroom_m)) m->set_min_headroom_m(s.min_headroom_m);
   m->set_pieces(s.pieces);
   m->set_search_expansions(s.search_expansions);
   m->set_optimizer_iterations(s.optimizer_iterations);

@@ -20,6 +20,7 @@ namespace strata {
 namespace {
 
 using ::testing::HasSubstr;
+using ::testing::Not;
 
 class SavedModel : public ::testing::Test {
  protected:
@@ -153,6 +154,14 @@ TEST_F(SavedModel, SavesAtomicallyAndLoadsFromAFile) {
   const Status unwritable = SaveModel(model(), (dir / "missing" / "x.stratamodel").string());
   ASSERT_FALSE(unwritable.ok());
   EXPECT_THAT(unwritable.error().message, HasSubstr("cannot save the model"));
+  EXPECT_THAT(unwritable.error().message, HasSubstr("No such file or directory"));
+  // A rename that fails names its own reason (a clean-up after it once said "Success").
+  const std::filesystem::path taken = dir / "taken.stratamodel";
+  std::filesystem::create_directories(taken / "inside");
+  const Status over_a_directory = SaveModel(model(), taken.string());
+  ASSERT_FALSE(over_a_directory.ok());
+  EXPECT_THAT(over_a_directory.error().message, Not(HasSubstr("Success")));
+  EXPECT_THAT(over_a_directory.error().message, HasSubstr("directory"));
   const auto missing = LoadModel((dir / "nothing.stratamodel").string());
   ASSERT_FALSE(missing.ok());
   EXPECT_EQ(missing.error().code, ErrorCode::kMapLoadFailed);

@@ -232,7 +232,7 @@ TEST(FlagsTest, BadValuesAreRefusedWithTheValue) {
 
 TEST(FlagsTest, HelpListsEveryFlagWithItsDefaultAndVariable) {
   const std::vector<FlagInfo> flags = DescribeFlags();
-  ASSERT_EQ(flags.size(), 47u);
+  ASSERT_EQ(flags.size(), 48u);
   const FlagsOutcome help = Parse({"--help"});
   EXPECT_EQ(help.text, UsageText());
   for (const FlagInfo& flag : flags) {

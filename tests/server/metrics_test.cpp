@@ -1,6 +1,10 @@
 // Map and reservation metrics read at scrape time (no server needed).
 #include "rpc/metrics.hpp"
 
+#include <chrono>
+#include <future>
+#include <thread>
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -27,8 +31,9 @@ TEST(MetricsTest, AMapBeingCreatedShowsItsProgressUntilItIsGone) {
   held.WaitHeld();
   // The series names the map and its step.
   const std::string scrape = metrics.Serialize();
-  EXPECT_THAT(scrape,
-              HasSubstr("strata_map_creation_progress{map_id=\"big\",step=\"ground_filter\"}"));
+  EXPECT_THAT(
+      scrape,
+      HasSubstr("strata_map_creation_progress_ratio{map_id=\"big\",step=\"ground_filter\"}"));
   EXPECT_THAT(scrape, HasSubstr("strata_maps{state=\"creating\"} 1"));
   // Gone with the map.
   ASSERT_TRUE(registry.Delete("big").ok());
@@ -64,6 +69,53 @@ TEST(MetricsTest, ReservationsAreCountedAndTheirExpiryToo) {
   EXPECT_THAT(metrics.Serialize(), HasSubstr("strata_reservations 0\n"));
   schedule.List("site");  // Collects it.
   EXPECT_THAT(metrics.Serialize(), HasSubstr("strata_reservations_expired_total 1\n"));
+}
+
+// The planning slots as an autoscaler reads them: busy slots and calls queued for one, while a
+// call holds the only slot and another waits.
+TEST(MetricsTest, QueuedPlansAndBusySlotsAreReadAtScrape) {
+  PlanningSlots slots(1, 4, 10);
+  Metrics metrics;
+  metrics.WatchPlanningSlots(&slots);
+  EXPECT_THAT(metrics.Serialize(), HasSubstr("strata_plans_queued 0"));
+  std::promise<void> holding, release;
+  std::thread first([&] {
+    (void)slots.Run(CallControl{}, [&](const std::function<bool()>&, double) {
+      holding.set_value();
+      release.get_future().wait();
+      return OkStatus();
+    });
+  });
+  holding.get_future().wait();
+  std::thread second([&] {
+    (void)slots.Run(CallControl{}, [](const std::function<bool()>&, double) { return OkStatus(); });
+  });
+  const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  while (slots.queued() != 1 && std::chrono::steady_clock::now() < give_up) {
+    std::this_thread::yield();  // The second call is about to queue.
+  }
+  ASSERT_EQ(slots.queued(), 1u);
+  const std::string scrape = metrics.Serialize();
+  EXPECT_THAT(scrape, HasSubstr("strata_plans_queued 1"));
+  EXPECT_THAT(scrape, HasSubstr("strata_planning_slots_busy 1"));
+  EXPECT_THAT(scrape, HasSubstr("strata_planning_slots 1"));
+  release.set_value();
+  first.join();
+  second.join();
+  EXPECT_THAT(metrics.Serialize(), HasSubstr("strata_planning_slots_busy 0"));
+}
+
+// The process metrics Prometheus users expect, and the build's version.
+TEST(MetricsTest, ProcessFiguresAndTheBuildAreExported) {
+  Metrics metrics;
+  const std::string scrape = metrics.Serialize();
+  for (const char* name :
+       {"process_cpu_seconds_total ", "process_resident_memory_bytes ", "process_open_fds ",
+        "process_max_fds ", "process_start_time_seconds "}) {
+    EXPECT_THAT(scrape, HasSubstr(name));
+  }
+  EXPECT_THAT(scrape, HasSubstr("strata_build_info{version=\""));
+  EXPECT_THAT(scrape, Not(HasSubstr("process_resident_memory_bytes 0\n")));
 }
 
 }  // namespace

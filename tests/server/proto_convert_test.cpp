@@ -7,6 +7,7 @@
 #include <random>
 
 #include <gmock/gmock.h>
+#include <google/protobuf/util/json_util.h>
 #include <gtest/gtest.h>
 
 #include "rpc/planner_service.hpp"
@@ -15,6 +16,7 @@ namespace strata::server {
 namespace {
 
 using ::testing::HasSubstr;
+using ::testing::Not;
 
 std::string FieldOf(const ServiceError& error) {
   return error.field_violations.empty() ? "" : error.field_violations[0].field;
@@ -129,6 +131,17 @@ TEST(ProtoConvertTest, PlanStatsArriveWhole) {
   EXPECT_EQ(message.fallback_reason(), stats.fallback_reason);
   EXPECT_EQ(message.limiting_bound(), "vertical_speed");
   EXPECT_EQ(message.limiting_bound_fraction(), 0.97);
+  // No ceiling over the trajectory: the headroom is absent, never "Infinity" in JSON.
+  stats.min_headroom_m = std::numeric_limits<double>::infinity();
+  message.Clear();
+  ToProto(stats, &message);
+  EXPECT_FALSE(message.has_min_headroom_m());
+  std::string json;
+  ASSERT_TRUE(google::protobuf::util::MessageToJsonString(message, &json).ok());
+  EXPECT_THAT(json, Not(HasSubstr("Infinity")));
+  stats.min_headroom_m = 0.25;
+  ToProto(stats, &message);
+  EXPECT_EQ(message.min_headroom_m(), 0.25);
 }
 
 TEST(ProtoConvertTest, TerrainParametersDefaultAndBlameTheirField) {

@@ -50,6 +50,14 @@ TEST_F(MapServiceTest, StartsServingWithTheDemoMapAndPerServiceHealth) {
   EXPECT_TRUE(demo.has_done_time());
 }
 
+TEST_F(MapServiceTest, APreloadThatFailsEndsTheServerWhenAskedTo) {
+  server_ = ServerProcess::Start(
+      {"--map-root", TestMapRoot(), "--preload", "bad=README.md", "--exit-on-preload-failure"});
+  ASSERT_NE(server_, nullptr);
+  EXPECT_EQ(server_->WaitExit(std::chrono::seconds(60)), 1);
+  EXPECT_THAT(server_->Log(), HasSubstr("event=preload_failed map=bad"));
+}
+
 TEST_F(MapServiceTest, HealthStaysNotServingWhenAPreloadFails) {
   // README.md is under the map root but is no point cloud: its assessment fails.
   server_ = ServerProcess::Start({"--map-root", TestMapRoot(), "--preload",

@@ -588,8 +588,11 @@ Status SaveModel(const TerrainModel& model, const std::string& path) {
   std::random_device random;
   const std::string temporary = path + ".tmp-" + std::to_string(random());
   {
+    errno = 0;
     std::ofstream file(temporary, std::ios::binary | std::ios::trunc);
-    if (!file) return fail(std::strerror(errno));
+    if (!file) {
+      return fail(errno != 0 ? std::strerror(errno) : "cannot create " + temporary);
+    }
     Sink sink(nullptr, &file);
     WriteModel(sink, model);
     file.flush();
@@ -602,7 +605,9 @@ Status SaveModel(const TerrainModel& model, const std::string& path) {
   std::error_code error;
   fs::rename(temporary, path, error);
   if (error) {
-    fs::remove(temporary, error);
+    // The rename's reason, not the clean-up's (which succeeds: "Success" was reported).
+    std::error_code ignored;
+    fs::remove(temporary, ignored);
     return fail(error.message());
   }
   return Status::Ok();

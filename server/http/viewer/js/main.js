@@ -44,6 +44,13 @@ function text(tag, content, attributes = {}) {
   return e;
 }
 
+// Where a start or goal landed, from the point asked for: on it, or moved to a column's centre.
+function snapped(state, asked) {
+  if (!asked) return '';
+  const moved = Math.hypot(state.position_m.x - asked.x, state.position_m.y - asked.y);
+  return moved < 1e-3 ? '(as asked)' : `(moved ${fixed(moved)} m)`;
+}
+
 function fixed(value, digits = 2) {
   return Number(value || 0).toFixed(digits);
 }
@@ -364,12 +371,12 @@ function showPlan(request, response) {
   figures(dl, [
     ['length', `${fixed(s.length_m)} m`, 'plan-length'],
     ['duration', `${fixed(s.duration_s)} s`],
-    ['start', `${point(response.start.position_m)} level ${response.start.level} (${fixed(response.start.distance_m)} m off)`],
-    ['goal', `${point(response.goal.position_m)} level ${response.goal.level} (${fixed(response.goal.distance_m)} m off)`],
+    ['start', `${point(response.start.position_m)} level ${response.start.level} ${snapped(response.start, request.start.position_m)}`],
+    ['goal', `${point(response.goal.position_m)} level ${response.goal.level} ${snapped(response.goal, request.goal.position_m)}`],
     ['max speed', `${fixed(s.max_speed_horizontal_mps)} m/s horizontal, ${fixed(s.max_speed_vertical_mps)} vertical`],
     ['max accel.', `${fixed(s.max_accel_horizontal_mps2)} m/s² horizontal, ${fixed(s.max_accel_vertical_mps2)} vertical`],
     ['mean curvature', `${fixed(s.mean_curvature_per_m, 3)} 1/m`],
-    ['clearance', `${fixed(s.min_obstacle_distance_m)} m to obstacles, ${fixed(s.min_headroom_m)} m headroom`],
+    ['clearance', `${fixed(s.min_obstacle_distance_m)} m to obstacles, ${s.min_headroom_m === undefined ? 'no ceiling' : `${fixed(s.min_headroom_m)} m headroom`}`],
     ['body height', response.trajectory.dimension === 4 ? `${fixed(s.min_body_height_m)} m at its lowest (commanded)` : `${fixed(response.profile.body_height_m)} m (fixed)`],
     ['pieces', `${s.pieces}, ${s.search_expansions} A* expansions, ${s.optimizer_iterations} L-BFGS iterations`],
     ['planned in', `${fixed(t.total_s * 1000, 1)} ms (queue ${fixed(t.queue_s * 1000, 1)}, search ${fixed(t.search_s * 1000, 1)}, optimise ${fixed(t.optimize_s * 1000, 1)})`],
