@@ -72,8 +72,9 @@ void PrintSummary(const Context& ctx, const v1::PlanRequest& request,
       << " m to the nearest obstacle; ground offset at most "
       << Fixed(stats.max_ground_offset_m(), 3) << " m; mean curvature "
       << Fixed(stats.mean_curvature_per_m(), 3) << " 1/m\n"
-      << "  planning    " << Fixed(stats.timings().total_s(), 3) << " s (search "
-      << Fixed(stats.timings().search_s(), 3) << " s, optimise "
+      << "  planning    " << Fixed(stats.timings().total_s(), 3) << " s (graph "
+      << Fixed(stats.timings().graph_s(), 3) << " s, snap " << Fixed(stats.timings().snap_s(), 3)
+      << " s, search " << Fixed(stats.timings().search_s(), 3) << " s, optimise "
       << Fixed(stats.timings().optimize_s(), 3) << " s, verify "
       << Fixed(stats.timings().verify_s(), 3) << " s; " << stats.optimizer_iterations()
       << " iterations, " << stats.optimizer_attempts() << " attempt(s))\n";

@@ -467,6 +467,7 @@ void MergeLegStats(const PlanStats& leg, const RobotProfile& profile, PlanStats*
   if (leg.fallback && !total->fallback) total->fallback_reason = leg.fallback_reason;
   total->fallback = total->fallback || leg.fallback;
   SetLimitingBound(profile, total);
+  total->timings.graph_s += leg.timings.graph_s;
   total->timings.snap_s += leg.timings.snap_s;
   total->timings.search_s += leg.timings.search_s;
   total->timings.optimize_s += leg.timings.optimize_s;
@@ -817,6 +818,7 @@ Status PlanLegs(const LegContext& ctx, const PlanRequest& request,
       // The snap's timing, and a warm start's that did not pass, count too.
       const PlanStats before = stats;
       stats = leg->stats;
+      stats.timings.graph_s += before.timings.graph_s;
       stats.timings.snap_s += before.timings.snap_s;
       stats.timings.optimize_s += before.timings.optimize_s;
       stats.timings.verify_s += before.timings.verify_s;
@@ -858,12 +860,14 @@ Expected<PlanResult> Plan(const PlanningMap& map, const PlanRequest& request,
     return graph_or.error();
   }
   const SurfaceGraph& graph = **graph_or;
+  stats.timings.graph_s = SecondsSince(stage);
+  const Clock::time_point snapping = Clock::now();
   Expected<std::vector<RoutePoint>> route = SnapRoute(graph, request, &result);
   if (!route) return std::move(route).error();
   RobotState head = request.start, tail = request.goal;
   head.position_m = result.start.position_m;
   tail.position_m = result.goal.position_m;
-  stats.timings.snap_s = SecondsSince(stage);
+  stats.timings.snap_s = SecondsSince(snapping);
 
   // Keep-out zones: the trajectory's ends (and vias) must lie outside every zone; the search
   // steps around them, the optimiser's J_k keeps the trajectory out with a margin and the

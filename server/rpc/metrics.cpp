@@ -399,11 +399,10 @@ void Metrics::WatchPlanningSlots(const PlanningSlots* slots) {
 void Metrics::RecordPlan(std::string_view result, const PlanTimings* timings) {
   plans_.Add({{"result", std::string(result)}}).Increment();
   if (timings == nullptr) return;
-  const std::pair<const char*, double> stages[] = {{"snap", timings->snap_s},
-                                                   {"search", timings->search_s},
-                                                   {"optimize", timings->optimize_s},
-                                                   {"verify", timings->verify_s},
-                                                   {"total", timings->total_s}};
+  const std::pair<const char*, double> stages[] = {
+      {"graph", timings->graph_s},   {"snap", timings->snap_s},
+      {"search", timings->search_s}, {"optimize", timings->optimize_s},
+      {"verify", timings->verify_s}, {"total", timings->total_s}};
   for (const auto& [stage, seconds] : stages) {
     plan_seconds_.Add({{"stage", stage}}, kPlanBuckets).Observe(seconds);
   }

@@ -9,7 +9,7 @@
 ///   grpc_server_handling_seconds (histogram).
 /// Strata metrics:
 ///   strata_plans_total{result}                 result "OK" or the error reason
-///   strata_plan_duration_seconds{stage}        snap, search, optimize, verify, total
+///   strata_plan_duration_seconds{stage}        graph, snap, search, optimize, verify, total
 ///   strata_map_assessment_seconds{stage}       load, ground_filter, surfaces, fields, total
 ///   strata_maps{state}                         creating, active, failed (read at scrape)
 ///   strata_map_memory_bytes                    sum over ACTIVE maps (read at scrape)

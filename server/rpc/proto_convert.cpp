@@ -748,6 +748,7 @@ void ToProto(const PlanStats& s, v1::PlanStats* m) {
   m->set_limiting_bound(s.limiting_bound);
   m->set_limiting_bound_fraction(s.limiting_bound_fraction);
   v1::PlanTimings* t = m->mutable_timings();
+  t->set_graph_s(s.timings.graph_s);
   t->set_snap_s(s.timings.snap_s);
   t->set_search_s(s.timings.search_s);
   t->set_optimize_s(s.timings.optimize_s);

@@ -126,6 +126,25 @@ TEST_F(TwoLevelPlan, FloorToDeckClimbsTheRampOnTheGround) {
   EXPECT_TRUE(crossed_ramp);
 }
 
+// The first plan of a profile on a map builds its surface graph, the next looks it up: the
+// stage is timed on its own, so that the stages of a first plan add up to its total.
+TEST_F(TwoLevelPlan, TheGraphBuildIsAStageOfItsOwn) {
+  const PlanningMap fresh(map_->model_ptr());
+  const PlanRequest request = Request(layout_.start_example_m, layout_.goal_example_m);
+  auto first = Plan(fresh, request);
+  auto second = Plan(fresh, request);
+  ASSERT_TRUE(first.ok() && second.ok());
+  const PlanTimings& built = first->stats.timings;
+  const PlanTimings& looked_up = second->stats.timings;
+  EXPECT_GT(built.graph_s, 10 * looked_up.graph_s);
+  EXPECT_LT(built.snap_s, built.graph_s);
+  for (const PlanTimings& t : {built, looked_up}) {
+    const double stages = t.graph_s + t.snap_s + t.search_s + t.optimize_s + t.verify_s;
+    EXPECT_LE(stages, t.total_s);
+    EXPECT_GT(stages, 0.9 * t.total_s);
+  }
+}
+
 TEST_F(TwoLevelPlan, BadRequestsGetNamedErrors) {
   PlanRequest request = Request(layout_.start_example_m, layout_.goal_example_m);
   request.start.position_m.x() = std::nan("");

@@ -142,7 +142,10 @@ struct PlanRequest {
 
 /// Wall-clock seconds per stage of one plan.
 struct PlanTimings {
-  double snap_s = 0;      ///< Graph lookup (or build, first time per profile) and snapping.
+  /// The robot's surface graph: looked up, or built the first time a profile plans on the
+  /// map (then usually the largest stage).
+  double graph_s = 0;
+  double snap_s = 0;      ///< Snapping the start, the goal and the vias onto the graph.
   double search_s = 0;    ///< A*.
   double optimize_s = 0;  ///< MINCO + L-BFGS (all attempts).
   double verify_s = 0;    ///< Dense verification (all attempts).

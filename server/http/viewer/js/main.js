@@ -379,7 +379,7 @@ function showPlan(request, response) {
     ['clearance', `${fixed(s.min_obstacle_distance_m)} m to obstacles, ${s.min_headroom_m === undefined ? 'no ceiling' : `${fixed(s.min_headroom_m)} m headroom`}`],
     ['body height', response.trajectory.dimension === 4 ? `${fixed(s.min_body_height_m)} m at its lowest (commanded)` : `${fixed(response.profile.body_height_m)} m (fixed)`],
     ['pieces', `${s.pieces}, ${s.search_expansions} A* expansions, ${s.optimizer_iterations} L-BFGS iterations`],
-    ['planned in', `${fixed(t.total_s * 1000, 1)} ms (queue ${fixed(t.queue_s * 1000, 1)}, search ${fixed(t.search_s * 1000, 1)}, optimise ${fixed(t.optimize_s * 1000, 1)})`],
+    ['planned in', `${fixed(t.total_s * 1000, 1)} ms (queue ${fixed(t.queue_s * 1000, 1)}, graph ${fixed(t.graph_s * 1000, 1)}, snap ${fixed(t.snap_s * 1000, 1)}, search ${fixed(t.search_s * 1000, 1)}, optimise ${fixed(t.optimize_s * 1000, 1)}, verify ${fixed(t.verify_s * 1000, 1)})`],
     ['map version', response.map_version.slice(0, 12)],
   ]);
   dl.dataset.lengthM = s.length_m;
