@@ -50,7 +50,10 @@ std::string SourceText(const v1::MapSource& source) {
   return "-";
 }
 
-std::string Megabytes(std::uint64_t bytes) { return Fixed(static_cast<double>(bytes) / 1e6, 1); }
+// Memory in MiB, as the web viewer shows it: one figure, one unit.
+std::string Mebibytes(std::uint64_t bytes) {
+  return Fixed(static_cast<double>(bytes) / 1048576.0, 1);
+}
 
 void PrintMap(const Context& ctx, const v1::Map& map) {
   std::ostream& out = *ctx.out;
@@ -77,7 +80,8 @@ void PrintMap(const Context& ctx, const v1::Map& map) {
         << FormatVector(map.bounds_m().max_m()) << " m\n";
     out << "  grid        " << map.grid_size().nx() << " x " << map.grid_size().ny() << " x "
         << map.grid_size().nz() << " cells, " << map.max_levels() << " level(s) at most\n";
-    out << "  memory      " << Megabytes(map.memory_bytes()) << " MB\n";
+    out << "  memory      " << Mebibytes(map.memory_bytes())
+        << " MiB (terrain model and the robot graphs cached so far)\n";
     out << "  assessment  " << Fixed(map.assessment_seconds().total_s(), 2) << " s (load "
         << Fixed(map.assessment_seconds().load_s(), 2) << " s)\n";
   }
@@ -282,12 +286,12 @@ int List(const Context& ctx, const ListFlags& flags) {
     return kExitOk;
   }
   std::ostream& out = *ctx.out;
-  out << "ID                STATE      POINTS      VALID GROUND  MEMORY_MB  SOURCE\n";
+  out << "ID                STATE      POINTS      VALID GROUND  MEMORY_MIB SOURCE\n";
   for (const v1::Map& map : all.maps()) {
     // Map ids are ASCII (the server checks them), so the widths count bytes.
     out << fmt::format("{:<17} {:<10} {:<11} {:<13} {:<10} ", map.id(), StateName(map.state()),
                        map.input_point_count(), map.valid_ground_point_count(),
-                       Megabytes(map.memory_bytes()))
+                       Mebibytes(map.memory_bytes()))
         << SourceText(map.source()) << "\n";
   }
   if (!all.next_page_token().empty())

@@ -34,7 +34,8 @@ int FreePort() {
 
 }  // namespace
 
-std::unique_ptr<EtcdProcess> EtcdProcess::Start() {
+std::unique_ptr<EtcdProcess> EtcdProcess::Start(const std::string& tls_cert,
+                                                const std::string& tls_key) {
   if (access(kEtcdBinary, X_OK) != 0) {
     std::fprintf(stderr, "%s not found: install etcd-server (scripts/install-deps.sh)\n",
                  kEtcdBinary);
@@ -44,6 +45,8 @@ std::unique_ptr<EtcdProcess> EtcdProcess::Start() {
   char pattern[] = "/tmp/strata-etcd-XXXXXX";
   if (mkdtemp(pattern) == nullptr) return nullptr;
   etcd->data_dir_ = pattern;
+  etcd->tls_cert_ = tls_cert;
+  etcd->tls_key_ = tls_key;
   etcd->client_port_ = FreePort();
   etcd->peer_port_ = FreePort();
   etcd->endpoint_ = "127.0.0.1:" + std::to_string(etcd->client_port_);
@@ -52,7 +55,7 @@ std::unique_ptr<EtcdProcess> EtcdProcess::Start() {
 }
 
 bool EtcdProcess::Launch() {
-  const std::string client_url = "http://" + endpoint_;
+  const std::string client_url = (tls_cert_.empty() ? "http://" : "https://") + endpoint_;
   const std::string peer_url = "http://127.0.0.1:" + std::to_string(peer_port_);
   std::vector<std::string> args = {kEtcdBinary,
                                    "--name=strata-test",
@@ -62,6 +65,10 @@ bool EtcdProcess::Launch() {
                                    "--listen-peer-urls=" + peer_url,
                                    "--initial-advertise-peer-urls=" + peer_url,
                                    "--initial-cluster=strata-test=" + peer_url};
+  if (!tls_cert_.empty()) {
+    args.push_back("--cert-file=" + tls_cert_);
+    args.push_back("--key-file=" + tls_key_);
+  }
   std::vector<char*> argv;
   for (std::string& arg : args) argv.push_back(arg.data());
   argv.push_back(nullptr);

@@ -17,8 +17,10 @@ namespace strata::server::testing {
 class EtcdProcess {
  public:
   /// Starts etcd; null, with what went wrong printed, when there is no etcd or it is not
-  /// ready to serve within 30 s.
-  static std::unique_ptr<EtcdProcess> Start();
+  /// ready to serve within 30 s. With `tls_cert` and `tls_key` (PEM files) it serves its
+  /// clients over TLS only.
+  static std::unique_ptr<EtcdProcess> Start(const std::string& tls_cert = {},
+                                            const std::string& tls_key = {});
   ~EtcdProcess();  // Kills etcd and removes its data.
 
   /// "127.0.0.1:PORT", as --etcd takes it.
@@ -37,6 +39,8 @@ class EtcdProcess {
   void ReadLog(int fd);
 
   std::filesystem::path data_dir_;
+  std::string tls_cert_;
+  std::string tls_key_;
   int client_port_ = 0;
   int peer_port_ = 0;
   std::string endpoint_;

@@ -4,10 +4,14 @@
 // let exactly one in; a replica that dies leaves its reservations to their leases; etcd down
 // refuses commits with a message that says so, keeps reads, and loses nothing; a watch whose
 // revision was compacted away reads afresh.
+#include <unistd.h>
+
 #include <atomic>
 #include <barrier>
 #include <chrono>
 #include <cstdint>
+#include <cstdlib>
+#include <filesystem>
 #include <memory>
 #include <mutex>
 #include <set>
@@ -75,9 +79,11 @@ Reservation NorthBound(const std::string& map, const std::string& robot, std::in
 
 // One strata-server's share of the fleet's state: its schedule, fed by etcd.
 struct Replica {
-  explicit Replica(const std::string& endpoint, const std::string& prefix = "/strata-test") {
+  explicit Replica(const std::string& endpoint, const std::string& prefix = "/strata-test",
+                   const std::string& ca_file = {}) {
     EtcdOptions options;
     options.endpoints = {endpoint};
+    options.ca_file = ca_file;
     options.call_timeout_s = 1;
     client = std::move(EtcdClient::Create(options)).value();
     ledger = std::make_unique<EtcdScheduleLedger>(client.get(), prefix, &schedule,
@@ -308,6 +314,37 @@ TEST_F(SharedScheduleTest, EtcdRestartedUnderLoadLosesNoCommitAndAdmitsNoConflic
           << held.reservations[j].reserved.robot_id;
     }
   }
+}
+
+// --etcd-ca: TLS to an etcd that serves TLS only. A replica that trusts its certificate
+// commits and another sees it; a plaintext one is refused, saying etcd is unreachable.
+TEST(SharedScheduleTlsTest, ATrustedCertificateCommitsAndPlaintextIsRefused) {
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("strata-etcd-tls-" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const std::string cert = (dir / "cert.pem").string(), key = (dir / "key.pem").string();
+  const std::string command =
+      "openssl req -x509 -newkey rsa:2048 -nodes -days 1 -subj /CN=localhost -addext "
+      "subjectAltName=IP:127.0.0.1,DNS:localhost -keyout " +
+      key + " -out " + cert + " >/dev/null 2>&1";
+  ASSERT_EQ(std::system(command.c_str()), 0) << "openssl could not make a certificate";
+  std::unique_ptr<EtcdProcess> etcd = EtcdProcess::Start(cert, key);
+  ASSERT_NE(etcd, nullptr);
+  {
+    Replica a(etcd->endpoint(), "/strata-test", cert);
+    Replica b(etcd->endpoint(), "/strata-test", cert);
+    const Result<Reservation> east =
+        a.schedule.Commit(EastBound("site", "east", SystemNowNs()), kRule, kAnyone);
+    ASSERT_TRUE(east.ok()) << east.error().message;
+    EXPECT_TRUE(b.Sees("site", "east"));
+    Replica plaintext(etcd->endpoint());
+    const Result<Reservation> refused =
+        plaintext.schedule.Commit(NorthBound("site", "north", SystemNowNs()), kRule, kAnyone);
+    ASSERT_FALSE(refused.ok());
+    EXPECT_EQ(refused.error().code, ServiceError::Code(ServiceErrorCode::kSharedStateUnavailable));
+  }
+  etcd.reset();
+  std::filesystem::remove_all(dir);
 }
 
 TEST_F(SharedScheduleTest, AWatchWhoseRevisionWasCompactedAwayReadsAfresh) {

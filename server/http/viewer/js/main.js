@@ -133,7 +133,7 @@ async function selectMap(id) {
     ['grid', `${map.grid_size.nx} × ${map.grid_size.ny} × ${map.grid_size.nz} at ${map.terrain.resolution_m} m`],
     ['points', `${Number(map.input_point_count).toLocaleString('en')} (valid ground ${Number(map.valid_ground_point_count).toLocaleString('en')})`],
     ['levels', `${map.max_levels} (${Number(map.valid_surface_count).toLocaleString('en')} ground surfaces)`],
-    ['memory', `${fixed(Number(map.memory_bytes) / 1048576, 1)} MB`],
+    ['memory', `${fixed(Number(map.memory_bytes) / 1048576, 1)} MiB (terrain model and the robot graphs cached so far)`],
     ['assessed in', `${fixed(seconds.total_s, 3)} s (load ${fixed(seconds.load_s, 3)} s)${map.from_saved_model ? ', saved model' : ''}`],
   ]);
   if (map.state !== 'MAP_STATE_ACTIVE') {
