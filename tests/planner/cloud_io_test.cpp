@@ -228,6 +228,44 @@ TEST_F(CloudIoTest, OctomapPrunedBlockBecomesOneVoxelPerCell) {
   ExpectSameSet(LoadOk(PathFor("block.ot")).points, voxels);
 }
 
+TEST_F(CloudIoTest, AnOctomapBlockComesBackAsItsFacesOnly) {
+  // A solid, aligned 8x8x8 block is pruned into one leaf; only its faces can be ground or an
+  // obstacle's surface, so its 296 face voxels come back and none of the 216 inside.
+  octomap::OcTree tree(0.1);
+  octomap::OcTreeKey base = tree.coordToKey(octomap::point3d(1.0f, 1.0f, 1.0f));
+  for (auto& k : base.k) k &= ~7u;
+  std::vector<Eigen::Vector3f> faces;
+  for (unsigned i = 0; i < 8; ++i) {
+    for (unsigned j = 0; j < 8; ++j) {
+      for (unsigned k = 0; k < 8; ++k) {
+        const octomap::OcTreeKey key(base[0] + i, base[1] + j, base[2] + k);
+        tree.updateNode(key, true);
+        const bool inside = i % 7 != 0 && j % 7 != 0 && k % 7 != 0;
+        if (inside) continue;
+        const octomap::point3d c = tree.keyToCoord(key);
+        faces.emplace_back(c.x(), c.y(), c.z());
+      }
+    }
+  }
+  tree.updateInnerOccupancy();
+  ASSERT_EQ(tree.getNumLeafNodes(), 1u) << "the block should have been pruned into one leaf";
+  ASSERT_TRUE(tree.writeBinary(PathFor("cube.bt")));
+  ASSERT_EQ(faces.size(), 296u);
+  ExpectSameSet(LoadOk(PathFor("cube.bt")).points, faces);
+}
+
+TEST_F(CloudIoTest, ATinyOctomapNamingMillionsOfVoxelsIsRefusedAtOnce) {
+  // 16 bytes of tree: inner nodes down to depth 7, then two occupied leaves at depth 8, each a
+  // solid block of 256^3 voxels (33.5 million inside; 780,304 on their faces). It used to be
+  // expanded voxel by voxel and held an assessment for minutes.
+  std::string tree;
+  for (int depth = 0; depth < 7; ++depth) tree += std::string("\x03\x00", 2);  // Child 0: inner.
+  tree += std::string("\x0a\x00", 2);  // Children 0 and 1: occupied leaves.
+  const std::string file =
+      "# Octomap OcTree binary file\nid OcTree\nsize 10\nres 0.1\ndata\n" + tree;
+  ExpectError(Write("tiny.bt", file), ErrorCode::kMapLoadFailed, "per byte of file");
+}
+
 TEST_F(CloudIoTest, ExtensionIsCaseInsensitive) {
   ASSERT_EQ(pcl::io::savePCDFileBinary(PathFor("UPPER.PCD"), RandomCloud(5, 3)), 0);
   EXPECT_EQ(LoadOk(PathFor("UPPER.PCD")).points.size(), 5u);

@@ -19,6 +19,17 @@ namespace strata::internal {
 namespace {
 
 constexpr unsigned kOctreeDepth = 16;  // OcTree's fixed depth.
+// A pruned block comes back as its surface voxels only, and at most this many of them per byte
+// of the file: a real map's blocks are thin slabs and small solids (a few per byte), while a
+// file of a few hundred bytes could otherwise name tens of millions of voxels and hold an
+// assessment for minutes.
+constexpr std::uint64_t kMaxSurfaceVoxelsPerByte = 2000;
+
+// Voxels on the faces of a cube of n voxels a side: the only ones that can be ground or an
+// obstacle's surface (the inside is solid, under its own top and away from every free cell).
+std::uint64_t SurfaceVoxels(std::uint64_t n) {
+  return n < 3 ? n * n * n : n * n * n - (n - 2) * (n - 2) * (n - 2);
+}
 
 struct OctreeHeader {
   std::string id;
@@ -88,12 +99,12 @@ struct OctreeWalk {
   bool binary = true;
   std::size_t pos = 0;
   std::uint64_t nodes = 0;
-  std::uint64_t occupied_voxels = 0;  // Finest-resolution voxels inside occupied leaves.
+  std::uint64_t surface_voxels = 0;  // Finest-resolution voxels on occupied leaves' faces.
   const char* problem = nullptr;
 
   void AddOccupied(unsigned depth) {
-    const std::uint64_t voxels = std::uint64_t{1} << (3 * (kOctreeDepth - depth));
-    occupied_voxels = std::min(occupied_voxels + voxels, std::uint64_t{1} << 62);
+    const std::uint64_t voxels = SurfaceVoxels(std::uint64_t{1} << (kOctreeDepth - depth));
+    surface_voxels = std::min(surface_voxels + voxels, std::uint64_t{1} << 62);
   }
   bool Fail(const char* why) {
     problem = why;
@@ -162,12 +173,19 @@ Expected<LoadedCloud> LoadOctree(const std::string& path, std::string_view bytes
     return LoadError(path, Cat("OctoMap header says ", header->nodes, " nodes but the data holds ",
                                walk.nodes, " (corrupt file?)"));
   }
-  // The nodes and, once pruned blocks are expanded, the voxels are what cost memory.
-  if (walk.nodes > limits.max_points || walk.occupied_voxels > limits.max_points) {
-    return TooBig(
-        path,
-        Cat("OctoMap holds ", walk.nodes, " nodes and ", walk.occupied_voxels, " occupied voxels"),
-        limits.max_points, "max_points");
+  // The nodes and, once pruned blocks are expanded, the voxels are what cost memory and time.
+  if (walk.nodes > limits.max_points || walk.surface_voxels > limits.max_points) {
+    return TooBig(path,
+                  Cat("OctoMap holds ", walk.nodes, " nodes and ", walk.surface_voxels,
+                      " occupied surface voxels"),
+                  limits.max_points, "max_points");
+  }
+  if (walk.surface_voxels > kMaxSurfaceVoxelsPerByte * bytes.size()) {
+    return LoadError(path,
+                     Cat("OctoMap of ", bytes.size(), " bytes expands to ", walk.surface_voxels,
+                         " occupied surface voxels, more than ", kMaxSurfaceVoxelsPerByte,
+                         " per byte of file: a real map is not pruned into blocks that "
+                         "large; store it at its own resolution (or as a PCD)"));
   }
 
   // Only the data is handed over: OctoMap's own file readers (readBinary, AbstractOcTree::read)
@@ -183,9 +201,9 @@ Expected<LoadedCloud> LoadOctree(const std::string& path, std::string_view bytes
   if (tree->size() != header->nodes) return LoadError(path, "OctoMap could not read the tree");
 
   // A pruned leaf stands for a solid block of voxels; its centre alone would misplace the
-  // block's surfaces, so every finest-resolution voxel in it becomes a point.
+  // block's surfaces, so every finest-resolution voxel on its faces becomes a point.
   PointCloud points;
-  points.reserve(walk.occupied_voxels);
+  points.reserve(walk.surface_voxels);
   const double resolution = tree->getResolution();
   for (auto it = tree->begin_leafs(), end = tree->end_leafs(); it != end; ++it) {
     if (!tree->isNodeOccupied(*it)) continue;
@@ -193,12 +211,16 @@ Expected<LoadedCloud> LoadOctree(const std::string& path, std::string_view bytes
     const octomap::point3d centre = it.getCoordinate();
     const Eigen::Vector3d corner =
         Eigen::Vector3d(centre.x(), centre.y(), centre.z()).array() - 0.5 * it.getSize();
-    if (points.size() + std::uint64_t(per_axis) * per_axis * per_axis > limits.max_points) {
+    if (points.size() + SurfaceVoxels(per_axis) > limits.max_points) {
       return TooBig(path, "OctoMap expands to more voxels", limits.max_points, "max_points");
     }
+    const int last = per_axis - 1;
     for (int i = 0; i < per_axis; ++i) {
       for (int j = 0; j < per_axis; ++j) {
-        for (int k = 0; k < per_axis; ++k) {
+        // Inside the block only its bottom and top voxels (k = 0 and last) are on a face.
+        const bool side = i == 0 || i == last || j == 0 || j == last;
+        const int step = side || last == 0 ? 1 : last;
+        for (int k = 0; k < per_axis; k += step) {
           const Eigen::Vector3d offset(i + 0.5, j + 0.5, k + 0.5);
           points.push_back((corner + resolution * offset).cast<float>());
         }
