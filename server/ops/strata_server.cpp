@@ -306,8 +306,9 @@ ServiceStatus StrataServer::StartServices(const StartInputs& inputs) {
   // Every method served gets its own metric series before the first call; calls to any
   // other path are counted as "unknown" (Metrics::InitializeMethod).
   const auto* pool = google::protobuf::DescriptorPool::generated_pool();
-  for (const char* name : {kServices[0], kServices[1], kServices[2], "grpc.health.v1.Health",
-                           "grpc.reflection.v1alpha.ServerReflection"}) {
+  for (const char* name :
+       {kServices[0], kServices[1], kServices[2], "grpc.health.v1.Health",
+        "grpc.reflection.v1alpha.ServerReflection", "grpc.reflection.v1.ServerReflection"}) {
     const google::protobuf::ServiceDescriptor* service = pool->FindServiceByName(name);
     for (int i = 0; service != nullptr && i < service->method_count(); ++i) {
       const google::protobuf::MethodDescriptor* method = service->method(i);
@@ -356,6 +357,10 @@ ServiceStatus StrataServer::Listen(const StartInputs& inputs) {
   builder.RegisterService(map_service_.get());
   builder.RegisterService(planner_service_.get());
   builder.RegisterService(traffic_service_.get());
+  reflection_v1_ = std::make_unique<ReflectionV1Service>(std::vector<std::string>{
+      kServices[0], kServices[1], kServices[2], "grpc.health.v1.Health",
+      "grpc.reflection.v1alpha.ServerReflection", "grpc.reflection.v1.ServerReflection"});
+  builder.RegisterService(reflection_v1_.get());
   {
     std::lock_guard lock(mutex_);  // The etcd ledger's thread reads it.
     server_ = builder.BuildAndStart();

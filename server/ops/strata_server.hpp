@@ -23,6 +23,7 @@
 #include "rpc/planner_service.hpp"
 #include "rpc/planning_slots.hpp"
 #include "rpc/recent_plans.hpp"
+#include "rpc/reflection_v1.hpp"
 #include "rpc/traffic_service.hpp"
 #include "shared/etcd_client.hpp"
 #include "shared/etcd_map_heads.hpp"
@@ -111,6 +112,7 @@ class StrataServer {
   std::unique_ptr<EtcdScheduleLedger> shared_schedule_;
   std::unique_ptr<PlannerServiceImpl> planner_service_;
   std::unique_ptr<TrafficServiceImpl> traffic_service_;
+  std::unique_ptr<ReflectionV1Service> reflection_v1_;
   std::unique_ptr<grpc::Server> server_;
   std::unique_ptr<prometheus::Exposer> exposer_;
   std::unique_ptr<HttpApi> http_api_;

@@ -8,7 +8,9 @@
 #include <thread>
 
 #include <gmock/gmock.h>
+#include <google/protobuf/descriptor.pb.h>
 #include <grpc/health/v1/health.grpc.pb.h>
+#include <grpc/reflection/v1/reflection.grpc.pb.h>
 #include <grpcpp/impl/codegen/client_unary_call.h>
 #include <grpcpp/impl/codegen/rpc_method.h>
 
@@ -277,6 +279,45 @@ TEST_F(ServerOpsTest, MetricsShowTheCountersMoving) {
 
 // A client may call any path; every made-up one is counted under "unknown", so a thousand of
 // them add no series to the exposition (they once grew it by 18 KB each).
+// grpcurl and buf curl ask reflection v1 first (gRPC 1.51 serves only v1alpha): it lists the
+// services and resolves the types a failed call's details carry (google.rpc.ErrorInfo).
+TEST_F(ServerOpsTest, ReflectionV1ListsTheServicesAndResolvesErrorDetails) {
+  ASSERT_NO_FATAL_FAILURE(StartServer());
+  auto reflection = grpc::reflection::v1::ServerReflection::NewStub(channel_);
+  grpc::ClientContext context;
+  SetDeadline(&context, 10);
+  auto stream = reflection->ServerReflectionInfo(&context);
+  grpc::reflection::v1::ServerReflectionRequest request;
+  grpc::reflection::v1::ServerReflectionResponse response;
+
+  request.set_list_services("");
+  ASSERT_TRUE(stream->Write(request) && stream->Read(&response));
+  std::vector<std::string> services;
+  for (const auto& service : response.list_services_response().service()) {
+    services.push_back(service.name());
+  }
+  EXPECT_THAT(services, ::testing::IsSupersetOf({"strata.v1.PlannerService", "strata.v1.MapService",
+                                                 "grpc.reflection.v1.ServerReflection"}));
+
+  request.set_file_containing_symbol("google.rpc.ErrorInfo");
+  ASSERT_TRUE(stream->Write(request) && stream->Read(&response));
+  ASSERT_TRUE(response.has_file_descriptor_response()) << response.DebugString();
+  google::protobuf::FileDescriptorProto last;
+  const auto& files = response.file_descriptor_response().file_descriptor_proto();
+  ASSERT_TRUE(last.ParseFromString(files[files.size() - 1]));
+  EXPECT_EQ(last.name(), "google/rpc/error_details.proto");
+
+  request.set_file_containing_symbol("strata.v1.PlannerService.Plan");
+  ASSERT_TRUE(stream->Write(request) && stream->Read(&response));
+  EXPECT_GE(response.file_descriptor_response().file_descriptor_proto_size(), 2);
+
+  request.set_file_containing_symbol("no.such.Thing");
+  ASSERT_TRUE(stream->Write(request) && stream->Read(&response));
+  EXPECT_EQ(response.error_response().error_code(), grpc::StatusCode::NOT_FOUND);
+  stream->WritesDone();
+  EXPECT_TRUE(stream->Finish().ok());
+}
+
 TEST_F(ServerOpsTest, CallsToUnknownMethodsShareOneSeries) {
   ASSERT_NO_FATAL_FAILURE(StartServer());
   const auto call = [&](const std::string& path) {
