@@ -32,13 +32,15 @@ v1::Vector3 ToVector(const Eigen::Vector3d& p) {
 void PrintSnapped(std::ostream& out, const char* name, const v1::SnappedState& state,
                   const v1::Vector3* requested) {
   if (requested == nullptr) {
-    out << "  " << name << FormatVector(state.position_m()) << " m, level " << state.level()
-        << "\n";
+    out << "  " << name << FormatVector(state.position_m()) << " m, on the ground at "
+        << Fixed(state.ground_height_m(), 2) << " m (level " << state.level()
+        << " of its column)\n";
     return;
   }
   const double moved_m =
       std::hypot(state.position_m().x() - requested->x(), state.position_m().y() - requested->y());
-  out << "  " << name << FormatVector(state.position_m()) << " m, level " << state.level();
+  out << "  " << name << FormatVector(state.position_m()) << " m, on the ground at "
+      << Fixed(state.ground_height_m(), 2) << " m (level " << state.level() << " of its column)";
   if (moved_m < 1e-3) {
     out << ", at the requested x, y\n";
   } else {

@@ -131,8 +131,9 @@ ServiceStatus PlanOnMap(const PlanningMap& map, const ParsedPlanRequest& request
 ServiceStatus WritePlan(const PlanResult& plan, const ParsedPlanRequest& request, int max_samples,
                         v1::PlanResponse* response) {
   ToProto(plan.trajectory, response->mutable_trajectory());
-  ToProto(plan.start, response->mutable_start());
-  ToProto(plan.goal, response->mutable_goal());
+  const double reference_height_m = request.plan.profile.reference_height_m;
+  ToProto(plan.start, reference_height_m, response->mutable_start());
+  ToProto(plan.goal, reference_height_m, response->mutable_goal());
   ToProto(plan.stats, response->mutable_stats());
   ToProto(request.plan.profile, response->mutable_profile());
   response->set_time_budget_s(request.plan.options.time_budget_s);
@@ -495,7 +496,7 @@ ServiceStatus PlannerServiceImpl::EstimateInSlot(const ParsedCostRequest& costs,
     return ServiceError::FromPlanner(*first_error);
   }
 
-  ToProto(*query, matrix, response);
+  ToProto(*query, matrix, costs.profile.reference_height_m, response);
   ToProto(costs.profile, response->mutable_profile());
   response->set_map_version(map.version);
   v1::EstimateCostsStats* stats = response->mutable_stats();

@@ -542,14 +542,14 @@ std::vector<Eigen::Vector3d> PositionsFromProto(
 }
 
 void ToProto(const TravelCostQuery& query, const TravelCostMatrix& matrix,
-             v1::EstimateCostsResponse* response) {
-  const auto ends = [](const std::vector<Expected<SnapResult>>& from,
-                       google::protobuf::RepeatedPtrField<v1::CostEndpoint>* to) {
+             double reference_height_m, v1::EstimateCostsResponse* response) {
+  const auto ends = [reference_height_m](const std::vector<Expected<SnapResult>>& from,
+                                         google::protobuf::RepeatedPtrField<v1::CostEndpoint>* to) {
     to->Reserve(static_cast<int>(from.size()));
     for (const Expected<SnapResult>& end : from) {
       v1::CostEndpoint* out = to->Add();
       if (end) {
-        ToProto(*end, out->mutable_snapped());
+        ToProto(*end, reference_height_m, out->mutable_snapped());
       } else {
         out->set_reason(std::string(MapError(end.error().code).reason));
         out->set_message(BoundedText(end.error().message, kMaxErrorMessageBytes));
@@ -694,8 +694,9 @@ Result<WarmStart> WarmStartFromRequest(const v1::WarmStart& message) {
   return warm;
 }
 
-void ToProto(const SnapResult& snap, v1::SnappedState* message) {
+void ToProto(const SnapResult& snap, double reference_height_m, v1::SnappedState* message) {
   ToProto(snap.position_m, message->mutable_position_m());
+  message->set_ground_height_m(snap.position_m.z() - reference_height_m);
   message->set_level(static_cast<std::uint32_t>(std::max(0, snap.level)));
   message->set_distance_m(snap.distance_m);
 }

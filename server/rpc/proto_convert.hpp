@@ -96,7 +96,7 @@ std::vector<Eigen::Vector3d> PositionsFromProto(
 /// The ends and cells of an estimate (everything of the response but profile, map_version and
 /// stats): a failed end or cell carries its reason from the error table (error_mapping.hpp).
 void ToProto(const TravelCostQuery& query, const TravelCostMatrix& matrix,
-             v1::EstimateCostsResponse* response);
+             double reference_height_m, v1::EstimateCostsResponse* response);
 
 /// Options over the planner's defaults, copied (time_budget_s as given: the caller caps it,
 /// see PlannerService); PlanOptions::Validate checks them.
@@ -124,7 +124,8 @@ Result<Trajectory> FromProto(const v1::Trajectory& message);
 /// set (-1 when not). PlanRequest::Validate checks the trajectory against the profile.
 Result<WarmStart> WarmStartFromRequest(const v1::WarmStart& message);
 
-void ToProto(const SnapResult& snap, v1::SnappedState* message);
+/// `snap` for a robot whose reference point is `reference_height_m` above the ground.
+void ToProto(const SnapResult& snap, double reference_height_m, v1::SnappedState* message);
 /// The search's path into PlanResponse.search_path_m.
 void AppendSearchPath(const PathResult& path, v1::PlanResponse* response);
 /// Every field but map_id, map_version and safety_height_m, which are the caller's.

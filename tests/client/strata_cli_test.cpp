@@ -158,8 +158,11 @@ TEST_F(StrataCliTest, PlanSummaryNamesSnappedStatesAndPieces) {
               "differential", "--time-budget", "5"});
   ASSERT_EQ(result.exit_code, 0) << result.err;
   EXPECT_THAT(result.out, HasSubstr("plan on map demo for robot differential"));
-  EXPECT_THAT(result.out, HasSubstr("level 0"));
-  EXPECT_THAT(result.out, HasSubstr("level 1"));
+  // Ends named as a person reads them: the ground's height, and where they are from the point
+  // asked for (the per-column level index kept beside).
+  EXPECT_THAT(result.out, HasSubstr("start (2.000, 2.000, 0.300) m, on the ground at 0.00 m "
+                                    "(level 0 of its column), at the requested x, y"));
+  EXPECT_THAT(result.out, HasSubstr("on the ground at 3.00 m (level 1 of its column)"));
   EXPECT_THAT(result.out, HasSubstr("piece   start_s  duration_s"));
 }
 

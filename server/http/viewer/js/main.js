@@ -371,8 +371,8 @@ function showPlan(request, response) {
   figures(dl, [
     ['length', `${fixed(s.length_m)} m`, 'plan-length'],
     ['duration', `${fixed(s.duration_s)} s`],
-    ['start', `${point(response.start.position_m)} level ${response.start.level} ${snapped(response.start, request.start.position_m)}`],
-    ['goal', `${point(response.goal.position_m)} level ${response.goal.level} ${snapped(response.goal, request.goal.position_m)}`],
+    ['start', `${point(response.start.position_m)} ground ${fixed(response.start.ground_height_m ?? 0)} m ${snapped(response.start, request.start.position_m)}`],
+    ['goal', `${point(response.goal.position_m)} ground ${fixed(response.goal.ground_height_m ?? 0)} m ${snapped(response.goal, request.goal.position_m)}`],
     ['max speed', `${fixed(s.max_speed_horizontal_mps)} m/s horizontal, ${fixed(s.max_speed_vertical_mps)} vertical`],
     ['max accel.', `${fixed(s.max_accel_horizontal_mps2)} m/s² horizontal, ${fixed(s.max_accel_vertical_mps2)} vertical`],
     ['mean curvature', `${fixed(s.mean_curvature_per_m, 3)} 1/m`],

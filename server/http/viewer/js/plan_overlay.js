@@ -52,7 +52,7 @@ export function planDrawing({
     for (const [which, color] of [['start', START_COLOR], ['goal', GOAL_COLOR]]) {
       const snapped = response[which];
       const [x, y, z] = position(snapped.position_m);
-      markers.push({ x, y, z, color: css(color), rgb: color, id: `${which}-marker`, label: `${which} · level ${snapped.level}` });
+      markers.push({ x, y, z, color: css(color), rgb: color, id: `${which}-marker`, label: `${which} · ground ${(snapped.ground_height_m ?? 0).toFixed(1)} m` });
     }
   }
   if (nearest) {
