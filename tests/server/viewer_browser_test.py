@@ -53,8 +53,12 @@ def main():
                      "the map list to show demo")
         row = driver.find_element("css selector", '#maps tr[data-map-id="demo"]')
         assert "active" in row.text, row.text
+        # Before a map is picked the view says what to do, and not after.
+        landing = driver.find_element("id", "landing")
+        assert landing.is_displayed() and "Pick a map" in landing.text, landing.text
         row.click()
         browser.wait("document.body.dataset.mapDrawn === 'demo'", 60, "the demo map drawn")
+        assert not landing.is_displayed()
         levels = driver.find_elements("css selector", "#levels input[data-level]")
         assert len(levels) == 2, f"the demo has a floor and a deck, the page shows {len(levels)} levels"
 

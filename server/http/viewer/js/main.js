@@ -114,6 +114,7 @@ async function selectMap(id) {
   history.replaceState(null, '', `#map=${encodeURIComponent(id)}`);  // A link to this map.
   for (const row of $('maps').tBodies[0].rows) row.classList.toggle('selected', row.dataset.mapId === id);
   $('map-section').hidden = false;
+  $('landing').hidden = true;
   $('map-title').textContent = id;
   $('geometry-note').textContent = 'loading…';
   let map;
@@ -426,6 +427,11 @@ function plainWords(error) {
 
 function showError(error, request) {
   state.shown = { request, error };
+  if (state.style.color === 'components') {
+    // An earlier unreachable goal's colouring says nothing about this error.
+    state.style.color = $('show-safety').checked ? 'safety' : 'height';
+    restyle();
+  }
   const result = $('plan-result');
   result.replaceChildren();
   const box = text('div', undefined, { class: 'error', id: 'plan-error', 'data-reason': error.reason });
