@@ -612,8 +612,23 @@ ServiceStatus MapStore::PublishUpdate(const std::string& id, const std::string& 
   Result<std::optional<std::vector<std::string>>> head = ReadHead(map_dir);
   if (!head) return std::move(head).error();
   if (!head->has_value()) return MapLock::NotFound(id);
-  const std::vector<std::string>& kept = **head;
-  if (kept.front() == version) return OkStatus();
+  std::vector<std::string> dropped;
+  Result<std::optional<std::vector<std::string>>> next =
+      UpdatedHead(id, **head, expected_current, version, keep_versions, &dropped);
+  if (!next) return std::move(next).error();
+  if (!next->has_value()) return OkStatus();
+  if (ServiceStatus written = WriteHead(root_ / "tmp", map_dir, **next); !written) return written;
+  // Only now that no head lists them: a reader that still loads one finds it gone (and is
+  // told which versions are kept), never a head naming a missing version.
+  for (const std::string& old : dropped) Discard(VersionDir(id, old));
+  return OkStatus();
+}
+
+Result<std::optional<std::vector<std::string>>> MapStore::UpdatedHead(
+    const std::string& id, const std::vector<std::string>& kept,
+    const std::string& expected_current, const std::string& version, int keep_versions,
+    std::vector<std::string>* dropped) const {
+  if (kept.front() == version) return std::optional<std::vector<std::string>>();
   if (kept.front() != expected_current) {
     // The version put for this change will never be published: no leftover stays behind,
     // unless the head lists it already (the same content published earlier).
@@ -624,13 +639,7 @@ ServiceStatus MapStore::PublishUpdate(const std::string& id, const std::string& 
   }
   std::error_code ec;
   if (!fs::is_directory(VersionDir(id, version), ec)) return NotPut(id, version);
-  std::vector<std::string> dropped;
-  const std::vector<std::string> next = NextHead(kept, version, keep_versions, &dropped);
-  if (ServiceStatus written = WriteHead(root_ / "tmp", map_dir, next); !written) return written;
-  // Only now that no head lists them: a reader that still loads one finds it gone (and is
-  // told which versions are kept), never a head naming a missing version.
-  for (const std::string& old : dropped) Discard(VersionDir(id, old));
-  return OkStatus();
+  return std::optional(NextHead(kept, version, keep_versions, dropped));
 }
 
 ServiceStatus MapStore::PublishUpdateShared(const std::string& id,
@@ -640,19 +649,12 @@ ServiceStatus MapStore::PublishUpdateShared(const std::string& id,
     Result<MapHeads::Head> head = shared_heads_->Read(id);
     if (!head) return std::move(head).error();
     if (!head->has_value()) return MapLock::NotFound(id);
-    const std::vector<std::string>& kept = **head;
-    if (kept.front() == version) return OkStatus();
-    if (kept.front() != expected_current) {
-      if (std::find(kept.begin(), kept.end(), version) == kept.end()) {
-        Discard(VersionDir(id, version));
-      }
-      return Changed(id, kept.front(), expected_current);
-    }
-    std::error_code ec;
-    if (!fs::is_directory(VersionDir(id, version), ec)) return NotPut(id, version);
     std::vector<std::string> dropped;
-    Result<bool> swapped =
-        shared_heads_->Swap(id, kept, NextHead(kept, version, keep_versions, &dropped));
+    Result<std::optional<std::vector<std::string>>> next =
+        UpdatedHead(id, **head, expected_current, version, keep_versions, &dropped);
+    if (!next) return std::move(next).error();
+    if (!next->has_value()) return OkStatus();
+    Result<bool> swapped = shared_heads_->Swap(id, *head, *next);
     if (!swapped) return std::move(swapped).error();
     if (*swapped) {
       for (const std::string& old : dropped) Discard(VersionDir(id, old));

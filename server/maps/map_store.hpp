@@ -48,6 +48,7 @@
 #include <chrono>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -176,6 +177,14 @@ class MapStore {
   MapStore(std::filesystem::path root, std::shared_ptr<MapHeads> heads)
       : root_(std::move(root)), shared_heads_(std::move(heads)) {}
 
+  // The head after publishing `version` over `kept` (the current head) when it was made on
+  // `expected_current`; nullopt when `version` is current already. kMapChanged (discarding
+  // the version's directory unless `kept` lists it), kMapVersionNotFound when it was not put.
+  // `dropped` gets the versions the new head no longer keeps.
+  Result<std::optional<std::vector<std::string>>> UpdatedHead(
+      const std::string& id, const std::vector<std::string>& kept,
+      const std::string& expected_current, const std::string& version, int keep_versions,
+      std::vector<std::string>* dropped) const;
   // PublishNew, PublishUpdate and Delete on shared heads: read, decide, compare-and-swap,
   // again when another replica swapped first.
   ServiceStatus PublishNewShared(const std::string& id, const std::string& version);

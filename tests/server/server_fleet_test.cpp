@@ -8,6 +8,7 @@
 
 #include <gmock/gmock.h>
 
+#include "reserved_motion.hpp"
 #include "rpc/proto_convert.hpp"
 #include "rpc/traffic_convert.hpp"
 #include "server_fixture.hpp"
@@ -30,15 +31,6 @@ v1::PlanRequest FleetPlan(const std::string& robot, double sx, double sy, double
   request.mutable_fleet()->set_robot_id(robot);
   request.mutable_fleet()->set_reserve(reserve);
   return request;
-}
-
-FleetMotion MotionOf(const v1::Reservation& reservation) {
-  FleetMotion motion;
-  motion.start_ns = FromProto(reservation.start_time(), "start_time").value();
-  motion.end_ns = FromProto(reservation.expiry_time(), "expiry_time").value();
-  motion.trajectory = FromProto(reservation.trajectory()).value();
-  motion.body = FromProto(reservation.body(), "body").value();
-  return motion;
 }
 
 class ServerFleetTest : public ServerFixture {

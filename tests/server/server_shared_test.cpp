@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 
 #include "etcd_process.hpp"
+#include "reserved_motion.hpp"
 #include "rpc/proto_convert.hpp"
 #include "rpc/traffic_convert.hpp"
 #include "server_fixture.hpp"
@@ -30,15 +31,6 @@ v1::PlanRequest FleetPlan(const std::string& robot, double sx, double sy, double
   request.mutable_fleet()->set_reserve(true);
   request.mutable_fleet()->set_lease_s(lease_s);
   return request;
-}
-
-FleetMotion MotionOf(const v1::Reservation& reservation) {
-  FleetMotion motion;
-  motion.start_ns = FromProto(reservation.start_time(), "start_time").value();
-  motion.end_ns = FromProto(reservation.expiry_time(), "expiry_time").value();
-  motion.trajectory = FromProto(reservation.trajectory()).value();
-  motion.body = FromProto(reservation.body(), "body").value();
-  return motion;
 }
 
 std::unique_ptr<ServerProcess> Replica(const EtcdProcess& etcd) {
