@@ -165,6 +165,12 @@ void RequestSeeds(const fs::path& dir) {
   *update.add_edits()->mutable_add_obstacle() = zone;
   *update.add_edits()->mutable_remove_points() = zone;
   *update.add_edits()->mutable_add_keep_out() = zone;
+  strata::v1::Scan* scan = update.add_edits()->mutable_scan();
+  *scan->mutable_region() = zone;
+  // Packed float32 x, y, z (little-endian, as the machines that fuzz are); the last point lies
+  // outside the region.
+  const float xyz[] = {0.5f, 0.5f, 0.1f, 1.5f, 1.5f, 0.2f, 3.0f, 3.0f, 0.0f};
+  scan->set_points(std::string(reinterpret_cast<const char*>(xyz), sizeof(xyz)));
   write(0, "update_map", update);
   strata::v1::PlanBatchRequest batch;
   for (int i = 0; i < 2; ++i) {

@@ -252,6 +252,23 @@ PlanningMap::PlanningMap(std::shared_ptr<const TerrainModel> model, std::vector<
                          std::size_t max_graph_bytes)
     : model_(std::move(model)), keep_out_(std::move(keep_out)), max_graph_bytes_(max_graph_bytes) {}
 
+std::shared_ptr<const PlanningMap> PlanningMap::WithKeepOut(std::vector<Prism> keep_out) const {
+  auto copy = std::make_shared<PlanningMap>(model_, std::move(keep_out), max_graph_bytes_);
+  std::lock_guard lock(mutex_);
+  // Oldest first, so that the copy's recency list keeps this one's order.
+  for (auto it = recency_.rbegin(); it != recency_.rend(); ++it) {
+    const GraphEntry& entry = *graphs_.at(*it);
+    if (!entry.built.load(std::memory_order_acquire) || entry.graph == nullptr) continue;
+    auto held = std::make_shared<GraphEntry>();
+    std::call_once(held->once, [&] { held->graph = entry.graph; });
+    held->built.store(true, std::memory_order_release);
+    copy->recency_.push_front(*it);
+    held->recency = copy->recency_.begin();
+    copy->graphs_.emplace(*it, std::move(held));
+  }
+  return copy;
+}
+
 Expected<std::shared_ptr<const SurfaceGraph>> PlanningMap::Graph(
     const TraversabilityParams& params, const std::function<bool()>& should_stop) const {
   while (true) {

@@ -50,9 +50,12 @@ Expected<BuiltMap> BuildEditHere(const EditSource& edit, const MapBuildJob& job,
   if (monitor.on_loaded) monitor.on_loaded(built.raw_point_count, 0, built.load_s);
   EditFigures figures;
   const auto apply_start = std::chrono::steady_clock::now();
-  Expected<PointCloud> edited = ApplyEdits(cloud->points, edit.edits, **base);
+  ScanCounts scans;
+  Expected<PointCloud> edited = ApplyEdits(cloud->points, edit.edits, **base, &scans);
   if (!edited) return edited.error();
   figures.apply_s = SecondsSince(apply_start);
+  figures.scan_points_outside_region = scans.outside_region;
+  figures.scan_points_thinned = scans.thinned;
   const auto reassess_start = std::chrono::steady_clock::now();
   const AssessmentControl control{monitor.on_progress, monitor.should_stop};
   Expected<Reassessment> reassessed =
@@ -92,7 +95,7 @@ Expected<BuiltMap> BuildMapHere(MapBuildJob job, const BuildMonitor& monitor,
     built.model = std::move(model).value();
     built.raw_point_count = built.model->summary().input_points;
     built.load_s = SecondsSince(load_start);
-    built.version = MapStore::VersionOfSavedModel(file.file->ProcPath());
+    built.version = MapStore::TerrainOfSavedModel(file.file->ProcPath());
     if (monitor.on_loaded) monitor.on_loaded(built.raw_point_count, 0, built.load_s);
     return built;
   }

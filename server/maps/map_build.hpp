@@ -78,6 +78,8 @@ struct EditFigures {
   bool full_reassessment = false;       ///< The edits changed what the whole map depends on.
   std::string full_reason;              ///< Why, when full_reassessment.
   std::int64_t reassessed_columns = 0;  ///< Grid columns assessed again.
+  std::uint64_t scan_points_outside_region = 0;  ///< Scans' points not added (ScanCounts).
+  std::uint64_t scan_points_thinned = 0;         ///< Scans' points thinned away (ScanCounts).
 };
 
 /// A map made, with the figures Map reports.
@@ -87,8 +89,8 @@ struct BuiltMap {
   std::size_t raw_point_count = 0;    ///< Points the source held, finite or not.
   std::size_t dropped_nonfinite = 0;  ///< Points dropped for a NaN/Inf coordinate.
   double load_s = 0;                  ///< Reading the source [s].
-  /// The version the map store names it by (MapStore::VersionOf, VersionOfSavedModel), with
-  /// no keep-out zones.
+  /// The version the map store names it by with no keep-out zones, which is also the name of
+  /// its terrain (MapStore::TerrainOf, TerrainOfSavedModel).
   std::string version;
   /// For an edit: how its model was made.
   std::optional<EditFigures> edit;

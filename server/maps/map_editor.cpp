@@ -121,28 +121,41 @@ Result<MapUpdate> MapEditor::UpdateOnce(const MapEditRequest& request, const Cal
     making = std::move(reserved).value();
   }
   BuiltMap built;
+  std::string terrain;                               // What the new version is made of.
+  std::shared_ptr<const PlanningMap> base_planning;  // For keep-out zones alone.
   if (!request.edits.empty()) {
     Result<BuiltMap> edited = RunEditJob(request, current, call);
     if (!edited.ok()) return std::move(edited).error();
     built = std::move(edited).value();
+    terrain = built.version;  // Named without zones (MapStore::VersionOf).
   } else {
-    // Keep-out zones alone: the same cloud and model under a new version.
+    // Keep-out zones alone: the base's terrain (cloud and model) under a new version, and its
+    // graphs, which zones are not part of.
     Result<ActiveMap> base = published.Get(id, current);
     if (!base.ok()) return std::move(base).error();
-    Result<PointCloud> cloud = published.LoadCloud(id, current);
-    if (!cloud.ok()) return std::move(cloud).error();
-    built.model = base.value().map->model_ptr();
-    built.cloud = std::move(cloud).value();
+    base_planning = base.value().map;
+    built.model = base_planning->model_ptr();
+    Result<std::string> known = published.TerrainOf(id, current);
+    if (!known.ok()) return std::move(known).error();
+    terrain = std::move(known).value();
+    if (terrain.empty()) {  // A version of layout 1: its cloud goes to a terrain of its own.
+      Result<PointCloud> cloud = published.LoadCloud(id, current);
+      if (!cloud.ok()) return std::move(cloud).error();
+      built.cloud = std::move(cloud).value();
+      terrain = MapStore::TerrainOf(built.cloud, built.model->config());
+    }
   }
   if (std::optional<ServiceError> ended = CallEnded(call, id, current)) return *ended;
 
   std::vector<Prism> keep_out = request.clear_keep_out ? std::vector<Prism>{} : map.keep_out;
   keep_out.insert(keep_out.end(), request.add_keep_out.begin(), request.add_keep_out.end());
   const TerrainModel& model = *built.model;
-  map.version = MapStore::VersionOf(built.cloud, model.config(), keep_out);
+  map.version = MapStore::VersionOf(terrain, keep_out);
   map.summary = model.summary();
-  // The version's source is the edited cloud: raw = dropped + input holds for every version.
-  map.raw_point_count = built.cloud.size() + map.dropped_nonfinite_point_count;
+  if (!request.edits.empty()) {
+    // The version's source is the edited cloud: raw = dropped + input holds for every version.
+    map.raw_point_count = built.cloud.size() + map.dropped_nonfinite_point_count;
+  }
   map.grid = model.grid();
   map.max_levels = MaxLevels(model);
   map.keep_out = keep_out;
@@ -154,8 +167,13 @@ Result<MapUpdate> MapEditor::UpdateOnce(const MapEditRequest& request, const Cal
   }
   const auto write_start = SteadyClock::now();
   std::shared_ptr<const PlanningMap> planning =
-      options_.make_planning(built.model, std::move(keep_out));
-  if (ServiceStatus put = published.PublishEdit(current, map, planning, built.cloud); !put.ok()) {
+      base_planning ? base_planning->WithKeepOut(std::move(keep_out))
+                    : options_.make_planning(built.model, std::move(keep_out));
+  // The cloud goes to the store only with a terrain it does not hold yet.
+  const bool terrain_stored = base_planning != nullptr && built.cloud.empty();
+  if (ServiceStatus put = published.PublishEdit(current, map, terrain, planning,
+                                                terrain_stored ? nullptr : &built.cloud);
+      !put.ok()) {
     return std::move(put).error();
   }
   MapUpdate update;

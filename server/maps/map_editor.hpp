@@ -3,7 +3,8 @@
 /// new maps are made: as a job of the assessment queue, in a worker process, under the same
 /// limits (--max-concurrent-assessments, --max-assessment-time-s, --max-assessment-memory), and
 /// they stop when the call's deadline passes or its client cancels. Keep-out zones alone
-/// change no terrain: their version is written on the calling thread. A version is published
+/// change no terrain: their version names the base's terrain, holds the base's graphs and is
+/// written on the calling thread (its description only). A version is published
 /// only when it is whole and the call still waits for it, so a call that ends early leaves the
 /// map at its old version. Without a base version, an edit that another one overtook is made
 /// again on the new current version. No gRPC here.

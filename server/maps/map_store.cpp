@@ -14,11 +14,13 @@
 #include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <functional>
 #include <iterator>
 #include <limits>
 #include <map>
 #include <mutex>
 #include <random>
+#include <set>
 #include <sstream>
 #include <system_error>
 #include <type_traits>
@@ -40,10 +42,14 @@ static_assert(std::endian::native == std::endian::little,
 static_assert(sizeof(Eigen::Vector3f) == 3 * sizeof(float), "points are three packed floats");
 
 constexpr std::string_view kMarkerName = "strata-map-store";
-constexpr std::string_view kMarkerText = "strata map store, layout 1\n";
+constexpr std::string_view kMarkerText = "strata map store, layout 2\n";
+// Layout 1 held each version's cloud and model in its own directory; layout 2 reads those.
+constexpr std::string_view kLayout1MarkerText = "strata map store, layout 1\n";
 constexpr const char* kHeadName = "head";
 constexpr const char* kLockName = "lock";
 constexpr const char* kVersionsName = "versions";
+constexpr const char* kTerrainsName = "terrains";
+constexpr const char* kTerrainName = "terrain";  // In a version: the name of its terrain.
 constexpr const char* kCloudName = "cloud.pcd";
 constexpr const char* kModelName = "model.stratamodel";
 constexpr const char* kMetadataName = "metadata";
@@ -63,6 +69,12 @@ ServiceStatus CheckVersion(const std::string& version) {
                        "' is not valid: a version is 32 lowercase hex digits, as the map's "
                        "versions list shows")
       .Blame("version");
+}
+
+ServiceStatus CheckTerrain(const std::string& terrain) {
+  if (MapStore::IsVersion(terrain)) return OkStatus();
+  return MakeError(ErrorCode::kInvalidInput, "map store: terrain name '" + terrain.substr(0, 64) +
+                                                 "' is not 32 lowercase hex digits");
 }
 
 std::string ErrnoText(int error) { return std::generic_category().message(error); }
@@ -364,8 +376,7 @@ std::string Hex(const XXH128_canonical_t& canonical) {
 
 }  // namespace
 
-std::string MapStore::VersionOf(const PointCloud& cloud, const AssessmentConfig& config,
-                                std::span<const Prism> keep_out) {
+std::string MapStore::TerrainOf(const PointCloud& cloud, const AssessmentConfig& config) {
   XXH3_state_t* state = XXH3_createState();
   XXH3_128bits_reset(state);
   HashString(state, "strata map version");
@@ -382,6 +393,20 @@ std::string MapStore::VersionOf(const PointCloud& cloud, const AssessmentConfig&
       HashValue(state, static_cast<std::int64_t>(value));
     }
   });
+  // Layout 1 hashed the (then always empty) zone count here: a first version keeps its name.
+  HashValue(state, std::uint64_t{0});
+  XXH128_canonical_t canonical;
+  XXH128_canonicalFromHash(&canonical, XXH3_128bits_digest(state));
+  XXH3_freeState(state);
+  return Hex(canonical);
+}
+
+std::string MapStore::VersionOf(std::string_view terrain, std::span<const Prism> keep_out) {
+  if (keep_out.empty()) return std::string(terrain);
+  XXH3_state_t* state = XXH3_createState();
+  XXH3_128bits_reset(state);
+  HashString(state, "strata map version with keep-out zones");
+  HashString(state, terrain);
   HashValue(state, static_cast<std::uint64_t>(keep_out.size()));
   for (const Prism& zone : keep_out) {
     HashValue(state, static_cast<std::uint64_t>(zone.polygon_m.size()));
@@ -398,7 +423,12 @@ std::string MapStore::VersionOf(const PointCloud& cloud, const AssessmentConfig&
   return Hex(canonical);
 }
 
-std::string MapStore::VersionOfSavedModel(const std::string& path) {
+std::string MapStore::VersionOf(const PointCloud& cloud, const AssessmentConfig& config,
+                                std::span<const Prism> keep_out) {
+  return VersionOf(TerrainOf(cloud, config), keep_out);
+}
+
+std::string MapStore::TerrainOfSavedModel(const std::string& path) {
   // The file's bytes determine the model (its format version and parameters are inside), so
   // they name it, apart from any cloud's versions by the prefix.
   XXH3_state_t* state = XXH3_createState();
@@ -472,6 +502,15 @@ Result<std::unique_ptr<MapStore>> MapStore::Open(fs::path root, std::shared_ptr<
     if (!written) return invalid("cannot be initialised (" + written.error().message + ")");
     text = ReadFileIfExists(marker);
   }
+  if (text && text->has_value() && **text == kLayout1MarkerText) {
+    // Layout 2 reads every layout-1 version; from now on a server of layout 1 refuses it,
+    // rather than miss the cloud and model of versions it cannot read.
+    const fs::path temporary = root / "tmp" / UniqueName("marker");
+    ServiceStatus written = WriteNewFile(temporary, kMarkerText);
+    if (written) written = RenameDurably(temporary, marker);
+    if (!written) return invalid("cannot be taken over (" + written.error().message + ")");
+    text = ReadFileIfExists(marker);
+  }
   if (!text) return invalid("cannot be read (" + text.error().message + ")");
   if (!text->has_value() || **text != kMarkerText) {
     return invalid("holds a map store of another layout (its " + std::string(kMarkerName) +
@@ -498,21 +537,25 @@ bool MapStore::Discard(const fs::path& path) const {
   return true;
 }
 
-ServiceStatus MapStore::PutVersion(const std::string& id, const std::string& version,
-                                   const PointCloud& cloud, const TerrainModel& model,
-                                   const std::string& metadata) {
-  if (ServiceStatus ok = CheckId(id); !ok) return ok;
-  if (ServiceStatus ok = CheckVersion(version); !ok) return ok;
-  const fs::path target = VersionDir(id, version);
+fs::path MapStore::TerrainDir(const std::string& id, const std::string& terrain) const {
+  return MapDir(id) / kTerrainsName / terrain;
+}
+
+namespace {
+
+// Puts the directory `target` (a `kind`: "terrain", "version"): `fill` writes its files into
+// a fresh temporary directory, which is made durable and renamed into place. When `target`
+// exists (another writer put the same content) that is success and nothing is written; its
+// time is refreshed so that CollectGarbage does not take it for a dead writer's leftover
+// before the caller names or publishes it.
+ServiceStatus PutDirectory(const fs::path& tmp_dir, std::string_view kind, const fs::path& target,
+                           const std::function<ServiceStatus(const fs::path&)>& fill) {
   std::error_code ec;
   if (fs::is_directory(target, ec)) {
-    // Fresh again, so that CollectGarbage does not take it for a dead writer's leftover
-    // before the caller publishes it.
     fs::last_write_time(target, fs::file_time_type::clock::now(), ec);
     return OkStatus();
   }
-
-  const fs::path temporary = root_ / "tmp" / UniqueName("version");
+  const fs::path temporary = tmp_dir / UniqueName(kind);
   const auto fail = [&](ServiceError error) {
     std::error_code ignored;
     fs::remove_all(temporary, ignored);
@@ -521,44 +564,78 @@ ServiceStatus MapStore::PutVersion(const std::string& id, const std::string& ver
   if (::mkdir(temporary.c_str(), 0755) != 0) {
     return Unavailable(temporary, "create the temporary directory", errno);
   }
-  const fs::path cloud_path = temporary / kCloudName;
-  const fs::path model_path = temporary / kModelName;
-  if (!cloud.empty()) {  // A map made from a saved model has no cloud to keep.
-    if (Status saved = SavePcd(cloud, cloud_path.string()); !saved) {
-      return fail(MakeError(ServiceErrorCode::kMapStoreUnavailable,
-                            "map store: cannot write the cloud: " + saved.error().message));
-    }
-    if (ServiceStatus synced = Sync(cloud_path); !synced) return fail(std::move(synced).error());
-  }
-  if (Status saved = SaveModel(model, model_path.string()); !saved) {
-    return fail(MakeError(ServiceErrorCode::kMapStoreUnavailable,
-                          "map store: cannot write the model: " + saved.error().message));
-  }
-  if (ServiceStatus synced = Sync(model_path); !synced) return fail(std::move(synced).error());
-  if (ServiceStatus written = WriteNewFile(temporary / kMetadataName, metadata); !written) {
-    return fail(std::move(written).error());
-  }
+  if (ServiceStatus filled = fill(temporary); !filled) return fail(std::move(filled).error());
   if (ServiceStatus synced = Sync(temporary); !synced) return fail(std::move(synced).error());
 
   // A deletion of the map may rename maps/<id> away between the mkdir and the rename: then
-  // make it again (a version put after a deletion belongs to the map created next).
-  const fs::path versions_dir = target.parent_path();
+  // make it again (what is put after a deletion belongs to the map created next).
+  const fs::path parent = target.parent_path();
   for (int attempt = 0; attempt < kMaxAttempts; ++attempt) {
-    fs::create_directories(versions_dir, ec);
-    if (ec) return fail(Unavailable(versions_dir, "create", ec));
-    if (::rename(temporary.c_str(), target.c_str()) == 0) {
-      if (ServiceStatus synced = Sync(versions_dir); !synced) return synced;
-      return OkStatus();
-    }
+    fs::create_directories(parent, ec);
+    if (ec) return fail(Unavailable(parent, "create", ec));
+    if (::rename(temporary.c_str(), target.c_str()) == 0) return Sync(parent);
     const int error = errno;
-    // Another writer put the same version first: its bytes are the same.
+    // Another writer put the same content first: its bytes are the same.
     if (error == EEXIST || error == ENOTEMPTY) {
       fs::remove_all(temporary, ec);
       return OkStatus();
     }
-    if (error != ENOENT) return fail(Unavailable(target, "rename the version into place", error));
+    if (error != ENOENT) return fail(Unavailable(target, "rename into place", error));
   }
-  return fail(Unavailable(target, "rename the version into place", ENOENT));
+  return fail(Unavailable(target, "rename into place", ENOENT));
+}
+
+}  // namespace
+
+ServiceStatus MapStore::PutTerrain(const std::string& id, const std::string& terrain,
+                                   const PointCloud& cloud, const TerrainModel& model) {
+  if (ServiceStatus ok = CheckId(id); !ok) return ok;
+  if (ServiceStatus ok = CheckTerrain(terrain); !ok) return ok;
+  return PutDirectory(root_ / "tmp", "terrain", TerrainDir(id, terrain), [&](const fs::path& dir) {
+    const fs::path cloud_path = dir / kCloudName;
+    const fs::path model_path = dir / kModelName;
+    if (!cloud.empty()) {  // A map made from a saved model has no cloud to keep.
+      if (Status saved = SavePcd(cloud, cloud_path.string()); !saved) {
+        return ServiceStatus(
+            MakeError(ServiceErrorCode::kMapStoreUnavailable,
+                      "map store: cannot write the cloud: " + saved.error().message));
+      }
+      if (ServiceStatus synced = Sync(cloud_path); !synced) return synced;
+    }
+    if (Status saved = SaveModel(model, model_path.string()); !saved) {
+      return ServiceStatus(
+          MakeError(ServiceErrorCode::kMapStoreUnavailable,
+                    "map store: cannot write the model: " + saved.error().message));
+    }
+    return Sync(model_path);
+  });
+}
+
+bool MapStore::HasTerrain(const std::string& id, const std::string& terrain) const {
+  std::error_code ec;
+  return CheckId(id).ok() && CheckTerrain(terrain).ok() &&
+         fs::is_directory(TerrainDir(id, terrain), ec);
+}
+
+ServiceStatus MapStore::PutVersion(const std::string& id, const std::string& version,
+                                   const std::string& terrain, const std::string& metadata) {
+  if (ServiceStatus ok = CheckId(id); !ok) return ok;
+  if (ServiceStatus ok = CheckVersion(version); !ok) return ok;
+  if (ServiceStatus ok = CheckTerrain(terrain); !ok) return ok;
+  // Refreshed first, so that CollectGarbage leaves it to the version about to name it.
+  std::error_code ec;
+  fs::last_write_time(TerrainDir(id, terrain), fs::file_time_type::clock::now(), ec);
+  if (ec) {
+    return MakeError(ServiceErrorCode::kMapVersionNotFound,
+                     "map store: terrain " + terrain + " of map '" + id +
+                         "' is not in the store (pruned meanwhile?): put it again")
+        .With("map_id", id);
+  }
+  return PutDirectory(root_ / "tmp", "version", VersionDir(id, version), [&](const fs::path& dir) {
+    ServiceStatus written = WriteNewFile(dir / kTerrainName, terrain + "\n");
+    if (written) written = WriteNewFile(dir / kMetadataName, metadata);
+    return written;
+  });
 }
 
 ServiceStatus MapStore::PublishNew(const std::string& id, const std::string& version) {
@@ -575,8 +652,7 @@ ServiceStatus MapStore::PublishNew(const std::string& id, const std::string& ver
     if (current == version) return OkStatus();
     return AlreadyExists(id, current);
   }
-  std::error_code ec;
-  if (!fs::is_directory(VersionDir(id, version), ec)) return NotPut(id, version);
+  if (!IsPut(id, version)) return NotPut(id, version);
   return WriteHead(root_ / "tmp", map_dir, {version});
 }
 
@@ -589,8 +665,7 @@ ServiceStatus MapStore::PublishNewShared(const std::string& id, const std::strin
       if (current == version) return OkStatus();
       return AlreadyExists(id, current);
     }
-    std::error_code ec;
-    if (!fs::is_directory(VersionDir(id, version), ec)) return NotPut(id, version);
+    if (!IsPut(id, version)) return NotPut(id, version);
     Result<bool> swapped = shared_heads_->Swap(id, std::nullopt, std::vector{version});
     if (!swapped) return std::move(swapped).error();
     if (*swapped) return OkStatus();
@@ -620,7 +695,7 @@ ServiceStatus MapStore::PublishUpdate(const std::string& id, const std::string& 
   if (ServiceStatus written = WriteHead(root_ / "tmp", map_dir, **next); !written) return written;
   // Only now that no head lists them: a reader that still loads one finds it gone (and is
   // told which versions are kept), never a head naming a missing version.
-  for (const std::string& old : dropped) Discard(VersionDir(id, old));
+  DiscardVersions(id, dropped);
   return OkStatus();
 }
 
@@ -633,12 +708,11 @@ Result<std::optional<std::vector<std::string>>> MapStore::UpdatedHead(
     // The version put for this change will never be published: no leftover stays behind,
     // unless the head lists it already (the same content published earlier).
     if (std::find(kept.begin(), kept.end(), version) == kept.end()) {
-      Discard(VersionDir(id, version));
+      DiscardVersions(id, {version});
     }
     return Changed(id, kept.front(), expected_current);
   }
-  std::error_code ec;
-  if (!fs::is_directory(VersionDir(id, version), ec)) return NotPut(id, version);
+  if (!IsPut(id, version)) return NotPut(id, version);
   return std::optional(NextHead(kept, version, keep_versions, dropped));
 }
 
@@ -657,7 +731,7 @@ ServiceStatus MapStore::PublishUpdateShared(const std::string& id,
     Result<bool> swapped = shared_heads_->Swap(id, *head, *next);
     if (!swapped) return std::move(swapped).error();
     if (*swapped) {
-      for (const std::string& old : dropped) Discard(VersionDir(id, old));
+      DiscardVersions(id, dropped);
       return OkStatus();
     }
   }
@@ -691,6 +765,28 @@ ServiceError MapStore::MissingVersion(const std::string& id, const std::string& 
       .With("version", version);
 }
 
+namespace {
+
+// The terrain a version's directory names; empty for a layout-1 version (no terrain file) or
+// one that is not there (the caller tells which).
+Result<std::string> ReadTerrainName(const fs::path& version_dir) {
+  const fs::path path = version_dir / kTerrainName;
+  Result<std::optional<std::string>> bytes = ReadFileIfExists(path);
+  if (!bytes) return std::move(bytes).error();
+  if (!bytes->has_value()) return std::string();
+  std::string name = std::move(**bytes);
+  if (!name.empty() && name.back() == '\n') name.pop_back();
+  if (!MapStore::IsVersion(name)) {
+    return MakeError(ServiceErrorCode::kMapCorrupted,
+                     "map store: '" + path.string() +
+                         "' does not name a terrain (edited by hand?): delete the map and create "
+                         "it again");
+  }
+  return name;
+}
+
+}  // namespace
+
 Result<fs::path> MapStore::VersionFile(const std::string& id, const std::string& version,
                                        const char* name) const {
   if (ServiceStatus ok = CheckId(id); !ok) return std::move(ok).error();
@@ -698,7 +794,83 @@ Result<fs::path> MapStore::VersionFile(const std::string& id, const std::string&
   const fs::path dir = VersionDir(id, version);
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) return MissingVersion(id, version);
-  return dir / name;
+  if (std::strcmp(name, kMetadataName) == 0) return dir / name;
+  Result<std::string> terrain = ReadTerrainName(dir);
+  if (!terrain) return std::move(terrain).error();
+  return terrain->empty() ? dir / name : TerrainDir(id, *terrain) / name;
+}
+
+Result<std::string> MapStore::TerrainOfVersion(const std::string& id,
+                                               const std::string& version) const {
+  if (ServiceStatus ok = CheckId(id); !ok) return std::move(ok).error();
+  if (ServiceStatus ok = CheckVersion(version); !ok) return std::move(ok).error();
+  const fs::path dir = VersionDir(id, version);
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) return MissingVersion(id, version);
+  return ReadTerrainName(dir);
+}
+
+bool MapStore::IsPut(const std::string& id, const std::string& version) const {
+  const fs::path dir = VersionDir(id, version);
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) return false;
+  Result<std::string> terrain = ReadTerrainName(dir);
+  return terrain && (terrain->empty() || fs::is_directory(TerrainDir(id, *terrain), ec));
+}
+
+namespace {
+
+// The terrains the versions under `versions_dir` name (unreadable ones count as naming
+// whatever they might: the caller then keeps every terrain).
+std::optional<std::set<std::string>> NamedTerrains(const fs::path& versions_dir) {
+  std::set<std::string> named;
+  std::error_code ec;
+  for (fs::directory_iterator it(versions_dir, ec), end; !ec && it != end; it.increment(ec)) {
+    Result<std::string> terrain = ReadTerrainName(it->path());
+    if (!terrain) return std::nullopt;
+    if (!terrain->empty()) named.insert(std::move(terrain).value());
+  }
+  if (ec && ec != std::errc::no_such_file_or_directory) return std::nullopt;
+  return named;
+}
+
+}  // namespace
+
+int MapStore::DiscardVersions(const std::string& id,
+                              const std::vector<std::string>& versions) const {
+  int removed = 0;
+  std::set<std::string> orphans;
+  for (const std::string& version : versions) {
+    Result<std::string> terrain = ReadTerrainName(VersionDir(id, version));
+    if (terrain && !terrain->empty()) orphans.insert(*terrain);
+    removed += Discard(VersionDir(id, version)) ? 1 : 0;
+  }
+  if (orphans.empty()) return removed;
+  // A terrain goes with the last version naming it. One a writer names while this looks goes
+  // too: its publish then finds the version not whole (IsPut) and the writer puts it again.
+  const std::optional<std::set<std::string>> named = NamedTerrains(MapDir(id) / kVersionsName);
+  if (!named) return removed;
+  for (const std::string& terrain : orphans) {
+    if (!named->contains(terrain)) removed += Discard(TerrainDir(id, terrain)) ? 1 : 0;
+  }
+  return removed;
+}
+
+int MapStore::DiscardStaleTerrains(const std::string& id) const {
+  int removed = 0;
+  const fs::path terrains_dir = MapDir(id) / kTerrainsName;
+  std::error_code ec;
+  if (!fs::is_directory(terrains_dir, ec)) return 0;
+  const std::optional<std::set<std::string>> named = NamedTerrains(MapDir(id) / kVersionsName);
+  if (!named) return 0;
+  std::vector<fs::path> unnamed;
+  for (fs::directory_iterator it(terrains_dir, ec), end; !ec && it != end; it.increment(ec)) {
+    if (!named->contains(it->path().filename().string())) unnamed.push_back(it->path());
+  }
+  for (const fs::path& terrain : unnamed) {
+    if (IsStale(terrain) && Discard(terrain)) ++removed;
+  }
+  return removed;
 }
 
 Result<std::shared_ptr<const TerrainModel>> MapStore::LoadModel(const std::string& id,
@@ -876,6 +1048,7 @@ int MapStore::CollectGarbage() {
     const bool map_dir_stale = IsStale(map_dir);
     bool any_stale = map_dir_stale;
     for (const fs::path& version : entries(versions_dir)) any_stale |= IsStale(version);
+    for (const fs::path& terrain : entries(map_dir / kTerrainsName)) any_stale |= IsStale(terrain);
     if (!any_stale) continue;
     Result<MapLock> lock = MapLock::Acquire(map_dir, id, /*create=*/false);
     if (!lock) continue;
@@ -894,6 +1067,7 @@ int MapStore::CollectGarbage() {
           std::find(kept.begin(), kept.end(), version.filename().string()) != kept.end();
       if (!listed && IsStale(version) && Discard(version)) ++removed;
     }
+    removed += DiscardStaleTerrains(id);
   }
   return removed;
 }
@@ -923,6 +1097,7 @@ int MapStore::CollectSharedGarbage() {
           std::find(kept.begin(), kept.end(), version.filename().string()) != kept.end();
       if (!listed && IsStale(version) && Discard(version)) ++removed;
     }
+    removed += DiscardStaleTerrains(id);
   }
   return removed;
 }

@@ -5,23 +5,30 @@
 ///
 /// Layout under the root:
 ///
-///   strata-map-store            marker: "strata map store, layout 1"; Open refuses another
+///   strata-map-store            marker: "strata map store, layout 2"; Open refuses another
+///                               (a layout-1 store is taken over: its versions read as before)
 ///   maps/<id>/head              the map's kept versions, newest (current) first, one per
 ///                               line; replaced whole (temporary + rename). A map exists
 ///                               exactly when its head does.
 ///   maps/<id>/lock              empty; flock'ed by whoever changes the head or deletes the map
-///   maps/<id>/versions/<v>/     one version, never changed once renamed into place:
+///   maps/<id>/terrains/<t>/     one terrain: what assessing a cloud made, never changed once
+///                               renamed into place, shared by every version made of it:
 ///       cloud.pcd               the source cloud (binary PCD, float32 x y z); absent for a
 ///                               map made from a saved model
 ///       model.stratamodel       the assessed model (strata/io/saved_model.hpp, checksummed)
+///   maps/<id>/versions/<v>/     one version, never changed once renamed into place:
+///       terrain                 the name <t> of its terrain, and a newline
 ///       metadata                the caller's bytes (the server's Map message as JSON)
-///   tmp/                        temporaries (a version being written, a head being
+///   tmp/                        temporaries (a version or terrain being written, a head being
 ///                               replaced), named <kind>.<pid>.<random>
-///   trash/                      deleted maps and pruned versions, renamed here (the moment
-///                               they are gone for everyone) and then removed
+///   trash/                      deleted maps, pruned versions and terrains, renamed here (the
+///                               moment they are gone for everyone) and then removed
 ///
-/// <v> is VersionOf(): 32 lowercase hex digits naming the content, so replicas that assess
-/// the same thing write the same version (the second writer finds it there and is done).
+/// <t> is TerrainOf() (or TerrainOfSavedModel()), <v> is VersionOf(): 32 lowercase hex digits
+/// naming the content, so replicas that assess the same thing write the same terrain and
+/// version (the second writer finds it there and is done). A version that differs from its
+/// parent in keep-out zones alone (metadata) names the parent's terrain: it costs two small
+/// files. A layout-1 version holds cloud.pcd and model.stratamodel itself, and reads as before.
 ///
 /// What it relies on, and nothing else (no mmap, no O_DIRECT, no hard links):
 /// - rename(2) of a file or a directory within one file system is atomic, and fails on a
@@ -40,8 +47,9 @@
 ///
 /// A process killed at any point leaves at most a temporary in tmp/ (removed by the next
 /// Open or CollectGarbage once older than kStaleTemporaryAge), a version directory no head
-/// lists (same), or a map directory without a head (same): never something a reader takes
-/// for a version or a map.
+/// lists or a terrain no version names (same), or a map directory without a head (same):
+/// never something a reader takes for a version or a map. A terrain is removed with the last
+/// version that names it.
 ///
 /// Thread-safe: any number of threads and MapStore objects (in this process or others) may
 /// use one root at once.
@@ -72,17 +80,24 @@ inline constexpr std::chrono::hours kStaleTemporaryAge{1};
 
 class MapStore {
  public:
-  /// The version that `cloud` assessed with `config`, with `keep_out` zones marked, gets: the
-  /// XXH3-128 (lowercase hex, 32 digits) of the saved-model format version, the points' float
-  /// bytes in order, every assessment parameter by name except num_threads (how to assess,
-  /// not what: the rule of FirstDifference in strata/assessment/terrain_config.hpp), and each
-  /// zone's corners and height range, in order. Equal inputs give equal names in any process.
+  /// The terrain that `cloud` assessed with `config` makes, by name: the XXH3-128 (lowercase
+  /// hex, 32 digits) of the saved-model format version, the points' float bytes in order and
+  /// every assessment parameter by name except num_threads (how to assess, not what: the rule
+  /// of FirstDifference in strata/assessment/terrain_config.hpp). Equal inputs give equal
+  /// names in any process.
+  static std::string TerrainOf(const PointCloud& cloud, const AssessmentConfig& config);
+
+  /// The terrain of a map loaded from a saved-model file: the XXH3-128 of the file's bytes
+  /// (which hold its format version and parameters), in the same form as TerrainOf's.
+  static std::string TerrainOfSavedModel(const std::string& path);
+
+  /// The version made of `terrain` with `keep_out` zones marked: the terrain's own name when
+  /// there are none (a map's first version is named as its terrain), else the XXH3-128 of the
+  /// terrain's name and each zone's corners and height range, in order.
+  static std::string VersionOf(std::string_view terrain, std::span<const Prism> keep_out);
+  /// VersionOf(TerrainOf(cloud, config), keep_out).
   static std::string VersionOf(const PointCloud& cloud, const AssessmentConfig& config,
                                std::span<const Prism> keep_out);
-
-  /// The version of a map loaded from a saved-model file: the XXH3-128 of the file's bytes
-  /// (which hold its format version and parameters), in the same form as VersionOf's.
-  static std::string VersionOfSavedModel(const std::string& path);
 
   /// Whether `version` is a well-formed version name (what VersionOf returns).
   static bool IsVersion(std::string_view version);
@@ -103,16 +118,24 @@ class MapStore {
   /// The store's directory (absolute, symbolic links resolved).
   const std::filesystem::path& root() const { return root_; }
 
-  /// Writes version `version` of map `id`: `cloud` (empty for a map made from a saved model:
-  /// LoadCloud then fails with kEditNeedsCloud), `model` and `metadata` go to
-  /// a fresh temporary directory, are made durable, and the directory is renamed into place.
-  /// When the version is there already (another writer put it), that is success and nothing
-  /// is written. Does not publish: PublishNew or PublishUpdate makes it the map's current
-  /// version. kInvalidInput for a bad id or version name,
-  /// kMapStoreUnavailable when the store cannot be written (naming the path and the reason).
+  /// Writes terrain `terrain` of map `id`: `cloud` (empty for a map made from a saved model:
+  /// LoadCloud then fails with kEditNeedsCloud) and `model` go to a fresh temporary directory,
+  /// are made durable, and the directory is renamed into place. When the terrain is there
+  /// already (another writer put it, or an earlier version is made of it), that is success and
+  /// nothing is written. kInvalidInput for a bad id or name, kMapStoreUnavailable when the
+  /// store cannot be written (naming the path and the reason).
+  ServiceStatus PutTerrain(const std::string& id, const std::string& terrain,
+                           const PointCloud& cloud, const TerrainModel& model);
+
+  /// Whether terrain `terrain` of map `id` is in the store (PutTerrain need not be called).
+  bool HasTerrain(const std::string& id, const std::string& terrain) const;
+
+  /// Writes version `version` of map `id`, made of terrain `terrain` (put before) and
+  /// `metadata`, as PutTerrain writes a terrain. Does not publish: PublishNew or PublishUpdate
+  /// makes it the map's current version. kMapVersionNotFound when the terrain is not in the
+  /// store (pruned since: put it again), kInvalidInput, kMapStoreUnavailable.
   ServiceStatus PutVersion(const std::string& id, const std::string& version,
-                           const PointCloud& cloud, const TerrainModel& model,
-                           const std::string& metadata);
+                           const std::string& terrain, const std::string& metadata);
 
   /// Creates map `id` with `version` (put before) as its only version. Success also when the
   /// map exists with `version` current (another replica created the same map). Fails with
@@ -157,6 +180,10 @@ class MapStore {
   Result<std::shared_ptr<const OpenedMapFile>> OpenModel(const std::string& id,
                                                          const std::string& version) const;
 
+  /// The terrain version `version` of `id` is made of, or empty for a version of layout 1
+  /// (which holds its cloud and model itself); fails as LoadModel does.
+  Result<std::string> TerrainOfVersion(const std::string& id, const std::string& version) const;
+
   /// The metadata of a version, byte for byte as put; fails as LoadModel does.
   Result<std::string> LoadMetadata(const std::string& id, const std::string& version) const;
 
@@ -197,6 +224,15 @@ class MapStore {
 
   std::filesystem::path MapDir(const std::string& id) const;
   std::filesystem::path VersionDir(const std::string& id, const std::string& version) const;
+  std::filesystem::path TerrainDir(const std::string& id, const std::string& terrain) const;
+  /// Whether `version` of `id` was put whole: its directory, and the terrain it names.
+  bool IsPut(const std::string& id, const std::string& version) const;
+  /// Discards the directories of `versions` of `id`, then the terrains they named that no
+  /// version left names. Returns how many directories it removed.
+  int DiscardVersions(const std::string& id, const std::vector<std::string>& versions) const;
+  /// Discards the terrains of `id` that no version names and that are older than
+  /// kStaleTemporaryAge (a dead writer's, or one a writer is about to name: not yet stale).
+  int DiscardStaleTerrains(const std::string& id) const;
   /// Why `version` of `id` cannot be read: kMapNotFound or kMapVersionNotFound.
   ServiceError MissingVersion(const std::string& id, const std::string& version) const;
   /// The path of file `name` of an existing version, or why there is none.

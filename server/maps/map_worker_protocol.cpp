@@ -4,6 +4,7 @@
 #include <cmath>
 #include <concepts>
 #include <map>
+#include <memory>
 #include <type_traits>
 #include <utility>
 
@@ -11,6 +12,8 @@
 
 #include <fmt/format.h>
 #include <CLI/CLI.hpp>
+
+#include "common/packed_points.hpp"
 
 namespace strata::server {
 namespace {
@@ -132,23 +135,41 @@ namespace {
 
 constexpr std::string_view kAddObstacle = "add_obstacle";
 constexpr std::string_view kRemovePoints = "remove_points";
+constexpr std::string_view kScan = "scan";
+
+std::string_view KindWord(MapEdit::Kind kind) {
+  switch (kind) {
+    case MapEdit::Kind::kAddObstacle: return kAddObstacle;
+    case MapEdit::Kind::kRemovePoints: return kRemovePoints;
+    case MapEdit::Kind::kScan: return kScan;
+  }
+  return "unknown";
+}
 
 }  // namespace
 
 std::string FormatEdits(std::span<const MapEdit> edits) {
   std::string text;
   for (const MapEdit& edit : edits) {
-    text += edit.kind == MapEdit::Kind::kAddObstacle ? kAddObstacle : kRemovePoints;
+    const bool scan = edit.kind == MapEdit::Kind::kScan;
+    const std::size_t points = scan && edit.points != nullptr ? edit.points->size() : 0;
+    text += KindWord(edit.kind);
+    if (scan) text += " " + NumberText(points);
     text += " " + NumberText(edit.region.z_min_m) + " " + NumberText(edit.region.z_max_m);
     for (const Eigen::Vector2d& corner : edit.region.polygon_m) {
       text += " " + NumberText(corner.x()) + " " + NumberText(corner.y());
     }
     text += '\n';
+    if (points > 0) {
+      text.reserve(text.size() + points * kPackedPointBytes);
+      for (const Eigen::Vector3f& p : *edit.points) AppendPackedPoint(p, &text);
+    }
   }
   return text;
 }
 
-Expected<std::vector<MapEdit>> ParseEdits(std::string_view text) {
+Expected<std::vector<MapEdit>> ParseEdits(std::string_view contents) {
+  std::string_view text = contents;
   std::vector<MapEdit> edits;
   int line_number = 0;
   while (!text.empty()) {
@@ -163,21 +184,44 @@ Expected<std::vector<MapEdit>> ParseEdits(std::string_view text) {
       at = space + 1;
     }
     MapEdit edit;
-    bool good = words.size() >= 3 && words.size() % 2 == 1 &&
-                (words[0] == kAddObstacle || words[0] == kRemovePoints) &&
-                ParseNumber(words[1], &edit.region.z_min_m) &&
-                ParseNumber(words[2], &edit.region.z_max_m);
-    edit.kind = words.empty() || words[0] == kAddObstacle ? MapEdit::Kind::kAddObstacle
-                                                          : MapEdit::Kind::kRemovePoints;
-    for (std::size_t i = 3; good && i + 1 < words.size(); i += 2) {
+    // A scan's point count comes after its kind; the region's words follow in every kind.
+    const bool scan = !words.empty() && words[0] == kScan;
+    const std::size_t first = scan ? 2 : 1;
+    std::size_t points = 0;
+    bool good = words.size() >= first + 2 && (words.size() - first) % 2 == 0 &&
+                (scan || words[0] == kAddObstacle || words[0] == kRemovePoints) &&
+                (!scan || ParseNumber(words[1], &points)) &&
+                ParseNumber(words[first], &edit.region.z_min_m) &&
+                ParseNumber(words[first + 1], &edit.region.z_max_m);
+    edit.kind = scan                                        ? MapEdit::Kind::kScan
+                : words.empty() || words[0] == kAddObstacle ? MapEdit::Kind::kAddObstacle
+                                                            : MapEdit::Kind::kRemovePoints;
+    for (std::size_t i = first + 2; good && i + 1 < words.size(); i += 2) {
       Eigen::Vector2d corner;
       good = ParseNumber(words[i], &corner.x()) && ParseNumber(words[i + 1], &corner.y());
       edit.region.polygon_m.push_back(corner);
     }
     if (!good) {
-      return Error{
-          ErrorCode::kInvalidInput,
-          fmt::format("bad edits file: line {} is not KIND Z_MIN Z_MAX X Y ...", line_number)};
+      return Error{ErrorCode::kInvalidInput,
+                   fmt::format("bad edits file: line {} is not KIND Z_MIN Z_MAX X Y ... (KIND "
+                               "add_obstacle or remove_points) or scan POINTS Z_MIN Z_MAX X Y ...",
+                               line_number)};
+    }
+    if (points > 0) {
+      // The scan's points follow its line, packed.
+      if (points > text.size() / kPackedPointBytes) {
+        return Error{ErrorCode::kInvalidInput,
+                     fmt::format("bad edits file: the scan of line {} has {} points, but only {} "
+                                 "bytes follow it",
+                                 line_number, points, text.size())};
+      }
+      auto cloud = std::make_shared<PointCloud>();
+      cloud->reserve(points);
+      for (std::size_t i = 0; i < points; ++i) {
+        cloud->push_back(ReadPackedPoint(text.data() + i * kPackedPointBytes));
+      }
+      text.remove_prefix(points * kPackedPointBytes);
+      edit.points = std::move(cloud);
     }
     edits.push_back(std::move(edit));
   }
@@ -211,7 +255,9 @@ std::string FormatWorkerReport(const WorkerReport& report) {
       }
       return "done " + report.version + " edit " + NumberText(edit.apply_s) + " " +
              NumberText(edit.reassess_s) + " " + NumberText(edit.reassessed_columns) + " " +
-             NumberText(edit.full_reassessment) + " " + reason + "\n";
+             NumberText(edit.scan_points_outside_region) + " " +
+             NumberText(edit.scan_points_thinned) + " " + NumberText(edit.full_reassessment) + " " +
+             reason + "\n";
     }
   }
   return "\n";
@@ -231,16 +277,18 @@ std::optional<WorkerReport> ParseWorkerReport(std::string_view line) {
   };
   WorkerReport report;
   if (line.starts_with("done ")) {
-    const auto [done, reason] = split(7);
+    const auto [done, reason] = split(9);
     if (done.size() == 2 && !done[1].empty() && reason.empty()) {
       report.version = std::string(done[1]);
       return report;
     }
     EditFigures edit;
-    if (done.size() == 7 && !done[1].empty() && done[2] == "edit" &&
+    if (done.size() == 9 && !done[1].empty() && done[2] == "edit" &&
         ParseNumber(done[3], &edit.apply_s) && ParseNumber(done[4], &edit.reassess_s) &&
         ParseNumber(done[5], &edit.reassessed_columns) &&
-        ParseNumber(done[6], &edit.full_reassessment)) {
+        ParseNumber(done[6], &edit.scan_points_outside_region) &&
+        ParseNumber(done[7], &edit.scan_points_thinned) &&
+        ParseNumber(done[8], &edit.full_reassessment)) {
       edit.full_reason = std::string(reason);
       report.version = std::string(done[1]);
       report.edit = std::move(edit);

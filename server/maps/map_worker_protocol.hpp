@@ -61,20 +61,25 @@ inline constexpr int kWorkerSourceFd = 3;
 /// The descriptor a kEdit job's base model is open on in the worker.
 inline constexpr int kWorkerBaseModelFd = 4;
 
-/// The edits of a kEdit job as the text of its edits file, one per line: the kind
-/// (add_obstacle, remove_points), z_min_m, z_max_m, then the polygon's corners x y ...,
-/// every number in its shortest form that reads back exactly.
+/// The edits of a kEdit job as the contents of its edits file, one per line: the kind
+/// (add_obstacle, remove_points, or scan followed by its number of points), z_min_m, z_max_m,
+/// then the polygon's corners x y ..., every number in its shortest form that reads back
+/// exactly. A scan's line is followed by its points, packed as in UpdateMap
+/// (common/packed_points.hpp: little-endian float32 x, y, z, 12 bytes each), so they travel
+/// bit for bit; the next edit's line starts after them.
 std::string FormatEdits(std::span<const MapEdit> edits);
-/// The edits `text` holds (FormatEdits); kInvalidInput naming the line at fault.
-Expected<std::vector<MapEdit>> ParseEdits(std::string_view text);
+/// The edits `contents` holds (FormatEdits); kInvalidInput naming the line at fault (a scan
+/// whose points the file does not hold whole is one).
+Expected<std::vector<MapEdit>> ParseEdits(std::string_view contents);
 
 /// Files in the job's out_dir.
 inline constexpr const char* kWorkerModelFile = "model.smd";  ///< The saved model made.
 inline constexpr const char* kWorkerCloudFile = "cloud.pcd";  ///< With keep_cloud.
 /// Uploaded points, written by the server for a kPoints job (a binary PCD).
 inline constexpr const char* kWorkerUploadFile = "upload.pcd";
-/// The edits of a kEdit job (FormatEdits), written by the server.
-inline constexpr const char* kWorkerEditsFile = "edits.txt";
+/// The edits of a kEdit job (FormatEdits), written by the server: text lines, with a scan's
+/// points in binary after its line.
+inline constexpr const char* kWorkerEditsFile = "edits";
 
 /// The worker's exit codes. Any other end (a signal) is a crash or a limit.
 enum WorkerExit : int {

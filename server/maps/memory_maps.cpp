@@ -66,9 +66,15 @@ ServiceStatus MemoryMaps::PublishNew(const MapSnapshot& map,
 }
 
 ServiceStatus MemoryMaps::PublishEdit(const std::string& /*base_version*/, const MapSnapshot& map,
+                                      const std::string& /*terrain*/,
                                       std::shared_ptr<const PlanningMap> /*planning*/,
-                                      const PointCloud& /*cloud*/) {
+                                      const PointCloud* /*cloud*/) {
   return MapStoreRequired(map.id);
+}
+
+Result<std::string> MemoryMaps::TerrainOf(const std::string& id,
+                                          const std::string& /*version*/) const {
+  return MapStoreRequired(id);
 }
 
 ServiceStatus MemoryMaps::Delete(const std::string& id) {

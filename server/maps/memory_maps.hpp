@@ -18,8 +18,9 @@ class MemoryMaps final : public PublishedMaps {
   ServiceStatus PublishNew(const MapSnapshot& map, std::shared_ptr<const PlanningMap> planning,
                            const PointCloud& cloud) override;
   ServiceStatus PublishEdit(const std::string& base_version, const MapSnapshot& map,
-                            std::shared_ptr<const PlanningMap> planning,
-                            const PointCloud& cloud) override;
+                            const std::string& terrain, std::shared_ptr<const PlanningMap> planning,
+                            const PointCloud* cloud) override;
+  Result<std::string> TerrainOf(const std::string& id, const std::string& version) const override;
   ServiceStatus Delete(const std::string& id) override;
   bool KeepsClouds() const override { return false; }
   Result<VersionFiles> OpenFiles(const std::string& id, const std::string& version) const override;

@@ -52,10 +52,20 @@ class PublishedMaps {
   /// Publishes `map` (version set) as the new current version of `map.id` if the current one
   /// is still `base_version` (compare-and-swap), keeping the newest versions; kMapChanged
   /// naming the current version otherwise (nothing of this edit is left behind), or
-  /// kMapStoreRequired where versions keep no clouds.
+  /// kMapStoreRequired where versions keep no clouds. `terrain` names what the version is
+  /// made of (MapStore::TerrainOf: the cloud and the model `planning` holds); `cloud` is that
+  /// cloud, or null when the terrain is the base version's (an edit of keep-out zones alone):
+  /// then only the version's description is written.
   virtual ServiceStatus PublishEdit(const std::string& base_version, const MapSnapshot& map,
+                                    const std::string& terrain,
                                     std::shared_ptr<const PlanningMap> planning,
-                                    const PointCloud& cloud) = 0;
+                                    const PointCloud* cloud) = 0;
+
+  /// The terrain `version` of `id` is made of (MapStore::TerrainOf), or empty when that is
+  /// not known (a version a store of layout 1 wrote): an edit of its keep-out zones then
+  /// passes the cloud on again. Fails as Get.
+  virtual Result<std::string> TerrainOf(const std::string& id,
+                                        const std::string& version) const = 0;
 
   /// Removes every version of `id`; kMapNotFound.
   virtual ServiceStatus Delete(const std::string& id) = 0;

@@ -72,13 +72,20 @@ std::vector<MapSnapshot> StoredMaps::List(const std::string& after_id, int max) 
   return maps;
 }
 
-ServiceStatus StoredMaps::Put(const MapSnapshot& map,
+ServiceStatus StoredMaps::Put(const MapSnapshot& map, const std::string& terrain,
                               const std::shared_ptr<const PlanningMap>& planning,
-                              const PointCloud& cloud,
+                              const PointCloud* cloud,
                               const std::function<ServiceStatus()>& publish) {
   LogInfo("map_version_writing").Add("map", map.id).Add("version", map.version);
-  if (ServiceStatus put = options_.store->PutVersion(map.id, map.version, cloud, planning->model(),
-                                                     options_.encode_metadata(map));
+  MapStore& store = *options_.store;
+  if (cloud != nullptr) {
+    if (ServiceStatus put = store.PutTerrain(map.id, terrain, *cloud, planning->model());
+        !put.ok()) {
+      return put;
+    }
+  }
+  if (ServiceStatus put =
+          store.PutVersion(map.id, map.version, terrain, options_.encode_metadata(map));
       !put.ok()) {
     return put;
   }
@@ -90,15 +97,22 @@ ServiceStatus StoredMaps::Put(const MapSnapshot& map,
 ServiceStatus StoredMaps::PublishNew(const MapSnapshot& map,
                                      std::shared_ptr<const PlanningMap> planning,
                                      const PointCloud& cloud) {
-  return Put(map, planning, cloud, [&] { return options_.store->PublishNew(map.id, map.version); });
+  // A new map has no keep-out zones: its version names its terrain (MapStore::VersionOf).
+  return Put(map, map.version, planning, &cloud,
+             [&] { return options_.store->PublishNew(map.id, map.version); });
 }
 
 ServiceStatus StoredMaps::PublishEdit(const std::string& base_version, const MapSnapshot& map,
+                                      const std::string& terrain,
                                       std::shared_ptr<const PlanningMap> planning,
-                                      const PointCloud& cloud) {
-  return Put(map, planning, cloud, [&] {
+                                      const PointCloud* cloud) {
+  return Put(map, terrain, planning, cloud, [&] {
     return options_.store->PublishUpdate(map.id, base_version, map.version, options_.versions_kept);
   });
+}
+
+Result<std::string> StoredMaps::TerrainOf(const std::string& id, const std::string& version) const {
+  return options_.store->TerrainOfVersion(id, version);
 }
 
 ServiceStatus StoredMaps::Delete(const std::string& id) {

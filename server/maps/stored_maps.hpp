@@ -40,8 +40,9 @@ class StoredMaps final : public PublishedMaps {
   ServiceStatus PublishNew(const MapSnapshot& map, std::shared_ptr<const PlanningMap> planning,
                            const PointCloud& cloud) override;
   ServiceStatus PublishEdit(const std::string& base_version, const MapSnapshot& map,
-                            std::shared_ptr<const PlanningMap> planning,
-                            const PointCloud& cloud) override;
+                            const std::string& terrain, std::shared_ptr<const PlanningMap> planning,
+                            const PointCloud* cloud) override;
+  Result<std::string> TerrainOf(const std::string& id, const std::string& version) const override;
   ServiceStatus Delete(const std::string& id) override;
   bool KeepsClouds() const override { return true; }
   Result<VersionFiles> OpenFiles(const std::string& id, const std::string& version) const override;
@@ -57,9 +58,11 @@ class StoredMaps final : public PublishedMaps {
   // The snapshot `metadata` of `id` describes, at `versions.front()`.
   Result<MapSnapshot> SnapshotOf(const std::string& id,
                                  const std::vector<std::string>& versions) const;
-  // Writes the version of `map` and caches `planning` once `publish` made it visible.
-  ServiceStatus Put(const MapSnapshot& map, const std::shared_ptr<const PlanningMap>& planning,
-                    const PointCloud& cloud, const std::function<ServiceStatus()>& publish);
+  // Writes the version of `map`, made of `terrain` (and that too unless `cloud` is null: the
+  // store holds it), and caches `planning` once `publish` made it visible.
+  ServiceStatus Put(const MapSnapshot& map, const std::string& terrain,
+                    const std::shared_ptr<const PlanningMap>& planning, const PointCloud* cloud,
+                    const std::function<ServiceStatus()>& publish);
 
   StoredMapsOptions options_;
   // The versions loaded here (mutable: loading on demand is not a change).

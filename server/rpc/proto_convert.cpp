@@ -5,12 +5,14 @@
 #include <chrono>
 #include <cmath>
 #include <functional>
+#include <memory>
 #include <string_view>
 #include <utility>
 
 #include <fmt/format.h>
 #include <google/protobuf/util/json_util.h>
 
+#include "common/packed_points.hpp"
 #include "rpc/error_mapping.hpp"
 
 namespace strata::server {
@@ -276,6 +278,43 @@ Result<Prism> ValidPrism(const v1::Prism& message, const std::string& field) {
   return prism;
 }
 
+// A scan's points (XYZ_F32_LE, common/packed_points.hpp), all finite; the errors blame
+// `field` (edits[i].scan.points).
+Result<std::shared_ptr<const PointCloud>> ScanPointsFromProto(const std::string& bytes,
+                                                              const std::string& field) {
+  if (bytes.size() % kPackedPointBytes != 0) {
+    return MakeError(ErrorCode::kInvalidInput,
+                     fmt::format("{} holds {} bytes, not a whole number of 12-byte points "
+                                 "(little-endian float32 x, y, z)",
+                                 field, bytes.size()))
+        .Blame(field);
+  }
+  const std::size_t count = bytes.size() / kPackedPointBytes;
+  if (count > kMaxEditPoints) {
+    return MakeError(ErrorCode::kResourceExhausted,
+                     fmt::format("{} holds {} points, more than the {} an update may add: split "
+                                 "the scan into smaller regions over several updates",
+                                 field, count, kMaxEditPoints))
+        .Blame(field);
+  }
+  auto points = std::make_shared<PointCloud>();
+  points->reserve(count);
+  for (std::size_t i = 0; i < count; ++i) {
+    const Eigen::Vector3f p = ReadPackedPoint(bytes.data() + i * kPackedPointBytes);
+    if (!p.allFinite()) {
+      // Refused, not dropped: a scan replaces the map in its region, and a sensor that returns
+      // NaN for what it did not see must not have its other points taken for the whole view.
+      return MakeError(ErrorCode::kInvalidInput,
+                       fmt::format("{} holds a point that is not finite at index {}: ({}, {}, {}) "
+                                   "m; drop it before sending",
+                                   field, i, p.x(), p.y(), p.z()))
+          .Blame(field);
+    }
+    points->push_back(p);
+  }
+  return std::shared_ptr<const PointCloud>(std::move(points));
+}
+
 }  // namespace
 
 Result<ParsedMapEdits> MapEditsFromProto(const v1::UpdateMapRequest& request) {
@@ -305,6 +344,16 @@ Result<ParsedMapEdits> MapEditsFromProto(const v1::UpdateMapRequest& request) {
                     std::move(region).value()});
         break;
       }
+      case v1::MapEdit::kScan: {
+        Result<Prism> region = ValidPrism(edit.scan().region(), path + ".scan.region");
+        if (!region.ok()) return std::move(region).error();
+        Result<std::shared_ptr<const PointCloud>> points =
+            ScanPointsFromProto(edit.scan().points(), path + ".scan.points");
+        if (!points.ok()) return std::move(points).error();
+        parsed.edits.push_back(
+            MapEdit{MapEdit::Kind::kScan, std::move(region).value(), std::move(points).value()});
+        break;
+      }
       case v1::MapEdit::kAddKeepOut: {
         // Kept in the map and read by every plan on it: checked here, where the client hears
         // which field to fix (a zone a plan request carries is checked by the planner).
@@ -314,8 +363,9 @@ Result<ParsedMapEdits> MapEditsFromProto(const v1::UpdateMapRequest& request) {
         break;
       }
       case v1::MapEdit::KIND_NOT_SET:
-        return MakeError(ErrorCode::kInvalidInput,
-                         path + " sets no edit: set add_obstacle, remove_points or add_keep_out")
+        return MakeError(
+                   ErrorCode::kInvalidInput,
+                   path + " sets no edit: set add_obstacle, remove_points, add_keep_out or scan")
             .Blame(path);
     }
   }

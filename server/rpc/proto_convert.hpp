@@ -47,7 +47,11 @@ struct ParsedMapEdits {
   std::vector<Prism> add_keep_out;
 };
 /// kInvalidInput blaming the request field: map_id empty, no edit (and no clear_keep_out),
-/// more than kMaxMapEdits, an edit with no kind, a bad prism ("edits[2].add_obstacle.z_max_m").
+/// more than kMaxMapEdits, an edit with no kind, a bad prism ("edits[2].add_obstacle.z_max_m"),
+/// a scan's points that are not whole 12-byte points or hold a NaN or infinite coordinate
+/// (refused, with its index: "edits[1].scan.points"); kResourceExhausted for a scan of more
+/// than kMaxEditPoints points. A scan's region is checked against the map's grid later, by
+/// ApplyEdits.
 Result<ParsedMapEdits> MapEditsFromProto(const v1::UpdateMapRequest& request);
 /// Most edits in one UpdateMapRequest.
 inline constexpr int kMaxMapEdits = 64;

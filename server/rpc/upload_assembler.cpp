@@ -3,28 +3,14 @@
 #include "common/map_id.hpp"
 
 #include <algorithm>
-#include <bit>
-#include <cstring>
 #include <string>
 
 #include <fmt/format.h>
 
+#include "common/packed_points.hpp"
 #include "rpc/proto_convert.hpp"
 
 namespace strata::server {
-namespace {
-
-float ReadLittleEndianFloat(const char* bytes) {
-  std::uint32_t bits = 0;
-  std::memcpy(&bits, bytes, sizeof(bits));
-  if constexpr (std::endian::native == std::endian::big) {
-    bits =
-        ((bits & 0xFFu) << 24) | ((bits & 0xFF00u) << 8) | ((bits >> 8) & 0xFF00u) | (bits >> 24);
-  }
-  return std::bit_cast<float>(bits);
-}
-
-}  // namespace
 
 ServiceStatus UploadAssembler::Add(const v1::UploadMapRequest& message) {
   ++messages_;
@@ -111,8 +97,7 @@ ServiceStatus UploadAssembler::Add(const v1::UploadMapRequest& message) {
       source_.received_bytes += bytes.size();
       const char* data = bytes.data();
       for (std::size_t i = 0; i < count; ++i, data += kPointBytes) {
-        source_.points.emplace_back(ReadLittleEndianFloat(data), ReadLittleEndianFloat(data + 4),
-                                    ReadLittleEndianFloat(data + 8));
+        source_.points.push_back(ReadPackedPoint(data));
       }
       return OkStatus();
     }

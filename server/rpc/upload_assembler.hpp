@@ -5,6 +5,7 @@
 #include <cstddef>
 #include <optional>
 
+#include "common/packed_points.hpp"
 #include "common/service_error.hpp"
 #include "maps/map_registry.hpp"
 #include "maps/memory_budget.hpp"
@@ -18,7 +19,7 @@ class UploadAssembler {
   /// Largest chunk accepted [bytes] (1 MiB).
   static constexpr std::size_t kMaxChunkBytes = std::size_t{1} << 20;
   /// Bytes per point of POINT_FORMAT_XYZ_F32_LE.
-  static constexpr std::size_t kPointBytes = 12;
+  static constexpr std::size_t kPointBytes = kPackedPointBytes;
 
   /// `max_points`: the server's limit on one map [-], > 0. `budget` (may be null): the
   /// server's memory budget, which the points are counted in as they arrive (their vector's

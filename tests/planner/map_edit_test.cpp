@@ -2,10 +2,16 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <map>
+#include <memory>
+#include <random>
+#include <span>
 #include <string>
 #include <tuple>
 #include <vector>
 
+#include <fmt/format.h>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -49,6 +55,73 @@ MapEdit Removal(double x0, double y0, double x1, double y1, double z0, double z1
           BoxPrism(Eigen::AlignedBox3d(Eigen::Vector3d(x0, y0, z0), Eigen::Vector3d(x1, y1, z1)))};
 }
 
+MapEdit Scan(PointCloud points, double x0, double y0, double x1, double y1, double z0, double z1) {
+  return {MapEdit::Kind::kScan,
+          BoxPrism(Eigen::AlignedBox3d(Eigen::Vector3d(x0, y0, z0), Eigen::Vector3d(x1, y1, z1))),
+          std::make_shared<const PointCloud>(std::move(points))};
+}
+
+// What a sensor sees of a flat floor at height z over [x0, x1] × [y0, y1]: a point every
+// `spacing_m`, each off the plane by up to 5 mm (seeded).
+PointCloud FloorScan(double x0, double y0, double x1, double y1, double z, double spacing_m,
+                     std::uint32_t seed) {
+  std::mt19937 random(seed);
+  std::uniform_real_distribution<double> noise(-0.005, 0.005);
+  PointCloud points;
+  for (double y = y0; y <= y1 + 1e-9; y += spacing_m) {
+    for (double x = x0; x <= x1 + 1e-9; x += spacing_m) {
+      points.emplace_back(static_cast<float>(x), static_cast<float>(y),
+                          static_cast<float>(z + noise(random)));
+    }
+  }
+  return points;
+}
+
+// What a sensor sees of a box standing on the floor (a pallet stack): its top and four sides,
+// a point every `spacing_m` (denser than the thinning's cubes), each off by up to 5 mm.
+PointCloud BoxScan(const Eigen::AlignedBox3d& box, double spacing_m, std::uint32_t seed) {
+  std::mt19937 random(seed);
+  std::uniform_real_distribution<double> noise(-0.005, 0.005);
+  PointCloud points;
+  const auto add = [&](double x, double y, double z) {
+    points.emplace_back(static_cast<float>(x + noise(random)),
+                        static_cast<float>(y + noise(random)),
+                        static_cast<float>(z + noise(random)));
+  };
+  const Eigen::Vector3d lo = box.min(), hi = box.max();
+  for (double y = lo.y(); y <= hi.y() + 1e-9; y += spacing_m) {
+    for (double x = lo.x(); x <= hi.x() + 1e-9; x += spacing_m) add(x, y, hi.z());
+  }
+  for (double z = lo.z(); z < hi.z() - 1e-9; z += spacing_m) {
+    for (double x = lo.x(); x <= hi.x() + 1e-9; x += spacing_m) {
+      add(x, lo.y(), z);
+      add(x, hi.y(), z);
+    }
+    for (double y = lo.y() + spacing_m; y < hi.y() - 1e-9; y += spacing_m) {
+      add(lo.x(), y, z);
+      add(hi.x(), y, z);
+    }
+  }
+  return points;
+}
+
+// A scan of a pallet stack (1.2 × 1.0 × 1.2 m) centred at (x, y) on the floor at `floor_z`,
+// with the floor around it, of the region `half_m` around (x, y) from 0.3 m under the floor
+// to 1.5 m above it; the sensor also saw the floor 1 m beyond the region.
+MapEdit PalletScan(double x, double y, double floor_z, double half_m, std::uint32_t seed) {
+  const Eigen::AlignedBox3d pallet(Eigen::Vector3d(x - 0.6, y - 0.5, floor_z),
+                                   Eigen::Vector3d(x + 0.6, y + 0.5, floor_z + 1.2));
+  PointCloud points;
+  for (const Eigen::Vector3f& p : FloorScan(x - half_m - 1, y - half_m - 1, x + half_m + 1,
+                                            y + half_m + 1, floor_z, 0.05, seed)) {
+    if (!pallet.contains(Eigen::Vector3d(p.x(), p.y(), pallet.center().z()))) points.push_back(p);
+  }
+  const PointCloud box = BoxScan(pallet, 0.02, seed + 1);
+  points.insert(points.end(), box.begin(), box.end());
+  return Scan(std::move(points), x - half_m, y - half_m, x + half_m, y + half_m, floor_z - 0.3,
+              floor_z + 1.5);
+}
+
 struct Scene {
   PointCloud cloud;
   std::shared_ptr<const TerrainModel> model;
@@ -56,8 +129,10 @@ struct Scene {
 
 // Applies `edits`, reassesses locally and checks the model against a fresh assessment of the
 // edited cloud, byte for byte. Returns the reassessment for further checks.
+// `next`, when given, receives the edited cloud and its reassessed model: the scene the next
+// edit applies to.
 Reassessment ExpectReassessedLikeFresh(const Scene& scene, const std::vector<MapEdit>& edits,
-                                       ReassessmentPath expected_path) {
+                                       ReassessmentPath expected_path, Scene* next = nullptr) {
   Expected<PointCloud> edited = ApplyEdits(scene.cloud, edits, *scene.model);
   EXPECT_TRUE(edited.ok()) << edited.error().message;
   if (!edited.ok()) return {};
@@ -76,6 +151,7 @@ Reassessment ExpectReassessedLikeFresh(const Scene& scene, const std::vector<Map
       << test_util::FirstDifferingByte(local_bytes, fresh_bytes) << " of " << fresh_bytes.size();
   // An edit that changed nothing would prove nothing.
   EXPECT_NE(local_bytes, test_util::BytesWithoutTimings(*scene.model));
+  if (next != nullptr) *next = Scene{std::move(edited).value(), reassessed->model};
   return std::move(reassessed).value();
 }
 
@@ -210,6 +286,50 @@ TEST_F(VoxelisedTerrain, ObstaclesKeepTheLatticeAndStayInsideTheirPrism) {
   EXPECT_EQ(DetectVerticalQuantum(*edited), DetectVerticalQuantum(scene().cloud));
 }
 
+// A scan of a voxelised map on its own lattice (the ground seen again, and a block standing on
+// it): the quantum holds and only the columns around it are assessed again.
+TEST_F(VoxelisedTerrain, AScanOnTheLatticeReassessesLikeAFreshAssessment) {
+  const Eigen::Vector2d c = OpenSpot(1.5, 1.0);
+  const double ground = layout().HeightAt(c.x(), c.y());
+  const Prism region = BoxPrism({Eigen::Vector3d(c.x() - 1.5, c.y() - 1.5, ground - 1),
+                                 Eigen::Vector3d(c.x() + 1.5, c.y() + 1.5, ground + 1.6)});
+  PointCloud points;
+  for (const Eigen::Vector3f& p : scene().cloud) {
+    if (region.Contains(p.cast<double>())) points.push_back(p);
+  }
+  ASSERT_GT(points.size(), 50u);
+  // A solid block 1 × 1 m from the ground up to 1 m above it: the centres of its voxels
+  // (0.2 m, the map's own).
+  const auto voxel_centre = [](double v) { return (std::floor(v / 0.2) + 0.5) * 0.2; };
+  const double top = voxel_centre(ground + 1.0);
+  for (double x = voxel_centre(c.x() - 0.5); x <= c.x() + 0.5; x += 0.2) {
+    for (double y = voxel_centre(c.y() - 0.5); y <= c.y() + 0.5; y += 0.2) {
+      for (double z = voxel_centre(ground); z <= top + 1e-6; z += 0.2) {
+        points.emplace_back(static_cast<float>(x), static_cast<float>(y), static_cast<float>(z));
+      }
+    }
+  }
+  const MapEdit scan = Scan(std::move(points), c.x() - 1.5, c.y() - 1.5, c.x() + 1.5, c.y() + 1.5,
+                            ground - 1, ground + 1.6);
+  const Reassessment r = ExpectReassessedLikeFresh(scene(), {scan}, ReassessmentPath::kLocal);
+  ASSERT_NE(r.model, nullptr);
+  EXPECT_EQ(r.model->summary().vertical_quantum_m, scene().model->summary().vertical_quantum_m);
+  // The block's top is ground in its columns (at 0.1 m on a 0.2 m lattice, some are empty).
+  double highest = -1e9, highest_before = -1e9;
+  for (double dx = -0.3; dx <= 0.3; dx += 0.1) {
+    for (double dy = -0.3; dy <= 0.3; dy += 0.1) {
+      if (const ColumnSurface* s = TopSurface(*r.model, c.x() + dx, c.y() + dy)) {
+        highest = std::max(highest, double{s->ground_z_m});
+      }
+      if (const ColumnSurface* s = TopSurface(*scene().model, c.x() + dx, c.y() + dy)) {
+        highest_before = std::max(highest_before, double{s->ground_z_m});
+      }
+    }
+  }
+  EXPECT_LT(highest_before, ground + 0.3);
+  EXPECT_NEAR(highest, top, 1e-3);
+}
+
 // ---------------------------------------------------------------------------------------------
 // A sensor's cloud on several levels: the parking garage.
 
@@ -324,6 +444,69 @@ TEST_F(Garage, EditsApplyInOrder) {
       ReassessmentPath::kLocal);
 }
 
+// Scans one after another, each edit applied to the cloud and model the one before made (as
+// the map store makes versions), mixed with obstacles and removals: every model is the one a
+// fresh assessment of its cloud makes. A pallet stack scanned on a deck blocks the floor
+// there; a scan of bare floor clears an obstacle away.
+TEST_F(Garage, ScansOneAfterAnotherReassessLikeAFreshAssessment) {
+  const double deck1 = layout().level_z_m[1];
+  const double deck2 = layout().level_z_m[2];
+  const double deck3 = layout().level_z_m[3];
+  const Eigen::Vector2d a = FreeFloor(2, 1.6);
+  const Eigen::Vector2d b = FreeFloor(1, 1.6);
+  const Eigen::Vector2d c = FreeFloor(3, 1.6);
+  const auto top_z = [](const Scene& scene, const Eigen::Vector2d& p, double below_z) {
+    // The highest surface of p's column below `below_z` (under the deck above).
+    const Eigen::Vector3i cell = scene.model->grid().CellOf({p.x(), p.y(), 0});
+    double z = -1e9;
+    for (const ColumnSurface& s : scene.model->surfaces().Column(cell.x(), cell.y())) {
+      if (s.ground_z_m < below_z) z = std::max(z, double{s.ground_z_m});
+    }
+    return z;
+  };
+  Scene step = scene();
+
+  // 1. A pallet stack scanned on deck 2: its column's floor is now the stack's top.
+  ASSERT_NEAR(top_z(step, a, deck3 - 1), deck2, 0.1);
+  ExpectReassessedLikeFresh(step, {PalletScan(a.x(), a.y(), deck2, 1.6, 1)},
+                            ReassessmentPath::kLocal, &step);
+  EXPECT_NEAR(top_z(step, a, deck3 - 1), deck2 + 1.2, 0.1);
+
+  // 2. An obstacle on deck 1 with a notch removed from it, in one update.
+  ExpectReassessedLikeFresh(
+      step,
+      {Obstacle(b.x() - 1, b.y() - 1, b.x() + 1, b.y() + 1, deck1, deck1 + 1),
+       Removal(b.x() - 0.2, b.y() - 1.5, b.x() + 0.2, b.y() + 1.5, deck1 + 0.5, deck1 + 2)},
+      ReassessmentPath::kLocal, &step);
+  const Eigen::Vector2d beside_notch = b + Eigen::Vector2d(0.6, 0);
+  EXPECT_GT(top_z(step, beside_notch, deck2 - 1), deck1 + 0.7);
+
+  // 3. A scan of the bare floor there: the obstacle is gone, the floor is ground again.
+  ExpectReassessedLikeFresh(
+      step,
+      {Scan(FloorScan(b.x() - 2, b.y() - 2, b.x() + 2, b.y() + 2, deck1, 0.05, 3), b.x() - 1.6,
+            b.y() - 1.6, b.x() + 1.6, b.y() + 1.6, deck1 - 0.1, deck1 + 1.5)},
+      ReassessmentPath::kLocal, &step);
+  EXPECT_NEAR(top_z(step, beside_notch, deck2 - 1), deck1, 0.05);
+  const Eigen::Vector3i cell = step.model->grid().CellOf({beside_notch.x(), beside_notch.y(), 0});
+  EXPECT_TRUE(std::any_of(
+      step.model->surfaces().Column(cell.x(), cell.y()).begin(),
+      step.model->surfaces().Column(cell.x(), cell.y()).end(),
+      [&](const ColumnSurface& s) { return s.valid && std::abs(s.ground_z_m - deck1) < 0.05; }));
+
+  // 4. In one update: a pallet stack on the roof with a corner taken off it, and the stack on
+  // deck 2 scanned away.
+  ExpectReassessedLikeFresh(
+      step,
+      {PalletScan(c.x(), c.y(), deck3, 1.6, 4),
+       Removal(c.x() + 0.2, c.y() + 0.1, c.x() + 1, c.y() + 1, deck3 + 0.6, deck3 + 2),
+       Scan(FloorScan(a.x() - 1.6, a.y() - 1.6, a.x() + 1.6, a.y() + 1.6, deck2, 0.05, 6),
+            a.x() - 1.6, a.y() - 1.6, a.x() + 1.6, a.y() + 1.6, deck2 - 0.1, deck2 + 1.5)},
+      ReassessmentPath::kLocal, &step);
+  EXPECT_NEAR(top_z(step, c, 1e9), deck3 + 1.2, 0.1);
+  EXPECT_NEAR(top_z(step, a, deck3 - 1), deck2, 0.05);
+}
+
 // ---------------------------------------------------------------------------------------------
 // ApplyEdits on its own.
 
@@ -425,6 +608,155 @@ TEST_F(Garage, ApplyEditsRefusesObstaclesAboveThePointLimitBeforeAllocating) {
                          std::vector<MapEdit>{Obstacle(0, 0, side - 0.3, side - 0.3, 0, 1)},
                          *scene().model)
                   .ok());
+}
+
+// A scan drops what its region held and adds its own points inside the region, thinned to
+// the lowest (then earliest) of each cube of a cell edge / 8 as the assessment thins a column,
+// in the scan's order; those outside the region are counted, not added.
+TEST_F(Garage, AScanAddsItsThinnedPointsInsideItsRegionOnly) {
+  const double deck = layout().level_z_m[2];
+  const Eigen::Vector2d c = FreeFloor(2, 1.6);
+  const MapEdit scan = PalletScan(c.x(), c.y(), deck, 1.6, 5);
+  const PointCloud& points = *scan.points;
+  ScanCounts counts;
+  Expected<PointCloud> a =
+      ApplyEdits(scene().cloud, std::vector<MapEdit>{scan}, *scene().model, &counts);
+  Expected<PointCloud> b = ApplyEdits(scene().cloud, std::vector<MapEdit>{scan}, *scene().model);
+  ASSERT_TRUE(a.ok()) << a.error().message;
+  ASSERT_TRUE(b.ok());
+  EXPECT_TRUE(*a == *b);
+  const auto inside = [&](const Eigen::Vector3f& p) {
+    return scan.region.Contains(p.cast<double>());
+  };
+  PointCloud kept;
+  for (const Eigen::Vector3f& p : scene().cloud) {
+    if (!inside(p)) kept.push_back(p);
+  }
+  ASSERT_LT(kept.size(), scene().cloud.size());
+  ASSERT_GE(a->size(), kept.size());
+  EXPECT_TRUE(std::equal(kept.begin(), kept.end(), a->begin()));
+  const std::span<const Eigen::Vector3f> added(a->data() + kept.size(), a->size() - kept.size());
+
+  // The counts add up, and the sensor's view past the region and the pallet's 2 cm sampling
+  // both left points out.
+  const auto outside = static_cast<std::size_t>(
+      std::count_if(points.begin(), points.end(), [&](const auto& p) { return !inside(p); }));
+  EXPECT_GT(outside, 0u);
+  EXPECT_EQ(counts.outside_region, outside);
+  EXPECT_EQ(counts.added, added.size());
+  EXPECT_GT(counts.thinned, 0u);
+  EXPECT_EQ(counts.added + counts.thinned + counts.outside_region, points.size());
+
+  // Against the definition: the cubes of edge resolution / 8 from the grid's origin, each
+  // holding its lowest (then earliest) point of the scan inside the region.
+  const GridGeometry& g = scene().model->grid();
+  const double leaf = g.resolution_m / 8;
+  using Cube = std::tuple<std::int64_t, std::int64_t, std::int64_t>;
+  const auto cube_of = [&](const Eigen::Vector3f& p) {
+    const auto index = [&](float v, int axis) {
+      return static_cast<std::int64_t>(std::floor((v - g.origin_m[axis]) / leaf));
+    };
+    return Cube{index(p.x(), 0), index(p.y(), 1), index(p.z(), 2)};
+  };
+  std::map<Cube, std::pair<float, std::size_t>> lowest;  // Cube → (z, index in the scan).
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    if (!inside(points[i])) continue;
+    const auto [it, fresh] = lowest.try_emplace(cube_of(points[i]), points[i].z(), i);
+    if (!fresh && points[i].z() < it->second.first) it->second = {points[i].z(), i};
+  }
+  ASSERT_EQ(added.size(), lowest.size());
+  std::vector<std::size_t> expected;
+  for (const auto& [cube, first] : lowest) expected.push_back(first.second);
+  std::sort(expected.begin(), expected.end());  // In the scan's order.
+  for (std::size_t k = 0; k < added.size(); ++k) {
+    EXPECT_EQ(added[k], points[expected[k]]) << k;
+  }
+
+  // A scan that saw nothing empties its region, as a removal does.
+  MapEdit nothing = scan;
+  nothing.points = nullptr;
+  Expected<PointCloud> emptied =
+      ApplyEdits(scene().cloud, std::vector<MapEdit>{nothing}, *scene().model);
+  ASSERT_TRUE(emptied.ok());
+  EXPECT_TRUE(*emptied == kept);
+}
+
+TEST_F(Garage, ApplyEditsRefusesBadScansNamingTheField) {
+  const TerrainModel& model = *scene().model;
+  const GridGeometry& g = model.grid();
+  const Eigen::Vector3d grid_max = g.origin_m + g.size.cast<double>() * g.resolution_m;
+  const PointCloud floor = FloorScan(2, 2, 3, 3, 0, 0.1, 7);
+
+  // Past the grid's west edge, and above its top: a scan never extends the map.
+  auto e = ApplyEdits(
+      scene().cloud,
+      std::vector<MapEdit>{Obstacle(3, 3, 5, 5, 0, 1), Scan(floor, -5, 2, 3, 3, -0.1, 1)}, model);
+  ASSERT_FALSE(e.ok());
+  EXPECT_EQ(e.error().code, ErrorCode::kInvalidInput);
+  EXPECT_EQ(e.error().field, "edits[1].region");
+  EXPECT_THAT(e.error().message, HasSubstr("spans (-5.00, 2.00, -0.10) – (3.00, 3.00, 1.00) m"));
+  EXPECT_THAT(e.error().message,
+              HasSubstr(fmt::format("beyond the map's grid ({:.2f}, {:.2f}, {:.2f}) – ({:.2f}, "
+                                    "{:.2f}, {:.2f}) m",
+                                    g.origin_m.x(), g.origin_m.y(), g.origin_m.z(), grid_max.x(),
+                                    grid_max.y(), grid_max.z())));
+  e = ApplyEdits(scene().cloud,
+                 std::vector<MapEdit>{Scan(floor, 2, 2, 3, 3, -0.1, grid_max.z() + 0.1)}, model);
+  ASSERT_FALSE(e.ok());
+  EXPECT_EQ(e.error().field, "edits[0].region");
+  // Just inside: accepted.
+  EXPECT_TRUE(ApplyEdits(scene().cloud,
+                         std::vector<MapEdit>{Scan(floor, 2, 2, 3, 3, -0.1, grid_max.z())}, model)
+                  .ok());
+
+  // A point that is not finite, named by its index.
+  PointCloud bad = floor;
+  bad[3].y() = std::numeric_limits<float>::quiet_NaN();
+  e = ApplyEdits(scene().cloud, std::vector<MapEdit>{Scan(bad, 2, 2, 3, 3, -0.1, 1)}, model);
+  ASSERT_FALSE(e.ok());
+  EXPECT_EQ(e.error().code, ErrorCode::kInvalidInput);
+  EXPECT_EQ(e.error().field, "edits[0].points[3]");
+  EXPECT_THAT(e.error().message, HasSubstr("not finite"));
+
+  // Points on an edit that is not a scan.
+  MapEdit obstacle = Obstacle(2, 2, 3, 3, 0, 1);
+  obstacle.points = std::make_shared<const PointCloud>(floor);
+  e = ApplyEdits(scene().cloud, std::vector<MapEdit>{obstacle}, model);
+  ASSERT_FALSE(e.ok());
+  EXPECT_EQ(e.error().field, "edits[0].points");
+
+  // More points than an edit may add, in one scan or with the edits before it (counted as the
+  // scan holds them, outside its region too, before any is sorted).
+  const Eigen::Vector3f far(30, 20, 0);  // Outside the region: cheap to count.
+  e = ApplyEdits(scene().cloud,
+                 std::vector<MapEdit>{Scan(PointCloud(kMaxEditPoints + 1, far), 2, 2, 3, 3, 0, 1)},
+                 model);
+  ASSERT_FALSE(e.ok());
+  EXPECT_EQ(e.error().code, ErrorCode::kResourceExhausted);
+  EXPECT_EQ(e.error().field, "edits[0].points");
+  EXPECT_THAT(e.error().message, HasSubstr("kMaxEditPoints = 4000000"));
+  const MapEdit block = Obstacle(3, 3, 5, 5, 0, 1);
+  Expected<PointCloud> with_block = ApplyEdits(scene().cloud, std::vector<MapEdit>{block}, model);
+  ASSERT_TRUE(with_block.ok());
+  const std::size_t block_points = with_block->size() - scene().cloud.size();
+  e = ApplyEdits(
+      scene().cloud,
+      std::vector<MapEdit>{
+          block, Scan(PointCloud(kMaxEditPoints - block_points + 1, far), 2, 2, 3, 3, 0, 1)},
+      model);
+  ASSERT_FALSE(e.ok());
+  EXPECT_EQ(e.error().code, ErrorCode::kResourceExhausted);
+  EXPECT_EQ(e.error().field, "edits[1]");
+  EXPECT_THAT(e.error().message, HasSubstr("kMaxEditPoints = 4000000"));
+  ScanCounts counts;
+  ASSERT_TRUE(
+      ApplyEdits(scene().cloud,
+                 std::vector<MapEdit>{
+                     block, Scan(PointCloud(kMaxEditPoints - block_points, far), 2, 2, 3, 3, 0, 1)},
+                 model, &counts)
+          .ok());
+  EXPECT_EQ(counts.outside_region, kMaxEditPoints - block_points);
+  EXPECT_EQ(counts.added, 0u);
 }
 
 TEST_F(Garage, ReassessRegionRefusesAnEmptyTouchedBoxAndStopsWhenAsked) {

@@ -4,6 +4,7 @@
 #include <limits>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -93,6 +94,30 @@ TEST(PlanningMap, GraphsPastTheBoundGoLeastRecentlyUsedFirstNeverWhileHeld) {
   const PlanningMap unbounded(model);
   for (int i = 0; i < 4; ++i) ASSERT_TRUE(unbounded.Graph(Variant(i)).ok());
   EXPECT_EQ(unbounded.GraphCount(), 4u);
+}
+
+TEST(PlanningMap, NewZonesKeepTheGraphsAndTheirBound) {
+  const std::shared_ptr<const TerrainModel> model = FlatFloor();
+  const std::size_t one = PlanningMap(model).Graph(Variant(0)).value()->MemoryBytes();
+  auto map = std::make_shared<PlanningMap>(model, std::vector<Prism>{}, 2 * one + one / 2);
+  const SurfaceGraph* first = map->Graph(Variant(0)).value().get();
+  const SurfaceGraph* second = map->Graph(Variant(1)).value().get();
+  const std::vector<Prism> zones = {Prism{{{1, 1}, {2, 1}, {2, 2}}, -1, 1}};
+  const std::shared_ptr<const PlanningMap> zoned = map->WithKeepOut(zones);
+  EXPECT_EQ(&zoned->model(), &map->model());
+  ASSERT_EQ(zoned->keep_out().size(), 1u);
+  EXPECT_EQ(zoned->keep_out()[0].polygon_m, zones[0].polygon_m);
+  EXPECT_TRUE(map->keep_out().empty());
+  EXPECT_EQ(zoned->GraphCount(), 2u);
+  EXPECT_EQ(zoned->MemoryBytes(), map->MemoryBytes());
+
+  map.reset();  // The copy alone holds the graphs now.
+  EXPECT_EQ(zoned->Graph(Variant(1)).value().get(), second);  // Not built again.
+  EXPECT_EQ(zoned->Graph(Variant(0)).value().get(), first);
+  // The bound came along: a third graph drops the least recently used one (1).
+  ASSERT_TRUE(zoned->Graph(Variant(2)).ok());
+  EXPECT_EQ(zoned->GraphCount(), 2u);
+  EXPECT_EQ(zoned->Graph(Variant(0)).value().get(), first);
 }
 
 TEST(PlanningMap, AFailedBuildIsNotKept) {

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <latch>
 #include <random>
 #include <set>
@@ -19,6 +20,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "strata/io/cloud_io.hpp"
 #include "strata/io/saved_model.hpp"
 #include "strata/scenes/basic_scenes.hpp"
 
@@ -99,11 +101,18 @@ class MapStoreTest : public ::testing::Test {
     return MapStore::VersionOf(points, config(), {});
   }
 
-  // Puts the version of `points` (with the shared model) and returns its name.
+  // Puts the terrain of `points` (with the shared model) and its version without zones.
+  static ServiceStatus PutBoth(MapStore& store, const std::string& id, const std::string& version,
+                               const PointCloud& points, const std::string& metadata) {
+    ServiceStatus put = store.PutTerrain(id, version, points, model());
+    if (put.ok()) put = store.PutVersion(id, version, version, metadata);
+    return put;
+  }
+  // Puts the version of `points` and returns its name.
   std::string Put(MapStore& store, const std::string& id, const PointCloud& points,
                   const std::string& metadata = "{}") {
     const std::string version = VersionOf(points);
-    const ServiceStatus put = store.PutVersion(id, version, points, model(), metadata);
+    const ServiceStatus put = PutBoth(store, id, version, points, metadata);
     EXPECT_TRUE(put.ok()) << Why(put);
     return version;
   }
@@ -243,7 +252,7 @@ TEST_F(MapStoreTest, ManyWritersCreatingTheSameMapYieldOneVersion) {
       MapStore& store = *stores[i % 2];
       const std::string version = VersionOf(cloud());
       start.arrive_and_wait();
-      results[i] = store.PutVersion("same", version, cloud(), model(), "{}");
+      results[i] = PutBoth(store, "same", version, cloud(), "{}");
       if (results[i].ok()) results[i] = store.PublishNew("same", version);
     });
   }
@@ -400,6 +409,75 @@ TEST_F(MapStoreTest, PruningKeepsTheNewestVersions) {
       Fails(store_->LoadCloud("pruned", versions[0]), ServiceErrorCode::kMapVersionNotFound));
 }
 
+// A keep-out zone changes no terrain: its version is two small files naming its parent's.
+TEST_F(MapStoreTest, AVersionOfZonesAloneSharesItsTerrain) {
+  const std::string base = Create("zoned", cloud());
+  EXPECT_EQ(*store_->TerrainOfVersion("zoned", base), base);  // A first version names it so.
+  const Prism zone{{{0, 0}, {1, 0}, {1, 1}}, 0, 2};
+  const std::string zoned = MapStore::VersionOf(base, std::vector<Prism>{zone});
+  EXPECT_NE(zoned, base);
+  EXPECT_EQ(MapStore::VersionOf(cloud(), config(), std::vector<Prism>{zone}), zoned);
+  ASSERT_TRUE(store_->HasTerrain("zoned", base));
+  ASSERT_TRUE(store_->PutVersion("zoned", zoned, base, "{\"zones\":1}").ok());
+  ASSERT_TRUE(store_->PublishUpdate("zoned", base, zoned, 1).ok());
+
+  const fs::path map_dir = root_ / "maps" / "zoned";
+  EXPECT_EQ(Entries(map_dir / "terrains").size(), 1u);
+  std::set<std::string> files;
+  for (const fs::path& file : Entries(map_dir / "versions" / zoned)) {
+    files.insert(file.filename().string());
+    EXPECT_LT(fs::file_size(file), 64u) << file;
+  }
+  EXPECT_EQ(files, (std::set<std::string>{"metadata", "terrain"}));
+  // The base is pruned (one version kept); the terrain stays with the version naming it.
+  EXPECT_THAT(*store_->Versions("zoned"), ElementsAre(zoned));
+  EXPECT_EQ(store_->LoadCloud("zoned", zoned)->size(), cloud().size());
+  EXPECT_EQ(SerializeModel(**store_->LoadModel("zoned", zoned)), SerializeModel(model()));
+
+  // Once no version names it, it goes with the last one.
+  const std::string next = Put(*store_, "zoned", Variant(1));
+  ASSERT_TRUE(store_->PublishUpdate("zoned", zoned, next, 1).ok());
+  EXPECT_THAT(Entries(map_dir / "terrains"), ElementsAre(map_dir / "terrains" / next));
+  EXPECT_FALSE(store_->HasTerrain("zoned", base));
+  // A version whose terrain is gone is neither put nor published.
+  EXPECT_TRUE(
+      Fails(store_->PutVersion("zoned", zoned, base, "{}"), ServiceErrorCode::kMapVersionNotFound));
+  fs::remove_all(map_dir / "terrains" / next);
+  const std::string orphan = MapStore::VersionOf(next, std::vector<Prism>{zone});
+  fs::create_directories(map_dir / "versions" / orphan);
+  std::ofstream(map_dir / "versions" / orphan / "terrain") << next << "\n";
+  EXPECT_TRUE(Fails(store_->PublishUpdate("zoned", next, orphan, 2),
+                    ServiceErrorCode::kMapVersionNotFound));
+}
+
+// A store written by layout 1 (a version holds its cloud and model) is taken over and read.
+TEST_F(MapStoreTest, ReadsAStoreOfLayout1) {
+  const fs::path old_root = root_ / "layout1";
+  const std::string version = VersionOf(cloud());
+  const fs::path version_dir = old_root / "maps" / "old" / "versions" / version;
+  fs::create_directories(version_dir);
+  std::ofstream(old_root / "strata-map-store") << "strata map store, layout 1\n";
+  std::ofstream(old_root / "maps" / "old" / "head") << version << "\n";
+  std::ofstream(version_dir / "metadata") << "{}";
+  ASSERT_TRUE(SavePcd(cloud(), (version_dir / "cloud.pcd").string()).ok());
+  ASSERT_TRUE(SaveModel(model(), (version_dir / "model.stratamodel").string()).ok());
+
+  auto opened = MapStore::Open(old_root);
+  ASSERT_TRUE(opened.ok()) << Why(opened);
+  MapStore& store = **opened;
+  std::ifstream marker(old_root / "strata-map-store");
+  EXPECT_EQ(std::string(std::istreambuf_iterator<char>(marker), {}),
+            "strata map store, layout 2\n");
+  EXPECT_EQ(*store.TerrainOfVersion("old", version), "");
+  EXPECT_EQ(store.LoadCloud("old", version)->size(), cloud().size());
+  EXPECT_EQ(SerializeModel(**store.LoadModel("old", version)), SerializeModel(model()));
+  // A later version of it is of layout 2, and pruning the old one removes it whole.
+  const std::string next = Put(store, "old", Variant(1));
+  ASSERT_TRUE(store.PublishUpdate("old", version, next, 1).ok());
+  EXPECT_FALSE(fs::exists(version_dir));
+  EXPECT_EQ(store.LoadCloud("old", next)->size(), cloud().size());
+}
+
 TEST_F(MapStoreTest, DeleteRemovesTheMapForEveryone) {
   const std::string version = Create("doomed", cloud());
   auto other = MapStore::Open(root_);
@@ -437,17 +515,14 @@ TEST_F(MapStoreTest, RefusesNamesThatLeaveTheRoot) {
   const std::string version = VersionOf(cloud());
   for (const std::string& id : std::vector<std::string>{
            "", ".", "..", "a/b", "../x", std::string("a\0b", 3), std::string(65, 'a')}) {
-    EXPECT_TRUE(
-        Fails(store_->PutVersion(id, version, cloud(), model(), ""), ErrorCode::kInvalidInput))
-        << id;
+    EXPECT_TRUE(Fails(PutBoth(*store_, id, version, cloud(), ""), ErrorCode::kInvalidInput)) << id;
     EXPECT_TRUE(Fails(store_->Versions(id), ErrorCode::kInvalidInput)) << id;
     EXPECT_TRUE(Fails(store_->Delete(id), ErrorCode::kInvalidInput)) << id;
   }
   for (const std::string& bad :
        std::vector<std::string>{"", "../../etc", version.substr(1), version + "0",
                                 std::string(32, 'A'), std::string(32, 'g')}) {
-    EXPECT_TRUE(Fails(store_->PutVersion("m", bad, cloud(), model(), ""), ErrorCode::kInvalidInput))
-        << bad;
+    EXPECT_TRUE(Fails(PutBoth(*store_, "m", bad, cloud(), ""), ErrorCode::kInvalidInput)) << bad;
     EXPECT_TRUE(Fails(store_->LoadModel("m", bad), ErrorCode::kInvalidInput)) << bad;
   }
   EXPECT_THAT(Entries(root_ / "maps"), IsEmpty());
@@ -480,13 +555,13 @@ TEST_F(MapStoreTest, AWriterKilledMidWriteLeavesNoVersion) {
   ASSERT_GE(pid, 0);
   if (pid == 0) {
     auto store = MapStore::Open(root_);
-    const bool ok = store.ok() && (*store)->PutVersion("big", version, big, model(), "{}").ok() &&
+    const bool ok = store.ok() && PutBoth(**store, "big", version, big, "{}").ok() &&
                     (*store)->PublishNew("big", version).ok();
     ::_exit(ok ? 0 : 1);
   }
-  // Kill it as soon as its temporary version directory exists (tmp/version.<pid>.<random>).
+  // Kill it as soon as its temporary terrain directory exists (tmp/terrain.<pid>.<random>).
   bool exited = false;
-  while (Entries(root_ / "tmp", "version.").empty()) {
+  while (Entries(root_ / "tmp", "terrain.").empty()) {
     int status = 0;
     if (::waitpid(pid, &status, WNOHANG) == pid) {
       exited = true;
@@ -499,7 +574,7 @@ TEST_F(MapStoreTest, AWriterKilledMidWriteLeavesNoVersion) {
   int status = 0;
   ASSERT_EQ(::waitpid(pid, &status, 0), pid);
   ASSERT_TRUE(WIFSIGNALED(status)) << "the writer finished before it was killed";
-  ASSERT_EQ(Entries(root_ / "tmp", "version.").size(), 1u);  // Its half-written version.
+  ASSERT_EQ(Entries(root_ / "tmp", "terrain.").size(), 1u);  // Its half-written terrain.
 
   auto fresh = MapStore::Open(root_);
   ASSERT_TRUE(fresh.ok()) << Why(fresh);
@@ -508,8 +583,9 @@ TEST_F(MapStoreTest, AWriterKilledMidWriteLeavesNoVersion) {
   EXPECT_TRUE(Fails(store.Versions("big"), ServiceErrorCode::kMapNotFound));
   EXPECT_TRUE(Fails(store.LoadModel("big", version), ServiceErrorCode::kMapNotFound));
   EXPECT_THAT(Entries(root_ / "maps" / "big" / "versions"), IsEmpty());
+  EXPECT_THAT(Entries(root_ / "maps" / "big" / "terrains"), IsEmpty());
 
-  ASSERT_TRUE(store.PutVersion("big", version, big, model(), "{}").ok());
+  ASSERT_TRUE(PutBoth(store, "big", version, big, "{}").ok());
   ASSERT_TRUE(store.PublishNew("big", version).ok());
   auto loaded = store.LoadCloud("big", version);
   ASSERT_TRUE(loaded.ok()) << Why(loaded);
@@ -519,14 +595,14 @@ TEST_F(MapStoreTest, AWriterKilledMidWriteLeavesNoVersion) {
   // it is older than the stale age.
   ASSERT_EQ(Entries(root_ / "tmp").size(), 1u);
   EXPECT_EQ(store.CollectGarbage(), 0);
-  MakeStale(Entries(root_ / "tmp", "version.").front());
+  MakeStale(Entries(root_ / "tmp", "terrain.").front());
   EXPECT_EQ(store.CollectGarbage(), 1);
   EXPECT_THAT(Entries(root_ / "tmp"), IsEmpty());
 }
 
 TEST_F(MapStoreTest, ATamperedVersionFailsToLoadClearly) {
   const std::string version = Create("tampered", cloud());
-  const fs::path dir = root_ / "maps" / "tampered" / "versions" / version;
+  const fs::path dir = root_ / "maps" / "tampered" / "terrains" / version;
   const fs::path model_file = dir / "model.stratamodel";
   fs::resize_file(model_file, fs::file_size(model_file) / 2);
   const auto truncated = store_->LoadModel("tampered", version);
@@ -564,6 +640,14 @@ TEST_F(MapStoreTest, CollectsOnlyStaleLeftovers) {
   EXPECT_FALSE(fs::exists(root_ / "maps" / "headless"));
   EXPECT_TRUE(store_->PublishUpdate("m", kept, young, 3).ok());
   EXPECT_THAT(Entries(root_ / "trash"), IsEmpty());
+  // The orphan's terrain, which no version names, goes once it is stale too.
+  const fs::path terrains = root_ / "maps" / "m" / "terrains";
+  EXPECT_TRUE(fs::exists(terrains / orphan));
+  MakeStale(terrains / orphan);
+  MakeStale(terrains / kept);  // Named by a version: stays however old.
+  EXPECT_EQ(store_->CollectGarbage(), 1);
+  EXPECT_FALSE(fs::exists(terrains / orphan));
+  EXPECT_TRUE(fs::exists(terrains / kept));
 }
 
 }  // namespace

@@ -3,12 +3,19 @@
 #include "maps/map_worker_protocol.hpp"
 
 #include <algorithm>
+#include <bit>
+#include <cstring>
 #include <iterator>
+#include <limits>
+#include <memory>
+#include <random>
 #include <string>
 #include <vector>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+
+#include "common/packed_points.hpp"
 
 namespace strata::server {
 namespace {
@@ -137,7 +144,8 @@ TEST(WorkerReport, LinesReadBackAsTheirReports) {
   WorkerReport done;
   done.version = "57b2470b769fbc7020073d736f8b88cc";
   WorkerReport edited = done;
-  edited.edit = EditFigures{0.25, 1.0 / 3, true, "the edited cloud's bounds change the grid", 4242};
+  edited.edit = EditFigures{0.25, 1.0 / 3, true,     "the edited cloud's bounds change the grid",
+                            4242, 123'456, 7'890'123};
   for (const WorkerReport& report : {loaded, progress, failed, done, edited}) {
     const std::string line = FormatWorkerReport(report);
     ASSERT_FALSE(line.empty());
@@ -162,6 +170,9 @@ TEST(WorkerReport, LinesReadBackAsTheirReports) {
       EXPECT_EQ(back->edit->full_reassessment, report.edit->full_reassessment) << line;
       EXPECT_EQ(back->edit->full_reason, report.edit->full_reason) << line;
       EXPECT_EQ(back->edit->reassessed_columns, report.edit->reassessed_columns) << line;
+      EXPECT_EQ(back->edit->scan_points_outside_region, report.edit->scan_points_outside_region)
+          << line;
+      EXPECT_EQ(back->edit->scan_points_thinned, report.edit->scan_points_thinned) << line;
     }
   }
 }
@@ -192,6 +203,60 @@ TEST(WorkerEdits, EditsReadBackExactlyAndAnythingElseIsRefused) {
     const Expected<std::vector<MapEdit>> refused = ParseEdits(bad);
     ASSERT_FALSE(refused.ok()) << bad;
     EXPECT_THAT(refused.error().message, HasSubstr("line 1")) << bad;
+  }
+}
+
+// A scan's points go to the worker in binary after its line: every point reads back bit for
+// bit (the extremes of float and a newline's bytes among them), the edits around it too, and
+// a file that ends inside the points is refused naming the scan's line.
+TEST(WorkerEdits, AScansPointsReadBackBitForBit) {
+  MapEdit obstacle;
+  obstacle.region.polygon_m = {{0.1, 0.2}, {1.0 / 3, 0.2}, {1.0 / 3, 2.0 / 3}};
+  obstacle.region.z_min_m = -0.1;
+  obstacle.region.z_max_m = 1e-3;
+  MapEdit scan = obstacle;
+  scan.kind = MapEdit::Kind::kScan;
+  std::mt19937 random(43);
+  std::uniform_real_distribution<float> coordinate(-1e4f, 1e4f);
+  PointCloud points;
+  for (int i = 0; i < 1000; ++i) points.emplace_back(coordinate(random), coordinate(random), 0.1f);
+  points.emplace_back(std::numeric_limits<float>::denorm_min(), std::numeric_limits<float>::max(),
+                      std::numeric_limits<float>::lowest());
+  points.emplace_back(-0.0f, 1.0f / 3, std::bit_cast<float>(0x0A0A0A0Au));  // '\n' bytes.
+  scan.points = std::make_shared<const PointCloud>(points);
+  MapEdit empty_scan = scan;
+  empty_scan.points = nullptr;
+  MapEdit removal = obstacle;
+  removal.kind = MapEdit::Kind::kRemovePoints;
+  const std::vector<MapEdit> edits = {obstacle, scan, empty_scan, removal, scan};
+  const std::string contents = FormatEdits(edits);
+  const Expected<std::vector<MapEdit>> back = ParseEdits(contents);
+  ASSERT_TRUE(back.ok()) << back.error().message;
+  ASSERT_EQ(back->size(), edits.size());
+  for (std::size_t i = 0; i < edits.size(); ++i) {
+    EXPECT_EQ((*back)[i].kind, edits[i].kind) << i;
+    EXPECT_EQ((*back)[i].region.polygon_m, edits[i].region.polygon_m) << i;
+    EXPECT_EQ((*back)[i].region.z_min_m, edits[i].region.z_min_m) << i;
+    EXPECT_EQ((*back)[i].region.z_max_m, edits[i].region.z_max_m) << i;
+    const std::size_t count = edits[i].points == nullptr ? 0 : edits[i].points->size();
+    ASSERT_EQ((*back)[i].points == nullptr ? 0 : (*back)[i].points->size(), count) << i;
+    if (count == 0) continue;
+    EXPECT_EQ(std::memcmp((*back)[i].points->data(), points.data(), count * sizeof(points[0])), 0)
+        << i;
+  }
+  // 12 bytes a point, little-endian.
+  const std::size_t line = contents.find('\n', contents.find("scan")) + 1;
+  EXPECT_EQ(contents.substr(0, line).find("scan 1002 "), contents.find("scan"));
+  EXPECT_EQ(ReadLittleEndianFloat(contents.data() + line + 4), points[0].y());
+
+  const std::string cut = FormatEdits(std::vector<MapEdit>{obstacle, scan});
+  const Expected<std::vector<MapEdit>> refused = ParseEdits(cut.substr(0, cut.size() - 1));
+  ASSERT_FALSE(refused.ok());
+  EXPECT_THAT(refused.error().message, HasSubstr("line 2"));
+  for (const char* bad : {"scan 0 1 2 3 4 5\n", "scan x 0 1 2 3 4 5 6 7\n", "scan\n"}) {
+    const Expected<std::vector<MapEdit>> wrong = ParseEdits(bad);
+    ASSERT_FALSE(wrong.ok()) << bad;
+    EXPECT_THAT(wrong.error().message, HasSubstr("line 1")) << bad;
   }
 }
 

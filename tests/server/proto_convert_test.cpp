@@ -3,6 +3,7 @@
 #include "rpc/proto_convert.hpp"
 
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <random>
 
@@ -10,6 +11,7 @@
 #include <google/protobuf/util/json_util.h>
 #include <gtest/gtest.h>
 
+#include "common/packed_points.hpp"
 #include "rpc/planner_service.hpp"
 
 namespace strata::server {
@@ -444,7 +446,7 @@ TEST(ProtoConvertTest, MapEditsArriveInOrderAndBadOnesAreBlamedByTheirPath) {
   unset.mutable_edits(1)->clear_kind();
   EXPECT_EQ(field_of(unset), "edits[1]");
   EXPECT_THAT(MapEditsFromProto(unset).error().message,
-              HasSubstr("set add_obstacle, remove_points or add_keep_out"));
+              HasSubstr("set add_obstacle, remove_points, add_keep_out or scan"));
 
   v1::UpdateMapRequest bad_prism = request;
   bad_prism.mutable_edits(2)->mutable_add_obstacle()->clear_z_max_m();
@@ -464,6 +466,84 @@ TEST(ProtoConvertTest, MapEditsArriveInOrderAndBadOnesAreBlamedByTheirPath) {
   v1::UpdateMapRequest no_id = request;
   no_id.clear_map_id();
   EXPECT_EQ(field_of(no_id), "map_id");
+}
+
+// A scan's points arrive as packed little-endian float32 x, y, z, bit for bit, with its region
+// and in its place among the edits; points that are not whole 12-byte triples or not finite
+// are refused naming edits[i].scan.points (a NaN's index in the message), more than
+// kMaxEditPoints as RESOURCE_EXHAUSTED, and a bad region by its path.
+TEST(ProtoConvertTest, AScanArrivesBitForBitAndBadPointsAreBlamedByTheirPath) {
+  v1::PlanRequest zones;  // Prisms to copy.
+  AddZone(&zones, 3, 4);
+  const PointCloud points = {{3.25f, 4.5f, 0.1f}, {1.0f / 3, -0.0f, 1e-30f}, {-7.0f, 1e6f, 2.0f}};
+  std::string bytes;
+  for (const Eigen::Vector3f& p : points) AppendPackedPoint(p, &bytes);
+  ASSERT_EQ(bytes.size(), 36u);
+  // Little-endian, whatever the machine: 3.25f is 0x40500000.
+  EXPECT_EQ(bytes.substr(0, 4), std::string("\x00\x00\x50\x40", 4));
+  v1::UpdateMapRequest request;
+  request.set_map_id("site");
+  *request.add_edits()->mutable_add_obstacle() = zones.keep_out(0);
+  v1::Scan* scan = request.add_edits()->mutable_scan();
+  *scan->mutable_region() = zones.keep_out(0);
+  scan->set_points(bytes);
+  request.add_edits()->mutable_scan()->mutable_region()->CopyFrom(zones.keep_out(0));  // Empty.
+  Result<ParsedMapEdits> parsed = MapEditsFromProto(request);
+  ASSERT_TRUE(parsed.ok()) << parsed.error().message;
+  ASSERT_EQ(parsed->edits.size(), 3u);
+  EXPECT_EQ(parsed->edits[0].kind, MapEdit::Kind::kAddObstacle);
+  EXPECT_EQ(parsed->edits[0].points, nullptr);
+  EXPECT_EQ(parsed->edits[1].kind, MapEdit::Kind::kScan);
+  EXPECT_EQ(parsed->edits[1].region.polygon_m[0], Eigen::Vector2d(3, 4));
+  EXPECT_EQ(parsed->edits[1].region.z_max_m, 2.5);
+  ASSERT_NE(parsed->edits[1].points, nullptr);
+  ASSERT_EQ(parsed->edits[1].points->size(), points.size());
+  EXPECT_EQ(std::memcmp(parsed->edits[1].points->data(), points.data(), bytes.size()), 0);
+  EXPECT_EQ(parsed->edits[2].kind, MapEdit::Kind::kScan);
+  EXPECT_TRUE(parsed->edits[2].points == nullptr || parsed->edits[2].points->empty());
+  for (const MapEdit& edit : parsed->edits) EXPECT_TRUE(edit.Validate("edit").ok());
+
+  const auto refused = [](const v1::UpdateMapRequest& edited) {
+    Result<ParsedMapEdits> result = MapEditsFromProto(edited);
+    EXPECT_FALSE(result.ok());
+    return result.ok() ? ServiceError{} : std::move(result).error();
+  };
+  v1::UpdateMapRequest ragged = request;
+  ragged.mutable_edits(1)->mutable_scan()->mutable_points()->push_back('\0');
+  ServiceError error = refused(ragged);
+  EXPECT_EQ(error.code, ServiceError::Code(ErrorCode::kInvalidInput));
+  EXPECT_EQ(FieldOf(error), "edits[1].scan.points");
+  EXPECT_THAT(error.message, HasSubstr("37 bytes, not a whole number of 12-byte points"));
+
+  for (const float bad :
+       {std::numeric_limits<float>::quiet_NaN(), std::numeric_limits<float>::infinity()}) {
+    PointCloud with_bad = points;
+    with_bad[2].y() = bad;
+    std::string bad_bytes;
+    for (const Eigen::Vector3f& p : with_bad) AppendPackedPoint(p, &bad_bytes);
+    v1::UpdateMapRequest not_finite = request;
+    not_finite.mutable_edits(1)->mutable_scan()->set_points(bad_bytes);
+    error = refused(not_finite);
+    EXPECT_EQ(error.code, ServiceError::Code(ErrorCode::kInvalidInput));
+    EXPECT_EQ(FieldOf(error), "edits[1].scan.points");
+    EXPECT_THAT(error.message, HasSubstr("not finite at index 2"));
+  }
+
+  v1::UpdateMapRequest too_many = request;
+  too_many.mutable_edits(1)->mutable_scan()->set_points(
+      std::string((kMaxEditPoints + 1) * kPackedPointBytes, '\0'));
+  error = refused(too_many);
+  EXPECT_EQ(error.code, ServiceError::Code(ErrorCode::kResourceExhausted));
+  EXPECT_EQ(FieldOf(error), "edits[1].scan.points");
+  EXPECT_THAT(error.message, HasSubstr("4000001 points"));
+
+  v1::UpdateMapRequest no_region = request;
+  no_region.mutable_edits(1)->mutable_scan()->clear_region();
+  EXPECT_EQ(FieldOf(refused(no_region)), "edits[1].scan.region.z_min_m");
+  v1::UpdateMapRequest flat = request;
+  flat.mutable_edits(1)->mutable_scan()->mutable_region()->mutable_polygon_m()->DeleteSubrange(2,
+                                                                                               2);
+  EXPECT_EQ(FieldOf(refused(flat)), "edits[1].scan.region.polygon_m");
 }
 
 // Vias arrive in order with their stop flag; a missing, non-finite or one-too-many via is

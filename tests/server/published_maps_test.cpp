@@ -142,7 +142,7 @@ TEST_P(PublishedMapsTest, OnlyAStoreKeepsWhatEditsNeed) {
   next.versions = {kV2, kV1};
   PointCloud cloud;
   std::shared_ptr<const PlanningMap> planning = FloorAt(0.5f, &cloud);
-  const ServiceStatus edited = published_->PublishEdit(kV1, next, planning, cloud);
+  const ServiceStatus edited = published_->PublishEdit(kV1, next, kV2, planning, &cloud);
   if (!GetParam()) {
     EXPECT_EQ(CodeOf(edited), ServiceError::Code(ServiceErrorCode::kMapStoreRequired));
     EXPECT_EQ(CodeOf(published_->OpenFiles("floor", kV1).error()),
@@ -155,7 +155,7 @@ TEST_P(PublishedMapsTest, OnlyAStoreKeepsWhatEditsNeed) {
   // A second edit of the old base loses the compare-and-swap.
   MapSnapshot stale = next;
   stale.version = std::string(32, 'c');
-  EXPECT_EQ(CodeOf(published_->PublishEdit(kV1, stale, planning, cloud)),
+  EXPECT_EQ(CodeOf(published_->PublishEdit(kV1, stale, stale.version, planning, &cloud)),
             ServiceError::Code(ServiceErrorCode::kMapChanged));
   // The files an edit reads, and the cloud.
   const VersionFiles files = published_->OpenFiles("floor", kV2).value();
@@ -168,6 +168,21 @@ TEST_P(PublishedMapsTest, OnlyAStoreKeepsWhatEditsNeed) {
   EXPECT_EQ(published_->HeldCount(), 0);
   EXPECT_EQ(published_->Get("floor", kV1).value().map->model().summary().input_points,
             cloud.size());
+
+  // Keep-out zones alone: a version naming the base's terrain, with no cloud passed on.
+  EXPECT_EQ(published_->TerrainOf("floor", kV2).value(), kV2);
+  MapSnapshot zoned = published_->Describe("floor").value();
+  zoned.version = std::string(32, 'd');
+  zoned.keep_out = {Prism{{{0, 0}, {1, 0}, {1, 1}}, 0, 1}};
+  const std::shared_ptr<const PlanningMap> base = published_->Get("floor", kV2).value().map;
+  ASSERT_TRUE(
+      published_->PublishEdit(kV2, zoned, kV2, base->WithKeepOut(zoned.keep_out), nullptr).ok());
+  EXPECT_EQ(published_->TerrainOf("floor", zoned.version).value(), kV2);
+  EXPECT_EQ(published_->LoadCloud("floor", zoned.version).value().size(), cloud.size());
+  published_->TrimTo(0);
+  const ActiveMap reloaded = published_->Get("floor", zoned.version).value();
+  EXPECT_EQ(reloaded.map->keep_out().size(), 1u);
+  EXPECT_EQ(reloaded.map->model().summary().input_points, cloud.size());
 }
 
 INSTANTIATE_TEST_SUITE_P(MemoryAndStore, PublishedMapsTest, ::testing::Bool(),

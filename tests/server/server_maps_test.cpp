@@ -1,11 +1,17 @@
 // MapService end to end against the real strata-server binary.
+#include <unistd.h>
+
 #include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <limits>
+#include <random>
+#include <string>
 
+#include <fmt/format.h>
 #include <gmock/gmock.h>
 #include <grpc/health/v1/health.grpc.pb.h>
+#include <Eigen/Geometry>
 
 #include "server_fixture.hpp"
 #include "strata/io/cloud_io.hpp"
@@ -427,6 +433,228 @@ TEST_F(MapServiceTest, ServesASavedModelAsSavedAndPlansOnItAsOnTheScene) {
   EXPECT_THAT(error.message, HasSubstr("grid.resolution_m"));
   EXPECT_THAT(error.fields, ElementsAre("terrain"));
   fs::remove_all(root);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Scans (UpdateMap's MapEdit.scan) end to end: converted, sent to the worker with the edit,
+// applied and reassessed there, published in the store, planned on.
+
+// Points packed as MapEdit.scan.points and PointChunk.points are (float32 x, y, z; the
+// machines these tests run on are little-endian, as the other upload tests assume).
+std::string Packed(const std::vector<float>& xyz) {
+  return std::string(reinterpret_cast<const char*>(xyz.data()), xyz.size() * sizeof(float));
+}
+
+// A 24 m x 16 m room sampled every 0.1 m: its floor at z = 0 and 2 m walls, every point off
+// by up to 1 cm in height (seeded) as a sensor's are, so the map is no voxel lattice.
+std::string RoomPoints() {
+  std::mt19937 random(43);
+  std::uniform_real_distribution<float> noise(-0.01f, 0.01f);
+  std::vector<float> xyz;
+  for (int ix = 0; ix <= 240; ++ix) {
+    for (int iy = 0; iy <= 160; ++iy) {
+      xyz.insert(xyz.end(), {0.1f * ix, 0.1f * iy, noise(random)});
+      const bool wall = ix == 0 || ix == 240 || iy == 0 || iy == 160;
+      for (int iz = 1; wall && iz <= 20; ++iz) {
+        xyz.insert(xyz.end(), {0.1f * ix, 0.1f * iy, 0.1f * iz + noise(random)});
+      }
+    }
+  }
+  return Packed(xyz);
+}
+
+// What a robot sees of the floor over [x0, x1] x [y0, y1] (a point every 5 cm, off by up to
+// 5 mm) and, when `pallets` is not empty, of a pallet stack standing there (its top and sides
+// every 2 cm, finer than the map's thinning), packed for MapEdit.scan.points.
+std::string ScanPoints(double x0, double y0, double x1, double y1,
+                       const Eigen::AlignedBox3d& pallets, std::uint32_t seed) {
+  std::mt19937 random(seed);
+  std::uniform_real_distribution<double> noise(-0.005, 0.005);
+  std::vector<float> xyz;
+  const auto add = [&](double x, double y, double z) {
+    xyz.insert(xyz.end(),
+               {static_cast<float>(x + noise(random)), static_cast<float>(y + noise(random)),
+                static_cast<float>(z + noise(random))});
+  };
+  for (double x = x0; x <= x1; x += 0.05) {
+    for (double y = y0; y <= y1; y += 0.05) {
+      if (pallets.isEmpty() || !pallets.contains(Eigen::Vector3d(x, y, pallets.center().z()))) {
+        add(x, y, 0);
+      }
+    }
+  }
+  if (!pallets.isEmpty()) {
+    const Eigen::Vector3d lo = pallets.min(), hi = pallets.max();
+    for (double x = lo.x(); x <= hi.x(); x += 0.02) {
+      for (double y = lo.y(); y <= hi.y(); y += 0.02) add(x, y, hi.z());
+      for (double z = lo.z(); z < hi.z(); z += 0.02) {
+        add(x, lo.y(), z);
+        add(x, hi.y(), z);
+      }
+    }
+    for (double y = lo.y(); y <= hi.y(); y += 0.02) {
+      for (double z = lo.z(); z < hi.z(); z += 0.02) {
+        add(lo.x(), y, z);
+        add(hi.x(), y, z);
+      }
+    }
+  }
+  return Packed(xyz);
+}
+
+void SetBox(v1::Prism* prism, double x0, double y0, double x1, double y1, double z0, double z1) {
+  for (const auto& [x, y] : {std::pair{x0, y0}, {x1, y0}, {x1, y1}, {x0, y1}}) {
+    v1::Vector2* corner = prism->add_polygon_m();
+    corner->set_x(x);
+    corner->set_y(y);
+  }
+  prism->set_z_min_m(z0);
+  prism->set_z_max_m(z1);
+}
+
+// Smallest distance of the response's trajectory samples to the vertical line at (x, y) [m].
+double ClosestApproach(const v1::PlanResponse& response, double x, double y) {
+  double closest = 1e9;
+  for (const v1::TrajectorySample& sample : response.samples()) {
+    closest =
+        std::min(closest, std::hypot(sample.position_m().x() - x, sample.position_m().y() - y));
+  }
+  return closest;
+}
+
+namespace fs = std::filesystem;
+
+class ScanTest : public MapServiceTest {
+ protected:
+  void SetUp() override {
+    store_ = fs::temp_directory_path() / ("strata-scan-test-" + std::to_string(::getpid()));
+    fs::remove_all(store_);
+    ASSERT_NO_FATAL_FAILURE(StartServer({"--no-preload", "--map-store", store_.string()}));
+    grpc::ClientContext context;
+    SetDeadline(&context, 120);
+    auto writer = maps_->UploadMap(&context, &room_);
+    v1::UploadMapRequest header = UploadHeader("room");
+    header.mutable_header()->set_wait(true);
+    writer->Write(header);
+    v1::UploadMapRequest chunk;
+    const std::string points = RoomPoints();
+    for (std::size_t at = 0; at < points.size(); at += 1020 * 1020) {  // 1 MiB, whole points.
+      chunk.mutable_chunk()->set_points(points.substr(at, 1020 * 1020));
+      writer->Write(chunk);
+    }
+    writer->WritesDone();
+    const grpc::Status status = writer->Finish();
+    ASSERT_TRUE(status.ok()) << status.error_message();
+  }
+  void TearDown() override {
+    MapServiceTest::TearDown();
+    fs::remove_all(store_);
+  }
+
+  grpc::Status Update(const v1::UpdateMapRequest& request, v1::UpdateMapResponse* response) {
+    grpc::ClientContext context;
+    SetDeadline(&context, 120);
+    return maps_->UpdateMap(&context, request, response);
+  }
+
+  // Across the room through its middle, sampled finely enough to see a detour.
+  static v1::PlanRequest AcrossTheRoom() {
+    v1::PlanRequest request = PlanRequestFor("room", 2, 8, 0.3, 22, 8, 0.3);
+    request.mutable_options()->set_sample_dt_s(0.05);
+    return request;
+  }
+
+  fs::path store_;
+  v1::Map room_;
+};
+
+TEST_F(ScanTest, APalletStackScannedInTheAisleIsPlannedAroundAndABareFloorScanClearsIt) {
+  v1::PlanResponse straight;
+  const grpc::Status planned = Plan(AcrossTheRoom(), &straight);
+  ASSERT_TRUE(planned.ok()) << planned.error_message();
+  EXPECT_LT(ClosestApproach(straight, 12, 8), 0.5);  // Straight through the middle.
+
+  // A robot scanned the middle of the room: a 1.2 m x 10 m row of pallets, 1.2 m high, stands
+  // across the aisle; it saw the floor 1 m past the region it vouches for.
+  const Eigen::AlignedBox3d pallets(Eigen::Vector3d(11.4, 3, 0), Eigen::Vector3d(12.6, 13, 1.2));
+  v1::UpdateMapRequest scan;
+  scan.set_map_id("room");
+  scan.set_base_version(room_.version());
+  v1::Scan* seen = scan.add_edits()->mutable_scan();
+  SetBox(seen->mutable_region(), 10, 2, 14, 14, -0.2, 1.6);
+  seen->set_points(ScanPoints(9, 1, 15, 15, pallets, 1));
+  ASSERT_LT(scan.ByteSizeLong(), std::size_t{4} << 20);  // One message.
+  v1::UpdateMapResponse scanned;
+  grpc::Status updated = Update(scan, &scanned);
+  ASSERT_TRUE(updated.ok()) << updated.error_message();
+  EXPECT_NE(scanned.map().version(), room_.version());
+  EXPECT_FALSE(scanned.stats().full_reassessment()) << scanned.stats().full_reassessment_reason();
+  EXPECT_GT(scanned.stats().scan_points_outside_region(), 0u);
+  EXPECT_GT(scanned.stats().scan_points_thinned(), 0u);
+  // The map keeps its grid (the scan lies within the room's points): only the columns around
+  // the scan were assessed again.
+  EXPECT_EQ(scanned.map().grid_size().SerializeAsString(), room_.grid_size().SerializeAsString());
+  EXPECT_EQ(scanned.map().grid_origin_m().SerializeAsString(),
+            room_.grid_origin_m().SerializeAsString());
+
+  v1::PlanResponse around;
+  const grpc::Status planned_around = Plan(AcrossTheRoom(), &around);
+  ASSERT_TRUE(planned_around.ok()) << planned_around.error_message();
+  EXPECT_EQ(around.map_version(), scanned.map().version());
+  EXPECT_GT(ClosestApproach(around, 12, 8), 4.0);  // Around the row's end, not through it.
+
+  // The pallets are gone: a scan of the bare floor clears them, and the plan is straight again.
+  v1::UpdateMapRequest bare = scan;
+  bare.set_base_version(scanned.map().version());
+  bare.mutable_edits(0)->mutable_scan()->set_points(
+      ScanPoints(10, 2, 14, 14, Eigen::AlignedBox3d(), 2));
+  v1::UpdateMapResponse cleared;
+  updated = Update(bare, &cleared);
+  ASSERT_TRUE(updated.ok()) << updated.error_message();
+  v1::PlanResponse again;
+  ASSERT_TRUE(Plan(AcrossTheRoom(), &again).ok());
+  EXPECT_EQ(again.map_version(), cleared.map().version());
+  EXPECT_LT(ClosestApproach(again, 12, 8), 0.5);
+}
+
+TEST_F(ScanTest, AScanPastTheMapOrWithBadPointsIsRefusedAndTheMapStaysAsItWas) {
+  // Its region reaches 6 m past the room's east wall, beyond the map's grid.
+  v1::UpdateMapRequest past;
+  past.set_map_id("room");
+  SetBox(past.add_edits()->mutable_scan()->mutable_region(), 20, 6, 30, 10, -0.2, 1.6);
+  past.mutable_edits(0)->mutable_scan()->set_points(
+      ScanPoints(20, 6, 30, 10, Eigen::AlignedBox3d(), 3));
+  v1::UpdateMapResponse response;
+  CallError error = ErrorOf(Update(past, &response));
+  EXPECT_EQ(error.code, grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(error.reason, "INVALID_INPUT");
+  EXPECT_THAT(error.message,
+              HasSubstr("edits[0].region spans (20.00, 6.00, -0.20) – (30.00, 10.00, 1.60) m, "
+                        "beyond the map's grid ("));
+  const v1::Vector3& origin = room_.grid_origin_m();
+  EXPECT_THAT(error.message, HasSubstr(fmt::format("grid ({:.2f}, {:.2f}, {:.2f}) – (", origin.x(),
+                                                   origin.y(), origin.z())));
+
+  // A point that is not finite: refused before any work, naming the field and the point.
+  std::string points = ScanPoints(10, 6, 12, 10, Eigen::AlignedBox3d(), 4);
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  std::memcpy(points.data() + 5 * 12 + 8, &nan, sizeof(nan));  // Point 5's z.
+  v1::UpdateMapRequest not_finite;
+  not_finite.set_map_id("room");
+  SetBox(not_finite.add_edits()->mutable_scan()->mutable_region(), 10, 6, 12, 10, -0.2, 1.6);
+  not_finite.mutable_edits(0)->mutable_scan()->set_points(points);
+  error = ErrorOf(Update(not_finite, &response));
+  EXPECT_EQ(error.code, grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_THAT(error.fields, ElementsAre("edits[0].scan.points"));
+  EXPECT_THAT(error.message, HasSubstr("not finite at index 5"));
+
+  grpc::ClientContext context;
+  SetDeadline(&context, 30);
+  v1::GetMapRequest get;
+  get.set_map_id("room");
+  v1::Map now;
+  ASSERT_TRUE(maps_->GetMap(&context, get, &now).ok());
+  EXPECT_EQ(now.version(), room_.version());
 }
 
 }  // namespace

@@ -46,6 +46,10 @@ class PlanningMap {
   const std::shared_ptr<const TerrainModel>& model_ptr() const { return model_; }
   /// The map's keep-out zones, as given.
   const std::vector<Prism>& keep_out() const { return keep_out_; }
+  /// A planning map of the same model with `keep_out` instead of these zones, holding the
+  /// graphs built here (zones are not part of them) under the same bound: a map whose zones
+  /// change plans at once, without building its graphs again.
+  std::shared_ptr<const PlanningMap> WithKeepOut(std::vector<Prism> keep_out) const;
   /// The graph for `params`, built on first use (the first caller for these params builds,
   /// later ones for the same params wait; other params and MemoryBytes never wait for it)
   /// and kept while max_graph_bytes allows. Fails as SurfaceGraph::Build does (a failure is

@@ -56,10 +56,6 @@ ColumnCloud SortIntoWindow(const GridGeometry& g, const CellBox& window, const P
 
 void ThinColumns(ColumnCloud* cloud, const GridGeometry& g,
                  [[maybe_unused]] int num_threads) {  // OpenMP only.
-  const double leaf = g.resolution_m / kThinningCubesPerCell;
-  const auto cube = [&](float value, double origin) {
-    return static_cast<std::int64_t>(std::floor((value - origin) / leaf));
-  };
   const std::int64_t columns = std::int64_t{cloud->nx} * cloud->ny;
   std::vector<std::uint8_t> keep(cloud->points.size(), 1);
   std::vector<std::uint32_t> kept(columns + 1, 0);
@@ -76,14 +72,14 @@ void ThinColumns(ColumnCloud* cloud, const GridGeometry& g,
       // The column is sorted by z, so the points of one layer of cubes are a contiguous run;
       // within a run, the first point of each (x, y) cube stays.
       for (std::uint32_t i = cloud->begin[c]; i < end;) {
-        const std::int64_t layer = cube(cloud->points[i].z(), g.origin_m.z());
+        const std::int64_t layer = ThinningCubeIndex(g, cloud->points[i].z(), 2);
         std::uint32_t j = i + 1;
-        while (j < end && cube(cloud->points[j].z(), g.origin_m.z()) == layer) ++j;
+        while (j < end && ThinningCubeIndex(g, cloud->points[j].z(), 2) == layer) ++j;
         if (j - i > 1) {
           run.clear();
           for (std::uint32_t k = i; k < j; ++k) {
             const Eigen::Vector3f& p = cloud->points[k];
-            run.push_back({cube(p.x(), g.origin_m.x()), cube(p.y(), g.origin_m.y()), k});
+            run.push_back({ThinningCubeIndex(g, p.x(), 0), ThinningCubeIndex(g, p.y(), 1), k});
           }
           std::sort(run.begin(), run.end(), [](const Key& a, const Key& b) {
             return std::tie(a.x, a.y, a.index) < std::tie(b.x, b.y, b.index);

@@ -71,6 +71,15 @@ ColumnCloud SortIntoColumnWindow(const GridGeometry& geometry, const CellBox& wi
 /// cell edge / 8 (2.5 cm at 0.2 m), finer than any lattice the assessment resolves.
 inline constexpr int kThinningCubesPerCell = 8;
 
+/// The index along `axis` (0 x, 1 y, 2 z) of the cube of ThinColumns holding a point whose
+/// coordinate there is `value` [m]: cubes of edge g.resolution_m / kThinningCubesPerCell laid
+/// from the grid's origin. The one definition of the cubes, which a scan's points are thinned
+/// by too (ApplyEdits, strata/assessment/map_edit.hpp).
+inline std::int64_t ThinningCubeIndex(const GridGeometry& g, float value, int axis) {
+  const double leaf = g.resolution_m / kThinningCubesPerCell;
+  return static_cast<std::int64_t>(std::floor((value - g.origin_m[axis]) / leaf));
+}
+
 /// Keeps, in every column, the first point (lowest, then earliest) of each cube of edge
 /// g.resolution_m / kThinningCubesPerCell (cubes laid from the grid's origin), in order, and
 /// resizes `valid`. The Valid Ground Filter scans the points above each point in the columns

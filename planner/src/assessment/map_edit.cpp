@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <string>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -118,8 +119,8 @@ Expected<PointCloud> FillObstacle(const MapEdit& edit, const std::string& path,
                                   std::size_t budget) {
   const auto exhausted = [&] {
     return Error{ErrorCode::kResourceExhausted,
-                 fmt::format("{}: the obstacles would add more than kMaxEditPoints = {} points; "
-                             "split it into smaller edits or use a coarser grid",
+                 fmt::format("{}: the obstacles and scans would add more than kMaxEditPoints = {} "
+                             "points; split it into smaller edits or use a coarser grid",
                              path, kMaxEditPoints),
                  path};
   };
@@ -158,29 +159,120 @@ Expected<PointCloud> FillObstacle(const MapEdit& edit, const std::string& path,
   return points;
 }
 
-bool InsideAny(std::span<const MapEdit> edits, std::span<const Eigen::AlignedBox3d> bounds,
-               std::size_t first, const Eigen::Vector3f& p) {
+// True for the kinds that drop the points inside their region.
+bool Drops(MapEdit::Kind kind) {
+  return kind == MapEdit::Kind::kRemovePoints || kind == MapEdit::Kind::kScan;
+}
+
+bool DroppedByAny(std::span<const MapEdit> edits, std::span<const Eigen::AlignedBox3d> bounds,
+                  std::size_t first, const Eigen::Vector3f& p) {
   const Eigen::Vector3d q = p.cast<double>();
   for (std::size_t j = first; j < edits.size(); ++j) {
-    if (edits[j].kind == MapEdit::Kind::kRemovePoints && bounds[j].contains(q) &&
-        edits[j].region.Contains(q)) {
-      return true;
-    }
+    if (Drops(edits[j].kind) && bounds[j].contains(q) && edits[j].region.Contains(q)) return true;
   }
   return false;
+}
+
+// The box the grid's cells span [m].
+Eigen::AlignedBox3d GridBounds(const GridGeometry& g) {
+  return {g.origin_m, g.origin_m + g.size.cast<double>() * g.resolution_m};
+}
+
+// kInvalidInput unless scan `edit`'s region lies within the grid (a scan never extends a map).
+Status ScanInsideGrid(const MapEdit& edit, const std::string& path, const GridGeometry& g) {
+  const Eigen::AlignedBox3d region = edit.region.Bounds();
+  const Eigen::AlignedBox3d grid = GridBounds(g);
+  if (grid.contains(region)) return Status::Ok();
+  const std::string field = internal::FieldPath(path, "region");
+  return Error{
+      ErrorCode::kInvalidInput,
+      fmt::format("{} spans {} – {} m, beyond the map's grid {} – {} m: a scan replaces "
+                  "what the map holds and never extends it; cut the region to the grid",
+                  field, internal::FormatPoint(region.min()), internal::FormatPoint(region.max()),
+                  internal::FormatPoint(grid.min()), internal::FormatPoint(grid.max())),
+      field};
+}
+
+// The points scan `edit` adds (ApplyEdits): those its region contains, in their order, each
+// the lowest (then earliest) of its cube of ThinColumns (column_cloud.hpp), so that the scan
+// adds no point the assessment would thin away. Counts what it leaves out in *counts.
+PointCloud ScanPoints(const MapEdit& edit, const GridGeometry& g, ScanCounts* counts) {
+  if (edit.points == nullptr) return {};
+  const PointCloud& scan = *edit.points;
+  const Eigen::AlignedBox3d box = edit.region.Bounds();
+  struct Key {
+    std::int64_t x, y, z;
+    float height;
+    std::uint32_t index;
+  };
+  std::vector<Key> inside;
+  for (std::size_t i = 0; i < scan.size(); ++i) {
+    const Eigen::Vector3d q = scan[i].cast<double>();
+    if (!box.contains(q) || !edit.region.Contains(q)) {
+      ++counts->outside_region;
+      continue;
+    }
+    inside.push_back({internal::ThinningCubeIndex(g, scan[i].x(), 0),
+                      internal::ThinningCubeIndex(g, scan[i].y(), 1),
+                      internal::ThinningCubeIndex(g, scan[i].z(), 2), scan[i].z(),
+                      static_cast<std::uint32_t>(i)});
+  }
+  std::sort(inside.begin(), inside.end(), [](const Key& a, const Key& b) {
+    return std::tie(a.x, a.y, a.z, a.height, a.index) < std::tie(b.x, b.y, b.z, b.height, b.index);
+  });
+  std::vector<std::uint8_t> keep(scan.size(), 0);
+  for (std::size_t k = 0; k < inside.size(); ++k) {
+    const bool first_of_cube = k == 0 || inside[k].x != inside[k - 1].x ||
+                               inside[k].y != inside[k - 1].y || inside[k].z != inside[k - 1].z;
+    keep[inside[k].index] = first_of_cube;
+  }
+  PointCloud out;
+  for (std::size_t i = 0; i < scan.size(); ++i) {
+    if (keep[i]) out.push_back(scan[i]);
+  }
+  counts->thinned += inside.size() - out.size();
+  counts->added += out.size();
+  return out;
 }
 
 }  // namespace
 
 Status MapEdit::Validate(std::string_view path) const {
-  if (kind != Kind::kAddObstacle && kind != Kind::kRemovePoints) {
+  if (kind != Kind::kAddObstacle && kind != Kind::kRemovePoints && kind != Kind::kScan) {
     const std::string field = internal::FieldPath(path, "kind");
     return Error{ErrorCode::kInvalidInput,
-                 fmt::format("{} = {} is not a kind of edit: add an obstacle or remove points",
+                 fmt::format("{} = {} is not a kind of edit: add an obstacle, remove points or "
+                             "a scan",
                              field, static_cast<int>(kind)),
                  field};
   }
-  return region.Validate(internal::FieldPath(path, "region"));
+  if (Status s = region.Validate(internal::FieldPath(path, "region")); !s) return s;
+  if (points == nullptr) return Status::Ok();
+  const std::string field = internal::FieldPath(path, "points");
+  if (kind != Kind::kScan && !points->empty()) {
+    return Error{ErrorCode::kInvalidInput,
+                 fmt::format("{} holds {} points, but only a scan carries points: leave them out "
+                             "or make the edit a scan",
+                             field, points->size()),
+                 field};
+  }
+  if (points->size() > kMaxEditPoints) {
+    return Error{ErrorCode::kResourceExhausted,
+                 fmt::format("{} holds {} points, more than the kMaxEditPoints = {} an edit may "
+                             "add: split the scan into smaller regions or thin it first",
+                             field, points->size(), kMaxEditPoints),
+                 field};
+  }
+  for (std::size_t i = 0; i < points->size(); ++i) {
+    if (!(*points)[i].allFinite()) {
+      const std::string point = fmt::format("{}[{}]", field, i);
+      return Error{ErrorCode::kInvalidInput,
+                   fmt::format("{} = {} m is not finite: drop it from the scan", point,
+                               internal::FormatPoint((*points)[i].cast<double>())),
+                   point};
+    }
+  }
+  return Status::Ok();
 }
 
 Eigen::AlignedBox3d EditBounds(std::span<const MapEdit> edits) {
@@ -190,7 +282,7 @@ Eigen::AlignedBox3d EditBounds(std::span<const MapEdit> edits) {
 }
 
 Expected<PointCloud> ApplyEdits(const PointCloud& cloud, std::span<const MapEdit> edits,
-                                const TerrainModel& base) {
+                                const TerrainModel& base, ScanCounts* scan_counts) {
   for (std::size_t i = 0; i < edits.size(); ++i) {
     if (Status s = edits[i].Validate(EditPath(i)); !s) return s.error();
   }
@@ -199,35 +291,52 @@ Expected<PointCloud> ApplyEdits(const PointCloud& cloud, std::span<const MapEdit
   const double lattice_z = quantum > 0 ? LatticeHeight(cloud) : 0.0;
   std::vector<Eigen::AlignedBox3d> bounds;
   std::vector<PointCloud> fills(edits.size());
-  std::size_t added = 0;
-  bool removes = false;
+  std::size_t counted = 0;  // Against kMaxEditPoints: the obstacles' points, the scans' all.
+  bool drops = false;
+  ScanCounts counts;
   for (std::size_t i = 0; i < edits.size(); ++i) {
-    bounds.push_back(edits[i].region.Bounds());
-    if (edits[i].kind == MapEdit::Kind::kRemovePoints) {
-      removes = true;
+    const MapEdit& edit = edits[i];
+    bounds.push_back(edit.region.Bounds());
+    drops = drops || Drops(edit.kind);
+    if (edit.kind == MapEdit::Kind::kRemovePoints) continue;
+    if (edit.kind == MapEdit::Kind::kScan) {
+      if (Status s = ScanInsideGrid(edit, EditPath(i), g); !s) return s.error();
+      const std::size_t held = edit.points == nullptr ? 0 : edit.points->size();
+      if (held > kMaxEditPoints - counted) {
+        return Error{ErrorCode::kResourceExhausted,
+                     fmt::format("{}: the scan's {} points and the {} the edits before it add "
+                                 "pass kMaxEditPoints = {} points; send the scan in another update",
+                                 EditPath(i), held, counted, kMaxEditPoints),
+                     EditPath(i)};
+      }
+      counted += held;
+      fills[i] = ScanPoints(edit, g, &counts);
       continue;
     }
     Expected<PointCloud> fill =
-        FillObstacle(edits[i], EditPath(i), g, quantum, lattice_z, kMaxEditPoints - added);
+        FillObstacle(edit, EditPath(i), g, quantum, lattice_z, kMaxEditPoints - counted);
     if (!fill) return fill.error();
-    added += fill->size();
+    counted += fill->size();
     fills[i] = std::move(fill).value();
   }
 
   PointCloud out;
+  std::size_t added = 0;
+  for (const PointCloud& fill : fills) added += fill.size();
   out.reserve(cloud.size() + added);
-  if (!removes) {
+  if (!drops) {
     out.insert(out.end(), cloud.begin(), cloud.end());
   } else {
     for (const Eigen::Vector3f& p : cloud) {
-      if (!InsideAny(edits, bounds, 0, p)) out.push_back(p);
+      if (!DroppedByAny(edits, bounds, 0, p)) out.push_back(p);
     }
   }
   for (std::size_t i = 0; i < edits.size(); ++i) {
     for (const Eigen::Vector3f& p : fills[i]) {
-      if (!InsideAny(edits, bounds, i + 1, p)) out.push_back(p);
+      if (!DroppedByAny(edits, bounds, i + 1, p)) out.push_back(p);
     }
   }
+  if (scan_counts != nullptr) *scan_counts = counts;
   return out;
 }
 

@@ -25,23 +25,40 @@ struct MapEdit {
   enum class Kind {
     kAddObstacle,   ///< The prism becomes solid: its volume is filled with points.
     kRemovePoints,  ///< Every point inside the prism (Prism::Contains) is dropped.
+    /// What a robot observed replaces what the map held in the prism: every point inside it
+    /// is dropped and the scan's `points` inside it are added (thinned; see ApplyEdits).
+    kScan,
   };
   Kind kind = Kind::kAddObstacle;
   Prism region;  ///< Where [m].
+  /// kScan: the points the robot observed, in the map's frame [m]; those outside `region` are
+  /// not added (a sensor sees past the region it vouches for). Shared, so copying an edit
+  /// copies no points. Null is a scan that saw nothing: the region is emptied. Null for the
+  /// other kinds.
+  std::shared_ptr<const PointCloud> points;
 
-  /// kInvalidInput blaming `path`.kind for an unknown kind or `path`.region.<field>
-  /// (Prism::Validate) for a bad region.
+  /// kInvalidInput blaming `path`.kind for an unknown kind, `path`.region.<field>
+  /// (Prism::Validate) for a bad region, `path`.points[i] for a scan's point that is not
+  /// finite and `path`.points for points on an edit that is not a scan; kResourceExhausted
+  /// blaming `path`.points for a scan of more than kMaxEditPoints points.
   Status Validate(std::string_view path) const;
 };
 
-/// Most points the obstacles of one ApplyEdits call may add (about 48 MB): 4000 m³ of solid at
-/// a 0.1 m grid, 32000 m³ at 0.2 m.
+/// Most points the obstacles and scans of one ApplyEdits call may add together (about 48 MB),
+/// a scan counting every point it holds: 4000 m³ of solid at a 0.1 m grid, 32000 m³ at 0.2 m.
 inline constexpr std::size_t kMaxEditPoints = 4'000'000;
 
+/// What ApplyEdits did with the scans' points.
+struct ScanCounts {
+  std::size_t added = 0;           ///< Inside their region and kept by the thinning.
+  std::size_t outside_region = 0;  ///< Outside their region (Prism::Contains): not added.
+  std::size_t thinned = 0;         ///< Inside their region, dropped by the thinning.
+};
+
 /// The cloud of `base` (assessed from `cloud`) after `edits`, applied in order: the points of
-/// `cloud` that no removal drops, in their order, then each obstacle's points that no later
-/// removal drops. The same edits on the same cloud and model give the same cloud, point for
-/// point.
+/// `cloud` that no removal or scan drops, in their order, then the points each obstacle or
+/// scan adds that no later removal or scan drops, edit by edit. The same edits on the same
+/// cloud and model give the same cloud, point for point.
 ///
 /// An obstacle is a solid block on the base's grid: one point at the centre of every column of
 /// the grid whose centre lies inside the polygon (Prism::ContainsXY), at every height of the
@@ -51,14 +68,27 @@ inline constexpr std::size_t kMaxEditPoints = 4'000'000;
 /// its solids look like the map's own: on a lattice coarser than the grid the block, like the
 /// map's walls, has a point every quantum.
 ///
+/// A scan drops every point its region contains (as a removal) and adds its points the region
+/// contains, in their order, thinned as the assessment thins a column: of the points in one
+/// cube of edge resolution / 8 (cubes laid from the grid's origin) only the lowest, then
+/// earliest, stays. So a scan adds no point the assessment would not keep, and a dense scan
+/// costs no more than the cubes it fills. Its points outside the region are counted in
+/// `scan_counts` (when given), not added. A scan's region must lie within the base's grid
+/// (origin to origin + size · resolution): a scan replaces what the map holds and never
+/// extends it past its grid. Within the grid but past the cloud's bounds it may still move
+/// the grid, and points off a voxelised map's lattice may change its vertical quantum
+/// (DetectVerticalQuantum): ReassessRegion then assesses the map in full.
+///
 /// Fails with kInvalidInput naming the edit ("edits[2].region.z_max_m") for an invalid edit
-/// or an obstacle that covers no column centre or no level (make it at least one cell wide,
-/// or one quantum high), and with kResourceExhausted naming kMaxEditPoints when the obstacles
-/// would add more points (counted before anything is allocated).
+/// (MapEdit::Validate), an obstacle that covers no column centre or no level (make it at
+/// least one cell wide, or one quantum high) or a scan whose region leaves the grid (the
+/// message gives both boxes), and with kResourceExhausted naming kMaxEditPoints when the
+/// obstacles and scans would add more points (counted before anything is allocated).
 Expected<PointCloud> ApplyEdits(const PointCloud& cloud, std::span<const MapEdit> edits,
-                                const TerrainModel& base);
+                                const TerrainModel& base, ScanCounts* scan_counts = nullptr);
 
-/// The box holding every point `edits` add or remove [m]: the union of their regions' bounds.
+/// The box holding every point `edits` add or remove [m]: the union of their regions' bounds
+/// (a scan's too: it adds nothing outside its region).
 Eigen::AlignedBox3d EditBounds(std::span<const MapEdit> edits);
 
 /// How ReassessRegion made its model.
