@@ -44,7 +44,7 @@ std::string BytesWithoutTimings(const strata::TerrainModel& model) {
 
 strata::MapEdit Box(strata::MapEdit::Kind kind, const Eigen::Vector3d& lo,
                     const Eigen::Vector3d& hi) {
-  return {kind, strata::BoxPrism(Eigen::AlignedBox3d(lo, hi))};
+  return {kind, strata::BoxPrism(Eigen::AlignedBox3d(lo, hi)), nullptr};
 }
 
 // Times one edit on `base` (assessed from `cloud`) and prints its table row.

@@ -286,6 +286,46 @@ TEST_F(VoxelisedTerrain, ObstaclesKeepTheLatticeAndStayInsideTheirPrism) {
   EXPECT_EQ(DetectVerticalQuantum(*edited), DetectVerticalQuantum(scene().cloud));
 }
 
+// A sensor's heights are off the lattice of a voxelised map: a scan's points are moved to the
+// nearest level, so the map keeps its quantum and the edit stays local.
+TEST_F(VoxelisedTerrain, AScanOffTheLatticeIsMovedOntoIt) {
+  const Eigen::Vector2d c = OpenSpot(1.5, 1.0);
+  const double ground = layout().HeightAt(c.x(), c.y());
+  const Prism region = BoxPrism({Eigen::Vector3d(c.x() - 1.5, c.y() - 1.5, ground - 1),
+                                 Eigen::Vector3d(c.x() + 1.5, c.y() + 1.5, ground + 1.6)});
+  PointCloud on_lattice;
+  for (const Eigen::Vector3f& p : scene().cloud) {
+    if (region.Contains(p.cast<double>())) on_lattice.push_back(p);
+  }
+  ASSERT_GT(on_lattice.size(), 50u);
+  // And a block 0.6 × 0.6 × 0.8 m on the ground, at the voxel centres of the map's lattice.
+  const auto voxel_centre = [](double v) { return (std::floor(v / 0.2) + 0.5) * 0.2; };
+  for (double x = voxel_centre(c.x() - 0.3); x <= c.x() + 0.3; x += 0.2) {
+    for (double y = voxel_centre(c.y() - 0.3); y <= c.y() + 0.3; y += 0.2) {
+      for (double z = voxel_centre(ground); z <= voxel_centre(ground + 0.8) + 1e-6; z += 0.2) {
+        on_lattice.emplace_back(static_cast<float>(x), static_cast<float>(y),
+                                static_cast<float>(z));
+      }
+    }
+  }
+  // What a sensor reports: every height up to 7 cm off its level.
+  PointCloud off_lattice = on_lattice;
+  for (std::size_t i = 0; i < off_lattice.size(); ++i) {
+    off_lattice[i].z() += i % 2 ? 0.07f : -0.06f;
+  }
+  const auto scan = [&](PointCloud points) {
+    return Scan(std::move(points), c.x() - 1.5, c.y() - 1.5, c.x() + 1.5, c.y() + 1.5, ground - 1,
+                ground + 1.6);
+  };
+  const MapEdit seen = scan(off_lattice);
+  const Expected<PointCloud> from_sensor = ApplyEdits(scene().cloud, {&seen, 1}, *scene().model);
+  const MapEdit exact = scan(on_lattice);
+  const Expected<PointCloud> from_lattice = ApplyEdits(scene().cloud, {&exact, 1}, *scene().model);
+  ASSERT_TRUE(from_sensor.ok() && from_lattice.ok());
+  EXPECT_EQ(*from_sensor, *from_lattice);
+  ExpectReassessedLikeFresh(scene(), {seen}, ReassessmentPath::kLocal);
+}
+
 // A scan of a voxelised map on its own lattice (the ground seen again, and a block standing on
 // it): the quantum holds and only the columns around it are assessed again.
 TEST_F(VoxelisedTerrain, AScanOnTheLatticeReassessesLikeAFreshAssessment) {

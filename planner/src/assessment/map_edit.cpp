@@ -195,8 +195,10 @@ Status ScanInsideGrid(const MapEdit& edit, const std::string& path, const GridGe
 
 // The points scan `edit` adds (ApplyEdits): those its region contains, in their order, each
 // the lowest (then earliest) of its cube of ThinColumns (column_cloud.hpp), so that the scan
-// adds no point the assessment would thin away. Counts what it leaves out in *counts.
-PointCloud ScanPoints(const MapEdit& edit, const GridGeometry& g, ScanCounts* counts) {
+// adds no point the assessment would thin away, with their heights on the lattice of a
+// voxelised map (`quantum_m` > 0, a level at `lattice_z_m`). Counts what it leaves out.
+PointCloud ScanPoints(const MapEdit& edit, const GridGeometry& g, double quantum_m,
+                      double lattice_z_m, ScanCounts* counts) {
   if (edit.points == nullptr) return {};
   const PointCloud& scan = *edit.points;
   const Eigen::AlignedBox3d box = edit.region.Bounds();
@@ -206,16 +208,29 @@ PointCloud ScanPoints(const MapEdit& edit, const GridGeometry& g, ScanCounts* co
     std::uint32_t index;
   };
   std::vector<Key> inside;
+  // On a voxelised map every height lies on the lattice (§7): a scan's heights are moved to
+  // the nearest level, as the map's own points and an obstacle's are, so the vertical quantum
+  // and hence a local reassessment hold.
+  PointCloud snapped;
+  const PointCloud* seen = &scan;
+  if (quantum_m > 0) {
+    snapped = scan;
+    for (Eigen::Vector3f& p : snapped) {
+      const double level = std::round((p.z() - lattice_z_m) / quantum_m);
+      p.z() = static_cast<float>(lattice_z_m + level * quantum_m);
+    }
+    seen = &snapped;
+  }
   for (std::size_t i = 0; i < scan.size(); ++i) {
-    const Eigen::Vector3d q = scan[i].cast<double>();
+    const Eigen::Vector3f& p = (*seen)[i];
+    const Eigen::Vector3d q = p.cast<double>();
     if (!box.contains(q) || !edit.region.Contains(q)) {
       ++counts->outside_region;
       continue;
     }
-    inside.push_back({internal::ThinningCubeIndex(g, scan[i].x(), 0),
-                      internal::ThinningCubeIndex(g, scan[i].y(), 1),
-                      internal::ThinningCubeIndex(g, scan[i].z(), 2), scan[i].z(),
-                      static_cast<std::uint32_t>(i)});
+    inside.push_back(
+        {internal::ThinningCubeIndex(g, p.x(), 0), internal::ThinningCubeIndex(g, p.y(), 1),
+         internal::ThinningCubeIndex(g, p.z(), 2), p.z(), static_cast<std::uint32_t>(i)});
   }
   std::sort(inside.begin(), inside.end(), [](const Key& a, const Key& b) {
     return std::tie(a.x, a.y, a.z, a.height, a.index) < std::tie(b.x, b.y, b.z, b.height, b.index);
@@ -228,7 +243,7 @@ PointCloud ScanPoints(const MapEdit& edit, const GridGeometry& g, ScanCounts* co
   }
   PointCloud out;
   for (std::size_t i = 0; i < scan.size(); ++i) {
-    if (keep[i]) out.push_back(scan[i]);
+    if (keep[i]) out.push_back((*seen)[i]);
   }
   counts->thinned += inside.size() - out.size();
   counts->added += out.size();
@@ -310,7 +325,7 @@ Expected<PointCloud> ApplyEdits(const PointCloud& cloud, std::span<const MapEdit
                      EditPath(i)};
       }
       counted += held;
-      fills[i] = ScanPoints(edit, g, &counts);
+      fills[i] = ScanPoints(edit, g, quantum, lattice_z, &counts);
       continue;
     }
     Expected<PointCloud> fill =

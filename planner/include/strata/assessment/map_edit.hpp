@@ -76,8 +76,9 @@ struct ScanCounts {
 /// `scan_counts` (when given), not added. A scan's region must lie within the base's grid
 /// (origin to origin + size · resolution): a scan replaces what the map holds and never
 /// extends it past its grid. Within the grid but past the cloud's bounds it may still move
-/// the grid, and points off a voxelised map's lattice may change its vertical quantum
-/// (DetectVerticalQuantum): ReassessRegion then assesses the map in full.
+/// the grid: ReassessRegion then assesses the map in full. On a voxelised base (a vertical
+/// quantum, as for obstacles) each point's height is first moved to the nearest level of the
+/// base cloud's lattice, so the edited cloud keeps its quantum.
 ///
 /// Fails with kInvalidInput naming the edit ("edits[2].region.z_max_m") for an invalid edit
 /// (MapEdit::Validate), an obstacle that covers no column centre or no level (make it at
