@@ -10,6 +10,7 @@
 #include "common/map_id.hpp"
 #include "rpc/proto_convert.hpp"
 #include "rpc/traffic_convert.hpp"
+#include "strata/fleet/map_change.hpp"
 #include "strata/planning/robot_profile.hpp"
 
 namespace strata::server {
@@ -196,6 +197,8 @@ ServiceStatus TrafficServiceImpl::Watch(
   // client gets every robot's latest state and never a backlog.
   std::map<std::string, Reservation> sent;
   std::uint64_t revision = 0;
+  // The map version each robot's reservation (at its revision) was last checked on.
+  std::map<std::string, std::pair<std::uint64_t, std::string>> checked;
   for (bool first = true;; first = false) {
     const ReservationSchedule::Listing listing = schedule_->List(map_id);
     if (first || listing.revision != revision) {
@@ -224,6 +227,7 @@ ServiceStatus TrafficServiceImpl::Watch(
       sent = std::move(now);
       revision = listing.revision;
     }
+    if (!SendReplansNeeded(map_id, sent, listing.revision, &checked, write)) return OkStatus();
     if (call.cancelled && call.cancelled()) return OkStatus();
     if (schedule_->closed()) {
       return MakeError(ServiceErrorCode::kShuttingDown,
@@ -241,6 +245,42 @@ ServiceStatus TrafficServiceImpl::Watch(
         map_id, revision,
         std::min(call.deadline, std::chrono::steady_clock::now() + std::chrono::seconds(1)));
   }
+}
+
+bool TrafficServiceImpl::SendReplansNeeded(
+    const std::string& map_id, const std::map<std::string, Reservation>& reservations,
+    std::uint64_t revision, std::map<std::string, std::pair<std::uint64_t, std::string>>* checked,
+    const std::function<bool(const v1::ScheduleChange&)>& write) const {
+  std::erase_if(*checked, [&](const auto& entry) { return !reservations.contains(entry.first); });
+  if (reservations.empty()) return true;
+  const Result<ActiveMap> current = registry_->GetActive(map_id);
+  if (!current.ok()) return true;  // Deleted or unreadable: the watch's loop says so.
+  const std::int64_t now_ns = schedule_->NowNs();
+  for (const auto& [robot, reservation] : reservations) {
+    std::pair<std::uint64_t, std::string> key{reservation.revision, current.value().version};
+    const auto it = checked->find(robot);
+    if (it != checked->end() && it->second == key) continue;
+    (*checked)[robot] = std::move(key);
+    // Verified on that version when it was planned.
+    if (reservation.map_version == current.value().version) continue;
+    const std::optional<UnsafeMotion> unsafe =
+        FirstUnsafeOnMap(*current.value().map, reservation.reserved.motion, now_ns);
+    if (!unsafe) continue;
+    v1::ScheduleChange change;
+    change.set_kind(v1::ScheduleChange::REPLAN_NEEDED);
+    change.set_robot_id(robot);
+    ToProto(reservation, change.mutable_reservation());
+    change.set_revision(revision);
+    v1::ReplanNeeded* replan = change.mutable_replan();
+    replan->set_map_version(current.value().version);
+    ToProto(unsafe->time_ns, replan->mutable_time());
+    replan->mutable_position_m()->set_x(unsafe->position_m.x());
+    replan->mutable_position_m()->set_y(unsafe->position_m.y());
+    replan->mutable_position_m()->set_z(unsafe->position_m.z());
+    replan->set_reason(unsafe->reason);
+    if (!write(change)) return false;
+  }
+  return true;
 }
 
 grpc::Status TrafficServiceImpl::ReserveTrajectory(grpc::ServerContext* context,

@@ -2,7 +2,11 @@
 /// strata.v1.TrafficService: the robots' reservations on each map (traffic/
 /// reservation_schedule.hpp), committed, renewed, released and listed over gRPC.
 #include <atomic>
+#include <cstdint>
 #include <functional>
+#include <map>
+#include <string>
+#include <utility>
 
 #include <grpcpp/grpcpp.h>
 
@@ -57,6 +61,14 @@ class TrafficServiceImpl final : public v1::TrafficService::Service {
                              grpc::ServerWriter<v1::ScheduleChange>* writer) override;
 
  private:
+  // Sends REPLAN_NEEDED for each of `reservations` (by robot) that is not safe on the map's
+  // current version, once per reservation revision and version (`checked` remembers them).
+  // False when the stream is broken.
+  bool SendReplansNeeded(const std::string& map_id,
+                         const std::map<std::string, Reservation>& reservations,
+                         std::uint64_t revision,
+                         std::map<std::string, std::pair<std::uint64_t, std::string>>* checked,
+                         const std::function<bool(const v1::ScheduleChange&)>& write) const;
   // NOT_FOUND MAP_NOT_FOUND unless the registry holds `map_id`; its current version.
   Result<std::string> CurrentVersion(const std::string& map_id) const;
   RpcService Rpc() const { return {v1::TrafficService::service_full_name(), tokens_}; }

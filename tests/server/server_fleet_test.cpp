@@ -2,6 +2,9 @@
 // reservations of the others and commit their own; TrafficService reserves, renews, releases
 // and lists them. Every committed pair is checked exactly by the planner's own check, from the
 // reservations as the server lists them.
+#include <unistd.h>
+
+#include <filesystem>
 #include <future>
 #include <string>
 #include <vector>
@@ -248,6 +251,84 @@ TEST_F(ServerFleetTest, AWatchSeesEachReservationMadeAndReleasedAndEndsWithItsMa
   const CallError ended = ErrorOf(stream->Finish());
   EXPECT_EQ(ended.code, grpc::StatusCode::NOT_FOUND);
   EXPECT_EQ(ended.reason, "MAP_NOT_FOUND");
+}
+
+// With a map store the map can change under reservations: a watch says which robot must plan
+// again, where and why, and leaves the others alone.
+class ServerFleetMapChangeTest : public ServerFleetTest {
+ protected:
+  void SetUp() override {
+    store_ = std::filesystem::path(::testing::TempDir()) /
+             ("server_fleet_store." + std::to_string(::getpid()));
+    std::filesystem::remove_all(store_);
+    ASSERT_NO_FATAL_FAILURE(StartServer({"--map-store", store_.string()}));
+    traffic_ = v1::TrafficService::NewStub(channel_);
+    departure_ns_ = AddSeconds(SystemNowNs(), 30);
+  }
+  void TearDown() override {
+    ServerFleetTest::TearDown();
+    server_.reset();
+    std::filesystem::remove_all(store_);
+  }
+  std::filesystem::path store_;
+};
+
+TEST_F(ServerFleetMapChangeTest, AKeepOutZoneOverARobotsGoalTellsItToPlanAgain) {
+  grpc::ClientContext context;
+  SetDeadline(&context, 120);
+  v1::WatchScheduleRequest watch;
+  watch.set_map_id("demo");
+  auto stream = traffic_->WatchSchedule(&context, watch);
+  v1::PlanResponse a, b;
+  ASSERT_TRUE(Plan(FleetPlan("a", 3, 5, 13, 10, departure_ns_), &a, 120).ok());
+  ASSERT_TRUE(Plan(FleetPlan("b", 3, 10, 13, 5, departure_ns_), &b, 120).ok());
+  v1::ScheduleChange change;
+  for (const char* robot : {"a", "b"}) {
+    ASSERT_TRUE(stream->Read(&change));
+    EXPECT_EQ(change.kind(), v1::ScheduleChange::RESERVED);
+    EXPECT_EQ(change.robot_id(), robot);
+  }
+
+  // An aisle closed over a's goal, where it parks.
+  v1::UpdateMapRequest update;
+  update.set_map_id("demo");
+  v1::Prism* zone = update.add_edits()->mutable_add_keep_out();
+  for (const auto& [x, y] : {std::pair{12.5, 9.5}, {13.5, 9.5}, {13.5, 10.5}, {12.5, 10.5}}) {
+    v1::Vector2* corner = zone->add_polygon_m();
+    corner->set_x(x);
+    corner->set_y(y);
+  }
+  zone->set_z_min_m(-1);
+  zone->set_z_max_m(3);
+  v1::UpdateMapResponse updated;
+  grpc::ClientContext update_context;
+  SetDeadline(&update_context, 60);
+  const grpc::Status status = maps_->UpdateMap(&update_context, update, &updated);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+
+  ASSERT_TRUE(stream->Read(&change));
+  EXPECT_EQ(change.kind(), v1::ScheduleChange::REPLAN_NEEDED);
+  EXPECT_EQ(change.robot_id(), "a");
+  EXPECT_EQ(change.reservation().revision(), a.reservation().revision());
+  EXPECT_EQ(change.replan().map_version(), updated.map().version());
+  EXPECT_THAT(change.replan().reason(), HasSubstr("keep-out zone"));
+  EXPECT_NEAR(change.replan().position_m().x(), 13, 1.0);
+  EXPECT_NEAR(change.replan().position_m().y(), 10, 1.0);
+  const std::int64_t when = FromProto(change.replan().time(), "time").value();
+  EXPECT_GE(when, departure_ns_);
+  EXPECT_LE(when, MotionOf(a.reservation()).end_ns);
+
+  // b was checked in the same pass and is safe: a's release is the next change.
+  v1::ReleaseReservationRequest release;
+  release.set_map_id("demo");
+  release.set_robot_id("a");
+  v1::ReleaseReservationResponse released;
+  grpc::ClientContext release_context;
+  ASSERT_TRUE(traffic_->ReleaseReservation(&release_context, release, &released).ok());
+  ASSERT_TRUE(stream->Read(&change));
+  EXPECT_EQ(change.kind(), v1::ScheduleChange::RELEASED);
+  EXPECT_EQ(change.robot_id(), "a");
+  context.TryCancel();
 }
 
 TEST_F(ServerFleetTest, BadFleetRequestsNameTheFieldToFix) {
