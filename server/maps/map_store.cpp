@@ -528,13 +528,52 @@ fs::path MapStore::VersionDir(const std::string& id, const std::string& version)
   return MapDir(id) / kVersionsName / version;
 }
 
+MapStore::MapStore(fs::path root, std::shared_ptr<MapHeads> heads)
+    : root_(std::move(root)), shared_heads_(std::move(heads)) {
+  remover_ = std::thread([this] { RemoveDiscarded(); });
+}
+
+MapStore::~MapStore() {
+  {
+    const std::lock_guard lock(discarded_mutex_);
+    closing_ = true;
+  }
+  discarded_changed_.notify_all();
+  remover_.join();
+}
+
 bool MapStore::Discard(const fs::path& path) const {
   const fs::path trash = root_ / "trash" / UniqueName("discarded");
   if (::rename(path.c_str(), trash.c_str()) != 0) return false;
   (void)Sync(path.parent_path());
-  std::error_code ignored;  // Left in trash/ for CollectGarbage (e.g. NFS files still open).
-  fs::remove_all(trash, ignored);
+  {
+    const std::lock_guard lock(discarded_mutex_);
+    discarded_.push_back(trash);
+  }
+  discarded_changed_.notify_one();
   return true;
+}
+
+void MapStore::RemoveDiscarded() {
+  std::unique_lock lock(discarded_mutex_);
+  while (true) {
+    discarded_changed_.wait(lock, [&] { return closing_ || !discarded_.empty(); });
+    if (discarded_.empty()) return;  // Closing, and nothing left to remove.
+    const fs::path trash = std::move(discarded_.front());
+    discarded_.pop_front();
+    removing_ = true;
+    lock.unlock();
+    std::error_code ignored;  // Left in trash/ for CollectGarbage (e.g. NFS files still open).
+    fs::remove_all(trash, ignored);
+    lock.lock();
+    removing_ = false;
+    discarded_changed_.notify_all();
+  }
+}
+
+void MapStore::WaitForRemovals() const {
+  std::unique_lock lock(discarded_mutex_);
+  discarded_changed_.wait(lock, [&] { return discarded_.empty() && !removing_; });
 }
 
 fs::path MapStore::TerrainDir(const std::string& id, const std::string& terrain) const {

@@ -54,12 +54,16 @@
 /// Thread-safe: any number of threads and MapStore objects (in this process or others) may
 /// use one root at once.
 #include <chrono>
+#include <condition_variable>
+#include <deque>
 #include <filesystem>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <span>
 #include <string>
 #include <string_view>
+#include <thread>
 #include <vector>
 
 #include "common/service_error.hpp"
@@ -113,7 +117,9 @@ class MapStore {
 
   MapStore(const MapStore&) = delete;
   MapStore& operator=(const MapStore&) = delete;
-  ~MapStore() = default;
+  /// Waits for the removal of what was discarded to finish (what is left stays in trash/ for
+  /// the next Open).
+  ~MapStore();
 
   /// The store's directory (absolute, symbolic links resolved).
   const std::filesystem::path& root() const { return root_; }
@@ -195,14 +201,18 @@ class MapStore {
   /// into trash/, then removed). kMapNotFound, kInvalidInput, kMapStoreUnavailable.
   ServiceStatus Delete(const std::string& id);
 
+  /// Returns once everything discarded so far (pruned versions and terrains, deleted maps,
+  /// which are gone for everyone at once and removed from the volume in the background) is
+  /// removed from the volume, or left in trash/ for CollectGarbage when it cannot be.
+  void WaitForRemovals() const;
+
   /// Removes dead writers' leftovers older than kStaleTemporaryAge (temporaries, versions no
   /// head lists, map directories without a head) and whatever is in trash/. Best effort:
   /// what cannot be removed now is tried again next time. Returns how many entries it removed.
   int CollectGarbage();
 
  private:
-  MapStore(std::filesystem::path root, std::shared_ptr<MapHeads> heads)
-      : root_(std::move(root)), shared_heads_(std::move(heads)) {}
+  MapStore(std::filesystem::path root, std::shared_ptr<MapHeads> heads);
 
   // The head after publishing `version` over `kept` (the current head) when it was made on
   // `expected_current`; nullopt when `version` is current already. kMapChanged (discarding
@@ -242,11 +252,24 @@ class MapStore {
   Result<std::shared_ptr<const OpenedMapFile>> OpenVersionFile(const std::string& id,
                                                                const std::string& version,
                                                                const char* name) const;
-  /// Renames `path` into trash/ and removes it; false when the rename failed.
+  /// Renames `path` into trash/ (the moment it is gone for everyone) and hands it to the
+  /// remover; false when the rename failed.
   bool Discard(const std::filesystem::path& path) const;
+  // Removes what Discard renamed into trash/, one path at a time, off the caller's thread:
+  // unlinking a terrain's hundreds of megabytes takes a tenth of a second, which a publish
+  // (a keep-out zone's in milliseconds) should not wait for.
+  void RemoveDiscarded();
 
   std::filesystem::path root_;
   std::shared_ptr<MapHeads> shared_heads_;  // Null: heads are files under root_.
+  // What Discard renamed into trash/, for the remover (mutable: discarding is no change of
+  // what the store holds).
+  mutable std::mutex discarded_mutex_;
+  mutable std::condition_variable discarded_changed_;
+  mutable std::deque<std::filesystem::path> discarded_;
+  mutable bool removing_ = false;  // The remover holds one taken from discarded_.
+  bool closing_ = false;           // Guarded by discarded_mutex_.
+  std::thread remover_;
 };
 
 }  // namespace strata::server

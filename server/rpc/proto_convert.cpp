@@ -341,7 +341,7 @@ Result<ParsedMapEdits> MapEditsFromProto(const v1::UpdateMapRequest& request) {
         if (!region.ok()) return std::move(region).error();
         parsed.edits.push_back(
             MapEdit{obstacle ? MapEdit::Kind::kAddObstacle : MapEdit::Kind::kRemovePoints,
-                    std::move(region).value()});
+                    std::move(region).value(), nullptr});
         break;
       }
       case v1::MapEdit::kScan: {

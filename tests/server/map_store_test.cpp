@@ -493,6 +493,7 @@ TEST_F(MapStoreTest, DeleteRemovesTheMapForEveryone) {
       Fails(store_->PublishUpdate("doomed", version, version, 2), ServiceErrorCode::kMapNotFound));
   EXPECT_TRUE(Fails(store_->Delete("doomed"), ServiceErrorCode::kMapNotFound));
   EXPECT_THAT(*store_->ListIds("", 0), IsEmpty());
+  (*other)->WaitForRemovals();  // Gone for everyone at once, off the volume in the background.
   EXPECT_THAT(Entries(root_ / "trash"), IsEmpty());
 
   // The id is free again.
@@ -639,6 +640,7 @@ TEST_F(MapStoreTest, CollectsOnlyStaleLeftovers) {
   EXPECT_TRUE(fs::exists(versions / young));
   EXPECT_FALSE(fs::exists(root_ / "maps" / "headless"));
   EXPECT_TRUE(store_->PublishUpdate("m", kept, young, 3).ok());
+  store_->WaitForRemovals();
   EXPECT_THAT(Entries(root_ / "trash"), IsEmpty());
   // The orphan's terrain, which no version names, goes once it is stale too.
   const fs::path terrains = root_ / "maps" / "m" / "terrains";
