@@ -19,6 +19,9 @@ namespace strata::server {
 namespace {
 
 constexpr std::string_view kApiPrefix = "/api/";
+// The page's own route to the same methods (http_api.hpp): every answer HTTP 200, the call's
+// outcome in the body.
+constexpr std::string_view kPageApiPrefix = "/viewer-api/";
 constexpr const char* kJson = "application/json; charset=utf-8";
 
 // The page loads only its own files and talks only to this server.
@@ -76,6 +79,16 @@ HttpResponse Call(const std::string& body, std::string* map_id, Work&& work) {
   return JsonResponse(200, response);
 }
 
+// The page route's answer for an API answer: HTTP 200 with {"response": <message>} or
+// {"error": <google.rpc.Status>}, so that the browser logs no failed load for a refused call.
+HttpResponse InBody(HttpResponse answer) {
+  answer.body =
+      fmt::format(R"({{"{}":{}}})", answer.status == 200 ? "response" : "error", answer.body);
+  answer.status = 200;
+  answer.content_type = kJson;
+  return answer;
+}
+
 }  // namespace
 
 int HttpStatusOf(grpc::StatusCode code) {
@@ -114,9 +127,10 @@ HttpResponse HttpApi::Handle(const HttpRequest& request, const CallControl& call
   std::string method;
   std::string map_id;
   HttpResponse response;
+  const bool page_route = request.path.rfind(kPageApiPrefix, 0) == 0;
   try {
-    if (request.path.rfind(kApiPrefix, 0) == 0) {
-      method = request.path.substr(kApiPrefix.size());
+    if (page_route || request.path.rfind(kApiPrefix, 0) == 0) {
+      method = request.path.substr((page_route ? kPageApiPrefix : kApiPrefix).size());
       response = HandleApi(request, call, method, &map_id);
     } else {
       response = HttpResponse{404, "text/plain; charset=utf-8", "not found\n", {}};
@@ -140,16 +154,19 @@ HttpResponse HttpApi::Handle(const HttpRequest& request, const CallControl& call
   }
   response.headers.emplace_back("X-Content-Type-Options", "nosniff");
   // One line per API call, as the gRPC boundary writes one per RPC; the page's files and
-  // successful reads only at debug level (the viewer polls).
+  // successful reads only at debug level (the viewer polls). Levels follow the call's outcome
+  // on both routes.
+  const int outcome = response.status;
+  if (page_route) response = InBody(std::move(response));
   const bool quiet =
-      method.empty() || (response.status == 200 && method != "strata.v1.PlannerService/Plan");
-  LogRecord record(
-      quiet ? LogLevel::kDebug : (response.status >= 500 ? LogLevel::kError : LogLevel::kInfo),
-      "http");
+      method.empty() || (outcome == 200 && method != "strata.v1.PlannerService/Plan");
+  LogRecord record(quiet ? LogLevel::kDebug : (outcome >= 500 ? LogLevel::kError : LogLevel::kInfo),
+                   "http");
   record.Add("http_method", request.method);
   record.Add("path", request.path);
   if (!map_id.empty()) record.Add("map", map_id);
   record.Add("status", response.status);
+  if (outcome != response.status) record.Add("outcome_status", outcome);
   record.Add(
       "duration_ms",
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());

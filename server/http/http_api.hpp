@@ -13,6 +13,12 @@
 /// A failure answers the google.rpc.Status a gRPC client would get (code, message, and the
 /// ErrorInfo and BadRequest details, as JSON with "@type"), with the HTTP status Google's API
 /// guidelines map its code to (INVALID_ARGUMENT 400, NOT_FOUND 404, UNAVAILABLE 503, ...).
+/// The page itself calls the same methods at `POST /viewer-api/<service>/<method>`, where every
+/// answer of the API is HTTP 200 with `{"response": <message>}` or `{"error": <Status>}` (as
+/// JSON-RPC over HTTP does): a browser logs every 4xx/5xx as a failed load in its console, and
+/// a refused plan is an answer the page shows, not a fault. Only the HTTP server's own refusals
+/// (413, 503 busy or shutting down) keep their status there. The log line's `status` is what
+/// was sent; on that route a failed call adds `outcome_status`, the status /api/ would send.
 /// With --auth-tokens, every API call needs `Authorization: Bearer TOKEN` of role planner (or
 /// admin); the page itself holds no data and needs none.
 #include <string>

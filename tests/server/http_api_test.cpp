@@ -6,6 +6,7 @@
 #include <chrono>
 
 #include <gmock/gmock.h>
+#include <google/protobuf/struct.pb.h>
 #include <google/protobuf/util/json_util.h>
 #include <google/protobuf/util/message_differencer.h>
 #include <google/rpc/error_details.pb.h>
@@ -253,6 +254,32 @@ TEST_F(HttpApiTest, ErrorsAreTheStatusAGrpcClientGets) {
   const HttpResponse too_large = RequestTooLarge(1024);
   EXPECT_EQ(too_large.status, 413);
   EXPECT_EQ(Parse<google::rpc::Status>(too_large).code(), 8);  // RESOURCE_EXHAUSTED.
+}
+
+// The page's route answers every call with HTTP 200 and the outcome in the body, so that a
+// browser logs no failed load for a refused plan; /api/ keeps the statuses of the mapping.
+TEST_F(HttpApiTest, ThePagesRouteCarriesTheOutcomeInTheBody) {
+  const HttpApi api(registry_, maps_, planner_, traffic_, nullptr);
+  const auto page = [&](const std::string& method, const std::string& body) {
+    return api.Handle(HttpRequest{"POST", "/viewer-api/" + method, "", body}, CallControl{});
+  };
+  const HttpResponse refused = page("strata.v1.MapService/GetMap", R"({"map_id": "nope"})");
+  EXPECT_EQ(refused.status, 200);
+  google::protobuf::Struct outcome = Parse<google::protobuf::Struct>(refused);
+  ASSERT_TRUE(outcome.fields().contains("error"));
+  EXPECT_FALSE(outcome.fields().contains("response"));
+  std::string error_json;
+  ASSERT_TRUE(
+      google::protobuf::util::MessageToJsonString(outcome.fields().at("error"), &error_json).ok());
+  EXPECT_THAT(error_json, HasSubstr("MAP_NOT_FOUND"));
+  EXPECT_EQ(Post("strata.v1.MapService/GetMap", R"({"map_id": "nope"})").status, 404);
+
+  const HttpResponse answered = page("strata.v1.MapService/GetMap", R"({"map_id": "demo"})");
+  EXPECT_EQ(answered.status, 200);
+  outcome = Parse<google::protobuf::Struct>(answered);
+  ASSERT_TRUE(outcome.fields().contains("response"));
+  EXPECT_EQ(outcome.fields().at("response").struct_value().fields().at("id").string_value(),
+            "demo");
 }
 
 TEST_F(HttpApiTest, TokensAreCheckedAsForGrpc) {

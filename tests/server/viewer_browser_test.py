@@ -1,17 +1,21 @@
 #!/usr/bin/python3
 """The web viewer in a real browser (CTest viewer_browser_test): a real strata-server with the
-demo map, Debian's headless Chromium through Selenium. Checks that the page loads without a
-console error, lists the demo map, plans floor to deck from the form and draws the trajectory
-with the length a gRPC client gets (the strata CLI), draws a plan under the deck dotted until
-the deck's level is hidden, and shows an impossible goal's error with the nearest valid
-point, and draws two robots' reservations at the traffic slider's times. Exits 77 (CTest's
-skip) only when the browser cannot run here."""
+demo map (and a second map with a long id), Debian's headless Chromium through Selenium at
+1400 x 900. Checks that the page loads without a console error and lists the maps without
+cutting any text; shows a scale bar true to the view's scale; plans floor to deck from the
+form and draws the trajectory with the length a gRPC client gets (the strata CLI), its labels
+inside the view; draws a plan under the deck dotted until the deck's level is hidden or cut
+away; fits the map in the 3D view and cuts the deck away there; refits the views and the
+profile when the window shrinks; shows an impossible goal's error with the nearest valid point
+without any console error; and draws two robots' reservations at the traffic slider's times.
+Exits 77 (CTest's skip) only when the browser cannot run here."""
 
 import argparse
 import json
 import math
 import subprocess
 import sys
+import time
 
 sys.dont_write_bytecode = True  # No __pycache__ in the source tree.
 from viewer_driver import Browser, Server, browser_missing  # noqa: E402
@@ -21,6 +25,93 @@ START = "2,2,0.3"
 GOAL = "10,10,3.3"  # The upper deck.
 OFF_GROUND_GOAL = "40,40,0.3"  # Outside the hall.
 UNDER_DECK_START, UNDER_DECK_GOAL = "2,9,0.3", "15,9,0.3"  # Along the floor under the deck.
+LONG_ID = "warehouse_mezzanine_north_after_the_2025_refit"  # Wraps in the map list.
+DECK_RGB = (190, 196, 120)  # colors.js heightColor of the deck (3 m of the demo's 0 to 4 m).
+
+# Counts, in the 3D view's pixels, those of the deck's colour and the box of those that are not
+# background.
+ORBIT_PIXELS = f"const deck = {list(DECK_RGB)};" + """
+const canvas = document.getElementById('orbit-canvas');
+const copy = document.createElement('canvas');
+copy.width = canvas.width;
+copy.height = canvas.height;
+const context = copy.getContext('2d');
+context.drawImage(canvas, 0, 0);
+const data = context.getImageData(0, 0, copy.width, copy.height).data;
+const out = { deck: 0, xMin: Infinity, xMax: -1, yMin: Infinity, yMax: -1, width: copy.width, height: copy.height };
+for (let i = 0; i < data.length; i += 4) {
+  const [r, g, b] = [data[i], data[i + 1], data[i + 2]];
+  if (Math.abs(r - 32) + Math.abs(g - 36) + Math.abs(b - 43) < 12) continue;  // Background.
+  const x = (i / 4) % copy.width;
+  const y = Math.floor(i / 4 / copy.width);
+  out.xMin = Math.min(out.xMin, x); out.xMax = Math.max(out.xMax, x);
+  out.yMin = Math.min(out.yMin, y); out.yMax = Math.max(out.yMax, y);
+  if (Math.abs(r - deck[0]) + Math.abs(g - deck[1]) + Math.abs(b - deck[2]) < 10) ++out.deck;
+}
+return out;
+"""
+
+# Every marker label's box, and the overlay's.
+LABEL_BOXES = """
+const view = document.getElementById('overlay').getBoundingClientRect();
+return [[view.left, view.top, view.right, view.bottom],
+        [...document.querySelectorAll('#overlay .marker text')].map((t) => {
+          const b = t.getBoundingClientRect();
+          return [t.textContent, b.left, b.top, b.right, b.bottom];
+        })];
+"""
+
+# The top view's canvas size and the map's bounds on screen; the profile's width and where its
+# axis ends.
+TOP_FIT = """
+const canvas = document.getElementById('top-canvas');
+const top = window.strataViewer.views.top;
+const b = window.strataViewer.state.model.bounds();
+const [x0, y0] = top.toScreen(b.xMin, b.yMax);
+const [x1, y1] = top.toScreen(b.xMax, b.yMin);
+const profile = document.getElementById('profile');
+const axis = profile.querySelector('line.axis');
+return { css: [canvas.clientWidth, canvas.clientHeight], pixels: [canvas.width, canvas.height],
+         ratio: window.devicePixelRatio, map: [x0, y0, x1, y1],
+         profileWidth: profile.clientWidth, axisEnd: axis ? Number(axis.getAttribute('x2')) : null };
+"""
+
+
+def set_cut(driver, value):
+    """Moves the "cut above" slider to `value` [m] ('max': no cut)."""
+    driver.execute_script(
+        "const s = document.getElementById('cut'); s.value = arguments[0] === 'max' ? s.max : arguments[0];"
+        "s.dispatchEvent(new Event('input'));", value)
+
+
+def assert_labels_inside(driver):
+    view, labels = driver.execute_script(LABEL_BOXES)
+    for text, left, top, right, bottom in labels:
+        assert (left >= view[0] and top >= view[1] and right <= view[2] and bottom <= view[3]), \
+            f"label {text!r} at {(left, top, right, bottom)} leaves the view {view}"
+    return len(labels)
+
+
+def assert_fitted(driver, what, timeout_s=5):
+    """The top view's canvas pixels follow its CSS size, the map fills the view without leaving
+    it, and the profile spans its width (within `timeout_s`: they follow at the next frame)."""
+    deadline = time.monotonic() + timeout_s
+    while True:
+        try:
+            return check_fitted(driver.execute_script(TOP_FIT), what)
+        except AssertionError:
+            if time.monotonic() > deadline:
+                raise
+            time.sleep(0.05)
+
+
+def check_fitted(fit, what):
+    css, pixels, ratio = fit["css"], fit["pixels"], fit["ratio"]
+    assert pixels == [round(css[0] * ratio), round(css[1] * ratio)], (what, fit)
+    x0, y0, x1, y1 = fit["map"]
+    assert x0 >= -1 and y0 >= -1 and x1 <= css[0] + 1 and y1 <= css[1] + 1, (what, fit)
+    assert max((x1 - x0) / css[0], (y1 - y0) / css[1]) > 0.9, (what, fit)
+    assert abs(fit["axisEnd"] - (fit["profileWidth"] - 12)) < 1, (what, fit)  # profile_view.js MARGIN.
 
 
 def grpc_plan_length(cli, address):
@@ -42,7 +133,8 @@ def main():
         print(f"SKIP: {missing}")
         return SKIP
 
-    server = Server(args.server, ["--shutdown-grace-s", "1"])
+    server = Server(args.server, ["--shutdown-grace-s", "1", "--preload", "demo=scene:two_level_ramp",
+                                  "--preload", f"{LONG_ID}=scene:two_level_ramp"])
     browser = None
     try:
         server.wait_active("demo", 120)
@@ -51,6 +143,7 @@ def main():
         driver.get(server.url)
         browser.wait("document.querySelector('#maps tr[data-map-id=\"demo\"]')", 30,
                      "the map list to show demo")
+        server.wait_active(LONG_ID, 60)
         row = driver.find_element("css selector", '#maps tr[data-map-id="demo"]')
         assert "active" in row.text, row.text
         # Before a map is picked the view says what to do, and not after.
@@ -61,6 +154,12 @@ def main():
         assert not landing.is_displayed()
         levels = driver.find_elements("css selector", "#levels input[data-level]")
         assert len(levels) == 2, f"the demo has a floor and a deck, the page shows {len(levels)} levels"
+        # The scale bar: a round length, as long on screen as the view's scale makes it.
+        bar = driver.find_element("id", "scale-bar")
+        scale = driver.execute_script("return window.strataViewer.views.top.scale;")
+        bar_m, bar_px = float(bar.get_attribute("data-length-m")), float(bar.get_attribute("data-width-px"))
+        assert 30 < bar_px <= 120 and abs(bar_px - bar_m * scale) < 0.5, (bar_m, bar_px, scale)
+        assert bar.text == f"{bar_m:g} m", bar.text
 
         # A plan from the form: drawn, and as long as the gRPC answer.
         browser.plan(START, GOAL, 30)
@@ -83,8 +182,17 @@ def main():
         goal_label = driver.find_element("id", "goal-marker").text
         # Named by its ground's height, as a person reads a storey (the deck is at 3 m).
         assert goal_label == "goal · ground 3.0 m", goal_label
+        assert assert_labels_inside(driver) == 2
         assert driver.find_element("id", "search-path").get_attribute("points")
         assert driver.find_elements("css selector", "#profile polyline.reference")
+        # The side's text all shows (ids wrap, nothing scrolls sideways), now that the plan's
+        # figures make it scroll.
+        cut_cells = driver.execute_script(
+            "return [...document.querySelectorAll('#maps th, #maps td')]"
+            ".filter((c) => c.scrollWidth > c.clientWidth).map((c) => c.textContent);")
+        assert not cut_cells, f"map list cells cut: {cut_cells}"
+        side = driver.execute_script("const s = document.getElementById('side'); return [s.scrollWidth, s.clientWidth];")
+        assert side[0] <= side[1], f"the side overflows sideways: {side}"
 
         # Along the floor under the deck: drawn dotted while the deck (level 1) is shown, solid
         # once it is hidden.
@@ -98,16 +206,50 @@ def main():
         covered = driver.execute_script(f"return {count};")
         assert covered == 0, f"{covered} segments still dotted with the deck hidden"
         driver.find_element("css selector", '#levels input[data-level="1"]').click()
+        # Cut away above 1.5 m: the deck no longer covers the plan; and back.
+        set_cut(driver, 1.5)
+        browser.wait(f"{count} === 0", 5, "the plan drawn solid with the deck cut away")
+        assert driver.find_element("id", "cut-value").text == "1.5 m"
+        set_cut(driver, "max")
+        browser.wait(f"{count} > 0.8 * {total}", 5, "the plan drawn dotted again without a cut")
+
+        # 3D: the map fitted in the view (inside it, filling most of it), the deck cut away.
+        driver.find_element("css selector", "input[name=view][value=orbit]").click()
+        pixels = browser.wait(f"(() => {{ const p = (() => {{ {ORBIT_PIXELS} }})(); return p.deck > 2000 && p; }})()",
+                              10, "the 3D view drawn")
+        w, h = pixels["width"], pixels["height"]
+        assert pixels["xMin"] > 0 and pixels["yMin"] > 0 and pixels["xMax"] < w - 1 and pixels["yMax"] < h - 1, \
+            f"the map leaves the 3D view: {pixels}"
+        assert max((pixels["xMax"] - pixels["xMin"]) / w, (pixels["yMax"] - pixels["yMin"]) / h) > 0.75, \
+            f"the map does not fill the 3D view: {pixels}"
+        set_cut(driver, 1.5)
+        browser.wait(f"(() => {{ {ORBIT_PIXELS} }})().deck < {pixels['deck'] // 50}", 10, "the deck cut away in 3D")
+        set_cut(driver, "max")
+        driver.find_element("css selector", "input[name=view][value=top]").click()
+
+        # A smaller window: the top view and the profile follow it, the map fitted again.
+        assert_fitted(driver, "at 1400 x 900")
+        width = driver.execute_script("return document.getElementById('top-canvas').clientWidth;")
+        driver.set_window_size(1000, 700)
+        browser.wait(f"document.getElementById('top-canvas').clientWidth < {width - 300}", 10, "a smaller view")
+        assert_fitted(driver, "at 1000 x 700")
+        driver.set_window_size(1400, 900)
+        browser.wait(f"document.getElementById('top-canvas').clientWidth === {width}", 10, "the view as before")
+        assert_fitted(driver, "at 1400 x 900 again")
 
         errors = browser.console_errors()
         assert not errors, f"console errors: {errors}"
 
-        # An impossible goal: its error in plain words, with the nearest valid point.
+        # An impossible goal: its error in plain words, with the nearest valid point (at the
+        # map's edge: its label turns inwards), and nothing in the console.
         browser.plan(START, OFF_GROUND_GOAL, 30)
         error = driver.find_element("id", "plan-error")
         assert error.get_attribute("data-reason") == "GOAL_OFF_GROUND", error.text
         assert "nearest point it can reach" in error.text, error.text
         assert driver.find_elements("id", "nearest-marker")
+        assert assert_labels_inside(driver) >= 2
+        errors = browser.console_errors()
+        assert not errors, f"console errors after a refused plan: {errors}"
 
         # Both plans are among the recent plans.
         browser.wait("document.querySelectorAll('#recent li').length >= 2", 20, "the recent plans")
@@ -137,10 +279,7 @@ def main():
             conflicts = driver.find_element("id", "traffic").get_attribute("data-conflicts")
             assert conflicts == "0", f"{conflicts} robots drawn in conflict at the slider's {end}"
 
-        # The only console entry since: Chromium reporting the refused plan's HTTP 400.
-        errors = [e for e in browser.console_errors()
-                  if not (e["source"] == "network" and "PlannerService/Plan" in e["message"]
-                          and "status of 400" in e["message"])]
+        errors = browser.console_errors()
         assert not errors, f"console errors: {errors}"
         print(f"ok: plan {page_length:.3f} m on the page and over gRPC; "
               f"{len(segments)} segments drawn ({drawn_length:.3f} m); off-ground goal shown")

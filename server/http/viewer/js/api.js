@@ -1,6 +1,8 @@
 // Calls to strata-server's JSON API (server/http/http_api.hpp): the gRPC API's own request and
 // response messages in protobuf's JSON mapping, so what the page shows is what a gRPC client
-// gets. Failures become ApiErrors carrying the google.rpc.Status details.
+// gets. Failures become ApiErrors carrying the google.rpc.Status details. The page uses the
+// API's page route, /viewer-api/, which answers a refused call with HTTP 200 and the Status
+// in the body: the browser's console then logs no failed load for an error the page shows.
 
 const TOKEN_KEY = 'strata.viewer.token';
 
@@ -62,12 +64,13 @@ export async function call(method, request = {}) {
   if (bearer) headers.Authorization = `Bearer ${bearer}`;
   let response;
   try {
-    response = await fetch(`/api/${method}`, {
+    response = await fetch(`/viewer-api/${method}`, {
       method: 'POST', headers, body: JSON.stringify(request),
     });
   } catch (e) {
     throw new ApiError({ code: 'UNAVAILABLE', reason: 'UNREACHABLE', message: `the server does not answer (${e.message})` });
   }
+  // The HTTP server's own refusals keep their status: 413 (a google.rpc.Status) and 503 (text).
   const text = await response.text();
   let body;
   try {
@@ -76,5 +79,6 @@ export async function call(method, request = {}) {
     throw new ApiError({ code: 'UNKNOWN', message: `HTTP ${response.status}: ${text.slice(0, 200)}` });
   }
   if (!response.ok) throw errorFromStatus(body);
-  return body;
+  if (body.error) throw errorFromStatus(body.error);
+  return body.response;
 }

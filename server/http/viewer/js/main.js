@@ -23,7 +23,8 @@ const state = {
   mapId: null,
   map: null,
   model: null,
-  style: { levels: new Set([0]), obstacles: true, color: 'height', components: null },
+  // cutZ: surfaces above this height [m] are cut away (Infinity: none).
+  style: { levels: new Set([0]), obstacles: true, color: 'height', components: null, cutZ: Infinity },
   view: 'top',
   shown: null,  // { request, response, error, samples }
   traffic: null,  // Traffic of the map shown, when it has reservations.
@@ -33,7 +34,7 @@ const topView = new TopView($('top-canvas'), $('overlay'), {
   onPick: (x, y) => pick(x, y),
   onHover: (x, y) => hover(x, y),
 });
-const orbitView = new OrbitView($('orbit-canvas'));
+const orbitView = new OrbitView($('orbit-canvas'), $('orbit-labels'));
 
 // ---- Formatting ----
 
@@ -49,6 +50,16 @@ function snapped(state, asked) {
   if (!asked) return '';
   const moved = Math.hypot(state.position_m.x - asked.x, state.position_m.y - asked.y);
   return moved < 1e-3 ? '(as asked)' : `(moved ${fixed(moved)} m)`;
+}
+
+// An element holding `value` that may wrap after its _ - . / (a long map id in the list).
+function breakable(tag, value, attributes = {}) {
+  const e = text(tag, undefined, attributes);
+  value.split(/(?<=[_\-./])/).forEach((part, i) => {
+    if (i > 0) e.appendChild(document.createElement('wbr'));
+    e.appendChild(document.createTextNode(part));
+  });
+  return e;
 }
 
 function fixed(value, digits = 2) {
@@ -90,7 +101,7 @@ async function loadMaps() {
   body.replaceChildren();
   for (const map of state.maps) {
     const row = text('tr', undefined, { 'data-map-id': map.id });
-    row.appendChild(text('td', map.id));
+    row.appendChild(breakable('td', map.id, { class: 'id', title: map.id }));
     const stateName = map.state.replace('MAP_STATE_', '').toLowerCase();
     const stateCell = text('td', map.state === 'MAP_STATE_CREATING'
       ? `${stateName} ${Math.round(100 * map.progress)}%` : stateName, { class: `state-${map.state}` });
@@ -196,7 +207,8 @@ async function loadGeometry(id, robot = null) {
     state.style.levels = new Set(Array.from({ length: model.maxLevels }, (_, i) => i));
     state.style.color = $('show-safety').checked ? 'safety' : 'height';
     state.style.components = null;
-    buildLevelControls(model.maxLevels);
+    buildLevelControls(model);
+    buildCutControl(model);
     clearPlan();
   }
   $('geometry-note').textContent =
@@ -216,11 +228,19 @@ async function loadGeometry(id, robot = null) {
   return model;
 }
 
-function buildLevelControls(count) {
+// A box per level; its tooltip says which heights it spans (a level is the n-th ground from
+// the bottom of each column, so one level may span a whole ramp: the cut control below hides
+// by height).
+function buildLevelControls(model) {
   const box = $('levels');
   box.replaceChildren(text('span', 'levels'));
-  for (let level = 0; level < count; ++level) {
-    const label = text('label');
+  for (let level = 0; level < model.maxLevels; ++level) {
+    const range = model.levelRanges[level];
+    const nth = level + 1 + (['th', 'st', 'nd', 'rd'][level + 1] || 'th');
+    const label = text('label', undefined, {
+      title: `the ${nth} ground from the bottom of each column` +
+        (range.zMin <= range.zMax ? `, ${fixed(range.zMin, 1)} to ${fixed(range.zMax, 1)} m` : ''),
+    });
     const input = text('input', undefined, { type: 'checkbox', 'data-level': level });
     input.checked = true;
     input.addEventListener('change', () => {
@@ -235,6 +255,32 @@ function buildLevelControls(count) {
     label.append(input, ` ${level}`);
     box.appendChild(label);
   }
+}
+
+// The "cut above" slider: from the map's lowest ground to its highest (no cut), by 0.1 m.
+function buildCutControl(model) {
+  const slider = $('cut');
+  slider.min = (Math.floor(model.zMin * 10) / 10).toFixed(1);
+  slider.max = (Math.ceil(model.zMax * 10) / 10).toFixed(1);
+  slider.value = slider.max;
+  applyCut();
+}
+
+function applyCut() {
+  const slider = $('cut');
+  const value = Number(slider.value);
+  state.style.cutZ = value >= Number(slider.max) ? Infinity : value;
+  $('cut-value').textContent = Number.isFinite(state.style.cutZ) ? `${fixed(value, 1)} m` : 'none';
+  orbitView.setCut(state.style.cutZ);
+  if (!state.model) return;
+  // The top view's images and what the plan passes under follow the cut: once a frame while
+  // the slider moves.
+  if (applyCut.frame) return;
+  applyCut.frame = requestAnimationFrame(() => {
+    applyCut.frame = null;
+    topView.setStyle(state.style);
+    if (state.shown && state.shown.response) showPlan(state.shown.request, state.shown.response);
+  });
 }
 
 function restyle() {
@@ -269,20 +315,21 @@ function drawLegend() {
 
 // ---- Picking ----
 
-function visibleLevel(level) {
-  return state.style.levels.has(level);
+// Whether ground at height z on `level` is drawn: its level ticked and not cut away.
+function shownGround(level, z) {
+  return state.style.levels.has(level) && z <= state.style.cutZ;
 }
 
-// Whether ground of a level shown lies over the reference point (x, y, z): more than half a
-// metre above it, so the robot's own ground never counts.
+// Whether ground drawn lies over the reference point (x, y, z) in its column: more than half
+// a metre above it, so the robot's own ground never counts.
 function covered(x, y, z) {
-  const ground = state.model ? state.model.topGround(x, y, visibleLevel) : null;
+  const ground = state.model ? state.model.topGround(x, y, shownGround) : null;
   return ground !== null && ground.z > z + 0.5;
 }
 
 function pick(x, y) {
   if (!state.model) return;
-  const ground = state.model.topGround(x, y, visibleLevel);
+  const ground = state.model.topGround(x, y, shownGround);
   if (!ground) return;
   const which = document.querySelector('input[name=pick]:checked').value;
   $(which).value = `${fixed(x)},${fixed(y)},${fixed(ground.z + PICK_HEIGHT_M)}`;
@@ -296,7 +343,7 @@ function hover(x, y) {
     cursor.textContent = '';
     return;
   }
-  const ground = state.model.topGround(x, y, visibleLevel);
+  const ground = state.model.topGround(x, y, shownGround);
   cursor.textContent = `x ${fixed(x)}  y ${fixed(y)}` +
     (ground ? `  ground ${fixed(ground.z)} m, level ${ground.level}` : '');
 }
@@ -385,8 +432,15 @@ function showPlan(request, response) {
   ]);
   dl.dataset.lengthM = s.length_m;
   result.appendChild(dl);
-  drawProfile($('profile'), samples, response.profile, state.model);
+  redrawProfile();
   drawLegend();
+}
+
+// The side profile of the plan shown, at the profile's size (again when it changes).
+function redrawProfile() {
+  const shown = state.shown;
+  if (shown && shown.response) drawProfile($('profile'), shown.samples, shown.response.profile, state.model);
+  else drawProfile($('profile'), [], null, null);
 }
 
 // An error in plain words: what went wrong and what to do, from its reason and details.
@@ -523,6 +577,8 @@ $('show-obstacles').addEventListener('change', (e) => {
   state.style.obstacles = e.target.checked;
   restyle();
 });
+$('cut').addEventListener('input', applyCut);
+new ResizeObserver(redrawProfile).observe($('profile'));
 $('show-safety').addEventListener('change', (e) => {
   state.style.color = e.target.checked ? 'safety' : 'height';
   restyle();
@@ -532,6 +588,7 @@ for (const radio of document.querySelectorAll('input[name=view]')) {
     state.view = radio.value;
     const orbit = state.view === 'orbit';
     $('orbit-canvas').hidden = !orbit;
+    $('orbit-labels').hidden = !orbit;
     $('top-canvas').hidden = orbit;
     $('overlay').style.visibility = orbit ? 'hidden' : 'visible';
     if (orbit) orbitView.requestRender();
@@ -561,4 +618,5 @@ window.strataViewer = {
   loadTraffic,
   measureFrames: (view, seconds) => (view === 'orbit' ? orbitView : topView).measureFrames(seconds),
   state,
+  views: { top: topView, orbit: orbitView },
 };

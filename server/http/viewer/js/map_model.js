@@ -1,6 +1,6 @@
 // A map's geometry (strata.v1.MapGeometry) in typed arrays, with the queries the views need:
 // the topmost visible ground under a point (clicks), the ground and the ceiling along a
-// trajectory (the side profile), and each surface's colour.
+// trajectory (the side profile), each surface's colour, and the heights each level spans.
 
 import {
   GOAL_COMPONENT_COLOR, OBSTACLE_COLOR, OTHER_COMPONENT_COLOR, START_COMPONENT_COLOR,
@@ -46,6 +46,14 @@ export class MapModel {
     // The first ground and obstacle surface of every cell (both lists are ordered by cell).
     this.groundStart = MapModel.cellStarts(this.ground.cell, this.nx * this.ny);
     this.obstacleStart = MapModel.cellStarts(this.obstacle.cell, this.nx * this.ny);
+    // The heights each level spans (levels are numbered per column, 0 the lowest ground of its
+    // column, so one level may hold a whole ramp): [{ zMin, zMax }] for the level controls.
+    this.levelRanges = Array.from({ length: this.maxLevels }, () => ({ zMin: Infinity, zMax: -Infinity }));
+    for (let i = 0; i < this.ground.z.length; ++i) {
+      const range = this.levelRanges[Math.min(this.ground.level[i], this.maxLevels - 1)];
+      range.zMin = Math.min(range.zMin, this.ground.z[i]);
+      range.zMax = Math.max(range.zMax, this.ground.z[i]);
+    }
   }
 
   static cellStarts(cells, cellCount) {
@@ -83,12 +91,12 @@ export class MapModel {
     ];
   }
 
-  // The highest ground at (x, y) on a level `visible(level)` accepts: { z, level } or null.
+  // The highest ground at (x, y) that `visible(level, z)` accepts: { z, level } or null.
   topGround(x, y, visible) {
     const cell = this.cellAt(x, y);
     if (cell < 0) return null;
     for (let i = this.groundStart[cell + 1]; i-- > this.groundStart[cell];) {
-      if (visible(this.ground.level[i])) return { z: this.ground.z[i], level: this.ground.level[i] };
+      if (visible(this.ground.level[i], this.ground.z[i])) return { z: this.ground.z[i], level: this.ground.level[i] };
     }
     return null;
   }

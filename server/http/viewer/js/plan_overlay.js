@@ -1,5 +1,5 @@
-// A plan drawn over the map: the trajectory coloured by horizontal speed (dotted where a level
-// shown lies over it), the A* path dashed, the requested and snapped start and goal with their
+// A plan drawn over the map: the trajectory coloured by horizontal speed (dotted where ground
+// drawn lies over it), the A* path dashed, the requested and snapped start and goal with their
 // levels; in the top view's SVG overlay and as the 3D view's lines and points.
 
 import { heatColor, css } from './colors.js';
@@ -21,8 +21,9 @@ function position(v) {
 
 // What to draw for a plan: `samples` (sampleTrajectory), `response` (PlanResponse, or null for
 // a failed plan), `request` (PlanRequest), `nearest` ({ point: [x, y, z], level, which }) for
-// an off-ground start or goal; `covered(x, y, z)` tells whether a level shown in the top view
-// lies over a point (segments there are drawn dotted).
+// an off-ground start or goal; `covered(x, y, z)` tells whether ground drawn in the top view
+// (its level shown, not cut away) lies over a point in its column (segments there are drawn
+// dotted: the trajectory passes under it).
 export function planDrawing({
   samples = [], response = null, request = null, nearest = null, length = 0, covered = () => false,
 }) {
@@ -110,6 +111,7 @@ export function orbitItems(drawing) {
       mode: 'POINTS',
       points: drawing.markers.map((m) => [m.x, m.y, m.z]),
       colors: drawing.markers.map((m) => m.rgb),
+      labels: drawing.markers.map((m) => m.label),
       pointFactor: 6,
     });
   }

@@ -1,11 +1,24 @@
 // The top view: the map drawn from above on a 2D canvas, one image per level (a pixel per
-// display cell), lower levels first so upper levels hide them; pan by dragging, zoom with the
-// wheel, click to pick a point. Plans are drawn over it in an SVG overlay (plan_overlay.js):
-// lines in a group transformed like the map, markers placed in screen pixels.
+// display cell), lower levels first so upper levels hide them, without the surfaces cut away
+// above the style's height; pan by dragging, zoom with the wheel, click to pick a point. Plans
+// are drawn over it in an SVG overlay (plan_overlay.js): lines in a group transformed like the
+// map, markers and the scale bar placed in screen pixels. The view follows its canvas's size,
+// and keeps the map fitted as the window changes until the user pans or zooms.
+
+import { roundLength } from './lengths.js';
 
 const SVG_NS = 'http://www.w3.org/2000/svg';
 const BACKGROUND = '#20242b';
 const CLICK_SLOP_PX = 4;
+const SCALE_BAR_MAX_PX = 120;  // The scale bar's longest length on screen.
+const EDGE_PX = 4;  // Labels keep this far inside the view.
+
+function svgElement(name, attributes, text) {
+  const e = document.createElementNS(SVG_NS, name);
+  for (const [k, v] of Object.entries(attributes)) e.setAttribute(k, v);
+  if (text !== undefined) e.textContent = text;
+  return e;
+}
 
 export class TopView {
   // `handlers`: onPick(x, y) for a click, onHover(x, y) (null off the canvas).
@@ -16,6 +29,8 @@ export class TopView {
     this.worldGroup = overlay.querySelector('#world');
     this.markerGroup = document.createElementNS(SVG_NS, 'g');
     overlay.appendChild(this.markerGroup);
+    this.scaleBar = svgElement('g', { id: 'scale-bar', class: 'scale-bar' });
+    overlay.appendChild(this.scaleBar);
     this.handlers = handlers;
     this.model = null;
     this.images = [];
@@ -23,9 +38,13 @@ export class TopView {
     this.scale = 10;  // Screen pixels per metre.
     this.centerX = 0;
     this.centerY = 0;
+    this.fitted = false;  // Whether the view shows the whole map as fit() left it.
     this.frameRequested = false;
     this.listen();
-    new ResizeObserver(() => this.requestRender()).observe(canvas);
+    new ResizeObserver(() => {
+      if (this.fitted) this.fit();
+      else this.requestRender();
+    }).observe(canvas);
   }
 
   listen() {
@@ -42,6 +61,7 @@ export class TopView {
       const dy = e.clientY - down.y;
       if (Math.hypot(dx, dy) > CLICK_SLOP_PX) down.moved = true;
       if (!down.moved) return;
+      this.fitted = false;
       this.centerX = down.cx - dx / this.scale;
       this.centerY = down.cy + dy / this.scale;
       this.requestRender();
@@ -58,6 +78,7 @@ export class TopView {
       e.preventDefault();
       const [x, y] = this.toWorld(e.offsetX, e.offsetY);
       this.scale *= Math.exp(-e.deltaY * 0.0015);
+      this.fitted = false;
       // Keep the point under the cursor where it is.
       const [x2, y2] = this.toWorld(e.offsetX, e.offsetY);
       this.centerX += x - x2;
@@ -86,9 +107,10 @@ export class TopView {
     if (!keepView) this.fit();
   }
 
-  // Fits the whole map in the view.
+  // Fits the whole map in the view; while the canvas is hidden (no size), as soon as it shows.
   fit() {
-    if (!this.model) return;
+    this.fitted = true;
+    if (!this.model || !this.canvas.clientWidth || !this.canvas.clientHeight) return;
     const b = this.model.bounds();
     const [w, h] = this.size();
     this.scale = 0.95 * Math.min(w / (b.xMax - b.xMin), h / (b.yMax - b.yMin));
@@ -98,35 +120,40 @@ export class TopView {
   }
 
   // Redraws the level images for `style`: { levels: Set of visible levels, obstacles, color,
-  // components }.
+  // components, cutZ: surfaces above this height [m] are left out }.
   setStyle(style) {
     this.style = style;
     if (!this.model) return;
     const m = this.model;
     const cells = m.nx * m.ny;
-    this.images = [];
+    const cut = style.cutZ ?? Infinity;
+    const tops = [];
+    const pixels = [];
     for (let level = 0; level < m.maxLevels; ++level) {
-      const top = new Float32Array(cells).fill(-Infinity);
-      const rgba = new Uint8ClampedArray(4 * cells);
-      const paint = (cell, z, [r, g, b]) => {
-        if (z < top[cell]) return;
-        top[cell] = z;
-        rgba.set([r, g, b, 255], 4 * cell);
-      };
-      for (let i = 0; i < m.ground.z.length; ++i) {
-        if (m.ground.level[i] === level) paint(m.ground.cell[i], m.ground.z[i], m.groundColor(i, style));
+      tops.push(new Float32Array(cells).fill(-Infinity));
+      pixels.push(new Uint8ClampedArray(4 * cells));
+    }
+    const paint = (level, cell, z, [r, g, b]) => {
+      const top = tops[Math.min(level, m.maxLevels - 1)];
+      if (z < top[cell]) return;
+      top[cell] = z;
+      pixels[Math.min(level, m.maxLevels - 1)].set([r, g, b, 255], 4 * cell);
+    };
+    for (let i = 0; i < m.ground.z.length; ++i) {
+      if (m.ground.z[i] <= cut) paint(m.ground.level[i], m.ground.cell[i], m.ground.z[i], m.groundColor(i, style));
+    }
+    if (style.obstacles) {
+      for (let i = 0; i < m.obstacle.z.length; ++i) {
+        if (m.obstacle.z[i] <= cut) paint(m.obstacle.level[i], m.obstacle.cell[i], m.obstacle.z[i], m.obstacleColor());
       }
-      if (style.obstacles) {
-        for (let i = 0; i < m.obstacle.z.length; ++i) {
-          if (m.obstacle.level[i] === level) paint(m.obstacle.cell[i], m.obstacle.z[i], m.obstacleColor());
-        }
-      }
+    }
+    this.images = pixels.map((rgba) => {
       const image = document.createElement('canvas');
       image.width = m.nx;
       image.height = m.ny;
       image.getContext('2d').putImageData(new ImageData(rgba, m.nx, m.ny), 0, 0);
-      this.images.push(image);
-    }
+      return image;
+    });
     this.requestRender();
   }
 
@@ -171,33 +198,51 @@ export class TopView {
     this.worldGroup.setAttribute('transform',
       `matrix(${this.scale} 0 0 ${-this.scale} ${w / 2 - this.centerX * this.scale} ${h / 2 + this.centerY * this.scale})`);
     this.renderMarkers();
+    this.renderScaleBar();
   }
 
   renderMarkers() {
     this.markerGroup.replaceChildren();
+    const [w, h] = this.size();
     for (const marker of this.markers) {
       const [sx, sy] = this.toScreen(marker.x, marker.y);
-      const g = document.createElementNS(SVG_NS, 'g');
-      g.setAttribute('class', 'marker');
+      const g = svgElement('g', { class: 'marker' });
       if (marker.id) g.setAttribute('id', marker.id);
-      const circle = document.createElementNS(SVG_NS, 'circle');
-      circle.setAttribute('cx', sx);
-      circle.setAttribute('cy', sy);
-      circle.setAttribute('r', marker.hollow ? 7 : 5);
-      circle.setAttribute('fill', marker.hollow ? 'none' : marker.color);
+      const circle = svgElement('circle', {
+        cx: sx, cy: sy, r: marker.hollow ? 7 : 5, fill: marker.hollow ? 'none' : marker.color,
+      });
       // A requested point: a ring of its colour (a style property: it beats the stylesheet's
       // black outline, and the page's content security policy allows it, unlike an attribute).
       if (marker.hollow) circle.style.stroke = marker.color;
       g.appendChild(circle);
-      if (marker.label) {
-        const text = document.createElementNS(SVG_NS, 'text');
-        text.setAttribute('x', sx + 9);
-        text.setAttribute('y', sy - 7);
-        text.textContent = marker.label;
-        g.appendChild(text);
-      }
       this.markerGroup.appendChild(g);
+      // A label beside its point (right and above it, else where it fits), kept inside the
+      // view; none for a point off the view.
+      if (!marker.label || sx < 0 || sy < 0 || sx > w || sy > h) continue;
+      const text = svgElement('text', {}, marker.label);
+      g.appendChild(text);
+      const width = text.getComputedTextLength() || 7 * marker.label.length;
+      const x = sx + 9 + width <= w - EDGE_PX ? sx + 9 : sx - 9 - width;
+      const y = sy - 7 - 12 >= EDGE_PX ? sy - 7 : sy + 19;
+      text.setAttribute('x', Math.min(Math.max(x, EDGE_PX), w - EDGE_PX - width));
+      text.setAttribute('y', Math.min(Math.max(y, EDGE_PX + 12), h - EDGE_PX));
     }
+  }
+
+  // A bar of a round length in metres at the bottom left, above the cursor's coordinates.
+  renderScaleBar() {
+    this.scaleBar.replaceChildren();
+    if (!this.model) return;
+    const length = roundLength(SCALE_BAR_MAX_PX / this.scale);
+    const px = length * this.scale;
+    const [, h] = this.size();
+    const x = 12;
+    const y = h - 30;
+    this.scaleBar.dataset.lengthM = length;
+    this.scaleBar.dataset.widthPx = px.toFixed(2);
+    this.scaleBar.append(
+      svgElement('path', { d: `M${x},${y - 5}V${y}H${x + px}V${y - 5}` }),
+      svgElement('text', { x: x + px / 2, y: y - 6, 'text-anchor': 'middle' }, `${length} m`));
   }
 
   // Pans in a circle for `seconds`, drawing every animation frame; resolves to frames/s.
