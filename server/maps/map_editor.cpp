@@ -110,20 +110,24 @@ Result<MapUpdate> MapEditor::UpdateOnce(const MapEditRequest& request, const Cal
                          "to edit: create the map from its point cloud to edit it")
         .With("map_id", id);
   }
-  // The base cloud, its edited copy and the new model are held while the version is made:
-  // memory is set aside for them as for making a map.
+  // A cloud read or edited and a new model are held while the version is made: memory is set
+  // aside for them as for making a map (keep-out zones alone hold nothing new, and setting it
+  // aside would make room by letting go of the maps held).
   MemoryBudget::Reservation making;
-  if (options_.memory_budget) {
+  const auto set_aside = [&]() -> ServiceStatus {
+    if (!options_.memory_budget) return OkStatus();
     Result<MemoryBudget::Reservation> reserved = options_.memory_budget->Reserve(
         MemoryBudget::Use::kAssessments, options_.assessment_memory_bytes,
         "editing map '" + id + "' (--max-assessment-memory)");
     if (!reserved.ok()) return std::move(reserved).error();
     making = std::move(reserved).value();
-  }
+    return OkStatus();
+  };
   BuiltMap built;
   std::string terrain;                               // What the new version is made of.
   std::shared_ptr<const PlanningMap> base_planning;  // For keep-out zones alone.
   if (!request.edits.empty()) {
+    if (ServiceStatus reserved = set_aside(); !reserved.ok()) return std::move(reserved).error();
     Result<BuiltMap> edited = RunEditJob(request, current, call);
     if (!edited.ok()) return std::move(edited).error();
     built = std::move(edited).value();
@@ -139,6 +143,7 @@ Result<MapUpdate> MapEditor::UpdateOnce(const MapEditRequest& request, const Cal
     if (!known.ok()) return std::move(known).error();
     terrain = std::move(known).value();
     if (terrain.empty()) {  // A version of layout 1: its cloud goes to a terrain of its own.
+      if (ServiceStatus reserved = set_aside(); !reserved.ok()) return std::move(reserved).error();
       Result<PointCloud> cloud = published.LoadCloud(id, current);
       if (!cloud.ok()) return std::move(cloud).error();
       built.cloud = std::move(cloud).value();

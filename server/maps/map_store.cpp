@@ -545,7 +545,9 @@ MapStore::~MapStore() {
 bool MapStore::Discard(const fs::path& path) const {
   const fs::path trash = root_ / "trash" / UniqueName("discarded");
   if (::rename(path.c_str(), trash.c_str()) != 0) return false;
-  (void)Sync(path.parent_path());
+  // Not made durable: after a crash that undid the rename, what comes back is a leftover no
+  // head lists, which CollectGarbage removes; an fsync here would wait for the journal behind
+  // every removal in flight.
   {
     const std::lock_guard lock(discarded_mutex_);
     discarded_.push_back(trash);
