@@ -325,9 +325,9 @@ Metrics::Metrics()
       process_collector_(std::make_shared<ProcessCollector>()) {
   prometheus::BuildGauge()
       .Name("strata_build_info")
-      .Help("1, labelled with this server's version.")
+      .Help("1, labelled with this server's version and the commit it was built from.")
       .Register(*registry_)
-      .Add({{"version", kStrataVersion}})
+      .Add({{"version", kStrataVersion}, {"commit", kStrataCommit}})
       .Set(1);
 }
 

@@ -10,6 +10,7 @@
 
 #include "held_assessment.hpp"
 #include "large_floor.hpp"
+#include "strata/version.hpp"
 
 namespace strata::server {
 namespace {
@@ -114,7 +115,8 @@ TEST(MetricsTest, ProcessFiguresAndTheBuildAreExported) {
         "process_max_fds ", "process_start_time_seconds "}) {
     EXPECT_THAT(scrape, HasSubstr(name));
   }
-  EXPECT_THAT(scrape, HasSubstr("strata_build_info{version=\""));
+  EXPECT_THAT(scrape, HasSubstr("strata_build_info{commit=\"" + std::string(kStrataCommit) +
+                                "\",version=\"" + std::string(kStrataVersion) + "\"}"));
   EXPECT_THAT(scrape, Not(HasSubstr("process_resident_memory_bytes 0\n")));
 }
 
