@@ -529,9 +529,7 @@ fs::path MapStore::VersionDir(const std::string& id, const std::string& version)
 }
 
 MapStore::MapStore(fs::path root, std::shared_ptr<MapHeads> heads)
-    : root_(std::move(root)), shared_heads_(std::move(heads)) {
-  remover_ = std::thread([this] { RemoveDiscarded(); });
-}
+    : root_(std::move(root)), shared_heads_(std::move(heads)) {}
 
 MapStore::~MapStore() {
   {
@@ -539,7 +537,7 @@ MapStore::~MapStore() {
     closing_ = true;
   }
   discarded_changed_.notify_all();
-  remover_.join();
+  if (remover_.joinable()) remover_.join();
 }
 
 bool MapStore::Discard(const fs::path& path) const {
@@ -551,12 +549,15 @@ bool MapStore::Discard(const fs::path& path) const {
   {
     const std::lock_guard lock(discarded_mutex_);
     discarded_.push_back(trash);
+    // Started with the first discard, not with the store: a process that forks (a test's
+    // writers) stays single-threaded until it removes something.
+    if (!remover_.joinable()) remover_ = std::thread([this] { RemoveDiscarded(); });
   }
   discarded_changed_.notify_one();
   return true;
 }
 
-void MapStore::RemoveDiscarded() {
+void MapStore::RemoveDiscarded() const {
   std::unique_lock lock(discarded_mutex_);
   while (true) {
     discarded_changed_.wait(lock, [&] { return closing_ || !discarded_.empty(); });

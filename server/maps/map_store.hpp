@@ -258,7 +258,7 @@ class MapStore {
   // Removes what Discard renamed into trash/, one path at a time, off the caller's thread:
   // unlinking a terrain's hundreds of megabytes takes a tenth of a second, which a publish
   // (a keep-out zone's in milliseconds) should not wait for.
-  void RemoveDiscarded();
+  void RemoveDiscarded() const;
 
   std::filesystem::path root_;
   std::shared_ptr<MapHeads> shared_heads_;  // Null: heads are files under root_.
@@ -269,7 +269,8 @@ class MapStore {
   mutable std::deque<std::filesystem::path> discarded_;
   mutable bool removing_ = false;  // The remover holds one taken from discarded_.
   bool closing_ = false;           // Guarded by discarded_mutex_.
-  std::thread remover_;
+  // Runs RemoveDiscarded, from the first discard on; guarded by discarded_mutex_.
+  mutable std::thread remover_;
 };
 
 }  // namespace strata::server
