@@ -56,6 +56,16 @@ class ServerFleetTest : public ServerFixture {
     return response;
   }
 
+  // Releases `robot`'s reservation on the demo map.
+  grpc::Status Release(const std::string& robot, v1::ReleaseReservationResponse* released) {
+    v1::ReleaseReservationRequest release;
+    release.set_map_id("demo");
+    release.set_robot_id(robot);
+    grpc::ClientContext context;
+    SetDeadline(&context, 10);
+    return traffic_->ReleaseReservation(&context, release, released);
+  }
+
   // No two listed reservations meet (the planner's exact check).
   void ExpectNoTwoMeet() {
     const v1::ListReservationsResponse listed = List();
@@ -229,12 +239,8 @@ TEST_F(ServerFleetTest, AWatchSeesEachReservationMadeAndReleasedAndEndsWithItsMa
   EXPECT_EQ(change.reservation().revision(), first.reservation().revision());
   EXPECT_EQ(change.reservation().trajectory().pieces_size(), first.trajectory().pieces_size());
 
-  v1::ReleaseReservationRequest release;
-  release.set_map_id("demo");
-  release.set_robot_id("a");
   v1::ReleaseReservationResponse released;
-  grpc::ClientContext release_context;
-  ASSERT_TRUE(traffic_->ReleaseReservation(&release_context, release, &released).ok());
+  ASSERT_TRUE(Release("a", &released).ok());
   ASSERT_TRUE(stream->Read(&change));
   EXPECT_EQ(change.kind(), v1::ScheduleChange::RELEASED);
   EXPECT_EQ(change.robot_id(), "a");
@@ -292,14 +298,7 @@ TEST_F(ServerFleetMapChangeTest, AKeepOutZoneOverARobotsGoalTellsItToPlanAgain) 
   // An aisle closed over a's goal, where it parks.
   v1::UpdateMapRequest update;
   update.set_map_id("demo");
-  v1::Prism* zone = update.add_edits()->mutable_add_keep_out();
-  for (const auto& [x, y] : {std::pair{12.5, 9.5}, {13.5, 9.5}, {13.5, 10.5}, {12.5, 10.5}}) {
-    v1::Vector2* corner = zone->add_polygon_m();
-    corner->set_x(x);
-    corner->set_y(y);
-  }
-  zone->set_z_min_m(-1);
-  zone->set_z_max_m(3);
+  SetBox(update.add_edits()->mutable_add_keep_out(), 12.5, 9.5, 13.5, 10.5, -1, 3);
   v1::UpdateMapResponse updated;
   grpc::ClientContext update_context;
   SetDeadline(&update_context, 60);
@@ -319,12 +318,8 @@ TEST_F(ServerFleetMapChangeTest, AKeepOutZoneOverARobotsGoalTellsItToPlanAgain) 
   EXPECT_LE(when, MotionOf(a.reservation()).end_ns);
 
   // b was checked in the same pass and is safe: a's release is the next change.
-  v1::ReleaseReservationRequest release;
-  release.set_map_id("demo");
-  release.set_robot_id("a");
   v1::ReleaseReservationResponse released;
-  grpc::ClientContext release_context;
-  ASSERT_TRUE(traffic_->ReleaseReservation(&release_context, release, &released).ok());
+  ASSERT_TRUE(Release("a", &released).ok());
   ASSERT_TRUE(stream->Read(&change));
   EXPECT_EQ(change.kind(), v1::ScheduleChange::RELEASED);
   EXPECT_EQ(change.robot_id(), "a");

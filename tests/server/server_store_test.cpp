@@ -118,26 +118,6 @@ v1::PlanRequest AcrossTheFloor(const std::string& id) {
   return PlanRequestFor(id, 2, 8, 0.3, 22, 8, 0.3);
 }
 
-void SetBox(v1::Prism* prism, double x0, double y0, double x1, double y1, double z0, double z1) {
-  for (const auto& [x, y] : {std::pair{x0, y0}, {x1, y0}, {x1, y1}, {x0, y1}}) {
-    v1::Vector2* corner = prism->add_polygon_m();
-    corner->set_x(x);
-    corner->set_y(y);
-  }
-  prism->set_z_min_m(z0);
-  prism->set_z_max_m(z1);
-}
-
-// Smallest distance of the response's trajectory samples to the vertical line at (x, y) [m].
-double ClosestApproach(const v1::PlanResponse& response, double x, double y) {
-  double closest = 1e9;
-  for (const v1::TrajectorySample& sample : response.samples()) {
-    closest =
-        std::min(closest, std::hypot(sample.position_m().x() - x, sample.position_m().y() - y));
-  }
-  return closest;
-}
-
 // The maps' heads on etcd (--etcd with --map-store): the same behaviour, no head file.
 class StoreOnEtcdTest : public StoreTest {
  protected:

@@ -1,8 +1,11 @@
 #pragma once
 // Helpers for tests that talk to a running strata-server.
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <google/rpc/error_details.pb.h>
@@ -77,6 +80,28 @@ inline v1::PlanRequest PlanRequestFor(const std::string& map_id, double sx, doub
   // runs several times slower, and the first plan on a map builds its graph within it.
   request.mutable_options()->set_time_budget_s(PlanOptions().time_budget_s * test_util::kTimeScale);
   return request;
+}
+
+/// Sets `prism` to the box [x0, x1] × [y0, y1] × [z0, z1] [m].
+inline void SetBox(v1::Prism* prism, double x0, double y0, double x1, double y1, double z0,
+                   double z1) {
+  for (const auto& [x, y] : {std::pair{x0, y0}, {x1, y0}, {x1, y1}, {x0, y1}}) {
+    v1::Vector2* corner = prism->add_polygon_m();
+    corner->set_x(x);
+    corner->set_y(y);
+  }
+  prism->set_z_min_m(z0);
+  prism->set_z_max_m(z1);
+}
+
+/// Smallest distance of the response's trajectory samples to the vertical line at (x, y) [m].
+inline double ClosestApproach(const v1::PlanResponse& response, double x, double y) {
+  double closest = 1e9;
+  for (const v1::TrajectorySample& sample : response.samples()) {
+    closest =
+        std::min(closest, std::hypot(sample.position_m().x() - x, sample.position_m().y() - y));
+  }
+  return closest;
 }
 
 }  // namespace strata::server::testing
