@@ -36,12 +36,12 @@ RUN mkdir -p /out \
     && strip --strip-unneeded /out/*
 
 FROM debian:bookworm-slim AS runtime
-# Runtime libraries only (their dependencies come along): gRPC and protobuf, prometheus-cpp
-# and civetweb (/metrics), libmicrohttpd (the web viewer), PCL common/io/kdtree/sample_consensus (io pulls
+# Runtime libraries only (their dependencies come along): gRPC and protobuf, prometheus-cpp's
+# core (metrics), libmicrohttpd (the web viewer and /metrics), PCL common/io/kdtree/sample_consensus (io pulls
 # VTK), OctoMap and OpenMP. The viewer's page is compiled into strata-server.
 RUN apt-get update \
     && DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends \
-       libgrpc++1.51 libprotobuf32 libprometheus-cpp-pull1.0 libcivetweb1 libmicrohttpd12 \
+       libgrpc++1.51 libprotobuf32 libprometheus-cpp-core1.0 libmicrohttpd12 \
        libpcl-common1.13 libpcl-io1.13 libpcl-kdtree1.13 libpcl-sample-consensus1.13 \
        liboctomap1.9 libgomp1 \
     && rm -rf /var/lib/apt/lists/*

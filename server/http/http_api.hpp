@@ -26,6 +26,7 @@
 #include <utility>
 #include <vector>
 
+#include "http/http_handler.hpp"
 #include "rpc/auth.hpp"
 #include "rpc/map_service.hpp"
 #include "rpc/planner_service.hpp"
@@ -34,22 +35,6 @@
 
 namespace strata::server {
 
-/// One HTTP request, as the API sees it.
-struct HttpRequest {
-  std::string method;         ///< "GET", "POST", ...
-  std::string path;           ///< Decoded, without the query: "/api/strata.v1.MapService/GetMap".
-  std::string authorization;  ///< The Authorization header; empty when absent.
-  std::string body;           ///< Within the server's request limit (HttpServer enforces it).
-};
-
-/// The answer to send.
-struct HttpResponse {
-  int status = 200;
-  std::string content_type;
-  std::string body;
-  std::vector<std::pair<std::string, std::string>> headers;  ///< Besides the content type.
-};
-
 /// The HTTP status that Google's API design guide maps a gRPC code to (google/rpc/code.proto).
 int HttpStatusOf(grpc::StatusCode code);
 
@@ -57,7 +42,7 @@ int HttpStatusOf(grpc::StatusCode code);
 /// without details), naming the limit (--max-receive-message-bytes).
 HttpResponse RequestTooLarge(std::size_t max_bytes);
 
-class HttpApi {
+class HttpApi : public HttpHandler {
  public:
   /// The services must outlive the API; `tokens` may be null (every call allowed).
   HttpApi(const MapRegistry* registry, const MapServiceImpl* maps, PlannerServiceImpl* planner,
@@ -66,7 +51,7 @@ class HttpApi {
   /// Answers `request` (the page's assets on GET, the API on POST), logging one line for an
   /// API call. `call` carries the request's deadline and cancellation. Thread-safe; never
   /// throws (an exception answers INTERNAL).
-  HttpResponse Handle(const HttpRequest& request, const CallControl& call) const;
+  HttpResponse Handle(const HttpRequest& request, const CallControl& call) const override;
 
  private:
   HttpResponse HandleApi(const HttpRequest& request, const CallControl& call,

@@ -17,6 +17,7 @@
 #include <fmt/format.h>
 
 #include "common/log.hpp"
+#include "http/http_api.hpp"  // RequestTooLarge
 
 namespace strata::server {
 namespace {
@@ -97,11 +98,11 @@ HttpResponse ShuttingDown() {
                       {{"Connection", "close"}}};
 }
 
-HttpResponse Busy() {
+HttpResponse Busy(const std::string& serves) {
   return HttpResponse{
       503,
       "text/plain; charset=utf-8",
-      fmt::format("the viewer has {} requests waiting; retry shortly\n", kHttpQueuedRequests),
+      fmt::format("{} has {} requests waiting; retry shortly\n", serves, kHttpQueuedRequests),
       {{"Retry-After", "1"}}};
 }
 
@@ -170,11 +171,11 @@ struct HttpServer::Callbacks {
     // Suspended before it is handed over: the thread may resume it at once.
     MHD_suspend_connection(connection);
     const bool posted = self->threads_->Post([self, connection, exchange] {
-      exchange->response = self->api_->Handle(exchange->request, CallControl{});
+      exchange->response = self->handler_->Handle(exchange->request, CallControl{});
       MHD_resume_connection(connection);
     });
     if (!posted) {
-      exchange->response = Busy();
+      exchange->response = Busy(self->serves_);
       MHD_resume_connection(connection);
     }
     return MHD_YES;
@@ -203,15 +204,16 @@ bool IsLoopbackAddress(const std::string& address) {
 }
 
 Result<std::unique_ptr<HttpServer>> HttpServer::Start(const HttpServerOptions& options,
-                                                      const HttpApi* api) {
+                                                      const HttpHandler* handler) {
   std::unique_ptr<HttpServer> self(new HttpServer());
-  self->api_ = api;
+  self->handler_ = handler;
   self->max_body_bytes_ = options.max_body_bytes;
+  self->serves_ = options.serves;
   const std::string where = fmt::format("{}:{}", options.address, options.port);
-  const auto fail = [&where](const std::string& why) {
+  const auto fail = [&options, &where](const std::string& why) {
     return MakeError(ErrorCode::kInvalidInput,
-                     "--http-address, --http-port: cannot serve the viewer on " + where + ": " +
-                         BoundedText(why, 256));
+                     fmt::format("{}: cannot serve {} on {}: {}", options.flags, options.serves,
+                                 where, BoundedText(why, 256)));
   };
   std::string problem;
   std::optional<sockaddr_storage> address = BindAddress(options.address, options.port, &problem);

@@ -1,5 +1,6 @@
 #pragma once
-/// Serves an HttpApi (the web viewer) over plain HTTP with GNU libmicrohttpd. One event loop
+/// Serves an HttpHandler (the web viewer, the metrics page) over plain HTTP with GNU
+/// libmicrohttpd. One event loop
 /// (epoll) holds every connection, so a client that connects and says nothing, or sends its
 /// request slowly, costs a socket and a few KiB, never a thread: it cannot keep the page from
 /// anyone else. Connections are bounded in all and per client address; a connection silent
@@ -17,7 +18,7 @@
 #include <string>
 
 #include "common/service_error.hpp"
-#include "http/http_api.hpp"
+#include "http/http_handler.hpp"
 #include "http/job_threads.hpp"
 
 struct MHD_Daemon;
@@ -54,6 +55,10 @@ struct HttpServerOptions {
   /// Largest request body accepted [bytes]; larger ones get 413, unread when the
   /// Content-Length says so, discarded as they arrive otherwise.
   std::size_t max_body_bytes = 0;
+  /// What is served and the flags that place it, for messages: "cannot serve the viewer on
+  /// ...", "the viewer has 64 requests waiting".
+  std::string serves = "the viewer";
+  std::string flags = "--http-address, --http-port";
 };
 
 /// Whether `address` (--http-address) only this machine reaches: 127.0.0.0/8 or "localhost".
@@ -61,10 +66,10 @@ bool IsLoopbackAddress(const std::string& address);
 
 class HttpServer {
  public:
-  /// Starts serving `api` (which must outlive the server). Fails with kInvalidInput naming
-  /// the problem (address in use, not a local address).
+  /// Starts serving `handler` (which must outlive the server). Fails with kInvalidInput
+  /// naming the flags and the problem (address in use, not a local address).
   static Result<std::unique_ptr<HttpServer>> Start(const HttpServerOptions& options,
-                                                   const HttpApi* api);
+                                                   const HttpHandler* handler);
   ~HttpServer();
   HttpServer(const HttpServer&) = delete;
   HttpServer& operator=(const HttpServer&) = delete;
@@ -81,8 +86,9 @@ class HttpServer {
   struct Callbacks;  // libmicrohttpd's callbacks, in http_server.cpp.
   HttpServer() = default;
 
-  const HttpApi* api_ = nullptr;
+  const HttpHandler* handler_ = nullptr;
   std::size_t max_body_bytes_ = 0;
+  std::string serves_;
   MHD_Daemon* daemon_ = nullptr;
   int listen_socket_ = -1;
   int port_ = 0;

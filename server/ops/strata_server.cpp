@@ -393,17 +393,15 @@ ServiceStatus StrataServer::Listen(const StartInputs& inputs) {
 ServiceStatus StrataServer::ServeMetrics() {
   const ServerConfig& config = config_;
   if (config.metrics_port >= 0) {
-    const std::string address = config.metrics_address + ":" + std::to_string(config.metrics_port);
-    try {
-      exposer_ = std::make_unique<prometheus::Exposer>(address);
-    } catch (const std::exception& e) {
-      return MakeError(ErrorCode::kInvalidInput,
-                       "--metrics-address, --metrics-port: cannot serve metrics on " + address +
-                           ": " + e.what());
-    }
-    metrics_->ServeOn(*exposer_);
-    const std::vector<int> ports = exposer_->GetListeningPorts();
-    metrics_port_ = ports.empty() ? config.metrics_port : ports.front();
+    metrics_page_ = std::make_unique<MetricsPage>(metrics_.get());
+    HttpServerOptions options;
+    options.address = config.metrics_address;
+    options.port = config.metrics_port;
+    options.serves = "metrics";
+    options.flags = "--metrics-address, --metrics-port";
+    Result<std::unique_ptr<HttpServer>> started = HttpServer::Start(options, metrics_page_.get());
+    if (!started.ok()) return std::move(started).error();
+    metrics_server_ = std::move(started).value();
   }
   return OkStatus();
 }
@@ -451,7 +449,9 @@ ServiceStatus StrataServer::QueuePreloads(std::vector<ResolvedPreload>* preloads
 }
 
 StrataServer::~StrataServer() {
-  if (http_server_) http_server_->Stop();  // Its requests use the registry.
+  // Their requests use the registry.
+  if (http_server_) http_server_->Stop();
+  if (metrics_server_) metrics_server_->Stop();
   {
     std::lock_guard lock(mutex_);
     shutting_down_ = true;  // Workers finishing now must not touch the health service.

@@ -10,11 +10,11 @@
 #include <vector>
 
 #include <grpcpp/grpcpp.h>
-#include <prometheus/exposer.h>
 
 #include "common/service_error.hpp"
 #include "http/http_api.hpp"
 #include "http/http_server.hpp"
+#include "http/metrics_page.hpp"
 #include "maps/map_registry.hpp"
 #include "ops/flags.hpp"
 #include "rpc/auth.hpp"
@@ -51,7 +51,7 @@ class StrataServer {
   /// Bound gRPC address ("127.0.0.1:50051"), metrics port and viewer port (-1 when
   /// disabled).
   const std::string& address() const { return address_; }
-  int metrics_port() const { return metrics_port_; }
+  int metrics_port() const { return metrics_server_ ? metrics_server_->port() : -1; }
   int http_port() const { return http_server_ ? http_server_->port() : -1; }
 
   /// Health to NOT_SERVING and no new maps; new calls are still served for `drain_delay`
@@ -114,11 +114,11 @@ class StrataServer {
   std::unique_ptr<TrafficServiceImpl> traffic_service_;
   std::unique_ptr<ReflectionV1Service> reflection_v1_;
   std::unique_ptr<grpc::Server> server_;
-  std::unique_ptr<prometheus::Exposer> exposer_;
+  std::unique_ptr<MetricsPage> metrics_page_;
+  std::unique_ptr<HttpServer> metrics_server_;  // Null with --metrics-port -1.
   std::unique_ptr<HttpApi> http_api_;
   std::unique_ptr<HttpServer> http_server_;  // Null without --http-port.
   std::string address_;
-  int metrics_port_ = -1;
 
   mutable std::mutex mutex_;  // Guards the fields below.
   std::set<std::string> pending_preloads_;

@@ -336,14 +336,6 @@ Metrics::MakeInterceptorFactory() {
   return std::make_unique<MetricsInterceptorFactory>(this);
 }
 
-void Metrics::ServeOn(prometheus::Exposer& exposer) {
-  exposer.RegisterCollectable(registry_);
-  if (map_collector_) exposer.RegisterCollectable(map_collector_);
-  if (reservation_collector_) exposer.RegisterCollectable(reservation_collector_);
-  if (planning_collector_) exposer.RegisterCollectable(planning_collector_);
-  exposer.RegisterCollectable(process_collector_);
-}
-
 std::string Metrics::Serialize() const {
   std::vector<prometheus::MetricFamily> families = registry_->Collect();
   for (const auto& collector :

@@ -1,5 +1,6 @@
 #pragma once
-/// Prometheus metrics, served over HTTP by prometheus-cpp's exposer.
+/// Prometheus metrics, collected with prometheus-cpp and served at /metrics by
+/// http/metrics_page.hpp.
 ///
 /// gRPC metrics with go-grpc-prometheus's names and labels (grpc_type, grpc_service,
 /// grpc_method; grpc_code spelled as Go spells codes, e.g. "NotFound"), recorded for every
@@ -34,7 +35,6 @@
 #include <grpcpp/support/server_interceptor.h>
 #include <grpcpp/support/status.h>
 #include <prometheus/counter.h>
-#include <prometheus/exposer.h>
 #include <prometheus/family.h>
 #include <prometheus/histogram.h>
 #include <prometheus/registry.h>
@@ -50,10 +50,7 @@ class Metrics {
  public:
   Metrics();
 
-  /// Serves everything at `exposer`'s /metrics. This object must outlive the exposer.
-  void ServeOn(prometheus::Exposer& exposer);
-
-  /// The text exposition of everything, as a scrape would return it (for tests and logs).
+  /// The text exposition of everything: what a scrape of /metrics returns. Thread-safe.
   std::string Serialize() const;
 
   /// Interceptor factory for ServerBuilder::experimental().SetInterceptorCreators. It keeps
@@ -67,13 +64,13 @@ class Metrics {
   void InitializeMethod(std::string_view type, std::string_view service, std::string_view method);
 
   /// Serves strata_maps{state} and strata_map_memory_bytes from `maps` at each scrape.
-  /// Call before ServeOn; `maps` must outlive the exposer.
+  /// Call before serving; `maps` must outlive the serving.
   void WatchMaps(const MapRegistry* maps);
   /// Serves strata_reservations and strata_reservations_expired_total from `schedule` at each
-  /// scrape. Call before ServeOn; `schedule` must outlive the exposer.
+  /// scrape. Call before serving; `schedule` must outlive the serving.
   void WatchReservations(const ReservationSchedule* schedule);
   /// Serves strata_plans_queued and strata_planning_slots{,_busy} from `slots` at each
-  /// scrape. Call before ServeOn; `slots` must outlive the exposer.
+  /// scrape. Call before serving; `slots` must outlive the serving.
   void WatchPlanningSlots(const PlanningSlots* slots);
 
   /// One finished plan: `result` is "OK" or the error's reason; timings only on success.

@@ -1,6 +1,9 @@
 // Map and reservation metrics read at scrape time (no server needed).
 #include "rpc/metrics.hpp"
 
+#include <sstream>
+#include <string>
+
 #include <chrono>
 #include <future>
 #include <thread>
@@ -9,6 +12,7 @@
 #include <gtest/gtest.h>
 
 #include "held_assessment.hpp"
+#include "http/metrics_page.hpp"
 #include "large_floor.hpp"
 #include "strata/version.hpp"
 
@@ -118,6 +122,37 @@ TEST(MetricsTest, ProcessFiguresAndTheBuildAreExported) {
   EXPECT_THAT(scrape, HasSubstr("strata_build_info{commit=\"" + std::string(kStrataCommit) +
                                 "\",version=\"" + std::string(kStrataVersion) + "\"}"));
   EXPECT_THAT(scrape, Not(HasSubstr("process_resident_memory_bytes 0\n")));
+}
+
+// The metrics port answers GET /metrics with the exposition, and nothing else; the exposition
+// holds only the families metrics.hpp lists (prometheus-cpp's exposer added exposer_* series,
+// their latencies in microseconds).
+TEST(MetricsTest, ThePageServesTheExpositionAtMetricsOnly) {
+  Metrics metrics;
+  const MetricsPage page(&metrics);
+  const HttpResponse scrape = page.Handle({"GET", "/metrics", "", ""}, CallControl{});
+  EXPECT_EQ(scrape.status, 200);
+  EXPECT_EQ(scrape.content_type, "text/plain; version=0.0.4; charset=utf-8");
+  EXPECT_THAT(scrape.body, HasSubstr("strata_build_info{"));
+  std::istringstream lines(scrape.body);
+  int families = 0;
+  for (std::string line; std::getline(lines, line);) {
+    if (line.rfind("# TYPE ", 0) != 0) continue;
+    ++families;
+    const std::string name = line.substr(7, line.find(' ', 7) - 7);
+    EXPECT_TRUE(name.rfind("grpc_server_", 0) == 0 || name.rfind("strata_", 0) == 0 ||
+                name.rfind("process_", 0) == 0)
+        << name;
+  }
+  EXPECT_GE(families, 7);
+  EXPECT_THAT(scrape.body, HasSubstr("# TYPE process_open_fds gauge"));
+
+  EXPECT_EQ(page.Handle({"GET", "/", "", ""}, CallControl{}).status, 404);
+  EXPECT_EQ(page.Handle({"GET", "/metrics/x", "", ""}, CallControl{}).status, 404);
+  const HttpResponse posted = page.Handle({"POST", "/metrics", "", "x"}, CallControl{});
+  EXPECT_EQ(posted.status, 405);
+  EXPECT_THAT(posted.headers,
+              ::testing::Contains(std::pair<std::string, std::string>("Allow", "GET, HEAD")));
 }
 
 }  // namespace

@@ -48,6 +48,19 @@ TEST_F(ServerOpsTest, ASecondServerOnATakenPortRefusesToStartUnlessBothShareIt) 
   EXPECT_NE(second_sharing, nullptr);
 }
 
+// The metrics port, served by the server's own HTTP server, names its flags when it is taken.
+TEST_F(ServerOpsTest, ATakenMetricsPortStopsTheStartNamingItsFlags) {
+  server_ = ServerProcess::Start({"--no-preload"});
+  ASSERT_NE(server_, nullptr);
+  const test_util::CommandResult refused = test_util::RunCommand(
+      {STRATA_SERVER_BINARY, "--listen", "127.0.0.1:0", "--metrics-address", "127.0.0.1",
+       "--metrics-port", std::to_string(server_->metrics_port()), "--no-preload"});
+  EXPECT_EQ(refused.exit_code, 1);
+  EXPECT_THAT(refused.err, HasSubstr("--metrics-address, --metrics-port: cannot serve metrics on "
+                                     "127.0.0.1:" +
+                                     std::to_string(server_->metrics_port())));
+}
+
 TEST_F(ServerOpsTest, SixteenClientsPlanOnTwoMapsWhileAThirdComesAndGoes) {
   // This test is about every call being served while maps come and go, not about latency:
   // 16 plans share two planning slots, under a sanitiser, beside another test, and the first
@@ -240,6 +253,7 @@ TEST_F(ServerOpsTest, MetricsShowTheCountersMoving) {
   ASSERT_NO_FATAL_FAILURE(StartServer());
   const std::string before = HttpGet(server_->metrics_port(), "/metrics");
   ASSERT_THAT(before, HasSubstr("grpc_server_started_total"));
+  EXPECT_THAT(before, Not(HasSubstr("exposer_")));  // Only the families metrics.hpp lists.
   EXPECT_EQ(MetricValue(before, "strata_maps", {"state=\"active\""}), 1);
   EXPECT_GT(MetricValue(before, "strata_map_memory_bytes", {}), 0);
   EXPECT_EQ(MetricValue(before, "strata_map_assessment_seconds_count", {"stage=\"total\""}), 1);
