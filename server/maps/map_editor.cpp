@@ -8,6 +8,7 @@
 #include <mutex>
 #include <optional>
 #include <utility>
+#include <vector>
 
 #include <fmt/format.h>
 
@@ -24,24 +25,42 @@ using common::SecondsSince;
 // How often a caller waiting for its edit looks at its cancellation (it has no notification).
 constexpr auto kCancellationPollPeriod = std::chrono::milliseconds(50);
 
-// The call's end, when it came before the version was ready: nothing is published.
+// Most Update calls one batch makes into a version: their answers wait for all of it.
+constexpr std::size_t kMaxBatchUpdates = 64;
+
+// The call's end, when it came before the version was ready: nothing is published. `current`
+// is the version the map stays at; empty when the edit ended while waiting for its batch.
 std::optional<ServiceError> CallEnded(const CallControl& call, const std::string& id,
                                       const std::string& current) {
+  const std::string stays =
+      current.empty() ? "its edits were not made" : "the map stays at version " + current;
   if (call.cancelled && call.cancelled()) {
     return MakeError(ErrorCode::kCancelled,
-                     "the call was cancelled before the new version of map '" + id +
-                         "' was made: the map stays at version " + current)
+                     "the call was cancelled before the new version of "
+                     "map '" +
+                         id + "' was made: " + stays)
         .With("map_id", id);
   }
   if (WorkSecondsLeft(call.LeftSeconds()) <= 0) {
     return MakeError(ErrorCode::kDeadlineExceeded,
                      "the call's deadline passed before the new version of map '" + id +
-                         "' was made: the map stays at version " + current +
+                         "' was made: " + stays +
                          "; allow more time (the stats of an UpdateMap that succeeds say how "
                          "long an edit takes)")
         .With("map_id", id);
   }
   return std::nullopt;
+}
+
+bool Ended(const CallControl& call) {
+  return (call.cancelled && call.cancelled()) || WorkSecondsLeft(call.LeftSeconds()) <= 0;
+}
+
+// Points the scans of `request` bring (an obstacle's are known only once it is applied).
+std::size_t ScanPoints(const MapEditRequest& request) {
+  std::size_t points = 0;
+  for (const MapEdit& edit : request.edits) points += edit.points ? edit.points->size() : 0;
+  return points;
 }
 
 ServiceError ShuttingDown() {
@@ -71,7 +90,120 @@ struct EditRun {
 
 }  // namespace
 
+struct MapEditor::Waiting {
+  const MapEditRequest* request;
+  const CallControl* call;
+  SteadyClock::time_point start;
+  bool taken = false;  // In a batch being made.
+  std::optional<Result<MapUpdate>> result;
+};
+
 Result<MapUpdate> MapEditor::Update(const MapEditRequest& request, const CallControl& call) {
+  // Keep-out zones alone take no slot and are made at once: they wait for no batch. With a
+  // base version an edit is a compare-and-swap on that version: made alone.
+  if (request.edits.empty() || !request.base_version.empty()) return UpdateRetrying(request, call);
+  return UpdateInBatch(request, call);
+}
+
+int MapEditor::EditsWaiting(const std::string& id) const {
+  std::lock_guard lock(batches_mutex_);
+  const auto it = batches_.find(id);
+  return it == batches_.end() ? 0 : static_cast<int>(it->second.waiting.size());
+}
+
+Result<MapUpdate> MapEditor::UpdateInBatch(const MapEditRequest& request, const CallControl& call) {
+  Waiting me{&request, &call, SteadyClock::now()};
+  std::unique_lock lock(batches_mutex_);
+  batches_[request.id].waiting.push_back(&me);
+  for (;;) {
+    if (me.result) return std::move(*me.result);
+    // The map's entry stays while this call waits in it or is in its batch being made.
+    Batches& batches = batches_.at(request.id);
+    if (!me.taken) {
+      if (std::optional<ServiceError> ended = CallEnded(call, request.id, "")) {
+        std::erase(batches.waiting, &me);
+        if (batches.waiting.empty() && !batches.making) batches_.erase(request.id);
+        return *ended;
+      }
+      if (!batches.making) {
+        // Make the next batch: the edits that waited, in their order, this one among them
+        // unless the bounds leave it for the batch after.
+        std::vector<Waiting*> batch;
+        std::size_t points = 0;
+        while (!batches.waiting.empty() && batch.size() < kMaxBatchUpdates) {
+          Waiting* next = batches.waiting.front();
+          const std::size_t more = ScanPoints(*next->request);
+          if (!batch.empty() && points + more > kMaxEditPoints) break;
+          points += more;
+          next->taken = true;
+          batch.push_back(next);
+          batches.waiting.pop_front();
+        }
+        batches.making = true;
+        lock.unlock();
+        MakeBatch(batch);
+        lock.lock();
+        Batches& after = batches_.at(request.id);
+        after.making = false;
+        if (after.waiting.empty()) batches_.erase(request.id);
+        batches_changed_.notify_all();
+        continue;
+      }
+    }
+    // No notification for a cancelled call: look at it now and then.
+    batches_changed_.wait_for(lock, kCancellationPollPeriod);
+  }
+}
+
+void MapEditor::MakeBatch(const std::vector<Waiting*>& batch) {
+  const auto give = [this](Waiting* waiting, Result<MapUpdate> result) {
+    if (result.ok()) result.value().total_s = SecondsSince(waiting->start);
+    std::lock_guard lock(batches_mutex_);
+    waiting->result = std::move(result);
+  };
+  if (batch.size() == 1) {
+    give(batch.front(), UpdateRetrying(*batch.front()->request, *batch.front()->call));
+    return;
+  }
+  // One request: the edits in order; the zones as applying the requests in turn leaves them.
+  MapEditRequest combined;
+  combined.id = batch.front()->request->id;
+  CallControl any;  // Ends once every call of the batch has ended.
+  any.deadline = SteadyClock::time_point::min();
+  for (const Waiting* waiting : batch) {
+    const MapEditRequest& request = *waiting->request;
+    combined.edits.insert(combined.edits.end(), request.edits.begin(), request.edits.end());
+    if (request.clear_keep_out) {
+      combined.clear_keep_out = true;
+      combined.add_keep_out.clear();
+    }
+    combined.add_keep_out.insert(combined.add_keep_out.end(), request.add_keep_out.begin(),
+                                 request.add_keep_out.end());
+    any.deadline = std::max(any.deadline, waiting->call->deadline);
+  }
+  any.cancelled = [&batch] {
+    return std::all_of(batch.begin(), batch.end(),
+                       [](const Waiting* waiting) { return Ended(*waiting->call); });
+  };
+  Result<MapUpdate> made = UpdateRetrying(combined, any);
+  if (!made.ok() && (made.error().code == ServiceError::Code(ErrorCode::kInvalidInput) ||
+                     made.error().code == ServiceError::Code(ErrorCode::kResourceExhausted))) {
+    // An edit of the batch (or all of them together) is refused: each alone, so that only the
+    // one at fault fails, with its own edit's index.
+    for (Waiting* waiting : batch) give(waiting, UpdateRetrying(*waiting->request, *waiting->call));
+    return;
+  }
+  if (made.ok()) made.value().merged_updates = static_cast<int>(batch.size());
+  for (Waiting* waiting : batch) {
+    // A batch that every call left is not published: each call hears of its own end.
+    std::optional<ServiceError> ended;
+    if (!made.ok() && Ended(any)) ended = CallEnded(*waiting->call, combined.id, "");
+    give(waiting, ended ? Result<MapUpdate>(*ended) : made);
+  }
+}
+
+Result<MapUpdate> MapEditor::UpdateRetrying(const MapEditRequest& request,
+                                            const CallControl& call) {
   // Without a base version the edits apply to whatever version is current when they are
   // published: a compare-and-swap lost to another edit is redone on the new current one.
   constexpr int kMaxAttempts = 8;

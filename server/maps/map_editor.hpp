@@ -7,10 +7,22 @@
 /// written on the calling thread (its description only). A version is published
 /// only when it is whole and the call still waits for it, so a call that ends early leaves the
 /// map at its old version. Without a base version, an edit that another one overtook is made
-/// again on the new current version. No gRPC here.
+/// again on the new current version.
+///
+/// Edits of the cloud without a base version are made in batches (a group commit): those that
+/// arrive while an edit of the same map is being made wait, and are then made together, in
+/// their order of arrival, into one version. So robots sending scans faster than a version is
+/// made cost one job per version, not one each (and no job redone for each lost race). An edit
+/// whose call ends while it waits is dropped; once its batch is being made it lands with the
+/// batch (a scan lands twice alike). A batch that an edit of it makes invalid is made again
+/// edit by edit, so only that edit fails. No gRPC here.
+#include <condition_variable>
 #include <cstdint>
+#include <deque>
 #include <functional>
+#include <map>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -38,9 +50,10 @@ struct MapEditRequest {
 /// A new version made by MapEditor::Update, and what it cost.
 struct MapUpdate {
   MapSnapshot map;
-  EditFigures edit;    ///< How the model was made (zero for keep-out zones alone).
-  double write_s = 0;  ///< Writing and publishing the version [s].
-  double total_s = 0;  ///< All of it, waiting for a slot and loading the base included [s].
+  EditFigures edit;        ///< How the model was made (zero for keep-out zones alone).
+  double write_s = 0;      ///< Writing and publishing the version [s].
+  double total_s = 0;      ///< All of it, waiting for a slot and loading the base included [s].
+  int merged_updates = 1;  ///< Update calls whose edits the version holds, this one included.
 };
 
 /// What an editor uses; every pointer must outlive it.
@@ -76,13 +89,33 @@ class MapEditor {
   /// job fails (map_worker.hpp), or as the store does.
   Result<MapUpdate> Update(const MapEditRequest& request, const CallControl& call);
 
+  /// Update calls on map `id` waiting for the batch being made to finish (for tests and
+  /// metrics).
+  int EditsWaiting(const std::string& id) const;
+
  private:
+  struct Waiting;  // One Update call in a map's batches.
+  struct Batches {
+    std::deque<Waiting*> waiting;  // In their order of arrival.
+    bool making = false;           // A batch of this map is being made.
+  };
+
+  // Update of an edit without a base version: in the next batch of its map.
+  Result<MapUpdate> UpdateInBatch(const MapEditRequest& request, const CallControl& call);
+  // Makes `batch` into one version (or edit by edit) and gives each its result.
+  void MakeBatch(const std::vector<Waiting*>& batch);
+  // UpdateOnce, made again on the new current version when another edit overtook it (without
+  // a base version).
+  Result<MapUpdate> UpdateRetrying(const MapEditRequest& request, const CallControl& call);
   Result<MapUpdate> UpdateOnce(const MapEditRequest& request, const CallControl& call);
   // Runs the edit job for `current` of `id` on the queue and waits for it within `call`.
   Result<BuiltMap> RunEditJob(const MapEditRequest& request, const std::string& current,
                               const CallControl& call);
 
   MapEditorOptions options_;
+  mutable std::mutex batches_mutex_;
+  std::condition_variable batches_changed_;
+  std::map<std::string, Batches> batches_;  // Maps with an edit waiting or being made.
 };
 
 }  // namespace strata::server

@@ -133,6 +133,8 @@ class MapRegistry {
   /// Makes the next version of ACTIVE map `request.id` (MapEditor::Update, which says how it
   /// fails); kMapNotActive while the map is being made here.
   Result<MapUpdate> Update(const MapEditRequest& request, const CallControl& call);
+  /// Update calls on map `id` waiting for an edit being made (MapEditor::EditsWaiting).
+  int EditsWaiting(const std::string& id) const { return editor_->EditsWaiting(id); }
 
   /// The map's state; kMapNotFound. With a store, an ACTIVE map is loaded if not held.
   Result<MapSnapshot> Get(const std::string& id) const;

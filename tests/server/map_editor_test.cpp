@@ -97,6 +97,46 @@ class StallingEdits {
   int started_ = 0;
 };
 
+// Edit jobs made for real and counted, the first held until Release: edits that arrive
+// meanwhile wait for it.
+class HeldFirstEdit {
+ public:
+  MapBuilder builder() {
+    return [this](MapBuildJob job, const BuildMonitor& monitor) -> Result<BuiltMap> {
+      if (std::holds_alternative<EditSource>(job.source)) {
+        std::unique_lock lock(mutex_);
+        const int index = jobs_++;
+        changed_.notify_all();
+        changed_.wait(lock, [&] { return index > 0 || released_; });
+      }
+      Expected<BuiltMap> built = BuildMapHere(std::move(job), monitor);
+      if (!built) return ServiceError::FromPlanner(built.error());
+      return std::move(built).value();
+    };
+  }
+  void WaitJobs(int count) {
+    std::unique_lock lock(mutex_);
+    changed_.wait(lock, [&] { return jobs_ >= count; });
+  }
+  void Release() {
+    {
+      std::lock_guard lock(mutex_);
+      released_ = true;
+    }
+    changed_.notify_all();
+  }
+  int jobs() {
+    std::lock_guard lock(mutex_);
+    return jobs_;
+  }
+
+ private:
+  std::mutex mutex_;
+  std::condition_variable changed_;
+  int jobs_ = 0;
+  bool released_ = false;
+};
+
 class MapEditorTest : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -141,6 +181,17 @@ class MapEditorTest : public ::testing::Test {
 
   std::string Current() { return registry_->Get("floor").value().version; }
 
+  // Waits until `count` edits of "floor" wait for the one being made; false when they do not
+  // within a minute.
+  bool WaitForWaitingEdits(int count) {
+    const auto give_up = Clock::now() + std::chrono::minutes(1);
+    while (registry_->EditsWaiting("floor") < count) {
+      if (Clock::now() > give_up) return false;
+      std::this_thread::yield();
+    }
+    return true;
+  }
+
   fs::path root_;
   MemoryMetadata metadata_;
   std::unique_ptr<MapRegistry> registry_;
@@ -178,18 +229,22 @@ TEST_F(MapEditorTest, ACancelledEditLeavesTheMapAsItWas) {
 }
 
 // Four edits at once with one slot ran side by side on the RPC threads; now they take turns
-// with each other (and with new maps).
+// with each other (and with new maps). Each names its base version, so each is made alone
+// (edits without one would be made in one batch).
 TEST_F(MapEditorTest, ConcurrentEditsNeverRunMoreJobsAtOnceThanTheLimit) {
   for (const int slots : {1, 2}) {
     StallingEdits edits;
-    StartWithFloor(slots, edits.builder());
+    const std::string base = StartWithFloor(slots, edits.builder());
     std::atomic<bool> cancelled{false};
     CallControl call;
     call.cancelled = [&] { return cancelled.load(); };
     std::vector<std::future<Result<MapUpdate>>> updates;
     for (int i = 0; i < 4; ++i) {
-      updates.push_back(
-          std::async(std::launch::async, [&, i] { return registry_->Update(Obstacle(i), call); }));
+      updates.push_back(std::async(std::launch::async, [&, i] {
+        MapEditRequest request = Obstacle(i);
+        request.base_version = base;
+        return registry_->Update(request, call);
+      }));
     }
     edits.WaitStarted(slots);
     cancelled = true;  // Every call ends: the ones waiting are skipped, the running ones stop.
@@ -221,6 +276,90 @@ TEST_F(MapEditorTest, AnEditMakesTheNextVersionAsTheQueueRunsIt) {
   ASSERT_FALSE(refused.ok());
   EXPECT_EQ(refused.error().code, ServiceError::Code(ServiceErrorCode::kMapChanged));
   EXPECT_THAT(refused.error().message, HasSubstr(update->map.version));
+}
+
+// Robots sending scans faster than a version is made: the edits that arrive while one is made
+// are made together, in one job, into the next version, which holds them all.
+TEST_F(MapEditorTest, EditsArrivingWhileOneIsMadeAreMadeTogetherIntoTheNextVersion) {
+  HeldFirstEdit edits;
+  StartWithFloor(1, edits.builder());
+  auto first = std::async(std::launch::async, [&] { return registry_->Update(Obstacle(2), {}); });
+  edits.WaitJobs(1);
+  auto second = std::async(std::launch::async, [&] { return registry_->Update(Obstacle(4), {}); });
+  auto third = std::async(std::launch::async, [&] { return registry_->Update(Obstacle(6), {}); });
+  const bool waited = WaitForWaitingEdits(2);
+  edits.Release();  // Before any assertion returns: the calls wait for it.
+  ASSERT_TRUE(waited);
+  const Result<MapUpdate> one = first.get();
+  const Result<MapUpdate> two = second.get();
+  const Result<MapUpdate> three = third.get();
+  ASSERT_TRUE(one.ok() && two.ok() && three.ok());
+  EXPECT_EQ(one->merged_updates, 1);
+  EXPECT_EQ(two->merged_updates, 2);
+  EXPECT_EQ(three->map.version, two->map.version);
+  EXPECT_EQ(two->map.versions.at(1), one->map.version);  // Made on the first one's version.
+  EXPECT_EQ(edits.jobs(), 2);
+  EXPECT_EQ(Current(), two->map.version);
+  // The batch's version holds both obstacles, the first one's neither: 0.3 m above each
+  // block's top (z = 1 m) the nearest obstacle is the block.
+  const TerrainModel& made = registry_->GetActive("floor").value().map->model();
+  const TerrainModel& before = registry_->GetActive("floor", one->map.version).value().map->model();
+  for (const double x : {4.5, 6.5}) {
+    const Eigen::Vector3d above(x, 2.5, 1.3);
+    EXPECT_NEAR(made.Distance(above), 0.3, 0.1) << x;
+    EXPECT_GT(before.Distance(above), made.Distance(above) + 0.1) << x;
+  }
+}
+
+// An edit that a batch cannot make fails alone; the others of its batch land.
+TEST_F(MapEditorTest, AnInvalidEditInABatchFailsAloneNamingItsOwnEdit) {
+  HeldFirstEdit edits;
+  StartWithFloor(1, edits.builder());
+  auto first = std::async(std::launch::async, [&] { return registry_->Update(Obstacle(2), {}); });
+  edits.WaitJobs(1);
+  auto valid = std::async(std::launch::async, [&] { return registry_->Update(Obstacle(4), {}); });
+  const bool queued = WaitForWaitingEdits(1);
+  MapEditRequest upside_down = Obstacle(6);
+  upside_down.edits.front().region.z_min_m = 2;  // Above its z_max_m.
+  auto invalid = std::async(std::launch::async, [&] { return registry_->Update(upside_down, {}); });
+  const bool waited = queued && WaitForWaitingEdits(2);
+  edits.Release();
+  ASSERT_TRUE(waited);
+  ASSERT_TRUE(first.get().ok());
+  const Result<MapUpdate> landed = valid.get();
+  const Result<MapUpdate> refused = invalid.get();
+  ASSERT_TRUE(landed.ok()) << landed.error().message;
+  EXPECT_EQ(landed->merged_updates, 1);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.error().code, ServiceError::Code(ErrorCode::kInvalidInput));
+  EXPECT_THAT(refused.error().message, HasSubstr("edits[0]"));
+  EXPECT_EQ(Current(), landed->map.version);
+}
+
+// An edit whose call ends while it waits for its batch is dropped, and the others land.
+TEST_F(MapEditorTest, AnEditCancelledWhileWaitingForItsBatchIsNotMade) {
+  HeldFirstEdit edits;
+  StartWithFloor(1, edits.builder());
+  auto first = std::async(std::launch::async, [&] { return registry_->Update(Obstacle(2), {}); });
+  edits.WaitJobs(1);
+  std::atomic<bool> cancelled{false};
+  CallControl call;
+  call.cancelled = [&] { return cancelled.load(); };
+  auto dropped =
+      std::async(std::launch::async, [&] { return registry_->Update(Obstacle(6), call); });
+  const bool queued = WaitForWaitingEdits(1);
+  cancelled = true;
+  const Result<MapUpdate> ended = dropped.get();
+  edits.Release();
+  ASSERT_TRUE(queued);
+  ASSERT_FALSE(ended.ok());
+  EXPECT_EQ(ended.error().code, ServiceError::Code(ErrorCode::kCancelled));
+  EXPECT_THAT(ended.error().message, HasSubstr("its edits were not made"));
+  EXPECT_EQ(registry_->EditsWaiting("floor"), 0);
+  const Result<MapUpdate> one = first.get();
+  ASSERT_TRUE(one.ok());
+  EXPECT_EQ(edits.jobs(), 1);
+  EXPECT_EQ(Current(), one->map.version);  // No version after the first one's.
 }
 
 // Keep-out zones change no terrain: they take no slot, even while the queue is busy.

@@ -571,6 +571,7 @@ TEST_F(ScanTest, APalletStackScannedInTheAisleIsPlannedAroundAndABareFloorScanCl
   EXPECT_FALSE(scanned.stats().full_reassessment()) << scanned.stats().full_reassessment_reason();
   EXPECT_GT(scanned.stats().scan_points_outside_region(), 0u);
   EXPECT_GT(scanned.stats().scan_points_thinned(), 0u);
+  EXPECT_EQ(scanned.stats().merged_updates(), 1);  // Alone: no other edit arrived meanwhile.
   // The map keeps its grid (the scan lies within the room's points): only the columns around
   // the scan were assessed again.
   EXPECT_EQ(scanned.map().grid_size().SerializeAsString(), room_.grid_size().SerializeAsString());
