@@ -4,10 +4,12 @@ demo map (and a second map with a long id), Debian's headless Chromium through S
 1400 x 900. Checks that the page loads without a console error and lists the maps without
 cutting any text; shows a scale bar true to the view's scale; plans floor to deck from the
 form and draws the trajectory with the length a gRPC client gets (the strata CLI), its labels
-inside the view; draws a plan under the deck dotted until the deck's level is hidden or cut
-away; fits the map in the 3D view and cuts the deck away there; refits the views and the
-profile when the window shrinks; shows an impossible goal's error with the nearest valid point
-without any console error; and draws two robots' reservations at the traffic slider's times.
+inside the view; names the storeys by their floors' heights, and draws a plan under the deck
+dotted until the deck's storey is hidden or cut away, the hover naming the ground shown; fits
+the map in the 3D view and hides the deck's storey, or cuts the deck away, there; refits the
+views and the profile when the window shrinks; shows an impossible goal's error with the
+nearest valid point without any console error; draws two robots' reservations at the traffic
+slider's times; and names a garage's decks and rugged terrain's one storey.
 Exits 77 (CTest's skip) only when the browser cannot run here."""
 
 import argparse
@@ -49,6 +51,21 @@ for (let i = 0; i < data.length; i += 4) {
   if (Math.abs(r - deck[0]) + Math.abs(g - deck[1]) + Math.abs(b - deck[2]) < 10) ++out.deck;
 }
 return out;
+"""
+
+# The cursor's readout with the pointer over (x, y) of the top view.
+HOVER = """
+const canvas = document.getElementById('top-canvas');
+const [sx, sy] = window.strataViewer.views.top.toScreen(arguments[0], arguments[1]);
+const box = canvas.getBoundingClientRect();
+canvas.dispatchEvent(new PointerEvent('pointermove', { clientX: box.left + sx, clientY: box.top + sy, bubbles: true }));
+return document.getElementById('cursor').textContent;
+"""
+
+# Each storey box's label and tooltip.
+STOREYS = """
+return [...document.querySelectorAll('#storeys input[data-storey]')].map(
+  (box) => [box.dataset.storey, box.parentElement.textContent.trim(), box.parentElement.title]);
 """
 
 # Every marker label's box, and the overlay's.
@@ -134,7 +151,8 @@ def main():
         return SKIP
 
     server = Server(args.server, ["--shutdown-grace-s", "1", "--preload", "demo=scene:two_level_ramp",
-                                  "--preload", f"{LONG_ID}=scene:two_level_ramp"])
+                                  "--preload", f"{LONG_ID}=scene:two_level_ramp",
+                                  "--preload", "garage=scene:parking_garage", "--preload", "terrain=scene:uneven_terrain"])
     browser = None
     try:
         server.wait_active("demo", 120)
@@ -152,8 +170,14 @@ def main():
         row.click()
         browser.wait("document.body.dataset.mapDrawn === 'demo'", 60, "the demo map drawn")
         assert not landing.is_displayed()
-        levels = driver.find_elements("css selector", "#levels input[data-level]")
-        assert len(levels) == 2, f"the demo has a floor and a deck, the page shows {len(levels)} levels"
+        # The storeys as a person reads them: the floor and the deck (scenes/src/rooms.cpp: at 0
+        # and 3 m), named by their height, the bands split half way; no box by the per-column
+        # level (which counts a column's grounds from the bottom, the ramp's too).
+        storeys = driver.execute_script(STOREYS)
+        assert [(s, name) for s, name, _ in storeys] == [("0", "ground 0.0 m"), ("1", "deck 3.0 m")], storeys
+        assert storeys[0][2].endswith(" … 1.5 m: the floor at 0.0 m with the ramps and obstacle tops at these heights"), storeys
+        assert storeys[1][2].startswith("1.5 … "), storeys
+        assert not driver.find_elements("css selector", "[data-level]")
         # The scale bar: a round length, as long on screen as the view's scale makes it.
         bar = driver.find_element("id", "scale-bar")
         scale = driver.execute_script("return window.strataViewer.views.top.scale;")
@@ -194,18 +218,23 @@ def main():
         side = driver.execute_script("const s = document.getElementById('side'); return [s.scrollWidth, s.clientWidth];")
         assert side[0] <= side[1], f"the side overflows sideways: {side}"
 
-        # Along the floor under the deck: drawn dotted while the deck (level 1) is shown, solid
-        # once it is hidden.
+        # Along the floor under the deck: drawn dotted while the deck's storey is shown, solid
+        # once it is hidden; the hover names the deck there, then the floor.
         browser.plan(UNDER_DECK_START, UNDER_DECK_GOAL, 30)
         assert not driver.find_elements("id", "plan-error"), driver.find_element("id", "plan-error").text
         count = "[...document.querySelectorAll('#trajectory line')].filter((l) => l.classList.contains('covered')).length"
         total = len(driver.find_elements("css selector", "#trajectory line"))
         covered = driver.execute_script(f"return {count};")
         assert covered > 0.8 * total, f"{covered} of {total} segments under the deck drawn dotted"
-        driver.find_element("css selector", '#levels input[data-level="1"]').click()
+        deck_storey = driver.find_element("css selector", '#storeys input[data-storey="1"]')
+        hover = driver.execute_script(HOVER, 8, 9)
+        assert hover.endswith('ground 3.00 m (storey "deck 3.0 m", 2nd ground of its column)'), hover
+        deck_storey.click()
         covered = driver.execute_script(f"return {count};")
         assert covered == 0, f"{covered} segments still dotted with the deck hidden"
-        driver.find_element("css selector", '#levels input[data-level="1"]').click()
+        hover = driver.execute_script(HOVER, 8, 9)
+        assert hover.endswith('ground 0.00 m (storey "ground 0.0 m", 1st ground of its column)'), hover
+        deck_storey.click()
         # Cut away above 1.5 m: the deck no longer covers the plan; and back.
         set_cut(driver, 1.5)
         browser.wait(f"{count} === 0", 5, "the plan drawn solid with the deck cut away")
@@ -225,6 +254,15 @@ def main():
         set_cut(driver, 1.5)
         browser.wait(f"(() => {{ {ORBIT_PIXELS} }})().deck < {pixels['deck'] // 50}", 10, "the deck cut away in 3D")
         set_cut(driver, "max")
+        # Unticking the deck's storey hides the deck there too, the floor's keeps it.
+        orbit_deck = f"(() => {{ {ORBIT_PIXELS} }})().deck"
+        for storey, hidden, shown in (("1", f"{orbit_deck} < {pixels['deck'] // 50}", "the deck's storey hidden in 3D"),
+                                      ("0", f"{orbit_deck} > {pixels['deck'] * 0.9}", "the deck kept with the floor's storey hidden")):
+            box = driver.find_element("css selector", f'#storeys input[data-storey="{storey}"]')
+            box.click()
+            browser.wait(hidden, 10, shown)
+            box.click()
+            browser.wait(f"{orbit_deck} > {pixels['deck'] * 0.9}", 10, "the deck drawn again in 3D")
         driver.find_element("css selector", "input[name=view][value=top]").click()
 
         # A smaller window: the top view and the profile follow it, the map fitted again.
@@ -278,6 +316,20 @@ def main():
                 assert math.hypot(cx - x, cy - y) < 0.5, (end, robot, cx, cy)
             conflicts = driver.find_element("id", "traffic").get_attribute("data-conflicts")
             assert conflicts == "0", f"{conflicts} robots drawn in conflict at the slider's {end}"
+
+        # Other maps' storeys: parking_garage's four decks 2.8 m apart (scenes/src/garage.cpp),
+        # uneven_terrain's hills one storey.
+        for map_id, names in (("garage", ["ground 0.0 m", "deck 2.8 m", "deck 5.6 m", "deck 8.4 m"]),
+                              ("terrain", None)):
+            server.wait_active(map_id, 60)
+            # As a click on its row does (the list, rebuilt as it reloads, would race a click).
+            driver.execute_script("window.strataViewer.selectMap(arguments[0]);", map_id)
+            browser.wait(f"document.body.dataset.mapDrawn === '{map_id}'", 60, f"{map_id} drawn")
+            storeys = [name for _, name, _ in driver.execute_script(STOREYS)]
+            if names:
+                assert storeys == names, (map_id, storeys)
+            else:
+                assert len(storeys) == 1 and storeys[0].startswith("ground"), (map_id, storeys)
 
         errors = browser.console_errors()
         assert not errors, f"console errors: {errors}"

@@ -4,7 +4,7 @@
 
 import { ApiError, call, errorFromPlanError, setToken, token } from './api.js';
 import { heatColor, heightColor, scaleCanvas } from './colors.js';
-import { MapModel } from './map_model.js';
+import { MapModel, metres } from './map_model.js';
 import { OrbitView } from './orbit_view.js';
 import { drawSvg, orbitItems, planDrawing } from './plan_overlay.js';
 import { drawProfile } from './profile_view.js';
@@ -14,7 +14,7 @@ import { polylineLength, sampleTrajectory } from './trajectory.js';
 
 const $ = (id) => document.getElementById(id);
 // Added to the ground's height when a click picks a point: about a robot's reference height,
-// so that the z points at the level clicked (Plan snaps it; README "Planning through the
+// so that the z points at the ground clicked (Plan snaps it; README "Planning through the
 // service").
 const PICK_HEIGHT_M = 0.3;
 
@@ -23,8 +23,9 @@ const state = {
   mapId: null,
   map: null,
   model: null,
-  // cutZ: surfaces above this height [m] are cut away (Infinity: none).
-  style: { levels: new Set([0]), obstacles: true, color: 'height', components: null, cutZ: Infinity },
+  // storeys: the storeys shown (indices into the model's storeys); cutZ: surfaces above this
+  // height [m] are cut away (Infinity: none).
+  style: { storeys: new Set([0]), obstacles: true, color: 'height', components: null, cutZ: Infinity },
   view: 'top',
   shown: null,  // { request, response, error, samples }
   traffic: null,  // Traffic of the map shown, when it has reservations.
@@ -64,6 +65,12 @@ function breakable(tag, value, attributes = {}) {
 
 function fixed(value, digits = 2) {
   return Number(value || 0).toFixed(digits);
+}
+
+// 1st, 2nd, 3rd, 4th, ..., 11th, 12th, 13th, ..., 21st.
+function ordinal(n) {
+  const suffix = n % 100 >= 11 && n % 100 <= 13 ? 'th' : ['th', 'st', 'nd', 'rd'][n % 10] || 'th';
+  return `${n}${suffix}`;
 }
 
 function point(v) {
@@ -144,7 +151,7 @@ async function selectMap(id) {
     ['bounds', b ? `${point(b.min_m)} – ${point(b.max_m)} m` : '—'],
     ['grid', `${map.grid_size.nx} × ${map.grid_size.ny} × ${map.grid_size.nz} at ${map.terrain.resolution_m} m`],
     ['points', `${Number(map.input_point_count).toLocaleString('en')} (valid ground ${Number(map.valid_ground_point_count).toLocaleString('en')})`],
-    ['levels', `${map.max_levels} (${Number(map.valid_surface_count).toLocaleString('en')} ground surfaces)`],
+    ['levels', `${map.max_levels} at most in a column (${Number(map.valid_surface_count).toLocaleString('en')} ground surfaces)`],
     ['memory', `${fixed(Number(map.memory_bytes) / 1048576, 1)} MiB (terrain model and the robot graphs cached so far)`],
     ['assessed in', `${fixed(seconds.total_s, 3)} s (load ${fixed(seconds.load_s, 3)} s)${map.from_saved_model ? ', saved model' : ''}`],
   ]);
@@ -204,10 +211,10 @@ async function loadGeometry(id, robot = null) {
   const model = new MapModel(geometry);
   state.model = model;
   if (!robot) {
-    state.style.levels = new Set(Array.from({ length: model.maxLevels }, (_, i) => i));
+    state.style.storeys = new Set(model.storeys.keys());
     state.style.color = $('show-safety').checked ? 'safety' : 'height';
     state.style.components = null;
-    buildLevelControls(model);
+    buildStoreyControls(model);
     buildCutControl(model);
     clearPlan();
   }
@@ -228,33 +235,37 @@ async function loadGeometry(id, robot = null) {
   return model;
 }
 
-// A box per level; its tooltip says which heights it spans (a level is the n-th ground from
-// the bottom of each column, so one level may span a whole ramp: the cut control below hides
-// by height).
-function buildLevelControls(model) {
-  const box = $('levels');
-  box.replaceChildren(text('span', 'levels'));
-  for (let level = 0; level < model.maxLevels; ++level) {
-    const range = model.levelRanges[level];
-    const nth = level + 1 + (['th', 'st', 'nd', 'rd'][level + 1] || 'th');
+// A box per storey (map_model.js findStoreys), named by its floor's height; its tooltip gives
+// the heights it holds. Unticking one hides exactly those heights, ground and obstacle tops, in
+// both views, and from what a click picks and what the plan is drawn dotted under.
+function buildStoreyControls(model) {
+  const box = $('storeys');
+  box.replaceChildren(text('span', 'storeys'));
+  model.storeys.forEach((storey, s) => {
+    // The band: from the lowest surface (in the lowest storey) to the highest (in the top one).
+    const next = model.storeys[s + 1];
+    const from = s === 0 ? storey.zMin : storey.from;
+    const to = next ? next.from : storey.zMax;
+    const band = from <= to ? `${metres(from)} … ${metres(to)} m` : 'no surface';
     const label = text('label', undefined, {
-      title: `the ${nth} ground from the bottom of each column` +
-        (range.zMin <= range.zMax ? `, ${fixed(range.zMin, 1)} to ${fixed(range.zMax, 1)} m` : ''),
+      title: storey.floorZ === null
+        ? `every height (${band}): no floor stands out among the ground's heights`
+        : `${band}: the floor at ${metres(storey.floorZ)} m with the ramps and obstacle tops at these heights`,
     });
-    const input = text('input', undefined, { type: 'checkbox', 'data-level': level });
+    const input = text('input', undefined, { type: 'checkbox', 'data-storey': s });
     input.checked = true;
     input.addEventListener('change', () => {
-      if (input.checked) state.style.levels.add(level);
-      else state.style.levels.delete(level);
+      if (input.checked) state.style.storeys.add(s);
+      else state.style.storeys.delete(s);
       topView.requestRender();
-      orbitView.levels = state.style.levels;
+      orbitView.storeys = state.style.storeys;
       orbitView.requestRender();
-      // What a level covers changes with it.
+      // What a storey covers changes with it.
       if (state.shown && state.shown.response) showPlan(state.shown.request, state.shown.response);
     });
-    label.append(input, ` ${level}`);
+    label.append(input, ` ${storey.name}`);
     box.appendChild(label);
-  }
+  });
 }
 
 // The "cut above" slider: from the map's lowest ground to its highest (no cut), by 0.1 m.
@@ -315,9 +326,9 @@ function drawLegend() {
 
 // ---- Picking ----
 
-// Whether ground at height z on `level` is drawn: its level ticked and not cut away.
-function shownGround(level, z) {
-  return state.style.levels.has(level) && z <= state.style.cutZ;
+// Whether ground at height z [m] is drawn: its storey ticked and not cut away.
+function shownGround(z) {
+  return state.style.storeys.has(state.model.storeyOf(z)) && z <= state.style.cutZ;
 }
 
 // Whether ground drawn lies over the reference point (x, y, z) in its column: more than half
@@ -343,9 +354,11 @@ function hover(x, y) {
     cursor.textContent = '';
     return;
   }
+  // The storey, and the ground's place in its column (the level a plan's snapped state names).
   const ground = state.model.topGround(x, y, shownGround);
-  cursor.textContent = `x ${fixed(x)}  y ${fixed(y)}` +
-    (ground ? `  ground ${fixed(ground.z)} m, level ${ground.level}` : '');
+  cursor.textContent = `x ${fixed(x)}  y ${fixed(y)}` + (ground
+    ? `  ground ${fixed(ground.z)} m (storey "${state.model.storeys[ground.storey].name}", ${ordinal(ground.level + 1)} ground of its column)`
+    : '');
 }
 
 // The start and goal typed or clicked, before a plan.
@@ -443,6 +456,13 @@ function redrawProfile() {
   else drawProfile($('profile'), [], null, null);
 }
 
+// The ground under the nearest point an off-ground start or goal could take (its reference
+// point, ErrorInfo's nearest_x_m, ...) [m], or null.
+function nearestGround(m) {
+  if (!state.model) return null;
+  return state.model.groundBelow(Number(m.nearest_x_m), Number(m.nearest_y_m), Number(m.nearest_z_m));
+}
+
 // An error in plain words: what went wrong and what to do, from its reason and details.
 function plainWords(error) {
   const m = error.metadata || {};
@@ -451,9 +471,10 @@ function plainWords(error) {
     case 'GOAL_OFF_GROUND': {
       const which = error.reason === 'START_OFF_GROUND' ? 'start' : 'goal';
       if (m.nearest_x_m === undefined) return `The ${which} is not on ground this robot can stand on, and the map has none for it.`;
+      const ground = nearestGround(m);
       return `The ${which} is not on ground this robot can stand on. The nearest point it can reach is ` +
-        `(${fixed(m.nearest_x_m)}, ${fixed(m.nearest_y_m)}, ${fixed(m.nearest_z_m)}) on level ${m.nearest_level}, ` +
-        `${fixed(m.nearest_distance_m)} m away (marked in yellow).`;
+        `(${fixed(m.nearest_x_m)}, ${fixed(m.nearest_y_m)}, ${fixed(m.nearest_z_m)})` +
+        `${ground === null ? '' : ` over ground ${metres(ground)} m`}, ${fixed(m.nearest_distance_m)} m away (marked in yellow).`;
     }
     case 'GOAL_UNREACHABLE':
       if (m.zones_in_the_way) return `Keep-out zones close every way from the start to the goal: ${m.zones_in_the_way}.`;
@@ -500,7 +521,7 @@ function showError(error, request) {
   if (m.nearest_x_m !== undefined) {
     nearest = {
       point: [Number(m.nearest_x_m), Number(m.nearest_y_m), Number(m.nearest_z_m)],
-      level: m.nearest_level,
+      ground: nearestGround(m),
       which: error.reason === 'START_OFF_GROUND' ? 'start' : 'goal',
     };
     const use = text('button', `use the nearest ${nearest.which}`, { type: 'button' });

@@ -9,11 +9,12 @@
 // at under 10 frames/s).
 
 import { roundLength } from './lengths.js';
+import { MAX_STOREYS } from './map_model.js';
 
-// Levels the shader shows and hides one by one (higher ones go with the last); one more slot
-// holds the plan's lines and markers and the axes, always shown, whatever the cut.
-const MAX_LEVELS = 16;
-const OVERLAY_SLOT = MAX_LEVELS;
+// The shader shows and hides the storeys one by one (map_model.js findStoreys merges any beyond
+// MAX_STOREYS into the top one); one more slot holds the plan's lines and markers and the
+// axes, always shown, whatever the cut.
+const OVERLAY_SLOT = MAX_STOREYS;
 // Points drawn while the view moves, about (a quarter of the spiral's surfaces at 0.2 m).
 const MOVING_POINTS = 40000;
 const FOV_Y = 0.8;  // Vertical field of view [rad].
@@ -23,15 +24,15 @@ const AXIS_COLORS = [[235, 85, 70], [90, 205, 95], [80, 145, 255]];  // x, y, z 
 const VERTEX_SHADER = `
 attribute vec3 position;
 attribute vec3 color;
-attribute float level;
+attribute float storey;
 uniform mat4 matrix;
 uniform float pointScale;
-uniform float levelVisible[${MAX_LEVELS + 1}];
+uniform float storeyVisible[${MAX_STOREYS + 1}];
 uniform float cutZ;
 varying vec3 vColor;
 void main() {
-  float visible = levelVisible[int(min(level, ${MAX_LEVELS}.0))];
-  bool cut = level < ${OVERLAY_SLOT}.0 && position.z > cutZ;
+  float visible = storeyVisible[int(min(storey, ${OVERLAY_SLOT}.0))];
+  bool cut = storey < ${OVERLAY_SLOT}.0 && position.z > cutZ;
   gl_Position = visible > 0.5 && !cut ? matrix * vec4(position, 1.0) : vec4(2.0, 2.0, 2.0, 1.0);
   gl_PointSize = clamp(pointScale / gl_Position.w, 1.0, 48.0);
   vColor = color;
@@ -92,7 +93,7 @@ export class OrbitView {
     this.distance = 50;
     this.target = [0, 0, 0];
     this.batches = {};
-    this.levels = new Set([0]);
+    this.storeys = new Set([0]);
     this.cutZ = Infinity;
     this.labels = [];  // [{ text, p: [x, y, z], element }]: the axes' and the markers'.
     this.fitted = false;  // Whether the view shows the whole map as fit() left it.
@@ -105,11 +106,11 @@ export class OrbitView {
     gl.attachShader(this.program, compile(gl, gl.VERTEX_SHADER, VERTEX_SHADER));
     gl.attachShader(this.program, compile(gl, gl.FRAGMENT_SHADER, FRAGMENT_SHADER));
     gl.linkProgram(this.program);
-    this.attributes = ['position', 'color', 'level'].map((n) => gl.getAttribLocation(this.program, n));
+    this.attributes = ['position', 'color', 'storey'].map((n) => gl.getAttribLocation(this.program, n));
     this.uniforms = {
       matrix: gl.getUniformLocation(this.program, 'matrix'),
       pointScale: gl.getUniformLocation(this.program, 'pointScale'),
-      levelVisible: gl.getUniformLocation(this.program, 'levelVisible'),
+      storeyVisible: gl.getUniformLocation(this.program, 'storeyVisible'),
       cutZ: gl.getUniformLocation(this.program, 'cutZ'),
     };
     this.listen();
@@ -154,15 +155,15 @@ export class OrbitView {
     }, { passive: false });
   }
 
-  // Uploads a batch of vertices: positions [x, y, z], colours [r, g, b] in 0..255, levels; its
-  // points are `pointFactor` cells wide. `kind`: 'map' (the surfaces and axes, replaced by
-  // setModel) or 'overlay' (replaced by setOverlay).
-  setBatch(name, kind, mode, { positions, colors, levels }, pointFactor = 1) {
+  // Uploads a batch of vertices: positions [x, y, z], colours [r, g, b] in 0..255, storeys
+  // (OVERLAY_SLOT: always shown); its points are `pointFactor` cells wide. `kind`: 'map' (the
+  // surfaces and axes, replaced by setModel) or 'overlay' (replaced by setOverlay).
+  setBatch(name, kind, mode, { positions, colors, storeys }, pointFactor = 1) {
     if (!this.available) return;
     const gl = this.gl;
     const old = this.batches[name];
     if (old) old.buffers.forEach((b) => gl.deleteBuffer(b));
-    const data = [new Float32Array(positions), new Float32Array(colors.map((c) => c / 255)), new Float32Array(levels)];
+    const data = [new Float32Array(positions), new Float32Array(colors.map((c) => c / 255)), new Float32Array(storeys)];
     const buffers = data.map((array) => {
       const buffer = gl.createBuffer();
       gl.bindBuffer(gl.ARRAY_BUFFER, buffer);
@@ -177,26 +178,26 @@ export class OrbitView {
   // while the view moves.
   setModel(model, style) {
     this.model = model;
-    this.levels = style.levels;
+    this.storeys = style.storeys;
     // While moving: every step-th cell each way, step cells wide, at most about
     // MOVING_POINTS points.
     const step = Math.max(2, Math.ceil(Math.sqrt(model.surfaceCount / MOVING_POINTS)));
     for (const coarse of [false, true]) {
-      const batch = { positions: [], colors: [], levels: [] };
+      const batch = { positions: [], colors: [], storeys: [] };
       const shift = coarse ? 0.5 * (step - 1) * model.cellSize : 0;
-      const add = (cell, z, level, color) => {
+      const add = (cell, z, storey, color) => {
         if (coarse && ((cell % model.nx) % step !== 0 || Math.floor(cell / model.nx) % step !== 0)) return;
         const [x, y] = model.cellCenter(cell);
         batch.positions.push(x + shift, y + shift, z);
         batch.colors.push(...color);
-        batch.levels.push(Math.min(level, MAX_LEVELS - 1));
+        batch.storeys.push(storey);
       };
       for (let i = 0; i < model.ground.z.length; ++i) {
-        add(model.ground.cell[i], model.ground.z[i], model.ground.level[i], model.groundColor(i, style));
+        add(model.ground.cell[i], model.ground.z[i], model.ground.storey[i], model.groundColor(i, style));
       }
       if (style.obstacles) {
         for (let i = 0; i < model.obstacle.z.length; ++i) {
-          add(model.obstacle.cell[i], model.obstacle.z[i], model.obstacle.level[i], model.obstacleColor());
+          add(model.obstacle.cell[i], model.obstacle.z[i], model.obstacle.storey[i], model.obstacleColor());
         }
       }
       this.setBatch(coarse ? 'surfaces-moving' : 'surfaces', 'map', 'POINTS', batch, coarse ? step : 1);
@@ -212,12 +213,12 @@ export class OrbitView {
     const length = roundLength(0.3 * Math.max(b.xMax - b.xMin, b.yMax - b.yMin));
     const origin = [b.xMin, b.yMin, model.zMin];
     const ends = [0, 1, 2].map((axis) => origin.map((v, i) => (i === axis ? v + length : v)));
-    const lines = { positions: [], colors: [], levels: [] };
-    const points = { positions: [], colors: [], levels: [] };
+    const lines = { positions: [], colors: [], storeys: [] };
+    const points = { positions: [], colors: [], storeys: [] };
     const add = (batch, p, color) => {
       batch.positions.push(...p);
       batch.colors.push(...color);
-      batch.levels.push(OVERLAY_SLOT);
+      batch.storeys.push(OVERLAY_SLOT);
     };
     const steps = 40;
     ends.forEach((end, axis) => {
@@ -317,7 +318,7 @@ export class OrbitView {
 
   // Lines and markers of a plan: [{ name, mode: 'LINE_STRIP' | 'POINTS', points: [[x, y, z]],
   // colors: [[r, g, b]], pointFactor (points' width in cells, default 1), labels (one per
-  // point, may be empty) }]; always drawn, whatever the levels and the cut.
+  // point, may be empty) }]; always drawn, whatever the storeys shown and the cut.
   setOverlay(items) {
     for (const [name, batch] of Object.entries(this.batches)) {
       if (batch.kind === 'overlay') {
@@ -330,7 +331,7 @@ export class OrbitView {
       this.setBatch(item.name, 'overlay', item.mode, {
         positions: item.points.flat(),
         colors: item.colors.flat(),
-        levels: item.points.map(() => OVERLAY_SLOT),
+        storeys: item.points.map(() => OVERLAY_SLOT),
       }, item.pointFactor || 1);
       (item.labels || []).forEach((text, i) => {
         if (text) labels.push({ text, p: item.points[i], className: 'marker' });
@@ -376,10 +377,10 @@ export class OrbitView {
     // unit depth.
     const cell = this.model ? this.model.cellSize : 0.2;
     const pointScale = (1.5 * cell * h) / (2 * Math.tan(fov / 2));
-    const visible = new Float32Array(MAX_LEVELS + 1);
-    for (let l = 0; l < MAX_LEVELS; ++l) visible[l] = this.levels.has(l) ? 1 : 0;
+    const visible = new Float32Array(OVERLAY_SLOT + 1);
+    for (let s = 0; s < OVERLAY_SLOT; ++s) visible[s] = this.storeys.has(s) ? 1 : 0;
     visible[OVERLAY_SLOT] = 1;
-    gl.uniform1fv(this.uniforms.levelVisible, visible);
+    gl.uniform1fv(this.uniforms.storeyVisible, visible);
     gl.uniform1f(this.uniforms.cutZ, Math.min(this.cutZ, 1e30));
     for (const [name, batch] of Object.entries(this.batches)) {
       if (name === (this.moving ? 'surfaces' : 'surfaces-moving')) continue;

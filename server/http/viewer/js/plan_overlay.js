@@ -1,8 +1,9 @@
 // A plan drawn over the map: the trajectory coloured by horizontal speed (dotted where ground
 // drawn lies over it), the A* path dashed, the requested and snapped start and goal with their
-// levels; in the top view's SVG overlay and as the 3D view's lines and points.
+// ground's height; in the top view's SVG overlay and as the 3D view's lines and points.
 
 import { heatColor, css } from './colors.js';
+import { metres } from './map_model.js';
 
 const SVG_NS = 'http://www.w3.org/2000/svg';
 const START_COLOR = [60, 200, 90];
@@ -20,10 +21,10 @@ function position(v) {
 }
 
 // What to draw for a plan: `samples` (sampleTrajectory), `response` (PlanResponse, or null for
-// a failed plan), `request` (PlanRequest), `nearest` ({ point: [x, y, z], level, which }) for
-// an off-ground start or goal; `covered(x, y, z)` tells whether ground drawn in the top view
-// (its level shown, not cut away) lies over a point in its column (segments there are drawn
-// dotted: the trajectory passes under it).
+// a failed plan), `request` (PlanRequest), `nearest` ({ point: [x, y, z], ground: its ground's
+// height [m] or null, which }) for an off-ground start or goal; `covered(x, y, z)` tells whether
+// ground drawn in the top view (its storey shown, not cut away) lies over a point in its
+// column (segments there are drawn dotted: the trajectory passes under it).
 export function planDrawing({
   samples = [], response = null, request = null, nearest = null, length = 0, covered = () => false,
 }) {
@@ -53,12 +54,12 @@ export function planDrawing({
     for (const [which, color] of [['start', START_COLOR], ['goal', GOAL_COLOR]]) {
       const snapped = response[which];
       const [x, y, z] = position(snapped.position_m);
-      markers.push({ x, y, z, color: css(color), rgb: color, id: `${which}-marker`, label: `${which} · ground ${(snapped.ground_height_m ?? 0).toFixed(1)} m` });
+      markers.push({ x, y, z, color: css(color), rgb: color, id: `${which}-marker`, label: `${which} · ground ${metres(snapped.ground_height_m ?? 0)} m` });
     }
   }
   if (nearest) {
     const [x, y, z] = nearest.point;
-    markers.push({ x, y, z, color: css(NEAREST_COLOR), rgb: NEAREST_COLOR, id: 'nearest-marker', label: `nearest valid ${nearest.which} · level ${nearest.level}` });
+    markers.push({ x, y, z, color: css(NEAREST_COLOR), rgb: NEAREST_COLOR, id: 'nearest-marker', label: `nearest valid ${nearest.which}${nearest.ground === null ? '' : ` · ground ${metres(nearest.ground)} m`}` });
   }
   return { segments, path, markers, maxSpeed, length };
 }

@@ -1,5 +1,5 @@
-// The top view: the map drawn from above on a 2D canvas, one image per level (a pixel per
-// display cell), lower levels first so upper levels hide them, without the surfaces cut away
+// The top view: the map drawn from above on a 2D canvas, one image per storey (a pixel per
+// display cell), lower storeys first so upper storeys hide them, without the surfaces cut away
 // above the style's height; pan by dragging, zoom with the wheel, click to pick a point. Plans
 // are drawn over it in an SVG overlay (plan_overlay.js): lines in a group transformed like the
 // map, markers and the scale bar placed in screen pixels. The view follows its canvas's size,
@@ -119,8 +119,8 @@ export class TopView {
     this.requestRender();
   }
 
-  // Redraws the level images for `style`: { levels: Set of visible levels, obstacles, color,
-  // components, cutZ: surfaces above this height [m] are left out }.
+  // Redraws the storey images for `style`: { storeys: Set of visible storeys (indices into the
+  // model's), obstacles, color, components, cutZ: surfaces above this height [m] are left out }.
   setStyle(style) {
     this.style = style;
     if (!this.model) return;
@@ -129,22 +129,22 @@ export class TopView {
     const cut = style.cutZ ?? Infinity;
     const tops = [];
     const pixels = [];
-    for (let level = 0; level < m.maxLevels; ++level) {
+    for (let s = 0; s < m.storeys.length; ++s) {
       tops.push(new Float32Array(cells).fill(-Infinity));
       pixels.push(new Uint8ClampedArray(4 * cells));
     }
-    const paint = (level, cell, z, [r, g, b]) => {
-      const top = tops[Math.min(level, m.maxLevels - 1)];
-      if (z < top[cell]) return;
-      top[cell] = z;
-      pixels[Math.min(level, m.maxLevels - 1)].set([r, g, b, 255], 4 * cell);
+    // The highest surface of each cell in each storey.
+    const paint = (storey, cell, z, [r, g, b]) => {
+      if (z < tops[storey][cell]) return;
+      tops[storey][cell] = z;
+      pixels[storey].set([r, g, b, 255], 4 * cell);
     };
     for (let i = 0; i < m.ground.z.length; ++i) {
-      if (m.ground.z[i] <= cut) paint(m.ground.level[i], m.ground.cell[i], m.ground.z[i], m.groundColor(i, style));
+      if (m.ground.z[i] <= cut) paint(m.ground.storey[i], m.ground.cell[i], m.ground.z[i], m.groundColor(i, style));
     }
     if (style.obstacles) {
       for (let i = 0; i < m.obstacle.z.length; ++i) {
-        if (m.obstacle.z[i] <= cut) paint(m.obstacle.level[i], m.obstacle.cell[i], m.obstacle.z[i], m.obstacleColor());
+        if (m.obstacle.z[i] <= cut) paint(m.obstacle.storey[i], m.obstacle.cell[i], m.obstacle.z[i], m.obstacleColor());
       }
     }
     this.images = pixels.map((rgba) => {
@@ -189,8 +189,8 @@ export class TopView {
       c.setTransform(this.scale * ratio, 0, 0, -this.scale * ratio,
         (w / 2 - this.centerX * this.scale) * ratio, (h / 2 + this.centerY * this.scale) * ratio);
       c.imageSmoothingEnabled = false;
-      this.images.forEach((image, level) => {
-        if (this.style.levels.has(level)) {
+      this.images.forEach((image, storey) => {
+        if (this.style.storeys.has(storey)) {
           c.drawImage(image, m.originX, m.originY, m.nx * m.cellSize, m.ny * m.cellSize);
         }
       });
