@@ -354,6 +354,18 @@ std::size_t PlanningMap::GraphCount() const {
   return graphs_.size();
 }
 
+std::vector<TraversabilityParams> PlanningMap::BuiltGraphParams() const {
+  std::lock_guard lock(mutex_);
+  std::vector<TraversabilityParams> params;
+  for (const TraversabilityParams& key : recency_) {
+    const GraphEntry& entry = *graphs_.at(key);
+    if (entry.built.load(std::memory_order_acquire) && entry.graph != nullptr) {
+      params.push_back(key);
+    }
+  }
+  return params;
+}
+
 Status PlanOptions::Validate(std::string_view path) const {
   using internal::FieldPath;
   if (!(std::isfinite(time_budget_s) && time_budget_s > 0)) {

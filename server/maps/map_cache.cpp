@@ -81,6 +81,7 @@ void MapCache::Insert(const std::string& id, const std::string& version,
     if (slot.loading) return;  // A load of the same version is under way; it will hold it.
     TouchLocked(slot, key);
     slot.map = std::move(map);
+    DropLocked(id, version);
     EvictLocked(AllowanceBytes(), /*keep_newest=*/true);
   }
   loaded_.notify_all();
@@ -88,8 +89,12 @@ void MapCache::Insert(const std::string& id, const std::string& version,
 
 void MapCache::Drop(const std::string& id) {
   std::lock_guard lock(mutex_);
+  DropLocked(id, "");
+}
+
+void MapCache::DropLocked(const std::string& id, const std::string& kept) {
   for (auto it = slots_.lower_bound(Key(id, "")); it != slots_.end() && it->first.first == id;) {
-    if (it->second.loading) {  // Its loader will find the slot; let it finish.
+    if (it->second.loading || it->first.second == kept) {  // A loader will find its slot.
       ++it;
       continue;
     }

@@ -37,7 +37,11 @@ class MapCache {
   Result<std::shared_ptr<const PlanningMap>> Get(const std::string& id, const std::string& version,
                                                  const Loader& load);
 
-  /// Holds a map made here (a map just created or edited on this server), as Get would.
+  /// Holds a map made here (a map just created or edited on this server), as Get would, and
+  /// forgets the other versions of `id` held: the one made is the current one, so a map that
+  /// robots' scans edit every second holds one version, not every one made until the budget
+  /// is full. A plan holding an older version finishes on it; a later request for one
+  /// (PlanRequest.map_version) loads it again from the store.
   void Insert(const std::string& id, const std::string& version,
               std::shared_ptr<const PlanningMap> map);
 
@@ -67,6 +71,9 @@ class MapCache {
   // Drops least recently used maps nobody else holds until they take at most `target`
   // bytes, never the most recently used one when `keep_newest`; call with mutex_.
   void EvictLocked(std::uint64_t target, bool keep_newest);
+  // Forgets the versions of `id` held but `kept` (all when it is empty), except those being
+  // loaded (their loaders find their slots); call with mutex_.
+  void DropLocked(const std::string& id, const std::string& kept);
   // The allowance now (no limit without one).
   std::uint64_t AllowanceBytes() const;
   void TouchLocked(Slot& slot, const Key& key);

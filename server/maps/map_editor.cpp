@@ -28,6 +28,10 @@ constexpr auto kCancellationPollPeriod = std::chrono::milliseconds(50);
 // Most Update calls one batch makes into a version: their answers wait for all of it.
 constexpr std::size_t kMaxBatchUpdates = 64;
 
+// Most robots' graphs built for a new terrain before it is published (the most recently used
+// ones): each costs about a second on a 400 m site, and a map may hold one per inline profile.
+constexpr std::size_t kMaxGraphsBuiltAhead = 4;
+
 // The call's end, when it came before the version was ready: nothing is published. `current`
 // is the version the map stays at; empty when the edit ended while waiting for its batch.
 std::optional<ServiceError> CallEnded(const CallControl& call, const std::string& id,
@@ -302,10 +306,29 @@ Result<MapUpdate> MapEditor::UpdateOnce(const MapEditRequest& request, const Cal
     if (static_cast<int>(map.versions.size()) == options_.versions_kept) break;
     if (kept != map.version) map.versions.push_back(kept);
   }
-  const auto write_start = SteadyClock::now();
   std::shared_ptr<const PlanningMap> planning =
       base_planning ? base_planning->WithKeepOut(std::move(keep_out))
                     : options_.make_planning(built.model, std::move(keep_out));
+  // A new terrain: the robots that planned on the base here get their graphs built before the
+  // version is published, so that no plan on it waits for one (a robot's first plan on a new
+  // version of a site waited a second or more while its graph was built).
+  double graphs_s = 0;
+  const std::shared_ptr<const PlanningMap> base =
+      base_planning ? nullptr : published.Held(id, current);
+  std::vector<TraversabilityParams> robots;
+  if (base) robots = base->BuiltGraphParams();
+  if (robots.size() > kMaxGraphsBuiltAhead) robots.resize(kMaxGraphsBuiltAhead);
+  if (!robots.empty()) {
+    const auto graphs_start = SteadyClock::now();
+    const auto ended = [&] { return CallEnded(call, id, current).has_value(); };
+    for (const TraversabilityParams& params : robots) {
+      // A failure is the first plan's to report (it builds the graph again).
+      (void)planning->Graph(params, ended);
+    }
+    graphs_s = SecondsSince(graphs_start);
+    if (std::optional<ServiceError> ended_now = CallEnded(call, id, current)) return *ended_now;
+  }
+  const auto write_start = SteadyClock::now();
   // The cloud goes to the store only with a terrain it does not hold yet.
   const bool terrain_stored = base_planning != nullptr && built.cloud.empty();
   if (ServiceStatus put = published.PublishEdit(current, map, terrain, planning,
@@ -315,6 +338,7 @@ Result<MapUpdate> MapEditor::UpdateOnce(const MapEditRequest& request, const Cal
   }
   MapUpdate update;
   update.write_s = SecondsSince(write_start);
+  update.graphs_s = graphs_s;
   map.memory_bytes = planning->MemoryBytes();
   update.map = std::move(map);
   update.edit = built.edit.value_or(EditFigures{});

@@ -50,8 +50,11 @@ struct MapEditRequest {
 /// A new version made by MapEditor::Update, and what it cost.
 struct MapUpdate {
   MapSnapshot map;
-  EditFigures edit;        ///< How the model was made (zero for keep-out zones alone).
-  double write_s = 0;      ///< Writing and publishing the version [s].
+  EditFigures edit;    ///< How the model was made (zero for keep-out zones alone).
+  double write_s = 0;  ///< Writing and publishing the version [s].
+  /// Building the graphs of the robots that planned on the base version here, before the new
+  /// one is published [s].
+  double graphs_s = 0;
   double total_s = 0;      ///< All of it, waiting for a slot and loading the base included [s].
   int merged_updates = 1;  ///< Update calls whose edits the version holds, this one included.
 };

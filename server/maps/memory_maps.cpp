@@ -21,6 +21,14 @@ Result<ActiveMap> MemoryMaps::Get(const std::string& id, const std::string& vers
   return ActiveMap{published.planning, published.map.version};
 }
 
+std::shared_ptr<const PlanningMap> MemoryMaps::Held(const std::string& id,
+                                                    const std::string& version) const {
+  std::lock_guard lock(mutex_);
+  const auto it = maps_.find(id);
+  if (it == maps_.end() || it->second.map.version != version) return nullptr;
+  return it->second.planning;
+}
+
 Result<MapSnapshot> MemoryMaps::Describe(const std::string& id) const {
   std::shared_ptr<const PlanningMap> planning;
   MapSnapshot map;

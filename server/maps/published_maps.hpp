@@ -33,6 +33,10 @@ class PublishedMaps {
   /// The planning map of `version` of `id` (empty: the current one), loaded when not held;
   /// kMapNotFound, kMapVersionNotFound naming the versions kept, or why it cannot be loaded.
   virtual Result<ActiveMap> Get(const std::string& id, const std::string& version) const = 0;
+  /// Version `version` of map `id` if this server holds it in memory now, else null: never
+  /// loads it.
+  virtual std::shared_ptr<const PlanningMap> Held(const std::string& id,
+                                                  const std::string& version) const = 0;
 
   /// The current version's snapshot (ACTIVE, with its versions, and its memory when held);
   /// kMapNotFound.

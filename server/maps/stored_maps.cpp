@@ -40,6 +40,11 @@ Result<ActiveMap> StoredMaps::Get(const std::string& id, const std::string& vers
   return ActiveMap{std::move(map).value(), wanted};
 }
 
+std::shared_ptr<const PlanningMap> StoredMaps::Held(const std::string& id,
+                                                    const std::string& version) const {
+  return cache_.Peek(id, version);
+}
+
 Result<MapSnapshot> StoredMaps::SnapshotOf(const std::string& id,
                                            const std::vector<std::string>& versions) const {
   Result<std::string> metadata = options_.store->LoadMetadata(id, versions.front());

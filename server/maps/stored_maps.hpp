@@ -35,6 +35,8 @@ class StoredMaps final : public PublishedMaps {
 
   Result<std::vector<std::string>> Versions(const std::string& id) const override;
   Result<ActiveMap> Get(const std::string& id, const std::string& version) const override;
+  std::shared_ptr<const PlanningMap> Held(const std::string& id,
+                                          const std::string& version) const override;
   Result<MapSnapshot> Describe(const std::string& id) const override;
   std::vector<MapSnapshot> List(const std::string& after_id, int max) const override;
   ServiceStatus PublishNew(const MapSnapshot& map, std::shared_ptr<const PlanningMap> planning,

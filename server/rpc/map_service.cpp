@@ -410,6 +410,7 @@ grpc::Status MapServiceImpl::UpdateMap(grpc::ServerContext* context,
     stats->set_scan_points_outside_region(update.edit.scan_points_outside_region);
     stats->set_scan_points_thinned(update.edit.scan_points_thinned);
     stats->set_merged_updates(update.merged_updates);
+    stats->set_graphs_s(update.graphs_s);
     log.fields.emplace_back("version", update.map.version);
     return OkStatus();
   });

@@ -132,6 +132,28 @@ TEST(MapCacheTest, FollowsAnAllowanceThatShrinksAndTrimsForOtherUses) {
   EXPECT_EQ(cache.Peek("d", "v"), nullptr);
 }
 
+// Robots' scans edit a map every second: without a budget the cache held every version made.
+// A version made here forgets the others of its map; a plan holding one keeps it, and a later
+// request for it loads it again.
+TEST(MapCacheTest, AVersionMadeHereForgetsTheOthersOfItsMap) {
+  MapCache cache;
+  std::atomic<int> loads{0};
+  Result<std::shared_ptr<const PlanningMap>> held =
+      cache.Get("m", "v1", CountingLoader(20, &loads));
+  ASSERT_TRUE(held.ok());
+  ASSERT_TRUE(cache.Get("other", "v1", CountingLoader(20, &loads)).ok());
+  cache.Insert("m", "v2", Floor(20));
+  cache.Insert("m", "v3", Floor(20));
+  EXPECT_EQ(cache.Count(), 2);
+  EXPECT_EQ(cache.Peek("m", "v1"), nullptr);
+  EXPECT_EQ(cache.Peek("m", "v2"), nullptr);
+  EXPECT_NE(cache.Peek("m", "v3"), nullptr);
+  EXPECT_NE(cache.Peek("other", "v1"), nullptr);
+  EXPECT_NE(held.value(), nullptr);  // The plan on v1 still has it.
+  ASSERT_TRUE(cache.Get("m", "v1", CountingLoader(20, &loads)).ok());
+  EXPECT_EQ(loads, 3);  // Loaded again.
+}
+
 TEST(MapCacheTest, DropForgetsEveryVersionOfAMap) {
   MapCache cache;
   std::atomic<int> loads{0};

@@ -362,6 +362,25 @@ TEST_F(MapEditorTest, AnEditCancelledWhileWaitingForItsBatchIsNotMade) {
   EXPECT_EQ(Current(), one->map.version);  // No version after the first one's.
 }
 
+// A robot that planned on the base version here has its graph built on the new one before it
+// is published: its first plan there waits for no graph. A map no robot planned on builds none.
+TEST_F(MapEditorTest, TheGraphsOfRobotsThatPlannedAreBuiltBeforeTheVersionIsPublished) {
+  StartWithFloor(1, {});
+  const Result<MapUpdate> unplanned = registry_->Update(Obstacle(2), CallControl{});
+  ASSERT_TRUE(unplanned.ok()) << unplanned.error().message;
+  EXPECT_EQ(unplanned->graphs_s, 0);
+  EXPECT_EQ(registry_->GetActive("floor").value().map->GraphCount(), 0u);
+
+  const TraversabilityParams robot = BuiltinProfile("differential").value().Traversability();
+  ASSERT_TRUE(registry_->GetActive("floor").value().map->Graph(robot).ok());
+  const Result<MapUpdate> update = registry_->Update(Obstacle(4), CallControl{});
+  ASSERT_TRUE(update.ok()) << update.error().message;
+  EXPECT_GT(update->graphs_s, 0);
+  const ActiveMap edited = registry_->GetActive("floor").value();
+  EXPECT_EQ(edited.version, update->map.version);
+  EXPECT_EQ(edited.map->BuiltGraphParams().size(), 1u);
+}
+
 // Keep-out zones change no terrain: they take no slot, even while the queue is busy.
 TEST_F(MapEditorTest, KeepOutZonesAloneWaitForNoSlot) {
   StallingEdits edits;

@@ -62,6 +62,9 @@ class PlanningMap {
   std::size_t MemoryBytes() const;
   /// Graphs kept (built, or being built).
   std::size_t GraphCount() const;
+  /// The params of the graphs built and kept, most recently used first: the robots that plan
+  /// on this map (a new version of it builds theirs before it is published).
+  std::vector<TraversabilityParams> BuiltGraphParams() const;
 
  private:
   struct GraphEntry;  // One graph's build, done once.
