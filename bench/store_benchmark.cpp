@@ -2,16 +2,25 @@
 // store: a map created (assessed and written) by one registry, then planned on by a second
 // registry on the same store that has never loaded it (the first request loads the saved
 // model), against assessing it; edits (an obstacle, a removal, a keep-out zone) and what each
-// costs; and resident memory while maps are planned on in turn under a budget. Not part of the
-// test path.
+// costs; scans sent at a steady rate while clients plan (--soak-s); and resident memory while
+// maps are planned on in turn under a budget. Not part of the test path.
 //
 //   build/bench/store_benchmark MAP [--resolution M] [--runs N] [--churn-maps N]
+//       [--soak-s S [--soak-rate HZ] [--soak-planners N]]
 //       MAP: a cloud file, or scene:NAME[:SEED][:size_m=M] (as strata-offline takes)
+#include <unistd.h>
+
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cstdio>
+#include <deque>
 #include <filesystem>
+#include <fstream>
+#include <future>
+#include <mutex>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <CLI/CLI.hpp>
@@ -27,6 +36,7 @@ using Clock = std::chrono::steady_clock;
 using namespace strata;
 using namespace strata::server;
 using strata::bench::Median;
+using strata::bench::Quantile;
 
 double SecondsSince(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
@@ -77,6 +87,14 @@ MapSnapshot CreateAndWait(MapRegistry& registry, const std::string& id, const st
   return done.value();
 }
 
+// This process's resident memory [bytes] (/proc/self/statm).
+double ResidentBytes() {
+  std::ifstream statm("/proc/self/statm");
+  double pages = 0, resident = 0;
+  statm >> pages >> resident;
+  return resident * static_cast<double>(sysconf(_SC_PAGESIZE));
+}
+
 // A valid ground point near the middle of the map, and one a few metres away on the same
 // level when there is one: a short plan that proves the loaded map plans.
 std::optional<std::pair<Eigen::Vector3d, Eigen::Vector3d>> ShortQuery(const TerrainModel& model) {
@@ -112,10 +130,17 @@ int main(int argc, char** argv) {
   double resolution_m = 0;
   int runs = 5;
   int churn_maps = 6;
+  double soak_s = 0;
+  double soak_rate = 5;
+  int soak_planners = 8;
   app.add_option("MAP", map, "cloud file or scene:NAME[:SEED][:size_m=M]")->required();
   app.add_option("--resolution", resolution_m, "grid resolution [m]; 0: the default");
   app.add_option("--runs", runs, "loads and edits timed (median reported)");
   app.add_option("--churn-maps", churn_maps, "maps planned on in turn under a budget; 0 skips");
+  app.add_option("--soak-s", soak_s,
+                 "seconds of planning without scans, then as long with scans; 0 skips");
+  app.add_option("--soak-rate", soak_rate, "scans per second sent during the soak");
+  app.add_option("--soak-planners", soak_planners, "clients planning during the soak");
   CLI11_PARSE(app, argc, argv);
 
   AssessmentConfig config;
@@ -203,8 +228,9 @@ int main(int argc, char** argv) {
     };
     // A robot's scan of 10 m x 10 m in which a pallet (1.2 x 1.2 x 1.5 m, its faces sampled
     // every 5 cm) was set down on the passage: the ground it sees is what the map holds there.
-    const auto scan_area = [&](int run) {
-      const Eigen::Vector3d mid = centre + Eigen::Vector3d(0.3 * run, 0, 0);
+    // `aside` [m] moves the scan off the plans' line (the soak's scans must not cut it).
+    const auto scan_area = [&](int run, double aside = 0) {
+      const Eigen::Vector3d mid = centre + Eigen::Vector3d(0.3 * run, aside, 0);
       // Whole columns: the grid's height, less a millimetre to stay inside it.
       const double bottom = created.grid.origin_m.z() + 1e-3;
       const double top = bottom + created.grid.size.z() * created.grid.resolution_m - 2e-3;
@@ -212,13 +238,13 @@ int main(int argc, char** argv) {
                                           Eigen::Vector3d(mid.x() + 5, mid.y() + 5, top)));
     };
     const Result<PointCloud> base_cloud = store->LoadCloud("m", *store->Current("m"));
-    const auto scan_points = [&](int run, const Prism& area) {
+    const auto scan_points = [&](int run, const Prism& area, double aside = 0) {
       auto points = std::make_shared<PointCloud>();
       if (!base_cloud.ok()) return points;
       for (const Eigen::Vector3f& p : base_cloud.value()) {
         if (area.Contains(p.cast<double>())) points->push_back(p);
       }
-      const Eigen::Vector3d mid = centre + Eigen::Vector3d(0.3 * run, 0, 0);
+      const Eigen::Vector3d mid = centre + Eigen::Vector3d(0.3 * run, aside, 0);
       constexpr double kStep = 0.05, kSide = 1.2, kHeight = 1.5;
       for (double a = 0; a <= kSide + 1e-9; a += kStep) {
         for (double z = 0; z <= kHeight + 1e-9; z += kStep) {
@@ -250,7 +276,7 @@ int main(int argc, char** argv) {
     };
     // A plan across the edited spot on the new version, right after the update: what a robot
     // sees of the change (a cloud edit makes a new model, whose graph this plan builds).
-    const auto plan_after = [&]() {
+    const auto plan_after = [&](bool* planned = nullptr) {
       const Result<ActiveMap> active = editor.GetActive("m");
       PlanRequest request;
       request.profile = BuiltinProfile("differential").value();
@@ -261,8 +287,11 @@ int main(int argc, char** argv) {
           active.ok() ? Plan(*active.value().map, request)
                       : Expected<PlanResult>(Error{ErrorCode::kInvalidInput, "no map"});
       const double plan_s = SecondsSince(start);
-      if (!plan)
+      if (planned != nullptr) {
+        *planned = static_cast<bool>(plan);
+      } else if (!plan) {
         std::printf("  the plan after the edit failed: %s\n", plan.error().message.c_str());
+      }
       return plan_s;
     };
     (void)plan_after();  // The first version's graph, built before anything is timed.
@@ -302,6 +331,109 @@ int main(int argc, char** argv) {
           "%.3f s, total %.3f s; the next plan %.3f s\n",
           edit.name, Median(apply), Median(reassess), static_cast<long long>(columns),
           full ? ", FULL" : "", Median(write), Median(total), Median(planned));
+    }
+
+    // Scans at a steady rate, as robots send them (none waits for the last one's version),
+    // while clients plan without pause: plan latency without scans and with, what became of the
+    // scans, resident memory. Each plan runs on a whole published version (GetActive).
+    if (soak_s > 0) {
+      struct Phase {
+        std::vector<double> plan_s;
+        int failed = 0;  // Plans that failed (a scan may cut the plans' line).
+        double rss_max = 0;
+      };
+      const auto planning_phase = [&](bool scanning) {
+        Phase phase;
+        std::mutex mutex;
+        std::atomic<bool> running{true};
+        std::vector<std::thread> planners;
+        for (int i = 0; i < soak_planners; ++i) {
+          planners.emplace_back([&] {
+            std::vector<double> mine;
+            int failed = 0;
+            while (running) {
+              bool planned = false;
+              mine.push_back(plan_after(&planned));
+              failed += planned ? 0 : 1;
+            }
+            std::lock_guard lock(mutex);
+            phase.plan_s.insert(phase.plan_s.end(), mine.begin(), mine.end());
+            phase.failed += failed;
+          });
+        }
+        std::deque<std::future<Result<MapUpdate>>> scans;
+        std::vector<double> visible_s;
+        std::vector<int> merged;
+        int sent = 0, failed = 0, built_ahead = 0;
+        const auto collect = [&](bool wait) {
+          while (!scans.empty() && (wait || scans.front().wait_for(std::chrono::seconds(0)) ==
+                                                std::future_status::ready)) {
+            const Result<MapUpdate> update = scans.front().get();
+            scans.pop_front();
+            if (!update.ok()) {
+              ++failed;
+              continue;
+            }
+            visible_s.push_back(update->total_s);
+            merged.push_back(update->merged_updates);
+            built_ahead += update->graphs_s > 0 ? 1 : 0;
+          }
+        };
+        const auto start = Clock::now();
+        const double rss_start = ResidentBytes();
+        auto next = start;
+        while (SecondsSince(start) < soak_s) {
+          phase.rss_max = std::max(phase.rss_max, ResidentBytes());
+          if (scanning) {
+            // Spots 0.3 m apart, over and over, 12 m beside the plans' line.
+            constexpr double kAside = 12;
+            const int spot = sent % 40;
+            const Prism region = scan_area(spot, kAside);
+            std::vector<MapEdit> edits{
+                MapEdit{MapEdit::Kind::kScan, region, scan_points(spot, region, kAside)}};
+            scans.push_back(std::async(std::launch::async, [&editor, edits = std::move(edits)] {
+              return editor.Update(MapEditRequest{"m", {}, edits, false, {}}, CallControl{});
+            }));
+            ++sent;
+            collect(false);
+            next += std::chrono::duration_cast<Clock::duration>(
+                std::chrono::duration<double>(1.0 / soak_rate));
+          } else {
+            next += std::chrono::milliseconds(200);
+          }
+          std::this_thread::sleep_until(next);
+        }
+        running = false;
+        for (std::thread& planner : planners) planner.join();
+        collect(true);
+        const double rss_end = ResidentBytes();
+        std::printf(
+            "soak %s: %.0f s, %d planners: %zu plans (%d failed), plan p50 %.4f s, p99 %.3f s, "
+            "max %.3f s; resident %.0f MB at the start, %.0f MB at most, %.0f MB at the end\n",
+            scanning ? "with scans" : "without scans", soak_s, soak_planners, phase.plan_s.size(),
+            phase.failed, Median(phase.plan_s), Quantile(phase.plan_s, 0.99),
+            phase.plan_s.empty() ? 0.0
+                                 : *std::max_element(phase.plan_s.begin(), phase.plan_s.end()),
+            rss_start / 1e6, phase.rss_max / 1e6, rss_end / 1e6);
+        if (scanning) {
+          double versions = 0;  // Each version's merged calls each count 1/merged of it.
+          for (const int m : merged) versions += 1.0 / m;
+          std::printf(
+              "  scans: %d sent at %.1f/s, %zu landed, %d failed, in %.0f versions (%.1f scans "
+              "each); sent to visible p50 %.3f s, p99 %.3f s; %d of the scans' versions had "
+              "graphs built ahead\n",
+              sent, soak_rate, visible_s.size(), failed, versions,
+              versions > 0 ? static_cast<double>(visible_s.size()) / versions : 0.0,
+              Median(visible_s), Quantile(visible_s, 0.99), built_ahead);
+        }
+        return phase;
+      };
+      const Phase quiet = planning_phase(false);
+      const Phase busy = planning_phase(true);
+      std::printf("  plan p99 with scans / without: %.1fx\n",
+                  Quantile(quiet.plan_s, 0.99) > 0
+                      ? Quantile(busy.plan_s, 0.99) / Quantile(quiet.plan_s, 0.99)
+                      : 0.0);
     }
   }
 
