@@ -43,6 +43,9 @@ Result<std::shared_ptr<const PlanningMap>> MapCache::Get(const std::string& id,
 
   lock.lock();
   auto it = slots_.find(key);
+  // A map made here while this load ran (Insert: a version just published, which a request
+  // asked for before it was held) is the one kept: it holds the graphs built ahead for it.
+  if (it->second.made != nullptr) loaded = std::move(it->second.made);
   if (!loaded.ok()) {
     slots_.erase(it);
     lock.unlock();
@@ -78,10 +81,13 @@ void MapCache::Insert(const std::string& id, const std::string& version,
   {
     std::lock_guard lock(mutex_);
     Slot& slot = slots_[key];
-    if (slot.loading) return;  // A load of the same version is under way; it will hold it.
+    DropLocked(id, version);
+    if (slot.loading) {  // A load of the same version is under way: it keeps this map instead.
+      slot.made = std::move(map);
+      return;
+    }
     TouchLocked(slot, key);
     slot.map = std::move(map);
-    DropLocked(id, version);
     EvictLocked(AllowanceBytes(), /*keep_newest=*/true);
   }
   loaded_.notify_all();

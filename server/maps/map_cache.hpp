@@ -65,7 +65,8 @@ class MapCache {
   struct Slot {
     std::shared_ptr<const PlanningMap> map;  // Null while loading.
     bool loading = false;
-    std::list<Key>::iterator recency;  // In recency_ once loaded.
+    std::shared_ptr<const PlanningMap> made;  // Inserted while loading: kept instead.
+    std::list<Key>::iterator recency;         // In recency_ once loaded.
   };
 
   // Drops least recently used maps nobody else holds until they take at most `target`

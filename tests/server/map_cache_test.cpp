@@ -154,6 +154,31 @@ TEST(MapCacheTest, AVersionMadeHereForgetsTheOthersOfItsMap) {
   EXPECT_EQ(loads, 3);  // Loaded again.
 }
 
+// A request for a version just published can come before the editor holds it here: its load
+// of the saved model (which has no graphs) must not replace the map the editor made, whose
+// robots' graphs were built ahead.
+TEST(MapCacheTest, AMapInsertedWhileItsVersionLoadsIsTheOneKept) {
+  MapCache cache;
+  std::promise<void> loading, release;
+  std::shared_future<void> released = release.get_future().share();
+  auto request = std::async(std::launch::async, [&] {
+    return cache.Get("m", "v2", [&]() -> Result<std::shared_ptr<const PlanningMap>> {
+      loading.set_value();
+      released.wait();
+      return Floor(20);
+    });
+  });
+  loading.get_future().wait();
+  const std::shared_ptr<const PlanningMap> made = Floor(20);
+  cache.Insert("m", "v2", made);
+  release.set_value();
+  const Result<std::shared_ptr<const PlanningMap>> got = request.get();
+  ASSERT_TRUE(got.ok());
+  EXPECT_EQ(got.value(), made);
+  EXPECT_EQ(cache.Peek("m", "v2"), made);
+  EXPECT_EQ(cache.Count(), 1);
+}
+
 TEST(MapCacheTest, DropForgetsEveryVersionOfAMap) {
   MapCache cache;
   std::atomic<int> loads{0};
