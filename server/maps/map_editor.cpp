@@ -163,7 +163,7 @@ void MapEditor::MakeBatch(const std::vector<Waiting*>& batch) {
   const auto give = [this](Waiting* waiting, Result<MapUpdate> result) {
     if (result.ok()) result.value().total_s = SecondsSince(waiting->start);
     std::lock_guard lock(batches_mutex_);
-    waiting->result = std::move(result);
+    waiting->result.emplace(std::move(result));
   };
   if (batch.size() == 1) {
     give(batch.front(), UpdateRetrying(*batch.front()->request, *batch.front()->call));
