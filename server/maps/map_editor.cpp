@@ -56,6 +56,7 @@ std::optional<ServiceError> CallEnded(const CallControl& call, const std::string
   return std::nullopt;
 }
 
+// Whether CallEnded would fail the call, without making its message (for polls).
 bool Ended(const CallControl& call) {
   return (call.cancelled && call.cancelled()) || WorkSecondsLeft(call.LeftSeconds()) <= 0;
 }
@@ -320,7 +321,7 @@ Result<MapUpdate> MapEditor::UpdateOnce(const MapEditRequest& request, const Cal
   if (robots.size() > kMaxGraphsBuiltAhead) robots.resize(kMaxGraphsBuiltAhead);
   if (!robots.empty()) {
     const auto graphs_start = SteadyClock::now();
-    const auto ended = [&] { return CallEnded(call, id, current).has_value(); };
+    const auto ended = [&call] { return Ended(call); };  // Polled every grid row: no message.
     for (const TraversabilityParams& params : robots) {
       // A failure is the first plan's to report (it builds the graph again).
       (void)planning->Graph(params, ended);
