@@ -117,7 +117,7 @@ int MapEditor::EditsWaiting(const std::string& id) const {
 }
 
 Result<MapUpdate> MapEditor::UpdateInBatch(const MapEditRequest& request, const CallControl& call) {
-  Waiting me{&request, &call, SteadyClock::now()};
+  Waiting me{&request, &call, SteadyClock::now(), false, std::nullopt};
   std::unique_lock lock(batches_mutex_);
   batches_[request.id].waiting.push_back(&me);
   for (;;) {
