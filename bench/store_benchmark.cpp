@@ -202,10 +202,15 @@ int main(int argc, char** argv) {
       "fresh registry, first request (load from the store): median %.3f s over %d "
       "(assessing: %.3f s, %.0fx)\n",
       Median(first_load_s), runs, assess_s, assess_s / Median(first_load_s));
+  // The first registry to plan builds the robot's graph and keeps it in the store (the
+  // registry's end waits for that write); every later one loads it there instead.
+  const std::vector<double> loaded_graph_s(plan_s.size() > 1 ? plan_s.begin() + 1 : plan_s.end(),
+                                           plan_s.end());
   std::printf(
-      "  next request (held): median %.6f s; first plan after loading (graph build "
-      "included): median %.3f s\n",
-      Median(cached_s), plan_s.empty() ? 0.0 : Median(plan_s));
+      "  next request (held): median %.6f s; first plan after loading: %.3f s building the "
+      "graph (the first registry), median %.3f s loading it from the store (the %zu after)\n",
+      Median(cached_s), plan_s.empty() ? 0.0 : plan_s.front(),
+      loaded_graph_s.empty() ? 0.0 : Median(loaded_graph_s), loaded_graph_s.size());
 
   // 3. Edits on the version just made, each from the current version.
   if (query) {

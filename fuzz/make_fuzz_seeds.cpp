@@ -15,8 +15,10 @@
 #include <pcl/io/ply_io.h>
 #include <pcl/point_types.h>
 
+#include "floor_and_wall.hpp"
 #include "strata/assessment/terrain_model.hpp"
 #include "strata/io/cloud_io.hpp"
+#include "strata/io/saved_graph.hpp"
 #include "strata/io/saved_model.hpp"
 #include "strata/scenes/scenes.hpp"
 #include "strata/v1/map_service.pb.h"
@@ -82,21 +84,18 @@ void OctomapSeeds(const fs::path& dir) {
 }
 
 void SavedModelSeeds(const fs::path& dir) {
-  // A 2 m x 2 m floor with a low wall across it: a model of a few kilobytes, so that the target
-  // runs thousands of inputs a second and libFuzzer's default input length (4 KiB or the
-  // largest seed) keeps mutations that small. A scene's model (hundreds of kilobytes) ran at
-  // 1,000 inputs a second.
-  strata::PointCloud cloud;
-  for (int i = 0; i < 40; ++i) {
-    for (int j = 0; j < 40; ++j) cloud.emplace_back(0.05f * i, 0.05f * j, 0.0f);
-    for (int k = 1; k < 10; ++k) cloud.emplace_back(1.0f, 0.05f * i, 0.05f * k);
-  }
-  strata::AssessmentConfig config;
-  config.grid.resolution_m = 0.25;
-  const auto model = strata::TerrainModel::Assess(cloud, config).value();
+  // A scene's model (hundreds of kilobytes) ran at 1,000 inputs a second; this one is small
+  // enough that libFuzzer's default input length (4 KiB or the largest seed) keeps mutations
+  // that small.
+  const auto model = strata::fuzz::FloorAndWallModel();
   // Without its checksum, which the target appends (saved_model_fuzzer.cpp).
   const std::string saved = strata::SerializeModel(*model);
   Write(dir / "saved_model" / "floor_and_wall.smd", saved.substr(0, saved.size() - 8));
+  // The graph of the default robot on it, likewise (saved_graph_fuzzer.cpp loads it onto the
+  // same model).
+  const auto graph = strata::SurfaceGraph::Build(*model, strata::TraversabilityParams{}).value();
+  const std::string graph_bytes = strata::SerializeGraph(graph);
+  Write(dir / "saved_graph" / "floor_and_wall.sgr", graph_bytes.substr(0, graph_bytes.size() - 8));
 }
 
 // The upload target's framing: a 2-byte little-endian length, then a serialised message.
@@ -210,8 +209,8 @@ int main(int argc, char** argv) {
   UploadSeeds(dir);
   PlanRequestSeeds(dir);
   RequestSeeds(dir);
-  for (const char* target :
-       {"pcd", "ply", "octomap", "saved_model", "upload", "plan_request", "request"}) {
+  for (const char* target : {"pcd", "ply", "octomap", "saved_model", "saved_graph", "upload",
+                             "plan_request", "request"}) {
     std::size_t files = 0;
     for ([[maybe_unused]] const auto& entry : fs::directory_iterator(dir / target)) ++files;
     std::printf("%s: %zu seeds\n", target, files);

@@ -249,11 +249,15 @@ struct PlanningMap::GraphEntry {
 };
 
 PlanningMap::PlanningMap(std::shared_ptr<const TerrainModel> model, std::vector<Prism> keep_out,
-                         std::size_t max_graph_bytes)
-    : model_(std::move(model)), keep_out_(std::move(keep_out)), max_graph_bytes_(max_graph_bytes) {}
+                         std::size_t max_graph_bytes, std::shared_ptr<const GraphArchive> archive)
+    : model_(std::move(model)),
+      keep_out_(std::move(keep_out)),
+      max_graph_bytes_(max_graph_bytes),
+      archive_(std::move(archive)) {}
 
 std::shared_ptr<const PlanningMap> PlanningMap::WithKeepOut(std::vector<Prism> keep_out) const {
-  auto copy = std::make_shared<PlanningMap>(model_, std::move(keep_out), max_graph_bytes_);
+  auto copy =
+      std::make_shared<PlanningMap>(model_, std::move(keep_out), max_graph_bytes_, archive_);
   std::lock_guard lock(mutex_);
   // Oldest first, so that the copy's recency list keeps this one's order.
   for (auto it = recency_.rbegin(); it != recency_.rend(); ++it) {
@@ -303,9 +307,18 @@ Expected<std::shared_ptr<const SurfaceGraph>> PlanningMap::GraphOnce(
   }
   std::call_once(entry->once, [&] {
     *built_here = true;
+    if (archive_ != nullptr) {
+      std::optional<SurfaceGraph> kept = archive_->Find(*model_, params);
+      if (kept && kept->params() == params) {
+        entry->graph = std::make_shared<const SurfaceGraph>(std::move(*kept));
+        entry->built.store(true, std::memory_order_release);
+        return;
+      }
+    }
     Expected<SurfaceGraph> graph = SurfaceGraph::Build(*model_, params, should_stop);
     if (graph) {
       entry->graph = std::make_shared<const SurfaceGraph>(std::move(graph).value());
+      if (archive_ != nullptr) archive_->Keep(model_, entry->graph);
     } else {
       entry->error = graph.error();
     }

@@ -309,7 +309,7 @@ Result<MapUpdate> MapEditor::UpdateOnce(const MapEditRequest& request, const Cal
   }
   std::shared_ptr<const PlanningMap> planning =
       base_planning ? base_planning->WithKeepOut(std::move(keep_out))
-                    : options_.make_planning(built.model, std::move(keep_out));
+                    : options_.make_planning(built.model, std::move(keep_out), id, terrain);
   // A new terrain: the robots that planned on the base here get their graphs built before the
   // version is published, so that no plan on it waits for one (a robot's first plan on a new
   // version of a site waited a second or more while its graph was built).

@@ -66,9 +66,7 @@ struct MapEditorOptions {
   /// How a job is made (RegistryOptions::build).
   MapBuilder build;
   /// The planning map of a model, with its keep-out zones.
-  std::function<std::shared_ptr<const PlanningMap>(std::shared_ptr<const TerrainModel>,
-                                                   std::vector<Prism>)>
-      make_planning;
+  PlanningMaker make_planning;
   /// Set aside in `memory_budget` (may be null) while a version is made [bytes].
   std::shared_ptr<MemoryBudget> memory_budget;
   std::uint64_t assessment_memory_bytes = 0;

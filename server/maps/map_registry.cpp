@@ -78,10 +78,12 @@ MapRegistry::MapRegistry(RegistryOptions options, DoneListener on_done)
   }
   options_.versions_kept = std::max(1, options_.versions_kept);
   auto make_planning = [this](std::shared_ptr<const TerrainModel> model,
-                              std::vector<Prism> keep_out) {
-    return NewPlanningMap(std::move(model), std::move(keep_out));
+                              std::vector<Prism> keep_out, const std::string& id,
+                              const std::string& terrain) {
+    return NewPlanningMap(std::move(model), std::move(keep_out), id, terrain);
   };
   if (options_.store) {
+    graph_writer_ = std::make_shared<GraphWriter>();
     StoredMapsOptions stored;
     stored.store = options_.store;
     stored.versions_kept = options_.versions_kept;
@@ -123,9 +125,14 @@ MapRegistry::~MapRegistry() {
 }
 
 std::shared_ptr<const PlanningMap> MapRegistry::NewPlanningMap(
-    std::shared_ptr<const TerrainModel> model, std::vector<Prism> keep_out) const {
+    std::shared_ptr<const TerrainModel> model, std::vector<Prism> keep_out, const std::string& id,
+    const std::string& terrain) const {
+  std::shared_ptr<const GraphArchive> archive;
+  if (options_.store && !terrain.empty()) {
+    archive = std::make_shared<StoredGraphs>(options_.store, graph_writer_, id, terrain);
+  }
   return std::make_shared<PlanningMap>(std::move(model), std::move(keep_out),
-                                       options_.max_graph_bytes);
+                                       options_.max_graph_bytes, std::move(archive));
 }
 
 Result<MemoryBudget::Reservation> MapRegistry::ReserveForMaking(const std::string& id) const {
@@ -495,7 +502,8 @@ void MapRegistry::Assess(const std::shared_ptr<Entry>& entry) {
       return;
     }
     BuiltMap& map = built.value();
-    const std::shared_ptr<const PlanningMap> planning = NewPlanningMap(std::move(map.model));
+    const std::shared_ptr<const PlanningMap> planning =
+        NewPlanningMap(std::move(map.model), {}, entry->id, map.version);
     making.value().Release();
     if (ServiceStatus admitted = AdmitMade(entry->id, *planning); !admitted.ok()) {
       Finish(entry, std::move(admitted).error(), {});

@@ -37,6 +37,7 @@
 #include "maps/map_store.hpp"
 #include "maps/memory_budget.hpp"
 #include "maps/published_maps.hpp"
+#include "maps/stored_graphs.hpp"
 #include "strata/assessment/map_edit.hpp"
 #include "strata/assessment/terrain_config.hpp"
 #include "strata/assessment/terrain_model.hpp"
@@ -186,9 +187,12 @@ class MapRegistry {
   // Builds the snapshot of `entry`; call with mutex_ held. Leaves memory_bytes to the caller
   // (it takes the planning map's own lock).
   MapSnapshot SnapshotLocked(const Entry& entry) const;
-  // A planning map on `model` with the registry's graph bound.
+  // A planning map on `model` (terrain `terrain` of map `id`) with the registry's graph bound;
+  // with a store, its graphs are kept there.
   std::shared_ptr<const PlanningMap> NewPlanningMap(std::shared_ptr<const TerrainModel> model,
-                                                    std::vector<Prism> keep_out = {}) const;
+                                                    std::vector<Prism> keep_out,
+                                                    const std::string& id,
+                                                    const std::string& terrain) const;
   // With a budget: `bytes` set aside for making map `id`; an empty reservation without one.
   Result<MemoryBudget::Reservation> ReserveForMaking(const std::string& id) const;
   // With a budget: whether map `id`'s new `map` may be held (see MemoryBudget::AdmitMap).
@@ -196,6 +200,9 @@ class MapRegistry {
 
   RegistryOptions options_;
   DoneListener on_done_;
+  // Writes graphs to the store (with one); declared before what holds planning maps, so that it
+  // is destroyed after them.
+  std::shared_ptr<GraphWriter> graph_writer_;
   std::unique_ptr<PublishedMaps> published_;
 
   mutable std::mutex mutex_;

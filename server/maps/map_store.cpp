@@ -30,6 +30,7 @@
 #include <xxhash.h>
 
 #include "strata/io/cloud_io.hpp"
+#include "strata/io/saved_graph.hpp"
 #include "strata/io/saved_model.hpp"
 
 namespace strata::server {
@@ -49,6 +50,8 @@ constexpr const char* kHeadName = "head";
 constexpr const char* kLockName = "lock";
 constexpr const char* kVersionsName = "versions";
 constexpr const char* kTerrainsName = "terrains";
+constexpr const char* kGraphsName = "graphs";
+constexpr const char* kGraphExtension = ".stratagraph";
 constexpr const char* kTerrainName = "terrain";  // In a version: the name of its terrain.
 constexpr const char* kCloudName = "cloud.pcd";
 constexpr const char* kModelName = "model.stratamodel";
@@ -583,6 +586,10 @@ fs::path MapStore::TerrainDir(const std::string& id, const std::string& terrain)
   return MapDir(id) / kTerrainsName / terrain;
 }
 
+fs::path MapStore::GraphsDir(const std::string& id, const std::string& terrain) const {
+  return MapDir(id) / kGraphsName / terrain;
+}
+
 namespace {
 
 // Puts the directory `target` (a `kind`: "terrain", "version"): `fill` writes its files into
@@ -657,6 +664,53 @@ bool MapStore::HasTerrain(const std::string& id, const std::string& terrain) con
   std::error_code ec;
   return CheckId(id).ok() && CheckTerrain(terrain).ok() &&
          fs::is_directory(TerrainDir(id, terrain), ec);
+}
+
+ServiceStatus MapStore::PutGraph(const std::string& id, const std::string& terrain,
+                                 const SurfaceGraph& graph) {
+  if (ServiceStatus ok = CheckId(id); !ok) return ok;
+  if (ServiceStatus ok = CheckTerrain(terrain); !ok) return ok;
+  const fs::path temporary = root_ / "tmp" / UniqueName("graph");
+  const auto fail = [&](ServiceError error) {
+    std::error_code ignored;
+    fs::remove(temporary, ignored);
+    return error;
+  };
+  if (Status saved = SaveGraph(graph, temporary.string()); !saved) {
+    return fail(MakeError(ServiceErrorCode::kMapStoreUnavailable,
+                          "map store: cannot write a graph: " + saved.error().message));
+  }
+  if (ServiceStatus synced = Sync(temporary); !synced) return fail(std::move(synced).error());
+  const fs::path dir = GraphsDir(id, terrain);
+  const fs::path target = dir / (SavedGraphKey(graph.params()) + kGraphExtension);
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) return fail(Unavailable(dir, "create", ec));
+  // Over whatever is there: the same graph another replica kept, or one that no longer loads.
+  if (::rename(temporary.c_str(), target.c_str()) != 0) {
+    return fail(Unavailable(target, "rename into place", errno));
+  }
+  return Sync(dir);
+}
+
+Result<std::optional<SurfaceGraph>> MapStore::LoadGraph(const std::string& id,
+                                                        const std::string& terrain,
+                                                        const TerrainModel& model,
+                                                        const TraversabilityParams& params) const {
+  if (ServiceStatus ok = CheckId(id); !ok) return std::move(ok).error();
+  if (ServiceStatus ok = CheckTerrain(terrain); !ok) return std::move(ok).error();
+  const fs::path path = GraphsDir(id, terrain) / (SavedGraphKey(params) + kGraphExtension);
+  std::error_code ec;
+  if (!fs::exists(path, ec)) return std::optional<SurfaceGraph>();
+  Expected<SurfaceGraph> graph = strata::LoadGraph(path.string(), model);
+  if (graph) {
+    if (graph->params() == params) return std::optional<SurfaceGraph>(std::move(graph).value());
+    return MakeError(ServiceErrorCode::kMapCorrupted,
+                     "map store: graph " + path.string() + " holds another robot's graph");
+  }
+  if (!fs::exists(path, ec)) return std::optional<SurfaceGraph>();  // Pruned meanwhile.
+  return MakeError(ServiceErrorCode::kMapCorrupted, "map store: " + graph.error().message)
+      .With("map_id", id);
 }
 
 ServiceStatus MapStore::PutVersion(const std::string& id, const std::string& version,
@@ -893,7 +947,9 @@ int MapStore::DiscardVersions(const std::string& id,
   const std::optional<std::set<std::string>> named = NamedTerrains(MapDir(id) / kVersionsName);
   if (!named) return removed;
   for (const std::string& terrain : orphans) {
-    if (!named->contains(terrain)) removed += Discard(TerrainDir(id, terrain)) ? 1 : 0;
+    if (named->contains(terrain)) continue;
+    removed += Discard(TerrainDir(id, terrain)) ? 1 : 0;
+    removed += Discard(GraphsDir(id, terrain)) ? 1 : 0;
   }
   return removed;
 }
@@ -907,6 +963,11 @@ int MapStore::DiscardStaleTerrains(const std::string& id) const {
   if (!named) return 0;
   std::vector<fs::path> unnamed;
   for (fs::directory_iterator it(terrains_dir, ec), end; !ec && it != end; it.increment(ec)) {
+    if (!named->contains(it->path().filename().string())) unnamed.push_back(it->path());
+  }
+  // Graphs of a terrain no version names (a dead writer's, or kept while the terrain went).
+  const fs::path graphs_dir = MapDir(id) / kGraphsName;
+  for (fs::directory_iterator it(graphs_dir, ec), end; !ec && it != end; it.increment(ec)) {
     if (!named->contains(it->path().filename().string())) unnamed.push_back(it->path());
   }
   for (const fs::path& terrain : unnamed) {
@@ -1091,6 +1152,7 @@ int MapStore::CollectGarbage() {
     bool any_stale = map_dir_stale;
     for (const fs::path& version : entries(versions_dir)) any_stale |= IsStale(version);
     for (const fs::path& terrain : entries(map_dir / kTerrainsName)) any_stale |= IsStale(terrain);
+    for (const fs::path& graphs : entries(map_dir / kGraphsName)) any_stale |= IsStale(graphs);
     if (!any_stale) continue;
     Result<MapLock> lock = MapLock::Acquire(map_dir, id, /*create=*/false);
     if (!lock) continue;

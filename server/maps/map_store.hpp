@@ -16,6 +16,10 @@
 ///       cloud.pcd               the source cloud (binary PCD, float32 x y z); absent for a
 ///                               map made from a saved model
 ///       model.stratamodel       the assessed model (strata/io/saved_model.hpp, checksummed)
+///   maps/<id>/graphs/<t>/       robots' surface graphs built on terrain <t>, one file each
+///                               (<key>.stratagraph, strata/io/saved_graph.hpp), put by
+///                               whichever replica built one first and loaded by the others
+///                               instead of building; removed with the terrain
 ///   maps/<id>/versions/<v>/     one version, never changed once renamed into place:
 ///       terrain                 the name <t> of its terrain, and a newline
 ///       metadata                the caller's bytes (the server's Map message as JSON)
@@ -71,6 +75,7 @@
 #include "maps/map_root.hpp"
 #include "strata/assessment/terrain_config.hpp"
 #include "strata/assessment/terrain_model.hpp"
+#include "strata/planning/surface_graph.hpp"
 #include "strata/point_cloud.hpp"
 #include "strata/prism.hpp"
 
@@ -132,6 +137,21 @@ class MapStore {
   /// store cannot be written (naming the path and the reason).
   ServiceStatus PutTerrain(const std::string& id, const std::string& terrain,
                            const PointCloud& cloud, const TerrainModel& model);
+
+  /// Keeps `graph`, built on terrain `terrain` of map `id`, for every replica that plans on it
+  /// (maps/<id>/graphs/<terrain>/<SavedGraphKey>.stratagraph): written to a temporary, made
+  /// durable and renamed over whatever is there (the same graph, or one that no longer loads).
+  /// The graphs of a terrain go with it. kInvalidInput for a bad id or name,
+  /// kMapStoreUnavailable (naming the path and the reason).
+  ServiceStatus PutGraph(const std::string& id, const std::string& terrain,
+                         const SurfaceGraph& graph);
+
+  /// The graph for `params` kept with terrain `terrain` of map `id`, loaded onto `model` (that
+  /// terrain's model, which must outlive it); nullopt when none is kept. kMapCorrupted naming
+  /// the file when one is kept but does not load (then build it and PutGraph it again).
+  Result<std::optional<SurfaceGraph>> LoadGraph(const std::string& id, const std::string& terrain,
+                                                const TerrainModel& model,
+                                                const TraversabilityParams& params) const;
 
   /// Whether terrain `terrain` of map `id` is in the store (PutTerrain need not be called).
   bool HasTerrain(const std::string& id, const std::string& terrain) const;
@@ -235,6 +255,7 @@ class MapStore {
   std::filesystem::path MapDir(const std::string& id) const;
   std::filesystem::path VersionDir(const std::string& id, const std::string& version) const;
   std::filesystem::path TerrainDir(const std::string& id, const std::string& terrain) const;
+  std::filesystem::path GraphsDir(const std::string& id, const std::string& terrain) const;
   /// Whether `version` of `id` was put whole: its directory, and the terrain it names.
   bool IsPut(const std::string& id, const std::string& version) const;
   /// Discards the directories of `versions` of `id`, then the terrains they named that no

@@ -5,6 +5,7 @@
 /// (MemoryMaps, a server without --map-store) and the map store shared by every replica, with
 /// the versions loaded here kept in a cache (StoredMaps). No gRPC here.
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -15,6 +16,12 @@
 #include "strata/point_cloud.hpp"
 
 namespace strata::server {
+
+/// Makes the planning map of `model`, terrain `terrain` of map `id` (empty: a version of
+/// layout 1, which has no terrain of its own), with `keep_out`.
+using PlanningMaker = std::function<std::shared_ptr<const PlanningMap>(
+    std::shared_ptr<const TerrainModel> model, std::vector<Prism> keep_out, const std::string& id,
+    const std::string& terrain)>;
 
 /// The files of a published version, opened: an edit reads them whole even when the version
 /// is pruned meanwhile.

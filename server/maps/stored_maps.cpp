@@ -32,9 +32,12 @@ Result<ActiveMap> StoredMaps::Get(const std::string& id, const std::string& vers
         if (!metadata.ok()) return std::move(metadata).error();
         Result<MapSnapshot> described = options_.decode_metadata(metadata.value());
         if (!described.ok()) return std::move(described).error();
+        Result<std::string> terrain = options_.store->TerrainOfVersion(id, wanted);
+        if (!terrain.ok()) return std::move(terrain).error();
         Result<std::shared_ptr<const TerrainModel>> model = options_.store->LoadModel(id, wanted);
         if (!model.ok()) return std::move(model).error();
-        return options_.make_planning(std::move(model).value(), described.value().keep_out);
+        return options_.make_planning(std::move(model).value(), described.value().keep_out, id,
+                                      terrain.value());
       });
   if (!map.ok()) return std::move(map).error();
   return ActiveMap{std::move(map).value(), wanted};

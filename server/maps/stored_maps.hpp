@@ -22,9 +22,7 @@ struct StoredMapsOptions {
   std::function<std::string(const MapSnapshot&)> encode_metadata;
   std::function<Result<MapSnapshot>(const std::string&)> decode_metadata;
   /// The planning map of a model loaded from the store, with the version's keep-out zones.
-  std::function<std::shared_ptr<const PlanningMap>(std::shared_ptr<const TerrainModel>,
-                                                   std::vector<Prism>)>
-      make_planning;
+  PlanningMaker make_planning;
   /// The bytes the loaded versions may take (MapCache::Allowance); empty: no bound.
   MapCache::Allowance allowance;
 };

@@ -153,7 +153,7 @@ TEST_F(SavedModel, SavesAtomicallyAndLoadsFromAFile) {
   EXPECT_EQ(SerializeModel(**loaded), bytes());
   const Status unwritable = SaveModel(model(), (dir / "missing" / "x.stratamodel").string());
   ASSERT_FALSE(unwritable.ok());
-  EXPECT_THAT(unwritable.error().message, HasSubstr("cannot save the model"));
+  EXPECT_THAT(unwritable.error().message, HasSubstr("cannot write the saved model"));
   EXPECT_THAT(unwritable.error().message, HasSubstr("No such file or directory"));
   // A rename that fails names its own reason (a clean-up after it once said "Success").
   const std::filesystem::path taken = dir / "taken.stratamodel";

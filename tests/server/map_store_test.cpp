@@ -7,10 +7,12 @@
 
 #include <atomic>
 #include <cmath>
+#include <condition_variable>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <latch>
+#include <mutex>
 #include <random>
 #include <set>
 #include <string>
@@ -20,8 +22,11 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "maps/stored_graphs.hpp"
 #include "strata/io/cloud_io.hpp"
+#include "strata/io/saved_graph.hpp"
 #include "strata/io/saved_model.hpp"
+#include "strata/planner.hpp"
 #include "strata/scenes/basic_scenes.hpp"
 
 namespace strata::server {
@@ -650,6 +655,128 @@ TEST_F(MapStoreTest, CollectsOnlyStaleLeftovers) {
   EXPECT_EQ(store_->CollectGarbage(), 1);
   EXPECT_FALSE(fs::exists(terrains / orphan));
   EXPECT_TRUE(fs::exists(terrains / kept));
+}
+
+TEST_F(MapStoreTest, GraphsAreKeptBesideTheirTerrainAndGoWithIt) {
+  const std::string first = Create("g", cloud());
+  const auto built = SurfaceGraph::Build(model(), TraversabilityParams{});
+  ASSERT_TRUE(built.ok()) << built.error().message;
+  const SurfaceGraph& graph = *built;
+  TraversabilityParams other;
+  other.body_height_m = 0.4;
+  EXPECT_FALSE(store_->LoadGraph("g", first, model(), TraversabilityParams{})->has_value());
+
+  ASSERT_TRUE(store_->PutGraph("g", first, graph).ok());
+  ASSERT_TRUE(store_->PutGraph("g", first, graph).ok());  // Again: over the first, by rename.
+  const fs::path graphs = root_ / "maps" / "g" / "graphs" / first;
+  ASSERT_EQ(Entries(graphs).size(), 1u);
+  EXPECT_THAT(Entries(root_ / "tmp"), IsEmpty());
+  const auto loaded = store_->LoadGraph("g", first, model(), TraversabilityParams{});
+  ASSERT_TRUE(loaded.ok()) << Why(loaded);
+  ASSERT_TRUE(loaded->has_value());
+  EXPECT_EQ(SerializeGraph(**loaded), SerializeGraph(graph));
+  EXPECT_FALSE(store_->LoadGraph("g", first, model(), other)->has_value());  // Another robot's.
+
+  // A damaged file: refused naming it (the caller builds the graph and puts it again).
+  const fs::path file = Entries(graphs).front();
+  std::ofstream(file, std::ios::binary | std::ios::trunc) << "STRATAGR damaged";
+  const auto damaged = store_->LoadGraph("g", first, model(), TraversabilityParams{});
+  ASSERT_TRUE(Fails(damaged, ServiceErrorCode::kMapCorrupted)) << Why(damaged);
+  EXPECT_THAT(damaged.error().message, HasSubstr(file.string()));
+  ASSERT_TRUE(store_->PutGraph("g", first, graph).ok());
+  EXPECT_TRUE(store_->LoadGraph("g", first, model(), TraversabilityParams{})->has_value());
+
+  EXPECT_TRUE(Fails(store_->PutGraph("../g", first, graph), ErrorCode::kInvalidInput));
+  EXPECT_TRUE(Fails(store_->LoadGraph("g", "../" + first, model(), TraversabilityParams{}),
+                    ErrorCode::kInvalidInput));
+
+  // The terrain pruned: its graphs go with it.
+  const std::string second = Put(*store_, "g", Variant(1));
+  ASSERT_TRUE(store_->PutGraph("g", second, graph).ok());
+  ASSERT_TRUE(store_->PublishUpdate("g", first, second, 1).ok());
+  store_->WaitForRemovals();
+  EXPECT_FALSE(fs::exists(graphs));
+  EXPECT_TRUE(fs::exists(root_ / "maps" / "g" / "graphs" / second));
+
+  // Graphs of a terrain no version names (kept while a lost race discarded it): a leftover,
+  // removed once stale, like an unnamed terrain.
+  const std::string lost = VersionOf(Variant(2));
+  ASSERT_TRUE(store_->PutGraph("g", lost, graph).ok());
+  EXPECT_EQ(store_->CollectGarbage(), 0);
+  MakeStale(root_ / "maps" / "g" / "graphs" / lost);
+  MakeStale(root_ / "maps" / "g" / "graphs" / second);  // Its terrain is named: stays.
+  EXPECT_EQ(store_->CollectGarbage(), 1);
+  EXPECT_FALSE(fs::exists(root_ / "maps" / "g" / "graphs" / lost));
+  EXPECT_TRUE(fs::exists(root_ / "maps" / "g" / "graphs" / second));
+}
+
+TEST_F(MapStoreTest, AGraphOneReplicaBuiltIsLoadedByAnotherInsteadOfBuilt) {
+  const std::string terrain = Create("shared", cloud());
+  auto other_store = MapStore::Open(root_);  // Another replica's view of the same volume.
+  ASSERT_TRUE(other_store.ok()) << Why(other_store);
+  std::shared_ptr<MapStore> here(std::move(store_));
+  std::shared_ptr<MapStore> there(std::move(*other_store));
+  const auto writer = std::make_shared<GraphWriter>();
+  const auto model_here = std::make_shared<const TerrainModel>(model());
+  const PlanningMap first(model_here, {}, 0,
+                          std::make_shared<StoredGraphs>(here, writer, "shared", terrain));
+  const auto built = first.Graph(TraversabilityParams{});
+  ASSERT_TRUE(built.ok()) << built.error().message;
+  writer->WaitIdle();  // Kept in the background: no plan waits for the write.
+  ASSERT_EQ(Entries(root_ / "maps" / "shared" / "graphs" / terrain).size(), 1u);
+
+  // The other replica's map of the same terrain finds it there.
+  const auto model_there = std::make_shared<const TerrainModel>(model());
+  const auto found =
+      StoredGraphs(there, writer, "shared", terrain).Find(*model_there, TraversabilityParams{});
+  ASSERT_TRUE(found.has_value());
+  EXPECT_EQ(SerializeGraph(*found), SerializeGraph(**built));
+  // A damaged one is not found (the map builds the graph and keeps it again).
+  std::ofstream(Entries(root_ / "maps" / "shared" / "graphs" / terrain).front(),
+                std::ios::binary | std::ios::trunc)
+      << "x";
+  const PlanningMap second(model_there, {}, 0,
+                           std::make_shared<StoredGraphs>(there, writer, "shared", terrain));
+  ASSERT_TRUE(second.Graph(TraversabilityParams{}).ok());
+  writer->WaitIdle();
+  EXPECT_TRUE(
+      there->LoadGraph("shared", terrain, *model_there, TraversabilityParams{})->has_value());
+  store_ = std::unique_ptr<MapStore>();  // TearDown resets it.
+}
+
+TEST(GraphWriterTest, RunsWritesInOrderAndRefusesPastItsQueue) {
+  GraphWriter writer;
+  std::mutex mutex;
+  std::condition_variable changed;
+  bool release = false;
+  std::vector<int> order;
+  // The first write holds the thread until released: the queue fills behind it.
+  ASSERT_TRUE(writer.Enqueue([&] {
+    std::unique_lock lock(mutex);
+    changed.wait(lock, [&] { return release; });
+    order.push_back(0);
+  }));
+  int queued = 0;
+  for (int k = 1; k <= static_cast<int>(kMaxGraphWritesWaiting) + 3; ++k) {
+    queued += writer.Enqueue([&order, &mutex, k] {
+      std::lock_guard lock(mutex);
+      order.push_back(k);
+    })
+                  ? 1
+                  : 0;
+  }
+  // The first may not have started yet (then it waits too): at most the queue's size wait.
+  EXPECT_GE(queued, static_cast<int>(kMaxGraphWritesWaiting) - 1);
+  EXPECT_LE(queued, static_cast<int>(kMaxGraphWritesWaiting));
+  {
+    std::lock_guard lock(mutex);
+    release = true;
+  }
+  changed.notify_all();
+  writer.WaitIdle();
+  std::lock_guard lock(mutex);
+  ASSERT_EQ(static_cast<int>(order.size()), queued + 1);
+  for (int k = 0; k <= queued; ++k) EXPECT_EQ(order[static_cast<std::size_t>(k)], k);
 }
 
 }  // namespace

@@ -62,7 +62,8 @@ class PublishedMapsTest : public ::testing::TestWithParam<bool> {
       return metadata_.at(key);
     };
     options.make_planning = [](std::shared_ptr<const TerrainModel> model,
-                               std::vector<Prism> keep_out) {
+                               std::vector<Prism> keep_out, const std::string&,
+                               const std::string&) {
       return std::make_shared<PlanningMap>(std::move(model), std::move(keep_out), 0);
     };
     published_ = std::make_unique<StoredMaps>(std::move(options));

@@ -16,6 +16,7 @@
 #include <Eigen/Core>
 
 #include "strata/assessment/terrain_model.hpp"
+#include "strata/planning/graph_archive.hpp"
 #include "strata/planning/keep_out.hpp"
 #include "strata/planning/path_search.hpp"
 #include "strata/planning/robot_profile.hpp"
@@ -39,18 +40,21 @@ class PlanningMap {
   /// bound): past it, the least recently used graphs no plan holds are dropped (and built
   /// again when asked for), the one just asked for always kept. Every robot profile, inline
   /// ones from any client included, has its own graph, so an unbounded cache would grow
-  /// with the profiles clients make up.
+  /// with the profiles clients make up. `archive` (may be null): where a graph is looked for
+  /// before it is built, and kept once built.
   explicit PlanningMap(std::shared_ptr<const TerrainModel> model, std::vector<Prism> keep_out = {},
-                       std::size_t max_graph_bytes = 0);
+                       std::size_t max_graph_bytes = 0,
+                       std::shared_ptr<const GraphArchive> archive = nullptr);
   const TerrainModel& model() const { return *model_; }
   const std::shared_ptr<const TerrainModel>& model_ptr() const { return model_; }
   /// The map's keep-out zones, as given.
   const std::vector<Prism>& keep_out() const { return keep_out_; }
   /// A planning map of the same model with `keep_out` instead of these zones, holding the
-  /// graphs built here (zones are not part of them) under the same bound: a map whose zones
-  /// change plans at once, without building its graphs again.
+  /// graphs built here (zones are not part of them) under the same bound and archive: a map
+  /// whose zones change plans at once, without building its graphs again.
   std::shared_ptr<const PlanningMap> WithKeepOut(std::vector<Prism> keep_out) const;
-  /// The graph for `params`, built on first use (the first caller for these params builds,
+  /// The graph for `params`, found in the archive or built on first use (and then kept in
+  /// the archive) (the first caller for these params builds,
   /// later ones for the same params wait; other params and MemoryBytes never wait for it)
   /// and kept while max_graph_bytes allows. Fails as SurfaceGraph::Build does (a failure is
   /// not kept: the next call tries again). `should_stop` (may be empty) stops the build this
@@ -79,6 +83,7 @@ class PlanningMap {
   std::shared_ptr<const TerrainModel> model_;
   std::vector<Prism> keep_out_;
   const std::size_t max_graph_bytes_;
+  const std::shared_ptr<const GraphArchive> archive_;
   mutable std::mutex mutex_;  // Guards the two below, never held while a graph builds.
   // Keyed by the whole TraversabilityParams (its operator<=>): a field added there is part of
   // the key. Only valid params enter, so no NaN breaks the ordering.

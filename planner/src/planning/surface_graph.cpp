@@ -19,13 +19,9 @@ constexpr int kNodesPerPoll = 4096;
 
 Error Cancelled() { return Error{ErrorCode::kCancelled, "building the surface graph was stopped"}; }
 
-}  // namespace
-
-Expected<SurfaceGraph> SurfaceGraph::Build(const TerrainModel& model,
-                                           const TraversabilityParams& params,
-                                           const std::function<bool()>& should_stop) {
-  const auto stopped = [&should_stop] { return should_stop && should_stop(); };
-  if (Status s = params.Validate(); !s.ok()) return s.error();
+// kInvalidConfig when `params` are invalid or steeper than the map's ground filter allows.
+Status CheckParams(const TerrainModel& model, const TraversabilityParams& params) {
+  if (Status s = params.Validate(); !s.ok()) return s;
   const double map_tilt = model.config().ground.max_tilt_rad;
   if (params.max_tilt_rad > map_tilt) {
     return Error{ErrorCode::kInvalidConfig,
@@ -35,22 +31,28 @@ Expected<SurfaceGraph> SurfaceGraph::Build(const TerrainModel& model,
                              params.max_tilt_rad, map_tilt),
                  "traversability.max_tilt_rad"};
   }
+  return Status::Ok();
+}
 
-  SurfaceGraph graph;
-  graph.model_ = &model;
-  graph.params_ = params;
+}  // namespace
+
+SurfaceGraph::SurfaceGraph(const TerrainModel& model, const TraversabilityParams& params)
+    : model_(&model), params_(params) {
   const double slope = std::tan(params.max_tilt_rad) * model.grid().resolution_m;
-  graph.step_limit_axis_ = static_cast<float>(params.max_step_m + slope);
-  graph.step_limit_diagonal_ = static_cast<float>(params.max_step_m + std::sqrt(2.0) * slope);
+  step_limit_axis_ = static_cast<float>(params.max_step_m + slope);
+  step_limit_diagonal_ = static_cast<float>(params.max_step_m + std::sqrt(2.0) * slope);
+}
+
+bool SurfaceGraph::CollectNodes(const std::function<bool()>& stopped, bool measure_clearance) {
+  const TerrainModel& model = *model_;
   const GridGeometry& g = model.grid();
   const SurfaceMap& surfaces = model.surfaces();
   const std::int64_t columns = g.LayerCellCount();
-  graph.column_begin_.assign(static_cast<std::size_t>(columns) + 1, 0);
+  column_begin_.assign(static_cast<std::size_t>(columns) + 1, 0);
   const double z_min = g.origin_m.z();
   const double z_max = z_min + g.size.z() * g.resolution_m;
-
   for (int iy = 0; iy < g.size.y(); ++iy) {
-    if (stopped()) return Cancelled();
+    if (stopped()) return false;
     for (int ix = 0; ix < g.size.x(); ++ix) {
       const std::span<const ColumnSurface> column = surfaces.Column(ix, iy);
       int level = 0;
@@ -58,22 +60,81 @@ Expected<SurfaceGraph> SurfaceGraph::Build(const TerrainModel& model,
         const ColumnSurface& s = column[k];
         if (!s.valid) continue;
         const int this_level = level++;
-        const double reference_z = s.ground_z_m + params.reference_height_m;
-        if (s.tilt_rad > params.max_tilt_rad || s.clearance_m < params.body_height_m ||
+        const double reference_z = s.ground_z_m + params_.reference_height_m;
+        if (s.tilt_rad > params_.max_tilt_rad || s.clearance_m < params_.body_height_m ||
             reference_z < z_min || reference_z >= z_max) {
           continue;
         }
         const Eigen::Vector3d p(g.origin_m.x() + (ix + 0.5) * g.resolution_m,
                                 g.origin_m.y() + (iy + 0.5) * g.resolution_m, reference_z);
-        graph.column_nodes_.push_back(static_cast<std::int32_t>(graph.nodes_.size()));
-        graph.nodes_.push_back(
-            Node{ix, iy, static_cast<std::int16_t>(k), static_cast<std::int16_t>(this_level),
-                 static_cast<float>(reference_z), static_cast<float>(model.Distance(p))});
+        column_nodes_.push_back(static_cast<std::int32_t>(nodes_.size()));
+        nodes_.push_back(Node{ix, iy, static_cast<std::int16_t>(k),
+                              static_cast<std::int16_t>(this_level),
+                              static_cast<float>(reference_z),
+                              measure_clearance ? static_cast<float>(model.Distance(p)) : 0.0f});
       }
-      graph.column_begin_[ix + std::int64_t{g.size.x()} * iy + 1] =
-          static_cast<std::uint32_t>(graph.column_nodes_.size());
+      column_begin_[ix + std::int64_t{g.size.x()} * iy + 1] =
+          static_cast<std::uint32_t>(column_nodes_.size());
     }
   }
+  return true;
+}
+
+Expected<SurfaceGraph> SurfaceGraph::FromParts(const TerrainModel& model, Parts parts) {
+  if (Status s = CheckParams(model, parts.params); !s.ok()) return s.error();
+  SurfaceGraph graph(model, parts.params);
+  graph.CollectNodes([] { return false; }, /*measure_clearance=*/false);
+  const std::size_t n = graph.nodes_.size();
+  const auto fail = [](const std::string& what) {
+    return Error{ErrorCode::kMapLoadFailed, "the graph does not fit the model: " + what};
+  };
+  if (parts.clearance_m.size() != n || parts.components.size() != n ||
+      parts.edge_distance_m.size() != n) {
+    return fail(fmt::format("it has {} nodes where the model and the robot's parameters give {}",
+                            parts.clearance_m.size(), n));
+  }
+  if (parts.component_count < 0 || static_cast<std::size_t>(parts.component_count) > n) {
+    return fail(fmt::format("{} components for {} nodes", parts.component_count, n));
+  }
+  if (parts.landmark_count < 0 || parts.landmark_count > kMaxLandmarks ||
+      parts.landmark_distance.size() != n * static_cast<std::size_t>(parts.landmark_count)) {
+    return fail(fmt::format("{} landmarks with {} distances for {} nodes", parts.landmark_count,
+                            parts.landmark_distance.size(), n));
+  }
+  if (!std::isfinite(parts.open_ground_clearance_m)) return fail("a non-finite clearance");
+  for (std::size_t k = 0; k < n; ++k) {
+    if (parts.components[k] < 0 || parts.components[k] >= parts.component_count) {
+      return fail(fmt::format("node {} has component {} of {}", k, parts.components[k],
+                              parts.component_count));
+    }
+    if (!std::isfinite(parts.clearance_m[k]) || !std::isfinite(parts.edge_distance_m[k]) ||
+        parts.edge_distance_m[k] < 0) {
+      return fail(fmt::format("node {} has a clearance or rim distance out of range", k));
+    }
+    graph.nodes_[k].clearance_m = parts.clearance_m[k];
+  }
+  for (const float d : parts.landmark_distance) {
+    if (std::isnan(d) || d < 0) return fail("a landmark distance out of range");
+  }
+  graph.components_ = std::move(parts.components);
+  graph.component_count_ = parts.component_count;
+  graph.edge_distance_ = std::move(parts.edge_distance_m);
+  graph.open_ground_clearance_m_ = parts.open_ground_clearance_m;
+  graph.landmark_count_ = parts.landmark_count;
+  graph.landmark_distance_ = std::move(parts.landmark_distance);
+  graph.nodes_.shrink_to_fit();
+  graph.column_nodes_.shrink_to_fit();
+  return graph;
+}
+
+Expected<SurfaceGraph> SurfaceGraph::Build(const TerrainModel& model,
+                                           const TraversabilityParams& params,
+                                           const std::function<bool()>& should_stop) {
+  const auto stopped = [&should_stop] { return should_stop && should_stop(); };
+  if (Status s = CheckParams(model, params); !s.ok()) return s.error();
+
+  SurfaceGraph graph(model, params);
+  if (!graph.CollectNodes(stopped, /*measure_clearance=*/true)) return Cancelled();
 
   // Component labels by breadth-first search; the queue is the label array's visit order.
   // The same pass finds the rim: the nodes missing one of their 8 neighbours.

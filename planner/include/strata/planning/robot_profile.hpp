@@ -13,9 +13,11 @@
 /// with the parameters the message gives. This keeps a map's memory bounded and its meaning
 /// fixed; the server shows the parameters each map was assessed with.
 #include <compare>
+#include <concepts>
 #include <numbers>
 #include <string>
 #include <string_view>
+#include <type_traits>
 #include <vector>
 
 #include <Eigen/Core>
@@ -123,6 +125,20 @@ struct TraversabilityParams {
   // clang-tidy 14 mistakes the 0 a defaulted <=> compares with for a null pointer.
   auto operator<=>(const TraversabilityParams&) const = default;  // NOLINT(modernize-use-nullptr)
 };
+
+/// Calls visit(name, field) for every field of `params` (TraversabilityParams or const
+/// TraversabilityParams): the one list of them that whatever stores them all follows (a saved
+/// graph, the name of its file in a map store).
+template <typename Params, typename Visit>
+requires std::same_as<std::remove_const_t<Params>, TraversabilityParams>
+void ForEachField(Params& params, Visit&& visit) {
+  visit("reference_height_m", params.reference_height_m);
+  visit("body_height_m", params.body_height_m);
+  visit("max_tilt_rad", params.max_tilt_rad);
+  visit("max_step_m", params.max_step_m);
+}
+static_assert(sizeof(TraversabilityParams) == 4 * sizeof(double),
+              "a field added to TraversabilityParams belongs in its ForEachField");
 
 /// Names of the built-in profiles, for help texts: "differential", "biped".
 std::vector<std::string> BuiltinProfileNames();

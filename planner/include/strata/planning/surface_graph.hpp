@@ -70,12 +70,51 @@ struct MoveCostTerms {
 /// Connected components are labelled at build, so reachability is an O(1) query.
 class SurfaceGraph {
  public:
+  /// One node: a traversable surface of a column.
+  struct Node {
+    std::int32_t ix, iy;
+    std::int16_t surface_index;  ///< Index in SurfaceMap::Column(ix, iy).
+    std::int16_t level;          ///< Among the column's valid surfaces, 0 = lowest.
+    float reference_z_m;
+    float clearance_m;
+  };
+
   /// Builds the graph; it keeps a reference to `model`, which must outlive it. Fails with
   /// kInvalidConfig naming the bad field of `params`, or when params.max_tilt_rad exceeds the map's
   /// ground filter θ (naming both values); with kCancelled when `should_stop` (may be empty,
   /// polled every grid row and every few thousand nodes: milliseconds apart) returns true.
   static Expected<SurfaceGraph> Build(const TerrainModel& model, const TraversabilityParams& params,
                                       const std::function<bool()>& should_stop = {});
+
+  /// What a graph holds beyond what the model and the params give: the nodes themselves follow
+  /// from those (the class comment says which surfaces are nodes, in which order), their
+  /// measurements and labels do not. A saved graph (strata/io/saved_graph.hpp) stores these.
+  struct Parts {
+    TraversabilityParams params;
+    std::vector<float> clearance_m;        ///< Per node: clearance(node).
+    std::vector<std::int32_t> components;  ///< Per node: component(node).
+    int component_count = 0;
+    std::vector<float> edge_distance_m;  ///< Per node: edge_distance(node).
+    double open_ground_clearance_m = 0;
+    int landmark_count = 0;
+    std::vector<float> landmark_distance;  ///< Node-major: landmark_count per node.
+  };
+  /// The graph of `model` for parts.params with the measurements of `parts` (which
+  /// `model` must outlive), without building: the nodes are found again from the model
+  /// (one pass over its columns, no field lookups), the rest is taken as given. Fails with
+  /// kInvalidConfig as Build does for bad params, and with kMapLoadFailed when `parts` do not
+  /// fit the nodes: another node count (parts of another model or other params), a component
+  /// label out of range, a distance that is NaN or negative. What it cannot tell is whether
+  /// the values are the ones Build measures: that is the saved graph's checksum's and its
+  /// name's job (a graph is saved beside the model it was built on).
+  static Expected<SurfaceGraph> FromParts(const TerrainModel& model, Parts parts);
+
+  /// Per node, in node order: clearance, component, rim distance; and the landmark distances
+  /// (node-major). What Parts holds, read in place (a saved graph writes them from here).
+  std::span<const Node> nodes() const { return nodes_; }
+  std::span<const std::int32_t> components() const { return components_; }
+  std::span<const float> edge_distances() const { return edge_distance_; }
+  std::span<const float> landmark_distances() const { return landmark_distance_; }
 
   const TerrainModel& model() const { return *model_; }
   const TraversabilityParams& params() const { return params_; }
@@ -241,15 +280,10 @@ class SurfaceGraph {
   }
 
  private:
-  struct Node {
-    std::int32_t ix, iy;
-    std::int16_t surface_index;  // Index in SurfaceMap::Column(ix, iy).
-    std::int16_t level;          // Among the column's valid surfaces, 0 = lowest.
-    float reference_z_m;
-    float clearance_m;
-  };
-
-  SurfaceGraph() = default;
+  SurfaceGraph(const TerrainModel& model, const TraversabilityParams& params);
+  // Finds the nodes of model_ for params_ (nodes_, column_begin_, column_nodes_), each with
+  // its clearance measured or 0; false when `stopped` fired.
+  bool CollectNodes(const std::function<bool()>& stopped, bool measure_clearance);
   // Chooses landmarks and fills landmark_distance_ (surface_graph_landmarks.cpp); false when
   // should_stop fired.
   bool ComputeLandmarks(const std::function<bool()>& should_stop);

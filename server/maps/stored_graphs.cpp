@@ -1,0 +1,111 @@
+#include "maps/stored_graphs.hpp"
+
+#include <chrono>
+#include <utility>
+
+#include "common/log.hpp"
+
+namespace strata::server {
+namespace {
+
+double SecondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+}  // namespace
+
+GraphWriter::GraphWriter() : thread_([this] { Run(); }) {}
+
+GraphWriter::~GraphWriter() {
+  {
+    std::lock_guard lock(mutex_);
+    stopping_ = true;
+    waiting_.clear();
+  }
+  changed_.notify_all();
+  thread_.join();
+}
+
+bool GraphWriter::Enqueue(std::function<void()> write) {
+  {
+    std::lock_guard lock(mutex_);
+    if (stopping_ || waiting_.size() >= kMaxGraphWritesWaiting) return false;
+    waiting_.push_back(std::move(write));
+  }
+  changed_.notify_all();
+  return true;
+}
+
+void GraphWriter::WaitIdle() {
+  std::unique_lock lock(mutex_);
+  changed_.wait(lock, [this] { return stopping_ || (waiting_.empty() && !writing_); });
+}
+
+void GraphWriter::Run() {
+  std::unique_lock lock(mutex_);
+  while (true) {
+    changed_.wait(lock, [this] { return stopping_ || !waiting_.empty(); });
+    if (stopping_) return;
+    std::function<void()> write = std::move(waiting_.front());
+    waiting_.pop_front();
+    writing_ = true;
+    lock.unlock();
+    write();
+    write = nullptr;  // Lets go of the model and the graph before anyone is told.
+    lock.lock();
+    writing_ = false;
+    changed_.notify_all();
+  }
+}
+
+StoredGraphs::StoredGraphs(std::shared_ptr<MapStore> store, std::shared_ptr<GraphWriter> writer,
+                           std::string id, std::string terrain)
+    : store_(std::move(store)),
+      writer_(std::move(writer)),
+      id_(std::move(id)),
+      terrain_(std::move(terrain)) {}
+
+std::optional<SurfaceGraph> StoredGraphs::Find(const TerrainModel& model,
+                                               const TraversabilityParams& params) const {
+  const auto start = std::chrono::steady_clock::now();
+  Result<std::optional<SurfaceGraph>> kept = store_->LoadGraph(id_, terrain_, model, params);
+  if (!kept.ok()) {
+    LogWarning("graph_not_loaded")
+        .Add("map", id_)
+        .Add("terrain", terrain_)
+        .Add("reason", kept.error().message);
+    return std::nullopt;
+  }
+  if (kept.value().has_value()) {
+    LogInfo("graph_loaded")
+        .Add("map", id_)
+        .Add("terrain", terrain_)
+        .Add("nodes", kept.value()->node_count())
+        .Add("seconds", SecondsSince(start));
+  }
+  return std::move(kept).value();
+}
+
+void StoredGraphs::Keep(std::shared_ptr<const TerrainModel> model,
+                        std::shared_ptr<const SurfaceGraph> graph) const {
+  const bool queued = writer_->Enqueue([store = store_, id = id_, terrain = terrain_,
+                                        model = std::move(model), graph = std::move(graph)] {
+    const auto start = std::chrono::steady_clock::now();
+    if (ServiceStatus put = store->PutGraph(id, terrain, *graph); !put.ok()) {
+      LogWarning("graph_not_kept").Add("map", id).Add("reason", put.error().message);
+      return;
+    }
+    LogInfo("graph_kept")
+        .Add("map", id)
+        .Add("terrain", terrain)
+        .Add("nodes", graph->node_count())
+        .Add("seconds", SecondsSince(start));
+  });
+  if (!queued) {
+    LogWarning("graph_not_kept")
+        .Add("map", id_)
+        .Add("reason", "the graph writer is busy: other replicas build this graph themselves");
+  }
+}
+
+}  // namespace strata::server
