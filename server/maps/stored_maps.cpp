@@ -34,6 +34,11 @@ Result<ActiveMap> StoredMaps::Get(const std::string& id, const std::string& vers
         if (!described.ok()) return std::move(described).error();
         Result<std::string> terrain = options_.store->TerrainOfVersion(id, wanted);
         if (!terrain.ok()) return std::move(terrain).error();
+        // A version of a terrain held here already (keep-out zones changed, perhaps on another
+        // replica): the held map with this version's zones, its model and graphs shared.
+        if (std::shared_ptr<const PlanningMap> same = HeldOfTerrain(id, kept, terrain.value())) {
+          return same->WithKeepOut(described.value().keep_out);
+        }
         Result<std::shared_ptr<const TerrainModel>> model = options_.store->LoadModel(id, wanted);
         if (!model.ok()) return std::move(model).error();
         return options_.make_planning(std::move(model).value(), described.value().keep_out, id,
@@ -41,6 +46,19 @@ Result<ActiveMap> StoredMaps::Get(const std::string& id, const std::string& vers
       });
   if (!map.ok()) return std::move(map).error();
   return ActiveMap{std::move(map).value(), wanted};
+}
+
+std::shared_ptr<const PlanningMap> StoredMaps::HeldOfTerrain(
+    const std::string& id, const std::vector<std::string>& versions,
+    const std::string& terrain) const {
+  if (terrain.empty()) return nullptr;  // Layout 1: each version its own model.
+  for (const std::string& version : versions) {
+    std::shared_ptr<const PlanningMap> held = cache_.Peek(id, version);
+    if (held == nullptr) continue;
+    const Result<std::string> its = options_.store->TerrainOfVersion(id, version);
+    if (its.ok() && its.value() == terrain) return held;
+  }
+  return nullptr;
 }
 
 std::shared_ptr<const PlanningMap> StoredMaps::Held(const std::string& id,

@@ -55,6 +55,10 @@ class StoredMaps final : public PublishedMaps {
   const MapStore& store() const { return *options_.store; }
 
  private:
+  // A planning map of one of `versions` of `id` held here whose terrain is `terrain`, or null.
+  std::shared_ptr<const PlanningMap> HeldOfTerrain(const std::string& id,
+                                                   const std::vector<std::string>& versions,
+                                                   const std::string& terrain) const;
   // The snapshot `metadata` of `id` describes, at `versions.front()`.
   Result<MapSnapshot> SnapshotOf(const std::string& id,
                                  const std::vector<std::string>& versions) const;

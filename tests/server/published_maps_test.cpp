@@ -49,8 +49,12 @@ class PublishedMapsTest : public ::testing::TestWithParam<bool> {
     root_ = fs::temp_directory_path() / ("strata_published_maps_test_" +
                                          std::to_string(::getpid()) + "_" + std::to_string(next++));
     fs::remove_all(root_);
+    published_ = std::make_unique<StoredMaps>(Options());
+  }
+  // A store's maps over root_, sharing the metadata the fixture keeps.
+  StoredMapsOptions Options() {
     StoredMapsOptions options;
-    options.store = std::move(MapStore::Open(root_).value());
+    options.store = std::move(MapStore::Open(root_).value());  // Each its own, as replicas.
     options.encode_metadata = [this](const MapSnapshot& map) {
       std::lock_guard lock(mutex_);
       const std::string key = "m" + std::to_string(metadata_.size());
@@ -66,7 +70,7 @@ class PublishedMapsTest : public ::testing::TestWithParam<bool> {
                                const std::string&) {
       return std::make_shared<PlanningMap>(std::move(model), std::move(keep_out), 0);
     };
-    published_ = std::make_unique<StoredMaps>(std::move(options));
+    return options;
   }
   void TearDown() override {
     published_.reset();
@@ -184,6 +188,22 @@ TEST_P(PublishedMapsTest, OnlyAStoreKeepsWhatEditsNeed) {
   const ActiveMap reloaded = published_->Get("floor", zoned.version).value();
   EXPECT_EQ(reloaded.map->keep_out().size(), 1u);
   EXPECT_EQ(reloaded.map->model().summary().input_points, cloud.size());
+
+  // Another replica's zones on a terrain this one holds: the new version is the held map with
+  // the zones (its model and graphs shared), not a second load of the same model.
+  ASSERT_TRUE(reloaded.map->Graph(TraversabilityParams{}).ok());
+  StoredMaps elsewhere(Options());
+  MapSnapshot rezoned = published_->Describe("floor").value();
+  rezoned.version = std::string(32, 'e');
+  rezoned.keep_out.clear();
+  const std::shared_ptr<const PlanningMap> theirs = elsewhere.Get("floor", "").value().map;
+  ASSERT_TRUE(
+      elsewhere.PublishEdit(zoned.version, rezoned, kV2, theirs->WithKeepOut({}), nullptr).ok());
+  const ActiveMap seen_here = published_->Get("floor", "").value();
+  EXPECT_EQ(seen_here.version, rezoned.version);
+  EXPECT_TRUE(seen_here.map->keep_out().empty());
+  EXPECT_EQ(seen_here.map->model_ptr(), reloaded.map->model_ptr());
+  EXPECT_EQ(seen_here.map->GraphCount(), 1u);
 }
 
 INSTANTIATE_TEST_SUITE_P(MemoryAndStore, PublishedMapsTest, ::testing::Bool(),

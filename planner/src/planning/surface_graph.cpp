@@ -83,6 +83,10 @@ bool SurfaceGraph::CollectNodes(const std::function<bool()>& stopped, bool measu
 Expected<SurfaceGraph> SurfaceGraph::FromParts(const TerrainModel& model, Parts parts) {
   if (Status s = CheckParams(model, parts.params); !s.ok()) return s.error();
   SurfaceGraph graph(model, parts.params);
+  // The parts' size is what a right graph has (their arrays came from a file of that size):
+  // reserved, the node arrays grow without copies.
+  graph.nodes_.reserve(parts.clearance_m.size());
+  graph.column_nodes_.reserve(parts.clearance_m.size());
   graph.CollectNodes([] { return false; }, /*measure_clearance=*/false);
   const std::size_t n = graph.nodes_.size();
   const auto fail = [](const std::string& what) {
