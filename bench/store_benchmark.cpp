@@ -6,7 +6,9 @@
 // maps are planned on in turn under a budget. Not part of the test path.
 //
 //   build/bench/store_benchmark MAP [--resolution M] [--runs N] [--churn-maps N]
-//       [--soak-s S [--soak-rate HZ] [--soak-planners N]]
+//       [--soak-s S [--soak-rate HZ] [--soak-planners N]] [--etcd HOST:PORT]
+//   With --etcd (bench/store_etcd.sh starts a throwaway one) the maps' heads live there, as
+//   with strata-server --etcd, and the second replica learns of each edit through its watch.
 //       MAP: a cloud file, or scene:NAME[:SEED][:size_m=M] (as strata-offline takes)
 #include <unistd.h>
 
@@ -27,6 +29,8 @@
 
 #include "maps/map_registry.hpp"
 #include "rpc/proto_convert.hpp"
+#include "shared/etcd_client.hpp"
+#include "shared/etcd_map_heads.hpp"
 #include "statistics.hpp"
 #include "strata/scenes/map_source.hpp"
 
@@ -50,6 +54,40 @@ RegistryOptions StoreOptions(const std::shared_ptr<MapStore>& store, std::uint64
   options.decode_metadata = DecodeMapMetadata;
   options.load_limits.max_points = 200'000'000;
   return options;
+}
+
+// One replica's view of the store: its own etcd connection and heads when `etcd` is set.
+struct ReplicaStore {
+  std::unique_ptr<EtcdClient> client;
+  std::shared_ptr<EtcdMapHeads> heads;
+  std::shared_ptr<MapStore> store;
+};
+
+ReplicaStore OpenReplicaStore(const std::filesystem::path& root, const std::string& etcd,
+                              const std::string& prefix) {
+  ReplicaStore replica;
+  if (!etcd.empty()) {
+    EtcdOptions options;
+    options.endpoints = {etcd};
+    Result<std::unique_ptr<EtcdClient>> client = EtcdClient::Create(options);
+    if (!client.ok()) {
+      std::fprintf(stderr, "%s\n", client.error().message.c_str());
+      std::exit(1);
+    }
+    replica.client = std::move(client).value();
+    replica.heads = std::make_shared<EtcdMapHeads>(replica.client.get(), prefix);
+    if (!replica.heads->WaitUntilRead(std::chrono::seconds(10))) {
+      std::fprintf(stderr, "etcd at %s did not answer\n", etcd.c_str());
+      std::exit(1);
+    }
+  }
+  Result<std::unique_ptr<MapStore>> opened = MapStore::Open(root, replica.heads);
+  if (!opened.ok()) {
+    std::fprintf(stderr, "%s\n", opened.error().message.c_str());
+    std::exit(1);
+  }
+  replica.store = std::move(opened).value();
+  return replica;
 }
 
 server::MapSource SourceOf(const std::string& map) {
@@ -141,6 +179,8 @@ int main(int argc, char** argv) {
                  "seconds of planning without scans, then as long with scans; 0 skips");
   app.add_option("--soak-rate", soak_rate, "scans per second sent during the soak");
   app.add_option("--soak-planners", soak_planners, "clients planning during the soak");
+  std::string etcd;
+  app.add_option("--etcd", etcd, "host:port of a running etcd for the maps' heads");
   CLI11_PARSE(app, argc, argv);
 
   AssessmentConfig config;
@@ -148,12 +188,10 @@ int main(int argc, char** argv) {
   const std::filesystem::path root =
       std::filesystem::temp_directory_path() / ("strata-store-bench-" + std::to_string(getpid()));
   std::filesystem::remove_all(root);
-  Result<std::unique_ptr<MapStore>> opened = MapStore::Open(root);
-  if (!opened.ok()) {
-    std::fprintf(stderr, "%s\n", opened.error().message.c_str());
-    return 1;
-  }
-  const std::shared_ptr<MapStore> store = std::move(opened).value();
+  const std::string prefix = "/strata-store-bench-" + std::to_string(getpid());
+  ReplicaStore here = OpenReplicaStore(root, etcd, prefix);
+  ReplicaStore there = OpenReplicaStore(root, etcd, prefix);  // The second replica's.
+  const std::shared_ptr<MapStore> store = here.store;
 
   // 1. Created on one registry: loaded, assessed, written to the store.
   std::printf("map %s, store %s\n", map.c_str(), root.c_str());
@@ -305,7 +343,7 @@ int main(int argc, char** argv) {
     // Another replica (a registry of its own on the same store) on which the robot planned too:
     // its first plan on each new version loads the version, and its graph from the store when
     // the editing replica has written it by then (else it builds it).
-    MapRegistry elsewhere(StoreOptions(store, 0));
+    MapRegistry elsewhere(StoreOptions(there.store, 0));
     const auto plan_elsewhere = [&](double* graph_s) {
       const auto start = Clock::now();
       const Result<ActiveMap> active = elsewhere.GetActive("m");
@@ -322,7 +360,7 @@ int main(int argc, char** argv) {
     double ignored_graph_s = 0;
     (void)plan_elsewhere(&ignored_graph_s);
     for (const Case& edit : cases) {
-      std::vector<double> apply, reassess, write, total, planned, other, other_graph;
+      std::vector<double> apply, reassess, write, total, planned, other, other_graph, seen;
       std::int64_t columns = 0;
       bool full = false;
       for (int run = 0; run < runs; ++run) {
@@ -348,6 +386,15 @@ int main(int argc, char** argv) {
         reassess.push_back(update->edit.reassess_s);
         write.push_back(update->write_s);
         total.push_back(update->total_s);
+        // When the second replica's view of the head (its etcd watch, or the head file) names
+        // the new version, counted from the call's end.
+        const auto published = Clock::now();
+        const auto seen_there = [&] {
+          const Result<std::string> current = there.store->Current("m");
+          return current.ok() && current.value() == update->map.version;
+        };
+        while (!seen_there() && SecondsSince(published) < 10) std::this_thread::yield();
+        seen.push_back(SecondsSince(published));
         planned.push_back(plan_after());
         double graph_s = 0;
         other.push_back(plan_elsewhere(&graph_s));
@@ -357,11 +404,11 @@ int main(int argc, char** argv) {
       }
       std::printf(
           "edit %-17s median apply %.3f s, reassess %.3f s (%lld columns%s), write "
-          "%.3f s, total %.3f s; the next plan %.3f s; another replica's first plan on it "
-          "%.3f s (its graph %.3f s)\n",
+          "%.3f s, total %.3f s; the next plan %.3f s; another replica sees it %.4f s later%s, "
+          "its first plan on it %.3f s (its graph %.3f s)\n",
           edit.name, Median(apply), Median(reassess), static_cast<long long>(columns),
-          full ? ", FULL" : "", Median(write), Median(total), Median(planned), Median(other),
-          Median(other_graph));
+          full ? ", FULL" : "", Median(write), Median(total), Median(planned), Median(seen),
+          etcd.empty() ? " (head file)" : " (etcd watch)", Median(other), Median(other_graph));
     }
 
     // Scans at a steady rate, as robots send them (none waits for the last one's version),
