@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <condition_variable>
 #include <filesystem>
@@ -708,6 +709,48 @@ TEST_F(MapStoreTest, GraphsAreKeptBesideTheirTerrainAndGoWithIt) {
   EXPECT_EQ(store_->CollectGarbage(), 1);
   EXPECT_FALSE(fs::exists(root_ / "maps" / "g" / "graphs" / lost));
   EXPECT_TRUE(fs::exists(root_ / "maps" / "g" / "graphs" / second));
+}
+
+TEST_F(MapStoreTest, AWriterKilledWhileKeepingAGraphLeavesTheKeptOneWhole) {
+  const std::string terrain = Create("g", cloud());
+  const auto built = SurfaceGraph::Build(model(), TraversabilityParams{});
+  ASSERT_TRUE(built.ok()) << built.error().message;
+  ASSERT_TRUE(store_->PutGraph("g", terrain, *built).ok());
+  const std::string kept = SerializeGraph(*built);
+  const fs::path graphs = root_ / "maps" / "g" / "graphs" / terrain;
+  // Another process writes the same graph over and over (as replicas that built it do) and is
+  // killed at an arbitrary moment of that, ten times: each time the kept graph is whole.
+  for (int round = 0; round < 10; ++round) {
+    const pid_t pid = ::fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+      auto store = MapStore::Open(root_);
+      while (store.ok() && (*store)->PutGraph("g", terrain, *built).ok()) {
+      }
+      ::_exit(1);
+    }
+    // Killed 0.5 to 5 ms after it started: a write of this graph takes about that long.
+    const auto until =
+        std::chrono::steady_clock::now() + std::chrono::microseconds(500 * (round + 1));
+    while (std::chrono::steady_clock::now() < until) std::this_thread::yield();
+    ASSERT_EQ(::kill(pid, SIGKILL), 0);
+    int status = 0;
+    ASSERT_EQ(::waitpid(pid, &status, 0), pid);
+    ASSERT_TRUE(WIFSIGNALED(status)) << "the writer stopped by itself";
+    ASSERT_EQ(Entries(graphs).size(), 1u);
+    const auto loaded = store_->LoadGraph("g", terrain, model(), TraversabilityParams{});
+    ASSERT_TRUE(loaded.ok()) << "round " << round << ": " << Why(loaded);
+    ASSERT_TRUE(loaded->has_value());
+    ASSERT_EQ(SerializeGraph(**loaded), kept) << "round " << round;
+  }
+  // What the writers left is temporaries (of a graph, or of Open's probe), removed once stale.
+  for (const fs::path& left : Entries(root_ / "tmp")) {
+    const std::string name = left.filename().string();
+    EXPECT_TRUE(name.starts_with("graph.") || name.starts_with("probe.")) << left;
+    MakeStale(left);
+  }
+  store_->CollectGarbage();
+  EXPECT_THAT(Entries(root_ / "tmp"), IsEmpty());
 }
 
 TEST_F(MapStoreTest, AGraphOneReplicaBuiltIsLoadedByAnotherInsteadOfBuilt) {
