@@ -31,6 +31,13 @@ constexpr std::size_t kMaxBatchUpdates = 64;
 // Most robots' graphs built for a new terrain before it is published (the most recently used
 // ones): each costs about a second on a 400 m site, and a map may hold one per inline profile.
 constexpr std::size_t kMaxGraphsBuiltAhead = 4;
+// Times an edit is published again on versions of keep-out zones alone that won the race.
+constexpr int kMaxRepublishes = 4;
+
+bool IsMapChanged(const ServiceError& error) {
+  const auto* code = std::get_if<ServiceErrorCode>(&error.code);
+  return code != nullptr && *code == ServiceErrorCode::kMapChanged;
+}
 
 // The call's end, when it came before the version was ready: nothing is published. `current`
 // is the version the map stays at; empty when the edit ended while waiting for its batch.
@@ -229,7 +236,7 @@ Result<MapUpdate> MapEditor::UpdateOnce(const MapEditRequest& request, const Cal
   if (!published.KeepsClouds()) return MapStoreRequired(id);
   Result<std::vector<std::string>> versions = published.Versions(id);
   if (!versions.ok()) return std::move(versions).error();
-  const std::string current = versions.value().front();
+  std::string current = versions.value().front();  // The base; moves only with a republish.
   if (!request.base_version.empty() && request.base_version != current) {
     return MakeError(ServiceErrorCode::kMapChanged,
                      "map '" + id + "' is at version " + current + ", not " + request.base_version +
@@ -289,10 +296,23 @@ Result<MapUpdate> MapEditor::UpdateOnce(const MapEditRequest& request, const Cal
   }
   if (std::optional<ServiceError> ended = CallEnded(call, id, current)) return *ended;
 
-  std::vector<Prism> keep_out = request.clear_keep_out ? std::vector<Prism>{} : map.keep_out;
-  keep_out.insert(keep_out.end(), request.add_keep_out.begin(), request.add_keep_out.end());
+  // The version's zones: the request's on top of (or instead of) the current version's, and
+  // its name and kept list; again when the edit is published on another current version.
+  const auto name_version = [&](const std::vector<Prism>& current_zones,
+                                const std::vector<std::string>& kept_versions) {
+    std::vector<Prism> zones = request.clear_keep_out ? std::vector<Prism>{} : current_zones;
+    zones.insert(zones.end(), request.add_keep_out.begin(), request.add_keep_out.end());
+    map.version = MapStore::VersionOf(terrain, zones);
+    map.versions = {map.version};
+    for (const std::string& kept : kept_versions) {
+      if (static_cast<int>(map.versions.size()) == options_.versions_kept) break;
+      if (kept != map.version) map.versions.push_back(kept);
+    }
+    map.keep_out = zones;
+    return zones;
+  };
+  std::vector<Prism> keep_out = name_version(map.keep_out, versions.value());
   const TerrainModel& model = *built.model;
-  map.version = MapStore::VersionOf(terrain, keep_out);
   map.summary = model.summary();
   if (!request.edits.empty()) {
     // The version's source is the edited cloud: raw = dropped + input holds for every version.
@@ -300,13 +320,7 @@ Result<MapUpdate> MapEditor::UpdateOnce(const MapEditRequest& request, const Cal
   }
   map.grid = model.grid();
   map.max_levels = MaxLevels(model);
-  map.keep_out = keep_out;
   map.done_time = std::chrono::system_clock::now();
-  map.versions = {map.version};
-  for (const std::string& kept : versions.value()) {
-    if (static_cast<int>(map.versions.size()) == options_.versions_kept) break;
-    if (kept != map.version) map.versions.push_back(kept);
-  }
   std::shared_ptr<const PlanningMap> planning =
       base_planning ? base_planning->WithKeepOut(std::move(keep_out))
                     : options_.make_planning(built.model, std::move(keep_out), id, terrain);
@@ -332,11 +346,34 @@ Result<MapUpdate> MapEditor::UpdateOnce(const MapEditRequest& request, const Cal
   const auto write_start = SteadyClock::now();
   // The cloud goes to the store only with a terrain it does not hold yet.
   const bool terrain_stored = base_planning != nullptr && built.cloud.empty();
-  if (ServiceStatus put = published.PublishEdit(current, map, terrain, planning,
-                                                terrain_stored ? nullptr : &built.cloud);
-      !put.ok()) {
-    return std::move(put).error();
+  ServiceStatus put = published.PublishEdit(current, map, terrain, planning,
+                                            terrain_stored ? nullptr : &built.cloud);
+  // Lost to a version of keep-out zones alone (its terrain the base's): the terrain made here
+  // holds on it too, so it is published again with that version's zones instead of made again
+  // (which cost a whole job, seconds on a site, for the same terrain).
+  std::string base_terrain;
+  for (int attempt = 0; attempt < kMaxRepublishes && !put.ok() && IsMapChanged(put.error()) &&
+                        request.base_version.empty() && !request.edits.empty();
+       ++attempt) {
+    if (base_terrain.empty()) {
+      Result<std::string> known = published.TerrainOf(id, current);
+      if (!known.ok() || known.value().empty()) break;
+      base_terrain = std::move(known).value();
+    }
+    Result<MapSnapshot> now = published.Describe(id);
+    if (!now.ok()) break;
+    Result<std::string> now_terrain = published.TerrainOf(id, now.value().version);
+    if (!now_terrain.ok() || now_terrain.value() != base_terrain) break;
+    if (std::optional<ServiceError> ended = CallEnded(call, id, current)) return *ended;
+    LogInfo("map_update_republished")
+        .Add("map", id)
+        .Add("lost_to", now.value().version)
+        .Add("attempt", attempt + 1);
+    current = now.value().version;
+    planning = planning->WithKeepOut(name_version(now.value().keep_out, now.value().versions));
+    put = published.PublishEdit(current, map, terrain, planning, &built.cloud);
   }
+  if (!put.ok()) return std::move(put).error();
   MapUpdate update;
   update.write_s = SecondsSince(write_start);
   update.graphs_s = graphs_s;

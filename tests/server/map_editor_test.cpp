@@ -382,6 +382,31 @@ TEST_F(MapEditorTest, TheGraphsOfRobotsThatPlannedAreBuiltBeforeTheVersionIsPubl
 }
 
 // Keep-out zones change no terrain: they take no slot, even while the queue is busy.
+TEST_F(MapEditorTest, AnEditThatLosesToZonesAloneIsPublishedOnThemWithoutBeingMadeAgain) {
+  HeldFirstEdit edits;
+  const std::string before = StartWithFloor(1, edits.builder());
+  std::future<Result<MapUpdate>> obstacle =
+      std::async(std::launch::async, [&] { return registry_->Update(Obstacle(2), CallControl{}); });
+  edits.WaitJobs(1);  // Its job runs (held) on `before`.
+  MapEditRequest zone;
+  zone.id = "floor";
+  zone.add_keep_out.push_back(Obstacle(6).edits.front().region);
+  const Result<MapUpdate> zoned = registry_->Update(zone, CallControl{});
+  edits.Release();  // Before any assertion: a failed one must not leave the job held.
+  const Result<MapUpdate> made = obstacle.get();
+  ASSERT_TRUE(zoned.ok()) << zoned.error().message;
+  ASSERT_TRUE(made.ok()) << made.error().message;
+  // The zone won the race; the obstacle's terrain was published on it with its zone, and its
+  // job ran once.
+  EXPECT_EQ(edits.jobs(), 1);
+  EXPECT_EQ(Current(), made->map.version);
+  EXPECT_EQ(made->map.keep_out.size(), 1u);
+  EXPECT_GT(made->edit.reassessed_columns, 0);
+  EXPECT_THAT(made->map.versions,
+              ::testing::ElementsAre(made->map.version, zoned->map.version, before));
+  EXPECT_EQ(registry_->Get("floor").value().keep_out.size(), 1u);
+}
+
 TEST_F(MapEditorTest, KeepOutZonesAloneWaitForNoSlot) {
   StallingEdits edits;
   const std::string before = StartWithFloor(1, edits.builder());
