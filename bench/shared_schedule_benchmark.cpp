@@ -1,7 +1,7 @@
 // The fleet's schedule shared through etcd (--etcd), measured for docs/benchmarks.md: two
 // replicas in this process, each a ReservationSchedule with its own EtcdClient (its own
 // connection) and EtcdScheduleLedger, as two strata-server processes hold them. Not part of
-// the test path; bench/shared_schedule.sh starts a throwaway etcd and runs it.
+// the test path; bench/with_etcd.sh starts a throwaway etcd and runs it.
 //
 //   build/bench/shared_schedule_benchmark --etcd 127.0.0.1:2379 [--commits 500]
 //       [--robots 40] [--seconds 60] [--speedup 10] [--seed 1]
@@ -332,7 +332,7 @@ int main(int argc, char** argv) {
   double speedup = 10;
   unsigned seed = 1;
   CLI::App app{"The fleet's schedule shared by two replicas through etcd"};
-  app.add_option("--etcd", etcd, "host:port of a running etcd (bench/shared_schedule.sh)")
+  app.add_option("--etcd", etcd, "host:port of a running etcd (bench/with_etcd.sh)")
       ->required();
   app.add_option("--commits", commits, "Commits timed one after another")
       ->check(CLI::Range(1, 100000));

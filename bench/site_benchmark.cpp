@@ -132,6 +132,39 @@ void PrintPlans(const strata::PlanningMap& map, double size_m) {
   }
 }
 
+// What saving a file and reading it back cost.
+struct SavedFile {
+  double save_s = 0;  // The save.
+  double load_s = 0;  // The median of three loads.
+  double mb = 0;      // Its size.
+};
+
+// Saves `path` with `save` (a Status), loads it back three times with `load` (an Expected);
+// exits on a failure.
+template <typename Save, typename Load>
+SavedFile TimeSaveAndLoads(const std::string& path, const Save& save, const Load& load) {
+  SavedFile file;
+  auto start = Clock::now();
+  if (const strata::Status saved = save(); !saved) {
+    std::fprintf(stderr, "%s\n", saved.error().message.c_str());
+    std::exit(1);
+  }
+  file.save_s = SecondsSince(start);
+  file.mb = static_cast<double>(std::filesystem::file_size(path)) / 1e6;
+  std::vector<double> loads;
+  for (int k = 0; k < 3; ++k) {
+    start = Clock::now();
+    const auto loaded = load();
+    loads.push_back(SecondsSince(start));
+    if (!loaded.ok()) {
+      std::fprintf(stderr, "%s\n", loaded.error().message.c_str());
+      std::exit(1);
+    }
+  }
+  file.load_s = strata::bench::Median(loads);
+  return file;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -193,48 +226,20 @@ int main(int argc, char** argv) {
                                            ("site_benchmark_" + std::to_string(::getpid())))
                                               .string()
                                         : keep;
-  start = Clock::now();
-  if (strata::Status saved = strata::SaveModel(model, path); !saved) {
-    std::fprintf(stderr, "%s\n", saved.error().message.c_str());
-    return 1;
-  }
-  const double save_s = SecondsSince(start);
-  const double file_mb = static_cast<double>(std::filesystem::file_size(path)) / 1e6;
-  std::vector<double> loads;
-  for (int k = 0; k < 3; ++k) {
-    start = Clock::now();
-    auto loaded = strata::LoadModel(path);
-    loads.push_back(SecondsSince(start));
-    if (!loaded.ok()) {
-      std::fprintf(stderr, "%s\n", loaded.error().message.c_str());
-      return 1;
-    }
-  }
+  const SavedFile saved_model = TimeSaveAndLoads(
+      path, [&] { return strata::SaveModel(model, path); },
+      [&] { return strata::LoadModel(path); });
   if (keep.empty()) std::filesystem::remove(path);
-  const double load_s = strata::bench::Median(loads);
-
+  const double save_s = saved_model.save_s, load_s = saved_model.load_s, file_mb = saved_model.mb;
   // The graph saved as a map store keeps it, and loaded back onto the model as another replica
   // does instead of building it.
   const std::string graph_path = path + ".stratagraph";
-  start = Clock::now();
-  if (strata::Status saved = strata::SaveGraph(**graph, graph_path); !saved) {
-    std::fprintf(stderr, "%s\n", saved.error().message.c_str());
-    return 1;
-  }
-  const double graph_save_s = SecondsSince(start);
-  const double graph_file_mb = static_cast<double>(std::filesystem::file_size(graph_path)) / 1e6;
-  std::vector<double> graph_loads;
-  for (int k = 0; k < 3; ++k) {
-    start = Clock::now();
-    auto loaded = strata::LoadGraph(graph_path, model);
-    graph_loads.push_back(SecondsSince(start));
-    if (!loaded.ok()) {
-      std::fprintf(stderr, "%s\n", loaded.error().message.c_str());
-      return 1;
-    }
-  }
+  const SavedFile saved_graph = TimeSaveAndLoads(
+      graph_path, [&] { return strata::SaveGraph(**graph, graph_path); },
+      [&] { return strata::LoadGraph(graph_path, model); });
   std::filesystem::remove(graph_path);
-  const double graph_load_s = strata::bench::Median(graph_loads);
+  const double graph_save_s = saved_graph.save_s, graph_load_s = saved_graph.load_s,
+               graph_file_mb = saved_graph.mb;
 
   std::printf(
       "| site | points | grid columns | valid-ground columns | generate s | assess s | model MB "

@@ -7,7 +7,7 @@
 //
 //   build/bench/store_benchmark MAP [--resolution M] [--runs N] [--churn-maps N]
 //       [--soak-s S [--soak-rate HZ] [--soak-planners N]] [--etcd HOST:PORT]
-//   With --etcd (bench/store_etcd.sh starts a throwaway one) the maps' heads live there, as
+//   With --etcd (bench/with_etcd.sh starts a throwaway one) the maps' heads live there, as
 //   with strata-server --etcd, and the second replica learns of each edit through its watch.
 //       MAP: a cloud file, or scene:NAME[:SEED][:size_m=M] (as strata-offline takes)
 #include <unistd.h>

@@ -19,7 +19,7 @@
 
 #include "common/service_error.hpp"
 #include "http/http_handler.hpp"
-#include "http/job_threads.hpp"
+#include "common/job_threads.hpp"
 
 struct MHD_Daemon;
 struct MHD_Connection;

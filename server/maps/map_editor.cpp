@@ -34,9 +34,8 @@ constexpr std::size_t kMaxGraphsBuiltAhead = 4;
 // Times an edit is published again on versions of keep-out zones alone that won the race.
 constexpr int kMaxRepublishes = 4;
 
-bool IsMapChanged(const ServiceError& error) {
-  const auto* code = std::get_if<ServiceErrorCode>(&error.code);
-  return code != nullptr && *code == ServiceErrorCode::kMapChanged;
+bool Has(const ServiceError& error, ServiceErrorCode code) {
+  return error.code == ServiceError::Code(code);
 }
 
 // The call's end, when it came before the version was ready: nothing is published. `current`
@@ -221,9 +220,9 @@ Result<MapUpdate> MapEditor::UpdateRetrying(const MapEditRequest& request,
   constexpr int kMaxAttempts = 8;
   for (int attempt = 1;; ++attempt) {
     Result<MapUpdate> update = UpdateOnce(request, call);
-    const auto* code = update.ok() ? nullptr : std::get_if<ServiceErrorCode>(&update.error().code);
-    const bool lost_race = code != nullptr && (*code == ServiceErrorCode::kMapChanged ||
-                                               *code == ServiceErrorCode::kMapVersionNotFound);
+    const bool lost_race =
+        !update.ok() && (Has(update.error(), ServiceErrorCode::kMapChanged) ||
+                         Has(update.error(), ServiceErrorCode::kMapVersionNotFound));
     if (!lost_race || !request.base_version.empty() || attempt == kMaxAttempts) return update;
     LogInfo("map_update_retry").Add("map", request.id).Add("attempt", attempt);
   }
@@ -352,8 +351,9 @@ Result<MapUpdate> MapEditor::UpdateOnce(const MapEditRequest& request, const Cal
   // holds on it too, so it is published again with that version's zones instead of made again
   // (which cost a whole job, seconds on a site, for the same terrain).
   std::string base_terrain;
-  for (int attempt = 0; attempt < kMaxRepublishes && !put.ok() && IsMapChanged(put.error()) &&
-                        request.base_version.empty() && !request.edits.empty();
+  for (int attempt = 0;
+       attempt < kMaxRepublishes && !put.ok() && Has(put.error(), ServiceErrorCode::kMapChanged) &&
+       request.base_version.empty() && !request.edits.empty();
        ++attempt) {
     if (base_terrain.empty()) {
       Result<std::string> known = published.TerrainOf(id, current);

@@ -202,7 +202,7 @@ class MapRegistry {
   DoneListener on_done_;
   // Writes graphs to the store (with one); declared before what holds planning maps, so that it
   // is destroyed after them.
-  std::shared_ptr<GraphWriter> graph_writer_;
+  std::shared_ptr<JobThreads> graph_writer_;
   std::unique_ptr<PublishedMaps> published_;
 
   mutable std::mutex mutex_;

@@ -703,11 +703,7 @@ Result<std::optional<SurfaceGraph>> MapStore::LoadGraph(const std::string& id,
   std::error_code ec;
   if (!fs::exists(path, ec)) return std::optional<SurfaceGraph>();
   Expected<SurfaceGraph> graph = strata::LoadGraph(path.string(), model);
-  if (graph) {
-    if (graph->params() == params) return std::optional<SurfaceGraph>(std::move(graph).value());
-    return MakeError(ServiceErrorCode::kMapCorrupted,
-                     "map store: graph " + path.string() + " holds another robot's graph");
-  }
+  if (graph) return std::optional<SurfaceGraph>(std::move(graph).value());
   if (!fs::exists(path, ec)) return std::optional<SurfaceGraph>();  // Pruned meanwhile.
   return MakeError(ServiceErrorCode::kMapCorrupted, "map store: " + graph.error().message)
       .With("map_id", id);

@@ -14,51 +14,13 @@ double SecondsSince(std::chrono::steady_clock::time_point start) {
 
 }  // namespace
 
-GraphWriter::GraphWriter() : thread_([this] { Run(); }) {}
-
-GraphWriter::~GraphWriter() {
-  {
-    std::lock_guard lock(mutex_);
-    stopping_ = true;
-    waiting_.clear();
-  }
-  changed_.notify_all();
-  thread_.join();
+std::shared_ptr<JobThreads> MakeGraphWriter() {
+  // Writing a graph needs little stack: its records go out in chunks of a few hundred KB.
+  constexpr std::size_t kStackBytes = 2 << 20;
+  return std::make_shared<JobThreads>(1, kStackBytes, kMaxGraphWritesWaiting);
 }
 
-bool GraphWriter::Enqueue(std::function<void()> write) {
-  {
-    std::lock_guard lock(mutex_);
-    if (stopping_ || waiting_.size() >= kMaxGraphWritesWaiting) return false;
-    waiting_.push_back(std::move(write));
-  }
-  changed_.notify_all();
-  return true;
-}
-
-void GraphWriter::WaitIdle() {
-  std::unique_lock lock(mutex_);
-  changed_.wait(lock, [this] { return stopping_ || (waiting_.empty() && !writing_); });
-}
-
-void GraphWriter::Run() {
-  std::unique_lock lock(mutex_);
-  while (true) {
-    changed_.wait(lock, [this] { return stopping_ || !waiting_.empty(); });
-    if (stopping_) return;
-    std::function<void()> write = std::move(waiting_.front());
-    waiting_.pop_front();
-    writing_ = true;
-    lock.unlock();
-    write();
-    write = nullptr;  // Lets go of the model and the graph before anyone is told.
-    lock.lock();
-    writing_ = false;
-    changed_.notify_all();
-  }
-}
-
-StoredGraphs::StoredGraphs(std::shared_ptr<MapStore> store, std::shared_ptr<GraphWriter> writer,
+StoredGraphs::StoredGraphs(std::shared_ptr<MapStore> store, std::shared_ptr<JobThreads> writer,
                            std::string id, std::string terrain)
     : store_(std::move(store)),
       writer_(std::move(writer)),
@@ -88,8 +50,8 @@ std::optional<SurfaceGraph> StoredGraphs::Find(const TerrainModel& model,
 
 void StoredGraphs::Keep(std::shared_ptr<const TerrainModel> model,
                         std::shared_ptr<const SurfaceGraph> graph) const {
-  const bool queued = writer_->Enqueue([store = store_, id = id_, terrain = terrain_,
-                                        model = std::move(model), graph = std::move(graph)] {
+  const bool queued = writer_->Post([store = store_, id = id_, terrain = terrain_,
+                                     model = std::move(model), graph = std::move(graph)] {
     const auto start = std::chrono::steady_clock::now();
     if (ServiceStatus put = store->PutGraph(id, terrain, *graph); !put.ok()) {
       LogWarning("graph_not_kept").Add("map", id).Add("reason", put.error().message);

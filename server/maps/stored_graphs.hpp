@@ -4,15 +4,12 @@
 /// built instead of building it again (a kilometre's graph: seconds to build, a fraction of
 /// that to load). Graphs are written on a thread of their own: no plan waits for a write.
 /// No gRPC here.
-#include <condition_variable>
-#include <deque>
-#include <functional>
+#include <cstddef>
 #include <memory>
-#include <mutex>
 #include <optional>
 #include <string>
-#include <thread>
 
+#include "common/job_threads.hpp"
 #include "maps/map_store.hpp"
 #include "strata/planning/graph_archive.hpp"
 
@@ -21,35 +18,13 @@ namespace strata::server {
 /// Graph writes waiting at most; more are not made (a replica that needs one builds it).
 inline constexpr std::size_t kMaxGraphWritesWaiting = 4;
 
-/// Runs graph writes one at a time on a thread of its own, in the order given.
-class GraphWriter {
- public:
-  GraphWriter();
-  /// Waits for the write being made; those still waiting are not made.
-  ~GraphWriter();
-  GraphWriter(const GraphWriter&) = delete;
-  GraphWriter& operator=(const GraphWriter&) = delete;
-
-  /// Queues `write`; false (and `write` dropped) when kMaxGraphWritesWaiting already wait.
-  bool Enqueue(std::function<void()> write);
-  /// Returns once every write queued so far is made.
-  void WaitIdle();
-
- private:
-  void Run();
-
-  std::mutex mutex_;
-  std::condition_variable changed_;
-  std::deque<std::function<void()>> waiting_;
-  bool writing_ = false;
-  bool stopping_ = false;
-  std::thread thread_;  // Last: started once the rest is ready.
-};
+/// The thread graphs are written on, one at a time, in the order kept.
+std::shared_ptr<JobThreads> MakeGraphWriter();
 
 /// The graphs of terrain `terrain` of map `id` in `store`.
 class StoredGraphs final : public GraphArchive {
  public:
-  StoredGraphs(std::shared_ptr<MapStore> store, std::shared_ptr<GraphWriter> writer, std::string id,
+  StoredGraphs(std::shared_ptr<MapStore> store, std::shared_ptr<JobThreads> writer, std::string id,
                std::string terrain);
 
   /// The kept graph, or nullopt when none is kept or it does not load (logged).
@@ -61,7 +36,7 @@ class StoredGraphs final : public GraphArchive {
 
  private:
   std::shared_ptr<MapStore> store_;
-  std::shared_ptr<GraphWriter> writer_;
+  std::shared_ptr<JobThreads> writer_;
   std::string id_;
   std::string terrain_;
 };

@@ -1,6 +1,6 @@
 // JobThreads: every job runs, on a thread whose stack is the size asked for, and the queue's
 // bound and Stop hold.
-#include "http/job_threads.hpp"
+#include "common/job_threads.hpp"
 
 #include <pthread.h>
 
@@ -67,6 +67,15 @@ TEST(JobThreadsTest, TheQueueIsBoundedAndStopRunsWhatWaits) {
   threads.Stop();
   EXPECT_EQ(ran.load(), 3);
   EXPECT_FALSE(threads.Post([&] { ++ran; }));
+}
+
+TEST(JobThreadsTest, WaitIdleReturnsOnceEveryQueuedJobHasRun) {
+  JobThreads threads(1, 1 << 20, 8);
+  std::atomic<int> ran{0};
+  for (int k = 0; k < 8; ++k) ASSERT_TRUE(threads.Post([&] { ++ran; }));
+  threads.WaitIdle();
+  EXPECT_EQ(ran.load(), 8);
+  threads.WaitIdle();  // Idle already: returns at once.
 }
 
 }  // namespace

@@ -759,7 +759,7 @@ TEST_F(MapStoreTest, AGraphOneReplicaBuiltIsLoadedByAnotherInsteadOfBuilt) {
   ASSERT_TRUE(other_store.ok()) << Why(other_store);
   std::shared_ptr<MapStore> here(std::move(store_));
   std::shared_ptr<MapStore> there(std::move(*other_store));
-  const auto writer = std::make_shared<GraphWriter>();
+  const std::shared_ptr<JobThreads> writer = MakeGraphWriter();
   const auto model_here = std::make_shared<const TerrainModel>(model());
   const PlanningMap first(model_here, {}, 0,
                           std::make_shared<StoredGraphs>(here, writer, "shared", terrain));
@@ -785,41 +785,6 @@ TEST_F(MapStoreTest, AGraphOneReplicaBuiltIsLoadedByAnotherInsteadOfBuilt) {
   EXPECT_TRUE(
       there->LoadGraph("shared", terrain, *model_there, TraversabilityParams{})->has_value());
   store_ = std::unique_ptr<MapStore>();  // TearDown resets it.
-}
-
-TEST(GraphWriterTest, RunsWritesInOrderAndRefusesPastItsQueue) {
-  GraphWriter writer;
-  std::mutex mutex;
-  std::condition_variable changed;
-  bool release = false;
-  std::vector<int> order;
-  // The first write holds the thread until released: the queue fills behind it.
-  ASSERT_TRUE(writer.Enqueue([&] {
-    std::unique_lock lock(mutex);
-    changed.wait(lock, [&] { return release; });
-    order.push_back(0);
-  }));
-  int queued = 0;
-  for (int k = 1; k <= static_cast<int>(kMaxGraphWritesWaiting) + 3; ++k) {
-    queued += writer.Enqueue([&order, &mutex, k] {
-      std::lock_guard lock(mutex);
-      order.push_back(k);
-    })
-                  ? 1
-                  : 0;
-  }
-  // The first may not have started yet (then it waits too): at most the queue's size wait.
-  EXPECT_GE(queued, static_cast<int>(kMaxGraphWritesWaiting) - 1);
-  EXPECT_LE(queued, static_cast<int>(kMaxGraphWritesWaiting));
-  {
-    std::lock_guard lock(mutex);
-    release = true;
-  }
-  changed.notify_all();
-  writer.WaitIdle();
-  std::lock_guard lock(mutex);
-  ASSERT_EQ(static_cast<int>(order.size()), queued + 1);
-  for (int k = 0; k <= queued; ++k) EXPECT_EQ(order[static_cast<std::size_t>(k)], k);
 }
 
 }  // namespace

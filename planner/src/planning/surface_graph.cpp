@@ -126,8 +126,6 @@ Expected<SurfaceGraph> SurfaceGraph::FromParts(const TerrainModel& model, Parts 
   graph.open_ground_clearance_m_ = parts.open_ground_clearance_m;
   graph.landmark_count_ = parts.landmark_count;
   graph.landmark_distance_ = std::move(parts.landmark_distance);
-  graph.nodes_.shrink_to_fit();
-  graph.column_nodes_.shrink_to_fit();
   return graph;
 }
 

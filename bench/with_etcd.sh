@@ -1,11 +1,13 @@
 #!/usr/bin/env bash
-# Runs bench/store_benchmark with the maps' heads on a throwaway etcd (Debian's etcd-server) on
-# loopback, its data in a temporary directory removed at the end: the second replica learns
-# of each edit through its etcd watch, as strata-server replicas started with --etcd do.
-#   bash bench/store_etcd.sh [BUILD_DIR] MAP [benchmark flags...]
+# Runs a benchmark that takes --etcd (shared_schedule_benchmark, store_benchmark) against a
+# throwaway etcd (Debian's etcd-server) on loopback, its data in a temporary directory removed
+# at the end.
+#   bash bench/with_etcd.sh BUILD_DIR BENCHMARK [benchmark flags...]
+#   e.g. bash bench/with_etcd.sh build store_benchmark scene:outdoor_site:size_m=400 --runs 3
 set -euo pipefail
-build=${1:-build}
-shift || true
+build=$1
+benchmark=$2
+shift 2
 data=$(mktemp -d)
 port=$(( 20000 + RANDOM % 20000 ))
 etcd --data-dir "$data" --listen-client-urls "http://127.0.0.1:$port" \
@@ -17,4 +19,4 @@ for _ in $(seq 100); do
   grep -q "ready to serve client requests" "$data.log" && break
   sleep 0.1
 done
-"$build/bench/store_benchmark" --etcd "127.0.0.1:$port" "$@"
+"$build/bench/$benchmark" --etcd "127.0.0.1:$port" "$@"

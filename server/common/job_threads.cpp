@@ -1,4 +1,4 @@
-#include "http/job_threads.hpp"
+#include "common/job_threads.hpp"
 
 #include <climits>
 #include <system_error>
@@ -32,8 +32,13 @@ bool JobThreads::Post(std::function<void()> job) {
     if (stopping_ || queue_.size() >= max_queued_) return false;
     queue_.push_back(std::move(job));
   }
-  changed_.notify_one();
+  changed_.notify_all();  // A thread to run it; WaitIdle waits on the same variable.
   return true;
+}
+
+void JobThreads::WaitIdle() {
+  std::unique_lock lock(mutex_);
+  changed_.wait(lock, [this] { return queue_.empty() && running_ == 0; });
 }
 
 void JobThreads::Stop() {
@@ -56,8 +61,15 @@ void* JobThreads::Run(void* data) {
       if (self->queue_.empty()) return nullptr;  // Stopping, and nothing is left to run.
       job = std::move(self->queue_.front());
       self->queue_.pop_front();
+      ++self->running_;
     }
     job();
+    job = nullptr;  // What it holds is let go before anyone is told it ran.
+    {
+      std::lock_guard lock(self->mutex_);
+      --self->running_;
+    }
+    self->changed_.notify_all();
   }
 }
 

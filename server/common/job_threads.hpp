@@ -3,7 +3,8 @@
 /// the environment picks, that run queued jobs in the order they arrive. The HTTP server
 /// answers its requests on them (http_server.hpp): the work behind an API call (loading a map
 /// from the store, planning) needs the stack a gRPC thread has, which an event loop's or a web
-/// library's threads do not promise.
+/// library's threads do not promise. A map store's graphs are written on one
+/// (maps/stored_graphs.hpp).
 #include <pthread.h>
 #include <condition_variable>
 #include <cstddef>
@@ -30,6 +31,9 @@ class JobThreads {
   /// thread.
   bool Post(std::function<void()> job);
 
+  /// Returns once no job waits and none runs (every job queued so far has run).
+  void WaitIdle();
+
   /// Refuses new jobs, runs every job already queued, and joins the threads. Idempotent.
   void Stop();
 
@@ -44,6 +48,7 @@ class JobThreads {
   std::mutex mutex_;
   std::condition_variable changed_;
   std::deque<std::function<void()>> queue_;
+  int running_ = 0;  // Jobs taken from the queue and not yet done.
   bool stopping_ = false;
   std::vector<pthread_t> threads_;
 };
