@@ -332,8 +332,7 @@ int main(int argc, char** argv) {
   double speedup = 10;
   unsigned seed = 1;
   CLI::App app{"The fleet's schedule shared by two replicas through etcd"};
-  app.add_option("--etcd", etcd, "host:port of a running etcd (bench/with_etcd.sh)")
-      ->required();
+  app.add_option("--etcd", etcd, "host:port of a running etcd (bench/with_etcd.sh)")->required();
   app.add_option("--commits", commits, "Commits timed one after another")
       ->check(CLI::Range(1, 100000));
   app.add_option("--robots", robots, "Robots of the fleet run")->check(CLI::Range(2, 500));

@@ -17,9 +17,9 @@
 #include <mutex>
 #include <string>
 
+#include "common/job_threads.hpp"
 #include "common/service_error.hpp"
 #include "http/http_handler.hpp"
-#include "common/job_threads.hpp"
 
 struct MHD_Daemon;
 struct MHD_Connection;
