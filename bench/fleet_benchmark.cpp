@@ -310,7 +310,7 @@ int main(int argc, char** argv) {
   app.add_option("--robots", fleet_sizes, "Fleet sizes")->check(CLI::Range(1, 500));
   app.add_option("--sites", site_names, "parking_garage (generated), spiral (STRATA_MAPS_DIR)")
       ->check(CLI::IsMember({"parking_garage", "spiral"}));
-  app.add_option("--max-wait", max_wait_s, "Longest wait at the start [s]")
+  app.add_option("--max-wait", max_wait_s, "Longest the robots wait, in all [s]")
       ->check(CLI::Range(0.0, 3600.0));
   CLI11_PARSE(app, argc, argv);
   const strata::RobotProfile profile = strata::BuiltinProfile("differential").value();

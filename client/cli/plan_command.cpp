@@ -82,7 +82,11 @@ void PrintSummary(const Context& ctx, const v1::PlanRequest& request,
       << " iterations, " << stats.optimizer_attempts() << " attempt(s))\n";
   if (request.has_fleet()) {
     out << "  fleet       robot " << request.fleet().robot_id() << " waits "
-        << Fixed(response.wait_s(), 2) << " s at the start for the others";
+        << Fixed(response.wait_s(), 2) << " s for the others";
+    for (const v1::Hold& hold : response.holds()) {
+      out << (hold.start_s() == 0 ? ", at the start " : ", on the way at ")
+          << Fixed(hold.start_s(), 2) << " s for " << Fixed(hold.duration_s(), 2) << " s";
+    }
     if (response.has_reservation()) {
       const v1::Reservation& reserved = response.reservation();
       out << "; reserved from " << FormatTime(reserved.start_time()) << " until "
@@ -159,7 +163,7 @@ std::vector<CLI::Option*> AddPlanFlags(CLI::App& command, PlanFlags* flags, bool
                         ->check(PositiveNumber()));
   options.push_back(command
                         .add_option("--max-wait", flags->max_wait_s,
-                                    "longest wait at the start for others to pass "
+                                    "longest the robot waits for others to pass, in all "
                                     "(fleet.max_wait_s) [s]")
                         ->type_name("S")
                         ->check(FiniteNumber()));

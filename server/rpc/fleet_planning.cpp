@@ -66,6 +66,12 @@ ServiceStatus PlanAmongReservations(const ActiveMap& map, const std::string& map
     }
     ToProto(planned_request.departure_ns, answer.mutable_departure_time());
     answer.set_wait_s(result.wait_s);
+    for (const FleetHold& hold : result.holds) {
+      v1::Hold* out = answer.add_holds();
+      out->set_start_s(hold.start_s);
+      out->set_duration_s(hold.duration_s);
+      ToProto(hold.position_m, out->mutable_position_m());
+    }
     if (fleet.reserve) {
       Reservation reservation;
       reservation.map_id = map_id;

@@ -16,15 +16,16 @@
 #include "rpc/error_mapping.hpp"
 
 namespace strata::server {
-namespace {
-
-using google::protobuf::Timestamp;
 
 void ToProto(const Eigen::Vector3d& v, v1::Vector3* message) {
   message->set_x(v.x());
   message->set_y(v.y());
   message->set_z(v.z());
 }
+
+namespace {
+
+using google::protobuf::Timestamp;
 
 void ToProto(std::chrono::system_clock::time_point time, Timestamp* message) {
   const auto since_epoch = time.time_since_epoch();

@@ -94,6 +94,7 @@ Result<std::vector<Prism>> KeepOutFromRequest(const v1::EstimateCostsRequest& re
 /// position. PlanRequest::Validate checks the values (e.g. "via[0].position_m.x").
 Result<std::vector<Via>> ViasFromRequest(const v1::PlanRequest& request);
 
+void ToProto(const Eigen::Vector3d& v, v1::Vector3* message);
 /// Positions, copied (TravelCostQuery::Prepare checks them, blaming e.g. "starts_m[2].x").
 std::vector<Eigen::Vector3d> PositionsFromProto(
     const google::protobuf::RepeatedPtrField<v1::Vector3>& positions);

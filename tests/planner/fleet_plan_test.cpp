@@ -191,6 +191,32 @@ TEST(FleetPlan, HeadOnOnAOneLaneRampTheLaterRobotWaitsForTheLaneToClear) {
   EXPECT_DOUBLE_EQ(b.plan.stats.duration_s, b.plan.trajectory.TotalDuration());
 }
 
+TEST(FleetPlan, ARobotThatCannotWaitAtItsStartWaitsOnItsWayForTheLaneToClear) {
+  // As above, A drives up the ramp and B, later, down; C crosses the plateau just beside B's
+  // start, so B cannot wait there for A: it drives off and waits on the way, out of A's.
+  const std::vector<ReservedMotion> others = {
+      Committed("A", Between({2, 4.5, 0.3}, {14.5, 4.5, 0.8})),
+      Committed("C", Between({13.5, 1.0, 0.8}, {13.5, 8.5, 0.8}))};
+  const FleetPlanResult b =
+      PlanBoth("wait_on_the_way", Between({13, 7.5, 0.8}, {2, 1.5, 0.3}), others);
+  EXPECT_GE(b.stops_added, 1);
+  ASSERT_FALSE(b.holds.empty());
+  EXPECT_GT(b.holds.back().start_s, 0) << "the robot waits on its way, not only at its start";
+  double waited_s = 0;
+  for (const FleetHold& hold : b.holds) {
+    waited_s += hold.duration_s;
+    // Each hold is a piece at rest where it says.
+    EXPECT_TRUE(b.plan.trajectory.Velocity(hold.start_s + hold.duration_s / 2).isZero(1e-9));
+    EXPECT_LT(
+        (b.plan.trajectory.Position(hold.start_s + hold.duration_s / 2).head<3>() - hold.position_m)
+            .norm(),
+        1e-9);
+  }
+  EXPECT_DOUBLE_EQ(waited_s, b.wait_s);
+  EXPECT_LE(b.wait_s, FleetPlanOptions{}.max_wait_s);
+  EXPECT_DOUBLE_EQ(b.plan.stats.duration_s, b.plan.trajectory.TotalDuration());
+}
+
 TEST(FleetPlan, AtAFourWayCrossingTheLaterRobotLetsTheOtherPass) {
   const std::vector<ReservedMotion> others = {
       Committed("A", Between({0.5, 2.5, 0.3}, {5.5, 2.5, 0.3}))};

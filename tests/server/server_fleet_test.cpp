@@ -108,6 +108,14 @@ TEST_F(ServerFleetTest, ASecondRobotIntoTheSameCrossingWaitsOrGoesAroundAndBothA
   ASSERT_TRUE(b.ok()) << b.error_message();
   EXPECT_EQ(second.reservation().robot_id(), "b");
   EXPECT_GT(second.reservation().revision(), first.reservation().revision());
+  // Its waits are listed, each a piece at rest of its trajectory, and add up to wait_s.
+  double waited_s = 0;
+  const Trajectory trajectory = FromProto(second.trajectory()).value();
+  for (const v1::Hold& hold : second.holds()) {
+    waited_s += hold.duration_s();
+    EXPECT_TRUE(trajectory.Velocity(hold.start_s() + hold.duration_s() / 2).isZero(1e-9));
+  }
+  EXPECT_DOUBLE_EQ(waited_s, second.wait_s());
   EXPECT_EQ(List().reservations_size(), 2);
   ExpectNoTwoMeet();
 }

@@ -1,15 +1,19 @@
 #include "strata/fleet/fleet_plan.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <numbers>
 #include <optional>
 #include <string>
+#include <utility>
+#include <variant>
 #include <vector>
 
 #include <fmt/format.h>
 
 #include "format_internal.hpp"
+#include "hold_schedule.hpp"
 
 namespace strata {
 namespace {
@@ -19,33 +23,71 @@ namespace {
 constexpr double kParkedZoneMarginM = 0.02;
 constexpr int kParkedZoneCorners = 12;
 // Plans made for one request at most: the first, and one more each time robots parked in the
-// way are found (all that the trajectory meets at once).
-constexpr int kMaxPlanRounds = 8;
+// way are found (all that the trajectory meets at once) or a stop is added.
+constexpr int kMaxPlanRounds = 4;
+// Stops added to one route at most (each makes a leg planned of its own), within kMaxVias
+// together with the request's vias.
+constexpr int kMaxAddedStops = 3;
+// Departures checked against the traffic per route at most (each an exact check of a leg
+// against every motion).
+constexpr int kMaxDeparturesChecked = 200;
+// An added stop keeps this much more than the limit from the way of the robot it waits for,
+// and at least kMinStopSpacingM from the ends of its leg (two route points on one graph node
+// are refused). Both ways are walked in steps of kStopSearchStepS.
+constexpr double kStopClearanceM = 0.3;
+constexpr double kStopSearchStepS = 0.1;
+constexpr double kMinStopSpacingM = 0.5;
+// Beside the route, an added stop is looked for at these offsets to either side [m] (a bay
+// off an aisle where the robot lets another pass), snapped onto the ground within
+// kStandingSnapM.
+constexpr std::array<double, 3> kStopSideOffsetsM = {0.8, 1.2, 1.6};
+constexpr double kStandingSnapM = 0.3;
+// Longer than any trip a robot makes on a site [s]: a robot parked from the departure until
+// max_wait_s plus this after it is in the way of no plan's passage but as a standing body.
+constexpr double kLongestTripS = 600;
 
-/// The waits tried, shortest first: half-second steps, then growing by a quarter, up to and
-/// including max_wait_s.
-std::vector<double> WaitLadder(double max_wait_s) {
-  std::vector<double> waits = {0.0};
-  for (double w = 0.5; w < max_wait_s; w = std::max(w + 0.5, w * 1.25)) waits.push_back(w);
-  if (max_wait_s > 0) waits.push_back(max_wait_s);
-  return waits;
-}
-
-/// `trajectory` preceded by a piece of `wait_s` at rest at its start.
-Trajectory WithWaitAtStart(const Trajectory& trajectory, double wait_s) {
-  if (wait_s <= 0) return trajectory;
-  TrajectoryPiece hold;
-  hold.duration_s = wait_s;
-  hold.coefficients = Eigen::MatrixXd::Zero(6, trajectory.dimension);
-  hold.coefficients.row(0) = trajectory.EvaluatePiece(0, 0, 0).transpose();
-  Trajectory waiting = trajectory;
-  waiting.pieces.insert(waiting.pieces.begin(), hold);
-  return waiting;
-}
+/// A point the route passes through: one of the request's vias, or a stop added to wait at.
+struct RoutePoint {
+  Via via;
+  bool added = false;
+};
 
 bool StartsAtRest(const Trajectory& trajectory) {
   return trajectory.EvaluatePiece(0, 0, 1).isZero(1e-9) &&
          trajectory.EvaluatePiece(0, 0, 2).isZero(1e-9);
+}
+
+/// The index of the piece that begins at `time_s` into `trajectory` (its nearest boundary).
+std::size_t PieceStartingAt(const Trajectory& trajectory, double time_s) {
+  std::size_t best = 0;
+  double start_s = 0;
+  double best_gap = time_s;
+  for (std::size_t i = 0; i < trajectory.pieces.size(); ++i) {
+    start_s += trajectory.pieces[i].duration_s;
+    if (std::abs(start_s - time_s) < best_gap) {
+      best_gap = std::abs(start_s - time_s);
+      best = i + 1;
+    }
+  }
+  return best;
+}
+
+/// `plan`'s trajectory cut into its legs at the route's stops (Plan ends a leg at each).
+std::vector<Trajectory> SplitAtStops(const PlanResult& plan, const std::vector<RoutePoint>& route) {
+  std::vector<std::size_t> cuts = {0};
+  for (std::size_t j = 0; j < route.size(); ++j) {
+    if (route[j].via.stop) cuts.push_back(PieceStartingAt(plan.trajectory, plan.via_times_s[j]));
+  }
+  cuts.push_back(plan.trajectory.pieces.size());
+  std::vector<Trajectory> legs;
+  for (std::size_t k = 0; k + 1 < cuts.size(); ++k) {
+    Trajectory leg;
+    leg.dimension = plan.trajectory.dimension;
+    leg.pieces.assign(plan.trajectory.pieces.begin() + static_cast<std::ptrdiff_t>(cuts[k]),
+                      plan.trajectory.pieces.begin() + static_cast<std::ptrdiff_t>(cuts[k + 1]));
+    legs.push_back(std::move(leg));
+  }
+  return legs;
 }
 
 /// A zone around where `other` stays parked: a polygon around the disc of its radius plus
@@ -85,56 +127,164 @@ Error ParkedOnEnd(const ReservedMotion& other, const FleetPlanRequest& request,
   return error;
 }
 
-// Whether `other` stands parked at the conflict and for as long as this robot may take to
-// pass: waiting cannot clear it, going around can.
-bool ParkedThroughout(const FleetMotion& other, std::int64_t conflict_ns,
-                      std::int64_t latest_passage_ns) {
-  return conflict_ns >= other.ArrivalNs() && other.end_ns >= latest_passage_ns;
-}
-
-/// What the waits at the start found for one planned trajectory.
-struct WaitOutcome {
-  std::optional<double> clear_wait_s;  ///< The shortest wait that clears every motion.
-  std::optional<TrafficConflict> first_at_departure;  ///< What the trajectory meets unwaited.
-  /// Robots the trajectory meets where they stand parked for as long as it could take to
-  /// pass (waiting cannot clear them, going around can), none already `zoned`.
-  std::vector<std::size_t> parked_in_the_way;
-  int waits_tried = 0;  ///< Waits longer than zero checked.
-};
-
-WaitOutcome TryWaits(const Trajectory& trajectory, const Traffic& traffic, double max_wait_s,
-                     const std::vector<bool>& zoned) {
-  WaitOutcome outcome;
-  const std::vector<double> waits =
-      StartsAtRest(trajectory) ? WaitLadder(max_wait_s) : std::vector{0.0};
-  const std::int64_t latest_passage_ns =
-      AddSeconds(traffic.departure_ns, max_wait_s + trajectory.TotalDuration());
-  for (const double wait : waits) {
-    const FleetMotion motion = traffic.MotionOf(WithWaitAtStart(trajectory, wait));
-    outcome.waits_tried += wait > 0 ? 1 : 0;
-    const std::optional<TrafficConflict> first =
-        FirstTrafficConflict(motion, traffic.others, traffic.rule);
-    if (!first) {
-      outcome.clear_wait_s = wait;
-      return outcome;
-    }
-    if (wait == 0) outcome.first_at_departure = first;
-    if (zoned[first->other] || !ParkedThroughout(traffic.others[first->other].motion,
-                                                 first->conflict.time_ns, latest_passage_ns)) {
+/// The robots, none already `zoned`, that stand parked where `motion` (the route without
+/// waits) passes, from before the robot could have passed with any wait up to `max_wait_s`
+/// until after: waiting cannot clear them, going around can. (Where the route passes before
+/// such a robot arrives, it is planned around it all the same.)
+std::vector<std::size_t> ParkedInTheWay(const FleetMotion& motion, const Traffic& traffic,
+                                        double max_wait_s, const std::vector<bool>& zoned) {
+  const std::int64_t latest_passage_ns = AddSeconds(motion.ArrivalNs(), max_wait_s);
+  std::vector<std::size_t> parked;
+  for (std::size_t i = 0; i < traffic.others.size(); ++i) {
+    const FleetMotion& other = traffic.others[i].motion;
+    if (zoned[i] || other.end_ns < latest_passage_ns || other.ArrivalNs() > latest_passage_ns) {
       continue;
     }
-    // Plan around it, and around every other robot this trajectory meets parked, at once.
-    for (std::size_t i = 0; i < traffic.others.size(); ++i) {
-      if (zoned[i]) continue;
-      const std::optional<MotionConflict> met =
-          FirstConflict(motion, traffic.others[i].motion, traffic.rule);
-      if (met && ParkedThroughout(traffic.others[i].motion, met->time_ns, latest_passage_ns)) {
-        outcome.parked_in_the_way.push_back(i);
+    // The other robot standing where it parks for as long as the route could take.
+    FleetMotion standing;
+    standing.start_ns = motion.start_ns;
+    standing.trajectory.dimension = other.trajectory.dimension;
+    standing.trajectory.pieces = {fleet_internal::RestAt(
+        other.StateAt(other.ArrivalNs()), SecondsBetween(motion.start_ns, latest_passage_ns))};
+    standing.body = other.body;
+    standing.end_ns = standing.ArrivalNs();
+    if (FirstConflict(motion, standing, traffic.rule)) parked.push_back(i);
+  }
+  return parked;
+}
+
+bool ExtentsOverlap(const VerticalExtent& a, const VerticalExtent& b) {
+  return a.top_m > b.bottom_m && b.top_m > a.bottom_m;
+}
+
+/// A place to wait at before `leg` (leaving at `departure_ns`) meets another robot as `met`
+/// says, for that robot to pass: the leg's latest point before the meeting, or a point beside
+/// it (kStopSideOffsetsM, where `stands` finds ground), that keeps more than the limit plus
+/// kStopClearanceM from the whole of that robot's way from the departure on; at least
+/// kMinStopSpacingM from both ends of the leg. None when there is no such place.
+std::optional<Eigen::Vector3d> StopBefore(
+    const Trajectory& leg, std::int64_t departure_ns, const TrafficConflict& met,
+    const Traffic& traffic,
+    const std::function<std::optional<Eigen::Vector3d>(const Eigen::Vector3d&)>& stands) {
+  const FleetMotion& other = traffic.others[met.other].motion;
+  const double clear_m =
+      traffic.body.radius_m + other.body.radius_m + traffic.rule.separation_m + kStopClearanceM;
+  std::vector<std::pair<Eigen::Vector3d, VerticalExtent>> passing;
+  const std::int64_t from_ns = std::max(other.start_ns, departure_ns);
+  const std::int64_t until_ns = std::max(from_ns, other.ArrivalNs());
+  for (std::int64_t t = from_ns; t <= until_ns; t = AddSeconds(t, kStopSearchStepS)) {
+    passing.emplace_back(other.ReferencePointAt(t), other.ExtentAt(t));
+  }
+  passing.emplace_back(other.ReferencePointAt(until_ns), other.ExtentAt(until_ns));
+  const Eigen::Vector3d first = leg.Position(0).head<3>();
+  const Eigen::Vector3d last = leg.Position(leg.TotalDuration()).head<3>();
+  const double met_s =
+      std::min(SecondsBetween(departure_ns, met.conflict.time_ns), leg.TotalDuration());
+  // Whether a body standing with its reference point at `p` keeps clear of that robot's way.
+  const auto out_of_the_way = [&](const Eigen::Vector3d& p, double body_height_m) {
+    VerticalExtent own;
+    own.bottom_m = p.z() - traffic.body.reference_height_m;
+    own.top_m = own.bottom_m + body_height_m;
+    return std::all_of(
+        passing.begin(), passing.end(), [&](const std::pair<Eigen::Vector3d, VerticalExtent>& q) {
+          return (p - q.first).head<2>().norm() > clear_m || !ExtentsOverlap(own, q.second);
+        });
+  };
+  for (double t = met_s; t > 0; t -= kStopSearchStepS) {
+    const StateVector state = leg.Position(t);
+    const Eigen::Vector3d on_route = state.head<3>();
+    if ((on_route - first).norm() < kMinStopSpacingM) return std::nullopt;
+    if ((on_route - last).norm() < kMinStopSpacingM) continue;
+    const double body_height_m = state.size() > 3 ? state(3) : traffic.body.height_m;
+    if (out_of_the_way(on_route, body_height_m)) return on_route;
+    // Points beside the route: a bay off an aisle where the robot lets the other pass.
+    const Eigen::Vector2d heading = leg.Velocity(t).head<2>();
+    if (heading.norm() < 1e-6) continue;
+    const Eigen::Vector3d side(-heading.y() / heading.norm(), heading.x() / heading.norm(), 0);
+    for (const double side_m : kStopSideOffsetsM) {
+      for (const double offset_m : {side_m, -side_m}) {
+        const Eigen::Vector3d beside = on_route + offset_m * side;
+        if (!out_of_the_way(beside, body_height_m)) continue;
+        std::optional<Eigen::Vector3d> stand = stands(beside);
+        if (stand && out_of_the_way(*stand, body_height_m)) return stand;
       }
     }
-    return outcome;
   }
-  return outcome;
+  return std::nullopt;
+}
+
+/// Where the robot of `request` would stand when stopped at `p`: p snapped onto its ground
+/// (as a goal is, within kStandingSnapM, also in height), connected to graph node
+/// `route_node`, outside the request's and the map's keep-out zones. None when it cannot
+/// stand there.
+std::optional<Eigen::Vector3d> StandingPoint(const PlanningMap& map, const PlanRequest& request,
+                                             int route_node, const Eigen::Vector3d& p) {
+  const auto graph = map.Graph(request.profile.Traversability());
+  if (!graph) return std::nullopt;
+  const Expected<SnapResult> snapped =
+      SnapEndpoint(*graph.value(), p, kStandingSnapM, ErrorCode::kGoalOffGround);
+  if (!snapped || std::abs(snapped.value().position_m.z() - p.z()) > kStandingSnapM ||
+      graph.value()->component(snapped.value().node) != graph.value()->component(route_node)) {
+    return std::nullopt;
+  }
+  for (const KeepOutZone& zone : CollectKeepOut(map, request.keep_out)) {
+    if (ViolatesKeepOut(zone.prism, request.profile, snapped.value().position_m)) {
+      return std::nullopt;
+    }
+  }
+  return snapped.value().position_m;
+}
+
+/// `route` with a stop at `position`, which `plan` (planned through `route`) reaches at
+/// `time_s`, put in its order among the route's points.
+void InsertStop(std::vector<RoutePoint>& route, const PlanResult& plan, double time_s,
+                const Eigen::Vector3d& position) {
+  std::size_t at = 0;
+  while (at < route.size() && plan.via_times_s[at] <= time_s) ++at;
+  route.insert(route.begin() + static_cast<std::ptrdiff_t>(at),
+               RoutePoint{Via{position, true}, true});
+}
+
+/// `plan` with `waits_s[k]` at rest before each of its `legs`: the trajectory, its stats, the
+/// request's vias' times, and the holds.
+FleetPlanResult WithWaits(PlanResult plan, const std::vector<Trajectory>& legs,
+                          const std::vector<double>& waits_s,
+                          const std::vector<RoutePoint>& route) {
+  FleetPlanResult result;
+  Trajectory waiting;
+  waiting.dimension = plan.trajectory.dimension;
+  double elapsed_s = 0;
+  for (std::size_t k = 0; k < legs.size(); ++k) {
+    if (waits_s[k] > 0) {
+      waiting.pieces.push_back(fleet_internal::RestAtStart(legs[k], waits_s[k]));
+      result.holds.push_back({elapsed_s, waits_s[k], legs[k].Position(0).head<3>()});
+      elapsed_s += waits_s[k];
+      result.wait_s += waits_s[k];
+    }
+    waiting.pieces.insert(waiting.pieces.end(), legs[k].pieces.begin(), legs[k].pieces.end());
+    elapsed_s += legs[k].TotalDuration();
+  }
+  // A route point in leg k is reached after the waits before legs 0..k.
+  std::vector<SnapResult> vias;
+  std::vector<double> via_times_s;
+  std::size_t leg = 0;
+  double waited_s = waits_s[0];
+  for (std::size_t j = 0; j < route.size(); ++j) {
+    if (!route[j].added) {
+      vias.push_back(plan.via[j]);
+      via_times_s.push_back(plan.via_times_s[j] + waited_s);
+    } else {
+      ++result.stops_added;
+    }
+    if (route[j].via.stop) waited_s += waits_s[++leg];
+  }
+  plan.via = std::move(vias);
+  plan.via_times_s = std::move(via_times_s);
+  plan.trajectory = std::move(waiting);
+  plan.stats.duration_s += result.wait_s;
+  plan.stats.pieces = static_cast<int>(plan.trajectory.pieces.size());
+  result.plan = std::move(plan);
+  return result;
 }
 
 }  // namespace
@@ -160,14 +310,45 @@ Expected<FleetPlanResult> PlanAmongTraffic(const PlanningMap& map, const FleetPl
   traffic.others = request.others;
 
   PlanRequest plan_request = request.plan;
+  std::vector<RoutePoint> route;
+  for (const Via& via : request.plan.via) route.push_back({via, false});
+  const int max_added_stops =
+      std::min(kMaxAddedStops, kMaxVias - static_cast<int>(request.plan.via.size()));
+  int stops_added = 0;
   std::vector<bool> zoned(request.others.size(), false);
   const auto zoned_count = [&] {
     return static_cast<int>(std::count(zoned.begin(), zoned.end(), true));
   };
-  int waits_tried = 0;
+  // Robots parked from the departure for longer than any trip this plan could make are
+  // planned around from the first plan on, which saves the plan that would find them.
+  // (One on the start or the goal is left to the rounds, which refuse it by name.)
+  const std::int64_t long_parked_ns =
+      AddSeconds(request.departure_ns, request.fleet.max_wait_s + kLongestTripS);
+  for (std::size_t i = 0; i < request.others.size(); ++i) {
+    const FleetMotion& other = request.others[i].motion;
+    if (other.ArrivalNs() > request.departure_ns || other.end_ns < long_parked_ns ||
+        plan_request.keep_out.size() >= static_cast<std::size_t>(kMaxRequestKeepOutZones)) {
+      continue;
+    }
+    Prism zone = ParkedZone(other, traffic.rule);
+    const RobotProfile& profile = request.plan.profile;
+    if (ViolatesKeepOut(zone, profile, request.plan.start.position_m) ||
+        ViolatesKeepOut(zone, profile, request.plan.goal.position_m)) {
+      continue;
+    }
+    plan_request.keep_out.push_back(std::move(zone));
+    zoned[i] = true;
+  }
+  int departures_checked = 0;
   std::optional<TrafficConflict> first_at_departure;
   for (int round = 0; round < kMaxPlanRounds; ++round) {
+    plan_request.via.clear();
+    for (const RoutePoint& point : route) plan_request.via.push_back(point.via);
     Expected<PlanResult> plan = Plan(map, plan_request, should_stop);
+    if (!plan && stops_added > 0 && plan.error().code != ErrorCode::kCancelled &&
+        plan.error().code != ErrorCode::kDeadlineExceeded) {
+      break;  // A stop added to wait at did not plan: refuse with what the route met.
+    }
     if (!plan) {
       if (zoned_count() > 0 && plan.error().code == ErrorCode::kGoalUnreachable) {
         std::string robots;
@@ -183,46 +364,67 @@ Expected<FleetPlanResult> PlanAmongTraffic(const PlanningMap& map, const FleetPl
     if (should_stop && should_stop()) {
       return Error{ErrorCode::kCancelled, "the plan was cancelled while waits were tried"};
     }
-    const WaitOutcome waits =
-        TryWaits(plan.value().trajectory, traffic, request.fleet.max_wait_s, zoned);
-    waits_tried += waits.waits_tried;
-    if (waits.first_at_departure) first_at_departure = waits.first_at_departure;
-    if (waits.clear_wait_s) {
-      // Plan verified the trajectory on the map; the wait holds its verified start at rest,
-      // and TryWaits checked the whole of it against the traffic exactly.
-      const double wait = *waits.clear_wait_s;
-      FleetPlanResult result;
-      result.plan = std::move(plan).value();
-      result.plan.trajectory = WithWaitAtStart(result.plan.trajectory, wait);
-      result.plan.stats.duration_s += wait;
-      result.plan.stats.pieces = static_cast<int>(result.plan.trajectory.pieces.size());
-      for (double& t : result.plan.via_times_s) t += wait;
+    const FleetMotion unwaited = traffic.MotionOf(plan.value().trajectory);
+    if (std::optional<TrafficConflict> met =
+            FirstTrafficConflict(unwaited, traffic.others, traffic.rule)) {
+      first_at_departure = met;
+    }
+    const std::vector<std::size_t> parked =
+        ParkedInTheWay(unwaited, traffic, request.fleet.max_wait_s, zoned);
+    if (!parked.empty()) {
+      // Plan around every robot parked in the way at once.
+      if (plan_request.keep_out.size() + parked.size() >
+          static_cast<std::size_t>(kMaxRequestKeepOutZones)) {
+        break;
+      }
+      for (const std::size_t i : parked) {
+        const ReservedMotion& other = request.others[i];
+        Prism zone = ParkedZone(other.motion, traffic.rule);
+        const RobotProfile& profile = request.plan.profile;
+        if (ViolatesKeepOut(zone, profile, plan.value().goal.position_m)) {
+          return ParkedOnEnd(other, request, "goal");
+        }
+        if (ViolatesKeepOut(zone, profile, plan.value().start.position_m)) {
+          return ParkedOnEnd(other, request, "start");
+        }
+        plan_request.keep_out.push_back(std::move(zone));
+        zoned[i] = true;
+      }
+      continue;
+    }
+    const std::vector<Trajectory> legs = SplitAtStops(plan.value(), route);
+    const auto scheduled =
+        fleet_internal::ScheduleHolds(legs, StartsAtRest(plan.value().trajectory), traffic,
+                                      request.fleet.max_wait_s, kMaxDeparturesChecked);
+    if (const auto* holds = std::get_if<fleet_internal::HoldSchedule>(&scheduled)) {
+      // Plan verified every leg on the map; each wait holds a leg's verified first point at
+      // rest, and ScheduleHolds checked the whole route, waits included, against the traffic
+      // exactly.
+      FleetPlanResult result = WithWaits(std::move(plan).value(), legs, holds->waits_s, route);
       result.motion = traffic.MotionOf(result.plan.trajectory);
-      result.wait_s = wait;
       result.parked_robots_avoided = zoned_count();
-      result.waits_tried = waits_tried;
+      result.departures_checked = departures_checked + holds->departures_checked;
       return result;
     }
-    if (waits.parked_in_the_way.empty() ||
-        plan_request.keep_out.size() + waits.parked_in_the_way.size() >
-            static_cast<std::size_t>(kMaxRequestKeepOutZones)) {
-      break;
-    }
-    for (const std::size_t i : waits.parked_in_the_way) {
-      const ReservedMotion& parked = request.others[i];
-      Prism zone = ParkedZone(parked.motion, traffic.rule);
-      const RobotProfile& profile = request.plan.profile;
-      if (ViolatesKeepOut(zone, profile, plan.value().goal.position_m)) {
-        return ParkedOnEnd(parked, request, "goal");
-      }
-      if (ViolatesKeepOut(zone, profile, plan.value().start.position_m)) {
-        return ParkedOnEnd(parked, request, "start");
-      }
-      plan_request.keep_out.push_back(std::move(zone));
-      zoned[i] = true;
-    }
+    const auto& failure = std::get<fleet_internal::HoldFailure>(scheduled);
+    departures_checked += failure.departures_checked;
+    if (!failure.conflict || stops_added >= max_added_stops) break;
+    const std::optional<Eigen::Vector3d> stop =
+        StopBefore(legs[failure.leg], failure.departure_ns, *failure.conflict, traffic,
+                   [&](const Eigen::Vector3d& p) {
+                     return StandingPoint(map, plan_request, plan.value().start.node, p);
+                   });
+    if (!stop) break;
+    // Where the stop lies on the planned route (its time there, without waits).
+    double leg_start_s = 0;
+    for (std::size_t k = 0; k < failure.leg; ++k) leg_start_s += legs[k].TotalDuration();
+    const double met_s =
+        std::min(SecondsBetween(failure.departure_ns, failure.conflict->conflict.time_ns),
+                 legs[failure.leg].TotalDuration());
+    InsertStop(route, plan.value(), leg_start_s + met_s, *stop);
+    ++stops_added;
   }
-  // Nothing cleared the traffic: name what the plan without waiting met.
+  // Nothing cleared the traffic: name what the route without waits met.
   if (!first_at_departure) {
     return Error{
         ErrorCode::kReservationConflict,
@@ -234,12 +436,13 @@ Expected<FleetPlanResult> PlanAmongTraffic(const PlanningMap& map, const FleetPl
   Error error{
       ErrorCode::kReservationConflict,
       fmt::format("{} robot {}'s reservation at ({:.2f}, {:.2f}, {:.2f}) m, {} (the "
-                  "robots come within {:.3f} m, the limit is {:.3f} m), and no wait up "
-                  "to {:g} s at the start clears every reservation",
+                  "robots come within {:.3f} m, the limit is {:.3f} m), and no waits up to "
+                  "{:g} s in all, at the start or at up to {} stops on the way, clear every "
+                  "reservation",
                   at_start ? "the start is already in conflict with" : "the trajectory meets",
                   internal::Quote(other.robot_id), c.point_a.x(), c.point_a.y(), c.point_a.z(),
                   TimeText(request.departure_ns, c.time_ns), c.horizontal_distance_m, c.limit_m,
-                  request.fleet.max_wait_s)};
+                  request.fleet.max_wait_s, max_added_stops)};
   error.details = ConflictDetails(other.robot_id, c);
   return error;
 }

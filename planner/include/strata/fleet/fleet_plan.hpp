@@ -4,14 +4,19 @@
 ///
 /// How (docs/design.md, "Fleets"): other robots parked for the time this plan may take are
 /// keep-out zones, which the search and the optimiser go around; the plan is then placed at
-/// its departure and checked exactly against every other motion (traffic.hpp). When it meets
-/// one, the robot waits at its start, holding its position at rest as the trajectory's first
-/// piece, for the shortest of a ladder of waits that clears every motion. The trajectory
-/// returned is Plan's verified one behind that rest, checked exactly against every motion.
+/// its departure, and the robot waits, at rest, at its start and at stops along its route for
+/// the moving ones to pass (a search over the departures from each stop, hold_schedule.hpp),
+/// each departure checked exactly against every motion (traffic.hpp). Where no waits clear
+/// the route, a stop is added before what it meets, out of that robot's way, and the route is
+/// planned again through it. The trajectory returned is Plan's verified one with the waits
+/// inserted as pieces at rest at verified points, checked exactly against every motion.
 #include <cstdint>
 #include <functional>
 #include <span>
 #include <string_view>
+#include <vector>
+
+#include <Eigen/Core>
 
 #include "strata/fleet/fleet_motion.hpp"
 #include "strata/fleet/motion_conflict.hpp"
@@ -23,7 +28,8 @@ namespace strata {
 
 struct FleetPlanOptions {
   SeparationRule rule;
-  /// Longest the robot may wait at its start for others to pass [s], in [0, 3600].
+  /// Longest the robot may wait for others to pass, at its start and at stops on its way
+  /// together [s], in [0, 3600].
   double max_wait_s = 60;
   Status Validate(std::string_view path) const;
 };
@@ -40,20 +46,29 @@ struct FleetPlanRequest {
   std::span<const ReservedMotion> others;
 };
 
+/// A wait in a fleet plan: a piece of the trajectory at rest.
+struct FleetHold {
+  double start_s = 0;     ///< When it begins, from the trajectory's start [s].
+  double duration_s = 0;  ///< [s], > 0.
+  Eigen::Vector3d position_m = Eigen::Vector3d::Zero();  ///< Where the robot stands [m].
+};
+
 struct FleetPlanResult {
-  /// The plan; when wait_s > 0 its trajectory begins with a piece of wait_s at rest at the
-  /// start, and its duration and via times include it.
+  /// The plan; each of `holds` is a piece at rest in its trajectory, and its duration and via
+  /// times include them. Its `via` and via times are the request's vias only.
   PlanResult plan;
-  FleetMotion motion;  ///< The trajectory at its departure, parked until parked_until_ns.
-  double wait_s = 0;   ///< How long the robot waits at its start [s].
+  FleetMotion motion;            ///< The trajectory at its departure, parked until parked_until_ns.
+  double wait_s = 0;             ///< How long the robot waits in all, the sum of `holds` [s].
+  std::vector<FleetHold> holds;  ///< In trajectory order; at the start when start_s is 0.
+  int stops_added = 0;           ///< Stops on the way added so that the robot could wait.
   int parked_robots_avoided = 0;  ///< Others' parking places planned around as zones.
-  int waits_tried = 0;            ///< Waits checked against the traffic, 0 when none needed.
+  int departures_checked = 0;     ///< Departures checked against the traffic.
 };
 
 /// Plans `request` among the others' motions. Fails as Plan does, and with
 /// kReservationConflict naming the robot in the way, when and where: the start is already
 /// within reach of a robot parked there, the goal is where another robot stays parked, or no
-/// wait up to max_wait_s clears every motion. `should_stop` as for Plan.
+/// waits up to max_wait_s in all clear every motion. `should_stop` as for Plan.
 Expected<FleetPlanResult> PlanAmongTraffic(const PlanningMap& map, const FleetPlanRequest& request,
                                            const std::function<bool()>& should_stop = {});
 
