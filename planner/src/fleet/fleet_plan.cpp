@@ -157,12 +157,18 @@ bool ExtentsOverlap(const VerticalExtent& a, const VerticalExtent& b) {
   return a.top_m > b.bottom_m && b.top_m > a.bottom_m;
 }
 
+/// A stop to add to a route, found beside or on one of its legs.
+struct AddedStop {
+  double leg_time_s = 0;  ///< When the leg, without waits, is where the stop was found [s].
+  Eigen::Vector3d position_m = Eigen::Vector3d::Zero();
+};
+
 /// A place to wait at before `leg` (leaving at `departure_ns`) meets another robot as `met`
 /// says, for that robot to pass: the leg's latest point before the meeting, or a point beside
 /// it (kStopSideOffsetsM, where `stands` finds ground), that keeps more than the limit plus
 /// kStopClearanceM from the whole of that robot's way from the departure on; at least
 /// kMinStopSpacingM from both ends of the leg. None when there is no such place.
-std::optional<Eigen::Vector3d> StopBefore(
+std::optional<AddedStop> StopBefore(
     const Trajectory& leg, std::int64_t departure_ns, const TrafficConflict& met,
     const Traffic& traffic,
     const std::function<std::optional<Eigen::Vector3d>(const Eigen::Vector3d&)>& stands) {
@@ -196,7 +202,7 @@ std::optional<Eigen::Vector3d> StopBefore(
     if ((on_route - first).norm() < kMinStopSpacingM) return std::nullopt;
     if ((on_route - last).norm() < kMinStopSpacingM) continue;
     const double body_height_m = state.size() > 3 ? state(3) : traffic.body.height_m;
-    if (out_of_the_way(on_route, body_height_m)) return on_route;
+    if (out_of_the_way(on_route, body_height_m)) return AddedStop{t, on_route};
     // Points beside the route: a bay off an aisle where the robot lets the other pass.
     const Eigen::Vector2d heading = leg.Velocity(t).head<2>();
     if (heading.norm() < 1e-6) continue;
@@ -206,7 +212,7 @@ std::optional<Eigen::Vector3d> StopBefore(
         const Eigen::Vector3d beside = on_route + offset_m * side;
         if (!out_of_the_way(beside, body_height_m)) continue;
         std::optional<Eigen::Vector3d> stand = stands(beside);
-        if (stand && out_of_the_way(*stand, body_height_m)) return stand;
+        if (stand && out_of_the_way(*stand, body_height_m)) return AddedStop{t, *stand};
       }
     }
   }
@@ -235,7 +241,7 @@ std::optional<Eigen::Vector3d> StandingPoint(const PlanningMap& map, const PlanR
   return snapped.value().position_m;
 }
 
-/// `route` with a stop at `position`, which `plan` (planned through `route`) reaches at
+/// `route` with a stop at `position`, which `plan` (planned through `route`) passes at
 /// `time_s`, put in its order among the route's points.
 void InsertStop(std::vector<RoutePoint>& route, const PlanResult& plan, double time_s,
                 const Eigen::Vector3d& position) {
@@ -409,19 +415,15 @@ Expected<FleetPlanResult> PlanAmongTraffic(const PlanningMap& map, const FleetPl
     const auto& failure = std::get<fleet_internal::HoldFailure>(scheduled);
     departures_checked += failure.departures_checked;
     if (!failure.conflict || stops_added >= max_added_stops) break;
-    const std::optional<Eigen::Vector3d> stop =
+    const std::optional<AddedStop> stop =
         StopBefore(legs[failure.leg], failure.departure_ns, *failure.conflict, traffic,
                    [&](const Eigen::Vector3d& p) {
                      return StandingPoint(map, plan_request, plan.value().start.node, p);
                    });
     if (!stop) break;
-    // Where the stop lies on the planned route (its time there, without waits).
     double leg_start_s = 0;
     for (std::size_t k = 0; k < failure.leg; ++k) leg_start_s += legs[k].TotalDuration();
-    const double met_s =
-        std::min(SecondsBetween(failure.departure_ns, failure.conflict->conflict.time_ns),
-                 legs[failure.leg].TotalDuration());
-    InsertStop(route, plan.value(), leg_start_s + met_s, *stop);
+    InsertStop(route, plan.value(), leg_start_s + stop->leg_time_s, stop->position_m);
     ++stops_added;
   }
   // Nothing cleared the traffic: name what the route without waits met.
