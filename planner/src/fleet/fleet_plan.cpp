@@ -5,6 +5,7 @@
 #include <cmath>
 #include <numbers>
 #include <optional>
+#include <span>
 #include <string>
 #include <utility>
 #include <variant>
@@ -219,24 +220,22 @@ std::optional<AddedStop> StopBefore(
   return std::nullopt;
 }
 
-/// Where the robot of `request` would stand when stopped at `p`: p snapped onto its ground
-/// (as a goal is, within kStandingSnapM, also in height), connected to graph node
-/// `route_node`, outside the request's and the map's keep-out zones. None when it cannot
-/// stand there.
-std::optional<Eigen::Vector3d> StandingPoint(const PlanningMap& map, const PlanRequest& request,
-                                             int route_node, const Eigen::Vector3d& p) {
-  const auto graph = map.Graph(request.profile.Traversability());
-  if (!graph) return std::nullopt;
+/// Where a robot of `profile` would stand when stopped at `p`: p snapped onto its `graph`
+/// (as a goal is, within kStandingSnapM, also in height), connected to node `route_node`,
+/// outside `zones` (the map's and the request's, CollectKeepOut). None when it cannot stand
+/// there.
+std::optional<Eigen::Vector3d> StandingPoint(const SurfaceGraph& graph,
+                                             std::span<const KeepOutZone> zones,
+                                             const RobotProfile& profile, int route_node,
+                                             const Eigen::Vector3d& p) {
   const Expected<SnapResult> snapped =
-      SnapEndpoint(*graph.value(), p, kStandingSnapM, ErrorCode::kGoalOffGround);
+      SnapEndpoint(graph, p, kStandingSnapM, ErrorCode::kGoalOffGround);
   if (!snapped || std::abs(snapped.value().position_m.z() - p.z()) > kStandingSnapM ||
-      graph.value()->component(snapped.value().node) != graph.value()->component(route_node)) {
+      graph.component(snapped.value().node) != graph.component(route_node)) {
     return std::nullopt;
   }
-  for (const KeepOutZone& zone : CollectKeepOut(map, request.keep_out)) {
-    if (ViolatesKeepOut(zone.prism, request.profile, snapped.value().position_m)) {
-      return std::nullopt;
-    }
+  for (const KeepOutZone& zone : zones) {
+    if (ViolatesKeepOut(zone.prism, profile, snapped.value().position_m)) return std::nullopt;
   }
   return snapped.value().position_m;
 }
@@ -415,10 +414,15 @@ Expected<FleetPlanResult> PlanAmongTraffic(const PlanningMap& map, const FleetPl
     const auto& failure = std::get<fleet_internal::HoldFailure>(scheduled);
     departures_checked += failure.departures_checked;
     if (!failure.conflict || stops_added >= max_added_stops) break;
+    // Looked up once for every place the stop search tries (Plan has just built the graph).
+    const auto graph = map.Graph(request.plan.profile.Traversability());
+    const std::vector<KeepOutZone> zones = CollectKeepOut(map, plan_request.keep_out);
     const std::optional<AddedStop> stop =
         StopBefore(legs[failure.leg], failure.departure_ns, *failure.conflict, traffic,
-                   [&](const Eigen::Vector3d& p) {
-                     return StandingPoint(map, plan_request, plan.value().start.node, p);
+                   [&](const Eigen::Vector3d& p) -> std::optional<Eigen::Vector3d> {
+                     if (!graph) return std::nullopt;
+                     return StandingPoint(*graph.value(), zones, request.plan.profile,
+                                          plan.value().start.node, p);
                    });
     if (!stop) break;
     double leg_start_s = 0;
