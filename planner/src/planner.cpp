@@ -211,6 +211,18 @@ std::vector<KeepOutZone> CollectKeepOut(const PlanningMap& map,
   return zones;
 }
 
+Status VerifyOnMap(const PlanningMap& map, const RobotProfile& profile,
+                   const Trajectory& trajectory, const VerifierConfig& config,
+                   const std::function<bool()>& should_stop) {
+  if (Status s = profile.Validate(); !s) return s;
+  if (Status s = CheckProfileFitsMap(profile, map.model().config()); !s) return s;
+  Expected<std::shared_ptr<const SurfaceGraph>> graph =
+      map.Graph(profile.Traversability(), should_stop);
+  if (!graph) return graph.error();
+  VerificationReport report;
+  return VerifyTrajectory(**graph, profile, trajectory, config, &report, CollectKeepOut(map, {}));
+}
+
 Expected<SnapResult> SnapEndpoint(const SurfaceGraph& graph, const Eigen::Vector3d& requested,
                                   double tolerance_m, ErrorCode off_ground_code,
                                   double min_obstacle_distance_m) {

@@ -300,8 +300,8 @@ ServiceStatus StrataServer::StartServices(const StartInputs& inputs) {
   planner_options.reservations = reservations_.get();
   planner_service_ =
       std::make_unique<PlannerServiceImpl>(registry_.get(), metrics_.get(), planner_options);
-  traffic_service_ =
-      std::make_unique<TrafficServiceImpl>(registry_.get(), reservations_.get(), tokens_.get());
+  traffic_service_ = std::make_unique<TrafficServiceImpl>(registry_.get(), reservations_.get(),
+                                                          planning_slots_.get(), tokens_.get());
 
   // Every method served gets its own metric series before the first call; calls to any
   // other path are counted as "unknown" (Metrics::InitializeMethod).

@@ -11,6 +11,7 @@
 #include "rpc/proto_convert.hpp"
 #include "rpc/traffic_convert.hpp"
 #include "strata/fleet/map_change.hpp"
+#include "strata/planner.hpp"
 #include "strata/planning/robot_profile.hpp"
 
 namespace strata::server {
@@ -38,8 +39,45 @@ Result<FleetBody> BodyOf(const v1::ReserveTrajectoryRequest& request) {
 }  // namespace
 
 TrafficServiceImpl::TrafficServiceImpl(const MapRegistry* registry, ReservationSchedule* schedule,
-                                       const TokenTable* tokens)
-    : registry_(registry), schedule_(schedule), tokens_(tokens) {}
+                                       PlanningSlots* slots, const TokenTable* tokens)
+    : registry_(registry), schedule_(schedule), slots_(slots), tokens_(tokens) {}
+
+ServiceStatus TrafficServiceImpl::CheckOnMap(const v1::ReserveTrajectoryRequest& request,
+                                             const FleetMotion& motion, const CallControl& call,
+                                             std::string* version) const {
+  Result<ActiveMap> map = registry_->GetActive(request.map_id(), request.map_version());
+  if (!map.ok()) return std::move(map).error();
+  *version = map.value().version;
+  const PlanningMap& planning_map = *map.value().map;
+  const auto unsafe = [&](const std::string& why) {
+    return MakeError(ErrorCode::kInvalidInput,
+                     fmt::format("trajectory is not safe on map {} version {}: {}; plan it on "
+                                 "this version (Plan), or correct it",
+                                 request.map_id(), *version, why))
+        .Blame("trajectory");
+  };
+  return slots_->Run(
+      call, [&](const std::function<bool()>& should_stop, double /*queue_s*/) -> ServiceStatus {
+        if (request.robot_case() == v1::ReserveTrajectoryRequest::kProfileName) {
+          Expected<RobotProfile> profile = BuiltinProfile(request.profile_name());
+          if (!profile) return ServiceError::FromPlanner(profile.error(), "profile_name");
+          Status safe =
+              VerifyOnMap(planning_map, profile.value(), motion.trajectory, {}, should_stop);
+          if (safe) return OkStatus();
+          if (safe.error().code == ErrorCode::kOptimizationFailed)
+            return unsafe(safe.error().message);
+          return ServiceError::FromPlanner(safe.error(), "trajectory");
+        }
+        // A body alone holds no limits: the map's rules are checked where the body goes.
+        const std::optional<UnsafeMotion> first =
+            FirstUnsafeOnMap(planning_map, motion, motion.start_ns);
+        if (!first) return OkStatus();
+        return unsafe(fmt::format("{:.3f} s after its start, at ({:.2f}, {:.2f}, {:.2f}): {}",
+                                  SecondsBetween(motion.start_ns, first->time_ns),
+                                  first->position_m.x(), first->position_m.y(),
+                                  first->position_m.z(), first->reason));
+      });
+}
 
 Result<std::string> TrafficServiceImpl::CurrentVersion(const std::string& map_id) const {
   if (ServiceStatus given = RequireMapId(map_id); !given.ok()) return std::move(given).error();
@@ -50,8 +88,9 @@ Result<std::string> TrafficServiceImpl::CurrentVersion(const std::string& map_id
 
 ServiceStatus TrafficServiceImpl::Reserve(const v1::ReserveTrajectoryRequest& request,
                                           const CallControl& call, v1::Reservation* response) {
-  Result<std::string> current = CurrentVersion(request.map_id());
-  if (!current.ok()) return std::move(current).error();
+  if (Result<std::string> map = CurrentVersion(request.map_id()); !map.ok()) {
+    return std::move(map).error();
+  }
   const ScheduleLimits& limits = schedule_->limits();
   if (!request.has_start_time()) {
     return MakeError(ErrorCode::kInvalidInput, "start_time is required").Blame("start_time");
@@ -77,7 +116,6 @@ ServiceStatus TrafficServiceImpl::Reserve(const v1::ReserveTrajectoryRequest& re
 
   Reservation reservation;
   reservation.map_id = request.map_id();
-  reservation.map_version = request.map_version().empty() ? current.value() : request.map_version();
   reservation.reserved.robot_id = request.robot_id();
   FleetMotion& motion = reservation.reserved.motion;
   motion.start_ns = start_ns.value();
@@ -86,6 +124,10 @@ ServiceStatus TrafficServiceImpl::Reserve(const v1::ReserveTrajectoryRequest& re
   motion.end_ns = std::max(AddSeconds(schedule_->NowNs(), lease_s), motion.ArrivalNs());
   if (Status valid = motion.Validate("trajectory"); !valid) {
     return ServiceError::FromPlanner(valid.error(), valid.error().field);
+  }
+  if (ServiceStatus safe = CheckOnMap(request, motion, call, &reservation.map_version);
+      !safe.ok()) {
+    return safe;
   }
   Result<Reservation> committed = schedule_->Commit(std::move(reservation), rule.value(),
                                                     CallerOf(tokens_, call.authorization));

@@ -12,6 +12,7 @@
 
 #include "maps/map_registry.hpp"
 #include "rpc/auth.hpp"
+#include "rpc/planning_slots.hpp"
 #include "rpc/rpc_boundary.hpp"
 #include "strata/v1/traffic_service.grpc.pb.h"
 #include "traffic/reservation_schedule.hpp"
@@ -23,9 +24,10 @@ inline constexpr int kMaxWatches = 64;
 
 class TrafficServiceImpl final : public v1::TrafficService::Service {
  public:
-  /// `registry`, `schedule` and `tokens` (null: no tokens) must outlive the service.
+  /// `registry`, `schedule`, `slots` (where a trajectory to reserve is checked on the map,
+  /// beside the plans) and `tokens` (null: no tokens) must outlive the service.
   TrafficServiceImpl(const MapRegistry* registry, ReservationSchedule* schedule,
-                     const TokenTable* tokens);
+                     PlanningSlots* slots, const TokenTable* tokens);
 
   /// The calls' work, without gRPC (`call` says who asks).
   ServiceStatus Reserve(const v1::ReserveTrajectoryRequest& request, const CallControl& call,
@@ -69,12 +71,19 @@ class TrafficServiceImpl final : public v1::TrafficService::Service {
                          std::uint64_t revision,
                          std::map<std::string, std::pair<std::uint64_t, std::string>>* checked,
                          const std::function<bool(const v1::ScheduleChange&)>& write) const;
+  // INVALID_ARGUMENT blaming "trajectory" unless `motion` (a trajectory to reserve) is safe on
+  // the map version `request` names: with a profile, as Plan verifies its own; with a body
+  // alone, the map's rules at samples (FirstUnsafeOnMap). Run in a planning slot. Sets
+  // *version to the version checked.
+  ServiceStatus CheckOnMap(const v1::ReserveTrajectoryRequest& request, const FleetMotion& motion,
+                           const CallControl& call, std::string* version) const;
   // NOT_FOUND MAP_NOT_FOUND unless the registry holds `map_id`; its current version.
   Result<std::string> CurrentVersion(const std::string& map_id) const;
   RpcService Rpc() const { return {v1::TrafficService::service_full_name(), tokens_}; }
 
   const MapRegistry* registry_;
   ReservationSchedule* schedule_;
+  PlanningSlots* slots_;
   const TokenTable* tokens_;
   std::atomic<int> watches_{0};  // WatchSchedule streams open, at most kMaxWatches.
 };

@@ -215,6 +215,22 @@ Result<Reservation> ReservationSchedule::Commit(Reservation reservation, const S
         }
         Reservation committed = reservation;
         committed.owner = caller.owner;
+        if (existing != schedule.by_robot.end()) {
+          // Until its new departure the robot drives its earlier plan, which the others were
+          // planned around; only what is new is checked above.
+          committed.reserved.motion =
+              ContinuedBy(existing->second.reserved.motion, committed.reserved.motion, now_ns_());
+          const std::size_t pieces = committed.reserved.motion.trajectory.pieces.size();
+          if (pieces > kMaxTrajectoryPieces) {
+            return MakeError(ErrorCode::kInvalidInput,
+                             fmt::format("robot {} keeps to its reservation until the new "
+                                         "trajectory departs, and the two have {} pieces, more "
+                                         "than the {} a reservation may hold: depart sooner, or "
+                                         "release the reservation first",
+                                         robot_id, pieces, kMaxTrajectoryPieces))
+                .Blame("trajectory");
+          }
+        }
         Result<std::optional<std::uint64_t>> stored =
             Store(schedule, committed.map_id, robot_id, &committed);
         if (!stored.ok()) return std::move(stored).error();

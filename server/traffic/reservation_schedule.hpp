@@ -84,8 +84,10 @@ class ReservationSchedule {
   ServiceStatus CheckLease(double lease_s) const;
 
   /// Commits `reservation` (its revision is set here) as its robot's, replacing the robot's
-  /// own earlier one, when its motion meets no other live reservation on its map under `rule`
-  /// (CheckSeparation, exact); otherwise kReservationConflict naming the first meeting.
+  /// own earlier one from its departure on (ContinuedBy: the rest of the earlier one, from
+  /// now, begins the committed motion), when its motion meets no other live reservation on its
+  /// map under `rule` (CheckSeparation, exact); otherwise kReservationConflict naming the
+  /// first meeting.
   /// kResourceExhausted when the map holds max_reservations_per_map others already;
   /// kPermissionDenied when the robot's reservation belongs to another owner and `caller` is
   /// no admin. Returns the reservation as committed.

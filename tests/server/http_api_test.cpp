@@ -58,7 +58,7 @@ class HttpApiTest : public ::testing::Test {
                                                            .max_lease_s = 600,
                                                            .max_horizon_s = 3600,
                                                            .default_separation_m = 0.1});
-    traffic_ = new TrafficServiceImpl(registry_, reservations_, nullptr);
+    traffic_ = new TrafficServiceImpl(registry_, reservations_, slots_, nullptr);
     tokens_ = new TokenTable({{kPlannerToken, Role::kPlanner}});
   }
   static void TearDownTestSuite() {

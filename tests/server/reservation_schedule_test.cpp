@@ -96,6 +96,31 @@ TEST_F(ReservationScheduleTest, ARobotsNewReservationReplacesItsOwnAndNeverMeets
   EXPECT_EQ(schedule_.OthersOf("site", "r2").others.size(), 1u);
 }
 
+TEST_F(ReservationScheduleTest, ANewReservationDepartingLaterKeepsTheRobotOnItsOldOneUntilThen) {
+  // r1 drives east through the origin (from (-5, 0) at +0 s to (5, 0) at +10 s); at +2 s it
+  // commits a new plan that leaves where it will be at +8 s, (3, 0), northwards.
+  ASSERT_TRUE(schedule_.Commit(EastBound("r1"), rule_, anyone_).ok());
+  now_ = AddSeconds(kEpoch, 2);
+  const std::int64_t departure = AddSeconds(kEpoch, 8);
+  const Result<Reservation> turned = schedule_.Commit(
+      Driving("r1", departure, {3, 0, 0.3}, {0, 1, 0}, 5, AddSeconds(kEpoch, 40)), rule_, anyone_);
+  ASSERT_TRUE(turned.ok()) << turned.error().message;
+  const FleetMotion& motion = turned.value().reserved.motion;
+  EXPECT_EQ(motion.start_ns, kEpoch);  // Its one piece ends after now: kept, cut at +8 s.
+  EXPECT_TRUE(motion.ReferencePointAt(AddSeconds(kEpoch, 5)).isApprox(Eigen::Vector3d(0, 0, 0.3)));
+  EXPECT_TRUE(motion.ReferencePointAt(AddSeconds(kEpoch, 10)).isApprox(Eigen::Vector3d(3, 2, 0.3)));
+
+  // Until +8 s r1 still drives through the origin: a robot crossing it at +5 s meets r1 ...
+  const Result<Reservation> crossing = schedule_.Commit(NorthBound("r2"), rule_, anyone_);
+  ASSERT_FALSE(crossing.ok());
+  EXPECT_EQ(crossing.error().metadata.at("robot_id"), "r1");
+  // ... and one crossing the old way at +10 s, when r1 would have been there, does not.
+  const Result<Reservation> behind = schedule_.Commit(
+      Driving("r2", AddSeconds(kEpoch, 9), {4.5, -1, 0.3}, {0, 1, 0}, 2, AddSeconds(kEpoch, 12)),
+      rule_, anyone_);
+  EXPECT_TRUE(behind.ok()) << behind.error().message;
+}
+
 TEST_F(ReservationScheduleTest, ExpiredLeasesAreCollectedAndMoveTheRevision) {
   ASSERT_TRUE(schedule_.Commit(EastBound("r1"), rule_, anyone_).ok());  // Held until +30 s.
   now_ = AddSeconds(kEpoch, 29);

@@ -170,6 +170,54 @@ TEST_F(ServerFleetTest, ReservingATrajectoryThatMeetsAnotherIsRefusedNamingTheRo
   ExpectNoTwoMeet();
 }
 
+TEST_F(ServerFleetTest, ATrajectoryToReserveIsCheckedOnTheMapAsAPlanIs) {
+  v1::PlanRequest alone = FleetPlan("b", 3, 10, 13, 5, departure_ns_, /*reserve=*/false);
+  v1::PlanResponse planned;
+  ASSERT_TRUE(Plan(alone, &planned, 120).ok());
+  // The same path a metre above the floor: nothing holds the robot up there.
+  Trajectory flying = FromProto(planned.trajectory()).value();
+  for (TrajectoryPiece& piece : flying.pieces) piece.coefficients(0, 2) += 1.0;
+
+  v1::ReserveTrajectoryRequest reserve;
+  reserve.set_map_id("demo");
+  reserve.set_robot_id("b");
+  *reserve.mutable_start_time() = planned.departure_time();
+  ToProto(flying, reserve.mutable_trajectory());
+  reserve.set_profile_name("differential");
+  const auto refusal = [&] {
+    grpc::ClientContext context;
+    SetDeadline(&context, 30);
+    v1::Reservation committed;
+    return ErrorOf(traffic_->ReserveTrajectory(&context, reserve, &committed));
+  };
+  // With a profile, verified as Plan verifies its own: the ground is a metre off.
+  const CallError verified = refusal();
+  EXPECT_EQ(verified.code, grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_THAT(verified.message, HasSubstr("not safe on map demo version"));
+  EXPECT_THAT(verified.fields, ::testing::Contains("trajectory"));
+  // With a body alone (no limits to check), the map's rules where the body goes.
+  v1::FleetBody* body = reserve.mutable_body();
+  body->set_radius_m(0.3);
+  body->set_reference_height_m(0.3);
+  body->set_height_m(0.5);
+  const CallError sampled = refusal();
+  EXPECT_EQ(sampled.code, grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_THAT(sampled.message, HasSubstr("below where the trajectory expects it"));
+  EXPECT_EQ(List().reservations_size(), 0);
+
+  // The plan itself passes both.
+  *reserve.mutable_trajectory() = planned.trajectory();
+  for (const bool with_body : {true, false}) {
+    if (!with_body) reserve.set_profile_name("differential");
+    grpc::ClientContext context;
+    SetDeadline(&context, 30);
+    v1::Reservation committed;
+    const grpc::Status ok = traffic_->ReserveTrajectory(&context, reserve, &committed);
+    ASSERT_TRUE(ok.ok()) << ok.error_message();
+    EXPECT_EQ(committed.map_version(), planned.map_version());
+  }
+}
+
 TEST_F(ServerFleetTest, ReservationsAreRenewedReleasedAndRefusedWhenMissing) {
   v1::PlanResponse first;
   ASSERT_TRUE(Plan(FleetPlan("a", 3, 5, 13, 10, departure_ns_), &first, 120).ok());

@@ -231,6 +231,15 @@ struct PlanResult {
 std::vector<KeepOutZone> CollectKeepOut(const PlanningMap& map,
                                         std::span<const Prism> request_zones);
 
+/// Checks a trajectory made elsewhere (by a robot's own planner, or planned before) on `map`
+/// as Plan checks its own: VerifyTrajectory against `profile`'s graph (found or built as
+/// Plan finds it; `should_stop`, may be empty, stops a build with kCancelled) and the map's
+/// keep-out zones, under `config`. Fails as the profile's Validate and CheckProfileFitsMap,
+/// PlanningMap::Graph and VerifyTrajectory do.
+Status VerifyOnMap(const PlanningMap& map, const RobotProfile& profile,
+                   const Trajectory& trajectory, const VerifierConfig& config = {},
+                   const std::function<bool()>& should_stop = {});
+
 /// Where Plan puts a start or goal requested at `requested`: SnapToSurface (same tolerance,
 /// same failures) onto the nodes whose reference point keeps `min_obstacle_distance_m` [m]
 /// from obstacles (the verifier's bound: an end closer could never be verified; when every

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <vector>
 
 #include <fmt/format.h>
 
@@ -79,6 +80,56 @@ Status FleetMotion::Validate(std::string_view path) const {
                                     SecondsBetween(end_ns, ArrivalNs())));
   }
   return Status::Ok();
+}
+
+FleetMotion ContinuedBy(const FleetMotion& current, const FleetMotion& next, std::int64_t now_ns) {
+  if (next.start_ns <= std::max(now_ns, current.start_ns) ||
+      current.trajectory.dimension != next.trajectory.dimension) {
+    return next;
+  }
+  // Times since current's start [s]. A piece cut shorter than this is left out: the next one
+  // then starts a microsecond early, far below anything a robot or the check can tell.
+  constexpr double kShortestPieceS = 1e-6;
+  const double now_s = SecondsBetween(current.start_ns, now_ns);
+  const double departure_s = SecondsBetween(current.start_ns, next.start_ns);
+  std::vector<TrajectoryPiece> kept;
+  double piece_start_s = 0;
+  for (const TrajectoryPiece& piece : current.trajectory.pieces) {
+    if (piece_start_s >= departure_s) break;
+    const double piece_end_s = piece_start_s + piece.duration_s;
+    const double duration_s = std::min(piece_end_s, departure_s) - piece_start_s;
+    if (piece_end_s > now_s && duration_s >= kShortestPieceS) {
+      kept.push_back(piece);
+      kept.back().duration_s = duration_s;
+    }
+    piece_start_s = piece_end_s;
+  }
+  // Arrived before the departure: parked at its end until then (from now at the earliest).
+  const double parked_s = departure_s - std::max(piece_start_s, now_s);
+  if (parked_s >= kShortestPieceS) {
+    const std::size_t last = current.trajectory.pieces.size() - 1;
+    kept.push_back(RestAt(
+        current.trajectory.EvaluatePiece(last, current.trajectory.pieces[last].duration_s, 0),
+        parked_s));
+  }
+  if (kept.empty()) return next;
+
+  FleetMotion joined = next;
+  double kept_s = 0;
+  for (const TrajectoryPiece& piece : kept) kept_s += piece.duration_s;
+  joined.start_ns = AddSeconds(next.start_ns, -kept_s);
+  joined.trajectory.pieces = std::move(kept);
+  joined.trajectory.pieces.insert(joined.trajectory.pieces.end(), next.trajectory.pieces.begin(),
+                                  next.trajectory.pieces.end());
+  return joined;
+}
+
+TrajectoryPiece RestAt(const StateVector& state, double duration_s) {
+  TrajectoryPiece rest;
+  rest.duration_s = duration_s;
+  rest.coefficients = Eigen::MatrixXd::Zero(6, state.size());
+  rest.coefficients.row(0) = state.transpose();
+  return rest;
 }
 
 double SecondsBetween(std::int64_t from_ns, std::int64_t to_ns) {

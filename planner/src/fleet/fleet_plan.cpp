@@ -145,8 +145,8 @@ std::vector<std::size_t> ParkedInTheWay(const FleetMotion& motion, const Traffic
     FleetMotion standing;
     standing.start_ns = motion.start_ns;
     standing.trajectory.dimension = other.trajectory.dimension;
-    standing.trajectory.pieces = {fleet_internal::RestAt(
-        other.StateAt(other.ArrivalNs()), SecondsBetween(motion.start_ns, latest_passage_ns))};
+    standing.trajectory.pieces = {RestAt(other.StateAt(other.ArrivalNs()),
+                                         SecondsBetween(motion.start_ns, latest_passage_ns))};
     standing.body = other.body;
     standing.end_ns = standing.ArrivalNs();
     if (FirstConflict(motion, standing, traffic.rule)) parked.push_back(i);

@@ -126,14 +126,6 @@ std::vector<double> WaitLadder(double max_wait_s) {
   return waits;
 }
 
-TrajectoryPiece RestAt(const StateVector& state, double duration_s) {
-  TrajectoryPiece rest;
-  rest.duration_s = duration_s;
-  rest.coefficients = Eigen::MatrixXd::Zero(6, state.size());
-  rest.coefficients.row(0) = state.transpose();
-  return rest;
-}
-
 TrajectoryPiece RestAtStart(const Trajectory& trajectory, double duration_s) {
   return RestAt(trajectory.EvaluatePiece(0, 0, 0), duration_s);
 }

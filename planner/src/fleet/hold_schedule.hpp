@@ -51,8 +51,6 @@ std::variant<HoldSchedule, HoldFailure> ScheduleHolds(std::span<const Trajectory
 /// up to and including `max_wait_s`.
 std::vector<double> WaitLadder(double max_wait_s);
 
-/// A piece of `duration_s` [s] at rest at `state` (x, y, z[, body height]).
-TrajectoryPiece RestAt(const StateVector& state, double duration_s);
 /// A piece of `duration_s` at rest at `trajectory`'s first point (same dimension).
 TrajectoryPiece RestAtStart(const Trajectory& trajectory, double duration_s);
 

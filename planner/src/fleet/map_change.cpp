@@ -60,8 +60,12 @@ std::optional<UnsafeMotion> FirstUnsafeOnMap(const PlanningMap& map, const Fleet
   if (first_ns > motion.end_ns) return std::nullopt;
   const std::vector<KeepOutZone> zones = CollectKeepOut(map, {});
   const RobotProfile profile = ProfileOf(motion.body);
+  // Times only move forward: a cursor keeps a long trajectory's walk linear.
+  TrajectoryCursor cursor(motion.trajectory);
   const auto check = [&](std::int64_t time_ns) -> std::optional<UnsafeMotion> {
-    const Eigen::Vector3d p = motion.ReferencePointAt(time_ns);
+    const Eigen::Vector3d p =
+        cursor.Position(SecondsBetween(motion.start_ns, std::min(time_ns, motion.end_ns)))
+            .head<3>();
     std::string problem = MapProblemAt(map, zones, profile, config, p);
     if (problem.empty()) return std::nullopt;
     return UnsafeMotion{time_ns, p, std::move(problem)};
@@ -72,7 +76,7 @@ std::optional<UnsafeMotion> FirstUnsafeOnMap(const PlanningMap& map, const Fleet
   for (std::int64_t time_ns = first_ns; time_ns < arrival_ns;) {
     if (std::optional<UnsafeMotion> unsafe = check(time_ns)) return unsafe;
     const double t = SecondsBetween(motion.start_ns, time_ns);
-    const double speed = motion.trajectory.Velocity(t).head<3>().norm();
+    const double speed = cursor.Velocity(t).head<3>().norm();
     const double step_s = std::min(kLongestStepS, spacing_m / std::max(speed, 1e-3));
     time_ns = AddSeconds(time_ns, step_s);
   }

@@ -67,6 +67,18 @@ struct FleetMotion {
   Status Validate(std::string_view path) const;
 };
 
+/// The motion of a robot that keeps to its committed `current` motion until `next` departs,
+/// then follows `next`: how a new plan replaces a robot's reservation from its departure on.
+/// `current`'s pieces up to next.start_ns (the last one cut there; parked at its end when it
+/// arrives sooner), then `next`'s, with `next`'s body, until next.end_ns. Pieces of `current`
+/// that end by `now_ns` are left out, as the past holds nobody up. `next` itself when it
+/// departs by `now_ns` or by the time `current` starts, or when the two differ in dimension
+/// (a robot that changed its profile).
+FleetMotion ContinuedBy(const FleetMotion& current, const FleetMotion& next, std::int64_t now_ns);
+
+/// A piece of `duration_s` [s] at rest at `state` (x, y, z[, body height]).
+TrajectoryPiece RestAt(const StateVector& state, double duration_s);
+
 /// Seconds between two absolute times (to - from) [s]. Differences of at most centuries are
 /// exact to well under a microsecond.
 double SecondsBetween(std::int64_t from_ns, std::int64_t to_ns);
