@@ -6,29 +6,20 @@
 
 #include <gtest/gtest.h>
 
+#include "test_util/trajectory_builders.hpp"
+
 namespace strata {
 namespace {
 
 constexpr std::int64_t kSecond = 1'000'000'000;
 constexpr std::int64_t kEpoch = 1'795'000'000 * kSecond;  // A date in 2026.
 
-// A piece moving from `from` at `velocity` for `duration_s`.
-TrajectoryPiece Line(const Eigen::Vector3d& from, const Eigen::Vector3d& velocity,
-                     double duration_s) {
-  TrajectoryPiece piece;
-  piece.duration_s = duration_s;
-  piece.coefficients = Eigen::Matrix<double, 6, 3>::Zero();
-  piece.coefficients.row(0) = from.transpose();
-  piece.coefficients.row(1) = velocity.transpose();
-  return piece;
-}
-
 // East along y = 0 from x = 0 at 1 m/s, in pieces of 1 s, from kEpoch; parked until +60 s.
 FleetMotion EastInPieces(int pieces) {
   FleetMotion motion;
   motion.start_ns = kEpoch;
   for (int i = 0; i < pieces; ++i) {
-    motion.trajectory.pieces.push_back(Line({double(i), 0, 0.3}, {1, 0, 0}, 1));
+    motion.trajectory.pieces.push_back(test_util::LinePiece({double(i), 0, 0.3}, {1, 0, 0}, 1));
   }
   motion.end_ns = kEpoch + 60 * kSecond;
   return motion;
@@ -38,7 +29,7 @@ FleetMotion EastInPieces(int pieces) {
 FleetMotion NorthFrom(double x, std::int64_t start_ns) {
   FleetMotion motion;
   motion.start_ns = start_ns;
-  motion.trajectory.pieces.push_back(Line({x, 0, 0.3}, {0, 1, 0}, 5));
+  motion.trajectory.pieces.push_back(test_util::LinePiece({x, 0, 0.3}, {0, 1, 0}, 5));
   motion.end_ns = kEpoch + 90 * kSecond;
   return motion;
 }

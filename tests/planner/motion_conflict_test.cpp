@@ -8,6 +8,8 @@
 
 #include <gtest/gtest.h>
 
+#include "test_util/trajectory_builders.hpp"
+
 namespace strata {
 namespace {
 
@@ -15,22 +17,11 @@ constexpr std::int64_t kSecond = 1'000'000'000;
 constexpr std::int64_t kMillisecond = 1'000'000;
 constexpr std::int64_t kEpoch = 1'795'000'000 * kSecond;  // A date in 2026.
 
-/// A piece that moves from `from` at constant velocity `velocity` for `duration_s`.
-TrajectoryPiece Line(const Eigen::Vector3d& from, const Eigen::Vector3d& velocity,
-                     double duration_s) {
-  TrajectoryPiece piece;
-  piece.duration_s = duration_s;
-  piece.coefficients = Eigen::Matrix<double, 6, 3>::Zero();
-  piece.coefficients.row(0) = from.transpose();
-  piece.coefficients.row(1) = velocity.transpose();
-  return piece;
-}
-
 FleetMotion Moving(std::int64_t start_ns, const Eigen::Vector3d& from,
                    const Eigen::Vector3d& velocity, double duration_s, double parked_s = 0) {
   FleetMotion motion;
   motion.start_ns = start_ns;
-  motion.trajectory.pieces.push_back(Line(from, velocity, duration_s));
+  motion.trajectory.pieces.push_back(test_util::LinePiece(from, velocity, duration_s));
   motion.end_ns = AddSeconds(motion.ArrivalNs(), parked_s);
   return motion;
 }
@@ -208,7 +199,7 @@ TEST(MotionConflict, ReportsTheFirstOfTwoMeetings) {
   const SeparationRule rule;
   const FleetMotion a = Moving(kEpoch, {0, 0, 0.3}, {1, 0, 0}, 8.0);
   FleetMotion b = Moving(kEpoch, {2, 0.2, 0.3}, {0, 0, 0}, 4.0);
-  b.trajectory.pieces.push_back(Line({6, 0.2, 0.3}, {0, 0, 0}, 4.0));
+  b.trajectory.pieces.push_back(test_util::LinePiece({6, 0.2, 0.3}, {0, 0, 0}, 4.0));
   b.end_ns = b.ArrivalNs();
   const std::optional<MotionConflict> conflict = FirstConflict(a, b, rule);
   ASSERT_TRUE(conflict);

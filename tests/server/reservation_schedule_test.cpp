@@ -13,6 +13,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "test_util/trajectory_builders.hpp"
+
 namespace strata::server {
 namespace {
 
@@ -33,18 +35,13 @@ ScheduleLimits Limits() {
 // its end until `end_ns`: one reservation on map "site".
 Reservation Driving(const std::string& robot, std::int64_t start_ns, const Eigen::Vector3d& from,
                     const Eigen::Vector3d& velocity, double duration_s, std::int64_t end_ns) {
-  TrajectoryPiece piece;
-  piece.duration_s = duration_s;
-  piece.coefficients = Eigen::Matrix<double, 6, 3>::Zero();
-  piece.coefficients.row(0) = from.transpose();
-  piece.coefficients.row(1) = velocity.transpose();
   Reservation reservation;
   reservation.map_id = "site";
   reservation.map_version = "v1";
   reservation.reserved.robot_id = robot;
   FleetMotion& motion = reservation.reserved.motion;
   motion.start_ns = start_ns;
-  motion.trajectory.pieces.push_back(piece);
+  motion.trajectory.pieces.push_back(test_util::LinePiece(from, velocity, duration_s));
   motion.end_ns = std::max(end_ns, motion.ArrivalNs());
   return reservation;
 }

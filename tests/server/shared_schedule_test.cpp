@@ -26,6 +26,7 @@
 #include "server_process.hpp"
 #include "shared/etcd_client.hpp"
 #include "shared/etcd_schedule_ledger.hpp"
+#include "test_util/trajectory_builders.hpp"
 
 namespace strata::server {
 namespace {
@@ -50,18 +51,13 @@ ScheduleLimits Limits() {
 Reservation Driving(const std::string& map, const std::string& robot, std::int64_t start_ns,
                     const Eigen::Vector3d& from, const Eigen::Vector3d& velocity, double duration_s,
                     std::int64_t end_ns) {
-  TrajectoryPiece piece;
-  piece.duration_s = duration_s;
-  piece.coefficients = Eigen::Matrix<double, 6, 3>::Zero();
-  piece.coefficients.row(0) = from.transpose();
-  piece.coefficients.row(1) = velocity.transpose();
   Reservation reservation;
   reservation.map_id = map;
   reservation.map_version = "v1";
   reservation.reserved.robot_id = robot;
   FleetMotion& motion = reservation.reserved.motion;
   motion.start_ns = start_ns;
-  motion.trajectory.pieces.push_back(piece);
+  motion.trajectory.pieces.push_back(test_util::LinePiece(from, velocity, duration_s));
   motion.end_ns = std::max(end_ns, motion.ArrivalNs());
   return reservation;
 }

@@ -86,4 +86,15 @@ inline RobotProfile LooseProfile(const std::string& name) {
   return profile;
 }
 
+/// A piece moving from `from` at constant `velocity` for `duration_s` (x, y, z).
+inline TrajectoryPiece LinePiece(const Eigen::Vector3d& from, const Eigen::Vector3d& velocity,
+                                 double duration_s) {
+  TrajectoryPiece piece;
+  piece.duration_s = duration_s;
+  piece.coefficients = Eigen::Matrix<double, 6, 3>::Zero();
+  piece.coefficients.row(0) = from.transpose();
+  piece.coefficients.row(1) = velocity.transpose();
+  return piece;
+}
+
 }  // namespace strata::test_util

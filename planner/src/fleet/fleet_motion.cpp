@@ -107,10 +107,7 @@ FleetMotion ContinuedBy(const FleetMotion& current, const FleetMotion& next, std
   // Arrived before the departure: parked at its end until then (from now at the earliest).
   const double parked_s = departure_s - std::max(piece_start_s, now_s);
   if (parked_s >= kShortestPieceS) {
-    const std::size_t last = current.trajectory.pieces.size() - 1;
-    kept.push_back(RestAt(
-        current.trajectory.EvaluatePiece(last, current.trajectory.pieces[last].duration_s, 0),
-        parked_s));
+    kept.push_back(RestAt(current.StateAt(current.ArrivalNs()), parked_s));
   }
   if (kept.empty()) return next;
 
