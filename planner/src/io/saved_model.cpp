@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "binary_file.hpp"
+#include "model_parts.hpp"
 
 namespace strata {
 namespace {
@@ -16,20 +17,18 @@ using binary_file::Reader;
 using binary_file::ReadFields;
 using binary_file::Sink;
 using binary_file::WriteFields;
-
-// Bytes per stored ColumnSurface and Interval (field by field, no padding).
-constexpr std::size_t kSurfaceRecordBytes = 4 * 4 + 2 * 4 + 1;
-constexpr std::size_t kIntervalRecordBytes = 4 + 4;
+using model_parts::BuildModel;
+using model_parts::DecodeSurface;
+using model_parts::EncodeSurface;
+using model_parts::kIntervalRecordBytes;
+using model_parts::kSurfaceRecordBytes;
+using model_parts::Payload;
+using model_parts::ReadGeometry;
+using model_parts::WriteGeometry;
 
 const binary_file::FileKind kSavedModelKind{kSavedModelMagic, kSavedModelFormatVersion,
                                             "saved model",
                                             "assess the map again and save it with this build"};
-
-void WriteGeometry(Sink& sink, const GridGeometry& g) {
-  for (int a = 0; a < 3; ++a) sink.Value(g.origin_m[a]);
-  sink.Value(g.resolution_m);
-  for (int a = 0; a < 3; ++a) sink.Value(static_cast<std::int32_t>(g.size[a]));
-}
 
 void WritePayload(Sink& sink, const TerrainModel& model) {
   WriteFields(sink, model.config());
@@ -40,15 +39,7 @@ void WritePayload(Sink& sink, const TerrainModel& model) {
   // Records field by field (the structs' padding would make the bytes depend on the
   // compiler), gathered into chunks so that the checksum sees large writes.
   sink.Value(static_cast<std::uint64_t>(surfaces.all_surfaces().size()));
-  sink.Records<kSurfaceRecordBytes>(surfaces.all_surfaces(), [](const ColumnSurface& s, char* b) {
-    Encode(b, s.ground_z_m);
-    Encode(b + 4, s.clearance_m);
-    Encode(b + 8, s.tilt_rad);
-    Encode(b + 12, s.plane_center_z_m);
-    Encode(b + 16, s.top_layer);
-    Encode(b + 20, s.bottom_layer);
-    Encode(b + 24, static_cast<std::uint8_t>(s.valid));
-  });
+  sink.Records<kSurfaceRecordBytes>(surfaces.all_surfaces(), EncodeSurface);
   const TerrainFields::Parts& f = model.fields().parts();
   WriteGeometry(sink, f.geometry);
   sink.Value(f.distance_cap_m);
@@ -64,29 +55,6 @@ void WritePayload(Sink& sink, const TerrainModel& model) {
   sink.Array(f.safety);
 }
 
-bool ReadGeometry(Reader& reader, GridGeometry* g) {
-  for (int a = 0; a < 3; ++a) {
-    if (!reader.Value(&g->origin_m[a])) return false;
-  }
-  if (!reader.Value(&g->resolution_m)) return false;
-  for (int a = 0; a < 3; ++a) {
-    std::int32_t n = 0;
-    if (!reader.Value(&n)) return false;
-    g->size[a] = n;
-  }
-  return g->origin_m.allFinite() && std::isfinite(g->resolution_m) && g->resolution_m > 0 &&
-         (g->size.array() >= 1).all();
-}
-
-struct Payload {
-  AssessmentConfig config;
-  AssessmentSummary summary;
-  GridGeometry surface_geometry;
-  std::vector<std::uint32_t> column_begin;
-  std::vector<ColumnSurface> surfaces;
-  TerrainFields::Parts fields;
-};
-
 bool ReadPayload(Reader& reader, Payload* p, std::string* problem) {
   if (!ReadFields(reader, &p->config, problem) || !ReadFields(reader, &p->summary, problem)) {
     return false;
@@ -95,18 +63,8 @@ bool ReadPayload(Reader& reader, Payload* p, std::string* problem) {
   std::uint64_t n = 0;
   if (!reader.Count(&n, kSurfaceRecordBytes)) return false;
   p->surfaces.resize(n);
-  if (!reader.Records<kSurfaceRecordBytes>(n, [&](const char* b, std::uint64_t i) {
-        ColumnSurface& s = p->surfaces[i];
-        s.ground_z_m = Decode<float>(b);
-        s.clearance_m = Decode<float>(b + 4);
-        s.tilt_rad = Decode<float>(b + 8);
-        s.plane_center_z_m = Decode<float>(b + 12);
-        s.top_layer = Decode<std::int32_t>(b + 16);
-        s.bottom_layer = Decode<std::int32_t>(b + 20);
-        const auto valid = Decode<std::uint8_t>(b + 24);
-        s.valid = valid != 0;
-        return valid <= 1;
-      })) {
+  if (!reader.Records<kSurfaceRecordBytes>(
+          n, [&](const char* b, std::uint64_t i) { return DecodeSurface(b, &p->surfaces[i]); })) {
     return false;
   }
   TerrainFields::Parts& f = p->fields;
@@ -123,24 +81,6 @@ bool ReadPayload(Reader& reader, Payload* p, std::string* problem) {
     return false;
   }
   return reader.Array(&f.distance) && reader.Array(&f.safety);
-}
-
-Expected<std::shared_ptr<const TerrainModel>> BuildModel(Payload payload, const std::string& name) {
-  const auto fail = [&name](const std::string& what) {
-    return Error{ErrorCode::kMapLoadFailed, "saved model " + name + " " + what};
-  };
-  if (Status s = payload.config.Validate(); !s) {
-    return fail("holds invalid assessment parameters: " + s.error().message);
-  }
-  Expected<SurfaceMap> surfaces = SurfaceMap::FromParts(
-      payload.surface_geometry, std::move(payload.column_begin), std::move(payload.surfaces));
-  if (!surfaces) return fail("is inconsistent: " + surfaces.error().message);
-  Expected<TerrainFields> fields = TerrainFields::FromParts(std::move(payload.fields));
-  if (!fields) return fail("is inconsistent: " + fields.error().message);
-  Expected<std::shared_ptr<const TerrainModel>> model = TerrainModel::FromParts(
-      payload.config, payload.summary, std::move(surfaces).value(), std::move(fields).value());
-  if (!model) return fail("is inconsistent: " + model.error().message);
-  return model;
 }
 
 // Reads the payload of a saved model into *payload.
@@ -217,7 +157,7 @@ Expected<std::shared_ptr<const TerrainModel>> DeserializeModel(std::string_view 
       !s) {
     return s.error();
   }
-  return BuildModel(std::move(payload), name);
+  return BuildModel(std::move(payload), "saved model", name);
 }
 
 Expected<std::shared_ptr<const TerrainModel>> LoadModel(const NamedFile& named) {
@@ -226,7 +166,7 @@ Expected<std::shared_ptr<const TerrainModel>> LoadModel(const NamedFile& named) 
       !s) {
     return s.error();
   }
-  return BuildModel(std::move(payload), named.name);
+  return BuildModel(std::move(payload), "saved model", named.name);
 }
 
 }  // namespace strata

@@ -1,0 +1,70 @@
+#pragma once
+/// Assessed models and their clouds cut into tiles, so that a map store keeps each tile once,
+/// by its content, and a version that changes a few of them writes only those
+/// (docs/design.md §8, "Tiled terrains").
+///
+/// A tile is a block of kTileColumns × kTileColumns grid columns (smaller at the grid's far
+/// edges); tiles are numbered row-major over the blocks. A tiled model is:
+/// - a header: a framed file like a saved model (magic "STRATAMT", the saved-model format
+///   version, the writer, an XXH3-64 checksum) holding the parameters, the summary, the grid
+///   and the fields' scalars;
+/// - one tile per block: per column its surfaces, then per column its fields' stored runs of
+///   layers and their values. A tile's bytes depend on its own columns only, so the tiles an
+///   edit did not reassess are the base's tiles, byte for byte.
+/// A cloud is cut along the same blocks: a tile holds the points whose column (clamped onto
+/// the grid) lies in the block, in the cloud's order, as float32 x y z.
+///
+/// A tile holds no checksum of its own: its name in the store is its content's hash, which
+/// the store checks when it reads it.
+
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "strata/assessment/terrain_model.hpp"
+#include "strata/point_cloud.hpp"
+#include "strata/status.hpp"
+
+namespace strata {
+
+/// Grid columns along each side of a tile: 64 columns are 12.8 m at 0.2 m, so a 10 m scan
+/// touches 4 to 9 of them with its reassessed margin, and a 400 m site has 1024.
+inline constexpr int kTileColumns = 64;
+
+/// The first bytes of a tiled model's header.
+inline constexpr std::string_view kTiledModelMagic = "STRATAMT";
+
+/// A model cut into its header and its tiles.
+struct TiledModel {
+  std::string header;
+  std::vector<std::string> tiles;  ///< Row-major over the blocks (TileCount).
+};
+
+/// How many tiles a grid of `geometry`'s columns is cut into.
+std::size_t TileCount(const GridGeometry& geometry);
+
+/// `model` cut into tiles. JoinModel of them makes a model whose SerializeModel equals
+/// `model`'s, byte for byte.
+TiledModel CutModel(const TerrainModel& model);
+
+/// The model of a header and its tiles; `name` is what messages call it. kMapLoadFailed naming
+/// it for a header that is not one, of another format version, truncated or corrupted (its
+/// checksum), a count of tiles other than the header's grid needs, and a tile whose contents
+/// do not fit its block (which tile, and why). Never allocates more than the bytes given
+/// plus the header's grid of column offsets.
+Expected<std::shared_ptr<const TerrainModel>> JoinModel(std::string_view header,
+                                                        std::span<const std::string_view> tiles,
+                                                        const std::string& name);
+
+/// `cloud` cut along the tiles of the grid `geometry` (the model's): TileCount(geometry)
+/// tiles, empty ones included.
+std::vector<std::string> CutCloud(const PointCloud& cloud, const GridGeometry& geometry);
+
+/// The points of `tiles`, tile after tile; kMapLoadFailed naming `name` when a tile is not a
+/// whole number of points.
+Expected<PointCloud> JoinCloud(std::span<const std::string_view> tiles, const std::string& name);
+
+}  // namespace strata

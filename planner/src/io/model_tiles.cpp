@@ -1,0 +1,334 @@
+#include "strata/io/model_tiles.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <utility>
+
+#include "binary_file.hpp"
+#include "model_parts.hpp"
+#include "strata/io/saved_model.hpp"
+
+namespace strata {
+namespace {
+
+using binary_file::Decode;
+using binary_file::Encode;
+using model_parts::kSurfaceRecordBytes;
+
+// The header's meaning follows the saved model's: a model assessed by another rule is not
+// joined either.
+const binary_file::FileKind kTiledModelKind{kTiledModelMagic, kSavedModelFormatVersion,
+                                            "tiled model",
+                                            "assess the map again with this build"};
+
+constexpr std::size_t kCountBytes = 4;          // u32 per column: surfaces, runs.
+constexpr std::size_t kRunBytes = 4 + 4;        // i32 first layer, u32 layers.
+constexpr std::size_t kValueBytes = 2 + 2;      // i16 distance, u16 safety per layer.
+constexpr std::size_t kPointBytes = 3 * 4;      // float32 x y z.
+
+// A block of columns: [x0, x1) × [y0, y1).
+struct Block {
+  int x0, x1, y0, y1;
+  std::size_t columns() const { return std::size_t(x1 - x0) * std::size_t(y1 - y0); }
+};
+
+int BlocksAlong(int columns) { return (columns + kTileColumns - 1) / kTileColumns; }
+
+Block BlockOf(const GridGeometry& g, std::size_t tile) {
+  const int bx = static_cast<int>(tile % BlocksAlong(g.size.x()));
+  const int by = static_cast<int>(tile / BlocksAlong(g.size.x()));
+  return {bx * kTileColumns, std::min(g.size.x(), (bx + 1) * kTileColumns), by * kTileColumns,
+          std::min(g.size.y(), (by + 1) * kTileColumns)};
+}
+
+template <typename T>
+void Append(std::string* out, T value) {
+  char bytes[sizeof(T)];
+  Encode(bytes, value);
+  out->append(bytes, sizeof(T));
+}
+
+std::string CutTile(const TerrainModel& model, const Block& block) {
+  const SurfaceMap& surfaces = model.surfaces();
+  const TerrainFields::Parts& f = model.fields().parts();
+  const std::int64_t nx = model.grid().size.x();
+  const auto for_each_column = [&](const auto& visit) {
+    for (int y = block.y0; y < block.y1; ++y) {
+      for (int x = block.x0; x < block.x1; ++x) visit(x + nx * y);
+    }
+  };
+  std::string tile;
+  const std::vector<std::uint32_t>& surface_begin = surfaces.column_begin();
+  for_each_column([&](std::int64_t c) {
+    Append<std::uint32_t>(&tile, surface_begin[c + 1] - surface_begin[c]);
+  });
+  for_each_column([&](std::int64_t c) {
+    for (std::uint32_t i = surface_begin[c]; i < surface_begin[c + 1]; ++i) {
+      char bytes[kSurfaceRecordBytes];
+      model_parts::EncodeSurface(surfaces.all_surfaces()[i], bytes);
+      tile.append(bytes, sizeof(bytes));
+    }
+  });
+  for_each_column([&](std::int64_t c) {
+    Append<std::uint32_t>(&tile, f.column_begin[c + 1] - f.column_begin[c]);
+  });
+  for_each_column([&](std::int64_t c) {
+    for (std::uint32_t k = f.column_begin[c]; k < f.column_begin[c + 1]; ++k) {
+      Append<std::int32_t>(&tile, f.intervals[k].first_layer);
+      Append<std::uint32_t>(&tile, f.intervals[k + 1].offset - f.intervals[k].offset);
+    }
+  });
+  const auto values = [&](std::int64_t c) {
+    return std::pair(f.intervals[f.column_begin[c]].offset,
+                     f.intervals[f.column_begin[c + 1]].offset);
+  };
+  for_each_column([&](std::int64_t c) {
+    const auto [begin, end] = values(c);
+    tile.append(reinterpret_cast<const char*>(f.distance.data() + begin),
+                (end - begin) * sizeof(std::int16_t));
+  });
+  for_each_column([&](std::int64_t c) {
+    const auto [begin, end] = values(c);
+    tile.append(reinterpret_cast<const char*>(f.safety.data() + begin),
+                (end - begin) * sizeof(std::uint16_t));
+  });
+  return tile;
+}
+
+// What the header holds besides the arrays.
+struct Header {
+  model_parts::Payload payload;  // Arrays empty.
+  std::int32_t sentinel_layer = 0;
+};
+
+void WriteHeader(binary_file::Sink& sink, const TerrainModel& model) {
+  binary_file::WriteFields(sink, model.config());
+  binary_file::WriteFields(sink, model.summary());
+  model_parts::WriteGeometry(sink, model.grid());
+  const TerrainFields::Parts& f = model.fields().parts();
+  sink.Value(f.distance_cap_m);
+  sink.Value(f.safety_step);
+  sink.Value(f.safety_background);
+  sink.Value(f.intervals.back().first_layer);
+  sink.Value(static_cast<std::uint32_t>(kTileColumns));
+}
+
+bool ReadHeader(binary_file::Reader& reader, Header* h, std::string* problem) {
+  model_parts::Payload& p = h->payload;
+  std::uint32_t tile_columns = 0;
+  if (!binary_file::ReadFields(reader, &p.config, problem) ||
+      !binary_file::ReadFields(reader, &p.summary, problem) ||
+      !model_parts::ReadGeometry(reader, &p.surface_geometry) ||
+      !reader.Value(&p.fields.distance_cap_m) || !reader.Value(&p.fields.safety_step) ||
+      !reader.Value(&p.fields.safety_background) || !reader.Value(&h->sentinel_layer) ||
+      !reader.Value(&tile_columns)) {
+    return false;
+  }
+  p.fields.geometry = p.surface_geometry;
+  if (tile_columns != kTileColumns) {
+    *problem = "its tiles are " + std::to_string(tile_columns) + " columns wide, not " +
+               std::to_string(kTileColumns);
+    return false;
+  }
+  return true;
+}
+
+// One tile's sections, checked against its block, with cursors for reading it column by
+// column in its own order.
+struct TileReader {
+  const char* surface_counts = nullptr;
+  const char* surfaces = nullptr;
+  const char* run_counts = nullptr;
+  const char* runs = nullptr;
+  const char* distance = nullptr;
+  const char* safety = nullptr;
+  std::uint64_t surface_total = 0, run_total = 0, value_total = 0;
+  std::uint64_t column = 0, surface = 0, run = 0, value = 0;  // Cursors.
+
+  // Empty when `bytes` fit `columns`; else why not.
+  std::string Open(std::string_view bytes, std::size_t columns) {
+    const auto take = [&](std::uint64_t n, const char** at) {
+      if (n > bytes.size()) return false;
+      *at = bytes.data();
+      bytes.remove_prefix(n);
+      return true;
+    };
+    const auto sum = [columns](const char* counts) {
+      std::uint64_t total = 0;
+      for (std::size_t c = 0; c < columns; ++c) {
+        total += Decode<std::uint32_t>(counts + c * kCountBytes);
+      }
+      return total;
+    };
+    if (!take(columns * kCountBytes, &surface_counts)) return "ends in its surface counts";
+    surface_total = sum(surface_counts);
+    if (surface_total > bytes.size() / kSurfaceRecordBytes ||
+        !take(surface_total * kSurfaceRecordBytes, &surfaces)) {
+      return "ends in its surfaces";
+    }
+    if (!take(columns * kCountBytes, &run_counts)) return "ends in its run counts";
+    run_total = sum(run_counts);
+    if (run_total > bytes.size() / kRunBytes || !take(run_total * kRunBytes, &runs)) {
+      return "ends in its runs of layers";
+    }
+    for (std::uint64_t k = 0; k < run_total; ++k) {
+      value_total += Decode<std::uint32_t>(runs + k * kRunBytes + 4);
+    }
+    if (bytes.size() != value_total * kValueBytes) {
+      return "holds " + std::to_string(bytes.size()) + " bytes of values for " +
+             std::to_string(value_total) + " layers";
+    }
+    distance = bytes.data();
+    safety = bytes.data() + value_total * sizeof(std::int16_t);
+    return {};
+  }
+
+  // Appends the next column's surfaces and fields to `p`; false for a bad surface record.
+  bool NextColumn(model_parts::Payload* p, std::uint64_t* value_offset) {
+    const auto surfaces_here = Decode<std::uint32_t>(surface_counts + column * kCountBytes);
+    for (std::uint32_t i = 0; i < surfaces_here; ++i, ++surface) {
+      ColumnSurface s;
+      if (!model_parts::DecodeSurface(surfaces + surface * kSurfaceRecordBytes, &s)) return false;
+      p->surfaces.push_back(s);
+    }
+    const auto runs_here = Decode<std::uint32_t>(run_counts + column * kCountBytes);
+    TerrainFields::Parts& f = p->fields;
+    for (std::uint32_t k = 0; k < runs_here; ++k, ++run) {
+      const char* at = runs + run * kRunBytes;
+      const auto layers = Decode<std::uint32_t>(at + 4);
+      f.intervals.push_back({Decode<std::int32_t>(at), static_cast<std::uint32_t>(*value_offset)});
+      const std::size_t old_size = f.distance.size();
+      f.distance.resize(old_size + layers);
+      f.safety.resize(old_size + layers);
+      std::memcpy(f.distance.data() + old_size, distance + value * sizeof(std::int16_t),
+                  layers * sizeof(std::int16_t));
+      std::memcpy(f.safety.data() + old_size, safety + value * sizeof(std::uint16_t),
+                  layers * sizeof(std::uint16_t));
+      value += layers;
+      *value_offset += layers;
+    }
+    ++column;
+    return true;
+  }
+};
+
+}  // namespace
+
+std::size_t TileCount(const GridGeometry& geometry) {
+  return std::size_t(BlocksAlong(geometry.size.x())) * std::size_t(BlocksAlong(geometry.size.y()));
+}
+
+TiledModel CutModel(const TerrainModel& model) {
+  TiledModel tiled;
+  binary_file::Sink sink(&tiled.header);
+  binary_file::WriteFrame(sink, kTiledModelKind,
+                          [&model](binary_file::Sink& s) { WriteHeader(s, model); });
+  const std::size_t count = TileCount(model.grid());
+  tiled.tiles.reserve(count);
+  for (std::size_t t = 0; t < count; ++t) {
+    tiled.tiles.push_back(CutTile(model, BlockOf(model.grid(), t)));
+  }
+  return tiled;
+}
+
+Expected<std::shared_ptr<const TerrainModel>> JoinModel(std::string_view header_bytes,
+                                                        std::span<const std::string_view> tiles,
+                                                        const std::string& name) {
+  const auto fail = [&name](const std::string& what) {
+    return Error{ErrorCode::kMapLoadFailed, "tiled model " + name + " " + what};
+  };
+  Header header;
+  binary_file::MemorySource source(header_bytes);
+  if (Status read = binary_file::ReadFrame(
+          source, header_bytes.size(), kTiledModelKind, name,
+          [&header](binary_file::Reader& reader, std::string* problem) {
+            return ReadHeader(reader, &header, problem);
+          });
+      !read) {
+    return read.error();
+  }
+  model_parts::Payload& p = header.payload;
+  const GridGeometry& g = p.surface_geometry;
+  if (tiles.size() != TileCount(g)) {
+    return fail("has " + std::to_string(tiles.size()) + " tiles; its grid of " +
+                std::to_string(g.size.x()) + " × " + std::to_string(g.size.y()) +
+                " columns needs " + std::to_string(TileCount(g)));
+  }
+  std::vector<TileReader> readers(tiles.size());
+  std::uint64_t surface_total = 0, run_total = 0, value_total = 0;
+  for (std::size_t t = 0; t < tiles.size(); ++t) {
+    if (std::string why = readers[t].Open(tiles[t], BlockOf(g, t).columns()); !why.empty()) {
+      return fail("tile " + std::to_string(t) + " " + why);
+    }
+    surface_total += readers[t].surface_total;
+    run_total += readers[t].run_total;
+    value_total += readers[t].value_total;
+  }
+  constexpr std::uint64_t kMaxOffset = std::numeric_limits<std::uint32_t>::max();
+  if (surface_total > kMaxOffset || run_total >= kMaxOffset || value_total > kMaxOffset) {
+    return fail("holds more surfaces, runs or layers than a model can index");
+  }
+  const std::int64_t columns = g.LayerCellCount();
+  p.column_begin.reserve(columns + 1);
+  p.surfaces.reserve(surface_total);
+  p.fields.column_begin.reserve(columns + 1);
+  p.fields.intervals.reserve(run_total + 1);
+  p.fields.distance.reserve(value_total);
+  p.fields.safety.reserve(value_total);
+  const int blocks_x = BlocksAlong(g.size.x());
+  std::uint64_t value_offset = 0;
+  for (int y = 0; y < g.size.y(); ++y) {
+    for (int x = 0; x < g.size.x(); ++x) {
+      const std::size_t t =
+          std::size_t(y / kTileColumns) * blocks_x + std::size_t(x / kTileColumns);
+      p.column_begin.push_back(static_cast<std::uint32_t>(p.surfaces.size()));
+      p.fields.column_begin.push_back(static_cast<std::uint32_t>(p.fields.intervals.size()));
+      if (!readers[t].NextColumn(&p, &value_offset)) {
+        return fail("tile " + std::to_string(t) + " holds a surface with a bad valid flag");
+      }
+    }
+  }
+  p.column_begin.push_back(static_cast<std::uint32_t>(p.surfaces.size()));
+  p.fields.column_begin.push_back(static_cast<std::uint32_t>(p.fields.intervals.size()));
+  p.fields.intervals.push_back({header.sentinel_layer, static_cast<std::uint32_t>(value_offset)});
+  return model_parts::BuildModel(std::move(p), "tiled model", name);
+}
+
+std::vector<std::string> CutCloud(const PointCloud& cloud, const GridGeometry& geometry) {
+  std::vector<std::string> tiles(TileCount(geometry));
+  const int blocks_x = BlocksAlong(geometry.size.x());
+  const auto column = [&](double coordinate, int axis) {
+    const double cell =
+        std::floor((coordinate - geometry.origin_m[axis]) / geometry.resolution_m);
+    return static_cast<int>(std::clamp(cell, 0.0, double(geometry.size[axis] - 1)));
+  };
+  for (const Eigen::Vector3f& point : cloud) {
+    const std::size_t t = std::size_t(column(point.y(), 1) / kTileColumns) * blocks_x +
+                          std::size_t(column(point.x(), 0) / kTileColumns);
+    tiles[t].append(reinterpret_cast<const char*>(point.data()), kPointBytes);
+  }
+  return tiles;
+}
+
+Expected<PointCloud> JoinCloud(std::span<const std::string_view> tiles, const std::string& name) {
+  std::size_t bytes = 0;
+  for (std::size_t t = 0; t < tiles.size(); ++t) {
+    if (tiles[t].size() % kPointBytes != 0) {
+      return Error{ErrorCode::kMapLoadFailed, "tiled cloud " + name + " tile " +
+                                                  std::to_string(t) +
+                                                  " is not a whole number of points"};
+    }
+    bytes += tiles[t].size();
+  }
+  PointCloud cloud(bytes / kPointBytes);
+  char* at = reinterpret_cast<char*>(cloud.data());
+  for (const std::string_view tile : tiles) {
+    std::memcpy(at, tile.data(), tile.size());
+    at += tile.size();
+  }
+  return cloud;
+}
+
+}  // namespace strata

@@ -1,0 +1,180 @@
+#include "strata/io/model_tiles.hpp"
+
+#include <algorithm>
+#include <cstring>
+#include <tuple>
+#include <string>
+#include <vector>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "strata/assessment/map_edit.hpp"
+#include "strata/io/saved_model.hpp"
+#include "strata/prism.hpp"
+#include "strata/scenes/paper_scenes.hpp"
+#include "test_util/model_bytes.hpp"
+
+namespace strata {
+namespace {
+
+using ::testing::HasSubstr;
+using ::testing::Not;
+
+std::vector<std::string_view> Views(const std::vector<std::string>& parts) {
+  return {parts.begin(), parts.end()};
+}
+
+// The parking garage at 0.2 m: a grid of about 250 × 150 columns, 4 × 3 tiles, the last
+// row and column of them narrower than kTileColumns.
+class ModelTiles : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    cloud_ = new PointCloud(GenerateParkingGarage(1, 0.2));
+    AssessmentConfig config;
+    config.grid.resolution_m = 0.2;
+    auto model = TerrainModel::Assess(*cloud_, config);
+    ASSERT_TRUE(model.ok()) << model.error().message;
+    model_ = new std::shared_ptr<const TerrainModel>(*model);
+  }
+  static void TearDownTestSuite() {
+    delete cloud_;
+    delete model_;
+  }
+  static const PointCloud& cloud() { return *cloud_; }
+  static const TerrainModel& model() { return **model_; }
+
+  // Whether tile `t` of the model's grid lies farther than `margin_m` from `box` in x or y.
+  static bool TileFarFrom(std::size_t t, const Eigen::AlignedBox3d& box, double margin_m) {
+    const GridGeometry& g = model().grid();
+    const int blocks_x = (g.size.x() + kTileColumns - 1) / kTileColumns;
+    const double edge = kTileColumns * g.resolution_m;
+    const double x0 = g.origin_m.x() + double(t % blocks_x) * edge;
+    const double y0 = g.origin_m.y() + double(t / blocks_x) * edge;
+    return x0 > box.max().x() + margin_m || x0 + edge < box.min().x() - margin_m ||
+           y0 > box.max().y() + margin_m || y0 + edge < box.min().y() - margin_m;
+  }
+
+ private:
+  static PointCloud* cloud_;
+  static std::shared_ptr<const TerrainModel>* model_;
+};
+
+PointCloud* ModelTiles::cloud_ = nullptr;
+std::shared_ptr<const TerrainModel>* ModelTiles::model_ = nullptr;
+
+TEST_F(ModelTiles, JoinedTilesSaveToTheSameBytes) {
+  const TiledModel tiled = CutModel(model());
+  ASSERT_EQ(tiled.tiles.size(), TileCount(model().grid()));
+  ASSERT_GT(tiled.tiles.size(), 4u);
+  ASSERT_NE(model().grid().size.x() % kTileColumns, 0) << "no narrow edge tile to cover";
+  const auto joined = JoinModel(tiled.header, Views(tiled.tiles), "garage");
+  ASSERT_TRUE(joined.ok()) << joined.error().message;
+  EXPECT_TRUE(SerializeModel(**joined) == SerializeModel(model()));
+}
+
+TEST_F(ModelTiles, AnEditChangesOnlyTheTilesAroundIt) {
+  // A 2 m block on the ground floor in the garage's first tile row.
+  const Eigen::AlignedBox3d block(Eigen::Vector3d(6, 6, 0), Eigen::Vector3d(8, 8, 1));
+  const std::vector<MapEdit> edits = {{MapEdit::Kind::kAddObstacle, BoxPrism(block)}};
+  const auto edited = ApplyEdits(cloud(), edits, model());
+  ASSERT_TRUE(edited.ok()) << edited.error().message;
+  const auto reassessed = ReassessRegion(model(), cloud(), *edited, EditBounds(edits));
+  ASSERT_TRUE(reassessed.ok()) << reassessed.error().message;
+  ASSERT_EQ(reassessed->path, ReassessmentPath::kLocal);
+
+  const TiledModel before = CutModel(model());
+  const TiledModel after = CutModel(*reassessed->model);
+  const std::vector<std::string> cloud_before = CutCloud(cloud(), model().grid());
+  const std::vector<std::string> cloud_after = CutCloud(*edited, model().grid());
+  std::size_t changed = 0;
+  for (std::size_t t = 0; t < before.tiles.size(); ++t) {
+    if (before.tiles[t] != after.tiles[t]) ++changed;
+    // The assessment's reach (the distance cap, the diffusion) is well under a tile.
+    if (TileFarFrom(t, block, 4.0)) {
+      EXPECT_TRUE(before.tiles[t] == after.tiles[t]) << "model tile " << t;
+      EXPECT_TRUE(cloud_before[t] == cloud_after[t]) << "cloud tile " << t;
+    }
+  }
+  EXPECT_GE(changed, 1u);
+  EXPECT_LE(changed, 4u) << "of " << before.tiles.size();
+  // And the base's tiles with the edit's own join to the reassessed model.
+  const auto joined = JoinModel(after.header, Views(after.tiles), "edited");
+  ASSERT_TRUE(joined.ok()) << joined.error().message;
+  EXPECT_TRUE(SerializeModel(**joined) == SerializeModel(*reassessed->model));
+}
+
+TEST_F(ModelTiles, ACloudJoinsFromItsTilesInTileOrderAndAssessesTheSame) {
+  const std::vector<std::string> tiles = CutCloud(cloud(), model().grid());
+  const auto joined = JoinCloud(Views(tiles), "garage");
+  ASSERT_TRUE(joined.ok()) << joined.error().message;
+  ASSERT_EQ(joined->size(), cloud().size());
+  EXPECT_FALSE(*joined == cloud()) << "tile order should differ from the scene's";
+  const auto key = [](const Eigen::Vector3f& p) { return std::tuple(p.x(), p.y(), p.z()); };
+  const auto less = [&](const Eigen::Vector3f& a, const Eigen::Vector3f& b) {
+    return key(a) < key(b);
+  };
+  PointCloud a = cloud(), b = *joined;
+  std::sort(a.begin(), a.end(), less);
+  std::sort(b.begin(), b.end(), less);
+  EXPECT_TRUE(a == b);
+  // A store hands the joined cloud to the next edit: its model must be the same.
+  const auto model_of_joined = TerrainModel::Assess(*joined, model().config());
+  ASSERT_TRUE(model_of_joined.ok());
+  EXPECT_TRUE(test_util::BytesWithoutTimings(**model_of_joined) ==
+              test_util::BytesWithoutTimings(model()));
+}
+
+TEST_F(ModelTiles, RefusesWhatDoesNotFitNamingTheTile) {
+  const TiledModel tiled = CutModel(model());
+  std::vector<std::string_view> tiles = Views(tiled.tiles);
+  const auto refusal = [&](std::string_view header, std::span<const std::string_view> parts) {
+    const auto joined = JoinModel(header, parts, "m7");
+    EXPECT_FALSE(joined.ok());
+    if (joined.ok()) return std::string("joined");
+    EXPECT_EQ(joined.error().code, ErrorCode::kMapLoadFailed);
+    EXPECT_THAT(joined.error().message, HasSubstr("m7"));
+    return joined.error().message;
+  };
+  EXPECT_THAT(refusal(tiled.header, std::span(tiles).first(tiles.size() - 1)),
+              HasSubstr("needs " + std::to_string(tiles.size())));
+  std::string header = tiled.header;
+  header[header.size() / 2] ^= 1;
+  EXPECT_THAT(refusal(header, tiles), HasSubstr("checksum"));
+  EXPECT_THAT(refusal(tiled.header.substr(0, 20), tiles), Not(HasSubstr("joined")));
+
+  for (std::size_t t : {std::size_t{0}, tiles.size() - 1}) {
+    const std::string original(tiles[t]);
+    const std::string shorter = original.substr(0, original.size() - 1);
+    const std::string longer = original + "x";
+    const std::string truncated = original.substr(0, 10);
+    for (const std::string* bad : {&shorter, &longer, &truncated}) {
+      tiles[t] = *bad;
+      EXPECT_THAT(refusal(tiled.header, tiles), HasSubstr("tile " + std::to_string(t)));
+    }
+    tiles[t] = tiled.tiles[t];
+  }
+  // A tile whose counts add up but whose layers leave the grid: the model's own checks.
+  std::string runs = tiled.tiles[0];
+  const std::size_t columns = kTileColumns * kTileColumns;
+  std::size_t surfaces = 0;
+  for (std::size_t c = 0; c < columns; ++c) {
+    std::uint32_t n;
+    std::memcpy(&n, runs.data() + 4 * c, 4);
+    surfaces += n;
+  }
+  const std::size_t first_run = 4 * columns + 25 * surfaces + 4 * columns;
+  const std::int32_t far_layer = 1 << 20;
+  std::memcpy(runs.data() + first_run, &far_layer, 4);
+  tiles[0] = runs;
+  EXPECT_THAT(refusal(tiled.header, tiles), HasSubstr("inconsistent"));
+  tiles[0] = tiled.tiles[0];
+
+  const std::vector<std::string> cloud_tiles = {std::string(12, '\0'), std::string(13, '\0')};
+  const auto cloud = JoinCloud(Views(cloud_tiles), "c7");
+  ASSERT_FALSE(cloud.ok());
+  EXPECT_THAT(cloud.error().message, HasSubstr("c7 tile 1"));
+}
+
+}  // namespace
+}  // namespace strata
