@@ -18,6 +18,7 @@
 #include "floor_and_wall.hpp"
 #include "strata/assessment/terrain_model.hpp"
 #include "strata/io/cloud_io.hpp"
+#include "strata/io/model_tiles.hpp"
 #include "strata/io/saved_graph.hpp"
 #include "strata/io/saved_model.hpp"
 #include "strata/scenes/scenes.hpp"
@@ -96,6 +97,18 @@ void SavedModelSeeds(const fs::path& dir) {
   const auto graph = strata::SurfaceGraph::Build(*model, strata::TraversabilityParams{}).value();
   const std::string graph_bytes = strata::SerializeGraph(graph);
   Write(dir / "saved_graph" / "floor_and_wall.sgr", graph_bytes.substr(0, graph_bytes.size() - 8));
+  // Its tiles, each part after its u32 length, the header without its checksum
+  // (tiled_model_fuzzer.cpp).
+  const strata::TiledModel tiled = strata::CutModel(*model);
+  std::string parts;
+  const auto add = [&parts](std::string_view part) {
+    const auto length = static_cast<std::uint32_t>(part.size());
+    parts.append(reinterpret_cast<const char*>(&length), sizeof(length));
+    parts.append(part);
+  };
+  add(std::string_view(tiled.header).substr(0, tiled.header.size() - 8));
+  for (const std::string& tile : tiled.tiles) add(tile);
+  Write(dir / "tiled_model" / "floor_and_wall.tmd", parts);
 }
 
 // The upload target's framing: a 2-byte little-endian length, then a serialised message.
@@ -209,8 +222,8 @@ int main(int argc, char** argv) {
   UploadSeeds(dir);
   PlanRequestSeeds(dir);
   RequestSeeds(dir);
-  for (const char* target : {"pcd", "ply", "octomap", "saved_model", "saved_graph", "upload",
-                             "plan_request", "request"}) {
+  for (const char* target : {"pcd", "ply", "octomap", "saved_model", "saved_graph", "tiled_model",
+                             "upload", "plan_request", "request"}) {
     std::size_t files = 0;
     for ([[maybe_unused]] const auto& entry : fs::directory_iterator(dir / target)) ++files;
     std::printf("%s: %zu seeds\n", target, files);

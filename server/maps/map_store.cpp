@@ -4,6 +4,7 @@
 
 #include <fcntl.h>
 #include <sys/file.h>
+#include <sys/mman.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -29,7 +30,9 @@
 #include <fmt/format.h>
 #include <xxhash.h>
 
+#include "maps/store_files.hpp"
 #include "strata/io/cloud_io.hpp"
+#include "strata/io/model_tiles.hpp"
 #include "strata/io/saved_graph.hpp"
 #include "strata/io/saved_model.hpp"
 
@@ -37,15 +40,25 @@ namespace strata::server {
 namespace {
 
 namespace fs = std::filesystem;
+using store_files::ErrnoText;
+using store_files::Fd;
+using store_files::ReadFileIfExists;
+using store_files::RenameDurably;
+using store_files::Sync;
+using store_files::Unavailable;
+using store_files::UniqueName;
+using store_files::WriteNewFile;
 
 static_assert(std::endian::native == std::endian::little,
               "version names hash little-endian bytes: a big-endian build needs byte swapping");
 static_assert(sizeof(Eigen::Vector3f) == 3 * sizeof(float), "points are three packed floats");
 
 constexpr std::string_view kMarkerName = "strata-map-store";
-constexpr std::string_view kMarkerText = "strata map store, layout 2\n";
-// Layout 1 held each version's cloud and model in its own directory; layout 2 reads those.
-constexpr std::string_view kLayout1MarkerText = "strata map store, layout 1\n";
+constexpr std::string_view kMarkerText = "strata map store, layout 3\n";
+// Layout 1 held each version's cloud and model in its own directory, layout 2 in its
+// terrain's; layout 3 (tiles) reads both.
+constexpr std::string_view kOlderMarkerTexts[] = {"strata map store, layout 1\n",
+                                                  "strata map store, layout 2\n"};
 constexpr const char* kHeadName = "head";
 constexpr const char* kLockName = "lock";
 constexpr const char* kVersionsName = "versions";
@@ -53,6 +66,8 @@ constexpr const char* kTerrainsName = "terrains";
 constexpr const char* kGraphsName = "graphs";
 constexpr const char* kGraphExtension = ".stratagraph";
 constexpr const char* kTerrainName = "terrain";  // In a version: the name of its terrain.
+// Under a map: its tiles; in a terrain: the list of the tiles it is made of.
+constexpr const char* kTilesName = "tiles";
 constexpr const char* kCloudName = "cloud.pcd";
 constexpr const char* kModelName = "model.stratamodel";
 constexpr const char* kMetadataName = "metadata";
@@ -78,105 +93,6 @@ ServiceStatus CheckTerrain(const std::string& terrain) {
   if (MapStore::IsVersion(terrain)) return OkStatus();
   return MakeError(ErrorCode::kInvalidInput, "map store: terrain name '" + terrain.substr(0, 64) +
                                                  "' is not 32 lowercase hex digits");
-}
-
-std::string ErrnoText(int error) { return std::generic_category().message(error); }
-
-ServiceError Unavailable(const fs::path& path, const std::string& what, int error) {
-  return MakeError(ServiceErrorCode::kMapStoreUnavailable,
-                   "map store: cannot " + what + " '" + path.string() + "': " + ErrnoText(error) +
-                       " (check that the store volume is mounted, writable and not full)");
-}
-
-ServiceError Unavailable(const fs::path& path, const std::string& what, const std::error_code& ec) {
-  return Unavailable(path, what, ec.value());
-}
-
-// A name no other writer (thread, process or host) picks: kind, pid and 64 random bits.
-std::string UniqueName(std::string_view kind) {
-  static std::mutex mutex;
-  static std::mt19937_64 random{std::random_device{}()};
-  std::uint64_t bits = 0;
-  {
-    const std::lock_guard lock(mutex);
-    bits = random();
-  }
-  char hex[17];
-  std::snprintf(hex, sizeof(hex), "%016llx", static_cast<unsigned long long>(bits));
-  return std::string(kind) + "." + std::to_string(::getpid()) + "." + hex;
-}
-
-// A file descriptor closed on scope exit.
-class Fd {
- public:
-  explicit Fd(int fd = -1) : fd_(fd) {}
-  Fd(Fd&& other) noexcept : fd_(std::exchange(other.fd_, -1)) {}
-  Fd& operator=(Fd&& other) noexcept {
-    if (this != &other) {
-      Close();
-      fd_ = std::exchange(other.fd_, -1);
-    }
-    return *this;
-  }
-  Fd(const Fd&) = delete;
-  Fd& operator=(const Fd&) = delete;
-  ~Fd() { Close(); }
-  int get() const { return fd_; }
-  bool valid() const { return fd_ >= 0; }
-
- private:
-  void Close() {
-    if (fd_ >= 0) ::close(fd_);
-    fd_ = -1;
-  }
-  int fd_;
-};
-
-// fsync of a file or a directory: what was written (or renamed into it) is durable.
-ServiceStatus Sync(const fs::path& path) {
-  const Fd fd(::open(path.c_str(), O_RDONLY | O_CLOEXEC));
-  if (!fd.valid()) return Unavailable(path, "open for fsync", errno);
-  if (::fsync(fd.get()) != 0) return Unavailable(path, "fsync", errno);
-  return OkStatus();
-}
-
-// Creates `path` (which must not exist), writes `bytes` and makes them durable.
-ServiceStatus WriteNewFile(const fs::path& path, std::string_view bytes) {
-  const Fd fd(::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644));
-  if (!fd.valid()) return Unavailable(path, "create", errno);
-  while (!bytes.empty()) {
-    const ssize_t n = ::write(fd.get(), bytes.data(), bytes.size());
-    if (n < 0 && errno == EINTR) continue;
-    if (n < 0) return Unavailable(path, "write", errno);
-    bytes.remove_prefix(static_cast<std::size_t>(n));
-  }
-  if (::fsync(fd.get()) != 0) return Unavailable(path, "fsync", errno);
-  return OkStatus();
-}
-
-// The whole file, or nothing when it does not exist.
-Result<std::optional<std::string>> ReadFileIfExists(const fs::path& path) {
-  const Fd fd(::open(path.c_str(), O_RDONLY | O_CLOEXEC));
-  if (!fd.valid()) {
-    if (errno == ENOENT || errno == ENOTDIR) return std::optional<std::string>();
-    return Unavailable(path, "open", errno);
-  }
-  std::string bytes;
-  char buffer[1 << 16];
-  while (true) {
-    const ssize_t n = ::read(fd.get(), buffer, sizeof(buffer));
-    if (n < 0 && errno == EINTR) continue;
-    if (n < 0) return Unavailable(path, "read", errno);
-    if (n == 0) break;
-    bytes.append(buffer, static_cast<std::size_t>(n));
-  }
-  return std::optional<std::string>(std::move(bytes));
-}
-
-// Renames `from` to `to` and syncs the directory that received it.
-ServiceStatus RenameDurably(const fs::path& from, const fs::path& to) {
-  if (::rename(from.c_str(), to.c_str()) != 0) return Unavailable(to, "rename into place", errno);
-  return Sync(to.parent_path());
 }
 
 // The kept versions a head lists, or nothing when the map has no head.
@@ -505,9 +421,11 @@ Result<std::unique_ptr<MapStore>> MapStore::Open(fs::path root, std::shared_ptr<
     if (!written) return invalid("cannot be initialised (" + written.error().message + ")");
     text = ReadFileIfExists(marker);
   }
-  if (text && text->has_value() && **text == kLayout1MarkerText) {
-    // Layout 2 reads every layout-1 version; from now on a server of layout 1 refuses it,
-    // rather than miss the cloud and model of versions it cannot read.
+  if (text && text->has_value() &&
+      std::find(std::begin(kOlderMarkerTexts), std::end(kOlderMarkerTexts), **text) !=
+          std::end(kOlderMarkerTexts)) {
+    // Layout 3 reads every version of layouts 1 and 2; from now on a server of those refuses
+    // the store, rather than miss the cloud and model of versions it cannot read.
     const fs::path temporary = root / "tmp" / UniqueName("marker");
     ServiceStatus written = WriteNewFile(temporary, kMarkerText);
     if (written) written = RenameDurably(temporary, marker);
@@ -560,17 +478,36 @@ bool MapStore::Discard(const fs::path& path) const {
   return true;
 }
 
+void MapStore::ScheduleTileCollection(const std::string& id) const {
+  {
+    const std::lock_guard lock(discarded_mutex_);
+    tiles_to_collect_.insert(id);
+    if (!remover_.joinable()) remover_ = std::thread([this] { RemoveDiscarded(); });
+  }
+  discarded_changed_.notify_one();
+}
+
 void MapStore::RemoveDiscarded() const {
   std::unique_lock lock(discarded_mutex_);
   while (true) {
-    discarded_changed_.wait(lock, [&] { return closing_ || !discarded_.empty(); });
-    if (discarded_.empty()) return;  // Closing, and nothing left to remove.
-    const fs::path trash = std::move(discarded_.front());
-    discarded_.pop_front();
-    removing_ = true;
-    lock.unlock();
-    std::error_code ignored;  // Left in trash/ for CollectGarbage (e.g. NFS files still open).
-    fs::remove_all(trash, ignored);
+    discarded_changed_.wait(
+        lock, [&] { return closing_ || !discarded_.empty() || !tiles_to_collect_.empty(); });
+    if (!discarded_.empty()) {
+      const fs::path trash = std::move(discarded_.front());
+      discarded_.pop_front();
+      removing_ = true;
+      lock.unlock();
+      std::error_code ignored;  // Left in trash/ for CollectGarbage (e.g. NFS files still open).
+      fs::remove_all(trash, ignored);
+    } else if (!tiles_to_collect_.empty()) {
+      const std::string id = *tiles_to_collect_.begin();
+      tiles_to_collect_.erase(tiles_to_collect_.begin());
+      removing_ = true;
+      lock.unlock();
+      CollectTiles(id);
+    } else {
+      return;  // Closing, and nothing left to do.
+    }
     lock.lock();
     removing_ = false;
     discarded_changed_.notify_all();
@@ -579,7 +516,8 @@ void MapStore::RemoveDiscarded() const {
 
 void MapStore::WaitForRemovals() const {
   std::unique_lock lock(discarded_mutex_);
-  discarded_changed_.wait(lock, [&] { return discarded_.empty() && !removing_; });
+  discarded_changed_.wait(
+      lock, [&] { return discarded_.empty() && tiles_to_collect_.empty() && !removing_; });
 }
 
 fs::path MapStore::TerrainDir(const std::string& id, const std::string& terrain) const {
@@ -637,27 +575,51 @@ ServiceStatus PutDirectory(const fs::path& tmp_dir, std::string_view kind, const
 }  // namespace
 
 ServiceStatus MapStore::PutTerrain(const std::string& id, const std::string& terrain,
-                                   const PointCloud& cloud, const TerrainModel& model) {
+                                   const PointCloud& cloud, const TerrainModel& model,
+                                   TileWrites* writes) {
   if (ServiceStatus ok = CheckId(id); !ok) return ok;
   if (ServiceStatus ok = CheckTerrain(terrain); !ok) return ok;
-  return PutDirectory(root_ / "tmp", "terrain", TerrainDir(id, terrain), [&](const fs::path& dir) {
-    const fs::path cloud_path = dir / kCloudName;
-    const fs::path model_path = dir / kModelName;
-    if (!cloud.empty()) {  // A map made from a saved model has no cloud to keep.
-      if (Status saved = SavePcd(cloud, cloud_path.string()); !saved) {
-        return ServiceStatus(
-            MakeError(ServiceErrorCode::kMapStoreUnavailable,
-                      "map store: cannot write the cloud: " + saved.error().message));
-      }
-      if (ServiceStatus synced = Sync(cloud_path); !synced) return synced;
-    }
-    if (Status saved = SaveModel(model, model_path.string()); !saved) {
-      return ServiceStatus(
-          MakeError(ServiceErrorCode::kMapStoreUnavailable,
-                    "map store: cannot write the model: " + saved.error().message));
-    }
-    return Sync(model_path);
-  });
+  TileWrites ignored_writes;
+  if (writes == nullptr) writes = &ignored_writes;
+  *writes = {};
+  const fs::path target = TerrainDir(id, terrain);
+  std::error_code ec;
+  if (fs::is_directory(target, ec)) {
+    // Refreshed, so that CollectGarbage leaves it to the version about to name it.
+    fs::last_write_time(target, fs::file_time_type::clock::now(), ec);
+    return OkStatus();
+  }
+  const CutTerrain cut = CutIntoTiles(model, cloud);
+  const fs::path tiles_dir = MapDir(id) / kTilesName;
+  if (ServiceStatus written = WriteMissingTiles(tiles_dir, root_ / "tmp", cut.tiles, writes);
+      !written) {
+    return written;
+  }
+  // One flush of the file system for every tile written, rather than an fsync each: a
+  // first version writes thousands of them.
+  if (writes->written > 0) {
+    const Fd fd(::open(tiles_dir.c_str(), O_RDONLY | O_CLOEXEC));
+    if (!fd.valid() || ::syncfs(fd.get()) != 0) return Unavailable(tiles_dir, "syncfs", errno);
+  }
+  // Under the map's lock, which collecting tiles takes: a tile collected since it was found
+  // there is written again before the terrain listing it is renamed into place.
+  Result<MapLock> lock = MapLock::Acquire(MapDir(id), id, /*create=*/true);
+  if (!lock) return std::move(lock).error();
+  for (const auto& [name, bytes] : cut.tiles) {
+    const fs::path path = tiles_dir / name;
+    if (fs::exists(path, ec)) continue;
+    fs::create_directories(tiles_dir, ec);
+    const fs::path temporary = root_ / "tmp" / UniqueName("tile");
+    ServiceStatus written = WriteNewFile(temporary, bytes);
+    if (written) written = RenameDurably(temporary, path);
+    if (!written) return written;
+    ++writes->written;
+    writes->bytes_written += bytes.size();
+  }
+  const std::string list = cut.list.Format();
+  writes->bytes_written += list.size();
+  return PutDirectory(root_ / "tmp", "terrain", target,
+                      [&](const fs::path& dir) { return WriteNewFile(dir / kTilesName, list); });
 }
 
 bool MapStore::HasTerrain(const std::string& id, const std::string& terrain) const {
@@ -942,11 +904,15 @@ int MapStore::DiscardVersions(const std::string& id,
   // too: its publish then finds the version not whole (IsPut) and the writer puts it again.
   const std::optional<std::set<std::string>> named = NamedTerrains(MapDir(id) / kVersionsName);
   if (!named) return removed;
+  bool terrain_gone = false;
   for (const std::string& terrain : orphans) {
     if (named->contains(terrain)) continue;
-    removed += Discard(TerrainDir(id, terrain)) ? 1 : 0;
+    const bool gone = Discard(TerrainDir(id, terrain));
+    terrain_gone |= gone;
+    removed += gone ? 1 : 0;
     removed += Discard(GraphsDir(id, terrain)) ? 1 : 0;
   }
+  if (terrain_gone) ScheduleTileCollection(id);
   return removed;
 }
 
@@ -972,8 +938,135 @@ int MapStore::DiscardStaleTerrains(const std::string& id) const {
   return removed;
 }
 
+namespace {
+
+// The list of tiles in terrain directory `dir`: nullopt when it has none (a layout-2 terrain,
+// or one not there).
+Result<std::optional<TerrainTiles>> ReadTileList(const fs::path& dir) {
+  const fs::path path = dir / kTilesName;
+  Result<std::optional<std::string>> text = ReadFileIfExists(path);
+  if (!text) return std::move(text).error();
+  if (!text->has_value()) return std::optional<TerrainTiles>();
+  Result<TerrainTiles> tiles = TerrainTiles::Parse(**text, path);
+  if (!tiles) return std::move(tiles).error();
+  return std::optional<TerrainTiles>(std::move(tiles).value());
+}
+
+}  // namespace
+
+int MapStore::CollectTilesLocked(const std::string& id) const {
+  const fs::path tiles_dir = MapDir(id) / kTilesName;
+  std::error_code ec;
+  if (!fs::is_directory(tiles_dir, ec)) return 0;
+  // Every terrain in place counts, named by a version or not yet: a writer renames its
+  // terrain in under this lock, after checking its tiles are there.
+  std::set<std::string> listed;
+  for (fs::directory_iterator it(MapDir(id) / kTerrainsName, ec), end; !ec && it != end;
+       it.increment(ec)) {
+    Result<std::optional<TerrainTiles>> tiles = ReadTileList(it->path());
+    if (!tiles) return 0;  // An unreadable list might list anything: keep every tile.
+    if (!tiles->has_value()) continue;
+    for (std::string& name : (*tiles)->Names()) listed.insert(std::move(name));
+  }
+  if (ec && ec != std::errc::no_such_file_or_directory) return 0;
+  int removed = 0;
+  for (fs::directory_iterator it(tiles_dir, ec), end; !ec && it != end; it.increment(ec)) {
+    if (listed.contains(it->path().filename().string())) continue;
+    std::error_code ignored;
+    removed += fs::remove(it->path(), ignored) ? 1 : 0;
+  }
+  return removed;
+}
+
+int MapStore::CollectTiles(const std::string& id) const {
+  std::error_code ec;
+  if (!fs::is_directory(MapDir(id) / kTilesName, ec)) return 0;  // Not locked for nothing.
+  Result<MapLock> lock = MapLock::Acquire(MapDir(id), id, /*create=*/false);
+  return lock ? CollectTilesLocked(id) : 0;
+}
+
+Result<std::optional<TerrainTiles>> MapStore::TilesOfVersion(const std::string& id,
+                                                             const std::string& version) const {
+  Result<std::string> terrain = TerrainOfVersion(id, version);
+  if (!terrain) return std::move(terrain).error();
+  if (terrain->empty()) return std::optional<TerrainTiles>();  // Layout 1.
+  const fs::path dir = TerrainDir(id, *terrain);
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) return MissingVersion(id, version);  // Pruned meanwhile.
+  return ReadTileList(dir);
+}
+
+Result<std::vector<std::string>> MapStore::ReadTiles(const std::string& id,
+                                                     const std::string& version,
+                                                     std::span<const std::string> names) const {
+  const fs::path tiles_dir = MapDir(id) / kTilesName;
+  std::vector<std::string> tiles;
+  tiles.reserve(names.size());
+  for (const std::string& name : names) {
+    Result<std::optional<std::string>> bytes = ReadTile(tiles_dir, name);
+    if (!bytes) return std::move(bytes).error().With("map_id", id).With("version", version);
+    if (!bytes->has_value()) {
+      if (!IsPut(id, version)) return MissingVersion(id, version);
+      return MakeError(ServiceErrorCode::kMapCorrupted,
+                       "map store: version " + version + " of map '" + id + "' lists tile " + name +
+                           ", which is not in " + tiles_dir.string() +
+                           " (removed by hand?): delete the map and create it again")
+          .With("map_id", id)
+          .With("version", version);
+    }
+    tiles.push_back(std::move(**bytes));
+  }
+  return tiles;
+}
+
+namespace {
+
+std::vector<std::string_view> Views(const std::vector<std::string>& parts, std::size_t first) {
+  return {parts.begin() + static_cast<std::ptrdiff_t>(first), parts.end()};
+}
+
+ServiceError NoCloud(const std::string& id) {
+  return MakeError(ServiceErrorCode::kEditNeedsCloud,
+                   "map '" + id + "' was made from a saved model, which keeps no point " +
+                       "cloud: create it from its point cloud to edit it")
+      .With("map_id", id);
+}
+
+// The saved-model or PCD bytes `write` puts at a path, in a file in memory: what a reader of
+// a version's whole files (a map worker) is handed for a tiled terrain.
+Result<std::shared_ptr<const OpenedMapFile>> FileInMemory(
+    const char* name, const std::function<Status(const std::string& path)>& write) {
+  const int fd = ::memfd_create(name, MFD_CLOEXEC);
+  if (fd < 0) return Unavailable(name, "make a file in memory for", errno);
+  auto file = std::make_shared<const OpenedMapFile>(fd, fs::path());
+  if (Status written = write(file->ProcPath()); !written) {
+    return MakeError(ServiceErrorCode::kInternal,
+                     std::string("map store: cannot make ") + name +
+                         " from its tiles: " + written.error().message);
+  }
+  return file;
+}
+
+}  // namespace
+
 Result<std::shared_ptr<const TerrainModel>> MapStore::LoadModel(const std::string& id,
                                                                 const std::string& version) const {
+  Result<std::optional<TerrainTiles>> tiles = TilesOfVersion(id, version);
+  if (!tiles) return std::move(tiles).error();
+  if (tiles->has_value()) {
+    std::vector<std::string> names = {(*tiles)->header};
+    names.insert(names.end(), (*tiles)->model.begin(), (*tiles)->model.end());
+    Result<std::vector<std::string>> bytes = ReadTiles(id, version, names);
+    if (!bytes) return std::move(bytes).error();
+    const std::vector<std::string_view> model_tiles = Views(*bytes, 1);
+    Expected<std::shared_ptr<const TerrainModel>> model =
+        JoinModel(bytes->front(), model_tiles, "of version " + version + " of map '" + id + "'");
+    if (model) return std::move(*model);
+    return MakeError(ServiceErrorCode::kMapCorrupted, "map store: " + model.error().message +
+                                                          " (delete the map and create it again)")
+        .With("map_id", id)
+        .With("version", version);
+  }
   Result<fs::path> path = VersionFile(id, version, kModelName);
   if (!path) return std::move(path).error();
   Expected<std::shared_ptr<const TerrainModel>> model = strata::LoadModel(path->string());
@@ -989,6 +1082,21 @@ Result<std::shared_ptr<const TerrainModel>> MapStore::LoadModel(const std::strin
 }
 
 Result<PointCloud> MapStore::LoadCloud(const std::string& id, const std::string& version) const {
+  Result<std::optional<TerrainTiles>> tiles = TilesOfVersion(id, version);
+  if (!tiles) return std::move(tiles).error();
+  if (tiles->has_value()) {
+    if ((*tiles)->cloud.empty()) return NoCloud(id);
+    Result<std::vector<std::string>> bytes = ReadTiles(id, version, (*tiles)->cloud);
+    if (!bytes) return std::move(bytes).error();
+    const std::vector<std::string_view> cloud_tiles = Views(*bytes, 0);
+    Expected<PointCloud> cloud =
+        JoinCloud(cloud_tiles, "of version " + version + " of map '" + id + "'");
+    if (cloud) return std::move(cloud).value();
+    return MakeError(ServiceErrorCode::kMapCorrupted, "map store: " + cloud.error().message +
+                                                          " (delete the map and create it again)")
+        .With("map_id", id)
+        .With("version", version);
+  }
   Result<fs::path> path = VersionFile(id, version, kCloudName);
   if (!path) return std::move(path).error();
   // The cloud passed the server's limits when it was accepted; these only guard the reader.
@@ -1001,10 +1109,7 @@ Result<PointCloud> MapStore::LoadCloud(const std::string& id, const std::string&
   std::error_code ec;
   if (!fs::exists(*path, ec)) {
     if (fs::is_directory(path->parent_path(), ec)) {
-      return MakeError(ServiceErrorCode::kEditNeedsCloud,
-                       "map '" + id + "' was made from a saved model, which keeps no point " +
-                           "cloud: create it from its point cloud to edit it")
-          .With("map_id", id);
+      return NoCloud(id);
     }
     return MissingVersion(id, version);
   }
@@ -1027,10 +1132,7 @@ Result<std::shared_ptr<const OpenedMapFile>> MapStore::OpenVersionFile(const std
   std::error_code ec;
   if (error == ENOENT && std::strcmp(name, kCloudName) == 0 &&
       fs::is_directory(path->parent_path(), ec)) {
-    return MakeError(ServiceErrorCode::kEditNeedsCloud,
-                     "map '" + id + "' was made from a saved model, which keeps no point " +
-                         "cloud: create it from its point cloud to edit it")
-        .With("map_id", id);
+    return NoCloud(id);
   }
   if (error == ENOENT) return MissingVersion(id, version);
   return Unavailable(*path, "open", error);
@@ -1038,12 +1140,23 @@ Result<std::shared_ptr<const OpenedMapFile>> MapStore::OpenVersionFile(const std
 
 Result<std::shared_ptr<const OpenedMapFile>> MapStore::OpenCloud(const std::string& id,
                                                                  const std::string& version) const {
-  return OpenVersionFile(id, version, kCloudName);
+  Result<std::optional<TerrainTiles>> tiles = TilesOfVersion(id, version);
+  if (!tiles) return std::move(tiles).error();
+  if (!tiles->has_value()) return OpenVersionFile(id, version, kCloudName);
+  Result<PointCloud> cloud = LoadCloud(id, version);
+  if (!cloud) return std::move(cloud).error();
+  return FileInMemory(kCloudName, [&](const std::string& path) { return SavePcd(*cloud, path); });
 }
 
 Result<std::shared_ptr<const OpenedMapFile>> MapStore::OpenModel(const std::string& id,
                                                                  const std::string& version) const {
-  return OpenVersionFile(id, version, kModelName);
+  Result<std::optional<TerrainTiles>> tiles = TilesOfVersion(id, version);
+  if (!tiles) return std::move(tiles).error();
+  if (!tiles->has_value()) return OpenVersionFile(id, version, kModelName);
+  Result<std::shared_ptr<const TerrainModel>> model = LoadModel(id, version);
+  if (!model) return std::move(model).error();
+  return FileInMemory(kModelName,
+                      [&](const std::string& path) { return WriteModelInPlace(**model, path); });
 }
 
 Result<std::string> MapStore::LoadMetadata(const std::string& id,
@@ -1117,27 +1230,50 @@ ServiceStatus MapStore::DeleteShared(const std::string& id) {
                    "map store: map '" + id + "' kept changing on other replicas: try again");
 }
 
+namespace {
+
+// The entries of `dir` (none when it cannot be listed).
+std::vector<fs::path> Entries(const fs::path& dir) {
+  std::vector<fs::path> paths;
+  std::error_code ec;
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    paths.push_back(it->path());
+  }
+  return paths;
+}
+
+}  // namespace
+
 int MapStore::CollectGarbage() {
   int removed = 0;
-  std::error_code ec;
-  const auto entries = [&](const fs::path& dir) {
-    std::vector<fs::path> paths;
-    for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
-      paths.push_back(it->path());
-    }
-    return paths;
-  };
   const auto remove = [&](const fs::path& path) {
     std::error_code error;
     fs::remove_all(path, error);
     removed += error ? 0 : 1;
   };
-  for (const fs::path& path : entries(root_ / "trash")) remove(path);
-  for (const fs::path& path : entries(root_ / "tmp")) {
+  for (const fs::path& path : Entries(root_ / "trash")) remove(path);
+  for (const fs::path& path : Entries(root_ / "tmp")) {
     if (IsStale(path)) remove(path);
   }
-  if (shared_heads_) return removed + CollectSharedGarbage();
-  for (const fs::path& map_dir : entries(root_ / "maps")) {
+  if (shared_heads_) {
+    removed += CollectSharedGarbage();
+  } else {
+    removed += CollectFileHeadGarbage();
+  }
+  // Tiles no terrain lists: a writer killed between its tiles and its terrain, or the
+  // collection after a terrain's removal never ran. Last: locking makes a lock file, which
+  // refreshes a map directory's age.
+  for (const fs::path& map_dir : Entries(root_ / "maps")) {
+    const std::string id = map_dir.filename().string();
+    if (CheckId(id).ok()) removed += CollectTiles(id);
+  }
+  return removed;
+}
+
+int MapStore::CollectFileHeadGarbage() {
+  int removed = 0;
+  std::error_code ec;
+  for (const fs::path& map_dir : Entries(root_ / "maps")) {
     const std::string id = map_dir.filename().string();
     if (!CheckId(id).ok()) continue;
     // Stale leftovers only, and under the map's lock so that no publisher is between its
@@ -1146,9 +1282,9 @@ int MapStore::CollectGarbage() {
     // The map directory's age is taken before locking: locking may create its lock file.
     const bool map_dir_stale = IsStale(map_dir);
     bool any_stale = map_dir_stale;
-    for (const fs::path& version : entries(versions_dir)) any_stale |= IsStale(version);
-    for (const fs::path& terrain : entries(map_dir / kTerrainsName)) any_stale |= IsStale(terrain);
-    for (const fs::path& graphs : entries(map_dir / kGraphsName)) any_stale |= IsStale(graphs);
+    for (const fs::path& version : Entries(versions_dir)) any_stale |= IsStale(version);
+    for (const fs::path& terrain : Entries(map_dir / kTerrainsName)) any_stale |= IsStale(terrain);
+    for (const fs::path& graphs : Entries(map_dir / kGraphsName)) any_stale |= IsStale(graphs);
     if (!any_stale) continue;
     Result<MapLock> lock = MapLock::Acquire(map_dir, id, /*create=*/false);
     if (!lock) continue;
@@ -1162,7 +1298,7 @@ int MapStore::CollectGarbage() {
       continue;
     }
     const std::vector<std::string>& kept = **head;
-    for (const fs::path& version : entries(versions_dir)) {
+    for (const fs::path& version : Entries(versions_dir)) {
       const bool listed =
           std::find(kept.begin(), kept.end(), version.filename().string()) != kept.end();
       if (!listed && IsStale(version) && Discard(version)) ++removed;

@@ -5,17 +5,22 @@
 ///
 /// Layout under the root:
 ///
-///   strata-map-store            marker: "strata map store, layout 2"; Open refuses another
-///                               (a layout-1 store is taken over: its versions read as before)
+///   strata-map-store            marker: "strata map store, layout 3"; Open refuses another
+///                               (a store of layout 1 or 2 is taken over: its versions read
+///                               as before)
 ///   maps/<id>/head              the map's kept versions, newest (current) first, one per
 ///                               line; replaced whole (temporary + rename). A map exists
 ///                               exactly when its head does.
 ///   maps/<id>/lock              empty; flock'ed by whoever changes the head or deletes the map
 ///   maps/<id>/terrains/<t>/     one terrain: what assessing a cloud made, never changed once
 ///                               renamed into place, shared by every version made of it:
-///       cloud.pcd               the source cloud (binary PCD, float32 x y z); absent for a
-///                               map made from a saved model
-///       model.stratamodel       the assessed model (strata/io/saved_model.hpp, checksummed)
+///       tiles                   the list of its cloud's and model's tiles (stored_tiles.hpp;
+///                               no cloud tiles for a map made from a saved model). A layout-2
+///                               terrain holds cloud.pcd and model.stratamodel instead
+///   maps/<id>/tiles/<name>      the tiles of the map's terrains, each once, named by its
+///                               content (XXH3-128): a terrain an edit made shares every tile
+///                               of its base that the edit left as it was; a tile goes when
+///                               no terrain lists it any more
 ///   maps/<id>/graphs/<t>/       robots' surface graphs built on terrain <t>, one file each
 ///                               (<key>.stratagraph, strata/io/saved_graph.hpp), put by
 ///                               whichever replica built one first and loaded by the others
@@ -49,11 +54,17 @@
 ///   acdirmax / lookupcache, 60 s by default). That bounds how late another host sees a new
 ///   version or a deletion.
 ///
+/// Tiles are renamed into tiles/ without an fsync each; one syncfs(2) makes them durable before
+/// the terrain listing them is renamed into place. A terrain's tiles are checked to be there,
+/// and a missing one written again, under the map's lock, which collecting tiles takes too: no
+/// terrain is renamed into place listing a tile that is not there.
+///
 /// A process killed at any point leaves at most a temporary in tmp/ (removed by the next
 /// Open or CollectGarbage once older than kStaleTemporaryAge), a version directory no head
 /// lists or a terrain no version names (same), or a map directory without a head (same):
-/// never something a reader takes for a version or a map. A terrain is removed with the last
-/// version that names it.
+/// never something a reader takes for a version or a map, or tiles no terrain lists (collected
+/// with the next terrain the map loses, or by CollectGarbage). A terrain is removed with the
+/// last version that names it.
 ///
 /// Thread-safe: any number of threads and MapStore objects (in this process or others) may
 /// use one root at once.
@@ -64,6 +75,7 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <set>
 #include <span>
 #include <string>
 #include <string_view>
@@ -73,6 +85,7 @@
 #include "common/service_error.hpp"
 #include "maps/map_heads.hpp"
 #include "maps/map_root.hpp"
+#include "maps/stored_tiles.hpp"
 #include "strata/assessment/terrain_config.hpp"
 #include "strata/assessment/terrain_model.hpp"
 #include "strata/planning/surface_graph.hpp"
@@ -130,13 +143,16 @@ class MapStore {
   const std::filesystem::path& root() const { return root_; }
 
   /// Writes terrain `terrain` of map `id`: `cloud` (empty for a map made from a saved model:
-  /// LoadCloud then fails with kEditNeedsCloud) and `model` go to a fresh temporary directory,
-  /// are made durable, and the directory is renamed into place. When the terrain is there
-  /// already (another writer put it, or an earlier version is made of it), that is success and
-  /// nothing is written. kInvalidInput for a bad id or name, kMapStoreUnavailable when the
-  /// store cannot be written (naming the path and the reason).
+  /// LoadCloud then fails with kEditNeedsCloud) and `model`, cut into tiles, of which those
+  /// the map does not hold yet are written and made durable; then the terrain's list of them
+  /// goes to a fresh temporary directory, made durable and renamed into place. When the
+  /// terrain is there already (another writer put it, or an earlier version is made of it),
+  /// that is success and nothing is written. `writes` (may be null) gets what it cost.
+  /// kInvalidInput for a bad id or name, kMapStoreUnavailable when the store cannot be
+  /// written (naming the path and the reason).
   ServiceStatus PutTerrain(const std::string& id, const std::string& terrain,
-                           const PointCloud& cloud, const TerrainModel& model);
+                           const PointCloud& cloud, const TerrainModel& model,
+                           TileWrites* writes = nullptr);
 
   /// Keeps `graph`, built on terrain `terrain` of map `id`, for every replica that plans on it
   /// (maps/<id>/graphs/<terrain>/<SavedGraphKey>.stratagraph): written to a temporary, made
@@ -200,7 +216,9 @@ class MapStore {
   Result<PointCloud> LoadCloud(const std::string& id, const std::string& version) const;
 
   /// The cloud and the model file of a version, opened for reading: whoever reads them reads
-  /// the version whole even if it is pruned meanwhile. Fail as LoadCloud and LoadModel do.
+  /// the version whole even if it is pruned meanwhile. A tiled terrain's are made from its
+  /// tiles into a file in memory (memfd): a binary PCD and a saved model. Fail as LoadCloud
+  /// and LoadModel do.
   Result<std::shared_ptr<const OpenedMapFile>> OpenCloud(const std::string& id,
                                                          const std::string& version) const;
   Result<std::shared_ptr<const OpenedMapFile>> OpenModel(const std::string& id,
@@ -248,6 +266,8 @@ class MapStore {
   ServiceStatus PublishUpdateShared(const std::string& id, const std::string& expected_current,
                                     const std::string& version, int keep_versions);
   ServiceStatus DeleteShared(const std::string& id);
+  // CollectGarbage's pass over the maps whose heads are files (under each map's lock).
+  int CollectFileHeadGarbage();
   // CollectGarbage's pass over the maps on shared heads (no lock: only leftovers older than
   // kStaleTemporaryAge go, which no publisher still holds).
   int CollectSharedGarbage();
@@ -264,6 +284,22 @@ class MapStore {
   /// Discards the terrains of `id` that no version names and that are older than
   /// kStaleTemporaryAge (a dead writer's, or one a writer is about to name: not yet stale).
   int DiscardStaleTerrains(const std::string& id) const;
+  /// The tiles of the terrain `version` of `id` is made of, nullopt for a version whose terrain
+  /// keeps whole files (layouts 1 and 2); fails as LoadModel does.
+  Result<std::optional<TerrainTiles>> TilesOfVersion(const std::string& id,
+                                                     const std::string& version) const;
+  /// The bytes of `names`, tiles of map `id`, in order. When one is missing: the version's
+  /// MissingVersion if it was pruned meanwhile, else kMapCorrupted; kMapCorrupted for a tile
+  /// whose bytes are not its name's.
+  Result<std::vector<std::string>> ReadTiles(const std::string& id, const std::string& version,
+                                             std::span<const std::string> names) const;
+  /// Removes the tiles of `id` that no terrain lists; the caller holds the map's lock. Returns
+  /// how many it removed.
+  int CollectTilesLocked(const std::string& id) const;
+  /// CollectTilesLocked under the map's lock, when the map is still there.
+  int CollectTiles(const std::string& id) const;
+  /// Has the remover collect the tiles of `id` (after a terrain of it was discarded).
+  void ScheduleTileCollection(const std::string& id) const;
   /// Why `version` of `id` cannot be read: kMapNotFound or kMapVersionNotFound.
   ServiceError MissingVersion(const std::string& id, const std::string& version) const;
   /// The path of file `name` of an existing version, or why there is none.
@@ -276,9 +312,10 @@ class MapStore {
   /// Renames `path` into trash/ (the moment it is gone for everyone) and hands it to the
   /// remover; false when the rename failed.
   bool Discard(const std::filesystem::path& path) const;
-  // Removes what Discard renamed into trash/, one path at a time, off the caller's thread:
-  // unlinking a terrain's hundreds of megabytes takes a tenth of a second, which a publish
-  // (a keep-out zone's in milliseconds) should not wait for.
+  // Removes what Discard renamed into trash/, one path at a time, and collects the tiles of
+  // the maps ScheduleTileCollection names, off the caller's thread: unlinking a terrain's
+  // hundreds of megabytes takes a tenth of a second, which a publish (a keep-out zone's in
+  // milliseconds) should not wait for.
   void RemoveDiscarded() const;
 
   std::filesystem::path root_;
@@ -288,8 +325,9 @@ class MapStore {
   mutable std::mutex discarded_mutex_;
   mutable std::condition_variable discarded_changed_;
   mutable std::deque<std::filesystem::path> discarded_;
-  mutable bool removing_ = false;  // The remover holds one taken from discarded_.
-  bool closing_ = false;           // Guarded by discarded_mutex_.
+  mutable std::set<std::string> tiles_to_collect_;  // Map ids, for the remover.
+  mutable bool removing_ = false;                   // The remover holds one taken from discarded_.
+  bool closing_ = false;                            // Guarded by discarded_mutex_.
   // Runs RemoveDiscarded, from the first discard on; guarded by discarded_mutex_.
   mutable std::thread remover_;
 };

@@ -11,6 +11,7 @@
 #include <condition_variable>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iterator>
 #include <latch>
 #include <mutex>
@@ -18,17 +19,22 @@
 #include <set>
 #include <string>
 #include <thread>
+#include <tuple>
 #include <vector>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include "maps/stored_graphs.hpp"
+#include "maps/stored_tiles.hpp"
+#include "strata/assessment/map_edit.hpp"
 #include "strata/io/cloud_io.hpp"
 #include "strata/io/saved_graph.hpp"
 #include "strata/io/saved_model.hpp"
 #include "strata/planner.hpp"
+#include "strata/prism.hpp"
 #include "strata/scenes/basic_scenes.hpp"
+#include "strata/scenes/paper_scenes.hpp"
 
 namespace strata::server {
 namespace {
@@ -129,6 +135,76 @@ class MapStoreTest : public ::testing::Test {
     return version;
   }
 
+  // The points in lexicographic order: a cloud comes back from the store tile by tile.
+  static PointCloud Sorted(PointCloud points) {
+    std::sort(points.begin(), points.end(), [](const Eigen::Vector3f& a, const Eigen::Vector3f& b) {
+      return std::tuple(a.x(), a.y(), a.z()) < std::tuple(b.x(), b.y(), b.z());
+    });
+    return points;
+  }
+
+  // The names of the tiles the terrains of map `id` list.
+  std::set<std::string> ListedTiles(const std::string& id) const {
+    std::set<std::string> names;
+    for (const fs::path& terrain : Entries(root_ / "maps" / id / "terrains")) {
+      std::ifstream file(terrain / "tiles");
+      const std::string text{std::istreambuf_iterator<char>(file), {}};
+      const auto list = TerrainTiles::Parse(text, terrain / "tiles");
+      EXPECT_TRUE(list.ok()) << Why(list);
+      if (!list.ok()) continue;
+      for (const std::string& name : list->Names()) names.insert(name);
+    }
+    return names;
+  }
+  // The names of the tiles in map `id`'s tiles/.
+  std::set<std::string> StoredTiles(const std::string& id) const {
+    std::set<std::string> names;
+    for (const fs::path& tile : Entries(root_ / "maps" / id / "tiles")) {
+      names.insert(tile.filename().string());
+    }
+    return names;
+  }
+
+  // 4 M points over 100 × 100 m: stored with the small shared model, whose grid is 2 tiles,
+  // they are two cloud tiles of 24 MB, each taking a good fraction of a second to write.
+  static PointCloud BigCloud() {
+    PointCloud big;
+    constexpr int kSide = 2000;
+    big.reserve(kSide * kSide);
+    for (int i = 0; i < kSide; ++i) {
+      for (int j = 0; j < kSide; ++j) big.emplace_back(0.05f * i, 0.05f * j, 0.001f * (i % 7));
+    }
+    return big;
+  }
+
+  // Whether a temporary tile of more than 1 MB is being written in tmp/.
+  bool BigTemporaryTile() const {
+    for (const fs::path& tile : Entries(root_ / "tmp", "tile.")) {
+      std::error_code ec;
+      if (fs::file_size(tile, ec) > (1u << 20) && !ec) return true;
+    }
+    return false;
+  }
+
+  // Kills the writer `pid` with SIGKILL as soon as `ready` says so; fails the test if the
+  // writer ended before.
+  static void KillWhen(pid_t pid, const std::function<bool()>& ready) {
+    bool exited = false;
+    while (!ready()) {
+      int status = 0;
+      if (::waitpid(pid, &status, WNOHANG) == pid) {
+        exited = true;
+        break;
+      }
+      std::this_thread::yield();
+    }
+    ASSERT_FALSE(exited) << "the writer finished before the moment to kill it";
+    ASSERT_EQ(::kill(pid, SIGKILL), 0);
+    int status = 0;
+    ASSERT_EQ(::waitpid(pid, &status, 0), pid);
+    ASSERT_TRUE(WIFSIGNALED(status)) << "the writer finished before it was killed";
+  }
+
   // The entries of `dir` whose names start with `prefix`.
   static std::vector<fs::path> Entries(const fs::path& dir, std::string_view prefix = "") {
     std::vector<fs::path> entries;
@@ -170,7 +246,7 @@ TEST_F(MapStoreTest, RoundTrip) {
   EXPECT_EQ(SerializeModel(**loaded_model), SerializeModel(model()));
   auto loaded_cloud = store_->LoadCloud("ramp", version);
   ASSERT_TRUE(loaded_cloud.ok()) << Why(loaded_cloud);
-  EXPECT_EQ(*loaded_cloud, cloud());
+  EXPECT_EQ(Sorted(*loaded_cloud), Sorted(cloud()));  // In the order of its tiles.
   auto loaded_metadata = store_->LoadMetadata("ramp", version);
   ASSERT_TRUE(loaded_metadata.ok()) << Why(loaded_metadata);
   EXPECT_EQ(*loaded_metadata, metadata);
@@ -473,11 +549,11 @@ TEST_F(MapStoreTest, ReadsAStoreOfLayout1) {
   MapStore& store = **opened;
   std::ifstream marker(old_root / "strata-map-store");
   EXPECT_EQ(std::string(std::istreambuf_iterator<char>(marker), {}),
-            "strata map store, layout 2\n");
+            "strata map store, layout 3\n");
   EXPECT_EQ(*store.TerrainOfVersion("old", version), "");
   EXPECT_EQ(store.LoadCloud("old", version)->size(), cloud().size());
   EXPECT_EQ(SerializeModel(**store.LoadModel("old", version)), SerializeModel(model()));
-  // A later version of it is of layout 2, and pruning the old one removes it whole.
+  // A later version of it is of layout 3, and pruning the old one removes it whole.
   const std::string next = Put(store, "old", Variant(1));
   ASSERT_TRUE(store.PublishUpdate("old", version, next, 1).ok());
   EXPECT_FALSE(fs::exists(version_dir));
@@ -550,13 +626,7 @@ TEST_F(MapStoreTest, OpenRefusesWhatIsNoStore) {
 }
 
 TEST_F(MapStoreTest, AWriterKilledMidWriteLeavesNoVersion) {
-  // Big enough that writing it takes a good fraction of a second.
-  PointCloud big;
-  constexpr int kSide = 2000;
-  big.reserve(kSide * kSide);
-  for (int i = 0; i < kSide; ++i) {
-    for (int j = 0; j < kSide; ++j) big.emplace_back(0.05f * i, 0.05f * j, 0.001f * (i % 7));
-  }
+  const PointCloud big = BigCloud();
   const std::string version = VersionOf(big);
   const pid_t pid = ::fork();
   ASSERT_GE(pid, 0);
@@ -566,22 +636,10 @@ TEST_F(MapStoreTest, AWriterKilledMidWriteLeavesNoVersion) {
                     (*store)->PublishNew("big", version).ok();
     ::_exit(ok ? 0 : 1);
   }
-  // Kill it as soon as its temporary terrain directory exists (tmp/terrain.<pid>.<random>).
-  bool exited = false;
-  while (Entries(root_ / "tmp", "terrain.").empty()) {
-    int status = 0;
-    if (::waitpid(pid, &status, WNOHANG) == pid) {
-      exited = true;
-      break;
-    }
-    std::this_thread::yield();
-  }
-  ASSERT_FALSE(exited) << "the writer finished before its temporary was seen";
-  ASSERT_EQ(::kill(pid, SIGKILL), 0);
-  int status = 0;
-  ASSERT_EQ(::waitpid(pid, &status, 0), pid);
-  ASSERT_TRUE(WIFSIGNALED(status)) << "the writer finished before it was killed";
-  ASSERT_EQ(Entries(root_ / "tmp", "terrain.").size(), 1u);  // Its half-written terrain.
+  // Killed while it writes the first of the cloud's two big tiles (a temporary of 1 MB on
+  // its way to 24 MB): the small ones before it are in tiles/, not listed by any terrain.
+  KillWhen(pid, [&] { return BigTemporaryTile(); });
+  ASSERT_EQ(Entries(root_ / "tmp", "tile.").size(), 1u);  // Its half-written tile.
 
   auto fresh = MapStore::Open(root_);
   ASSERT_TRUE(fresh.ok()) << Why(fresh);
@@ -602,26 +660,78 @@ TEST_F(MapStoreTest, AWriterKilledMidWriteLeavesNoVersion) {
   // it is older than the stale age.
   ASSERT_EQ(Entries(root_ / "tmp").size(), 1u);
   EXPECT_EQ(store.CollectGarbage(), 0);
-  MakeStale(Entries(root_ / "tmp", "terrain.").front());
+  MakeStale(Entries(root_ / "tmp", "tile.").front());
   EXPECT_EQ(store.CollectGarbage(), 1);
   EXPECT_THAT(Entries(root_ / "tmp"), IsEmpty());
+}
+
+// The kill test: a writer making a map's next version is killed in the middle of
+// writing its tiles. The current version stays whole, nothing lists the tiles it left, and
+// those are collected.
+TEST_F(MapStoreTest, AWriterKilledMidTiledWriteLeavesTheCurrentVersionWhole) {
+  const std::string current = Create("site", cloud());
+  const std::set<std::string> current_tiles = StoredTiles("site");
+  const PointCloud big = BigCloud();
+  const std::string next = VersionOf(big);
+  const pid_t pid = ::fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    auto store = MapStore::Open(root_);
+    const bool ok = store.ok() && PutBoth(**store, "site", next, big, "{}").ok() &&
+                    (*store)->PublishUpdate("site", current, next, 2).ok();
+    ::_exit(ok ? 0 : 1);
+  }
+  // Killed once a first big tile is in place and the second is being written.
+  KillWhen(pid, [&] { return StoredTiles("site").size() > current_tiles.size(); });
+
+  auto fresh = MapStore::Open(root_);  // Another replica, or this one restarted.
+  ASSERT_TRUE(fresh.ok()) << Why(fresh);
+  MapStore& store = **fresh;
+  EXPECT_THAT(*store.Versions("site"), ElementsAre(current));
+  const auto model_now = store.LoadModel("site", current);
+  ASSERT_TRUE(model_now.ok()) << Why(model_now);
+  EXPECT_EQ(SerializeModel(**model_now), SerializeModel(model()));
+  const auto cloud_now = store.LoadCloud("site", current);
+  ASSERT_TRUE(cloud_now.ok()) << Why(cloud_now);
+  EXPECT_EQ(Sorted(*cloud_now), Sorted(cloud()));
+  EXPECT_TRUE(Fails(store.LoadModel("site", next), ServiceErrorCode::kMapVersionNotFound));
+  // Open collected the tiles no terrain lists: the dead writer's.
+  EXPECT_EQ(StoredTiles("site"), current_tiles);
+
+  // Made again, it lands.
+  ASSERT_TRUE(PutBoth(store, "site", next, big, "{}").ok());
+  ASSERT_TRUE(store.PublishUpdate("site", current, next, 2).ok());
+  EXPECT_EQ(store.LoadCloud("site", next)->size(), big.size());
 }
 
 TEST_F(MapStoreTest, ATamperedVersionFailsToLoadClearly) {
   const std::string version = Create("tampered", cloud());
   const fs::path dir = root_ / "maps" / "tampered" / "terrains" / version;
-  const fs::path model_file = dir / "model.stratamodel";
-  fs::resize_file(model_file, fs::file_size(model_file) / 2);
+  const fs::path tiles = root_ / "maps" / "tampered" / "tiles";
+  std::ifstream list_file(dir / "tiles");
+  const auto list = TerrainTiles::Parse(std::string(std::istreambuf_iterator<char>(list_file), {}),
+                                        dir / "tiles");
+  ASSERT_TRUE(list.ok()) << Why(list);
+
+  const fs::path model_tile = tiles / list->model.back();
+  fs::resize_file(model_tile, fs::file_size(model_tile) / 2);
   const auto truncated = store_->LoadModel("tampered", version);
   ASSERT_TRUE(Fails(truncated, ServiceErrorCode::kMapCorrupted)) << Why(truncated);
-  EXPECT_THAT(truncated.error().message, HasSubstr(model_file.string()));
-  EXPECT_THAT(truncated.error().message, HasSubstr("truncated"));
+  EXPECT_THAT(truncated.error().message, HasSubstr(model_tile.string()));
+  EXPECT_THAT(truncated.error().message, HasSubstr("does not hold the bytes its name says"));
+  EXPECT_TRUE(Fails(store_->OpenModel("tampered", version), ServiceErrorCode::kMapCorrupted));
 
-  const fs::path cloud_file = dir / "cloud.pcd";
-  fs::resize_file(cloud_file, fs::file_size(cloud_file) - 100);
+  const fs::path cloud_tile = tiles / list->cloud.front();
+  fs::remove(cloud_tile);
   const auto short_cloud = store_->LoadCloud("tampered", version);
   ASSERT_TRUE(Fails(short_cloud, ServiceErrorCode::kMapCorrupted)) << Why(short_cloud);
-  EXPECT_THAT(short_cloud.error().message, HasSubstr(cloud_file.string()));
+  EXPECT_THAT(short_cloud.error().message, HasSubstr(list->cloud.front()));
+  EXPECT_THAT(short_cloud.error().message, HasSubstr("removed by hand?"));
+
+  std::ofstream(dir / "tiles") << "strata tiles 1\nheader nonsense\n";
+  const auto bad_list = store_->LoadModel("tampered", version);
+  ASSERT_TRUE(Fails(bad_list, ServiceErrorCode::kMapCorrupted)) << Why(bad_list);
+  EXPECT_THAT(bad_list.error().message, HasSubstr("is not a list of tiles"));
 
   std::ofstream(root_ / "maps" / "tampered" / "head") << "not a version\n";
   EXPECT_TRUE(Fails(store_->Versions("tampered"), ServiceErrorCode::kMapCorrupted));
@@ -653,9 +763,75 @@ TEST_F(MapStoreTest, CollectsOnlyStaleLeftovers) {
   EXPECT_TRUE(fs::exists(terrains / orphan));
   MakeStale(terrains / orphan);
   MakeStale(terrains / kept);  // Named by a version: stays however old.
-  EXPECT_EQ(store_->CollectGarbage(), 1);
+  const std::size_t tiles_before = StoredTiles("m").size();
+  // The terrain, then the tiles only it listed (its cloud's, which moved a point).
+  EXPECT_GT(store_->CollectGarbage(), 1);
   EXPECT_FALSE(fs::exists(terrains / orphan));
   EXPECT_TRUE(fs::exists(terrains / kept));
+  EXPECT_LT(StoredTiles("m").size(), tiles_before);
+  EXPECT_EQ(StoredTiles("m"), ListedTiles("m"));
+}
+
+// The measure: a version costs what it changed. An obstacle set down in a garage of
+// 12 tiles writes the few tiles it changed (bytes at most twice theirs, with the terrain's
+// list), shares the rest, and once the old version is pruned its own tiles go with it.
+TEST_F(MapStoreTest, AnEditedTerrainWritesOnlyTheTilesItChanged) {
+  AssessmentConfig config;
+  config.grid.resolution_m = 0.2;
+  const PointCloud cloud = GenerateParkingGarage(1, 0.2);
+  const auto model = TerrainModel::Assess(cloud, config);
+  ASSERT_TRUE(model.ok()) << model.error().message;
+  const std::string first = MapStore::VersionOf(cloud, config, {});
+  TileWrites writes;
+  ASSERT_TRUE(store_->PutTerrain("garage", first, cloud, **model, &writes).ok());
+  const CutTerrain base = CutIntoTiles(**model, cloud);
+  EXPECT_EQ(writes.written, static_cast<int>(base.tiles.size()));
+  EXPECT_EQ(writes.shared, 0);
+  ASSERT_TRUE(store_->PutVersion("garage", first, first, "{}").ok());
+  ASSERT_TRUE(store_->PublishNew("garage", first).ok());
+
+  const std::vector<MapEdit> edits = {
+      {MapEdit::Kind::kAddObstacle,
+       BoxPrism(Eigen::AlignedBox3d(Eigen::Vector3d(6, 6, 0), Eigen::Vector3d(8, 8, 1)))}};
+  const auto edited = ApplyEdits(cloud, edits, **model);
+  ASSERT_TRUE(edited.ok()) << edited.error().message;
+  const auto reassessed = ReassessRegion(**model, cloud, *edited, EditBounds(edits));
+  ASSERT_TRUE(reassessed.ok()) << reassessed.error().message;
+  const std::string next = MapStore::VersionOf(*edited, config, {});
+  ASSERT_TRUE(store_->PutTerrain("garage", next, *edited, *reassessed->model, &writes).ok());
+
+  std::set<std::string> base_names;
+  std::uint64_t base_bytes = 0;
+  for (const auto& [name, bytes] : base.tiles) {
+    base_names.insert(name);
+    base_bytes += bytes.size();
+  }
+  std::uint64_t changed_bytes = 0;
+  int changed = 0;
+  const CutTerrain cut = CutIntoTiles(*reassessed->model, *edited);
+  for (const auto& [name, bytes] : cut.tiles) {
+    if (base_names.contains(name)) continue;
+    ++changed;
+    changed_bytes += bytes.size();
+  }
+  // The header, and at most the 2 × 2 model and cloud tiles around the block.
+  EXPECT_GE(changed, 3);
+  EXPECT_LE(changed, 9);
+  EXPECT_EQ(writes.written, changed);
+  EXPECT_EQ(writes.shared, static_cast<int>(cut.tiles.size()) - changed);
+  EXPECT_LE(writes.bytes_written, 2 * changed_bytes);
+  EXPECT_LT(changed_bytes, base_bytes / 2);
+
+  ASSERT_TRUE(store_->PutVersion("garage", next, next, "{}").ok());
+  ASSERT_TRUE(store_->PublishUpdate("garage", first, next, 1).ok());
+  store_->WaitForRemovals();
+  EXPECT_EQ(StoredTiles("garage"), ListedTiles("garage"));
+  const auto loaded = store_->LoadModel("garage", next);
+  ASSERT_TRUE(loaded.ok()) << Why(loaded);
+  EXPECT_TRUE(SerializeModel(**loaded) == SerializeModel(*reassessed->model));
+  const auto loaded_cloud = store_->LoadCloud("garage", next);
+  ASSERT_TRUE(loaded_cloud.ok()) << Why(loaded_cloud);
+  EXPECT_EQ(Sorted(*loaded_cloud), Sorted(*edited));
 }
 
 TEST_F(MapStoreTest, GraphsAreKeptBesideTheirTerrainAndGoWithIt) {

@@ -20,13 +20,12 @@ using model_parts::kSurfaceRecordBytes;
 // The header's meaning follows the saved model's: a model assessed by another rule is not
 // joined either.
 const binary_file::FileKind kTiledModelKind{kTiledModelMagic, kSavedModelFormatVersion,
-                                            "tiled model",
-                                            "assess the map again with this build"};
+                                            "tiled model", "assess the map again with this build"};
 
-constexpr std::size_t kCountBytes = 4;          // u32 per column: surfaces, runs.
-constexpr std::size_t kRunBytes = 4 + 4;        // i32 first layer, u32 layers.
-constexpr std::size_t kValueBytes = 2 + 2;      // i16 distance, u16 safety per layer.
-constexpr std::size_t kPointBytes = 3 * 4;      // float32 x y z.
+constexpr std::size_t kCountBytes = 4;      // u32 per column: surfaces, runs.
+constexpr std::size_t kRunBytes = 4 + 4;    // i32 first layer, u32 layers.
+constexpr std::size_t kValueBytes = 2 + 2;  // i16 distance, u16 safety per layer.
+constexpr std::size_t kPointBytes = 3 * 4;  // float32 x y z.
 
 // A block of columns: [x0, x1) × [y0, y1).
 struct Block {
@@ -241,11 +240,11 @@ Expected<std::shared_ptr<const TerrainModel>> JoinModel(std::string_view header_
   };
   Header header;
   binary_file::MemorySource source(header_bytes);
-  if (Status read = binary_file::ReadFrame(
-          source, header_bytes.size(), kTiledModelKind, name,
-          [&header](binary_file::Reader& reader, std::string* problem) {
-            return ReadHeader(reader, &header, problem);
-          });
+  if (Status read =
+          binary_file::ReadFrame(source, header_bytes.size(), kTiledModelKind, name,
+                                 [&header](binary_file::Reader& reader, std::string* problem) {
+                                   return ReadHeader(reader, &header, problem);
+                                 });
       !read) {
     return read.error();
   }
@@ -300,8 +299,7 @@ std::vector<std::string> CutCloud(const PointCloud& cloud, const GridGeometry& g
   std::vector<std::string> tiles(TileCount(geometry));
   const int blocks_x = BlocksAlong(geometry.size.x());
   const auto column = [&](double coordinate, int axis) {
-    const double cell =
-        std::floor((coordinate - geometry.origin_m[axis]) / geometry.resolution_m);
+    const double cell = std::floor((coordinate - geometry.origin_m[axis]) / geometry.resolution_m);
     return static_cast<int>(std::clamp(cell, 0.0, double(geometry.size[axis] - 1)));
   };
   for (const Eigen::Vector3f& point : cloud) {
@@ -316,8 +314,7 @@ Expected<PointCloud> JoinCloud(std::span<const std::string_view> tiles, const st
   std::size_t bytes = 0;
   for (std::size_t t = 0; t < tiles.size(); ++t) {
     if (tiles[t].size() % kPointBytes != 0) {
-      return Error{ErrorCode::kMapLoadFailed, "tiled cloud " + name + " tile " +
-                                                  std::to_string(t) +
+      return Error{ErrorCode::kMapLoadFailed, "tiled cloud " + name + " tile " + std::to_string(t) +
                                                   " is not a whole number of points"};
     }
     bytes += tiles[t].size();

@@ -1,0 +1,147 @@
+#include "maps/stored_tiles.hpp"
+
+#include <cstdio>
+#include <sstream>
+#include <unordered_set>
+
+#include <xxhash.h>
+
+#include "maps/store_files.hpp"
+#include "strata/io/model_tiles.hpp"
+
+namespace strata::server {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr std::string_view kListFirstLine = "strata tiles 1";
+
+bool IsTileName(std::string_view name) {
+  return name.size() == 32 && name.find_first_not_of("0123456789abcdef") == std::string_view::npos;
+}
+
+}  // namespace
+
+std::string TileName(std::string_view bytes) {
+  XXH128_canonical_t canonical;
+  XXH128_canonicalFromHash(&canonical, XXH3_128bits(bytes.data(), bytes.size()));
+  std::string hex;
+  hex.reserve(32);
+  constexpr char kDigits[] = "0123456789abcdef";
+  for (const unsigned char byte : canonical.digest) {
+    hex += kDigits[byte >> 4];
+    hex += kDigits[byte & 15];
+  }
+  return hex;
+}
+
+std::string TerrainTiles::Format() const {
+  std::string text = std::string(kListFirstLine) + "\nheader " + header + "\n";
+  text += "model " + std::to_string(model.size()) + "\n";
+  for (const std::string& name : model) text += name + "\n";
+  text += "cloud " + std::to_string(cloud.size()) + "\n";
+  for (const std::string& name : cloud) text += name + "\n";
+  return text;
+}
+
+Result<TerrainTiles> TerrainTiles::Parse(std::string_view text, const fs::path& path) {
+  const auto corrupted = [&](const std::string& why) {
+    return MakeError(ServiceErrorCode::kMapCorrupted,
+                     "map store: '" + path.string() + "' is not a list of tiles (" + why +
+                         "; edited by hand?): delete the map and create it again");
+  };
+  std::istringstream lines{std::string(text)};
+  std::string line;
+  if (!std::getline(lines, line) || line != kListFirstLine) return corrupted("first line");
+  TerrainTiles tiles;
+  std::string word;
+  if (!(lines >> word >> tiles.header) || word != "header" || !IsTileName(tiles.header)) {
+    return corrupted("header");
+  }
+  for (auto [section, names] :
+       {std::pair("model", &tiles.model), std::pair("cloud", &tiles.cloud)}) {
+    std::size_t count = 0;
+    // A count beyond what the text can hold is refused before anything is reserved.
+    if (!(lines >> word >> count) || word != section || count > text.size() / 33) {
+      return corrupted(std::string(section) + " count");
+    }
+    names->resize(count);
+    for (std::string& name : *names) {
+      if (!(lines >> name) || !IsTileName(name)) return corrupted(std::string(section) + " tile");
+    }
+  }
+  if (lines >> word) return corrupted("trailing text");
+  return tiles;
+}
+
+std::vector<std::string> TerrainTiles::Names() const {
+  std::vector<std::string> names = {header};
+  names.insert(names.end(), model.begin(), model.end());
+  names.insert(names.end(), cloud.begin(), cloud.end());
+  return names;
+}
+
+CutTerrain CutIntoTiles(const TerrainModel& model, const PointCloud& cloud) {
+  CutTerrain cut;
+  std::unordered_set<std::string> named;
+  const auto add = [&](std::string bytes) {
+    std::string name = TileName(bytes);
+    if (named.insert(name).second) cut.tiles.emplace_back(name, std::move(bytes));
+    return name;
+  };
+  TiledModel tiled = CutModel(model);
+  cut.list.header = add(std::move(tiled.header));
+  for (std::string& tile : tiled.tiles) cut.list.model.push_back(add(std::move(tile)));
+  if (!cloud.empty()) {
+    for (std::string& tile : CutCloud(cloud, model.grid())) {
+      cut.list.cloud.push_back(add(std::move(tile)));
+    }
+  }
+  return cut;
+}
+
+ServiceStatus WriteMissingTiles(const fs::path& tiles_dir, const fs::path& tmp_dir,
+                                const std::vector<std::pair<std::string, std::string>>& tiles,
+                                TileWrites* writes) {
+  std::error_code ec;
+  for (const auto& [name, bytes] : tiles) {
+    const fs::path target = tiles_dir / name;
+    if (fs::exists(target, ec)) {
+      ++writes->shared;
+      continue;
+    }
+    const fs::path temporary = tmp_dir / store_files::UniqueName("tile");
+    if (ServiceStatus written = store_files::WriteNewFile(temporary, bytes, /*durable=*/false);
+        !written) {
+      fs::remove(temporary, ec);
+      return written;
+    }
+    // The directory may be new, or gone with a deletion of the map: what is put after it
+    // belongs to the map created next.
+    fs::create_directories(tiles_dir, ec);
+    // Over a tile another writer put meanwhile: the same bytes.
+    if (::rename(temporary.c_str(), target.c_str()) != 0) {
+      const int error = errno;
+      fs::remove(temporary, ec);
+      return store_files::Unavailable(target, "rename into place", error);
+    }
+    ++writes->written;
+    writes->bytes_written += bytes.size();
+  }
+  return OkStatus();
+}
+
+Result<std::optional<std::string>> ReadTile(const fs::path& tiles_dir, const std::string& name) {
+  const fs::path path = tiles_dir / name;
+  Result<std::optional<std::string>> bytes = store_files::ReadFileIfExists(path);
+  if (!bytes || !bytes->has_value()) return bytes;
+  if (TileName(**bytes) != name) {
+    return MakeError(ServiceErrorCode::kMapCorrupted,
+                     "map store: tile '" + path.string() +
+                         "' does not hold the bytes its name says (damaged on disk?): delete "
+                         "the map and create it again");
+  }
+  return bytes;
+}
+
+}  // namespace strata::server

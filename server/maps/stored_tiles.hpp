@@ -1,0 +1,74 @@
+#pragma once
+/// The tiles a map store keeps its terrains in (layout 3; strata/io/model_tiles.hpp cuts
+/// them): each tile once per map, named by its content, shared by every terrain that lists
+/// it. A terrain made by an edit lists its base's tiles wherever the edit changed nothing,
+/// so it costs the bytes of the tiles it changed.
+///
+///   maps/<id>/tiles/<name>        one tile's bytes; <name> is their XXH3-128 in lowercase
+///                                 hex (TileName), checked on every read
+///   maps/<id>/terrains/<t>/tiles  the terrain's list of tiles (TerrainTiles::Format)
+///
+/// No gRPC, no locks: maps/map_store.cpp decides when tiles are written and collected.
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+#include "common/service_error.hpp"
+#include "strata/assessment/terrain_model.hpp"
+#include "strata/point_cloud.hpp"
+
+namespace strata::server {
+
+/// The name a tile of `bytes` is kept under: their XXH3-128, 32 lowercase hex digits.
+std::string TileName(std::string_view bytes);
+
+/// One terrain's tiles, by name.
+struct TerrainTiles {
+  std::string header;              ///< The tiled model's header.
+  std::vector<std::string> model;  ///< The model's tiles, in order (TileCount).
+  std::vector<std::string> cloud;  ///< The cloud's tiles, in order; empty: no cloud kept.
+
+  /// The list as the terrain keeps it: "strata tiles 1", then "header <name>", "model <n>"
+  /// and n names, "cloud <n>" and n names, one per line.
+  std::string Format() const;
+  /// The list `text` holds; kMapCorrupted naming `path` when it is not one.
+  static Result<TerrainTiles> Parse(std::string_view text, const std::filesystem::path& path);
+  /// Every name it lists (with repeats).
+  std::vector<std::string> Names() const;
+};
+
+/// A terrain cut into tiles, with their names: what PutTerrain writes.
+struct CutTerrain {
+  TerrainTiles list;
+  /// Every tile's bytes, each name once, in the list's order.
+  std::vector<std::pair<std::string, std::string>> tiles;
+};
+
+/// `model` and `cloud` (empty: none kept) cut into tiles and named.
+CutTerrain CutIntoTiles(const TerrainModel& model, const PointCloud& cloud);
+
+/// What writing a terrain's tiles cost (MapStore::PutTerrain).
+struct TileWrites {
+  int written = 0;                  ///< Tiles the store did not hold.
+  int shared = 0;                   ///< Tiles it held already (another terrain lists them).
+  std::uint64_t bytes_written = 0;  ///< Of the tiles written and the terrain's list.
+};
+
+/// Writes each of `tiles` that `tiles_dir` lacks: to a temporary in `tmp_dir`, renamed into
+/// place, *not* made durable (the caller syncs once for all of them). Adds to `*writes`.
+/// kMapStoreUnavailable naming the path.
+ServiceStatus WriteMissingTiles(const std::filesystem::path& tiles_dir,
+                                const std::filesystem::path& tmp_dir,
+                                const std::vector<std::pair<std::string, std::string>>& tiles,
+                                TileWrites* writes);
+
+/// The bytes of tile `name`: nullopt when it is not there; kMapCorrupted naming the file when
+/// its bytes are not those its name says; kMapStoreUnavailable when it cannot be read.
+Result<std::optional<std::string>> ReadTile(const std::filesystem::path& tiles_dir,
+                                            const std::string& name);
+
+}  // namespace strata::server
