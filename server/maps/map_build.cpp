@@ -29,29 +29,52 @@ Expected<LoadedCloud> LoadMapSource(MapSource source, const CloudLoadLimits& lim
 
 namespace {
 
-// The next version of a published map: its cloud edited, the touched terrain reassessed.
-Expected<BuiltMap> BuildEditHere(const EditSource& edit, const MapBuildJob& job,
-                                 const BuildMonitor& monitor) {
-  BuiltMap built;
-  const auto load_start = std::chrono::steady_clock::now();
-  Expected<std::shared_ptr<const TerrainModel>> base =
-      LoadModel(NamedFile(edit.model->ProcPath(), "the map's current model"));
-  if (!base) return base.error();
+// What an edit starts from.
+struct BaseVersion {
+  std::shared_ptr<const TerrainModel> model;
+  PointCloud cloud;
+};
+
+// The version `files` holds: joined from its tiles, or read from its whole files.
+Expected<BaseVersion> ReadBase(const VersionFiles& files) {
+  if (files.tiles) {
+    Result<std::shared_ptr<const TerrainModel>> model =
+        LoadTiledModel(*files.tiles, "of the map's current version");
+    if (!model) return Error{ErrorCode::kMapLoadFailed, model.error().message};
+    Result<PointCloud> cloud = LoadTiledCloud(*files.tiles, "of the map's current version");
+    if (!cloud) return Error{ErrorCode::kMapLoadFailed, cloud.error().message};
+    return BaseVersion{std::move(model).value(), std::move(cloud).value()};
+  }
+  Expected<std::shared_ptr<const TerrainModel>> model =
+      LoadModel(NamedFile(files.model->ProcPath(), "the map's current model"));
+  if (!model) return model.error();
   // The stored cloud passed the limits when it was accepted; these only guard the reader.
   CloudLoadLimits unbounded;
   unbounded.max_points = std::numeric_limits<std::size_t>::max();
   unbounded.max_file_bytes = std::numeric_limits<std::size_t>::max();
   unbounded.max_abs_coordinate_m = std::numeric_limits<double>::max();
   Expected<LoadedCloud> cloud =
-      LoadPointCloud(NamedFile(edit.cloud->ProcPath(), "the map's current cloud.pcd"), unbounded);
+      LoadPointCloud(NamedFile(files.cloud->ProcPath(), "the map's current cloud.pcd"), unbounded);
   if (!cloud) return cloud.error();
-  built.raw_point_count = cloud->points.size();
+  return BaseVersion{std::move(model).value(), std::move(cloud->points)};
+}
+
+// The next version of a published map: its cloud edited, the touched terrain reassessed.
+Expected<BuiltMap> BuildEditHere(const EditSource& edit, const MapBuildJob& job,
+                                 const BuildMonitor& monitor) {
+  BuiltMap built;
+  const auto load_start = std::chrono::steady_clock::now();
+  Expected<BaseVersion> base = ReadBase(edit.files);
+  if (!base) return base.error();
+  std::shared_ptr<const TerrainModel>& model = base->model;
+  const PointCloud& cloud = base->cloud;
+  built.raw_point_count = cloud.size();
   built.load_s = SecondsSince(load_start);
   if (monitor.on_loaded) monitor.on_loaded(built.raw_point_count, 0, built.load_s);
   EditFigures figures;
   const auto apply_start = std::chrono::steady_clock::now();
   ScanCounts scans;
-  Expected<PointCloud> edited = ApplyEdits(cloud->points, edit.edits, **base, &scans);
+  Expected<PointCloud> edited = ApplyEdits(cloud, edit.edits, *model, &scans);
   if (!edited) return edited.error();
   figures.apply_s = SecondsSince(apply_start);
   figures.scan_points_outside_region = scans.outside_region;
@@ -59,7 +82,7 @@ Expected<BuiltMap> BuildEditHere(const EditSource& edit, const MapBuildJob& job,
   const auto reassess_start = std::chrono::steady_clock::now();
   const AssessmentControl control{monitor.on_progress, monitor.should_stop};
   Expected<Reassessment> reassessed =
-      ReassessRegion(**base, cloud->points, *edited, EditBounds(edit.edits), control);
+      ReassessRegion(*model, cloud, *edited, EditBounds(edit.edits), control);
   if (!reassessed) return reassessed.error();
   figures.reassess_s = SecondsSince(reassess_start);
   figures.full_reassessment = reassessed->path == ReassessmentPath::kFull;

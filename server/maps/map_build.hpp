@@ -15,6 +15,7 @@
 
 #include "common/service_error.hpp"
 #include "maps/map_root.hpp"
+#include "maps/map_store.hpp"
 #include "maps/memory_budget.hpp"
 #include "strata/assessment/map_edit.hpp"
 #include "strata/assessment/terrain_config.hpp"
@@ -50,10 +51,9 @@ struct UploadMapSource {
 using MapSource = std::variant<FileMapSource, SceneMapSource, UploadMapSource>;
 
 /// A published version and the edits that make the next one from it: its cloud and model,
-/// opened from the store (an edit reads them whole even if the version is pruned meanwhile).
+/// opened from the store (MapStore::OpenVersion: whole files, or the tiles of its terrain).
 struct EditSource {
-  std::shared_ptr<const OpenedMapFile> cloud;
-  std::shared_ptr<const OpenedMapFile> model;
+  VersionFiles files;
   std::vector<MapEdit> edits;  ///< Applied in order (ApplyEdits).
 };
 

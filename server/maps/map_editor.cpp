@@ -389,7 +389,7 @@ Result<BuiltMap> MapEditor::RunEditJob(const MapEditRequest& request, const std:
   Result<VersionFiles> files = options_.published->OpenFiles(request.id, current);
   if (!files.ok()) return std::move(files).error();
   MapBuildJob job;
-  job.source = EditSource{files.value().cloud, files.value().model, request.edits};
+  job.source = EditSource{std::move(files).value(), request.edits};
   job.keep_cloud = true;
   auto run = std::make_shared<EditRun>();
   AssessmentQueue::Job queued;

@@ -4,7 +4,6 @@
 
 #include <fcntl.h>
 #include <sys/file.h>
-#include <sys/mman.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -996,34 +995,7 @@ Result<std::optional<TerrainTiles>> MapStore::TilesOfVersion(const std::string& 
   return ReadTileList(dir);
 }
 
-Result<std::vector<std::string>> MapStore::ReadTiles(const std::string& id,
-                                                     const std::string& version,
-                                                     std::span<const std::string> names) const {
-  const fs::path tiles_dir = MapDir(id) / kTilesName;
-  std::vector<std::string> tiles;
-  tiles.reserve(names.size());
-  for (const std::string& name : names) {
-    Result<std::optional<std::string>> bytes = ReadTile(tiles_dir, name);
-    if (!bytes) return std::move(bytes).error().With("map_id", id).With("version", version);
-    if (!bytes->has_value()) {
-      if (!IsPut(id, version)) return MissingVersion(id, version);
-      return MakeError(ServiceErrorCode::kMapCorrupted,
-                       "map store: version " + version + " of map '" + id + "' lists tile " + name +
-                           ", which is not in " + tiles_dir.string() +
-                           " (removed by hand?): delete the map and create it again")
-          .With("map_id", id)
-          .With("version", version);
-    }
-    tiles.push_back(std::move(**bytes));
-  }
-  return tiles;
-}
-
 namespace {
-
-std::vector<std::string_view> Views(const std::vector<std::string>& parts, std::size_t first) {
-  return {parts.begin() + static_cast<std::ptrdiff_t>(first), parts.end()};
-}
 
 ServiceError NoCloud(const std::string& id) {
   return MakeError(ServiceErrorCode::kEditNeedsCloud,
@@ -1032,40 +1004,50 @@ ServiceError NoCloud(const std::string& id) {
       .With("map_id", id);
 }
 
-// The saved-model or PCD bytes `write` puts at a path, in a file in memory: what a reader of
-// a version's whole files (a map worker) is handed for a tiled terrain.
-Result<std::shared_ptr<const OpenedMapFile>> FileInMemory(
-    const char* name, const std::function<Status(const std::string& path)>& write) {
-  const int fd = ::memfd_create(name, MFD_CLOEXEC);
-  if (fd < 0) return Unavailable(name, "make a file in memory for", errno);
-  auto file = std::make_shared<const OpenedMapFile>(fd, fs::path());
-  if (Status written = write(file->ProcPath()); !written) {
-    return MakeError(ServiceErrorCode::kInternal,
-                     std::string("map store: cannot make ") + name +
-                         " from its tiles: " + written.error().message);
-  }
-  return file;
+// The name messages give a version's tiled model or cloud.
+std::string TiledName(const std::string& id, const std::string& version) {
+  return "of version " + version + " of map '" + id + "'";
 }
 
 }  // namespace
 
+Result<std::optional<OpenedTiles>> MapStore::OpenTiles(const std::string& id,
+                                                       const std::string& version) const {
+  Result<std::optional<TerrainTiles>> list = TilesOfVersion(id, version);
+  if (!list) return std::move(list).error();
+  if (!list->has_value()) return std::optional<OpenedTiles>();
+  const fs::path dir = MapDir(id) / kTilesName;
+  const int fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (fd < 0) {
+    if (errno == ENOENT && !IsPut(id, version)) return MissingVersion(id, version);
+    return Unavailable(dir, "open", errno);
+  }
+  return std::optional<OpenedTiles>(
+      OpenedTiles{std::make_shared<const OpenedMapFile>(fd, dir), std::move(**list)});
+}
+
+ServiceError MapStore::TilesFailed(const std::string& id, const std::string& version,
+                                   ServiceError error) const {
+  error.With("map_id", id).With("version", version);
+  if (error.code != ServiceError::Code(ServiceErrorCode::kMapVersionNotFound)) return error;
+  // A tile gone: its version was pruned meanwhile, or the tile was removed by hand.
+  if (!IsPut(id, version)) return MissingVersion(id, version);
+  return MakeError(ServiceErrorCode::kMapCorrupted,
+                   error.message + "; version " + version + " of map '" + id +
+                       "' lists it: delete the map and create it again")
+      .With("map_id", id)
+      .With("version", version);
+}
+
 Result<std::shared_ptr<const TerrainModel>> MapStore::LoadModel(const std::string& id,
                                                                 const std::string& version) const {
-  Result<std::optional<TerrainTiles>> tiles = TilesOfVersion(id, version);
+  Result<std::optional<OpenedTiles>> tiles = OpenTiles(id, version);
   if (!tiles) return std::move(tiles).error();
   if (tiles->has_value()) {
-    std::vector<std::string> names = {(*tiles)->header};
-    names.insert(names.end(), (*tiles)->model.begin(), (*tiles)->model.end());
-    Result<std::vector<std::string>> bytes = ReadTiles(id, version, names);
-    if (!bytes) return std::move(bytes).error();
-    const std::vector<std::string_view> model_tiles = Views(*bytes, 1);
-    Expected<std::shared_ptr<const TerrainModel>> model =
-        JoinModel(bytes->front(), model_tiles, "of version " + version + " of map '" + id + "'");
-    if (model) return std::move(*model);
-    return MakeError(ServiceErrorCode::kMapCorrupted, "map store: " + model.error().message +
-                                                          " (delete the map and create it again)")
-        .With("map_id", id)
-        .With("version", version);
+    Result<std::shared_ptr<const TerrainModel>> model =
+        LoadTiledModel(**tiles, TiledName(id, version));
+    if (!model) return TilesFailed(id, version, std::move(model).error());
+    return model;
   }
   Result<fs::path> path = VersionFile(id, version, kModelName);
   if (!path) return std::move(path).error();
@@ -1082,20 +1064,13 @@ Result<std::shared_ptr<const TerrainModel>> MapStore::LoadModel(const std::strin
 }
 
 Result<PointCloud> MapStore::LoadCloud(const std::string& id, const std::string& version) const {
-  Result<std::optional<TerrainTiles>> tiles = TilesOfVersion(id, version);
+  Result<std::optional<OpenedTiles>> tiles = OpenTiles(id, version);
   if (!tiles) return std::move(tiles).error();
   if (tiles->has_value()) {
-    if ((*tiles)->cloud.empty()) return NoCloud(id);
-    Result<std::vector<std::string>> bytes = ReadTiles(id, version, (*tiles)->cloud);
-    if (!bytes) return std::move(bytes).error();
-    const std::vector<std::string_view> cloud_tiles = Views(*bytes, 0);
-    Expected<PointCloud> cloud =
-        JoinCloud(cloud_tiles, "of version " + version + " of map '" + id + "'");
-    if (cloud) return std::move(cloud).value();
-    return MakeError(ServiceErrorCode::kMapCorrupted, "map store: " + cloud.error().message +
-                                                          " (delete the map and create it again)")
-        .With("map_id", id)
-        .With("version", version);
+    if ((*tiles)->list.cloud.empty()) return NoCloud(id);
+    Result<PointCloud> cloud = LoadTiledCloud(**tiles, TiledName(id, version));
+    if (!cloud) return TilesFailed(id, version, std::move(cloud).error());
+    return cloud;
   }
   Result<fs::path> path = VersionFile(id, version, kCloudName);
   if (!path) return std::move(path).error();
@@ -1138,25 +1113,19 @@ Result<std::shared_ptr<const OpenedMapFile>> MapStore::OpenVersionFile(const std
   return Unavailable(*path, "open", error);
 }
 
-Result<std::shared_ptr<const OpenedMapFile>> MapStore::OpenCloud(const std::string& id,
-                                                                 const std::string& version) const {
-  Result<std::optional<TerrainTiles>> tiles = TilesOfVersion(id, version);
+Result<VersionFiles> MapStore::OpenVersion(const std::string& id,
+                                           const std::string& version) const {
+  Result<std::optional<OpenedTiles>> tiles = OpenTiles(id, version);
   if (!tiles) return std::move(tiles).error();
-  if (!tiles->has_value()) return OpenVersionFile(id, version, kCloudName);
-  Result<PointCloud> cloud = LoadCloud(id, version);
+  if (tiles->has_value()) {
+    if ((*tiles)->list.cloud.empty()) return NoCloud(id);
+    return VersionFiles{nullptr, nullptr, std::move(*tiles)};
+  }
+  Result<std::shared_ptr<const OpenedMapFile>> cloud = OpenVersionFile(id, version, kCloudName);
   if (!cloud) return std::move(cloud).error();
-  return FileInMemory(kCloudName, [&](const std::string& path) { return SavePcd(*cloud, path); });
-}
-
-Result<std::shared_ptr<const OpenedMapFile>> MapStore::OpenModel(const std::string& id,
-                                                                 const std::string& version) const {
-  Result<std::optional<TerrainTiles>> tiles = TilesOfVersion(id, version);
-  if (!tiles) return std::move(tiles).error();
-  if (!tiles->has_value()) return OpenVersionFile(id, version, kModelName);
-  Result<std::shared_ptr<const TerrainModel>> model = LoadModel(id, version);
+  Result<std::shared_ptr<const OpenedMapFile>> model = OpenVersionFile(id, version, kModelName);
   if (!model) return std::move(model).error();
-  return FileInMemory(kModelName,
-                      [&](const std::string& path) { return WriteModelInPlace(**model, path); });
+  return VersionFiles{std::move(cloud).value(), std::move(model).value(), std::nullopt};
 }
 
 Result<std::string> MapStore::LoadMetadata(const std::string& id,

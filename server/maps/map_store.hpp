@@ -100,6 +100,17 @@ namespace strata::server {
 /// file server's modification time against this host's clock).
 inline constexpr std::chrono::hours kStaleTemporaryAge{1};
 
+/// The files of a version, opened for an edit. Whole files are read whole even if the version
+/// is pruned meanwhile; tiles go when no kept terrain lists them, so a version pruned while its
+/// tiles are read fails with kMapVersionNotFound (ReadTiles).
+struct VersionFiles {
+  /// A terrain of layout 1 or 2: its cloud and model files. Null for a tiled terrain.
+  std::shared_ptr<const OpenedMapFile> cloud;
+  std::shared_ptr<const OpenedMapFile> model;
+  /// A tiled terrain (layout 3): the map's tiles directory and the terrain's list.
+  std::optional<OpenedTiles> tiles;
+};
+
 class MapStore {
  public:
   /// The terrain that `cloud` assessed with `config` makes, by name: the XXH3-128 (lowercase
@@ -215,14 +226,9 @@ class MapStore {
   /// The source cloud of a version; fails as LoadModel does.
   Result<PointCloud> LoadCloud(const std::string& id, const std::string& version) const;
 
-  /// The cloud and the model file of a version, opened for reading: whoever reads them reads
-  /// the version whole even if it is pruned meanwhile. A tiled terrain's are made from its
-  /// tiles into a file in memory (memfd): a binary PCD and a saved model. Fail as LoadCloud
-  /// and LoadModel do.
-  Result<std::shared_ptr<const OpenedMapFile>> OpenCloud(const std::string& id,
-                                                         const std::string& version) const;
-  Result<std::shared_ptr<const OpenedMapFile>> OpenModel(const std::string& id,
-                                                         const std::string& version) const;
+  /// The files an edit of a version reads, opened; kEditNeedsCloud for a map made from a
+  /// saved model; fails as LoadModel does.
+  Result<VersionFiles> OpenVersion(const std::string& id, const std::string& version) const;
 
   /// The terrain version `version` of `id` is made of, or empty for a version of layout 1
   /// (which holds its cloud and model itself); fails as LoadModel does.
@@ -288,11 +294,15 @@ class MapStore {
   /// keeps whole files (layouts 1 and 2); fails as LoadModel does.
   Result<std::optional<TerrainTiles>> TilesOfVersion(const std::string& id,
                                                      const std::string& version) const;
-  /// The bytes of `names`, tiles of map `id`, in order. When one is missing: the version's
-  /// MissingVersion if it was pruned meanwhile, else kMapCorrupted; kMapCorrupted for a tile
-  /// whose bytes are not its name's.
-  Result<std::vector<std::string>> ReadTiles(const std::string& id, const std::string& version,
-                                             std::span<const std::string> names) const;
+  /// The tiles of the terrain `version` of `id` is made of, opened; nullopt for a version
+  /// whose terrain keeps whole files; fails as LoadModel does.
+  Result<std::optional<OpenedTiles>> OpenTiles(const std::string& id,
+                                               const std::string& version) const;
+  /// `error`, from reading the tiles of `version` of `id`, as the caller reports it: a tile
+  /// gone (kMapVersionNotFound from ReadTiles) is MissingVersion when the version was pruned
+  /// meanwhile, kMapCorrupted when it is still kept.
+  ServiceError TilesFailed(const std::string& id, const std::string& version,
+                           ServiceError error) const;
   /// Removes the tiles of `id` that no terrain lists; the caller holds the map's lock. Returns
   /// how many it removed.
   int CollectTilesLocked(const std::string& id) const;

@@ -87,6 +87,19 @@ struct Pipe {
 };
 
 // The worker's job for `job`; uploaded points are written to `directory` (and freed).
+// Writes `contents` to the job's file `path` (`what` names it in the error).
+ServiceStatus WriteJobFile(const std::string& path, const std::string& contents, const char* what) {
+  std::ofstream file(path, std::ios::binary);
+  file << contents;
+  file.close();
+  if (!file) {
+    return MakeError(ServiceErrorCode::kInternal,
+                     std::string("cannot write the ") + what + " for a map worker to '" + path +
+                         "' (is the scratch directory full? TMPDIR sets where)");
+  }
+  return OkStatus();
+}
+
 Result<WorkerJob> WorkerJobOf(MapBuildJob& job, const MapWorkerOptions& options,
                               const fs::path& directory) {
   WorkerJob worker;
@@ -99,13 +112,17 @@ Result<WorkerJob> WorkerJobOf(MapBuildJob& job, const MapWorkerOptions& options,
   } else if (const auto* edit = std::get_if<EditSource>(&job.source)) {
     worker.kind = WorkerJob::Source::kEdit;
     worker.source = (directory / kWorkerEditsFile).string();
-    std::ofstream file(worker.source, std::ios::binary);
-    file << FormatEdits(edit->edits);
-    file.close();
-    if (!file) {
-      return MakeError(ServiceErrorCode::kInternal,
-                       "cannot write the edits for a map worker to '" + worker.source +
-                           "' (is the scratch directory full? TMPDIR sets where)");
+    if (ServiceStatus written = WriteJobFile(worker.source, FormatEdits(edit->edits), "edits");
+        !written) {
+      return std::move(written).error();
+    }
+    if (edit->files.tiles) {
+      worker.tiled = true;
+      if (ServiceStatus written = WriteJobFile((directory / kWorkerTilesFile).string(),
+                                               edit->files.tiles->list.Format(), "tiles");
+          !written) {
+        return std::move(written).error();
+      }
     }
   } else {
     worker.kind = WorkerJob::Source::kPoints;
@@ -133,7 +150,9 @@ std::vector<std::pair<int, int>> InheritedFiles(const MapBuildJob& job) {
     return {{file->file->fd(), kWorkerSourceFd}};
   }
   if (const auto* edit = std::get_if<EditSource>(&job.source)) {
-    return {{edit->cloud->fd(), kWorkerSourceFd}, {edit->model->fd(), kWorkerBaseModelFd}};
+    if (edit->files.tiles) return {{edit->files.tiles->dir->fd(), kWorkerSourceFd}};
+    return {{edit->files.cloud->fd(), kWorkerSourceFd},
+            {edit->files.model->fd(), kWorkerBaseModelFd}};
   }
   return {};
 }

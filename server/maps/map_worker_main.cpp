@@ -116,12 +116,25 @@ strata::Expected<strata::server::MapBuildJob> BuildJobOf(const WorkerJob& job) {
     const std::string text{std::istreambuf_iterator<char>(file), {}};
     strata::Expected<std::vector<strata::MapEdit>> edits = strata::server::ParseEdits(text);
     if (!edits) return edits.error();
-    build.source =
-        strata::server::EditSource{std::make_shared<const strata::server::OpenedMapFile>(
-                                       strata::server::kWorkerSourceFd, std::filesystem::path()),
-                                   std::make_shared<const strata::server::OpenedMapFile>(
-                                       strata::server::kWorkerBaseModelFd, std::filesystem::path()),
-                                   std::move(edits).value()};
+    strata::server::VersionFiles files;
+    if (job.tiled) {
+      const std::filesystem::path list_path = job.out_dir / strata::server::kWorkerTilesFile;
+      std::ifstream list_file(list_path, std::ios::binary);
+      const std::string list_text{std::istreambuf_iterator<char>(list_file), {}};
+      strata::server::Result<strata::server::TerrainTiles> list =
+          strata::server::TerrainTiles::Parse(list_text, list_path);
+      if (!list) return strata::Error{strata::ErrorCode::kInvalidInput, list.error().message};
+      files.tiles =
+          strata::server::OpenedTiles{std::make_shared<const strata::server::OpenedMapFile>(
+                                          strata::server::kWorkerSourceFd, std::filesystem::path()),
+                                      std::move(list).value()};
+    } else {
+      files.cloud = std::make_shared<const strata::server::OpenedMapFile>(
+          strata::server::kWorkerSourceFd, std::filesystem::path());
+      files.model = std::make_shared<const strata::server::OpenedMapFile>(
+          strata::server::kWorkerBaseModelFd, std::filesystem::path());
+    }
+    build.source = strata::server::EditSource{std::move(files), std::move(edits).value()};
   } else if (job.kind == WorkerJob::Source::kFile) {
     // The file the server opened and checked, inherited on kWorkerSourceFd.
     build.source =

@@ -56,6 +56,7 @@ std::vector<std::string> WorkerArguments(const WorkerJob& job) {
   }
   if (job.saved_model) args.emplace_back("--saved-model");
   if (job.keep_cloud) args.emplace_back("--keep-cloud");
+  if (job.tiled) args.emplace_back("--tiled");
   args.insert(args.end(), {"--max-points", NumberText(job.limits.max_points), "--max-file-bytes",
                            NumberText(job.limits.max_file_bytes), "--max-abs-coordinate-m",
                            NumberText(job.limits.max_abs_coordinate_m), "--memory-bytes",
@@ -81,6 +82,7 @@ Expected<WorkerJob> ParseWorkerArguments(int argc, const char* const* argv) {
   source->require_option(1);
   app.add_flag("--saved-model", job.saved_model);
   app.add_flag("--keep-cloud", job.keep_cloud);
+  app.add_flag("--tiled", job.tiled);
   app.add_option("--max-points", job.limits.max_points)->required();
   app.add_option("--max-file-bytes", job.limits.max_file_bytes)->required();
   app.add_option("--max-abs-coordinate-m", job.limits.max_abs_coordinate_m)->required();

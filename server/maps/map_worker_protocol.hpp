@@ -32,13 +32,15 @@ struct WorkerJob {
     kPoints,  ///< `source` is a binary PCD of uploaded points the server wrote.
     /// The next version of a published map: `source` is a file the server wrote holding the
     /// edits (FormatEdits); the version's cloud is open on kWorkerSourceFd, its model on
-    /// kWorkerBaseModelFd.
+    /// kWorkerBaseModelFd, or with `tiled` the map's tiles directory on kWorkerSourceFd and
+    /// the terrain's list of them in kWorkerTilesFile.
     kEdit,
   };
   Source kind = Source::kFile;
   std::string source;
   bool saved_model = false;  ///< The file is a saved model: loaded, not assessed.
   bool keep_cloud = false;   ///< Also write the sanitised cloud (kWorkerCloudFile).
+  bool tiled = false;        ///< A kEdit job of a tiled terrain (see kEdit).
   AssessmentConfig config;   ///< Every field (ForEachField), num_threads included.
   CloudLoadLimits limits;
   std::filesystem::path out_dir;  ///< Where the result files go; exists.
@@ -54,9 +56,9 @@ std::vector<std::string> WorkerArguments(const WorkerJob& job);
 /// The job `argv` (from the program name on) describes; kInvalidInput naming the problem.
 Expected<WorkerJob> ParseWorkerArguments(int argc, const char* const* argv);
 
-/// The descriptor a kFile job's file (a kEdit job's cloud) is open on in the worker: the server
-/// opened and checked it (OpenMapFile, MapStore::OpenCloud), and the worker reads that same
-/// file, never a path.
+/// The descriptor a kFile job's file (a kEdit job's cloud, or its tiles' directory) is open on
+/// in the worker: the server opened and checked it (OpenMapFile, MapStore::OpenVersion), and
+/// the worker reads that same file, never a path.
 inline constexpr int kWorkerSourceFd = 3;
 /// The descriptor a kEdit job's base model is open on in the worker.
 inline constexpr int kWorkerBaseModelFd = 4;
@@ -80,6 +82,8 @@ inline constexpr const char* kWorkerUploadFile = "upload.pcd";
 /// The edits of a kEdit job (FormatEdits), written by the server: text lines, with a scan's
 /// points in binary after its line.
 inline constexpr const char* kWorkerEditsFile = "edits";
+/// The list of a tiled kEdit job's tiles (TerrainTiles::Format), written by the server.
+inline constexpr const char* kWorkerTilesFile = "tiles";
 
 /// The worker's exit codes. Any other end (a signal) is a crash or a limit.
 enum WorkerExit : int {

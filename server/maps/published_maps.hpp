@@ -13,6 +13,7 @@
 #include "common/service_error.hpp"
 #include "maps/map_root.hpp"
 #include "maps/map_snapshot.hpp"
+#include "maps/map_store.hpp"
 #include "strata/point_cloud.hpp"
 
 namespace strata::server {
@@ -22,13 +23,6 @@ namespace strata::server {
 using PlanningMaker = std::function<std::shared_ptr<const PlanningMap>(
     std::shared_ptr<const TerrainModel> model, std::vector<Prism> keep_out, const std::string& id,
     const std::string& terrain)>;
-
-/// The files of a published version, opened: an edit reads them whole even when the version
-/// is pruned meanwhile.
-struct VersionFiles {
-  std::shared_ptr<const OpenedMapFile> cloud;
-  std::shared_ptr<const OpenedMapFile> model;
-};
 
 class PublishedMaps {
  public:

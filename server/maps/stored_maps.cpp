@@ -148,11 +148,7 @@ ServiceStatus StoredMaps::Delete(const std::string& id) {
 
 Result<VersionFiles> StoredMaps::OpenFiles(const std::string& id,
                                            const std::string& version) const {
-  Result<std::shared_ptr<const OpenedMapFile>> cloud = options_.store->OpenCloud(id, version);
-  if (!cloud.ok()) return std::move(cloud).error();
-  Result<std::shared_ptr<const OpenedMapFile>> model = options_.store->OpenModel(id, version);
-  if (!model.ok()) return std::move(model).error();
-  return VersionFiles{std::move(cloud).value(), std::move(model).value()};
+  return options_.store->OpenVersion(id, version);
 }
 
 Result<PointCloud> StoredMaps::LoadCloud(const std::string& id, const std::string& version) const {

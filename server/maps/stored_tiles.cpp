@@ -131,17 +131,75 @@ ServiceStatus WriteMissingTiles(const fs::path& tiles_dir, const fs::path& tmp_d
   return OkStatus();
 }
 
-Result<std::optional<std::string>> ReadTile(const fs::path& tiles_dir, const std::string& name) {
-  const fs::path path = tiles_dir / name;
-  Result<std::optional<std::string>> bytes = store_files::ReadFileIfExists(path);
-  if (!bytes || !bytes->has_value()) return bytes;
-  if (TileName(**bytes) != name) {
-    return MakeError(ServiceErrorCode::kMapCorrupted,
-                     "map store: tile '" + path.string() +
-                         "' does not hold the bytes its name says (damaged on disk?): delete "
-                         "the map and create it again");
+Result<std::vector<std::string>> ReadTiles(const OpenedMapFile& tiles_dir,
+                                           std::span<const std::string> names) {
+  // Read through the descriptor; named as the directory was found (a map worker, which
+  // inherited the descriptor, does not know where that was).
+  const fs::path shown_dir =
+      tiles_dir.real_path().empty() ? fs::path("the map's tiles") : tiles_dir.real_path();
+  std::vector<std::string> tiles;
+  tiles.reserve(names.size());
+  for (const std::string& name : names) {
+    const fs::path path = shown_dir / name;
+    Result<std::optional<std::string>> bytes =
+        store_files::ReadFileIfExists(fs::path(tiles_dir.ProcPath()) / name);
+    if (!bytes) return std::move(bytes).error();
+    if (!bytes->has_value()) {
+      return MakeError(ServiceErrorCode::kMapVersionNotFound,
+                       "map store: tile " + name + " is not in " + shown_dir.string() +
+                           " (the version was pruned while it was read, or the tile removed "
+                           "by hand)")
+          .With("missing_tile", name);
+    }
+    if (TileName(**bytes) != name) {
+      return MakeError(ServiceErrorCode::kMapCorrupted,
+                       "map store: tile '" + path.string() +
+                           "' does not hold the bytes its name says (damaged on disk?): delete "
+                           "the map and create it again");
+    }
+    tiles.push_back(std::move(**bytes));
   }
-  return bytes;
+  return tiles;
+}
+
+namespace {
+
+std::vector<std::string_view> Views(const std::vector<std::string>& parts, std::size_t first) {
+  return {parts.begin() + static_cast<std::ptrdiff_t>(first), parts.end()};
+}
+
+ServiceError Corrupted(const Error& error) {
+  return MakeError(ServiceErrorCode::kMapCorrupted,
+                   "map store: " + error.message + " (delete the map and create it again)");
+}
+
+}  // namespace
+
+Result<std::shared_ptr<const TerrainModel>> LoadTiledModel(const OpenedTiles& tiles,
+                                                           const std::string& name) {
+  std::vector<std::string> names = {tiles.list.header};
+  names.insert(names.end(), tiles.list.model.begin(), tiles.list.model.end());
+  Result<std::vector<std::string>> bytes = ReadTiles(*tiles.dir, names);
+  if (!bytes) return std::move(bytes).error();
+  const std::vector<std::string_view> model_tiles = Views(*bytes, 1);
+  Expected<std::shared_ptr<const TerrainModel>> model =
+      JoinModel(bytes->front(), model_tiles, name);
+  if (!model) return Corrupted(model.error());
+  return std::move(model).value();
+}
+
+Result<PointCloud> LoadTiledCloud(const OpenedTiles& tiles, const std::string& name) {
+  if (tiles.list.cloud.empty()) {
+    return MakeError(ServiceErrorCode::kEditNeedsCloud,
+                     "the map was made from a saved model, which keeps no point cloud: create "
+                     "it from its point cloud to edit it");
+  }
+  Result<std::vector<std::string>> bytes = ReadTiles(*tiles.dir, tiles.list.cloud);
+  if (!bytes) return std::move(bytes).error();
+  const std::vector<std::string_view> cloud_tiles = Views(*bytes, 0);
+  Expected<PointCloud> cloud = JoinCloud(cloud_tiles, name);
+  if (!cloud) return Corrupted(cloud.error());
+  return std::move(cloud).value();
 }
 
 }  // namespace strata::server

@@ -11,13 +11,16 @@
 /// No gRPC, no locks: maps/map_store.cpp decides when tiles are written and collected.
 #include <cstdint>
 #include <filesystem>
+#include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <string_view>
 #include <utility>
 #include <vector>
 
 #include "common/service_error.hpp"
+#include "maps/map_root.hpp"
 #include "strata/assessment/terrain_model.hpp"
 #include "strata/point_cloud.hpp"
 
@@ -66,9 +69,26 @@ ServiceStatus WriteMissingTiles(const std::filesystem::path& tiles_dir,
                                 const std::vector<std::pair<std::string, std::string>>& tiles,
                                 TileWrites* writes);
 
-/// The bytes of tile `name`: nullopt when it is not there; kMapCorrupted naming the file when
-/// its bytes are not those its name says; kMapStoreUnavailable when it cannot be read.
-Result<std::optional<std::string>> ReadTile(const std::filesystem::path& tiles_dir,
-                                            const std::string& name);
+/// The bytes of tiles `names` in the directory `tiles_dir` (opened), in order. kMapCorrupted naming
+/// the file for a tile whose bytes are not those its name says, kMapVersionNotFound naming it for
+/// one that is not there (ServiceError::detail "missing_tile"), kMapStoreUnavailable when one
+/// cannot be read.
+Result<std::vector<std::string>> ReadTiles(const OpenedMapFile& tiles_dir,
+                                           std::span<const std::string> names);
+
+/// A tiled terrain, opened for an edit: the directory of its map's tiles (a descriptor, which a
+/// map worker inherits) and the terrain's list of them.
+struct OpenedTiles {
+  std::shared_ptr<const OpenedMapFile> dir;
+  TerrainTiles list;
+};
+
+/// The model of `tiles`, read through its directory and joined; `name` is what messages call
+/// it. Fails as ReadTiles does, and kMapCorrupted as JoinModel refuses.
+Result<std::shared_ptr<const TerrainModel>> LoadTiledModel(const OpenedTiles& tiles,
+                                                           const std::string& name);
+/// The cloud of `tiles`, in the order of its tiles (kEditNeedsCloud when it keeps none); fails
+/// as LoadTiledModel does.
+Result<PointCloud> LoadTiledCloud(const OpenedTiles& tiles, const std::string& name);
 
 }  // namespace strata::server

@@ -164,8 +164,9 @@ TEST_P(PublishedMapsTest, OnlyAStoreKeepsWhatEditsNeed) {
             ServiceError::Code(ServiceErrorCode::kMapChanged));
   // The files an edit reads, and the cloud.
   const VersionFiles files = published_->OpenFiles("floor", kV2).value();
-  EXPECT_GE(files.cloud->fd(), 0);
-  EXPECT_GE(files.model->fd(), 0);
+  ASSERT_TRUE(files.tiles.has_value());  // A terrain of the store's tiles.
+  EXPECT_GE(files.tiles->dir->fd(), 0);
+  EXPECT_EQ(files.tiles->list.cloud.size(), files.tiles->list.model.size());
   EXPECT_EQ(published_->LoadCloud("floor", kV2).value().size(), cloud.size());
   // A version no plan holds is let go, and loaded again on demand.
   planning.reset();

@@ -185,29 +185,35 @@ struct TileReader {
   }
 
   // Appends the next column's surfaces and fields to `p`; false for a bad surface record.
+  // The values of a column's runs lie together: they are copied at once.
   bool NextColumn(model_parts::Payload* p, std::uint64_t* value_offset) {
     const auto surfaces_here = Decode<std::uint32_t>(surface_counts + column * kCountBytes);
+    const std::size_t first_surface = p->surfaces.size();
+    p->surfaces.resize(first_surface + surfaces_here);
     for (std::uint32_t i = 0; i < surfaces_here; ++i, ++surface) {
-      ColumnSurface s;
-      if (!model_parts::DecodeSurface(surfaces + surface * kSurfaceRecordBytes, &s)) return false;
-      p->surfaces.push_back(s);
+      if (!model_parts::DecodeSurface(surfaces + surface * kSurfaceRecordBytes,
+                                      &p->surfaces[first_surface + i])) {
+        return false;
+      }
     }
     const auto runs_here = Decode<std::uint32_t>(run_counts + column * kCountBytes);
     TerrainFields::Parts& f = p->fields;
+    std::uint64_t layers_here = 0;
     for (std::uint32_t k = 0; k < runs_here; ++k, ++run) {
       const char* at = runs + run * kRunBytes;
-      const auto layers = Decode<std::uint32_t>(at + 4);
-      f.intervals.push_back({Decode<std::int32_t>(at), static_cast<std::uint32_t>(*value_offset)});
-      const std::size_t old_size = f.distance.size();
-      f.distance.resize(old_size + layers);
-      f.safety.resize(old_size + layers);
-      std::memcpy(f.distance.data() + old_size, distance + value * sizeof(std::int16_t),
-                  layers * sizeof(std::int16_t));
-      std::memcpy(f.safety.data() + old_size, safety + value * sizeof(std::uint16_t),
-                  layers * sizeof(std::uint16_t));
-      value += layers;
-      *value_offset += layers;
+      f.intervals.push_back(
+          {Decode<std::int32_t>(at), static_cast<std::uint32_t>(*value_offset + layers_here)});
+      layers_here += Decode<std::uint32_t>(at + 4);
     }
+    const std::size_t first_value = f.distance.size();
+    f.distance.resize(first_value + layers_here);
+    f.safety.resize(first_value + layers_here);
+    std::memcpy(f.distance.data() + first_value, distance + value * sizeof(std::int16_t),
+                layers_here * sizeof(std::int16_t));
+    std::memcpy(f.safety.data() + first_value, safety + value * sizeof(std::uint16_t),
+                layers_here * sizeof(std::uint16_t));
+    value += layers_here;
+    *value_offset += layers_here;
     ++column;
     return true;
   }
