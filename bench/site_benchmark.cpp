@@ -12,11 +12,13 @@
 #include <cstdio>
 #include <filesystem>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <CLI/CLI.hpp>
 
 #include "statistics.hpp"
+#include "strata/io/model_tiles.hpp"
 #include "strata/io/saved_graph.hpp"
 #include "strata/io/saved_model.hpp"
 #include "strata/planner.hpp"
@@ -165,6 +167,47 @@ SavedFile TimeSaveAndLoads(const std::string& path, const Save& save, const Load
   return file;
 }
 
+// What a map store's tiles cost (strata/io/model_tiles.hpp): cutting the model and its cloud
+// into tiles (every version a store writes) and joining them (every load), medians of 3.
+void PrintTiles(const strata::TerrainModel& model, double size_m, double spacing_m,
+                double resolution_m) {
+  const strata::PointCloud cloud = strata::GenerateOutdoorSite(1, size_m, spacing_m);
+  std::vector<double> cut_model, join_model, cut_cloud, join_cloud;
+  std::size_t tiles = 0;
+  double model_mb = 0, cloud_mb = 0;
+  for (int k = 0; k < 3; ++k) {
+    auto start = Clock::now();
+    const strata::TiledModel tiled = strata::CutModel(model);
+    cut_model.push_back(SecondsSince(start));
+    const std::vector<std::string_view> model_tiles(tiled.tiles.begin(), tiled.tiles.end());
+    start = Clock::now();
+    const auto joined = strata::JoinModel(tiled.header, model_tiles, "site");
+    join_model.push_back(SecondsSince(start));
+    start = Clock::now();
+    const std::vector<std::string> cloud_tiles = strata::CutCloud(cloud, model.grid());
+    cut_cloud.push_back(SecondsSince(start));
+    const std::vector<std::string_view> cloud_views(cloud_tiles.begin(), cloud_tiles.end());
+    start = Clock::now();
+    const auto joined_cloud = strata::JoinCloud(cloud_views, "site");
+    join_cloud.push_back(SecondsSince(start));
+    if (!joined.ok() || !joined_cloud.ok()) {
+      std::fprintf(stderr, "tiles do not join\n");
+      std::exit(1);
+    }
+    tiles = tiled.tiles.size();
+    model_mb = cloud_mb = 0;
+    for (const std::string& tile : tiled.tiles) model_mb += tile.size() / 1e6;
+    for (const std::string& tile : cloud_tiles) cloud_mb += tile.size() / 1e6;
+  }
+  std::printf(
+      "\n| site | tiles | model tiles MB | cut s | join s | cloud tiles MB | cut s | join s |\n"
+      "|---|---|---|---|---|---|---|---|\n"
+      "| %.0f m @%.2f m, grid %.2f m | %zu | %.0f | %.3f | %.3f | %.0f | %.3f | %.3f |\n",
+      size_m, spacing_m, resolution_m, tiles, model_mb, strata::bench::Median(cut_model),
+      strata::bench::Median(join_model), cloud_mb, strata::bench::Median(cut_cloud),
+      strata::bench::Median(join_cloud));
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -265,6 +308,7 @@ int main(int argc, char** argv) {
       graph_file_mb * 1e6 / (*graph)->node_count(), graph_save_s, graph_load_s,
       graph_s / graph_load_s);
 
+  PrintTiles(model, size_m, spacing_m, resolution_m);
   if (plans) PrintPlans(map, size_m);
   return 0;
 }

@@ -361,6 +361,7 @@ int main(int argc, char** argv) {
     (void)plan_elsewhere(&ignored_graph_s);
     for (const Case& edit : cases) {
       std::vector<double> apply, reassess, write, total, planned, other, other_graph, seen;
+      std::vector<double> written_mb, tiles_written, tiles_shared, written_per_tile_byte;
       std::int64_t columns = 0;
       bool full = false;
       for (int run = 0; run < runs; ++run) {
@@ -386,6 +387,15 @@ int main(int argc, char** argv) {
         reassess.push_back(update->edit.reassess_s);
         write.push_back(update->write_s);
         total.push_back(update->total_s);
+        const TileWrites& w = update->writes;
+        written_mb.push_back(w.bytes_written / 1e6);
+        tiles_written.push_back(w.written);
+        tiles_shared.push_back(w.shared);
+        // The measure: bytes written over the bytes of the tiles that changed.
+        if (w.bytes_written > w.list_bytes) {
+          written_per_tile_byte.push_back(double(w.bytes_written) /
+                                          double(w.bytes_written - w.list_bytes));
+        }
         // When the second replica's view of the head (its etcd watch, or the head file) names
         // the new version, counted from the call's end.
         const auto published = Clock::now();
@@ -409,6 +419,13 @@ int main(int argc, char** argv) {
           edit.name, Median(apply), Median(reassess), static_cast<long long>(columns),
           full ? ", FULL" : "", Median(write), Median(total), Median(planned), Median(seen),
           etcd.empty() ? " (head file)" : " (etcd watch)", Median(other), Median(other_graph));
+      if (!written_per_tile_byte.empty()) {
+        std::printf(
+            "  written: median %.2f MB, %.0f tiles written, %.0f shared; bytes written / the "
+            "changed tiles' bytes %.3f (target <= 2)\n",
+            Median(written_mb), Median(tiles_written), Median(tiles_shared),
+            Median(written_per_tile_byte));
+      }
     }
 
     // Scans at a steady rate, as robots send them (none waits for the last one's version),

@@ -345,8 +345,9 @@ Result<MapUpdate> MapEditor::UpdateOnce(const MapEditRequest& request, const Cal
   const auto write_start = SteadyClock::now();
   // The cloud goes to the store only with a terrain it does not hold yet.
   const bool terrain_stored = base_planning != nullptr && built.cloud.empty();
+  TileWrites writes;
   ServiceStatus put = published.PublishEdit(current, map, terrain, planning,
-                                            terrain_stored ? nullptr : &built.cloud);
+                                            terrain_stored ? nullptr : &built.cloud, &writes);
   // Lost to a version of keep-out zones alone (its terrain the base's): the terrain made here
   // holds on it too, so it is published again with that version's zones instead of made again
   // (which cost a whole job, seconds on a site, for the same terrain).
@@ -371,12 +372,13 @@ Result<MapUpdate> MapEditor::UpdateOnce(const MapEditRequest& request, const Cal
         .Add("attempt", attempt + 1);
     current = now.value().version;
     planning = planning->WithKeepOut(name_version(now.value().keep_out, now.value().versions));
-    put = published.PublishEdit(current, map, terrain, planning, &built.cloud);
+    put = published.PublishEdit(current, map, terrain, planning, &built.cloud, &writes);
   }
   if (!put.ok()) return std::move(put).error();
   MapUpdate update;
   update.write_s = SecondsSince(write_start);
   update.graphs_s = graphs_s;
+  update.writes = writes;
   map.memory_bytes = planning->MemoryBytes();
   update.map = std::move(map);
   update.edit = built.edit.value_or(EditFigures{});

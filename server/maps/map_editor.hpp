@@ -55,6 +55,7 @@ struct MapUpdate {
   /// Building the graphs of the robots that planned on the base version here, before the new
   /// one is published [s].
   double graphs_s = 0;
+  TileWrites writes;       ///< The terrain's tiles written and shared (none for zones alone).
   double total_s = 0;      ///< All of it, waiting for a slot and loading the base included [s].
   int merged_updates = 1;  ///< Update calls whose edits the version holds, this one included.
 };

@@ -617,6 +617,7 @@ ServiceStatus MapStore::PutTerrain(const std::string& id, const std::string& ter
   }
   const std::string list = cut.list.Format();
   writes->bytes_written += list.size();
+  writes->list_bytes = list.size();
   return PutDirectory(root_ / "tmp", "terrain", target,
                       [&](const fs::path& dir) { return WriteNewFile(dir / kTilesName, list); });
 }

@@ -41,7 +41,7 @@ class StoredMaps final : public PublishedMaps {
                            const PointCloud& cloud) override;
   ServiceStatus PublishEdit(const std::string& base_version, const MapSnapshot& map,
                             const std::string& terrain, std::shared_ptr<const PlanningMap> planning,
-                            const PointCloud* cloud) override;
+                            const PointCloud* cloud, TileWrites* writes) override;
   Result<std::string> TerrainOf(const std::string& id, const std::string& version) const override;
   ServiceStatus Delete(const std::string& id) override;
   bool KeepsClouds() const override { return true; }
@@ -66,7 +66,7 @@ class StoredMaps final : public PublishedMaps {
   // store holds it), and caches `planning` once `publish` made it visible.
   ServiceStatus Put(const MapSnapshot& map, const std::string& terrain,
                     const std::shared_ptr<const PlanningMap>& planning, const PointCloud* cloud,
-                    const std::function<ServiceStatus()>& publish);
+                    TileWrites* writes, const std::function<ServiceStatus()>& publish);
 
   StoredMapsOptions options_;
   // The versions loaded here (mutable: loading on demand is not a change).

@@ -59,6 +59,7 @@ struct TileWrites {
   int written = 0;                  ///< Tiles the store did not hold.
   int shared = 0;                   ///< Tiles it held already (another terrain lists them).
   std::uint64_t bytes_written = 0;  ///< Of the tiles written and the terrain's list.
+  std::uint64_t list_bytes = 0;     ///< Of the list alone (part of bytes_written).
 };
 
 /// Writes each of `tiles` that `tiles_dir` lacks: to a temporary in `tmp_dir`, renamed into

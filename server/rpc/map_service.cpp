@@ -411,6 +411,9 @@ grpc::Status MapServiceImpl::UpdateMap(grpc::ServerContext* context,
     stats->set_scan_points_thinned(update.edit.scan_points_thinned);
     stats->set_merged_updates(update.merged_updates);
     stats->set_graphs_s(update.graphs_s);
+    stats->set_written_bytes(update.writes.bytes_written);
+    stats->set_tiles_written(update.writes.written);
+    stats->set_tiles_shared(update.writes.shared);
     log.fields.emplace_back("version", update.map.version);
     return OkStatus();
   });
