@@ -67,6 +67,8 @@ constexpr const char* kGraphExtension = ".stratagraph";
 constexpr const char* kTerrainName = "terrain";  // In a version: the name of its terrain.
 // Under a map: its tiles; in a terrain: the list of the tiles it is made of.
 constexpr const char* kTilesName = "tiles";
+// Up to this many new tiles are made durable one fsync each, more by one syncfs(2).
+constexpr std::ptrdiff_t kMaxTilesSyncedEach = 64;
 constexpr const char* kCloudName = "cloud.pcd";
 constexpr const char* kModelName = "model.stratamodel";
 constexpr const char* kMetadataName = "metadata";
@@ -590,15 +592,25 @@ ServiceStatus MapStore::PutTerrain(const std::string& id, const std::string& ter
   }
   const CutTerrain cut = CutIntoTiles(model, cloud);
   const fs::path tiles_dir = MapDir(id) / kTilesName;
-  if (ServiceStatus written = WriteMissingTiles(tiles_dir, root_ / "tmp", cut.tiles, writes);
+  // An edit writes a few tiles: an fsync each. A new map writes thousands: one flush of the
+  // whole file system for all of them (which also waits for whatever else is being written
+  // there, as a graph).
+  const auto missing = std::count_if(cut.tiles.begin(), cut.tiles.end(), [&](const auto& tile) {
+    return !fs::exists(tiles_dir / tile.first, ec);
+  });
+  const bool fsync_each = missing <= kMaxTilesSyncedEach;
+  if (ServiceStatus written =
+          WriteMissingTiles(tiles_dir, root_ / "tmp", cut.tiles, fsync_each, writes);
       !written) {
     return written;
   }
-  // One flush of the file system for every tile written, rather than an fsync each: a
-  // first version writes thousands of them.
   if (writes->written > 0) {
-    const Fd fd(::open(tiles_dir.c_str(), O_RDONLY | O_CLOEXEC));
-    if (!fd.valid() || ::syncfs(fd.get()) != 0) return Unavailable(tiles_dir, "syncfs", errno);
+    if (fsync_each) {
+      if (ServiceStatus synced = Sync(tiles_dir); !synced) return synced;
+    } else {
+      const Fd fd(::open(tiles_dir.c_str(), O_RDONLY | O_CLOEXEC));
+      if (!fd.valid() || ::syncfs(fd.get()) != 0) return Unavailable(tiles_dir, "syncfs", errno);
+    }
   }
   // Under the map's lock, which collecting tiles takes: a tile collected since it was found
   // there is written again before the terrain listing it is renamed into place.

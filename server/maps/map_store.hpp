@@ -54,8 +54,9 @@
 ///   acdirmax / lookupcache, 60 s by default). That bounds how late another host sees a new
 ///   version or a deletion.
 ///
-/// Tiles are renamed into tiles/ without an fsync each; one syncfs(2) makes them durable before
-/// the terrain listing them is renamed into place. A terrain's tiles are checked to be there,
+/// Tiles are made durable (an fsync each when they are few, as an edit's; one syncfs(2) for
+/// a new map's thousands) and the tiles directory synced before the terrain listing them is
+/// renamed into place. A terrain's tiles are checked to be there,
 /// and a missing one written again, under the map's lock, which collecting tiles takes too: no
 /// terrain is renamed into place listing a tile that is not there.
 ///

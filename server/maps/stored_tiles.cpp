@@ -102,7 +102,7 @@ CutTerrain CutIntoTiles(const TerrainModel& model, const PointCloud& cloud) {
 
 ServiceStatus WriteMissingTiles(const fs::path& tiles_dir, const fs::path& tmp_dir,
                                 const std::vector<std::pair<std::string, std::string>>& tiles,
-                                TileWrites* writes) {
+                                bool durable, TileWrites* writes) {
   std::error_code ec;
   for (const auto& [name, bytes] : tiles) {
     const fs::path target = tiles_dir / name;
@@ -111,8 +111,7 @@ ServiceStatus WriteMissingTiles(const fs::path& tiles_dir, const fs::path& tmp_d
       continue;
     }
     const fs::path temporary = tmp_dir / store_files::UniqueName("tile");
-    if (ServiceStatus written = store_files::WriteNewFile(temporary, bytes, /*durable=*/false);
-        !written) {
+    if (ServiceStatus written = store_files::WriteNewFile(temporary, bytes, durable); !written) {
       fs::remove(temporary, ec);
       return written;
     }

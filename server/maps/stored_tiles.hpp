@@ -62,13 +62,14 @@ struct TileWrites {
   std::uint64_t list_bytes = 0;     ///< Of the list alone (part of bytes_written).
 };
 
-/// Writes each of `tiles` that `tiles_dir` lacks: to a temporary in `tmp_dir`, renamed into
-/// place, *not* made durable (the caller syncs once for all of them). Adds to `*writes`.
-/// kMapStoreUnavailable naming the path.
+/// Writes each of `tiles` that `tiles_dir` lacks: to a temporary in `tmp_dir`, made durable
+/// when `durable` (else the caller syncs the file system once for all of them), renamed into
+/// place; the directory itself is not synced. Adds to `*writes`. kMapStoreUnavailable naming
+/// the path.
 ServiceStatus WriteMissingTiles(const std::filesystem::path& tiles_dir,
                                 const std::filesystem::path& tmp_dir,
                                 const std::vector<std::pair<std::string, std::string>>& tiles,
-                                TileWrites* writes);
+                                bool durable, TileWrites* writes);
 
 /// The bytes of tiles `names` in the directory `tiles_dir` (opened), in order. kMapCorrupted naming
 /// the file for a tile whose bytes are not those its name says, kMapVersionNotFound naming it for
