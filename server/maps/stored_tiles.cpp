@@ -176,13 +176,24 @@ ServiceError Corrupted(const Error& error) {
 
 Result<std::shared_ptr<const TerrainModel>> LoadTiledModel(const OpenedTiles& tiles,
                                                            const std::string& name) {
-  std::vector<std::string> names = {tiles.list.header};
-  names.insert(names.end(), tiles.list.model.begin(), tiles.list.model.end());
-  Result<std::vector<std::string>> bytes = ReadTiles(*tiles.dir, names);
-  if (!bytes) return std::move(bytes).error();
-  const std::vector<std::string_view> model_tiles = Views(*bytes, 1);
+  const std::vector<std::string> header_name = {tiles.list.header};
+  Result<std::vector<std::string>> header = ReadTiles(*tiles.dir, header_name);
+  if (!header) return std::move(header).error();
+  // Read as the join asks for them, a row of blocks at a time; the store's own error is kept
+  // aside, since the join passes on a planner's.
+  std::optional<ServiceError> read_error;
+  const TileSource source = [&](std::size_t t) -> Expected<std::string> {
+    const std::span<const std::string> one(&tiles.list.model[t], 1);
+    Result<std::vector<std::string>> bytes = ReadTiles(*tiles.dir, one);
+    if (!bytes) {
+      read_error = bytes.error();
+      return Error{ErrorCode::kMapLoadFailed, bytes.error().message};
+    }
+    return std::move(bytes->front());
+  };
   Expected<std::shared_ptr<const TerrainModel>> model =
-      JoinModel(bytes->front(), model_tiles, name);
+      JoinModel(header->front(), tiles.list.model.size(), source, name);
+  if (read_error) return *read_error;
   if (!model) return Corrupted(model.error());
   return std::move(model).value();
 }

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <functional>
 #include <limits>
 #include <utility>
 
@@ -100,6 +101,8 @@ std::string CutTile(const TerrainModel& model, const Block& block) {
 struct Header {
   model_parts::Payload payload;  // Arrays empty.
   std::int32_t sentinel_layer = 0;
+  // What the tiles hold together, so that the arrays are allocated once.
+  std::uint64_t surface_total = 0, run_total = 0, value_total = 0;
 };
 
 void WriteHeader(binary_file::Sink& sink, const TerrainModel& model) {
@@ -112,6 +115,9 @@ void WriteHeader(binary_file::Sink& sink, const TerrainModel& model) {
   sink.Value(f.safety_background);
   sink.Value(f.intervals.back().first_layer);
   sink.Value(static_cast<std::uint32_t>(kTileColumns));
+  sink.Value(static_cast<std::uint64_t>(model.surfaces().all_surfaces().size()));
+  sink.Value(static_cast<std::uint64_t>(f.intervals.size() - 1));  // The sentinel aside.
+  sink.Value(static_cast<std::uint64_t>(f.distance.size()));
 }
 
 bool ReadHeader(binary_file::Reader& reader, Header* h, std::string* problem) {
@@ -122,7 +128,8 @@ bool ReadHeader(binary_file::Reader& reader, Header* h, std::string* problem) {
       !model_parts::ReadGeometry(reader, &p.surface_geometry) ||
       !reader.Value(&p.fields.distance_cap_m) || !reader.Value(&p.fields.safety_step) ||
       !reader.Value(&p.fields.safety_background) || !reader.Value(&h->sentinel_layer) ||
-      !reader.Value(&tile_columns)) {
+      !reader.Value(&tile_columns) || !reader.Value(&h->surface_total) ||
+      !reader.Value(&h->run_total) || !reader.Value(&h->value_total)) {
     return false;
   }
   p.fields.geometry = p.surface_geometry;
@@ -239,15 +246,16 @@ TiledModel CutModel(const TerrainModel& model) {
 }
 
 Expected<std::shared_ptr<const TerrainModel>> JoinModel(std::string_view header_bytes,
-                                                        std::span<const std::string_view> tiles,
+                                                        std::size_t tile_count,
+                                                        const TileSource& source,
                                                         const std::string& name) {
   const auto fail = [&name](const std::string& what) {
     return Error{ErrorCode::kMapLoadFailed, "tiled model " + name + " " + what};
   };
   Header header;
-  binary_file::MemorySource source(header_bytes);
+  binary_file::MemorySource header_source(header_bytes);
   if (Status read =
-          binary_file::ReadFrame(source, header_bytes.size(), kTiledModelKind, name,
+          binary_file::ReadFrame(header_source, header_bytes.size(), kTiledModelKind, name,
                                  [&header](binary_file::Reader& reader, std::string* problem) {
                                    return ReadHeader(reader, &header, problem);
                                  });
@@ -256,49 +264,76 @@ Expected<std::shared_ptr<const TerrainModel>> JoinModel(std::string_view header_
   }
   model_parts::Payload& p = header.payload;
   const GridGeometry& g = p.surface_geometry;
-  if (tiles.size() != TileCount(g)) {
-    return fail("has " + std::to_string(tiles.size()) + " tiles; its grid of " +
+  if (tile_count != TileCount(g)) {
+    return fail("has " + std::to_string(tile_count) + " tiles; its grid of " +
                 std::to_string(g.size.x()) + " × " + std::to_string(g.size.y()) +
                 " columns needs " + std::to_string(TileCount(g)));
   }
-  std::vector<TileReader> readers(tiles.size());
-  std::uint64_t surface_total = 0, run_total = 0, value_total = 0;
-  for (std::size_t t = 0; t < tiles.size(); ++t) {
-    if (std::string why = readers[t].Open(tiles[t], BlockOf(g, t).columns()); !why.empty()) {
-      return fail("tile " + std::to_string(t) + " " + why);
-    }
-    surface_total += readers[t].surface_total;
-    run_total += readers[t].run_total;
-    value_total += readers[t].value_total;
-  }
   constexpr std::uint64_t kMaxOffset = std::numeric_limits<std::uint32_t>::max();
-  if (surface_total > kMaxOffset || run_total >= kMaxOffset || value_total > kMaxOffset) {
+  if (header.surface_total > kMaxOffset || header.run_total >= kMaxOffset ||
+      header.value_total > kMaxOffset) {
     return fail("holds more surfaces, runs or layers than a model can index");
   }
+  // The header is checksummed and the store's own; the tiles are held to its totals below.
   const std::int64_t columns = g.LayerCellCount();
   p.column_begin.reserve(columns + 1);
-  p.surfaces.reserve(surface_total);
+  p.surfaces.reserve(header.surface_total);
   p.fields.column_begin.reserve(columns + 1);
-  p.fields.intervals.reserve(run_total + 1);
-  p.fields.distance.reserve(value_total);
-  p.fields.safety.reserve(value_total);
+  p.fields.intervals.reserve(header.run_total + 1);
+  p.fields.distance.reserve(header.value_total);
+  p.fields.safety.reserve(header.value_total);
+  // One row of blocks at a time: the columns of a grid row lie in every block of its row.
   const int blocks_x = BlocksAlong(g.size.x());
-  std::uint64_t value_offset = 0;
-  for (int y = 0; y < g.size.y(); ++y) {
-    for (int x = 0; x < g.size.x(); ++x) {
-      const std::size_t t =
-          std::size_t(y / kTileColumns) * blocks_x + std::size_t(x / kTileColumns);
-      p.column_begin.push_back(static_cast<std::uint32_t>(p.surfaces.size()));
-      p.fields.column_begin.push_back(static_cast<std::uint32_t>(p.fields.intervals.size()));
-      if (!readers[t].NextColumn(&p, &value_offset)) {
-        return fail("tile " + std::to_string(t) + " holds a surface with a bad valid flag");
+  std::vector<std::string> row(blocks_x);
+  std::vector<TileReader> readers(blocks_x);
+  std::uint64_t surfaces = 0, runs = 0, values = 0, value_offset = 0;
+  for (int y0 = 0; y0 < g.size.y(); y0 += kTileColumns) {
+    for (int bx = 0; bx < blocks_x; ++bx) {
+      const std::size_t t = std::size_t(y0 / kTileColumns) * blocks_x + bx;
+      Expected<std::string> bytes = source(t);
+      if (!bytes) return bytes.error();
+      row[bx] = std::move(bytes).value();
+      readers[bx] = TileReader{};
+      if (std::string why = readers[bx].Open(row[bx], BlockOf(g, t).columns()); !why.empty()) {
+        return fail("tile " + std::to_string(t) + " " + why);
+      }
+      surfaces += readers[bx].surface_total;
+      runs += readers[bx].run_total;
+      values += readers[bx].value_total;
+      if (surfaces > header.surface_total || runs > header.run_total ||
+          values > header.value_total) {
+        return fail("tile " + std::to_string(t) + " holds more than its header counts");
       }
     }
+    for (int y = y0; y < std::min(g.size.y(), y0 + kTileColumns); ++y) {
+      for (int x = 0; x < g.size.x(); ++x) {
+        p.column_begin.push_back(static_cast<std::uint32_t>(p.surfaces.size()));
+        p.fields.column_begin.push_back(static_cast<std::uint32_t>(p.fields.intervals.size()));
+        if (!readers[x / kTileColumns].NextColumn(&p, &value_offset)) {
+          return fail("tile " +
+                      std::to_string(std::size_t(y0 / kTileColumns) * blocks_x +
+                                     std::size_t(x / kTileColumns)) +
+                      " holds a surface with a bad valid flag");
+        }
+      }
+    }
+  }
+  if (surfaces != header.surface_total || runs != header.run_total ||
+      values != header.value_total) {
+    return fail("holds fewer surfaces, runs or layers than its header counts");
   }
   p.column_begin.push_back(static_cast<std::uint32_t>(p.surfaces.size()));
   p.fields.column_begin.push_back(static_cast<std::uint32_t>(p.fields.intervals.size()));
   p.fields.intervals.push_back({header.sentinel_layer, static_cast<std::uint32_t>(value_offset)});
   return model_parts::BuildModel(std::move(p), "tiled model", name);
+}
+
+Expected<std::shared_ptr<const TerrainModel>> JoinModel(std::string_view header,
+                                                        std::span<const std::string_view> tiles,
+                                                        const std::string& name) {
+  return JoinModel(
+      header, tiles.size(),
+      [tiles](std::size_t t) -> Expected<std::string> { return std::string(tiles[t]); }, name);
 }
 
 std::vector<std::string> CutCloud(const PointCloud& cloud, const GridGeometry& geometry) {

@@ -18,6 +18,7 @@
 /// the store checks when it reads it.
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <span>
 #include <string>
@@ -50,11 +51,22 @@ std::size_t TileCount(const GridGeometry& geometry);
 /// `model`'s, byte for byte.
 TiledModel CutModel(const TerrainModel& model);
 
-/// The model of a header and its tiles; `name` is what messages call it. kMapLoadFailed naming
-/// it for a header that is not one, of another format version, truncated or corrupted (its
-/// checksum), a count of tiles other than the header's grid needs, and a tile whose contents
-/// do not fit its block (which tile, and why). Never allocates more than the bytes given
-/// plus the header's grid of column offsets.
+/// Where JoinModel reads tile `t` (0 to TileCount - 1) from: its bytes, or an error JoinModel
+/// passes on as it is. Each tile is asked for once, in increasing order.
+using TileSource = std::function<Expected<std::string>(std::size_t t)>;
+
+/// The model of a header and its `tile_count` tiles, read from `source` one row of blocks at a
+/// time (memory: the model and one row of tiles); `name` is what messages call it.
+/// kMapLoadFailed naming it for a header that is not one, of another format version,
+/// truncated or corrupted (its checksum), a count of tiles other than the header's grid
+/// needs, and a tile whose contents do not fit its block or the header's totals (which tile,
+/// and why). Allocates the arrays the header's totals say (the header is checksummed; a
+/// store's is its own), and the header's grid of column offsets.
+Expected<std::shared_ptr<const TerrainModel>> JoinModel(std::string_view header,
+                                                        std::size_t tile_count,
+                                                        const TileSource& source,
+                                                        const std::string& name);
+/// JoinModel of tiles in memory.
 Expected<std::shared_ptr<const TerrainModel>> JoinModel(std::string_view header,
                                                         std::span<const std::string_view> tiles,
                                                         const std::string& name);
