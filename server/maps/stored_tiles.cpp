@@ -191,8 +191,15 @@ Result<std::shared_ptr<const TerrainModel>> LoadTiledModel(const OpenedTiles& ti
     }
     return std::move(bytes->front());
   };
+  // Their sizes first, which bound what the join allocates.
+  std::uint64_t tile_bytes = 0;
+  for (const std::string& tile : tiles.list.model) {
+    std::error_code ec;
+    const std::uintmax_t size = fs::file_size(fs::path(tiles.dir->ProcPath()) / tile, ec);
+    if (!ec) tile_bytes += size;  // A tile not there fails when it is read.
+  }
   Expected<std::shared_ptr<const TerrainModel>> model =
-      JoinModel(header->front(), tiles.list.model.size(), source, name);
+      JoinModel(header->front(), tiles.list.model.size(), tile_bytes, source, name);
   if (read_error) return *read_error;
   if (!model) return Corrupted(model.error());
   return std::move(model).value();

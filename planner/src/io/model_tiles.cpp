@@ -247,6 +247,7 @@ TiledModel CutModel(const TerrainModel& model) {
 
 Expected<std::shared_ptr<const TerrainModel>> JoinModel(std::string_view header_bytes,
                                                         std::size_t tile_count,
+                                                        std::uint64_t tile_bytes,
                                                         const TileSource& source,
                                                         const std::string& name) {
   const auto fail = [&name](const std::string& what) {
@@ -274,7 +275,13 @@ Expected<std::shared_ptr<const TerrainModel>> JoinModel(std::string_view header_
       header.value_total > kMaxOffset) {
     return fail("holds more surfaces, runs or layers than a model can index");
   }
-  // The header is checksummed and the store's own; the tiles are held to its totals below.
+  // Nothing is allocated beyond what the tiles' bytes can hold; the tiles are held to the
+  // header's totals below.
+  if (header.surface_total > tile_bytes / kSurfaceRecordBytes ||
+      header.run_total > tile_bytes / kRunBytes || header.value_total > tile_bytes / kValueBytes) {
+    return fail("counts more surfaces, runs or layers than its " + std::to_string(tile_bytes) +
+                " bytes of tiles can hold");
+  }
   const std::int64_t columns = g.LayerCellCount();
   p.column_begin.reserve(columns + 1);
   p.surfaces.reserve(header.surface_total);
@@ -286,12 +293,17 @@ Expected<std::shared_ptr<const TerrainModel>> JoinModel(std::string_view header_
   const int blocks_x = BlocksAlong(g.size.x());
   std::vector<std::string> row(blocks_x);
   std::vector<TileReader> readers(blocks_x);
-  std::uint64_t surfaces = 0, runs = 0, values = 0, value_offset = 0;
+  std::uint64_t surfaces = 0, runs = 0, values = 0, value_offset = 0, bytes_read = 0;
   for (int y0 = 0; y0 < g.size.y(); y0 += kTileColumns) {
     for (int bx = 0; bx < blocks_x; ++bx) {
       const std::size_t t = std::size_t(y0 / kTileColumns) * blocks_x + bx;
       Expected<std::string> bytes = source(t);
       if (!bytes) return bytes.error();
+      bytes_read += bytes->size();
+      if (bytes_read > tile_bytes) {
+        return fail("tile " + std::to_string(t) + " goes past the " + std::to_string(tile_bytes) +
+                    " bytes its tiles were said to hold");
+      }
       row[bx] = std::move(bytes).value();
       readers[bx] = TileReader{};
       if (std::string why = readers[bx].Open(row[bx], BlockOf(g, t).columns()); !why.empty()) {
@@ -331,8 +343,10 @@ Expected<std::shared_ptr<const TerrainModel>> JoinModel(std::string_view header_
 Expected<std::shared_ptr<const TerrainModel>> JoinModel(std::string_view header,
                                                         std::span<const std::string_view> tiles,
                                                         const std::string& name) {
+  std::uint64_t bytes = 0;
+  for (const std::string_view tile : tiles) bytes += tile.size();
   return JoinModel(
-      header, tiles.size(),
+      header, tiles.size(), bytes,
       [tiles](std::size_t t) -> Expected<std::string> { return std::string(tiles[t]); }, name);
 }
 

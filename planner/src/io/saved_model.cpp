@@ -148,17 +148,6 @@ Status SaveModel(const TerrainModel& model, const std::string& path) {
   return binary_file::WriteFileAtomically(path, kSavedModelKind, PayloadOf(model));
 }
 
-Status WriteModelInPlace(const TerrainModel& model, const std::string& path) {
-  std::ofstream file(path, std::ios::binary | std::ios::trunc);
-  if (file) {
-    Sink sink(nullptr, &file);
-    binary_file::WriteFrame(sink, kSavedModelKind, PayloadOf(model));
-    file.flush();
-  }
-  if (!file) return Error{ErrorCode::kMapLoadFailed, "cannot write the saved model " + path};
-  return Status::Ok();
-}
-
 Expected<std::shared_ptr<const TerrainModel>> DeserializeModel(std::string_view bytes,
                                                                const std::string& name) {
   binary_file::MemorySource source(bytes);

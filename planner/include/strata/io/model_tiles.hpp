@@ -55,15 +55,16 @@ TiledModel CutModel(const TerrainModel& model);
 /// passes on as it is. Each tile is asked for once, in increasing order.
 using TileSource = std::function<Expected<std::string>(std::size_t t)>;
 
-/// The model of a header and its `tile_count` tiles, read from `source` one row of blocks at a
-/// time (memory: the model and one row of tiles); `name` is what messages call it.
-/// kMapLoadFailed naming it for a header that is not one, of another format version,
-/// truncated or corrupted (its checksum), a count of tiles other than the header's grid
-/// needs, and a tile whose contents do not fit its block or the header's totals (which tile,
-/// and why). Allocates the arrays the header's totals say (the header is checksummed; a
-/// store's is its own), and the header's grid of column offsets.
+/// The model of a header and its `tile_count` tiles of `tile_bytes` bytes together, read from
+/// `source` one row of blocks at a time (memory: the model and one row of tiles); `name` is
+/// what messages call it. kMapLoadFailed naming it for a header that is not one, of another
+/// format version, truncated or corrupted (its checksum), a count of tiles other than the
+/// header's grid needs, totals the tiles' bytes cannot hold, tiles past `tile_bytes`, and a
+/// tile whose contents do not fit its block or the header's totals (which tile, and why).
+/// Never allocates more than `tile_bytes` plus the header's grid of column offsets.
 Expected<std::shared_ptr<const TerrainModel>> JoinModel(std::string_view header,
                                                         std::size_t tile_count,
+                                                        std::uint64_t tile_bytes,
                                                         const TileSource& source,
                                                         const std::string& name);
 /// JoinModel of tiles in memory.

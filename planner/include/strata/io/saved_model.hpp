@@ -52,11 +52,6 @@ std::string SerializeModel(const TerrainModel& model);
 /// path when it cannot be written.
 Status SaveModel(const TerrainModel& model, const std::string& path);
 
-/// Writes the saved model of `model` to `path` in place, truncating it: not atomic, for a file
-/// no reader sees until it is written (a file in memory handed to another process).
-/// kMapLoadFailed naming the path when it cannot be written.
-Status WriteModelInPlace(const TerrainModel& model, const std::string& path);
-
 /// The model saved in `bytes`; `name` is what messages call it (a path).
 Expected<std::shared_ptr<const TerrainModel>> DeserializeModel(std::string_view bytes,
                                                                const std::string& name);
