@@ -281,20 +281,7 @@ void HashString(XXH3_state_t* state, std::string_view text) {
 
 }  // namespace
 
-namespace {
-
-std::string Hex(const XXH128_canonical_t& canonical) {
-  std::string hex;
-  hex.reserve(kVersionDigits);
-  constexpr char kDigits[] = "0123456789abcdef";
-  for (const unsigned char byte : canonical.digest) {
-    hex += kDigits[byte >> 4];
-    hex += kDigits[byte & 15];
-  }
-  return hex;
-}
-
-}  // namespace
+namespace {}  // namespace
 
 std::string MapStore::TerrainOf(const PointCloud& cloud, const AssessmentConfig& config) {
   XXH3_state_t* state = XXH3_createState();
@@ -315,10 +302,9 @@ std::string MapStore::TerrainOf(const PointCloud& cloud, const AssessmentConfig&
   });
   // Layout 1 hashed the (then always empty) zone count here: a first version keeps its name.
   HashValue(state, std::uint64_t{0});
-  XXH128_canonical_t canonical;
-  XXH128_canonicalFromHash(&canonical, XXH3_128bits_digest(state));
+  const XXH128_hash_t digest = XXH3_128bits_digest(state);
   XXH3_freeState(state);
-  return Hex(canonical);
+  return HexName(digest);
 }
 
 std::string MapStore::VersionOf(std::string_view terrain, std::span<const Prism> keep_out) {
@@ -337,10 +323,9 @@ std::string MapStore::VersionOf(std::string_view terrain, std::span<const Prism>
     HashValue(state, zone.z_min_m + 0.0);
     HashValue(state, zone.z_max_m + 0.0);
   }
-  XXH128_canonical_t canonical;
-  XXH128_canonicalFromHash(&canonical, XXH3_128bits_digest(state));
+  const XXH128_hash_t digest = XXH3_128bits_digest(state);
   XXH3_freeState(state);
-  return Hex(canonical);
+  return HexName(digest);
 }
 
 std::string MapStore::VersionOf(const PointCloud& cloud, const AssessmentConfig& config,
@@ -362,10 +347,9 @@ std::string MapStore::TerrainOfSavedModel(const std::string& path) {
     }
     std::fclose(file);
   }
-  XXH128_canonical_t canonical;
-  XXH128_canonicalFromHash(&canonical, XXH3_128bits_digest(state));
+  const XXH128_hash_t digest = XXH3_128bits_digest(state);
   XXH3_freeState(state);
-  return Hex(canonical);
+  return HexName(digest);
 }
 
 bool MapStore::IsVersion(std::string_view version) {

@@ -23,8 +23,12 @@ bool IsTileName(std::string_view name) {
 }  // namespace
 
 std::string TileName(std::string_view bytes) {
+  return HexName(XXH3_128bits(bytes.data(), bytes.size()));
+}
+
+std::string HexName(XXH128_hash_t digest) {
   XXH128_canonical_t canonical;
-  XXH128_canonicalFromHash(&canonical, XXH3_128bits(bytes.data(), bytes.size()));
+  XXH128_canonicalFromHash(&canonical, digest);
   std::string hex;
   hex.reserve(32);
   constexpr char kDigits[] = "0123456789abcdef";

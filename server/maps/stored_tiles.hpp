@@ -19,6 +19,8 @@
 #include <utility>
 #include <vector>
 
+#include <xxhash.h>
+
 #include "common/service_error.hpp"
 #include "maps/map_root.hpp"
 #include "strata/assessment/terrain_model.hpp"
@@ -26,7 +28,10 @@
 
 namespace strata::server {
 
-/// The name a tile of `bytes` is kept under: their XXH3-128, 32 lowercase hex digits.
+/// An XXH3-128 digest as the store names things by it: 32 lowercase hex digits.
+std::string HexName(XXH128_hash_t digest);
+
+/// The name a tile of `bytes` is kept under: HexName of their XXH3-128.
 std::string TileName(std::string_view bytes);
 
 /// One terrain's tiles, by name.

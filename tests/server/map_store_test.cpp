@@ -186,6 +186,17 @@ class MapStoreTest : public ::testing::Test {
     return false;
   }
 
+  // Forks a writer that opens the store at root_ and runs `write` on it, exiting 0 when that
+  // succeeds; returns its pid (negative when fork failed).
+  pid_t ForkWriter(const std::function<bool(MapStore&)>& write) const {
+    const pid_t pid = ::fork();
+    if (pid == 0) {
+      auto store = MapStore::Open(root_);
+      ::_exit(store.ok() && write(**store) ? 0 : 1);
+    }
+    return pid;
+  }
+
   // Kills the writer `pid` with SIGKILL as soon as `ready` says so; fails the test if the
   // writer ended before.
   static void KillWhen(pid_t pid, const std::function<bool()>& ready) {
@@ -628,14 +639,10 @@ TEST_F(MapStoreTest, OpenRefusesWhatIsNoStore) {
 TEST_F(MapStoreTest, AWriterKilledMidWriteLeavesNoVersion) {
   const PointCloud big = BigCloud();
   const std::string version = VersionOf(big);
-  const pid_t pid = ::fork();
+  const pid_t pid = ForkWriter([&](MapStore& store) {
+    return PutBoth(store, "big", version, big, "{}").ok() && store.PublishNew("big", version).ok();
+  });
   ASSERT_GE(pid, 0);
-  if (pid == 0) {
-    auto store = MapStore::Open(root_);
-    const bool ok = store.ok() && PutBoth(**store, "big", version, big, "{}").ok() &&
-                    (*store)->PublishNew("big", version).ok();
-    ::_exit(ok ? 0 : 1);
-  }
   // Killed while it writes the first of the cloud's two big tiles (a temporary of 1 MB on
   // its way to 24 MB): the small ones before it are in tiles/, not listed by any terrain.
   KillWhen(pid, [&] { return BigTemporaryTile(); });
@@ -673,14 +680,11 @@ TEST_F(MapStoreTest, AWriterKilledMidTiledWriteLeavesTheCurrentVersionWhole) {
   const std::set<std::string> current_tiles = StoredTiles("site");
   const PointCloud big = BigCloud();
   const std::string next = VersionOf(big);
-  const pid_t pid = ::fork();
+  const pid_t pid = ForkWriter([&](MapStore& store) {
+    return PutBoth(store, "site", next, big, "{}").ok() &&
+           store.PublishUpdate("site", current, next, 2).ok();
+  });
   ASSERT_GE(pid, 0);
-  if (pid == 0) {
-    auto store = MapStore::Open(root_);
-    const bool ok = store.ok() && PutBoth(**store, "site", next, big, "{}").ok() &&
-                    (*store)->PublishUpdate("site", current, next, 2).ok();
-    ::_exit(ok ? 0 : 1);
-  }
   // Killed once a first big tile is in place and the second is being written.
   KillWhen(pid, [&] { return StoredTiles("site").size() > current_tiles.size(); });
 
