@@ -88,6 +88,7 @@ Expected<BuiltMap> BuildEditHere(const EditSource& edit, const MapBuildJob& job,
   figures.full_reassessment = reassessed->path == ReassessmentPath::kFull;
   figures.full_reason = reassessed->full_reason;
   figures.reassessed_columns = reassessed->reassessed_columns;
+  figures.changed_columns = reassessed->changed_columns;
   built.model = std::move(reassessed->model);
   built.version = MapStore::VersionOf(*edited, built.model->config(), {});
   if (job.keep_cloud) built.cloud = std::move(edited).value();

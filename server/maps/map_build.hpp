@@ -80,6 +80,8 @@ struct EditFigures {
   std::int64_t reassessed_columns = 0;  ///< Grid columns assessed again.
   std::uint64_t scan_points_outside_region = 0;  ///< Scans' points not added (ScanCounts).
   std::uint64_t scan_points_thinned = 0;         ///< Scans' points thinned away (ScanCounts).
+  /// Outside these columns the model is the base's (Reassessment::changed_columns).
+  CellBox changed_columns;
 };
 
 /// A map made, with the figures Map reports.

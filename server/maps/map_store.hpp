@@ -159,12 +159,14 @@ class MapStore {
   /// the map does not hold yet are written and made durable; then the terrain's list of them
   /// goes to a fresh temporary directory, made durable and renamed into place. When the
   /// terrain is there already (another writer put it, or an earlier version is made of it),
-  /// that is success and nothing is written. `writes` (may be null) gets what it cost.
+  /// that is success and nothing is written. `writes` (may be null) gets what it cost. With
+  /// `base` (may be null: an edit's base terrain, BaseTiles) only the tiles it says changed
+  /// are cut; the others are the base's.
   /// kInvalidInput for a bad id or name, kMapStoreUnavailable when the store cannot be
   /// written (naming the path and the reason).
   ServiceStatus PutTerrain(const std::string& id, const std::string& terrain,
                            const PointCloud& cloud, const TerrainModel& model,
-                           TileWrites* writes = nullptr);
+                           TileWrites* writes = nullptr, const BaseTiles* base = nullptr);
 
   /// Keeps `graph`, built on terrain `terrain` of map `id`, for every replica that plans on it
   /// (maps/<id>/graphs/<terrain>/<SavedGraphKey>.stratagraph): written to a temporary, made

@@ -259,7 +259,10 @@ std::string FormatWorkerReport(const WorkerReport& report) {
              NumberText(edit.reassess_s) + " " + NumberText(edit.reassessed_columns) + " " +
              NumberText(edit.scan_points_outside_region) + " " +
              NumberText(edit.scan_points_thinned) + " " + NumberText(edit.full_reassessment) + " " +
-             reason + "\n";
+             NumberText(edit.changed_columns.min.x()) + " " +
+             NumberText(edit.changed_columns.min.y()) + " " +
+             NumberText(edit.changed_columns.max.x()) + " " +
+             NumberText(edit.changed_columns.max.y()) + " " + reason + "\n";
     }
   }
   return "\n";
@@ -279,18 +282,23 @@ std::optional<WorkerReport> ParseWorkerReport(std::string_view line) {
   };
   WorkerReport report;
   if (line.starts_with("done ")) {
-    const auto [done, reason] = split(9);
+    const auto [done, reason] = split(13);
     if (done.size() == 2 && !done[1].empty() && reason.empty()) {
       report.version = std::string(done[1]);
       return report;
     }
     EditFigures edit;
-    if (done.size() == 9 && !done[1].empty() && done[2] == "edit" &&
+    Eigen::Vector3i& min = edit.changed_columns.min;
+    Eigen::Vector3i& max = edit.changed_columns.max;
+    max.z() = 0;
+    if (done.size() == 13 && !done[1].empty() && done[2] == "edit" &&
         ParseNumber(done[3], &edit.apply_s) && ParseNumber(done[4], &edit.reassess_s) &&
         ParseNumber(done[5], &edit.reassessed_columns) &&
         ParseNumber(done[6], &edit.scan_points_outside_region) &&
         ParseNumber(done[7], &edit.scan_points_thinned) &&
-        ParseNumber(done[8], &edit.full_reassessment)) {
+        ParseNumber(done[8], &edit.full_reassessment) && ParseNumber(done[9], &min.x()) &&
+        ParseNumber(done[10], &min.y()) && ParseNumber(done[11], &max.x()) &&
+        ParseNumber(done[12], &max.y())) {
       edit.full_reason = std::string(reason);
       report.version = std::string(done[1]);
       report.edit = std::move(edit);

@@ -60,12 +60,14 @@ class PublishedMaps {
   /// kMapStoreRequired where versions keep no clouds. `terrain` names what the version is
   /// made of (MapStore::TerrainOf: the cloud and the model `planning` holds); `cloud` is that
   /// cloud, or null when the terrain is the base version's (an edit of keep-out zones alone):
-  /// then only the version's description is written. `writes` (may be null) gets what writing
-  /// the terrain cost.
+  /// then only the version's description is written. `base` (may be null) names the tiles
+  /// the terrain keeps of the base version's (MapStore::PutTerrain). `writes` (may be null)
+  /// gets what writing the terrain cost.
   virtual ServiceStatus PublishEdit(const std::string& base_version, const MapSnapshot& map,
                                     const std::string& terrain,
                                     std::shared_ptr<const PlanningMap> planning,
-                                    const PointCloud* cloud, TileWrites* writes) = 0;
+                                    const PointCloud* cloud, const BaseTiles* base,
+                                    TileWrites* writes) = 0;
 
   /// The terrain `version` of `id` is made of (MapStore::TerrainOf), or empty when that is
   /// not known (a version a store of layout 1 wrote): an edit of its keep-out zones then

@@ -100,12 +100,13 @@ std::vector<MapSnapshot> StoredMaps::List(const std::string& after_id, int max) 
 
 ServiceStatus StoredMaps::Put(const MapSnapshot& map, const std::string& terrain,
                               const std::shared_ptr<const PlanningMap>& planning,
-                              const PointCloud* cloud, TileWrites* writes,
+                              const PointCloud* cloud, const BaseTiles* base, TileWrites* writes,
                               const std::function<ServiceStatus()>& publish) {
   LogInfo("map_version_writing").Add("map", map.id).Add("version", map.version);
   MapStore& store = *options_.store;
   if (cloud != nullptr) {
-    if (ServiceStatus put = store.PutTerrain(map.id, terrain, *cloud, planning->model(), writes);
+    if (ServiceStatus put =
+            store.PutTerrain(map.id, terrain, *cloud, planning->model(), writes, base);
         !put.ok()) {
       return put;
     }
@@ -124,15 +125,16 @@ ServiceStatus StoredMaps::PublishNew(const MapSnapshot& map,
                                      std::shared_ptr<const PlanningMap> planning,
                                      const PointCloud& cloud) {
   // A new map has no keep-out zones: its version names its terrain (MapStore::VersionOf).
-  return Put(map, map.version, planning, &cloud, nullptr,
+  return Put(map, map.version, planning, &cloud, nullptr, nullptr,
              [&] { return options_.store->PublishNew(map.id, map.version); });
 }
 
 ServiceStatus StoredMaps::PublishEdit(const std::string& base_version, const MapSnapshot& map,
                                       const std::string& terrain,
                                       std::shared_ptr<const PlanningMap> planning,
-                                      const PointCloud* cloud, TileWrites* writes) {
-  return Put(map, terrain, planning, cloud, writes, [&] {
+                                      const PointCloud* cloud, const BaseTiles* base,
+                                      TileWrites* writes) {
+  return Put(map, terrain, planning, cloud, base, writes, [&] {
     return options_.store->PublishUpdate(map.id, base_version, map.version, options_.versions_kept);
   });
 }

@@ -41,7 +41,8 @@ class StoredMaps final : public PublishedMaps {
                            const PointCloud& cloud) override;
   ServiceStatus PublishEdit(const std::string& base_version, const MapSnapshot& map,
                             const std::string& terrain, std::shared_ptr<const PlanningMap> planning,
-                            const PointCloud* cloud, TileWrites* writes) override;
+                            const PointCloud* cloud, const BaseTiles* base,
+                            TileWrites* writes) override;
   Result<std::string> TerrainOf(const std::string& id, const std::string& version) const override;
   ServiceStatus Delete(const std::string& id) override;
   bool KeepsClouds() const override { return true; }
@@ -63,10 +64,12 @@ class StoredMaps final : public PublishedMaps {
   Result<MapSnapshot> SnapshotOf(const std::string& id,
                                  const std::vector<std::string>& versions) const;
   // Writes the version of `map`, made of `terrain` (and that too unless `cloud` is null: the
-  // store holds it), and caches `planning` once `publish` made it visible.
+  // store holds it; `base` as PutTerrain's), and caches `planning` once `publish` made it
+  // visible.
   ServiceStatus Put(const MapSnapshot& map, const std::string& terrain,
                     const std::shared_ptr<const PlanningMap>& planning, const PointCloud* cloud,
-                    TileWrites* writes, const std::function<ServiceStatus()>& publish);
+                    const BaseTiles* base, TileWrites* writes,
+                    const std::function<ServiceStatus()>& publish);
 
   StoredMapsOptions options_;
   // The versions loaded here (mutable: loading on demand is not a change).

@@ -1,6 +1,8 @@
 #include "maps/stored_tiles.hpp"
 
+#include <array>
 #include <cstdio>
+#include <numeric>
 #include <sstream>
 #include <unordered_set>
 
@@ -85,7 +87,19 @@ std::vector<std::string> TerrainTiles::Names() const {
   return names;
 }
 
-CutTerrain CutIntoTiles(const TerrainModel& model, const PointCloud& cloud) {
+CutTerrain CutIntoTiles(const TerrainModel& model, const PointCloud& cloud, const BaseTiles* base) {
+  const std::size_t count = TileCount(model.grid());
+  if (base != nullptr && (base->list.model.size() != count ||
+                          base->list.cloud.size() != (cloud.empty() ? 0 : count))) {
+    base = nullptr;  // Not this grid's tiles, or no cloud where one is cut: cut them all.
+  }
+  std::vector<std::size_t> which;
+  if (base != nullptr) {
+    which = base->changed;
+  } else {
+    which.resize(count);
+    std::iota(which.begin(), which.end(), std::size_t{0});
+  }
   CutTerrain cut;
   std::unordered_set<std::string> named;
   const auto add = [&](std::string bytes) {
@@ -93,15 +107,36 @@ CutTerrain CutIntoTiles(const TerrainModel& model, const PointCloud& cloud) {
     if (named.insert(name).second) cut.tiles.emplace_back(name, std::move(bytes));
     return name;
   };
-  TiledModel tiled = CutModel(model);
+  // Each section: the base's names, those of `which` replaced by the tiles cut now.
+  const auto section = [&](std::vector<std::string> tiles, const std::vector<std::string>* kept,
+                           std::vector<std::string>* names) {
+    *names = kept != nullptr ? *kept : std::vector<std::string>(count);
+    for (std::size_t k = 0; k < which.size(); ++k) (*names)[which[k]] = add(std::move(tiles[k]));
+  };
+  TiledModel tiled = CutModelTiles(model, which);
   cut.list.header = add(std::move(tiled.header));
-  for (std::string& tile : tiled.tiles) cut.list.model.push_back(add(std::move(tile)));
+  section(std::move(tiled.tiles), base != nullptr ? &base->list.model : nullptr, &cut.list.model);
   if (!cloud.empty()) {
-    for (std::string& tile : CutCloud(cloud, model.grid())) {
-      cut.list.cloud.push_back(add(std::move(tile)));
-    }
+    section(CutCloudTiles(cloud, model.grid(), which),
+            base != nullptr ? &base->list.cloud : nullptr, &cut.list.cloud);
   }
   return cut;
+}
+
+std::optional<std::string> CutTileNamed(const TerrainModel& model, const PointCloud& cloud,
+                                        const TerrainTiles& list, std::string_view name) {
+  if (name == list.header) return CutModelTiles(model, {}).header;
+  for (std::size_t t = 0; t < list.model.size(); ++t) {
+    if (list.model[t] != name) continue;
+    const std::array<std::size_t, 1> tile = {t};
+    return std::move(CutModelTiles(model, tile).tiles.front());
+  }
+  for (std::size_t t = 0; t < list.cloud.size(); ++t) {
+    if (list.cloud[t] != name) continue;
+    const std::array<std::size_t, 1> tile = {t};
+    return std::move(CutCloudTiles(cloud, model.grid(), tile).front());
+  }
+  return std::nullopt;
 }
 
 ServiceStatus WriteMissingTiles(const fs::path& tiles_dir, const fs::path& tmp_dir,
@@ -110,10 +145,7 @@ ServiceStatus WriteMissingTiles(const fs::path& tiles_dir, const fs::path& tmp_d
   std::error_code ec;
   for (const auto& [name, bytes] : tiles) {
     const fs::path target = tiles_dir / name;
-    if (fs::exists(target, ec)) {
-      ++writes->shared;
-      continue;
-    }
+    if (fs::exists(target, ec)) continue;
     const fs::path temporary = tmp_dir / store_files::UniqueName("tile");
     if (ServiceStatus written = store_files::WriteNewFile(temporary, bytes, durable); !written) {
       fs::remove(temporary, ec);

@@ -49,15 +49,32 @@ struct TerrainTiles {
   std::vector<std::string> Names() const;
 };
 
+/// What an edit keeps of its base's terrain: the base's list, and the tiles (ascending
+/// indices into the model's; the cloud is cut along the same blocks) whose blocks the edit may
+/// have changed (TilesTouching Reassessment::changed_columns). Every other tile of the edited
+/// terrain is the base's, byte for byte.
+struct BaseTiles {
+  TerrainTiles list;
+  std::vector<std::size_t> changed;
+};
+
 /// A terrain cut into tiles, with their names: what PutTerrain writes.
 struct CutTerrain {
   TerrainTiles list;
-  /// Every tile's bytes, each name once, in the list's order.
+  /// The bytes of every tile cut, each name once, in the list's order.
   std::vector<std::pair<std::string, std::string>> tiles;
 };
 
-/// `model` and `cloud` (empty: none kept) cut into tiles and named.
-CutTerrain CutIntoTiles(const TerrainModel& model, const PointCloud& cloud);
+/// `model` and `cloud` (empty: none kept) cut into tiles and named. With a `base` (may be
+/// null) that fits them (its list has as many model tiles as `model`'s grid, and a cloud when
+/// `cloud` is not empty) only its changed tiles are cut; the others are named as the base's.
+CutTerrain CutIntoTiles(const TerrainModel& model, const PointCloud& cloud,
+                        const BaseTiles* base = nullptr);
+
+/// The bytes of `list`'s tile `name` cut from `model` and `cloud` again (the header, a model
+/// tile or a cloud tile); empty when `list` does not name it.
+std::optional<std::string> CutTileNamed(const TerrainModel& model, const PointCloud& cloud,
+                                        const TerrainTiles& list, std::string_view name);
 
 /// What writing a terrain's tiles cost (MapStore::PutTerrain).
 struct TileWrites {
@@ -69,8 +86,8 @@ struct TileWrites {
 
 /// Writes each of `tiles` that `tiles_dir` lacks: to a temporary in `tmp_dir`, made durable
 /// when `durable` (else the caller syncs the file system once for all of them), renamed into
-/// place; the directory itself is not synced. Adds to `*writes`. kMapStoreUnavailable naming
-/// the path.
+/// place; the directory itself is not synced. Adds what it writes to `*writes` (written,
+/// bytes_written). kMapStoreUnavailable naming the path.
 ServiceStatus WriteMissingTiles(const std::filesystem::path& tiles_dir,
                                 const std::filesystem::path& tmp_dir,
                                 const std::vector<std::pair<std::string, std::string>>& tiles,

@@ -15,6 +15,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "strata/io/model_tiles.hpp"
 #include "strata/io/saved_model.hpp"
 #include "strata/scenes/basic_scenes.hpp"
 #include "strata/scenes/paper_scenes.hpp"
@@ -127,6 +128,40 @@ struct Scene {
   std::shared_ptr<const TerrainModel> model;
 };
 
+// Outside the tiles of the columns `reassessed` says changed, the fresh assessment of the edited
+// cloud cuts into the base's tiles, model and cloud alike: what a map store may keep of the
+// base's instead of cutting them anew.
+void ExpectUnchangedOutside(const Scene& base, const PointCloud& edited_cloud,
+                            const TerrainModel& fresh, const Reassessment& reassessed) {
+  const GridGeometry& grid = base.model->grid();
+  const std::vector<std::size_t> changed = TilesTouching(grid, reassessed.changed_columns);
+  ASSERT_FALSE(changed.empty());
+  if (reassessed.path == ReassessmentPath::kFull) {
+    EXPECT_EQ(changed.size(), TileCount(fresh.grid()));
+    return;
+  }
+  const TiledModel base_tiles = CutModel(*base.model);
+  const TiledModel fresh_tiles = CutModel(fresh);
+  const std::vector<std::string> base_cloud = CutCloud(base.cloud, grid);
+  const std::vector<std::string> edited = CutCloud(edited_cloud, grid);
+  ASSERT_EQ(fresh_tiles.tiles.size(), base_tiles.tiles.size());
+  for (std::size_t t = 0; t < base_tiles.tiles.size(); ++t) {
+    if (std::binary_search(changed.begin(), changed.end(), t)) continue;
+    EXPECT_TRUE(fresh_tiles.tiles[t] == base_tiles.tiles[t]) << "model tile " << t;
+    EXPECT_TRUE(edited[t] == base_cloud[t]) << "cloud tile " << t;
+  }
+  // The changed tiles alone cut as the whole cut does.
+  const TiledModel cut = CutModelTiles(fresh, changed);
+  const std::vector<std::string> cloud_cut = CutCloudTiles(edited_cloud, grid, changed);
+  EXPECT_EQ(cut.header, fresh_tiles.header);
+  ASSERT_EQ(cut.tiles.size(), changed.size());
+  ASSERT_EQ(cloud_cut.size(), changed.size());
+  for (std::size_t k = 0; k < changed.size(); ++k) {
+    EXPECT_TRUE(cut.tiles[k] == fresh_tiles.tiles[changed[k]]) << "model tile " << changed[k];
+    EXPECT_TRUE(cloud_cut[k] == edited[changed[k]]) << "cloud tile " << changed[k];
+  }
+}
+
 // Applies `edits`, reassesses locally and checks the model against a fresh assessment of the
 // edited cloud, byte for byte. Returns the reassessment for further checks.
 // `next`, when given, receives the edited cloud and its reassessed model: the scene the next
@@ -151,6 +186,7 @@ Reassessment ExpectReassessedLikeFresh(const Scene& scene, const std::vector<Map
       << test_util::FirstDifferingByte(local_bytes, fresh_bytes) << " of " << fresh_bytes.size();
   // An edit that changed nothing would prove nothing.
   EXPECT_NE(local_bytes, test_util::BytesWithoutTimings(*scene.model));
+  ExpectUnchangedOutside(scene, *edited, **fresh, *reassessed);
   if (next != nullptr) *next = Scene{std::move(edited).value(), reassessed->model};
   return std::move(reassessed).value();
 }

@@ -5,6 +5,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -29,6 +30,7 @@
 #include "maps/stored_tiles.hpp"
 #include "strata/assessment/map_edit.hpp"
 #include "strata/io/cloud_io.hpp"
+#include "strata/io/model_tiles.hpp"
 #include "strata/io/saved_graph.hpp"
 #include "strata/io/saved_model.hpp"
 #include "strata/planner.hpp"
@@ -805,7 +807,21 @@ TEST_F(MapStoreTest, AnEditedTerrainWritesOnlyTheTilesItChanged) {
   const auto reassessed = ReassessRegion(**model, cloud, *edited, EditBounds(edits));
   ASSERT_TRUE(reassessed.ok()) << reassessed.error().message;
   const std::string next = MapStore::VersionOf(*edited, config, {});
-  ASSERT_TRUE(store_->PutTerrain("garage", next, *edited, *reassessed->model, &writes).ok());
+  // As an edit writes it: only the tiles of the reassessed columns cut, the others named as
+  // the base's. A model tile and a cloud tile kept so are gone meanwhile (as if collected):
+  // they are cut and written again.
+  const BaseTiles kept{base.list, TilesTouching(model->get()->grid(), reassessed->changed_columns)};
+  ASSERT_LT(kept.changed.size(), base.list.model.size() / 2);
+  std::vector<std::string> removed;
+  for (const std::vector<std::string>* section : {&base.list.model, &base.list.cloud}) {
+    for (std::size_t t = 0; t < section->size(); ++t) {
+      if (std::binary_search(kept.changed.begin(), kept.changed.end(), t)) continue;
+      removed.push_back((*section)[t]);
+      ASSERT_TRUE(fs::remove(root_ / "maps" / "garage" / "tiles" / removed.back()));
+      break;
+    }
+  }
+  ASSERT_TRUE(store_->PutTerrain("garage", next, *edited, *reassessed->model, &writes, &kept).ok());
 
   std::set<std::string> base_names;
   std::uint64_t base_bytes = 0;
@@ -824,8 +840,12 @@ TEST_F(MapStoreTest, AnEditedTerrainWritesOnlyTheTilesItChanged) {
   // The header, and at most the 2 × 2 model and cloud tiles around the block.
   EXPECT_GE(changed, 3);
   EXPECT_LE(changed, 9);
-  EXPECT_EQ(writes.written, changed);
-  EXPECT_EQ(writes.shared, static_cast<int>(cut.tiles.size()) - changed);
+  const CutTerrain partial = CutIntoTiles(*reassessed->model, *edited, &kept);
+  EXPECT_EQ(partial.list.Format(), cut.list.Format());
+  EXPECT_LE(partial.tiles.size(), 2 * kept.changed.size() + 1);
+  EXPECT_EQ(writes.written, changed + static_cast<int>(removed.size()));
+  EXPECT_EQ(writes.shared,
+            static_cast<int>(cut.tiles.size()) - changed - static_cast<int>(removed.size()));
   EXPECT_LE(writes.bytes_written, 2 * changed_bytes);
   EXPECT_LT(changed_bytes, base_bytes / 2);
 

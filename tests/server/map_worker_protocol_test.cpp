@@ -146,6 +146,7 @@ TEST(WorkerReport, LinesReadBackAsTheirReports) {
   WorkerReport edited = done;
   edited.edit = EditFigures{0.25, 1.0 / 3, true,     "the edited cloud's bounds change the grid",
                             4242, 123'456, 7'890'123};
+  edited.edit->changed_columns = {{12, 345, 0}, {678, 4001, 0}};
   for (const WorkerReport& report : {loaded, progress, failed, done, edited}) {
     const std::string line = FormatWorkerReport(report);
     ASSERT_FALSE(line.empty());
@@ -173,6 +174,8 @@ TEST(WorkerReport, LinesReadBackAsTheirReports) {
       EXPECT_EQ(back->edit->scan_points_outside_region, report.edit->scan_points_outside_region)
           << line;
       EXPECT_EQ(back->edit->scan_points_thinned, report.edit->scan_points_thinned) << line;
+      EXPECT_EQ(back->edit->changed_columns.min, report.edit->changed_columns.min) << line;
+      EXPECT_EQ(back->edit->changed_columns.max, report.edit->changed_columns.max) << line;
     }
   }
 }

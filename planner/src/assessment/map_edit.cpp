@@ -498,6 +498,8 @@ Expected<Reassessment> ReassessRegion(const TerrainModel& base, const PointCloud
     out.path = ReassessmentPath::kFull;
     out.full_reason = std::move(reason);
     out.reassessed_columns = out.model->grid().LayerCellCount();
+    out.changed_columns = CellBox::Whole(out.model->grid());
+    out.changed_columns.max.z() = 0;
     return out;
   };
   if (edited_cloud.empty()) return full("the edited cloud is empty");
@@ -620,6 +622,7 @@ Expected<Reassessment> ReassessRegion(const TerrainModel& base, const PointCloud
   out.model = std::move(model).value();
   out.path = ReassessmentPath::kLocal;
   out.reassessed_columns = fields_changed.size().x() * std::int64_t{fields_changed.size().y()};
+  out.changed_columns = fields_changed;
   return out;
 }
 

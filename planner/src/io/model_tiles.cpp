@@ -5,6 +5,7 @@
 #include <cstring>
 #include <functional>
 #include <limits>
+#include <numeric>
 #include <utility>
 
 #include "binary_file.hpp"
@@ -233,15 +234,34 @@ std::size_t TileCount(const GridGeometry& geometry) {
 }
 
 TiledModel CutModel(const TerrainModel& model) {
+  std::vector<std::size_t> all(TileCount(model.grid()));
+  std::iota(all.begin(), all.end(), std::size_t{0});
+  return CutModelTiles(model, all);
+}
+
+std::vector<std::size_t> TilesTouching(const GridGeometry& geometry, const CellBox& columns) {
+  std::vector<std::size_t> tiles;
+  const int blocks_x = BlocksAlong(geometry.size.x());
+  const int x0 = std::max(columns.min.x(), 0);
+  const int y0 = std::max(columns.min.y(), 0);
+  const int x1 = std::min(columns.max.x(), geometry.size.x() - 1);
+  const int y1 = std::min(columns.max.y(), geometry.size.y() - 1);
+  if (x1 < x0 || y1 < y0) return tiles;
+  for (int by = y0 / kTileColumns; by <= y1 / kTileColumns; ++by) {
+    for (int bx = x0 / kTileColumns; bx <= x1 / kTileColumns; ++bx) {
+      tiles.push_back(std::size_t(by) * blocks_x + std::size_t(bx));
+    }
+  }
+  return tiles;
+}
+
+TiledModel CutModelTiles(const TerrainModel& model, std::span<const std::size_t> which) {
   TiledModel tiled;
   binary_file::Sink sink(&tiled.header);
   binary_file::WriteFrame(sink, kTiledModelKind,
                           [&model](binary_file::Sink& s) { WriteHeader(s, model); });
-  const std::size_t count = TileCount(model.grid());
-  tiled.tiles.reserve(count);
-  for (std::size_t t = 0; t < count; ++t) {
-    tiled.tiles.push_back(CutTile(model, BlockOf(model.grid(), t)));
-  }
+  tiled.tiles.reserve(which.size());
+  for (const std::size_t t : which) tiled.tiles.push_back(CutTile(model, BlockOf(model.grid(), t)));
   return tiled;
 }
 
@@ -351,7 +371,20 @@ Expected<std::shared_ptr<const TerrainModel>> JoinModel(std::string_view header,
 }
 
 std::vector<std::string> CutCloud(const PointCloud& cloud, const GridGeometry& geometry) {
-  std::vector<std::string> tiles(TileCount(geometry));
+  std::vector<std::size_t> all(TileCount(geometry));
+  std::iota(all.begin(), all.end(), std::size_t{0});
+  return CutCloudTiles(cloud, geometry, all);
+}
+
+std::vector<std::string> CutCloudTiles(const PointCloud& cloud, const GridGeometry& geometry,
+                                       std::span<const std::size_t> which) {
+  // Each grid tile's place among `which`, or kSkipped.
+  constexpr std::uint32_t kSkipped = std::numeric_limits<std::uint32_t>::max();
+  std::vector<std::uint32_t> slot_of_tile(TileCount(geometry), kSkipped);
+  for (std::size_t k = 0; k < which.size(); ++k) {
+    slot_of_tile[which[k]] = static_cast<std::uint32_t>(k);
+  }
+  std::vector<std::string> tiles(which.size());
   const int blocks_x = BlocksAlong(geometry.size.x());
   const auto column = [&](double coordinate, int axis) {
     const double cell = std::floor((coordinate - geometry.origin_m[axis]) / geometry.resolution_m);
@@ -363,15 +396,15 @@ std::vector<std::string> CutCloud(const PointCloud& cloud, const GridGeometry& g
   std::vector<std::size_t> points_in(tiles.size(), 0);
   for (std::size_t i = 0; i < cloud.size(); ++i) {
     const Eigen::Vector3f& point = cloud[i];
-    tile_of[i] =
-        static_cast<std::uint32_t>(std::size_t(column(point.y(), 1) / kTileColumns) * blocks_x +
-                                   std::size_t(column(point.x(), 0) / kTileColumns));
-    ++points_in[tile_of[i]];
+    tile_of[i] = slot_of_tile[std::size_t(column(point.y(), 1) / kTileColumns) * blocks_x +
+                              std::size_t(column(point.x(), 0) / kTileColumns)];
+    if (tile_of[i] != kSkipped) ++points_in[tile_of[i]];
   }
   std::vector<std::size_t> filled(tiles.size(), 0);
   for (std::size_t t = 0; t < tiles.size(); ++t) tiles[t].resize(points_in[t] * kPointBytes);
   for (std::size_t i = 0; i < cloud.size(); ++i) {
     const std::uint32_t t = tile_of[i];
+    if (t == kSkipped) continue;
     std::memcpy(tiles[t].data() + filled[t], cloud[i].data(), kPointBytes);
     filled[t] += kPointBytes;
   }

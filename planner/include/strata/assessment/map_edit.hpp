@@ -13,6 +13,7 @@
 
 #include <Eigen/Geometry>
 
+#include "strata/assessment/grid.hpp"
 #include "strata/assessment/terrain_model.hpp"
 #include "strata/point_cloud.hpp"
 #include "strata/prism.hpp"
@@ -110,6 +111,9 @@ struct Reassessment {
   std::string full_reason;
   /// Grid columns whose fields were computed again (the whole grid for kFull).
   std::int64_t reassessed_columns = 0;
+  /// The columns whose surfaces or fields may differ from the base's (z: 0 to 0): those
+  /// reassessed, and the whole grid for kFull. Every column outside holds the base's.
+  CellBox changed_columns;
 };
 
 /// The model of `edited_cloud`, made from `base` (the model of `base_cloud`) by reassessing

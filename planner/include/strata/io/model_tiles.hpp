@@ -51,6 +51,14 @@ std::size_t TileCount(const GridGeometry& geometry);
 /// `model`'s, byte for byte.
 TiledModel CutModel(const TerrainModel& model);
 
+/// The tiles (ascending) whose blocks hold a column of `columns` (x, y; z is ignored) on the
+/// grid `geometry`.
+std::vector<std::size_t> TilesTouching(const GridGeometry& geometry, const CellBox& columns);
+
+/// CutModel's header, and of its tiles only those numbered `which` (ascending, each below
+/// TileCount), in that order: what an edit that changed only their blocks must write anew.
+TiledModel CutModelTiles(const TerrainModel& model, std::span<const std::size_t> which);
+
 /// Where JoinModel reads tile `t` (0 to TileCount - 1) from: its bytes, or an error JoinModel
 /// passes on as it is. Each tile is asked for once, in increasing order.
 using TileSource = std::function<Expected<std::string>(std::size_t t)>;
@@ -75,6 +83,11 @@ Expected<std::shared_ptr<const TerrainModel>> JoinModel(std::string_view header,
 /// `cloud` cut along the tiles of the grid `geometry` (the model's): TileCount(geometry)
 /// tiles, empty ones included.
 std::vector<std::string> CutCloud(const PointCloud& cloud, const GridGeometry& geometry);
+
+/// Of CutCloud's tiles only those numbered `which` (ascending, each below TileCount), in that
+/// order.
+std::vector<std::string> CutCloudTiles(const PointCloud& cloud, const GridGeometry& geometry,
+                                       std::span<const std::size_t> which);
 
 /// The points of `tiles`, tile after tile; kMapLoadFailed naming `name` when a tile is not a
 /// whole number of points.
