@@ -7,6 +7,9 @@
 //
 //   build/bench/store_benchmark MAP [--resolution M] [--runs N] [--churn-maps N]
 //       [--soak-s S [--soak-rate HZ] [--soak-planners N]] [--etcd HOST:PORT]
+//       [--map-worker build/server/strata-map-worker]
+//   With --map-worker maps are made and edited in worker processes, as strata-server makes
+//   them (the model and cloud then pass through files); without it, in this process.
 //   With --etcd (bench/with_etcd.sh starts a throwaway one) the maps' heads live there, as
 //   with strata-server --etcd, and the second replica learns of each edit through its watch.
 //       MAP: a cloud file, or scene:NAME[:SEED][:size_m=M] (as strata-offline takes)
@@ -28,6 +31,7 @@
 #include <CLI/CLI.hpp>
 
 #include "maps/map_registry.hpp"
+#include "maps/map_worker.hpp"
 #include "rpc/proto_convert.hpp"
 #include "shared/etcd_client.hpp"
 #include "shared/etcd_map_heads.hpp"
@@ -46,8 +50,18 @@ double SecondsSince(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
 }
 
+// --map-worker: maps made and edited in strata-map-worker processes, as strata-server makes
+// them; empty: in this process.
+std::string map_worker;
+
 RegistryOptions StoreOptions(const std::shared_ptr<MapStore>& store, std::uint64_t budget) {
   RegistryOptions options;
+  if (!map_worker.empty()) {
+    MapWorkerOptions worker;
+    worker.program = map_worker;
+    worker.memory_bytes = std::uint64_t{16} << 30;
+    options.build = MapWorkerBuilder(std::move(worker));
+  }
   options.store = store;
   options.memory_budget = std::make_shared<MemoryBudget>(budget);
   options.encode_metadata = EncodeMapMetadata;
@@ -181,6 +195,9 @@ int main(int argc, char** argv) {
   app.add_option("--soak-planners", soak_planners, "clients planning during the soak");
   std::string etcd;
   app.add_option("--etcd", etcd, "host:port of a running etcd for the maps' heads");
+  app.add_option("--map-worker", map_worker,
+                 "strata-map-worker: make and edit maps in worker processes, as strata-server "
+                 "does (default: in this process)");
   CLI11_PARSE(app, argc, argv);
 
   AssessmentConfig config;
@@ -360,7 +377,8 @@ int main(int argc, char** argv) {
     double ignored_graph_s = 0;
     (void)plan_elsewhere(&ignored_graph_s);
     for (const Case& edit : cases) {
-      std::vector<double> apply, reassess, write, total, planned, other, other_graph, seen;
+      std::vector<double> load, graphs, apply, reassess, write, total, planned, other, other_graph,
+          seen;
       std::vector<double> written_mb, tiles_written, tiles_shared, written_per_tile_byte;
       std::int64_t columns = 0;
       bool full = false;
@@ -383,6 +401,8 @@ int main(int argc, char** argv) {
           std::fprintf(stderr, "%s: %s\n", edit.name, update.error().message.c_str());
           return 1;
         }
+        load.push_back(update->load_s);
+        graphs.push_back(update->graphs_s);
         apply.push_back(update->edit.apply_s);
         reassess.push_back(update->edit.reassess_s);
         write.push_back(update->write_s);
@@ -413,12 +433,13 @@ int main(int argc, char** argv) {
         full = update->edit.full_reassessment;
       }
       std::printf(
-          "edit %-17s median apply %.3f s, reassess %.3f s (%lld columns%s), write "
-          "%.3f s, total %.3f s; the next plan %.3f s; another replica sees it %.4f s later%s, "
-          "its first plan on it %.3f s (its graph %.3f s)\n",
-          edit.name, Median(apply), Median(reassess), static_cast<long long>(columns),
-          full ? ", FULL" : "", Median(write), Median(total), Median(planned), Median(seen),
-          etcd.empty() ? " (head file)" : " (etcd watch)", Median(other), Median(other_graph));
+          "edit %-17s median load %.3f s, apply %.3f s, reassess %.3f s (%lld columns%s), "
+          "graphs %.3f s, write %.3f s, total %.3f s; the next plan %.3f s; another replica "
+          "sees it %.4f s later%s, its first plan on it %.3f s (its graph %.3f s)\n",
+          edit.name, Median(load), Median(apply), Median(reassess), static_cast<long long>(columns),
+          full ? ", FULL" : "", Median(graphs), Median(write), Median(total), Median(planned),
+          Median(seen), etcd.empty() ? " (head file)" : " (etcd watch)", Median(other),
+          Median(other_graph));
       if (!written_per_tile_byte.empty()) {
         std::printf(
             "  written: median %.2f MB, %.0f tiles written, %.0f shared; bytes written / the "

@@ -392,6 +392,7 @@ Result<MapUpdate> MapEditor::UpdateOnce(const MapEditRequest& request, const Cal
   map.memory_bytes = planning->MemoryBytes();
   update.map = std::move(map);
   update.edit = built.edit.value_or(EditFigures{});
+  update.load_s = built.load_s;
   update.total_s = SecondsSince(start);
   return update;
 }

@@ -51,6 +51,7 @@ struct MapEditRequest {
 struct MapUpdate {
   MapSnapshot map;
   EditFigures edit;    ///< How the model was made (zero for keep-out zones alone).
+  double load_s = 0;   ///< Reading the base version's cloud and model for the edits [s].
   double write_s = 0;  ///< Writing and publishing the version [s].
   /// Building the graphs of the robots that planned on the base version here, before the new
   /// one is published [s].

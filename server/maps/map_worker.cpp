@@ -13,6 +13,7 @@
 #include <fstream>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <system_error>
 #include <utility>
 #include <vector>
@@ -195,8 +196,13 @@ Result<pid_t> Spawn(const fs::path& program, const std::vector<std::string>& arg
   posix_spawnattr_setpgroup(&attributes, 0);
   posix_spawnattr_setflags(&attributes,
                            POSIX_SPAWN_SETSIGMASK | POSIX_SPAWN_SETSIGDEF | POSIX_SPAWN_SETPGROUP);
+  std::vector<std::string> environment = WorkerEnvironment(environ);
+  std::vector<char*> envp;
+  for (std::string& entry : environment) envp.push_back(entry.data());
+  envp.push_back(nullptr);
   pid_t pid = -1;
-  const int error = posix_spawn(&pid, name.c_str(), &actions, &attributes, argv.data(), environ);
+  const int error =
+      posix_spawn(&pid, name.c_str(), &actions, &attributes, argv.data(), envp.data());
   posix_spawn_file_actions_destroy(&actions);
   posix_spawnattr_destroy(&attributes);
   out.CloseWrite();
@@ -410,6 +416,18 @@ fs::path MapWorkerBesideThisProgram() {
   if (error) return {};
   const fs::path worker = self.parent_path() / "strata-map-worker";
   return fs::exists(worker, error) ? worker : fs::path();
+}
+
+std::vector<std::string> WorkerEnvironment(char** parent) {
+  constexpr std::string_view kTunables = "GLIBC_TUNABLES=";
+  std::vector<std::string> environment;
+  bool tuned = false;
+  for (char** entry = parent; *entry != nullptr; ++entry) {
+    environment.emplace_back(*entry);
+    tuned = tuned || environment.back().starts_with(kTunables);
+  }
+  if (!tuned) environment.push_back(std::string(kTunables) + "glibc.malloc.hugetlb=1");
+  return environment;
 }
 
 }  // namespace strata::server

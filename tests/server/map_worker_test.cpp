@@ -79,6 +79,19 @@ ErrorCode CodeOf(const ServiceError& error) {
   return code != nullptr ? *code : ErrorCode::kInvalidInput;
 }
 
+// A worker's allocator backs its large blocks with huge pages, unless the server's
+// environment tunes glibc itself: that choice is the operator's.
+TEST(WorkerEnvironmentTest, AsksForHugePagesUnlessGlibcIsTunedAlready) {
+  std::string path = "PATH=/usr/bin";
+  std::string tuned = "GLIBC_TUNABLES=glibc.malloc.arena_max=2";
+  std::vector<char*> plain = {path.data(), nullptr};
+  EXPECT_THAT(WorkerEnvironment(plain.data()),
+              ::testing::ElementsAre("PATH=/usr/bin", "GLIBC_TUNABLES=glibc.malloc.hugetlb=1"));
+  std::vector<char*> operators = {tuned.data(), path.data(), nullptr};
+  EXPECT_THAT(WorkerEnvironment(operators.data()),
+              ::testing::ElementsAre("GLIBC_TUNABLES=glibc.malloc.arena_max=2", "PATH=/usr/bin"));
+}
+
 TEST_F(MapWorkerTest, MakesTheModelTheRegistrysOwnThreadWould) {
   int loaded_calls = 0;
   std::set<AssessmentStage> steps;
