@@ -1,6 +1,8 @@
 // SurfaceGraph's landmarks (ALT), chosen and measured once per graph: see
 // SurfaceGraph::LandmarkBound.
 #include <algorithm>
+#include <cstdint>
+#include <functional>
 #include <limits>
 #include <queue>
 #include <utility>
@@ -13,15 +15,39 @@ namespace {
 
 constexpr float kUnreached = std::numeric_limits<float>::infinity();
 
-// Least costs (MoveCost under the default MoveCostTerms) of paths from `source` over the
-// graph's edges to every node; kUnreached outside its component. False when should_stop fired
-// (polled every 4096 nodes settled).
-bool Distances(const SurfaceGraph& graph, int source, const std::function<bool()>& should_stop,
+// The edges from the nodes of one component and what each costs (MoveCost under the default
+// MoveCostTerms), as float: every landmark's search walks them, and finding a node's
+// neighbours (the step and corner rules) and costing each move took most of a search's time.
+struct CostedEdges {
+  std::vector<std::uint32_t> begin;  // Per node and one past: its first edge.
+  std::vector<std::int32_t> to;
+  std::vector<float> cost;
+};
+
+CostedEdges EdgesOf(const SurfaceGraph& graph, int component) {
+  const int n = graph.node_count();
+  CostedEdges edges;
+  edges.begin.reserve(static_cast<std::size_t>(n) + 1);
+  const MoveCostTerms terms;
+  for (int node = 0; node < n; ++node) {
+    edges.begin.push_back(static_cast<std::uint32_t>(edges.to.size()));
+    if (graph.component(node) != component) continue;
+    graph.ForEachNeighbor(node, [&](int m) {
+      edges.to.push_back(m);
+      edges.cost.push_back(static_cast<float>(graph.MoveCost(node, m, terms)));
+    });
+  }
+  edges.begin.push_back(static_cast<std::uint32_t>(edges.to.size()));
+  return edges;
+}
+
+// Least costs of paths from `source` over `edges` to every node; kUnreached outside its
+// component. False when should_stop fired (polled every 4096 nodes settled).
+bool Distances(const CostedEdges& edges, int source, const std::function<bool()>& should_stop,
                std::vector<float>* distance) {
-  distance->assign(static_cast<std::size_t>(graph.node_count()), kUnreached);
+  distance->assign(edges.begin.size() - 1, kUnreached);
   using Item = std::pair<float, int>;
   std::priority_queue<Item, std::vector<Item>, std::greater<>> queue;
-  const MoveCostTerms terms;
   (*distance)[source] = 0;
   queue.push({0.0f, source});
   for (int settled = 1; !queue.empty(); ++settled) {
@@ -30,13 +56,14 @@ bool Distances(const SurfaceGraph& graph, int source, const std::function<bool()
     const int node = queue.top().second;
     queue.pop();
     if (d > (*distance)[node]) continue;
-    graph.ForEachNeighbor(node, [&](int m) {
-      const float next = d + static_cast<float>(graph.MoveCost(node, m, terms));
+    for (std::uint32_t e = edges.begin[node]; e < edges.begin[node + 1]; ++e) {
+      const float next = d + edges.cost[e];
+      const int m = edges.to[e];
       if (next < (*distance)[m]) {
         (*distance)[m] = next;
         queue.push({next, m});
       }
-    });
+    }
   }
   return true;
 }
@@ -60,8 +87,9 @@ bool SurfaceGraph::ComputeLandmarks(const std::function<bool()>& should_stop) {
   // Farthest-point selection: the first landmark is the node farthest from an arbitrary one,
   // each next the node farthest from every landmark so far (the periphery, where the bounds
   // are tightest).
+  const CostedEdges edges = EdgesOf(*this, largest);
   std::vector<float> distance;
-  if (!Distances(*this, seed, should_stop, &distance)) return false;
+  if (!Distances(edges, seed, should_stop, &distance)) return false;
   std::vector<float> nearest_landmark(static_cast<std::size_t>(n), kUnreached);
   std::vector<std::vector<float>> tables;
   int next = seed;
@@ -76,7 +104,7 @@ bool SurfaceGraph::ComputeLandmarks(const std::function<bool()>& should_stop) {
     }
     if (farthest <= 0) break;  // Every node is a landmark already (a tiny component).
     std::vector<float> table;
-    if (!Distances(*this, next, should_stop, &table)) return false;
+    if (!Distances(edges, next, should_stop, &table)) return false;
     for (int m = 0; m < n; ++m) nearest_landmark[m] = std::min(nearest_landmark[m], table[m]);
     tables.push_back(std::move(table));
   }
