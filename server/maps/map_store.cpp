@@ -281,8 +281,6 @@ void HashString(XXH3_state_t* state, std::string_view text) {
 
 }  // namespace
 
-namespace {}  // namespace
-
 std::string MapStore::TerrainOf(const PointCloud& cloud, const AssessmentConfig& config) {
   XXH3_state_t* state = XXH3_createState();
   XXH3_128bits_reset(state);

@@ -199,10 +199,6 @@ Result<std::vector<std::string>> ReadTiles(const OpenedMapFile& tiles_dir,
 
 namespace {
 
-std::vector<std::string_view> Views(const std::vector<std::string>& parts, std::size_t first) {
-  return {parts.begin() + static_cast<std::ptrdiff_t>(first), parts.end()};
-}
-
 ServiceError Corrupted(const Error& error) {
   return MakeError(ServiceErrorCode::kMapCorrupted,
                    "map store: " + error.message + " (delete the map and create it again)");
@@ -249,7 +245,7 @@ Result<PointCloud> LoadTiledCloud(const OpenedTiles& tiles, const std::string& n
   }
   Result<std::vector<std::string>> bytes = ReadTiles(*tiles.dir, tiles.list.cloud);
   if (!bytes) return std::move(bytes).error();
-  const std::vector<std::string_view> cloud_tiles = Views(*bytes, 0);
+  const std::vector<std::string_view> cloud_tiles(bytes->begin(), bytes->end());
   Expected<PointCloud> cloud = JoinCloud(cloud_tiles, name);
   if (!cloud) return Corrupted(cloud.error());
   return std::move(cloud).value();
