@@ -266,6 +266,56 @@ TEST(FleetPlan, AGoalOrStartWhereAnotherRobotIsParkedIsRefusedNamingIt) {
   EXPECT_THAT(from_c.error().message, HasSubstr("robot 'C'"));
 }
 
+/// A floor 12 × 7 m with a block over x 3-9, y 1.2-5.8: a south lane and a north lane, each
+/// too narrow for two robots side by side, join the west and east ends.
+const PlanningMap& TwoLaneSite() {
+  static const PlanningMap* map = [] {
+    test_util::CloudBuilder b(0.05);
+    b.Plate(0, 12, 0, 7, 0.0);
+    b.Block(3, 9, 1.2, 5.8, 0.05, 1.5);
+    AssessmentConfig config;
+    config.grid.resolution_m = 0.1;
+    return new PlanningMap(TerrainModel::Assess(b.cloud(), config).value());
+  }();
+  return *map;
+}
+
+TEST(FleetPlan, ARobotComingDownTheShorterLaneLongerThanTheRobotMayWaitIsAvoidedByTheOtherLane) {
+  // A drives the south lane west and is gone; B, going east, may wait 5 s only, and A takes
+  // longer than that to clear the lane.
+  Expected<PlanResult> a = Plan(TwoLaneSite(), Between({10.5, 0.6, 0.3}, {1.2, 0.6, 0.3}));
+  ASSERT_TRUE(a) << a.error().message;
+  ReservedMotion other;
+  other.robot_id = "A";
+  other.motion.start_ns = kDeparture;
+  other.motion.trajectory = a.value().trajectory;
+  other.motion.body = FleetBody::FromProfile(Profile());
+  other.motion.end_ns = other.motion.ArrivalNs();
+  const std::vector<ReservedMotion> others = {other};
+  FleetPlanRequest request = AmongOthers(Between({0.7, 3.0, 0.3}, {11.3, 3.0, 0.3}), others);
+  request.fleet.max_wait_s = 5;
+
+  Expected<PlanResult> alone = Plan(TwoLaneSite(), request.plan);
+  ASSERT_TRUE(alone) << alone.error().message;
+  FleetMotion alone_motion = other.motion;
+  alone_motion.trajectory = alone.value().trajectory;
+  alone_motion.end_ns = alone_motion.ArrivalNs();
+  ASSERT_TRUE(SampleEveryMillisecond(alone_motion, other.motion, Limit()).conflict)
+      << "planned alone, B would not meet A";
+
+  Expected<FleetPlanResult> result = PlanAmongTraffic(TwoLaneSite(), request);
+  ASSERT_TRUE(result) << result.error().message;
+  ExpectClearOfAll(result.value().motion, others);
+  const Trajectory& trajectory = result.value().plan.trajectory;
+  bool north = false;
+  for (double t = 0; t < trajectory.TotalDuration(); t += 0.1) {
+    const Eigen::Vector3d p = trajectory.Position(t).head<3>();
+    north = north || (p.x() > 4 && p.x() < 8 && p.y() > 5.8);
+  }
+  EXPECT_TRUE(north) << "B did not take the north lane";
+  EXPECT_LE(result.value().wait_s, 5);
+}
+
 TEST(FleetPlan, WithNoWaitAllowedAMeetingIsRefusedNamingWhoWhenAndWhere) {
   const std::vector<ReservedMotion> others = {
       Committed("A", Between({0.5, 2.5, 0.3}, {5.5, 2.5, 0.3}))};

@@ -15,6 +15,7 @@
 
 #include "format_internal.hpp"
 #include "hold_schedule.hpp"
+#include "space_time_search.hpp"
 
 namespace strata {
 namespace {
@@ -24,8 +25,9 @@ namespace {
 constexpr double kParkedZoneMarginM = 0.02;
 constexpr int kParkedZoneCorners = 12;
 // Plans made for one request at most: the first, and one more each time robots parked in the
-// way are found (all that the trajectory meets at once) or a stop is added.
-constexpr int kMaxPlanRounds = 4;
+// way are found (all that the trajectory meets at once), a route is searched in space and
+// time, or a stop is added.
+constexpr int kMaxPlanRounds = 6;
 // Stops added to one route at most (each makes a leg planned of its own), within kMaxVias
 // together with the request's vias.
 constexpr int kMaxAddedStops = 3;
@@ -47,7 +49,15 @@ constexpr double kStandingSnapM = 0.3;
 // max_wait_s plus this after it is in the way of no plan's passage but as a standing body.
 constexpr double kLongestTripS = 600;
 
-/// A point the route passes through: one of the request's vias, or a stop added to wait at.
+// A route from the space-time search (space_time_search.hpp) becomes a plan's route: a stop
+// where it waits at least kSpaceTimeMinWaitS (at most kMaxAddedStops, the longest waits), and
+// points it flows through every kSpaceTimeGuideSpacingM of its length, which keep the plan on
+// the way the search chose (another aisle, a bay to pull into).
+constexpr double kSpaceTimeMinWaitS = 0.3;
+constexpr double kSpaceTimeGuideSpacingM = 8.0;
+
+/// A point the route passes through: one of the request's vias, or one added (a stop to wait
+/// at, or a point of a space-time route).
 struct RoutePoint {
   Via via;
   bool added = false;
@@ -250,6 +260,85 @@ void InsertStop(std::vector<RoutePoint>& route, const PlanResult& plan, double t
                RoutePoint{Via{position, true}, true});
 }
 
+/// The stops added to `route`.
+int CountStops(const std::vector<RoutePoint>& route) {
+  return static_cast<int>(std::count_if(route.begin(), route.end(),
+                                        [](const RoutePoint& p) { return p.added && p.via.stop; }));
+}
+
+/// The route points of a space-time `route` on `graph` (the module comment above
+/// kSpaceTimeMinWaitS says which), none nearer than kMinStopSpacingM to another or to the
+/// ends, at most `max_points`.
+std::vector<RoutePoint> RoutePointsOf(const SurfaceGraph& graph,
+                                      const fleet_internal::SpaceTimeRoute& route, int max_points) {
+  const std::size_t n = route.nodes.size();
+  std::vector<double> along_m(n, 0.0);
+  for (std::size_t k = 1; k < n; ++k) {
+    along_m[k] = along_m[k - 1] +
+                 (graph.position(route.nodes[k]) - graph.position(route.nodes[k - 1])).norm();
+  }
+  // The longest waits on the way (the start's is the start's own, no stop).
+  std::vector<std::size_t> waits;
+  for (std::size_t k = 1; k + 1 < n; ++k) {
+    if (route.wait_s[k] >= kSpaceTimeMinWaitS) waits.push_back(k);
+  }
+  std::sort(waits.begin(), waits.end(),
+            [&](std::size_t a, std::size_t b) { return route.wait_s[a] > route.wait_s[b]; });
+  std::vector<std::pair<std::size_t, bool>> chosen;  // Node index on the route, stop.
+  const auto spaced = [&](std::size_t k) {
+    if (along_m[k] < kMinStopSpacingM || along_m[n - 1] - along_m[k] < kMinStopSpacingM) {
+      return false;
+    }
+    return std::none_of(chosen.begin(), chosen.end(), [&](const auto& c) {
+      return std::abs(along_m[c.first] - along_m[k]) < kMinStopSpacingM;
+    });
+  };
+  for (const std::size_t k : waits) {
+    if (static_cast<int>(chosen.size()) >= std::min(kMaxAddedStops, max_points)) break;
+    if (spaced(k)) chosen.emplace_back(k, true);
+  }
+  for (double at_m = kSpaceTimeGuideSpacingM; at_m < along_m[n - 1] - kSpaceTimeGuideSpacingM / 2;
+       at_m += kSpaceTimeGuideSpacingM) {
+    if (static_cast<int>(chosen.size()) >= max_points) break;
+    const auto k = static_cast<std::size_t>(std::lower_bound(along_m.begin(), along_m.end(), at_m) -
+                                            along_m.begin());
+    if (k < n && spaced(k)) chosen.emplace_back(k, false);
+  }
+  std::sort(chosen.begin(), chosen.end());
+  std::vector<RoutePoint> points;
+  points.reserve(chosen.size());
+  for (const auto& [k, stop] : chosen) {
+    points.push_back(RoutePoint{Via{graph.position(route.nodes[k]), stop}, true});
+  }
+  return points;
+}
+
+/// A route for `request` that keeps out of the way of `traffic` in space and time
+/// (space_time_search.hpp), timed as `plain` (the route planned without them) is, as route
+/// points; none when the search finds none.
+std::optional<std::vector<RoutePoint>> SpaceTimeRoutePoints(
+    const PlanningMap& map, const PlanRequest& request, const PlanResult& plain,
+    const Traffic& traffic, double max_wait_s, const std::function<bool()>& should_stop) {
+  const auto graph = map.Graph(request.profile.Traversability());
+  if (!graph || plain.path.cost <= 0 || plain.stats.duration_s <= 0) return std::nullopt;
+  fleet_internal::SpaceTimeOptions options;
+  options.cost_per_s = plain.path.cost / plain.stats.duration_s;
+  options.terms = request.options.search;
+  options.max_wait_s = max_wait_s;
+  options.horizon_s = max_wait_s + 2 * plain.stats.duration_s + 10;
+  const std::vector<KeepOutZone> zones = CollectKeepOut(map, request.keep_out);
+  std::function<bool(int)> blocked;
+  if (!zones.empty()) {
+    blocked = [&](int node) {
+      return FirstViolatedKeepOut(zones, request.profile, graph.value()->position(node)) >= 0;
+    };
+  }
+  const std::optional<fleet_internal::SpaceTimeRoute> found = fleet_internal::SearchSpaceTime(
+      *graph.value(), plain.start.node, plain.goal.node, traffic, options, blocked, should_stop);
+  if (!found) return std::nullopt;
+  return RoutePointsOf(*graph.value(), *found, kMaxVias - kMaxAddedStops);
+}
+
 /// `plan` with `waits_s[k]` at rest before each of its `legs`: the trajectory, its stats, the
 /// request's vias' times, and the holds.
 FleetPlanResult WithWaits(PlanResult plan, const std::vector<Trajectory>& legs,
@@ -278,7 +367,7 @@ FleetPlanResult WithWaits(PlanResult plan, const std::vector<Trajectory>& legs,
     if (!route[j].added) {
       vias.push_back(plan.via[j]);
       via_times_s.push_back(plan.via_times_s[j] + waited_s);
-    } else {
+    } else if (route[j].via.stop) {
       ++result.stops_added;
     }
     if (route[j].via.stop) waited_s += waits_s[++leg];
@@ -345,14 +434,18 @@ Expected<FleetPlanResult> PlanAmongTraffic(const PlanningMap& map, const FleetPl
     zoned[i] = true;
   }
   int departures_checked = 0;
+  bool space_time_tried = false;
   std::optional<TrafficConflict> first_at_departure;
   for (int round = 0; round < kMaxPlanRounds; ++round) {
     plan_request.via.clear();
     for (const RoutePoint& point : route) plan_request.via.push_back(point.via);
     Expected<PlanResult> plan = Plan(map, plan_request, should_stop);
-    if (!plan && stops_added > 0 && plan.error().code != ErrorCode::kCancelled &&
+    if (!plan && (stops_added > 0 || space_time_tried) &&
+        plan.error().code != ErrorCode::kCancelled &&
         plan.error().code != ErrorCode::kDeadlineExceeded) {
-      break;  // A stop added to wait at did not plan: refuse with what the route met.
+      // A route of its own (stops, a space-time route) did not plan: refuse with what the
+      // route met.
+      break;
     }
     if (!plan) {
       if (zoned_count() > 0 && plan.error().code == ErrorCode::kGoalUnreachable) {
@@ -395,6 +488,15 @@ Expected<FleetPlanResult> PlanAmongTraffic(const PlanningMap& map, const FleetPl
         plan_request.keep_out.push_back(std::move(zone));
         zoned[i] = true;
       }
+      // Points added to the route that a new zone covers go: the route is planned around it.
+      std::erase_if(route, [&](const RoutePoint& point) {
+        return point.added && std::any_of(plan_request.keep_out.begin(),
+                                          plan_request.keep_out.end(), [&](const Prism& zone) {
+                                            return ViolatesKeepOut(zone, request.plan.profile,
+                                                                   point.via.position_m);
+                                          });
+      });
+      stops_added = CountStops(route);
       continue;
     }
     const std::vector<Trajectory> legs = SplitAtStops(plan.value(), route);
@@ -413,6 +515,17 @@ Expected<FleetPlanResult> PlanAmongTraffic(const PlanningMap& map, const FleetPl
     }
     const auto& failure = std::get<fleet_internal::HoldFailure>(scheduled);
     departures_checked += failure.departures_checked;
+    if (!space_time_tried && request.plan.via.empty()) {
+      // No waits clear the route: search one in space and time, once.
+      space_time_tried = true;
+      std::optional<std::vector<RoutePoint>> points = SpaceTimeRoutePoints(
+          map, plan_request, plan.value(), traffic, request.fleet.max_wait_s, should_stop);
+      if (points) {
+        route = std::move(*points);
+        stops_added = CountStops(route);
+        continue;
+      }
+    }
     if (!failure.conflict || stops_added >= max_added_stops) break;
     // Looked up once for every place the stop search tries (Plan has just built the graph).
     const auto graph = map.Graph(request.plan.profile.Traversability());

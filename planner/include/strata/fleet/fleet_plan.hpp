@@ -7,8 +7,10 @@
 /// its departure, and the robot waits, at rest, at its start and at stops along its route for
 /// the moving ones to pass (a search over the departures from each stop, hold_schedule.hpp),
 /// each departure checked exactly against every motion (traffic.hpp). Where no waits clear
-/// the route, a stop is added before what it meets, out of that robot's way, and the route is
-/// planned again through it. The trajectory returned is Plan's verified one with the waits
+/// the route, a route is searched in space and time over the graph (SIPP: waiting before a
+/// lane, pulling into a bay, taking another aisle) and the plan follows it; where waits still
+/// do not clear it, a stop is added before what it meets, out of that robot's way, and the
+/// route is planned again through it. The trajectory returned is Plan's verified one with the waits
 /// inserted as pieces at rest at verified points, checked exactly against every motion.
 #include <cstdint>
 #include <functional>
