@@ -5,7 +5,6 @@
 #include <cstdint>
 #include <limits>
 #include <queue>
-#include <span>
 #include <unordered_map>
 #include <utility>
 
@@ -66,28 +65,36 @@ class OthersWays {
     }
   }
 
-  /// The stretches that may reach the point `p` (a superset).
-  std::span<const Sweep> Near(const Eigen::Vector2d& p) const {
-    const auto found = buckets_.find(Key(Bucket(p.x()), Bucket(p.y())));
-    if (found == buckets_.end()) return {};
-    return found->second;
+  /// Calls f(sweep) for the stretches that may reach the point `p` with a body between the
+  /// heights `bottom_m` and `top_m` (a superset; one may come twice).
+  template <typename F>
+  void ForEachNear(const Eigen::Vector2d& p, double bottom_m, double top_m, F&& f) const {
+    for (std::int64_t bz = Bucket(bottom_m); bz <= Bucket(top_m); ++bz) {
+      const auto found = buckets_.find(Key(Bucket(p.x()), Bucket(p.y()), bz));
+      if (found == buckets_.end()) continue;
+      for (const Sweep& sweep : found->second) f(sweep);
+    }
   }
 
  private:
+  // Buckets are cubes: on a multi-storey site the floors' robots are filed apart.
   static constexpr double kBucketM = 2.0;
   static std::int64_t Bucket(double v) {
     return static_cast<std::int64_t>(std::floor(v / kBucketM));
   }
-  static std::int64_t Key(std::int64_t bx, std::int64_t by) {
-    return (bx << 32) ^ (by & 0xffffffff);
+  static std::int64_t Key(std::int64_t bx, std::int64_t by, std::int64_t bz) {
+    constexpr std::int64_t kMask = (std::int64_t{1} << 21) - 1;
+    return ((bx & kMask) << 42) | ((by & kMask) << 21) | (bz & kMask);
   }
 
   void File(const Sweep& sweep) {
     const Eigen::Vector2d lo = sweep.p0.cwiseMin(sweep.p1).array() - sweep.reach_m;
     const Eigen::Vector2d hi = sweep.p0.cwiseMax(sweep.p1).array() + sweep.reach_m;
-    for (std::int64_t by = Bucket(lo.y()); by <= Bucket(hi.y()); ++by) {
-      for (std::int64_t bx = Bucket(lo.x()); bx <= Bucket(hi.x()); ++bx) {
-        buckets_[Key(bx, by)].push_back(sweep);
+    for (std::int64_t bz = Bucket(sweep.bottom_m); bz <= Bucket(sweep.top_m); ++bz) {
+      for (std::int64_t by = Bucket(lo.y()); by <= Bucket(hi.y()); ++by) {
+        for (std::int64_t bx = Bucket(lo.x()); bx <= Bucket(hi.x()); ++bx) {
+          buckets_[Key(bx, by, bz)].push_back(sweep);
+        }
       }
     }
   }
@@ -171,11 +178,11 @@ class SpaceTimeSearch {
     const double bottom = graph_.ground_z(node);
     const double top = bottom + traffic_.body.height_m;
     taken_.clear();
-    for (const Sweep& sweep : ways_.Near(at.head<2>())) {
+    ways_.ForEachNear(at.head<2>(), bottom, top, [&](const Sweep& sweep) {
       if (sweep.top_m > bottom && top > sweep.bottom_m && Reaches(sweep, at.head<2>())) {
         taken_.emplace_back(sweep.from_s - Margin(sweep.from_s), sweep.to_s + Margin(sweep.to_s));
       }
-    }
+    });
     std::sort(taken_.begin(), taken_.end());
     const int first = static_cast<int>(states_.size());
     double free_from = 0;
