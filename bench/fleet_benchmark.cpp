@@ -15,8 +15,8 @@
 // benchmark's independent check against the map (oracle/independent_check.hpp). A robot
 // refused again and again shows as a stall (from its first refusal to its next plan, or to the
 // end); a deadlock would be robots stalled to the end. Prints a markdown table;
-// STRATA_FLEET_VERBOSE=1 also prints every refusal and every conflict the check finds to
-// stderr.
+// STRATA_FLEET_VERBOSE=1 also prints every refusal, every other failure and every conflict the
+// check finds to stderr.
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -187,6 +187,8 @@ RunFigures RunFleet(const Site& site, int robots, double minutes, unsigned seed,
           std::fprintf(stderr, "refused: %s\n", planned.error().message.c_str());
       } else {
         ++figures.failed_other;
+        if (std::getenv("STRATA_FLEET_VERBOSE"))
+          std::fprintf(stderr, "failed: %s\n", planned.error().message.c_str());
       }
       // The same task alone, for the delay and the plain latency.
       const auto t1 = std::chrono::steady_clock::now();
@@ -203,6 +205,8 @@ RunFigures RunFleet(const Site& site, int robots, double minutes, unsigned seed,
         trajectory = alone.value().trajectory;
       } else {
         ++figures.failed_other;
+        if (std::getenv("STRATA_FLEET_VERBOSE"))
+          std::fprintf(stderr, "failed alone: %s\n", alone.error().message.c_str());
       }
     }
     if (!trajectory) {
