@@ -476,6 +476,43 @@ struct Leg {
   PlanStats stats;
 };
 
+}  // namespace
+
+struct LegCache::Entries {
+  // Legs kept at most; the oldest goes first (a fleet plan makes a handful).
+  static constexpr std::size_t kMaxLegs = 32;
+  struct Entry {
+    RobotState head;
+    RobotState tail;
+    std::vector<Eigen::Vector3d> points_m;  // Where the leg's points snapped, in order.
+    std::vector<Prism> zones;               // Every zone the leg kept out of.
+    Leg leg;
+  };
+  std::vector<Entry> legs;
+  int hits = 0;
+};
+
+LegCache::LegCache() : entries_(std::make_unique<Entries>()) {}
+LegCache::~LegCache() = default;
+LegCache::LegCache(LegCache&&) noexcept = default;
+LegCache& LegCache::operator=(LegCache&&) noexcept = default;
+int LegCache::hits() const { return entries_->hits; }
+
+namespace {
+
+bool SameState(const RobotState& a, const RobotState& b) {
+  return a.position_m == b.position_m && a.velocity_mps == b.velocity_mps &&
+         a.acceleration_mps2 == b.acceleration_mps2;
+}
+
+bool SameZones(std::span<const Prism> kept, std::span<const KeepOutZone> zones) {
+  return std::equal(kept.begin(), kept.end(), zones.begin(), zones.end(),
+                    [](const Prism& a, const KeepOutZone& b) {
+                      return a.polygon_m == b.prism.polygon_m && a.z_min_m == b.prism.z_min_m &&
+                             a.z_max_m == b.prism.z_max_m;
+                    });
+}
+
 // Appends `part` to `joined`, the point where they meet once.
 void AppendPath(const PathResult& part, PathResult* joined) {
   const std::size_t skip = joined->points_m.empty() ? 0 : 1;
@@ -715,6 +752,37 @@ Expected<Leg> PlanLeg(const LegContext& ctx, std::span<const RoutePoint> points,
                      std::move(last_failure), std::move(leg));
 }
 
+// PlanLeg, through `cache` when there is one: a leg it holds is taken (its timings zeroed, as
+// no time went into it), one planned is kept.
+Expected<Leg> PlanLegThrough(LegCache* cache, const LegContext& ctx,
+                             std::span<const RoutePoint> points, const RobotState& head,
+                             const RobotState& tail) {
+  if (cache == nullptr) return PlanLeg(ctx, points, head, tail);
+  LegCache::Entries& entries = cache->entries();
+  const auto same_points = [&](const std::vector<Eigen::Vector3d>& kept) {
+    return std::equal(
+        kept.begin(), kept.end(), points.begin(), points.end(),
+        [](const Eigen::Vector3d& a, const RoutePoint& b) { return a == b.snap.position_m; });
+  };
+  for (const LegCache::Entries::Entry& entry : entries.legs) {
+    if (SameState(entry.head, head) && SameState(entry.tail, tail) && same_points(entry.points_m) &&
+        SameZones(entry.zones, ctx.zones)) {
+      ++entries.hits;
+      Leg leg = entry.leg;
+      leg.stats.timings = {};
+      return leg;
+    }
+  }
+  Expected<Leg> leg = PlanLeg(ctx, points, head, tail);
+  if (!leg) return leg;
+  if (entries.legs.size() >= LegCache::Entries::kMaxLegs) entries.legs.erase(entries.legs.begin());
+  LegCache::Entries::Entry entry{head, tail, {}, {}, leg.value()};
+  for (const RoutePoint& point : points) entry.points_m.push_back(point.snap.position_m);
+  for (const KeepOutZone& zone : ctx.zones) entry.zones.push_back(zone.prism);
+  entries.legs.push_back(std::move(entry));
+  return leg;
+}
+
 // At rest at `p`: where a leg ends at a stop and the next begins.
 RobotState AtRest(const Eigen::Vector3d& p) {
   RobotState state;
@@ -855,7 +923,7 @@ void AppendLeg(Leg leg, PlanResult* result) {
 // pieces are joined.
 Status PlanLegs(const LegContext& ctx, const PlanRequest& request,
                 std::span<const RoutePoint> route, const RobotState& head, const RobotState& tail,
-                PlanResult* result) {
+                LegCache* cache, PlanResult* result) {
   PlanStats& stats = result->stats;
   std::size_t leg_begin = 0;
   for (std::size_t i = 1; i < route.size(); ++i) {
@@ -864,7 +932,7 @@ Status PlanLegs(const LegContext& ctx, const PlanRequest& request,
     const RobotState leg_head = leg_begin == 0 ? head : AtRest(route[leg_begin].snap.position_m);
     const RobotState leg_tail = last ? tail : AtRest(route[i].snap.position_m);
     Expected<Leg> leg =
-        PlanLeg(ctx, route.subspan(leg_begin, i - leg_begin + 1), leg_head, leg_tail);
+        PlanLegThrough(cache, ctx, route.subspan(leg_begin, i - leg_begin + 1), leg_head, leg_tail);
     if (!leg) return std::move(leg).error();
     const double leg_start_s = result->trajectory.TotalDuration();
     for (const double t : leg->via_times_s) result->via_times_s.push_back(leg_start_s + t);
@@ -893,7 +961,7 @@ Status PlanLegs(const LegContext& ctx, const PlanRequest& request,
 }  // namespace
 
 Expected<PlanResult> Plan(const PlanningMap& map, const PlanRequest& request,
-                          const std::function<bool()>& should_stop) {
+                          const std::function<bool()>& should_stop, LegCache* legs) {
   const Clock::time_point start_time = Clock::now();
   const PlanOptions& options = request.options;
   const RobotProfile& profile = request.profile;
@@ -940,7 +1008,7 @@ Expected<PlanResult> Plan(const PlanningMap& map, const PlanRequest& request,
       return result;
     }
   }
-  if (Status planned = PlanLegs(context, request, *route, head, tail, &result); !planned) {
+  if (Status planned = PlanLegs(context, request, *route, head, tail, legs, &result); !planned) {
     return std::move(planned).error();
   }
   if (!request.via.empty()) stats.mean_curvature_per_m = MeanCurvature(result.trajectory);

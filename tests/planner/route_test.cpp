@@ -54,6 +54,45 @@ class TwoLevelRoute : public ::testing::Test {
 };
 PlanningMap* TwoLevelRoute::map_ = nullptr;
 
+TEST_F(TwoLevelRoute, ALegCacheGivesTheLegsAStopMovedLeftAloneAsTheyWouldBePlannedAgain) {
+  const double deck = layout_.deck_z_m + 0.3;
+  const auto request = [&](const Eigen::Vector3d& last_stop) {
+    return Request(layout_.start_example_m, {3, 10, deck},
+                   {{{8, 5.2, 0.3}, true}, {layout_.goal_example_m, true}, {last_stop, true}});
+  };
+  LegCache legs;
+  ASSERT_TRUE(Plan(*map_, request({12, 8, deck}), {}, &legs).ok());
+  EXPECT_EQ(legs.hits(), 0);
+  // The last stop moved: the first two legs are the same, the last two are new.
+  const PlanRequest moved = request({11, 7, deck});
+  const auto cached = Plan(*map_, moved, {}, &legs);
+  ASSERT_TRUE(cached.ok()) << cached.error().message;
+  EXPECT_EQ(legs.hits(), 2);
+  const auto fresh = Plan(*map_, moved);
+  ASSERT_TRUE(fresh.ok()) << fresh.error().message;
+  ASSERT_EQ(cached->trajectory.pieces.size(), fresh->trajectory.pieces.size());
+  for (std::size_t i = 0; i < fresh->trajectory.pieces.size(); ++i) {
+    EXPECT_EQ(cached->trajectory.pieces[i].duration_s, fresh->trajectory.pieces[i].duration_s);
+    EXPECT_EQ(cached->trajectory.pieces[i].coefficients, fresh->trajectory.pieces[i].coefficients);
+  }
+  EXPECT_EQ(cached->via_times_s, fresh->via_times_s);
+  EXPECT_EQ(cached->stats.length_m, fresh->stats.length_m);
+  // Another zone, even out of the way, is another problem: nothing is taken.
+  PlanRequest zoned = moved;
+  zoned.keep_out.push_back(Prism{{{-9, -9}, {-8, -9}, {-8, -8}}, -1, 1});
+  ASSERT_TRUE(Plan(*map_, zoned, {}, &legs).ok());
+  EXPECT_EQ(legs.hits(), 2);
+  // A flow-through via moved: its leg is planned again, the leg before it is taken.
+  const auto through = [&](const Eigen::Vector3d& via) {
+    return Request(layout_.start_example_m, {3, 10, deck}, {{{8, 5.2, 0.3}, true}, {via, false}});
+  };
+  ASSERT_TRUE(Plan(*map_, through(layout_.goal_example_m), {}, &legs).ok());
+  EXPECT_EQ(legs.hits(), 3);
+  const Eigen::Vector3d beside = layout_.goal_example_m + Eigen::Vector3d(0, 0.5, 0);
+  ASSERT_TRUE(Plan(*map_, through(beside), {}, &legs).ok());
+  EXPECT_EQ(legs.hits(), 4);
+}
+
 TEST_F(TwoLevelRoute, ThreeStopsOnTwoLevelsAreReachedAtRestAtTheTimesReported) {
   const double deck = layout_.deck_z_m + 0.3;
   const PlanRequest request = Request(layout_.start_example_m, {3, 10, deck},

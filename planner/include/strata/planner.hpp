@@ -264,7 +264,32 @@ Expected<SnapResult> SnapEndpoint(
 /// "via[i]" (unreachable from the point before it, or on that point's ground cell),
 /// kDeadlineExceeded, kCancelled, kSearchBudgetExhausted, kOptimizationFailed (naming the
 /// first violation).
+/// Legs of earlier plans, for a caller that plans one robot's route again with a few of its
+/// stops changed (PlanAmongTraffic, adding stops to wait at): a leg from the same state to the
+/// same state through the same points, among the same keep-out zones, is taken from here
+/// instead of being planned again, as it would come out the same. The caller keeps one cache
+/// per map version, profile and options; the zones are compared.
+class LegCache {
+ public:
+  LegCache();
+  ~LegCache();
+  LegCache(LegCache&&) noexcept;
+  LegCache& operator=(LegCache&&) noexcept;
+  LegCache(const LegCache&) = delete;
+  LegCache& operator=(const LegCache&) = delete;
+
+  int hits() const;  ///< Legs taken from the cache so far.
+
+  struct Entries;  ///< Defined where Plan is.
+  Entries& entries() { return *entries_; }
+
+ private:
+  std::unique_ptr<Entries> entries_;
+};
+
+/// Plan; with `legs` (may be null), legs are looked up there before they are planned, and
+/// kept there once planned. A leg taken from it reports no time in PlanStats::timings.
 Expected<PlanResult> Plan(const PlanningMap& map, const PlanRequest& request,
-                          const std::function<bool()>& should_stop = {});
+                          const std::function<bool()>& should_stop = {}, LegCache* legs = nullptr);
 
 }  // namespace strata

@@ -435,11 +435,14 @@ Expected<FleetPlanResult> PlanAmongTraffic(const PlanningMap& map, const FleetPl
   }
   int departures_checked = 0;
   bool space_time_tried = false;
+  // The rounds replan the same legs but for the one a stop splits (and all of them when a zone
+  // is added, which the cache compares).
+  LegCache legs;
   std::optional<TrafficConflict> first_at_departure;
   for (int round = 0; round < kMaxPlanRounds; ++round) {
     plan_request.via.clear();
     for (const RoutePoint& point : route) plan_request.via.push_back(point.via);
-    Expected<PlanResult> plan = Plan(map, plan_request, should_stop);
+    Expected<PlanResult> plan = Plan(map, plan_request, should_stop, &legs);
     if (!plan && (stops_added > 0 || space_time_tried) &&
         plan.error().code != ErrorCode::kCancelled &&
         plan.error().code != ErrorCode::kDeadlineExceeded) {
