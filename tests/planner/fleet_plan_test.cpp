@@ -266,16 +266,12 @@ TEST(FleetPlan, AGoalOrStartWhereAnotherRobotIsParkedIsRefusedNamingIt) {
   EXPECT_THAT(from_c.error().message, HasSubstr("robot 'C'"));
 }
 
-/// A floor 12 × 7 m with a block over x 3-9, y 1.2-5.8: a south lane and a north lane, each
-/// too narrow for two robots side by side, join the west and east ends.
+/// test_util::TwoLanes at 0.1 m.
 const PlanningMap& TwoLaneSite() {
   static const PlanningMap* map = [] {
-    test_util::CloudBuilder b(0.05);
-    b.Plate(0, 12, 0, 7, 0.0);
-    b.Block(3, 9, 1.2, 5.8, 0.05, 1.5);
     AssessmentConfig config;
     config.grid.resolution_m = 0.1;
-    return new PlanningMap(TerrainModel::Assess(b.cloud(), config).value());
+    return new PlanningMap(TerrainModel::Assess(test_util::TwoLanes(), config).value());
   }();
   return *map;
 }

@@ -25,17 +25,12 @@ constexpr std::int64_t kDeparture = 1'795'000'000'000'000'000;  // A time in 202
 constexpr double kZ = 0.3;                                      // Reference height on the floor.
 constexpr double kPassS = 18;  // How long the other robot takes through the south lane.
 
-/// A floor 12 × 7 m with a block over x 3-9, y 1.2-5.8: a south lane (y 0-1.2) and a north
-/// lane (y 5.8-7), too narrow for two robots side by side, join the west and east ends. Points
-/// 5 cm apart.
+/// test_util::TwoLanes (a south and a north lane round a block, over x 3-9) at 0.1 m.
 const PlanningMap& Site() {
   static const PlanningMap* map = [] {
-    test_util::CloudBuilder b(0.05);
-    b.Plate(0, 12, 0, 7, 0.0);
-    b.Block(3, 9, 1.2, 5.8, 0.05, 1.5);
     AssessmentConfig config;
     config.grid.resolution_m = 0.1;
-    return new PlanningMap(TerrainModel::Assess(b.cloud(), config).value());
+    return new PlanningMap(TerrainModel::Assess(test_util::TwoLanes(), config).value());
   }();
   return *map;
 }

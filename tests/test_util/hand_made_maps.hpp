@@ -79,6 +79,16 @@ inline PointCloud TableRoom() {
   return cloud;
 }
 
+/// A floor 12 × 7 m with a block over x 3-9, y 1.2-5.8: a south lane (y 0-1.2) and a north
+/// lane (y 5.8-7), too narrow for two robots side by side, join the west and east ends. Points
+/// 5 cm apart.
+inline PointCloud TwoLanes() {
+  CloudBuilder b(0.05);
+  b.Plate(0, 12, 0, 7, 0.0);
+  b.Block(3, 9, 1.2, 5.8, 0.05, 1.5);
+  return b.cloud();
+}
+
 /// Slope of the Yard's ramp [rad].
 inline const double kYardRampSlopeRad = 10.0 * std::numbers::pi / 180.0;
 

@@ -219,6 +219,7 @@ class SpaceTimeSearch {
   }
 
   void Expand(int index) {
+    // A copy: StatesOf appends to states_ as the neighbours are first reached.
     const State from = states_[static_cast<std::size_t>(index)];
     graph_.ForEachNeighbor(from.node, [&](int next) {
       if (blocked_ && next != goal_node_ && blocked_(next)) return;
