@@ -612,7 +612,7 @@ for (const radio of document.querySelectorAll('input[name=view]')) {
     $('orbit-labels').hidden = !orbit;
     $('top-canvas').hidden = orbit;
     $('overlay').style.visibility = orbit ? 'hidden' : 'visible';
-    if (orbit) orbitView.requestRender();
+    if (orbit) orbitView.show();
     else topView.requestRender();
   });
 }

@@ -305,6 +305,13 @@ export class OrbitView {
     this.requestRender();
   }
 
+  // Draws the view just unhidden. A fitted view is fitted to its size first: fit() did nothing
+  // while the canvas had none, and the first frame must not show the old camera.
+  show() {
+    if (this.fitted) this.fit();
+    else this.requestRender();
+  }
+
   // The camera's right, up and backward (target to eye) unit vectors, as lookAt builds them.
   cameraAxes() {
     const cp = Math.cos(this.pitch);
