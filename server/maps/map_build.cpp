@@ -4,9 +4,11 @@
 
 #include <chrono>
 #include <limits>
+#include <optional>
 #include <utility>
 
 #include "maps/map_store.hpp"
+#include "strata/io/model_tiles.hpp"
 #include "strata/io/saved_model.hpp"
 
 namespace strata::server {
@@ -89,9 +91,20 @@ Expected<BuiltMap> BuildEditHere(const EditSource& edit, const MapBuildJob& job,
   figures.full_reason = reassessed->full_reason;
   figures.reassessed_columns = reassessed->reassessed_columns;
   figures.changed_columns = reassessed->changed_columns;
+  figures.cloud_points = edited->size();
   built.model = std::move(reassessed->model);
   built.version = MapStore::VersionOf(*edited, built.model->config(), {});
-  if (job.keep_cloud) built.cloud = std::move(edited).value();
+  if (job.keep_cloud && edit.files.tiles) {
+    // Outside the columns reassessed the tiles are the base's, byte for byte.
+    std::optional<BaseTiles> kept;
+    if (!figures.full_reassessment) {
+      kept = BaseTiles{edit.files.tiles->list,
+                       TilesTouching(built.model->grid(), figures.changed_columns)};
+    }
+    built.cut = CutIntoTiles(*built.model, *edited, kept ? &*kept : nullptr);
+  } else if (job.keep_cloud) {
+    built.cloud = std::move(edited).value();
+  }
   built.edit = std::move(figures);
   return built;
 }

@@ -82,12 +82,19 @@ struct EditFigures {
   std::uint64_t scan_points_thinned = 0;         ///< Scans' points thinned away (ScanCounts).
   /// Outside these columns the model is the base's (Reassessment::changed_columns).
   CellBox changed_columns;
+  std::uint64_t cloud_points = 0;  ///< Points of the edited cloud, the version's source.
 };
 
 /// A map made, with the figures Map reports.
 struct BuiltMap {
   std::shared_ptr<const TerrainModel> model;
-  PointCloud cloud;  ///< The sanitised cloud when MapBuildJob::keep_cloud; empty otherwise.
+  /// The sanitised cloud when MapBuildJob::keep_cloud and there is no `cut`; empty otherwise.
+  PointCloud cloud;
+  /// For an edit of a tiled version with MapBuildJob::keep_cloud: the new terrain (model and
+  /// edited cloud) cut into tiles, only those the edit may have changed cut and held, the
+  /// others named as the base's (CutIntoTiles with BaseTiles). What the store writes; a map
+  /// worker hands back these tiles instead of the whole model and cloud.
+  std::optional<CutTerrain> cut;
   std::size_t raw_point_count = 0;    ///< Points the source held, finite or not.
   std::size_t dropped_nonfinite = 0;  ///< Points dropped for a NaN/Inf coordinate.
   double load_s = 0;                  ///< Reading the source [s].

@@ -15,7 +15,6 @@
 #include "common/log.hpp"
 #include "maps/map_store.hpp"
 #include "strata/common/seconds_since.hpp"
-#include "strata/io/model_tiles.hpp"
 
 namespace strata::server {
 namespace {
@@ -270,19 +269,12 @@ Result<MapUpdate> MapEditor::UpdateOnce(const MapEditRequest& request, const Cal
   BuiltMap built;
   std::string terrain;                               // What the new version is made of.
   std::shared_ptr<const PlanningMap> base_planning;  // For keep-out zones alone.
-  std::optional<BaseTiles> kept;                     // Of the base's terrain, for an edit.
   if (!request.edits.empty()) {
     if (ServiceStatus reserved = set_aside(); !reserved.ok()) return std::move(reserved).error();
-    std::optional<TerrainTiles> base_tiles;
-    Result<BuiltMap> edited = RunEditJob(request, current, call, &base_tiles);
+    Result<BuiltMap> edited = RunEditJob(request, current, call);
     if (!edited.ok()) return std::move(edited).error();
     built = std::move(edited).value();
     terrain = built.version;  // Named without zones (MapStore::VersionOf).
-    // A local edit leaves the base's tiles outside the columns it reassessed as they were.
-    if (base_tiles && built.edit && !built.edit->full_reassessment) {
-      kept = BaseTiles{std::move(*base_tiles),
-                       TilesTouching(built.model->grid(), built.edit->changed_columns)};
-    }
   } else {
     // Keep-out zones alone: the base's terrain (cloud and model) under a new version, and its
     // graphs, which zones are not part of.
@@ -321,9 +313,9 @@ Result<MapUpdate> MapEditor::UpdateOnce(const MapEditRequest& request, const Cal
   std::vector<Prism> keep_out = name_version(map.keep_out, versions.value());
   const TerrainModel& model = *built.model;
   map.summary = model.summary();
-  if (!request.edits.empty()) {
+  if (built.edit) {
     // The version's source is the edited cloud: raw = dropped + input holds for every version.
-    map.raw_point_count = built.cloud.size() + map.dropped_nonfinite_point_count;
+    map.raw_point_count = built.edit->cloud_points + map.dropped_nonfinite_point_count;
   }
   map.grid = model.grid();
   map.max_levels = MaxLevels(model);
@@ -351,13 +343,14 @@ Result<MapUpdate> MapEditor::UpdateOnce(const MapEditRequest& request, const Cal
     if (std::optional<ServiceError> ended_now = CallEnded(call, id, current)) return *ended_now;
   }
   const auto write_start = SteadyClock::now();
-  // The cloud goes to the store only with a terrain it does not hold yet.
-  const bool terrain_stored = base_planning != nullptr && built.cloud.empty();
+  // The terrain goes to the store only when it does not hold it yet: an edit's tiles (cut by
+  // the job against a tiled base; here, from a base of whole files), or the cloud a version
+  // of layout 1 passes on.
+  std::optional<CutTerrain> tiles = std::move(built.cut);
+  if (!tiles && !built.cloud.empty()) tiles = CutIntoTiles(model, built.cloud);
+  const CutTerrain* new_terrain = tiles ? &*tiles : nullptr;
   TileWrites writes;
-  const BaseTiles* base_tiles = kept ? &*kept : nullptr;
-  ServiceStatus put =
-      published.PublishEdit(current, map, terrain, planning,
-                            terrain_stored ? nullptr : &built.cloud, base_tiles, &writes);
+  ServiceStatus put = published.PublishEdit(current, map, terrain, planning, new_terrain, &writes);
   // Lost to a version of keep-out zones alone (its terrain the base's): the terrain made here
   // holds on it too, so it is published again with that version's zones instead of made again
   // (which cost a whole job, seconds on a site, for the same terrain).
@@ -382,7 +375,7 @@ Result<MapUpdate> MapEditor::UpdateOnce(const MapEditRequest& request, const Cal
         .Add("attempt", attempt + 1);
     current = now.value().version;
     planning = planning->WithKeepOut(name_version(now.value().keep_out, now.value().versions));
-    put = published.PublishEdit(current, map, terrain, planning, &built.cloud, base_tiles, &writes);
+    put = published.PublishEdit(current, map, terrain, planning, new_terrain, &writes);
   }
   if (!put.ok()) return std::move(put).error();
   MapUpdate update;
@@ -398,11 +391,9 @@ Result<MapUpdate> MapEditor::UpdateOnce(const MapEditRequest& request, const Cal
 }
 
 Result<BuiltMap> MapEditor::RunEditJob(const MapEditRequest& request, const std::string& current,
-                                       const CallControl& call,
-                                       std::optional<TerrainTiles>* base_tiles) {
+                                       const CallControl& call) {
   Result<VersionFiles> files = options_.published->OpenFiles(request.id, current);
   if (!files.ok()) return std::move(files).error();
-  if (files.value().tiles) *base_tiles = files.value().tiles->list;
   MapBuildJob job;
   job.source = EditSource{std::move(files).value(), request.edits};
   job.keep_cloud = true;

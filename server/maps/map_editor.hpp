@@ -112,9 +112,8 @@ class MapEditor {
   Result<MapUpdate> UpdateRetrying(const MapEditRequest& request, const CallControl& call);
   Result<MapUpdate> UpdateOnce(const MapEditRequest& request, const CallControl& call);
   // Runs the edit job for `current` of `id` on the queue and waits for it within `call`.
-  // `base_tiles` gets the list of tiles `current`'s terrain is made of, when it has one.
   Result<BuiltMap> RunEditJob(const MapEditRequest& request, const std::string& current,
-                              const CallControl& call, std::optional<TerrainTiles>* base_tiles);
+                              const CallControl& call);
 
   MapEditorOptions options_;
   mutable std::mutex batches_mutex_;

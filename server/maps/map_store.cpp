@@ -558,8 +558,7 @@ ServiceStatus PutDirectory(const fs::path& tmp_dir, std::string_view kind, const
 }  // namespace
 
 ServiceStatus MapStore::PutTerrain(const std::string& id, const std::string& terrain,
-                                   const PointCloud& cloud, const TerrainModel& model,
-                                   TileWrites* writes, const BaseTiles* base) {
+                                   const CutTerrain& cut, TileWrites* writes) {
   if (ServiceStatus ok = CheckId(id); !ok) return ok;
   if (ServiceStatus ok = CheckTerrain(terrain); !ok) return ok;
   TileWrites ignored_writes;
@@ -572,7 +571,6 @@ ServiceStatus MapStore::PutTerrain(const std::string& id, const std::string& ter
     fs::last_write_time(target, fs::file_time_type::clock::now(), ec);
     return OkStatus();
   }
-  const CutTerrain cut = CutIntoTiles(model, cloud, base);
   const fs::path tiles_dir = MapDir(id) / kTilesName;
   // An edit writes a few tiles: an fsync each. A new map writes thousands: one flush of the
   // whole file system for all of them (which also waits for whatever else is being written
@@ -595,8 +593,8 @@ ServiceStatus MapStore::PutTerrain(const std::string& id, const std::string& ter
     }
   }
   // Under the map's lock, which collecting tiles takes: a tile collected since it was found
-  // there (or, kept from the base, since the base was read) is written again before the
-  // terrain listing it is renamed into place.
+  // there is written again before the terrain listing it is renamed into place; one kept from
+  // the base and collected since the base was read cannot be, and fails the edit.
   Result<MapLock> lock = MapLock::Acquire(MapDir(id), id, /*create=*/true);
   if (!lock) return std::move(lock).error();
   for (const std::string& name : cut.list.Names()) {  // Repeats cost a stat each.
@@ -604,20 +602,22 @@ ServiceStatus MapStore::PutTerrain(const std::string& id, const std::string& ter
     if (fs::exists(path, ec)) continue;
     const auto was_cut = std::find_if(cut.tiles.begin(), cut.tiles.end(),
                                       [&](const auto& tile) { return tile.first == name; });
-    std::optional<std::string> bytes;
-    if (was_cut != cut.tiles.end()) {
-      bytes = was_cut->second;
-    } else {
-      bytes = CutTileNamed(model, cloud, cut.list, name);
+    if (was_cut == cut.tiles.end()) {
+      return MakeError(ServiceErrorCode::kMapChanged,
+                       "map '" + id + "' changed while the edit was made: tile " + name +
+                           " of the version it edited was collected (that version was pruned); "
+                           "make the edit again on the current version")
+          .With("map_id", id)
+          .With("missing_tile", name);
     }
-    if (!bytes) continue;  // Unreachable: every name listed was cut from these.
+    const std::string& bytes = was_cut->second;
     fs::create_directories(tiles_dir, ec);
     const fs::path temporary = root_ / "tmp" / UniqueName("tile");
-    ServiceStatus written = WriteNewFile(temporary, *bytes);
+    ServiceStatus written = WriteNewFile(temporary, bytes);
     if (written) written = RenameDurably(temporary, path);
     if (!written) return written;
     ++writes->written;
-    writes->bytes_written += bytes->size();
+    writes->bytes_written += bytes.size();
   }
   const std::vector<std::string> names = cut.list.Names();
   writes->shared =

@@ -154,19 +154,20 @@ class MapStore {
   /// The store's directory (absolute, symbolic links resolved).
   const std::filesystem::path& root() const { return root_; }
 
-  /// Writes terrain `terrain` of map `id`: `cloud` (empty for a map made from a saved model:
-  /// LoadCloud then fails with kEditNeedsCloud) and `model`, cut into tiles, of which those
-  /// the map does not hold yet are written and made durable; then the terrain's list of them
-  /// goes to a fresh temporary directory, made durable and renamed into place. When the
-  /// terrain is there already (another writer put it, or an earlier version is made of it),
-  /// that is success and nothing is written. `writes` (may be null) gets what it cost. With
-  /// `base` (may be null: an edit's base terrain, BaseTiles) only the tiles it says changed
-  /// are cut; the others are the base's.
+  /// Writes terrain `terrain` of map `id` from `cut` (CutIntoTiles of its model and cloud; a
+  /// cloud left empty, for a map made from a saved model, makes LoadCloud fail with
+  /// kEditNeedsCloud): the tiles it holds that the map does not hold yet are written and made
+  /// durable; then the terrain's list of them goes to a fresh temporary directory, made durable
+  /// and renamed into place. When the terrain is there already (another writer put it, or an
+  /// earlier version is made of it), that is success and nothing is written. `writes` (may be
+  /// null) gets what it cost.
+  /// The tiles `cut` names without holding them are an edit's base's (BaseTiles): when one is
+  /// gone (collected since the edit read its base, which was pruned meanwhile), kMapChanged
+  /// naming it, and the terrain is not put: the edit is made again on the current version.
   /// kInvalidInput for a bad id or name, kMapStoreUnavailable when the store cannot be
   /// written (naming the path and the reason).
-  ServiceStatus PutTerrain(const std::string& id, const std::string& terrain,
-                           const PointCloud& cloud, const TerrainModel& model,
-                           TileWrites* writes = nullptr, const BaseTiles* base = nullptr);
+  ServiceStatus PutTerrain(const std::string& id, const std::string& terrain, const CutTerrain& cut,
+                           TileWrites* writes = nullptr);
 
   /// Keeps `graph`, built on terrain `terrain` of map `id`, for every replica that plans on it
   /// (maps/<id>/graphs/<terrain>/<SavedGraphKey>.stratagraph): written to a temporary, made

@@ -360,11 +360,23 @@ ServiceError FailureOf(const Outcome& outcome, const MapBuildJob& job,
 Result<BuiltMap> ReadResult(const Outcome& outcome, const MapBuildJob& job,
                             const fs::path& directory) {
   BuiltMap built;
-  Expected<std::shared_ptr<const TerrainModel>> model =
-      LoadModel((directory / kWorkerModelFile).string());
-  if (!model) return ServiceError::FromPlanner(model.error());
-  built.model = std::move(model).value();
-  if (job.keep_cloud) {
+  const auto* edit = std::get_if<EditSource>(&job.source);
+  if (edit != nullptr && edit->files.tiles && job.keep_cloud) {
+    // The tiles the edit changed; the model joined from them and the base's in the store.
+    Expected<CutTerrain> cut = ReadCutTerrain(directory / kWorkerCutDir);
+    if (!cut) return ServiceError::FromPlanner(cut.error());
+    Result<std::shared_ptr<const TerrainModel>> model = LoadTiledModel(
+        OpenedTiles{edit->files.tiles->dir, cut->list}, "of the edited version", cut->tiles);
+    if (!model.ok()) return std::move(model).error();
+    built.model = std::move(model).value();
+    built.cut = std::move(cut).value();
+  } else {
+    Expected<std::shared_ptr<const TerrainModel>> model =
+        LoadModel((directory / kWorkerModelFile).string());
+    if (!model) return ServiceError::FromPlanner(model.error());
+    built.model = std::move(model).value();
+  }
+  if (job.keep_cloud && !built.cut) {
     Expected<LoadedCloud> cloud =
         LoadPointCloud((directory / kWorkerCloudFile).string(), job.limits);
     if (!cloud) return ServiceError::FromPlanner(cloud.error());

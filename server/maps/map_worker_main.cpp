@@ -188,18 +188,29 @@ int Run(const WorkerJob& job) {
     SendFailure(built.error());
     return strata::server::kWorkerExitFailed;
   }
-  if (strata::Status saved = strata::SaveModel(
-          *built->model, (job.out_dir / strata::server::kWorkerModelFile).string());
-      !saved) {
-    SendFailure(saved.error());
-    return strata::server::kWorkerExitFailed;
-  }
-  if (job.keep_cloud) {
-    if (strata::Status saved = strata::SavePcd(
-            built->cloud, (job.out_dir / strata::server::kWorkerCloudFile).string());
+  // An edit of a tiled version hands back the tiles it changed; anything else, its whole
+  // model (and cloud).
+  if (built->cut) {
+    if (strata::Status written = strata::server::WriteCutTerrain(
+            *built->cut, job.out_dir / strata::server::kWorkerCutDir);
+        !written) {
+      SendFailure(written.error());
+      return strata::server::kWorkerExitFailed;
+    }
+  } else {
+    if (strata::Status saved = strata::SaveModel(
+            *built->model, (job.out_dir / strata::server::kWorkerModelFile).string());
         !saved) {
       SendFailure(saved.error());
       return strata::server::kWorkerExitFailed;
+    }
+    if (job.keep_cloud) {
+      if (strata::Status saved = strata::SavePcd(
+              built->cloud, (job.out_dir / strata::server::kWorkerCloudFile).string());
+          !saved) {
+        SendFailure(saved.error());
+        return strata::server::kWorkerExitFailed;
+      }
     }
   }
   WorkerReport done;

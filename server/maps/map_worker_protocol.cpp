@@ -5,6 +5,7 @@
 #include <concepts>
 #include <map>
 #include <memory>
+#include <set>
 #include <type_traits>
 #include <utility>
 
@@ -14,6 +15,7 @@
 #include <CLI/CLI.hpp>
 
 #include "common/packed_points.hpp"
+#include "maps/store_files.hpp"
 
 namespace strata::server {
 namespace {
@@ -262,7 +264,8 @@ std::string FormatWorkerReport(const WorkerReport& report) {
              NumberText(edit.changed_columns.min.x()) + " " +
              NumberText(edit.changed_columns.min.y()) + " " +
              NumberText(edit.changed_columns.max.x()) + " " +
-             NumberText(edit.changed_columns.max.y()) + " " + reason + "\n";
+             NumberText(edit.changed_columns.max.y()) + " " + NumberText(edit.cloud_points) + " " +
+             reason + "\n";
     }
   }
   return "\n";
@@ -282,7 +285,7 @@ std::optional<WorkerReport> ParseWorkerReport(std::string_view line) {
   };
   WorkerReport report;
   if (line.starts_with("done ")) {
-    const auto [done, reason] = split(13);
+    const auto [done, reason] = split(14);
     if (done.size() == 2 && !done[1].empty() && reason.empty()) {
       report.version = std::string(done[1]);
       return report;
@@ -291,14 +294,14 @@ std::optional<WorkerReport> ParseWorkerReport(std::string_view line) {
     Eigen::Vector3i& min = edit.changed_columns.min;
     Eigen::Vector3i& max = edit.changed_columns.max;
     max.z() = 0;
-    if (done.size() == 13 && !done[1].empty() && done[2] == "edit" &&
+    if (done.size() == 14 && !done[1].empty() && done[2] == "edit" &&
         ParseNumber(done[3], &edit.apply_s) && ParseNumber(done[4], &edit.reassess_s) &&
         ParseNumber(done[5], &edit.reassessed_columns) &&
         ParseNumber(done[6], &edit.scan_points_outside_region) &&
         ParseNumber(done[7], &edit.scan_points_thinned) &&
         ParseNumber(done[8], &edit.full_reassessment) && ParseNumber(done[9], &min.x()) &&
         ParseNumber(done[10], &min.y()) && ParseNumber(done[11], &max.x()) &&
-        ParseNumber(done[12], &max.y())) {
+        ParseNumber(done[12], &max.y()) && ParseNumber(done[13], &edit.cloud_points)) {
       edit.full_reason = std::string(reason);
       report.version = std::string(done[1]);
       report.edit = std::move(edit);
@@ -332,6 +335,49 @@ std::optional<WorkerReport> ParseWorkerReport(std::string_view line) {
     }
   }
   return std::nullopt;
+}
+
+Status WriteCutTerrain(const CutTerrain& cut, const std::filesystem::path& dir) {
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec)
+    return Error{ErrorCode::kMapLoadFailed, "cannot create " + dir.string() + ": " + ec.message()};
+  const auto write = [&](const std::string& name, std::string_view bytes) -> Status {
+    if (ServiceStatus written = store_files::WriteNewFile(dir / name, bytes, /*durable=*/false);
+        !written) {
+      return Error{ErrorCode::kMapLoadFailed, written.error().message};
+    }
+    return Status::Ok();
+  };
+  if (Status written = write(kWorkerTilesFile, cut.list.Format()); !written) return written;
+  for (const auto& [name, bytes] : cut.tiles) {
+    if (Status written = write(name, bytes); !written) return written;
+  }
+  return Status::Ok();
+}
+
+Expected<CutTerrain> ReadCutTerrain(const std::filesystem::path& dir) {
+  const auto failed = [](const std::string& why) {
+    return Error{ErrorCode::kMapLoadFailed, "the map worker's tiles: " + why};
+  };
+  Result<std::optional<std::string>> list_text =
+      store_files::ReadFileIfExists(dir / kWorkerTilesFile);
+  if (!list_text) return failed(list_text.error().message);
+  if (!list_text->has_value()) return failed("no list of tiles in " + dir.string());
+  Result<TerrainTiles> list = TerrainTiles::Parse(**list_text, dir / kWorkerTilesFile);
+  if (!list) return failed(list.error().message);
+  CutTerrain cut;
+  cut.list = std::move(list).value();
+  std::set<std::string> read;
+  for (const std::string& name : cut.list.Names()) {
+    if (!read.insert(name).second) continue;
+    Result<std::optional<std::string>> bytes = store_files::ReadFileIfExists(dir / name);
+    if (!bytes) return failed(bytes.error().message);
+    if (!bytes->has_value()) continue;  // The base's.
+    if (TileName(**bytes) != name) return failed("tile " + name + " does not hold its bytes");
+    cut.tiles.emplace_back(name, std::move(**bytes));
+  }
+  return cut;
 }
 
 }  // namespace strata::server

@@ -77,6 +77,10 @@ Expected<std::vector<MapEdit>> ParseEdits(std::string_view contents);
 /// Files in the job's out_dir.
 inline constexpr const char* kWorkerModelFile = "model.smd";  ///< The saved model made.
 inline constexpr const char* kWorkerCloudFile = "cloud.pcd";  ///< With keep_cloud.
+/// A tiled kEdit job's result instead of those two (BuiltMap::cut): a directory holding the
+/// new terrain's list of tiles (kWorkerTilesFile) and the tiles the edit cut, each in a file
+/// named by its name. The server joins the model from these and its store's tiles.
+inline constexpr const char* kWorkerCutDir = "cut";
 /// Uploaded points, written by the server for a kPoints job (a binary PCD).
 inline constexpr const char* kWorkerUploadFile = "upload.pcd";
 /// The edits of a kEdit job (FormatEdits), written by the server: text lines, with a scan's
@@ -84,6 +88,12 @@ inline constexpr const char* kWorkerUploadFile = "upload.pcd";
 inline constexpr const char* kWorkerEditsFile = "edits";
 /// The list of a tiled kEdit job's tiles (TerrainTiles::Format), written by the server.
 inline constexpr const char* kWorkerTilesFile = "tiles";
+
+/// Writes `cut` into the directory `dir` (created) as kWorkerCutDir holds it.
+Status WriteCutTerrain(const CutTerrain& cut, const std::filesystem::path& dir);
+/// The cut the directory `dir` holds (WriteCutTerrain): its list, and every tile it holds of
+/// those listed, each checked against its name. kMapLoadFailed naming what is missing or wrong.
+Expected<CutTerrain> ReadCutTerrain(const std::filesystem::path& dir);
 
 /// The worker's exit codes. Any other end (a signal) is a crash or a limit.
 enum WorkerExit : int {

@@ -76,8 +76,7 @@ ServiceStatus MemoryMaps::PublishNew(const MapSnapshot& map,
 ServiceStatus MemoryMaps::PublishEdit(const std::string& /*base_version*/, const MapSnapshot& map,
                                       const std::string& /*terrain*/,
                                       std::shared_ptr<const PlanningMap> /*planning*/,
-                                      const PointCloud* /*cloud*/, const BaseTiles* /*base*/,
-                                      TileWrites* /*writes*/) {
+                                      const CutTerrain* /*tiles*/, TileWrites* /*writes*/) {
   return MapStoreRequired(map.id);
 }
 

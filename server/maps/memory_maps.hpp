@@ -21,8 +21,7 @@ class MemoryMaps final : public PublishedMaps {
                            const PointCloud& cloud) override;
   ServiceStatus PublishEdit(const std::string& base_version, const MapSnapshot& map,
                             const std::string& terrain, std::shared_ptr<const PlanningMap> planning,
-                            const PointCloud* cloud, const BaseTiles* base,
-                            TileWrites* writes) override;
+                            const CutTerrain* tiles, TileWrites* writes) override;
   Result<std::string> TerrainOf(const std::string& id, const std::string& version) const override;
   ServiceStatus Delete(const std::string& id) override;
   bool KeepsClouds() const override { return false; }

@@ -58,16 +58,15 @@ class PublishedMaps {
   /// is still `base_version` (compare-and-swap), keeping the newest versions; kMapChanged
   /// naming the current version otherwise (nothing of this edit is left behind), or
   /// kMapStoreRequired where versions keep no clouds. `terrain` names what the version is
-  /// made of (MapStore::TerrainOf: the cloud and the model `planning` holds); `cloud` is that
-  /// cloud, or null when the terrain is the base version's (an edit of keep-out zones alone):
-  /// then only the version's description is written. `base` (may be null) names the tiles
-  /// the terrain keeps of the base version's (MapStore::PutTerrain). `writes` (may be null)
-  /// gets what writing the terrain cost.
+  /// made of (MapStore::TerrainOf: the cloud and the model `planning` holds); `tiles` is that
+  /// terrain cut into tiles (MapStore::PutTerrain: an edit's names the base's tiles it kept), or
+  /// null when the terrain is the base version's (an edit of keep-out zones alone): then only
+  /// the version's description is written. `writes` (may be null) gets what writing the
+  /// terrain cost.
   virtual ServiceStatus PublishEdit(const std::string& base_version, const MapSnapshot& map,
                                     const std::string& terrain,
                                     std::shared_ptr<const PlanningMap> planning,
-                                    const PointCloud* cloud, const BaseTiles* base,
-                                    TileWrites* writes) = 0;
+                                    const CutTerrain* tiles, TileWrites* writes) = 0;
 
   /// The terrain `version` of `id` is made of (MapStore::TerrainOf), or empty when that is
   /// not known (a version a store of layout 1 wrote): an edit of its keep-out zones then

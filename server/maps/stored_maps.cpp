@@ -100,14 +100,12 @@ std::vector<MapSnapshot> StoredMaps::List(const std::string& after_id, int max) 
 
 ServiceStatus StoredMaps::Put(const MapSnapshot& map, const std::string& terrain,
                               const std::shared_ptr<const PlanningMap>& planning,
-                              const PointCloud* cloud, const BaseTiles* base, TileWrites* writes,
+                              const CutTerrain* tiles, TileWrites* writes,
                               const std::function<ServiceStatus()>& publish) {
   LogInfo("map_version_writing").Add("map", map.id).Add("version", map.version);
   MapStore& store = *options_.store;
-  if (cloud != nullptr) {
-    if (ServiceStatus put =
-            store.PutTerrain(map.id, terrain, *cloud, planning->model(), writes, base);
-        !put.ok()) {
+  if (tiles != nullptr) {
+    if (ServiceStatus put = store.PutTerrain(map.id, terrain, *tiles, writes); !put.ok()) {
       return put;
     }
   }
@@ -125,16 +123,16 @@ ServiceStatus StoredMaps::PublishNew(const MapSnapshot& map,
                                      std::shared_ptr<const PlanningMap> planning,
                                      const PointCloud& cloud) {
   // A new map has no keep-out zones: its version names its terrain (MapStore::VersionOf).
-  return Put(map, map.version, planning, &cloud, nullptr, nullptr,
+  const CutTerrain tiles = CutIntoTiles(planning->model(), cloud);
+  return Put(map, map.version, planning, &tiles, nullptr,
              [&] { return options_.store->PublishNew(map.id, map.version); });
 }
 
 ServiceStatus StoredMaps::PublishEdit(const std::string& base_version, const MapSnapshot& map,
                                       const std::string& terrain,
                                       std::shared_ptr<const PlanningMap> planning,
-                                      const PointCloud* cloud, const BaseTiles* base,
-                                      TileWrites* writes) {
-  return Put(map, terrain, planning, cloud, base, writes, [&] {
+                                      const CutTerrain* tiles, TileWrites* writes) {
+  return Put(map, terrain, planning, tiles, writes, [&] {
     return options_.store->PublishUpdate(map.id, base_version, map.version, options_.versions_kept);
   });
 }

@@ -41,8 +41,7 @@ class StoredMaps final : public PublishedMaps {
                            const PointCloud& cloud) override;
   ServiceStatus PublishEdit(const std::string& base_version, const MapSnapshot& map,
                             const std::string& terrain, std::shared_ptr<const PlanningMap> planning,
-                            const PointCloud* cloud, const BaseTiles* base,
-                            TileWrites* writes) override;
+                            const CutTerrain* tiles, TileWrites* writes) override;
   Result<std::string> TerrainOf(const std::string& id, const std::string& version) const override;
   ServiceStatus Delete(const std::string& id) override;
   bool KeepsClouds() const override { return true; }
@@ -63,13 +62,11 @@ class StoredMaps final : public PublishedMaps {
   // The snapshot `metadata` of `id` describes, at `versions.front()`.
   Result<MapSnapshot> SnapshotOf(const std::string& id,
                                  const std::vector<std::string>& versions) const;
-  // Writes the version of `map`, made of `terrain` (and that too unless `cloud` is null: the
-  // store holds it; `base` as PutTerrain's), and caches `planning` once `publish` made it
-  // visible.
+  // Writes the version of `map`, made of `terrain` (and that too from `tiles` unless they are
+  // null: the store holds it), and caches `planning` once `publish` made it visible.
   ServiceStatus Put(const MapSnapshot& map, const std::string& terrain,
-                    const std::shared_ptr<const PlanningMap>& planning, const PointCloud* cloud,
-                    const BaseTiles* base, TileWrites* writes,
-                    const std::function<ServiceStatus()>& publish);
+                    const std::shared_ptr<const PlanningMap>& planning, const CutTerrain* tiles,
+                    TileWrites* writes, const std::function<ServiceStatus()>& publish);
 
   StoredMapsOptions options_;
   // The versions loaded here (mutable: loading on demand is not a change).

@@ -1,9 +1,9 @@
 #include "maps/stored_tiles.hpp"
 
-#include <array>
 #include <cstdio>
 #include <numeric>
 #include <sstream>
+#include <unordered_map>
 #include <unordered_set>
 
 #include <xxhash.h>
@@ -123,22 +123,6 @@ CutTerrain CutIntoTiles(const TerrainModel& model, const PointCloud& cloud, cons
   return cut;
 }
 
-std::optional<std::string> CutTileNamed(const TerrainModel& model, const PointCloud& cloud,
-                                        const TerrainTiles& list, std::string_view name) {
-  if (name == list.header) return CutModelTiles(model, {}).header;
-  for (std::size_t t = 0; t < list.model.size(); ++t) {
-    if (list.model[t] != name) continue;
-    const std::array<std::size_t, 1> tile = {t};
-    return std::move(CutModelTiles(model, tile).tiles.front());
-  }
-  for (std::size_t t = 0; t < list.cloud.size(); ++t) {
-    if (list.cloud[t] != name) continue;
-    const std::array<std::size_t, 1> tile = {t};
-    return std::move(CutCloudTiles(cloud, model.grid(), tile).front());
-  }
-  return std::nullopt;
-}
-
 ServiceStatus WriteMissingTiles(const fs::path& tiles_dir, const fs::path& tmp_dir,
                                 const std::vector<std::pair<std::string, std::string>>& tiles,
                                 bool durable, TileWrites* writes) {
@@ -206,32 +190,43 @@ ServiceError Corrupted(const Error& error) {
 
 }  // namespace
 
-Result<std::shared_ptr<const TerrainModel>> LoadTiledModel(const OpenedTiles& tiles,
-                                                           const std::string& name) {
-  const std::vector<std::string> header_name = {tiles.list.header};
-  Result<std::vector<std::string>> header = ReadTiles(*tiles.dir, header_name);
-  if (!header) return std::move(header).error();
+Result<std::shared_ptr<const TerrainModel>> LoadTiledModel(
+    const OpenedTiles& tiles, const std::string& name,
+    std::span<const std::pair<std::string, std::string>> given) {
+  std::unordered_map<std::string_view, const std::string*> given_by_name;
+  for (const auto& [tile, bytes] : given) given_by_name.emplace(tile, &bytes);
+  const auto given_bytes = [&](const std::string& tile) -> const std::string* {
+    const auto it = given_by_name.find(tile);
+    return it == given_by_name.end() ? nullptr : it->second;
+  };
   // Read as the join asks for them, a row of blocks at a time; the store's own error is kept
   // aside, since the join passes on a planner's.
   std::optional<ServiceError> read_error;
-  const TileSource source = [&](std::size_t t) -> Expected<std::string> {
-    const std::span<const std::string> one(&tiles.list.model[t], 1);
-    Result<std::vector<std::string>> bytes = ReadTiles(*tiles.dir, one);
+  const auto read = [&](const std::string& tile) -> Expected<std::string> {
+    if (const std::string* bytes = given_bytes(tile)) return *bytes;
+    Result<std::vector<std::string>> bytes = ReadTiles(*tiles.dir, std::span(&tile, 1));
     if (!bytes) {
       read_error = bytes.error();
       return Error{ErrorCode::kMapLoadFailed, bytes.error().message};
     }
     return std::move(bytes->front());
   };
+  Expected<std::string> header = read(tiles.list.header);
+  if (!header) return *read_error;
+  const TileSource source = [&](std::size_t t) { return read(tiles.list.model[t]); };
   // Their sizes first, which bound what the join allocates.
   std::uint64_t tile_bytes = 0;
   for (const std::string& tile : tiles.list.model) {
+    if (const std::string* bytes = given_bytes(tile)) {
+      tile_bytes += bytes->size();
+      continue;
+    }
     std::error_code ec;
     const std::uintmax_t size = fs::file_size(fs::path(tiles.dir->ProcPath()) / tile, ec);
     if (!ec) tile_bytes += size;  // A tile not there fails when it is read.
   }
   Expected<std::shared_ptr<const TerrainModel>> model =
-      JoinModel(header->front(), tiles.list.model.size(), tile_bytes, source, name);
+      JoinModel(*header, tiles.list.model.size(), tile_bytes, source, name);
   if (read_error) return *read_error;
   if (!model) return Corrupted(model.error());
   return std::move(model).value();

@@ -71,11 +71,6 @@ struct CutTerrain {
 CutTerrain CutIntoTiles(const TerrainModel& model, const PointCloud& cloud,
                         const BaseTiles* base = nullptr);
 
-/// The bytes of `list`'s tile `name` cut from `model` and `cloud` again (the header, a model
-/// tile or a cloud tile); empty when `list` does not name it.
-std::optional<std::string> CutTileNamed(const TerrainModel& model, const PointCloud& cloud,
-                                        const TerrainTiles& list, std::string_view name);
-
 /// What writing a terrain's tiles cost (MapStore::PutTerrain).
 struct TileWrites {
   int written = 0;                  ///< Tiles the store did not hold.
@@ -108,9 +103,12 @@ struct OpenedTiles {
 };
 
 /// The model of `tiles`, read through its directory and joined; `name` is what messages call
-/// it. Fails as ReadTiles does, and kMapCorrupted as JoinModel refuses.
-Result<std::shared_ptr<const TerrainModel>> LoadTiledModel(const OpenedTiles& tiles,
-                                                           const std::string& name);
+/// it. The tiles of `given` (a map worker's cut: the tiles an edit changed, with their names)
+/// are taken from there, the others read from the directory. Fails as ReadTiles does, and
+/// kMapCorrupted as JoinModel refuses.
+Result<std::shared_ptr<const TerrainModel>> LoadTiledModel(
+    const OpenedTiles& tiles, const std::string& name,
+    std::span<const std::pair<std::string, std::string>> given = {});
 /// The cloud of `tiles`, in the order of its tiles (kEditNeedsCloud when it keeps none); fails
 /// as LoadTiledModel does.
 Result<PointCloud> LoadTiledCloud(const OpenedTiles& tiles, const std::string& name);

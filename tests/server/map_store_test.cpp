@@ -118,7 +118,7 @@ class MapStoreTest : public ::testing::Test {
   // Puts the terrain of `points` (with the shared model) and its version without zones.
   static ServiceStatus PutBoth(MapStore& store, const std::string& id, const std::string& version,
                                const PointCloud& points, const std::string& metadata) {
-    ServiceStatus put = store.PutTerrain(id, version, points, model());
+    ServiceStatus put = store.PutTerrain(id, version, CutIntoTiles(model(), points));
     if (put.ok()) put = store.PutVersion(id, version, version, metadata);
     return put;
   }
@@ -792,8 +792,8 @@ TEST_F(MapStoreTest, AnEditedTerrainWritesOnlyTheTilesItChanged) {
   ASSERT_TRUE(model.ok()) << model.error().message;
   const std::string first = MapStore::VersionOf(cloud, config, {});
   TileWrites writes;
-  ASSERT_TRUE(store_->PutTerrain("garage", first, cloud, **model, &writes).ok());
   const CutTerrain base = CutIntoTiles(**model, cloud);
+  ASSERT_TRUE(store_->PutTerrain("garage", first, base, &writes).ok());
   EXPECT_EQ(writes.written, static_cast<int>(base.tiles.size()));
   EXPECT_EQ(writes.shared, 0);
   ASSERT_TRUE(store_->PutVersion("garage", first, first, "{}").ok());
@@ -809,19 +809,28 @@ TEST_F(MapStoreTest, AnEditedTerrainWritesOnlyTheTilesItChanged) {
   const std::string next = MapStore::VersionOf(*edited, config, {});
   // As an edit writes it: only the tiles of the reassessed columns cut, the others named as
   // the base's. A model tile and a cloud tile kept so are gone meanwhile (as if collected):
-  // they are cut and written again.
+  // the edit is refused as one the map changed under, naming the tile, and nothing of its
+  // terrain is listed; with them back it is put.
   const BaseTiles kept{base.list, TilesTouching(model->get()->grid(), reassessed->changed_columns)};
   ASSERT_LT(kept.changed.size(), base.list.model.size() / 2);
-  std::vector<std::string> removed;
+  const CutTerrain partial = CutIntoTiles(*reassessed->model, *edited, &kept);
+  const fs::path tiles_dir = root_ / "maps" / "garage" / "tiles";
   for (const std::vector<std::string>* section : {&base.list.model, &base.list.cloud}) {
-    for (std::size_t t = 0; t < section->size(); ++t) {
-      if (std::binary_search(kept.changed.begin(), kept.changed.end(), t)) continue;
-      removed.push_back((*section)[t]);
-      ASSERT_TRUE(fs::remove(root_ / "maps" / "garage" / "tiles" / removed.back()));
-      break;
+    std::string removed;
+    for (std::size_t t = 0; t < section->size() && removed.empty(); ++t) {
+      if (!std::binary_search(kept.changed.begin(), kept.changed.end(), t)) removed = (*section)[t];
     }
+    ASSERT_FALSE(removed.empty());
+    const fs::path moved = root_ / "aside";
+    fs::rename(tiles_dir / removed, moved);
+    const ServiceStatus refused = store_->PutTerrain("garage", next, partial, &writes);
+    ASSERT_TRUE(Fails(refused, ServiceErrorCode::kMapChanged)) << Why(refused);
+    EXPECT_EQ(refused.error().metadata.at("missing_tile"), removed);
+    EXPECT_FALSE(store_->HasTerrain("garage", next));
+    fs::rename(moved, tiles_dir / removed);
   }
-  ASSERT_TRUE(store_->PutTerrain("garage", next, *edited, *reassessed->model, &writes, &kept).ok());
+  for (const auto& [name, bytes] : partial.tiles) fs::remove(tiles_dir / name);  // Left above.
+  ASSERT_TRUE(store_->PutTerrain("garage", next, partial, &writes).ok());
 
   std::set<std::string> base_names;
   std::uint64_t base_bytes = 0;
@@ -840,12 +849,10 @@ TEST_F(MapStoreTest, AnEditedTerrainWritesOnlyTheTilesItChanged) {
   // The header, and at most the 2 × 2 model and cloud tiles around the block.
   EXPECT_GE(changed, 3);
   EXPECT_LE(changed, 9);
-  const CutTerrain partial = CutIntoTiles(*reassessed->model, *edited, &kept);
   EXPECT_EQ(partial.list.Format(), cut.list.Format());
   EXPECT_LE(partial.tiles.size(), 2 * kept.changed.size() + 1);
-  EXPECT_EQ(writes.written, changed + static_cast<int>(removed.size()));
-  EXPECT_EQ(writes.shared,
-            static_cast<int>(cut.tiles.size()) - changed - static_cast<int>(removed.size()));
+  EXPECT_EQ(writes.written, changed);
+  EXPECT_EQ(writes.shared, static_cast<int>(cut.tiles.size()) - changed);
   EXPECT_LE(writes.bytes_written, 2 * changed_bytes);
   EXPECT_LT(changed_bytes, base_bytes / 2);
 

@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <bit>
 #include <cstring>
+#include <filesystem>
+#include <fstream>
 #include <iterator>
 #include <limits>
 #include <memory>
@@ -14,6 +16,7 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include "common/packed_points.hpp"
 
@@ -147,6 +150,7 @@ TEST(WorkerReport, LinesReadBackAsTheirReports) {
   edited.edit = EditFigures{0.25, 1.0 / 3, true,     "the edited cloud's bounds change the grid",
                             4242, 123'456, 7'890'123};
   edited.edit->changed_columns = {{12, 345, 0}, {678, 4001, 0}};
+  edited.edit->cloud_points = 208'000'123;
   for (const WorkerReport& report : {loaded, progress, failed, done, edited}) {
     const std::string line = FormatWorkerReport(report);
     ASSERT_FALSE(line.empty());
@@ -176,8 +180,37 @@ TEST(WorkerReport, LinesReadBackAsTheirReports) {
       EXPECT_EQ(back->edit->scan_points_thinned, report.edit->scan_points_thinned) << line;
       EXPECT_EQ(back->edit->changed_columns.min, report.edit->changed_columns.min) << line;
       EXPECT_EQ(back->edit->changed_columns.max, report.edit->changed_columns.max) << line;
+      EXPECT_EQ(back->edit->cloud_points, report.edit->cloud_points) << line;
     }
   }
+}
+
+// A tiled edit's result travels as its list and the tiles it cut: read back as written, a
+// tile not handed back is the base's, and a tile whose bytes are not its name's is refused.
+TEST(WorkerCut, TheTilesReadBackAsWrittenAndADamagedOneIsRefused) {
+  const std::filesystem::path dir =
+      std::filesystem::path(::testing::TempDir()) / ("worker_cut_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  CutTerrain cut;
+  const std::string header = "header bytes", changed = "a changed tile", kept = "a kept tile";
+  cut.list.header = TileName(header);
+  cut.list.model = {TileName(kept), TileName(changed), TileName(changed)};
+  cut.tiles = {{TileName(header), header}, {TileName(changed), changed}};
+  ASSERT_TRUE(WriteCutTerrain(cut, dir).ok());
+  const Expected<CutTerrain> back = ReadCutTerrain(dir);
+  ASSERT_TRUE(back.ok()) << back.error().message;
+  EXPECT_EQ(back->list.Format(), cut.list.Format());
+  EXPECT_EQ(back->tiles, cut.tiles);
+
+  std::ofstream(dir / TileName(changed), std::ios::binary | std::ios::trunc) << "damaged";
+  const Expected<CutTerrain> damaged = ReadCutTerrain(dir);
+  ASSERT_FALSE(damaged.ok());
+  EXPECT_THAT(damaged.error().message, ::testing::HasSubstr(TileName(changed)));
+  std::filesystem::remove(dir / kWorkerTilesFile);
+  const Expected<CutTerrain> unlisted = ReadCutTerrain(dir);
+  ASSERT_FALSE(unlisted.ok());
+  EXPECT_THAT(unlisted.error().message, ::testing::HasSubstr("no list of tiles"));
+  std::filesystem::remove_all(dir);
 }
 
 // An edit job's edits go to the worker as a file: every number reads back exactly, and a

@@ -20,7 +20,9 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "maps/map_store.hpp"
 #include "strata/io/saved_model.hpp"
+#include "strata/prism.hpp"
 #include "test_util/model_bytes.hpp"
 #include "test_util/time_scale.hpp"
 
@@ -120,6 +122,65 @@ TEST_F(MapWorkerTest, MakesTheModelTheRegistrysOwnThreadWould) {
   EXPECT_EQ(steps.size(), 4u);
   EXPECT_TRUE(fractions_in_range);
   EXPECT_TRUE(there->cloud.empty());  // Not asked for.
+}
+
+// An edit of a tiled version: the worker hands back only the tiles the edit changed (the
+// issue's "loading a version loads only the tiles a replica does not already hold"), and the
+// server joins the same model the registry's own thread makes, with the same cut.
+TEST_F(MapWorkerTest, AnEditOfATiledVersionHandsBackOnlyTheTilesItChanged) {
+  const fs::path store_root = scratch_.string() + "_store";
+  {
+    Result<std::unique_ptr<MapStore>> opened = MapStore::Open(store_root);
+    ASSERT_TRUE(opened.ok()) << opened.error().message;
+    MapStore& store = *opened.value();
+    MapBuildJob made = SceneJob("parking_garage");
+    made.keep_cloud = true;
+    Expected<BuiltMap> base = BuildMapHere(std::move(made), {});
+    ASSERT_TRUE(base.ok()) << base.error().message;
+    ASSERT_TRUE(store.PutTerrain("g", base->version, CutIntoTiles(*base->model, base->cloud)).ok());
+    ASSERT_TRUE(store.PutVersion("g", base->version, base->version, "{}").ok());
+    ASSERT_TRUE(store.PublishNew("g", base->version).ok());
+    const auto edit_job = [&] {
+      MapBuildJob job;
+      Result<VersionFiles> files = store.OpenVersion("g", base->version);
+      EXPECT_TRUE(files.ok() && files.value().tiles);
+      const Prism box =
+          BoxPrism(Eigen::AlignedBox3d(Eigen::Vector3d(6, 6, 0), Eigen::Vector3d(8, 8, 1)));
+      job.source = EditSource{std::move(files).value(), {{MapEdit::Kind::kAddObstacle, box}}};
+      job.keep_cloud = true;
+      return job;
+    };
+    Result<BuiltMap> there = Build(edit_job());
+    ASSERT_TRUE(there.ok()) << there.error().message;
+    Expected<BuiltMap> here = BuildMapHere(edit_job(), {});
+    ASSERT_TRUE(here.ok()) << here.error().message;
+
+    const std::string there_bytes = test_util::BytesWithoutTimings(*there->model);
+    const std::string here_bytes = test_util::BytesWithoutTimings(*here->model);
+    EXPECT_TRUE(there_bytes == here_bytes)
+        << "first difference at byte " << test_util::FirstDifferingByte(there_bytes, here_bytes);
+    EXPECT_EQ(there->version, here->version);
+    // The same tiles, but the header's, which holds the reassessment's timings.
+    ASSERT_TRUE(there->cut && here->cut);
+    EXPECT_EQ(there->cut->list.model, here->cut->list.model);
+    EXPECT_EQ(there->cut->list.cloud, here->cut->list.cloud);
+    const auto names = [](const CutTerrain& cut) {
+      std::set<std::string> held;
+      for (const auto& [name, bytes] : cut.tiles) held.insert(name);
+      held.erase(cut.list.header);
+      return held;
+    };
+    EXPECT_EQ(names(*there->cut), names(*here->cut));
+    // The header and the few model and cloud tiles around the obstacle, of hundreds.
+    EXPECT_GE(there->cut->tiles.size(), 3u);
+    EXPECT_LE(there->cut->tiles.size(), 9u);
+    EXPECT_GT(there->cut->list.model.size(), 10u);
+    EXPECT_TRUE(there->cloud.empty());  // The cut holds what the store writes.
+    ASSERT_TRUE(there->edit && here->edit);
+    EXPECT_EQ(there->edit->cloud_points, here->edit->cloud_points);
+    EXPECT_GT(there->edit->cloud_points, base->cloud.size());
+  }
+  fs::remove_all(store_root);
 }
 
 TEST_F(MapWorkerTest, UploadedPointsKeepTheirCountsAndComeBackSanitised) {

@@ -147,8 +147,8 @@ TEST_P(PublishedMapsTest, OnlyAStoreKeepsWhatEditsNeed) {
   next.versions = {kV2, kV1};
   PointCloud cloud;
   std::shared_ptr<const PlanningMap> planning = FloorAt(0.5f, &cloud);
-  const ServiceStatus edited =
-      published_->PublishEdit(kV1, next, kV2, planning, &cloud, nullptr, nullptr);
+  const CutTerrain tiles = CutIntoTiles(planning->model(), cloud);
+  const ServiceStatus edited = published_->PublishEdit(kV1, next, kV2, planning, &tiles, nullptr);
   if (!GetParam()) {
     EXPECT_EQ(CodeOf(edited), ServiceError::Code(ServiceErrorCode::kMapStoreRequired));
     EXPECT_EQ(CodeOf(published_->OpenFiles("floor", kV1).error()),
@@ -161,8 +161,7 @@ TEST_P(PublishedMapsTest, OnlyAStoreKeepsWhatEditsNeed) {
   // A second edit of the old base loses the compare-and-swap.
   MapSnapshot stale = next;
   stale.version = std::string(32, 'c');
-  EXPECT_EQ(CodeOf(published_->PublishEdit(kV1, stale, stale.version, planning, &cloud, nullptr,
-                                           nullptr)),
+  EXPECT_EQ(CodeOf(published_->PublishEdit(kV1, stale, stale.version, planning, &tiles, nullptr)),
             ServiceError::Code(ServiceErrorCode::kMapChanged));
   // The files an edit reads, and the cloud.
   const VersionFiles files = published_->OpenFiles("floor", kV2).value();
@@ -183,10 +182,9 @@ TEST_P(PublishedMapsTest, OnlyAStoreKeepsWhatEditsNeed) {
   zoned.version = std::string(32, 'd');
   zoned.keep_out = {Prism{{{0, 0}, {1, 0}, {1, 1}}, 0, 1}};
   const std::shared_ptr<const PlanningMap> base = published_->Get("floor", kV2).value().map;
-  ASSERT_TRUE(published_
-                  ->PublishEdit(kV2, zoned, kV2, base->WithKeepOut(zoned.keep_out), nullptr,
-                                nullptr, nullptr)
-                  .ok());
+  ASSERT_TRUE(
+      published_->PublishEdit(kV2, zoned, kV2, base->WithKeepOut(zoned.keep_out), nullptr, nullptr)
+          .ok());
   EXPECT_EQ(published_->TerrainOf("floor", zoned.version).value(), kV2);
   EXPECT_EQ(published_->LoadCloud("floor", zoned.version).value().size(), cloud.size());
   published_->TrimTo(0);
@@ -202,10 +200,9 @@ TEST_P(PublishedMapsTest, OnlyAStoreKeepsWhatEditsNeed) {
   rezoned.version = std::string(32, 'e');
   rezoned.keep_out.clear();
   const std::shared_ptr<const PlanningMap> theirs = elsewhere.Get("floor", "").value().map;
-  ASSERT_TRUE(elsewhere
-                  .PublishEdit(zoned.version, rezoned, kV2, theirs->WithKeepOut({}), nullptr,
-                               nullptr, nullptr)
-                  .ok());
+  ASSERT_TRUE(
+      elsewhere.PublishEdit(zoned.version, rezoned, kV2, theirs->WithKeepOut({}), nullptr, nullptr)
+          .ok());
   const ActiveMap seen_here = published_->Get("floor", "").value();
   EXPECT_EQ(seen_here.version, rezoned.version);
   EXPECT_TRUE(seen_here.map->keep_out().empty());
