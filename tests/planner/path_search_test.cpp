@@ -8,6 +8,7 @@
 #include <memory>
 #include <queue>
 #include <random>
+#include <span>
 #include <vector>
 
 #include <gmock/gmock.h>
@@ -293,6 +294,67 @@ TEST_F(TwoLevel, AStarMatchesDijkstra) {
       ASSERT_NO_FATAL_FAILURE(plain_search(config, a, b, dist[b], &path));
     }
   }
+}
+
+// The graph's one-to-all searches (a bucket queue, nodes of a bucket in any order) end where
+// Dijkstra's with a heap does, bit for bit: the landmarks' distances from a float search over
+// the moves' float costs, and the rim distances from one over the steps r and r√2.
+TEST_F(TwoLevel, LandmarkAndRimDistancesAreAHeapDijkstrasBitForBit) {
+  const SurfaceGraph& g = graph();
+  const int n = g.node_count();
+  const int count = g.landmark_count();
+  ASSERT_GT(count, 0);
+  using Item = std::pair<float, int>;
+  const auto search = [&](std::vector<float> dist, const auto& step) {
+    std::priority_queue<Item, std::vector<Item>, std::greater<>> queue;
+    for (int v = 0; v < n; ++v) {
+      if (dist[v] < std::numeric_limits<float>::infinity()) queue.push({dist[v], v});
+    }
+    while (!queue.empty()) {
+      const float d = queue.top().first;
+      const int v = queue.top().second;
+      queue.pop();
+      if (d > dist[v]) continue;
+      g.ForEachNeighbor(v, [&](int m) {
+        const float next = d + step(v, m);
+        if (next < dist[m]) {
+          dist[m] = next;
+          queue.push({next, m});
+        }
+      });
+    }
+    return dist;
+  };
+  const MoveCostTerms terms;
+  const auto move_cost = [&](int a, int b) { return static_cast<float>(g.MoveCost(a, b, terms)); };
+  const std::span<const float> table = g.landmark_distances();
+  for (int k = 0; k < count; ++k) {
+    std::vector<float> from(n, std::numeric_limits<float>::infinity());
+    for (int v = 0; v < n; ++v) {
+      if (table[static_cast<std::size_t>(v) * count + k] == 0) from[v] = 0;  // The landmark.
+    }
+    const std::vector<float> expected = search(std::move(from), move_cost);
+    int differing = 0;
+    for (int v = 0; v < n; ++v)
+      differing += expected[v] != table[static_cast<std::size_t>(v) * count + k];
+    EXPECT_EQ(differing, 0) << "landmark " << k;
+  }
+  const double r = g.grid().resolution_m;
+  const auto cap = static_cast<float>(SurfaceGraph::EdgeDistanceCap(r));
+  std::vector<float> rim(n, std::numeric_limits<float>::infinity());
+  for (int v = 0; v < n; ++v) {
+    int neighbours = 0;
+    g.ForEachNeighbor(v, [&](int) { ++neighbours; });
+    if (neighbours < 8) rim[v] = static_cast<float>(0.5 * r);
+  }
+  const auto step = [&](int a, int b) {
+    const bool diagonal = g.nodes()[a].ix != g.nodes()[b].ix && g.nodes()[a].iy != g.nodes()[b].iy;
+    return static_cast<float>(diagonal ? std::sqrt(2.0) * r : r);
+  };
+  const std::vector<float> expected = search(std::move(rim), step);
+  int differing = 0;
+  for (int v = 0; v < n; ++v) differing += std::min(expected[v], cap) != g.edge_distances()[v];
+  EXPECT_EQ(differing, 0);
 }
 
 TEST_F(TwoLevel, LandmarkBoundsNeverExceedTheCheapestCostAndKnowTheRamp) {

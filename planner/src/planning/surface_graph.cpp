@@ -3,13 +3,13 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <queue>
 #include <string>
 #include <utility>
 
 #include <fmt/format.h>
 
 #include "format_internal.hpp"
+#include "planning/bucket_queue.hpp"
 
 namespace strata {
 namespace {
@@ -189,19 +189,15 @@ bool SurfaceGraph::ComputeEdgeDistances(const std::vector<std::int32_t>& rim,
   const double r = grid().resolution_m;
   const auto cap = static_cast<float>(EdgeDistanceCap(r));
   edge_distance_.assign(static_cast<std::size_t>(node_count()), cap);
-  using Item = std::pair<float, std::int32_t>;
-  std::priority_queue<Item, std::vector<Item>, std::greater<>> queue;
+  graph_internal::BucketQueue queue(static_cast<float>(r), static_cast<float>(std::sqrt(2.0) * r));
   for (const std::int32_t m : rim) {
     edge_distance_[m] = static_cast<float>(0.5 * r);
-    queue.push({edge_distance_[m], m});
+    queue.Push(edge_distance_[m], m);
   }
-  for (int popped = 1; !queue.empty(); ++popped) {
+  float d = 0;
+  std::int32_t m = 0;
+  for (int popped = 1; queue.Pop(&d, &m); ++popped) {
     if (popped % kNodesPerPoll == 0 && should_stop && should_stop()) return false;
-    // Named variables, not a structured binding: the lambda below captures them, which
-    // clang 14 (clang-tidy's) does not accept for bindings.
-    const float d = queue.top().first;
-    const int m = queue.top().second;
-    queue.pop();
     if (d > edge_distance_[m]) continue;
     const Node& a = nodes_[m];
     ForEachNeighbor(m, [&](int k) {
@@ -209,7 +205,7 @@ bool SurfaceGraph::ComputeEdgeDistances(const std::vector<std::int32_t>& rim,
       const float step = static_cast<float>(a.ix != b.ix && a.iy != b.iy ? std::sqrt(2.0) * r : r);
       if (d + step < edge_distance_[k]) {
         edge_distance_[k] = d + step;
-        queue.push({edge_distance_[k], k});
+        queue.Push(edge_distance_[k], k);
       }
     });
   }

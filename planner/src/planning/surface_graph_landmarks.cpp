@@ -4,10 +4,10 @@
 #include <cstdint>
 #include <functional>
 #include <limits>
-#include <queue>
 #include <utility>
 #include <vector>
 
+#include "planning/bucket_queue.hpp"
 #include "strata/planning/surface_graph.hpp"
 
 namespace strata {
@@ -22,6 +22,8 @@ struct CostedEdges {
   std::vector<std::uint32_t> begin;  // Per node and one past: its first edge.
   std::vector<std::int32_t> to;
   std::vector<float> cost;
+  float cheapest = std::numeric_limits<float>::infinity();  // Of `cost`.
+  float dearest = 0;
 };
 
 CostedEdges EdgesOf(const SurfaceGraph& graph, int component) {
@@ -33,8 +35,11 @@ CostedEdges EdgesOf(const SurfaceGraph& graph, int component) {
     edges.begin.push_back(static_cast<std::uint32_t>(edges.to.size()));
     if (graph.component(node) != component) continue;
     graph.ForEachNeighbor(node, [&](int m) {
+      const auto cost = static_cast<float>(graph.MoveCost(node, m, terms));
       edges.to.push_back(m);
-      edges.cost.push_back(static_cast<float>(graph.MoveCost(node, m, terms)));
+      edges.cost.push_back(cost);
+      edges.cheapest = std::min(edges.cheapest, cost);
+      edges.dearest = std::max(edges.dearest, cost);
     });
   }
   edges.begin.push_back(static_cast<std::uint32_t>(edges.to.size()));
@@ -46,22 +51,21 @@ CostedEdges EdgesOf(const SurfaceGraph& graph, int component) {
 bool Distances(const CostedEdges& edges, int source, const std::function<bool()>& should_stop,
                std::vector<float>* distance) {
   distance->assign(edges.begin.size() - 1, kUnreached);
-  using Item = std::pair<float, int>;
-  std::priority_queue<Item, std::vector<Item>, std::greater<>> queue;
   (*distance)[source] = 0;
-  queue.push({0.0f, source});
-  for (int settled = 1; !queue.empty(); ++settled) {
+  if (edges.to.empty()) return true;
+  graph_internal::BucketQueue queue(edges.cheapest, edges.dearest);
+  queue.Push(0.0f, source);
+  float d = 0;
+  std::int32_t node = 0;
+  for (int settled = 1; queue.Pop(&d, &node); ++settled) {
     if (settled % 4096 == 0 && should_stop && should_stop()) return false;
-    const float d = queue.top().first;
-    const int node = queue.top().second;
-    queue.pop();
     if (d > (*distance)[node]) continue;
     for (std::uint32_t e = edges.begin[node]; e < edges.begin[node + 1]; ++e) {
       const float next = d + edges.cost[e];
       const int m = edges.to[e];
       if (next < (*distance)[m]) {
         (*distance)[m] = next;
-        queue.push({next, m});
+        queue.Push(next, m);
       }
     }
   }
