@@ -604,9 +604,10 @@ ServiceStatus MapStore::PutTerrain(const std::string& id, const std::string& ter
                                       [&](const auto& tile) { return tile.first == name; });
     if (was_cut == cut.tiles.end()) {
       return MakeError(ServiceErrorCode::kMapChanged,
-                       "map '" + id + "' changed while the edit was made: tile " + name +
-                           " of the version it edited was collected (that version was pruned); "
-                           "make the edit again on the current version")
+                       fmt::format("map '{}' changed while the edit was made: tile {} of the "
+                                   "version it edited was collected (that version was pruned); "
+                                   "make the edit again on the current version",
+                                   id, name))
           .With("map_id", id)
           .With("missing_tile", name);
     }
