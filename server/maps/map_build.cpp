@@ -94,7 +94,7 @@ Expected<BuiltMap> BuildEditHere(const EditSource& edit, const MapBuildJob& job,
   figures.cloud_points = edited->size();
   built.model = std::move(reassessed->model);
   built.version = MapStore::VersionOf(*edited, built.model->config(), {});
-  if (job.keep_cloud && edit.files.tiles) {
+  if (CutsTiles(job)) {
     // Outside the columns reassessed the tiles are the base's, byte for byte.
     std::optional<BaseTiles> kept;
     if (!figures.full_reassessment) {
@@ -117,6 +117,11 @@ MapSource NewMapSource(BuildSource source) {
 }
 
 }  // namespace
+
+bool CutsTiles(const MapBuildJob& job) {
+  const auto* edit = std::get_if<EditSource>(&job.source);
+  return edit != nullptr && edit->files.tiles && job.keep_cloud;
+}
 
 Expected<BuiltMap> BuildMapHere(MapBuildJob job, const BuildMonitor& monitor,
                                 const CloudLoader& loader) {

@@ -105,6 +105,10 @@ struct BuiltMap {
   std::optional<EditFigures> edit;
 };
 
+/// Whether `job` is an edit of a tiled version whose terrain is kept: its BuiltMap holds a
+/// `cut` instead of a cloud (and a map worker hands back those tiles, not whole files).
+bool CutsTiles(const MapBuildJob& job);
+
 /// What a build reports as it goes, and how it is stopped. Every callable may be empty.
 struct BuildMonitor {
   /// The source is read (a saved model: loaded): its point counts and the time it took.

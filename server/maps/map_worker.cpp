@@ -360,13 +360,13 @@ ServiceError FailureOf(const Outcome& outcome, const MapBuildJob& job,
 Result<BuiltMap> ReadResult(const Outcome& outcome, const MapBuildJob& job,
                             const fs::path& directory) {
   BuiltMap built;
-  const auto* edit = std::get_if<EditSource>(&job.source);
-  if (edit != nullptr && edit->files.tiles && job.keep_cloud) {
+  if (CutsTiles(job)) {
     // The tiles the edit changed; the model joined from them and the base's in the store.
     Expected<CutTerrain> cut = ReadCutTerrain(directory / kWorkerCutDir);
     if (!cut) return ServiceError::FromPlanner(cut.error());
-    Result<std::shared_ptr<const TerrainModel>> model = LoadTiledModel(
-        OpenedTiles{edit->files.tiles->dir, cut->list}, "of the edited version", cut->tiles);
+    const OpenedTiles& base = *std::get<EditSource>(job.source).files.tiles;
+    Result<std::shared_ptr<const TerrainModel>> model =
+        LoadTiledModel(OpenedTiles{base.dir, cut->list}, "of the edited version", cut->tiles);
     if (!model.ok()) return std::move(model).error();
     built.model = std::move(model).value();
     built.cut = std::move(cut).value();

@@ -35,28 +35,38 @@ std::shared_ptr<const TerrainModel> AssessScene(const PointCloud& cloud) {
   return model.ok() ? *model : nullptr;
 }
 
-// Plain Dijkstra over the same graph and edge costs: the reference for A*.
-std::vector<double> Dijkstra(const SurfaceGraph& graph, int source, const SearchConfig& config) {
-  std::vector<double> dist(graph.node_count(), std::numeric_limits<double>::infinity());
-  using Item = std::pair<double, int>;
+// Least costs from the sources (the finite entries of `dist`) over the graph's moves, each
+// costing step(from, to), by Dijkstra with a heap: the reference for the searches under test.
+template <typename Cost, typename Step>
+std::vector<Cost> LeastCosts(const SurfaceGraph& graph, std::vector<Cost> dist, const Step& step) {
+  using Item = std::pair<Cost, int>;
   std::priority_queue<Item, std::vector<Item>, std::greater<>> queue;
-  dist[source] = 0;
-  queue.push({0.0, source});
+  for (int v = 0; v < graph.node_count(); ++v) {
+    if (dist[v] < std::numeric_limits<Cost>::infinity()) queue.push({dist[v], v});
+  }
   while (!queue.empty()) {
     // Not a structured binding: the lambda below captures them (clang 14 cannot).
-    const double d = queue.top().first;
-    const auto v = queue.top().second;
+    const Cost d = queue.top().first;
+    const int v = queue.top().second;
     queue.pop();
     if (d > dist[v]) continue;
     graph.ForEachNeighbor(v, [&](int m) {
-      const double nd = d + EdgeCost(graph, v, m, config);
-      if (nd < dist[m]) {
-        dist[m] = nd;
-        queue.push({nd, m});
+      const Cost next = d + step(v, m);
+      if (next < dist[m]) {
+        dist[m] = next;
+        queue.push({next, m});
       }
     });
   }
   return dist;
+}
+
+// Plain Dijkstra over the same graph and edge costs: the reference for A*.
+std::vector<double> Dijkstra(const SurfaceGraph& graph, int source, const SearchConfig& config) {
+  std::vector<double> dist(graph.node_count(), std::numeric_limits<double>::infinity());
+  dist[source] = 0;
+  return LeastCosts(graph, std::move(dist),
+                    [&](int a, int b) { return EdgeCost(graph, a, b, config); });
 }
 
 bool AreNeighbors(const SurfaceGraph& graph, int a, int b) {
@@ -304,27 +314,6 @@ TEST_F(TwoLevel, LandmarkAndRimDistancesAreAHeapDijkstrasBitForBit) {
   const int n = g.node_count();
   const int count = g.landmark_count();
   ASSERT_GT(count, 0);
-  using Item = std::pair<float, int>;
-  const auto search = [&](std::vector<float> dist, const auto& step) {
-    std::priority_queue<Item, std::vector<Item>, std::greater<>> queue;
-    for (int v = 0; v < n; ++v) {
-      if (dist[v] < std::numeric_limits<float>::infinity()) queue.push({dist[v], v});
-    }
-    while (!queue.empty()) {
-      const float d = queue.top().first;
-      const int v = queue.top().second;
-      queue.pop();
-      if (d > dist[v]) continue;
-      g.ForEachNeighbor(v, [&](int m) {
-        const float next = d + step(v, m);
-        if (next < dist[m]) {
-          dist[m] = next;
-          queue.push({next, m});
-        }
-      });
-    }
-    return dist;
-  };
   const MoveCostTerms terms;
   const auto move_cost = [&](int a, int b) { return static_cast<float>(g.MoveCost(a, b, terms)); };
   const std::span<const float> table = g.landmark_distances();
@@ -333,7 +322,7 @@ TEST_F(TwoLevel, LandmarkAndRimDistancesAreAHeapDijkstrasBitForBit) {
     for (int v = 0; v < n; ++v) {
       if (table[static_cast<std::size_t>(v) * count + k] == 0) from[v] = 0;  // The landmark.
     }
-    const std::vector<float> expected = search(std::move(from), move_cost);
+    const std::vector<float> expected = LeastCosts(g, std::move(from), move_cost);
     int differing = 0;
     for (int v = 0; v < n; ++v)
       differing += expected[v] != table[static_cast<std::size_t>(v) * count + k];
@@ -351,7 +340,7 @@ TEST_F(TwoLevel, LandmarkAndRimDistancesAreAHeapDijkstrasBitForBit) {
     const bool diagonal = g.nodes()[a].ix != g.nodes()[b].ix && g.nodes()[a].iy != g.nodes()[b].iy;
     return static_cast<float>(diagonal ? std::sqrt(2.0) * r : r);
   };
-  const std::vector<float> expected = search(std::move(rim), step);
+  const std::vector<float> expected = LeastCosts(g, std::move(rim), step);
   int differing = 0;
   for (int v = 0; v < n; ++v) differing += std::min(expected[v], cap) != g.edge_distances()[v];
   EXPECT_EQ(differing, 0);

@@ -81,6 +81,15 @@ ErrorCode CodeOf(const ServiceError& error) {
   return code != nullptr ? *code : ErrorCode::kInvalidInput;
 }
 
+// The same model, byte for byte but for the timings, and the same version.
+void ExpectSameMap(const BuiltMap& there, const BuiltMap& here) {
+  const std::string there_bytes = test_util::BytesWithoutTimings(*there.model);
+  const std::string here_bytes = test_util::BytesWithoutTimings(*here.model);
+  EXPECT_TRUE(there_bytes == here_bytes)
+      << "first difference at byte " << test_util::FirstDifferingByte(there_bytes, here_bytes);
+  EXPECT_EQ(there.version, here.version);
+}
+
 // A worker's allocator backs its large blocks with huge pages, unless the server's
 // environment tunes glibc itself: that choice is the operator's.
 TEST(WorkerEnvironmentTest, AsksForHugePagesUnlessGlibcIsTunedAlready) {
@@ -109,11 +118,7 @@ TEST_F(MapWorkerTest, MakesTheModelTheRegistrysOwnThreadWould) {
   Expected<BuiltMap> here = BuildMapHere(SceneJob("two_level_ramp"), {});
   ASSERT_TRUE(here.ok()) << here.error().message;
 
-  const std::string there_bytes = test_util::BytesWithoutTimings(*there->model);
-  const std::string here_bytes = test_util::BytesWithoutTimings(*here->model);
-  EXPECT_TRUE(there_bytes == here_bytes)
-      << "first difference at byte " << test_util::FirstDifferingByte(there_bytes, here_bytes);
-  EXPECT_EQ(there->version, here->version);
+  ExpectSameMap(*there, *here);
   EXPECT_EQ(there->raw_point_count, here->raw_point_count);
   EXPECT_GT(there->raw_point_count, 0u);
   EXPECT_GT(there->load_s, 0.0);
@@ -155,11 +160,7 @@ TEST_F(MapWorkerTest, AnEditOfATiledVersionHandsBackOnlyTheTilesItChanged) {
     Expected<BuiltMap> here = BuildMapHere(edit_job(), {});
     ASSERT_TRUE(here.ok()) << here.error().message;
 
-    const std::string there_bytes = test_util::BytesWithoutTimings(*there->model);
-    const std::string here_bytes = test_util::BytesWithoutTimings(*here->model);
-    EXPECT_TRUE(there_bytes == here_bytes)
-        << "first difference at byte " << test_util::FirstDifferingByte(there_bytes, here_bytes);
-    EXPECT_EQ(there->version, here->version);
+    ExpectSameMap(*there, *here);
     // The same tiles, but the header's, which holds the reassessment's timings.
     ASSERT_TRUE(there->cut && here->cut);
     EXPECT_EQ(there->cut->list.model, here->cut->list.model);

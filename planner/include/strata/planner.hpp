@@ -252,18 +252,6 @@ Expected<SnapResult> SnapEndpoint(
     ErrorCode off_ground_code,
     double min_obstacle_distance_m = VerifierConfig{}.min_obstacle_distance_m);
 
-/// Plans one request on `map`, keeping the robot out of the map's and the request's keep-out
-/// zones (searched around, pushed out of by the optimiser's J_k, checked by the verifier).
-/// `should_stop` (may be empty) is polled throughout; returning true fails the plan with
-/// kCancelled. Failures: kInvalidInput (non-finite state, malformed zone), kInvalidConfig,
-/// kProfileMismatch, kStartOffGround / kGoalOffGround (with the nearest valid point),
-/// kStartInKeepOut / kGoalInKeepOut (where the trajectory would start or end violates a zone;
-/// the message names it), kGoalUnreachable (in milliseconds, from the components; or after the
-/// search when keep-out zones cut the goal off, naming the zones in the way),
-/// for a via the goal's codes blaming "via[i].position_m" (off the ground, in a zone) or
-/// "via[i]" (unreachable from the point before it, or on that point's ground cell),
-/// kDeadlineExceeded, kCancelled, kSearchBudgetExhausted, kOptimizationFailed (naming the
-/// first violation).
 /// Legs of earlier plans, for a caller that plans one robot's route again with a few of its
 /// stops changed (PlanAmongTraffic, adding stops to wait at): a leg from the same state to the
 /// same state through the same points, among the same keep-out zones, is taken from here
@@ -287,8 +275,20 @@ class LegCache {
   std::unique_ptr<Entries> entries_;
 };
 
-/// Plan; with `legs` (may be null), legs are looked up there before they are planned, and
-/// kept there once planned. A leg taken from it reports no time in PlanStats::timings.
+/// Plans one request on `map`, keeping the robot out of the map's and the request's keep-out
+/// zones (searched around, pushed out of by the optimiser's J_k, checked by the verifier).
+/// `should_stop` (may be empty) is polled throughout; returning true fails the plan with
+/// kCancelled. Failures: kInvalidInput (non-finite state, malformed zone), kInvalidConfig,
+/// kProfileMismatch, kStartOffGround / kGoalOffGround (with the nearest valid point),
+/// kStartInKeepOut / kGoalInKeepOut (where the trajectory would start or end violates a zone;
+/// the message names it), kGoalUnreachable (in milliseconds, from the components; or after the
+/// search when keep-out zones cut the goal off, naming the zones in the way),
+/// for a via the goal's codes blaming "via[i].position_m" (off the ground, in a zone) or
+/// "via[i]" (unreachable from the point before it, or on that point's ground cell),
+/// kDeadlineExceeded, kCancelled, kSearchBudgetExhausted, kOptimizationFailed (naming the
+/// first violation).
+/// With `legs` (may be null), legs are looked up there before they are planned, and kept
+/// there once planned. A leg taken from it reports no time in PlanStats::timings.
 Expected<PlanResult> Plan(const PlanningMap& map, const PlanRequest& request,
                           const std::function<bool()>& should_stop = {}, LegCache* legs = nullptr);
 

@@ -165,8 +165,7 @@ Expected<SurfaceGraph> SurfaceGraph::Build(const TerrainModel& model,
   graph.components_.assign(n, -1);
   for (int node = 0; node < n; ++node) {
     const std::int32_t first = find(node);
-    if (first == node) graph.components_[node] = graph.component_count_++;
-    graph.components_[node] = graph.components_[first];
+    graph.components_[node] = first == node ? graph.component_count_++ : graph.components_[first];
   }
   if (!graph.nodes_.empty()) {
     std::vector<float> clearances(graph.nodes_.size());
