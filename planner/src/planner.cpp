@@ -223,14 +223,50 @@ Status VerifyOnMap(const PlanningMap& map, const RobotProfile& profile,
   return VerifyTrajectory(**graph, profile, trajectory, config, &report, CollectKeepOut(map, {}));
 }
 
+namespace {
+
+// Whether the verifier sees a robot at rest with its reference point at `p` standing on
+// `surface`, and still does a centimetre higher or lower. Not so halfway between two grounds
+// of a column (a floor the assessment split in two): there the rounding of p picks either,
+// and that the robot stays on one ground can never be shown between samples.
+bool StandsOn(const TerrainModel& model, const Eigen::Vector3d& p, double reference_height_m,
+              const ColumnSurface& surface) {
+  constexpr double kBandM = 0.01;
+  for (const double dz : {-kBandM, 0.0, kBandM}) {
+    GroundSample ground;
+    if (!SampleGround(model, p + Eigen::Vector3d(0, 0, dz), reference_height_m, 0, &ground) ||
+        ground.surface != &surface) {
+      return false;
+    }
+  }
+  return true;
+}
+
+}  // namespace
+
 Expected<SnapResult> SnapEndpoint(const SurfaceGraph& graph, const Eigen::Vector3d& requested,
                                   double tolerance_m, ErrorCode off_ground_code,
                                   double min_obstacle_distance_m) {
+  const double h_ref = graph.params().reference_height_m;
+  // The reference point of a robot at rest on `node`'s ground at `xy`.
+  const auto standing = [&](int node, const Eigen::Vector2d& xy) -> std::optional<Eigen::Vector3d> {
+    const Eigen::Vector3d at(xy.x(), xy.y(), graph.position(node).z());
+    GroundSample ground;
+    if (!SampleGround(graph.model(), at, h_ref, 0, &ground)) return std::nullopt;
+    const Eigen::Vector3d on_ground(xy.x(), xy.y(), ground.height_m + h_ref);
+    if (!StandsOn(graph.model(), on_ground, h_ref, graph.surface(node))) return std::nullopt;
+    return on_ground;
+  };
   // Only where verification can pass: a trajectory's end whose reference point is closer to
-  // an obstacle than the verifier allows could never be returned.
-  const auto clear = [&](int node) { return graph.clearance(node) >= min_obstacle_distance_m; };
+  // an obstacle than the verifier allows, or where the robot's ground is ambiguous, could
+  // never be returned.
+  const auto clear = [&](int node) {
+    return graph.clearance(node) >= min_obstacle_distance_m &&
+           standing(node, graph.position(node).head<2>()).has_value();
+  };
   const std::string refusal =
-      fmt::format("closer than {:.3f} m (verifier.min_obstacle_distance_m) to an obstacle",
+      fmt::format("closer than {:.3f} m (verifier.min_obstacle_distance_m) to an obstacle, or "
+                  "halfway between two grounds of one column",
                   min_obstacle_distance_m);
   Expected<SnapResult> snap =
       SnapToSurface(graph, requested, tolerance_m, off_ground_code, clear, refusal);
@@ -239,11 +275,10 @@ Expected<SnapResult> SnapEndpoint(const SurfaceGraph& graph, const Eigen::Vector
   // same distance from obstacles; else the node's reference point.
   const Eigen::Vector3d candidate(requested.x(), requested.y(), snap->position_m.z());
   if (graph.grid().CellOf(candidate).head<2>() != graph.cell(snap->node).head<2>()) return snap;
-  GroundSample ground;
-  const double h_ref = graph.params().reference_height_m;
-  if (!SampleGround(graph.model(), candidate, h_ref, 0, &ground)) return snap;
-  const Eigen::Vector3d on_ground(requested.x(), requested.y(), ground.height_m + h_ref);
-  if (graph.model().Distance(on_ground) >= min_obstacle_distance_m) snap->position_m = on_ground;
+  const std::optional<Eigen::Vector3d> on_ground = standing(snap->node, requested.head<2>());
+  if (on_ground && graph.model().Distance(*on_ground) >= min_obstacle_distance_m) {
+    snap->position_m = *on_ground;
+  }
   return snap;
 }
 

@@ -242,11 +242,12 @@ Status VerifyOnMap(const PlanningMap& map, const RobotProfile& profile,
 
 /// Where Plan puts a start or goal requested at `requested`: SnapToSurface (same tolerance,
 /// same failures) onto the nodes whose reference point keeps `min_obstacle_distance_m` [m]
-/// from obstacles (the verifier's bound: an end closer could never be verified; when every
-/// node within tolerance is closer, the error says so), with position_m moved to exactly where
-/// the trajectory starts or ends there: the requested x, y at the reference height above the
-/// ground when they lie in the snapped node's column and keep that distance too (the robot is
-/// where it says), else the node's reference point.
+/// from obstacles and where a robot at rest stands clearly on the node's ground, not halfway
+/// between two grounds of its column (the verifier's rules: an end elsewhere could never be
+/// verified; when every node within tolerance is refused, the error says so), with position_m
+/// moved to exactly where the trajectory starts or ends there: the requested x, y at the
+/// reference height above the ground when they lie in the snapped node's column and keep
+/// that distance and ground too (the robot is where it says), else the node's reference point.
 Expected<SnapResult> SnapEndpoint(
     const SurfaceGraph& graph, const Eigen::Vector3d& requested, double tolerance_m,
     ErrorCode off_ground_code,
