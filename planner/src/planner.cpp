@@ -264,10 +264,10 @@ Expected<SnapResult> SnapEndpoint(const SurfaceGraph& graph, const Eigen::Vector
     return graph.clearance(node) >= min_obstacle_distance_m &&
            standing(node, graph.position(node).head<2>()).has_value();
   };
-  const std::string refusal =
-      fmt::format("closer than {:.3f} m (verifier.min_obstacle_distance_m) to an obstacle, or "
-                  "halfway between two grounds of one column",
-                  min_obstacle_distance_m);
+  const std::string refusal = fmt::format(
+      "closer than {:.3f} m (verifier.min_obstacle_distance_m) to an obstacle, or "
+      "halfway between two grounds of one column",
+      min_obstacle_distance_m);
   Expected<SnapResult> snap =
       SnapToSurface(graph, requested, tolerance_m, off_ground_code, clear, refusal);
   if (!snap) return snap;
