@@ -410,6 +410,8 @@ TEST_F(MapEditorTest, AnEditThatLosesToZonesAloneIsPublishedOnThemWithoutBeingMa
 TEST_F(MapEditorTest, KeepOutZonesAloneWaitForNoSlot) {
   StallingEdits edits;
   const std::string before = StartWithFloor(1, edits.builder());
+  const int levels = registry_->Get("floor").value().max_levels;
+  ASSERT_GE(levels, 1);
   std::atomic<bool> cancelled{false};
   CallControl held;
   held.cancelled = [&] { return cancelled.load(); };
@@ -424,6 +426,9 @@ TEST_F(MapEditorTest, KeepOutZonesAloneWaitForNoSlot) {
   ASSERT_TRUE(zoned.ok()) << zoned.error().message;
   EXPECT_EQ(zoned->map.keep_out.size(), 1u);
   EXPECT_NE(zoned->map.version, before);
+  // The model is the base's, and so are its figures (not counted again).
+  EXPECT_EQ(zoned->map.max_levels, levels);
+  EXPECT_EQ(registry_->Get("floor").value().max_levels, levels);
   EXPECT_FALSE(busy.get().ok());
 }
 
