@@ -104,6 +104,71 @@ TEST_F(ModelTiles, AnEditChangesOnlyTheTilesAroundIt) {
   EXPECT_TRUE(SerializeModel(**joined) == SerializeModel(*reassessed->model));
 }
 
+TEST_F(ModelTiles, AJoinTakesTheTilesItHoldsFromTheModelInMemoryAndReadsTheRest) {
+  const Eigen::AlignedBox3d block(Eigen::Vector3d(6, 6, 0), Eigen::Vector3d(8, 8, 1));
+  const std::vector<MapEdit> edits = {{MapEdit::Kind::kAddObstacle, BoxPrism(block)}};
+  const auto edited = ApplyEdits(cloud(), edits, model());
+  ASSERT_TRUE(edited.ok()) << edited.error().message;
+  const auto reassessed = ReassessRegion(model(), cloud(), *edited, EditBounds(edits));
+  ASSERT_TRUE(reassessed.ok()) << reassessed.error().message;
+  const TiledModel before = CutModel(model());
+  const TiledModel after = CutModel(*reassessed->model);
+  std::uint64_t bytes = 0;
+  for (const std::string& tile : after.tiles) bytes += tile.size();
+  std::vector<std::size_t> asked;
+  const TileSource source = [&](std::size_t t) -> Expected<std::string> {
+    asked.push_back(t);
+    return after.tiles[t];
+  };
+  // The edited version joined on a replica that holds the base: only the changed tiles read.
+  const HeldTiles base{&model(), [&](std::size_t t) { return before.tiles[t] == after.tiles[t]; }};
+  const auto joined = JoinModel(after.header, after.tiles.size(), bytes, source, "edited", &base);
+  ASSERT_TRUE(joined.ok()) << joined.error().message;
+  EXPECT_TRUE(SerializeModel(**joined) == SerializeModel(*reassessed->model));
+  std::vector<std::size_t> changed;
+  for (std::size_t t = 0; t < after.tiles.size(); ++t) {
+    if (before.tiles[t] != after.tiles[t]) changed.push_back(t);
+  }
+  ASSERT_FALSE(changed.empty());
+  EXPECT_EQ(asked, changed);
+  // And back: the base joined on a replica that holds the edited version.
+  asked.clear();
+  const TileSource base_source = [&](std::size_t t) -> Expected<std::string> {
+    asked.push_back(t);
+    return before.tiles[t];
+  };
+  const HeldTiles edited_held{reassessed->model.get(),
+                              [&](std::size_t t) { return before.tiles[t] == after.tiles[t]; }};
+  std::uint64_t base_bytes = 0;
+  for (const std::string& tile : before.tiles) base_bytes += tile.size();
+  const auto back =
+      JoinModel(before.header, before.tiles.size(), base_bytes, base_source, "base", &edited_held);
+  ASSERT_TRUE(back.ok()) << back.error().message;
+  EXPECT_TRUE(SerializeModel(**back) == SerializeModel(model()));
+  EXPECT_EQ(asked, changed);
+}
+
+TEST_F(ModelTiles, AHeldModelOfAnotherGridIsNotTakenFrom) {
+  // The garage's model at 0.4 m: the same site, other columns under every tile number.
+  AssessmentConfig config;
+  config.grid.resolution_m = 0.4;
+  const auto coarse = TerrainModel::Assess(cloud(), config);
+  ASSERT_TRUE(coarse.ok()) << coarse.error().message;
+  const TiledModel tiled = CutModel(model());
+  std::uint64_t bytes = 0;
+  for (const std::string& tile : tiled.tiles) bytes += tile.size();
+  std::size_t asked = 0;
+  const TileSource source = [&](std::size_t t) -> Expected<std::string> {
+    ++asked;
+    return tiled.tiles[t];
+  };
+  const HeldTiles held{coarse->get(), [](std::size_t) { return true; }};
+  const auto joined = JoinModel(tiled.header, tiled.tiles.size(), bytes, source, "garage", &held);
+  ASSERT_TRUE(joined.ok()) << joined.error().message;
+  EXPECT_TRUE(SerializeModel(**joined) == SerializeModel(model()));
+  EXPECT_EQ(asked, tiled.tiles.size());
+}
+
 TEST_F(ModelTiles, ACloudJoinsFromItsTilesInTileOrderAndAssessesTheSame) {
   const std::vector<std::string> tiles = CutCloud(cloud(), model().grid());
   const auto joined = JoinCloud(Views(tiles), "garage");

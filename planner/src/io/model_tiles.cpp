@@ -227,6 +227,46 @@ struct TileReader {
   }
 };
 
+// A tile taken from a model in memory (HeldTiles): what its block of that model holds.
+struct HeldTile {
+  std::uint64_t surface_total = 0, run_total = 0, value_total = 0;
+
+  HeldTile(const TerrainModel& model, const Block& block) {
+    const std::vector<std::uint32_t>& surface_begin = model.surfaces().column_begin();
+    const TerrainFields::Parts& f = model.fields().parts();
+    const std::int64_t nx = model.grid().size.x();
+    // A block's columns of one grid row lie together.
+    for (int y = block.y0; y < block.y1; ++y) {
+      const std::int64_t first = block.x0 + nx * y, end = block.x1 + nx * y;
+      surface_total += surface_begin[end] - surface_begin[first];
+      run_total += f.column_begin[end] - f.column_begin[first];
+      value_total +=
+          f.intervals[f.column_begin[end]].offset - f.intervals[f.column_begin[first]].offset;
+    }
+  }
+};
+
+// Appends column `c` of `model` to `p`, as TileReader::NextColumn does from its bytes.
+void AppendHeldColumn(const TerrainModel& model, std::int64_t c, model_parts::Payload* p,
+                      std::uint64_t* value_offset) {
+  const std::vector<std::uint32_t>& surface_begin = model.surfaces().column_begin();
+  const std::vector<ColumnSurface>& surfaces = model.surfaces().all_surfaces();
+  p->surfaces.insert(p->surfaces.end(), surfaces.begin() + surface_begin[c],
+                     surfaces.begin() + surface_begin[c + 1]);
+  const TerrainFields::Parts& f = model.fields().parts();
+  TerrainFields::Parts& out = p->fields;
+  const std::uint32_t first = f.intervals[f.column_begin[c]].offset;
+  const std::uint32_t end = f.intervals[f.column_begin[c + 1]].offset;
+  for (std::uint32_t k = f.column_begin[c]; k < f.column_begin[c + 1]; ++k) {
+    out.intervals.push_back(
+        {f.intervals[k].first_layer,
+         static_cast<std::uint32_t>(*value_offset + f.intervals[k].offset - first)});
+  }
+  out.distance.insert(out.distance.end(), f.distance.begin() + first, f.distance.begin() + end);
+  out.safety.insert(out.safety.end(), f.safety.begin() + first, f.safety.begin() + end);
+  *value_offset += end - first;
+}
+
 }  // namespace
 
 std::size_t TileCount(const GridGeometry& geometry) {
@@ -265,11 +305,9 @@ TiledModel CutModelTiles(const TerrainModel& model, std::span<const std::size_t>
   return tiled;
 }
 
-Expected<std::shared_ptr<const TerrainModel>> JoinModel(std::string_view header_bytes,
-                                                        std::size_t tile_count,
-                                                        std::uint64_t tile_bytes,
-                                                        const TileSource& source,
-                                                        const std::string& name) {
+Expected<std::shared_ptr<const TerrainModel>> JoinModel(
+    std::string_view header_bytes, std::size_t tile_count, std::uint64_t tile_bytes,
+    const TileSource& source, const std::string& name, const HeldTiles* held) {
   const auto fail = [&name](const std::string& what) {
     return Error{ErrorCode::kMapLoadFailed, "tiled model " + name + " " + what};
   };
@@ -313,10 +351,28 @@ Expected<std::shared_ptr<const TerrainModel>> JoinModel(std::string_view header_
   const int blocks_x = BlocksAlong(g.size.x());
   std::vector<std::string> row(blocks_x);
   std::vector<TileReader> readers(blocks_x);
+  // Whether each tile of the row is the held model's (its block is then copied from it).
+  std::vector<bool> from_held(blocks_x, false);
+  const TerrainModel* held_model = held != nullptr && held->model != nullptr && held->same &&
+                                           held->model->grid().size.head<2>() == g.size.head<2>()
+                                       ? held->model
+                                       : nullptr;
   std::uint64_t surfaces = 0, runs = 0, values = 0, value_offset = 0, bytes_read = 0;
   for (int y0 = 0; y0 < g.size.y(); y0 += kTileColumns) {
     for (int bx = 0; bx < blocks_x; ++bx) {
       const std::size_t t = std::size_t(y0 / kTileColumns) * blocks_x + bx;
+      from_held[bx] = held_model != nullptr && held->same(t);
+      if (from_held[bx]) {
+        const HeldTile tile(*held_model, BlockOf(g, t));
+        surfaces += tile.surface_total;
+        runs += tile.run_total;
+        values += tile.value_total;
+        if (surfaces > header.surface_total || runs > header.run_total ||
+            values > header.value_total) {
+          return fail("tile " + std::to_string(t) + " holds more than its header counts");
+        }
+        continue;
+      }
       Expected<std::string> bytes = source(t);
       if (!bytes) return bytes.error();
       bytes_read += bytes->size();
@@ -341,7 +397,9 @@ Expected<std::shared_ptr<const TerrainModel>> JoinModel(std::string_view header_
       for (int x = 0; x < g.size.x(); ++x) {
         p.column_begin.push_back(static_cast<std::uint32_t>(p.surfaces.size()));
         p.fields.column_begin.push_back(static_cast<std::uint32_t>(p.fields.intervals.size()));
-        if (!readers[x / kTileColumns].NextColumn(&p, &value_offset)) {
+        if (from_held[x / kTileColumns]) {
+          AppendHeldColumn(*held_model, x + std::int64_t{g.size.x()} * y, &p, &value_offset);
+        } else if (!readers[x / kTileColumns].NextColumn(&p, &value_offset)) {
           return fail("tile " +
                       std::to_string(std::size_t(y0 / kTileColumns) * blocks_x +
                                      std::size_t(x / kTileColumns)) +

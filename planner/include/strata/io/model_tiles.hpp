@@ -63,18 +63,27 @@ TiledModel CutModelTiles(const TerrainModel& model, std::span<const std::size_t>
 /// passes on as it is. Each tile is asked for once, in increasing order.
 using TileSource = std::function<Expected<std::string>(std::size_t t)>;
 
+/// Tiles a join takes from a model already in memory instead of reading and decoding them:
+/// `model`'s tile t for each t that `same(t)` says is CutModel(*model).tiles[t], byte for byte
+/// (a store knows it from the tiles' names, which are their contents' hashes). A replica
+/// that holds a version of a map loads the next one so, reading only the tiles it changed.
+struct HeldTiles {
+  const TerrainModel* model = nullptr;
+  std::function<bool(std::size_t t)> same;
+};
+
 /// The model of a header and its `tile_count` tiles of `tile_bytes` bytes together, read from
 /// `source` one row of blocks at a time (memory: the model and one row of tiles); `name` is
-/// what messages call it. kMapLoadFailed naming it for a header that is not one, of another
-/// format version, truncated or corrupted (its checksum), a count of tiles other than the
-/// header's grid needs, totals the tiles' bytes cannot hold, tiles past `tile_bytes`, and a
-/// tile whose contents do not fit its block or the header's totals (which tile, and why).
-/// Never allocates more than `tile_bytes` plus the header's grid of column offsets.
-Expected<std::shared_ptr<const TerrainModel>> JoinModel(std::string_view header,
-                                                        std::size_t tile_count,
-                                                        std::uint64_t tile_bytes,
-                                                        const TileSource& source,
-                                                        const std::string& name);
+/// what messages call it. With `held` (may be null), the tiles it holds are copied from its
+/// model, not asked of `source`, when its grid has the header's columns (else it is not
+/// used). kMapLoadFailed naming it for a header that is not one, of another format version,
+/// truncated or corrupted (its checksum), a count of tiles other than the header's grid
+/// needs, totals the tiles' bytes cannot hold, tiles past `tile_bytes`, and a tile whose
+/// contents do not fit its block or the header's totals (which tile, and why). Never
+/// allocates more than `tile_bytes` plus the header's grid of column offsets.
+Expected<std::shared_ptr<const TerrainModel>> JoinModel(
+    std::string_view header, std::size_t tile_count, std::uint64_t tile_bytes,
+    const TileSource& source, const std::string& name, const HeldTiles* held = nullptr);
 /// JoinModel of tiles in memory.
 Expected<std::shared_ptr<const TerrainModel>> JoinModel(std::string_view header,
                                                         std::span<const std::string_view> tiles,
