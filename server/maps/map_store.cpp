@@ -1048,13 +1048,20 @@ ServiceError MapStore::TilesFailed(const std::string& id, const std::string& ver
       .With("version", version);
 }
 
-Result<std::shared_ptr<const TerrainModel>> MapStore::LoadModel(const std::string& id,
-                                                                const std::string& version) const {
+Result<std::shared_ptr<const TerrainModel>> MapStore::LoadModel(
+    const std::string& id, const std::string& version,
+    const std::shared_ptr<const TerrainModel>& held, const std::string& held_version) const {
   Result<std::optional<OpenedTiles>> tiles = OpenTiles(id, version);
   if (!tiles) return std::move(tiles).error();
   if (tiles->has_value()) {
+    // The held version's list; none (a layout without tiles, pruned meanwhile): read all.
+    std::optional<HeldTerrain> from;
+    if (held != nullptr) {
+      Result<std::optional<TerrainTiles>> list = TilesOfVersion(id, held_version);
+      if (list && list->has_value()) from = HeldTerrain{held, std::move(**list)};
+    }
     Result<std::shared_ptr<const TerrainModel>> model =
-        LoadTiledModel(**tiles, TiledName(id, version));
+        LoadTiledModel(**tiles, TiledName(id, version), {}, from ? &*from : nullptr);
     if (!model) return TilesFailed(id, version, std::move(model).error());
     return model;
   }

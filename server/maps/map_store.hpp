@@ -223,9 +223,14 @@ class MapStore {
   /// The saved model of a version. kMapVersionNotFound naming the id, the version and the
   /// kept ones when the version is not in the store (pruned, never put); kMapNotFound when
   /// the map is not; kMapCorrupted naming the file when it fails to load (truncated, bad
-  /// checksum, another format version); kInvalidInput for a bad id or version name.
-  Result<std::shared_ptr<const TerrainModel>> LoadModel(const std::string& id,
-                                                        const std::string& version) const;
+  /// checksum, another format version); kInvalidInput for a bad id or version name. With
+  /// `held` (the model of `held_version` of the same map, which the caller holds; may be
+  /// null), the tiles both versions list are taken from it: a replica reads only what an
+  /// edit changed.
+  Result<std::shared_ptr<const TerrainModel>> LoadModel(
+      const std::string& id, const std::string& version,
+      const std::shared_ptr<const TerrainModel>& held = nullptr,
+      const std::string& held_version = {}) const;
 
   /// The source cloud of a version; fails as LoadModel does.
   Result<PointCloud> LoadCloud(const std::string& id, const std::string& version) const;

@@ -39,7 +39,19 @@ Result<ActiveMap> StoredMaps::Get(const std::string& id, const std::string& vers
         if (std::shared_ptr<const PlanningMap> same = HeldOfTerrain(id, kept, terrain.value())) {
           return same->WithKeepOut(described.value().keep_out);
         }
-        Result<std::shared_ptr<const TerrainModel>> model = options_.store->LoadModel(id, wanted);
+        // Another version held here (the one before, on a replica that planned on it): the
+        // tiles the two share are taken from its model, and only the changed ones read.
+        std::shared_ptr<const PlanningMap> other;
+        std::string other_version;
+        for (const std::string& version : kept) {
+          if (version == wanted) continue;
+          if ((other = cache_.Peek(id, version))) {
+            other_version = version;
+            break;
+          }
+        }
+        Result<std::shared_ptr<const TerrainModel>> model = options_.store->LoadModel(
+            id, wanted, other ? other->model_ptr() : nullptr, other_version);
         if (!model.ok()) return std::move(model).error();
         return options_.make_planning(std::move(model).value(), described.value().keep_out, id,
                                       terrain.value());

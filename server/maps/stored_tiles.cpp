@@ -192,7 +192,7 @@ ServiceError Corrupted(const Error& error) {
 
 Result<std::shared_ptr<const TerrainModel>> LoadTiledModel(
     const OpenedTiles& tiles, const std::string& name,
-    std::span<const std::pair<std::string, std::string>> given) {
+    std::span<const std::pair<std::string, std::string>> given, const HeldTerrain* held) {
   std::unordered_map<std::string_view, const std::string*> given_by_name;
   for (const auto& [tile, bytes] : given) given_by_name.emplace(tile, &bytes);
   const auto given_bytes = [&](const std::string& tile) -> const std::string* {
@@ -225,8 +225,17 @@ Result<std::shared_ptr<const TerrainModel>> LoadTiledModel(
     const std::uintmax_t size = fs::file_size(fs::path(tiles.dir->ProcPath()) / tile, ec);
     if (!ec) tile_bytes += size;  // A tile not there fails when it is read.
   }
+  // A tile of the same name holds the same bytes (names are the contents' hashes).
+  std::optional<HeldTiles> from_held;
+  if (held != nullptr && held->model != nullptr &&
+      held->list.model.size() == tiles.list.model.size()) {
+    from_held = HeldTiles{held->model.get(), [&](std::size_t t) {
+                            return held->list.model[t] == tiles.list.model[t];
+                          }};
+  }
   Expected<std::shared_ptr<const TerrainModel>> model =
-      JoinModel(*header, tiles.list.model.size(), tile_bytes, source, name);
+      JoinModel(*header, tiles.list.model.size(), tile_bytes, source, name,
+                from_held ? &*from_held : nullptr);
   if (read_error) return *read_error;
   if (!model) return Corrupted(model.error());
   return std::move(model).value();

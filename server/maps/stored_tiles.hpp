@@ -102,13 +102,21 @@ struct OpenedTiles {
   TerrainTiles list;
 };
 
+/// A model this process holds and the list of tiles it is made of.
+struct HeldTerrain {
+  std::shared_ptr<const TerrainModel> model;
+  TerrainTiles list;
+};
+
 /// The model of `tiles`, read through its directory and joined; `name` is what messages call
 /// it. The tiles of `given` (a map worker's cut: the tiles an edit changed, with their names)
-/// are taken from there, the others read from the directory. Fails as ReadTiles does, and
-/// kMapCorrupted as JoinModel refuses.
+/// are taken from there, those `held` (may be null) lists at the same place (another version
+/// of the map, held here) from its model, and the others read from the directory. Fails as
+/// ReadTiles does, and kMapCorrupted as JoinModel refuses.
 Result<std::shared_ptr<const TerrainModel>> LoadTiledModel(
     const OpenedTiles& tiles, const std::string& name,
-    std::span<const std::pair<std::string, std::string>> given = {});
+    std::span<const std::pair<std::string, std::string>> given = {},
+    const HeldTerrain* held = nullptr);
 /// The cloud of `tiles`, in the order of its tiles (kEditNeedsCloud when it keeps none); fails
 /// as LoadTiledModel does.
 Result<PointCloud> LoadTiledCloud(const OpenedTiles& tiles, const std::string& name);
