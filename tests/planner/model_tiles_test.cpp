@@ -1,9 +1,11 @@
 #include "strata/io/model_tiles.hpp"
 
 #include <algorithm>
+#include <cstdint>
 #include <cstring>
 #include <string>
 #include <tuple>
+#include <utility>
 #include <vector>
 
 #include <gmock/gmock.h>
@@ -44,6 +46,22 @@ class ModelTiles : public ::testing::Test {
   static const PointCloud& cloud() { return *cloud_; }
   static const TerrainModel& model() { return **model_; }
 
+  // A 2 m block on the ground floor in the garage's first tile row.
+  static Eigen::AlignedBox3d EditedBlock() {
+    return {Eigen::Vector3d(6, 6, 0), Eigen::Vector3d(8, 8, 1)};
+  }
+  // The garage with that block added: its cloud, and its model reassessed around the block.
+  static std::pair<PointCloud, Reassessment> Edited() {
+    const std::vector<MapEdit> edits = {{MapEdit::Kind::kAddObstacle, BoxPrism(EditedBlock())}};
+    auto edited = ApplyEdits(cloud(), edits, model());
+    EXPECT_TRUE(edited.ok()) << edited.error().message;
+    if (!edited) return {};
+    auto reassessed = ReassessRegion(model(), cloud(), *edited, EditBounds(edits));
+    EXPECT_TRUE(reassessed.ok()) << reassessed.error().message;
+    if (!reassessed) return {};
+    return {std::move(edited).value(), std::move(reassessed).value()};
+  }
+
   // Whether tile `t` of the model's grid lies farther than `margin_m` from `box` in x or y.
   static bool TileFarFrom(std::size_t t, const Eigen::AlignedBox3d& box, double margin_m) {
     const GridGeometry& g = model().grid();
@@ -74,24 +92,19 @@ TEST_F(ModelTiles, JoinedTilesSaveToTheSameBytes) {
 }
 
 TEST_F(ModelTiles, AnEditChangesOnlyTheTilesAroundIt) {
-  // A 2 m block on the ground floor in the garage's first tile row.
-  const Eigen::AlignedBox3d block(Eigen::Vector3d(6, 6, 0), Eigen::Vector3d(8, 8, 1));
-  const std::vector<MapEdit> edits = {{MapEdit::Kind::kAddObstacle, BoxPrism(block)}};
-  const auto edited = ApplyEdits(cloud(), edits, model());
-  ASSERT_TRUE(edited.ok()) << edited.error().message;
-  const auto reassessed = ReassessRegion(model(), cloud(), *edited, EditBounds(edits));
-  ASSERT_TRUE(reassessed.ok()) << reassessed.error().message;
-  ASSERT_EQ(reassessed->path, ReassessmentPath::kLocal);
+  const auto [edited, reassessed] = Edited();
+  ASSERT_NE(reassessed.model, nullptr);
+  ASSERT_EQ(reassessed.path, ReassessmentPath::kLocal);
 
   const TiledModel before = CutModel(model());
-  const TiledModel after = CutModel(*reassessed->model);
+  const TiledModel after = CutModel(*reassessed.model);
   const std::vector<std::string> cloud_before = CutCloud(cloud(), model().grid());
-  const std::vector<std::string> cloud_after = CutCloud(*edited, model().grid());
+  const std::vector<std::string> cloud_after = CutCloud(edited, model().grid());
   std::size_t changed = 0;
   for (std::size_t t = 0; t < before.tiles.size(); ++t) {
     if (before.tiles[t] != after.tiles[t]) ++changed;
     // The assessment's reach (the distance cap, the diffusion) is well under a tile.
-    if (TileFarFrom(t, block, 4.0)) {
+    if (TileFarFrom(t, EditedBlock(), 4.0)) {
       EXPECT_TRUE(before.tiles[t] == after.tiles[t]) << "model tile " << t;
       EXPECT_TRUE(cloud_before[t] == cloud_after[t]) << "cloud tile " << t;
     }
@@ -101,48 +114,42 @@ TEST_F(ModelTiles, AnEditChangesOnlyTheTilesAroundIt) {
   // And the base's tiles with the edit's own join to the reassessed model.
   const auto joined = JoinModel(after.header, Views(after.tiles), "edited");
   ASSERT_TRUE(joined.ok()) << joined.error().message;
-  EXPECT_TRUE(SerializeModel(**joined) == SerializeModel(*reassessed->model));
+  EXPECT_TRUE(SerializeModel(**joined) == SerializeModel(*reassessed.model));
+}
+
+// JoinModel of `tiled` holding `held`, from a source that notes in `asked` each tile it gives.
+Expected<std::shared_ptr<const TerrainModel>> JoinHolding(const TiledModel& tiled,
+                                                          const HeldTiles& held,
+                                                          std::vector<std::size_t>* asked) {
+  std::uint64_t bytes = 0;
+  for (const std::string& tile : tiled.tiles) bytes += tile.size();
+  const TileSource source = [&](std::size_t t) -> Expected<std::string> {
+    asked->push_back(t);
+    return tiled.tiles[t];
+  };
+  return JoinModel(tiled.header, tiled.tiles.size(), bytes, source, "held", &held);
 }
 
 TEST_F(ModelTiles, AJoinTakesTheTilesItHoldsFromTheModelInMemoryAndReadsTheRest) {
-  const Eigen::AlignedBox3d block(Eigen::Vector3d(6, 6, 0), Eigen::Vector3d(8, 8, 1));
-  const std::vector<MapEdit> edits = {{MapEdit::Kind::kAddObstacle, BoxPrism(block)}};
-  const auto edited = ApplyEdits(cloud(), edits, model());
-  ASSERT_TRUE(edited.ok()) << edited.error().message;
-  const auto reassessed = ReassessRegion(model(), cloud(), *edited, EditBounds(edits));
-  ASSERT_TRUE(reassessed.ok()) << reassessed.error().message;
+  const auto [edited, reassessed] = Edited();
+  ASSERT_NE(reassessed.model, nullptr);
   const TiledModel before = CutModel(model());
-  const TiledModel after = CutModel(*reassessed->model);
-  std::uint64_t bytes = 0;
-  for (const std::string& tile : after.tiles) bytes += tile.size();
-  std::vector<std::size_t> asked;
-  const TileSource source = [&](std::size_t t) -> Expected<std::string> {
-    asked.push_back(t);
-    return after.tiles[t];
-  };
-  // The edited version joined on a replica that holds the base: only the changed tiles read.
-  const HeldTiles base{&model(), [&](std::size_t t) { return before.tiles[t] == after.tiles[t]; }};
-  const auto joined = JoinModel(after.header, after.tiles.size(), bytes, source, "edited", &base);
-  ASSERT_TRUE(joined.ok()) << joined.error().message;
-  EXPECT_TRUE(SerializeModel(**joined) == SerializeModel(*reassessed->model));
+  const TiledModel after = CutModel(*reassessed.model);
+  const auto same = [&](std::size_t t) { return before.tiles[t] == after.tiles[t]; };
   std::vector<std::size_t> changed;
   for (std::size_t t = 0; t < after.tiles.size(); ++t) {
-    if (before.tiles[t] != after.tiles[t]) changed.push_back(t);
+    if (!same(t)) changed.push_back(t);
   }
   ASSERT_FALSE(changed.empty());
+  // The edited version joined on a replica that holds the base: only the changed tiles read.
+  std::vector<std::size_t> asked;
+  const auto joined = JoinHolding(after, HeldTiles{&model(), same}, &asked);
+  ASSERT_TRUE(joined.ok()) << joined.error().message;
+  EXPECT_TRUE(SerializeModel(**joined) == SerializeModel(*reassessed.model));
   EXPECT_EQ(asked, changed);
   // And back: the base joined on a replica that holds the edited version.
   asked.clear();
-  const TileSource base_source = [&](std::size_t t) -> Expected<std::string> {
-    asked.push_back(t);
-    return before.tiles[t];
-  };
-  const HeldTiles edited_held{reassessed->model.get(),
-                              [&](std::size_t t) { return before.tiles[t] == after.tiles[t]; }};
-  std::uint64_t base_bytes = 0;
-  for (const std::string& tile : before.tiles) base_bytes += tile.size();
-  const auto back =
-      JoinModel(before.header, before.tiles.size(), base_bytes, base_source, "base", &edited_held);
+  const auto back = JoinHolding(before, HeldTiles{reassessed.model.get(), same}, &asked);
   ASSERT_TRUE(back.ok()) << back.error().message;
   EXPECT_TRUE(SerializeModel(**back) == SerializeModel(model()));
   EXPECT_EQ(asked, changed);
@@ -155,18 +162,12 @@ TEST_F(ModelTiles, AHeldModelOfAnotherGridIsNotTakenFrom) {
   const auto coarse = TerrainModel::Assess(cloud(), config);
   ASSERT_TRUE(coarse.ok()) << coarse.error().message;
   const TiledModel tiled = CutModel(model());
-  std::uint64_t bytes = 0;
-  for (const std::string& tile : tiled.tiles) bytes += tile.size();
-  std::size_t asked = 0;
-  const TileSource source = [&](std::size_t t) -> Expected<std::string> {
-    ++asked;
-    return tiled.tiles[t];
-  };
-  const HeldTiles held{coarse->get(), [](std::size_t) { return true; }};
-  const auto joined = JoinModel(tiled.header, tiled.tiles.size(), bytes, source, "garage", &held);
+  std::vector<std::size_t> asked;
+  const auto joined =
+      JoinHolding(tiled, HeldTiles{coarse->get(), [](std::size_t) { return true; }}, &asked);
   ASSERT_TRUE(joined.ok()) << joined.error().message;
   EXPECT_TRUE(SerializeModel(**joined) == SerializeModel(model()));
-  EXPECT_EQ(asked, tiled.tiles.size());
+  EXPECT_EQ(asked.size(), tiled.tiles.size());
 }
 
 TEST_F(ModelTiles, ACloudJoinsFromItsTilesInTileOrderAndAssessesTheSame) {
