@@ -322,10 +322,41 @@ std::shared_ptr<const PlanningMap> PlanningMap::WithKeepOut(std::vector<Prism> k
 
 Expected<std::shared_ptr<const SurfaceGraph>> PlanningMap::Graph(
     const TraversabilityParams& params, const std::function<bool()>& should_stop) const {
+  return GraphMadeBy(params, should_stop, [&](const std::function<bool()>& stop) {
+    return SurfaceGraph::Build(*model_, params, stop);
+  });
+}
+
+Expected<std::shared_ptr<const SurfaceGraph>> PlanningMap::GraphPatchedFrom(
+    const PlanningMap& base, const CellBox& changed_columns, const TraversabilityParams& params,
+    const std::function<bool()>& should_stop) const {
+  const std::shared_ptr<const SurfaceGraph> from = base.BuiltGraph(params);
+  if (from == nullptr) return Graph(params, should_stop);
+  return GraphMadeBy(params, should_stop, [&](const std::function<bool()>& stop) {
+    Expected<SurfaceGraph> patched = SurfaceGraph::Patch(*from, *model_, changed_columns, stop);
+    // Another grid: nothing to patch from.
+    if (!patched && patched.error().code == ErrorCode::kInvalidInput) {
+      return SurfaceGraph::Build(*model_, params, stop);
+    }
+    return patched;
+  });
+}
+
+std::shared_ptr<const SurfaceGraph> PlanningMap::BuiltGraph(
+    const TraversabilityParams& params) const {
+  std::lock_guard lock(mutex_);
+  const auto it = graphs_.find(params);
+  if (it == graphs_.end() || !it->second->built.load(std::memory_order_acquire)) return nullptr;
+  return it->second->graph;
+}
+
+Expected<std::shared_ptr<const SurfaceGraph>> PlanningMap::GraphMadeBy(
+    const TraversabilityParams& params, const std::function<bool()>& should_stop,
+    const GraphMaker& make) const {
   while (true) {
     bool built_here = false;
     Expected<std::shared_ptr<const SurfaceGraph>> graph =
-        GraphOnce(params, should_stop, &built_here);
+        GraphOnce(params, should_stop, make, &built_here);
     // Another caller's build was stopped (its caller gave up, not this one): build it here.
     if (!graph && graph.error().code == ErrorCode::kCancelled && !built_here &&
         !(should_stop && should_stop())) {
@@ -337,7 +368,7 @@ Expected<std::shared_ptr<const SurfaceGraph>> PlanningMap::Graph(
 
 Expected<std::shared_ptr<const SurfaceGraph>> PlanningMap::GraphOnce(
     const TraversabilityParams& params, const std::function<bool()>& should_stop,
-    bool* built_here) const {
+    const GraphMaker& make, bool* built_here) const {
   if (Status s = params.Validate(); !s) return std::move(s).error();
   std::shared_ptr<GraphEntry> entry;
   {
@@ -362,7 +393,7 @@ Expected<std::shared_ptr<const SurfaceGraph>> PlanningMap::GraphOnce(
         return;
       }
     }
-    Expected<SurfaceGraph> graph = SurfaceGraph::Build(*model_, params, should_stop);
+    Expected<SurfaceGraph> graph = make(should_stop);
     if (graph) {
       entry->graph = std::make_shared<const SurfaceGraph>(std::move(graph).value());
       if (archive_ != nullptr) archive_->Keep(model_, entry->graph);

@@ -337,9 +337,13 @@ Result<MapUpdate> MapEditor::UpdateOnce(const MapEditRequest& request, const Cal
   if (!robots.empty()) {
     const auto graphs_start = SteadyClock::now();
     const auto ended = [&call] { return Ended(call); };  // Polled every grid row: no message.
+    // Outside the columns an edit reassessed locally the model is the base's: the base's
+    // graphs are patched there (a tenth of a build's time on a site).
+    const bool local = built.edit && !built.edit->full_reassessment;
     for (const TraversabilityParams& params : robots) {
       // A failure is the first plan's to report (it builds the graph again).
-      (void)planning->Graph(params, ended);
+      (void)(local ? planning->GraphPatchedFrom(*base, built.edit->changed_columns, params, ended)
+                   : planning->Graph(params, ended));
     }
     graphs_s = SecondsSince(graphs_start);
     if (std::optional<ServiceError> ended_now = CallEnded(call, id, current)) return *ended_now;

@@ -146,5 +146,35 @@ TEST(PlanningMap, AStoppedBuildFailsCancelledAndIsBuiltAgainByTheNextCall) {
   EXPECT_GT((*again)->node_count(), 0);
 }
 
+// An edited map makes its graph from the one its base holds (SurfaceGraph::Patch), and builds
+// it when the base holds none; either way the graph is the edited model's.
+TEST(PlanningMap, AGraphPatchedFromTheBaseMapIsTheEditedModelsAndIsBuiltWhenTheBaseHasNone) {
+  const std::shared_ptr<const TerrainModel> floor = FlatFloor();
+  PointCloud cloud;
+  for (double x = 0; x <= 3.0 + 1e-9; x += 0.05) {
+    for (double y = 0; y <= 3.0 + 1e-9; y += 0.05) {
+      if (x > 1.4 && x < 1.6) continue;  // A gap splits the floor in two.
+      cloud.emplace_back(static_cast<float>(x), static_cast<float>(y), 0.0f);
+    }
+  }
+  const std::shared_ptr<const TerrainModel> walled =
+      TerrainModel::Assess(cloud, floor->config()).value();
+  ASSERT_EQ(walled->grid().size, floor->grid().size);  // Else nothing could be patched.
+  const TraversabilityParams params = RobotProfile{}.Traversability();
+  const CellBox changed = CellBox::Whole(walled->grid());
+  const PlanningMap base(floor);
+  const PlanningMap without_graph(walled);
+  const auto built_without_base = without_graph.GraphPatchedFrom(base, changed, params).value();
+  EXPECT_EQ(built_without_base->component_count(), 2);
+  ASSERT_EQ(base.GraphCount(), 0U);  // Nothing to patch from: built.
+
+  (void)base.Graph(params).value();
+  const PlanningMap edited(walled);
+  const auto patched = edited.GraphPatchedFrom(base, changed, params).value();
+  EXPECT_EQ(patched->component_count(), 2);
+  EXPECT_EQ(patched->node_count(), built_without_base->node_count());
+  EXPECT_EQ(edited.Graph(params).value(), patched);  // Kept as any graph.
+}
+
 }  // namespace
 }  // namespace strata

@@ -62,6 +62,13 @@ class PlanningMap {
   /// caller stopped builds the graph itself.
   Expected<std::shared_ptr<const SurfaceGraph>> Graph(
       const TraversabilityParams& params, const std::function<bool()>& should_stop = {}) const;
+  /// Graph, for a map whose model differs from `base`'s only in `changed_columns` (an edit's
+  /// Reassessment::changed_columns): a graph `base` holds built for `params` is patched
+  /// (SurfaceGraph::Patch) instead of building one, a tenth of the time on a site. As Graph
+  /// when `base` holds none.
+  Expected<std::shared_ptr<const SurfaceGraph>> GraphPatchedFrom(
+      const PlanningMap& base, const CellBox& changed_columns, const TraversabilityParams& params,
+      const std::function<bool()>& should_stop = {}) const;
   /// Bytes held by the model and the graphs kept.
   std::size_t MemoryBytes() const;
   /// Graphs kept (built, or being built).
@@ -72,10 +79,20 @@ class PlanningMap {
 
  private:
   struct GraphEntry;  // One graph's build, done once.
-  // One try of Graph: *built_here tells whether this call ran the build.
+  // How a graph missing from the archive is made: built, or patched from another map's.
+  using GraphMaker =
+      std::function<Expected<SurfaceGraph>(const std::function<bool()>& should_stop)>;
+  // Graph and GraphPatchedFrom: the graph for `params`, made by `make` when no call made it.
+  Expected<std::shared_ptr<const SurfaceGraph>> GraphMadeBy(
+      const TraversabilityParams& params, const std::function<bool()>& should_stop,
+      const GraphMaker& make) const;
+  // One try of GraphMadeBy: *built_here tells whether this call ran the build.
   Expected<std::shared_ptr<const SurfaceGraph>> GraphOnce(const TraversabilityParams& params,
                                                           const std::function<bool()>& should_stop,
+                                                          const GraphMaker& make,
                                                           bool* built_here) const;
+  // The graph for `params` if one is built and kept here, else null.
+  std::shared_ptr<const SurfaceGraph> BuiltGraph(const TraversabilityParams& params) const;
   // Drops the least recently used graphs no plan holds until the kept ones fit
   // max_graph_bytes_, never the most recently used; call with mutex_.
   void DropGraphsLocked() const;

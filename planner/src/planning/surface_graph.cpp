@@ -20,8 +20,9 @@ constexpr int kNodesPerPoll = 4096;
 
 Error Cancelled() { return Error{ErrorCode::kCancelled, "building the surface graph was stopped"}; }
 
-// kInvalidConfig when `params` are invalid or steeper than the map's ground filter allows.
-Status CheckParams(const TerrainModel& model, const TraversabilityParams& params) {
+}  // namespace
+
+Status SurfaceGraph::CheckParams(const TerrainModel& model, const TraversabilityParams& params) {
   if (Status s = params.Validate(); !s.ok()) return s;
   const double map_tilt = model.config().ground.max_tilt_rad;
   if (params.max_tilt_rad > map_tilt) {
@@ -35,8 +36,6 @@ Status CheckParams(const TerrainModel& model, const TraversabilityParams& params
   return Status::Ok();
 }
 
-}  // namespace
-
 SurfaceGraph::SurfaceGraph(const TerrainModel& model, const TraversabilityParams& params)
     : model_(&model), params_(params) {
   const double slope = std::tan(params.max_tilt_rad) * model.grid().resolution_m;
@@ -45,40 +44,51 @@ SurfaceGraph::SurfaceGraph(const TerrainModel& model, const TraversabilityParams
 }
 
 bool SurfaceGraph::CollectNodes(const std::function<bool()>& stopped, bool measure_clearance) {
-  const TerrainModel& model = *model_;
-  const GridGeometry& g = model.grid();
-  const SurfaceMap& surfaces = model.surfaces();
-  const std::int64_t columns = g.LayerCellCount();
-  column_begin_.assign(static_cast<std::size_t>(columns) + 1, 0);
-  const double z_min = g.origin_m.z();
-  const double z_max = z_min + g.size.z() * g.resolution_m;
+  const GridGeometry& g = model_->grid();
+  column_begin_.assign(static_cast<std::size_t>(g.LayerCellCount()) + 1, 0);
   for (int iy = 0; iy < g.size.y(); ++iy) {
     if (stopped()) return false;
     for (int ix = 0; ix < g.size.x(); ++ix) {
-      const std::span<const ColumnSurface> column = surfaces.Column(ix, iy);
-      int level = 0;
-      for (std::size_t k = 0; k < column.size(); ++k) {
-        const ColumnSurface& s = column[k];
-        if (!s.valid) continue;
-        const int this_level = level++;
-        const double reference_z = s.ground_z_m + params_.reference_height_m;
-        if (s.tilt_rad > params_.max_tilt_rad || s.clearance_m < params_.body_height_m ||
-            reference_z < z_min || reference_z >= z_max) {
-          continue;
-        }
-        const Eigen::Vector3d p(g.origin_m.x() + (ix + 0.5) * g.resolution_m,
-                                g.origin_m.y() + (iy + 0.5) * g.resolution_m, reference_z);
-        column_nodes_.push_back(static_cast<std::int32_t>(nodes_.size()));
-        nodes_.push_back(Node{ix, iy, static_cast<std::int16_t>(k),
-                              static_cast<std::int16_t>(this_level),
-                              static_cast<float>(reference_z),
-                              measure_clearance ? static_cast<float>(model.Distance(p)) : 0.0f});
-      }
+      AppendColumnNodes(ix, iy, measure_clearance);
       column_begin_[ix + std::int64_t{g.size.x()} * iy + 1] =
           static_cast<std::uint32_t>(column_nodes_.size());
     }
   }
   return true;
+}
+
+void SurfaceGraph::AppendColumnNodes(int ix, int iy, bool measure_clearance) {
+  const TerrainModel& model = *model_;
+  const GridGeometry& g = model.grid();
+  const double z_min = g.origin_m.z();
+  const double z_max = z_min + g.size.z() * g.resolution_m;
+  const std::span<const ColumnSurface> column = model.surfaces().Column(ix, iy);
+  int level = 0;
+  for (std::size_t k = 0; k < column.size(); ++k) {
+    const ColumnSurface& s = column[k];
+    if (!s.valid) continue;
+    const int this_level = level++;
+    const double reference_z = s.ground_z_m + params_.reference_height_m;
+    if (s.tilt_rad > params_.max_tilt_rad || s.clearance_m < params_.body_height_m ||
+        reference_z < z_min || reference_z >= z_max) {
+      continue;
+    }
+    const Eigen::Vector3d p(g.origin_m.x() + (ix + 0.5) * g.resolution_m,
+                            g.origin_m.y() + (iy + 0.5) * g.resolution_m, reference_z);
+    column_nodes_.push_back(static_cast<std::int32_t>(nodes_.size()));
+    nodes_.push_back(Node{ix, iy, static_cast<std::int16_t>(k),
+                          static_cast<std::int16_t>(this_level), static_cast<float>(reference_z),
+                          measure_clearance ? static_cast<float>(model.Distance(p)) : 0.0f});
+  }
+}
+
+double SurfaceGraph::ClearanceTenthPercentile() const {
+  if (nodes_.empty()) return 0;
+  std::vector<float> clearances(nodes_.size());
+  for (std::size_t k = 0; k < clearances.size(); ++k) clearances[k] = nodes_[k].clearance_m;
+  const auto tenth = clearances.begin() + static_cast<std::ptrdiff_t>(clearances.size() / 10);
+  std::nth_element(clearances.begin(), tenth, clearances.end());
+  return *tenth;
 }
 
 Expected<SurfaceGraph> SurfaceGraph::FromParts(const TerrainModel& model, Parts parts) {
@@ -167,13 +177,7 @@ Expected<SurfaceGraph> SurfaceGraph::Build(const TerrainModel& model,
     const std::int32_t first = find(node);
     graph.components_[node] = first == node ? graph.component_count_++ : graph.components_[first];
   }
-  if (!graph.nodes_.empty()) {
-    std::vector<float> clearances(graph.nodes_.size());
-    for (std::size_t k = 0; k < clearances.size(); ++k) clearances[k] = graph.nodes_[k].clearance_m;
-    const auto tenth = clearances.begin() + static_cast<std::ptrdiff_t>(clearances.size() / 10);
-    std::nth_element(clearances.begin(), tenth, clearances.end());
-    graph.open_ground_clearance_m_ = *tenth;
-  }
+  graph.open_ground_clearance_m_ = graph.ClearanceTenthPercentile();
   if (!graph.ComputeEdgeDistances(rim, should_stop)) return Cancelled();
   if (!graph.ComputeLandmarks(should_stop)) return Cancelled();
   // The node arrays grew by push_back: give back what they reserved beyond their size.

@@ -86,6 +86,21 @@ class SurfaceGraph {
   static Expected<SurfaceGraph> Build(const TerrainModel& model, const TraversabilityParams& params,
                                       const std::function<bool()>& should_stop = {});
 
+  /// The graph Build makes of `model` (which must outlive it), made from `base`, the graph of
+  /// another model on the same grid for the same params, instead of built: `model` must
+  /// differ from base.model() only in the surfaces and fields of `changed_columns` (their z
+  /// ignored), as an edit's reassessed model differs from its base
+  /// (Reassessment::changed_columns). The nodes of those columns and the next (whose
+  /// clearance reads their fields) are found again, the rest copied; the rim distances are
+  /// measured again within the cap of them; the components are labelled again over the
+  /// whole graph (cheaply: the moves along the axes join what every move joins); landmarks,
+  /// which depend on the whole graph, are chosen as Build chooses them. Equals Build's
+  /// graph, value for value (an edit of a 10 m square on a 400 m site: about a tenth of
+  /// Build's time). Fails with kInvalidInput when the grids differ, and as Build does.
+  static Expected<SurfaceGraph> Patch(const SurfaceGraph& base, const TerrainModel& model,
+                                      const CellBox& changed_columns,
+                                      const std::function<bool()>& should_stop = {});
+
   /// What a graph holds beyond what the model and the params give: the nodes themselves follow
   /// from those (the class comment says which surfaces are nodes, in which order), their
   /// measurements and labels do not. A saved graph (strata/io/saved_graph.hpp) stores these.
@@ -281,9 +296,15 @@ class SurfaceGraph {
 
  private:
   SurfaceGraph(const TerrainModel& model, const TraversabilityParams& params);
+  // kInvalidConfig when `params` are invalid or steeper than the map's ground filter allows.
+  static Status CheckParams(const TerrainModel& model, const TraversabilityParams& params);
   // Finds the nodes of model_ for params_ (nodes_, column_begin_, column_nodes_), each with
   // its clearance measured or 0; false when `stopped` fired.
   bool CollectNodes(const std::function<bool()>& stopped, bool measure_clearance);
+  // Appends the nodes of column (ix, iy) to nodes_ and column_nodes_ (CollectNodes).
+  void AppendColumnNodes(int ix, int iy, bool measure_clearance);
+  // The 10th percentile of the nodes' clearances (open_ground_clearance_m).
+  double ClearanceTenthPercentile() const;
   // Chooses landmarks and fills landmark_distance_ (surface_graph_landmarks.cpp); false when
   // should_stop fired.
   bool ComputeLandmarks(const std::function<bool()>& should_stop);
