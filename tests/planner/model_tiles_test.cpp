@@ -191,6 +191,42 @@ TEST_F(ModelTiles, ACloudJoinsFromItsTilesInTileOrderAndAssessesTheSame) {
               test_util::BytesWithoutTimings(model()));
 }
 
+// An edit cuts only the tiles it changed (CutCloudTiles): each tile, and tiles far apart,
+// cut alone as the whole cut cuts them, with points on the tiles' borders and past the grid's
+// edges (which belong to the edge's tiles) too.
+TEST_F(ModelTiles, SomeTilesCutAsTheWholeCutCutsThemBordersAndPointsPastTheGridIncluded) {
+  const GridGeometry& g = model().grid();
+  PointCloud points = cloud();
+  const double r = g.resolution_m;
+  const Eigen::Vector3d far = g.origin_m + g.size.cast<double>() * r;
+  for (const double nudge : {-1e-4, 0.0, 1e-4}) {
+    const double border_x = g.origin_m.x() + kTileColumns * r + nudge;
+    const double border_y = g.origin_m.y() + kTileColumns * r + nudge;
+    points.emplace_back(static_cast<float>(border_x), static_cast<float>(g.origin_m.y() + 1), 0.f);
+    points.emplace_back(static_cast<float>(g.origin_m.x() + 1), static_cast<float>(border_y), 0.f);
+  }
+  points.emplace_back(static_cast<float>(g.origin_m.x() - 3), static_cast<float>(far.y() + 3), 0.f);
+  points.emplace_back(static_cast<float>(far.x() + 3), static_cast<float>(g.origin_m.y() - 3), 0.f);
+  points.emplace_back(static_cast<float>(far.x() + 3), static_cast<float>(far.y() + 3), 0.f);
+  const std::vector<std::string> whole = CutCloud(points, g);
+  ASSERT_GE(whole.size(), 6U);
+  std::size_t bytes = 0;
+  for (const std::string& tile : whole) bytes += tile.size();
+  EXPECT_EQ(bytes, points.size() * 3 * sizeof(float)) << "every point is in a tile";
+  std::vector<std::vector<std::size_t>> subsets;
+  for (std::size_t t = 0; t < whole.size(); ++t) subsets.push_back({t});
+  subsets.push_back({0, whole.size() - 1});
+  subsets.push_back({1, whole.size() - 2});
+  for (const std::vector<std::size_t>& which : subsets) {
+    const std::vector<std::string> some = CutCloudTiles(points, g, which);
+    ASSERT_EQ(some.size(), which.size());
+    for (std::size_t k = 0; k < which.size(); ++k) {
+      EXPECT_TRUE(some[k] == whole[which[k]]) << "tile " << which[k] << ": " << some[k].size()
+                                              << " bytes against " << whole[which[k]].size();
+    }
+  }
+}
+
 TEST_F(ModelTiles, RefusesWhatDoesNotFitNamingTheTile) {
   const TiledModel tiled = CutModel(model());
   std::vector<std::string_view> tiles = Views(tiled.tiles);

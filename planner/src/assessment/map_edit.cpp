@@ -307,12 +307,10 @@ Expected<PointCloud> ApplyEdits(const PointCloud& cloud, std::span<const MapEdit
   std::vector<Eigen::AlignedBox3d> bounds;
   std::vector<PointCloud> fills(edits.size());
   std::size_t counted = 0;  // Against kMaxEditPoints: the obstacles' points, the scans' all.
-  bool drops = false;
   ScanCounts counts;
   for (std::size_t i = 0; i < edits.size(); ++i) {
     const MapEdit& edit = edits[i];
     bounds.push_back(edit.region.Bounds());
-    drops = drops || Drops(edit.kind);
     if (edit.kind == MapEdit::Kind::kRemovePoints) continue;
     if (edit.kind == MapEdit::Kind::kScan) {
       if (Status s = ScanInsideGrid(edit, EditPath(i), g); !s) return s.error();
@@ -339,13 +337,22 @@ Expected<PointCloud> ApplyEdits(const PointCloud& cloud, std::span<const MapEdit
   std::size_t added = 0;
   for (const PointCloud& fill : fills) added += fill.size();
   out.reserve(cloud.size() + added);
-  if (!drops) {
-    out.insert(out.end(), cloud.begin(), cloud.end());
-  } else {
-    for (const Eigen::Vector3f& p : cloud) {
-      if (!DroppedByAny(edits, bounds, 0, p)) out.push_back(p);
-    }
+  // The base's points, copied a run of kept points at a time: a scan drops a few thousand of
+  // a site's millions, and a point outside every dropping region's box is kept at a glance
+  // (point by point, a 400 m site's 17 million took 0.6 s).
+  Eigen::AlignedBox3d dropping;
+  for (std::size_t i = 0; i < edits.size(); ++i) {
+    if (Drops(edits[i].kind)) dropping.extend(bounds[i]);
   }
+  std::size_t run = 0;  // The first point of the run of kept points.
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    const Eigen::Vector3d q = cloud[i].cast<double>();
+    if (!dropping.contains(q) || !DroppedByAny(edits, bounds, 0, cloud[i])) continue;
+    out.insert(out.end(), cloud.begin() + static_cast<std::ptrdiff_t>(run),
+               cloud.begin() + static_cast<std::ptrdiff_t>(i));
+    run = i + 1;
+  }
+  out.insert(out.end(), cloud.begin() + static_cast<std::ptrdiff_t>(run), cloud.end());
   for (std::size_t i = 0; i < edits.size(); ++i) {
     for (const Eigen::Vector3f& p : fills[i]) {
       if (!DroppedByAny(edits, bounds, i + 1, p)) out.push_back(p);

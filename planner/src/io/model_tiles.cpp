@@ -439,32 +439,56 @@ std::vector<std::string> CutCloudTiles(const PointCloud& cloud, const GridGeomet
   // Each grid tile's place among `which`, or kSkipped.
   constexpr std::uint32_t kSkipped = std::numeric_limits<std::uint32_t>::max();
   std::vector<std::uint32_t> slot_of_tile(TileCount(geometry), kSkipped);
+  // The columns the tiles span: an edit's few tiles lie in a small box, and a point outside
+  // it is passed over with four comparisons instead of finding its tile (on a 400 m site,
+  // cutting a scan's tiles took 0.3 s doing that for every point).
+  Block span{geometry.size.x(), 0, geometry.size.y(), 0};
   for (std::size_t k = 0; k < which.size(); ++k) {
     slot_of_tile[which[k]] = static_cast<std::uint32_t>(k);
+    const Block block = BlockOf(geometry, which[k]);
+    span = {std::min(span.x0, block.x0), std::max(span.x1, block.x1), std::min(span.y0, block.y0),
+            std::max(span.y1, block.y1)};
   }
   std::vector<std::string> tiles(which.size());
+  if (which.empty()) return tiles;
   const int blocks_x = BlocksAlong(geometry.size.x());
   const auto column = [&](double coordinate, int axis) {
     const double cell = std::floor((coordinate - geometry.origin_m[axis]) / geometry.resolution_m);
     return static_cast<int>(std::clamp(cell, 0.0, double(geometry.size[axis] - 1)));
   };
-  // Two passes: each point's tile, then every tile filled at its size (appending point by
-  // point into growing strings took three times as long).
-  std::vector<std::uint32_t> tile_of(cloud.size());
+  // The box in metres, a column wider on each side than the span (so that rounding never
+  // passes over a point inside it) and open where the span reaches the grid's edge (points
+  // past it belong to the edge's columns).
+  constexpr double kOpen = std::numeric_limits<double>::infinity();
+  const auto low = [&](int first, int axis) {
+    return first == 0 ? -kOpen : geometry.origin_m[axis] + (first - 1) * geometry.resolution_m;
+  };
+  const auto high = [&](int end, int axis) {
+    return end == geometry.size[axis] ? kOpen
+                                      : geometry.origin_m[axis] + (end + 1) * geometry.resolution_m;
+  };
+  const double x_low = low(span.x0, 0), x_high = high(span.x1, 0);
+  const double y_low = low(span.y0, 1), y_high = high(span.y1, 1);
+  const auto slot_of = [&](const Eigen::Vector3f& point) {
+    if (!(point.x() >= x_low && point.x() <= x_high && point.y() >= y_low && point.y() <= y_high)) {
+      return kSkipped;
+    }
+    return slot_of_tile[std::size_t(column(point.y(), 1) / kTileColumns) * blocks_x +
+                        std::size_t(column(point.x(), 0) / kTileColumns)];
+  };
+  // Two passes: the points of each tile counted, then every tile filled at its size
+  // (appending point by point into growing strings took three times as long).
   std::vector<std::size_t> points_in(tiles.size(), 0);
-  for (std::size_t i = 0; i < cloud.size(); ++i) {
-    const Eigen::Vector3f& point = cloud[i];
-    tile_of[i] = slot_of_tile[std::size_t(column(point.y(), 1) / kTileColumns) * blocks_x +
-                              std::size_t(column(point.x(), 0) / kTileColumns)];
-    if (tile_of[i] != kSkipped) ++points_in[tile_of[i]];
+  for (const Eigen::Vector3f& point : cloud) {
+    if (const std::uint32_t slot = slot_of(point); slot != kSkipped) ++points_in[slot];
   }
   std::vector<std::size_t> filled(tiles.size(), 0);
   for (std::size_t t = 0; t < tiles.size(); ++t) tiles[t].resize(points_in[t] * kPointBytes);
-  for (std::size_t i = 0; i < cloud.size(); ++i) {
-    const std::uint32_t t = tile_of[i];
-    if (t == kSkipped) continue;
-    std::memcpy(tiles[t].data() + filled[t], cloud[i].data(), kPointBytes);
-    filled[t] += kPointBytes;
+  for (const Eigen::Vector3f& point : cloud) {
+    const std::uint32_t slot = slot_of(point);
+    if (slot == kSkipped) continue;
+    std::memcpy(tiles[slot].data() + filled[slot], point.data(), kPointBytes);
+    filled[slot] += kPointBytes;
   }
   return tiles;
 }
