@@ -188,6 +188,13 @@ ServiceError Corrupted(const Error& error) {
                    "map store: " + error.message + " (delete the map and create it again)");
 }
 
+// The size of tile `tile` in `dir` [bytes]; 0 when it is not there (it fails when read).
+std::uint64_t StoredTileBytes(const OpenedMapFile& dir, const std::string& tile) {
+  std::error_code ec;
+  const std::uintmax_t size = fs::file_size(fs::path(dir.ProcPath()) / tile, ec);
+  return ec ? 0 : size;
+}
+
 }  // namespace
 
 Result<std::shared_ptr<const TerrainModel>> LoadTiledModel(
@@ -221,9 +228,7 @@ Result<std::shared_ptr<const TerrainModel>> LoadTiledModel(
       tile_bytes += bytes->size();
       continue;
     }
-    std::error_code ec;
-    const std::uintmax_t size = fs::file_size(fs::path(tiles.dir->ProcPath()) / tile, ec);
-    if (!ec) tile_bytes += size;  // A tile not there fails when it is read.
+    tile_bytes += StoredTileBytes(*tiles.dir, tile);
   }
   // A tile of the same name holds the same bytes (names are the contents' hashes).
   std::optional<HeldTiles> from_held;
@@ -247,10 +252,22 @@ Result<PointCloud> LoadTiledCloud(const OpenedTiles& tiles, const std::string& n
                      "the map was made from a saved model, which keeps no point cloud: create "
                      "it from its point cloud to edit it");
   }
-  Result<std::vector<std::string>> bytes = ReadTiles(*tiles.dir, tiles.list.cloud);
-  if (!bytes) return std::move(bytes).error();
-  const std::vector<std::string_view> cloud_tiles(bytes->begin(), bytes->end());
-  Expected<PointCloud> cloud = JoinCloud(cloud_tiles, name);
+  // A tile at a time, straight into the cloud: reading them all first held the cloud twice
+  // (0.2 s more on a 400 m site, most of it the second copy's fresh memory).
+  std::optional<ServiceError> read_error;
+  const TileSource source = [&](std::size_t t) -> Expected<std::string> {
+    Result<std::vector<std::string>> bytes =
+        ReadTiles(*tiles.dir, std::span(&tiles.list.cloud[t], 1));
+    if (!bytes) {
+      read_error = bytes.error();
+      return Error{ErrorCode::kMapLoadFailed, bytes.error().message};
+    }
+    return std::move(bytes->front());
+  };
+  std::uint64_t tile_bytes = 0;
+  for (const std::string& tile : tiles.list.cloud) tile_bytes += StoredTileBytes(*tiles.dir, tile);
+  Expected<PointCloud> cloud = JoinCloud(tiles.list.cloud.size(), tile_bytes, source, name);
+  if (read_error) return *read_error;
   if (!cloud) return Corrupted(cloud.error());
   return std::move(cloud).value();
 }

@@ -227,6 +227,38 @@ TEST_F(ModelTiles, SomeTilesCutAsTheWholeCutCutsThemBordersAndPointsPastTheGridI
   }
 }
 
+// A store joins a cloud a tile at a time as it reads them: the same cloud, and a tile it
+// cannot read or that is not whole points fails the join naming it.
+TEST_F(ModelTiles, ACloudJoinedFromASourceIsTheCloudOfItsTilesAndPassesOnItsErrors) {
+  const std::vector<std::string> tiles = CutCloud(cloud(), model().grid());
+  std::uint64_t bytes = 0;
+  for (const std::string& tile : tiles) bytes += tile.size();
+  std::vector<std::size_t> asked;
+  const TileSource source = [&](std::size_t t) -> Expected<std::string> {
+    asked.push_back(t);
+    return tiles[t];
+  };
+  const auto joined = JoinCloud(tiles.size(), bytes, source, "garage");
+  ASSERT_TRUE(joined.ok()) << joined.error().message;
+  EXPECT_TRUE(*joined == JoinCloud(Views(tiles), "garage").value());
+  EXPECT_EQ(asked.size(), tiles.size());
+  EXPECT_TRUE(std::is_sorted(asked.begin(), asked.end()));
+
+  const TileSource failing = [&](std::size_t t) -> Expected<std::string> {
+    if (t == 2) return Error{ErrorCode::kMapLoadFailed, "tile 2 is gone"};
+    return tiles[t];
+  };
+  const auto lost = JoinCloud(tiles.size(), bytes, failing, "garage");
+  ASSERT_FALSE(lost.ok());
+  EXPECT_EQ(lost.error().message, "tile 2 is gone");
+  const TileSource ragged = [&](std::size_t t) -> Expected<std::string> {
+    return t == 1 ? tiles[t] + "x" : tiles[t];
+  };
+  const auto broken = JoinCloud(tiles.size(), bytes, ragged, "garage");
+  ASSERT_FALSE(broken.ok());
+  EXPECT_THAT(broken.error().message, HasSubstr("garage tile 1 is not a whole number of points"));
+}
+
 TEST_F(ModelTiles, RefusesWhatDoesNotFitNamingTheTile) {
   const TiledModel tiled = CutModel(model());
   std::vector<std::string_view> tiles = Views(tiled.tiles);

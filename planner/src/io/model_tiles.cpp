@@ -493,20 +493,43 @@ std::vector<std::string> CutCloudTiles(const PointCloud& cloud, const GridGeomet
   return tiles;
 }
 
+namespace {
+
+// Appends cloud tile `t` of the cloud `name` to `cloud`; kMapLoadFailed naming both when it
+// is not a whole number of points.
+Status AppendCloudTile(std::string_view tile, std::size_t t, const std::string& name,
+                       PointCloud* cloud) {
+  if (tile.size() % kPointBytes != 0) {
+    return Error{ErrorCode::kMapLoadFailed, "tiled cloud " + name + " tile " + std::to_string(t) +
+                                                " is not a whole number of points"};
+  }
+  const std::size_t first = cloud->size();
+  cloud->resize(first + tile.size() / kPointBytes);
+  std::memcpy(reinterpret_cast<char*>(cloud->data() + first), tile.data(), tile.size());
+  return Status::Ok();
+}
+
+}  // namespace
+
 Expected<PointCloud> JoinCloud(std::span<const std::string_view> tiles, const std::string& name) {
   std::size_t bytes = 0;
+  for (const std::string_view tile : tiles) bytes += tile.size();
+  PointCloud cloud;
+  cloud.reserve(bytes / kPointBytes);
   for (std::size_t t = 0; t < tiles.size(); ++t) {
-    if (tiles[t].size() % kPointBytes != 0) {
-      return Error{ErrorCode::kMapLoadFailed, "tiled cloud " + name + " tile " + std::to_string(t) +
-                                                  " is not a whole number of points"};
-    }
-    bytes += tiles[t].size();
+    if (Status s = AppendCloudTile(tiles[t], t, name, &cloud); !s) return s.error();
   }
-  PointCloud cloud(bytes / kPointBytes);
-  char* at = reinterpret_cast<char*>(cloud.data());
-  for (const std::string_view tile : tiles) {
-    std::memcpy(at, tile.data(), tile.size());
-    at += tile.size();
+  return cloud;
+}
+
+Expected<PointCloud> JoinCloud(std::size_t tile_count, std::uint64_t tile_bytes,
+                               const TileSource& source, const std::string& name) {
+  PointCloud cloud;
+  cloud.reserve(static_cast<std::size_t>(tile_bytes / kPointBytes));
+  for (std::size_t t = 0; t < tile_count; ++t) {
+    Expected<std::string> tile = source(t);
+    if (!tile) return tile.error();
+    if (Status s = AppendCloudTile(*tile, t, name, &cloud); !s) return s.error();
   }
   return cloud;
 }

@@ -102,4 +102,9 @@ std::vector<std::string> CutCloudTiles(const PointCloud& cloud, const GridGeomet
 /// whole number of points.
 Expected<PointCloud> JoinCloud(std::span<const std::string_view> tiles, const std::string& name);
 
+/// The same of `tile_count` tiles of about `tile_bytes` bytes together (what is reserved),
+/// read from `source` one at a time (memory: the cloud and one tile), its errors passed on.
+Expected<PointCloud> JoinCloud(std::size_t tile_count, std::uint64_t tile_bytes,
+                               const TileSource& source, const std::string& name);
+
 }  // namespace strata
