@@ -144,7 +144,8 @@ Expected<SurfaceGraph> SurfaceGraph::Patch(const SurfaceGraph& base, const Terra
     const double r = g.resolution_m;
     for (int popped = 1; !queue.empty(); ++popped) {
       if (popped % kNodesPerPoll == 0 && stopped()) return Cancelled();
-      const auto [d, m] = queue.top();
+      const float d = queue.top().first;
+      const std::int32_t m = queue.top().second;
       queue.pop();
       if (d > graph.edge_distance_[m]) continue;
       const Node& a = graph.nodes_[m];
