@@ -150,8 +150,11 @@ TEST(SurfaceGraphPatch, AfterEachEditOfASequenceEqualsTheGraphBuiltOnTheEditedMo
       BoxEdit(Kind::kAddObstacle, {7.2, 2.5, 0.0}, {8.0, 3.3, 0.5}),
   };
   std::vector<int> component_counts;
+  // A graph refers to its model, which must outlive it: every version's is kept.
+  std::vector<std::shared_ptr<const TerrainModel>> models{version.model};
   for (const MapEdit& edit : edits) {
     version = Edited(version, edit);
+    models.push_back(version.model);
     Expected<SurfaceGraph> patched =
         SurfaceGraph::Patch(graph, *version.model, version.changed_columns);
     ASSERT_TRUE(patched) << patched.error().message;
