@@ -195,6 +195,18 @@ std::uint64_t StoredTileBytes(const OpenedMapFile& dir, const std::string& tile)
   return ec ? 0 : size;
 }
 
+// Tile `tile` of `dir` for a join (JoinModel, JoinCloud), which passes on a planner's error:
+// the store's own is kept in *read_error.
+Expected<std::string> ReadTileForJoin(const OpenedMapFile& dir, const std::string& tile,
+                                      std::optional<ServiceError>* read_error) {
+  Result<std::vector<std::string>> bytes = ReadTiles(dir, std::span(&tile, 1));
+  if (!bytes) {
+    *read_error = bytes.error();
+    return Error{ErrorCode::kMapLoadFailed, bytes.error().message};
+  }
+  return std::move(bytes->front());
+}
+
 }  // namespace
 
 Result<std::shared_ptr<const TerrainModel>> LoadTiledModel(
@@ -206,17 +218,11 @@ Result<std::shared_ptr<const TerrainModel>> LoadTiledModel(
     const auto it = given_by_name.find(tile);
     return it == given_by_name.end() ? nullptr : it->second;
   };
-  // Read as the join asks for them, a row of blocks at a time; the store's own error is kept
-  // aside, since the join passes on a planner's.
+  // Read as the join asks for them, a row of blocks at a time.
   std::optional<ServiceError> read_error;
   const auto read = [&](const std::string& tile) -> Expected<std::string> {
     if (const std::string* bytes = given_bytes(tile)) return *bytes;
-    Result<std::vector<std::string>> bytes = ReadTiles(*tiles.dir, std::span(&tile, 1));
-    if (!bytes) {
-      read_error = bytes.error();
-      return Error{ErrorCode::kMapLoadFailed, bytes.error().message};
-    }
-    return std::move(bytes->front());
+    return ReadTileForJoin(*tiles.dir, tile, &read_error);
   };
   Expected<std::string> header = read(tiles.list.header);
   if (!header) return *read_error;
@@ -255,14 +261,8 @@ Result<PointCloud> LoadTiledCloud(const OpenedTiles& tiles, const std::string& n
   // A tile at a time, straight into the cloud: reading them all first held the cloud twice
   // (0.2 s more on a 400 m site, most of it the second copy's fresh memory).
   std::optional<ServiceError> read_error;
-  const TileSource source = [&](std::size_t t) -> Expected<std::string> {
-    Result<std::vector<std::string>> bytes =
-        ReadTiles(*tiles.dir, std::span(&tiles.list.cloud[t], 1));
-    if (!bytes) {
-      read_error = bytes.error();
-      return Error{ErrorCode::kMapLoadFailed, bytes.error().message};
-    }
-    return std::move(bytes->front());
+  const TileSource source = [&](std::size_t t) {
+    return ReadTileForJoin(*tiles.dir, tiles.list.cloud[t], &read_error);
   };
   std::uint64_t tile_bytes = 0;
   for (const std::string& tile : tiles.list.cloud) tile_bytes += StoredTileBytes(*tiles.dir, tile);

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <numeric>
 #include <string>
 #include <utility>
 
@@ -11,12 +10,12 @@
 
 #include "format_internal.hpp"
 #include "planning/bucket_queue.hpp"
+#include "planning/surface_graph_internal.hpp"
 
 namespace strata {
 namespace {
 
-// Nodes handled between two polls of should_stop.
-constexpr int kNodesPerPoll = 4096;
+using graph_internal::kNodesPerPoll;
 
 Error Cancelled() { return Error{ErrorCode::kCancelled, "building the surface graph was stopped"}; }
 
@@ -154,29 +153,18 @@ Expected<SurfaceGraph> SurfaceGraph::Build(const TerrainModel& model,
   // numbered by each component's first node, as a search seeded in node order numbers them.
   // The same pass finds the rim: the nodes missing one of their 8 neighbours.
   const int n = graph.node_count();
-  std::vector<std::int32_t> root(static_cast<std::size_t>(n));
-  std::iota(root.begin(), root.end(), 0);
-  const auto find = [&root](std::int32_t node) {
-    while (root[node] != node) node = root[node] = root[root[node]];  // Path halving.
-    return node;
-  };
+  graph_internal::NodeComponents components(n);
   std::vector<std::int32_t> rim;
   for (int node = 0; node < n; ++node) {
     if ((node + 1) % kNodesPerPoll == 0 && stopped()) return Cancelled();
     int neighbours = 0;
     graph.ForEachNeighbor(node, [&](int m) {
       ++neighbours;
-      if (m < node) return;  // Each edge once.
-      const std::int32_t a = find(node), b = find(m);
-      root[std::max(a, b)] = std::min(a, b);  // A component's root is its first node.
+      if (m > node) components.Join(node, m);  // Each edge once.
     });
     if (neighbours < 8) rim.push_back(node);
   }
-  graph.components_.assign(n, -1);
-  for (int node = 0; node < n; ++node) {
-    const std::int32_t first = find(node);
-    graph.components_[node] = first == node ? graph.component_count_++ : graph.components_[first];
-  }
+  graph.components_ = components.Labels(&graph.component_count_);
   graph.open_ground_clearance_m_ = graph.ClearanceTenthPercentile();
   if (!graph.ComputeEdgeDistances(rim, should_stop)) return Cancelled();
   if (!graph.ComputeLandmarks(should_stop)) return Cancelled();
@@ -206,8 +194,7 @@ bool SurfaceGraph::ComputeEdgeDistances(const std::vector<std::int32_t>& rim,
     if (d > edge_distance_[m]) continue;
     const Node& a = nodes_[m];
     ForEachNeighbor(m, [&](int k) {
-      const Node& b = nodes_[k];
-      const float step = static_cast<float>(a.ix != b.ix && a.iy != b.iy ? std::sqrt(2.0) * r : r);
+      const float step = graph_internal::RimStep(a, nodes_[k], r);
       if (d + step < edge_distance_[k]) {
         edge_distance_[k] = d + step;
         queue.Push(edge_distance_[k], k);

@@ -4,19 +4,19 @@
 #include <cmath>
 #include <cstdint>
 #include <functional>
-#include <numeric>
 #include <queue>
 #include <utility>
 #include <vector>
 
 #include <fmt/format.h>
 
+#include "planning/surface_graph_internal.hpp"
 #include "strata/planning/surface_graph.hpp"
 
 namespace strata {
 namespace {
 
-constexpr int kNodesPerPoll = 4096;  // Nodes handled between two polls of should_stop.
+using graph_internal::kNodesPerPoll;
 
 Error Cancelled() { return Error{ErrorCode::kCancelled, "patching the surface graph was stopped"}; }
 
@@ -92,26 +92,14 @@ Expected<SurfaceGraph> SurfaceGraph::Patch(const SurfaceGraph& base, const Terra
   // join every pair of nodes a diagonal joins, and each axis move is taken once, from its
   // lower end. Numbered by each component's first node, as Build numbers them.
   const int n = graph.node_count();
-  std::vector<std::int32_t> root(static_cast<std::size_t>(n));
-  std::iota(root.begin(), root.end(), 0);
-  const auto find = [&root](std::int32_t node) {
-    while (root[node] != node) node = root[node] = root[root[node]];  // Path halving.
-    return node;
-  };
-  const auto join = [&](int node, int m) {
-    const std::int32_t a = find(node), b = find(m);
-    root[std::max(a, b)] = std::min(a, b);
-  };
+  graph_internal::NodeComponents components(n);
   for (int node = 0; node < n; ++node) {
     if ((node + 1) % kNodesPerPoll == 0 && stopped()) return Cancelled();
-    graph.ForEachNeighborToward(node, 1, 0, [&](int m) { join(node, m); });
-    graph.ForEachNeighborToward(node, 0, 1, [&](int m) { join(node, m); });
+    const auto join = [&](int m) { components.Join(node, m); };
+    graph.ForEachNeighborToward(node, 1, 0, join);
+    graph.ForEachNeighborToward(node, 0, 1, join);
   }
-  graph.components_.assign(static_cast<std::size_t>(n), -1);
-  for (int node = 0; node < n; ++node) {
-    const std::int32_t first = find(node);
-    graph.components_[node] = first == node ? graph.component_count_++ : graph.components_[first];
-  }
+  graph.components_ = components.Labels(&graph.component_count_);
   graph.open_ground_clearance_m_ = graph.ClearanceTenthPercentile();
 
   // 3. The rim distances. A path shorter than the cap spans fewer than cap / r columns, so
@@ -152,7 +140,7 @@ Expected<SurfaceGraph> SurfaceGraph::Patch(const SurfaceGraph& base, const Terra
       graph.ForEachNeighbor(m, [&](int k) {
         const Node& b = graph.nodes_[k];
         if (!window.Contains({b.ix, b.iy, 0})) return;
-        const auto step = static_cast<float>(a.ix != b.ix && a.iy != b.iy ? std::sqrt(2.0) * r : r);
+        const float step = graph_internal::RimStep(a, b, r);
         if (d + step < graph.edge_distance_[k]) {
           graph.edge_distance_[k] = d + step;
           queue.emplace(graph.edge_distance_[k], k);
