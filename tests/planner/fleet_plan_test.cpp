@@ -312,15 +312,21 @@ TEST(FleetPlan, ARobotComingDownTheShorterLaneLongerThanTheRobotMayWaitIsAvoided
   EXPECT_LE(result.value().wait_s, 5);
 }
 
-TEST(FleetPlan, WithNoWaitAllowedAMeetingIsRefusedNamingWhoWhenAndWhere) {
-  const std::vector<ReservedMotion> others = {
-      Committed("A", Between({0.5, 2.5, 0.3}, {5.5, 2.5, 0.3}))};
+// A leaves 20 s after B and drives across B's goal, where B stays parked from its arrival
+// (about 5 s) to the end of its lease: no wait, stop or way round clears that. (A crossing
+// of B's way with no wait allowed is not such a case: the space-time route goes round.)
+TEST(FleetPlan, AMeetingNothingClearsIsRefusedNamingWhoWhenAndWhere) {
+  ReservedMotion a = Committed("A", Between({0.5, 4.5, 0.3}, {5.5, 4.5, 0.3}));
+  a.motion.start_ns = AddSeconds(kDeparture, 20);
+  const std::vector<ReservedMotion> others = {a};
   FleetPlanRequest request = AmongOthers(Between({3, 0.5, 0.3}, {3, 4.5, 0.3}), others);
   request.fleet.max_wait_s = 0;
   Expected<FleetPlanResult> refused = PlanAmongTraffic(Site(), request);
   ASSERT_FALSE(refused);
   EXPECT_EQ(refused.error().code, ErrorCode::kReservationConflict);
   EXPECT_THAT(refused.error().message, HasSubstr("the trajectory meets robot 'A'"));
+  // Where B stays parked, once A reaches it.
+  EXPECT_THAT(refused.error().message, HasSubstr("at (3.00, 4.50, 0.30) m, 22."));
   EXPECT_THAT(refused.error().message, HasSubstr("s after the departure"));
   EXPECT_EQ(refused.error().details.at("robot_id"), "A");
 }

@@ -141,8 +141,10 @@ struct Via {
   bool stop = false;
 };
 
-/// Most vias one request may carry: each adds a search, and each stop a whole leg's plan.
-inline constexpr int kMaxVias = 16;
+/// Most vias one request may carry: each adds a search, and each stop a whole leg's plan. A
+/// fleet plan holds a space-time route to its way with up to kMaxVias − 3 points spread over it
+/// (16 left the last part of a 100 m route unguided).
+inline constexpr int kMaxVias = 64;
 
 struct PlanRequest {
   RobotState start;

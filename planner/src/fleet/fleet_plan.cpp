@@ -15,6 +15,7 @@
 
 #include "format_internal.hpp"
 #include "hold_schedule.hpp"
+#include "route_guides.hpp"
 #include "space_time_search.hpp"
 
 namespace strata {
@@ -48,13 +49,6 @@ constexpr double kStandingSnapM = 0.3;
 // Longer than any trip a robot makes on a site [s]: a robot parked from the departure until
 // max_wait_s plus this after it is in the way of no plan's passage but as a standing body.
 constexpr double kLongestTripS = 600;
-
-// A route from the space-time search (space_time_search.hpp) becomes a plan's route: a stop
-// where it waits at least kSpaceTimeMinWaitS (at most kMaxAddedStops, the longest waits), and
-// points it flows through every kSpaceTimeGuideSpacingM of its length, which keep the plan on
-// the way the search chose (another aisle, a bay to pull into).
-constexpr double kSpaceTimeMinWaitS = 0.3;
-constexpr double kSpaceTimeGuideSpacingM = 8.0;
 
 /// A point the route passes through: one of the request's vias, or one added (a stop to wait
 /// at, or a point of a space-time route).
@@ -266,49 +260,19 @@ int CountStops(const std::vector<RoutePoint>& route) {
                                         [](const RoutePoint& p) { return p.added && p.via.stop; }));
 }
 
-/// The route points of a space-time `route` on `graph` (the module comment above
-/// kSpaceTimeMinWaitS says which), none nearer than kMinStopSpacingM to another or to the
-/// ends, at most `max_points`.
+/// The route points of a space-time `route` on `graph`: its guides (route_guides.hpp), at
+/// most `max_points`.
 std::vector<RoutePoint> RoutePointsOf(const SurfaceGraph& graph,
                                       const fleet_internal::SpaceTimeRoute& route, int max_points) {
-  const std::size_t n = route.nodes.size();
-  std::vector<double> along_m(n, 0.0);
-  for (std::size_t k = 1; k < n; ++k) {
+  std::vector<double> along_m(route.nodes.size(), 0.0);
+  for (std::size_t k = 1; k < route.nodes.size(); ++k) {
     along_m[k] = along_m[k - 1] +
                  (graph.position(route.nodes[k]) - graph.position(route.nodes[k - 1])).norm();
   }
-  // The longest waits on the way (the start's is the start's own, no stop).
-  std::vector<std::size_t> waits;
-  for (std::size_t k = 1; k + 1 < n; ++k) {
-    if (route.wait_s[k] >= kSpaceTimeMinWaitS) waits.push_back(k);
-  }
-  std::sort(waits.begin(), waits.end(),
-            [&](std::size_t a, std::size_t b) { return route.wait_s[a] > route.wait_s[b]; });
-  std::vector<std::pair<std::size_t, bool>> chosen;  // Node index on the route, stop.
-  const auto spaced = [&](std::size_t k) {
-    if (along_m[k] < kMinStopSpacingM || along_m[n - 1] - along_m[k] < kMinStopSpacingM) {
-      return false;
-    }
-    return std::none_of(chosen.begin(), chosen.end(), [&](const auto& c) {
-      return std::abs(along_m[c.first] - along_m[k]) < kMinStopSpacingM;
-    });
-  };
-  for (const std::size_t k : waits) {
-    if (static_cast<int>(chosen.size()) >= std::min(kMaxAddedStops, max_points)) break;
-    if (spaced(k)) chosen.emplace_back(k, true);
-  }
-  for (double at_m = kSpaceTimeGuideSpacingM; at_m < along_m[n - 1] - kSpaceTimeGuideSpacingM / 2;
-       at_m += kSpaceTimeGuideSpacingM) {
-    if (static_cast<int>(chosen.size()) >= max_points) break;
-    const auto k = static_cast<std::size_t>(std::lower_bound(along_m.begin(), along_m.end(), at_m) -
-                                            along_m.begin());
-    if (k < n && spaced(k)) chosen.emplace_back(k, false);
-  }
-  std::sort(chosen.begin(), chosen.end());
   std::vector<RoutePoint> points;
-  points.reserve(chosen.size());
-  for (const auto& [k, stop] : chosen) {
-    points.push_back(RoutePoint{Via{graph.position(route.nodes[k]), stop}, true});
+  for (const fleet_internal::RouteGuide& guide : fleet_internal::ChooseGuides(
+           along_m, route.wait_s, kMaxAddedStops, max_points, kMinStopSpacingM)) {
+    points.push_back(RoutePoint{Via{graph.position(route.nodes[guide.index]), guide.stop}, true});
   }
   return points;
 }
