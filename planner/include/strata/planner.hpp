@@ -142,8 +142,9 @@ struct Via {
 };
 
 /// Most vias one request may carry: each adds a search, and each stop a whole leg's plan. A
-/// fleet plan holds a space-time route to its way with up to kMaxVias − 3 points spread over it
-/// (16 left the last part of a 100 m route unguided).
+/// fleet plan holds a space-time route to its way with points spread over it, as many as
+/// kMaxVias leaves beside the stops the plan may add (at 16, routes past about 100 m were
+/// unguided beyond it).
 inline constexpr int kMaxVias = 64;
 
 struct PlanRequest {
