@@ -25,6 +25,11 @@ struct CallControl {
   double LeftSeconds() const;
 };
 
+/// How much sooner a client's deadline may pass than the server's copy of it [s]: the server
+/// counts the time left from when the call arrived, which on a loaded machine is milliseconds
+/// after the client sent it. A call cancelled that close to its deadline ran out of time.
+inline constexpr double kClientDeadlineLeadS = 0.05;
+
 /// The latest a call may work before answering: its deadline less a margin to send the answer
 /// (10% of the time left, at most 0.1 s). `left_s` as CallControl::LeftSeconds.
 double WorkSecondsLeft(double left_s);

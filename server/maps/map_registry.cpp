@@ -286,6 +286,10 @@ Result<MapSnapshot> MapRegistry::Get(const std::string& id) const {
   return published_->Describe(id);
 }
 
+void MapRegistry::FitHeldMaps() const {
+  if (options_.memory_budget) options_.memory_budget->FitMaps();
+}
+
 Result<ActiveMap> MapRegistry::GetActive(const std::string& id, const std::string& version) const {
   std::unique_lock lock(mutex_);
   const auto it = making_.find(id);

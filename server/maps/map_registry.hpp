@@ -145,6 +145,9 @@ class MapRegistry {
   /// naming the versions kept, or kMapNotActive naming the state (and the failure of a FAILED
   /// map), or a store's failure to load it.
   Result<ActiveMap> GetActive(const std::string& id, const std::string& version = {}) const;
+  /// After a plan on a map: lets go of maps no plan uses while those held pass the memory
+  /// budget (MemoryBudget::FitMaps), since the graphs a plan builds or loads grow its map.
+  void FitHeldMaps() const;
 
   /// Blocks until the map is ACTIVE or FAILED (returns it), `deadline` passes (returns it
   /// CREATING), or `should_stop` (polled every 50 ms; may be empty) returns true (returns

@@ -148,6 +148,12 @@ void MemoryBudget::Unreserve(Use use, std::uint64_t bytes) {
   reserved -= std::min(reserved, bytes);
 }
 
+void MemoryBudget::FitMaps() {
+  if (limit_ == 0 || !held_bytes_) return;
+  const std::uint64_t allowance = MapAllowance();
+  if (held_bytes_() > allowance) trim_(allowance);
+}
+
 std::uint64_t MemoryBudget::MapAllowance() const {
   std::lock_guard lock(mutex_);
   if (limit_ == 0) return kNoLimit;

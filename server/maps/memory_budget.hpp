@@ -68,6 +68,11 @@ class MemoryBudget {
   /// `what` and the figures otherwise. Reserves nothing: the map counts once it is held.
   ServiceStatus AdmitMap(std::uint64_t bytes, std::string_view what);
 
+  /// Lets go of maps nobody uses until those held fit what the limit leaves them again (the
+  /// trim WatchMaps set): a map is admitted by its model's bytes, and the graphs its first
+  /// plans build or load grow it after. Nothing without a limit.
+  void FitMaps();
+
   /// Bytes the maps may hold now: the limit less what is reserved (the largest value without
   /// a limit).
   std::uint64_t MapAllowance() const;

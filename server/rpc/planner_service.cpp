@@ -226,6 +226,7 @@ ServiceStatus PlannerServiceImpl::PlanOne(const v1::PlanRequest& request, const 
                                       CallerOf(options_.tokens, call.authorization), should_stop,
                                       options_.max_samples, response, &timings);
           }
+          registry_->FitHeldMaps();  // This map, which the plan may have grown, stays.
           if (!status.ok()) return status;
           response->set_map_version(map.value().version);
           response->mutable_stats()->mutable_timings()->set_queue_s(queue_s);
@@ -354,7 +355,7 @@ grpc::Status PlannerServiceImpl::PlanBatch(grpc::ServerContext* context,
     log.fields.emplace_back("planned", std::to_string(planned.load()));
     log.fields.emplace_back("failed", std::to_string(failed.load()));
     const std::string done = fmt::format("{} of {}", planned + failed, count);
-    if (call.LeftSeconds() <= 0) {
+    if (call.LeftSeconds() <= 0 || (cancelled() && call.LeftSeconds() <= kClientDeadlineLeadS)) {
       return MakeError(ErrorCode::kDeadlineExceeded,
                        "the call's deadline passed after " + done +
                            " results: allow more time, or send fewer plans per batch");
@@ -399,10 +400,12 @@ ServiceStatus PlannerServiceImpl::Estimate(const v1::EstimateCostsRequest& reque
     return ServiceError::FromPlanner(fits.error(),
                                      PlanRequestField(fits.error().field, costs.inline_profile));
   }
-  return options_.slots->Run(
+  ServiceStatus estimated = options_.slots->Run(
       call, [&](const std::function<bool()>& slot_stop, double queue_s) -> ServiceStatus {
         return EstimateInSlot(costs, map.value(), call, slot_stop, queue_s, response);
       });
+  registry_->FitHeldMaps();  // As after a plan: the estimate may have grown this map's graphs.
+  return estimated;
 }
 
 ServiceStatus PlannerServiceImpl::EstimateInSlot(const ParsedCostRequest& costs,

@@ -100,6 +100,31 @@ TEST(MemoryBudgetTest, MapsAreTrimmedToMakeRoomBeforeARefusal) {
   EXPECT_EQ(targets.size(), 2u);
 }
 
+TEST(MemoryBudgetTest, MapsThatGrewPastWhatIsLeftAreTrimmedBackToIt) {
+  MemoryBudget budget(100 * kMiB);
+  std::atomic<std::uint64_t> maps{60 * kMiB};
+  std::vector<std::uint64_t> targets;
+  budget.WatchMaps([&maps] { return maps.load(); },
+                   [&](std::uint64_t target) {
+                     targets.push_back(target);
+                     maps = target;
+                   });
+  Result<MemoryBudget::Reservation> upload = budget.Reserve(Use::kUploads, 30 * kMiB, "upload");
+  ASSERT_TRUE(upload.ok());
+  budget.FitMaps();  // 60 MiB beside the 30 reserved fit: nothing to let go.
+  EXPECT_TRUE(targets.empty());
+  maps = 85 * kMiB;  // A plan's graphs grew a map after it was admitted.
+  budget.FitMaps();
+  ASSERT_EQ(targets.size(), 1u);
+  EXPECT_EQ(targets[0], 70 * kMiB);  // 100 less the 30 reserved.
+
+  MemoryBudget unlimited(0);
+  unlimited.WatchMaps([] { return std::uint64_t{1} << 62; },
+                      [&](std::uint64_t target) { targets.push_back(target); });
+  unlimited.FitMaps();
+  EXPECT_EQ(targets.size(), 1u);
+}
+
 TEST(MemoryBudgetTest, WithoutALimitEverythingFitsAndIsCounted) {
   MemoryBudget budget(0);
   Result<MemoryBudget::Reservation> huge =

@@ -4,10 +4,13 @@
 #include <cstdint>
 #include <functional>
 #include <limits>
+#include <optional>
+#include <span>
 #include <utility>
 #include <vector>
 
 #include "planning/bucket_queue.hpp"
+#include "planning/distance_update.hpp"
 #include "strata/planning/surface_graph.hpp"
 
 namespace strata {
@@ -76,9 +79,10 @@ bool Distances(const CostedEdges& edges, int source, const std::function<bool()>
 
 }  // namespace
 
-bool SurfaceGraph::ComputeLandmarks(const std::function<bool()>& should_stop) {
+bool SurfaceGraph::ChooseLandmarks(const DistancesFrom& distances_from) {
   landmark_count_ = 0;
   landmark_distance_.clear();
+  seed_distance_.clear();
   const int n = node_count();
   if (n == 0 || n > kMaxLandmarkNodes) return true;
   // The largest component: where long searches and detours are.
@@ -93,9 +97,8 @@ bool SurfaceGraph::ComputeLandmarks(const std::function<bool()>& should_stop) {
   // Farthest-point selection: the first landmark is the node farthest from an arbitrary one,
   // each next the node farthest from every landmark so far (the periphery, where the bounds
   // are tightest).
-  const CostedEdges edges = EdgesOf(*this, largest);
   std::vector<float> distance;
-  if (!Distances(edges, seed, should_stop, &distance)) return false;
+  if (!distances_from(seed, &distance)) return false;
   std::vector<float> nearest_landmark(static_cast<std::size_t>(n), kUnreached);
   std::vector<std::vector<float>> tables;
   int next = seed;
@@ -110,7 +113,7 @@ bool SurfaceGraph::ComputeLandmarks(const std::function<bool()>& should_stop) {
     }
     if (farthest <= 0) break;  // Every node is a landmark already (a tiny component).
     std::vector<float> table;
-    if (!Distances(edges, next, should_stop, &table)) return false;
+    if (!distances_from(next, &table)) return false;
     for (int m = 0; m < n; ++m) nearest_landmark[m] = std::min(nearest_landmark[m], table[m]);
     tables.push_back(std::move(table));
   }
@@ -121,7 +124,114 @@ bool SurfaceGraph::ComputeLandmarks(const std::function<bool()>& should_stop) {
       landmark_distance_[static_cast<std::size_t>(m) * landmark_count_ + k] = tables[k][m];
     }
   }
+  seed_distance_ = std::move(distance);
   return true;
+}
+
+bool SurfaceGraph::ComputeLandmarks(const std::function<bool()>& should_stop) {
+  std::optional<CostedEdges> edges;  // Of the landmarks' component, costed at the first search.
+  return ChooseLandmarks([&](int source, std::vector<float>* distance) {
+    if (!edges) edges = EdgesOf(*this, components_[source]);
+    return Distances(*edges, source, should_stop, distance);
+  });
+}
+
+bool SurfaceGraph::PatchLandmarks(const SurfaceGraph& base, const CellBox& changed_columns,
+                                  const std::function<bool()>& should_stop) {
+  if (base.landmark_count_ == 0) return ComputeLandmarks(should_stop);
+  // Each node's counterpart in the base: in every column with as many nodes, in their order.
+  const GridGeometry& g = grid();
+  const int n = node_count();
+  std::vector<std::int32_t> base_node(static_cast<std::size_t>(n), -1);
+  std::vector<std::int32_t> new_node(static_cast<std::size_t>(base.node_count()), -1);
+  for (int iy = 0; iy < g.size.y(); ++iy) {
+    for (int ix = 0; ix < g.size.x(); ++ix) {
+      const std::span<const std::int32_t> now = ColumnNodes(ix, iy);
+      const std::span<const std::int32_t> then = base.ColumnNodes(ix, iy);
+      if (now.size() != then.size()) continue;
+      for (std::size_t k = 0; k < now.size(); ++k) {
+        base_node[now[k]] = then[k];
+        new_node[then[k]] = now[k];
+      }
+    }
+  }
+  // The columns of `changed_columns` whose nodes differ from the base's (in number, or in what
+  // a move reads of them: height, clearance, rim distance), and the nodes of those and the
+  // next: a move reads its ends and the columns it passes between, all next to both ends, so
+  // every move that changed has both ends among them.
+  const auto differs = [&](int ix, int iy) {
+    const std::span<const std::int32_t> now = ColumnNodes(ix, iy);
+    const std::span<const std::int32_t> then = base.ColumnNodes(ix, iy);
+    if (now.size() != then.size()) return true;
+    for (std::size_t k = 0; k < now.size(); ++k) {
+      const Node& a = nodes_[now[k]];
+      const Node& b = base.nodes_[then[k]];
+      if (a.reference_z_m != b.reference_z_m || a.clearance_m != b.clearance_m ||
+          edge_distance_[now[k]] != base.edge_distance_[then[k]]) {
+        return true;
+      }
+    }
+    return false;
+  };
+  std::vector<std::int32_t> changed;
+  if (!changed_columns.empty()) {
+    const CellBox box = changed_columns.Grown({1, 1, 0}, g);
+    const int width = box.max.x() - box.min.x() + 1;
+    const auto at = [&](int ix, int iy) {
+      return static_cast<std::size_t>(ix - box.min.x()) +
+             static_cast<std::size_t>(iy - box.min.y()) * width;
+    };
+    std::vector<std::uint8_t> near(static_cast<std::size_t>(width) *
+                                   (box.max.y() - box.min.y() + 1));
+    for (int iy = changed_columns.min.y(); iy <= changed_columns.max.y(); ++iy) {
+      for (int ix = changed_columns.min.x(); ix <= changed_columns.max.x(); ++ix) {
+        if (!differs(ix, iy)) continue;
+        for (int y = std::max(iy - 1, box.min.y()); y <= std::min(iy + 1, box.max.y()); ++y) {
+          for (int x = std::max(ix - 1, box.min.x()); x <= std::min(ix + 1, box.max.x()); ++x) {
+            near[at(x, y)] = 1;
+          }
+        }
+      }
+    }
+    for (int iy = box.min.y(); iy <= box.max.y(); ++iy) {
+      for (int ix = box.min.x(); ix <= box.max.x(); ++ix) {
+        if (!near[at(ix, iy)]) continue;
+        const std::span<const std::int32_t> nodes = ColumnNodes(ix, iy);
+        changed.insert(changed.end(), nodes.begin(), nodes.end());
+      }
+    }
+  }
+  // The base's tables by the node each is measured from (its one node at distance 0): its
+  // landmarks' and, when it has them, its seed's.
+  struct Table {
+    const float* values;  // Of base node m at values[m * stride].
+    std::size_t stride;
+    std::int32_t source = -1;  // Here.
+    float At(std::int32_t m) const { return values[static_cast<std::size_t>(m) * stride]; }
+  };
+  std::vector<Table> known;
+  const auto add = [&](Table table) {
+    for (std::int32_t m = 0; m < base.node_count() && table.source < 0; ++m) {
+      if (table.At(m) == 0) table.source = new_node[m];
+    }
+    known.push_back(table);
+  };
+  const auto count = static_cast<std::size_t>(base.landmark_count_);
+  for (std::size_t k = 0; k < count; ++k) add({base.landmark_distance_.data() + k, count});
+  if (!base.seed_distance_.empty()) add({base.seed_distance_.data(), 1});
+  std::optional<CostedEdges> edges;  // For a landmark the base had no table of.
+  return ChooseLandmarks([&](int source, std::vector<float>* distance) {
+    for (const Table& table : known) {
+      if (table.source != source) continue;
+      distance->resize(static_cast<std::size_t>(n));
+      for (int m = 0; m < n; ++m) {
+        (*distance)[m] = base_node[m] < 0 ? kUnreached : table.At(base_node[m]);
+      }
+      return graph_internal::UpdateDistances(*this, source, changed, should_stop, distance);
+    }
+    if (!edges) edges = EdgesOf(*this, components_[source]);
+    return Distances(*edges, source, should_stop, distance);
+  });
 }
 
 bool SurfaceGraph::ShouldSearchBackward(int start, int goal, const MoveCostTerms& terms) const {

@@ -108,9 +108,9 @@ Expected<SurfaceGraph> SurfaceGraph::Patch(const SurfaceGraph& base, const Terra
   // nodes inside and from the nodes just outside, whose distances hold (the last node outside
   // on any path from the rim). The search (Dijkstra; Build's queue takes only keys near the
   // last popped) reaches the same least values as Build's.
+  const int reach = static_cast<int>(std::ceil(cap / g.resolution_m)) + 1;
+  const CellBox window = renewed.empty() ? renewed : renewed.Grown({reach, reach, 0}, g);
   if (!renewed.empty()) {
-    const int reach = static_cast<int>(std::ceil(cap / g.resolution_m)) + 1;
-    const CellBox window = renewed.Grown({reach, reach, 0}, g);
     const CellBox border = window.Grown(one, g);
     using Entry = std::pair<float, std::int32_t>;
     std::priority_queue<Entry, std::vector<Entry>, std::greater<>> queue;
@@ -149,7 +149,8 @@ Expected<SurfaceGraph> SurfaceGraph::Patch(const SurfaceGraph& base, const Terra
     }
   }
 
-  if (!graph.ComputeLandmarks(should_stop)) return Cancelled();
+  // 4. The landmarks. Outside `window` the nodes and their rim distances are the base's.
+  if (!graph.PatchLandmarks(base, window, should_stop)) return Cancelled();
   if (graph.nodes_.size() > room) {  // They grew, doubling: give back what is not used.
     graph.nodes_.shrink_to_fit();
     graph.column_nodes_.shrink_to_fit();

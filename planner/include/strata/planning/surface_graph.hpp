@@ -93,10 +93,12 @@ class SurfaceGraph {
   /// (Reassessment::changed_columns). The nodes of those columns and the next (whose
   /// clearance reads their fields) are found again, the rest copied; the rim distances are
   /// measured again within the cap of them; the components are labelled again over the
-  /// whole graph (cheaply: the moves along the axes join what every move joins); landmarks,
-  /// which depend on the whole graph, are chosen as Build chooses them. Equals Build's
-  /// graph, value for value (an edit of a 10 m square on a 400 m site: about a tenth of
-  /// Build's time). Fails with kInvalidInput when the grids differ, and as Build does.
+  /// whole graph (cheaply: the moves along the axes join what every move joins); landmarks
+  /// are chosen as Build chooses them, and the distances from one the base had too are
+  /// updated from the base's where the edit can change them (dynamic shortest paths) instead
+  /// of searched again. Equals Build's graph, value for value (an edit of a 10 m square on a
+  /// 400 m site: about a tenth of Build's time). Fails with kInvalidInput when the grids differ,
+  /// and as Build does.
   static Expected<SurfaceGraph> Patch(const SurfaceGraph& base, const TerrainModel& model,
                                       const CellBox& changed_columns,
                                       const std::function<bool()>& should_stop = {});
@@ -291,7 +293,8 @@ class SurfaceGraph {
            column_nodes_.capacity() * sizeof(std::int32_t) +
            components_.capacity() * sizeof(std::int32_t) +
            edge_distance_.capacity() * sizeof(float) +
-           landmark_distance_.capacity() * sizeof(float);
+           landmark_distance_.capacity() * sizeof(float) +
+           seed_distance_.capacity() * sizeof(float);
   }
 
  private:
@@ -305,9 +308,19 @@ class SurfaceGraph {
   void AppendColumnNodes(int ix, int iy, bool measure_clearance);
   // The 10th percentile of the nodes' clearances (open_ground_clearance_m).
   double ClearanceTenthPercentile() const;
-  // Chooses landmarks and fills landmark_distance_ (surface_graph_landmarks.cpp); false when
-  // should_stop fired.
+  // The least costs from a node to every node (infinity where unreached) into *distance;
+  // false when the search was stopped.
+  using DistancesFrom = std::function<bool(int source, std::vector<float>* distance)>;
+  // Chooses landmarks and fills landmark_distance_ and seed_distance_, each table from
+  // `distances_from` (surface_graph_landmarks.cpp); false when it was stopped.
+  bool ChooseLandmarks(const DistancesFrom& distances_from);
+  // ChooseLandmarks, every table searched over the whole graph.
   bool ComputeLandmarks(const std::function<bool()>& should_stop);
+  // ChooseLandmarks, a table the base has (measured from the same node) updated from the
+  // base's instead (UpdateDistances). Outside `changed_columns` the nodes are the base's, with
+  // the same clearances and rim distances.
+  bool PatchLandmarks(const SurfaceGraph& base, const CellBox& changed_columns,
+                      const std::function<bool()>& should_stop);
   // Sets edge_distance_ from the nodes of the rim; false when should_stop fired.
   bool ComputeEdgeDistances(const std::vector<std::int32_t>& rim,
                             const std::function<bool()>& should_stop);
@@ -338,6 +351,10 @@ class SurfaceGraph {
   double open_ground_clearance_m_ = 0;
   int landmark_count_ = 0;
   std::vector<float> landmark_distance_;  // Node-major: landmark_count_ floats per node.
+  // The distances from the node the landmarks were chosen from (the first of the largest
+  // component), which Patch updates to choose the first landmark again. Not saved: a patch of
+  // a loaded graph searches them again.
+  std::vector<float> seed_distance_;
 };
 
 /// Where a 3D start or goal lands on the graph.
