@@ -7,7 +7,7 @@
 //
 //   build/bench/store_benchmark MAP [--resolution M] [--runs N] [--churn-maps N]
 //       [--soak-s S [--soak-rate HZ] [--soak-planners N]] [--etcd HOST:PORT]
-//       [--map-worker build/server/strata-map-worker]
+//       [--map-worker build/server/strata-map-worker] [--max-memory-gb G]
 //   With --map-worker maps are made and edited in worker processes, as strata-server makes
 //   them (the model and cloud then pass through files); without it, in this process.
 //   With --etcd (bench/with_etcd.sh starts a throwaway one) the maps' heads live there, as
@@ -53,6 +53,9 @@ double SecondsSince(Clock::time_point start) {
 // --map-worker: maps made and edited in strata-map-worker processes, as strata-server makes
 // them; empty: in this process.
 std::string map_worker;
+// --max-memory-gb: the memory budget of each replica that makes, edits or plans on the map
+// (versions let go of past it, as a server's --max-memory does); 0: none.
+std::uint64_t replica_budget = 0;
 
 RegistryOptions StoreOptions(const std::shared_ptr<MapStore>& store, std::uint64_t budget) {
   RegistryOptions options;
@@ -174,6 +177,17 @@ std::optional<std::pair<Eigen::Vector3d, Eigen::Vector3d>> ShortQuery(const Terr
   return std::nullopt;
 }
 
+// The plan every replica makes for `query` (ShortQuery): a differential robot, with time to
+// build its graph on a new version (a 1 km site's takes seconds, past the default budget).
+PlanRequest ShortPlan(const std::pair<Eigen::Vector3d, Eigen::Vector3d>& query) {
+  PlanRequest request;
+  request.profile = BuiltinProfile("differential").value();
+  request.start.position_m = query.first;
+  request.goal.position_m = query.second;
+  request.options.time_budget_s = 120;
+  return request;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -198,7 +212,12 @@ int main(int argc, char** argv) {
   app.add_option("--map-worker", map_worker,
                  "strata-map-worker: make and edit maps in worker processes, as strata-server "
                  "does (default: in this process)");
+  double max_memory_gb = 0;
+  app.add_option("--max-memory-gb", max_memory_gb,
+                 "memory budget of each replica [GB], as strata-server's --max-memory (a 1 km "
+                 "site's versions and graphs outgrow the machine without one); 0: none");
   CLI11_PARSE(app, argc, argv);
+  replica_budget = static_cast<std::uint64_t>(max_memory_gb * 1e9);
 
   AssessmentConfig config;
   if (resolution_m > 0) config.grid.resolution_m = resolution_m;
@@ -215,7 +234,7 @@ int main(int argc, char** argv) {
   MapSnapshot created;
   double create_s = 0;
   {
-    MapRegistry writer(StoreOptions(store, 0));
+    MapRegistry writer(StoreOptions(store, replica_budget));
     const auto start = Clock::now();
     created = CreateAndWait(writer, "m", map, config);
     create_s = SecondsSince(start);
@@ -230,7 +249,7 @@ int main(int argc, char** argv) {
   std::vector<double> first_load_s, cached_s, plan_s;
   std::optional<std::pair<Eigen::Vector3d, Eigen::Vector3d>> query;
   for (int run = 0; run < runs; ++run) {
-    MapRegistry reader(StoreOptions(store, 0));
+    MapRegistry reader(StoreOptions(store, replica_budget));
     auto start = Clock::now();
     Result<ActiveMap> active = reader.GetActive("m");
     first_load_s.push_back(SecondsSince(start));
@@ -243,10 +262,7 @@ int main(int argc, char** argv) {
     cached_s.push_back(SecondsSince(start));
     if (!query) query = ShortQuery(active.value().map->model());
     if (query) {
-      PlanRequest request;
-      request.profile = BuiltinProfile("differential").value();
-      request.start.position_m = query->first;
-      request.goal.position_m = query->second;
+      const PlanRequest request = ShortPlan(*query);
       start = Clock::now();
       const Expected<PlanResult> plan = Plan(*active.value().map, request);
       plan_s.push_back(SecondsSince(start));
@@ -269,7 +285,7 @@ int main(int argc, char** argv) {
 
   // 3. Edits on the version just made, each from the current version.
   if (query) {
-    MapRegistry editor(StoreOptions(store, 0));
+    MapRegistry editor(StoreOptions(store, replica_budget));
     const Eigen::Vector3d centre = 0.5 * (query->first + query->second);
     const double ground_z = centre.z() - 0.3;
     // Each run edits another spot (0.3 m further along x) of the version the last one made,
@@ -340,10 +356,7 @@ int main(int argc, char** argv) {
     // sees of the change (a cloud edit makes a new model, whose graph this plan builds).
     const auto plan_after = [&](bool* planned = nullptr) {
       const Result<ActiveMap> active = editor.GetActive("m");
-      PlanRequest request;
-      request.profile = BuiltinProfile("differential").value();
-      request.start.position_m = query->first;
-      request.goal.position_m = query->second;
+      const PlanRequest request = ShortPlan(*query);
       const auto start = Clock::now();
       const Expected<PlanResult> plan =
           active.ok() ? Plan(*active.value().map, request)
@@ -360,14 +373,11 @@ int main(int argc, char** argv) {
     // Another replica (a registry of its own on the same store) on which the robot planned too:
     // its first plan on each new version loads the version, and its graph from the store when
     // the editing replica has written it by then (else it builds it).
-    MapRegistry elsewhere(StoreOptions(there.store, 0));
+    MapRegistry elsewhere(StoreOptions(there.store, replica_budget));
     const auto plan_elsewhere = [&](double* graph_s) {
       const auto start = Clock::now();
       const Result<ActiveMap> active = elsewhere.GetActive("m");
-      PlanRequest request;
-      request.profile = BuiltinProfile("differential").value();
-      request.start.position_m = query->first;
-      request.goal.position_m = query->second;
+      const PlanRequest request = ShortPlan(*query);
       const Expected<PlanResult> plan =
           active.ok() ? Plan(*active.value().map, request)
                       : Expected<PlanResult>(Error{ErrorCode::kInvalidInput, "no map"});
@@ -568,7 +578,7 @@ int main(int argc, char** argv) {
   // 4. Maps planned on in turn by a registry that holds about 40% of them.
   if (churn_maps > 0) {
     {
-      MapRegistry writer(StoreOptions(store, 0));
+      MapRegistry writer(StoreOptions(store, replica_budget));
       for (int i = 0; i < churn_maps; ++i) {
         CreateAndWait(writer, "churn" + std::to_string(i),
                       "scene:uneven_terrain:" + std::to_string(i + 1), {});
