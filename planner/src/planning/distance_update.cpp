@@ -85,7 +85,8 @@ bool UpdateDistances(const SurfaceGraph& graph, int source, std::span<const std:
   }
   for (int popped = 1; !queue.empty(); ++popped) {
     if (stopped(popped)) return false;
-    const auto [reached, node] = queue.top();
+    const float reached = queue.top().first;  // Not a structured binding: the lambda reads it.
+    const std::int32_t node = queue.top().second;
     queue.pop();
     if (reached > d[node]) continue;
     graph.ForEachNeighbor(node, [&](int to) {
