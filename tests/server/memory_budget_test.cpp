@@ -2,6 +2,7 @@
 // refusals that give the figures, and maps let go before anything is refused.
 #include "maps/memory_budget.hpp"
 
+#include <algorithm>
 #include <atomic>
 #include <fstream>
 #include <limits>
@@ -19,6 +20,17 @@ using ::testing::HasSubstr;
 using Use = MemoryBudget::Use;
 
 constexpr std::uint64_t kMiB = 1 << 20;
+
+// A cache holding `maps` bytes of maps: a trim records its target in `targets` and lets go down
+// to it, but not below `held_by_plans` (what plans still use).
+void WatchTrims(MemoryBudget& budget, std::atomic<std::uint64_t>& maps,
+                std::vector<std::uint64_t>& targets, std::uint64_t held_by_plans = 0) {
+  budget.WatchMaps([&maps] { return maps.load(); },
+                   [&maps, &targets, held_by_plans](std::uint64_t target) {
+                     targets.push_back(target);
+                     maps = std::max(target, held_by_plans);
+                   });
+}
 
 TEST(MemoryBudgetTest, ReservationsFitTheLimitAndGoBackWhenReleased) {
   MemoryBudget budget(100 * kMiB);
@@ -75,12 +87,7 @@ TEST(MemoryBudgetTest, MapsAreTrimmedToMakeRoomBeforeARefusal) {
   MemoryBudget budget(100 * kMiB);
   std::atomic<std::uint64_t> maps{90 * kMiB};
   std::vector<std::uint64_t> targets;
-  // A cache that can let go of maps down to 20 MiB (the rest is held by plans).
-  budget.WatchMaps([&maps] { return maps.load(); },
-                   [&](std::uint64_t target) {
-                     targets.push_back(target);
-                     maps = std::max<std::uint64_t>(target, 20 * kMiB);
-                   });
+  WatchTrims(budget, maps, targets, 20 * kMiB);  // Plans hold 20 MiB of the maps.
   Result<MemoryBudget::Reservation> upload = budget.Reserve(Use::kUploads, 50 * kMiB, "upload");
   ASSERT_TRUE(upload.ok());
   ASSERT_EQ(targets.size(), 1u);
@@ -104,11 +111,7 @@ TEST(MemoryBudgetTest, MapsThatGrewPastWhatIsLeftAreTrimmedBackToIt) {
   MemoryBudget budget(100 * kMiB);
   std::atomic<std::uint64_t> maps{60 * kMiB};
   std::vector<std::uint64_t> targets;
-  budget.WatchMaps([&maps] { return maps.load(); },
-                   [&](std::uint64_t target) {
-                     targets.push_back(target);
-                     maps = target;
-                   });
+  WatchTrims(budget, maps, targets);
   Result<MemoryBudget::Reservation> upload = budget.Reserve(Use::kUploads, 30 * kMiB, "upload");
   ASSERT_TRUE(upload.ok());
   budget.FitMaps();  // 60 MiB beside the 30 reserved fit: nothing to let go.

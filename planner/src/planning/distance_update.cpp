@@ -1,27 +1,19 @@
 // UpdateDistances: a landmark's distances after an edit, from its distances before.
 #include "planning/distance_update.hpp"
 
-#include <cmath>
 #include <cstdint>
 #include <functional>
-#include <limits>
 #include <queue>
 #include <utility>
 #include <vector>
 
+#include "planning/surface_graph_internal.hpp"
+
 namespace strata::graph_internal {
 namespace {
 
-constexpr float kUnreached = std::numeric_limits<float>::infinity();
-constexpr int kNodesPerPoll = 4096;
-
 using Entry = std::pair<float, std::int32_t>;
 using MinQueue = std::priority_queue<Entry, std::vector<Entry>, std::greater<>>;
-
-// The cost of the move from a to b as the landmarks' searches add it.
-float Cost(const SurfaceGraph& graph, int a, int b) {
-  return static_cast<float>(graph.MoveCost(a, b, MoveCostTerms{}));
-}
 
 }  // namespace
 
@@ -54,7 +46,7 @@ bool UpdateDistances(const SurfaceGraph& graph, int source, std::span<const std:
     bool stands = node == source;
     graph.ForEachNeighbor(node, [&](int from) {
       stands = stands || (verdict[from] != kFails && before[from] < before[node] &&
-                          before[from] + Cost(graph, from, node) == before[node]);
+                          before[from] + LandmarkMoveCost(graph, from, node) == before[node]);
     });
     verdict[node] = stands ? kStands : kFails;
     if (stands) continue;
@@ -74,7 +66,7 @@ bool UpdateDistances(const SurfaceGraph& graph, int source, std::span<const std:
   const auto seed = [&](std::int32_t node) {
     graph.ForEachNeighbor(node, [&](int from) {
       if (verdict[from] == kFails || !(d[from] < kUnreached)) return;
-      const float reached = d[from] + Cost(graph, from, node);
+      const float reached = d[from] + LandmarkMoveCost(graph, from, node);
       if (reached < d[node]) d[node] = reached;
     });
     if (d[node] < kUnreached) queue.emplace(d[node], node);
@@ -90,7 +82,7 @@ bool UpdateDistances(const SurfaceGraph& graph, int source, std::span<const std:
     queue.pop();
     if (reached > d[node]) continue;
     graph.ForEachNeighbor(node, [&](int to) {
-      const float next = reached + Cost(graph, node, to);
+      const float next = reached + LandmarkMoveCost(graph, node, to);
       if (next < d[to]) {
         d[to] = next;
         queue.emplace(next, to);

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <numeric>
 #include <vector>
 
@@ -12,6 +13,16 @@ namespace strata::graph_internal {
 
 // Nodes handled between two polls of should_stop.
 inline constexpr int kNodesPerPoll = 4096;
+
+// A landmark's distance to a node it does not reach.
+inline constexpr float kUnreached = std::numeric_limits<float>::infinity();
+
+// The cost of the move from a to b as the landmarks' tables add it (MoveCost under the default
+// terms, in float): a table searched and a table updated (UpdateDistances) must add the same
+// values to agree bit for bit.
+inline float LandmarkMoveCost(const SurfaceGraph& graph, int a, int b) {
+  return static_cast<float>(graph.MoveCost(a, b, MoveCostTerms{}));
+}
 
 // The rim distance a move from `a` to `b` adds on a grid of resolution `r` [m]: r along an
 // axis, r√2 across, as float (the rim distances are sums of these).

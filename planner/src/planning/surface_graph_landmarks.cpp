@@ -11,12 +11,13 @@
 
 #include "planning/bucket_queue.hpp"
 #include "planning/distance_update.hpp"
+#include "planning/surface_graph_internal.hpp"
 #include "strata/planning/surface_graph.hpp"
 
 namespace strata {
 namespace {
 
-constexpr float kUnreached = std::numeric_limits<float>::infinity();
+using graph_internal::kUnreached;
 
 // The edges from the nodes of one component and what each costs (MoveCost under the default
 // MoveCostTerms), as float: every landmark's search walks them, and finding a node's
@@ -36,12 +37,11 @@ CostedEdges EdgesOf(const SurfaceGraph& graph, int component) {
   const int n = graph.node_count();
   CostedEdges edges;
   edges.begin.reserve(static_cast<std::size_t>(n) + 1);
-  const MoveCostTerms terms;
   for (int node = 0; node < n; ++node) {
     edges.begin.push_back(static_cast<std::uint32_t>(edges.list.size()));
     if (graph.component(node) != component) continue;
     graph.ForEachNeighbor(node, [&](int m) {
-      const auto cost = static_cast<float>(graph.MoveCost(node, m, terms));
+      const float cost = graph_internal::LandmarkMoveCost(graph, node, m);
       edges.list.push_back({m, cost});
       edges.cheapest = std::min(edges.cheapest, cost);
       edges.dearest = std::max(edges.dearest, cost);
@@ -52,7 +52,7 @@ CostedEdges EdgesOf(const SurfaceGraph& graph, int component) {
 }
 
 // Least costs of paths from `source` over `edges` to every node; kUnreached outside its
-// component. False when should_stop fired (polled every 4096 nodes settled).
+// component. False when should_stop fired (polled every kNodesPerPoll nodes settled).
 bool Distances(const CostedEdges& edges, int source, const std::function<bool()>& should_stop,
                std::vector<float>* distance) {
   distance->assign(edges.begin.size() - 1, kUnreached);
@@ -63,7 +63,7 @@ bool Distances(const CostedEdges& edges, int source, const std::function<bool()>
   float d = 0;
   std::int32_t node = 0;
   for (int settled = 1; queue.Pop(&d, &node); ++settled) {
-    if (settled % 4096 == 0 && should_stop && should_stop()) return false;
+    if (settled % graph_internal::kNodesPerPoll == 0 && should_stop && should_stop()) return false;
     if (d > (*distance)[node]) continue;
     for (std::uint32_t e = edges.begin[node]; e < edges.begin[node + 1]; ++e) {
       const float next = d + edges.list[e].cost;
