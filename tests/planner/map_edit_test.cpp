@@ -176,7 +176,9 @@ Reassessment ExpectReassessedLikeFresh(const Scene& scene, const std::vector<Map
   EXPECT_TRUE(reassessed.ok()) << reassessed.error().message;
   if (!reassessed.ok()) return {};
   EXPECT_EQ(reassessed->path, expected_path) << reassessed->full_reason;
-  auto fresh = TerrainModel::Assess(*edited, scene.model->config());
+  // The map keeps its quantum (TerrainModel::Assess).
+  auto fresh = TerrainModel::Assess(*edited, scene.model->config(), {},
+                                    scene.model->summary().vertical_quantum_m);
   EXPECT_TRUE(fresh.ok()) << fresh.error().message;
   if (!fresh.ok()) return {};
   const std::string local_bytes = test_util::BytesWithoutTimings(*reassessed->model);

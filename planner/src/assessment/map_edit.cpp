@@ -14,6 +14,7 @@
 #include "assessment/assessment_progress.hpp"
 #include "assessment/column_cloud.hpp"
 #include "assessment/ground_filter_internal.hpp"
+#include "assessment/map_edit_internal.hpp"
 #include "assessment/surface_map_build.hpp"
 #include "assessment/terrain_fields_build.hpp"
 #include "assessment/terrain_model_internal.hpp"
@@ -472,152 +473,158 @@ std::size_t ValidPointsIn(const internal::ColumnCloud& sorted, const CellBox& co
   return count;
 }
 
-std::size_t ValidSurfacesIn(const SurfaceMap& surfaces, const CellBox& columns) {
-  std::size_t count = 0;
+// The surfaces of `columns`, and those of them holding valid ground.
+struct SurfaceCounts {
+  std::size_t all = 0;
+  std::size_t valid = 0;
+};
+SurfaceCounts SurfacesIn(const SurfaceMap& surfaces, const CellBox& columns) {
+  SurfaceCounts counts;
   for (int iy = columns.min.y(); iy <= columns.max.y(); ++iy) {
     for (int ix = columns.min.x(); ix <= columns.max.x(); ++ix) {
-      for (const ColumnSurface& s : surfaces.Column(ix, iy)) count += s.valid;
+      for (const ColumnSurface& s : surfaces.Column(ix, iy)) {
+        ++counts.all;
+        counts.valid += s.valid;
+      }
     }
   }
-  return count;
+  return counts;
 }
 
-}  // namespace
-
-Expected<Reassessment> ReassessRegion(const TerrainModel& base, const PointCloud& base_cloud,
-                                      const PointCloud& edited_cloud,
-                                      const Eigen::AlignedBox3d& touched_m,
-                                      const AssessmentControl& control) {
+Status ValidateTouched(const Eigen::AlignedBox3d& touched_m) {
   if (touched_m.isEmpty() || !touched_m.min().allFinite() || !touched_m.max().allFinite()) {
     return Error{ErrorCode::kInvalidInput,
                  "the touched box " + internal::FormatPoint(touched_m.min()) + " – " +
                      internal::FormatPoint(touched_m.max()) +
                      " m is empty or not finite: pass EditBounds of the edits"};
   }
+  return {};
+}
+
+// The reassessment that assessed `model` from scratch, for `reason`.
+Reassessment FullReassessment(std::shared_ptr<const TerrainModel> model, std::string reason) {
+  Reassessment out;
+  out.model = std::move(model);
+  out.path = ReassessmentPath::kFull;
+  out.full_reason = std::move(reason);
+  out.reassessed_columns = out.model->grid().LayerCellCount();
+  out.changed_columns = CellBox::Whole(out.model->grid());
+  out.changed_columns.max.z() = 0;
+  return out;
+}
+
+}  // namespace
+
+namespace internal {
+
+EditReach ReachOfEdit(const TerrainModel& base, const Eigen::AlignedBox3d& touched_m) {
   const AssessmentConfig& config = base.config();
   const GridGeometry& g = base.grid();
-  const auto full = [&](std::string reason) -> Expected<Reassessment> {
-    Expected<std::shared_ptr<const TerrainModel>> model =
-        TerrainModel::Assess(edited_cloud, config, control);
-    if (!model) return model.error();
-    Reassessment out;
-    out.model = std::move(model).value();
-    out.path = ReassessmentPath::kFull;
-    out.full_reason = std::move(reason);
-    out.reassessed_columns = out.model->grid().LayerCellCount();
-    out.changed_columns = CellBox::Whole(out.model->grid());
-    out.changed_columns.max.z() = 0;
-    return out;
-  };
-  if (edited_cloud.empty()) return full("the edited cloud is empty");
-  if (edited_cloud.size() >= std::numeric_limits<std::uint32_t>::max()) {
-    return full("the edited cloud holds 2^32 points or more");
-  }
-  internal::Stopwatch total;
-  internal::Stopwatch stage;
-  internal::ProgressReporter progress(&control);
-  const auto cancelled = [](const char* during) {
-    return Error{ErrorCode::kCancelled, std::string("terrain reassessment cancelled ") + during};
-  };
-
-  AssessmentSummary summary = base.summary();
-  summary.input_points = edited_cloud.size();
-  summary.cloud_bounds_m.setEmpty();  // Extended by the pass that crops the edited cloud.
-  summary.vertical_quantum_m = DetectVerticalQuantum(edited_cloud);
-  if (summary.vertical_quantum_m != base.summary().vertical_quantum_m) {
-    return full(fmt::format("the edit changes the cloud's vertical quantum from {:g} to {:g} m",
-                            base.summary().vertical_quantum_m, summary.vertical_quantum_m));
-  }
-
-  // The columns the edit touches (a point's column is monotonic in its position, so every
-  // point inside touched_m lies in them), and around them every column whose assessment can
-  // change (docs/design.md, "Map edits").
-  const FieldConfig field =
-      FieldConfigForQuantum(config.field, summary.vertical_quantum_m, config.grid.resolution_m);
-  const int ground_reach = internal::GroundFilterReach(config.ground, g.resolution_m);
-  const int fit_reach = internal::PlaneFitReach(field, g.resolution_m);
-  const internal::FieldReach field_reach =
-      internal::FieldReachOf(field, config.grid, g.resolution_m);
+  const FieldConfig field = FieldConfigForQuantum(config.field, base.summary().vertical_quantum_m,
+                                                  config.grid.resolution_m);
+  const int ground_reach = GroundFilterReach(config.ground, g.resolution_m);
+  const int fit_reach = PlaneFitReach(field, g.resolution_m);
+  const FieldReach field_reach = FieldReachOf(field, config.grid, g.resolution_m);
   const int surface_reach = std::max(ground_reach, fit_reach);
   const int fields_reach = std::max(surface_reach + field_reach.surfaces, field_reach.points);
   const int crop_reach = std::max(fields_reach + field_reach.points, 2 * surface_reach);
+  // A point's column is monotonic in its position, so every point inside touched_m lies in
+  // the columns of its corners.
   const auto clamp_column = [&](const Eigen::Vector3d& p) {
     const Eigen::Vector3i cell = g.CellOf(p);
     return Eigen::Vector3i(std::clamp(cell.x(), 0, g.size.x() - 1),
                            std::clamp(cell.y(), 0, g.size.y() - 1), 0);
   };
-  const CellBox touched{clamp_column(touched_m.min()), clamp_column(touched_m.max())};
-  const auto grown = [&](int reach) { return touched.Grown({reach, reach, 0}, g); };
-  const CellBox flags_changed = grown(ground_reach);  // Valid flags may change here.
-  const CellBox surfaces_changed = grown(surface_reach);
-  const CellBox fields_changed = grown(fields_reach);
-  const CellBox crop = grown(crop_reach);
-  const CellBox base_crop = grown(2 * ground_reach);
+  EditReach reach;
+  reach.touched = CellBox{clamp_column(touched_m.min()), clamp_column(touched_m.max())};
+  const auto grown = [&](int by) { return reach.touched.Grown({by, by, 0}, g); };
+  reach.flags_changed = grown(ground_reach);
+  reach.surfaces_changed = grown(surface_reach);
+  reach.fields_changed = grown(fields_reach);
+  reach.crop = grown(crop_reach);
+  reach.base_crop = grown(2 * ground_reach);
+  reach.surfaces_read = grown(fields_reach + field_reach.surfaces);
+  return reach;
+}
+
+std::string GridChange(const GridGeometry& g, const AssessmentSummary& summary,
+                       const GridConfig& config) {
+  Expected<GridGeometry> geometry = AssessmentGrid(summary, config);
+  if (!geometry) return "the edited cloud's bounds give no grid";
+  if (geometry->size == g.size && geometry->origin_m == g.origin_m &&
+      geometry->resolution_m == g.resolution_m) {
+    return {};
+  }
+  return fmt::format(
+      "the edited cloud's bounds change the grid from {} × {} × {} cells at {} m to {} × {} × {} "
+      "at {} m",
+      g.size.x(), g.size.y(), g.size.z(), FormatPoint(g.origin_m), geometry->size.x(),
+      geometry->size.y(), geometry->size.z(), FormatPoint(geometry->origin_m));
+}
+
+Expected<Reassessment> ReassessNear(const TerrainModel& base, const EditReach& reach,
+                                    AssessmentSummary summary, const PointCloud& near_edited,
+                                    const PointCloud& near_base, const AssessmentControl& control) {
+  const AssessmentConfig& config = base.config();
+  const GridGeometry& g = base.grid();
+  Stopwatch total;
+  Stopwatch stage;
+  ProgressReporter progress(&control);
+  const auto cancelled = [](const char* during) {
+    return Error{ErrorCode::kCancelled, std::string("terrain reassessment cancelled ") + during};
+  };
+  const FieldConfig field =
+      FieldConfigForQuantum(config.field, summary.vertical_quantum_m, config.grid.resolution_m);
 
   progress.BeginStage(AssessmentStage::kSorting, 1);
-  PointCloud near =
-      internal::CropToColumns(g, crop, edited_cloud, config.num_threads, &summary.cloud_bounds_m);
-  Expected<GridGeometry> geometry = internal::AssessmentGrid(summary, config.grid);
-  if (!geometry) return full("the edited cloud's bounds give no grid");
-  if (geometry->size != g.size || geometry->origin_m != g.origin_m ||
-      geometry->resolution_m != g.resolution_m) {
-    return full(fmt::format(
-        "the edited cloud's bounds change the grid from {} × {} × {} cells "
-        "at {} m to {} × {} × {} at {} m",
-        g.size.x(), g.size.y(), g.size.z(), internal::FormatPoint(g.origin_m), geometry->size.x(),
-        geometry->size.y(), geometry->size.z(), internal::FormatPoint(geometry->origin_m)));
-  }
-  PointCloud near_base = internal::CropToColumns(g, base_crop, base_cloud, config.num_threads);
-  internal::ColumnCloud sorted = internal::SortIntoColumnWindow(g, crop, near, config.num_threads);
-  internal::ColumnCloud sorted_base =
-      internal::SortIntoColumnWindow(g, base_crop, near_base, config.num_threads);
-  internal::ThinColumns(&sorted, g, config.num_threads);
-  internal::ThinColumns(&sorted_base, g, config.num_threads);
-  near = {};
-  near_base = {};
+  ColumnCloud sorted = SortIntoColumnWindow(g, reach.crop, near_edited, config.num_threads);
+  ColumnCloud sorted_base = SortIntoColumnWindow(g, reach.base_crop, near_base, config.num_threads);
+  ThinColumns(&sorted, g, config.num_threads);
+  ThinColumns(&sorted_base, g, config.num_threads);
   if (!progress.Advance(1)) return cancelled("while sorting the points");
 
   // The valid flags of the surfaces' columns in the edited cloud, and of the columns where
   // they may change in both clouds: the summary's count changes by the difference.
   progress.BeginStage(AssessmentStage::kGroundFilter,
-                      surfaces_changed.size().y() + flags_changed.size().y());
-  const double step_tolerance = internal::StepTolerance(summary.vertical_quantum_m);
-  if (Status s = internal::FilterValidGroundInColumns(&sorted, config.ground, g.resolution_m,
-                                                      step_tolerance, config.num_threads, &progress,
-                                                      &surfaces_changed);
+                      reach.surfaces_changed.size().y() + reach.flags_changed.size().y());
+  const double step_tolerance = StepTolerance(summary.vertical_quantum_m);
+  if (Status s = FilterValidGroundInColumns(&sorted, config.ground, g.resolution_m, step_tolerance,
+                                            config.num_threads, &progress, &reach.surfaces_changed);
       !s) {
     return s.error();
   }
-  if (Status s = internal::FilterValidGroundInColumns(&sorted_base, config.ground, g.resolution_m,
-                                                      step_tolerance, config.num_threads, &progress,
-                                                      &flags_changed);
+  if (Status s =
+          FilterValidGroundInColumns(&sorted_base, config.ground, g.resolution_m, step_tolerance,
+                                     config.num_threads, &progress, &reach.flags_changed);
       !s) {
     return s.error();
   }
-  summary.valid_ground_points = summary.valid_ground_points + ValidPointsIn(sorted, flags_changed) -
-                                ValidPointsIn(sorted_base, flags_changed);
+  summary.valid_ground_points = summary.valid_ground_points +
+                                ValidPointsIn(sorted, reach.flags_changed) -
+                                ValidPointsIn(sorted_base, reach.flags_changed);
   sorted_base = {};
   summary.timings.ground_filter_s = stage.Lap();
 
-  progress.BeginStage(AssessmentStage::kSurfaces,
-                      surfaces_changed.size().x() * std::int64_t{surfaces_changed.size().y()});
-  Expected<internal::ColumnSurfaces> local_surfaces = internal::BuildColumnSurfaces(
-      g, sorted, surfaces_changed, field, config.num_threads, &progress);
+  progress.BeginStage(
+      AssessmentStage::kSurfaces,
+      reach.surfaces_changed.size().x() * std::int64_t{reach.surfaces_changed.size().y()});
+  Expected<ColumnSurfaces> local_surfaces =
+      BuildColumnSurfaces(g, sorted, reach.surfaces_changed, field, config.num_threads, &progress);
   if (!local_surfaces) return local_surfaces.error();
   std::size_t local_valid = 0;
   for (const ColumnSurface& s : local_surfaces->surfaces) local_valid += s.valid;
-  summary.valid_surface_count = summary.valid_surface_count + local_valid -
-                                ValidSurfacesIn(base.surfaces(), surfaces_changed);
+  const SurfaceCounts old_counts = SurfacesIn(base.surfaces(), reach.surfaces_changed);
+  summary.valid_surface_count = summary.valid_surface_count + local_valid - old_counts.valid;
+  summary.surface_count = summary.surface_count + local_surfaces->surfaces.size() - old_counts.all;
   Expected<SurfaceMap> surfaces =
-      SpliceSurfaces(base.surfaces(), surfaces_changed, *local_surfaces);
+      SpliceSurfaces(base.surfaces(), reach.surfaces_changed, *local_surfaces);
   if (!surfaces) return surfaces.error();
-  summary.surface_count = surfaces->surface_count();
   summary.timings.surfaces_s = stage.Lap();
 
-  Expected<TerrainFields::Parts> local_fields = internal::BuildFieldParts(
-      *surfaces, sorted, fields_changed, field, config.grid, config.num_threads, &progress);
+  Expected<TerrainFields::Parts> local_fields = BuildFieldParts(
+      *surfaces, sorted, reach.fields_changed, field, config.grid, config.num_threads, &progress);
   if (!local_fields) return local_fields.error();
-  Expected<TerrainFields> fields = SpliceFields(base.fields(), fields_changed, *local_fields);
+  Expected<TerrainFields> fields = SpliceFields(base.fields(), reach.fields_changed, *local_fields);
   if (!fields) return fields.error();
   summary.timings.fields_s = stage.Lap();
   summary.timings.total_s = total.Lap();
@@ -628,9 +635,45 @@ Expected<Reassessment> ReassessRegion(const TerrainModel& base, const PointCloud
   Reassessment out;
   out.model = std::move(model).value();
   out.path = ReassessmentPath::kLocal;
-  out.reassessed_columns = fields_changed.size().x() * std::int64_t{fields_changed.size().y()};
-  out.changed_columns = fields_changed;
+  out.reassessed_columns =
+      reach.fields_changed.size().x() * std::int64_t{reach.fields_changed.size().y()};
+  out.changed_columns = reach.fields_changed;
   return out;
+}
+
+}  // namespace internal
+
+Expected<Reassessment> ReassessRegion(const TerrainModel& base, const PointCloud& base_cloud,
+                                      const PointCloud& edited_cloud,
+                                      const Eigen::AlignedBox3d& touched_m,
+                                      const AssessmentControl& control) {
+  if (Status s = ValidateTouched(touched_m); !s) return s.error();
+  const AssessmentConfig& config = base.config();
+  const GridGeometry& g = base.grid();
+  // The map keeps its vertical quantum (TerrainModel::Assess).
+  const double quantum_m = base.summary().vertical_quantum_m;
+  const auto full = [&](std::string reason) -> Expected<Reassessment> {
+    Expected<std::shared_ptr<const TerrainModel>> model =
+        TerrainModel::Assess(edited_cloud, config, control, quantum_m);
+    if (!model) return model.error();
+    return FullReassessment(std::move(model).value(), std::move(reason));
+  };
+  if (edited_cloud.empty()) return full("the edited cloud is empty");
+  if (edited_cloud.size() >= std::numeric_limits<std::uint32_t>::max()) {
+    return full("the edited cloud holds 2^32 points or more");
+  }
+  const internal::EditReach reach = internal::ReachOfEdit(base, touched_m);
+  AssessmentSummary summary = base.summary();
+  summary.input_points = edited_cloud.size();
+  summary.cloud_bounds_m.setEmpty();  // Extended by the pass that crops the edited cloud.
+  const PointCloud near = internal::CropToColumns(g, reach.crop, edited_cloud, config.num_threads,
+                                                  &summary.cloud_bounds_m);
+  if (std::string change = internal::GridChange(g, summary, config.grid); !change.empty()) {
+    return full(std::move(change));
+  }
+  const PointCloud near_base =
+      internal::CropToColumns(g, reach.base_crop, base_cloud, config.num_threads);
+  return internal::ReassessNear(base, reach, summary, near, near_base, control);
 }
 
 }  // namespace strata

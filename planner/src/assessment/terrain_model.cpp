@@ -110,7 +110,8 @@ const char* AssessmentStageName(AssessmentStage stage) {
 }
 
 Expected<std::shared_ptr<const TerrainModel>> TerrainModel::Assess(
-    const PointCloud& cloud, const AssessmentConfig& config, const AssessmentControl& control) {
+    const PointCloud& cloud, const AssessmentConfig& config, const AssessmentControl& control,
+    std::optional<double> vertical_quantum_m) {
   if (Status s = config.Validate(); !s) return s.error();
   if (cloud.empty()) {
     return Error{ErrorCode::kInvalidInput, "the point cloud is empty: nothing to assess"};
@@ -131,7 +132,8 @@ Expected<std::shared_ptr<const TerrainModel>> TerrainModel::Assess(
   for (const Eigen::Vector3f& p : cloud) summary.cloud_bounds_m.extend(p.cast<double>());
   // A voxelised map turns every slope into a staircase of one-voxel risers, which the rule
   // would read as walls: risers of one voxel are tolerated as steps.
-  summary.vertical_quantum_m = DetectVerticalQuantum(cloud);
+  summary.vertical_quantum_m =
+      vertical_quantum_m ? *vertical_quantum_m : DetectVerticalQuantum(cloud);
   // The grid's size is known from the bounds: refuse an absurd one before any heavy work.
   Expected<GridGeometry> geometry = internal::AssessmentGrid(summary, config.grid);
   if (!geometry) return geometry.error();

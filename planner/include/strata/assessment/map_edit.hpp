@@ -122,16 +122,19 @@ struct Reassessment {
 /// applied). Those columns grown by every reach of the assessment (the ground filter's radius,
 /// the plane fit's radius, the distance cap, the safety diffusion's kernel) are assessed again
 /// from the points around them and spliced into a copy of the base's surfaces and fields. The
-/// model equals TerrainModel::Assess(edited_cloud, base.config()) in every value but the
-/// summary's timings (those of the local work); SerializeModel of both differs only there.
+/// model equals TerrainModel::Assess of `edited_cloud` (base.config(), base's quantum) in every
+/// value but the summary's timings (those of the local work); SerializeModel of both differs only
+/// there.
 ///
 /// The base cloud is read for the valid-ground count of the summary: the points whose flags
 /// change lie near the edit, and their old flags are not stored in the model. Each cloud is
 /// read once, the sorting and filtering run on the points near the edit only.
 ///
-/// When the edit changes what the whole map depends on (the cloud's bounds move the grid, the
-/// vertical quantum changes, the cloud is empty or too large) the model is assessed from
-/// scratch (ReassessmentPath::kFull, with the reason), failing as TerrainModel::Assess.
+/// The model keeps the base's vertical quantum (TerrainModel::Assess's `vertical_quantum_m`:
+/// ApplyEdits puts its points on the base's lattice). When the edit changes what the whole map
+/// depends on (the cloud's bounds move the grid, the cloud is empty or too large) the model is
+/// assessed from scratch (ReassessmentPath::kFull, with the reason), failing as
+/// TerrainModel::Assess.
 /// kInvalidInput for a `touched_m` that is empty or not finite; kCancelled when
 /// control.should_stop asked to stop.
 Expected<Reassessment> ReassessRegion(const TerrainModel& base, const PointCloud& base_cloud,

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <type_traits>
 
 #include <Eigen/Core>
@@ -91,9 +92,14 @@ class TerrainModel {
   /// kInvalidConfig naming the bad field, kInvalidInput for an empty cloud,
   /// kResourceExhausted when the grid would exceed config.grid.max_columns, or kCancelled when
   /// control.should_stop asked to stop.
+  ///
+  /// The cloud's vertical quantum is detected (DetectVerticalQuantum) unless
+  /// `vertical_quantum_m` gives it: a map's quantum is found when the map is made from its
+  /// source and kept by its edits, which put their points on its lattice (ApplyEdits).
   static Expected<std::shared_ptr<const TerrainModel>> Assess(
       const PointCloud& cloud, const AssessmentConfig& config,
-      const AssessmentControl& control = {});
+      const AssessmentControl& control = {},
+      std::optional<double> vertical_quantum_m = std::nullopt);
 
   /// A model from its parts, as a saved model stores them: the surfaces and fields must share
   /// one grid (kInvalidInput otherwise).
