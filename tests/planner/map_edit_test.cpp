@@ -17,6 +17,7 @@
 
 #include "strata/io/model_tiles.hpp"
 #include "strata/io/saved_model.hpp"
+#include "strata/io/tiled_edit.hpp"
 #include "strata/scenes/basic_scenes.hpp"
 #include "strata/scenes/paper_scenes.hpp"
 #include "test_util/model_bytes.hpp"
@@ -162,6 +163,63 @@ void ExpectUnchangedOutside(const Scene& base, const PointCloud& edited_cloud,
   }
 }
 
+// EditTiledTerrain of `edits` on `base` cut into tiles, checked against a fresh assessment of
+// the cloud its tiles then hold, byte for byte: the header and every tile, the changed ones cut
+// from the window it read and the others the base's. True when it edited the tiles, false
+// when it said it needs the whole cloud (`*needs_whole`: why).
+bool ExpectTiledEditLikeFresh(const Scene& base, const std::vector<MapEdit>& edits,
+                              std::string* needs_whole) {
+  const GridGeometry& grid = base.model->grid();
+  const TiledModel model = CutModel(*base.model);
+  std::vector<std::string> cloud = CutCloud(base.cloud, grid);
+  std::vector<std::size_t> read;  // Cloud and model tiles read, each counted once.
+  const auto from = [&read](const std::vector<std::string>& tiles) {
+    return [&read, &tiles](std::size_t t) -> Expected<std::string> {
+      read.push_back(t);
+      return tiles.at(t);
+    };
+  };
+  const TiledTerrainSource source{model.header, from(model.tiles), from(cloud)};
+  Expected<TiledTerrainEdit> edit = EditTiledTerrain(source, edits);
+  EXPECT_TRUE(edit.ok()) << edit.error().message;
+  if (!edit.ok()) return false;
+  *needs_whole = edit->needs_whole;
+  if (!edit->needs_whole.empty()) return false;
+  // A window, not the whole terrain (the scenes have 30 tiles and more).
+  EXPECT_LT(read.size(), model.tiles.size());
+  std::vector<std::string> tiles = model.tiles;
+  EXPECT_EQ(edit->model.tiles.size(), edit->changed.size());
+  EXPECT_EQ(edit->cloud.size(), edit->changed.size());
+  if (edit->model.tiles.size() != edit->changed.size() ||
+      edit->cloud.size() != edit->changed.size()) {
+    return false;
+  }
+  for (std::size_t k = 0; k < edit->changed.size(); ++k) {
+    tiles[edit->changed[k]] = edit->model.tiles[k];
+    cloud[edit->changed[k]] = edit->cloud[k];
+  }
+  const std::vector<std::string_view> cloud_views(cloud.begin(), cloud.end());
+  Expected<PointCloud> edited_cloud = JoinCloud(cloud_views, "edited");
+  EXPECT_TRUE(edited_cloud.ok());
+  if (!edited_cloud.ok()) return false;
+  EXPECT_EQ(edit->cloud_points, edited_cloud->size());
+  const std::vector<std::string_view> views(tiles.begin(), tiles.end());
+  Expected<std::shared_ptr<const TerrainModel>> joined =
+      JoinModel(edit->model.header, views, "edited");
+  EXPECT_TRUE(joined.ok()) << joined.error().message;
+  auto fresh = TerrainModel::Assess(*edited_cloud, base.model->config(), {},
+                                    base.model->summary().vertical_quantum_m);
+  EXPECT_TRUE(fresh.ok());
+  if (!joined.ok() || !fresh.ok()) return false;
+  const std::string tiled_bytes = test_util::BytesWithoutTimings(**joined);
+  const std::string fresh_bytes = test_util::BytesWithoutTimings(**fresh);
+  EXPECT_TRUE(tiled_bytes == fresh_bytes)
+      << "the tiled edit's model differs from a fresh assessment from byte "
+      << test_util::FirstDifferingByte(tiled_bytes, fresh_bytes) << " of " << fresh_bytes.size();
+  EXPECT_NE(tiled_bytes, test_util::BytesWithoutTimings(*base.model));
+  return true;
+}
+
 // Applies `edits`, reassesses locally and checks the model against a fresh assessment of the
 // edited cloud, byte for byte. Returns the reassessment for further checks.
 // `next`, when given, receives the edited cloud and its reassessed model: the scene the next
@@ -189,6 +247,12 @@ Reassessment ExpectReassessedLikeFresh(const Scene& scene, const std::vector<Map
   // An edit that changed nothing would prove nothing.
   EXPECT_NE(local_bytes, test_util::BytesWithoutTimings(*scene.model));
   ExpectUnchangedOutside(scene, *edited, **fresh, *reassessed);
+  // The same edit read from tiles: local where the whole edit is, unless a bounding-box face
+  // it drops leaves the bounds to the whole cloud.
+  std::string needs_whole;
+  const bool tiled = ExpectTiledEditLikeFresh(scene, edits, &needs_whole);
+  if (expected_path == ReassessmentPath::kFull) EXPECT_FALSE(tiled);
+  if (!tiled) std::printf("tiled edit needs the whole cloud: %s\n", needs_whole.c_str());
   if (next != nullptr) *next = Scene{std::move(edited).value(), reassessed->model};
   return std::move(reassessed).value();
 }
@@ -520,6 +584,23 @@ TEST_F(Garage, EditsApplyInOrder) {
       {Obstacle(c.x() - 1.5, c.y() - 1.5, c.x() + 1.5, c.y() + 1.5, deck, deck + 1),
        Removal(c.x() - 0.5, c.y() - 2, c.x() + 0.5, c.y() + 2, deck + 0.1, deck + 2)},
       ReassessmentPath::kLocal);
+}
+
+// A tiled edit that drops the cloud's highest points cannot tell the new bounds from the tiles
+// it reads (another tile may hold a point as high): it says so, and the whole cloud decides.
+TEST_F(Garage, ATiledEditDroppingTheHighestPointsNeedsTheWholeCloud) {
+  const Eigen::Vector3f top = *std::max_element(
+      scene().cloud.begin(), scene().cloud.end(),
+      [](const Eigen::Vector3f& a, const Eigen::Vector3f& b) { return a.z() < b.z(); });
+  const std::vector<MapEdit> edits = {Removal(top.x() - 0.5, top.y() - 0.5, top.x() + 0.5,
+                                              top.y() + 0.5, top.z() - 0.1, top.z() + 0.1)};
+  std::string needs_whole;
+  EXPECT_FALSE(ExpectTiledEditLikeFresh(scene(), edits, &needs_whole));
+  EXPECT_THAT(needs_whole, HasSubstr("bounding box"));
+  // The same points dropped from just under the top: the bounds hold, the tiles do.
+  const std::vector<MapEdit> under = {Removal(top.x() - 0.5, top.y() - 0.5, top.x() + 0.5,
+                                              top.y() + 0.5, top.z() - 0.6, top.z() - 0.2)};
+  EXPECT_TRUE(ExpectTiledEditLikeFresh(scene(), under, &needs_whole)) << needs_whole;
 }
 
 // Scans one after another, each edit applied to the cloud and model the one before made (as

@@ -491,16 +491,6 @@ SurfaceCounts SurfacesIn(const SurfaceMap& surfaces, const CellBox& columns) {
   return counts;
 }
 
-Status ValidateTouched(const Eigen::AlignedBox3d& touched_m) {
-  if (touched_m.isEmpty() || !touched_m.min().allFinite() || !touched_m.max().allFinite()) {
-    return Error{ErrorCode::kInvalidInput,
-                 "the touched box " + internal::FormatPoint(touched_m.min()) + " – " +
-                     internal::FormatPoint(touched_m.max()) +
-                     " m is empty or not finite: pass EditBounds of the edits"};
-  }
-  return {};
-}
-
 // The reassessment that assessed `model` from scratch, for `reason`.
 Reassessment FullReassessment(std::shared_ptr<const TerrainModel> model, std::string reason) {
   Reassessment out;
@@ -517,11 +507,10 @@ Reassessment FullReassessment(std::shared_ptr<const TerrainModel> model, std::st
 
 namespace internal {
 
-EditReach ReachOfEdit(const TerrainModel& base, const Eigen::AlignedBox3d& touched_m) {
-  const AssessmentConfig& config = base.config();
-  const GridGeometry& g = base.grid();
-  const FieldConfig field = FieldConfigForQuantum(config.field, base.summary().vertical_quantum_m,
-                                                  config.grid.resolution_m);
+EditReach ReachOfEdit(const AssessmentConfig& config, const GridGeometry& g, double quantum_m,
+                      const Eigen::AlignedBox3d& touched_m) {
+  const FieldConfig field =
+      FieldConfigForQuantum(config.field, quantum_m, config.grid.resolution_m);
   const int ground_reach = GroundFilterReach(config.ground, g.resolution_m);
   const int fit_reach = PlaneFitReach(field, g.resolution_m);
   const FieldReach field_reach = FieldReachOf(field, config.grid, g.resolution_m);
@@ -545,6 +534,16 @@ EditReach ReachOfEdit(const TerrainModel& base, const Eigen::AlignedBox3d& touch
   reach.base_crop = grown(2 * ground_reach);
   reach.surfaces_read = grown(fields_reach + field_reach.surfaces);
   return reach;
+}
+
+Status ValidateTouched(const Eigen::AlignedBox3d& touched_m) {
+  if (touched_m.isEmpty() || !touched_m.min().allFinite() || !touched_m.max().allFinite()) {
+    return Error{ErrorCode::kInvalidInput,
+                 "the touched box " + FormatPoint(touched_m.min()) + " – " +
+                     FormatPoint(touched_m.max()) +
+                     " m is empty or not finite: pass EditBounds of the edits"};
+  }
+  return {};
 }
 
 std::string GridChange(const GridGeometry& g, const AssessmentSummary& summary,
@@ -647,7 +646,7 @@ Expected<Reassessment> ReassessRegion(const TerrainModel& base, const PointCloud
                                       const PointCloud& edited_cloud,
                                       const Eigen::AlignedBox3d& touched_m,
                                       const AssessmentControl& control) {
-  if (Status s = ValidateTouched(touched_m); !s) return s.error();
+  if (Status s = internal::ValidateTouched(touched_m); !s) return s.error();
   const AssessmentConfig& config = base.config();
   const GridGeometry& g = base.grid();
   // The map keeps its vertical quantum (TerrainModel::Assess).
@@ -662,7 +661,8 @@ Expected<Reassessment> ReassessRegion(const TerrainModel& base, const PointCloud
   if (edited_cloud.size() >= std::numeric_limits<std::uint32_t>::max()) {
     return full("the edited cloud holds 2^32 points or more");
   }
-  const internal::EditReach reach = internal::ReachOfEdit(base, touched_m);
+  const internal::EditReach reach =
+      internal::ReachOfEdit(config, g, base.summary().vertical_quantum_m, touched_m);
   AssessmentSummary summary = base.summary();
   summary.input_points = edited_cloud.size();
   summary.cloud_bounds_m.setEmpty();  // Extended by the pass that crops the edited cloud.

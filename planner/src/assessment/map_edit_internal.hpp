@@ -26,8 +26,13 @@ struct EditReach {
   CellBox surfaces_read;     ///< The surfaces (base's or new) the new fields read.
 };
 
-/// The reach of an edit of `touched_m` [m] (finite, not empty) on `base`.
-EditReach ReachOfEdit(const TerrainModel& base, const Eigen::AlignedBox3d& touched_m);
+/// The reach of an edit of `touched_m` [m] (finite, not empty) on a model of `config` on the
+/// grid `g`, of a cloud with the vertical quantum `quantum_m`.
+EditReach ReachOfEdit(const AssessmentConfig& config, const GridGeometry& g, double quantum_m,
+                      const Eigen::AlignedBox3d& touched_m);
+
+/// kInvalidInput unless `touched_m` is finite and not empty.
+Status ValidateTouched(const Eigen::AlignedBox3d& touched_m);
 
 /// Why the grid of `summary` (its bounds and quantum) is not `g` (AssessmentGrid with
 /// `config`), in words; empty when it is.

@@ -106,7 +106,10 @@ struct Header {
   std::uint64_t surface_total = 0, run_total = 0, value_total = 0;
 };
 
-void WriteHeader(binary_file::Sink& sink, const TerrainModel& model) {
+// The header of `model`, whose tiles hold these totals.
+void WriteHeaderWith(binary_file::Sink& sink, const TerrainModel& model,
+                     std::uint64_t surface_total, std::uint64_t run_total,
+                     std::uint64_t value_total) {
   binary_file::WriteFields(sink, model.config());
   binary_file::WriteFields(sink, model.summary());
   model_parts::WriteGeometry(sink, model.grid());
@@ -116,9 +119,16 @@ void WriteHeader(binary_file::Sink& sink, const TerrainModel& model) {
   sink.Value(f.safety_background);
   sink.Value(f.intervals.back().first_layer);
   sink.Value(static_cast<std::uint32_t>(kTileColumns));
-  sink.Value(static_cast<std::uint64_t>(model.surfaces().all_surfaces().size()));
-  sink.Value(static_cast<std::uint64_t>(f.intervals.size() - 1));  // The sentinel aside.
-  sink.Value(static_cast<std::uint64_t>(f.distance.size()));
+  sink.Value(surface_total);
+  sink.Value(run_total);
+  sink.Value(value_total);
+}
+
+void WriteHeader(binary_file::Sink& sink, const TerrainModel& model) {
+  const TerrainFields::Parts& f = model.fields().parts();
+  WriteHeaderWith(sink, model, model.surfaces().all_surfaces().size(),
+                  f.intervals.size() - 1,  // The sentinel aside.
+                  f.distance.size());
 }
 
 bool ReadHeader(binary_file::Reader& reader, Header* h, std::string* problem) {
@@ -305,22 +315,34 @@ TiledModel CutModelTiles(const TerrainModel& model, std::span<const std::size_t>
   return tiled;
 }
 
-Expected<std::shared_ptr<const TerrainModel>> JoinModel(
-    std::string_view header_bytes, std::size_t tile_count, std::uint64_t tile_bytes,
-    const TileSource& source, const std::string& name, const HeldTiles* held) {
-  const auto fail = [&name](const std::string& what) {
-    return Error{ErrorCode::kMapLoadFailed, "tiled model " + name + " " + what};
-  };
+namespace {
+
+// The header `bytes` hold; kMapLoadFailed naming `name` when they hold none.
+Expected<Header> ParseHeader(std::string_view bytes, const std::string& name) {
   Header header;
-  binary_file::MemorySource header_source(header_bytes);
-  if (Status read =
-          binary_file::ReadFrame(header_source, header_bytes.size(), kTiledModelKind, name,
-                                 [&header](binary_file::Reader& reader, std::string* problem) {
-                                   return ReadHeader(reader, &header, problem);
-                                 });
+  binary_file::MemorySource source(bytes);
+  if (Status read = binary_file::ReadFrame(source, bytes.size(), kTiledModelKind, name,
+                                           [&header](binary_file::Reader& r, std::string* problem) {
+                                             return ReadHeader(r, &header, problem);
+                                           });
       !read) {
     return read.error();
   }
+  return header;
+}
+
+// JoinModel; with `window` (may be null) only the tiles it marks are read, and every other
+// column is left empty (JoinModelWindow).
+Expected<std::shared_ptr<const TerrainModel>> JoinTiles(
+    std::string_view header_bytes, std::size_t tile_count, std::uint64_t tile_bytes,
+    const TileSource& source, const std::string& name, const HeldTiles* held,
+    const std::vector<bool>* window) {
+  const auto fail = [&name](const std::string& what) {
+    return Error{ErrorCode::kMapLoadFailed, "tiled model " + name + " " + what};
+  };
+  Expected<Header> parsed = ParseHeader(header_bytes, name);
+  if (!parsed) return parsed.error();
+  Header& header = *parsed;
   model_parts::Payload& p = header.payload;
   const GridGeometry& g = p.surface_geometry;
   if (tile_count != TileCount(g)) {
@@ -335,24 +357,27 @@ Expected<std::shared_ptr<const TerrainModel>> JoinModel(
   }
   // Nothing is allocated beyond what the tiles' bytes can hold; the tiles are held to the
   // header's totals below.
-  if (header.surface_total > tile_bytes / kSurfaceRecordBytes ||
-      header.run_total > tile_bytes / kRunBytes || header.value_total > tile_bytes / kValueBytes) {
+  if (window == nullptr && (header.surface_total > tile_bytes / kSurfaceRecordBytes ||
+                            header.run_total > tile_bytes / kRunBytes ||
+                            header.value_total > tile_bytes / kValueBytes)) {
     return fail("counts more surfaces, runs or layers than its " + std::to_string(tile_bytes) +
                 " bytes of tiles can hold");
   }
   const std::int64_t columns = g.LayerCellCount();
   p.column_begin.reserve(columns + 1);
-  p.surfaces.reserve(header.surface_total);
   p.fields.column_begin.reserve(columns + 1);
-  p.fields.intervals.reserve(header.run_total + 1);
-  p.fields.distance.reserve(header.value_total);
-  p.fields.safety.reserve(header.value_total);
+  // A window holds what its tiles' bytes can (the header counts the whole model's).
+  p.surfaces.reserve(window ? tile_bytes / kSurfaceRecordBytes : header.surface_total);
+  p.fields.intervals.reserve((window ? tile_bytes / kRunBytes : header.run_total) + 1);
+  p.fields.distance.reserve(window ? tile_bytes / kValueBytes : header.value_total);
+  p.fields.safety.reserve(p.fields.distance.capacity());
   // One row of blocks at a time: the columns of a grid row lie in every block of its row.
   const int blocks_x = BlocksAlong(g.size.x());
   std::vector<std::string> row(blocks_x);
   std::vector<TileReader> readers(blocks_x);
   // Whether each tile of the row is the held model's (its block is then copied from it).
   std::vector<bool> from_held(blocks_x, false);
+  std::vector<bool> in_window(blocks_x, true);  // Outside a window: empty columns.
   const TerrainModel* held_model = held != nullptr && held->model != nullptr && held->same &&
                                            held->model->grid().size.head<2>() == g.size.head<2>()
                                        ? held->model
@@ -361,6 +386,8 @@ Expected<std::shared_ptr<const TerrainModel>> JoinModel(
   for (int y0 = 0; y0 < g.size.y(); y0 += kTileColumns) {
     for (int bx = 0; bx < blocks_x; ++bx) {
       const std::size_t t = std::size_t(y0 / kTileColumns) * blocks_x + bx;
+      in_window[bx] = window == nullptr || (*window)[t];
+      if (!in_window[bx]) continue;
       from_held[bx] = held_model != nullptr && held->same(t);
       if (from_held[bx]) {
         const HeldTile tile(*held_model, BlockOf(g, t));
@@ -397,6 +424,7 @@ Expected<std::shared_ptr<const TerrainModel>> JoinModel(
       for (int x = 0; x < g.size.x(); ++x) {
         p.column_begin.push_back(static_cast<std::uint32_t>(p.surfaces.size()));
         p.fields.column_begin.push_back(static_cast<std::uint32_t>(p.fields.intervals.size()));
+        if (!in_window[x / kTileColumns]) continue;
         if (from_held[x / kTileColumns]) {
           AppendHeldColumn(*held_model, x + std::int64_t{g.size.x()} * y, &p, &value_offset);
         } else if (!readers[x / kTileColumns].NextColumn(&p, &value_offset)) {
@@ -408,14 +436,83 @@ Expected<std::shared_ptr<const TerrainModel>> JoinModel(
       }
     }
   }
-  if (surfaces != header.surface_total || runs != header.run_total ||
-      values != header.value_total) {
+  if (window == nullptr && (surfaces != header.surface_total || runs != header.run_total ||
+                            values != header.value_total)) {
     return fail("holds fewer surfaces, runs or layers than its header counts");
   }
   p.column_begin.push_back(static_cast<std::uint32_t>(p.surfaces.size()));
   p.fields.column_begin.push_back(static_cast<std::uint32_t>(p.fields.intervals.size()));
   p.fields.intervals.push_back({header.sentinel_layer, static_cast<std::uint32_t>(value_offset)});
   return model_parts::BuildModel(std::move(p), "tiled model", name);
+}
+
+}  // namespace
+
+Expected<std::shared_ptr<const TerrainModel>> JoinModel(
+    std::string_view header, std::size_t tile_count, std::uint64_t tile_bytes,
+    const TileSource& source, const std::string& name, const HeldTiles* held) {
+  return JoinTiles(header, tile_count, tile_bytes, source, name, held, nullptr);
+}
+
+Expected<std::shared_ptr<const TerrainModel>> JoinModelWindow(std::string_view header,
+                                                              std::span<const std::size_t> which,
+                                                              const TileSource& source,
+                                                              const std::string& name) {
+  Expected<Header> parsed = ParseHeader(header, name);
+  if (!parsed) return parsed.error();
+  const std::size_t count = TileCount(parsed->payload.surface_geometry);
+  std::vector<bool> window(count, false);
+  for (const std::size_t t : which) {
+    if (t >= count) {
+      return Error{ErrorCode::kMapLoadFailed, "tiled model " + name + " has no tile " +
+                                                  std::to_string(t) + " (it has " +
+                                                  std::to_string(count) + ")"};
+    }
+    window[t] = true;
+  }
+  // The window's tiles are read first, so that the model reserves what they hold.
+  std::vector<std::string> bytes(count);
+  std::uint64_t total = 0;
+  for (const std::size_t t : which) {
+    Expected<std::string> tile = source(t);
+    if (!tile) return tile.error();
+    total += tile->size();
+    bytes[t] = std::move(tile).value();
+  }
+  return JoinTiles(
+      header, count, total,
+      [&bytes](std::size_t t) -> Expected<std::string> { return std::move(bytes[t]); }, name,
+      nullptr, &window);
+}
+
+Expected<TiledModelHeader> ReadTiledModelHeader(std::string_view header, const std::string& name) {
+  Expected<Header> parsed = ParseHeader(header, name);
+  if (!parsed) return parsed.error();
+  return TiledModelHeader{parsed->payload.config, parsed->payload.summary,
+                          parsed->payload.surface_geometry};
+}
+
+Expected<TiledModel> CutEditedTiles(const TerrainModel& edited, const TerrainModel& base,
+                                    std::string_view base_header,
+                                    std::span<const std::size_t> which) {
+  Expected<Header> totals = ParseHeader(base_header, "of the base");
+  if (!totals) return totals.error();
+  const GridGeometry& g = edited.grid();
+  for (const std::size_t t : which) {
+    const HeldTile now(edited, BlockOf(g, t));
+    const HeldTile before(base, BlockOf(g, t));
+    totals->surface_total += now.surface_total - before.surface_total;
+    totals->run_total += now.run_total - before.run_total;
+    totals->value_total += now.value_total - before.value_total;
+  }
+  TiledModel tiled;
+  binary_file::Sink sink(&tiled.header);
+  binary_file::WriteFrame(sink, kTiledModelKind, [&](binary_file::Sink& out) {
+    WriteHeaderWith(out, edited, totals->surface_total, totals->run_total, totals->value_total);
+  });
+  tiled.tiles.reserve(which.size());
+  for (const std::size_t t : which) tiled.tiles.push_back(CutTile(edited, BlockOf(g, t)));
+  return tiled;
 }
 
 Expected<std::shared_ptr<const TerrainModel>> JoinModel(std::string_view header,

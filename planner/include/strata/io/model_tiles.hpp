@@ -89,6 +89,36 @@ Expected<std::shared_ptr<const TerrainModel>> JoinModel(std::string_view header,
                                                         std::span<const std::string_view> tiles,
                                                         const std::string& name);
 
+/// What a tiled model's header says of the whole model.
+struct TiledModelHeader {
+  AssessmentConfig config;
+  AssessmentSummary summary;
+  GridGeometry grid;
+};
+
+/// The header `header` holds; kMapLoadFailed naming `name` as JoinModel refuses one.
+Expected<TiledModelHeader> ReadTiledModelHeader(std::string_view header, const std::string& name);
+
+/// A window of a tiled model, for an edit that reads only the model around it: a model on the
+/// header's grid, with its config and summary (whose counts are the whole model's), holding
+/// the tiles `which` (ascending, read from `source`) as JoinModel would, and no surface and no
+/// field run in any other column. Its memory is the grid's column offsets and those tiles.
+/// Fails as JoinModel does for the tiles it reads, and kMapLoadFailed for a tile number past
+/// the header's grid.
+Expected<std::shared_ptr<const TerrainModel>> JoinModelWindow(std::string_view header,
+                                                              std::span<const std::size_t> which,
+                                                              const TileSource& source,
+                                                              const std::string& name);
+
+/// CutModelTiles for windows: the header of the model whose tiles are those of `base_header`'s
+/// with tiles `which` (ascending) replaced by `edited`'s, and those tiles. `edited` and `base`
+/// (windows of JoinModelWindow, or whole models) must hold every column of those tiles, and
+/// `edited`'s config, summary and scalars are the header's. kMapLoadFailed when `base_header`
+/// is not a header.
+Expected<TiledModel> CutEditedTiles(const TerrainModel& edited, const TerrainModel& base,
+                                    std::string_view base_header,
+                                    std::span<const std::size_t> which);
+
 /// `cloud` cut along the tiles of the grid `geometry` (the model's): TileCount(geometry)
 /// tiles, empty ones included.
 std::vector<std::string> CutCloud(const PointCloud& cloud, const GridGeometry& geometry);
