@@ -10,6 +10,7 @@
 #include "maps/map_store.hpp"
 #include "strata/io/model_tiles.hpp"
 #include "strata/io/saved_model.hpp"
+#include "strata/io/tiled_edit.hpp"
 
 namespace strata::server {
 namespace {
@@ -61,9 +62,45 @@ Expected<BaseVersion> ReadBase(const VersionFiles& files) {
   return BaseVersion{std::move(model).value(), std::move(cloud->points)};
 }
 
+// The next version of a tiled map, made from its tiles around the edit (EditStoredTerrain):
+// its cut, and no model (the caller joins it, taking the tiles it holds from memory). Null
+// when the edit needs the whole cloud.
+Expected<std::optional<BuiltMap>> BuildEditFromTiles(const EditSource& edit,
+                                                     const BuildMonitor& monitor) {
+  const AssessmentControl control{monitor.on_progress, monitor.should_stop};
+  Expected<StoredTerrainEdit> made = EditStoredTerrain(*edit.files.tiles, edit.edits, control);
+  if (!made) return made.error();
+  const TiledTerrainEdit& figures = made->edit;
+  if (!figures.needs_whole.empty()) return std::optional<BuiltMap>();
+  BuiltMap built;
+  // Read with the edit: the tiles around it, not the base.
+  if (monitor.on_loaded) monitor.on_loaded(figures.cloud_points, 0, 0);
+  EditFigures& out = built.edit.emplace();
+  out.apply_s = figures.apply_s;
+  out.reassess_s = figures.reassess_s;
+  out.reassessed_columns = figures.reassessed_columns;
+  out.changed_columns = figures.changed_columns;
+  out.scan_points_outside_region = figures.scans.outside_region;
+  out.scan_points_thinned = figures.scans.thinned;
+  out.cloud_points = figures.cloud_points;
+  out.from_tiles = true;
+  built.raw_point_count = figures.cloud_points;
+  built.cut = std::move(made->cut);
+  Expected<TiledModelHeader> header = ReadTiledModelHeader(
+      built.cut->tiles.front().second, "of the edited version");  // The header is cut first.
+  if (!header) return header.error();
+  built.version = MapStore::TerrainOfTiles(built.cut->list.cloud, header->config);
+  return std::optional<BuiltMap>(std::move(built));
+}
+
 // The next version of a published map: its cloud edited, the touched terrain reassessed.
 Expected<BuiltMap> BuildEditHere(const EditSource& edit, const MapBuildJob& job,
                                  const BuildMonitor& monitor) {
+  if (CutsTiles(job)) {
+    Expected<std::optional<BuiltMap>> from_tiles = BuildEditFromTiles(edit, monitor);
+    if (!from_tiles) return from_tiles.error();
+    if (*from_tiles) return std::move(**from_tiles);
+  }
   BuiltMap built;
   const auto load_start = std::chrono::steady_clock::now();
   Expected<BaseVersion> base = ReadBase(edit.files);

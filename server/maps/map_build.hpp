@@ -83,10 +83,17 @@ struct EditFigures {
   /// Outside these columns the model is the base's (Reassessment::changed_columns).
   CellBox changed_columns;
   std::uint64_t cloud_points = 0;  ///< Points of the edited cloud, the version's source.
+  /// Made from the tiles around the edit (EditStoredTerrain), not the whole cloud and model.
+  bool from_tiles = false;
+  /// Joining the new model from the changed tiles and the base's held here [s] (0 when the
+  /// job made the model whole).
+  double join_s = 0;
 };
 
 /// A map made, with the figures Map reports.
 struct BuiltMap {
+  /// Null for an edit made from tiles (EditFigures::from_tiles): its `cut` and the base's
+  /// tiles make the model (LoadTiledModel).
   std::shared_ptr<const TerrainModel> model;
   /// The sanitised cloud when MapBuildJob::keep_cloud and there is no `cut`; empty otherwise.
   PointCloud cloud;

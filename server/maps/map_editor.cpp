@@ -400,6 +400,7 @@ Result<BuiltMap> MapEditor::RunEditJob(const MapEditRequest& request, const std:
                                        const CallControl& call) {
   Result<VersionFiles> files = options_.published->OpenFiles(request.id, current);
   if (!files.ok()) return std::move(files).error();
+  const std::optional<OpenedTiles> base_tiles = files.value().tiles;
   MapBuildJob job;
   job.source = EditSource{std::move(files).value(), request.edits};
   job.keep_cloud = true;
@@ -464,7 +465,26 @@ Result<BuiltMap> MapEditor::RunEditJob(const MapEditRequest& request, const std:
                                                       std::chrono::duration<double>(left_s)))
             : poll);
   }
-  return std::move(*run->result);
+  Result<BuiltMap> built = std::move(*run->result);
+  lock.unlock();
+  if (!built.ok() || built.value().model != nullptr || !built.value().cut || !base_tiles) {
+    return built;
+  }
+  // A cut alone (from tiles, or a map worker's): the model is the base's tiles with the cut's
+  // in their place, those this replica holds of the base taken from its model.
+  const auto join_start = SteadyClock::now();
+  std::optional<HeldTerrain> held;
+  if (std::shared_ptr<const PlanningMap> base = options_.published->Held(request.id, current)) {
+    held = HeldTerrain{base->model_ptr(), base_tiles->list};
+  }
+  const CutTerrain& cut = *built.value().cut;
+  Result<std::shared_ptr<const TerrainModel>> model =
+      LoadTiledModel(OpenedTiles{base_tiles->dir, cut.list}, "of the edited version", cut.tiles,
+                     held ? &*held : nullptr);
+  if (!model.ok()) return std::move(model).error();
+  built.value().model = std::move(model).value();
+  if (built.value().edit) built.value().edit->join_s = SecondsSince(join_start);
+  return built;
 }
 
 }  // namespace strata::server

@@ -281,13 +281,10 @@ void HashString(XXH3_state_t* state, std::string_view text) {
 
 }  // namespace
 
-std::string MapStore::TerrainOf(const PointCloud& cloud, const AssessmentConfig& config) {
-  XXH3_state_t* state = XXH3_createState();
-  XXH3_128bits_reset(state);
-  HashString(state, "strata map version");
-  HashValue(state, kSavedModelFormatVersion);
-  HashValue(state, static_cast<std::uint64_t>(cloud.size()));
-  XXH3_128bits_update(state, cloud.data(), cloud.size() * sizeof(Eigen::Vector3f));
+namespace {
+
+// Every assessment parameter by name except num_threads (how to assess, not what).
+void HashConfig(XXH3_state_t* state, const AssessmentConfig& config) {
   ForEachField(config, [&](const char* name, const auto& value) {
     using Value = std::remove_cvref_t<decltype(value)>;
     if (std::string_view(name) == "num_threads") return;
@@ -298,8 +295,34 @@ std::string MapStore::TerrainOf(const PointCloud& cloud, const AssessmentConfig&
       HashValue(state, static_cast<std::int64_t>(value));
     }
   });
+}
+
+}  // namespace
+
+std::string MapStore::TerrainOf(const PointCloud& cloud, const AssessmentConfig& config) {
+  XXH3_state_t* state = XXH3_createState();
+  XXH3_128bits_reset(state);
+  HashString(state, "strata map version");
+  HashValue(state, kSavedModelFormatVersion);
+  HashValue(state, static_cast<std::uint64_t>(cloud.size()));
+  XXH3_128bits_update(state, cloud.data(), cloud.size() * sizeof(Eigen::Vector3f));
+  HashConfig(state, config);
   // Layout 1 hashed the (then always empty) zone count here: a first version keeps its name.
   HashValue(state, std::uint64_t{0});
+  const XXH128_hash_t digest = XXH3_128bits_digest(state);
+  XXH3_freeState(state);
+  return HexName(digest);
+}
+
+std::string MapStore::TerrainOfTiles(std::span<const std::string> cloud_tiles,
+                                     const AssessmentConfig& config) {
+  XXH3_state_t* state = XXH3_createState();
+  XXH3_128bits_reset(state);
+  HashString(state, "strata tiled terrain");
+  HashValue(state, kSavedModelFormatVersion);
+  HashValue(state, static_cast<std::uint64_t>(cloud_tiles.size()));
+  for (const std::string& tile : cloud_tiles) HashString(state, tile);
+  HashConfig(state, config);
   const XXH128_hash_t digest = XXH3_128bits_digest(state);
   XXH3_freeState(state);
   return HexName(digest);

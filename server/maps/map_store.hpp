@@ -121,6 +121,13 @@ class MapStore {
   /// names in any process.
   static std::string TerrainOf(const PointCloud& cloud, const AssessmentConfig& config);
 
+  /// The terrain of an edit made from tiles (EditTiledTerrain), by name: the XXH3-128 of the
+  /// saved-model format version, the names of the cloud's tiles in order (their contents'
+  /// hashes, so the cloud as the tiles hold it) and the parameters as TerrainOf hashes them.
+  /// Not TerrainOf of the same cloud: such an edit never holds the whole cloud.
+  static std::string TerrainOfTiles(std::span<const std::string> cloud_tiles,
+                                    const AssessmentConfig& config);
+
   /// The terrain of a map loaded from a saved-model file: the XXH3-128 of the file's bytes
   /// (which hold its format version and parameters), in the same form as TerrainOf's.
   static std::string TerrainOfSavedModel(const std::string& path);

@@ -361,14 +361,9 @@ Result<BuiltMap> ReadResult(const Outcome& outcome, const MapBuildJob& job,
                             const fs::path& directory) {
   BuiltMap built;
   if (CutsTiles(job)) {
-    // The tiles the edit changed; the model joined from them and the base's in the store.
+    // The tiles the edit changed; the caller joins the model from them and the base's.
     Expected<CutTerrain> cut = ReadCutTerrain(directory / kWorkerCutDir);
     if (!cut) return ServiceError::FromPlanner(cut.error());
-    const OpenedTiles& base = *std::get<EditSource>(job.source).files.tiles;
-    Result<std::shared_ptr<const TerrainModel>> model =
-        LoadTiledModel(OpenedTiles{base.dir, cut->list}, "of the edited version", cut->tiles);
-    if (!model.ok()) return std::move(model).error();
-    built.model = std::move(model).value();
     built.cut = std::move(cut).value();
   } else {
     Expected<std::shared_ptr<const TerrainModel>> model =

@@ -265,7 +265,7 @@ std::string FormatWorkerReport(const WorkerReport& report) {
              NumberText(edit.changed_columns.min.y()) + " " +
              NumberText(edit.changed_columns.max.x()) + " " +
              NumberText(edit.changed_columns.max.y()) + " " + NumberText(edit.cloud_points) + " " +
-             reason + "\n";
+             NumberText(edit.from_tiles) + " " + reason + "\n";
     }
   }
   return "\n";
@@ -285,7 +285,7 @@ std::optional<WorkerReport> ParseWorkerReport(std::string_view line) {
   };
   WorkerReport report;
   if (line.starts_with("done ")) {
-    const auto [done, reason] = split(14);
+    const auto [done, reason] = split(15);
     if (done.size() == 2 && !done[1].empty() && reason.empty()) {
       report.version = std::string(done[1]);
       return report;
@@ -294,14 +294,15 @@ std::optional<WorkerReport> ParseWorkerReport(std::string_view line) {
     Eigen::Vector3i& min = edit.changed_columns.min;
     Eigen::Vector3i& max = edit.changed_columns.max;
     max.z() = 0;
-    if (done.size() == 14 && !done[1].empty() && done[2] == "edit" &&
+    if (done.size() == 15 && !done[1].empty() && done[2] == "edit" &&
         ParseNumber(done[3], &edit.apply_s) && ParseNumber(done[4], &edit.reassess_s) &&
         ParseNumber(done[5], &edit.reassessed_columns) &&
         ParseNumber(done[6], &edit.scan_points_outside_region) &&
         ParseNumber(done[7], &edit.scan_points_thinned) &&
         ParseNumber(done[8], &edit.full_reassessment) && ParseNumber(done[9], &min.x()) &&
         ParseNumber(done[10], &min.y()) && ParseNumber(done[11], &max.x()) &&
-        ParseNumber(done[12], &max.y()) && ParseNumber(done[13], &edit.cloud_points)) {
+        ParseNumber(done[12], &max.y()) && ParseNumber(done[13], &edit.cloud_points) &&
+        ParseNumber(done[14], &edit.from_tiles)) {
       edit.full_reason = std::string(reason);
       report.version = std::string(done[1]);
       report.edit = std::move(edit);

@@ -6,6 +6,7 @@
 #include <unordered_map>
 #include <unordered_set>
 
+#include <fmt/format.h>
 #include <xxhash.h>
 
 #include "maps/store_files.hpp"
@@ -87,19 +88,12 @@ std::vector<std::string> TerrainTiles::Names() const {
   return names;
 }
 
-CutTerrain CutIntoTiles(const TerrainModel& model, const PointCloud& cloud, const BaseTiles* base) {
-  const std::size_t count = TileCount(model.grid());
-  if (base != nullptr && (base->list.model.size() != count ||
-                          base->list.cloud.size() != (cloud.empty() ? 0 : count))) {
-    base = nullptr;  // Not this grid's tiles, or no cloud where one is cut: cut them all.
-  }
-  std::vector<std::size_t> which;
-  if (base != nullptr) {
-    which = base->changed;
-  } else {
-    which.resize(count);
-    std::iota(which.begin(), which.end(), std::size_t{0});
-  }
+namespace {
+
+// The tiles `which` (ascending) of a terrain of `count` tiles, cut as `tiled` and `cloud` (none
+// when empty), named; every other tile named as `base`'s (all cut when it is null).
+CutTerrain NameCut(const TerrainTiles* base, std::size_t count, std::span<const std::size_t> which,
+                   TiledModel tiled, std::vector<std::string> cloud) {
   CutTerrain cut;
   std::unordered_set<std::string> named;
   const auto add = [&](std::string bytes) {
@@ -113,14 +107,32 @@ CutTerrain CutIntoTiles(const TerrainModel& model, const PointCloud& cloud, cons
     *names = kept != nullptr ? *kept : std::vector<std::string>(count);
     for (std::size_t k = 0; k < which.size(); ++k) (*names)[which[k]] = add(std::move(tiles[k]));
   };
-  TiledModel tiled = CutModelTiles(model, which);
   cut.list.header = add(std::move(tiled.header));
-  section(std::move(tiled.tiles), base != nullptr ? &base->list.model : nullptr, &cut.list.model);
+  section(std::move(tiled.tiles), base != nullptr ? &base->model : nullptr, &cut.list.model);
   if (!cloud.empty()) {
-    section(CutCloudTiles(cloud, model.grid(), which),
-            base != nullptr ? &base->list.cloud : nullptr, &cut.list.cloud);
+    section(std::move(cloud), base != nullptr ? &base->cloud : nullptr, &cut.list.cloud);
   }
   return cut;
+}
+
+}  // namespace
+
+CutTerrain CutIntoTiles(const TerrainModel& model, const PointCloud& cloud, const BaseTiles* base) {
+  const std::size_t count = TileCount(model.grid());
+  if (base != nullptr && (base->list.model.size() != count ||
+                          base->list.cloud.size() != (cloud.empty() ? 0 : count))) {
+    base = nullptr;  // Not this grid's tiles, or no cloud where one is cut: cut them all.
+  }
+  std::vector<std::size_t> which;
+  if (base != nullptr) {
+    which = base->changed;
+  } else {
+    which.resize(count);
+    std::iota(which.begin(), which.end(), std::size_t{0});
+  }
+  return NameCut(
+      base != nullptr ? &base->list : nullptr, count, which, CutModelTiles(model, which),
+      cloud.empty() ? std::vector<std::string>{} : CutCloudTiles(cloud, model.grid(), which));
 }
 
 ServiceStatus WriteMissingTiles(const fs::path& tiles_dir, const fs::path& tmp_dir,
@@ -270,6 +282,41 @@ Result<PointCloud> LoadTiledCloud(const OpenedTiles& tiles, const std::string& n
   if (read_error) return *read_error;
   if (!cloud) return Corrupted(cloud.error());
   return std::move(cloud).value();
+}
+
+Expected<StoredTerrainEdit> EditStoredTerrain(const OpenedTiles& base,
+                                              std::span<const MapEdit> edits,
+                                              const AssessmentControl& control) {
+  StoredTerrainEdit out;
+  const TerrainTiles& list = base.list;
+  if (list.cloud.size() != list.model.size()) {
+    out.edit.needs_whole = "the version keeps no cloud in tiles";
+    return out;
+  }
+  std::optional<ServiceError> read_error;
+  Expected<std::string> header = ReadTileForJoin(*base.dir, list.header, &read_error);
+  if (!header) return header.error();
+  const auto reader = [&](const std::vector<std::string>& names) {
+    return [&](std::size_t t) -> Expected<std::string> {
+      if (t >= names.size()) {
+        return Error{ErrorCode::kMapLoadFailed,
+                     fmt::format("the map's current version lists {} tiles; its header's grid "
+                                 "has tile {}",
+                                 names.size(), t)};
+      }
+      return ReadTileForJoin(*base.dir, names[t], &read_error);
+    };
+  };
+  const TiledTerrainSource source{*header, reader(list.model), reader(list.cloud)};
+  Expected<TiledTerrainEdit> edit = EditTiledTerrain(source, edits, control);
+  if (!edit) return edit.error();
+  out.edit = std::move(edit).value();
+  if (!out.edit.needs_whole.empty()) return out;
+  out.cut = NameCut(&list, list.model.size(), out.edit.changed, std::move(out.edit.model),
+                    std::move(out.edit.cloud));
+  out.edit.model = {};
+  out.edit.cloud = {};
+  return out;
 }
 
 }  // namespace strata::server

@@ -23,7 +23,9 @@
 
 #include "common/service_error.hpp"
 #include "maps/map_root.hpp"
+#include "strata/assessment/map_edit.hpp"
 #include "strata/assessment/terrain_model.hpp"
+#include "strata/io/tiled_edit.hpp"
 #include "strata/point_cloud.hpp"
 
 namespace strata::server {
@@ -120,5 +122,19 @@ Result<std::shared_ptr<const TerrainModel>> LoadTiledModel(
 /// The cloud of `tiles`, in the order of its tiles (kEditNeedsCloud when it keeps none); fails
 /// as LoadTiledModel does.
 Result<PointCloud> LoadTiledCloud(const OpenedTiles& tiles, const std::string& name);
+
+/// What EditStoredTerrain made.
+struct StoredTerrainEdit {
+  /// Its figures (its tiles moved into `cut`); needs_whole not empty: nothing was made.
+  TiledTerrainEdit edit;
+  CutTerrain cut;  ///< The edited terrain's list, and the tiles it changed.
+};
+
+/// `edits` of the tiled terrain `base`, reading only its tiles around them (EditTiledTerrain),
+/// its changed tiles named as CutIntoTiles names an edit's. Fails as EditTiledTerrain does, a
+/// tile that cannot be read with kMapLoadFailed saying why.
+Expected<StoredTerrainEdit> EditStoredTerrain(const OpenedTiles& base,
+                                              std::span<const MapEdit> edits,
+                                              const AssessmentControl& control);
 
 }  // namespace strata::server

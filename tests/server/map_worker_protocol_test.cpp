@@ -151,6 +151,7 @@ TEST(WorkerReport, LinesReadBackAsTheirReports) {
                             4242, 123'456, 7'890'123};
   edited.edit->changed_columns = {{12, 345, 0}, {678, 4001, 0}};
   edited.edit->cloud_points = 208'000'123;
+  edited.edit->from_tiles = true;
   for (const WorkerReport& report : {loaded, progress, failed, done, edited}) {
     const std::string line = FormatWorkerReport(report);
     ASSERT_FALSE(line.empty());
@@ -181,6 +182,7 @@ TEST(WorkerReport, LinesReadBackAsTheirReports) {
       EXPECT_EQ(back->edit->changed_columns.min, report.edit->changed_columns.min) << line;
       EXPECT_EQ(back->edit->changed_columns.max, report.edit->changed_columns.max) << line;
       EXPECT_EQ(back->edit->cloud_points, report.edit->cloud_points) << line;
+      EXPECT_EQ(back->edit->from_tiles, report.edit->from_tiles) << line;
     }
   }
 }

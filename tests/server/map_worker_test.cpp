@@ -159,7 +159,22 @@ TEST_F(MapWorkerTest, AnEditOfATiledVersionHandsBackOnlyTheTilesItChanged) {
     ASSERT_TRUE(there.ok()) << there.error().message;
     Expected<BuiltMap> here = BuildMapHere(edit_job(), {});
     ASSERT_TRUE(here.ok()) << here.error().message;
-
+    // Made from the tiles around the obstacle: a cut, whose model the caller joins.
+    ASSERT_TRUE(there->edit && here->edit);
+    EXPECT_TRUE(there->edit->from_tiles);
+    EXPECT_TRUE(here->edit->from_tiles);
+    EXPECT_EQ(there->model, nullptr);
+    EXPECT_EQ(here->model, nullptr);
+    const std::optional<OpenedTiles> base_tiles =
+        std::get<EditSource>(edit_job().source).files.tiles;
+    ASSERT_TRUE(base_tiles);
+    for (BuiltMap* built : {&there.value(), &*here}) {
+      ASSERT_TRUE(built->cut);
+      Result<std::shared_ptr<const TerrainModel>> model = LoadTiledModel(
+          OpenedTiles{base_tiles->dir, built->cut->list}, "edited", built->cut->tiles);
+      ASSERT_TRUE(model.ok()) << model.error().message;
+      built->model = std::move(model).value();
+    }
     ExpectSameMap(*there, *here);
     // The same tiles, but the header's, which holds the reassessment's timings.
     ASSERT_TRUE(there->cut && here->cut);
@@ -177,7 +192,6 @@ TEST_F(MapWorkerTest, AnEditOfATiledVersionHandsBackOnlyTheTilesItChanged) {
     EXPECT_LE(there->cut->tiles.size(), 9u);
     EXPECT_GT(there->cut->list.model.size(), 10u);
     EXPECT_TRUE(there->cloud.empty());  // The cut holds what the store writes.
-    ASSERT_TRUE(there->edit && here->edit);
     EXPECT_EQ(there->edit->cloud_points, here->edit->cloud_points);
     EXPECT_GT(there->edit->cloud_points, base->cloud.size());
   }
