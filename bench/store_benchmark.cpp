@@ -387,11 +387,12 @@ int main(int argc, char** argv) {
     double ignored_graph_s = 0;
     (void)plan_elsewhere(&ignored_graph_s);
     for (const Case& edit : cases) {
-      std::vector<double> load, graphs, apply, reassess, write, total, planned, other, other_graph,
-          seen;
+      std::vector<double> load, graphs, apply, reassess, join, write, total, planned, other,
+          other_graph, seen;
       std::vector<double> written_mb, tiles_written, tiles_shared, written_per_tile_byte;
       std::int64_t columns = 0;
       bool full = false;
+      bool from_tiles = false;
       for (int run = 0; run < runs; ++run) {
         const Prism region = edit.kind == MapEdit::Kind::kAddObstacle ? box(run)
                              : edit.kind == MapEdit::Kind::kScan      ? scan_area(run)
@@ -415,6 +416,7 @@ int main(int argc, char** argv) {
         graphs.push_back(update->graphs_s);
         apply.push_back(update->edit.apply_s);
         reassess.push_back(update->edit.reassess_s);
+        join.push_back(update->edit.join_s);
         write.push_back(update->write_s);
         total.push_back(update->total_s);
         const TileWrites& w = update->writes;
@@ -441,13 +443,15 @@ int main(int argc, char** argv) {
         other_graph.push_back(graph_s);
         columns = update->edit.reassessed_columns;
         full = update->edit.full_reassessment;
+        from_tiles = update->edit.from_tiles;
       }
       std::printf(
-          "edit %-17s median load %.3f s, apply %.3f s, reassess %.3f s (%lld columns%s), "
-          "graphs %.3f s, write %.3f s, total %.3f s; the next plan %.3f s; another replica "
-          "sees it %.4f s later%s, its first plan on it %.3f s (its graph %.3f s)\n",
+          "edit %-17s median load %.3f s, apply %.3f s, reassess %.3f s (%lld columns%s%s), "
+          "join %.3f s, graphs %.3f s, write %.3f s, total %.3f s; the next plan %.3f s; another "
+          "replica sees it %.4f s later%s, its first plan on it %.3f s (its graph %.3f s)\n",
           edit.name, Median(load), Median(apply), Median(reassess), static_cast<long long>(columns),
-          full ? ", FULL" : "", Median(graphs), Median(write), Median(total), Median(planned),
+          full ? ", FULL" : "", from_tiles ? ", from tiles" : "", Median(join), Median(graphs),
+          Median(write), Median(total), Median(planned),
           Median(seen), etcd.empty() ? " (head file)" : " (etcd watch)", Median(other),
           Median(other_graph));
       if (!written_per_tile_byte.empty()) {
