@@ -256,25 +256,32 @@ struct HeldTile {
   }
 };
 
-// Appends column `c` of `model` to `p`, as TileReader::NextColumn does from its bytes.
-void AppendHeldColumn(const TerrainModel& model, std::int64_t c, model_parts::Payload* p,
-                      std::uint64_t* value_offset) {
+// Appends columns [first, end) of `model` to `p`, with their offsets, as TileReader::NextColumn
+// does column by column from its bytes: a run of each array copied at once.
+void AppendHeldColumns(const TerrainModel& model, std::int64_t first, std::int64_t end,
+                       model_parts::Payload* p, std::uint64_t* value_offset) {
   const std::vector<std::uint32_t>& surface_begin = model.surfaces().column_begin();
   const std::vector<ColumnSurface>& surfaces = model.surfaces().all_surfaces();
-  p->surfaces.insert(p->surfaces.end(), surfaces.begin() + surface_begin[c],
-                     surfaces.begin() + surface_begin[c + 1]);
+  const auto surface_shift = static_cast<std::uint32_t>(p->surfaces.size()) - surface_begin[first];
+  for (std::int64_t c = first; c < end; ++c)
+    p->column_begin.push_back(surface_begin[c] + surface_shift);
+  p->surfaces.insert(p->surfaces.end(), surfaces.begin() + surface_begin[first],
+                     surfaces.begin() + surface_begin[end]);
   const TerrainFields::Parts& f = model.fields().parts();
   TerrainFields::Parts& out = p->fields;
-  const std::uint32_t first = f.intervals[f.column_begin[c]].offset;
-  const std::uint32_t end = f.intervals[f.column_begin[c + 1]].offset;
-  for (std::uint32_t k = f.column_begin[c]; k < f.column_begin[c + 1]; ++k) {
-    out.intervals.push_back(
-        {f.intervals[k].first_layer,
-         static_cast<std::uint32_t>(*value_offset + f.intervals[k].offset - first)});
+  const auto run_shift = static_cast<std::uint32_t>(out.intervals.size()) - f.column_begin[first];
+  for (std::int64_t c = first; c < end; ++c)
+    out.column_begin.push_back(f.column_begin[c] + run_shift);
+  const std::uint32_t first_value = f.intervals[f.column_begin[first]].offset;
+  const std::uint32_t end_value = f.intervals[f.column_begin[end]].offset;
+  const auto value_shift = static_cast<std::uint32_t>(*value_offset) - first_value;
+  for (std::uint32_t k = f.column_begin[first]; k < f.column_begin[end]; ++k) {
+    out.intervals.push_back({f.intervals[k].first_layer, f.intervals[k].offset + value_shift});
   }
-  out.distance.insert(out.distance.end(), f.distance.begin() + first, f.distance.begin() + end);
-  out.safety.insert(out.safety.end(), f.safety.begin() + first, f.safety.begin() + end);
-  *value_offset += end - first;
+  out.distance.insert(out.distance.end(), f.distance.begin() + first_value,
+                      f.distance.begin() + end_value);
+  out.safety.insert(out.safety.end(), f.safety.begin() + first_value, f.safety.begin() + end_value);
+  *value_offset += end_value - first_value;
 }
 
 }  // namespace
@@ -421,18 +428,30 @@ Expected<std::shared_ptr<const TerrainModel>> JoinTiles(
       }
     }
     for (int y = y0; y < std::min(g.size.y(), y0 + kTileColumns); ++y) {
-      for (int x = 0; x < g.size.x(); ++x) {
+      for (int x = 0; x < g.size.x();) {
+        if (from_held[x / kTileColumns]) {
+          // The held blocks next to each other in this row: one run of the held model's.
+          int end = x;
+          while (end < g.size.x() && from_held[end / kTileColumns]) end += kTileColumns;
+          end = std::min(end, g.size.x());
+          const std::int64_t row = std::int64_t{g.size.x()} * y;
+          AppendHeldColumns(*held_model, row + x, row + end, &p, &value_offset);
+          x = end;
+          continue;
+        }
         p.column_begin.push_back(static_cast<std::uint32_t>(p.surfaces.size()));
         p.fields.column_begin.push_back(static_cast<std::uint32_t>(p.fields.intervals.size()));
-        if (!in_window[x / kTileColumns]) continue;
-        if (from_held[x / kTileColumns]) {
-          AppendHeldColumn(*held_model, x + std::int64_t{g.size.x()} * y, &p, &value_offset);
-        } else if (!readers[x / kTileColumns].NextColumn(&p, &value_offset)) {
+        if (!in_window[x / kTileColumns]) {
+          ++x;
+          continue;
+        }
+        if (!readers[x / kTileColumns].NextColumn(&p, &value_offset)) {
           return fail("tile " +
                       std::to_string(std::size_t(y0 / kTileColumns) * blocks_x +
                                      std::size_t(x / kTileColumns)) +
                       " holds a surface with a bad valid flag");
         }
+        ++x;
       }
     }
   }
