@@ -451,9 +451,8 @@ int main(int argc, char** argv) {
           "replica sees it %.4f s later%s, its first plan on it %.3f s (its graph %.3f s)\n",
           edit.name, Median(load), Median(apply), Median(reassess), static_cast<long long>(columns),
           full ? ", FULL" : "", from_tiles ? ", from tiles" : "", Median(join), Median(graphs),
-          Median(write), Median(total), Median(planned),
-          Median(seen), etcd.empty() ? " (head file)" : " (etcd watch)", Median(other),
-          Median(other_graph));
+          Median(write), Median(total), Median(planned), Median(seen),
+          etcd.empty() ? " (head file)" : " (etcd watch)", Median(other), Median(other_graph));
       if (!written_per_tile_byte.empty()) {
         std::printf(
             "  written: median %.2f MB, %.0f tiles written, %.0f shared; bytes written / the "
