@@ -15,6 +15,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "assessment/map_edit_internal.hpp"
 #include "strata/io/model_tiles.hpp"
 #include "strata/io/saved_model.hpp"
 #include "strata/io/tiled_edit.hpp"
@@ -584,6 +585,28 @@ TEST_F(Garage, EditsApplyInOrder) {
       {Obstacle(c.x() - 1.5, c.y() - 1.5, c.x() + 1.5, c.y() + 1.5, deck, deck + 1),
        Removal(c.x() - 0.5, c.y() - 2, c.x() + 0.5, c.y() + 2, deck + 0.1, deck + 2)},
       ReassessmentPath::kLocal);
+}
+
+// A tiled edit whose reassessed columns end at a tile's edge: the new fields there read the
+// surfaces of the next tile, which the window must hold although the edit changes none of it.
+TEST_F(Garage, ATiledEditReadsTheSurfacesPastTheTilesItChanges) {
+  const GridGeometry& g = scene().model->grid();
+  const Eigen::AlignedBox3d probe(Eigen::Vector3d(5, 5, 0), Eigen::Vector3d(5, 5, 0));
+  const internal::EditReach at_probe = internal::ReachOfEdit(
+      scene().model->config(), g, scene().model->summary().vertical_quantum_m, probe);
+  const int fields_reach = at_probe.fields_changed.max.x() - at_probe.touched.max.x();
+  // The edit's last column, so that its reassessed columns end at the first tile's last one.
+  const int last = kTileColumns - 1 - fields_reach;
+  ASSERT_GT(last, 10);
+  const double x1 = g.origin_m.x() + (last + 0.5) * g.resolution_m;
+  const double floor_z = layout().level_z_m[0];
+  const std::vector<MapEdit> edits = {Removal(x1 - 1.5, 8, x1, 10, floor_z - 0.3, floor_z + 0.3)};
+  const internal::EditReach reach = internal::ReachOfEdit(
+      scene().model->config(), g, scene().model->summary().vertical_quantum_m, EditBounds(edits));
+  ASSERT_EQ(reach.fields_changed.max.x(), kTileColumns - 1);
+  ASSERT_GE(reach.surfaces_read.max.x(), kTileColumns);
+  std::string needs_whole;
+  EXPECT_TRUE(ExpectTiledEditLikeFresh(scene(), edits, &needs_whole)) << needs_whole;
 }
 
 // A tiled edit that drops the cloud's highest points cannot tell the new bounds from the tiles
