@@ -408,6 +408,8 @@ grpc::Status MapServiceImpl::UpdateMap(grpc::ServerContext* context,
     stats->set_full_reassessment_reason(update.edit.full_reason);
     stats->set_reassessed_columns(update.edit.reassessed_columns);
     stats->set_load_s(update.load_s);
+    stats->set_from_tiles(update.edit.from_tiles);
+    stats->set_join_s(update.edit.join_s);
     stats->set_scan_points_outside_region(update.edit.scan_points_outside_region);
     stats->set_scan_points_thinned(update.edit.scan_points_thinned);
     stats->set_merged_updates(update.merged_updates);

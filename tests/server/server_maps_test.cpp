@@ -572,6 +572,10 @@ TEST_F(ScanTest, APalletStackScannedInTheAisleIsPlannedAroundAndABareFloorScanCl
   EXPECT_GT(scanned.stats().scan_points_outside_region(), 0u);
   EXPECT_GT(scanned.stats().scan_points_thinned(), 0u);
   EXPECT_EQ(scanned.stats().merged_updates(), 1);  // Alone: no other edit arrived meanwhile.
+  // Made from the store's tiles around the scan, not the whole version, and joined here.
+  EXPECT_TRUE(scanned.stats().from_tiles());
+  EXPECT_EQ(scanned.stats().load_s(), 0);
+  EXPECT_GT(scanned.stats().join_s(), 0);
   // The map keeps its grid (the scan lies within the room's points): only the columns around
   // the scan were assessed again.
   EXPECT_EQ(scanned.map().grid_size().SerializeAsString(), room_.grid_size().SerializeAsString());
