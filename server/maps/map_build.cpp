@@ -86,10 +86,7 @@ Expected<std::optional<BuiltMap>> BuildEditFromTiles(const EditSource& edit,
   out.from_tiles = true;
   built.raw_point_count = figures.cloud_points;
   built.cut = std::move(made->cut);
-  Expected<TiledModelHeader> header = ReadTiledModelHeader(
-      built.cut->tiles.front().second, "of the edited version");  // The header is cut first.
-  if (!header) return header.error();
-  built.version = MapStore::TerrainOfTiles(built.cut->list.cloud, header->config);
+  built.version = MapStore::TerrainOfTiles(built.cut->list.cloud, figures.config);
   return std::optional<BuiltMap>(std::move(built));
 }
 

@@ -105,6 +105,7 @@ Expected<TiledTerrainEdit> EditTiledTerrain(const TiledTerrainSource& source,
   out.changed_columns = reassessed->changed_columns;
   out.reassessed_columns = reassessed->reassessed_columns;
   out.cloud_points = summary.input_points;
+  out.config = header->config;
   out.reassess_s = stage.Lap();
   return out;
 }

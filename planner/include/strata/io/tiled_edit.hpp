@@ -38,6 +38,7 @@ struct TiledTerrainEdit {
   CellBox changed_columns;           ///< Reassessment::changed_columns.
   std::int64_t reassessed_columns = 0;
   std::uint64_t cloud_points = 0;  ///< Points of the whole edited cloud.
+  AssessmentConfig config;         ///< The terrain's parameters (its header's).
   ScanCounts scans;                ///< ApplyEdits's.
   double apply_s = 0;              ///< Reading the tiles and editing their points [s].
   double reassess_s = 0;           ///< Reassessing and cutting the changed tiles [s].
