@@ -13,6 +13,7 @@
 //   With --etcd (bench/with_etcd.sh starts a throwaway one) the maps' heads live there, as
 //   with strata-server --etcd, and the second replica learns of each edit through its watch.
 //       MAP: a cloud file, or scene:NAME[:SEED][:size_m=M] (as strata-offline takes)
+#include <malloc.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -28,6 +29,7 @@
 #include <thread>
 #include <vector>
 
+#include <fmt/format.h>
 #include <CLI/CLI.hpp>
 
 #include "maps/map_registry.hpp"
@@ -148,6 +150,17 @@ double ResidentBytes() {
   double pages = 0, resident = 0;
   statm >> pages >> resident;
   return resident * static_cast<double>(sysconf(_SC_PAGESIZE));
+}
+
+// What glibc's allocator holds [MB]: in use by live blocks, free inside its arenas (resident
+// until trimmed), and mapped for large blocks. Tells growth that is memory still referenced from
+// memory the allocator keeps after it was freed.
+std::string AllocatorFigures() {
+  const struct mallinfo2 info = mallinfo2();
+  return fmt::format("in use {:.0f} MB, free in arenas {:.0f} MB, mapped {:.0f} MB",
+                     static_cast<double>(info.uordblks) / 1e6,
+                     static_cast<double>(info.fordblks) / 1e6,
+                     static_cast<double>(info.hblkhd) / 1e6);
 }
 
 // A valid ground point near the middle of the map, and one a few metres away on the same
@@ -514,6 +527,7 @@ int main(int argc, char** argv) {
         };
         const auto start = Clock::now();
         const double rss_start = ResidentBytes();
+        const std::string allocator_start = AllocatorFigures();
         auto next = start;
         while (SecondsSince(start) < soak_s) {
           phase.rss_max = std::max(phase.rss_max, ResidentBytes());
@@ -546,6 +560,8 @@ int main(int argc, char** argv) {
             phase.plan_s.empty() ? 0.0
                                  : *std::max_element(phase.plan_s.begin(), phase.plan_s.end()),
             rss_start / 1e6, phase.rss_max / 1e6, rss_end / 1e6);
+        std::printf("  allocator at the start: %s; at the end: %s\n", allocator_start.c_str(),
+                    AllocatorFigures().c_str());
         if (scanning) {
           double versions = 0;  // Each version's merged calls each count 1/merged of it.
           for (const int m : merged) versions += 1.0 / m;

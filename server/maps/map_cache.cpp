@@ -75,22 +75,49 @@ Result<std::shared_ptr<const PlanningMap>> MapCache::Get(const std::string& id,
   return map;
 }
 
-void MapCache::Insert(const std::string& id, const std::string& version,
-                      std::shared_ptr<const PlanningMap> map) {
+bool MapCache::HoldLocked(const std::string& id, const std::string& version,
+                          std::shared_ptr<const PlanningMap> map) {
   const Key key(id, version);
+  const auto [it, added] = slots_.try_emplace(key);
+  Slot& slot = it->second;
+  if (slot.loading) {  // A load of the same version is under way: it keeps this map instead.
+    const bool first = slot.made == nullptr;
+    slot.made = std::move(map);
+    return first;
+  }
+  TouchLocked(slot, key);
+  slot.map = std::move(map);
+  EvictLocked(AllowanceBytes(), /*keep_newest=*/true);
+  return added;
+}
+
+bool MapCache::Hold(const std::string& id, const std::string& version,
+                    std::shared_ptr<const PlanningMap> map) {
+  bool added = false;
   {
     std::lock_guard lock(mutex_);
-    Slot& slot = slots_[key];
-    DropLocked(id, version);
-    if (slot.loading) {  // A load of the same version is under way: it keeps this map instead.
-      slot.made = std::move(map);
-      return;
-    }
-    TouchLocked(slot, key);
-    slot.map = std::move(map);
-    EvictLocked(AllowanceBytes(), /*keep_newest=*/true);
+    added = HoldLocked(id, version, std::move(map));
   }
   loaded_.notify_all();
+  return added;
+}
+
+void MapCache::Insert(const std::string& id, const std::string& version,
+                      std::shared_ptr<const PlanningMap> map) {
+  {
+    std::lock_guard lock(mutex_);
+    DropLocked(id, version);
+    HoldLocked(id, version, std::move(map));
+  }
+  loaded_.notify_all();
+}
+
+void MapCache::Forget(const std::string& id, const std::string& version) {
+  std::lock_guard lock(mutex_);
+  const auto it = slots_.find(Key(id, version));
+  if (it == slots_.end() || it->second.loading) return;
+  recency_.erase(it->second.recency);
+  slots_.erase(it);
 }
 
 void MapCache::Drop(const std::string& id) {
@@ -113,7 +140,8 @@ std::shared_ptr<const PlanningMap> MapCache::Peek(const std::string& id,
                                                   const std::string& version) const {
   std::lock_guard lock(mutex_);
   const auto it = slots_.find(Key(id, version));
-  return it == slots_.end() ? nullptr : it->second.map;
+  if (it == slots_.end()) return nullptr;
+  return it->second.map != nullptr ? it->second.map : it->second.made;
 }
 
 void MapCache::TrimTo(std::uint64_t target_bytes) {

@@ -37,13 +37,26 @@ class MapCache {
   Result<std::shared_ptr<const PlanningMap>> Get(const std::string& id, const std::string& version,
                                                  const Loader& load);
 
-  /// Holds a map made here (a map just created or edited on this server), as Get would, and
-  /// forgets the other versions of `id` held: the one made is the current one, so a map that
-  /// robots' scans edit every second holds one version, not every one made until the budget
-  /// is full. A plan holding an older version finishes on it; a later request for one
-  /// (PlanRequest.map_version) loads it again from the store.
+  /// Holds a map made here (a map just created or edited on this server) before its version
+  /// is published, as Get would, keeping the other versions of `id`: the first requests for
+  /// the new head then find it, with the graphs built ahead for it, instead of loading its
+  /// saved model from the store while it is published (a second copy of a site's model, and
+  /// a map without graphs for the next edit to build on). Returns whether the version was not
+  /// held before. A load of the version under way keeps this map instead of its own.
+  bool Hold(const std::string& id, const std::string& version,
+            std::shared_ptr<const PlanningMap> map);
+
+  /// Holds a map made here, as Hold, and forgets the other versions of `id` held: once
+  /// published, the one made is the current one, so a map that robots' scans edit every
+  /// second holds one version, not every one made until the budget is full. A plan holding an
+  /// older version finishes on it; a later request for one (PlanRequest.map_version) loads
+  /// it again from the store.
   void Insert(const std::string& id, const std::string& version,
               std::shared_ptr<const PlanningMap> map);
+
+  /// Forgets version `version` of `id` unless it is being loaded: a version held (Hold) whose
+  /// publishing failed.
+  void Forget(const std::string& id, const std::string& version);
 
   /// Forgets every version of `id` (deleted from the store).
   void Drop(const std::string& id);
@@ -52,7 +65,8 @@ class MapCache {
   /// `target_bytes` (or none is left to drop): to make room for other uses of memory.
   void TrimTo(std::uint64_t target_bytes);
 
-  /// The version of `id` held, if one is (the most recently used).
+  /// The version of `id` held, if one is (the most recently used); a map made here for a
+  /// version being loaded (Hold) counts as held.
   std::shared_ptr<const PlanningMap> Peek(const std::string& id, const std::string& version) const;
 
   /// Bytes of the maps held (their models and the graphs built on them so far).
@@ -78,6 +92,9 @@ class MapCache {
   // The allowance now (no limit without one).
   std::uint64_t AllowanceBytes() const;
   void TouchLocked(Slot& slot, const Key& key);
+  // Hold's work, without notifying; call with mutex_. Whether the version was not held.
+  bool HoldLocked(const std::string& id, const std::string& version,
+                  std::shared_ptr<const PlanningMap> map);
 
   const Allowance allowance_;
   mutable std::mutex mutex_;

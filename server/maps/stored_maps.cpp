@@ -126,7 +126,12 @@ ServiceStatus StoredMaps::Put(const MapSnapshot& map, const std::string& terrain
       !put.ok()) {
     return put;
   }
-  if (ServiceStatus published = publish(); !published.ok()) return published;
+  // Held before the head names it: the first requests for it find it here (MapCache::Hold).
+  const bool held_here = cache_.Hold(map.id, map.version, planning);
+  if (ServiceStatus published = publish(); !published.ok()) {
+    if (held_here) cache_.Forget(map.id, map.version);
+    return published;
+  }
   cache_.Insert(map.id, map.version, planning);
   return OkStatus();
 }

@@ -171,10 +171,43 @@ TEST(MapCacheTest, AMapInsertedWhileItsVersionLoadsIsTheOneKept) {
   loading.get_future().wait();
   const std::shared_ptr<const PlanningMap> made = Floor(20);
   cache.Insert("m", "v2", made);
+  // The next edit builds on the map made here (its graphs), while the load still runs.
+  EXPECT_EQ(cache.Peek("m", "v2"), made);
+  cache.Forget("m", "v2");  // Not while loading: the loader finds its slot.
   release.set_value();
   const Result<std::shared_ptr<const PlanningMap>> got = request.get();
   ASSERT_TRUE(got.ok());
   EXPECT_EQ(got.value(), made);
+  EXPECT_EQ(cache.Peek("m", "v2"), made);
+  EXPECT_EQ(cache.Count(), 1);
+}
+
+// An editor holds the version it made before publishing it: the first request for the new
+// head finds it, graphs and all, and loads nothing, while the version before stays held until
+// the new one is published (or is forgotten when publishing fails).
+TEST(MapCacheTest, AVersionHeldBeforeItIsPublishedIsFoundWithoutALoad) {
+  MapCache cache;
+  std::atomic<int> loads{0};
+  const Result<std::shared_ptr<const PlanningMap>> v1 =
+      cache.Get("m", "v1", CountingLoader(20, &loads));
+  ASSERT_TRUE(v1.ok());
+  const std::shared_ptr<const PlanningMap> made = Floor(20);
+  EXPECT_TRUE(cache.Hold("m", "v2", made));
+  EXPECT_FALSE(cache.Hold("m", "v2", made));  // Held already.
+  EXPECT_EQ(cache.Peek("m", "v1"), v1.value());
+  const Result<std::shared_ptr<const PlanningMap>> v2 =
+      cache.Get("m", "v2", CountingLoader(20, &loads));
+  ASSERT_TRUE(v2.ok());
+  EXPECT_EQ(v2.value(), made);
+  EXPECT_EQ(loads, 1);  // v1's alone.
+
+  EXPECT_TRUE(cache.Hold("m", "v3", Floor(20)));
+  cache.Forget("m", "v3");  // Its publishing failed.
+  EXPECT_EQ(cache.Peek("m", "v3"), nullptr);
+  EXPECT_EQ(cache.Count(), 2);
+
+  cache.Insert("m", "v2", made);  // Published: the one current version.
+  EXPECT_EQ(cache.Peek("m", "v1"), nullptr);
   EXPECT_EQ(cache.Peek("m", "v2"), made);
   EXPECT_EQ(cache.Count(), 1);
 }
