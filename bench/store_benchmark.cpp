@@ -153,8 +153,8 @@ double ResidentBytes() {
 }
 
 // What glibc's allocator holds [MB]: in use by live blocks, free inside its arenas (resident
-// until trimmed), and mapped for large blocks. Tells growth that is memory still referenced from
-// memory the allocator keeps after it was freed.
+// until trimmed), and mapped for large blocks. Tells a growth of live memory from memory the
+// allocator keeps after it was freed.
 std::string AllocatorFigures() {
   const struct mallinfo2 info = mallinfo2();
   return fmt::format("in use {:.0f} MB, free in arenas {:.0f} MB, mapped {:.0f} MB",
