@@ -17,6 +17,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <cstdio>
@@ -24,6 +25,7 @@
 #include <filesystem>
 #include <fstream>
 #include <future>
+#include <limits>
 #include <mutex>
 #include <string>
 #include <thread>
@@ -528,9 +530,16 @@ int main(int argc, char** argv) {
         const auto start = Clock::now();
         const double rss_start = ResidentBytes();
         const std::string allocator_start = AllocatorFigures();
+        // The least resident memory in each quarter of the soak: each version made raises it
+        // for a moment (the new model and graphs beside the old), so growth shows in the lows.
+        std::array<double, 4> rss_low;
+        rss_low.fill(std::numeric_limits<double>::infinity());
         auto next = start;
         while (SecondsSince(start) < soak_s) {
-          phase.rss_max = std::max(phase.rss_max, ResidentBytes());
+          const double rss = ResidentBytes();
+          phase.rss_max = std::max(phase.rss_max, rss);
+          const auto quarter = std::min<std::size_t>(3, SecondsSince(start) / soak_s * 4);
+          rss_low[quarter] = std::min(rss_low[quarter], rss);
           if (scanning) {
             const int spot = sent % kSpots;
             const Prism region = scan_area(spot, kAside);
@@ -562,6 +571,8 @@ int main(int argc, char** argv) {
             rss_start / 1e6, phase.rss_max / 1e6, rss_end / 1e6);
         std::printf("  allocator at the start: %s; at the end: %s\n", allocator_start.c_str(),
                     AllocatorFigures().c_str());
+        std::printf("  resident at its least in each quarter: %.0f, %.0f, %.0f, %.0f MB\n",
+                    rss_low[0] / 1e6, rss_low[1] / 1e6, rss_low[2] / 1e6, rss_low[3] / 1e6);
         if (scanning) {
           double versions = 0;  // Each version's merged calls each count 1/merged of it.
           for (const int m : merged) versions += 1.0 / m;

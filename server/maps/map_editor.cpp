@@ -112,8 +112,13 @@ struct MapEditor::Waiting {
 Result<MapUpdate> MapEditor::Update(const MapEditRequest& request, const CallControl& call) {
   // Keep-out zones alone take no slot and are made at once: they wait for no batch. With a
   // base version an edit is a compare-and-swap on that version: made alone.
-  if (request.edits.empty() || !request.base_version.empty()) return UpdateRetrying(request, call);
-  return UpdateInBatch(request, call);
+  if (request.edits.empty()) return UpdateRetrying(request, call);
+  Result<MapUpdate> update =
+      request.base_version.empty() ? UpdateInBatch(request, call) : UpdateRetrying(request, call);
+  // An edit of the cloud let go of a whole model's worth of scratch, and its version of the
+  // base's model and graphs once the plans on it end: give it back (free_memory.hpp).
+  free_memory_.Request();
+  return update;
 }
 
 int MapEditor::EditsWaiting(const std::string& id) const {

@@ -27,6 +27,7 @@
 #include <vector>
 
 #include "common/call_control.hpp"
+#include "common/free_memory.hpp"
 #include "common/service_error.hpp"
 #include "maps/assessment_queue.hpp"
 #include "maps/map_build.hpp"
@@ -119,6 +120,7 @@ class MapEditor {
   mutable std::mutex batches_mutex_;
   std::condition_variable batches_changed_;
   std::map<std::string, Batches> batches_;  // Maps with an edit waiting or being made.
+  FreeMemoryReturner free_memory_;          // After each edit of the cloud.
 };
 
 }  // namespace strata::server
