@@ -40,7 +40,7 @@ TEST(FreeMemoryReturnerTest, GivesBackMemoryFreedBetweenBlocksStillHeld) {
   // would return by itself.
   constexpr std::size_t kBlock = 64 * 1024;
   constexpr int kBlocks = 2500;
-  std::vector<std::unique_ptr<char[]>> freed, kept;
+  std::vector<std::unique_ptr<char[]> > freed, kept;
   for (int i = 0; i < kBlocks; ++i) {
     freed.push_back(std::make_unique<char[]>(kBlock));  // Zeroed: its pages are touched.
     kept.push_back(std::make_unique<char[]>(64));
