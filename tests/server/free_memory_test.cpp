@@ -1,5 +1,6 @@
 // FreeMemoryReturner: memory a program freed between blocks it still holds, which glibc keeps,
-// goes back to the system after a request.
+// goes back to the system after a request. Built without sanitisers in every tree
+// (tests/server/CMakeLists.txt): a sanitiser's allocator would serve malloc instead of glibc's.
 #include "common/free_memory.hpp"
 
 #include <unistd.h>
@@ -10,15 +11,6 @@
 #include <vector>
 
 #include <gtest/gtest.h>
-
-#if defined(__has_feature)
-#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
-#define STRATA_OWN_ALLOCATOR 1  // The sanitiser's allocator, not glibc's, serves malloc.
-#endif
-#endif
-#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
-#define STRATA_OWN_ALLOCATOR 1
-#endif
 
 namespace strata::server {
 namespace {
@@ -32,9 +24,6 @@ std::size_t ResidentBytes() {
 }
 
 TEST(FreeMemoryReturnerTest, GivesBackMemoryFreedBetweenBlocksStillHeld) {
-#ifdef STRATA_OWN_ALLOCATOR
-  GTEST_SKIP() << "a sanitiser's allocator serves malloc here; glibc's is what is trimmed";
-#else
   // 160 MB in blocks of 64 KiB (below glibc's mmap threshold: on its heap), each followed by a
   // small block that stays: the freed blocks cannot merge into the heap's top, which glibc
   // would return by itself.
@@ -54,7 +43,6 @@ TEST(FreeMemoryReturnerTest, GivesBackMemoryFreedBetweenBlocksStillHeld) {
   const std::size_t after = ResidentBytes();
   EXPECT_GT(before, after + kBlocks * kBlock / 2) << "resident " << before << " -> " << after;
   EXPECT_EQ(kept.size(), static_cast<std::size_t>(kBlocks));
-#endif
 }
 
 }  // namespace
