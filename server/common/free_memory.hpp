@@ -6,8 +6,6 @@
 /// graphs (hundreds of MB) as often, scattered through the arenas, and its resident memory
 /// would grow with what glibc keeps rather than with what it holds (docs/benchmarks.md, "Scans
 /// sustained").
-#include <cstdint>
-
 #include "common/job_threads.hpp"
 
 namespace strata::server {
@@ -20,7 +18,7 @@ class FreeMemoryReturner {
   /// caller does not wait. A request made while one waits is the same request.
   void Request();
 
-  /// Returns every request made so far has been carried out (for tests).
+  /// Returns once every request made so far has been carried out (for tests).
   void WaitIdle() { thread_.WaitIdle(); }
 
  private:
