@@ -43,7 +43,7 @@ Result<std::shared_ptr<const PlanningMap>> MapCache::Get(const std::string& id,
 
   lock.lock();
   auto it = slots_.find(key);
-  // A map made here while this load ran (Insert: a version just published, which a request
+  // A map made here while this load ran (Hold: a version just published, which a request
   // asked for before it was held) is the one kept: it holds the graphs built ahead for it.
   if (it->second.made != nullptr) loaded = std::move(it->second.made);
   if (!loaded.ok()) {
@@ -102,14 +102,9 @@ bool MapCache::Hold(const std::string& id, const std::string& version,
   return added;
 }
 
-void MapCache::Insert(const std::string& id, const std::string& version,
-                      std::shared_ptr<const PlanningMap> map) {
-  {
-    std::lock_guard lock(mutex_);
-    DropLocked(id, version);
-    HoldLocked(id, version, std::move(map));
-  }
-  loaded_.notify_all();
+void MapCache::MarkPublished(const std::string& id, const std::string& version) {
+  std::lock_guard lock(mutex_);
+  DropLocked(id, version);
 }
 
 void MapCache::Forget(const std::string& id, const std::string& version) {

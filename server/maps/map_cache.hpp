@@ -46,13 +46,12 @@ class MapCache {
   bool Hold(const std::string& id, const std::string& version,
             std::shared_ptr<const PlanningMap> map);
 
-  /// Holds a map made here, as Hold, and forgets the other versions of `id` held: once
-  /// published, the one made is the current one, so a map that robots' scans edit every
-  /// second holds one version, not every one made until the budget is full. A plan holding an
-  /// older version finishes on it; a later request for one (PlanRequest.map_version) loads
+  /// Version `version` of `id`, held (Hold), is now published: forgets the other versions of
+  /// `id` held, since the one made is the current one. A map that robots' scans edit every
+  /// second so holds one version, not every one made until the budget is full. A plan holding
+  /// an older version finishes on it; a later request for one (PlanRequest.map_version) loads
   /// it again from the store.
-  void Insert(const std::string& id, const std::string& version,
-              std::shared_ptr<const PlanningMap> map);
+  void MarkPublished(const std::string& id, const std::string& version);
 
   /// Forgets version `version` of `id` unless it is being loaded: a version held (Hold) whose
   /// publishing failed.
@@ -79,7 +78,7 @@ class MapCache {
   struct Slot {
     std::shared_ptr<const PlanningMap> map;  // Null while loading.
     bool loading = false;
-    std::shared_ptr<const PlanningMap> made;  // Inserted while loading: kept instead.
+    std::shared_ptr<const PlanningMap> made;  // Held while loading: kept instead.
     std::list<Key>::iterator recency;         // In recency_ once loaded.
   };
 

@@ -132,7 +132,7 @@ ServiceStatus StoredMaps::Put(const MapSnapshot& map, const std::string& terrain
     if (held_here) cache_.Forget(map.id, map.version);
     return published;
   }
-  cache_.Insert(map.id, map.version, planning);
+  cache_.MarkPublished(map.id, map.version);
   return OkStatus();
 }
 

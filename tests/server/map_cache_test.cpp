@@ -142,8 +142,10 @@ TEST(MapCacheTest, AVersionMadeHereForgetsTheOthersOfItsMap) {
       cache.Get("m", "v1", CountingLoader(20, &loads));
   ASSERT_TRUE(held.ok());
   ASSERT_TRUE(cache.Get("other", "v1", CountingLoader(20, &loads)).ok());
-  cache.Insert("m", "v2", Floor(20));
-  cache.Insert("m", "v3", Floor(20));
+  cache.Hold("m", "v2", Floor(20));
+  cache.MarkPublished("m", "v2");
+  cache.Hold("m", "v3", Floor(20));
+  cache.MarkPublished("m", "v3");
   EXPECT_EQ(cache.Count(), 2);
   EXPECT_EQ(cache.Peek("m", "v1"), nullptr);
   EXPECT_EQ(cache.Peek("m", "v2"), nullptr);
@@ -157,7 +159,7 @@ TEST(MapCacheTest, AVersionMadeHereForgetsTheOthersOfItsMap) {
 // A request for a version just published can come before the editor holds it here: its load
 // of the saved model (which has no graphs) must not replace the map the editor made, whose
 // robots' graphs were built ahead.
-TEST(MapCacheTest, AMapInsertedWhileItsVersionLoadsIsTheOneKept) {
+TEST(MapCacheTest, AMapHeldWhileItsVersionLoadsIsTheOneKept) {
   MapCache cache;
   std::promise<void> loading, release;
   std::shared_future<void> released = release.get_future().share();
@@ -170,7 +172,8 @@ TEST(MapCacheTest, AMapInsertedWhileItsVersionLoadsIsTheOneKept) {
   });
   loading.get_future().wait();
   const std::shared_ptr<const PlanningMap> made = Floor(20);
-  cache.Insert("m", "v2", made);
+  cache.Hold("m", "v2", made);
+  cache.MarkPublished("m", "v2");
   // The next edit builds on the map made here (its graphs), while the load still runs.
   EXPECT_EQ(cache.Peek("m", "v2"), made);
   cache.Forget("m", "v2");  // Not while loading: the loader finds its slot.
@@ -206,7 +209,7 @@ TEST(MapCacheTest, AVersionHeldBeforeItIsPublishedIsFoundWithoutALoad) {
   EXPECT_EQ(cache.Peek("m", "v3"), nullptr);
   EXPECT_EQ(cache.Count(), 2);
 
-  cache.Insert("m", "v2", made);  // Published: the one current version.
+  cache.MarkPublished("m", "v2");  // Held above; published: the one current version.
   EXPECT_EQ(cache.Peek("m", "v1"), nullptr);
   EXPECT_EQ(cache.Peek("m", "v2"), made);
   EXPECT_EQ(cache.Count(), 1);
@@ -216,7 +219,8 @@ TEST(MapCacheTest, DropForgetsEveryVersionOfAMap) {
   MapCache cache;
   std::atomic<int> loads{0};
   ASSERT_TRUE(cache.Get("m", "v1", CountingLoader(20, &loads)).ok());
-  cache.Insert("m", "v2", Floor(20));
+  cache.Hold("m", "v2", Floor(20));
+  cache.MarkPublished("m", "v2");
   ASSERT_TRUE(cache.Get("other", "v1", CountingLoader(20, &loads)).ok());
   cache.Drop("m");
   EXPECT_EQ(cache.Peek("m", "v1"), nullptr);
