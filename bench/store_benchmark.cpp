@@ -242,7 +242,7 @@ int main(int argc, char** argv) {
   const std::string prefix = "/strata-store-bench-" + std::to_string(getpid());
   ReplicaStore here = OpenReplicaStore(root, etcd, prefix);
   ReplicaStore there = OpenReplicaStore(root, etcd, prefix);  // The second replica's.
-  const std::shared_ptr<MapStore> store = here.store;
+  std::shared_ptr<MapStore> store = here.store;
 
   // 1. Created on one registry: loaded, assessed, written to the store.
   std::printf("map %s, store %s\n", map.c_str(), root.c_str());
@@ -645,6 +645,14 @@ int main(int argc, char** argv) {
         "%.1f MB budget: resident peak %.1f MB; request median %.4f s, max %.3f s\n",
         churn_maps, largest / 1e6, request_s.size(), budget / 1e6, peak / 1e6, Median(request_s),
         *std::max_element(request_s.begin(), request_s.end()));
+  }
+  // A store's remover thread may still be unlinking an old terrain's tiles: close the stores
+  // (their destructors join it) before the directory goes, or remove_all meets a vanished file.
+  store.reset();
+  for (ReplicaStore* replica : {&here, &there}) {  // Each store before the heads it reads.
+    replica->store.reset();
+    replica->heads.reset();
+    replica->client.reset();
   }
   std::filesystem::remove_all(root);
   return 0;

@@ -117,7 +117,7 @@ Result<MapUpdate> MapEditor::Update(const MapEditRequest& request, const CallCon
       request.base_version.empty() ? UpdateInBatch(request, call) : UpdateRetrying(request, call);
   // An edit of the cloud let go of a whole model's worth of scratch, and its version of the
   // base's model and graphs once the plans on it end: give it back (free_memory.hpp).
-  free_memory_.Request();
+  if (options_.free_memory != nullptr) options_.free_memory->Request();
   return update;
 }
 

@@ -79,6 +79,8 @@ struct MapEditorOptions {
   int versions_kept = 5;
   /// True once the server shuts down: a job running stops.
   std::function<bool()> stopping;
+  /// Asked to give freed memory back after each edit of the cloud (may be null).
+  FreeMemoryReturner* free_memory = nullptr;
 };
 
 class MapEditor {
@@ -120,7 +122,6 @@ class MapEditor {
   mutable std::mutex batches_mutex_;
   std::condition_variable batches_changed_;
   std::map<std::string, Batches> batches_;  // Maps with an edit waiting or being made.
-  FreeMemoryReturner free_memory_;          // After each edit of the cloud.
 };
 
 }  // namespace strata::server

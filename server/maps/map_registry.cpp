@@ -90,6 +90,7 @@ MapRegistry::MapRegistry(RegistryOptions options, DoneListener on_done)
     stored.encode_metadata = options_.encode_metadata;
     stored.decode_metadata = options_.decode_metadata;
     stored.make_planning = make_planning;
+    stored.free_memory = &free_memory_;
     if (options_.memory_budget) {
       stored.allowance = [budget = options_.memory_budget.get()] { return budget->MapAllowance(); };
     }
@@ -111,6 +112,7 @@ MapRegistry::MapRegistry(RegistryOptions options, DoneListener on_done)
   editing.assessment_memory_bytes = options_.assessment_memory_bytes;
   editing.max_assessment_time_s = options_.max_assessment_time_s;
   editing.versions_kept = options_.versions_kept;
+  editing.free_memory = &free_memory_;
   editing.stopping = [this] {
     std::lock_guard lock(mutex_);
     return stopping_;

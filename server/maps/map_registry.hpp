@@ -29,6 +29,7 @@
 #include <vector>
 
 #include "common/call_control.hpp"
+#include "common/free_memory.hpp"
 #include "common/service_error.hpp"
 #include "maps/assessment_queue.hpp"
 #include "maps/map_build.hpp"
@@ -206,6 +207,9 @@ class MapRegistry {
   // Writes graphs to the store (with one); declared before what holds planning maps, so that it
   // is destroyed after them.
   std::shared_ptr<JobThreads> graph_writer_;
+  // Asked by the editor and the published maps when versions are let go; declared before
+  // them, so that it outlives them.
+  FreeMemoryReturner free_memory_;
   std::unique_ptr<PublishedMaps> published_;
 
   mutable std::mutex mutex_;

@@ -26,8 +26,10 @@ Result<ActiveMap> StoredMaps::Get(const std::string& id, const std::string& vers
     return MapVersionNotFound(id, version, kept);
   }
   const std::string& wanted = version.empty() ? kept.front() : version;
+  bool loaded_head = false;
   Result<std::shared_ptr<const PlanningMap>> map =
       cache_.Get(id, wanted, [&]() -> Result<std::shared_ptr<const PlanningMap>> {
+        loaded_head = version.empty();
         Result<std::string> metadata = options_.store->LoadMetadata(id, wanted);
         if (!metadata.ok()) return std::move(metadata).error();
         Result<MapSnapshot> described = options_.decode_metadata(metadata.value());
@@ -57,7 +59,18 @@ Result<ActiveMap> StoredMaps::Get(const std::string& id, const std::string& vers
                                       terrain.value());
       });
   if (!map.ok()) return std::move(map).error();
+  if (loaded_head) ForgetBeforeHead(id, wanted);
   return ActiveMap{std::move(map).value(), wanted};
+}
+
+void StoredMaps::ForgetBeforeHead(const std::string& id, const std::string& head) const {
+  // A replica that follows another's edits loads each head it plans on; without this it would
+  // hold every version until the memory budget dropped them (and with no budget, forever).
+  // Checked again after the load: a newer head loaded meanwhile must not be the one forgotten.
+  const Result<std::vector<std::string>> now = options_.store->Versions(id);
+  if (!now.ok() || now.value().empty() || now.value().front() != head) return;
+  cache_.MarkPublished(id, head);
+  if (options_.free_memory != nullptr) options_.free_memory->Request();
 }
 
 std::shared_ptr<const PlanningMap> StoredMaps::HeldOfTerrain(

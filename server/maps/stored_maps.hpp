@@ -7,6 +7,7 @@
 #include <functional>
 #include <memory>
 
+#include "common/free_memory.hpp"
 #include "maps/map_cache.hpp"
 #include "maps/map_store.hpp"
 #include "maps/published_maps.hpp"
@@ -25,6 +26,9 @@ struct StoredMapsOptions {
   PlanningMaker make_planning;
   /// The bytes the loaded versions may take (MapCache::Allowance); empty: no bound.
   MapCache::Allowance allowance;
+  /// Asked to give freed memory back after the versions before a head loaded here are
+  /// forgotten (may be null).
+  FreeMemoryReturner* free_memory = nullptr;
 };
 
 class StoredMaps final : public PublishedMaps {
@@ -55,6 +59,10 @@ class StoredMaps final : public PublishedMaps {
   const MapStore& store() const { return *options_.store; }
 
  private:
+  // After a load of the head `head` of `id`: forgets the other versions held here, as an
+  // editing replica does once it publishes (MapCache::MarkPublished), while `head` is still
+  // the head.
+  void ForgetBeforeHead(const std::string& id, const std::string& head) const;
   // A planning map of one of `versions` of `id` held here whose terrain is `terrain`, or null.
   std::shared_ptr<const PlanningMap> HeldOfTerrain(const std::string& id,
                                                    const std::vector<std::string>& versions,

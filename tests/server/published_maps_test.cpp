@@ -210,6 +210,36 @@ TEST_P(PublishedMapsTest, OnlyAStoreKeepsWhatEditsNeed) {
   EXPECT_EQ(seen_here.map->GraphCount(), 1u);
 }
 
+// A replica following another's edits loads each head it plans on. It holds that one, not
+// every version it ever loaded (which, without a memory budget, it would hold for ever); a
+// plan on an older version finishes on it, and a request naming one loads it again.
+TEST_P(PublishedMapsTest, AReplicaFollowingEditsHoldsTheHeadItLoaded) {
+  if (!GetParam()) GTEST_SKIP() << "only a store's maps have versions made elsewhere";
+  ASSERT_TRUE(Publish("floor", kV1, 0).ok());
+  StoredMaps follower(Options());
+  const ActiveMap first = follower.Get("floor", "").value();
+  EXPECT_EQ(first.version, kV1);
+  const std::string versions[] = {kV2, std::string(32, 'c'), std::string(32, 'd')};
+  std::string base = kV1;
+  for (const std::string& version : versions) {
+    MapSnapshot next = published_->Describe("floor").value();
+    next.version = version;
+    PointCloud cloud;
+    const std::shared_ptr<const PlanningMap> planning = FloorAt(0.5f, &cloud);
+    const CutTerrain tiles = CutIntoTiles(planning->model(), cloud);
+    ASSERT_TRUE(published_->PublishEdit(base, next, version, planning, &tiles, nullptr).ok());
+    base = version;
+    EXPECT_EQ(follower.Get("floor", "").value().version, version);
+    EXPECT_EQ(follower.HeldCount(), 1) << "after " << version;
+    EXPECT_NE(follower.Held("floor", version), nullptr);
+  }
+  EXPECT_EQ(follower.Held("floor", kV1), nullptr);
+  EXPECT_EQ(first.map->model().summary().input_points, 3600u);  // The plan's copy lives.
+  // A version asked for by name is loaded and held beside the head.
+  EXPECT_EQ(follower.Get("floor", kV2).value().version, kV2);
+  EXPECT_EQ(follower.HeldCount(), 2);
+}
+
 INSTANTIATE_TEST_SUITE_P(MemoryAndStore, PublishedMapsTest, ::testing::Bool(),
                          [](const ::testing::TestParamInfo<bool>& info) {
                            return info.param ? "StoredMaps" : "MemoryMaps";
