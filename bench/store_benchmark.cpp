@@ -34,6 +34,7 @@
 #include <fmt/format.h>
 #include <CLI/CLI.hpp>
 
+#include "common/free_memory.hpp"
 #include "maps/map_registry.hpp"
 #include "maps/map_worker.hpp"
 #include "rpc/proto_convert.hpp"
@@ -206,6 +207,7 @@ PlanRequest ShortPlan(const std::pair<Eigen::Vector3d, Eigen::Vector3d>& query) 
 }  // namespace
 
 int main(int argc, char** argv) {
+  strata::server::KeepFreedMemoryForReuse();  // As strata-server does.
   CLI::App app{"Map-store figures: load on demand against assessing, edits, memory budget."};
   std::string map;
   double resolution_m = 0;

@@ -2,29 +2,65 @@
 
 #include <malloc.h>
 
-#include <chrono>
+#include <limits>
 
 #include "common/log.hpp"
 #include "strata/common/seconds_since.hpp"
 
 namespace strata::server {
-namespace {
 
-constexpr std::size_t kStackBytes = 64 * 1024;  // malloc_trim needs little.
+void KeepFreedMemoryForReuse() {
+  mallopt(M_MMAP_MAX, 0);
+  mallopt(M_TRIM_THRESHOLD, std::numeric_limits<int>::max());
+}
 
-}  // namespace
+FreeMemoryReturner::FreeMemoryReturner(std::chrono::milliseconds quiet)
+    : quiet_(quiet), thread_([this] { Run(); }) {}
 
-// One job may wait: it runs after every free made before it, so a second would add nothing.
-FreeMemoryReturner::FreeMemoryReturner() : thread_(1, kStackBytes, 1) {}
+FreeMemoryReturner::~FreeMemoryReturner() {
+  {
+    std::lock_guard lock(mutex_);
+    stopping_ = true;
+  }
+  changed_.notify_all();
+  thread_.join();
+}
 
 void FreeMemoryReturner::Request() {
-  thread_.Post([] {
+  {
+    std::lock_guard lock(mutex_);
+    due_ = std::chrono::steady_clock::now() + quiet_;
+  }
+  changed_.notify_all();
+}
+
+void FreeMemoryReturner::WaitIdle() {
+  std::unique_lock lock(mutex_);
+  changed_.wait(lock, [this] { return !due_ && !returning_; });
+}
+
+void FreeMemoryReturner::Run() {
+  std::unique_lock lock(mutex_);
+  while (true) {
+    changed_.wait(lock, [this] { return stopping_ || due_; });
+    if (stopping_) return;
+    if (std::chrono::steady_clock::now() < *due_) {
+      const auto due = *due_;  // A request meanwhile moves it: looked at again on waking.
+      changed_.wait_until(lock, due);
+      continue;
+    }
+    due_.reset();
+    returning_ = true;
+    lock.unlock();
     const auto start = std::chrono::steady_clock::now();
     const bool returned = malloc_trim(0) != 0;
     LogRecord(LogLevel::kDebug, "free_memory_returned")
         .Add("any", returned ? "yes" : "no")
         .Add("s", common::SecondsSince(start));
-  });
+    lock.lock();
+    returning_ = false;
+    changed_.notify_all();
+  }
 }
 
 }  // namespace strata::server

@@ -1,28 +1,60 @@
 #pragma once
-/// Gives the memory that glibc's allocator keeps free back to the system, on a thread of its
-/// own. glibc keeps what a program frees in its arenas for later allocations and by itself
-/// returns only the top of the main heap. A server whose robots' scans make a new version of a
-/// site's map every second or so (maps/map_editor.hpp) frees the previous version's model and
-/// graphs (hundreds of MB) as often, scattered through the arenas, and its resident memory
-/// would grow with what glibc keeps rather than with what it holds (docs/benchmarks.md, "Scans
-/// sustained").
-#include "common/job_threads.hpp"
+/// How a server's freed memory is kept for its next map version, and given back once quiet.
+///
+/// A version of a site's map is made of whole arrays (a 400 m site's model and graph: about
+/// 500 MB) built beside the previous version's, which is freed once the new one is published.
+/// glibc gives each block that large a mapping of its own and unmaps it when freed, so every
+/// version faulted all its pages in anew. On a VM whose host takes back what its guest freed,
+/// those faults were most of a scan's time: 1.0 s of a 2.1 s scan on the 400 m site, against
+/// 0.06 s for the same join into pages kept (docs/benchmarks.md, "Edits through UpdateMap").
+/// KeepFreedMemoryForReuse has glibc keep them; a FreeMemoryReturner gives what is free back
+/// to the system once versions and loads stop coming, so that a server whose maps stopped
+/// changing holds what its maps hold.
+#include <chrono>
+#include <condition_variable>
+#include <mutex>
+#include <optional>
+#include <thread>
 
 namespace strata::server {
 
+/// Has glibc's malloc serve every block from its heaps (none gets a mapping of its own) and
+/// never shrink them by itself (mallopt M_MMAP_MAX 0, M_TRIM_THRESHOLD at its largest):
+/// what is freed stays for the next allocations until a FreeMemoryReturner gives it back.
+/// Call once, at a server's start, before its threads start.
+void KeepFreedMemoryForReuse();
+
 class FreeMemoryReturner {
  public:
-  FreeMemoryReturner();
+  /// Longer than the gaps between a site's versions while robots' scans come in (up to about
+  /// 10 s on a 400 m site beside 8 planners): their memory is reused, not given back and
+  /// faulted in again.
+  static constexpr std::chrono::milliseconds kDefaultQuiet{30'000};
 
-  /// Returns the allocator's free memory soon, on the returner's thread (malloc_trim): the
-  /// caller does not wait. A request made while one waits is the same request.
+  /// Memory is given back `quiet` after the last request.
+  explicit FreeMemoryReturner(std::chrono::milliseconds quiet = kDefaultQuiet);
+  ~FreeMemoryReturner();
+  FreeMemoryReturner(const FreeMemoryReturner&) = delete;
+  FreeMemoryReturner& operator=(const FreeMemoryReturner&) = delete;
+
+  /// Much memory was freed (a version let go, a map made or loaded): the allocator's free
+  /// memory goes back to the system (malloc_trim) on the returner's thread once no request
+  /// has come for the quiet period. The caller does not wait.
   void Request();
 
-  /// Returns once every request made so far has been carried out (for tests).
-  void WaitIdle() { thread_.WaitIdle(); }
+  /// Returns once no return is pending or running (for tests).
+  void WaitIdle();
 
  private:
-  JobThreads thread_;
+  void Run();
+
+  const std::chrono::milliseconds quiet_;
+  std::mutex mutex_;
+  std::condition_variable changed_;
+  std::optional<std::chrono::steady_clock::time_point> due_;  // A return pending, from then.
+  bool returning_ = false;
+  bool stopping_ = false;
+  std::thread thread_;  // Last: started once the rest is.
 };
 
 }  // namespace strata::server

@@ -241,7 +241,10 @@ Result<MapSnapshot> MapRegistry::Create(const std::string& id, MapSource source,
   MapSnapshot snapshot = SnapshotLocked(*entry);
   lock.unlock();
   AssessmentQueue::Job job;
-  job.run = [this, entry] { Assess(entry); };
+  job.run = [this, entry] {
+    Assess(entry);
+    free_memory_.Request();  // Its scratch, gigabytes for a site.
+  };
   job.drop = [this, entry] {
     Finish(entry,
            MakeError(ServiceErrorCode::kShuttingDown,

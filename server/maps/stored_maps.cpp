@@ -26,10 +26,10 @@ Result<ActiveMap> StoredMaps::Get(const std::string& id, const std::string& vers
     return MapVersionNotFound(id, version, kept);
   }
   const std::string& wanted = version.empty() ? kept.front() : version;
-  bool loaded_head = false;
+  bool loaded = false;
   Result<std::shared_ptr<const PlanningMap>> map =
       cache_.Get(id, wanted, [&]() -> Result<std::shared_ptr<const PlanningMap>> {
-        loaded_head = version.empty();
+        loaded = true;
         Result<std::string> metadata = options_.store->LoadMetadata(id, wanted);
         if (!metadata.ok()) return std::move(metadata).error();
         Result<MapSnapshot> described = options_.decode_metadata(metadata.value());
@@ -58,8 +58,12 @@ Result<ActiveMap> StoredMaps::Get(const std::string& id, const std::string& vers
         return options_.make_planning(std::move(model).value(), described.value().keep_out, id,
                                       terrain.value());
       });
+  if (loaded) {
+    if (map.ok() && version.empty()) ForgetBeforeHead(id, wanted);
+    // The load's scratch (a site's tiles), and the versions it made the cache drop.
+    if (options_.free_memory != nullptr) options_.free_memory->Request();
+  }
   if (!map.ok()) return std::move(map).error();
-  if (loaded_head) ForgetBeforeHead(id, wanted);
   return ActiveMap{std::move(map).value(), wanted};
 }
 
@@ -70,7 +74,6 @@ void StoredMaps::ForgetBeforeHead(const std::string& id, const std::string& head
   const Result<std::vector<std::string>> now = options_.store->Versions(id);
   if (!now.ok() || now.value().empty() || now.value().front() != head) return;
   cache_.MarkPublished(id, head);
-  if (options_.free_memory != nullptr) options_.free_memory->Request();
 }
 
 std::shared_ptr<const PlanningMap> StoredMaps::HeldOfTerrain(

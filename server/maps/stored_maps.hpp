@@ -26,8 +26,8 @@ struct StoredMapsOptions {
   PlanningMaker make_planning;
   /// The bytes the loaded versions may take (MapCache::Allowance); empty: no bound.
   MapCache::Allowance allowance;
-  /// Asked to give freed memory back after the versions before a head loaded here are
-  /// forgotten (may be null).
+  /// Told after each load of a version (its scratch, and the versions it made the cache
+  /// forget, are free): may be null.
   FreeMemoryReturner* free_memory = nullptr;
 };
 

@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 #include <grpc/health/v1/health.pb.h>
 
+#include "common/free_memory.hpp"
 #include "common/log.hpp"
 #include "ops/flags.hpp"
 #include "ops/strata_server.hpp"
@@ -24,6 +25,8 @@ using strata::server::LogWarning;
 }  // namespace
 
 int main(int argc, char** argv) {
+  // Each new version of a map reuses the pages the last one freed (common/free_memory.hpp).
+  strata::server::KeepFreedMemoryForReuse();
   // SIGTERM and SIGINT are blocked in every thread (threads inherit the mask) and taken
   // synchronously by one thread below, so shutdown runs as ordinary code, not in a handler.
   sigset_t signals;

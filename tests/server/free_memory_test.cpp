@@ -1,10 +1,13 @@
+// KeepFreedMemoryForReuse: a large block freed serves the next one in the pages it had.
 // FreeMemoryReturner: memory a program freed between blocks it still holds, which glibc keeps,
 // goes back to the system after a request. Built without sanitisers in every tree
 // (tests/server/CMakeLists.txt): a sanitiser's allocator would serve malloc instead of glibc's.
 #include "common/free_memory.hpp"
 
+#include <sys/resource.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <cstddef>
 #include <fstream>
 #include <memory>
@@ -23,6 +26,36 @@ std::size_t ResidentBytes() {
   return resident * static_cast<std::size_t>(sysconf(_SC_PAGESIZE));
 }
 
+// Page faults this process took to map memory in (minor: no disk read).
+long MinorFaults() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return usage.ru_minflt;
+}
+
+// Writes a byte on every page of `block`: each page is mapped in.
+void Touch(char* block, std::size_t bytes) {
+  for (std::size_t i = 0; i < bytes; i += 4096) static_cast<volatile char*>(block)[i] = 1;
+}
+
+// A new version's arrays are the size of the last one's, freed just before: they must land in
+// its pages, not in new ones the kernel maps in (and, on some hosts, takes seconds to).
+TEST(KeepFreedMemoryForReuseTest, ALargeBlockFreedServesTheNextWithoutNewPages) {
+  KeepFreedMemoryForReuse();
+  constexpr std::size_t kBytes = 256u << 20;
+  constexpr long kPages = kBytes / 4096;
+  {
+    const std::unique_ptr<char[]> version(new char[kBytes]);
+    Touch(version.get(), kBytes);
+  }
+  const long before = MinorFaults();
+  {
+    const std::unique_ptr<char[]> next(new char[kBytes + 64 * 1024]);  // A little larger.
+    Touch(next.get(), kBytes + 64 * 1024);
+  }
+  EXPECT_LT(MinorFaults() - before, kPages / 20) << "of " << kPages << " pages";
+}
+
 TEST(FreeMemoryReturnerTest, GivesBackMemoryFreedBetweenBlocksStillHeld) {
   // 160 MB in blocks of 64 KiB (below glibc's mmap threshold: on its heap), each followed by a
   // small block that stays: the freed blocks cannot merge into the heap's top, which glibc
@@ -37,7 +70,7 @@ TEST(FreeMemoryReturnerTest, GivesBackMemoryFreedBetweenBlocksStillHeld) {
   freed.clear();
   const std::size_t before = ResidentBytes();
 
-  FreeMemoryReturner returner;
+  FreeMemoryReturner returner(std::chrono::milliseconds(0));
   returner.Request();
   returner.WaitIdle();
   const std::size_t after = ResidentBytes();
