@@ -26,17 +26,24 @@ FreeMemoryReturner::~FreeMemoryReturner() {
   thread_.join();
 }
 
-void FreeMemoryReturner::Request() {
+void FreeMemoryReturner::Request(std::size_t room_bytes) {
+  const bool over = room_bytes > 0 && mallinfo2().fordblks > 2 * room_bytes;
+  const auto now = std::chrono::steady_clock::now();
   {
     std::lock_guard lock(mutex_);
-    due_ = std::chrono::steady_clock::now() + quiet_;
+    // A return due now stays due now: a later request only postpones a quiet one.
+    if (over) {
+      due_ = now;
+    } else if (!due_ || *due_ > now) {
+      due_ = now + quiet_;
+    }
   }
   changed_.notify_all();
 }
 
-void FreeMemoryReturner::WaitIdle() {
+bool FreeMemoryReturner::WaitIdle(std::chrono::milliseconds limit) {
   std::unique_lock lock(mutex_);
-  changed_.wait(lock, [this] { return !due_ && !returning_; });
+  return changed_.wait_for(lock, limit, [this] { return !due_ && !returning_; });
 }
 
 void FreeMemoryReturner::Run() {

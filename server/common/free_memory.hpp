@@ -12,6 +12,7 @@
 /// changing holds what its maps hold.
 #include <chrono>
 #include <condition_variable>
+#include <cstddef>
 #include <mutex>
 #include <optional>
 #include <thread>
@@ -39,11 +40,14 @@ class FreeMemoryReturner {
 
   /// Much memory was freed (a version let go, a map made or loaded): the allocator's free
   /// memory goes back to the system (malloc_trim) on the returner's thread once no request
-  /// has come for the quiet period. The caller does not wait.
-  void Request();
+  /// has come for the quiet period. `room_bytes` (0: no bound) is what the next allocations
+  /// of the kind will want (a map's version: its model and graphs): when more than twice it
+  /// is free, it all goes back at once, so that memory stays bounded while versions keep
+  /// coming (the heap's holes do not all fit the next arrays). The caller does not wait.
+  void Request(std::size_t room_bytes = 0);
 
-  /// Returns once no return is pending or running (for tests).
-  void WaitIdle();
+  /// Whether no return is pending or running within `limit` (for tests).
+  bool WaitIdle(std::chrono::milliseconds limit);
 
  private:
   void Run();

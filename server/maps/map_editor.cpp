@@ -116,8 +116,11 @@ Result<MapUpdate> MapEditor::Update(const MapEditRequest& request, const CallCon
   Result<MapUpdate> update =
       request.base_version.empty() ? UpdateInBatch(request, call) : UpdateRetrying(request, call);
   // An edit of the cloud let go of a whole model's worth of scratch, and its version of the
-  // base's model and graphs once the plans on it end: give it back (free_memory.hpp).
-  if (options_.free_memory != nullptr) options_.free_memory->Request();
+  // base's model and graphs once the plans on it end. Room for the next version's arrays, the
+  // size of this one's, stays free for them; the rest goes back (free_memory.hpp).
+  if (options_.free_memory != nullptr) {
+    options_.free_memory->Request(update.ok() ? update.value().map.memory_bytes : 0);
+  }
   return update;
 }
 
