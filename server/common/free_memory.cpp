@@ -1,13 +1,26 @@
 #include "common/free_memory.hpp"
 
 #include <malloc.h>
+#include <unistd.h>
 
+#include <fstream>
 #include <limits>
 
 #include "common/log.hpp"
 #include "strata/common/seconds_since.hpp"
 
 namespace strata::server {
+namespace {
+
+// This process's resident memory [bytes].
+std::size_t ResidentBytes() {
+  std::ifstream statm("/proc/self/statm");
+  std::size_t pages = 0, resident = 0;
+  statm >> pages >> resident;
+  return resident * static_cast<std::size_t>(sysconf(_SC_PAGESIZE));
+}
+
+}  // namespace
 
 void KeepFreedMemoryForReuse() {
   mallopt(M_MMAP_MAX, 0);
@@ -27,10 +40,12 @@ FreeMemoryReturner::~FreeMemoryReturner() {
 }
 
 void FreeMemoryReturner::Request(std::size_t room_bytes) {
-  const bool over = room_bytes > 0 && mallinfo2().fordblks > 2 * room_bytes;
+  const std::size_t resident = ResidentBytes();
   const auto now = std::chrono::steady_clock::now();
   {
     std::lock_guard lock(mutex_);
+    // Resident, not the allocator's free bytes: those count the pages already given back.
+    const bool over = room_bytes > 0 && resident > resident_after_return_ + 2 * room_bytes;
     // A return due now stays due now: a later request only postpones a quiet one.
     if (over) {
       due_ = now;
@@ -64,7 +79,9 @@ void FreeMemoryReturner::Run() {
     LogRecord(LogLevel::kDebug, "free_memory_returned")
         .Add("any", returned ? "yes" : "no")
         .Add("s", common::SecondsSince(start));
+    const std::size_t resident = ResidentBytes();
     lock.lock();
+    resident_after_return_ = resident;
     returning_ = false;
     changed_.notify_all();
   }

@@ -41,9 +41,10 @@ class FreeMemoryReturner {
   /// Much memory was freed (a version let go, a map made or loaded): the allocator's free
   /// memory goes back to the system (malloc_trim) on the returner's thread once no request
   /// has come for the quiet period. `room_bytes` (0: no bound) is what the next allocations
-  /// of the kind will want (a map's version: its model and graphs): when more than twice it
-  /// is free, it all goes back at once, so that memory stays bounded while versions keep
-  /// coming (the heap's holes do not all fit the next arrays). The caller does not wait.
+  /// of the kind will want (a map's version: its model and graphs): when the process holds
+  /// more than twice that beyond what it held after the last return, the free memory goes
+  /// back at once, so that memory stays bounded while versions keep coming (the heap's holes
+  /// do not all fit the next arrays). The caller does not wait.
   void Request(std::size_t room_bytes = 0);
 
   /// Whether no return is pending or running within `limit` (for tests).
@@ -56,6 +57,7 @@ class FreeMemoryReturner {
   std::mutex mutex_;
   std::condition_variable changed_;
   std::optional<std::chrono::steady_clock::time_point> due_;  // A return pending, from then.
+  std::size_t resident_after_return_ = 0;                     // The process's resident bytes then.
   bool returning_ = false;
   bool stopping_ = false;
   std::thread thread_;  // Last: started once the rest is.
