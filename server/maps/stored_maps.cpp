@@ -60,8 +60,11 @@ Result<ActiveMap> StoredMaps::Get(const std::string& id, const std::string& vers
       });
   if (loaded) {
     if (map.ok() && version.empty()) ForgetBeforeHead(id, wanted);
-    // The load's scratch (a site's tiles), and the versions it made the cache drop.
-    if (options_.free_memory != nullptr) options_.free_memory->Request();
+    // The load's scratch (a site's tiles), and the versions it made the cache drop; room for
+    // the next load of as many bytes stays free for it.
+    if (options_.free_memory != nullptr) {
+      options_.free_memory->Request(map.ok() ? map.value()->MemoryBytes() : 0);
+    }
   }
   if (!map.ok()) return std::move(map).error();
   return ActiveMap{std::move(map).value(), wanted};
