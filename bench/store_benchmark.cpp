@@ -23,7 +23,6 @@
 #include <cstdio>
 #include <deque>
 #include <filesystem>
-#include <fstream>
 #include <future>
 #include <limits>
 #include <mutex>
@@ -145,14 +144,6 @@ MapSnapshot CreateAndWait(MapRegistry& registry, const std::string& id, const st
     std::exit(1);
   }
   return done.value();
-}
-
-// This process's resident memory [bytes] (/proc/self/statm).
-double ResidentBytes() {
-  std::ifstream statm("/proc/self/statm");
-  double pages = 0, resident = 0;
-  statm >> pages >> resident;
-  return resident * static_cast<double>(sysconf(_SC_PAGESIZE));
 }
 
 // What glibc's allocator holds [MB]: in use by live blocks, free inside its arenas (resident
@@ -530,7 +521,7 @@ int main(int argc, char** argv) {
           }
         };
         const auto start = Clock::now();
-        const double rss_start = ResidentBytes();
+        const double rss_start = static_cast<double>(ResidentBytes());
         const std::string allocator_start = AllocatorFigures();
         // The least resident memory in each quarter of the soak: each version made raises it
         // for a moment (the new model and graphs beside the old), so growth shows in the lows.
@@ -538,7 +529,7 @@ int main(int argc, char** argv) {
         rss_low.fill(std::numeric_limits<double>::infinity());
         auto next = start;
         while (SecondsSince(start) < soak_s) {
-          const double rss = ResidentBytes();
+          const double rss = static_cast<double>(ResidentBytes());
           phase.rss_max = std::max(phase.rss_max, rss);
           const auto quarter = std::min<std::size_t>(3, SecondsSince(start) / soak_s * 4);
           rss_low[quarter] = std::min(rss_low[quarter], rss);
@@ -562,7 +553,7 @@ int main(int argc, char** argv) {
         running = false;
         for (std::thread& planner : planners) planner.join();
         collect(true);
-        const double rss_end = ResidentBytes();
+        const double rss_end = static_cast<double>(ResidentBytes());
         std::printf(
             "soak %s: %.0f s, %d planners: %zu plans (%d failed), plan p50 %.4f s, p99 %.3f s, "
             "max %.3f s; resident %.0f MB at the start, %.0f MB at most, %.0f MB at the end\n",

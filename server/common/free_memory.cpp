@@ -10,17 +10,13 @@
 #include "strata/common/seconds_since.hpp"
 
 namespace strata::server {
-namespace {
 
-// This process's resident memory [bytes].
 std::size_t ResidentBytes() {
   std::ifstream statm("/proc/self/statm");
   std::size_t pages = 0, resident = 0;
   statm >> pages >> resident;
   return resident * static_cast<std::size_t>(sysconf(_SC_PAGESIZE));
 }
-
-}  // namespace
 
 void KeepFreedMemoryForReuse() {
   mallopt(M_MMAP_MAX, 0);

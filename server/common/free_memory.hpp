@@ -19,6 +19,9 @@
 
 namespace strata::server {
 
+/// This process's resident memory [bytes] (/proc/self/statm).
+std::size_t ResidentBytes();
+
 /// Has glibc's malloc serve every block from its heaps (none gets a mapping of its own) and
 /// never shrink them by itself (mallopt M_MMAP_MAX 0, M_TRIM_THRESHOLD at its largest):
 /// what is freed stays for the next allocations until a FreeMemoryReturner gives it back.

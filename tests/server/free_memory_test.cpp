@@ -5,11 +5,9 @@
 #include "common/free_memory.hpp"
 
 #include <sys/resource.h>
-#include <unistd.h>
 
 #include <chrono>
 #include <cstddef>
-#include <fstream>
 #include <memory>
 #include <vector>
 
@@ -17,14 +15,6 @@
 
 namespace strata::server {
 namespace {
-
-// This process's resident memory [bytes].
-std::size_t ResidentBytes() {
-  std::ifstream statm("/proc/self/statm");
-  std::size_t pages = 0, resident = 0;
-  statm >> pages >> resident;
-  return resident * static_cast<std::size_t>(sysconf(_SC_PAGESIZE));
-}
 
 // Page faults this process took to map memory in (minor: no disk read).
 long MinorFaults() {
