@@ -61,6 +61,13 @@ std::string map_worker;
 // (versions let go of past it, as a server's --max-memory does); 0: none.
 std::uint64_t replica_budget = 0;
 
+// Shared by every replica's registry, as in a process of its own: the memory kept for the
+// next versions counts all their maps (free_memory.hpp).
+std::shared_ptr<FreeMemoryReturner> ProcessFreeMemory() {
+  static const auto returner = std::make_shared<FreeMemoryReturner>();
+  return returner;
+}
+
 RegistryOptions StoreOptions(const std::shared_ptr<MapStore>& store, std::uint64_t budget) {
   RegistryOptions options;
   if (!map_worker.empty()) {
@@ -71,6 +78,7 @@ RegistryOptions StoreOptions(const std::shared_ptr<MapStore>& store, std::uint64
   }
   options.store = store;
   options.memory_budget = std::make_shared<MemoryBudget>(budget);
+  options.free_memory = ProcessFreeMemory();
   options.encode_metadata = EncodeMapMetadata;
   options.decode_metadata = DecodeMapMetadata;
   options.load_limits.max_points = 200'000'000;

@@ -35,13 +35,21 @@ FreeMemoryReturner::~FreeMemoryReturner() {
   thread_.join();
 }
 
-void FreeMemoryReturner::Request(std::size_t room_bytes) {
+FreeMemoryReturner::Room::~Room() { returner_.Forget(this); }
+
+void FreeMemoryReturner::Room::Request(std::size_t next_bytes) {
+  returner_.Request(this, next_bytes);
+}
+
+void FreeMemoryReturner::Request(const Room* room, std::size_t next_bytes) {
   const std::size_t resident = ResidentBytes();
   const auto now = std::chrono::steady_clock::now();
   {
     std::lock_guard lock(mutex_);
+    if (room != nullptr && next_bytes > 0) rooms_[room] = next_bytes;
+    const std::size_t rooms = RoomBytesLocked();
     // Resident, not the allocator's free bytes: those count the pages already given back.
-    const bool over = room_bytes > 0 && resident > resident_after_return_ + 2 * room_bytes;
+    const bool over = rooms > 0 && resident > resident_after_return_ + 2 * rooms;
     // A return due now stays due now: a later request only postpones a quiet one.
     if (over) {
       due_ = now;
@@ -50,6 +58,22 @@ void FreeMemoryReturner::Request(std::size_t room_bytes) {
     }
   }
   changed_.notify_all();
+}
+
+void FreeMemoryReturner::Forget(const Room* room) {
+  std::lock_guard lock(mutex_);
+  rooms_.erase(room);
+}
+
+std::size_t FreeMemoryReturner::RoomBytes() const {
+  std::lock_guard lock(mutex_);
+  return RoomBytesLocked();
+}
+
+std::size_t FreeMemoryReturner::RoomBytesLocked() const {
+  std::size_t rooms = 0;
+  for (const auto& [room, bytes] : rooms_) rooms += bytes;
+  return rooms;
 }
 
 bool FreeMemoryReturner::WaitIdle(std::chrono::milliseconds limit) {

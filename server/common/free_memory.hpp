@@ -13,6 +13,7 @@
 #include <chrono>
 #include <condition_variable>
 #include <cstddef>
+#include <map>
 #include <mutex>
 #include <optional>
 #include <thread>
@@ -41,26 +42,50 @@ class FreeMemoryReturner {
   FreeMemoryReturner(const FreeMemoryReturner&) = delete;
   FreeMemoryReturner& operator=(const FreeMemoryReturner&) = delete;
 
-  /// Much memory was freed (a version let go, a map made or loaded): the allocator's free
-  /// memory goes back to the system (malloc_trim) on the returner's thread once no request
-  /// has come for the quiet period. `room_bytes` (0: no bound) is what the next allocations
-  /// of the kind will want (a map's version: its model and graphs): when the process holds
-  /// more than twice that beyond what it held after the last return, the free memory goes
-  /// back at once, so that memory stays bounded while versions keep coming (the heap's holes
-  /// do not all fit the next arrays). The caller does not wait.
-  void Request(std::size_t room_bytes = 0);
+  /// What one holder of map versions (a registry) will want for its next ones. The rooms of a
+  /// returner's holders add up: a process whose registries each hold a site (replicas side by
+  /// side in a benchmark) keeps room for each. The holder outlives its room.
+  class Room {
+   public:
+    explicit Room(FreeMemoryReturner& returner) : returner_(returner) {}
+    ~Room();
+    Room(const Room&) = delete;
+    Room& operator=(const Room&) = delete;
+
+    /// Much memory was freed (a version let go, a map made or loaded); `next_bytes` is what
+    /// this holder's next allocations of the kind will want (a map's version: its model and
+    /// graphs), 0: what it last said. See FreeMemoryReturner::Request.
+    void Request(std::size_t next_bytes = 0);
+
+   private:
+    FreeMemoryReturner& returner_;
+  };
+
+  /// Much memory was freed: the allocator's free memory goes back to the system (malloc_trim)
+  /// on the returner's thread once no request has come for the quiet period. When the process
+  /// holds more than twice its holders' rooms together beyond what it held after the last
+  /// return, the free memory goes back at once, so that memory stays bounded while versions
+  /// keep coming (the heap's holes do not all fit the next arrays). The caller does not wait.
+  void Request() { Request(nullptr, 0); }
+
+  /// The bytes kept free for the holders' next versions: their rooms together.
+  std::size_t RoomBytes() const;
 
   /// Whether no return is pending or running within `limit` (for tests).
   bool WaitIdle(std::chrono::milliseconds limit);
 
  private:
+  void Request(const Room* room, std::size_t next_bytes);
+  void Forget(const Room* room);
+  std::size_t RoomBytesLocked() const;
   void Run();
 
   const std::chrono::milliseconds quiet_;
-  std::mutex mutex_;
+  mutable std::mutex mutex_;
   std::condition_variable changed_;
   std::optional<std::chrono::steady_clock::time_point> due_;  // A return pending, from then.
   std::size_t resident_after_return_ = 0;                     // The process's resident bytes then.
+  std::map<const Room*, std::size_t> rooms_;                  // Each holder's last non-zero word.
   bool returning_ = false;
   bool stopping_ = false;
   std::thread thread_;  // Last: started once the rest is.

@@ -80,7 +80,7 @@ struct MapEditorOptions {
   /// True once the server shuts down: a job running stops.
   std::function<bool()> stopping;
   /// Asked to give freed memory back after each edit of the cloud (may be null).
-  FreeMemoryReturner* free_memory = nullptr;
+  FreeMemoryReturner::Room* free_memory = nullptr;
 };
 
 class MapEditor {

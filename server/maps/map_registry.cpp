@@ -64,7 +64,11 @@ struct MapRegistry::Entry {
 };
 
 MapRegistry::MapRegistry(RegistryOptions options, DoneListener on_done)
-    : options_(std::move(options)), on_done_(std::move(on_done)) {
+    : options_(std::move(options)),
+      on_done_(std::move(on_done)),
+      free_memory_(options_.free_memory ? options_.free_memory
+                                        : std::make_shared<FreeMemoryReturner>()),
+      free_memory_room_(*free_memory_) {
   options_.max_concurrent_assessments = std::max(1, options_.max_concurrent_assessments);
   options_.max_maps = std::max(1, options_.max_maps);
   if (!options_.loader) options_.loader = LoadMapSource;
@@ -90,7 +94,7 @@ MapRegistry::MapRegistry(RegistryOptions options, DoneListener on_done)
     stored.encode_metadata = options_.encode_metadata;
     stored.decode_metadata = options_.decode_metadata;
     stored.make_planning = make_planning;
-    stored.free_memory = &free_memory_;
+    stored.free_memory = &free_memory_room_;
     if (options_.memory_budget) {
       stored.allowance = [budget = options_.memory_budget.get()] { return budget->MapAllowance(); };
     }
@@ -112,7 +116,7 @@ MapRegistry::MapRegistry(RegistryOptions options, DoneListener on_done)
   editing.assessment_memory_bytes = options_.assessment_memory_bytes;
   editing.max_assessment_time_s = options_.max_assessment_time_s;
   editing.versions_kept = options_.versions_kept;
-  editing.free_memory = &free_memory_;
+  editing.free_memory = &free_memory_room_;
   editing.stopping = [this] {
     std::lock_guard lock(mutex_);
     return stopping_;
@@ -243,7 +247,7 @@ Result<MapSnapshot> MapRegistry::Create(const std::string& id, MapSource source,
   AssessmentQueue::Job job;
   job.run = [this, entry] {
     Assess(entry);
-    free_memory_.Request();  // Its scratch, gigabytes for a site.
+    free_memory_room_.Request();  // Its scratch, gigabytes for a site.
   };
   job.drop = [this, entry] {
     Finish(entry,

@@ -75,6 +75,10 @@ struct RegistryOptions {
   /// there, lets a store's maps go when room is needed, sets assessment_memory_bytes aside
   /// for each map being made or edited, and admits a map made only when it fits.
   std::shared_ptr<MemoryBudget> memory_budget;
+  /// Gives the memory versions freed back to the system (free_memory.hpp). One per process,
+  /// shared by its registries, so that what it keeps is bounded by all their maps; null: the
+  /// registry makes its own.
+  std::shared_ptr<FreeMemoryReturner> free_memory;
   /// Memory set aside in the budget for each map being made or edited [bytes]: the limit of
   /// the process that makes it (map_worker.hpp).
   std::uint64_t assessment_memory_bytes = 0;
@@ -207,9 +211,10 @@ class MapRegistry {
   // Writes graphs to the store (with one); declared before what holds planning maps, so that it
   // is destroyed after them.
   std::shared_ptr<JobThreads> graph_writer_;
-  // Asked by the editor and the published maps when versions are let go; declared before
-  // them, so that it outlives them.
-  FreeMemoryReturner free_memory_;
+  // Asked by the editor and the published maps when versions are let go (options_.free_memory
+  // or the registry's own); declared before them, so that it outlives them.
+  std::shared_ptr<FreeMemoryReturner> free_memory_;
+  FreeMemoryReturner::Room free_memory_room_;
   std::unique_ptr<PublishedMaps> published_;
 
   mutable std::mutex mutex_;

@@ -28,7 +28,7 @@ struct StoredMapsOptions {
   MapCache::Allowance allowance;
   /// Told after each load of a version (its scratch, and the versions it made the cache
   /// forget, are free): may be null.
-  FreeMemoryReturner* free_memory = nullptr;
+  FreeMemoryReturner::Room* free_memory = nullptr;
 };
 
 class StoredMaps final : public PublishedMaps {

@@ -79,13 +79,31 @@ TEST(FreeMemoryReturnerTest, GivesBackAtOnceOnlyWhatIsFreeBeyondTwiceTheRoom) {
   const std::size_t before = ResidentBytes();
   FreeMemoryReturner returner(std::chrono::hours(1));
 
-  returner.Request(std::size_t{1} << 30);  // Room for 1 GiB: the 160 MB free stay.
+  FreeMemoryReturner::Room room(returner);
+
+  room.Request(std::size_t{1} << 30);  // Room for 1 GiB: the 160 MB free stay.
   EXPECT_GT(ResidentBytes() + kBlocks * kBlock / 2, before);
 
-  returner.Request(8u << 20);  // Room for 8 MiB: far more is free.
+  room.Request(8u << 20);  // Room for 8 MiB: far more is free.
   ASSERT_TRUE(returner.WaitIdle(std::chrono::seconds(60)));
   const std::size_t after = ResidentBytes();
   EXPECT_GT(before, after + kBlocks * kBlock / 2) << "resident " << before << " -> " << after;
+}
+
+// Replicas side by side in one process (a benchmark's) each keep room for their next version:
+// the rooms add up while their holders live, and a holder's last word stands until it is gone.
+TEST(FreeMemoryReturnerTest, KeepsTheRoomsOfItsHoldersTogether) {
+  FreeMemoryReturner returner(std::chrono::hours(1));
+  FreeMemoryReturner::Room first(returner);
+  first.Request(100u << 20);
+  {
+    FreeMemoryReturner::Room second(returner);
+    second.Request(50u << 20);
+    EXPECT_EQ(returner.RoomBytes(), 150u << 20);
+    second.Request();  // No new figure: the last stands.
+    EXPECT_EQ(returner.RoomBytes(), 150u << 20);
+  }
+  EXPECT_EQ(returner.RoomBytes(), 100u << 20);
 }
 
 }  // namespace
