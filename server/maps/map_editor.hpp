@@ -53,7 +53,7 @@ struct MapUpdate {
   MapSnapshot map;
   EditFigures edit;    ///< How the model was made (zero for keep-out zones alone).
   double load_s = 0;   ///< Reading the base version's cloud and model for the edits [s].
-  double write_s = 0;  ///< Writing and publishing the version [s].
+  double write_s = 0;  ///< Writing and publishing the version once its graphs are made [s].
   /// Building the graphs of the robots that planned on the base version here, before the new
   /// one is published [s].
   double graphs_s = 0;

@@ -80,6 +80,11 @@ ServiceStatus MemoryMaps::PublishEdit(const std::string& /*base_version*/, const
   return MapStoreRequired(map.id);
 }
 
+ServiceStatus MemoryMaps::PutTerrain(const std::string& id, const std::string& /*terrain*/,
+                                     const CutTerrain& /*tiles*/, TileWrites* /*writes*/) {
+  return MapStoreRequired(id);
+}
+
 Result<std::string> MemoryMaps::TerrainOf(const std::string& id,
                                           const std::string& /*version*/) const {
   return MapStoreRequired(id);

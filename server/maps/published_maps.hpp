@@ -68,6 +68,12 @@ class PublishedMaps {
                                     std::shared_ptr<const PlanningMap> planning,
                                     const CutTerrain* tiles, TileWrites* writes) = 0;
 
+  /// Writes `terrain` of `id`, cut into `tiles`, before a version names it (PublishEdit does
+  /// when it is not there yet): an edit writes it while the version's graphs are made.
+  /// `writes` (may be null) gets what it cost; kMapStoreRequired where versions keep no clouds.
+  virtual ServiceStatus PutTerrain(const std::string& id, const std::string& terrain,
+                                   const CutTerrain& tiles, TileWrites* writes) = 0;
+
   /// The terrain `version` of `id` is made of (MapStore::TerrainOf), or empty when that is
   /// not known (a version a store of layout 1 wrote): an edit of its keep-out zones then
   /// passes the cloud on again. Fails as Get.

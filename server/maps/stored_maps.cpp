@@ -173,6 +173,11 @@ ServiceStatus StoredMaps::PublishEdit(const std::string& base_version, const Map
   });
 }
 
+ServiceStatus StoredMaps::PutTerrain(const std::string& id, const std::string& terrain,
+                                     const CutTerrain& tiles, TileWrites* writes) {
+  return options_.store->PutTerrain(id, terrain, tiles, writes);
+}
+
 Result<std::string> StoredMaps::TerrainOf(const std::string& id, const std::string& version) const {
   return options_.store->TerrainOfVersion(id, version);
 }

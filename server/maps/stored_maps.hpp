@@ -46,6 +46,8 @@ class StoredMaps final : public PublishedMaps {
   ServiceStatus PublishEdit(const std::string& base_version, const MapSnapshot& map,
                             const std::string& terrain, std::shared_ptr<const PlanningMap> planning,
                             const CutTerrain* tiles, TileWrites* writes) override;
+  ServiceStatus PutTerrain(const std::string& id, const std::string& terrain,
+                           const CutTerrain& tiles, TileWrites* writes) override;
   Result<std::string> TerrainOf(const std::string& id, const std::string& version) const override;
   ServiceStatus Delete(const std::string& id) override;
   bool KeepsClouds() const override { return true; }
