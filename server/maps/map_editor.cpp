@@ -29,9 +29,6 @@ constexpr auto kCancellationPollPeriod = std::chrono::milliseconds(50);
 // Most Update calls one batch makes into a version: their answers wait for all of it.
 constexpr std::size_t kMaxBatchUpdates = 64;
 
-// Most robots' graphs built for a new terrain before it is published (the most recently used
-// ones): each costs about a second on a 400 m site, and a map may hold one per inline profile.
-constexpr std::size_t kMaxGraphsBuiltAhead = 4;
 // Times an edit is published again on versions of keep-out zones alone that won the race.
 constexpr int kMaxRepublishes = 4;
 

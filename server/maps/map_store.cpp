@@ -1073,7 +1073,9 @@ ServiceError MapStore::TilesFailed(const std::string& id, const std::string& ver
 
 Result<std::shared_ptr<const TerrainModel>> MapStore::LoadModel(
     const std::string& id, const std::string& version,
-    const std::shared_ptr<const TerrainModel>& held, const std::string& held_version) const {
+    const std::shared_ptr<const TerrainModel>& held, const std::string& held_version,
+    std::optional<CellBox>* changed_from_held) const {
+  if (changed_from_held != nullptr) changed_from_held->reset();
   Result<std::optional<OpenedTiles>> tiles = OpenTiles(id, version);
   if (!tiles) return std::move(tiles).error();
   if (tiles->has_value()) {
@@ -1086,6 +1088,9 @@ Result<std::shared_ptr<const TerrainModel>> MapStore::LoadModel(
     Result<std::shared_ptr<const TerrainModel>> model =
         LoadTiledModel(**tiles, TiledName(id, version), {}, from ? &*from : nullptr);
     if (!model) return TilesFailed(id, version, std::move(model).error());
+    if (from && changed_from_held != nullptr) {  // Another grid: SurfaceGraph::Patch refuses.
+      *changed_from_held = ColumnsNotShared(model.value()->grid(), (*tiles)->list, from->list);
+    }
     return model;
   }
   Result<fs::path> path = VersionFile(id, version, kModelName);

@@ -233,11 +233,14 @@ class MapStore {
   /// checksum, another format version); kInvalidInput for a bad id or version name. With
   /// `held` (the model of `held_version` of the same map, which the caller holds; may be
   /// null), the tiles both versions list are taken from it: a replica reads only what an
-  /// edit changed.
+  /// edit changed. `changed_from_held` (may be null) is then set to the columns where the
+  /// model may differ from `held` (ColumnsNotShared), and left empty when the two versions'
+  /// tiles cannot be compared.
   Result<std::shared_ptr<const TerrainModel>> LoadModel(
       const std::string& id, const std::string& version,
       const std::shared_ptr<const TerrainModel>& held = nullptr,
-      const std::string& held_version = {}) const;
+      const std::string& held_version = {},
+      std::optional<CellBox>* changed_from_held = nullptr) const;
 
   /// The source cloud of a version; fails as LoadModel does.
   Result<PointCloud> LoadCloud(const std::string& id, const std::string& version) const;

@@ -221,6 +221,21 @@ Expected<std::string> ReadTileForJoin(const OpenedMapFile& dir, const std::strin
 
 }  // namespace
 
+std::optional<CellBox> ColumnsNotShared(const GridGeometry& geometry, const TerrainTiles& list,
+                                        const TerrainTiles& other) {
+  const std::size_t count = TileCount(geometry);
+  if (list.model.size() != count || other.model.size() != count) return std::nullopt;
+  CellBox changed;  // Empty.
+  for (std::size_t t = 0; t < count; ++t) {
+    if (list.model[t] == other.model[t]) continue;
+    const CellBox block = TileColumns(geometry, t);
+    changed = changed.empty()
+                  ? block
+                  : CellBox{changed.min.cwiseMin(block.min), changed.max.cwiseMax(block.max)};
+  }
+  return changed;
+}
+
 Result<std::shared_ptr<const TerrainModel>> LoadTiledModel(
     const OpenedTiles& tiles, const std::string& name,
     std::span<const std::pair<std::string, std::string>> given, const HeldTerrain* held) {

@@ -104,6 +104,12 @@ struct OpenedTiles {
   TerrainTiles list;
 };
 
+/// The columns where a model of tiles `list` may differ from one of `other` on the grid
+/// `geometry`: the blocks of the model tiles the two name differently, in one box (empty
+/// when they name the same); nullopt when either does not have the grid's count of tiles.
+std::optional<CellBox> ColumnsNotShared(const GridGeometry& geometry, const TerrainTiles& list,
+                                        const TerrainTiles& other);
+
 /// A model this process holds and the list of tiles it is made of.
 struct HeldTerrain {
   std::shared_ptr<const TerrainModel> model;

@@ -866,9 +866,28 @@ TEST_F(MapStoreTest, AnEditedTerrainWritesOnlyTheTilesItChanged) {
   ASSERT_FALSE(shared_tile.empty());
   fs::rename(tiles_dir / shared_tile, root_ / "aside");
   EXPECT_FALSE(store_->LoadModel("garage", next).ok());
-  const auto from_held = store_->LoadModel("garage", next, *model, first);
+  std::optional<CellBox> not_shared;
+  const auto from_held = store_->LoadModel("garage", next, *model, first, &not_shared);
   ASSERT_TRUE(from_held.ok()) << Why(from_held);
   EXPECT_TRUE(SerializeModel(**from_held) == SerializeModel(*reassessed->model));
+  // Where the two may differ: the blocks of the tiles they do not share, which hold every
+  // column the edit reassessed and not the whole garage. The base's graph patched there is
+  // the one a build of the edited model makes (the replica's graph, made ahead).
+  ASSERT_TRUE(not_shared.has_value());
+  const CellBox& reassessed_columns = reassessed->changed_columns;
+  EXPECT_TRUE(
+      (not_shared->min.head<2>().array() <= reassessed_columns.min.head<2>().array()).all());
+  EXPECT_TRUE(
+      (not_shared->max.head<2>().array() >= reassessed_columns.max.head<2>().array()).all());
+  EXPECT_LT(not_shared->CellCount(), CellBox::Whole((*model)->grid()).CellCount() / 2);
+  const TraversabilityParams params;
+  const SurfaceGraph base_graph = SurfaceGraph::Build(**model, params).value();
+  const SurfaceGraph patched = SurfaceGraph::Patch(base_graph, **from_held, *not_shared).value();
+  const SurfaceGraph built = SurfaceGraph::Build(**from_held, params).value();
+  EXPECT_EQ(patched.node_count(), built.node_count());
+  EXPECT_EQ(patched.component_count(), built.component_count());
+  EXPECT_TRUE(std::ranges::equal(patched.components(), built.components()));
+  EXPECT_TRUE(std::ranges::equal(patched.edge_distances(), built.edge_distances()));
   fs::rename(root_ / "aside", tiles_dir / shared_tile);
   ASSERT_TRUE(store_->PublishUpdate("garage", first, next, 1).ok());
   store_->WaitForRemovals();

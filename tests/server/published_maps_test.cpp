@@ -240,6 +240,37 @@ TEST_P(PublishedMapsTest, AReplicaFollowingEditsHoldsTheHeadItLoaded) {
   EXPECT_EQ(follower.HeldCount(), 2);
 }
 
+// A replica that planned on a version, loading the next one another replica made, patches its
+// robots' graphs from the version it holds before any plan asks (the store may not hold them
+// yet: the other replica writes them after publishing), and they are the new model's.
+TEST_P(PublishedMapsTest, AReplicaLoadingTheNextVersionHasItsRobotsGraphsMadeAhead) {
+  if (!GetParam()) GTEST_SKIP() << "only a store's maps have versions made elsewhere";
+  ASSERT_TRUE(Publish("floor", kV1, 0).ok());
+  StoredMaps follower(Options());
+  const TraversabilityParams params = RobotProfile{}.Traversability();
+  const ActiveMap first = follower.Get("floor", "").value();
+  ASSERT_TRUE(first.map->Graph(params).ok());
+
+  PointCloud cloud;  // The floor, with a gap that splits it in two.
+  for (int i = 0; i < 60; ++i) {
+    for (int j = 0; j < 60; ++j) {
+      if (i < 28 || i > 32) cloud.emplace_back(0.05f * i, 0.05f * j, 0.0f);
+    }
+  }
+  const auto split = std::make_shared<PlanningMap>(
+      TerrainModel::Assess(cloud, first.map->model().config()).value(), std::vector<Prism>{}, 0);
+  ASSERT_EQ(split->model().grid().size, first.map->model().grid().size);
+  MapSnapshot next = published_->Describe("floor").value();
+  next.version = kV2;
+  const CutTerrain tiles = CutIntoTiles(split->model(), cloud);
+  ASSERT_TRUE(published_->PublishEdit(kV1, next, kV2, split, &tiles, nullptr).ok());
+
+  const ActiveMap loaded = follower.Get("floor", "").value();
+  ASSERT_EQ(loaded.version, kV2);
+  EXPECT_THAT(loaded.map->BuiltGraphParams(), ElementsAre(params));
+  EXPECT_EQ(loaded.map->Graph(params).value()->component_count(), 2);
+}
+
 INSTANTIATE_TEST_SUITE_P(MemoryAndStore, PublishedMapsTest, ::testing::Bool(),
                          [](const ::testing::TestParamInfo<bool>& info) {
                            return info.param ? "StoredMaps" : "MemoryMaps";

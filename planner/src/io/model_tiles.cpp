@@ -312,6 +312,11 @@ std::vector<std::size_t> TilesTouching(const GridGeometry& geometry, const CellB
   return tiles;
 }
 
+CellBox TileColumns(const GridGeometry& geometry, std::size_t tile) {
+  const Block block = BlockOf(geometry, tile);
+  return {{block.x0, block.y0, 0}, {block.x1 - 1, block.y1 - 1, geometry.size.z() - 1}};
+}
+
 TiledModel CutModelTiles(const TerrainModel& model, std::span<const std::size_t> which) {
   TiledModel tiled;
   binary_file::Sink sink(&tiled.header);

@@ -55,6 +55,10 @@ TiledModel CutModel(const TerrainModel& model);
 /// grid `geometry`.
 std::vector<std::size_t> TilesTouching(const GridGeometry& geometry, const CellBox& columns);
 
+/// The columns of tile `tile` (below TileCount) on the grid `geometry`: its block, over the
+/// grid's whole height.
+CellBox TileColumns(const GridGeometry& geometry, std::size_t tile);
+
 /// CutModel's header, and of its tiles only those numbered `which` (ascending, each below
 /// TileCount), in that order: what an edit that changed only their blocks must write anew.
 TiledModel CutModelTiles(const TerrainModel& model, std::span<const std::size_t> which);
