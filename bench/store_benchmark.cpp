@@ -203,10 +203,7 @@ PlanRequest ShortPlan(const std::pair<Eigen::Vector3d, Eigen::Vector3d>& query) 
   return request;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  strata::server::KeepFreedMemoryForReuse();  // As strata-server does.
+int Measure(int argc, char** argv) {
   CLI::App app{"Map-store figures: load on demand against assessing, edits, memory budget."};
   std::string map;
   double resolution_m = 0;
@@ -657,4 +654,15 @@ int main(int argc, char** argv) {
   }
   std::filesystem::remove_all(root);
   return 0;
+}
+}  // namespace
+
+int main(int argc, char** argv) {
+  strata::server::RunWithHugePagesForLargeBlocks(argv);  // As strata-server does.
+  strata::server::KeepFreedMemoryForReuse();
+  // On a thread of its own, as a server's calls are: glibc serves the main thread's malloc
+  // from an arena of its own, which behaves unlike the others (free_memory.hpp).
+  int code = 0;
+  std::thread([&] { code = Measure(argc, argv); }).join();
+  return code;
 }

@@ -3,8 +3,14 @@
 #include <malloc.h>
 #include <unistd.h>
 
+#include <cerrno>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <limits>
+#include <string>
+#include <string_view>
 
 #include "common/log.hpp"
 #include "strata/common/seconds_since.hpp"
@@ -16,6 +22,19 @@ std::size_t ResidentBytes() {
   std::size_t pages = 0, resident = 0;
   statm >> pages >> resident;
   return resident * static_cast<std::size_t>(sysconf(_SC_PAGESIZE));
+}
+
+void RunWithHugePagesForLargeBlocks(char** argv) {
+  constexpr std::string_view kTunable = "glibc.malloc.hugetlb";
+  const char* set = std::getenv("GLIBC_TUNABLES");
+  const std::string tunables = set != nullptr ? set : "";
+  if (tunables.find(kTunable) != std::string::npos) return;
+  const std::string with = (tunables.empty() ? "" : tunables + ":") + std::string(kTunable) + "=1";
+  if (setenv("GLIBC_TUNABLES", with.c_str(), 1) != 0) return;
+  execv("/proc/self/exe", argv);
+  // Still here: runs on without them (and a child it starts inherits the tunable).
+  std::fprintf(stderr, "could not run again with %s=1 (%s): large blocks get small pages\n",
+               kTunable.data(), std::strerror(errno));
 }
 
 void KeepFreedMemoryForReuse() {

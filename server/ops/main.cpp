@@ -25,7 +25,9 @@ using strata::server::LogWarning;
 }  // namespace
 
 int main(int argc, char** argv) {
-  // Each new version of a map reuses the pages the last one freed (common/free_memory.hpp).
+  // Each new version of a map reuses the pages the last one freed, or faults its pages in
+  // 2 MB at a time (common/free_memory.hpp).
+  strata::server::RunWithHugePagesForLargeBlocks(argv);
   strata::server::KeepFreedMemoryForReuse();
   // SIGTERM and SIGINT are blocked in every thread (threads inherit the mask) and taken
   // synchronously by one thread below, so shutdown runs as ordinary code, not in a handler.
