@@ -55,15 +55,11 @@ RUN if ldd /usr/local/bin/* | grep 'not found'; then exit 1; fi \
 # Configuration through strata-server's environment variables (server/README.md); a flag
 # given as a command argument overrides its variable. Change the port through STRATA_LISTEN,
 # not --listen: the health probe reads STRATA_LISTEN to find the server.
-# GLIBC_TUNABLES: glibc's allocator backs large blocks with transparent huge pages, so a map
-# read from the store faults in far fewer pages (a 400 m site loaded in 0.37-0.43 s, not
-# 0.54-0.61 s; docs/benchmarks.md, "Map store"); the map workers get it by default.
 ENV STRATA_LISTEN=0.0.0.0:50051 \
     STRATA_METRICS_PORT=9090 \
     STRATA_METRICS_ADDRESS=0.0.0.0 \
     STRATA_HTTP_PORT=8080 \
-    STRATA_MAP_ROOT=/maps \
-    GLIBC_TUNABLES=glibc.malloc.hugetlb=1
+    STRATA_MAP_ROOT=/maps
 # Map files (PCD, PLY, OctoMap) under the map root; the server only reads them.
 VOLUME ["/maps"]
 # gRPC, Prometheus /metrics, the web viewer.
