@@ -68,7 +68,7 @@ void FreeMemoryReturner::Request(const Room* room, std::size_t next_bytes) {
     if (room != nullptr && next_bytes > 0) rooms_[room] = next_bytes;
     const std::size_t rooms = RoomBytesLocked();
     // Resident, not the allocator's free bytes: those count the pages already given back.
-    const bool over = rooms > 0 && resident > resident_after_return_ + 2 * rooms;
+    const bool over = rooms > 0 && resident > resident_after_return_ + rooms;
     // A return due now stays due now: a later request only postpones a quiet one.
     if (over) {
       due_ = now;

@@ -78,7 +78,7 @@ class FreeMemoryReturner {
 
   /// Much memory was freed: the allocator's free memory goes back to the system (malloc_trim)
   /// on the returner's thread once no request has come for the quiet period. When the process
-  /// holds more than twice its holders' rooms together beyond what it held after the last
+  /// holds more than its holders' rooms together beyond what it held after the last
   /// return, the free memory goes back at once, so that memory stays bounded while versions
   /// keep coming (the heap's holes do not all fit the next arrays). The caller does not wait.
   void Request() { Request(nullptr, 0); }
