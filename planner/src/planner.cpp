@@ -342,6 +342,20 @@ Expected<std::shared_ptr<const SurfaceGraph>> PlanningMap::GraphPatchedFrom(
   });
 }
 
+std::size_t PlanningMap::MakeGraphsAhead(const PlanningMap& base, const CellBox* changed_columns,
+                                         std::size_t max_graphs,
+                                         const std::function<bool()>& should_stop) const {
+  std::vector<TraversabilityParams> robots = base.BuiltGraphParams();
+  if (robots.size() > max_graphs) robots.resize(max_graphs);
+  for (const TraversabilityParams& params : robots) {
+    if (should_stop && should_stop()) break;
+    (void)(changed_columns != nullptr
+               ? GraphPatchedFrom(base, *changed_columns, params, should_stop)
+               : Graph(params, should_stop));
+  }
+  return robots.size();
+}
+
 std::shared_ptr<const SurfaceGraph> PlanningMap::BuiltGraph(
     const TraversabilityParams& params) const {
   std::lock_guard lock(mutex_);

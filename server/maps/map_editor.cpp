@@ -350,22 +350,17 @@ Result<MapUpdate> MapEditor::UpdateOnce(const MapEditRequest& request, const Cal
   double graphs_s = 0;
   const std::shared_ptr<const PlanningMap> base =
       base_planning ? nullptr : published.Held(id, current);
-  std::vector<TraversabilityParams> robots;
-  if (base) robots = base->BuiltGraphParams();
-  if (robots.size() > kMaxGraphsBuiltAhead) robots.resize(kMaxGraphsBuiltAhead);
-  if (!robots.empty()) {
+  if (base) {
     const auto graphs_start = SteadyClock::now();
     const auto ended = [&call] { return Ended(call); };  // Polled every grid row: no message.
     // Outside the columns an edit reassessed locally the model is the base's: the base's
     // graphs are patched there (a tenth of a build's time on a site).
     const bool local = built.edit && !built.edit->full_reassessment;
-    for (const TraversabilityParams& params : robots) {
-      // A failure is the first plan's to report (it builds the graph again).
-      (void)(local ? planning->GraphPatchedFrom(*base, built.edit->changed_columns, params, ended)
-                   : planning->Graph(params, ended));
+    if (planning->MakeGraphsAhead(*base, local ? &built.edit->changed_columns : nullptr,
+                                  kMaxGraphsBuiltAhead, ended) > 0) {
+      graphs_s = SecondsSince(graphs_start);
+      if (std::optional<ServiceError> ended_now = CallEnded(call, id, current)) return *ended_now;
     }
-    graphs_s = SecondsSince(graphs_start);
-    if (std::optional<ServiceError> ended_now = CallEnded(call, id, current)) return *ended_now;
   }
   const auto write_start = SteadyClock::now();
   if (terrain_put.valid()) {

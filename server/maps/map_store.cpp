@@ -1085,12 +1085,9 @@ Result<std::shared_ptr<const TerrainModel>> MapStore::LoadModel(
       Result<std::optional<TerrainTiles>> list = TilesOfVersion(id, held_version);
       if (list && list->has_value()) from = HeldTerrain{held, std::move(**list)};
     }
-    Result<std::shared_ptr<const TerrainModel>> model =
-        LoadTiledModel(**tiles, TiledName(id, version), {}, from ? &*from : nullptr);
+    Result<std::shared_ptr<const TerrainModel>> model = LoadTiledModel(
+        **tiles, TiledName(id, version), {}, from ? &*from : nullptr, changed_from_held);
     if (!model) return TilesFailed(id, version, std::move(model).error());
-    if (from && changed_from_held != nullptr) {  // Another grid: SurfaceGraph::Patch refuses.
-      *changed_from_held = ColumnsNotShared(model.value()->grid(), (*tiles)->list, from->list);
-    }
     return model;
   }
   Result<fs::path> path = VersionFile(id, version, kModelName);

@@ -234,7 +234,7 @@ class MapStore {
   /// `held` (the model of `held_version` of the same map, which the caller holds; may be
   /// null), the tiles both versions list are taken from it: a replica reads only what an
   /// edit changed. `changed_from_held` (may be null) is then set to the columns where the
-  /// model may differ from `held` (ColumnsNotShared), and left empty when the two versions'
+  /// model may differ from `held` (LoadTiledModel), and left empty when the two versions'
   /// tiles cannot be compared.
   Result<std::shared_ptr<const TerrainModel>> LoadModel(
       const std::string& id, const std::string& version,

@@ -61,14 +61,7 @@ Result<ActiveMap> StoredMaps::Get(const std::string& id, const std::string& vers
         // The robots that planned on the other version get their graphs patched from its
         // (where the store holds none yet: the editing replica writes them after publishing),
         // not built: a tenth of the time on a site, as the editor does.
-        if (changed) {
-          std::vector<TraversabilityParams> robots = other->BuiltGraphParams();
-          if (robots.size() > kMaxGraphsBuiltAhead) robots.resize(kMaxGraphsBuiltAhead);
-          for (const TraversabilityParams& params : robots) {
-            // A failure is the first plan's to report (it builds the graph again).
-            (void)planning->GraphPatchedFrom(*other, *changed, params);
-          }
-        }
+        if (changed) planning->MakeGraphsAhead(*other, &*changed, kMaxGraphsBuiltAhead);
         return planning;
       });
   if (loaded) {

@@ -221,24 +221,11 @@ Expected<std::string> ReadTileForJoin(const OpenedMapFile& dir, const std::strin
 
 }  // namespace
 
-std::optional<CellBox> ColumnsNotShared(const GridGeometry& geometry, const TerrainTiles& list,
-                                        const TerrainTiles& other) {
-  const std::size_t count = TileCount(geometry);
-  if (list.model.size() != count || other.model.size() != count) return std::nullopt;
-  CellBox changed;  // Empty.
-  for (std::size_t t = 0; t < count; ++t) {
-    if (list.model[t] == other.model[t]) continue;
-    const CellBox block = TileColumns(geometry, t);
-    changed = changed.empty()
-                  ? block
-                  : CellBox{changed.min.cwiseMin(block.min), changed.max.cwiseMax(block.max)};
-  }
-  return changed;
-}
-
 Result<std::shared_ptr<const TerrainModel>> LoadTiledModel(
     const OpenedTiles& tiles, const std::string& name,
-    std::span<const std::pair<std::string, std::string>> given, const HeldTerrain* held) {
+    std::span<const std::pair<std::string, std::string>> given, const HeldTerrain* held,
+    std::optional<CellBox>* changed_from_held) {
+  if (changed_from_held != nullptr) changed_from_held->reset();
   std::unordered_map<std::string_view, const std::string*> given_by_name;
   for (const auto& [tile, bytes] : given) given_by_name.emplace(tile, &bytes);
   const auto given_bytes = [&](const std::string& tile) -> const std::string* {
@@ -264,18 +251,30 @@ Result<std::shared_ptr<const TerrainModel>> LoadTiledModel(
     tile_bytes += StoredTileBytes(*tiles.dir, tile);
   }
   // A tile of the same name holds the same bytes (names are the contents' hashes).
+  const auto shared = [&](std::size_t t) { return held->list.model[t] == tiles.list.model[t]; };
   std::optional<HeldTiles> from_held;
   if (held != nullptr && held->model != nullptr &&
       held->list.model.size() == tiles.list.model.size()) {
-    from_held = HeldTiles{held->model.get(), [&](std::size_t t) {
-                            return held->list.model[t] == tiles.list.model[t];
-                          }};
+    from_held = HeldTiles{held->model.get(), shared};
   }
   Expected<std::shared_ptr<const TerrainModel>> model =
       JoinModel(*header, tiles.list.model.size(), tile_bytes, source, name,
                 from_held ? &*from_held : nullptr);
   if (read_error) return *read_error;
   if (!model) return Corrupted(model.error());
+  // The join checked the count of tiles against the grid. (A held model of another grid is
+  // not used by the join, and SurfaceGraph::Patch refuses it: the graph is built.)
+  if (from_held && changed_from_held != nullptr) {
+    CellBox changed;  // Empty.
+    for (std::size_t t = 0; t < tiles.list.model.size(); ++t) {
+      if (shared(t)) continue;
+      const CellBox block = TileColumns((*model)->grid(), t);
+      changed = changed.empty()
+                    ? block
+                    : CellBox{changed.min.cwiseMin(block.min), changed.max.cwiseMax(block.max)};
+    }
+    *changed_from_held = changed;
+  }
   return std::move(model).value();
 }
 

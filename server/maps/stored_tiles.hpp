@@ -104,12 +104,6 @@ struct OpenedTiles {
   TerrainTiles list;
 };
 
-/// The columns where a model of tiles `list` may differ from one of `other` on the grid
-/// `geometry`: the blocks of the model tiles the two name differently, in one box (empty
-/// when they name the same); nullopt when either does not have the grid's count of tiles.
-std::optional<CellBox> ColumnsNotShared(const GridGeometry& geometry, const TerrainTiles& list,
-                                        const TerrainTiles& other);
-
 /// A model this process holds and the list of tiles it is made of.
 struct HeldTerrain {
   std::shared_ptr<const TerrainModel> model;
@@ -120,11 +114,13 @@ struct HeldTerrain {
 /// it. The tiles of `given` (a map worker's cut: the tiles an edit changed, with their names)
 /// are taken from there, those `held` (may be null) lists at the same place (another version
 /// of the map, held here) from its model, and the others read from the directory. Fails as
-/// ReadTiles does, and kMapCorrupted as JoinModel refuses.
+/// ReadTiles does, and kMapCorrupted as JoinModel refuses. `changed_from_held` (may be null):
+/// set, when the held model was used, to the columns where the two may differ (the blocks of
+/// the tiles not taken from it, in one box; empty when all were), else left empty.
 Result<std::shared_ptr<const TerrainModel>> LoadTiledModel(
     const OpenedTiles& tiles, const std::string& name,
     std::span<const std::pair<std::string, std::string>> given = {},
-    const HeldTerrain* held = nullptr);
+    const HeldTerrain* held = nullptr, std::optional<CellBox>* changed_from_held = nullptr);
 /// The cloud of `tiles`, in the order of its tiles (kEditNeedsCloud when it keeps none); fails
 /// as LoadTiledModel does.
 Result<PointCloud> LoadTiledCloud(const OpenedTiles& tiles, const std::string& name);

@@ -69,6 +69,14 @@ class PlanningMap {
   Expected<std::shared_ptr<const SurfaceGraph>> GraphPatchedFrom(
       const PlanningMap& base, const CellBox& changed_columns, const TraversabilityParams& params,
       const std::function<bool()>& should_stop = {}) const;
+  /// Makes here, ahead of any plan, the graphs of the robots that planned on `base` (its
+  /// BuiltGraphParams, the `max_graphs` most recently used): patched from base's
+  /// (GraphPatchedFrom) when `changed_columns` says where the models differ, built when it is
+  /// null (they may differ anywhere). A failure is left to the first plan, which makes the
+  /// graph again. Returns how many graphs were asked for; stops early as Graph does.
+  std::size_t MakeGraphsAhead(const PlanningMap& base, const CellBox* changed_columns,
+                              std::size_t max_graphs,
+                              const std::function<bool()>& should_stop = {}) const;
   /// Bytes held by the model and the graphs kept.
   std::size_t MemoryBytes() const;
   /// Graphs kept (built, or being built).
