@@ -140,8 +140,13 @@ class Browser:
             box = self.driver.find_element("id", field)
             box.clear()
             box.send_keys(value)
+        # The last plan's result is marked first: editing start or goal redraws the map without
+        # its trajectory but leaves its figures, which a wait returning before the click is
+        # handled took for this plan's (0 trajectory segments, once in a fresh CI run).
+        self.driver.execute_script(
+            "for (const e of document.querySelectorAll('#plan-figures, #plan-error')) e.dataset.stale = '1';")
         self.driver.find_element("id", "plan").click()
-        self.wait("document.getElementById('plan-figures') || document.getElementById('plan-error')",
+        self.wait("document.querySelector('#plan-figures:not([data-stale]), #plan-error:not([data-stale])')",
                   120, "the plan's result")
 
     def quit(self):
