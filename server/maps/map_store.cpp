@@ -24,6 +24,7 @@
 #include <sstream>
 #include <system_error>
 #include <type_traits>
+#include <unordered_set>
 #include <utility>
 
 #include <fmt/format.h>
@@ -42,6 +43,7 @@ namespace fs = std::filesystem;
 using store_files::ErrnoText;
 using store_files::Fd;
 using store_files::ReadFileIfExists;
+using store_files::RemoveAllInSlices;
 using store_files::RenameDurably;
 using store_files::Sync;
 using store_files::Unavailable;
@@ -493,18 +495,46 @@ void MapStore::ScheduleTileCollection(const std::string& id) const {
   discarded_changed_.notify_one();
 }
 
+class MapStore::WriteScope {
+ public:
+  explicit WriteScope(const MapStore& store) : store_(store) {
+    const std::lock_guard lock(store_.discarded_mutex_);
+    ++store_.writing_;
+  }
+  ~WriteScope() {
+    {
+      const std::lock_guard lock(store_.discarded_mutex_);
+      --store_.writing_;
+    }
+    store_.discarded_changed_.notify_all();
+  }
+  WriteScope(const WriteScope&) = delete;
+  WriteScope& operator=(const WriteScope&) = delete;
+
+ private:
+  const MapStore& store_;
+};
+
+void MapStore::WaitForNoWrites(std::unique_lock<std::mutex>& lock) const {
+  discarded_changed_.wait(lock, [&] { return closing_ || writing_ == 0; });
+}
+
 void MapStore::RemoveDiscarded() const {
   std::unique_lock lock(discarded_mutex_);
   while (true) {
-    discarded_changed_.wait(
-        lock, [&] { return closing_ || !discarded_.empty() || !tiles_to_collect_.empty(); });
+    discarded_changed_.wait(lock, [&] {
+      return closing_ || (writing_ == 0 && (!discarded_.empty() || !tiles_to_collect_.empty()));
+    });
     if (!discarded_.empty()) {
       const fs::path trash = std::move(discarded_.front());
       discarded_.pop_front();
       removing_ = true;
       lock.unlock();
-      std::error_code ignored;  // Left in trash/ for CollectGarbage (e.g. NFS files still open).
-      fs::remove_all(trash, ignored);
+      // Left in trash/ for CollectGarbage (e.g. NFS files still open).
+      RemoveAllInSlices(trash, [this] {
+        std::unique_lock between(discarded_mutex_);
+        WaitForNoWrites(between);
+      });
     } else if (!tiles_to_collect_.empty()) {
       const std::string id = *tiles_to_collect_.begin();
       tiles_to_collect_.erase(tiles_to_collect_.begin());
@@ -582,6 +612,7 @@ ServiceStatus PutDirectory(const fs::path& tmp_dir, std::string_view kind, const
 
 ServiceStatus MapStore::PutTerrain(const std::string& id, const std::string& terrain,
                                    const CutTerrain& cut, TileWrites* writes) {
+  const WriteScope writing(*this);
   if (ServiceStatus ok = CheckId(id); !ok) return ok;
   if (ServiceStatus ok = CheckTerrain(terrain); !ok) return ok;
   TileWrites ignored_writes;
@@ -704,6 +735,7 @@ Result<std::optional<SurfaceGraph>> MapStore::LoadGraph(const std::string& id,
 
 ServiceStatus MapStore::PutVersion(const std::string& id, const std::string& version,
                                    const std::string& terrain, const std::string& metadata) {
+  const WriteScope writing(*this);
   if (ServiceStatus ok = CheckId(id); !ok) return ok;
   if (ServiceStatus ok = CheckVersion(version); !ok) return ok;
   if (ServiceStatus ok = CheckTerrain(terrain); !ok) return ok;
@@ -724,6 +756,7 @@ ServiceStatus MapStore::PutVersion(const std::string& id, const std::string& ver
 }
 
 ServiceStatus MapStore::PublishNew(const std::string& id, const std::string& version) {
+  const WriteScope writing(*this);
   if (ServiceStatus ok = CheckId(id); !ok) return ok;
   if (ServiceStatus ok = CheckVersion(version); !ok) return ok;
   if (shared_heads_) return PublishNewShared(id, version);
@@ -761,6 +794,7 @@ ServiceStatus MapStore::PublishNewShared(const std::string& id, const std::strin
 
 ServiceStatus MapStore::PublishUpdate(const std::string& id, const std::string& expected_current,
                                       const std::string& version, int keep_versions) {
+  const WriteScope writing(*this);
   if (ServiceStatus ok = CheckId(id); !ok) return ok;
   if (ServiceStatus ok = CheckVersion(expected_current); !ok) return ok;
   if (ServiceStatus ok = CheckVersion(version); !ok) return ok;
@@ -983,37 +1017,68 @@ Result<std::optional<TerrainTiles>> ReadTileList(const fs::path& dir) {
   return std::optional<TerrainTiles>(std::move(tiles).value());
 }
 
-}  // namespace
+// The terrains of a map in place, each by its directory's name and inode (one put again after
+// a removal is another directory), and the tiles they list.
+struct ListedTiles {
+  std::map<std::string, ino_t> terrains;
+  std::unordered_set<std::string> names;
+};
 
-int MapStore::CollectTilesLocked(const std::string& id) const {
-  const fs::path tiles_dir = MapDir(id) / kTilesName;
+// The tiles the terrains of `map_dir` list, leaving out those in `known` (may be null; read
+// before, unchanged since); nullopt when a list cannot be read (it might list anything).
+std::optional<ListedTiles> ReadListedTiles(const fs::path& map_dir,
+                                           const std::map<std::string, ino_t>* known) {
+  ListedTiles listed;
   std::error_code ec;
-  if (!fs::is_directory(tiles_dir, ec)) return 0;
-  // Every terrain in place counts, named by a version or not yet: a writer renames its
-  // terrain in under this lock, after checking its tiles are there.
-  std::set<std::string> listed;
-  for (fs::directory_iterator it(MapDir(id) / kTerrainsName, ec), end; !ec && it != end;
+  for (fs::directory_iterator it(map_dir / kTerrainsName, ec), end; !ec && it != end;
        it.increment(ec)) {
+    struct stat status {};
+    if (::stat(it->path().c_str(), &status) != 0) continue;  // Removed meanwhile.
+    const std::string name = it->path().filename().string();
+    listed.terrains.emplace(name, status.st_ino);
+    if (known != nullptr) {
+      const auto was = known->find(name);
+      if (was != known->end() && was->second == status.st_ino) continue;
+    }
     Result<std::optional<TerrainTiles>> tiles = ReadTileList(it->path());
-    if (!tiles) return 0;  // An unreadable list might list anything: keep every tile.
+    if (!tiles) return std::nullopt;
     if (!tiles->has_value()) continue;
-    for (std::string& name : (*tiles)->Names()) listed.insert(std::move(name));
+    for (std::string& tile : (*tiles)->Names()) listed.names.insert(std::move(tile));
   }
-  if (ec && ec != std::errc::no_such_file_or_directory) return 0;
-  int removed = 0;
-  for (fs::directory_iterator it(tiles_dir, ec), end; !ec && it != end; it.increment(ec)) {
-    if (listed.contains(it->path().filename().string())) continue;
-    std::error_code ignored;
-    removed += fs::remove(it->path(), ignored) ? 1 : 0;
-  }
-  return removed;
+  if (ec && ec != std::errc::no_such_file_or_directory) return std::nullopt;
+  return listed;
 }
 
+}  // namespace
+
 int MapStore::CollectTiles(const std::string& id) const {
+  const fs::path map_dir = MapDir(id);
+  const fs::path tiles_dir = map_dir / kTilesName;
   std::error_code ec;
-  if (!fs::is_directory(MapDir(id) / kTilesName, ec)) return 0;  // Not locked for nothing.
-  Result<MapLock> lock = MapLock::Acquire(MapDir(id), id, /*create=*/false);
-  return lock ? CollectTilesLocked(id) : 0;
+  if (!fs::is_directory(tiles_dir, ec)) return 0;  // Not locked for nothing.
+  // Found without the map's lock, which every publish of the map waits for: the tiles no
+  // terrain in place lists (reading every list takes tens of milliseconds on a site).
+  std::optional<ListedTiles> listed = ReadListedTiles(map_dir, nullptr);
+  if (!listed) return 0;
+  std::vector<fs::path> unlisted;
+  for (fs::directory_iterator it(tiles_dir, ec), end; !ec && it != end; it.increment(ec)) {
+    if (!listed->names.contains(it->path().filename().string())) unlisted.push_back(it->path());
+  }
+  if (unlisted.empty()) return 0;
+  // Under the lock, in which a writer checks its tiles are there and renames its terrain in:
+  // only the terrains put since are read. (The others' lists cannot have changed: a terrain is
+  // named by its contents, and one put again is another directory.)
+  Result<MapLock> lock = MapLock::Acquire(map_dir, id, /*create=*/false);
+  if (!lock) return 0;
+  std::optional<ListedTiles> since = ReadListedTiles(map_dir, &listed->terrains);
+  if (!since) return 0;
+  int removed = 0;
+  for (const fs::path& tile : unlisted) {
+    if (since->names.contains(tile.filename().string())) continue;
+    std::error_code ignored;
+    removed += fs::remove(tile, ignored) ? 1 : 0;
+  }
+  return removed;
 }
 
 Result<std::optional<TerrainTiles>> MapStore::TilesOfVersion(const std::string& id,

@@ -322,10 +322,9 @@ class MapStore {
   /// meanwhile, kMapCorrupted when it is still kept.
   ServiceError TilesFailed(const std::string& id, const std::string& version,
                            ServiceError error) const;
-  /// Removes the tiles of `id` that no terrain lists; the caller holds the map's lock. Returns
-  /// how many it removed.
-  int CollectTilesLocked(const std::string& id) const;
-  /// CollectTilesLocked under the map's lock, when the map is still there.
+  /// Removes the tiles of `id` that no terrain lists, when the map is still there, taking the
+  /// map's lock only to check the terrains put meanwhile and remove. Returns how many it
+  /// removed.
   int CollectTiles(const std::string& id) const;
   /// Has the remover collect the tiles of `id` (after a terrain of it was discarded).
   void ScheduleTileCollection(const std::string& id) const;
@@ -346,6 +345,11 @@ class MapStore {
   // hundreds of megabytes takes a tenth of a second, which a publish (a keep-out zone's in
   // milliseconds) should not wait for.
   void RemoveDiscarded() const;
+  /// Waits, with discarded_mutex_ held by `lock`, until no WriteScope is open (or the store
+  /// closes).
+  void WaitForNoWrites(std::unique_lock<std::mutex>& lock) const;
+  // Open while a terrain, a version or a head is written: the remover waits for none to be.
+  class WriteScope;
 
   std::filesystem::path root_;
   std::shared_ptr<MapHeads> shared_heads_;  // Null: heads are files under root_.
@@ -356,7 +360,10 @@ class MapStore {
   mutable std::deque<std::filesystem::path> discarded_;
   mutable std::set<std::string> tiles_to_collect_;  // Map ids, for the remover.
   mutable bool removing_ = false;                   // The remover holds one taken from discarded_.
-  bool closing_ = false;                            // Guarded by discarded_mutex_.
+  // Writes in flight (WriteScope), which the remover lets pass: an unlink's journal work
+  // beside them made a keep-out zone's fsyncs wait 20-60 ms on a site.
+  mutable int writing_ = 0;
+  bool closing_ = false;  // Guarded by discarded_mutex_.
   // Runs RemoveDiscarded, from the first discard on; guarded by discarded_mutex_.
   mutable std::thread remover_;
 };

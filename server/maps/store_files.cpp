@@ -89,4 +89,25 @@ ServiceStatus RenameDurably(const fs::path& from, const fs::path& to) {
   return Sync(to.parent_path());
 }
 
+void RemoveAllInSlices(const fs::path& path, const std::function<void()>& between_slices) {
+  constexpr off_t kSliceBytes = off_t{16} << 20;
+  std::error_code ec;
+  for (fs::recursive_directory_iterator it(path, ec), end; !ec && it != end; it.increment(ec)) {
+    struct stat status {};
+    if (::lstat(it->path().c_str(), &status) != 0 || !S_ISREG(status.st_mode) ||
+        status.st_size <= kSliceBytes) {
+      continue;
+    }
+    const Fd fd(::open(it->path().c_str(), O_WRONLY | O_CLOEXEC | O_NOFOLLOW));
+    if (!fd.valid()) continue;
+    for (off_t size = status.st_size; size > 0;) {
+      size = std::max<off_t>(0, size - kSliceBytes);
+      if (::ftruncate(fd.get(), size) != 0) break;
+      if (between_slices) between_slices();
+    }
+  }
+  std::error_code ignored;
+  fs::remove_all(path, ignored);
+}
+
 }  // namespace strata::server::store_files

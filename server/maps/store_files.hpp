@@ -2,6 +2,7 @@
 // The map store's files: what every writer and reader of its directories needs (durable
 // writes, unique temporaries, errors naming the path). Internal to maps/.
 #include <filesystem>
+#include <functional>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -64,5 +65,13 @@ Result<std::optional<std::string>> ReadFileIfExists(const std::filesystem::path&
 
 /// Renames `from` to `to` and syncs the directory that received it.
 ServiceStatus RenameDurably(const std::filesystem::path& from, const std::filesystem::path& to);
+
+/// Removes `path` and everything under it, as std::filesystem::remove_all does (what it
+/// cannot remove stays), shrinking each large file a slice at a time first. Freeing a graph's
+/// hundreds of megabytes in one unlink holds the file system's journal for tens of
+/// milliseconds, and every fsync meanwhile (a keep-out zone's version) waits for it; between
+/// slices the journal commits, and `between_slices` (may be empty) is called.
+void RemoveAllInSlices(const std::filesystem::path& path,
+                       const std::function<void()>& between_slices = {});
 
 }  // namespace strata::server::store_files

@@ -1,6 +1,9 @@
 #include "maps/map_store.hpp"
 
+#include <fcntl.h>
 #include <signal.h>
+#include <sys/file.h>
+#include <sys/stat.h>
 #include <sys/types.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -13,6 +16,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <future>
 #include <iterator>
 #include <latch>
 #include <mutex>
@@ -26,6 +30,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "maps/store_files.hpp"
 #include "maps/stored_graphs.hpp"
 #include "maps/stored_tiles.hpp"
 #include "strata/assessment/map_edit.hpp"
@@ -595,6 +600,45 @@ TEST_F(MapStoreTest, DeleteRemovesTheMapForEveryone) {
   EXPECT_TRUE(Fails(store_->PublishNew("doomed", version), ServiceErrorCode::kMapVersionNotFound));
   const std::string again = Create("doomed", Variant(1));
   EXPECT_THAT(*(*other)->Versions("doomed"), ElementsAre(again));
+}
+
+// Whether a thread waits for a flock on the file of inode `inode` (/proc/locks marks the locks
+// waited for with "->").
+bool WaitedFor(ino_t inode) {
+  std::ifstream locks("/proc/locks");
+  const std::string file = ":" + std::to_string(inode) + " ";
+  for (std::string line; std::getline(locks, line);) {
+    if (line.find("->") != std::string::npos && line.find(file) != std::string::npos) return true;
+  }
+  return false;
+}
+
+TEST_F(MapStoreTest, TheRemoverWaitsWhileAVersionIsPublished) {
+  // A removal beside a write made its fsyncs wait (a keep-out zone on a site: 20-60 ms).
+  const std::string current = Create("m", cloud());
+  const std::string next = Put(*store_, "m", Variant(1));
+  Create("doomed", Variant(2));
+  // The map's lock, held here as another process would: the publish waits for it, inside.
+  const store_files::Fd held(::open((root_ / "maps" / "m" / "lock").c_str(), O_RDWR | O_CLOEXEC));
+  ASSERT_TRUE(held.valid());
+  ASSERT_EQ(::flock(held.get(), LOCK_EX), 0);
+  auto publish =
+      std::async(std::launch::async, [&] { return store_->PublishUpdate("m", current, next, 3); });
+  struct stat lock_file {};
+  ASSERT_EQ(::fstat(held.get(), &lock_file), 0);
+  while (!WaitedFor(lock_file.st_ino)) {
+    ASSERT_EQ(publish.wait_for(std::chrono::milliseconds(1)), std::future_status::timeout);
+  }
+  // Discarded while the publish is in flight: removed only once it is done. (Waiting a second
+  // for what must not happen: a removal without the wait takes milliseconds.)
+  ASSERT_TRUE(store_->Delete("doomed").ok());
+  auto removed = std::async(std::launch::async, [&] { store_->WaitForRemovals(); });
+  EXPECT_EQ(removed.wait_for(std::chrono::seconds(1)), std::future_status::timeout);
+  EXPECT_THAT(Entries(root_ / "trash"), testing::SizeIs(1));
+  ASSERT_EQ(::flock(held.get(), LOCK_UN), 0);
+  EXPECT_TRUE(publish.get().ok());
+  removed.get();
+  EXPECT_THAT(Entries(root_ / "trash"), IsEmpty());
 }
 
 TEST_F(MapStoreTest, ListsIdsInOrderFromACursor) {
