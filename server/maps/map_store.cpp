@@ -62,6 +62,10 @@ constexpr std::string_view kOlderMarkerTexts[] = {"strata map store, layout 1\n"
                                                   "strata map store, layout 2\n"};
 constexpr const char* kHeadName = "head";
 constexpr const char* kLockName = "lock";
+// At the root: locked shared by every write in flight, tried exclusively by the removers.
+constexpr std::string_view kWritingName = "writing";
+// How often a remover looks again while another process writes [a write takes 1-60 ms].
+constexpr std::chrono::milliseconds kOthersWritingPoll{2};
 constexpr const char* kVersionsName = "versions";
 constexpr const char* kTerrainsName = "terrains";
 constexpr const char* kGraphsName = "graphs";
@@ -446,7 +450,16 @@ Result<std::unique_ptr<MapStore>> MapStore::Open(fs::path root, std::shared_ptr<
                    " is not '" + std::string(kMarkerText.substr(0, kMarkerText.size() - 1)) + "')");
   }
 
-  std::unique_ptr<MapStore> store(new MapStore(std::move(root), std::move(heads)));
+  // The writes' lock file, and two descriptors of it (MapStore::WriteScope).
+  const fs::path writing = root / kWritingName;
+  Fd writing_shared(::open(writing.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644));
+  Fd writing_probe(::open(writing.c_str(), O_RDWR | O_CLOEXEC));
+  if (!writing_shared.valid() || !writing_probe.valid()) {
+    return invalid("cannot open its " + std::string(kWritingName) + " file (" + ErrnoText(errno) +
+                   ")");
+  }
+  std::unique_ptr<MapStore> store(new MapStore(
+      std::move(root), std::move(heads), std::move(writing_shared), std::move(writing_probe)));
   store->CollectGarbage();
   return store;
 }
@@ -457,8 +470,12 @@ fs::path MapStore::VersionDir(const std::string& id, const std::string& version)
   return MapDir(id) / kVersionsName / version;
 }
 
-MapStore::MapStore(fs::path root, std::shared_ptr<MapHeads> heads)
-    : root_(std::move(root)), shared_heads_(std::move(heads)) {}
+MapStore::MapStore(fs::path root, std::shared_ptr<MapHeads> heads, Fd writing_shared,
+                   Fd writing_probe)
+    : root_(std::move(root)),
+      shared_heads_(std::move(heads)),
+      writing_shared_(std::move(writing_shared)),
+      writing_probe_(std::move(writing_probe)) {}
 
 MapStore::~MapStore() {
   {
@@ -495,16 +512,32 @@ void MapStore::ScheduleTileCollection(const std::string& id) const {
   discarded_changed_.notify_one();
 }
 
+namespace {
+
+// Locks a descriptor of the `writing` file (flock `operation`), through signals.
+int LockWriting(const Fd& fd, int operation) {
+  int locked = 0;
+  do {
+    locked = ::flock(fd.get(), operation);
+  } while (locked != 0 && errno == EINTR);
+  return locked;
+}
+
+}  // namespace
+
 class MapStore::WriteScope {
  public:
+  // The first scope of the store locks the `writing` file shared, for the other processes'
+  // removers; blocking only for the instant another remover holds it in OthersWriting. A
+  // file system that refuses (Open checked that locks work) leaves this process's gate alone.
   explicit WriteScope(const MapStore& store) : store_(store) {
     const std::lock_guard lock(store_.discarded_mutex_);
-    ++store_.writing_;
+    if (++store_.writing_ == 1) (void)LockWriting(store_.writing_shared_, LOCK_SH);
   }
   ~WriteScope() {
     {
       const std::lock_guard lock(store_.discarded_mutex_);
-      --store_.writing_;
+      if (--store_.writing_ == 0) (void)LockWriting(store_.writing_shared_, LOCK_UN);
     }
     store_.discarded_changed_.notify_all();
   }
@@ -515,16 +548,26 @@ class MapStore::WriteScope {
   const MapStore& store_;
 };
 
-void MapStore::WaitForNoWrites(std::unique_lock<std::mutex>& lock) const {
-  discarded_changed_.wait(lock, [&] { return closing_ || writing_ == 0; });
+bool MapStore::OthersWriting() const {
+  if (LockWriting(writing_probe_, LOCK_EX | LOCK_NB) != 0) return errno == EWOULDBLOCK;
+  (void)LockWriting(writing_probe_, LOCK_UN);
+  return false;
+}
+
+void MapStore::WaitToRemove(std::unique_lock<std::mutex>& lock,
+                            const std::function<bool()>& ready) const {
+  while (true) {
+    discarded_changed_.wait(lock, [&] { return closing_ || (writing_ == 0 && ready()); });
+    if (closing_ || !OthersWriting()) return;
+    // Another process's write ends without a word to this one: look again shortly.
+    discarded_changed_.wait_for(lock, kOthersWritingPoll);
+  }
 }
 
 void MapStore::RemoveDiscarded() const {
   std::unique_lock lock(discarded_mutex_);
   while (true) {
-    discarded_changed_.wait(lock, [&] {
-      return closing_ || (writing_ == 0 && (!discarded_.empty() || !tiles_to_collect_.empty()));
-    });
+    WaitToRemove(lock, [&] { return !discarded_.empty() || !tiles_to_collect_.empty(); });
     if (!discarded_.empty()) {
       const fs::path trash = std::move(discarded_.front());
       discarded_.pop_front();
@@ -533,7 +576,7 @@ void MapStore::RemoveDiscarded() const {
       // Left in trash/ for CollectGarbage (e.g. NFS files still open).
       RemoveAllInSlices(trash, [this] {
         std::unique_lock between(discarded_mutex_);
-        WaitForNoWrites(between);
+        WaitToRemove(between, [] { return true; });
       });
     } else if (!tiles_to_collect_.empty()) {
       const std::string id = *tiles_to_collect_.begin();

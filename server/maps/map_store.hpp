@@ -8,6 +8,9 @@
 ///   strata-map-store            marker: "strata map store, layout 3"; Open refuses another
 ///                               (a store of layout 1 or 2 is taken over: its versions read
 ///                               as before)
+///   writing                     empty; flock'ed shared by each process while it writes a
+///                               terrain, a version or a head, and tried exclusively by the
+///                               removers, which delete nothing while a write is in flight
 ///   maps/<id>/head              the map's kept versions, newest (current) first, one per
 ///                               line; replaced whole (temporary + rename). A map exists
 ///                               exactly when its head does.
@@ -73,6 +76,7 @@
 #include <condition_variable>
 #include <deque>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -86,6 +90,7 @@
 #include "common/service_error.hpp"
 #include "maps/map_heads.hpp"
 #include "maps/map_root.hpp"
+#include "maps/store_files.hpp"
 #include "maps/stored_tiles.hpp"
 #include "strata/assessment/terrain_config.hpp"
 #include "strata/assessment/terrain_model.hpp"
@@ -275,7 +280,8 @@ class MapStore {
   int CollectGarbage();
 
  private:
-  MapStore(std::filesystem::path root, std::shared_ptr<MapHeads> heads);
+  MapStore(std::filesystem::path root, std::shared_ptr<MapHeads> heads,
+           store_files::Fd writing_shared, store_files::Fd writing_probe);
 
   // The head after publishing `version` over `kept` (the current head) when it was made on
   // `expected_current`; nullopt when `version` is current already. kMapChanged (discarding
@@ -345,10 +351,14 @@ class MapStore {
   // hundreds of megabytes takes a tenth of a second, which a publish (a keep-out zone's in
   // milliseconds) should not wait for.
   void RemoveDiscarded() const;
-  /// Waits, with discarded_mutex_ held by `lock`, until no WriteScope is open (or the store
-  /// closes).
-  void WaitForNoWrites(std::unique_lock<std::mutex>& lock) const;
-  // Open while a terrain, a version or a head is written: the remover waits for none to be.
+  /// Waits, with discarded_mutex_ held by `lock`, until the store closes, or `ready()` holds
+  /// while no write is in flight: no WriteScope open here and none in another process or
+  /// MapStore (the `writing` file, which their scopes hold shared).
+  void WaitToRemove(std::unique_lock<std::mutex>& lock, const std::function<bool()>& ready) const;
+  /// Whether a write of another process or MapStore holds the `writing` file; with
+  /// discarded_mutex_ held and no WriteScope open here.
+  bool OthersWriting() const;
+  // Open while a terrain, a version or a head is written: the removers wait for none to be.
   class WriteScope;
 
   std::filesystem::path root_;
@@ -363,6 +373,10 @@ class MapStore {
   // Writes in flight (WriteScope), which the remover lets pass: an unlink's journal work
   // beside them made a keep-out zone's fsyncs wait 20-60 ms on a site.
   mutable int writing_ = 0;
+  // Two descriptors of the `writing` file: one held shared while writing_ > 0, and the
+  // remover's, tried exclusively only while writing_ == 0, so it meets others' locks alone.
+  store_files::Fd writing_shared_;
+  store_files::Fd writing_probe_;
   bool closing_ = false;  // Guarded by discarded_mutex_.
   // Runs RemoveDiscarded, from the first discard on; guarded by discarded_mutex_.
   mutable std::thread remover_;

@@ -641,6 +641,35 @@ TEST_F(MapStoreTest, TheRemoverWaitsWhileAVersionIsPublished) {
   EXPECT_THAT(Entries(root_ / "trash"), IsEmpty());
 }
 
+// Replicas share a store: a write in one holds off the removers of the others. Two MapStore
+// objects hold the `writing` file on descriptors of their own, as two processes do.
+TEST_F(MapStoreTest, TheRemoverWaitsWhileAnotherProcessPublishes) {
+  const std::string current = Create("m", cloud());
+  const std::string next = Put(*store_, "m", Variant(1));
+  Create("doomed", Variant(2));
+  auto replica = MapStore::Open(root_);
+  ASSERT_TRUE(replica.ok()) << replica.error().message;
+  const store_files::Fd held(::open((root_ / "maps" / "m" / "lock").c_str(), O_RDWR | O_CLOEXEC));
+  ASSERT_TRUE(held.valid());
+  ASSERT_EQ(::flock(held.get(), LOCK_EX), 0);
+  auto publish = std::async(std::launch::async,
+                            [&] { return (*replica)->PublishUpdate("m", current, next, 3); });
+  struct stat lock_file {};
+  ASSERT_EQ(::fstat(held.get(), &lock_file), 0);
+  while (!WaitedFor(lock_file.st_ino)) {
+    ASSERT_EQ(publish.wait_for(std::chrono::milliseconds(1)), std::future_status::timeout);
+  }
+  // This store writes nothing; the replica's publish is in flight.
+  ASSERT_TRUE(store_->Delete("doomed").ok());
+  auto removed = std::async(std::launch::async, [&] { store_->WaitForRemovals(); });
+  EXPECT_EQ(removed.wait_for(std::chrono::seconds(1)), std::future_status::timeout);
+  EXPECT_THAT(Entries(root_ / "trash"), testing::SizeIs(1));
+  ASSERT_EQ(::flock(held.get(), LOCK_UN), 0);
+  EXPECT_TRUE(publish.get().ok());
+  removed.get();
+  EXPECT_THAT(Entries(root_ / "trash"), IsEmpty());
+}
+
 TEST_F(MapStoreTest, ListsIdsInOrderFromACursor) {
   for (const char* id : {"b", "a", "c", "a.1"}) Create(id, cloud());
   Put(*store_, "unpublished", cloud());  // Put but never published: not a map.
