@@ -149,6 +149,15 @@ bool IsStale(const fs::path& path) {
   return NewestWrite(path) < fs::file_time_type::clock::now() - kStaleTemporaryAge;
 }
 
+// flock(2) of `fd` (`operation`), through signals: 0, or -1 with errno set.
+int Flock(const Fd& fd, int operation) {
+  int locked = 0;
+  do {
+    locked = ::flock(fd.get(), operation);
+  } while (locked != 0 && errno == EINTR);
+  return locked;
+}
+
 // Serialises changes to one map (its head, its deletion) among every thread and process:
 // a mutex per map directory for this process's threads (flock between two descriptors of
 // one process is not exclusive on every file system: Linux's NFS client turns it into a
@@ -171,11 +180,7 @@ class MapLock {
         if (errno == ENOENT) continue;  // Deleted between mkdir and open.
         return Unavailable(lock_path, "open the lock file", errno);
       }
-      int locked = 0;
-      do {
-        locked = ::flock(fd.get(), LOCK_EX);
-      } while (locked != 0 && errno == EINTR);
-      if (locked != 0) return Unavailable(lock_path, "lock", errno);
+      if (Flock(fd, LOCK_EX) != 0) return Unavailable(lock_path, "lock", errno);
       struct stat held {};
       struct stat current {};
       if (::fstat(fd.get(), &held) != 0) return Unavailable(lock_path, "stat", errno);
@@ -512,19 +517,6 @@ void MapStore::ScheduleTileCollection(const std::string& id) const {
   discarded_changed_.notify_one();
 }
 
-namespace {
-
-// Locks a descriptor of the `writing` file (flock `operation`), through signals.
-int LockWriting(const Fd& fd, int operation) {
-  int locked = 0;
-  do {
-    locked = ::flock(fd.get(), operation);
-  } while (locked != 0 && errno == EINTR);
-  return locked;
-}
-
-}  // namespace
-
 class MapStore::WriteScope {
  public:
   // The first scope of the store locks the `writing` file shared, for the other processes'
@@ -532,12 +524,12 @@ class MapStore::WriteScope {
   // file system that refuses (Open checked that locks work) leaves this process's gate alone.
   explicit WriteScope(const MapStore& store) : store_(store) {
     const std::lock_guard lock(store_.discarded_mutex_);
-    if (++store_.writing_ == 1) (void)LockWriting(store_.writing_shared_, LOCK_SH);
+    if (++store_.writing_ == 1) (void)Flock(store_.writing_shared_, LOCK_SH);
   }
   ~WriteScope() {
     {
       const std::lock_guard lock(store_.discarded_mutex_);
-      if (--store_.writing_ == 0) (void)LockWriting(store_.writing_shared_, LOCK_UN);
+      if (--store_.writing_ == 0) (void)Flock(store_.writing_shared_, LOCK_UN);
     }
     store_.discarded_changed_.notify_all();
   }
@@ -549,8 +541,8 @@ class MapStore::WriteScope {
 };
 
 bool MapStore::OthersWriting() const {
-  if (LockWriting(writing_probe_, LOCK_EX | LOCK_NB) != 0) return errno == EWOULDBLOCK;
-  (void)LockWriting(writing_probe_, LOCK_UN);
+  if (Flock(writing_probe_, LOCK_EX | LOCK_NB) != 0) return errno == EWOULDBLOCK;
+  (void)Flock(writing_probe_, LOCK_UN);
   return false;
 }
 
