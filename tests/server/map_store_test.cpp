@@ -3,6 +3,7 @@
 #include <fcntl.h>
 #include <signal.h>
 #include <sys/file.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/types.h>
 #include <sys/wait.h>
@@ -184,43 +185,42 @@ class MapStoreTest : public ::testing::Test {
     return big;
   }
 
-  // Whether a temporary tile of more than 1 MB is being written in tmp/.
-  bool BigTemporaryTile() const {
-    for (const fs::path& tile : Entries(root_ / "tmp", "tile.")) {
-      std::error_code ec;
-      if (fs::file_size(tile, ec) > (1u << 20) && !ec) return true;
-    }
-    return false;
+  // The sizes of the tiles PutBoth writes for `points` on a store that holds no tile of
+  // theirs, in the order it writes them.
+  static std::vector<std::size_t> TileSizes(const PointCloud& points) {
+    std::vector<std::size_t> sizes;
+    for (const auto& tile : CutIntoTiles(model(), points).tiles)
+      sizes.push_back(tile.second.size());
+    return sizes;
   }
 
-  // Forks a writer that opens the store at root_ and runs `write` on it, exiting 0 when that
-  // succeeds; returns its pid (negative when fork failed).
-  pid_t ForkWriter(const std::function<bool(MapStore&)>& write) const {
+  // Forks a writer that opens the store at root_ and runs `write` on it, with its files limited
+  // to `file_limit` bytes: the kernel kills it (SIGXFSZ) in the middle of the first write that
+  // would grow a file past the limit, a crash mid-write at a point the test chose. Returns its
+  // pid (negative when fork failed).
+  pid_t ForkWriterDyingPast(std::size_t file_limit,
+                            const std::function<bool(MapStore&)>& write) const {
     const pid_t pid = ::fork();
     if (pid == 0) {
+      const rlimit no_core{0, 0};
+      const rlimit limit{file_limit, file_limit};
+      ::signal(SIGXFSZ, SIG_DFL);  // Killed, whatever the parent's disposition.
+      if (::setrlimit(RLIMIT_CORE, &no_core) != 0 || ::setrlimit(RLIMIT_FSIZE, &limit) != 0) {
+        ::_exit(2);
+      }
       auto store = MapStore::Open(root_);
       ::_exit(store.ok() && write(**store) ? 0 : 1);
     }
     return pid;
   }
 
-  // Kills the writer `pid` with SIGKILL as soon as `ready` says so; fails the test if the
-  // writer ended before.
-  static void KillWhen(pid_t pid, const std::function<bool()>& ready) {
-    bool exited = false;
-    while (!ready()) {
-      int status = 0;
-      if (::waitpid(pid, &status, WNOHANG) == pid) {
-        exited = true;
-        break;
-      }
-      std::this_thread::yield();
-    }
-    ASSERT_FALSE(exited) << "the writer finished before the moment to kill it";
-    ASSERT_EQ(::kill(pid, SIGKILL), 0);
+  // Waits for the writer `pid` and fails the test unless the file limit killed it.
+  static void ExpectKilledMidWrite(pid_t pid) {
     int status = 0;
     ASSERT_EQ(::waitpid(pid, &status, 0), pid);
-    ASSERT_TRUE(WIFSIGNALED(status)) << "the writer finished before it was killed";
+    ASSERT_TRUE(WIFSIGNALED(status)) << "the writer was not killed; it exited with "
+                                     << (WIFEXITED(status) ? WEXITSTATUS(status) : -1);
+    ASSERT_EQ(WTERMSIG(status), SIGXFSZ);
   }
 
   // The entries of `dir` whose names start with `prefix`.
@@ -706,14 +706,21 @@ TEST_F(MapStoreTest, OpenRefusesWhatIsNoStore) {
 TEST_F(MapStoreTest, AWriterKilledMidWriteLeavesNoVersion) {
   const PointCloud big = BigCloud();
   const std::string version = VersionOf(big);
-  const pid_t pid = ForkWriter([&](MapStore& store) {
+  // Killed 1 MB into the first of the cloud's two big tiles (24 MB): the small tiles before
+  // it are in tiles/, not listed by any terrain.
+  constexpr std::size_t kLimit = std::size_t{1} << 20;
+  const std::vector<std::size_t> sizes = TileSizes(big);
+  ASSERT_GT(sizes.size(), 2u);
+  ASSERT_LT(*std::max_element(sizes.begin(), sizes.end() - 2), kLimit);
+  ASSERT_GT(sizes[sizes.size() - 2], kLimit);
+  const pid_t pid = ForkWriterDyingPast(kLimit, [&](MapStore& store) {
     return PutBoth(store, "big", version, big, "{}").ok() && store.PublishNew("big", version).ok();
   });
   ASSERT_GE(pid, 0);
-  // Killed while it writes the first of the cloud's two big tiles (a temporary of 1 MB on
-  // its way to 24 MB): the small ones before it are in tiles/, not listed by any terrain.
-  KillWhen(pid, [&] { return BigTemporaryTile(); });
-  ASSERT_EQ(Entries(root_ / "tmp", "tile.").size(), 1u);  // Its half-written tile.
+  ExpectKilledMidWrite(pid);
+  const std::vector<fs::path> left = Entries(root_ / "tmp", "tile.");
+  ASSERT_EQ(left.size(), 1u);  // Its half-written tile.
+  EXPECT_EQ(fs::file_size(left.front()), kLimit);
 
   auto fresh = MapStore::Open(root_);
   ASSERT_TRUE(fresh.ok()) << Why(fresh);
@@ -745,15 +752,25 @@ TEST_F(MapStoreTest, AWriterKilledMidWriteLeavesNoVersion) {
 TEST_F(MapStoreTest, AWriterKilledMidTiledWriteLeavesTheCurrentVersionWhole) {
   const std::string current = Create("site", cloud());
   const std::set<std::string> current_tiles = StoredTiles("site");
-  const PointCloud big = BigCloud();
-  const std::string next = VersionOf(big);
-  const pid_t pid = ForkWriter([&](MapStore& store) {
-    return PutBoth(store, "site", next, big, "{}").ok() &&
+  // Dense in its second cloud tile, sparse in its first: the writer is killed once the first
+  // is in place, while it writes the second.
+  PointCloud next_cloud;
+  for (const Eigen::Vector3f& point : BigCloud()) {
+    if (point.x() >= 50.0f || std::lround(point.y() / 0.05f) % 8 == 0) next_cloud.push_back(point);
+  }
+  const std::string next = VersionOf(next_cloud);
+  const std::vector<std::size_t> sizes = TileSizes(next_cloud);
+  ASSERT_GT(sizes.size(), 2u);
+  const std::size_t first = sizes[sizes.size() - 2];
+  const std::size_t last = sizes.back();
+  ASSERT_LT(2 * first, last);
+  const pid_t pid = ForkWriterDyingPast((first + last) / 2, [&](MapStore& store) {
+    return PutBoth(store, "site", next, next_cloud, "{}").ok() &&
            store.PublishUpdate("site", current, next, 2).ok();
   });
   ASSERT_GE(pid, 0);
-  // Killed once a first big tile is in place and the second is being written.
-  KillWhen(pid, [&] { return StoredTiles("site").size() > current_tiles.size(); });
+  ExpectKilledMidWrite(pid);
+  ASSERT_GT(StoredTiles("site").size(), current_tiles.size());  // The first is in place.
 
   auto fresh = MapStore::Open(root_);  // Another replica, or this one restarted.
   ASSERT_TRUE(fresh.ok()) << Why(fresh);
@@ -770,9 +787,9 @@ TEST_F(MapStoreTest, AWriterKilledMidTiledWriteLeavesTheCurrentVersionWhole) {
   EXPECT_EQ(StoredTiles("site"), current_tiles);
 
   // Made again, it lands.
-  ASSERT_TRUE(PutBoth(store, "site", next, big, "{}").ok());
+  ASSERT_TRUE(PutBoth(store, "site", next, next_cloud, "{}").ok());
   ASSERT_TRUE(store.PublishUpdate("site", current, next, 2).ok());
-  EXPECT_EQ(store.LoadCloud("site", next)->size(), big.size());
+  EXPECT_EQ(store.LoadCloud("site", next)->size(), next_cloud.size());
 }
 
 TEST_F(MapStoreTest, ATamperedVersionFailsToLoadClearly) {
