@@ -176,6 +176,25 @@ TEST(SpaceTimeSearch, WithTheOtherLaneClosedTheRouteWaitsOutsideTheLaneForTheRob
       Search(others, impatient, [](int node) { return Graph().position(node).y() > 5.8; }));
 }
 
+TEST(SpaceTimeSearch, WithTheOtherLaneClosedTheRouteGoesThroughTheGapBetweenTwoRobots) {
+  // Two robots through the south lane, the second leaving kGapS after the first: the lane is
+  // free between their passages, long enough for the route to cross it.
+  constexpr double kGapS = 60;
+  ReservedMotion second = ThroughTheSouthLane();
+  second.robot_id = "B";
+  second.motion.start_ns = AddSeconds(kDeparture, kGapS);
+  second.motion.end_ns = second.motion.ArrivalNs();
+  const std::vector<ReservedMotion> others = {ThroughTheSouthLane(), second};
+  const SpaceTimeOptions options = Options();
+  const std::optional<SpaceTimeRoute> route =
+      Search(others, options, [](int node) { return Graph().position(node).y() > 5.8; });
+  ASSERT_TRUE(route);
+  EXPECT_GT(TotalWait(*route), 1.0);        // For the first robot to pass.
+  EXPECT_LT(route->leave_s.back(), kGapS);  // Across before the second one.
+  ExpectClearOf(*route, others[0], options);
+  ExpectClearOf(*route, others[1], options);
+}
+
 TEST(SpaceTimeSearch, ARobotAtAnotherHeightIsNotInTheWay) {
   // The same way, 3 m up (a deck over the lane): the bodies never overlap in height.
   const std::optional<SpaceTimeRoute> route = Search({ThroughTheSouthLane(3.3)}, Options());

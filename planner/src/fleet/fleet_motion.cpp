@@ -53,7 +53,11 @@ std::int64_t FleetMotion::ArrivalNs() const {
 }
 
 StateVector FleetMotion::StateAt(std::int64_t time_ns) const {
-  return trajectory.Evaluate(SecondsBetween(start_ns, std::clamp(time_ns, start_ns, end_ns)), 0);
+  return trajectory.Evaluate(TrajectoryTimeAt(time_ns), 0);
+}
+
+double FleetMotion::TrajectoryTimeAt(std::int64_t time_ns) const {
+  return SecondsBetween(start_ns, std::clamp(time_ns, start_ns, end_ns));
 }
 
 Eigen::Vector3d FleetMotion::ReferencePointAt(std::int64_t time_ns) const {
@@ -61,7 +65,10 @@ Eigen::Vector3d FleetMotion::ReferencePointAt(std::int64_t time_ns) const {
 }
 
 VerticalExtent FleetMotion::ExtentAt(std::int64_t time_ns) const {
-  const StateVector state = StateAt(time_ns);
+  return ExtentOf(StateAt(time_ns));
+}
+
+VerticalExtent FleetMotion::ExtentOf(const StateVector& state) const {
   VerticalExtent extent;
   extent.bottom_m = state(2) - body.reference_height_m;
   extent.top_m = extent.bottom_m + (trajectory.dimension == 4 ? state(3) : body.height_m);

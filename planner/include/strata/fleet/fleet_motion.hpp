@@ -56,10 +56,14 @@ struct FleetMotion {
   /// The trajectory's state (x, y, z[, body height]) at absolute time `time_ns`, clamped to
   /// [start_ns, end_ns]: before the start its first point, after the arrival its last.
   StateVector StateAt(std::int64_t time_ns) const;
+  /// The time into the trajectory [s] at which StateAt(time_ns) evaluates it.
+  double TrajectoryTimeAt(std::int64_t time_ns) const;
   /// The reference point at absolute time `time_ns`, clamped as StateAt.
   Eigen::Vector3d ReferencePointAt(std::int64_t time_ns) const;
   /// The body's vertical extent at absolute time `time_ns`, clamped as ReferencePointAt.
   VerticalExtent ExtentAt(std::int64_t time_ns) const;
+  /// The body's vertical extent where the trajectory's state is `state`.
+  VerticalExtent ExtentOf(const StateVector& state) const;
 
   /// kInvalidInput blaming the first bad field, `path`.<field>: a dimension other than 3 or 4,
   /// pieces Trajectory::ValidatePieces refuses (at most kMaxTrajectoryPieces), a bad body, or
