@@ -139,6 +139,7 @@ Error ParkedOnEnd(const ReservedMotion& other, const FleetPlanRequest& request,
 std::vector<std::size_t> ParkedInTheWay(const FleetMotion& motion, const Traffic& traffic,
                                         double max_wait_s, const std::vector<bool>& zoned) {
   const std::int64_t latest_passage_ns = AddSeconds(motion.ArrivalNs(), max_wait_s);
+  const PreparedMotion route(motion);
   std::vector<std::size_t> parked;
   for (std::size_t i = 0; i < traffic.others.size(); ++i) {
     const FleetMotion& other = traffic.others[i].motion;
@@ -153,7 +154,7 @@ std::vector<std::size_t> ParkedInTheWay(const FleetMotion& motion, const Traffic
                                          SecondsBetween(motion.start_ns, latest_passage_ns))};
     standing.body = other.body;
     standing.end_ns = standing.ArrivalNs();
-    if (FirstConflict(motion, standing, traffic.rule)) parked.push_back(i);
+    if (FirstConflict(route, PreparedMotion(standing), traffic.rule)) parked.push_back(i);
   }
   return parked;
 }

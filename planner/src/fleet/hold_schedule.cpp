@@ -18,6 +18,7 @@ class HoldSearch {
       : legs_(legs),
         may_wait_at_start_(may_wait_at_start),
         traffic_(traffic),
+        others_(PrepareOthers(traffic.others)),
         max_wait_s_(max_wait_s),
         departures_left_(max_departures),
         dead_ends_(legs.size()),
@@ -47,7 +48,7 @@ class HoldSearch {
       if (departures_left_ <= 0) return false;
       --departures_left_;
       const std::optional<TrafficConflict> met =
-          FirstTrafficConflict(LegMotion(leg, departure_ns), traffic_.others, traffic_.rule);
+          FirstTrafficConflict(LegMotion(leg, departure_ns), others_, traffic_.rule);
       if (met) {
         NoteFailure(leg, departure_ns, *met);
         continue;
@@ -91,8 +92,7 @@ class HoldSearch {
     hold.trajectory.pieces = {RestAtStart(legs_[leg], remaining_s)};
     hold.body = traffic_.body;
     hold.end_ns = hold.ArrivalNs();
-    const std::optional<TrafficConflict> met =
-        FirstTrafficConflict(hold, traffic_.others, traffic_.rule);
+    const std::optional<TrafficConflict> met = FirstTrafficConflict(hold, others_, traffic_.rule);
     return met ? met->conflict.time_ns : hold.end_ns + 1;
   }
 
@@ -110,6 +110,8 @@ class HoldSearch {
   std::span<const Trajectory> legs_;
   bool may_wait_at_start_;
   const Traffic& traffic_;
+  // The others, prepared once for the departures checked against them all.
+  std::vector<PreparedMotion> others_;
   double max_wait_s_;
   int departures_left_;
   std::vector<std::vector<DeadEnd>> dead_ends_;  // Per leg, at its first point.

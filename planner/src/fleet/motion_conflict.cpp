@@ -11,7 +11,24 @@
 #include "format_internal.hpp"
 
 namespace strata {
+namespace fleet_internal {
+
+/// One stretch of a motion over which it follows one polynomial: a trajectory piece or the
+/// parked time after the last. Times are seconds from the motion's start.
+struct BoundedPiece {
+  double begin_s = 0;
+  double end_s = 0;
+  const TrajectoryPiece* piece = nullptr;  // Null: parked at `parked`.
+  StateVector parked;
+  // Bounds over the whole stretch (Bernstein hull), to rule pairs out cheaply.
+  double min_x = 0, max_x = 0, min_y = 0, max_y = 0;
+  double min_bottom = 0, max_top = 0;
+};
+
+}  // namespace fleet_internal
 namespace {
+
+using fleet_internal::BoundedPiece;
 
 constexpr int kPieceDegree = 5;
 constexpr int kDistanceDegree = 2 * kPieceDegree;
@@ -25,19 +42,6 @@ template <int N>
 using Coefficients = std::array<double, N + 1>;
 using Quintic = Coefficients<kPieceDegree>;
 using Decic = Coefficients<kDistanceDegree>;
-
-/// One stretch of a motion over which it follows one polynomial: a trajectory piece or the
-/// parked time after the last. Times are seconds from the check's origin.
-struct Segment {
-  double begin_s = 0;
-  double end_s = 0;
-  double local_begin_s = 0;                // The piece's own time at begin_s.
-  const TrajectoryPiece* piece = nullptr;  // Null: parked at `parked`.
-  StateVector parked;
-  // Bounds over the whole segment (Bernstein hull), to rule pairs out cheaply.
-  double min_x = 0, max_x = 0, min_y = 0, max_y = 0;
-  double min_bottom = 0, max_top = 0;
-};
 
 /// The motion's polynomials on one window, in u ∈ [0, 1]: x, y, and the body's bottom and top.
 struct WindowPolynomials {
@@ -86,15 +90,15 @@ std::pair<double, double> Range(const Coefficients<N>& b) {
   return {*lo, *hi};
 }
 
-/// Monomial coefficients in u of axis `axis` of `segment` on the window [begin_s, begin_s + h].
-Quintic AxisOnWindow(const Segment& segment, int axis, double begin_s, double h) {
+/// Monomial coefficients in u of axis `axis` of `segment` on the window [tau0, tau0 + h] of
+/// its piece's own time.
+Quintic AxisOnWindow(const BoundedPiece& segment, int axis, double tau0, double h) {
   Quintic q{};
   if (segment.piece == nullptr) {
     q[0] = segment.parked(axis);
     return q;
   }
   // p(τ0 + h·u) by Horner's rule over polynomials in u.
-  const double tau0 = segment.local_begin_s + (begin_s - segment.begin_s);
   const auto& c = segment.piece->coefficients;
   q[0] = c(kPieceDegree, axis);
   for (int k = kPieceDegree - 1; k >= 0; --k) {
@@ -104,14 +108,14 @@ Quintic AxisOnWindow(const Segment& segment, int axis, double begin_s, double h)
   return q;
 }
 
-WindowPolynomials OnWindow(const Segment& segment, const FleetMotion& motion, double begin_s,
+WindowPolynomials OnWindow(const BoundedPiece& segment, const FleetMotion& motion, double tau0,
                            double h) {
   WindowPolynomials w;
-  w.x = AxisOnWindow(segment, 0, begin_s, h);
-  w.y = AxisOnWindow(segment, 1, begin_s, h);
-  const Quintic z = AxisOnWindow(segment, 2, begin_s, h);
+  w.x = AxisOnWindow(segment, 0, tau0, h);
+  w.y = AxisOnWindow(segment, 1, tau0, h);
+  const Quintic z = AxisOnWindow(segment, 2, tau0, h);
   const bool commanded_height = motion.trajectory.dimension == 4;
-  const Quintic height = commanded_height ? AxisOnWindow(segment, 3, begin_s, h) : Quintic{};
+  const Quintic height = commanded_height ? AxisOnWindow(segment, 3, tau0, h) : Quintic{};
   for (int k = 0; k <= kPieceDegree; ++k) {
     w.bottom[k] = z[k] - (k == 0 ? motion.body.reference_height_m : 0.0);
     w.top[k] = w.bottom[k] + (commanded_height ? height[k] : (k == 0 ? motion.body.height_m : 0));
@@ -119,48 +123,15 @@ WindowPolynomials OnWindow(const Segment& segment, const FleetMotion& motion, do
   return w;
 }
 
-void SetBounds(const FleetMotion& motion, Segment* segment) {
-  const WindowPolynomials w =
-      OnWindow(*segment, motion, segment->begin_s, segment->end_s - segment->begin_s);
+void SetBounds(const FleetMotion& motion, BoundedPiece* segment) {
+  const WindowPolynomials w = OnWindow(*segment, motion, 0, segment->end_s - segment->begin_s);
   std::tie(segment->min_x, segment->max_x) = Range<kPieceDegree>(ToBernstein<kPieceDegree>(w.x));
   std::tie(segment->min_y, segment->max_y) = Range<kPieceDegree>(ToBernstein<kPieceDegree>(w.y));
   segment->min_bottom = Range<kPieceDegree>(ToBernstein<kPieceDegree>(w.bottom)).first;
   segment->max_top = Range<kPieceDegree>(ToBernstein<kPieceDegree>(w.top)).second;
 }
 
-/// The motion's segments from `origin_ns` on, in time order.
-std::vector<Segment> Segments(const FleetMotion& motion, std::int64_t origin_ns) {
-  std::vector<Segment> segments;
-  segments.reserve(motion.trajectory.pieces.size() + 1);
-  double t = SecondsBetween(origin_ns, motion.start_ns);
-  for (const TrajectoryPiece& piece : motion.trajectory.pieces) {
-    Segment s;
-    s.begin_s = t;
-    s.end_s = t + piece.duration_s;
-    s.piece = &piece;
-    t = s.end_s;
-    if (s.end_s <= 0) continue;
-    segments.push_back(s);
-  }
-  const double end_s = SecondsBetween(origin_ns, motion.end_ns);
-  if (end_s > t) {
-    Segment s;
-    s.begin_s = std::max(t, 0.0);
-    s.end_s = end_s;
-    s.parked = motion.trajectory.Evaluate(motion.trajectory.TotalDuration(), 0);
-    segments.push_back(s);
-  }
-  for (Segment& s : segments) {
-    if (s.begin_s < 0) {  // Starts before the origin: keep only what follows it.
-      s.local_begin_s = -s.begin_s;
-      s.begin_s = 0;
-    }
-    SetBounds(motion, &s);
-  }
-  return segments;
-}
-
-bool OutOfReach(const Segment& a, const Segment& b, double limit_m) {
+bool OutOfReach(const BoundedPiece& a, const BoundedPiece& b, double limit_m) {
   const double gap_x = std::max({0.0, a.min_x - b.max_x, b.min_x - a.max_x});
   const double gap_y = std::max({0.0, a.min_y - b.max_y, b.min_y - a.max_y});
   return gap_x * gap_x + gap_y * gap_y >= limit_m * limit_m || a.max_top <= b.min_bottom ||
@@ -247,8 +218,42 @@ Status SeparationRule::Validate(std::string_view path) const {
   return check("vertical_tolerance_m", vertical_tolerance_m, false);
 }
 
+PreparedMotion::PreparedMotion(const FleetMotion& motion) : motion_(&motion) {
+  pieces_.reserve(motion.trajectory.pieces.size() + 1);
+  double t = 0;
+  for (const TrajectoryPiece& piece : motion.trajectory.pieces) {
+    BoundedPiece s;
+    s.begin_s = t;
+    s.end_s = t + piece.duration_s;
+    s.piece = &piece;
+    t = s.end_s;
+    pieces_.push_back(s);
+  }
+  const double end_s = SecondsBetween(motion.start_ns, motion.end_ns);
+  if (end_s > t) {
+    BoundedPiece s;
+    s.begin_s = t;
+    s.end_s = end_s;
+    s.parked = motion.trajectory.Evaluate(motion.trajectory.TotalDuration(), 0);
+    pieces_.push_back(s);
+  }
+  for (BoundedPiece& s : pieces_) SetBounds(motion, &s);
+}
+
+PreparedMotion::~PreparedMotion() = default;
+PreparedMotion::PreparedMotion(PreparedMotion&&) noexcept = default;
+PreparedMotion& PreparedMotion::operator=(PreparedMotion&&) noexcept = default;
+
 std::optional<MotionConflict> FirstConflict(const FleetMotion& a, const FleetMotion& b,
                                             const SeparationRule& rule) {
+  return FirstConflict(PreparedMotion(a), PreparedMotion(b), rule);
+}
+
+std::optional<MotionConflict> FirstConflict(const PreparedMotion& prepared_a,
+                                            const PreparedMotion& prepared_b,
+                                            const SeparationRule& rule) {
+  const FleetMotion& a = prepared_a.motion();
+  const FleetMotion& b = prepared_b.motion();
   const std::int64_t origin_ns = std::max(a.start_ns, b.start_ns);
   const std::int64_t until_ns = std::min(a.end_ns, b.end_ns);
   if (until_ns < origin_ns) return std::nullopt;  // Never both present.
@@ -257,20 +262,29 @@ std::optional<MotionConflict> FirstConflict(const FleetMotion& a, const FleetMot
   const double reach_m = limit_m + rule.distance_tolerance_m;
   const double closeness_tolerance = reach_m * reach_m - limit_m * limit_m;
 
-  const std::vector<Segment> sa = Segments(a, origin_ns);
-  const std::vector<Segment> sb = Segments(b, origin_ns);
+  // Times from the origin, where both are present: a piece's start is its motion's start
+  // (at or before the origin) plus its own.
+  const std::vector<BoundedPiece>& sa = prepared_a.pieces();
+  const std::vector<BoundedPiece>& sb = prepared_b.pieces();
+  const double a_start_s = SecondsBetween(origin_ns, a.start_ns);
+  const double b_start_s = SecondsBetween(origin_ns, b.start_ns);
   std::size_t i = 0, j = 0;
+  while (i < sa.size() && a_start_s + sa[i].end_s <= 0) ++i;  // Over before the origin.
+  while (j < sb.size() && b_start_s + sb[j].end_s <= 0) ++j;
   while (i < sa.size() && j < sb.size()) {
-    const Segment& x = sa[i];
-    const Segment& y = sb[j];
-    const double lo = std::max(x.begin_s, y.begin_s);
+    const BoundedPiece& x = sa[i];
+    const BoundedPiece& y = sb[j];
+    const double x_begin_s = a_start_s + x.begin_s, x_end_s = a_start_s + x.end_s;
+    const double y_begin_s = b_start_s + y.begin_s, y_end_s = b_start_s + y.end_s;
+    const double lo = std::max({x_begin_s, y_begin_s, 0.0});
     if (lo > until_s) break;
-    const double hi = std::min({x.end_s, y.end_s, until_s});
+    const double hi = std::min({x_end_s, y_end_s, until_s});
     // A window of no length is compared only when it is all the time both motions share.
     const bool compare = hi > lo || (hi == lo && until_s == 0);
     if (compare && !OutOfReach(x, y, limit_m)) {
       const double h = hi - lo;
-      const ConflictFunctions f = OnWindow(OnWindow(x, a, lo, h), OnWindow(y, b, lo, h), limit_m);
+      const ConflictFunctions f =
+          OnWindow(OnWindow(x, a, lo - x_begin_s, h), OnWindow(y, b, lo - y_begin_s, h), limit_m);
       if (const std::optional<double> u =
               FirstPositive(f, closeness_tolerance, rule.vertical_tolerance_m)) {
         MotionConflict conflict;
@@ -282,7 +296,7 @@ std::optional<MotionConflict> FirstConflict(const FleetMotion& a, const FleetMot
         return conflict;
       }
     }
-    if (x.end_s < y.end_s) {
+    if (x_end_s < y_end_s) {
       ++i;
     } else {
       ++j;

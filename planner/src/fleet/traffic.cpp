@@ -20,14 +20,28 @@ FleetMotion Traffic::MotionOf(const Trajectory& trajectory) const {
 std::optional<TrafficConflict> FirstTrafficConflict(const FleetMotion& own,
                                                     std::span<const ReservedMotion> others,
                                                     const SeparationRule& rule) {
+  return FirstTrafficConflict(own, PrepareOthers(others), rule);
+}
+
+std::optional<TrafficConflict> FirstTrafficConflict(const FleetMotion& own,
+                                                    std::span<const PreparedMotion> others,
+                                                    const SeparationRule& rule) {
+  const PreparedMotion mine(own);
   std::optional<TrafficConflict> first;
   for (std::size_t i = 0; i < others.size(); ++i) {
-    std::optional<MotionConflict> conflict = FirstConflict(own, others[i].motion, rule);
+    std::optional<MotionConflict> conflict = FirstConflict(mine, others[i], rule);
     if (conflict && (!first || conflict->time_ns < first->conflict.time_ns)) {
       first = TrafficConflict{i, *conflict};
     }
   }
   return first;
+}
+
+std::vector<PreparedMotion> PrepareOthers(std::span<const ReservedMotion> others) {
+  std::vector<PreparedMotion> prepared;
+  prepared.reserve(others.size());
+  for (const ReservedMotion& other : others) prepared.emplace_back(other.motion);
+  return prepared;
 }
 
 std::map<std::string, std::string> ConflictDetails(const std::string& robot_id,

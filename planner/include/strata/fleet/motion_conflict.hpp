@@ -19,6 +19,7 @@
 #include <cstdint>
 #include <optional>
 #include <string_view>
+#include <vector>
 
 #include <Eigen/Core>
 
@@ -49,10 +50,38 @@ struct MotionConflict {
   double limit_m = 0;                ///< Sum of the radii plus the separation [m].
 };
 
+namespace fleet_internal {
+struct BoundedPiece;
+}  // namespace fleet_internal
+
+/// A motion made ready to be checked against many others: its pieces (and its parked time)
+/// with the bounds that rule pairs out. Making them is most of a check that finds nothing,
+/// so a motion checked against many (a plan against the traffic, the traffic against each
+/// departure tried) is prepared once. Refers to `motion`, which must outlive it.
+class PreparedMotion {
+ public:
+  explicit PreparedMotion(const FleetMotion& motion);
+  ~PreparedMotion();
+  PreparedMotion(PreparedMotion&&) noexcept;
+  PreparedMotion& operator=(PreparedMotion&&) noexcept;
+  PreparedMotion(const PreparedMotion&) = delete;
+  PreparedMotion& operator=(const PreparedMotion&) = delete;
+
+  const FleetMotion& motion() const { return *motion_; }
+  const std::vector<fleet_internal::BoundedPiece>& pieces() const { return pieces_; }
+
+ private:
+  const FleetMotion* motion_;
+  std::vector<fleet_internal::BoundedPiece> pieces_;  // In time order.
+};
+
 /// The first conflict between `a` and `b` over the time both exist, if any. Both motions must
 /// be valid (FleetMotion::Validate) and the rule too; the cost is linear in the number of
 /// pieces of the two, plus a subdivision where the bodies come within reach of each other.
 std::optional<MotionConflict> FirstConflict(const FleetMotion& a, const FleetMotion& b,
+                                            const SeparationRule& rule);
+/// The same, of motions prepared already.
+std::optional<MotionConflict> FirstConflict(const PreparedMotion& a, const PreparedMotion& b,
                                             const SeparationRule& rule);
 
 }  // namespace strata

@@ -6,6 +6,7 @@
 #include <map>
 #include <span>
 #include <string>
+#include <vector>
 
 #include "strata/fleet/fleet_motion.hpp"
 #include "strata/fleet/motion_conflict.hpp"
@@ -46,6 +47,12 @@ struct TrafficConflict {
 std::optional<TrafficConflict> FirstTrafficConflict(const FleetMotion& own,
                                                     std::span<const ReservedMotion> others,
                                                     const SeparationRule& rule);
+/// The same, of `own` against others prepared already (PrepareOthers), in their order.
+std::optional<TrafficConflict> FirstTrafficConflict(const FleetMotion& own,
+                                                    std::span<const PreparedMotion> others,
+                                                    const SeparationRule& rule);
+/// `others`' motions prepared for FirstTrafficConflict; they refer to `others`.
+std::vector<PreparedMotion> PrepareOthers(std::span<const ReservedMotion> others);
 
 /// Error::details of a reservation conflict with robot `robot_id`: "robot_id", "time_ns",
 /// and "x_m", "y_m", "z_m", the reference point of the robot being planned then.
