@@ -35,6 +35,12 @@ struct SafeInterval {
   double to_s = kForever;
 };
 
+/// Where another robot is at one moment: its reference point and its body's heights.
+struct WayPoint {
+  Eigen::Vector2d p = Eigen::Vector2d::Zero();
+  VerticalExtent extent;
+};
+
 /// The others' ways from the departure on, up to the horizon, in stretches of kSweepStepS,
 /// filed by the square buckets of the plane they reach into, so that a node looks only at
 /// the stretches of its bucket.
@@ -54,24 +60,22 @@ class OthersWays {
       // first piece, took a third of filing the ways.
       TrajectoryCursor cursor(other.trajectory);
       double read_s = -1;
-      Eigen::Vector2d read_point = Eigen::Vector2d::Zero();
-      VerticalExtent read_extent;
+      WayPoint read_point;
       const auto read = [&](double time_s) {
-        if (time_s == read_s) return;
-        const std::int64_t time_ns = AddSeconds(traffic.departure_ns, time_s);
-        const StateVector state = cursor.Evaluate(other.TrajectoryTimeAt(time_ns), 0);
-        read_s = time_s;
-        read_point = state.head<2>();
-        read_extent = other.ExtentOf(state);
+        if (time_s != read_s) {
+          const std::int64_t time_ns = AddSeconds(traffic.departure_ns, time_s);
+          const StateVector state = cursor.Evaluate(other.TrajectoryTimeAt(time_ns), 0);
+          read_s = time_s;
+          read_point = {state.head<2>(), other.ExtentOf(state)};
+        }
+        return read_point;
       };
       const auto sweep = [&](double from_s, double to_s) {
-        read(from_s);
-        const Eigen::Vector2d p0 = read_point;
-        const VerticalExtent e0 = read_extent;
-        read(to_s);
-        File(Sweep{from_s, to_s, p0, read_point, reach_m,
-                   std::min(e0.bottom_m, read_extent.bottom_m),
-                   std::max(e0.top_m, read_extent.top_m)});
+        const WayPoint from = read(from_s);
+        const WayPoint to = read(to_s);
+        File(Sweep{from_s, to_s, from.p, to.p, reach_m,
+                   std::min(from.extent.bottom_m, to.extent.bottom_m),
+                   std::max(from.extent.top_m, to.extent.top_m)});
       };
       for (double t = begin_s; t < std::min(arrival_s, end_s); t += kSweepStepS) {
         sweep(t, std::min({t + kSweepStepS, arrival_s, end_s}));
