@@ -284,11 +284,13 @@ Result<ReservationSchedule::Moved> ReservationSchedule::Shift(const std::string&
         Store(schedule, map_id, robot_id, &moved.reservation);
     if (!stored.ok()) return std::move(stored).error();
     if (!stored.value()) return std::optional<Moved>();
+    const PreparedMotion moved_motion(motion);  // Checked against every other robot.
     for (const auto& [robot, other] : schedule.by_robot) {
       if (robot == robot_id) continue;
-      const std::optional<TrafficConflict> meeting =
-          FirstTrafficConflict(motion, std::span(&other.reserved, 1), rule);
-      if (meeting) moved.meetings.push_back({robot, meeting->conflict});
+      if (std::optional<MotionConflict> meeting =
+              FirstConflict(moved_motion, PreparedMotion(other.reserved.motion), rule)) {
+        moved.meetings.push_back({robot, *meeting});
+      }
     }
     std::sort(moved.meetings.begin(), moved.meetings.end(), [](const Meeting& a, const Meeting& b) {
       return a.conflict.time_ns < b.conflict.time_ns;
