@@ -91,10 +91,11 @@ SpaceTimeOptions Options() {
 
 std::optional<SpaceTimeRoute> Search(const std::vector<ReservedMotion>& others,
                                      const SpaceTimeOptions& options,
-                                     const std::function<bool(int)>& blocked = {}) {
+                                     const std::function<bool(int)>& blocked = {},
+                                     const std::function<bool()>& should_stop = {}) {
   const Traffic traffic = TrafficOf(others);
   return SearchSpaceTime(Graph(), NodeAt(0.7, 3.0), NodeAt(11.3, 3.0), traffic, options, blocked,
-                         {});
+                         should_stop);
 }
 
 /// Whether the route, timed as it says (at each node from its arrival to its leaving, and on
@@ -208,10 +209,29 @@ TEST(SpaceTimeSearch, AStartWithinReachOfAnotherRobotAtTheDepartureHasNoRoute) {
   EXPECT_FALSE(Search(others, Options()));
 }
 
+/// Whether a search among `others` fails before it expands anything: it polls should_stop
+/// every 1024 states, and would poll it while flooding the floor within the wait allowed.
+void ExpectNoRouteAtOnce(const std::vector<ReservedMotion>& others) {
+  int polls = 0;
+  EXPECT_FALSE(Search(others, Options(), {}, [&polls] {
+    ++polls;
+    return false;
+  }));
+  EXPECT_EQ(polls, 0);
+}
+
 TEST(SpaceTimeSearch, AGoalWhereAnotherRobotStaysBeyondTheHorizonHasNoRoute) {
   ReservedMotion parked = Driving({11.3, 2.8, kZ}, {11.3, 3.1, kZ}, 1);
   parked.motion.end_ns = AddSeconds(kDeparture, 600);
-  EXPECT_FALSE(Search({parked}, Options()));
+  ExpectNoRouteAtOnce({parked});
+}
+
+TEST(SpaceTimeSearch, AGoalAnotherRobotComesToStayAtHasNoRoute) {
+  // Free until that robot arrives from the north lane's end, 20 s after the departure: the
+  // robot planned could be there first, but could not stay.
+  ReservedMotion arriving = Driving({11.3, 6.5, kZ}, {11.3, 3.1, kZ}, 20);
+  arriving.motion.end_ns = AddSeconds(kDeparture, 600);
+  ExpectNoRouteAtOnce({arriving});
 }
 
 }  // namespace

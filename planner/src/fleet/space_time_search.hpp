@@ -57,8 +57,9 @@ struct SpaceTimeRoute {
 
 /// The earliest route from `start_node` to `goal_node` that keeps clear of `traffic.others`
 /// under `options`, staying at the goal from its arrival on; none when the start is within
-/// reach of another robot at the departure, the budget runs out, `should_stop` (may be empty)
-/// says so, or there is no such route. `blocked` (may be empty) keeps nodes out, as the
+/// reach of another robot at the departure, the goal is within reach of one at the horizon
+/// (both found before any state is expanded), the budget runs out, `should_stop` (may be
+/// empty) says so, or there is no such route. `blocked` (may be empty) keeps nodes out, as the
 /// plan's keep-out zones do.
 std::optional<SpaceTimeRoute> SearchSpaceTime(const SurfaceGraph& graph, int start_node,
                                               int goal_node, const Traffic& traffic,
