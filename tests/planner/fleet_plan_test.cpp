@@ -313,13 +313,36 @@ TEST(FleetPlan, ARobotComingDownTheShorterLaneLongerThanTheRobotMayWaitIsAvoided
 }
 
 // A leaves 20 s after B and drives across B's goal, where B stays parked from its arrival
-// (about 5 s) to the end of its lease: no wait, stop or way round clears that. (A crossing
-// of B's way with no wait allowed is not such a case: the space-time route goes round.)
-TEST(FleetPlan, AMeetingNothingClearsIsRefusedNamingWhoWhenAndWhere) {
+// (about 5 s) to the end of its lease: no wait, stop or way round clears that, and B is refused
+// before any is tried. (A crossing of B's way with no wait allowed is not such a case: the
+// space-time route goes round.)
+TEST(FleetPlan, AGoalAnotherRobotCrossesAfterTheArrivalIsRefusedAtOnceNamingWhoWhenAndWhere) {
   ReservedMotion a = Committed("A", Between({0.5, 4.5, 0.3}, {5.5, 4.5, 0.3}));
   a.motion.start_ns = AddSeconds(kDeparture, 20);
   const std::vector<ReservedMotion> others = {a};
   FleetPlanRequest request = AmongOthers(Between({3, 0.5, 0.3}, {3, 4.5, 0.3}), others);
+  request.fleet.max_wait_s = 0;
+  Expected<FleetPlanResult> refused = PlanAmongTraffic(Site(), request);
+  ASSERT_FALSE(refused);
+  EXPECT_EQ(refused.error().code, ErrorCode::kReservationConflict);
+  EXPECT_EQ(refused.error().field, "goal.position_m");
+  EXPECT_THAT(refused.error().message, HasSubstr("the goal is not free for good: robot 'A'"));
+  // When A reaches B standing at its goal.
+  EXPECT_THAT(refused.error().message, HasSubstr(" m, 22."));
+  EXPECT_THAT(refused.error().message, HasSubstr("s after the departure"));
+  EXPECT_EQ(refused.error().details.at("robot_id"), "A");
+}
+
+// The same, with B routed through a point on its way (a route with vias is not searched in
+// space and time, and its goal not checked before): refused with the first meeting, after
+// the waits and stops tried.
+TEST(FleetPlan, AMeetingNothingClearsIsRefusedNamingWhoWhenAndWhere) {
+  ReservedMotion a = Committed("A", Between({0.5, 4.5, 0.3}, {5.5, 4.5, 0.3}));
+  a.motion.start_ns = AddSeconds(kDeparture, 20);
+  const std::vector<ReservedMotion> others = {a};
+  PlanRequest plan = Between({3, 0.5, 0.3}, {3, 4.5, 0.3});
+  plan.via = {Via{{3, 2.5, 0.3}, false}};
+  FleetPlanRequest request = AmongOthers(plan, others);
   request.fleet.max_wait_s = 0;
   Expected<FleetPlanResult> refused = PlanAmongTraffic(Site(), request);
   ASSERT_FALSE(refused);

@@ -132,6 +132,47 @@ Error ParkedOnEnd(const ReservedMotion& other, const FleetPlanRequest& request,
   return error;
 }
 
+/// The latest a plan through `plain` (its trajectory `plain_s` long) may arrive at its goal,
+/// after the departure [s]: the space-time search's horizon, past every wait and detour it
+/// tries, and the stops' waits on the plain route.
+double LatestArrivalS(double max_wait_s, double plain_s) { return max_wait_s + 2 * plain_s + 10; }
+
+/// The first meeting of this robot, standing at the end of `plain` from the latest arrival
+/// any of its plans may have until it is parked no more, with another robot: then every plan
+/// ends in that meeting, and none is worth trying. None when it stays clear of them all
+/// (checked exactly), or leaves its goal before that arrival.
+std::optional<TrafficConflict> GoalTakenLater(const Trajectory& plain, const Traffic& traffic,
+                                              double max_wait_s) {
+  const std::int64_t latest_ns =
+      AddSeconds(traffic.departure_ns, LatestArrivalS(max_wait_s, plain.TotalDuration()));
+  if (traffic.parked_until_ns <= latest_ns) return std::nullopt;
+  FleetMotion standing;
+  standing.start_ns = latest_ns;
+  standing.trajectory.dimension = plain.dimension;
+  standing.trajectory.pieces = {RestAt(plain.Position(plain.TotalDuration()), 0.1)};
+  standing.body = traffic.body;
+  standing.end_ns = traffic.parked_until_ns;
+  return FirstTrafficConflict(standing, traffic.others, traffic.rule);
+}
+
+Error GoalTaken(const TrafficConflict& met, const FleetPlanRequest& request, double latest_s) {
+  const ReservedMotion& other = request.others[met.other];
+  const MotionConflict& c = met.conflict;
+  Error error{ErrorCode::kReservationConflict,
+              fmt::format("the goal is not free for good: robot {} comes within {:.3f} m of it "
+                          "(the limit is {:.3f} m) at ({:.2f}, {:.2f}, {:.2f}) m, {}, when this "
+                          "robot would stand there (every plan arrives within {:.1f} s, and the "
+                          "robot stays parked until {}): plan to another goal, or leave after "
+                          "that robot has passed",
+                          internal::Quote(other.robot_id), c.horizontal_distance_m, c.limit_m,
+                          c.point_b.x(), c.point_b.y(), c.point_b.z(),
+                          TimeText(request.departure_ns, c.time_ns), latest_s,
+                          TimeText(request.departure_ns, request.parked_until_ns)),
+              "goal.position_m"};
+  error.details = ConflictDetails(other.robot_id, c);
+  return error;
+}
+
 /// The robots, none already `zoned`, that stand parked where `motion` (the route without
 /// waits) passes, from before the robot could have passed with any wait up to `max_wait_s`
 /// until after: waiting cannot clear them, going around can. (Where the route passes before
@@ -290,7 +331,7 @@ std::optional<std::vector<RoutePoint>> SpaceTimeRoutePoints(
   options.cost_per_s = plain.path.cost / plain.stats.duration_s;
   options.terms = request.options.search;
   options.max_wait_s = max_wait_s;
-  options.horizon_s = max_wait_s + 2 * plain.stats.duration_s + 10;
+  options.horizon_s = LatestArrivalS(max_wait_s, plain.stats.duration_s);
   const std::vector<KeepOutZone> zones = CollectKeepOut(map, request.keep_out);
   std::function<bool(int)> blocked;
   if (!zones.empty()) {
@@ -484,7 +525,14 @@ Expected<FleetPlanResult> PlanAmongTraffic(const PlanningMap& map, const FleetPl
     const auto& failure = std::get<fleet_internal::HoldFailure>(scheduled);
     departures_checked += failure.departures_checked;
     if (!space_time_tried && request.plan.via.empty()) {
-      // No waits clear the route: search one in space and time, once.
+      // No waits clear the route. Where this robot, parked at its goal, is met by another even
+      // when it arrives as late as the search goes, no route, wait or stop clears it.
+      if (std::optional<TrafficConflict> taken =
+              GoalTakenLater(plan.value().trajectory, traffic, request.fleet.max_wait_s)) {
+        return GoalTaken(*taken, request,
+                         LatestArrivalS(request.fleet.max_wait_s, plan.value().stats.duration_s));
+      }
+      // Search a route in space and time, once.
       space_time_tried = true;
       std::optional<std::vector<RoutePoint>> points = SpaceTimeRoutePoints(
           map, plan_request, plan.value(), traffic, request.fleet.max_wait_s, should_stop);
