@@ -137,22 +137,30 @@ Error ParkedOnEnd(const ReservedMotion& other, const FleetPlanRequest& request,
 /// tries, and the stops' waits on the plain route.
 double LatestArrivalS(double max_wait_s, double plain_s) { return max_wait_s + 2 * plain_s + 10; }
 
-/// The first meeting of this robot, standing at the end of `plain` from the latest arrival
-/// any of its plans may have until it is parked no more, with another robot: then every plan
-/// ends in that meeting, and none is worth trying. None when it stays clear of them all
-/// (checked exactly), or leaves its goal before that arrival.
-std::optional<TrafficConflict> GoalTakenLater(const Trajectory& plain, const Traffic& traffic,
-                                              double max_wait_s) {
-  const std::int64_t latest_ns =
-      AddSeconds(traffic.departure_ns, LatestArrivalS(max_wait_s, plain.TotalDuration()));
-  if (traffic.parked_until_ns <= latest_ns) return std::nullopt;
+/// A body standing at `state` (its trajectory's `dimension`) from `from_ns` until `until_ns`.
+FleetMotion Standing(const StateVector& state, int dimension, const FleetBody& body,
+                     std::int64_t from_ns, std::int64_t until_ns) {
   FleetMotion standing;
-  standing.start_ns = latest_ns;
-  standing.trajectory.dimension = plain.dimension;
-  standing.trajectory.pieces = {RestAt(plain.Position(plain.TotalDuration()), 0.1)};
-  standing.body = traffic.body;
-  standing.end_ns = traffic.parked_until_ns;
-  return FirstTrafficConflict(standing, traffic.others, traffic.rule);
+  standing.start_ns = from_ns;
+  standing.trajectory.dimension = dimension;
+  standing.trajectory.pieces = {RestAt(state, SecondsBetween(from_ns, until_ns))};
+  standing.body = body;
+  standing.end_ns = until_ns;
+  return standing;
+}
+
+/// The first meeting of this robot, standing at the end of `plain` from `latest_s` after the
+/// departure (the latest arrival any of its plans may have, LatestArrivalS) until it is
+/// parked no more, with another robot: then every plan ends in that meeting, and none is
+/// worth trying. None when it stays clear of them all (checked exactly), or leaves its goal
+/// before that arrival.
+std::optional<TrafficConflict> GoalTakenLater(const Trajectory& plain, const Traffic& traffic,
+                                              double latest_s) {
+  const std::int64_t latest_ns = AddSeconds(traffic.departure_ns, latest_s);
+  if (traffic.parked_until_ns <= latest_ns) return std::nullopt;
+  return FirstTrafficConflict(Standing(plain.Position(plain.TotalDuration()), plain.dimension,
+                                       traffic.body, latest_ns, traffic.parked_until_ns),
+                              traffic.others, traffic.rule);
 }
 
 Error GoalTaken(const TrafficConflict& met, const FleetPlanRequest& request, double latest_s) {
@@ -188,13 +196,9 @@ std::vector<std::size_t> ParkedInTheWay(const FleetMotion& motion, const Traffic
       continue;
     }
     // The other robot standing where it parks for as long as the route could take.
-    FleetMotion standing;
-    standing.start_ns = motion.start_ns;
-    standing.trajectory.dimension = other.trajectory.dimension;
-    standing.trajectory.pieces = {RestAt(other.StateAt(other.ArrivalNs()),
-                                         SecondsBetween(motion.start_ns, latest_passage_ns))};
-    standing.body = other.body;
-    standing.end_ns = standing.ArrivalNs();
+    const FleetMotion standing =
+        Standing(other.StateAt(other.ArrivalNs()), other.trajectory.dimension, other.body,
+                 motion.start_ns, latest_passage_ns);
     if (FirstConflict(route, PreparedMotion(standing), traffic.rule)) parked.push_back(i);
   }
   return parked;
@@ -527,10 +531,11 @@ Expected<FleetPlanResult> PlanAmongTraffic(const PlanningMap& map, const FleetPl
     if (!space_time_tried && request.plan.via.empty()) {
       // No waits clear the route. Where this robot, parked at its goal, is met by another even
       // when it arrives as late as the search goes, no route, wait or stop clears it.
+      const double latest_s =
+          LatestArrivalS(request.fleet.max_wait_s, plan.value().stats.duration_s);
       if (std::optional<TrafficConflict> taken =
-              GoalTakenLater(plan.value().trajectory, traffic, request.fleet.max_wait_s)) {
-        return GoalTaken(*taken, request,
-                         LatestArrivalS(request.fleet.max_wait_s, plan.value().stats.duration_s));
+              GoalTakenLater(plan.value().trajectory, traffic, latest_s)) {
+        return GoalTaken(*taken, request, latest_s);
       }
       // Search a route in space and time, once.
       space_time_tried = true;
