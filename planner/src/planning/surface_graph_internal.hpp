@@ -53,12 +53,13 @@ class NodeComponents {
     }
     return labels;
   }
-
- private:
+  // The first node of `node`'s set.
   std::int32_t Find(std::int32_t node) {
     while (root_[node] != node) node = root_[node] = root_[root_[node]];  // Path halving.
     return node;
   }
+
+ private:
   std::vector<std::int32_t> root_;
 };
 

@@ -308,6 +308,19 @@ class SurfaceGraph {
   void AppendColumnNodes(int ix, int iy, bool measure_clearance);
   // The 10th percentile of the nodes' clearances (open_ground_clearance_m).
   double ClearanceTenthPercentile() const;
+  // Whether every component with nodes in `columns` keeps the rest of its nodes joined without
+  // them, as far as moves near `columns` show: its nodes next to them are joined by moves
+  // within a ring of columns around them (JoinedWithinRing, rings ever wider). Enough for the
+  // rest to stay joined, not needed: where it says false they may stay joined all the same.
+  bool RestStaysJoinedWithout(const CellBox& columns) const;
+  // Whether the nodes next to `columns` of each component are joined by moves within the ring
+  // of `ring_columns` columns around them.
+  bool JoinedWithinRing(const CellBox& columns, int ring_columns) const;
+  // Labels the components of a patched graph from its base's, which RestStaysJoinedWithout
+  // (renewed) allowed: components_ holds each node's label in the base outside `renewed` (of
+  // base_count labels) and anything inside. False when `stopped` fired.
+  bool LabelComponentsAcross(int base_count, const CellBox& renewed,
+                             const std::function<bool()>& stopped);
   // The least costs from a node to every node (infinity where unreached) into *distance;
   // false when the search was stopped.
   using DistancesFrom = std::function<bool(int source, std::vector<float>* distance)>;
