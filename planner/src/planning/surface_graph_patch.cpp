@@ -169,13 +169,14 @@ Expected<SurfaceGraph> SurfaceGraph::Patch(const SurfaceGraph& base, const Terra
   }
 
   // 2. The components, numbered by each component's first node, as Build numbers them: from
-  // the base's where every component the edit touched keeps the rest of its nodes joined
-  // without the renewed columns, as near them as RestStaysJoinedWithout looks (an obstacle set
-  // down on open ground), else over the whole graph, each axis move taken once, from its lower
-  // end.
+  // the base's, where PiecesWithout tells the parts the components the edit touched fall into
+  // without the renewed columns (near them: a pallet on open ground, a deck whose ramp is
+  // renewed), joined again across the renewed nodes; else over the whole graph, each axis move
+  // taken once, from its lower end.
   const int n = graph.node_count();
-  if (base.RestStaysJoinedWithout(renewed)) {
-    if (!graph.LabelComponentsAcross(base.component_count_, renewed, stopped)) return Cancelled();
+  std::vector<std::vector<std::int32_t>> pieces;
+  if (base.PiecesWithout(renewed, &pieces)) {
+    if (!graph.LabelComponentsAcross(base, renewed, pieces, stopped)) return Cancelled();
   } else {
     graph_internal::NodeComponents components(n);
     for (int node = 0; node < n; ++node) {
@@ -247,17 +248,20 @@ Expected<SurfaceGraph> SurfaceGraph::Patch(const SurfaceGraph& base, const Terra
   return graph;
 }
 
-bool SurfaceGraph::RestStaysJoinedWithout(const CellBox& columns) const {
+bool SurfaceGraph::PiecesWithout(const CellBox& columns,
+                                 std::vector<std::vector<std::int32_t>>* pieces) const {
+  pieces->clear();
   if (columns.empty()) return true;
   for (const int ring_columns : kJoinedRingColumns) {
-    if (JoinedWithinRing(columns, ring_columns)) return true;
+    if (PiecesWithinRing(columns, ring_columns, pieces)) return true;
     const CellBox window = columns.Grown({ring_columns, ring_columns, 0}, grid());
     if (window.size().head<2>() == grid().size.head<2>()) break;  // No wider ring to try.
   }
   return false;
 }
 
-bool SurfaceGraph::JoinedWithinRing(const CellBox& columns, int ring_columns) const {
+bool SurfaceGraph::PiecesWithinRing(const CellBox& columns, int ring_columns,
+                                    std::vector<std::vector<std::int32_t>>* pieces) const {
   // The ring: the nodes of the window around `columns` but theirs, joined by their moves within
   // it. A window row's nodes are consecutive (nodes are numbered column by column, x fastest),
   // so a node's place in the window's numbering is its row's first place plus its offset.
@@ -278,55 +282,101 @@ bool SurfaceGraph::JoinedWithinRing(const CellBox& columns, int ring_columns) co
     return static_cast<std::int32_t>(row_first[r] + node -
                                      column_begin_[column_index(window.min.x(), m.iy)]);
   };
-  graph_internal::NodeComponents joined(static_cast<int>(row_first.back()));
-  for (int iy = window.min.y(); iy <= window.max.y(); ++iy) {
-    for (int ix = window.min.x(); ix <= window.max.x(); ++ix) {
-      if (columns.Contains({ix, iy, 0})) continue;
-      for (const std::int32_t node : ColumnNodes(ix, iy)) {
-        const std::int32_t i = in_ring(node);
-        const auto join = [&](int m) {
-          if (const std::int32_t j = in_ring(m); j >= 0) joined.Join(i, j);
-        };
-        ForEachNeighborToward(node, 1, 0, join);
-        ForEachNeighborToward(node, 0, 1, join);
+  // Calls f(node, place) for every node of the ring.
+  const auto for_each_ring_node = [&](const auto& f) {
+    for (int iy = window.min.y(); iy <= window.max.y(); ++iy) {
+      for (int ix = window.min.x(); ix <= window.max.x(); ++ix) {
+        if (columns.Contains({ix, iy, 0})) continue;
+        for (const std::int32_t node : ColumnNodes(ix, iy)) f(node, in_ring(node));
       }
     }
-  }
-  // Every node of the ring a move away from `columns`, by component: all in one set.
-  std::unordered_map<std::int32_t, std::int32_t> set_of_component;
-  bool joined_in_ring = true;
-  for (int iy = columns.min.y(); iy <= columns.max.y() && joined_in_ring; ++iy) {
+  };
+  graph_internal::NodeComponents joined(static_cast<int>(row_first.back()));
+  for_each_ring_node([&](std::int32_t node, std::int32_t i) {
+    const auto join = [&](int m) {
+      if (const std::int32_t j = in_ring(m); j >= 0) joined.Join(i, j);
+    };
+    ForEachNeighborToward(node, 1, 0, join);
+    ForEachNeighborToward(node, 0, 1, join);
+  });
+  // A set is open when it reaches the window's edge where the grid goes on: it may go on
+  // outside the window.
+  std::vector<bool> open(static_cast<std::size_t>(row_first.back()), false);
+  const auto at_open_edge = [&](const Node& m) {
+    return (m.ix == window.min.x() && m.ix > 0) ||
+           (m.ix == window.max.x() && m.ix < g.size.x() - 1) ||
+           (m.iy == window.min.y() && m.iy > 0) ||
+           (m.iy == window.max.y() && m.iy < g.size.y() - 1);
+  };
+  for_each_ring_node([&](std::int32_t node, std::int32_t i) {
+    if (at_open_edge(nodes_[node])) open[static_cast<std::size_t>(joined.Find(i))] = true;
+  });
+  // The sets of nodes a move away from `columns`, with their component.
+  std::vector<std::pair<std::int32_t, std::int32_t>> touching;  // (component, set)
+  for (int iy = columns.min.y(); iy <= columns.max.y(); ++iy) {
     for (int ix = columns.min.x(); ix <= columns.max.x(); ++ix) {
       for (const std::int32_t node : ColumnNodes(ix, iy)) {
         for (const auto& step : kAxisSteps) {
           ForEachNeighborToward(node, step[0], step[1], [&](int m) {
-            const std::int32_t j = in_ring(m);
-            if (j < 0) return;  // Inside `columns` too.
-            const std::int32_t set = joined.Find(j);
-            const auto [it, first] = set_of_component.emplace(components_[m], set);
-            if (!first && it->second != set) joined_in_ring = false;
+            if (const std::int32_t j = in_ring(m); j >= 0) {
+              touching.emplace_back(components_[m], joined.Find(j));
+            }
           });
         }
       }
     }
   }
-  return joined_in_ring;
+  std::sort(touching.begin(), touching.end());
+  touching.erase(std::unique(touching.begin(), touching.end()), touching.end());
+  // A component the columns touch keeps its label on the open set it touches, with all its
+  // nodes outside the window (each reaches the columns through an open set, there being one);
+  // each closed set it touches is a piece of its own. Two open sets may or may not meet
+  // outside the window: then a wider ring is needed.
+  std::unordered_map<std::int32_t, std::size_t> piece_of_set;
+  std::int32_t last_open_component = -1;  // `touching` lists a component's sets together.
+  for (const auto& [component, set] : touching) {
+    if (open[static_cast<std::size_t>(set)]) {
+      if (component == last_open_component) return false;
+      last_open_component = component;
+    } else {
+      piece_of_set.emplace(set, piece_of_set.size());
+    }
+  }
+  pieces->assign(piece_of_set.size(), {});
+  if (!piece_of_set.empty()) {
+    for_each_ring_node([&](std::int32_t node, std::int32_t i) {
+      const auto it = piece_of_set.find(joined.Find(i));
+      if (it != piece_of_set.end()) (*pieces)[it->second].push_back(node);
+    });
+  }
+  return true;
 }
 
-bool SurfaceGraph::LabelComponentsAcross(int base_count, const CellBox& renewed,
+bool SurfaceGraph::LabelComponentsAcross(const SurfaceGraph& base, const CellBox& renewed,
+                                         const std::vector<std::vector<std::int32_t>>& pieces,
                                          const std::function<bool()>& stopped) {
-  // The sets: the base's components (each joined outside `renewed`, RestStaysJoinedWithout),
-  // then each renewed node, joined by every move of a renewed node.
+  // The sets: the base's components, the pieces the renewed columns leave apart (each node
+  // numbered here as in the base: the columns outside `renewed` are the base's), then each
+  // renewed node; joined by every move of a renewed node.
+  std::int32_t sets = base.component_count_;
+  const std::int64_t nx = grid().size.x();
+  for (const std::vector<std::int32_t>& piece : pieces) {
+    for (const std::int32_t base_node : piece) {
+      const Node& m = base.nodes_[base_node];
+      const std::int64_t c = m.ix + nx * m.iy;
+      components_[column_begin_[c] + (base_node - base.column_begin_[c])] = sets;
+    }
+    ++sets;
+  }
   std::vector<std::int32_t> renewed_nodes;
   for (int iy = renewed.min.y(); iy <= renewed.max.y(); ++iy) {
     for (int ix = renewed.min.x(); ix <= renewed.max.x(); ++ix) {
       for (const std::int32_t node : ColumnNodes(ix, iy)) {
-        components_[node] = base_count + static_cast<std::int32_t>(renewed_nodes.size());
+        components_[node] = sets++;
         renewed_nodes.push_back(node);
       }
     }
   }
-  const int sets = base_count + static_cast<int>(renewed_nodes.size());
   graph_internal::NodeComponents joined(sets);
   for (const std::int32_t node : renewed_nodes) {
     for (const auto& step : kAxisSteps) {

@@ -308,18 +308,20 @@ class SurfaceGraph {
   void AppendColumnNodes(int ix, int iy, bool measure_clearance);
   // The 10th percentile of the nodes' clearances (open_ground_clearance_m).
   double ClearanceTenthPercentile() const;
-  // Whether every component with nodes in `columns` keeps the rest of its nodes joined without
-  // them, as far as moves near `columns` show: its nodes next to them are joined by moves
-  // within a ring of columns around them (JoinedWithinRing, rings ever wider). Enough for the
-  // rest to stay joined, not needed: where it says false they may stay joined all the same.
-  bool RestStaysJoinedWithout(const CellBox& columns) const;
-  // Whether the nodes next to `columns` of each component are joined by moves within the ring
-  // of `ring_columns` columns around them.
-  bool JoinedWithinRing(const CellBox& columns, int ring_columns) const;
-  // Labels the components of a patched graph from its base's, which RestStaysJoinedWithout
-  // (renewed) allowed: components_ holds each node's label in the base outside `renewed` (of
-  // base_count labels) and anything inside. False when `stopped` fired.
-  bool LabelComponentsAcross(int base_count, const CellBox& renewed,
+  // Into *pieces, the parts the nodes of each component with nodes in `columns` fall into
+  // without them, but for one part each that keeps the component's label (the one that may go
+  // on far from `columns`): each part a list of its nodes. They are found within a ring of
+  // columns around `columns` (PiecesWithinRing, rings ever wider); false when the widest ring
+  // cannot tell whether two parts meet beyond it (surface_graph_patch.cpp).
+  bool PiecesWithout(const CellBox& columns, std::vector<std::vector<std::int32_t>>* pieces) const;
+  // PiecesWithout within the ring of `ring_columns` columns around `columns`.
+  bool PiecesWithinRing(const CellBox& columns, int ring_columns,
+                        std::vector<std::vector<std::int32_t>>* pieces) const;
+  // Labels the components of a graph patched from `base` from the base's labels, which
+  // components_ holds outside `renewed` (anything inside), and the `pieces` that
+  // base.PiecesWithout(renewed) found. False when `stopped` fired.
+  bool LabelComponentsAcross(const SurfaceGraph& base, const CellBox& renewed,
+                             const std::vector<std::vector<std::int32_t>>& pieces,
                              const std::function<bool()>& stopped);
   // The least costs from a node to every node (infinity where unreached) into *distance;
   // false when the search was stopped.
