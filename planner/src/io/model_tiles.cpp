@@ -1,15 +1,18 @@
 #include "strata/io/model_tiles.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <functional>
 #include <limits>
 #include <numeric>
+#include <optional>
 #include <utility>
 
 #include "binary_file.hpp"
 #include "model_parts.hpp"
+#include "prefault_internal.hpp"
 #include "strata/io/saved_model.hpp"
 
 namespace strata {
@@ -383,90 +386,104 @@ Expected<std::shared_ptr<const TerrainModel>> JoinTiles(
   p.fields.intervals.reserve((window ? tile_bytes / kRunBytes : header.run_total) + 1);
   p.fields.distance.reserve(window ? tile_bytes / kValueBytes : header.value_total);
   p.fields.safety.reserve(p.fields.distance.capacity());
-  // One row of blocks at a time: the columns of a grid row lie in every block of its row.
-  const int blocks_x = BlocksAlong(g.size.x());
-  std::vector<std::string> row(blocks_x);
-  std::vector<TileReader> readers(blocks_x);
-  // Whether each tile of the row is the held model's (its block is then copied from it).
-  std::vector<bool> from_held(blocks_x, false);
-  std::vector<bool> in_window(blocks_x, true);  // Outside a window: empty columns.
-  const TerrainModel* held_model = held != nullptr && held->model != nullptr && held->same &&
-                                           held->model->grid().size.head<2>() == g.size.head<2>()
-                                       ? held->model
-                                       : nullptr;
-  std::uint64_t surfaces = 0, runs = 0, values = 0, value_offset = 0, bytes_read = 0;
-  for (int y0 = 0; y0 < g.size.y(); y0 += kTileColumns) {
-    for (int bx = 0; bx < blocks_x; ++bx) {
-      const std::size_t t = std::size_t(y0 / kTileColumns) * blocks_x + bx;
-      in_window[bx] = window == nullptr || (*window)[t];
-      if (!in_window[bx]) continue;
-      from_held[bx] = held_model != nullptr && held->same(t);
-      if (from_held[bx]) {
-        const HeldTile tile(*held_model, BlockOf(g, t));
-        surfaces += tile.surface_total;
-        runs += tile.run_total;
-        values += tile.value_total;
-        if (surfaces > header.surface_total || runs > header.run_total ||
-            values > header.value_total) {
-          return fail("tile " + std::to_string(t) + " holds more than its header counts");
+  const std::array<internal::PageRegion, 6> filled = {
+      internal::CapacityOf(p.column_begin),        internal::CapacityOf(p.surfaces),
+      internal::CapacityOf(p.fields.column_begin), internal::CapacityOf(p.fields.intervals),
+      internal::CapacityOf(p.fields.distance),     internal::CapacityOf(p.fields.safety)};
+  // The arrays are filled on this thread; their pages are faulted in on another.
+  std::optional<Error> failed =
+      internal::FillWithPagesFaultedAhead(filled, [&]() -> std::optional<Error> {
+        // One row of blocks at a time: the columns of a grid row lie in every block of its row.
+        const int blocks_x = BlocksAlong(g.size.x());
+        std::vector<std::string> row(blocks_x);
+        std::vector<TileReader> readers(blocks_x);
+        // Whether each tile of the row is the held model's (its block is then copied from it).
+        std::vector<bool> from_held(blocks_x, false);
+        std::vector<bool> in_window(blocks_x, true);  // Outside a window: empty columns.
+        const TerrainModel* held_model =
+            held != nullptr && held->model != nullptr && held->same &&
+                    held->model->grid().size.head<2>() == g.size.head<2>()
+                ? held->model
+                : nullptr;
+        std::uint64_t surfaces = 0, runs = 0, values = 0, value_offset = 0, bytes_read = 0;
+        for (int y0 = 0; y0 < g.size.y(); y0 += kTileColumns) {
+          for (int bx = 0; bx < blocks_x; ++bx) {
+            const std::size_t t = std::size_t(y0 / kTileColumns) * blocks_x + bx;
+            in_window[bx] = window == nullptr || (*window)[t];
+            if (!in_window[bx]) continue;
+            from_held[bx] = held_model != nullptr && held->same(t);
+            if (from_held[bx]) {
+              const HeldTile tile(*held_model, BlockOf(g, t));
+              surfaces += tile.surface_total;
+              runs += tile.run_total;
+              values += tile.value_total;
+              if (surfaces > header.surface_total || runs > header.run_total ||
+                  values > header.value_total) {
+                return fail("tile " + std::to_string(t) + " holds more than its header counts");
+              }
+              continue;
+            }
+            Expected<std::string> bytes = source(t);
+            if (!bytes) return bytes.error();
+            bytes_read += bytes->size();
+            if (bytes_read > tile_bytes) {
+              return fail("tile " + std::to_string(t) + " goes past the " +
+                          std::to_string(tile_bytes) + " bytes its tiles were said to hold");
+            }
+            row[bx] = std::move(bytes).value();
+            readers[bx] = TileReader{};
+            if (std::string why = readers[bx].Open(row[bx], BlockOf(g, t).columns());
+                !why.empty()) {
+              return fail("tile " + std::to_string(t) + " " + why);
+            }
+            surfaces += readers[bx].surface_total;
+            runs += readers[bx].run_total;
+            values += readers[bx].value_total;
+            if (surfaces > header.surface_total || runs > header.run_total ||
+                values > header.value_total) {
+              return fail("tile " + std::to_string(t) + " holds more than its header counts");
+            }
+          }
+          for (int y = y0; y < std::min(g.size.y(), y0 + kTileColumns); ++y) {
+            for (int x = 0; x < g.size.x();) {
+              if (from_held[x / kTileColumns]) {
+                // The held blocks next to each other in this row: one run of the held model's.
+                int end = x;
+                while (end < g.size.x() && from_held[end / kTileColumns]) end += kTileColumns;
+                end = std::min(end, g.size.x());
+                const std::int64_t row = std::int64_t{g.size.x()} * y;
+                AppendHeldColumns(*held_model, row + x, row + end, &p, &value_offset);
+                x = end;
+                continue;
+              }
+              p.column_begin.push_back(static_cast<std::uint32_t>(p.surfaces.size()));
+              p.fields.column_begin.push_back(
+                  static_cast<std::uint32_t>(p.fields.intervals.size()));
+              if (!in_window[x / kTileColumns]) {
+                ++x;
+                continue;
+              }
+              if (!readers[x / kTileColumns].NextColumn(&p, &value_offset)) {
+                return fail("tile " +
+                            std::to_string(std::size_t(y0 / kTileColumns) * blocks_x +
+                                           std::size_t(x / kTileColumns)) +
+                            " holds a surface with a bad valid flag");
+              }
+              ++x;
+            }
+          }
         }
-        continue;
-      }
-      Expected<std::string> bytes = source(t);
-      if (!bytes) return bytes.error();
-      bytes_read += bytes->size();
-      if (bytes_read > tile_bytes) {
-        return fail("tile " + std::to_string(t) + " goes past the " + std::to_string(tile_bytes) +
-                    " bytes its tiles were said to hold");
-      }
-      row[bx] = std::move(bytes).value();
-      readers[bx] = TileReader{};
-      if (std::string why = readers[bx].Open(row[bx], BlockOf(g, t).columns()); !why.empty()) {
-        return fail("tile " + std::to_string(t) + " " + why);
-      }
-      surfaces += readers[bx].surface_total;
-      runs += readers[bx].run_total;
-      values += readers[bx].value_total;
-      if (surfaces > header.surface_total || runs > header.run_total ||
-          values > header.value_total) {
-        return fail("tile " + std::to_string(t) + " holds more than its header counts");
-      }
-    }
-    for (int y = y0; y < std::min(g.size.y(), y0 + kTileColumns); ++y) {
-      for (int x = 0; x < g.size.x();) {
-        if (from_held[x / kTileColumns]) {
-          // The held blocks next to each other in this row: one run of the held model's.
-          int end = x;
-          while (end < g.size.x() && from_held[end / kTileColumns]) end += kTileColumns;
-          end = std::min(end, g.size.x());
-          const std::int64_t row = std::int64_t{g.size.x()} * y;
-          AppendHeldColumns(*held_model, row + x, row + end, &p, &value_offset);
-          x = end;
-          continue;
+        if (window == nullptr && (surfaces != header.surface_total || runs != header.run_total ||
+                                  values != header.value_total)) {
+          return fail("holds fewer surfaces, runs or layers than its header counts");
         }
         p.column_begin.push_back(static_cast<std::uint32_t>(p.surfaces.size()));
         p.fields.column_begin.push_back(static_cast<std::uint32_t>(p.fields.intervals.size()));
-        if (!in_window[x / kTileColumns]) {
-          ++x;
-          continue;
-        }
-        if (!readers[x / kTileColumns].NextColumn(&p, &value_offset)) {
-          return fail("tile " +
-                      std::to_string(std::size_t(y0 / kTileColumns) * blocks_x +
-                                     std::size_t(x / kTileColumns)) +
-                      " holds a surface with a bad valid flag");
-        }
-        ++x;
-      }
-    }
-  }
-  if (window == nullptr && (surfaces != header.surface_total || runs != header.run_total ||
-                            values != header.value_total)) {
-    return fail("holds fewer surfaces, runs or layers than its header counts");
-  }
-  p.column_begin.push_back(static_cast<std::uint32_t>(p.surfaces.size()));
-  p.fields.column_begin.push_back(static_cast<std::uint32_t>(p.fields.intervals.size()));
-  p.fields.intervals.push_back({header.sentinel_layer, static_cast<std::uint32_t>(value_offset)});
+        p.fields.intervals.push_back(
+            {header.sentinel_layer, static_cast<std::uint32_t>(value_offset)});
+        return std::nullopt;
+      });
+  if (failed) return *std::move(failed);
   return model_parts::BuildModel(std::move(p), "tiled model", name);
 }
 

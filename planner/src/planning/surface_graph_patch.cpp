@@ -1,6 +1,7 @@
 // SurfaceGraph::Patch: the graph of an edited model, made from its base's graph by finding
 // again only what the edit can change (see the declaration for what that is).
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <functional>
@@ -13,6 +14,7 @@
 #include <fmt/format.h>
 
 #include "planning/surface_graph_internal.hpp"
+#include "prefault_internal.hpp"
 #include "strata/planning/surface_graph.hpp"
 
 namespace strata {
@@ -147,26 +149,35 @@ Expected<SurfaceGraph> SurfaceGraph::Patch(const SurfaceGraph& base, const Terra
   ClearancesAround near_open(
       base.open_ground_clearance_m_,
       std::min(4 * static_cast<std::size_t>(renewed.CellCount()) + 64, kMostKept));
-  for (int iy = 0; iy < g.size.y(); ++iy) {
-    if (stopped()) return Cancelled();
-    const std::size_t row_first_node = graph.nodes_.size();
-    const std::int64_t row = nx * iy;
-    if (renewed.empty() || iy < renewed.min.y() || iy > renewed.max.y()) {
-      copy_columns(row, row + nx);
-    } else {
-      copy_columns(row, row + renewed.min.x());
-      for (int ix = renewed.min.x(); ix <= renewed.max.x(); ++ix) {
-        graph.AppendColumnNodes(ix, iy, /*measure_clearance=*/true);
-        graph.edge_distance_.resize(graph.nodes_.size(), cap);
-        graph.components_.resize(graph.nodes_.size(), -1);
-        graph.column_begin_[row + ix + 1] = static_cast<std::uint32_t>(graph.column_nodes_.size());
+  // The arrays are filled on this thread; their pages are faulted in on another.
+  const std::array<internal::PageRegion, 4> filled = {
+      internal::CapacityOf(graph.nodes_), internal::CapacityOf(graph.column_nodes_),
+      internal::CapacityOf(graph.edge_distance_), internal::CapacityOf(graph.components_)};
+  const bool copied = internal::FillWithPagesFaultedAhead(filled, [&] {
+    for (int iy = 0; iy < g.size.y(); ++iy) {
+      if (stopped()) return false;
+      const std::size_t row_first_node = graph.nodes_.size();
+      const std::int64_t row = nx * iy;
+      if (renewed.empty() || iy < renewed.min.y() || iy > renewed.max.y()) {
+        copy_columns(row, row + nx);
+      } else {
+        copy_columns(row, row + renewed.min.x());
+        for (int ix = renewed.min.x(); ix <= renewed.max.x(); ++ix) {
+          graph.AppendColumnNodes(ix, iy, /*measure_clearance=*/true);
+          graph.edge_distance_.resize(graph.nodes_.size(), cap);
+          graph.components_.resize(graph.nodes_.size(), -1);
+          graph.column_begin_[row + ix + 1] =
+              static_cast<std::uint32_t>(graph.column_nodes_.size());
+        }
+        copy_columns(row + renewed.max.x() + 1, row + nx);
       }
-      copy_columns(row + renewed.max.x() + 1, row + nx);
+      for (std::size_t k = row_first_node; k < graph.nodes_.size(); ++k) {
+        near_open.Add(graph.nodes_[k].clearance_m);
+      }
     }
-    for (std::size_t k = row_first_node; k < graph.nodes_.size(); ++k) {
-      near_open.Add(graph.nodes_[k].clearance_m);
-    }
-  }
+    return true;
+  });
+  if (!copied) return Cancelled();
 
   // 2. The components, numbered by each component's first node, as Build numbers them: from
   // the base's, where PiecesWithout tells the parts the components the edit touched fall into
