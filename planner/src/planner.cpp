@@ -322,9 +322,10 @@ std::shared_ptr<const PlanningMap> PlanningMap::WithKeepOut(std::vector<Prism> k
 
 Expected<std::shared_ptr<const SurfaceGraph>> PlanningMap::Graph(
     const TraversabilityParams& params, const std::function<bool()>& should_stop) const {
-  return GraphMadeBy(params, should_stop, [&](const std::function<bool()>& stop) {
-    return SurfaceGraph::Build(*model_, params, stop);
-  });
+  return GraphMadeBy(params, should_stop, Archived::kLookFirst,
+                     [&](const std::function<bool()>& stop) {
+                       return SurfaceGraph::Build(*model_, params, stop);
+                     });
 }
 
 Expected<std::shared_ptr<const SurfaceGraph>> PlanningMap::GraphPatchedFrom(
@@ -332,14 +333,15 @@ Expected<std::shared_ptr<const SurfaceGraph>> PlanningMap::GraphPatchedFrom(
     const std::function<bool()>& should_stop) const {
   const std::shared_ptr<const SurfaceGraph> from = base.BuiltGraph(params);
   if (from == nullptr) return Graph(params, should_stop);
-  return GraphMadeBy(params, should_stop, [&](const std::function<bool()>& stop) {
-    Expected<SurfaceGraph> patched = SurfaceGraph::Patch(*from, *model_, changed_columns, stop);
-    // Another grid: nothing to patch from.
-    if (!patched && patched.error().code == ErrorCode::kInvalidInput) {
-      return SurfaceGraph::Build(*model_, params, stop);
-    }
-    return patched;
-  });
+  return GraphMadeBy(
+      params, should_stop, Archived::kMakeFirst, [&](const std::function<bool()>& stop) {
+        Expected<SurfaceGraph> patched = SurfaceGraph::Patch(*from, *model_, changed_columns, stop);
+        // Another grid: nothing to patch from.
+        if (!patched && patched.error().code == ErrorCode::kInvalidInput) {
+          return SurfaceGraph::Build(*model_, params, stop);
+        }
+        return patched;
+      });
 }
 
 std::size_t PlanningMap::MakeGraphsAhead(const PlanningMap& base, const CellBox* changed_columns,
@@ -365,12 +367,12 @@ std::shared_ptr<const SurfaceGraph> PlanningMap::BuiltGraph(
 }
 
 Expected<std::shared_ptr<const SurfaceGraph>> PlanningMap::GraphMadeBy(
-    const TraversabilityParams& params, const std::function<bool()>& should_stop,
+    const TraversabilityParams& params, const std::function<bool()>& should_stop, Archived archived,
     const GraphMaker& make) const {
   while (true) {
     bool built_here = false;
     Expected<std::shared_ptr<const SurfaceGraph>> graph =
-        GraphOnce(params, should_stop, make, &built_here);
+        GraphOnce(params, should_stop, archived, make, &built_here);
     // Another caller's build was stopped (its caller gave up, not this one): build it here.
     if (!graph && graph.error().code == ErrorCode::kCancelled && !built_here &&
         !(should_stop && should_stop())) {
@@ -381,7 +383,7 @@ Expected<std::shared_ptr<const SurfaceGraph>> PlanningMap::GraphMadeBy(
 }
 
 Expected<std::shared_ptr<const SurfaceGraph>> PlanningMap::GraphOnce(
-    const TraversabilityParams& params, const std::function<bool()>& should_stop,
+    const TraversabilityParams& params, const std::function<bool()>& should_stop, Archived archived,
     const GraphMaker& make, bool* built_here) const {
   if (Status s = params.Validate(); !s) return std::move(s).error();
   std::shared_ptr<GraphEntry> entry;
@@ -399,7 +401,7 @@ Expected<std::shared_ptr<const SurfaceGraph>> PlanningMap::GraphOnce(
   }
   std::call_once(entry->once, [&] {
     *built_here = true;
-    if (archive_ != nullptr) {
+    if (archive_ != nullptr && archived == Archived::kLookFirst) {
       std::optional<SurfaceGraph> kept = archive_->Find(*model_, params);
       if (kept && kept->params() == params) {
         entry->graph = std::make_shared<const SurfaceGraph>(std::move(*kept));
@@ -410,7 +412,9 @@ Expected<std::shared_ptr<const SurfaceGraph>> PlanningMap::GraphOnce(
     Expected<SurfaceGraph> graph = make(should_stop);
     if (graph) {
       entry->graph = std::make_shared<const SurfaceGraph>(std::move(graph).value());
-      if (archive_ != nullptr) archive_->Keep(model_, entry->graph);
+      if (archive_ != nullptr && (archived == Archived::kLookFirst || !archive_->Holds(params))) {
+        archive_->Keep(model_, entry->graph);
+      }
     } else {
       entry->error = graph.error();
     }

@@ -752,6 +752,13 @@ ServiceStatus MapStore::PutGraph(const std::string& id, const std::string& terra
   return Sync(dir);
 }
 
+bool MapStore::HasGraph(const std::string& id, const std::string& terrain,
+                        const TraversabilityParams& params) const {
+  if (!CheckId(id).ok() || !CheckTerrain(terrain).ok()) return false;
+  std::error_code ec;
+  return fs::exists(GraphsDir(id, terrain) / (SavedGraphKey(params) + kGraphExtension), ec);
+}
+
 Result<std::optional<SurfaceGraph>> MapStore::LoadGraph(const std::string& id,
                                                         const std::string& terrain,
                                                         const TerrainModel& model,

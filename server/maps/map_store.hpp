@@ -189,6 +189,11 @@ class MapStore {
   ServiceStatus PutGraph(const std::string& id, const std::string& terrain,
                          const SurfaceGraph& graph);
 
+  /// Whether a graph for `params` is kept with terrain `terrain` of map `id` (a bad id or
+  /// name holds none). Does not load it.
+  bool HasGraph(const std::string& id, const std::string& terrain,
+                const TraversabilityParams& params) const;
+
   /// The graph for `params` kept with terrain `terrain` of map `id`, loaded onto `model` (that
   /// terrain's model, which must outlive it); nullopt when none is kept. kMapCorrupted naming
   /// the file when one is kept but does not load (then build it and PutGraph it again).

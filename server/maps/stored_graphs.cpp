@@ -48,6 +48,10 @@ std::optional<SurfaceGraph> StoredGraphs::Find(const TerrainModel& model,
   return std::move(kept).value();
 }
 
+bool StoredGraphs::Holds(const TraversabilityParams& params) const {
+  return store_->HasGraph(id_, terrain_, params);
+}
+
 void StoredGraphs::Keep(std::shared_ptr<const TerrainModel> model,
                         std::shared_ptr<const SurfaceGraph> graph) const {
   const bool queued = writer_->Post([store = store_, id = id_, terrain = terrain_,

@@ -30,6 +30,8 @@ class StoredGraphs final : public GraphArchive {
   /// The kept graph, or nullopt when none is kept or it does not load (logged).
   std::optional<SurfaceGraph> Find(const TerrainModel& model,
                                    const TraversabilityParams& params) const override;
+  /// Whether the store holds a graph for `params` (its file exists).
+  bool Holds(const TraversabilityParams& params) const override;
   /// Queues the graph's write (logged when it fails or is not queued).
   void Keep(std::shared_ptr<const TerrainModel> model,
             std::shared_ptr<const SurfaceGraph> graph) const override;

@@ -58,9 +58,9 @@ Result<ActiveMap> StoredMaps::Get(const std::string& id, const std::string& vers
         if (!model.ok()) return std::move(model).error();
         std::shared_ptr<const PlanningMap> planning = options_.make_planning(
             std::move(model).value(), described.value().keep_out, id, terrain.value());
-        // The robots that planned on the other version get their graphs patched from its
-        // (where the store holds none yet: the editing replica writes them after publishing),
-        // not built: a tenth of the time on a site, as the editor does.
+        // The robots that planned on the other version get their graphs patched from its, as
+        // the editor does: not built (a tenth of the time on a site), nor loaded from the store
+        // where the editing replica kept them (a patch is faster than a load too).
         if (changed) planning->MakeGraphsAhead(*other, &*changed, kMaxGraphsBuiltAhead);
         return planning;
       });

@@ -127,6 +127,10 @@ class MemoryArchive final : public GraphArchive {
     if (!graph.ok()) return std::nullopt;
     return std::move(graph).value();
   }
+  bool Holds(const TraversabilityParams& params) const override {
+    std::lock_guard lock(mutex_);
+    return kept_.contains(SavedGraphKey(params));
+  }
   void Keep(std::shared_ptr<const TerrainModel>,
             std::shared_ptr<const SurfaceGraph> graph) const override {
     std::lock_guard lock(mutex_);
@@ -186,6 +190,33 @@ TEST(SavedGraphPlans, AGraphKeptByOneMapIsLoadedByTheNextAndPlansAlike) {
   ASSERT_TRUE(zoned->Graph(low).ok());
   EXPECT_EQ(archive->finds(), 3);
   EXPECT_EQ(archive->keeps(), 2);
+}
+
+// A map patching its graph from another version's (GraphPatchedFrom) does not load the
+// archive's: a patch is faster. It keeps the patched graph only where the archive holds none.
+TEST(SavedGraphPlans, AGraphPatchedFromAnotherVersionIsNotLoadedAndKeptOnlyWhereMissing) {
+  const std::shared_ptr<const TerrainModel> model = Assess(0.25);
+  ASSERT_NE(model, nullptr);
+  const TraversabilityParams params = RobotProfile{}.Traversability();
+  const CellBox changed{{2, 2}, {5, 6}};  // The versions are alike: any columns do.
+
+  const auto archive = std::make_shared<MemoryArchive>();
+  const PlanningMap base(model, {}, 0, archive);
+  ASSERT_TRUE(base.Graph(params).ok());
+  EXPECT_EQ(archive->finds(), 1);
+  EXPECT_EQ(archive->keeps(), 1);
+  const PlanningMap next(model, {}, 0, archive);
+  const auto patched = next.GraphPatchedFrom(base, changed, params);
+  ASSERT_TRUE(patched.ok()) << patched.error().message;
+  EXPECT_EQ(SerializeGraph(**patched), SerializeGraph(*base.Graph(params).value()));
+  EXPECT_EQ(archive->finds(), 1);  // Not looked for,
+  EXPECT_EQ(archive->keeps(), 1);  // and not written again.
+
+  const auto empty = std::make_shared<MemoryArchive>();
+  const PlanningMap elsewhere(model, {}, 0, empty);
+  ASSERT_TRUE(elsewhere.GraphPatchedFrom(base, changed, params).ok());
+  EXPECT_EQ(empty->finds(), 0);
+  EXPECT_EQ(empty->keeps(), 1);  // Kept for the replicas that hold no version to patch from.
 }
 
 TEST_F(SavedGraph, SavesToAFileAndLoadsFromIt) {

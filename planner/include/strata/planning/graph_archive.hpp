@@ -21,6 +21,9 @@ class GraphArchive {
   /// the kept one does not load: the archive says why where it logs).
   virtual std::optional<SurfaceGraph> Find(const TerrainModel& model,
                                            const TraversabilityParams& params) const = 0;
+  /// Whether a graph of `params` is kept, without loading it: a graph patched from another
+  /// version's is made faster than it loads, and is kept only where none is.
+  virtual bool Holds(const TraversabilityParams& params) const = 0;
   /// Keeps `graph`, just built on `model`; may return before it is kept (holding both).
   virtual void Keep(std::shared_ptr<const TerrainModel> model,
                     std::shared_ptr<const SurfaceGraph> graph) const = 0;
