@@ -456,13 +456,22 @@ Expected<std::shared_ptr<const TerrainModel>> JoinTiles(
                 x = end;
                 continue;
               }
+              if (!in_window[x / kTileColumns]) {
+                // The blocks outside the window next to each other in this row: empty columns,
+                // appended at once (a 1 km site's window holds a few of its 25 M columns).
+                int end = x;
+                while (end < g.size.x() && !in_window[end / kTileColumns]) end += kTileColumns;
+                end = std::min(end, g.size.x());
+                p.column_begin.insert(p.column_begin.end(), end - x,
+                                      static_cast<std::uint32_t>(p.surfaces.size()));
+                p.fields.column_begin.insert(p.fields.column_begin.end(), end - x,
+                                             static_cast<std::uint32_t>(p.fields.intervals.size()));
+                x = end;
+                continue;
+              }
               p.column_begin.push_back(static_cast<std::uint32_t>(p.surfaces.size()));
               p.fields.column_begin.push_back(
                   static_cast<std::uint32_t>(p.fields.intervals.size()));
-              if (!in_window[x / kTileColumns]) {
-                ++x;
-                continue;
-              }
               if (!readers[x / kTileColumns].NextColumn(&p, &value_offset)) {
                 return fail("tile " +
                             std::to_string(std::size_t(y0 / kTileColumns) * blocks_x +
