@@ -1,6 +1,7 @@
 #include "strata/assessment/map_edit.hpp"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -19,6 +20,7 @@
 #include "assessment/terrain_fields_build.hpp"
 #include "assessment/terrain_model_internal.hpp"
 #include "format_internal.hpp"
+#include "prefault_internal.hpp"
 
 namespace strata {
 namespace {
@@ -396,28 +398,46 @@ std::vector<ColumnRun> SpliceRuns(const GridGeometry& g, const CellBox& window) 
   return runs;
 }
 
+// Appends `run`'s offsets of `from` moved by `shift` (unsigned: it wraps when it moves them
+// down) to `out`, whose capacity holds them: the splices' arrays are reserved whole, so that
+// their pages can be faulted in ahead of the copy (prefault_internal.hpp) and are written once
+// (a slice at a time, moved while it is in the cache).
+void AppendShifted(const std::vector<std::uint32_t>& from, const ColumnRun& run,
+                   std::uint32_t shift, std::vector<std::uint32_t>* out) {
+  constexpr std::int64_t kSlice = 4096;
+  for (std::int64_t done = 0; done < run.count; done += kSlice) {
+    const auto source = from.begin() + run.first + done;
+    const std::size_t at = out->size();
+    out->insert(out->end(), source, source + std::min(kSlice, run.count - done));
+    if (shift == 0) continue;
+    for (std::size_t k = at; k < out->size(); ++k) (*out)[k] += shift;
+  }
+}
+
 // The surfaces of `base` with those of `window`'s columns replaced by `local`'s.
 Expected<SurfaceMap> SpliceSurfaces(const SurfaceMap& base, const CellBox& window,
                                     const internal::ColumnSurfaces& local) {
   const std::vector<std::uint32_t>& base_begin = base.column_begin();
   const std::vector<ColumnSurface>& base_surfaces = base.all_surfaces();
-  std::vector<std::uint32_t> begin(base_begin.size());
+  std::vector<std::uint32_t> begin;
+  begin.reserve(base_begin.size());
   std::vector<ColumnSurface> surfaces;
   surfaces.reserve(base_surfaces.size() + local.surfaces.size());
-  std::int64_t column = 0;
-  for (const ColumnRun& run : SpliceRuns(base.geometry(), window)) {
-    const std::vector<std::uint32_t>& from_begin =
-        run.from_window ? local.column_begin : base_begin;
-    const std::vector<ColumnSurface>& from = run.from_window ? local.surfaces : base_surfaces;
-    const std::uint32_t first = from_begin[run.first];
-    const std::uint32_t last = from_begin[run.first + run.count];
-    const auto shift = static_cast<std::uint32_t>(surfaces.size()) - first;
-    for (std::int64_t c = 0; c < run.count; ++c)
-      begin[column + c] = from_begin[run.first + c] + shift;
-    surfaces.insert(surfaces.end(), from.begin() + first, from.begin() + last);
-    column += run.count;
-  }
-  begin.back() = static_cast<std::uint32_t>(surfaces.size());
+  const std::array<internal::PageRegion, 2> filled = {internal::CapacityOf(begin),
+                                                      internal::CapacityOf(surfaces)};
+  internal::FillWithPagesFaultedAhead(filled, [&] {
+    for (const ColumnRun& run : SpliceRuns(base.geometry(), window)) {
+      const std::vector<std::uint32_t>& from_begin =
+          run.from_window ? local.column_begin : base_begin;
+      const std::vector<ColumnSurface>& from = run.from_window ? local.surfaces : base_surfaces;
+      const std::uint32_t first = from_begin[run.first];
+      const std::uint32_t last = from_begin[run.first + run.count];
+      AppendShifted(from_begin, run, static_cast<std::uint32_t>(surfaces.size()) - first, &begin);
+      surfaces.insert(surfaces.end(), from.begin() + first, from.begin() + last);
+    }
+    begin.push_back(static_cast<std::uint32_t>(surfaces.size()));
+    return true;
+  });
   return SurfaceMap::FromParts(base.geometry(), std::move(begin), std::move(surfaces));
 }
 
@@ -430,34 +450,36 @@ Expected<TerrainFields> SpliceFields(const TerrainFields& base, const CellBox& w
   out.distance_cap_m = from_base.distance_cap_m;
   out.safety_step = from_base.safety_step;
   out.safety_background = from_base.safety_background;
-  out.column_begin.resize(from_base.column_begin.size());
+  out.column_begin.reserve(from_base.column_begin.size());
   out.intervals.reserve(from_base.intervals.size() + local.intervals.size());
   out.distance.reserve(from_base.distance.size() + local.distance.size());
   out.safety.reserve(out.distance.capacity());
-  std::int64_t column = 0;
-  for (const ColumnRun& run : SpliceRuns(from_base.geometry, window)) {
-    const TerrainFields::Parts& from = run.from_window ? local : from_base;
-    const std::uint32_t first = from.column_begin[run.first];
-    const std::uint32_t last = from.column_begin[run.first + run.count];
-    const std::uint32_t values_first = from.intervals[first].offset;
-    const std::uint32_t values_last = from.intervals[last].offset;  // The sentinel at the end.
-    const auto shift = static_cast<std::uint32_t>(out.intervals.size()) - first;
-    for (std::int64_t c = 0; c < run.count; ++c) {
-      out.column_begin[column + c] = from.column_begin[run.first + c] + shift;
+  const std::array<internal::PageRegion, 4> filled = {
+      internal::CapacityOf(out.column_begin), internal::CapacityOf(out.intervals),
+      internal::CapacityOf(out.distance), internal::CapacityOf(out.safety)};
+  internal::FillWithPagesFaultedAhead(filled, [&] {
+    for (const ColumnRun& run : SpliceRuns(from_base.geometry, window)) {
+      const TerrainFields::Parts& from = run.from_window ? local : from_base;
+      const std::uint32_t first = from.column_begin[run.first];
+      const std::uint32_t last = from.column_begin[run.first + run.count];
+      const std::uint32_t values_first = from.intervals[first].offset;
+      const std::uint32_t values_last = from.intervals[last].offset;  // The sentinel at the end.
+      AppendShifted(from.column_begin, run,
+                    static_cast<std::uint32_t>(out.intervals.size()) - first, &out.column_begin);
+      const auto value_shift = static_cast<std::uint32_t>(out.distance.size()) - values_first;
+      for (std::uint32_t k = first; k < last; ++k) {
+        out.intervals.push_back(
+            {from.intervals[k].first_layer, from.intervals[k].offset + value_shift});
+      }
+      out.distance.insert(out.distance.end(), from.distance.begin() + values_first,
+                          from.distance.begin() + values_last);
+      out.safety.insert(out.safety.end(), from.safety.begin() + values_first,
+                        from.safety.begin() + values_last);
     }
-    const auto value_shift = static_cast<std::uint32_t>(out.distance.size()) - values_first;
-    for (std::uint32_t k = first; k < last; ++k) {
-      out.intervals.push_back(
-          {from.intervals[k].first_layer, from.intervals[k].offset + value_shift});
-    }
-    out.distance.insert(out.distance.end(), from.distance.begin() + values_first,
-                        from.distance.begin() + values_last);
-    out.safety.insert(out.safety.end(), from.safety.begin() + values_first,
-                      from.safety.begin() + values_last);
-    column += run.count;
-  }
-  out.column_begin.back() = static_cast<std::uint32_t>(out.intervals.size());
-  out.intervals.push_back({0, static_cast<std::uint32_t>(out.distance.size())});
+    out.column_begin.push_back(static_cast<std::uint32_t>(out.intervals.size()));
+    out.intervals.push_back({0, static_cast<std::uint32_t>(out.distance.size())});
+    return true;
+  });
   return TerrainFields::FromParts(std::move(out));
 }
 
