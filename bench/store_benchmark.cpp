@@ -301,25 +301,29 @@ int Measure(int argc, char** argv) {
     MapRegistry editor(StoreOptions(store, replica_budget));
     const Eigen::Vector3d centre = 0.5 * (query->first + query->second);
     const double ground_z = centre.z() - 0.3;
-    // Each run edits another spot (0.3 m further along x) of the version the last one made,
-    // so every run is a fresh local edit, not a repeat the store already holds.
+    // Each run edits another spot of the version the last one made, so every run is a fresh
+    // local edit, not a repeat the store already holds: 0.3 m further across the plans' line
+    // (ShortQuery's runs along x), so that the edits left by the runs before pile up across
+    // it, not onto its goal.
+    const auto spot = [&](int run) -> Eigen::Vector3d {
+      return centre + Eigen::Vector3d(0, 0.3 * run, 0);
+    };
     const auto box = [&](int run) {
-      const Eigen::Vector3d mid = centre + Eigen::Vector3d(0.3 * run, 0, 0);
+      const Eigen::Vector3d mid = spot(run);
       return BoxPrism(
           Eigen::AlignedBox3d(Eigen::Vector3d(mid.x() - 1, mid.y() - 1, ground_z - 0.05),
                               Eigen::Vector3d(mid.x() + 1, mid.y() + 1, ground_z + 1.2)));
     };
     const auto hole = [&](int run) {
-      const Eigen::Vector3d mid = centre + Eigen::Vector3d(0.3 * run, 0, 0);
+      const Eigen::Vector3d mid = spot(run);
       return BoxPrism(
           Eigen::AlignedBox3d(Eigen::Vector3d(mid.x() - 2.5, mid.y() - 2.5, ground_z - 0.5),
                               Eigen::Vector3d(mid.x() + 2.5, mid.y() + 2.5, ground_z + 0.5)));
     };
     // A robot's scan of 10 m x 10 m in which a pallet (1.2 x 1.2 x 1.5 m, its faces sampled
     // every 5 cm) was set down on the passage: the ground it sees is what the map holds there.
-    // `aside` [m] moves the scan off the plans' line (the soak's scans must not cut it).
-    const auto scan_area = [&](int run, double aside = 0) {
-      const Eigen::Vector3d mid = centre + Eigen::Vector3d(0.3 * run, aside, 0);
+    // Centred on `mid` (the soak's lie off the plans' line: they must not cut it).
+    const auto scan_area = [&](const Eigen::Vector3d& mid) {
       // Whole columns: the grid's height, less a millimetre to stay inside it.
       const double bottom = created.grid.origin_m.z() + 1e-3;
       const double top = bottom + created.grid.size.z() * created.grid.resolution_m - 2e-3;
@@ -327,15 +331,15 @@ int Measure(int argc, char** argv) {
                                           Eigen::Vector3d(mid.x() + 5, mid.y() + 5, top)));
     };
     const Result<PointCloud> base_cloud = store->LoadCloud("m", *store->Current("m"));
-    // The scan's points: what `seen` (the base cloud when null) holds in the area, and a pallet.
-    const auto scan_points = [&](int run, const Prism& area, double aside = 0,
+    // The scan's points: what `seen` (the base cloud when null) holds in the area, and a pallet
+    // at `mid`.
+    const auto scan_points = [&](const Eigen::Vector3d& mid, const Prism& area,
                                  const PointCloud* seen = nullptr) {
       auto points = std::make_shared<PointCloud>();
       if (!base_cloud.ok()) return points;
       for (const Eigen::Vector3f& p : seen != nullptr ? *seen : base_cloud.value()) {
         if (area.Contains(p.cast<double>())) points->push_back(p);
       }
-      const Eigen::Vector3d mid = centre + Eigen::Vector3d(0.3 * run, aside, 0);
       constexpr double kStep = 0.05, kSide = 1.2, kHeight = 1.5;
       for (double a = 0; a <= kSide + 1e-9; a += kStep) {
         for (double z = 0; z <= kHeight + 1e-9; z += kStep) {
@@ -408,7 +412,7 @@ int Measure(int argc, char** argv) {
       bool from_tiles = false;
       for (int run = 0; run < runs; ++run) {
         const Prism region = edit.kind == MapEdit::Kind::kAddObstacle ? box(run)
-                             : edit.kind == MapEdit::Kind::kScan      ? scan_area(run)
+                             : edit.kind == MapEdit::Kind::kScan      ? scan_area(spot(run))
                                                                       : hole(run);
         std::vector<MapEdit> edits;
         std::vector<Prism> keep_out;
@@ -416,7 +420,7 @@ int Measure(int argc, char** argv) {
           keep_out.push_back(region);
         } else {
           MapEdit change{edit.kind, region, nullptr};
-          if (edit.kind == MapEdit::Kind::kScan) change.points = scan_points(run, region);
+          if (edit.kind == MapEdit::Kind::kScan) change.points = scan_points(spot(run), region);
           edits.push_back(std::move(change));
         }
         Result<MapUpdate> update =
@@ -478,9 +482,11 @@ int Measure(int argc, char** argv) {
     // Scans at a steady rate, as robots send them (none waits for the last one's version),
     // while clients plan without pause: plan latency without scans and with, what became of the
     // scans, resident memory. Each plan runs on a whole published version (GetActive).
-    // Spots 0.3 m apart, over and over, 12 m beside the plans' line.
-    constexpr double kAside = 12;
+    // Spots 0.3 m apart along the plans' line, over and over, 12 m beside it.
     constexpr int kSpots = 40;
+    const auto soak_spot = [&](int k) -> Eigen::Vector3d {
+      return centre + Eigen::Vector3d(0.3 * k, 12, 0);
+    };
     PointCloud strip;  // The base cloud under the spots.
     if (soak_s > 0) {
       struct Phase {
@@ -539,10 +545,10 @@ int Measure(int argc, char** argv) {
           const auto quarter = std::min<std::size_t>(3, SecondsSince(start) / soak_s * 4);
           rss_low[quarter] = std::min(rss_low[quarter], rss);
           if (scanning) {
-            const int spot = sent % kSpots;
-            const Prism region = scan_area(spot, kAside);
+            const Eigen::Vector3d mid = soak_spot(sent % kSpots);
+            const Prism region = scan_area(mid);
             std::vector<MapEdit> edits{
-                MapEdit{MapEdit::Kind::kScan, region, scan_points(spot, region, kAside, &strip)}};
+                MapEdit{MapEdit::Kind::kScan, region, scan_points(mid, region, &strip)}};
             scans.push_back(std::async(std::launch::async, [&editor, edits = std::move(edits)] {
               return editor.Update(MapEditRequest{"m", {}, edits, false, {}}, CallControl{});
             }));
@@ -588,8 +594,8 @@ int Measure(int argc, char** argv) {
       // The base cloud's points under every spot, once: sending 5 scans a second must not
       // wait for a pass over a site's 17 M points per scan.
       strip.clear();
-      Eigen::AlignedBox3d spots = scan_area(0, kAside).Bounds();
-      spots.extend(scan_area(kSpots - 1, kAside).Bounds());
+      Eigen::AlignedBox3d spots = scan_area(soak_spot(0)).Bounds();
+      spots.extend(scan_area(soak_spot(kSpots - 1)).Bounds());
       if (base_cloud.ok()) {
         for (const Eigen::Vector3f& p : base_cloud.value()) {
           if (spots.contains(p.cast<double>())) strip.push_back(p);
