@@ -40,6 +40,15 @@ struct Block {
 
 int BlocksAlong(int columns) { return (columns + kTileColumns - 1) / kTileColumns; }
 
+// The end of the run of blocks, from column `x` of a row `width` columns wide, whose flags in
+// `flags` (one per block of the row) equal the flag of x's block.
+int EndOfBlockRun(const std::vector<bool>& flags, int x, int width) {
+  const bool flag = flags[x / kTileColumns];
+  int end = x;
+  while (end < width && flags[end / kTileColumns] == flag) end += kTileColumns;
+  return std::min(end, width);
+}
+
 Block BlockOf(const GridGeometry& g, std::size_t tile) {
   const int bx = static_cast<int>(tile % BlocksAlong(g.size.x()));
   const int by = static_cast<int>(tile / BlocksAlong(g.size.x()));
@@ -448,9 +457,7 @@ Expected<std::shared_ptr<const TerrainModel>> JoinTiles(
             for (int x = 0; x < g.size.x();) {
               if (from_held[x / kTileColumns]) {
                 // The held blocks next to each other in this row: one run of the held model's.
-                int end = x;
-                while (end < g.size.x() && from_held[end / kTileColumns]) end += kTileColumns;
-                end = std::min(end, g.size.x());
+                const int end = EndOfBlockRun(from_held, x, g.size.x());
                 const std::int64_t row = std::int64_t{g.size.x()} * y;
                 AppendHeldColumns(*held_model, row + x, row + end, &p, &value_offset);
                 x = end;
@@ -459,9 +466,7 @@ Expected<std::shared_ptr<const TerrainModel>> JoinTiles(
               if (!in_window[x / kTileColumns]) {
                 // The blocks outside the window next to each other in this row: empty columns,
                 // appended at once (a 1 km site's window holds a few of its 25 M columns).
-                int end = x;
-                while (end < g.size.x() && !in_window[end / kTileColumns]) end += kTileColumns;
-                end = std::min(end, g.size.x());
+                const int end = EndOfBlockRun(in_window, x, g.size.x());
                 p.column_begin.insert(p.column_begin.end(), end - x,
                                       static_cast<std::uint32_t>(p.surfaces.size()));
                 p.fields.column_begin.insert(p.fields.column_begin.end(), end - x,
