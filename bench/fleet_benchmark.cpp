@@ -21,6 +21,7 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <limits>
 #include <map>
 #include <memory>
 #include <optional>
@@ -76,6 +77,7 @@ struct RunFigures {
   std::vector<double> delay_ratio;       // (fleet duration − alone duration) / alone duration.
   std::vector<double> waits_s;
   int parked_avoided = 0;
+  int made_way = 0;  // Tasks whose robot makes way at its goal for a robot passing later.
   std::vector<Committed> committed;
   int conflicting_pairs = 0;  // Pairs of robots whose committed motions conflict.
   int robots_in_conflict = 0;
@@ -102,6 +104,9 @@ RunFigures RunFleet(const Site& site, int robots, double minutes, unsigned seed,
 
   // Each robot's current motion (an index into figures.committed), starting parked.
   std::vector<std::size_t> current(robots);
+  // When each robot's current motion first reaches its goal (before the trajectory's end when
+  // it makes way there); none for the robots standing at the start.
+  std::vector<std::int64_t> arrival_at_goal(robots, std::numeric_limits<std::int64_t>::max());
   std::vector<Eigen::Vector3d> goals(robots);
   // When each robot's current run of refusals began (none: nullopt).
   std::vector<std::optional<std::int64_t>> refused_since(robots);
@@ -163,6 +168,7 @@ RunFigures RunFleet(const Site& site, int robots, double minutes, unsigned seed,
 
     const auto t0 = std::chrono::steady_clock::now();
     std::optional<strata::Trajectory> trajectory;
+    double arrival_s = 0;  // When the trajectory first reaches the goal.
     if (with_reservations) {
       std::vector<strata::ReservedMotion> others;
       others.reserve(robots - 1);
@@ -179,6 +185,8 @@ RunFigures RunFleet(const Site& site, int robots, double minutes, unsigned seed,
       figures.latency_ms.push_back(Ms(std::chrono::steady_clock::now() - t0));
       if (planned) {
         trajectory = planned.value().plan.trajectory;
+        arrival_s = planned.value().arrival_s;
+        figures.made_way += planned.value().makes_way ? 1 : 0;
         figures.parked_avoided += planned.value().parked_robots_avoided;
         figures.waits_s.push_back(planned.value().wait_s);
       } else if (planned.error().code == strata::ErrorCode::kReservationConflict) {
@@ -196,13 +204,14 @@ RunFigures RunFleet(const Site& site, int robots, double minutes, unsigned seed,
       figures.plain_latency_ms.push_back(Ms(std::chrono::steady_clock::now() - t1));
       if (alone && trajectory) {
         const double plain = alone.value().trajectory.TotalDuration();
-        figures.delay_ratio.push_back((trajectory->TotalDuration() - plain) / plain);
+        figures.delay_ratio.push_back((arrival_s - plain) / plain);
       }
     } else {
       auto alone = strata::Plan(*site.map, request);
       figures.latency_ms.push_back(Ms(std::chrono::steady_clock::now() - t0));
       if (alone) {
         trajectory = alone.value().trajectory;
+        arrival_s = trajectory->TotalDuration();
       } else {
         ++figures.failed_other;
         if (std::getenv("STRATA_FLEET_VERBOSE"))
@@ -211,7 +220,12 @@ RunFigures RunFleet(const Site& site, int robots, double minutes, unsigned seed,
     }
     if (!trajectory) {
       if (!refused_since[robot]) refused_since[robot] = now;
-      events.emplace(strata::AddSeconds(now, kRetryAfterS), robot);
+      // A robot making way at its goal is asked again at rest: holding, or back at the goal.
+      std::int64_t retry = strata::AddSeconds(now, kRetryAfterS);
+      if (!mine.trajectory.Velocity(mine.TrajectoryTimeAt(retry)).isZero(1e-9)) {
+        retry = mine.ArrivalNs();
+      }
+      events.emplace(retry, robot);
       continue;
     }
     end_stall(robot, now);
@@ -219,14 +233,16 @@ RunFigures RunFleet(const Site& site, int robots, double minutes, unsigned seed,
     figures.map_check.Add(strata::bench::CheckTrajectory(
         site.map->model(), profile, *trajectory,
         strata::bench::CheckConfigFor(request.options.verifier, site.map->keep_out())));
-    // The new motion replaces the robot's current one from now on.
-    mine.end_ns = std::max(now, mine.ArrivalNs());
+    // The new motion replaces the robot's current one from now on: after its arrival, or at
+    // its arrival at the goal where it was to make way there (dropping that part).
+    mine.end_ns = std::max(now, std::min(mine.ArrivalNs(), arrival_at_goal[robot]));
     Committed next{robot, {}};
     next.motion.start_ns = now;
     next.motion.trajectory = std::move(*trajectory);
     next.motion.body = body;
     next.motion.end_ns = strata::AddSeconds(now, kLeaseS);
-    const std::int64_t arrival = next.motion.ArrivalNs();
+    const std::int64_t arrival = strata::AddSeconds(now, arrival_s);
+    arrival_at_goal[robot] = arrival;
     if (arrival <= end_ns) ++figures.tasks_completed;
     goals[robot] = goal;
     current[robot] = figures.committed.size();
@@ -371,8 +387,9 @@ int main(int argc, char** argv) {
                 among(fmt::format("{:.1f} / {:.1f}", Median(f.plain_latency_ms),
                                   Quantile(f.plain_latency_ms, 0.95))),
                 among(fmt::format("{:.1f}%", 100 * mean_delay)),
-                among(fmt::format("{} tasks", waited)), among(std::to_string(f.parked_avoided)),
-                f.exact_checks_per_s, f.map_check.Describe(), f.longest_stall_s, f.stalled_at_end)
+                among(fmt::format("{} tasks ({} made way at the goal)", waited, f.made_way)),
+                among(std::to_string(f.parked_avoided)), f.exact_checks_per_s,
+                f.map_check.Describe(), f.longest_stall_s, f.stalled_at_end)
                 .c_str(),
             stdout);
         std::fflush(stdout);

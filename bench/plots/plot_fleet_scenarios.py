@@ -31,6 +31,7 @@ TITLES = {
     "four_way_crossing": "A crossing: B lets A pass",
     "under_the_deck": "B under the deck while A drives over it: no wait",
     "parked_in_the_way": "C parked in the lane: B drives around it",
+    "makes_way_at_goal": "A crosses B's goal later: B arrives, steps aside for A, comes back",
 }
 COLOURS = {"A": "tab:blue", "C": "tab:gray", "B": "tab:orange", "B alone": "tab:red"}
 

@@ -84,9 +84,12 @@ void PrintSummary(const Context& ctx, const v1::PlanRequest& request,
     out << "  fleet       robot " << request.fleet().robot_id() << " waits "
         << Fixed(response.wait_s(), 2) << " s for the others";
     for (const v1::Hold& hold : response.holds()) {
-      out << (hold.start_s() == 0 ? ", at the start " : ", on the way at ")
+      out << (hold.start_s() == 0                     ? ", at the start "
+              : hold.start_s() < response.arrival_s() ? ", on the way at "
+                                                      : ", making way at its goal at ")
           << Fixed(hold.start_s(), 2) << " s for " << Fixed(hold.duration_s(), 2) << " s";
     }
+    out << "; arrives at " << Fixed(response.arrival_s(), 2) << " s";
     if (response.has_reservation()) {
       const v1::Reservation& reserved = response.reservation();
       out << "; reserved from " << FormatTime(reserved.start_time()) << " until "

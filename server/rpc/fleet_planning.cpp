@@ -66,6 +66,7 @@ ServiceStatus PlanAmongReservations(const ActiveMap& map, const std::string& map
     }
     ToProto(planned_request.departure_ns, answer.mutable_departure_time());
     answer.set_wait_s(result.wait_s);
+    answer.set_arrival_s(result.arrival_s);
     for (const FleetHold& hold : result.holds) {
       v1::Hold* out = answer.add_holds();
       out->set_start_s(hold.start_s);

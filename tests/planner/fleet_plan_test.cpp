@@ -313,11 +313,56 @@ TEST(FleetPlan, ARobotComingDownTheShorterLaneLongerThanTheRobotMayWaitIsAvoided
 }
 
 // A leaves 20 s after B and drives across B's goal, where B stays parked from its arrival
-// (about 5 s) to the end of its lease: no wait, stop or way round clears that, and B is refused
-// before any is tried. (A crossing of B's way with no wait allowed is not such a case: the
-// space-time route goes round.)
-TEST(FleetPlan, AGoalAnotherRobotCrossesAfterTheArrivalIsRefusedAtOnceNamingWhoWhenAndWhere) {
+// (about 5 s) to the end of its lease: no wait, stop or way round before the goal clears that.
+// B arrives as planned alone and makes way there: it holds at its goal, steps aside off A's
+// way before A comes, and is back once A has passed. Waiting at or beside its goal is parked
+// time: B may not wait on its way (max_wait_s 0) and still does.
+TEST(FleetPlan, ARobotParkedAtItsGoalMakesWayForARobotThatCrossesItLater) {
   ReservedMotion a = Committed("A", Between({0.5, 4.5, 0.3}, {5.5, 4.5, 0.3}));
+  a.motion.start_ns = AddSeconds(kDeparture, 20);
+  const std::vector<ReservedMotion> others = {a};
+  const PlanRequest plan = Between({3, 0.5, 0.3}, {3, 4.5, 0.3});
+  FleetPlanRequest request = AmongOthers(plan, others);
+  request.fleet.max_wait_s = 0;
+  const ReservedMotion alone = Committed("alone", plan);
+  ASSERT_TRUE(SampleEveryMillisecond(alone.motion, a.motion, Limit()).conflict)
+      << "parked at its goal, B would not meet A";
+  Expected<FleetPlanResult> planned = PlanAmongTraffic(Site(), request);
+  ASSERT_TRUE(planned) << planned.error().message;
+  const FleetPlanResult& result = planned.value();
+  ASSERT_TRUE(result.makes_way);
+  ExpectClearOfAll(result.motion, others);
+  WriteScenario("makes_way_at_goal",
+                {{"B alone", &alone.motion}, {"B", &result.motion}, {"A", &a.motion}});
+
+  // Arrives as alone, without waiting on the way, ...
+  const double alone_s = alone.motion.trajectory.TotalDuration();
+  EXPECT_NEAR(result.arrival_s, alone_s, 1e-6);
+  const Trajectory& trajectory = result.plan.trajectory;
+  const Eigen::Vector3d goal = result.plan.goal.position_m;
+  EXPECT_LT((trajectory.Position(result.arrival_s).head<3>() - goal).norm(), 1e-6);
+  // ... holds at its goal, leaves it before A comes, and ends there, parked.
+  ASSERT_FALSE(result.holds.empty());
+  EXPECT_NEAR(result.holds[0].start_s, result.arrival_s, 1e-6);
+  EXPECT_LT((result.holds[0].position_m - goal).norm(), 1e-6);
+  EXPECT_LT((trajectory.Position(trajectory.TotalDuration()).head<3>() - goal).norm(), 1e-6);
+  // When A comes closest to the goal, B is off its way, beside it.
+  const Trajectory& way = a.motion.trajectory;
+  double a_closest_s = 0;
+  for (double t = 0; t < way.TotalDuration(); t += 0.01) {
+    if ((way.Position(t).head<2>() - goal.head<2>()).norm() <
+        (way.Position(a_closest_s).head<2>() - goal.head<2>()).norm()) {
+      a_closest_s = t;
+    }
+  }
+  const double b_then_s = SecondsBetween(kDeparture, a.motion.start_ns) + a_closest_s;
+  EXPECT_GT((trajectory.Position(b_then_s).head<2>() - goal.head<2>()).norm(), Limit());
+  // It leaves its goal as late as it can: not long before A comes.
+  EXPECT_GT(result.holds[0].duration_s, 10);
+}
+
+TEST(FleetPlan, AGoalAnotherRobotComesToStayAtIsRefusedAtOnceNamingWhoWhenAndWhere) {
+  ReservedMotion a = Committed("A", Between({0.5, 4.5, 0.3}, {3, 4.5, 0.3}));
   a.motion.start_ns = AddSeconds(kDeparture, 20);
   const std::vector<ReservedMotion> others = {a};
   FleetPlanRequest request = AmongOthers(Between({3, 0.5, 0.3}, {3, 4.5, 0.3}), others);
@@ -328,16 +373,16 @@ TEST(FleetPlan, AGoalAnotherRobotCrossesAfterTheArrivalIsRefusedAtOnceNamingWhoW
   EXPECT_EQ(refused.error().field, "goal.position_m");
   EXPECT_THAT(refused.error().message, HasSubstr("the goal is not free for good: robot 'A'"));
   // When A reaches B standing at its goal.
-  EXPECT_THAT(refused.error().message, HasSubstr(" m, 22."));
+  EXPECT_THAT(refused.error().message, HasSubstr(" m, 2"));
   EXPECT_THAT(refused.error().message, HasSubstr("s after the departure"));
   EXPECT_EQ(refused.error().details.at("robot_id"), "A");
 }
 
 // The same, with B routed through a point on its way (a route with vias is not searched in
 // space and time, and its goal not checked before): refused with the first meeting, after
-// the waits and stops tried.
+// the waits, stops and making way tried.
 TEST(FleetPlan, AMeetingNothingClearsIsRefusedNamingWhoWhenAndWhere) {
-  ReservedMotion a = Committed("A", Between({0.5, 4.5, 0.3}, {5.5, 4.5, 0.3}));
+  ReservedMotion a = Committed("A", Between({0.5, 4.5, 0.3}, {3, 4.5, 0.3}));
   a.motion.start_ns = AddSeconds(kDeparture, 20);
   const std::vector<ReservedMotion> others = {a};
   PlanRequest plan = Between({3, 0.5, 0.3}, {3, 4.5, 0.3});

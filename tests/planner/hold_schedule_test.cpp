@@ -153,5 +153,34 @@ TEST(HoldSchedule, TheWaitLadderGrowsToTheBudget) {
   EXPECT_EQ(WaitLadder(0), std::vector<double>{0});
 }
 
+TEST(HoldSchedule, TheWaitsBackFromAHoldShrinkFromJustBelowItToNone) {
+  const std::vector<double> back = WaitLadderBackFrom(5);
+  EXPECT_EQ(back.front(), 4.5);
+  EXPECT_EQ(back.back(), 0);
+  for (std::size_t i = 1; i < back.size(); ++i) EXPECT_LT(back[i], back[i - 1]);
+  EXPECT_EQ(WaitLadderBackFrom(0), std::vector<double>{0});
+}
+
+// The leg from the stop on as a robot making way at its goal takes it (ParkedLegs): the wait
+// before it is parked time, which the route's budget of 5 s does not bound, and the robot
+// leaves as late as it may.
+TEST(HoldSchedule, WaitsBeforeParkedLegsAreNotBoundByTheRouteBudgetAndLeaveLatestFirst) {
+  const Crossing c;
+  const auto scheduled = ScheduleHolds(c.legs, true, c.traffic, 5, 400, ParkedLegs{1, 60, 0});
+  ASSERT_TRUE(std::holds_alternative<HoldSchedule>(scheduled));
+  const HoldSchedule& holds = std::get<HoldSchedule>(scheduled);
+  EXPECT_LE(holds.waits_s[0], 5);
+  // Standing at the stop meets nobody: the robot holds there for nearly all of its 60 s.
+  EXPECT_GT(holds.waits_s[1], 55);
+  EXPECT_LT(holds.waits_s[1], 60);
+  const FleetMotion motion = Scheduled(c.legs, holds.waits_s, c.traffic);
+  for (const ReservedMotion& other : c.others) {
+    EXPECT_FALSE(MeetSampled(motion, other.motion, Limit(c.traffic))) << other.robot_id;
+  }
+  // Parked waits have their own bound: 1 s at the stop does not outlast the stander.
+  EXPECT_TRUE(std::holds_alternative<HoldFailure>(
+      ScheduleHolds(c.legs, true, c.traffic, 5, 400, ParkedLegs{1, 1, 0})));
+}
+
 }  // namespace
 }  // namespace strata::fleet_internal

@@ -116,6 +116,8 @@ TEST_F(ServerFleetTest, ASecondRobotIntoTheSameCrossingWaitsOrGoesAroundAndBothA
     EXPECT_TRUE(trajectory.Velocity(hold.start_s() + hold.duration_s() / 2).isZero(1e-9));
   }
   EXPECT_DOUBLE_EQ(waited_s, second.wait_s());
+  // It makes no way at its goal: it arrives at the trajectory's end.
+  EXPECT_NEAR(second.arrival_s(), trajectory.TotalDuration(), 1e-9);
   EXPECT_EQ(List().reservations_size(), 2);
   ExpectNoTwoMeet();
 }

@@ -49,6 +49,16 @@ constexpr double kStandingSnapM = 0.3;
 // Longer than any trip a robot makes on a site [s]: a robot parked from the departure until
 // max_wait_s plus this after it is in the way of no plan's passage but as a standing body.
 constexpr double kLongestTripS = 600;
+// A leg planned to make way at the goal starts where the route ended within kLegJoinM [m],
+// and ends at the goal (or the place beside it) within kLegEndM [m].
+constexpr double kLegJoinM = 1e-9;
+// A robot making way at its goal waits beside it this long at most [s]: a robot passes by in
+// seconds; one that stays is not waited out.
+constexpr double kMakeWayAsideS = 60;
+// Rounds of one request that try making way at the goal at most (each plans two short legs and
+// searches the waits again).
+constexpr int kMaxMakeWayRounds = 2;
+constexpr double kLegEndM = 1e-6;
 
 /// A point the route passes through: one of the request's vias, or one added (a stop to wait
 /// at, or a point of a space-time route).
@@ -391,6 +401,125 @@ FleetPlanResult WithWaits(PlanResult plan, const std::vector<Trajectory>& legs,
   return result;
 }
 
+/// Where a robot of `request`, parked at its goal, waits for another robot that passes there
+/// (`taken`, GoalTakenLater) before coming back: a place off that robot's way, found as a stop
+/// before `last_leg`'s end is (StopBefore). None when there is none.
+std::optional<Eigen::Vector3d> PlaceToMakeWay(const PlanningMap& map, const PlanRequest& request,
+                                              const PlanResult& plan, const Trajectory& last_leg,
+                                              const TrafficConflict& taken,
+                                              const Traffic& traffic) {
+  const auto graph = map.Graph(request.profile.Traversability());
+  if (!graph) return std::nullopt;
+  const std::vector<KeepOutZone> zones = CollectKeepOut(map, request.keep_out);
+  const std::optional<AddedStop> place =
+      StopBefore(last_leg, traffic.departure_ns, taken, traffic,
+                 [&](const Eigen::Vector3d& p) -> std::optional<Eigen::Vector3d> {
+                   return StandingPoint(*graph.value(), zones, request.profile, plan.goal.node, p);
+                 });
+  if (!place) return std::nullopt;
+  return place->position_m;
+}
+
+/// A leg of `request`'s robot from rest at `from` to rest at `to`, planned (and verified) by
+/// Plan; none unless it plans, begins at `from` (within kLegJoinM: the legs it joins meet) and
+/// ends at `to` (within kLegEndM: Plan snaps the goal anew).
+std::optional<PlanResult> LegBetween(const PlanningMap& map, const PlanRequest& request,
+                                     const StateVector& from, const StateVector& to,
+                                     const std::function<bool()>& should_stop) {
+  PlanRequest leg;
+  leg.start.position_m = from.head<3>();
+  leg.goal.position_m = to.head<3>();
+  leg.profile = request.profile;
+  leg.options = request.options;
+  leg.keep_out = request.keep_out;
+  Expected<PlanResult> planned = Plan(map, leg, should_stop);
+  if (!planned) return std::nullopt;
+  const Trajectory& trajectory = planned.value().trajectory;
+  const StateVector first = trajectory.Position(0);
+  const StateVector last = trajectory.Position(trajectory.TotalDuration());
+  if (first.size() != from.size() || (first - from).norm() > kLegJoinM ||
+      (last - to).norm() > kLegEndM) {
+    return std::nullopt;
+  }
+  return std::move(planned).value();
+}
+
+/// Whether the hold search's `failure` on `legs` met another robot only once the route had
+/// reached its goal: the robot parked there is in that robot's way.
+bool MetWhenParked(const fleet_internal::HoldFailure& failure,
+                   const std::vector<Trajectory>& legs) {
+  return failure.conflict && failure.leg + 1 == legs.size() &&
+         failure.conflict->conflict.time_ns >=
+             AddSeconds(failure.departure_ns, legs.back().TotalDuration());
+}
+
+/// `plan` (through `route`, cut into `legs`) for a goal that a robot passes after this one has
+/// arrived (`taken`): at the goal the robot makes way for it. It holds at the goal as long as
+/// it can, leaves for a place beside it off that robot's way, holds there until the way is
+/// clear and comes back, parked until its lease. The arrival is as the route's, within
+/// max_wait_s; the time at the goal and beside it is parked time (up to kLongestTripS and
+/// kMakeWayAsideS). None when that robot comes to stay at the goal, or there is no such place,
+/// or no waits clear the traffic.
+std::optional<FleetPlanResult> MakeWayAtGoal(const PlanningMap& map, const PlanRequest& request,
+                                             PlanResult plan, std::vector<RoutePoint> route,
+                                             std::vector<Trajectory> legs,
+                                             const TrafficConflict& taken, const Traffic& traffic,
+                                             double max_wait_s,
+                                             const std::function<bool()>& should_stop,
+                                             int* departures_checked) {
+  const StateVector goal = legs.back().Position(legs.back().TotalDuration());
+  // A robot that comes to stay at the goal is not made way for.
+  const FleetMotion& other = traffic.others[taken.other].motion;
+  if (other.end_ns > other.ArrivalNs() &&
+      FirstTrafficConflict(
+          Standing(goal, plan.trajectory.dimension, traffic.body, other.ArrivalNs(), other.end_ns),
+          traffic.others.subspan(taken.other, 1), traffic.rule)) {
+    return std::nullopt;
+  }
+  const std::optional<Eigen::Vector3d> place =
+      PlaceToMakeWay(map, request, plan, legs.back(), taken, traffic);
+  if (!place) return std::nullopt;
+  StateVector aside = goal;
+  aside.head<3>() = *place;
+  std::optional<PlanResult> away = LegBetween(map, request, goal, aside, should_stop);
+  if (!away) return std::nullopt;
+  aside = away->trajectory.Position(away->trajectory.TotalDuration());
+  std::optional<PlanResult> back = LegBetween(map, request, aside, goal, should_stop);
+  if (!back) return std::nullopt;
+
+  const std::size_t arrival_legs = legs.size();
+  legs.push_back(away->trajectory);
+  legs.push_back(back->trajectory);
+  const auto scheduled = fleet_internal::ScheduleHolds(
+      legs, StartsAtRest(plan.trajectory), traffic, max_wait_s, kMaxDeparturesChecked,
+      fleet_internal::ParkedLegs{arrival_legs, kLongestTripS, kMakeWayAsideS});
+  if (const auto* failure = std::get_if<fleet_internal::HoldFailure>(&scheduled)) {
+    *departures_checked += failure->departures_checked;
+    return std::nullopt;
+  }
+  const auto& holds = std::get<fleet_internal::HoldSchedule>(scheduled);
+  *departures_checked += holds.departures_checked;
+  double arrival_s = 0;
+  for (std::size_t k = 0; k < arrival_legs; ++k) {
+    arrival_s += holds.waits_s[k] + legs[k].TotalDuration();
+  }
+  // The two legs join the plan as stops at the goal and beside it.
+  for (const PlanResult* leg : {&*away, &*back}) {
+    plan.trajectory.pieces.insert(plan.trajectory.pieces.end(), leg->trajectory.pieces.begin(),
+                                  leg->trajectory.pieces.end());
+    plan.stats.duration_s += leg->stats.duration_s;
+    plan.stats.length_m += leg->stats.length_m;
+  }
+  route.push_back(RoutePoint{Via{goal.head<3>(), true}, true});
+  route.push_back(RoutePoint{Via{aside.head<3>(), true}, true});
+  FleetPlanResult result = WithWaits(std::move(plan), legs, holds.waits_s, route);
+  result.stops_added -= 2;
+  result.arrival_s = arrival_s;
+  result.makes_way = true;
+  result.motion = traffic.MotionOf(result.plan.trajectory);
+  return result;
+}
+
 }  // namespace
 
 Status FleetPlanOptions::Validate(std::string_view path) const {
@@ -444,6 +573,7 @@ Expected<FleetPlanResult> PlanAmongTraffic(const PlanningMap& map, const FleetPl
     zoned[i] = true;
   }
   int departures_checked = 0;
+  int make_way_rounds = 0;
   bool space_time_tried = false;
   // The rounds replan the same legs but for the one a stop splits (and all of them when a zone
   // is added, which the cache compares).
@@ -521,6 +651,7 @@ Expected<FleetPlanResult> PlanAmongTraffic(const PlanningMap& map, const FleetPl
       // rest, and ScheduleHolds checked the whole route, waits included, against the traffic
       // exactly.
       FleetPlanResult result = WithWaits(std::move(plan).value(), legs, holds->waits_s, route);
+      result.arrival_s = result.plan.stats.duration_s;
       result.motion = traffic.MotionOf(result.plan.trajectory);
       result.parked_robots_avoided = zoned_count();
       result.departures_checked = departures_checked + holds->departures_checked;
@@ -528,6 +659,22 @@ Expected<FleetPlanResult> PlanAmongTraffic(const PlanningMap& map, const FleetPl
     }
     const auto& failure = std::get<fleet_internal::HoldFailure>(scheduled);
     departures_checked += failure.departures_checked;
+    const auto made_way = [&](FleetPlanResult made) {
+      made.parked_robots_avoided = zoned_count();
+      made.departures_checked = departures_checked;
+      return made;
+    };
+    // The route reached the goal and was met there, parked: the robot makes way there.
+    bool make_way_tried = false;
+    if (MetWhenParked(failure, legs) && make_way_rounds < kMaxMakeWayRounds) {
+      ++make_way_rounds;
+      make_way_tried = true;
+      if (std::optional<FleetPlanResult> made =
+              MakeWayAtGoal(map, plan_request, plan.value(), route, legs, *failure.conflict,
+                            traffic, request.fleet.max_wait_s, should_stop, &departures_checked)) {
+        return made_way(std::move(*made));
+      }
+    }
     if (!space_time_tried && request.plan.via.empty()) {
       // No waits clear the route. Where this robot, parked at its goal, is met by another even
       // when it arrives as late as the search goes, no route, wait or stop clears it.
@@ -535,7 +682,16 @@ Expected<FleetPlanResult> PlanAmongTraffic(const PlanningMap& map, const FleetPl
           LatestArrivalS(request.fleet.max_wait_s, plan.value().stats.duration_s);
       if (std::optional<TrafficConflict> taken =
               GoalTakenLater(plan.value().trajectory, traffic, latest_s)) {
-        return GoalTaken(*taken, request, latest_s);
+        // A robot that passes the goal later: this one arrives, and makes way for it there.
+        if (make_way_tried || make_way_rounds >= kMaxMakeWayRounds) {
+          return GoalTaken(*taken, request, latest_s);
+        }
+        ++make_way_rounds;
+        std::optional<FleetPlanResult> made =
+            MakeWayAtGoal(map, plan_request, plan.value(), route, legs, *taken, traffic,
+                          request.fleet.max_wait_s, should_stop, &departures_checked);
+        if (!made) return GoalTaken(*taken, request, latest_s);
+        return made_way(std::move(*made));
       }
       // Search a route in space and time, once.
       space_time_tried = true;

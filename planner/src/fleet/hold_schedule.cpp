@@ -14,12 +14,13 @@ struct DeadEnd {
 class HoldSearch {
  public:
   HoldSearch(std::span<const Trajectory> legs, bool may_wait_at_start, const Traffic& traffic,
-             double max_wait_s, int max_departures)
+             double max_wait_s, int max_departures, std::optional<ParkedLegs> parked)
       : legs_(legs),
         may_wait_at_start_(may_wait_at_start),
         traffic_(traffic),
         others_(PrepareOthers(traffic.others)),
         max_wait_s_(max_wait_s),
+        parked_(parked),
         departures_left_(max_departures),
         dead_ends_(legs.size()),
         waits_s_(legs.size(), 0.0) {}
@@ -40,11 +41,24 @@ class HoldSearch {
     for (const DeadEnd& dead : dead_ends_[leg]) {
       if (dead.arrival_ns <= arrival_ns && arrival_ns < dead.hold_end_ns) return false;
     }
-    const double remaining_s = leg == 0 && !may_wait_at_start_ ? 0.0 : max_wait_s_ - waited_s;
+    const bool parked = parked_ && leg >= parked_->first;
+    // Leaving the goal to make way: as late as holding there allows.
+    const bool latest_first = parked && leg == parked_->first;
+    const double remaining_s = latest_first                      ? parked_->max_hold_s
+                               : parked                          ? parked_->max_aside_s
+                               : leg == 0 && !may_wait_at_start_ ? 0.0
+                                                                 : max_wait_s_ - waited_s;
     const std::int64_t hold_end_ns = HoldEnd(leg, arrival_ns, remaining_s);
-    for (const double wait_s : WaitLadder(remaining_s)) {
+    const std::vector<double> waits =
+        latest_first
+            ? WaitLadderBackFrom(std::min(remaining_s, SecondsBetween(arrival_ns, hold_end_ns)))
+            : WaitLadder(remaining_s);
+    for (const double wait_s : waits) {
       const std::int64_t departure_ns = AddSeconds(arrival_ns, wait_s);
-      if (wait_s > 0 && departure_ns >= hold_end_ns) break;
+      if (wait_s > 0 && departure_ns >= hold_end_ns) {
+        if (latest_first) continue;
+        break;
+      }
       if (departures_left_ <= 0) return false;
       --departures_left_;
       const std::optional<TrafficConflict> met =
@@ -59,7 +73,7 @@ class HoldSearch {
       }
       if (leg + 1 > failure_.leg) failure_ = HoldFailure{leg + 1, 0, std::nullopt, 0};
       const std::int64_t next_arrival_ns = AddSeconds(departure_ns, legs_[leg].TotalDuration());
-      if (Visit(leg + 1, next_arrival_ns, waited_s + wait_s)) {
+      if (Visit(leg + 1, next_arrival_ns, parked ? waited_s : waited_s + wait_s)) {
         waits_s_[leg] = wait_s;
         return true;
       }
@@ -113,6 +127,7 @@ class HoldSearch {
   // The others, prepared once for the departures checked against them all.
   std::vector<PreparedMotion> others_;
   double max_wait_s_;
+  std::optional<ParkedLegs> parked_;
   int departures_left_;
   std::vector<std::vector<DeadEnd>> dead_ends_;  // Per leg, at its first point.
   std::vector<double> waits_s_;
@@ -128,6 +143,15 @@ std::vector<double> WaitLadder(double max_wait_s) {
   return waits;
 }
 
+std::vector<double> WaitLadderBackFrom(double hold_s) {
+  std::vector<double> waits;
+  for (const double step_s : WaitLadder(hold_s)) {
+    if (step_s > 0 && step_s < hold_s) waits.push_back(hold_s - step_s);
+  }
+  waits.push_back(0.0);
+  return waits;
+}
+
 TrajectoryPiece RestAtStart(const Trajectory& trajectory, double duration_s) {
   return RestAt(trajectory.EvaluatePiece(0, 0, 0), duration_s);
 }
@@ -135,8 +159,9 @@ TrajectoryPiece RestAtStart(const Trajectory& trajectory, double duration_s) {
 std::variant<HoldSchedule, HoldFailure> ScheduleHolds(std::span<const Trajectory> legs,
                                                       bool may_wait_at_start,
                                                       const Traffic& traffic, double max_wait_s,
-                                                      int max_departures) {
-  return HoldSearch(legs, may_wait_at_start, traffic, max_wait_s, max_departures).Run();
+                                                      int max_departures,
+                                                      std::optional<ParkedLegs> parked) {
+  return HoldSearch(legs, may_wait_at_start, traffic, max_wait_s, max_departures, parked).Run();
 }
 
 }  // namespace strata::fleet_internal

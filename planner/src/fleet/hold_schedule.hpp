@@ -38,18 +38,33 @@ struct HoldFailure {
   int departures_checked = 0;
 };
 
+/// Legs after the arrival, when the robot makes way at its goal for another that passes
+/// (fleet_plan.cpp): it leaves the goal for a place beside it and comes back. The waits before
+/// them are parked time, not waiting on the way: none counts against the route's budget. The
+/// robot leaves the goal as late as it can.
+struct ParkedLegs {
+  std::size_t first = 0;   ///< The index of the leg leaving the goal; the legs after it follow.
+  double max_hold_s = 0;   ///< Longest wait at the goal, before leg `first` [s].
+  double max_aside_s = 0;  ///< Longest wait before each later leg [s].
+};
+
 /// The waits at the start (when `may_wait_at_start`; a robot already moving cannot) and at
 /// each stop between `legs` that keep the route clear of `traffic.others`, the last leg
-/// parked until traffic.parked_until_ns, with at most `max_wait_s` [s] of waiting in all and
-/// at most `max_departures` departures checked.
+/// parked until traffic.parked_until_ns, with at most `max_wait_s` [s] of waiting in all
+/// (beside `parked`'s, if any) and at most `max_departures` departures checked.
 std::variant<HoldSchedule, HoldFailure> ScheduleHolds(std::span<const Trajectory> legs,
                                                       bool may_wait_at_start,
                                                       const Traffic& traffic, double max_wait_s,
-                                                      int max_departures);
+                                                      int max_departures,
+                                                      std::optional<ParkedLegs> parked = {});
 
 /// The waits tried at a stop, shortest first: 0, half-second steps, then growing by a quarter,
 /// up to and including `max_wait_s`.
 std::vector<double> WaitLadder(double max_wait_s);
+
+/// The waits tried before leaving the goal to make way, longest first: `hold_s` (the most the
+/// robot may stand there) less the ladder's steps (WaitLadder's from half a second on), then 0.
+std::vector<double> WaitLadderBackFrom(double hold_s);
 
 /// A piece of `duration_s` at rest at `trajectory`'s first point (same dimension).
 TrajectoryPiece RestAtStart(const Trajectory& trajectory, double duration_s);

@@ -65,6 +65,13 @@ struct FleetPlanResult {
   int stops_added = 0;           ///< Stops on the way added so that the robot could wait.
   int parked_robots_avoided = 0;  ///< Others' parking places planned around as zones.
   int departures_checked = 0;     ///< Departures checked against the traffic.
+  /// When the trajectory first reaches the goal, from its start [s]: its duration, or less
+  /// when the robot then makes way.
+  double arrival_s = 0;
+  /// The robot makes way at its goal for a robot that passes there later: after arriving it
+  /// holds there, leaves for a place beside the goal, holds there and comes back (the last
+  /// two of `holds` and the pieces between them).
+  bool makes_way = false;
 };
 
 /// Plans `request` among the others' motions. Fails as Plan does, and with
