@@ -378,6 +378,31 @@ TEST(FleetPlan, AGoalAnotherRobotComesToStayAtIsRefusedAtOnceNamingWhoWhenAndWhe
   EXPECT_EQ(refused.error().details.at("robot_id"), "A");
 }
 
+// The same with B routed through a point on its way: a route with vias is not searched in
+// space and time, and its goal not checked before, but its waits fail only where A meets B
+// parked at its goal, and B makes way there all the same.
+TEST(FleetPlan, ARobotRoutedThroughViasAlsoMakesWayAtItsGoal) {
+  ReservedMotion a = Committed("A", Between({0.5, 4.5, 0.3}, {5.5, 4.5, 0.3}));
+  a.motion.start_ns = AddSeconds(kDeparture, 20);
+  const std::vector<ReservedMotion> others = {a};
+  PlanRequest plan = Between({3, 0.5, 0.3}, {3, 4.5, 0.3});
+  plan.via = {Via{{3, 2.5, 0.3}, false}};
+  FleetPlanRequest request = AmongOthers(plan, others);
+  request.fleet.max_wait_s = 0;
+  Expected<FleetPlanResult> planned = PlanAmongTraffic(Site(), request);
+  ASSERT_TRUE(planned) << planned.error().message;
+  EXPECT_TRUE(planned.value().makes_way);
+  ExpectClearOfAll(planned.value().motion, others);
+  // The request's via is passed before the arrival.
+  ASSERT_EQ(planned.value().plan.via_times_s.size(), 1U);
+  EXPECT_LT(planned.value().plan.via_times_s[0], planned.value().arrival_s);
+  const Trajectory& trajectory = planned.value().plan.trajectory;
+  EXPECT_LT((trajectory.Position(planned.value().plan.via_times_s[0]).head<3>() -
+             planned.value().plan.via[0].position_m)
+                .norm(),
+            1e-6);
+}
+
 // The same, with B routed through a point on its way (a route with vias is not searched in
 // space and time, and its goal not checked before): refused with the first meeting, after
 // the waits, stops and making way tried.
