@@ -52,13 +52,13 @@ constexpr double kLongestTripS = 600;
 // A leg planned to make way at the goal starts where the route ended within kLegJoinM [m],
 // and ends at the goal (or the place beside it) within kLegEndM [m].
 constexpr double kLegJoinM = 1e-9;
+constexpr double kLegEndM = 1e-6;
 // A robot making way at its goal waits beside it this long at most [s]: a robot passes by in
 // seconds; one that stays is not waited out.
 constexpr double kMakeWayAsideS = 60;
 // Rounds of one request that try making way at the goal at most (each plans two short legs and
 // searches the waits again).
 constexpr int kMaxMakeWayRounds = 2;
-constexpr double kLegEndM = 1e-6;
 
 /// A point the route passes through: one of the request's vias, or one added (a stop to wait
 /// at, or a point of a space-time route).
@@ -690,6 +690,9 @@ Expected<FleetPlanResult> PlanAmongTraffic(const PlanningMap& map, const FleetPl
         std::optional<FleetPlanResult> made =
             MakeWayAtGoal(map, plan_request, plan.value(), route, legs, *taken, traffic,
                           request.fleet.max_wait_s, should_stop, &departures_checked);
+        if (!made && should_stop && should_stop()) {
+          return Error{ErrorCode::kCancelled, "the plan was cancelled while making way was tried"};
+        }
         if (!made) return GoalTaken(*taken, request, latest_s);
         return made_way(std::move(*made));
       }
