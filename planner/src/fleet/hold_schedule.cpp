@@ -73,7 +73,7 @@ class HoldSearch {
       }
       if (leg + 1 > failure_.leg) failure_ = HoldFailure{leg + 1, 0, std::nullopt, 0};
       const std::int64_t next_arrival_ns = AddSeconds(departure_ns, legs_[leg].TotalDuration());
-      if (Visit(leg + 1, next_arrival_ns, parked ? waited_s : waited_s + wait_s)) {
+      if (Visit(leg + 1, next_arrival_ns, waited_s + wait_s)) {
         waits_s_[leg] = wait_s;
         return true;
       }
