@@ -371,7 +371,8 @@ int Measure(int argc, char** argv) {
     };
     // A plan across the edited spot on the new version, right after the update: what a robot
     // sees of the change (a cloud edit makes a new model, whose graph this plan builds).
-    const auto plan_after = [&](bool* planned = nullptr) {
+    // With `timings`, a successful plan's stages go there.
+    const auto plan_after = [&](bool* planned = nullptr, PlanTimings* timings = nullptr) {
       const Result<ActiveMap> active = editor.GetActive("m");
       const PlanRequest request = ShortPlan(*query);
       const auto start = Clock::now();
@@ -379,6 +380,7 @@ int Measure(int argc, char** argv) {
           active.ok() ? Plan(*active.value().map, request)
                       : Expected<PlanResult>(Error{ErrorCode::kInvalidInput, "no map"});
       const double plan_s = SecondsSince(start);
+      if (timings != nullptr && plan) *timings = plan->stats.timings;
       if (planned != nullptr) {
         *planned = static_cast<bool>(plan);
       } else if (!plan) {
@@ -493,6 +495,8 @@ int Measure(int argc, char** argv) {
         std::vector<double> plan_s;
         int failed = 0;  // Plans that failed (a scan may cut the plans' line).
         double rss_max = 0;
+        double slowest_s = 0;        // The slowest plan, whole,
+        PlanTimings slowest_stages;  // and its stages, where it succeeded: where the time went.
       };
       const auto planning_phase = [&](bool scanning) {
         Phase phase;
@@ -503,14 +507,25 @@ int Measure(int argc, char** argv) {
           planners.emplace_back([&] {
             std::vector<double> mine;
             int failed = 0;
+            double slowest_s = 0;
+            PlanTimings slowest_stages;
             while (running) {
               bool planned = false;
-              mine.push_back(plan_after(&planned));
+              PlanTimings stages;
+              mine.push_back(plan_after(&planned, &stages));
               failed += planned ? 0 : 1;
+              if (mine.back() > slowest_s) {
+                slowest_s = mine.back();
+                slowest_stages = planned ? stages : PlanTimings{};
+              }
             }
             std::lock_guard lock(mutex);
             phase.plan_s.insert(phase.plan_s.end(), mine.begin(), mine.end());
             phase.failed += failed;
+            if (slowest_s > phase.slowest_s) {
+              phase.slowest_s = slowest_s;
+              phase.slowest_stages = slowest_stages;
+            }
           });
         }
         std::deque<std::future<Result<MapUpdate>>> scans;
@@ -573,6 +588,12 @@ int Measure(int argc, char** argv) {
             phase.plan_s.empty() ? 0.0
                                  : *std::max_element(phase.plan_s.begin(), phase.plan_s.end()),
             rss_start / 1e6, phase.rss_max / 1e6, rss_end / 1e6);
+        const PlanTimings& slow = phase.slowest_stages;
+        std::printf(
+            "  the slowest plan, %.3f s: graph %.3f, snap %.3f, search %.3f, optimise %.3f, "
+            "verify %.3f, in all %.3f s (in Plan; the rest before it and after)\n",
+            phase.slowest_s, slow.graph_s, slow.snap_s, slow.search_s, slow.optimize_s,
+            slow.verify_s, slow.total_s);
         std::printf("  allocator at the start: %s; at the end: %s\n", allocator_start.c_str(),
                     AllocatorFigures().c_str());
         std::printf("  resident at its least in each quarter: %.0f, %.0f, %.0f, %.0f MB\n",

@@ -3,6 +3,7 @@
 #include <limits>
 #include <vector>
 
+#include "common/log.hpp"
 #include "maps/memory_budget.hpp"
 
 namespace strata::server {
@@ -161,7 +162,15 @@ void MapCache::EvictLocked(std::uint64_t target, bool keep_newest) {
     const auto slot = slots_.find(*it);
     // use_count 1: only this cache holds it, so no plan runs on it and dropping frees it.
     if (slot->second.map.use_count() == 1) {
-      bytes -= slot->second.map->MemoryBytes();
+      const std::uint64_t freed = slot->second.map->MemoryBytes();
+      bytes -= freed;
+      // The next request for it loads it again (seconds for a site's model and graphs): the
+      // line that explains such a request's time.
+      LogInfo("map_let_go")
+          .Add("map", it->first)
+          .Add("version", it->second)
+          .Add("bytes", freed)
+          .Add("allowed_bytes", target);
       slots_.erase(slot);
       it = recency_.erase(it);  // The next older one; the loop steps to the next newer.
     }
