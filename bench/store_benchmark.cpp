@@ -495,7 +495,7 @@ int Measure(int argc, char** argv) {
         std::vector<double> plan_s;
         int failed = 0;  // Plans that failed (a scan may cut the plans' line).
         double rss_max = 0;
-        double slowest_s = 0;        // The slowest plan, whole,
+        double slowest_s = 0;        // The slowest plan (the printed max), to compare with,
         PlanTimings slowest_stages;  // and its stages, where it succeeded: where the time went.
       };
       const auto planning_phase = [&](bool scanning) {
@@ -590,10 +590,9 @@ int Measure(int argc, char** argv) {
             rss_start / 1e6, phase.rss_max / 1e6, rss_end / 1e6);
         const PlanTimings& slow = phase.slowest_stages;
         std::printf(
-            "  the slowest plan, %.3f s: graph %.3f, snap %.3f, search %.3f, optimise %.3f, "
+            "  the slowest plan's stages: graph %.3f, snap %.3f, search %.3f, optimise %.3f, "
             "verify %.3f, in all %.3f s (in Plan; the rest before it and after)\n",
-            phase.slowest_s, slow.graph_s, slow.snap_s, slow.search_s, slow.optimize_s,
-            slow.verify_s, slow.total_s);
+            slow.graph_s, slow.snap_s, slow.search_s, slow.optimize_s, slow.verify_s, slow.total_s);
         std::printf("  allocator at the start: %s; at the end: %s\n", allocator_start.c_str(),
                     AllocatorFigures().c_str());
         std::printf("  resident at its least in each quarter: %.0f, %.0f, %.0f, %.0f MB\n",

@@ -21,20 +21,18 @@ Result<std::vector<std::string>> StoredMaps::Versions(const std::string& id) con
 Result<ActiveMap> StoredMaps::Get(const std::string& id, const std::string& version) const {
   Result<std::vector<std::string>> versions = Versions(id);
   if (!versions.ok()) return std::move(versions).error();
-  if (!version.empty() && std::find(versions.value().begin(), versions.value().end(), version) ==
-                              versions.value().end()) {
-    return MapVersionNotFound(id, version, versions.value());
-  }
   if (version.empty() && cache_.Peek(id, versions.value().front()) == nullptr) {
     // The head read may be gone by now: a version is held before its head names it (Put), and
     // the one before is dropped once it does. Read again rather than load a version that is
     // no longer the head (on a site, seconds: its tiles and its graphs from the store; 3 to 4
     // plans in 5 minutes of scans waited 3-7 s so).
-    Result<std::vector<std::string>> now = Versions(id);
-    if (!now.ok()) return std::move(now).error();
-    versions = std::move(now);
+    versions = Versions(id);
+    if (!versions.ok()) return std::move(versions).error();
   }
   const std::vector<std::string>& kept = versions.value();
+  if (!version.empty() && std::find(kept.begin(), kept.end(), version) == kept.end()) {
+    return MapVersionNotFound(id, version, kept);
+  }
   const std::string& wanted = version.empty() ? kept.front() : version;
   bool loaded = false;
   Result<std::shared_ptr<const PlanningMap>> map =
