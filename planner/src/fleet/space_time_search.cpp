@@ -91,7 +91,7 @@ class OthersWays {
     for (std::int64_t bz = Bucket(bottom_m); bz <= Bucket(top_m); ++bz) {
       const auto found = buckets_.find(Key(Bucket(p.x()), Bucket(p.y()), bz));
       if (found == buckets_.end()) continue;
-      for (const Sweep& sweep : found->second) f(sweep);
+      for (const std::int32_t k : found->second) f(sweeps_[static_cast<std::size_t>(k)]);
     }
   }
 
@@ -109,16 +109,22 @@ class OthersWays {
   void File(const Sweep& sweep) {
     const Eigen::Vector2d lo = sweep.p0.cwiseMin(sweep.p1).array() - sweep.reach_m;
     const Eigen::Vector2d hi = sweep.p0.cwiseMax(sweep.p1).array() + sweep.reach_m;
+    const auto k = static_cast<std::int32_t>(sweeps_.size());
+    sweeps_.push_back(sweep);
     for (std::int64_t bz = Bucket(sweep.bottom_m); bz <= Bucket(sweep.top_m); ++bz) {
       for (std::int64_t by = Bucket(lo.y()); by <= Bucket(hi.y()); ++by) {
         for (std::int64_t bx = Bucket(lo.x()); bx <= Bucket(hi.x()); ++bx) {
-          buckets_[Key(bx, by, bz)].push_back(sweep);
+          buckets_[Key(bx, by, bz)].push_back(k);
         }
       }
     }
   }
 
-  std::unordered_map<std::int64_t, std::vector<Sweep>> buckets_;
+  // Each stretch once, the buckets listing indices into it. Filing a copy of the stretch (80
+  // bytes) into each bucket it reaches made filing the ways 4.5 times slower and the search
+  // after it a fifth slower (spiral, 50 robots: 0.60 and 2.55 s against 0.13 and 2.06 s).
+  std::vector<Sweep> sweeps_;
+  std::unordered_map<std::int64_t, std::vector<std::int32_t>> buckets_;
 };
 
 /// Whether a stretch's segment passes within its reach of `c`, horizontally.
