@@ -166,12 +166,12 @@ void ExpectUnchangedOutside(const Scene& base, const PointCloud& edited_cloud,
 
 // EditTiledTerrain of `edits` on `base` cut into tiles, checked against a fresh assessment of
 // the cloud its tiles then hold, byte for byte: the header and every tile, the changed ones cut
-// from the window it read and the others the base's. `fresh`, when given, is a fresh
-// assessment of the same edits applied to the whole cloud, which the tiles must then equal
-// (it saves assessing again). True when it edited the tiles, false when it said it needs the
-// whole cloud (`*needs_whole`: why).
+// from the window it read and the others the base's. `fresh_bytes`, when given, are those of a
+// fresh assessment of the same edits applied to the whole cloud (BytesWithoutTimings), which
+// the tiles must then equal (it saves assessing again). True when it edited the tiles, false
+// when it said it needs the whole cloud (`*needs_whole`: why).
 bool ExpectTiledEditLikeFresh(const Scene& base, const std::vector<MapEdit>& edits,
-                              std::string* needs_whole, const TerrainModel* fresh = nullptr) {
+                              std::string* needs_whole, const std::string* fresh_bytes = nullptr) {
   const GridGeometry& grid = base.model->grid();
   const TiledModel model = CutModel(*base.model);
   std::vector<std::string> cloud = CutCloud(base.cloud, grid);
@@ -211,20 +211,19 @@ bool ExpectTiledEditLikeFresh(const Scene& base, const std::vector<MapEdit>& edi
       JoinModel(edit->model.header, views, "edited");
   EXPECT_TRUE(joined.ok()) << joined.error().message;
   if (!joined.ok()) return false;
-  std::string fresh_bytes;
-  if (fresh != nullptr) {
-    fresh_bytes = test_util::BytesWithoutTimings(*fresh);
-  } else {
+  std::string assessed_bytes;
+  if (fresh_bytes == nullptr) {
     auto assessed = TerrainModel::Assess(*edited_cloud, base.model->config(), {},
                                          base.model->summary().vertical_quantum_m);
     EXPECT_TRUE(assessed.ok());
     if (!assessed.ok()) return false;
-    fresh_bytes = test_util::BytesWithoutTimings(**assessed);
+    assessed_bytes = test_util::BytesWithoutTimings(**assessed);
+    fresh_bytes = &assessed_bytes;
   }
   const std::string tiled_bytes = test_util::BytesWithoutTimings(**joined);
-  EXPECT_TRUE(tiled_bytes == fresh_bytes)
+  EXPECT_TRUE(tiled_bytes == *fresh_bytes)
       << "the tiled edit's model differs from a fresh assessment from byte "
-      << test_util::FirstDifferingByte(tiled_bytes, fresh_bytes) << " of " << fresh_bytes.size();
+      << test_util::FirstDifferingByte(tiled_bytes, *fresh_bytes) << " of " << fresh_bytes->size();
   EXPECT_NE(tiled_bytes, test_util::BytesWithoutTimings(*base.model));
   return true;
 }
@@ -259,7 +258,7 @@ Reassessment ExpectReassessedLikeFresh(const Scene& scene, const std::vector<Map
   // The same edit read from tiles: local where the whole edit is, unless a bounding-box face
   // it drops leaves the bounds to the whole cloud.
   std::string needs_whole;
-  const bool tiled = ExpectTiledEditLikeFresh(scene, edits, &needs_whole, fresh->get());
+  const bool tiled = ExpectTiledEditLikeFresh(scene, edits, &needs_whole, &fresh_bytes);
   if (expected_path == ReassessmentPath::kFull) EXPECT_FALSE(tiled);
   if (!tiled) std::printf("tiled edit needs the whole cloud: %s\n", needs_whole.c_str());
   if (next != nullptr) *next = Scene{std::move(edited).value(), reassessed->model};
