@@ -276,17 +276,32 @@ const PlanningMap& TwoLaneSite() {
   return *map;
 }
 
-TEST(FleetPlan, ARobotComingDownTheShorterLaneLongerThanTheRobotMayWaitIsAvoidedByTheOtherLane) {
-  // A drives the south lane west and is gone; B, going east, may wait 5 s only, and A takes
-  // longer than that to clear the lane.
+/// Robot A driving the two-lane site's south lane west from the departure, gone on arrival.
+ReservedMotion SouthLaneWestbound() {
   Expected<PlanResult> a = Plan(TwoLaneSite(), Between({10.5, 0.6, 0.3}, {1.2, 0.6, 0.3}));
-  ASSERT_TRUE(a) << a.error().message;
+  EXPECT_TRUE(a) << a.error().message;
   ReservedMotion other;
   other.robot_id = "A";
   other.motion.start_ns = kDeparture;
-  other.motion.trajectory = a.value().trajectory;
+  if (a) other.motion.trajectory = a.value().trajectory;
   other.motion.body = FleetBody::FromProfile(Profile());
   other.motion.end_ns = other.motion.ArrivalNs();
+  return other;
+}
+
+/// Whether `trajectory` passes through the two-lane site's north lane.
+bool TakesTheNorthLane(const Trajectory& trajectory) {
+  for (double t = 0; t < trajectory.TotalDuration(); t += 0.1) {
+    const Eigen::Vector3d p = trajectory.Position(t).head<3>();
+    if (p.x() > 4 && p.x() < 8 && p.y() > 5.8) return true;
+  }
+  return false;
+}
+
+TEST(FleetPlan, ARobotComingDownTheShorterLaneLongerThanTheRobotMayWaitIsAvoidedByTheOtherLane) {
+  // A drives the south lane west and is gone; B, going east, may wait 5 s only, and A takes
+  // longer than that to clear the lane.
+  const ReservedMotion other = SouthLaneWestbound();
   const std::vector<ReservedMotion> others = {other};
   FleetPlanRequest request = AmongOthers(Between({0.7, 3.0, 0.3}, {11.3, 3.0, 0.3}), others);
   request.fleet.max_wait_s = 5;
@@ -302,14 +317,26 @@ TEST(FleetPlan, ARobotComingDownTheShorterLaneLongerThanTheRobotMayWaitIsAvoided
   Expected<FleetPlanResult> result = PlanAmongTraffic(TwoLaneSite(), request);
   ASSERT_TRUE(result) << result.error().message;
   ExpectClearOfAll(result.value().motion, others);
-  const Trajectory& trajectory = result.value().plan.trajectory;
-  bool north = false;
-  for (double t = 0; t < trajectory.TotalDuration(); t += 0.1) {
-    const Eigen::Vector3d p = trajectory.Position(t).head<3>();
-    north = north || (p.x() > 4 && p.x() < 8 && p.y() > 5.8);
-  }
-  EXPECT_TRUE(north) << "B did not take the north lane";
+  EXPECT_TRUE(TakesTheNorthLane(result.value().plan.trajectory)) << "B did not take the north lane";
   EXPECT_LE(result.value().wait_s, 5);
+}
+
+// As above, with C parked beside the way down from the north lane to B's goal. The route
+// searched in space and time keeps clear of C, and the trajectory through its guides would cut
+// the corner into C (found only then, it took a third plan): C is planned around from the plan
+// through the route on, the second plan.
+TEST(FleetPlan, ARobotParkedOnASpaceTimeRoutesWayIsPlannedAroundFromThePlanThroughIt) {
+  const std::vector<ReservedMotion> others = {SouthLaneWestbound(), Parked("C", {10.4, 4.4, 0.3})};
+  FleetPlanRequest request = AmongOthers(Between({0.7, 3.0, 0.3}, {11.3, 3.0, 0.3}), others);
+  request.fleet.max_wait_s = 5;
+
+  Expected<FleetPlanResult> result = PlanAmongTraffic(TwoLaneSite(), request);
+  ASSERT_TRUE(result) << result.error().message;
+  ExpectClearOfAll(result.value().motion, others);
+  EXPECT_TRUE(TakesTheNorthLane(result.value().plan.trajectory)) << "B did not take the north lane";
+  EXPECT_EQ(result.value().parked_robots_avoided, 1);
+  EXPECT_EQ(result.value().plan_rounds, 2)
+      << "the plain route, then the route through the search's";
 }
 
 // A leaves 20 s after B and drives across B's goal, where B stays parked from its arrival

@@ -56,6 +56,11 @@ constexpr double kLegEndM = 1e-6;
 // A robot making way at its goal waits beside it this long at most [s]: a robot passes by in
 // seconds; one that stays is not waited out.
 constexpr double kMakeWayAsideS = 60;
+// A space-time route keeps its nodes the search's margin (0.25 m) beyond the limit from a robot
+// while it stands parked; a trajectory through the route's guides cuts up to a metre closer.
+// Robots parked within this much beyond the limit of the route's way are planned around from
+// the plan through it on (tuned on fleet_benchmark: docs/design.md, "Fleets").
+constexpr double kParkedOnWayReachM = 0.4;
 // Rounds of one request that try making way at the goal at most (each plans two short legs and
 // searches the waits again).
 constexpr int kMaxMakeWayRounds = 2;
@@ -194,9 +199,13 @@ Error GoalTaken(const TrafficConflict& met, const FleetPlanRequest& request, dou
 /// The robots, none already `zoned`, that stand parked where `motion` (the route without
 /// waits) passes, from before the robot could have passed with any wait up to `max_wait_s`
 /// until after: waiting cannot clear them, going around can. (Where the route passes before
-/// such a robot arrives, it is planned around it all the same.)
+/// such a robot arrives, it is planned around it all the same.) `reach_m` widens the separation
+/// for a way the trajectory will not follow closely.
 std::vector<std::size_t> ParkedInTheWay(const FleetMotion& motion, const Traffic& traffic,
-                                        double max_wait_s, const std::vector<bool>& zoned) {
+                                        double max_wait_s, const std::vector<bool>& zoned,
+                                        double reach_m = 0) {
+  SeparationRule rule = traffic.rule;
+  rule.separation_m += reach_m;
   const std::int64_t latest_passage_ns = AddSeconds(motion.ArrivalNs(), max_wait_s);
   const PreparedMotion route(motion);
   std::vector<std::size_t> parked;
@@ -209,7 +218,7 @@ std::vector<std::size_t> ParkedInTheWay(const FleetMotion& motion, const Traffic
     const FleetMotion standing =
         Standing(other.StateAt(other.ArrivalNs()), other.trajectory.dimension, other.body,
                  motion.start_ns, latest_passage_ns);
-    if (FirstConflict(route, PreparedMotion(standing), traffic.rule)) parked.push_back(i);
+    if (FirstConflict(route, PreparedMotion(standing), rule)) parked.push_back(i);
   }
   return parked;
 }
@@ -333,12 +342,41 @@ std::vector<RoutePoint> RoutePointsOf(const SurfaceGraph& graph,
   return points;
 }
 
+/// A route searched in space and time: the points a plan through it is guided by, and its way
+/// without the waits as a motion, straight from node to node at the search's pace.
+struct SpaceTimeGuides {
+  std::vector<RoutePoint> points;
+  FleetMotion unwaited;
+};
+
+/// `route`'s way on `graph` without its waits, leaving at the departure: a 3-D motion of the
+/// request's body, whose height is the tallest the robot may take.
+FleetMotion UnwaitedWay(const SurfaceGraph& graph, const fleet_internal::SpaceTimeRoute& route,
+                        const Traffic& traffic) {
+  Trajectory way;
+  for (std::size_t k = 0; k + 1 < route.nodes.size(); ++k) {
+    // The move's time: from leaving node k to arriving at node k + 1.
+    const double move_s = route.leave_s[k + 1] - route.wait_s[k + 1] - route.leave_s[k];
+    const Eigen::Vector3d from = graph.position(route.nodes[k]);
+    const Eigen::Vector3d to = graph.position(route.nodes[k + 1]);
+    TrajectoryPiece piece;
+    piece.duration_s = move_s;
+    piece.coefficients = Eigen::Matrix<double, 6, 3>::Zero();
+    piece.coefficients.row(0) = from.transpose();
+    piece.coefficients.row(1) = ((to - from) / move_s).transpose();
+    way.pieces.push_back(std::move(piece));
+  }
+  return traffic.MotionOf(way);
+}
+
 /// A route for `request` that keeps out of the way of `traffic` in space and time
-/// (space_time_search.hpp), timed as `plain` (the route planned without them) is, as route
-/// points; none when the search finds none.
-std::optional<std::vector<RoutePoint>> SpaceTimeRoutePoints(
-    const PlanningMap& map, const PlanRequest& request, const PlanResult& plain,
-    const Traffic& traffic, double max_wait_s, const std::function<bool()>& should_stop) {
+/// (space_time_search.hpp), timed as `plain` (the route planned without them) is; none when the
+/// search finds none.
+std::optional<SpaceTimeGuides> SearchSpaceTimeRoute(const PlanningMap& map,
+                                                    const PlanRequest& request,
+                                                    const PlanResult& plain, const Traffic& traffic,
+                                                    double max_wait_s,
+                                                    const std::function<bool()>& should_stop) {
   const auto graph = map.Graph(request.profile.Traversability());
   if (!graph || plain.path.cost <= 0 || plain.stats.duration_s <= 0) return std::nullopt;
   fleet_internal::SpaceTimeOptions options;
@@ -355,8 +393,9 @@ std::optional<std::vector<RoutePoint>> SpaceTimeRoutePoints(
   }
   const std::optional<fleet_internal::SpaceTimeRoute> found = fleet_internal::SearchSpaceTime(
       *graph.value(), plain.start.node, plain.goal.node, traffic, options, blocked, should_stop);
-  if (!found) return std::nullopt;
-  return RoutePointsOf(*graph.value(), *found, kMaxVias - kMaxAddedStops);
+  if (!found || found->nodes.size() < 2) return std::nullopt;
+  return SpaceTimeGuides{RoutePointsOf(*graph.value(), *found, kMaxVias - kMaxAddedStops),
+                         UnwaitedWay(*graph.value(), *found, traffic)};
 }
 
 /// `plan` with `waits_s[k]` at rest before each of its `legs`: the trajectory, its stats, the
@@ -572,6 +611,40 @@ Expected<FleetPlanResult> PlanAmongTraffic(const PlanningMap& map, const FleetPl
     plan_request.keep_out.push_back(std::move(zone));
     zoned[i] = true;
   }
+  // Makes every robot of `parked` a keep-out zone, to plan around them all at once, and drops
+  // the points added to the route that a zone covers. False when that is more zones than a
+  // request may have; sets zone_error when one stands on the start or the goal of `plan`.
+  std::optional<Error> zone_error;
+  const auto zone_parked = [&](const std::vector<std::size_t>& parked, const PlanResult& plan) {
+    if (plan_request.keep_out.size() + parked.size() >
+        static_cast<std::size_t>(kMaxRequestKeepOutZones)) {
+      return false;
+    }
+    for (const std::size_t i : parked) {
+      const ReservedMotion& other = request.others[i];
+      Prism zone = ParkedZone(other.motion, traffic.rule);
+      const RobotProfile& profile = request.plan.profile;
+      if (ViolatesKeepOut(zone, profile, plan.goal.position_m)) {
+        zone_error = ParkedOnEnd(other, request, "goal");
+        return true;
+      }
+      if (ViolatesKeepOut(zone, profile, plan.start.position_m)) {
+        zone_error = ParkedOnEnd(other, request, "start");
+        return true;
+      }
+      plan_request.keep_out.push_back(std::move(zone));
+      zoned[i] = true;
+    }
+    std::erase_if(route, [&](const RoutePoint& point) {
+      return point.added &&
+             std::any_of(plan_request.keep_out.begin(), plan_request.keep_out.end(),
+                         [&](const Prism& zone) {
+                           return ViolatesKeepOut(zone, request.plan.profile, point.via.position_m);
+                         });
+    });
+    stops_added = CountStops(route);
+    return true;
+  };
   int departures_checked = 0;
   int make_way_rounds = 0;
   bool space_time_tried = false;
@@ -613,33 +686,8 @@ Expected<FleetPlanResult> PlanAmongTraffic(const PlanningMap& map, const FleetPl
     const std::vector<std::size_t> parked =
         ParkedInTheWay(unwaited, traffic, request.fleet.max_wait_s, zoned);
     if (!parked.empty()) {
-      // Plan around every robot parked in the way at once.
-      if (plan_request.keep_out.size() + parked.size() >
-          static_cast<std::size_t>(kMaxRequestKeepOutZones)) {
-        break;
-      }
-      for (const std::size_t i : parked) {
-        const ReservedMotion& other = request.others[i];
-        Prism zone = ParkedZone(other.motion, traffic.rule);
-        const RobotProfile& profile = request.plan.profile;
-        if (ViolatesKeepOut(zone, profile, plan.value().goal.position_m)) {
-          return ParkedOnEnd(other, request, "goal");
-        }
-        if (ViolatesKeepOut(zone, profile, plan.value().start.position_m)) {
-          return ParkedOnEnd(other, request, "start");
-        }
-        plan_request.keep_out.push_back(std::move(zone));
-        zoned[i] = true;
-      }
-      // Points added to the route that a new zone covers go: the route is planned around it.
-      std::erase_if(route, [&](const RoutePoint& point) {
-        return point.added && std::any_of(plan_request.keep_out.begin(),
-                                          plan_request.keep_out.end(), [&](const Prism& zone) {
-                                            return ViolatesKeepOut(zone, request.plan.profile,
-                                                                   point.via.position_m);
-                                          });
-      });
-      stops_added = CountStops(route);
+      if (!zone_parked(parked, plan.value())) break;
+      if (zone_error) return *zone_error;
       continue;
     }
     const std::vector<Trajectory> legs = SplitAtStops(plan.value(), route);
@@ -655,6 +703,7 @@ Expected<FleetPlanResult> PlanAmongTraffic(const PlanningMap& map, const FleetPl
       result.motion = traffic.MotionOf(result.plan.trajectory);
       result.parked_robots_avoided = zoned_count();
       result.departures_checked = departures_checked + holds->departures_checked;
+      result.plan_rounds = round + 1;
       return result;
     }
     const auto& failure = std::get<fleet_internal::HoldFailure>(scheduled);
@@ -662,6 +711,7 @@ Expected<FleetPlanResult> PlanAmongTraffic(const PlanningMap& map, const FleetPl
     const auto made_way = [&](FleetPlanResult made) {
       made.parked_robots_avoided = zoned_count();
       made.departures_checked = departures_checked;
+      made.plan_rounds = round + 1;
       return made;
     };
     // The route reached the goal and was met there, parked: the robot makes way there.
@@ -698,11 +748,18 @@ Expected<FleetPlanResult> PlanAmongTraffic(const PlanningMap& map, const FleetPl
       }
       // Search a route in space and time, once.
       space_time_tried = true;
-      std::optional<std::vector<RoutePoint>> points = SpaceTimeRoutePoints(
+      std::optional<SpaceTimeGuides> guides = SearchSpaceTimeRoute(
           map, plan_request, plan.value(), traffic, request.fleet.max_wait_s, should_stop);
-      if (points) {
-        route = std::move(*points);
+      if (guides) {
+        route = std::move(guides->points);
         stops_added = CountStops(route);
+        // Robots parked on the route's way are planned around from the plan through it on,
+        // which saves the plan that would find them.
+        const std::vector<std::size_t> parked_on_way = ParkedInTheWay(
+            guides->unwaited, traffic, request.fleet.max_wait_s, zoned, kParkedOnWayReachM);
+        if (!parked_on_way.empty() && zone_parked(parked_on_way, plan.value()) && zone_error) {
+          return *zone_error;
+        }
         continue;
       }
     }

@@ -65,6 +65,9 @@ struct FleetPlanResult {
   int stops_added = 0;           ///< Stops on the way added so that the robot could wait.
   int parked_robots_avoided = 0;  ///< Others' parking places planned around as zones.
   int departures_checked = 0;     ///< Departures checked against the traffic.
+  /// Times the route was planned: the first, and one more each time robots parked in its way
+  /// were found, a route was searched in space and time, or a stop was added (at most 6).
+  int plan_rounds = 0;
   /// When the trajectory first reaches the goal, from its start [s]: its duration, or less
   /// when the robot then makes way.
   double arrival_s = 0;
