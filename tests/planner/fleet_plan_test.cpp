@@ -339,6 +339,24 @@ TEST(FleetPlan, ARobotParkedOnASpaceTimeRoutesWayIsPlannedAroundFromThePlanThrou
       << "the plain route, then the route through the search's";
 }
 
+// As the lanes above, with D parked where B's way out of the south lane runs. No waits clear A
+// from that lane, so going around D alone would clear nothing: the route is searched in space
+// and time at once, around D, and planned through (the second plan, not a third after a plan
+// around D in the south lane).
+TEST(FleetPlan, ARouteThatNoWaitsClearOfMovingRobotsIsSearchedAtOnceAroundTheParkedOnes) {
+  const std::vector<ReservedMotion> others = {SouthLaneWestbound(), Parked("D", {10.0, 1.7, 0.3})};
+  FleetPlanRequest request = AmongOthers(Between({0.7, 3.0, 0.3}, {11.3, 3.0, 0.3}), others);
+  request.fleet.max_wait_s = 5;
+
+  Expected<FleetPlanResult> result = PlanAmongTraffic(TwoLaneSite(), request);
+  ASSERT_TRUE(result) << result.error().message;
+  ExpectClearOfAll(result.value().motion, others);
+  EXPECT_TRUE(TakesTheNorthLane(result.value().plan.trajectory)) << "B did not take the north lane";
+  EXPECT_EQ(result.value().parked_robots_avoided, 1);
+  EXPECT_EQ(result.value().plan_rounds, 2)
+      << "the plain route, then the route through the search's";
+}
+
 // A leaves 20 s after B and drives across B's goal, where B stays parked from its arrival
 // (about 5 s) to the end of its lease: no wait, stop or way round before the goal clears that.
 // B arrives as planned alone and makes way there: it holds at its goal, steps aside off A's

@@ -492,6 +492,27 @@ bool MetWhenParked(const fleet_internal::HoldFailure& failure,
              AddSeconds(failure.departure_ns, legs.back().TotalDuration());
 }
 
+/// Whether no waits up to `max_wait_s` clear `plan` (through `route`) of the robots that move:
+/// `traffic.others` but those `zoned` and the `parked` ones, which the plan would go around
+/// next. Not when the route meets them only once parked at its goal (making way is for that).
+bool WaitsFailAmongMoving(const PlanResult& plan, const std::vector<RoutePoint>& route,
+                          const Traffic& traffic, const std::vector<std::size_t>& parked,
+                          const std::vector<bool>& zoned, double max_wait_s) {
+  std::vector<ReservedMotion> moving;
+  for (std::size_t i = 0; i < traffic.others.size(); ++i) {
+    if (!zoned[i] && std::find(parked.begin(), parked.end(), i) == parked.end()) {
+      moving.push_back(traffic.others[i]);
+    }
+  }
+  Traffic among_moving = traffic;
+  among_moving.others = moving;
+  const std::vector<Trajectory> legs = SplitAtStops(plan, route);
+  const auto scheduled = fleet_internal::ScheduleHolds(
+      legs, StartsAtRest(plan.trajectory), among_moving, max_wait_s, kMaxDeparturesChecked);
+  const auto* failure = std::get_if<fleet_internal::HoldFailure>(&scheduled);
+  return failure != nullptr && failure->conflict && !MetWhenParked(*failure, legs);
+}
+
 /// `plan` (through `route`, cut into `legs`) for a goal that a robot passes after this one has
 /// arrived (`taken`): at the goal the robot makes way for it. It holds at the goal as long as
 /// it can, leaves for a place beside it off that robot's way, holds there until the way is
@@ -645,9 +666,25 @@ Expected<FleetPlanResult> PlanAmongTraffic(const PlanningMap& map, const FleetPl
     stops_added = CountStops(route);
     return true;
   };
+  bool space_time_tried = false;
+  // Searches a route in space and time (once a request) timed as `plain`, and makes it the
+  // route. Robots parked on its way are planned around from the plan through it on, which saves
+  // the plan that would find them (zone_error set as zone_parked sets it). False when the
+  // search finds none.
+  const auto search_route = [&](const PlanResult& plain) {
+    space_time_tried = true;
+    std::optional<SpaceTimeGuides> guides = SearchSpaceTimeRoute(
+        map, plan_request, plain, traffic, request.fleet.max_wait_s, should_stop);
+    if (!guides) return false;
+    route = std::move(guides->points);
+    stops_added = CountStops(route);
+    const std::vector<std::size_t> parked_on_way = ParkedInTheWay(
+        guides->unwaited, traffic, request.fleet.max_wait_s, zoned, kParkedOnWayReachM);
+    if (!parked_on_way.empty()) zone_parked(parked_on_way, plain);
+    return true;
+  };
   int departures_checked = 0;
   int make_way_rounds = 0;
-  bool space_time_tried = false;
   // The rounds replan the same legs but for the one a stop splits (and all of them when a zone
   // is added, which the cache compares).
   LegCache legs;
@@ -686,8 +723,17 @@ Expected<FleetPlanResult> PlanAmongTraffic(const PlanningMap& map, const FleetPl
     const std::vector<std::size_t> parked =
         ParkedInTheWay(unwaited, traffic, request.fleet.max_wait_s, zoned);
     if (!parked.empty()) {
+      // Where no waits clear the robots that move on this route, going around the parked ones
+      // clears nothing more: the route is searched in space and time at once, around them.
+      const bool search_now =
+          !space_time_tried && request.plan.via.empty() &&
+          WaitsFailAmongMoving(plan.value(), route, traffic, parked, zoned,
+                               request.fleet.max_wait_s) &&
+          !GoalTakenLater(plan.value().trajectory, traffic,
+                          LatestArrivalS(request.fleet.max_wait_s, plan.value().stats.duration_s));
       if (!zone_parked(parked, plan.value())) break;
       if (zone_error) return *zone_error;
+      if (search_now && search_route(plan.value()) && zone_error) return *zone_error;
       continue;
     }
     const std::vector<Trajectory> legs = SplitAtStops(plan.value(), route);
@@ -746,20 +792,8 @@ Expected<FleetPlanResult> PlanAmongTraffic(const PlanningMap& map, const FleetPl
         if (!made) return GoalTaken(*taken, request, latest_s);
         return made_way(std::move(*made));
       }
-      // Search a route in space and time, once.
-      space_time_tried = true;
-      std::optional<SpaceTimeGuides> guides = SearchSpaceTimeRoute(
-          map, plan_request, plan.value(), traffic, request.fleet.max_wait_s, should_stop);
-      if (guides) {
-        route = std::move(guides->points);
-        stops_added = CountStops(route);
-        // Robots parked on the route's way are planned around from the plan through it on,
-        // which saves the plan that would find them.
-        const std::vector<std::size_t> parked_on_way = ParkedInTheWay(
-            guides->unwaited, traffic, request.fleet.max_wait_s, zoned, kParkedOnWayReachM);
-        if (!parked_on_way.empty() && zone_parked(parked_on_way, plan.value()) && zone_error) {
-          return *zone_error;
-        }
+      if (search_route(plan.value())) {
+        if (zone_error) return *zone_error;
         continue;
       }
     }
