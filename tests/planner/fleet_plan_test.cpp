@@ -340,9 +340,9 @@ TEST(FleetPlan, ARobotParkedOnASpaceTimeRoutesWayIsPlannedAroundFromThePlanThrou
 }
 
 // As the lanes above, with D parked where B's way out of the south lane runs. No waits clear A
-// from that lane, so going around D alone would clear nothing: the route is searched in space
-// and time at once, around D, and planned through (the second plan, not a third after a plan
-// around D in the south lane).
+// from that lane, where B meets A before it nears D, so going around D would clear nothing: the
+// route is searched in space and time at once, around D, and planned through (the second plan,
+// not a third after a plan around D in the south lane).
 TEST(FleetPlan, ARouteThatNoWaitsClearOfMovingRobotsIsSearchedAtOnceAroundTheParkedOnes) {
   const std::vector<ReservedMotion> others = {SouthLaneWestbound(), Parked("D", {10.0, 1.7, 0.3})};
   FleetPlanRequest request = AmongOthers(Between({0.7, 3.0, 0.3}, {11.3, 3.0, 0.3}), others);

@@ -492,12 +492,14 @@ bool MetWhenParked(const fleet_internal::HoldFailure& failure,
              AddSeconds(failure.departure_ns, legs.back().TotalDuration());
 }
 
-/// Whether no waits up to `max_wait_s` clear `plan` (through `route`) of the robots that move:
-/// `traffic.others` but those `zoned` and the `parked` ones, which the plan would go around
-/// next. Not when the route meets them only once parked at its goal (making way is for that).
-bool WaitsFailAmongMoving(const PlanResult& plan, const std::vector<RoutePoint>& route,
-                          const Traffic& traffic, const std::vector<std::size_t>& parked,
-                          const std::vector<bool>& zoned, double max_wait_s) {
+/// Whether no waits up to `max_wait_s` clear `plan` (through `route`) of the robots that move
+/// (`traffic.others` but those `zoned` and the `parked` ones, which the plan would go around
+/// next), at a meeting on the way before the route first comes near a `parked` one: going
+/// around those would not change it. Not when the route meets them only once parked at its goal
+/// (making way is for that).
+bool WaitsFailBeforeParked(const PlanResult& plan, const std::vector<RoutePoint>& route,
+                           const Traffic& traffic, const std::vector<std::size_t>& parked,
+                           const std::vector<bool>& zoned, double max_wait_s) {
   std::vector<ReservedMotion> moving;
   for (std::size_t i = 0; i < traffic.others.size(); ++i) {
     if (!zoned[i] && std::find(parked.begin(), parked.end(), i) == parked.end()) {
@@ -510,7 +512,22 @@ bool WaitsFailAmongMoving(const PlanResult& plan, const std::vector<RoutePoint>&
   const auto scheduled = fleet_internal::ScheduleHolds(
       legs, StartsAtRest(plan.trajectory), among_moving, max_wait_s, kMaxDeparturesChecked);
   const auto* failure = std::get_if<fleet_internal::HoldFailure>(&scheduled);
-  return failure != nullptr && failure->conflict && !MetWhenParked(*failure, legs);
+  if (failure == nullptr || !failure->conflict || MetWhenParked(*failure, legs)) return false;
+  // How far along the route (its time without waits) the meeting is, and the parked robots.
+  double meeting_s = SecondsBetween(failure->departure_ns, failure->conflict->conflict.time_ns);
+  for (std::size_t k = 0; k < failure->leg; ++k) meeting_s += legs[k].TotalDuration();
+  const FleetMotion unwaited = traffic.MotionOf(plan.trajectory);
+  const PreparedMotion way(unwaited);
+  for (const std::size_t i : parked) {
+    const FleetMotion& other = traffic.others[i].motion;
+    const FleetMotion standing =
+        Standing(other.StateAt(other.ArrivalNs()), other.trajectory.dimension, other.body,
+                 unwaited.start_ns, unwaited.end_ns);
+    const std::optional<MotionConflict> near =
+        FirstConflict(way, PreparedMotion(standing), traffic.rule);
+    if (near && SecondsBetween(unwaited.start_ns, near->time_ns) <= meeting_s) return false;
+  }
+  return true;
 }
 
 /// `plan` (through `route`, cut into `legs`) for a goal that a robot passes after this one has
@@ -723,12 +740,13 @@ Expected<FleetPlanResult> PlanAmongTraffic(const PlanningMap& map, const FleetPl
     const std::vector<std::size_t> parked =
         ParkedInTheWay(unwaited, traffic, request.fleet.max_wait_s, zoned);
     if (!parked.empty()) {
-      // Where no waits clear the robots that move on this route, going around the parked ones
-      // clears nothing more: the route is searched in space and time at once, around them.
+      // Where no waits clear the robots that move on this route before it nears the parked
+      // ones, going around those clears nothing: the route is searched in space and time at
+      // once, around them.
       const bool search_now =
           !space_time_tried && request.plan.via.empty() &&
-          WaitsFailAmongMoving(plan.value(), route, traffic, parked, zoned,
-                               request.fleet.max_wait_s) &&
+          WaitsFailBeforeParked(plan.value(), route, traffic, parked, zoned,
+                                request.fleet.max_wait_s) &&
           !GoalTakenLater(plan.value().trajectory, traffic,
                           LatestArrivalS(request.fleet.max_wait_s, plan.value().stats.duration_s));
       if (!zone_parked(parked, plan.value())) break;
