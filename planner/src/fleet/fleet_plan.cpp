@@ -496,10 +496,11 @@ bool MetWhenParked(const fleet_internal::HoldFailure& failure,
 /// (`traffic.others` but those `zoned` and the `parked` ones, which the plan would go around
 /// next), at a meeting on the way before the route first comes near a `parked` one: going
 /// around those would not change it. Not when the route meets them only once parked at its goal
-/// (making way is for that).
+/// (making way is for that). Adds the departures it checks to `*departures_checked`.
 bool WaitsFailBeforeParked(const PlanResult& plan, const std::vector<RoutePoint>& route,
                            const Traffic& traffic, const std::vector<std::size_t>& parked,
-                           const std::vector<bool>& zoned, double max_wait_s) {
+                           const std::vector<bool>& zoned, double max_wait_s,
+                           int* departures_checked) {
   std::vector<ReservedMotion> moving;
   for (std::size_t i = 0; i < traffic.others.size(); ++i) {
     if (!zoned[i] && std::find(parked.begin(), parked.end(), i) == parked.end()) {
@@ -512,7 +513,12 @@ bool WaitsFailBeforeParked(const PlanResult& plan, const std::vector<RoutePoint>
   const auto scheduled = fleet_internal::ScheduleHolds(
       legs, StartsAtRest(plan.trajectory), among_moving, max_wait_s, kMaxDeparturesChecked);
   const auto* failure = std::get_if<fleet_internal::HoldFailure>(&scheduled);
-  if (failure == nullptr || !failure->conflict || MetWhenParked(*failure, legs)) return false;
+  if (failure == nullptr) {
+    *departures_checked += std::get<fleet_internal::HoldSchedule>(scheduled).departures_checked;
+    return false;
+  }
+  *departures_checked += failure->departures_checked;
+  if (!failure->conflict || MetWhenParked(*failure, legs)) return false;
   // How far along the route (its time without waits) the meeting is, and the parked robots.
   double meeting_s = SecondsBetween(failure->departure_ns, failure->conflict->conflict.time_ns);
   for (std::size_t k = 0; k < failure->leg; ++k) meeting_s += legs[k].TotalDuration();
@@ -746,7 +752,7 @@ Expected<FleetPlanResult> PlanAmongTraffic(const PlanningMap& map, const FleetPl
       const bool search_now =
           !space_time_tried && request.plan.via.empty() &&
           WaitsFailBeforeParked(plan.value(), route, traffic, parked, zoned,
-                                request.fleet.max_wait_s) &&
+                                request.fleet.max_wait_s, &departures_checked) &&
           !GoalTakenLater(plan.value().trajectory, traffic,
                           LatestArrivalS(request.fleet.max_wait_s, plan.value().stats.duration_s));
       if (!zone_parked(parked, plan.value())) break;
