@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <optional>
 #include <span>
@@ -196,19 +197,25 @@ Error GoalTaken(const TrafficConflict& met, const FleetPlanRequest& request, dou
   return error;
 }
 
+/// Robots parked in the way of a route (ParkedInTheWay).
+struct ParkedInWay {
+  std::vector<std::size_t> robots;  ///< Indices into the traffic's others.
+  /// When the route first comes within reach of one of them [ns]; max when there are none.
+  std::int64_t first_near_ns = std::numeric_limits<std::int64_t>::max();
+};
+
 /// The robots, none already `zoned`, that stand parked where `motion` (the route without
 /// waits) passes, from before the robot could have passed with any wait up to `max_wait_s`
 /// until after: waiting cannot clear them, going around can. (Where the route passes before
 /// such a robot arrives, it is planned around it all the same.) `reach_m` widens the separation
 /// for a way the trajectory will not follow closely.
-std::vector<std::size_t> ParkedInTheWay(const FleetMotion& motion, const Traffic& traffic,
-                                        double max_wait_s, const std::vector<bool>& zoned,
-                                        double reach_m = 0) {
+ParkedInWay ParkedInTheWay(const FleetMotion& motion, const Traffic& traffic, double max_wait_s,
+                           const std::vector<bool>& zoned, double reach_m = 0) {
   SeparationRule rule = traffic.rule;
   rule.separation_m += reach_m;
   const std::int64_t latest_passage_ns = AddSeconds(motion.ArrivalNs(), max_wait_s);
   const PreparedMotion route(motion);
-  std::vector<std::size_t> parked;
+  ParkedInWay parked;
   for (std::size_t i = 0; i < traffic.others.size(); ++i) {
     const FleetMotion& other = traffic.others[i].motion;
     if (zoned[i] || other.end_ns < latest_passage_ns || other.ArrivalNs() > latest_passage_ns) {
@@ -218,7 +225,11 @@ std::vector<std::size_t> ParkedInTheWay(const FleetMotion& motion, const Traffic
     const FleetMotion standing =
         Standing(other.StateAt(other.ArrivalNs()), other.trajectory.dimension, other.body,
                  motion.start_ns, latest_passage_ns);
-    if (FirstConflict(route, PreparedMotion(standing), rule)) parked.push_back(i);
+    if (const std::optional<MotionConflict> near =
+            FirstConflict(route, PreparedMotion(standing), rule)) {
+      parked.robots.push_back(i);
+      parked.first_near_ns = std::min(parked.first_near_ns, near->time_ns);
+    }
   }
   return parked;
 }
@@ -498,12 +509,13 @@ bool MetWhenParked(const fleet_internal::HoldFailure& failure,
 /// around those would not change it. Not when the route meets them only once parked at its goal
 /// (making way is for that). Adds the departures it checks to `*departures_checked`.
 bool WaitsFailBeforeParked(const PlanResult& plan, const std::vector<RoutePoint>& route,
-                           const Traffic& traffic, const std::vector<std::size_t>& parked,
+                           const Traffic& traffic, const ParkedInWay& parked,
                            const std::vector<bool>& zoned, double max_wait_s,
                            int* departures_checked) {
   std::vector<ReservedMotion> moving;
   for (std::size_t i = 0; i < traffic.others.size(); ++i) {
-    if (!zoned[i] && std::find(parked.begin(), parked.end(), i) == parked.end()) {
+    if (!zoned[i] &&
+        std::find(parked.robots.begin(), parked.robots.end(), i) == parked.robots.end()) {
       moving.push_back(traffic.others[i]);
     }
   }
@@ -519,21 +531,10 @@ bool WaitsFailBeforeParked(const PlanResult& plan, const std::vector<RoutePoint>
   }
   *departures_checked += failure->departures_checked;
   if (!failure->conflict || MetWhenParked(*failure, legs)) return false;
-  // How far along the route (its time without waits) the meeting is, and the parked robots.
+  // How far along the route (its time without waits) the meeting is, against the parked robots.
   double meeting_s = SecondsBetween(failure->departure_ns, failure->conflict->conflict.time_ns);
   for (std::size_t k = 0; k < failure->leg; ++k) meeting_s += legs[k].TotalDuration();
-  const FleetMotion unwaited = traffic.MotionOf(plan.trajectory);
-  const PreparedMotion way(unwaited);
-  for (const std::size_t i : parked) {
-    const FleetMotion& other = traffic.others[i].motion;
-    const FleetMotion standing =
-        Standing(other.StateAt(other.ArrivalNs()), other.trajectory.dimension, other.body,
-                 unwaited.start_ns, unwaited.end_ns);
-    const std::optional<MotionConflict> near =
-        FirstConflict(way, PreparedMotion(standing), traffic.rule);
-    if (near && SecondsBetween(unwaited.start_ns, near->time_ns) <= meeting_s) return false;
-  }
-  return true;
+  return meeting_s < SecondsBetween(traffic.departure_ns, parked.first_near_ns);
 }
 
 /// `plan` (through `route`, cut into `legs`) for a goal that a robot passes after this one has
@@ -701,9 +702,9 @@ Expected<FleetPlanResult> PlanAmongTraffic(const PlanningMap& map, const FleetPl
     if (!guides) return false;
     route = std::move(guides->points);
     stops_added = CountStops(route);
-    const std::vector<std::size_t> parked_on_way = ParkedInTheWay(
+    const ParkedInWay parked_on_way = ParkedInTheWay(
         guides->unwaited, traffic, request.fleet.max_wait_s, zoned, kParkedOnWayReachM);
-    if (!parked_on_way.empty()) zone_parked(parked_on_way, plain);
+    if (!parked_on_way.robots.empty()) zone_parked(parked_on_way.robots, plain);
     return true;
   };
   int departures_checked = 0;
@@ -743,9 +744,8 @@ Expected<FleetPlanResult> PlanAmongTraffic(const PlanningMap& map, const FleetPl
             FirstTrafficConflict(unwaited, traffic.others, traffic.rule)) {
       first_at_departure = met;
     }
-    const std::vector<std::size_t> parked =
-        ParkedInTheWay(unwaited, traffic, request.fleet.max_wait_s, zoned);
-    if (!parked.empty()) {
+    const ParkedInWay parked = ParkedInTheWay(unwaited, traffic, request.fleet.max_wait_s, zoned);
+    if (!parked.robots.empty()) {
       // Where no waits clear the robots that move on this route before it nears the parked
       // ones, going around those clears nothing: the route is searched in space and time at
       // once, around them.
@@ -755,7 +755,7 @@ Expected<FleetPlanResult> PlanAmongTraffic(const PlanningMap& map, const FleetPl
                                 request.fleet.max_wait_s, &departures_checked) &&
           !GoalTakenLater(plan.value().trajectory, traffic,
                           LatestArrivalS(request.fleet.max_wait_s, plan.value().stats.duration_s));
-      if (!zone_parked(parked, plan.value())) break;
+      if (!zone_parked(parked.robots, plan.value())) break;
       if (zone_error) return *zone_error;
       if (search_now && search_route(plan.value()) && zone_error) return *zone_error;
       continue;
