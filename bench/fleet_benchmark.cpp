@@ -15,8 +15,8 @@
 // benchmark's independent check against the map (oracle/independent_check.hpp). A robot
 // refused again and again shows as a stall (from its first refusal to its next plan, or to the
 // end); a deadlock would be robots stalled to the end. Prints a markdown table;
-// STRATA_FLEET_VERBOSE=1 also prints every refusal, every other failure and every conflict the
-// check finds to stderr.
+// STRATA_FLEET_VERBOSE=1 also prints every refusal (which robot, when, and what the robot it
+// names is doing then), every other failure and every conflict the check finds to stderr.
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -87,6 +87,24 @@ struct RunFigures {
   double longest_stall_s = 0;  // A robot's first refusal to its next plan (or the end).
   int stalled_at_end = 0;      // Robots refused from over a minute before the end to the end.
 };
+
+/// What a robot in the way is doing at `now` on its committed `motion`, for the verbose
+/// refusals: whether replanning it would mean replanning a robot under way.
+std::string WhatItIsDoing(const FleetMotion& motion, std::int64_t now) {
+  if (now >= motion.ArrivalNs()) return "parked at its goal";
+  const double t = motion.TrajectoryTimeAt(now);
+  if (!motion.trajectory.Velocity(t).isZero(1e-9)) {
+    return fmt::format("under way, {:.0f} s from its goal",
+                       strata::SecondsBetween(now, motion.ArrivalNs()));
+  }
+  double first_move_s = 0;  // Trajectory time of its first piece that moves.
+  for (const strata::TrajectoryPiece& piece : motion.trajectory.pieces) {
+    if (!piece.coefficients.bottomRows(5).isZero(1e-12)) break;
+    first_move_s += piece.duration_s;
+  }
+  return t < first_move_s ? fmt::format("holding before it leaves, for {:.0f} s", first_move_s - t)
+                          : "holding on its way";
+}
 
 double Ms(std::chrono::steady_clock::duration d) {
   return std::chrono::duration<double, std::milli>(d).count();
@@ -191,8 +209,17 @@ RunFigures RunFleet(const Site& site, int robots, double minutes, unsigned seed,
         figures.waits_s.push_back(planned.value().wait_s);
       } else if (planned.error().code == strata::ErrorCode::kReservationConflict) {
         ++figures.refused_conflict;
-        if (std::getenv("STRATA_FLEET_VERBOSE"))
-          std::fprintf(stderr, "refused: %s\n", planned.error().message.c_str());
+        if (std::getenv("STRATA_FLEET_VERBOSE")) {
+          std::string in_the_way;
+          for (const auto& [key, value] : planned.error().details) {
+            if (key != "robot_id") continue;
+            const FleetMotion& other = figures.committed[current[std::stoi(value)]].motion;
+            in_the_way = fmt::format(" [robot {}: {}]", value, WhatItIsDoing(other, now));
+          }
+          std::fprintf(stderr, "refused robot %d at %.1f s: %s%s\n", robot,
+                       strata::SecondsBetween(kStartNs, now), planned.error().message.c_str(),
+                       in_the_way.c_str());
+        }
       } else {
         ++figures.failed_other;
         if (std::getenv("STRATA_FLEET_VERBOSE"))
