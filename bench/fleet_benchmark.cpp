@@ -211,10 +211,10 @@ RunFigures RunFleet(const Site& site, int robots, double minutes, unsigned seed,
         ++figures.refused_conflict;
         if (std::getenv("STRATA_FLEET_VERBOSE")) {
           std::string in_the_way;
-          for (const auto& [key, value] : planned.error().details) {
-            if (key != "robot_id") continue;
-            const FleetMotion& other = figures.committed[current[std::stoi(value)]].motion;
-            in_the_way = fmt::format(" [robot {}: {}]", value, WhatItIsDoing(other, now));
+          const auto& details = planned.error().details;
+          if (const auto named = details.find("robot_id"); named != details.end()) {
+            const FleetMotion& other = figures.committed[current[std::stoi(named->second)]].motion;
+            in_the_way = fmt::format(" [robot {}: {}]", named->second, WhatItIsDoing(other, now));
           }
           std::fprintf(stderr, "refused robot %d at %.1f s: %s%s\n", robot,
                        strata::SecondsBetween(kStartNs, now), planned.error().message.c_str(),
