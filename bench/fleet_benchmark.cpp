@@ -6,7 +6,7 @@
 // (oracle/sampled_separation.hpp, 1 ms), never by the planner's. Not part of the test path.
 //
 //   build/bench/fleet_benchmark [--minutes 10] [--seed 1] [--robots 10 25 50]
-//                               [--sites parking_garage spiral]
+//                               [--sites parking_garage spiral] [--replan-robots 0]
 //
 // The spiral is the shared map spiral0.3_2 at 0.2 m, read from STRATA_MAPS_DIR. A robot's
 // goal is drawn at least 1.5 m from every other robot's position and goal; on arrival it
@@ -14,7 +14,9 @@
 // another 5 simulated seconds later. Every planned trajectory also goes through the
 // benchmark's independent check against the map (oracle/independent_check.hpp). A robot
 // refused again and again shows as a stall (from its first refusal to its next plan, or to the
-// end); a deadlock would be robots stalled to the end. Prints a markdown table;
+// end); a deadlock would be robots stalled to the end. With --replan-robots N a plan may replan
+// up to N robots in its way (ReplanOptions): every simulated robot follows the new trajectories
+// it is sent, from the notice on. Prints a markdown table;
 // STRATA_FLEET_VERBOSE=1 also prints every refusal (which robot, when, and what the robot it
 // names is doing then), every other failure and every conflict the check finds to stderr.
 #include <algorithm>
@@ -57,6 +59,7 @@ constexpr double kRetryAfterS = 5.0;
 constexpr double kLeaseS = 3600;  // Robots stay parked until their next plan replaces it.
 constexpr double kHorizontalSpeedSlack = 1.01;              // The verifier's limit tolerance.
 double max_wait_s = strata::FleetPlanOptions{}.max_wait_s;  // --max-wait
+int replan_robots = strata::ReplanOptions{}.max_robots;     // --replan-robots
 int benchmark_sink = 0;  // Keeps the timed checks' results alive.
 
 using Site = strata::bench::FleetSite;
@@ -77,7 +80,9 @@ struct RunFigures {
   std::vector<double> delay_ratio;       // (fleet duration − alone duration) / alone duration.
   std::vector<double> waits_s;
   int parked_avoided = 0;
-  int made_way = 0;  // Tasks whose robot makes way at its goal for a robot passing later.
+  int made_way = 0;            // Tasks whose robot makes way at its goal for a robot passing later.
+  int tasks_with_replans = 0;  // Tasks planned by replanning robots in the way.
+  int robots_replanned = 0;    // Robots replanned for them, in all.
   std::vector<Committed> committed;
   int conflicting_pairs = 0;  // Pairs of robots whose committed motions conflict.
   int robots_in_conflict = 0;
@@ -128,6 +133,9 @@ RunFigures RunFleet(const Site& site, int robots, double minutes, unsigned seed,
   std::vector<Eigen::Vector3d> goals(robots);
   // When each robot's current run of refusals began (none: nullopt).
   std::vector<std::optional<std::int64_t>> refused_since(robots);
+  // When each robot is next asked for a task: events for any other time are dropped (a
+  // robot replanned for another arrives at another time).
+  std::vector<std::int64_t> next_event(robots, kStartNs);
   const auto end_stall = [&](int robot, std::int64_t at) {
     if (!refused_since[robot]) return;
     figures.longest_stall_s =
@@ -158,13 +166,28 @@ RunFigures RunFleet(const Site& site, int robots, double minutes, unsigned seed,
 
   using Event = std::pair<std::int64_t, int>;  // (time, robot), earliest first.
   std::priority_queue<Event, std::vector<Event>, std::greater<>> events;
+  // `robot`'s current motion replaced by `next` from its start on (a robot replanned to let
+  // another pass first): it arrives at its goal, and gets its next task, when `next` does.
+  const auto ReplaceMotion = [&](int robot, const FleetMotion& next) {
+    figures.map_check.Add(strata::bench::CheckTrajectory(
+        site.map->model(), profile, next.trajectory,
+        strata::bench::CheckConfigFor(strata::PlanOptions{}.verifier, site.map->keep_out())));
+    figures.committed[current[robot]].motion.end_ns = next.start_ns;
+    figures.tasks_completed +=
+        (next.ArrivalNs() <= end_ns ? 1 : 0) - (arrival_at_goal[robot] <= end_ns ? 1 : 0);
+    arrival_at_goal[robot] = next.ArrivalNs();
+    current[robot] = figures.committed.size();
+    figures.committed.push_back({robot, next});
+    ++figures.robots_replanned;
+    next_event[robot] = next.ArrivalNs();
+    events.emplace(next.ArrivalNs(), robot);
+  };
   for (int r = 0; r < robots; ++r) events.emplace(kStartNs, r);
   while (!events.empty()) {
     const auto [now, robot] = events.top();
     events.pop();
-    if (now >= end_ns) continue;
-    FleetMotion& mine = figures.committed[current[robot]].motion;
-    const Eigen::Vector3d at = mine.ReferencePointAt(now);
+    if (now >= end_ns || now != next_event[robot]) continue;
+    const Eigen::Vector3d at = figures.committed[current[robot]].motion.ReferencePointAt(now);
     // A goal apart from every other robot's position now and its goal.
     Eigen::Vector3d goal = at;
     for (int tries = 0; tries < 1000; ++tries) {
@@ -199,9 +222,18 @@ RunFigures RunFleet(const Site& site, int robots, double minutes, unsigned seed,
       fleet.parked_until_ns = strata::AddSeconds(now, kLeaseS);
       fleet.others = others;
       fleet.fleet.max_wait_s = max_wait_s;
+      // Every robot of the simulation follows the new trajectories it is sent.
+      std::vector<strata::ReplannableRobot> replannable;
+      for (std::size_t i = 0; i < others.size(); ++i) replannable.push_back({i, profile});
+      fleet.replannable = replannable;
+      fleet.fleet.replan.max_robots = replan_robots;
       auto planned = strata::PlanAmongTraffic(*site.map, fleet);
       figures.latency_ms.push_back(Ms(std::chrono::steady_clock::now() - t0));
       if (planned) {
+        for (const strata::ReplannedRobot& replanned : planned.value().replanned) {
+          ReplaceMotion(std::stoi(others[replanned.other].robot_id), replanned.motion);
+        }
+        figures.tasks_with_replans += planned.value().replanned.empty() ? 0 : 1;
         trajectory = planned.value().plan.trajectory;
         arrival_s = planned.value().arrival_s;
         figures.made_way += planned.value().makes_way ? 1 : 0;
@@ -248,10 +280,12 @@ RunFigures RunFleet(const Site& site, int robots, double minutes, unsigned seed,
     if (!trajectory) {
       if (!refused_since[robot]) refused_since[robot] = now;
       // A robot making way at its goal is asked again at rest: holding, or back at the goal.
+      const FleetMotion& mine = figures.committed[current[robot]].motion;
       std::int64_t retry = strata::AddSeconds(now, kRetryAfterS);
       if (!mine.trajectory.Velocity(mine.TrajectoryTimeAt(retry)).isZero(1e-9)) {
         retry = mine.ArrivalNs();
       }
+      next_event[robot] = retry;
       events.emplace(retry, robot);
       continue;
     }
@@ -262,6 +296,7 @@ RunFigures RunFleet(const Site& site, int robots, double minutes, unsigned seed,
         strata::bench::CheckConfigFor(request.options.verifier, site.map->keep_out())));
     // The new motion replaces the robot's current one from now on: after its arrival, or at
     // its arrival at the goal where it was to make way there (dropping that part).
+    FleetMotion& mine = figures.committed[current[robot]].motion;
     mine.end_ns = std::max(now, std::min(mine.ArrivalNs(), arrival_at_goal[robot]));
     Committed next{robot, {}};
     next.motion.start_ns = now;
@@ -274,6 +309,7 @@ RunFigures RunFleet(const Site& site, int robots, double minutes, unsigned seed,
     goals[robot] = goal;
     current[robot] = figures.committed.size();
     figures.committed.push_back(std::move(next));
+    next_event[robot] = arrival;
     events.emplace(arrival, robot);
   }
 
@@ -357,6 +393,9 @@ int main(int argc, char** argv) {
   app.add_option("--robots", fleet_sizes, "Fleet sizes")->check(CLI::Range(1, 500));
   app.add_option("--sites", site_names, "parking_garage (generated), spiral (STRATA_MAPS_DIR)")
       ->check(CLI::IsMember({"parking_garage", "spiral"}));
+  app.add_option("--replan-robots", replan_robots,
+                 "Robots in the way a plan may replan, in all (ReplanOptions::max_robots)")
+      ->check(CLI::Range(0, 3));
   app.add_option("--max-wait", max_wait_s, "Longest the robots wait, in all [s]")
       ->check(CLI::Range(0.0, 3600.0));
   CLI11_PARSE(app, argc, argv);
@@ -389,9 +428,9 @@ int main(int argc, char** argv) {
   std::printf(
       "| site | robots | reservations | tasks planned | refused (conflict) | failed "
       "(other) | conflicting pairs (robots) | plan p50 / p95 [ms] | alone p50 / p95 "
-      "[ms] | mean delay | waits | parked robots avoided | exact checks/s | map check | "
-      "longest stall (stalled at the end) |\n");
-  std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+      "[ms] | mean delay | waits | parked robots avoided | robots replanned (for tasks) | exact "
+      "checks/s | map check | longest stall (stalled at the end) |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const Site& site : sites) {
     for (const int robots : fleet_sizes) {
       for (const bool with : {false, true}) {
@@ -406,7 +445,7 @@ int main(int argc, char** argv) {
         std::fputs(
             fmt::format(
                 "| {} | {} | {} | {} of {} ({}) | {} | {} | {} ({}) | {:.1f} / {:.1f} | {} | {} | "
-                "{} | {} | {:.0f} | {} | {:.0f} s ({}) |\n",
+                "{} | {} | {} | {:.0f} | {} | {:.0f} s ({}) |\n",
                 site.name, robots, with ? "yes" : "no", f.tasks_planned, f.tasks_asked,
                 Percent(f.tasks_planned, f.tasks_asked), f.refused_conflict, f.failed_other,
                 f.conflicting_pairs, f.robots_in_conflict, Median(f.latency_ms),
@@ -415,8 +454,9 @@ int main(int argc, char** argv) {
                                   Quantile(f.plain_latency_ms, 0.95))),
                 among(fmt::format("{:.1f}%", 100 * mean_delay)),
                 among(fmt::format("{} tasks ({} made way at the goal)", waited, f.made_way)),
-                among(std::to_string(f.parked_avoided)), f.exact_checks_per_s,
-                f.map_check.Describe(), f.longest_stall_s, f.stalled_at_end)
+                among(std::to_string(f.parked_avoided)),
+                among(fmt::format("{} ({})", f.robots_replanned, f.tasks_with_replans)),
+                f.exact_checks_per_s, f.map_check.Describe(), f.longest_stall_s, f.stalled_at_end)
                 .c_str(),
             stdout);
         std::fflush(stdout);

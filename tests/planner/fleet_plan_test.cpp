@@ -443,6 +443,75 @@ TEST(FleetPlan, ARobotRoutedThroughViasAlsoMakesWayAtItsGoal) {
             1e-6);
 }
 
+// A drives up the one-lane ramp, departed a second ago; B, asked for now, must come down it
+// at once (it may not wait). In commit order B is refused; with A replannable, B goes first and
+// A, from where it is at the notice, waits off B's way and then goes on to its goal.
+TEST(FleetPlan, ARobotOnItsWayIsReplannedToLetARobotThatMayNotWaitPassFirst) {
+  ReservedMotion a = Committed("A", Between({2, 4.5, 0.3}, {14.5, 4.5, 0.8}));
+  a.motion.start_ns = AddSeconds(kDeparture, -1);
+  const std::vector<ReservedMotion> others = {a};
+  FleetPlanRequest request = AmongOthers(Between({13, 7.5, 0.8}, {2, 1.5, 0.3}), others);
+  request.fleet.max_wait_s = 0;
+  request.fleet.replan.max_robots = 1;
+  Expected<FleetPlanResult> in_order = PlanAmongTraffic(Site(), request);
+  ASSERT_FALSE(in_order) << "A not replannable: B must be refused, or the case tests nothing";
+  EXPECT_EQ(in_order.error().code, ErrorCode::kReservationConflict);
+  EXPECT_EQ(in_order.error().details.at("robot_id"), "A");
+
+  const std::vector<ReplannableRobot> replannable = {{0, Profile()}};
+  request.replannable = replannable;
+  Expected<FleetPlanResult> b = PlanAmongTraffic(Site(), request);
+  ASSERT_TRUE(b) << b.error().message;
+  ASSERT_EQ(b.value().replanned.size(), 1u);
+  const ReplannedRobot& replanned = b.value().replanned[0];
+  EXPECT_EQ(replanned.other, 0u);
+  const std::int64_t notice_ns = AddSeconds(kDeparture, request.fleet.replan.notice_s);
+  EXPECT_EQ(replanned.motion.start_ns, notice_ns);
+  // A's new motion takes over where its committed one is at the notice, moving as it moves.
+  const double t = a.motion.TrajectoryTimeAt(notice_ns);
+  EXPECT_GT(a.motion.trajectory.Velocity(t).head<2>().norm(), 0.1) << "A is on its way";
+  EXPECT_LT((replanned.motion.trajectory.Position(0).head<2>() -
+             a.motion.trajectory.Position(t).head<2>())
+                .norm(),
+            1e-6);
+  EXPECT_LT((replanned.motion.trajectory.Velocity(0) - a.motion.trajectory.Velocity(t)).norm(),
+            1e-6);
+  // It still ends at A's goal, parked there as long as before, and waited for B on its way.
+  const Trajectory& new_a = replanned.motion.trajectory;
+  EXPECT_LT((new_a.Position(new_a.TotalDuration()).head<3>() -
+             a.motion.trajectory.Position(a.motion.trajectory.TotalDuration()).head<3>())
+                .norm(),
+            1e-6);
+  EXPECT_EQ(replanned.motion.end_ns, a.motion.end_ns);
+  EXPECT_GT(replanned.wait_s, 0);
+  // B and A as they will move: A's committed motion until the notice, then its new one.
+  const FleetMotion a_then = ContinuedBy(a.motion, replanned.motion, kDeparture);
+  const Sampled s = SampleEveryMillisecond(b.value().motion, a_then, Limit());
+  EXPECT_FALSE(s.conflict);
+  WriteScenario("replanned_on_its_way", {{"B", &b.value().motion}, {"A", &a_then}});
+}
+
+TEST(FleetPlan, ReplanningOptionsAndRobotsOutOfRangeAreRefusedNamingTheField) {
+  const std::vector<ReservedMotion> others = {Parked("C", {3, 2.5, 0.3})};
+  FleetPlanRequest request = AmongOthers(Between({0.5, 2.5, 0.3}, {5.5, 2.5, 0.3}), others);
+  request.fleet.replan.max_robots = 4;
+  Expected<FleetPlanResult> refused = PlanAmongTraffic(Site(), request);
+  ASSERT_FALSE(refused);
+  EXPECT_EQ(refused.error().field, "fleet.replan.max_robots");
+  request.fleet.replan.max_robots = 1;
+  request.fleet.replan.notice_s = -1;
+  refused = PlanAmongTraffic(Site(), request);
+  ASSERT_FALSE(refused);
+  EXPECT_EQ(refused.error().field, "fleet.replan.notice_s");
+  request.fleet.replan.notice_s = 1;
+  const std::vector<ReplannableRobot> beyond = {{1, Profile()}};
+  request.replannable = beyond;
+  refused = PlanAmongTraffic(Site(), request);
+  ASSERT_FALSE(refused);
+  EXPECT_EQ(refused.error().code, ErrorCode::kInvalidInput);
+  EXPECT_EQ(refused.error().field, "replannable[0].other");
+}
+
 // The same, with B routed through a point on its way (a route with vias is not searched in
 // space and time, and its goal not checked before): refused with the first meeting, after
 // the waits, stops and making way tried.

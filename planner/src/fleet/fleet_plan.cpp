@@ -16,6 +16,7 @@
 
 #include "format_internal.hpp"
 #include "hold_schedule.hpp"
+#include "replan_in_the_way.hpp"
 #include "route_guides.hpp"
 #include "space_time_search.hpp"
 
@@ -604,19 +605,10 @@ std::optional<FleetPlanResult> MakeWayAtGoal(const PlanningMap& map, const PlanR
   return result;
 }
 
-}  // namespace
-
-Status FleetPlanOptions::Validate(std::string_view path) const {
-  if (Status s = rule.Validate(internal::FieldPath(path, "rule")); !s) return s;
-  if (!(max_wait_s >= 0 && max_wait_s <= 3600)) {
-    return internal::OutOfRange(internal::FieldPath(path, "max_wait_s"), max_wait_s,
-                                "in [0, 3600] s");
-  }
-  return Status::Ok();
-}
-
-Expected<FleetPlanResult> PlanAmongTraffic(const PlanningMap& map, const FleetPlanRequest& request,
-                                           const std::function<bool()>& should_stop) {
+/// PlanAmongTraffic without replanning anyone: the robot keeps out of the way of every motion
+/// committed before it.
+Expected<FleetPlanResult> PlanInCommitOrder(const PlanningMap& map, const FleetPlanRequest& request,
+                                            const std::function<bool()>& should_stop) {
   if (Status s = request.plan.Validate(); !s) return s.error();
   if (Status s = request.fleet.Validate("fleet"); !s) return s.error();
   Traffic traffic;
@@ -859,6 +851,54 @@ Expected<FleetPlanResult> PlanAmongTraffic(const PlanningMap& map, const FleetPl
                   request.fleet.max_wait_s, max_added_stops)};
   error.details = ConflictDetails(other.robot_id, c);
   return error;
+}
+
+}  // namespace
+
+Status ReplanOptions::Validate(std::string_view path) const {
+  if (!(max_robots >= 0 && max_robots <= 3)) {
+    return internal::OutOfRange(internal::FieldPath(path, "max_robots"), max_robots, "in [0, 3]");
+  }
+  if (!(notice_s >= 0 && notice_s <= 10)) {
+    return internal::OutOfRange(internal::FieldPath(path, "notice_s"), notice_s, "in [0, 10] s");
+  }
+  if (!(max_wait_s >= 0 && max_wait_s <= 3600)) {
+    return internal::OutOfRange(internal::FieldPath(path, "max_wait_s"), max_wait_s,
+                                "in [0, 3600] s");
+  }
+  return Status::Ok();
+}
+
+Status FleetPlanOptions::Validate(std::string_view path) const {
+  if (Status s = rule.Validate(internal::FieldPath(path, "rule")); !s) return s;
+  if (!(max_wait_s >= 0 && max_wait_s <= 3600)) {
+    return internal::OutOfRange(internal::FieldPath(path, "max_wait_s"), max_wait_s,
+                                "in [0, 3600] s");
+  }
+  return replan.Validate(internal::FieldPath(path, "replan"));
+}
+
+Expected<FleetPlanResult> PlanAmongTraffic(const PlanningMap& map, const FleetPlanRequest& request,
+                                           const std::function<bool()>& should_stop) {
+  for (std::size_t i = 0; i < request.replannable.size(); ++i) {
+    const ReplannableRobot& robot = request.replannable[i];
+    const std::string path = fmt::format("replannable[{}]", i);
+    if (robot.other >= request.others.size()) {
+      return Error{ErrorCode::kInvalidInput,
+                   fmt::format("{}.other is {}, beyond the {} others", path, robot.other,
+                               request.others.size()),
+                   path + ".other"};
+    }
+    if (Status s = robot.profile.Validate(path + ".profile"); !s) return s.error();
+  }
+  Expected<FleetPlanResult> planned = PlanInCommitOrder(map, request, should_stop);
+  if (planned || planned.error().code != ErrorCode::kReservationConflict ||
+      request.fleet.replan.max_robots == 0 || request.replannable.empty()) {
+    return planned;
+  }
+  return fleet_internal::PlanReplanningOthers(
+      request, std::move(planned).error(),
+      [&](const FleetPlanRequest& r) { return PlanInCommitOrder(map, r, should_stop); });
 }
 
 }  // namespace strata

@@ -11,7 +11,9 @@
 /// lane, pulling into a bay, taking another aisle) and the plan follows it; where waits still
 /// do not clear it, a stop is added before what it meets, out of that robot's way, and the
 /// route is planned again through it. The trajectory returned is Plan's verified one with the waits
-/// inserted as pieces at rest at verified points, checked exactly against every motion.
+/// inserted as pieces at rest at verified points, checked exactly against every motion. Where
+/// nothing clears a robot still on its way, and that robot follows new trajectories it is sent,
+/// it may be planned again to let this one pass first (ReplanOptions).
 #include <cstdint>
 #include <functional>
 #include <span>
@@ -28,12 +30,37 @@
 
 namespace strata {
 
+/// Replanning robots in the way: when the plan is refused for a robot that is still on its way
+/// (FleetPlanRequest::replannable says which may be), this robot is planned first, against
+/// that robot's motion up to a little after `notice_s` from the departure, and that robot is
+/// then planned again from where it is at notice_s, to its goal, among the others and this
+/// plan. Repeated for the next robot the plan is then refused for, up to max_robots; all of
+/// them plan, or nothing changes and the first refusal stands.
+struct ReplanOptions {
+  /// Robots replanned for one plan at most, in [0, 3]; 0 (the default) replans none.
+  int max_robots = 0;
+  /// From the departure until a replanned robot takes its new trajectory [s], in [0, 10]: the
+  /// time it takes to hear of it.
+  double notice_s = 1.0;
+  /// Longest a replanned robot may wait, in all [s], in [0, 3600].
+  double max_wait_s = 60;
+  Status Validate(std::string_view path) const;
+};
+
 struct FleetPlanOptions {
   SeparationRule rule;
   /// Longest the robot may wait for others to pass, at its start and at stops on its way
   /// together [s], in [0, 3600].
   double max_wait_s = 60;
+  ReplanOptions replan;
   Status Validate(std::string_view path) const;
+};
+
+/// One of the others that may be replanned (ReplanOptions): a robot that follows a new
+/// trajectory sent to it, with a 3-D trajectory (one of dimension 4 is never replanned).
+struct ReplannableRobot {
+  std::size_t other = 0;  ///< Its index in FleetPlanRequest::others.
+  RobotProfile profile;   ///< Its robot's profile, to plan it with.
 };
 
 struct FleetPlanRequest {
@@ -46,6 +73,8 @@ struct FleetPlanRequest {
   FleetPlanOptions fleet;
   /// The other robots' committed motions (not this robot's own earlier one).
   std::span<const ReservedMotion> others;
+  /// Those of `others` that may be replanned (ReplanOptions), each at most once.
+  std::span<const ReplannableRobot> replannable;
 };
 
 /// A wait in a fleet plan: a piece of the trajectory at rest.
@@ -53,6 +82,17 @@ struct FleetHold {
   double start_s = 0;     ///< When it begins, from the trajectory's start [s].
   double duration_s = 0;  ///< [s], > 0.
   Eigen::Vector3d position_m = Eigen::Vector3d::Zero();  ///< Where the robot stands [m].
+};
+
+/// A robot planned again to let this one pass first (ReplanOptions).
+struct ReplannedRobot {
+  std::size_t other = 0;  ///< Its index in FleetPlanRequest::others.
+  /// Its new motion from the notice on (its committed one is followed until then:
+  /// ContinuedBy), to the same goal, parked there until its motion's end_ns as before. It
+  /// begins at the committed motion's point, velocity and acceleration then, but for the
+  /// height, which Plan takes from the ground under it (within centimetres).
+  FleetMotion motion;
+  double wait_s = 0;  ///< How long it waits in its new motion, in all [s].
 };
 
 struct FleetPlanResult {
@@ -75,12 +115,16 @@ struct FleetPlanResult {
   /// holds there, leaves for a place beside the goal, holds there and comes back (the last
   /// two of `holds` and the pieces between them).
   bool makes_way = false;
+  /// Robots planned again to let this one pass first, in the order they were planned; each
+  /// new motion keeps clear of this plan's, of the others and of those replanned before it.
+  std::vector<ReplannedRobot> replanned;
 };
 
 /// Plans `request` among the others' motions. Fails as Plan does, and with
 /// kReservationConflict naming the robot in the way, when and where: the start is already
 /// within reach of a robot parked there, the goal is where another robot stays parked, or no
-/// waits up to max_wait_s in all clear every motion. `should_stop` as for Plan.
+/// waits up to max_wait_s in all clear every motion (and replanning the robots in the way,
+/// when allowed, did not clear it either). `should_stop` as for Plan.
 Expected<FleetPlanResult> PlanAmongTraffic(const PlanningMap& map, const FleetPlanRequest& request,
                                            const std::function<bool()>& should_stop = {});
 
