@@ -5,7 +5,8 @@ The test writes each scenario's motions when STRATA_FLEET_SCENARIO_DIR is set (r
 x, y, z every 50 ms). Each picture has a top view of the paths, with a dot per second and the
 time every 5 s, and the horizontal distance between robot B and the others over time against
 the limit (2 × 0.3 m radius + 0.1 m separation): B planned alone crosses it, B planned among
-the others' reservations does not, or passes at another height.
+the others' reservations does not, or passes at another height. Where A is replanned to let B
+pass first, A's committed motion is dashed beside the one it follows.
 
     bash scripts/install-plot-deps.sh
     mkdir -p /tmp/scenarios
@@ -32,8 +33,11 @@ TITLES = {
     "under_the_deck": "B under the deck while A drives over it: no wait",
     "parked_in_the_way": "C parked in the lane: B drives around it",
     "makes_way_at_goal": "A crosses B's goal later: B arrives, steps aside for A, comes back",
+    "replanned_on_its_way": "B may not wait: A, on its way up the ramp, is replanned to wait for B",
 }
-COLOURS = {"A": "tab:blue", "C": "tab:gray", "B": "tab:orange", "B alone": "tab:red"}
+COLOURS = {"A": "tab:blue", "A committed": "tab:cyan", "C": "tab:gray", "B": "tab:orange",
+           "B alone": "tab:red"}
+DASHED = ("B alone", "A committed")  # What was planned before, against what is.
 
 
 def read(path):
@@ -57,7 +61,7 @@ def draw(name, motions, out_dir):
     for robot, samples in motions.items():
         xs = [s[1] for s in samples]
         ys = [s[2] for s in samples]
-        style = "--" if robot == "B alone" else "-"
+        style = "--" if robot in DASHED else "-"
         top.plot(xs, ys, style, color=COLOURS.get(robot, "k"), label=robot, linewidth=1.5)
         for s in samples[::20]:  # One dot per second.
             top.plot(s[1], s[2], ".", color=COLOURS.get(robot, "k"), markersize=4)

@@ -95,6 +95,10 @@ void PrintSummary(const Context& ctx, const v1::PlanRequest& request,
       out << "; reserved from " << FormatTime(reserved.start_time()) << " until "
           << FormatTime(reserved.expiry_time()) << " (revision " << reserved.revision() << ")";
     }
+    for (const v1::Reservation& replanned : response.replanned()) {
+      out << "; robot " << replanned.robot_id() << " replanned to let it pass, from "
+          << FormatTime(replanned.start_time());
+    }
     out << "\n";
   }
 
@@ -170,6 +174,16 @@ std::vector<CLI::Option*> AddPlanFlags(CLI::App& command, PlanFlags* flags, bool
                                     "(fleet.max_wait_s) [s]")
                         ->type_name("S")
                         ->check(FiniteNumber()));
+  options.push_back(command.add_flag("--follows-replans", flags->follows_replans,
+                                     "the robot follows new trajectories the server sends it: "
+                                     "other plans may replan it to pass first "
+                                     "(fleet.follows_replans; with --reserve)"));
+  options.push_back(command
+                        .add_option("--replan-robots", flags->replan_robots,
+                                    "robots in the way, following replans, that this plan may "
+                                    "replan to pass first (fleet.replan_robots; with --reserve)")
+                        ->type_name("N")
+                        ->check(CLI::Range(0u, 3u)));
   return options;
 }
 
@@ -191,8 +205,11 @@ v1::PlanRequest PlanRequestFromFlags(const PlanFlags& flags) {
     via->set_stop(point.stop);
   }
   if (flags.robot_id.empty()) {
-    if (flags.reserve || flags.lease_s || flags.max_wait_s) {
-      throw UsageError("--reserve, --lease and --max-wait need --robot-id: the robot they are for");
+    if (flags.reserve || flags.lease_s || flags.max_wait_s || flags.follows_replans ||
+        flags.replan_robots > 0) {
+      throw UsageError(
+          "--reserve, --lease, --max-wait, --follows-replans and --replan-robots need "
+          "--robot-id: the robot they are for");
     }
     return request;
   }
@@ -201,6 +218,8 @@ v1::PlanRequest PlanRequestFromFlags(const PlanFlags& flags) {
   fleet->set_reserve(flags.reserve);
   if (flags.lease_s) fleet->set_lease_s(*flags.lease_s);
   if (flags.max_wait_s) fleet->set_max_wait_s(*flags.max_wait_s);
+  fleet->set_follows_replans(flags.follows_replans);
+  fleet->set_replan_robots(flags.replan_robots);
   return request;
 }
 

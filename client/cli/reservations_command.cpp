@@ -130,6 +130,10 @@ int Watch(const Context& ctx, const std::string& map) {
       if (change.has_reservation()) {
         *ctx.out << " from " << FormatTime(change.reservation().start_time()) << " until "
                  << FormatTime(change.reservation().expiry_time());
+        if (!change.reservation().replanned_for().empty()) {
+          *ctx.out << ", replanned to let robot " << change.reservation().replanned_for()
+                   << " pass";
+        }
       }
       *ctx.out << "\n";
     }

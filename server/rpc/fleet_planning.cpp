@@ -1,7 +1,9 @@
 #include "rpc/fleet_planning.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <utility>
+#include <vector>
 
 #include <fmt/format.h>
 
@@ -9,6 +11,21 @@
 #include "rpc/traffic_convert.hpp"
 
 namespace strata::server {
+namespace {
+
+// From when a plan's answer could be sent until a robot it replans takes its new trajectory
+// [s]: the time for the robot to hear of it (WatchSchedule).
+constexpr double kReplanNoticeS = 1.0;
+// ReplanOptions::notice_s's bound.
+constexpr double kMaxReplanNoticeS = 10.0;
+
+/// A commit's result as a list of one.
+Result<std::vector<Reservation>> Wrapped(Result<Reservation> committed) {
+  if (!committed.ok()) return std::move(committed).error();
+  return std::vector<Reservation>{std::move(committed).value()};
+}
+
+}  // namespace
 
 ServiceStatus PlanAmongReservations(const ActiveMap& map, const std::string& map_id,
                                     const ParsedPlanRequest& request, ReservationSchedule& schedule,
@@ -40,6 +57,8 @@ ServiceStatus PlanAmongReservations(const ActiveMap& map, const std::string& map
                                                      ? schedule.OthersOf(map_id, fleet.robot_id)
                                                      : ReservationSchedule::Traffic{};
     planned_request.others = traffic.others;
+    // Only a plan that commits replans others: their new motions are committed with it.
+    if (fleet.reserve) planned_request.replannable = traffic.replannable;
     const double spent_s =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     planned_request.plan.options.time_budget_s = budget_s - spent_s;
@@ -50,6 +69,17 @@ ServiceStatus PlanAmongReservations(const ActiveMap& map, const std::string& map
                                    "way; allow more time (options.time_budget_s or the call's "
                                    "deadline)",
                                    budget_s, attempt - 1));
+    }
+    if (!planned_request.replannable.empty()) {
+      // A robot replanned takes its new trajectory at the notice: a second after this plan's
+      // departure, and after the plan could be committed and sent out (CommitReplanning
+      // refuses a notice already past).
+      const std::int64_t notice_ns =
+          std::max(AddSeconds(planned_request.departure_ns, kReplanNoticeS),
+                   AddSeconds(schedule.NowNs(),
+                              planned_request.plan.options.time_budget_s + kReplanNoticeS));
+      planned_request.fleet.replan.notice_s =
+          std::min(kMaxReplanNoticeS, SecondsBetween(planned_request.departure_ns, notice_ns));
     }
     Expected<FleetPlanResult> planned = PlanAmongTraffic(*map.map, planned_request, should_stop);
     if (!planned) {
@@ -78,7 +108,15 @@ ServiceStatus PlanAmongReservations(const ActiveMap& map, const std::string& map
       reservation.map_id = map_id;
       reservation.map_version = map.version;
       reservation.reserved = {fleet.robot_id, result.motion};
-      Result<Reservation> committed = schedule.Commit(std::move(reservation), rule.value(), caller);
+      if (fleet.follows_replans) reservation.replan_profile = request.plan.profile;
+      std::vector<ReservedMotion> replanned;
+      for (const ReplannedRobot& robot : result.replanned) {
+        replanned.push_back({traffic.others[robot.other].robot_id, robot.motion});
+      }
+      Result<std::vector<Reservation>> committed =
+          replanned.empty() ? Wrapped(schedule.Commit(std::move(reservation), rule.value(), caller))
+                            : schedule.CommitReplanning(std::move(reservation), replanned,
+                                                        traffic.revision, rule.value(), caller);
       if (!committed.ok()) {
         // Lost a race: another robot committed into this trajectory's way while it was
         // planned. Plan again against the schedule as it is now (unless the others are not
@@ -88,7 +126,10 @@ ServiceStatus PlanAmongReservations(const ActiveMap& map, const std::string& map
         if (raced && fleet.avoid_reservations && attempt < kMaxCommitAttempts) continue;
         return std::move(committed).error();
       }
-      ToProto(committed.value(), answer.mutable_reservation());
+      ToProto(committed.value().front(), answer.mutable_reservation());
+      for (std::size_t i = 1; i < committed.value().size(); ++i) {
+        ToProto(committed.value()[i], answer.add_replanned());
+      }
     }
     *response = std::move(answer);
     return OkStatus();

@@ -35,6 +35,25 @@ Result<ParsedFleet> ParseFleet(const v1::PlanRequest& request) {
   if (fleet.has_lease_s()) parsed.lease_s = fleet.lease_s();
   if (fleet.has_separation_m()) parsed.separation_m = fleet.separation_m();
   if (fleet.has_max_wait_s()) parsed.options.max_wait_s = fleet.max_wait_s();
+  parsed.follows_replans = fleet.follows_replans();
+  if (fleet.replan_robots() > 3) {
+    return MakeError(ErrorCode::kInvalidConfig,
+                     fmt::format("fleet.replan_robots = {} is out of range: at most 3 robots may "
+                                 "be replanned for one plan",
+                                 fleet.replan_robots()))
+        .Blame("fleet.replan_robots");
+  }
+  parsed.options.replan.max_robots = static_cast<int>(fleet.replan_robots());
+  for (const auto& [given, name] : {std::pair{parsed.follows_replans, "fleet.follows_replans"},
+                                    std::pair{fleet.replan_robots() > 0, "fleet.replan_robots"}}) {
+    if (given && !parsed.reserve) {
+      return MakeError(ErrorCode::kInvalidInput,
+                       fmt::format("{} is set without fleet.reserve: it applies to the "
+                                   "reservation the plan commits; set fleet.reserve too",
+                                   name))
+          .Blame(name);
+    }
+  }
   if (Status valid = parsed.options.Validate("fleet"); !valid) {
     return ServiceError::FromPlanner(valid.error(), valid.error().field);
   }

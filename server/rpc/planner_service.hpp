@@ -54,7 +54,9 @@ struct ParsedFleet {
   bool reserve = false;
   std::optional<double> lease_s;
   std::optional<double> separation_m;
-  FleetPlanOptions options;                  ///< max_wait_s; the rule is set when planning.
+  bool follows_replans = false;  ///< The reservation follows replans.
+  /// max_wait_s and replan.max_robots (replan_robots); the rule is set when planning.
+  FleetPlanOptions options;
   std::optional<std::int64_t> departure_ns;  ///< Unset: now.
 };
 

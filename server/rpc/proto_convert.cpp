@@ -394,17 +394,7 @@ Result<MapSnapshot> DecodeMapMetadata(const std::string& json) {
   return SnapshotFromProto(map);
 }
 
-namespace {
-
-// A built-in profile by name.
-Result<RobotProfile> NamedProfile(const std::string& name) {
-  Expected<RobotProfile> builtin = BuiltinProfile(name);
-  if (!builtin) return ServiceError::FromPlanner(builtin.error(), "profile_name");
-  return std::move(builtin).value();
-}
-
-// An inline profile over the defaults, validated.
-Result<RobotProfile> InlineProfile(const v1::RobotProfile& m) {
+Result<RobotProfile> ProfileFromProto(const v1::RobotProfile& m) {
   RobotProfile p;
   p.name = m.has_name() ? m.name() : "custom";
   if (m.has_footprint_radius_m()) p.footprint_radius_m = m.footprint_radius_m();
@@ -429,12 +419,21 @@ Result<RobotProfile> InlineProfile(const v1::RobotProfile& m) {
   return p;
 }
 
+namespace {
+
+// A built-in profile by name.
+Result<RobotProfile> NamedProfile(const std::string& name) {
+  Expected<RobotProfile> builtin = BuiltinProfile(name);
+  if (!builtin) return ServiceError::FromPlanner(builtin.error(), "profile_name");
+  return std::move(builtin).value();
+}
+
 // The robot of a request whose oneof `robot` must be set (PlanRequest, EstimateCostsRequest).
 template <typename Request>
 Result<RobotProfile> RequiredProfile(const Request& request) {
   switch (request.robot_case()) {
     case Request::kProfileName: return NamedProfile(request.profile_name());
-    case Request::kProfile: return InlineProfile(request.profile());
+    case Request::kProfile: return ProfileFromProto(request.profile());
     case Request::ROBOT_NOT_SET: break;
   }
   return MakeError(ErrorCode::kInvalidInput,
@@ -459,7 +458,7 @@ Result<std::optional<RobotProfile>> ProfileFromRequest(const v1::GetMapGeometryR
     case v1::GetMapGeometryRequest::kProfileName:
       profile = NamedProfile(request.profile_name());
       break;
-    case v1::GetMapGeometryRequest::kProfile: profile = InlineProfile(request.profile()); break;
+    case v1::GetMapGeometryRequest::kProfile: profile = ProfileFromProto(request.profile()); break;
     case v1::GetMapGeometryRequest::ROBOT_NOT_SET: return std::optional<RobotProfile>();
   }
   if (!profile.ok()) return std::move(profile).error();

@@ -73,6 +73,9 @@ Result<RobotProfile> ProfileFromRequest(const v1::EstimateCostsRequest& request)
 Result<std::optional<RobotProfile>> ProfileFromRequest(const v1::GetMapGeometryRequest& request);
 /// Every field set.
 void ToProto(const RobotProfile& profile, v1::RobotProfile* message);
+/// An inline profile over the defaults (its unset fields), validated: kInvalidConfig blaming
+/// "profile.<field>".
+Result<RobotProfile> ProfileFromProto(const v1::RobotProfile& message);
 
 /// A start or goal, copied; kInvalidInput for a missing position (blaming
 /// "<field>.position_m"). PlanRequest::Validate checks the values.

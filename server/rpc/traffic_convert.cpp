@@ -59,6 +59,8 @@ void ToProto(const Reservation& reservation, v1::Reservation* message) {
   ToProto(motion.body, message->mutable_body());
   ToProto(motion.end_ns, message->mutable_expiry_time());
   message->set_revision(reservation.revision);
+  message->set_follows_replans(reservation.replan_profile.has_value());
+  message->set_replanned_for(reservation.replanned_for);
 }
 
 Result<Reservation> FromProto(const v1::Reservation& message) {
@@ -67,6 +69,7 @@ Result<Reservation> FromProto(const v1::Reservation& message) {
   reservation.map_version = message.map_version();
   reservation.reserved.robot_id = message.robot_id();
   reservation.revision = message.revision();
+  reservation.replanned_for = message.replanned_for();
   FleetMotion& motion = reservation.reserved.motion;
   Result<std::int64_t> start = FromProto(message.start_time(), "start_time");
   if (!start.ok()) return std::move(start).error();

@@ -21,8 +21,9 @@ Result<FleetBody> FromProto(const v1::FleetBody& body, std::string_view field);
 void ToProto(const FleetBody& body, v1::FleetBody* message);
 
 void ToProto(const Reservation& reservation, v1::Reservation* message);
-/// The reservation `message` describes (as ToProto wrote it; the owner is not in it);
-/// kInvalidInput naming the first bad field.
+/// The reservation `message` describes (as ToProto wrote it; the owner and the profile a robot
+/// that follows replans is replanned with are not in it); kInvalidInput naming the first bad
+/// field.
 Result<Reservation> FromProto(const v1::Reservation& message);
 
 /// The separation rule with `separation_m` (the server's default when unset); kInvalidConfig

@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "common/log.hpp"
+#include "rpc/proto_convert.hpp"
 #include "rpc/traffic_convert.hpp"
 #include "strata/shared/v1/shared_state.pb.h"
 
@@ -21,6 +22,7 @@ std::string Encode(const Reservation& reservation) {
   shared::v1::StoredReservation stored;
   ToProto(reservation, stored.mutable_reservation());
   stored.set_owner(reservation.owner);
+  if (reservation.replan_profile) ToProto(*reservation.replan_profile, stored.mutable_profile());
   return stored.SerializeAsString();
 }
 
@@ -33,6 +35,11 @@ Result<Reservation> Decode(const mvccpb::KeyValue& kv) {
   if (!reservation.ok()) return std::move(reservation).error();
   reservation.value().owner = stored.owner();
   reservation.value().revision = static_cast<std::uint64_t>(kv.mod_revision());
+  if (stored.reservation().follows_replans()) {
+    Result<RobotProfile> profile = ProfileFromProto(stored.profile());
+    if (!profile.ok()) return std::move(profile).error();
+    reservation.value().replan_profile = std::move(profile).value();
+  }
   return reservation;
 }
 
@@ -72,7 +79,8 @@ std::string EtcdScheduleLedger::MapPrefix(const std::string& map_id) const {
 }
 
 Result<ScheduleLedger::Written> EtcdScheduleLedger::ChangeIfCurrent(
-    const std::string& map_id, std::uint64_t synced_revision, etcdserverpb::RequestOp change) {
+    const std::string& map_id, std::uint64_t synced_revision,
+    std::vector<etcdserverpb::RequestOp> changes) {
   const std::string map_prefix = MapPrefix(map_id);
   etcdserverpb::TxnRequest txn;
   // Every key of the map last modified at or before synced_revision (true for none).
@@ -82,7 +90,7 @@ Result<ScheduleLedger::Written> EtcdScheduleLedger::ChangeIfCurrent(
   unchanged->set_key(map_prefix);
   unchanged->set_range_end(PrefixRangeEnd(map_prefix));
   unchanged->set_mod_revision(static_cast<std::int64_t>(synced_revision) + 1);
-  *txn.add_success() = std::move(change);
+  for (etcdserverpb::RequestOp& change : changes) *txn.add_success() = std::move(change);
   etcdserverpb::RangeRequest* read = txn.add_failure()->mutable_request_range();
   read->set_key(map_prefix);
   read->set_range_end(PrefixRangeEnd(map_prefix));
@@ -101,28 +109,30 @@ Result<ScheduleLedger::Written> EtcdScheduleLedger::ChangeIfCurrent(
   return written;
 }
 
-Result<ScheduleLedger::Written> EtcdScheduleLedger::Put(const Reservation& reservation,
+Result<ScheduleLedger::Written> EtcdScheduleLedger::Put(std::span<const Reservation> reservations,
                                                         std::uint64_t synced_revision,
                                                         std::int64_t now_ns) {
-  const double left_s = SecondsBetween(now_ns, reservation.reserved.motion.end_ns);
-  const auto ttl_s = static_cast<std::int64_t>(std::ceil(std::max(left_s, 1.0))) + kLeaseMarginS;
-  Result<std::int64_t> lease = client_->GrantLease(ttl_s);
-  if (!lease.ok()) return std::move(lease).error();
-  etcdserverpb::RequestOp change;
-  etcdserverpb::PutRequest* put = change.mutable_request_put();
-  put->set_key(MapPrefix(reservation.map_id) + reservation.reserved.robot_id);
-  put->set_value(Encode(reservation));
-  put->set_lease(lease.value());
-  // A stale write leaves its lease unused: it ends by itself after ttl_s.
-  return ChangeIfCurrent(reservation.map_id, synced_revision, std::move(change));
+  std::vector<etcdserverpb::RequestOp> changes;
+  for (const Reservation& reservation : reservations) {
+    const double left_s = SecondsBetween(now_ns, reservation.reserved.motion.end_ns);
+    const auto ttl_s = static_cast<std::int64_t>(std::ceil(std::max(left_s, 1.0))) + kLeaseMarginS;
+    Result<std::int64_t> lease = client_->GrantLease(ttl_s);
+    if (!lease.ok()) return std::move(lease).error();
+    etcdserverpb::PutRequest* put = changes.emplace_back().mutable_request_put();
+    put->set_key(MapPrefix(reservation.map_id) + reservation.reserved.robot_id);
+    put->set_value(Encode(reservation));
+    put->set_lease(lease.value());
+  }
+  // A stale write leaves its leases unused: they end by themselves after their ttl.
+  return ChangeIfCurrent(reservations.front().map_id, synced_revision, std::move(changes));
 }
 
 Result<ScheduleLedger::Written> EtcdScheduleLedger::Erase(const std::string& map_id,
                                                           const std::string& robot_id,
                                                           std::uint64_t synced_revision) {
-  etcdserverpb::RequestOp change;
-  change.mutable_request_delete_range()->set_key(MapPrefix(map_id) + robot_id);
-  return ChangeIfCurrent(map_id, synced_revision, std::move(change));
+  std::vector<etcdserverpb::RequestOp> changes(1);
+  changes.front().mutable_request_delete_range()->set_key(MapPrefix(map_id) + robot_id);
+  return ChangeIfCurrent(map_id, synced_revision, std::move(changes));
 }
 
 ServiceStatus EtcdScheduleLedger::EraseMap(const std::string& map_id) {

@@ -29,7 +29,7 @@ class EtcdScheduleLedger final : public ScheduleLedger {
                      std::function<void(bool)> on_connection);
   ~EtcdScheduleLedger() override;  // Stops the watch.
 
-  Result<Written> Put(const Reservation& reservation, std::uint64_t synced_revision,
+  Result<Written> Put(std::span<const Reservation> reservations, std::uint64_t synced_revision,
                       std::int64_t now_ns) override;
   Result<Written> Erase(const std::string& map_id, const std::string& robot_id,
                         std::uint64_t synced_revision) override;
@@ -40,10 +40,10 @@ class EtcdScheduleLedger final : public ScheduleLedger {
 
  private:
   std::string MapPrefix(const std::string& map_id) const;
-  // A Txn that makes `change` when nothing under map_id's prefix changed after
+  // A Txn that makes `changes` when nothing under map_id's prefix changed after
   // synced_revision, and otherwise reads the map back.
   Result<Written> ChangeIfCurrent(const std::string& map_id, std::uint64_t synced_revision,
-                                  etcdserverpb::RequestOp change);
+                                  std::vector<etcdserverpb::RequestOp> changes);
   // Reads the whole schedule into schedule_; returns the revision it read at.
   Result<std::int64_t> ReadAll();
   void OnWatch(const etcdserverpb::WatchResponse& response);

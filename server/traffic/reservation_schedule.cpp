@@ -80,21 +80,15 @@ Result<std::optional<std::uint64_t>> ReservationSchedule::Store(MapSchedule& sch
                                                                 const std::string& map_id,
                                                                 const std::string& robot_id,
                                                                 Reservation* value) {
+  if (value != nullptr) return StoreAll(schedule, std::span<Reservation>(value, 1));
   if (ledger_ == nullptr) {
     const std::uint64_t revision = NextRevision(schedule);
-    if (value == nullptr) {
-      schedule.by_robot.erase(robot_id);
-    } else {
-      value->revision = revision;
-      schedule.by_robot[robot_id] = *value;
-    }
+    schedule.by_robot.erase(robot_id);
     return std::optional(revision);
   }
   // The call is made under the lock: this replica's changes stay in the order the ledger
   // takes them (a round trip, about a millisecond on a local network).
-  Result<ScheduleLedger::Written> written =
-      value != nullptr ? ledger_->Put(*value, schedule.revision, now_ns_())
-                       : ledger_->Erase(map_id, robot_id, schedule.revision);
+  Result<ScheduleLedger::Written> written = ledger_->Erase(map_id, robot_id, schedule.revision);
   if (!written.ok()) return std::move(written).error();
   const std::uint64_t revision = written.value().revision;
   if (written.value().stale) {
@@ -103,14 +97,33 @@ Result<std::optional<std::uint64_t>> ReservationSchedule::Store(MapSchedule& sch
     ReplaceMap(schedule, std::move(written.value().current), revision);
     return std::optional<std::uint64_t>();
   }
-  if (value == nullptr) {
-    schedule.by_robot.erase(robot_id);
-  } else {
-    value->revision = revision;
-    schedule.by_robot[robot_id] = *value;
-  }
+  schedule.by_robot.erase(robot_id);
   schedule.revision = std::max(schedule.revision, revision);
   changed_.notify_all();
+  return std::optional(revision);
+}
+
+Result<std::optional<std::uint64_t>> ReservationSchedule::StoreAll(MapSchedule& schedule,
+                                                                   std::span<Reservation> values) {
+  std::uint64_t revision = 0;
+  if (ledger_ == nullptr) {
+    revision = NextRevision(schedule);
+  } else {
+    // Under the lock, as Store.
+    Result<ScheduleLedger::Written> written = ledger_->Put(values, schedule.revision, now_ns_());
+    if (!written.ok()) return std::move(written).error();
+    revision = written.value().revision;
+    if (written.value().stale) {
+      ReplaceMap(schedule, std::move(written.value().current), revision);
+      return std::optional<std::uint64_t>();
+    }
+    schedule.revision = std::max(schedule.revision, revision);
+    changed_.notify_all();
+  }
+  for (Reservation& value : values) {
+    value.revision = revision;
+    schedule.by_robot[value.reserved.robot_id] = value;
+  }
   return std::optional(revision);
 }
 
@@ -171,7 +184,15 @@ ReservationSchedule::Traffic ReservationSchedule::OthersOf(const std::string& ma
                                                            const std::string& robot_id) {
   std::lock_guard lock(mutex_);
   const MapSchedule& schedule = Live(map_id);
-  return {schedule.revision, Others(schedule, robot_id)};
+  Traffic traffic{schedule.revision, Others(schedule, robot_id), {}};
+  std::size_t index = 0;  // Others keeps the schedule's order, robot_id left out.
+  for (const auto& [robot, reservation] : schedule.by_robot) {
+    if (robot == robot_id) continue;
+    if (reservation.replan_profile)
+      traffic.replannable.push_back({index, *reservation.replan_profile});
+    ++index;
+  }
+  return traffic;
 }
 
 template <typename T, typename Change>
@@ -193,48 +214,115 @@ Result<T> ReservationSchedule::Retrying(const std::string& map_id, const Change&
   return KeptStale(map_id);
 }
 
+Result<Reservation> ReservationSchedule::Continued(const MapSchedule& schedule,
+                                                   Reservation reservation,
+                                                   const Caller& caller) const {
+  const std::string& robot_id = reservation.reserved.robot_id;
+  const auto existing = schedule.by_robot.find(robot_id);
+  if (existing == schedule.by_robot.end()) {
+    if (static_cast<int>(schedule.by_robot.size()) >= limits_.max_reservations_per_map) {
+      return MakeError(ErrorCode::kResourceExhausted,
+                       fmt::format("map {} holds {} reservations, the most this server "
+                                   "keeps per map (--max-reservations): release some first",
+                                   reservation.map_id, schedule.by_robot.size()));
+    }
+    reservation.owner = caller.owner;
+    return reservation;
+  }
+  if (ServiceStatus may = MayChange(existing->second, caller); !may.ok()) return may.error();
+  reservation.owner = caller.owner;
+  // Until its new departure the robot drives its earlier plan, which the others were planned
+  // around; only what is new needs checking.
+  reservation.reserved.motion =
+      ContinuedBy(existing->second.reserved.motion, reservation.reserved.motion, now_ns_());
+  const std::size_t pieces = reservation.reserved.motion.trajectory.pieces.size();
+  if (pieces > kMaxTrajectoryPieces) {
+    return MakeError(ErrorCode::kInvalidInput,
+                     fmt::format("robot {} keeps to its reservation until the new "
+                                 "trajectory departs, and the two have {} pieces, more "
+                                 "than the {} a reservation may hold: depart sooner, or "
+                                 "release the reservation first",
+                                 robot_id, pieces, kMaxTrajectoryPieces))
+        .Blame("trajectory");
+  }
+  return reservation;
+}
+
 Result<Reservation> ReservationSchedule::Commit(Reservation reservation, const SeparationRule& rule,
                                                 const Caller& caller) {
   const std::string& robot_id = reservation.reserved.robot_id;
   return Retrying<Reservation>(
       reservation.map_id, [&](MapSchedule& schedule) -> Result<std::optional<Reservation>> {
-        const auto existing = schedule.by_robot.find(robot_id);
-        if (existing != schedule.by_robot.end()) {
-          if (ServiceStatus may = MayChange(existing->second, caller); !may.ok()) {
-            return may.error();
-          }
-        } else if (static_cast<int>(schedule.by_robot.size()) >= limits_.max_reservations_per_map) {
-          return MakeError(ErrorCode::kResourceExhausted,
-                           fmt::format("map {} holds {} reservations, the most this server "
-                                       "keeps per map (--max-reservations): release some first",
-                                       reservation.map_id, schedule.by_robot.size()));
-        }
+        Result<Reservation> committed = Continued(schedule, reservation, caller);
+        if (!committed.ok()) return std::move(committed).error();
         const std::vector<ReservedMotion> others = Others(schedule, robot_id);
         if (Status clear = CheckSeparation(reservation.reserved.motion, others, rule); !clear) {
           return ServiceError::FromPlanner(clear.error());
         }
-        Reservation committed = reservation;
-        committed.owner = caller.owner;
-        if (existing != schedule.by_robot.end()) {
-          // Until its new departure the robot drives its earlier plan, which the others were
-          // planned around; only what is new is checked above.
-          committed.reserved.motion =
-              ContinuedBy(existing->second.reserved.motion, committed.reserved.motion, now_ns_());
-          const std::size_t pieces = committed.reserved.motion.trajectory.pieces.size();
-          if (pieces > kMaxTrajectoryPieces) {
-            return MakeError(ErrorCode::kInvalidInput,
-                             fmt::format("robot {} keeps to its reservation until the new "
-                                         "trajectory departs, and the two have {} pieces, more "
-                                         "than the {} a reservation may hold: depart sooner, or "
-                                         "release the reservation first",
-                                         robot_id, pieces, kMaxTrajectoryPieces))
-                .Blame("trajectory");
-          }
-        }
         Result<std::optional<std::uint64_t>> stored =
-            Store(schedule, committed.map_id, robot_id, &committed);
+            Store(schedule, reservation.map_id, robot_id, &committed.value());
         if (!stored.ok()) return std::move(stored).error();
         if (!stored.value()) return std::optional<Reservation>();
+        return std::optional(std::move(committed).value());
+      });
+}
+
+Result<std::vector<Reservation>> ReservationSchedule::CommitReplanning(
+    Reservation reservation, const std::vector<ReservedMotion>& replanned,
+    std::uint64_t planned_revision, const SeparationRule& rule, const Caller& caller) {
+  const std::string& robot_id = reservation.reserved.robot_id;
+  return Retrying<std::vector<Reservation>>(
+      reservation.map_id,
+      [&](MapSchedule& schedule) -> Result<std::optional<std::vector<Reservation>>> {
+        // The new motions as planned, and the reservations to store, this robot's first.
+        std::vector<ReservedMotion> planned = {reservation.reserved};
+        std::vector<Reservation> committed;
+        Result<Reservation> own = Continued(schedule, reservation, caller);
+        if (!own.ok()) return std::move(own).error();
+        committed.push_back(std::move(own).value());
+        for (const ReservedMotion& next : replanned) {
+          const auto existing = schedule.by_robot.find(next.robot_id);
+          if (existing == schedule.by_robot.end() || !existing->second.replan_profile ||
+              existing->second.revision > planned_revision) {
+            return MakeError(ErrorCode::kReservationConflict,
+                             fmt::format("robot {}'s reservation changed while robot {} was "
+                                         "planned to pass first: plan again",
+                                         next.robot_id, robot_id));
+          }
+          if (next.motion.start_ns <= now_ns_()) {
+            return MakeError(ErrorCode::kReservationConflict,
+                             fmt::format("robot {}'s new trajectory would have departed already "
+                                         "when robot {} committed: plan again",
+                                         next.robot_id, robot_id));
+          }
+          Reservation changed = existing->second;
+          changed.map_version = reservation.map_version;
+          changed.replanned_for = robot_id;
+          changed.reserved.motion =
+              ContinuedBy(existing->second.reserved.motion, next.motion, now_ns_());
+          planned.push_back(next);
+          committed.push_back(std::move(changed));
+        }
+        // Each new motion against the reservations that stay and what the others become.
+        std::vector<ReservedMotion> staying;
+        for (const auto& [robot, held] : schedule.by_robot) {
+          const bool changes =
+              std::any_of(committed.begin(), committed.end(),
+                          [&](const Reservation& c) { return c.reserved.robot_id == robot; });
+          if (!changes) staying.push_back(held.reserved);
+        }
+        for (std::size_t i = 0; i < planned.size(); ++i) {
+          std::vector<ReservedMotion> around = staying;
+          for (std::size_t j = 0; j < committed.size(); ++j) {
+            if (j != i) around.push_back(committed[j].reserved);
+          }
+          if (Status clear = CheckSeparation(planned[i].motion, around, rule); !clear) {
+            return ServiceError::FromPlanner(clear.error());
+          }
+        }
+        Result<std::optional<std::uint64_t>> stored = StoreAll(schedule, committed);
+        if (!stored.ok()) return std::move(stored).error();
+        if (!stored.value()) return std::optional<std::vector<Reservation>>();
         return std::optional(std::move(committed));
       });
 }

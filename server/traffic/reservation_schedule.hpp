@@ -12,10 +12,12 @@
 #include <map>
 #include <mutex>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
 #include "common/service_error.hpp"
+#include "strata/fleet/fleet_plan.hpp"
 #include "strata/fleet/traffic.hpp"
 #include "traffic/schedule_ledger.hpp"
 
@@ -43,6 +45,12 @@ struct Reservation {
   /// The map's schedule revision that committed or last changed it (with a ledger, the
   /// ledger's revision of the write).
   std::uint64_t revision = 0;
+  /// Set when the robot follows new trajectories the server sends it (FleetOptions.
+  /// follows_replans): its profile, which another robot's plan replans it with.
+  std::optional<RobotProfile> replan_profile;
+  /// The robot whose plan last replanned this one to pass first; empty when its own robot
+  /// made this reservation.
+  std::string replanned_for;
 };
 
 /// Who is asking to change a reservation.
@@ -71,6 +79,8 @@ class ReservationSchedule {
   struct Traffic {
     std::uint64_t revision = 0;
     std::vector<ReservedMotion> others;
+    /// Those of `others` whose robots follow replans, with their profiles.
+    std::vector<ReplannableRobot> replannable;
   };
   Traffic OthersOf(const std::string& map_id, const std::string& robot_id);
 
@@ -93,6 +103,20 @@ class ReservationSchedule {
   /// no admin. Returns the reservation as committed.
   Result<Reservation> Commit(Reservation reservation, const SeparationRule& rule,
                              const Caller& caller);
+
+  /// Commits `reservation` as Commit does, together with the new motions of the robots its
+  /// plan replanned to let it pass first (FleetPlanResult::replanned, robot_id set), planned
+  /// on the schedule at `planned_revision`. Each replaces its robot's reservation from its
+  /// departure on (ContinuedBy), with replanned_for set to this robot, whoever made it; each
+  /// must still follow replans, be unchanged since planned_revision and depart after now,
+  /// else kReservationConflict (the plan raced: plan again). Every new motion is checked exactly
+  /// against every other reservation, the others of these included, and all are stored at
+  /// once, or none. Returns them as committed, `reservation` first.
+  Result<std::vector<Reservation>> CommitReplanning(Reservation reservation,
+                                                    const std::vector<ReservedMotion>& replanned,
+                                                    std::uint64_t planned_revision,
+                                                    const SeparationRule& rule,
+                                                    const Caller& caller);
 
   /// Extends robot_id's lease to now + lease_s (never shortening it), when the longer stay
   /// meets no other reservation under `rule`. kReservationNotFound, kPermissionDenied,
@@ -173,6 +197,15 @@ class ReservationSchedule {
   // as the ledger holds it, and the caller must look again.
   Result<std::optional<std::uint64_t>> Store(MapSchedule& schedule, const std::string& map_id,
                                              const std::string& robot_id, Reservation* value);
+  // Store for several reservations of `schedule`'s map at once: all of them are written, or
+  // none.
+  Result<std::optional<std::uint64_t>> StoreAll(MapSchedule& schedule,
+                                                std::span<Reservation> values);
+  // `reservation` as Commit would store it on `schedule` for `caller`: its owner set, and
+  // continuing the robot's earlier reservation (ContinuedBy); kPermissionDenied,
+  // kResourceExhausted or kInvalidInput (too many pieces) as Commit says.
+  Result<Reservation> Continued(const MapSchedule& schedule, Reservation reservation,
+                                const Caller& caller) const;
   // Runs `change(schedule)` on map_id's live schedule under the lock until it is not stale
   // (Store); kSharedStateUnavailable (KeptStale) after kMaxStaleAttempts.
   template <typename T, typename Change>

@@ -9,6 +9,7 @@
 /// that the schedule checks again against that and retries. The ledger reports the other
 /// replicas' changes through the schedule's ApplyShared and ReplaceShared.
 #include <cstdint>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -30,10 +31,11 @@ class ScheduleLedger {
     /// When stale: every reservation of the map at `revision`.
     std::vector<Reservation> current;
   };
-  /// Writes `reservation` as its robot's, kept until its motion's end_ns (the lease).
-  /// kSharedStateUnavailable when the ledger cannot be reached.
-  virtual Result<Written> Put(const Reservation& reservation, std::uint64_t synced_revision,
-                              std::int64_t now_ns) = 0;
+  /// Writes each of `reservations` (at least one, all of one map) as its robot's, kept until
+  /// its motion's end_ns (the lease): all of them at once, or none. kSharedStateUnavailable
+  /// when the ledger cannot be reached.
+  virtual Result<Written> Put(std::span<const Reservation> reservations,
+                              std::uint64_t synced_revision, std::int64_t now_ns) = 0;
   /// Removes robot_id's reservation on map_id.
   virtual Result<Written> Erase(const std::string& map_id, const std::string& robot_id,
                                 std::uint64_t synced_revision) = 0;

@@ -488,7 +488,8 @@ TEST(FleetPlan, ARobotOnItsWayIsReplannedToLetARobotThatMayNotWaitPassFirst) {
   const FleetMotion a_then = ContinuedBy(a.motion, replanned.motion, kDeparture);
   const Sampled s = SampleEveryMillisecond(b.value().motion, a_then, Limit());
   EXPECT_FALSE(s.conflict);
-  WriteScenario("replanned_on_its_way", {{"B", &b.value().motion}, {"A", &a_then}});
+  WriteScenario("replanned_on_its_way",
+                {{"B", &b.value().motion}, {"A", &a_then}, {"A committed", &a.motion}});
 }
 
 TEST(FleetPlan, ReplanningOptionsAndRobotsOutOfRangeAreRefusedNamingTheField) {

@@ -26,6 +26,7 @@ using ::testing::HasSubstr;
 // Two diagonals across the demo's ground floor (beside the ramp, under the deck's edge), of the
 // same length: two robots leaving at once meet in the middle.
 constexpr double kFloorZ = 0.3;
+constexpr double kDeckZ = 3.3;  // The deck over the floor's far half, which the ramp reaches.
 
 v1::PlanRequest FleetPlan(const std::string& robot, double sx, double sy, double gx, double gy,
                           std::int64_t departure_ns, bool reserve = true) {
@@ -137,6 +138,64 @@ TEST_F(ServerFleetTest, TwoRobotsPlanningIntoOneCrossingAtOnceAreBothServedAndNe
   EXPECT_TRUE(second.ok()) << second.error_message();
   EXPECT_EQ(List().reservations_size(), 2);
   ExpectNoTwoMeet();
+}
+
+// Robot a drives from the floor up the ramp (2.5 m wide, the only way between the floor and
+// the deck); b, leaving at the same moment, comes down it, may not wait, and keeps
+// kWideSeparationM from the others, so the two cannot pass on the ramp. In commit order b is
+// refused; once a's reservation follows replans, b's plan replans a to let b pass first, and
+// both are committed.
+TEST_F(ServerFleetTest, ARobotThatFollowsReplansIsReplannedToLetAnotherPassFirst) {
+  constexpr double kWideSeparationM = 2.0;
+  v1::PlanRequest a = PlanRequestFor("demo", 1, 5.25, kFloorZ, 7, 9.25, kDeckZ);
+  ToProto(departure_ns_, a.mutable_departure_time());
+  a.mutable_fleet()->set_robot_id("a");
+  a.mutable_fleet()->set_reserve(true);
+  v1::PlanResponse a_planned;
+  ASSERT_TRUE(Plan(a, &a_planned, 120).ok());
+  v1::PlanRequest b = PlanRequestFor("demo", 10, 9.25, kDeckZ, 10, 9.5, kFloorZ);
+  ToProto(departure_ns_, b.mutable_departure_time());
+  b.mutable_fleet()->set_robot_id("b");
+  b.mutable_fleet()->set_reserve(true);
+  b.mutable_fleet()->set_max_wait_s(0);
+  b.mutable_fleet()->set_separation_m(kWideSeparationM);
+  b.mutable_fleet()->set_replan_robots(1);
+  v1::PlanResponse b_planned;
+  CallError refused = ErrorOf(Plan(b, &b_planned, 120));
+  ASSERT_EQ(refused.code, grpc::StatusCode::FAILED_PRECONDITION)
+      << "a does not follow replans: b must be refused, or the case tests nothing"
+      << b_planned.wait_s() << " " << b_planned.arrival_s();
+  EXPECT_EQ(refused.reason, "RESERVATION_CONFLICT");
+  EXPECT_THAT(refused.message, HasSubstr("robot 'a'"));
+
+  a.mutable_fleet()->set_follows_replans(true);
+  ASSERT_TRUE(Plan(a, &a_planned, 120).ok());
+  EXPECT_TRUE(a_planned.reservation().follows_replans());
+  const grpc::Status planned = Plan(b, &b_planned, 120);
+  ASSERT_TRUE(planned.ok()) << planned.error_message();
+  ASSERT_EQ(b_planned.replanned_size(), 1);
+  const v1::Reservation& replanned = b_planned.replanned(0);
+  EXPECT_EQ(replanned.robot_id(), "a");
+  EXPECT_EQ(replanned.replanned_for(), "b");
+  EXPECT_TRUE(replanned.follows_replans());
+  EXPECT_EQ(replanned.revision(), b_planned.reservation().revision()) << "committed together";
+  // a keeps to its trajectory until a second after b's departure, then follows the new one.
+  const FleetMotion before = MotionOf(a_planned.reservation());
+  const FleetMotion after = MotionOf(replanned);
+  const std::int64_t notice_ns = AddSeconds(departure_ns_, 1);
+  EXPECT_NEAR(static_cast<double>(after.start_ns - before.start_ns), 0, 1e3);
+  EXPECT_LT((after.ReferencePointAt(notice_ns) - before.ReferencePointAt(notice_ns)).norm(), 1e-6);
+  EXPECT_GT(after.ArrivalNs(), before.ArrivalNs()) << "a waits for b on its way";
+  const v1::ListReservationsResponse listed = List();
+  ASSERT_EQ(listed.reservations_size(), 2);
+  for (const v1::Reservation& r : listed.reservations()) {
+    EXPECT_EQ(r.replanned_for(), r.robot_id() == "a" ? "b" : "");
+  }
+  // Apart by b's rule all the way (the planner's exact check).
+  SeparationRule wide;
+  wide.separation_m = kWideSeparationM;
+  const std::vector<ReservedMotion> b_only = {{"b", MotionOf(b_planned.reservation())}};
+  EXPECT_FALSE(FirstTrafficConflict(after, b_only, wide).has_value());
 }
 
 TEST_F(ServerFleetTest, ReservingATrajectoryThatMeetsAnotherIsRefusedNamingTheRobot) {
@@ -401,6 +460,24 @@ TEST_F(ServerFleetTest, BadFleetRequestsNameTheFieldToFix) {
   error = ErrorOf(Plan(far_ahead, &response));
   EXPECT_EQ(error.code, grpc::StatusCode::INVALID_ARGUMENT);
   EXPECT_THAT(error.message, HasSubstr("--max-reservation-horizon-s"));
+
+  for (const char* field : {"fleet.follows_replans", "fleet.replan_robots"}) {
+    v1::PlanRequest unreserved = FleetPlan("a", 3, 5, 13, 10, departure_ns_, /*reserve=*/false);
+    if (std::string(field) == "fleet.follows_replans") {
+      unreserved.mutable_fleet()->set_follows_replans(true);
+    } else {
+      unreserved.mutable_fleet()->set_replan_robots(1);
+    }
+    error = ErrorOf(Plan(unreserved, &response));
+    EXPECT_EQ(error.code, grpc::StatusCode::INVALID_ARGUMENT);
+    EXPECT_THAT(error.fields, ::testing::Contains(field));
+    EXPECT_THAT(error.message, HasSubstr("set fleet.reserve too"));
+  }
+  v1::PlanRequest too_many = FleetPlan("a", 3, 5, 13, 10, departure_ns_);
+  too_many.mutable_fleet()->set_replan_robots(4);
+  error = ErrorOf(Plan(too_many, &response));
+  EXPECT_EQ(error.code, grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_THAT(error.fields, ::testing::Contains("fleet.replan_robots"));
 
   v1::PlanRequest departure_alone = PlanRequestFor("demo", 3, 5, kFloorZ, 13, 10, kFloorZ);
   ToProto(departure_ns_, departure_alone.mutable_departure_time());

@@ -6,6 +6,7 @@
 // revision was compacted away reads afresh.
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <barrier>
 #include <chrono>
@@ -142,6 +143,62 @@ TEST_F(SharedScheduleTest, AReservationCommittedOnOneReplicaIsAvoidedOnAnother) 
   // Released on A: gone on B, and the crossing is free on B.
   ASSERT_TRUE(a.schedule.Release("site", "east", kAnyone).ok());
   ASSERT_TRUE(b.Sees("site", "east", false));
+}
+
+// A robot that follows replans, committed on one replica, is replanned by a plan on the other:
+// both reservations land in one etcd transaction, at one revision, and the first replica sees
+// the replanned one with its profile and whom it was replanned for.
+TEST_F(SharedScheduleTest, ARobotReplannedOnAnotherReplicaLandsTogetherWithThePlanThatMovedIt) {
+  Replica a(etcd_->endpoint());
+  Replica b(etcd_->endpoint());
+  const std::int64_t now = SystemNowNs();
+  Reservation east = EastBound("site", "east", AddSeconds(now, 20));
+  east.replan_profile = BuiltinProfile("differential").value();
+  const Result<Reservation> committed = a.schedule.Commit(east, kRule, kAnyone);
+  ASSERT_TRUE(committed.ok()) << committed.error().message;
+  ASSERT_TRUE(b.Sees("site", "east"));
+  const ReservationSchedule::Traffic traffic = b.schedule.OthersOf("site", "north");
+  ASSERT_EQ(traffic.replannable.size(), 1u);
+  EXPECT_EQ(traffic.replannable[0].other, 0u);
+  EXPECT_EQ(traffic.replannable[0].profile.name, "differential");
+
+  // North crosses where east would; east, replanned half a second after it leaves, stops
+  // where it is then until north has passed, and goes on.
+  const Reservation north = NorthBound("site", "north", AddSeconds(now, 20));
+  const std::int64_t notice_ns = AddSeconds(now, 20.5);
+  Reservation waiting =
+      Driving("site", "east", notice_ns, {-4.5, 0, 0.3}, {0, 0, 0}, 11.5, AddSeconds(now, 80));
+  waiting.reserved.motion.trajectory.pieces.push_back(
+      test_util::LinePiece({-4.5, 0, 0.3}, {1, 0, 0}, 9.5));
+  const std::vector<ReservedMotion> east_later = {waiting.reserved};
+  const Result<std::vector<Reservation>> stale = b.schedule.CommitReplanning(
+      north, east_later, committed.value().revision - 1, kRule, kAnyone);
+  ASSERT_FALSE(stale.ok()) << "east changed after the revision the plan read";
+  EXPECT_EQ(stale.error().code, ServiceError::Code(ErrorCode::kReservationConflict));
+  const Result<std::vector<Reservation>> both =
+      b.schedule.CommitReplanning(north, east_later, traffic.revision, kRule, kAnyone);
+  ASSERT_TRUE(both.ok()) << both.error().message;
+  ASSERT_EQ(both.value().size(), 2u);
+  EXPECT_EQ(both.value()[0].revision, both.value()[1].revision);
+  // Both arrive in one watch response, applied one after the other.
+  ASSERT_TRUE(Eventually(
+      [&] {
+        const std::vector<Reservation> held = a.schedule.List("site").reservations;
+        return held.size() == 2 && std::all_of(held.begin(), held.end(), [&](const Reservation& r) {
+                 return r.revision == both.value()[0].revision;
+               });
+      },
+      kPatience));
+  for (const Reservation& r : a.schedule.List("site").reservations) {
+    EXPECT_EQ(r.revision, both.value()[0].revision) << r.reserved.robot_id;
+    if (r.reserved.robot_id != "east") continue;
+    EXPECT_EQ(r.replanned_for, "north");
+    ASSERT_TRUE(r.replan_profile.has_value());
+    EXPECT_EQ(r.replan_profile->name, "differential");
+    // Its committed motion until the notice, then the new one.
+    EXPECT_EQ(r.reserved.motion.start_ns, AddSeconds(now, 20));
+    EXPECT_EQ(r.reserved.motion.ArrivalNs(), waiting.reserved.motion.ArrivalNs());
+  }
 }
 
 TEST_F(SharedScheduleTest, TwoCommitsIntoOneCrossingAtOnceOnTwoReplicasLetExactlyOneIn) {
