@@ -82,7 +82,7 @@ def draw(name, motions, out_dir):
             ts = [p[0][0] for p in pairs]
             ds = [math.hypot(p[0][1] - p[1][1], p[0][2] - p[1][2]) for p in pairs]
             shared = [d if overlap(p[0], p[1]) else float("nan") for p, d in zip(pairs, ds)]
-            style = "--" if b == "B alone" else "-"
+            style = "--" if b in DASHED or other in DASHED else "-"
             dist.plot(ts, ds, style, color=COLOURS[b], linewidth=0.8, alpha=0.4)
             dist.plot(ts, shared, style, color=COLOURS[b], linewidth=1.8,
                       label=f"{b} to {other} (bold: same height)")
