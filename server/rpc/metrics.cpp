@@ -184,7 +184,15 @@ class ReservationCollector final : public prometheus::Collectable {
     prometheus::ClientMetric collected;
     collected.counter.value = static_cast<double>(schedule_->collected());
     expired.metric.push_back(collected);
-    return {live, expired};
+    prometheus::MetricFamily replanned{
+        "strata_reservations_replanned_total",
+        "Reservations this replica replanned to let another robot's plan pass first.",
+        prometheus::MetricType::Counter,
+        {}};
+    prometheus::ClientMetric replans;
+    replans.counter.value = static_cast<double>(schedule_->replanned());
+    replanned.metric.push_back(replans);
+    return {live, expired, replanned};
   }
 
  private:

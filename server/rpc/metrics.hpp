@@ -19,6 +19,7 @@
 ///   strata_map_creation_progress_ratio{map_id,step}  per CREATING map, in [0, 1] (at scrape)
 ///   strata_reservations                        robots' live reservations, all maps (at scrape)
 ///   strata_reservations_expired_total          expired leases collected (read at scrape)
+///   strata_reservations_replanned_total        reservations replanned for other plans (at scrape)
 ///   strata_plans_queued                        calls waiting for a planning slot (at scrape):
 ///                                              the figure an autoscaler scales on
 ///   strata_planning_slots_busy, strata_planning_slots  slots running work, and all of them

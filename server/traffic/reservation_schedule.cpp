@@ -323,6 +323,7 @@ Result<std::vector<Reservation>> ReservationSchedule::CommitReplanning(
         Result<std::optional<std::uint64_t>> stored = StoreAll(schedule, committed);
         if (!stored.ok()) return std::move(stored).error();
         if (!stored.value()) return std::optional<std::vector<Reservation>>();
+        replanned_ += replanned.size();
         return std::optional(std::move(committed));
       });
 }
@@ -510,6 +511,11 @@ std::size_t ReservationSchedule::size() const {
 std::uint64_t ReservationSchedule::collected() const {
   std::lock_guard lock(mutex_);
   return collected_;
+}
+
+std::uint64_t ReservationSchedule::replanned() const {
+  std::lock_guard lock(mutex_);
+  return replanned_;
 }
 
 }  // namespace strata::server

@@ -181,6 +181,8 @@ class ReservationSchedule {
   /// collected so far.
   std::size_t size() const;
   std::uint64_t collected() const;
+  /// Reservations this replica replanned for other robots' plans (CommitReplanning), so far.
+  std::uint64_t replanned() const;
 
  private:
   using RobotReservations = std::map<std::string, Reservation>;  // By robot id.
@@ -238,6 +240,7 @@ class ReservationSchedule {
   std::condition_variable changed_;  // Notified whenever a revision moves or a map is dropped.
   std::map<std::string, MapSchedule> maps_;  // By map id; guarded by mutex_.
   std::uint64_t collected_ = 0;              // Guarded by mutex_.
+  std::uint64_t replanned_ = 0;              // Guarded by mutex_.
   bool closed_ = false;                      // Guarded by mutex_.
 };
 

@@ -76,6 +76,45 @@ TEST(MetricsTest, ReservationsAreCountedAndTheirExpiryToo) {
   EXPECT_THAT(metrics.Serialize(), HasSubstr("strata_reservations_expired_total 1\n"));
 }
 
+// A reservation replanned for another robot's plan is counted once it is committed.
+TEST(MetricsTest, ReservationsReplannedForOtherPlansAreCounted) {
+  const std::int64_t now = 1'795'000'000'000'000'000;
+  ReservationSchedule schedule(ScheduleLimits{.max_reservations_per_map = 4,
+                                              .default_lease_s = 60,
+                                              .max_lease_s = 600,
+                                              .max_horizon_s = 3600,
+                                              .default_separation_m = 0.1},
+                               [&now] { return now; });
+  Metrics metrics;
+  metrics.WatchReservations(&schedule);
+  // A robot parked at `x` from 1 s from now for 10 s.
+  const auto parked_at = [&](const std::string& robot, double x) {
+    Reservation parked;
+    parked.map_id = "site";
+    parked.reserved.robot_id = robot;
+    TrajectoryPiece piece;
+    piece.duration_s = 1;
+    piece.coefficients = Eigen::Matrix<double, 6, 3>::Zero();
+    piece.coefficients(0, 0) = x;
+    parked.reserved.motion.trajectory.pieces.push_back(piece);
+    parked.reserved.motion.start_ns = AddSeconds(now, 1);
+    parked.reserved.motion.end_ns = AddSeconds(now, 11);
+    return parked;
+  };
+  const Caller anyone{.owner = "", .admin = true};
+  Reservation r1 = parked_at("r1", 0);
+  r1.replan_profile = BuiltinProfile("differential").value();
+  const Result<Reservation> first = schedule.Commit(r1, SeparationRule{}, anyone);
+  ASSERT_TRUE(first.ok());
+  EXPECT_THAT(metrics.Serialize(), HasSubstr("strata_reservations_replanned_total 0\n"));
+  // r2 parks where r1 was; r1, replanned, parks 5 m away.
+  const Result<std::vector<Reservation>> both =
+      schedule.CommitReplanning(parked_at("r2", 0), {parked_at("r1", 5).reserved},
+                                first.value().revision, SeparationRule{}, anyone);
+  ASSERT_TRUE(both.ok()) << both.error().message;
+  EXPECT_THAT(metrics.Serialize(), HasSubstr("strata_reservations_replanned_total 1\n"));
+}
+
 // The planning slots as an autoscaler reads them: busy slots and calls queued for one, while a
 // call holds the only slot and another waits.
 TEST(MetricsTest, QueuedPlansAndBusySlotsAreReadAtScrape) {
