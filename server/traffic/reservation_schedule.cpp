@@ -305,11 +305,11 @@ Result<std::vector<Reservation>> ReservationSchedule::CommitReplanning(
         }
         // Each new motion against the reservations that stay and what the others become.
         std::vector<ReservedMotion> staying;
-        for (const auto& [robot, held] : schedule.by_robot) {
+        for (const auto& entry : schedule.by_robot) {
           const bool changes =
               std::any_of(committed.begin(), committed.end(),
-                          [&](const Reservation& c) { return c.reserved.robot_id == robot; });
-          if (!changes) staying.push_back(held.reserved);
+                          [&](const Reservation& c) { return c.reserved.robot_id == entry.first; });
+          if (!changes) staying.push_back(entry.second.reserved);
         }
         for (std::size_t i = 0; i < planned.size(); ++i) {
           std::vector<ReservedMotion> around = staying;
