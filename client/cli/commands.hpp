@@ -46,16 +46,17 @@ struct PlanFlags {
   bool reserve = false;       ///< --reserve: commit the plan as the robot's reservation.
   std::optional<double> lease_s;
   std::optional<double> max_wait_s;
-  bool follows_replans = false;  ///< --follows-replans (fleet.follows_replans).
-  unsigned replan_robots = 0;    ///< --replan-robots (fleet.replan_robots).
+  std::optional<double> separation_m;  ///< --separation (fleet.separation_m).
+  bool follows_replans = false;        ///< --follows-replans (fleet.follows_replans).
+  unsigned replan_robots = 0;          ///< --replan-robots (fleet.replan_robots).
 };
 /// Adds --map, --start, --goal (`required` or not), --robot, --time-budget, --sample-dt,
-/// --via, --robot-id, --reserve, --lease, --max-wait, --follows-replans, --replan-robots;
-/// returns them.
+/// --via, --robot-id, --reserve, --lease, --max-wait, --separation, --follows-replans,
+/// --replan-robots; returns them.
 std::vector<CLI::Option*> AddPlanFlags(CLI::App& command, PlanFlags* flags, bool required);
 /// The PlanRequest; throws UsageError when --map, --start or --goal is missing, or a fleet
-/// flag (--reserve, --lease, --max-wait, --follows-replans, --replan-robots) comes without
-/// --robot-id.
+/// flag (--reserve, --lease, --max-wait, --separation, --follows-replans, --replan-robots)
+/// comes without --robot-id.
 v1::PlanRequest PlanRequestFromFlags(const PlanFlags& flags);
 /// Calls Plan with the context's deadline; on failure reports it and returns false.
 bool CallPlan(const Context& ctx, const v1::PlanRequest& request, v1::PlanResponse* response);

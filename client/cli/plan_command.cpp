@@ -96,8 +96,8 @@ void PrintSummary(const Context& ctx, const v1::PlanRequest& request,
           << FormatTime(reserved.expiry_time()) << " (revision " << reserved.revision() << ")";
     }
     for (const v1::Reservation& replanned : response.replanned()) {
-      out << "; robot " << replanned.robot_id() << " replanned to let it pass, from "
-          << FormatTime(replanned.start_time());
+      out << "; robot " << replanned.robot_id() << " replanned to let it pass (revision "
+          << replanned.revision() << ")";
     }
     out << "\n";
   }
@@ -174,6 +174,13 @@ std::vector<CLI::Option*> AddPlanFlags(CLI::App& command, PlanFlags* flags, bool
                                     "(fleet.max_wait_s) [s]")
                         ->type_name("S")
                         ->check(FiniteNumber()));
+  options.push_back(command
+                        .add_option("--separation", flags->separation_m,
+                                    "free distance kept between two robots' bodies "
+                                    "(fleet.separation_m; the server's --separation-m by "
+                                    "default) [m]")
+                        ->type_name("M")
+                        ->check(FiniteNumber()));
   options.push_back(command.add_flag("--follows-replans", flags->follows_replans,
                                      "the robot follows new trajectories the server sends it: "
                                      "other plans may replan it to pass first "
@@ -205,11 +212,11 @@ v1::PlanRequest PlanRequestFromFlags(const PlanFlags& flags) {
     via->set_stop(point.stop);
   }
   if (flags.robot_id.empty()) {
-    if (flags.reserve || flags.lease_s || flags.max_wait_s || flags.follows_replans ||
-        flags.replan_robots > 0) {
+    if (flags.reserve || flags.lease_s || flags.max_wait_s || flags.separation_m ||
+        flags.follows_replans || flags.replan_robots > 0) {
       throw UsageError(
-          "--reserve, --lease, --max-wait, --follows-replans and --replan-robots need "
-          "--robot-id: the robot they are for");
+          "--reserve, --lease, --max-wait, --separation, --follows-replans and --replan-robots "
+          "need --robot-id: the robot they are for");
     }
     return request;
   }
@@ -218,6 +225,7 @@ v1::PlanRequest PlanRequestFromFlags(const PlanFlags& flags) {
   fleet->set_reserve(flags.reserve);
   if (flags.lease_s) fleet->set_lease_s(*flags.lease_s);
   if (flags.max_wait_s) fleet->set_max_wait_s(*flags.max_wait_s);
+  if (flags.separation_m) fleet->set_separation_m(*flags.separation_m);
   fleet->set_follows_replans(flags.follows_replans);
   fleet->set_replan_robots(flags.replan_robots);
   return request;

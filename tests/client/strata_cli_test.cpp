@@ -537,6 +537,21 @@ TEST_F(StrataCliTest, PlansAsAFleetRobotReservesListsAndReleases) {
       Strata({"plan", "--map", "demo", "--start", "3,5,0.3", "--goal", "13,10,0.3", "--reserve"});
   EXPECT_EQ(result.exit_code, 2);
   EXPECT_THAT(result.err, HasSubstr("need --robot-id"));
+
+  // client/README.md's replanning example: r3 drives up the ramp and follows replans; r4 comes
+  // down it at once, 2 m clear of others (no passing on the ramp), and replans r3.
+  result = Strata({"plan", "--map", "demo", "--start", "1,5.25,0.3", "--goal", "7,9.25,3.3",
+                   "--robot-id", "cli-r3", "--reserve", "--follows-replans"});
+  EXPECT_EQ(result.exit_code, 0) << result.err;
+  result = Strata({"plan", "--map", "demo", "--start", "10,9.25,3.3", "--goal", "10,9.5,0.3",
+                   "--robot-id", "cli-r4", "--reserve", "--max-wait", "0", "--separation", "2",
+                   "--replan-robots", "1"});
+  EXPECT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_THAT(result.out, HasSubstr("robot cli-r3 replanned to let it pass"));
+  result = Strata({"reservations", "release", "--map", "demo", "--robot-id", "cli-r3"});
+  EXPECT_EQ(result.exit_code, 0) << result.err;
+  result = Strata({"reservations", "release", "--map", "demo", "--robot-id", "cli-r4"});
+  EXPECT_EQ(result.exit_code, 0) << result.err;
 }
 
 TEST(StrataCliAccessTest, TlsAndATokenFromTheEnvironment) {
