@@ -189,8 +189,7 @@ std::vector<CLI::Option*> AddPlanFlags(CLI::App& command, PlanFlags* flags, bool
                         .add_option("--replan-robots", flags->replan_robots,
                                     "robots in the way, following replans, that this plan may "
                                     "replan to pass first (fleet.replan_robots; with --reserve)")
-                        ->type_name("N")
-                        ->check(CLI::Range(0u, 3u)));
+                        ->type_name("N"));
   return options;
 }
 

@@ -16,8 +16,6 @@ namespace {
 // From when a plan's answer could be sent until a robot it replans takes its new trajectory
 // [s]: the time for the robot to hear of it (WatchSchedule).
 constexpr double kReplanNoticeS = 1.0;
-// ReplanOptions::notice_s's bound.
-constexpr double kMaxReplanNoticeS = 10.0;
 
 /// A commit's result as a list of one.
 Result<std::vector<Reservation>> Wrapped(Result<Reservation> committed) {

@@ -36,11 +36,11 @@ Result<ParsedFleet> ParseFleet(const v1::PlanRequest& request) {
   if (fleet.has_separation_m()) parsed.separation_m = fleet.separation_m();
   if (fleet.has_max_wait_s()) parsed.options.max_wait_s = fleet.max_wait_s();
   parsed.follows_replans = fleet.follows_replans();
-  if (fleet.replan_robots() > 3) {
+  if (fleet.replan_robots() > static_cast<std::uint32_t>(kMaxReplannedRobots)) {
     return MakeError(ErrorCode::kInvalidConfig,
-                     fmt::format("fleet.replan_robots = {} is out of range: at most 3 robots may "
+                     fmt::format("fleet.replan_robots = {} is out of range: at most {} robots may "
                                  "be replanned for one plan",
-                                 fleet.replan_robots()))
+                                 fleet.replan_robots(), kMaxReplannedRobots))
         .Blame("fleet.replan_robots");
   }
   parsed.options.replan.max_robots = static_cast<int>(fleet.replan_robots());

@@ -856,11 +856,13 @@ Expected<FleetPlanResult> PlanInCommitOrder(const PlanningMap& map, const FleetP
 }  // namespace
 
 Status ReplanOptions::Validate(std::string_view path) const {
-  if (!(max_robots >= 0 && max_robots <= 3)) {
-    return internal::OutOfRange(internal::FieldPath(path, "max_robots"), max_robots, "in [0, 3]");
+  if (!(max_robots >= 0 && max_robots <= kMaxReplannedRobots)) {
+    return internal::OutOfRange(internal::FieldPath(path, "max_robots"), max_robots,
+                                fmt::format("in [0, {}]", kMaxReplannedRobots));
   }
-  if (!(notice_s >= 0 && notice_s <= 10)) {
-    return internal::OutOfRange(internal::FieldPath(path, "notice_s"), notice_s, "in [0, 10] s");
+  if (!(notice_s >= 0 && notice_s <= kMaxReplanNoticeS)) {
+    return internal::OutOfRange(internal::FieldPath(path, "notice_s"), notice_s,
+                                fmt::format("in [0, {:g}] s", kMaxReplanNoticeS));
   }
   if (!(max_wait_s >= 0 && max_wait_s <= 3600)) {
     return internal::OutOfRange(internal::FieldPath(path, "max_wait_s"), max_wait_s,

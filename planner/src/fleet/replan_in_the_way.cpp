@@ -12,7 +12,7 @@ namespace {
 // A replanned robot's committed motion stays in the way of the plan that goes first until
 // this long after the notice [s]: moving at the notice, the robot needs room to slow down or
 // turn off before it meets that plan (its new motion is then checked against it exactly).
-// Tuned on fleet_benchmark (docs/design.md, "Fleets").
+// The only value tried on fleet_benchmark (docs/design.md, "Fleets"), not tuned.
 constexpr double kReplanLeadS = 2.0;
 // A new motion begins where the committed one is at the notice: in x, y within kJoinM [m]
 // and in velocity and acceleration within kJoinMotion [m/s, m/s^2]; in height within
@@ -83,7 +83,7 @@ bool Joins(const FleetMotion& committed, const Trajectory& next, std::int64_t no
 }  // namespace
 
 Expected<FleetPlanResult> PlanReplanningOthers(const FleetPlanRequest& request, Error refusal,
-                                               const PlanInCommitOrder& plan_in_order) {
+                                               const CommitOrderPlanner& plan_in_order) {
   const ReplanOptions& options = request.fleet.replan;
   const std::int64_t notice_ns = AddSeconds(request.departure_ns, options.notice_s);
   const std::int64_t lead_ns = AddSeconds(notice_ns, kReplanLeadS);

@@ -11,7 +11,7 @@ namespace strata::fleet_internal {
 
 /// Plans one robot among the others in commit order, as PlanAmongTraffic does without
 /// replanning anyone.
-using PlanInCommitOrder = std::function<Expected<FleetPlanResult>(const FleetPlanRequest&)>;
+using CommitOrderPlanner = std::function<Expected<FleetPlanResult>(const FleetPlanRequest&)>;
 
 /// `request`, which `plan_in_order` refused with `refusal` (kReservationConflict), planned by
 /// replanning the robots in its way (ReplanOptions): the result has them in `replanned`. The
@@ -19,6 +19,6 @@ using PlanInCommitOrder = std::function<Expected<FleetPlanResult>(const FleetPla
 /// not yet departed or already arrived by the notice, a 4-D trajectory) or when any of the
 /// plans does not succeed; a cancellation or deadline as it comes.
 Expected<FleetPlanResult> PlanReplanningOthers(const FleetPlanRequest& request, Error refusal,
-                                               const PlanInCommitOrder& plan_in_order);
+                                               const CommitOrderPlanner& plan_in_order);
 
 }  // namespace strata::fleet_internal

@@ -36,11 +36,15 @@ namespace strata {
 /// then planned again from where it is at notice_s, to its goal, among the others and this
 /// plan. Repeated for the next robot the plan is then refused for, up to max_robots; all of
 /// them plan, or nothing changes and the first refusal stands.
+inline constexpr int kMaxReplannedRobots = 3;    ///< ReplanOptions::max_robots's bound.
+inline constexpr double kMaxReplanNoticeS = 10;  ///< ReplanOptions::notice_s's bound [s].
+
 struct ReplanOptions {
-  /// Robots replanned for one plan at most, in [0, 3]; 0 (the default) replans none.
+  /// Robots replanned for one plan at most, in [0, kMaxReplannedRobots]; 0 (the default)
+  /// replans none.
   int max_robots = 0;
-  /// From the departure until a replanned robot takes its new trajectory [s], in [0, 10]: the
-  /// time it takes to hear of it.
+  /// From the departure until a replanned robot takes its new trajectory [s], in
+  /// [0, kMaxReplanNoticeS]: the time it takes to hear of it.
   double notice_s = 1.0;
   /// Longest a replanned robot may wait, in all [s], in [0, 3600].
   double max_wait_s = 60;
