@@ -163,51 +163,45 @@ class MapCollector final : public prometheus::Collectable {
   const MapRegistry* maps_;
 };
 
-// The schedule's gauges, read at scrape time.
+// A family of one unlabelled series of `type` (a gauge or a counter).
+prometheus::MetricFamily OneSeries(std::string name, std::string help, prometheus::MetricType type,
+                                   double value) {
+  prometheus::MetricFamily family{std::move(name), std::move(help), type, {}};
+  prometheus::ClientMetric metric;
+  (type == prometheus::MetricType::Counter ? metric.counter.value : metric.gauge.value) = value;
+  family.metric.push_back(metric);
+  return family;
+}
+
+prometheus::MetricFamily OneGauge(std::string name, std::string help, double value) {
+  return OneSeries(std::move(name), std::move(help), prometheus::MetricType::Gauge, value);
+}
+
+prometheus::MetricFamily OneCounter(std::string name, std::string help, double value) {
+  return OneSeries(std::move(name), std::move(help), prometheus::MetricType::Counter, value);
+}
+
+// The schedule's figures, read at scrape time.
 class ReservationCollector final : public prometheus::Collectable {
  public:
   explicit ReservationCollector(const ReservationSchedule* schedule) : schedule_(schedule) {}
 
   std::vector<prometheus::MetricFamily> Collect() const override {
-    prometheus::MetricFamily live{
-        "strata_reservations",
-        "Robots' reservations whose lease has not expired, over all maps.",
-        prometheus::MetricType::Gauge,
-        {}};
-    prometheus::ClientMetric count;
-    count.gauge.value = static_cast<double>(schedule_->size());
-    live.metric.push_back(count);
-    prometheus::MetricFamily expired{"strata_reservations_expired_total",
-                                     "Reservations collected because their lease expired.",
-                                     prometheus::MetricType::Counter,
-                                     {}};
-    prometheus::ClientMetric collected;
-    collected.counter.value = static_cast<double>(schedule_->collected());
-    expired.metric.push_back(collected);
-    prometheus::MetricFamily replanned{
-        "strata_reservations_replanned_total",
-        "Reservations this replica replanned to let another robot's plan pass first.",
-        prometheus::MetricType::Counter,
-        {}};
-    prometheus::ClientMetric replans;
-    replans.counter.value = static_cast<double>(schedule_->replanned());
-    replanned.metric.push_back(replans);
-    return {live, expired, replanned};
+    return {OneGauge("strata_reservations",
+                     "Robots' reservations whose lease has not expired, over all maps.",
+                     static_cast<double>(schedule_->size())),
+            OneCounter("strata_reservations_expired_total",
+                       "Reservations collected because their lease expired.",
+                       static_cast<double>(schedule_->collected())),
+            OneCounter("strata_reservations_replanned_total",
+                       "Reservations this replica replanned to let another robot's plan pass "
+                       "first.",
+                       static_cast<double>(schedule_->replanned()))};
   }
 
  private:
   const ReservationSchedule* schedule_;
 };
-
-// A gauge family of one unlabelled series.
-prometheus::MetricFamily OneGauge(std::string name, std::string help, double value) {
-  prometheus::MetricFamily family{
-      std::move(name), std::move(help), prometheus::MetricType::Gauge, {}};
-  prometheus::ClientMetric metric;
-  metric.gauge.value = value;
-  family.metric.push_back(metric);
-  return family;
-}
 
 // The planning slots' gauges, read at scrape time.
 class PlanningCollector final : public prometheus::Collectable {

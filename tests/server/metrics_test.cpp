@@ -47,15 +47,16 @@ TEST(MetricsTest, AMapBeingCreatedShowsItsProgressUntilItIsGone) {
   registry.Shutdown();
 }
 
+constexpr ScheduleLimits kScheduleLimits{.max_reservations_per_map = 4,
+                                         .default_lease_s = 60,
+                                         .max_lease_s = 600,
+                                         .max_horizon_s = 3600,
+                                         .default_separation_m = 0.1};
+
 // The schedule's figures, read at scrape time: live reservations, and expired leases collected.
 TEST(MetricsTest, ReservationsAreCountedAndTheirExpiryToo) {
   std::int64_t now = 1'795'000'000'000'000'000;
-  ReservationSchedule schedule(ScheduleLimits{.max_reservations_per_map = 4,
-                                              .default_lease_s = 60,
-                                              .max_lease_s = 600,
-                                              .max_horizon_s = 3600,
-                                              .default_separation_m = 0.1},
-                               [&now] { return now; });
+  ReservationSchedule schedule(kScheduleLimits, [&now] { return now; });
   Metrics metrics;
   metrics.WatchReservations(&schedule);
   Reservation parked;
@@ -79,12 +80,7 @@ TEST(MetricsTest, ReservationsAreCountedAndTheirExpiryToo) {
 // A reservation replanned for another robot's plan is counted once it is committed.
 TEST(MetricsTest, ReservationsReplannedForOtherPlansAreCounted) {
   const std::int64_t now = 1'795'000'000'000'000'000;
-  ReservationSchedule schedule(ScheduleLimits{.max_reservations_per_map = 4,
-                                              .default_lease_s = 60,
-                                              .max_lease_s = 600,
-                                              .max_horizon_s = 3600,
-                                              .default_separation_m = 0.1},
-                               [&now] { return now; });
+  ReservationSchedule schedule(kScheduleLimits, [&now] { return now; });
   Metrics metrics;
   metrics.WatchReservations(&schedule);
   // A robot parked at `x` from 1 s from now for 10 s.
