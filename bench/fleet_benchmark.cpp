@@ -168,7 +168,7 @@ RunFigures RunFleet(const Site& site, int robots, double minutes, unsigned seed,
   std::priority_queue<Event, std::vector<Event>, std::greater<>> events;
   // `robot`'s current motion replaced by `next` from its start on (a robot replanned to let
   // another pass first): it arrives at its goal, and gets its next task, when `next` does.
-  const auto ReplaceMotion = [&](int robot, const FleetMotion& next) {
+  const auto replace_motion = [&](int robot, const FleetMotion& next) {
     figures.map_check.Add(strata::bench::CheckTrajectory(
         site.map->model(), profile, next.trajectory,
         strata::bench::CheckConfigFor(strata::PlanOptions{}.verifier, site.map->keep_out())));
@@ -231,7 +231,7 @@ RunFigures RunFleet(const Site& site, int robots, double minutes, unsigned seed,
       figures.latency_ms.push_back(Ms(std::chrono::steady_clock::now() - t0));
       if (planned) {
         for (const strata::ReplannedRobot& replanned : planned.value().replanned) {
-          ReplaceMotion(std::stoi(others[replanned.other].robot_id), replanned.motion);
+          replace_motion(std::stoi(others[replanned.other].robot_id), replanned.motion);
         }
         figures.tasks_with_replans += planned.value().replanned.empty() ? 0 : 1;
         trajectory = planned.value().plan.trajectory;

@@ -17,12 +17,6 @@ namespace {
 // [s]: the time for the robot to hear of it (WatchSchedule).
 constexpr double kReplanNoticeS = 1.0;
 
-/// A commit's result as a list of one.
-Result<std::vector<Reservation>> Wrapped(Result<Reservation> committed) {
-  if (!committed.ok()) return std::move(committed).error();
-  return std::vector<Reservation>{std::move(committed).value()};
-}
-
 }  // namespace
 
 ServiceStatus PlanAmongReservations(const ActiveMap& map, const std::string& map_id,
@@ -111,10 +105,8 @@ ServiceStatus PlanAmongReservations(const ActiveMap& map, const std::string& map
       for (const ReplannedRobot& robot : result.replanned) {
         replanned.push_back({traffic.others[robot.other].robot_id, robot.motion});
       }
-      Result<std::vector<Reservation>> committed =
-          replanned.empty() ? Wrapped(schedule.Commit(std::move(reservation), rule.value(), caller))
-                            : schedule.CommitReplanning(std::move(reservation), replanned,
-                                                        traffic.revision, rule.value(), caller);
+      Result<std::vector<Reservation>> committed = schedule.CommitReplanning(
+          std::move(reservation), replanned, traffic.revision, rule.value(), caller);
       if (!committed.ok()) {
         // Lost a race: another robot committed into this trajectory's way while it was
         // planned. Plan again against the schedule as it is now (unless the others are not

@@ -184,13 +184,14 @@ ReservationSchedule::Traffic ReservationSchedule::OthersOf(const std::string& ma
                                                            const std::string& robot_id) {
   std::lock_guard lock(mutex_);
   const MapSchedule& schedule = Live(map_id);
-  Traffic traffic{schedule.revision, Others(schedule, robot_id), {}};
-  std::size_t index = 0;  // Others keeps the schedule's order, robot_id left out.
+  Traffic traffic{schedule.revision, {}, {}};
+  traffic.others.reserve(schedule.by_robot.size());
   for (const auto& [robot, reservation] : schedule.by_robot) {
     if (robot == robot_id) continue;
-    if (reservation.replan_profile)
-      traffic.replannable.push_back({index, *reservation.replan_profile});
-    ++index;
+    if (reservation.replan_profile) {
+      traffic.replannable.push_back({traffic.others.size(), *reservation.replan_profile});
+    }
+    traffic.others.push_back(reservation.reserved);
   }
   return traffic;
 }
@@ -218,6 +219,7 @@ Result<Reservation> ReservationSchedule::Continued(const MapSchedule& schedule,
                                                    Reservation reservation,
                                                    const Caller& caller) const {
   const std::string& robot_id = reservation.reserved.robot_id;
+  reservation.owner = caller.owner;
   const auto existing = schedule.by_robot.find(robot_id);
   if (existing == schedule.by_robot.end()) {
     if (static_cast<int>(schedule.by_robot.size()) >= limits_.max_reservations_per_map) {
@@ -226,11 +228,9 @@ Result<Reservation> ReservationSchedule::Continued(const MapSchedule& schedule,
                                    "keeps per map (--max-reservations): release some first",
                                    reservation.map_id, schedule.by_robot.size()));
     }
-    reservation.owner = caller.owner;
     return reservation;
   }
   if (ServiceStatus may = MayChange(existing->second, caller); !may.ok()) return may.error();
-  reservation.owner = caller.owner;
   // Until its new departure the robot drives its earlier plan, which the others were planned
   // around; only what is new needs checking.
   reservation.reserved.motion =
@@ -250,21 +250,10 @@ Result<Reservation> ReservationSchedule::Continued(const MapSchedule& schedule,
 
 Result<Reservation> ReservationSchedule::Commit(Reservation reservation, const SeparationRule& rule,
                                                 const Caller& caller) {
-  const std::string& robot_id = reservation.reserved.robot_id;
-  return Retrying<Reservation>(
-      reservation.map_id, [&](MapSchedule& schedule) -> Result<std::optional<Reservation>> {
-        Result<Reservation> committed = Continued(schedule, reservation, caller);
-        if (!committed.ok()) return std::move(committed).error();
-        const std::vector<ReservedMotion> others = Others(schedule, robot_id);
-        if (Status clear = CheckSeparation(reservation.reserved.motion, others, rule); !clear) {
-          return ServiceError::FromPlanner(clear.error());
-        }
-        Result<std::optional<std::uint64_t>> stored =
-            Store(schedule, reservation.map_id, robot_id, &committed.value());
-        if (!stored.ok()) return std::move(stored).error();
-        if (!stored.value()) return std::optional<Reservation>();
-        return std::optional(std::move(committed).value());
-      });
+  Result<std::vector<Reservation>> committed =
+      CommitReplanning(std::move(reservation), {}, 0, rule, caller);
+  if (!committed.ok()) return std::move(committed).error();
+  return std::move(committed.value().front());
 }
 
 Result<std::vector<Reservation>> ReservationSchedule::CommitReplanning(

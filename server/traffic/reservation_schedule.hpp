@@ -105,13 +105,13 @@ class ReservationSchedule {
                              const Caller& caller);
 
   /// Commits `reservation` as Commit does, together with the new motions of the robots its
-  /// plan replanned to let it pass first (FleetPlanResult::replanned, robot_id set), planned
-  /// on the schedule at `planned_revision`. Each replaces its robot's reservation from its
-  /// departure on (ContinuedBy), with replanned_for set to this robot, whoever made it; each
-  /// must still follow replans, be unchanged since planned_revision and depart after now,
-  /// else kReservationConflict (the plan raced: plan again). Every new motion is checked exactly
-  /// against every other reservation, the others of these included, and all are stored at
-  /// once, or none. Returns them as committed, `reservation` first.
+  /// plan replanned to let it pass first (FleetPlanResult::replanned, robot_id set; none is
+  /// Commit), planned on the schedule at `planned_revision`. Each replaces its robot's reservation
+  /// from its departure on (ContinuedBy), with replanned_for set to this robot, whoever made it;
+  /// each must still follow replans, be unchanged since planned_revision and depart after now, else
+  /// kReservationConflict (the plan raced: plan again). Every new motion is checked exactly against
+  /// every other reservation, the others of these included, and all are stored at once, or none.
+  /// Returns them as committed, `reservation` first.
   Result<std::vector<Reservation>> CommitReplanning(Reservation reservation,
                                                     const std::vector<ReservedMotion>& replanned,
                                                     std::uint64_t planned_revision,
