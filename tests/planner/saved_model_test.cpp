@@ -68,19 +68,21 @@ TEST_F(SavedModel, RoundTripsEveryPartAndTheSameBytes) {
   const auto loaded = DeserializeModel(bytes(), "garage");
   ASSERT_TRUE(loaded.ok()) << loaded.error().message;
   const TerrainModel& copy = **loaded;
-  EXPECT_EQ(copy.surfaces().column_begin(), model().surfaces().column_begin());
-  ASSERT_EQ(copy.surfaces().all_surfaces().size(), model().surfaces().all_surfaces().size());
-  for (std::size_t i = 0; i < copy.surfaces().all_surfaces().size(); ++i) {
-    const ColumnSurface& a = copy.surfaces().all_surfaces()[i];
-    const ColumnSurface& b = model().surfaces().all_surfaces()[i];
+  const ColumnSurfaces copied = copy.surfaces().ToParts();
+  const ColumnSurfaces original_surfaces = model().surfaces().ToParts();
+  EXPECT_EQ(copied.column_begin, original_surfaces.column_begin);
+  ASSERT_EQ(copied.surfaces.size(), original_surfaces.surfaces.size());
+  for (std::size_t i = 0; i < copied.surfaces.size(); ++i) {
+    const ColumnSurface& a = copied.surfaces[i];
+    const ColumnSurface& b = original_surfaces.surfaces[i];
     ASSERT_TRUE(a.ground_z_m == b.ground_z_m && a.clearance_m == b.clearance_m &&
                 a.tilt_rad == b.tilt_rad && a.plane_center_z_m == b.plane_center_z_m &&
                 a.top_layer == b.top_layer && a.bottom_layer == b.bottom_layer &&
                 a.valid == b.valid)
         << "surface " << i;
   }
-  const TerrainFields::Parts& f = copy.fields().parts();
-  const TerrainFields::Parts& g = model().fields().parts();
+  const TerrainFields::Parts f = copy.fields().ToParts();
+  const TerrainFields::Parts g = model().fields().ToParts();
   EXPECT_EQ(f.distance, g.distance);
   EXPECT_EQ(f.safety, g.safety);
   EXPECT_EQ(f.column_begin, g.column_begin);

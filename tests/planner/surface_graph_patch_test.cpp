@@ -59,8 +59,8 @@ bool SameColumn(const TerrainModel& a, const TerrainModel& b, int ix, int iy) {
            p.top_layer == q.top_layer && p.bottom_layer == q.bottom_layer && p.valid == q.valid;
   };
   if (!std::equal(sa.begin(), sa.end(), sb.begin(), sb.end(), same_surface)) return false;
-  const TerrainFields::Parts& fa = a.fields().parts();
-  const TerrainFields::Parts& fb = b.fields().parts();
+  const TerrainFields::Parts fa = a.fields().ToParts();
+  const TerrainFields::Parts fb = b.fields().ToParts();
   const std::int64_t c = ix + std::int64_t{a.grid().size.x()} * iy;
   const auto values = [c](const TerrainFields::Parts& f) {
     std::vector<std::int64_t> out;  // Each interval's first layer, then its values.

@@ -100,7 +100,7 @@ TEST_P(BandAgainstDense, StoresTheDenseValuesOnExactlyTheBand) {
   const GridGeometry& g = model->grid();
   const TerrainFields& fields = model->fields();
   const double cap = fields.distance_cap_m();
-  const double safety_tolerance = 0.5 * fields.parts().safety_step + 1e-5;
+  const double safety_tolerance = 0.5 * fields.scalars().safety_step + 1e-5;
   std::size_t stored = 0, near_obstacles = 0, varied_safety = 0;
   for (int iz = 0; iz < g.size.z(); ++iz) {
     for (int iy = 0; iy < g.size.y(); ++iy) {
@@ -265,7 +265,7 @@ TEST(TerrainFields, ABlocksPointsShareItsKeyAndStayWithinItsBounds) {
 TEST(TerrainFields, FromPartsRefusesInconsistentParts) {
   const auto model = TwoLevelRamp();
   ASSERT_TRUE(model);
-  const TerrainFields::Parts good = model->fields().parts();
+  const TerrainFields::Parts good = model->fields().ToParts();
   ASSERT_TRUE(TerrainFields::FromParts(good).ok());
   const auto expect_refused = [](TerrainFields::Parts parts, const char* what) {
     const Expected<TerrainFields> fields = TerrainFields::FromParts(std::move(parts));
@@ -314,8 +314,7 @@ TEST(SurfaceMap, FromPartsRefusesAColumnPastTheSurfaces) {
   const auto model = TwoLevelRamp();
   ASSERT_TRUE(model);
   const SurfaceMap& surfaces = model->surfaces();
-  std::vector<std::uint32_t> column_begin = surfaces.column_begin();
-  std::vector<ColumnSurface> all = surfaces.all_surfaces();
+  auto [column_begin, all] = surfaces.ToParts();
   ASSERT_TRUE(SurfaceMap::FromParts(surfaces.geometry(), column_begin, all).ok());
   column_begin[1] = static_cast<std::uint32_t>(all.size() + 100);
   const Expected<SurfaceMap> broken = SurfaceMap::FromParts(surfaces.geometry(), column_begin, all);
@@ -329,8 +328,7 @@ TEST(SurfaceMap, FromPartsRefusesGroundsThatDescendInAColumn) {
   const auto model = TwoLevelRamp();
   ASSERT_TRUE(model);
   const SurfaceMap& surfaces = model->surfaces();
-  std::vector<ColumnSurface> all = surfaces.all_surfaces();
-  const std::vector<std::uint32_t>& begin = surfaces.column_begin();
+  auto [begin, all] = surfaces.ToParts();
   std::size_t upper = 0;  // The second surface of the first column with two.
   for (std::size_t c = 0; c + 1 < begin.size() && upper == 0; ++c) {
     if (begin[c + 1] - begin[c] >= 2) upper = begin[c] + 1;

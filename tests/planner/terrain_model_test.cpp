@@ -136,8 +136,11 @@ TEST_F(TwoLevelModel, ReportsSummaryAndMemory) {
   // costs a few bytes of index (terrain_fields_test checks that the volume costs nothing).
   const TerrainFields& fields = model().fields();
   const auto columns = static_cast<std::size_t>(model().grid().LayerCellCount());
-  EXPECT_EQ(fields.MemoryBytes(),
-            (columns + 1) * 4 + fields.parts().intervals.capacity() * 8 + fields.cell_count() * 4);
+  const std::size_t chunks = fields.chunks().size();
+  std::size_t runs = 0;
+  for (const TerrainFields::Chunk& chunk : fields.chunks()) runs += chunk->intervals.size();
+  EXPECT_EQ(fields.MemoryBytes(), chunks * sizeof(TerrainFields::Chunk) + (columns + chunks) * 4 +
+                                      runs * 8 + fields.cell_count() * 4);
   const double layers = model().config().grid.band_height_m / model().grid().resolution_m + 3;
   EXPECT_LT(static_cast<double>(fields.cell_count()), 1.5 * layers * s.valid_surface_count);
   EXPECT_GT(static_cast<double>(fields.cell_count()), layers * s.valid_surface_count);
@@ -233,7 +236,7 @@ TEST(TerrainModel, AssessmentIsReproducibleWhateverTheThreads) {
     config.num_threads = threads;
     auto model = TerrainModel::Assess(cloud, config);
     ASSERT_TRUE(model.ok()) << model.error().message;
-    const TerrainFields::Parts& fields = (*model)->fields().parts();
+    const TerrainFields::Parts fields = (*model)->fields().ToParts();
     if (!reference.has_value()) {
       reference = fields;
       continue;

@@ -20,7 +20,7 @@
 #include "assessment/terrain_fields_build.hpp"
 #include "assessment/terrain_model_internal.hpp"
 #include "format_internal.hpp"
-#include "prefault_internal.hpp"
+#include "column_chunks_internal.hpp"
 
 namespace strata {
 namespace {
@@ -375,112 +375,54 @@ const char* ReassessmentPathName(ReassessmentPath path) {
 
 namespace {
 
-// The grid's columns in x-fastest order as runs of consecutive columns taken from the base
-// model (all columns) or from the arrays of `window`'s columns.
-struct ColumnRun {
-  bool from_window = false;
-  std::int64_t first = 0;  // Column index in its source.
-  std::int64_t count = 0;
-};
-
-std::vector<ColumnRun> SpliceRuns(const GridGeometry& g, const CellBox& window) {
-  std::vector<ColumnRun> runs;
+// The chunks of `base` (SurfaceMap or TerrainFields chunks on the grid `g`) with the columns of
+// `window` replaced by those of `local` (the window's columns, x fastest): the chunks the
+// window does not meet are the base's, shared, and only those it meets are built.
+template <typename Arrays>
+std::vector<std::shared_ptr<const Arrays>> SpliceChunks(
+    const GridGeometry& g, const std::vector<std::shared_ptr<const Arrays>>& base,
+    const CellBox& window, const Arrays& local) {
+  std::vector<std::shared_ptr<const Arrays>> out = base;
+  if (window.empty()) return out;
   const std::int64_t nx = g.size.x();
   const std::int64_t wx = window.size().x();
-  std::int64_t next = 0;  // First grid column not yet covered.
-  for (int y = window.min.y(); y <= window.max.y(); ++y) {
-    const std::int64_t start = window.min.x() + nx * y;
-    if (start > next) runs.push_back({false, next, start - next});
-    runs.push_back({true, wx * (y - window.min.y()), wx});
-    next = start + wx;
+  for (int k = window.min.y() / kChunkRows; k <= window.max.y() / kChunkRows; ++k) {
+    const Arrays& from = *base[k];
+    Arrays chunk;
+    chunk.column_begin.reserve(from.column_begin.size());
+    for (int row = 0; row < ChunkRowCount(g, k); ++row) {
+      const int y = k * kChunkRows + row;
+      const std::int64_t start = nx * row;
+      if (y < window.min.y() || y > window.max.y()) {
+        internal::AppendColumns(from, start, start + nx, &chunk);
+        continue;
+      }
+      const std::int64_t local_start = wx * (y - window.min.y());
+      internal::AppendColumns(from, start, start + window.min.x(), &chunk);
+      internal::AppendColumns(local, local_start, local_start + wx, &chunk);
+      internal::AppendColumns(from, start + window.max.x() + 1, start + nx, &chunk);
+    }
+    internal::FinishColumns(&chunk);
+    out[k] = std::make_shared<const Arrays>(std::move(chunk));
   }
-  if (g.LayerCellCount() > next) runs.push_back({false, next, g.LayerCellCount() - next});
-  return runs;
-}
-
-// Appends `run`'s offsets of `from` moved by `shift` (unsigned: it wraps when it moves them
-// down) to `out`, whose capacity holds them: the splices' arrays are reserved whole, so that
-// their pages can be faulted in ahead of the copy (prefault_internal.hpp) and are written once
-// (a slice at a time, moved while it is in the cache).
-void AppendShifted(const std::vector<std::uint32_t>& from, const ColumnRun& run,
-                   std::uint32_t shift, std::vector<std::uint32_t>* out) {
-  constexpr std::int64_t kSlice = 4096;
-  for (std::int64_t done = 0; done < run.count; done += kSlice) {
-    const auto source = from.begin() + run.first + done;
-    const std::size_t at = out->size();
-    out->insert(out->end(), source, source + std::min(kSlice, run.count - done));
-    if (shift == 0) continue;
-    for (std::size_t k = at; k < out->size(); ++k) (*out)[k] += shift;
-  }
+  return out;
 }
 
 // The surfaces of `base` with those of `window`'s columns replaced by `local`'s.
 Expected<SurfaceMap> SpliceSurfaces(const SurfaceMap& base, const CellBox& window,
-                                    const internal::ColumnSurfaces& local) {
-  const std::vector<std::uint32_t>& base_begin = base.column_begin();
-  const std::vector<ColumnSurface>& base_surfaces = base.all_surfaces();
-  std::vector<std::uint32_t> begin;
-  begin.reserve(base_begin.size());
-  std::vector<ColumnSurface> surfaces;
-  surfaces.reserve(base_surfaces.size() + local.surfaces.size());
-  const std::array<internal::PageRegion, 2> filled = {internal::CapacityOf(begin),
-                                                      internal::CapacityOf(surfaces)};
-  internal::FillWithPagesFaultedAhead(filled, [&] {
-    for (const ColumnRun& run : SpliceRuns(base.geometry(), window)) {
-      const std::vector<std::uint32_t>& from_begin =
-          run.from_window ? local.column_begin : base_begin;
-      const std::vector<ColumnSurface>& from = run.from_window ? local.surfaces : base_surfaces;
-      const std::uint32_t first = from_begin[run.first];
-      const std::uint32_t last = from_begin[run.first + run.count];
-      AppendShifted(from_begin, run, static_cast<std::uint32_t>(surfaces.size()) - first, &begin);
-      surfaces.insert(surfaces.end(), from.begin() + first, from.begin() + last);
-    }
-    begin.push_back(static_cast<std::uint32_t>(surfaces.size()));
-    return true;
-  });
-  return SurfaceMap::FromParts(base.geometry(), std::move(begin), std::move(surfaces));
+                                    const ColumnSurfaces& local) {
+  return SurfaceMap::FromChunks(base.geometry(),
+                                SpliceChunks(base.geometry(), base.chunks(), window, local), &base);
 }
 
 // The fields of `base` with those of `window`'s columns replaced by `local`'s.
 Expected<TerrainFields> SpliceFields(const TerrainFields& base, const CellBox& window,
                                      const TerrainFields::Parts& local) {
-  const TerrainFields::Parts& from_base = base.parts();
-  TerrainFields::Parts out;
-  out.geometry = from_base.geometry;
-  out.distance_cap_m = from_base.distance_cap_m;
-  out.safety_step = from_base.safety_step;
-  out.safety_background = from_base.safety_background;
-  out.column_begin.reserve(from_base.column_begin.size());
-  out.intervals.reserve(from_base.intervals.size() + local.intervals.size());
-  out.distance.reserve(from_base.distance.size() + local.distance.size());
-  out.safety.reserve(out.distance.capacity());
-  const std::array<internal::PageRegion, 4> filled = {
-      internal::CapacityOf(out.column_begin), internal::CapacityOf(out.intervals),
-      internal::CapacityOf(out.distance), internal::CapacityOf(out.safety)};
-  internal::FillWithPagesFaultedAhead(filled, [&] {
-    for (const ColumnRun& run : SpliceRuns(from_base.geometry, window)) {
-      const TerrainFields::Parts& from = run.from_window ? local : from_base;
-      const std::uint32_t first = from.column_begin[run.first];
-      const std::uint32_t last = from.column_begin[run.first + run.count];
-      const std::uint32_t values_first = from.intervals[first].offset;
-      const std::uint32_t values_last = from.intervals[last].offset;  // The sentinel at the end.
-      AppendShifted(from.column_begin, run,
-                    static_cast<std::uint32_t>(out.intervals.size()) - first, &out.column_begin);
-      const auto value_shift = static_cast<std::uint32_t>(out.distance.size()) - values_first;
-      for (std::uint32_t k = first; k < last; ++k) {
-        out.intervals.push_back(
-            {from.intervals[k].first_layer, from.intervals[k].offset + value_shift});
-      }
-      out.distance.insert(out.distance.end(), from.distance.begin() + values_first,
-                          from.distance.begin() + values_last);
-      out.safety.insert(out.safety.end(), from.safety.begin() + values_first,
-                        from.safety.begin() + values_last);
-    }
-    out.column_begin.push_back(static_cast<std::uint32_t>(out.intervals.size()));
-    out.intervals.push_back({0, static_cast<std::uint32_t>(out.distance.size())});
-    return true;
-  });
-  return TerrainFields::FromParts(std::move(out));
+  return TerrainFields::FromChunks(
+      base.scalars(),
+      SpliceChunks(base.geometry(), base.chunks(), window,
+                   static_cast<const TerrainFields::Runs&>(local)),
+      &base);
 }
 
 std::size_t ValidPointsIn(const internal::ColumnCloud& sorted, const CellBox& columns) {
@@ -642,6 +584,7 @@ Expected<Reassessment> ReassessNear(const TerrainModel& base, const EditReach& r
   if (!surfaces) return surfaces.error();
   summary.timings.surfaces_s = stage.Lap();
 
+  progress.BeginStage(AssessmentStage::kFields, FieldTileCount(reach.fields_changed));
   Expected<TerrainFields::Parts> local_fields = BuildFieldParts(
       *surfaces, sorted, reach.fields_changed, field, config.grid, config.num_threads, &progress);
   if (!local_fields) return local_fields.error();

@@ -112,67 +112,153 @@ Expected<SurfaceMap> SurfaceMap::BuildFromColumns(const GridGeometry& geometry,
                                                   const internal::ColumnCloud& sorted,
                                                   const FieldConfig& field, int num_threads,
                                                   internal::ProgressReporter* progress) {
-  Expected<internal::ColumnSurfaces> built = internal::BuildColumnSurfaces(
-      geometry, sorted, CellBox::Whole(geometry), field, num_threads, progress);
-  if (!built) return built.error();
   SurfaceMap map;
   map.geometry_ = geometry;
-  map.column_begin_ = std::move(built->column_begin);
-  map.surfaces_ = std::move(built->surfaces);
+  map.chunks_.reserve(ChunkCount(geometry));
+  for (int k = 0; k < ChunkCount(geometry); ++k) {
+    Expected<ColumnSurfaces> built = internal::BuildColumnSurfaces(
+        geometry, sorted, ChunkColumns(geometry, k), field, num_threads, progress);
+    if (!built) return built.error();
+    map.surface_count_ += built->surfaces.size();
+    map.chunks_.push_back(std::make_shared<const ColumnSurfaces>(std::move(built).value()));
+  }
   return map;
 }
 
-Expected<SurfaceMap> SurfaceMap::FromParts(const GridGeometry& geometry,
-                                           std::vector<std::uint32_t> column_begin,
-                                           std::vector<ColumnSurface> surfaces) {
-  const auto bad = [](const std::string& what) {
-    return Error{ErrorCode::kInvalidInput, "surfaces are inconsistent: " + what};
-  };
-  if (!(geometry.resolution_m > 0) || (geometry.size.array() < 1).any()) {
-    return bad("empty grid");
-  }
-  const std::int64_t columns = geometry.LayerCellCount();
+namespace {
+
+// Why `s`, the surfaces of `columns` columns of a grid of `layers` layers, are inconsistent,
+// or empty when they are not.
+std::string Inconsistency(const ColumnSurfaces& s, std::int64_t columns, int layers) {
+  const std::vector<std::uint32_t>& column_begin = s.column_begin;
   if (static_cast<std::int64_t>(column_begin.size()) != columns + 1 || column_begin.front() != 0 ||
-      column_begin.back() != surfaces.size()) {
-    return bad("the column index does not match the grid and the surfaces");
+      column_begin.back() != s.surfaces.size()) {
+    return "the column index does not match the grid and the surfaces";
   }
   for (std::int64_t c = 0; c < columns; ++c) {
     // Past the surfaces, the loop below would read beyond them.
-    if (column_begin[c + 1] < column_begin[c] || column_begin[c + 1] > surfaces.size()) {
-      return bad("the column index is not monotone");
+    if (column_begin[c + 1] < column_begin[c] || column_begin[c + 1] > s.surfaces.size()) {
+      return "the column index is not monotone";
     }
     std::int32_t previous_top = -1;
     float previous_ground = -std::numeric_limits<float>::infinity();
     for (std::uint32_t k = column_begin[c]; k < column_begin[c + 1]; ++k) {
-      const ColumnSurface& s = surfaces[k];
-      if (s.bottom_layer <= previous_top || s.top_layer < s.bottom_layer ||
-          s.top_layer >= geometry.size.z()) {
-        return bad("a surface's layers are unsorted or outside the grid");
+      const ColumnSurface& surface = s.surfaces[k];
+      if (surface.bottom_layer <= previous_top || surface.top_layer < surface.bottom_layer ||
+          surface.top_layer >= layers) {
+        return "a surface's layers are unsorted or outside the grid";
       }
-      if (!std::isfinite(s.ground_z_m) || !std::isfinite(s.plane_center_z_m) ||
-          !(s.tilt_rad >= 0 && s.tilt_rad <= std::numbers::pi / 2 + 1e-6) ||
-          !(s.clearance_m >= 0)) {
-        return bad("a surface's height, tilt or clearance is not a number in range");
+      if (!std::isfinite(surface.ground_z_m) || !std::isfinite(surface.plane_center_z_m) ||
+          !(surface.tilt_rad >= 0 && surface.tilt_rad <= std::numbers::pi / 2 + 1e-6) ||
+          !(surface.clearance_m >= 0)) {
+        return "a surface's height, tilt or clearance is not a number in range";
       }
       // Each ground lies in its surface's top cell, so they ascend with the layers; the
       // terrain queries stop at the first ground above a point (terrain_query.cpp).
-      if (s.ground_z_m < previous_ground) {
-        return bad("a column's ground heights do not ascend with its surfaces");
+      if (surface.ground_z_m < previous_ground) {
+        return "a column's ground heights do not ascend with its surfaces";
       }
-      previous_top = s.top_layer;
-      previous_ground = s.ground_z_m;
+      previous_top = surface.top_layer;
+      previous_ground = surface.ground_z_m;
     }
+  }
+  return {};
+}
+
+Error InconsistentSurfaces(const std::string& what) {
+  return Error{ErrorCode::kInvalidInput, "surfaces are inconsistent: " + what};
+}
+
+bool IsEmptyGrid(const GridGeometry& geometry) {
+  return !(geometry.resolution_m > 0) || (geometry.size.array() < 1).any();
+}
+
+}  // namespace
+
+Expected<SurfaceMap> SurfaceMap::FromParts(const GridGeometry& geometry,
+                                           std::vector<std::uint32_t> column_begin,
+                                           std::vector<ColumnSurface> surfaces) {
+  if (IsEmptyGrid(geometry)) return InconsistentSurfaces("empty grid");
+  ColumnSurfaces whole{std::move(column_begin), std::move(surfaces)};
+  if (std::string why = Inconsistency(whole, geometry.LayerCellCount(), geometry.size.z());
+      !why.empty()) {
+    return InconsistentSurfaces(why);
   }
   SurfaceMap map;
   map.geometry_ = geometry;
-  map.column_begin_ = std::move(column_begin);
-  map.surfaces_ = std::move(surfaces);
+  map.surface_count_ = whole.surfaces.size();
+  map.chunks_.reserve(ChunkCount(geometry));
+  const std::int64_t nx = geometry.size.x();
+  for (int k = 0; k < ChunkCount(geometry); ++k) {
+    const std::int64_t first = nx * k * kChunkRows;
+    const std::int64_t end = first + nx * ChunkRowCount(geometry, k);
+    const std::uint32_t base = whole.column_begin[first];
+    ColumnSurfaces chunk;
+    chunk.column_begin.reserve(end - first + 1);
+    for (std::int64_t c = first; c <= end; ++c) {
+      chunk.column_begin.push_back(whole.column_begin[c] - base);
+    }
+    chunk.surfaces.assign(whole.surfaces.begin() + base,
+                          whole.surfaces.begin() + whole.column_begin[end]);
+    map.chunks_.push_back(std::make_shared<const ColumnSurfaces>(std::move(chunk)));
+  }
   return map;
 }
 
+Expected<SurfaceMap> SurfaceMap::FromChunks(const GridGeometry& geometry,
+                                            std::vector<Chunk> chunks,
+                                            const SurfaceMap* checked) {
+  if (IsEmptyGrid(geometry)) return InconsistentSurfaces("empty grid");
+  if (static_cast<int>(chunks.size()) != ChunkCount(geometry)) {
+    return InconsistentSurfaces("the chunks do not cover the grid's rows");
+  }
+  const bool same_grid = checked != nullptr && checked->geometry_.size == geometry.size;
+  SurfaceMap map;
+  map.geometry_ = geometry;
+  for (int k = 0; k < ChunkCount(geometry); ++k) {
+    if (chunks[k] == nullptr) return InconsistentSurfaces("a chunk is missing");
+    map.surface_count_ += chunks[k]->surfaces.size();
+    if (same_grid && checked->chunks_[k] == chunks[k]) continue;
+    if (std::string why =
+            Inconsistency(*chunks[k], geometry.size.x() * std::int64_t{ChunkRowCount(geometry, k)},
+                          geometry.size.z());
+        !why.empty()) {
+      return InconsistentSurfaces(why);
+    }
+  }
+  map.chunks_ = std::move(chunks);
+  return map;
+}
+
+ColumnSurfaces SurfaceMap::ToParts() const {
+  ColumnSurfaces whole;
+  whole.column_begin.push_back(0);
+  for (const Chunk& chunk : chunks_) {
+    const auto base = static_cast<std::uint32_t>(whole.surfaces.size());
+    for (std::size_t c = 1; c < chunk->column_begin.size(); ++c) {
+      whole.column_begin.push_back(chunk->column_begin[c] + base);
+    }
+    whole.surfaces.insert(whole.surfaces.end(), chunk->surfaces.begin(), chunk->surfaces.end());
+  }
+  return whole;
+}
+
 std::size_t SurfaceMap::valid_surface_count() const {
-  return static_cast<std::size_t>(
-      std::count_if(surfaces_.begin(), surfaces_.end(), [](const auto& s) { return s.valid; }));
+  std::size_t count = 0;
+  for (const Chunk& chunk : chunks_) {
+    count += static_cast<std::size_t>(std::count_if(
+        chunk->surfaces.begin(), chunk->surfaces.end(), [](const auto& s) { return s.valid; }));
+  }
+  return count;
+}
+
+std::size_t SurfaceMap::MemoryBytes() const {
+  std::size_t bytes = chunks_.capacity() * sizeof(Chunk);
+  for (const Chunk& chunk : chunks_) {
+    bytes += chunk->column_begin.capacity() * sizeof(std::uint32_t) +
+             chunk->surfaces.capacity() * sizeof(ColumnSurface);
+  }
+  return bytes;
 }
 
 const ColumnSurface* SurfaceMap::SurfaceBelow(int ix, int iy, int iz) const {
@@ -231,7 +317,7 @@ Expected<ColumnSurfaces> BuildColumnSurfaces(const GridGeometry& geometry,
       // An OpenMP loop cannot break: once stopped, every remaining column is skipped.
       if (progress != nullptr) {
         if (progress->stopped()) continue;
-        if (c % kColumnsPerUnit == 0) progress->Advance(kColumnsPerUnit);
+        if (c % kColumnsPerUnit == 0) progress->Advance(std::min(kColumnsPerUnit, columns - c));
       }
       const Eigen::Vector2i column = grid_column(c);
       const int ix = column.x();

@@ -14,13 +14,6 @@
 
 namespace strata::internal {
 
-/// The surfaces of some columns, as SurfaceMap stores them: `column_begin` holds one offset
-/// per column of the window (x fastest) plus the total.
-struct ColumnSurfaces {
-  std::vector<std::uint32_t> column_begin;
-  std::vector<ColumnSurface> surfaces;
-};
-
 /// How many columns away the plane fit of a surface reads points (field.plane_fit_radius_m
 /// on a grid of `resolution_m`): a surface depends on the points of these columns and on
 /// the valid flags of its own column only.

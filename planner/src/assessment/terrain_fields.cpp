@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -12,20 +13,12 @@ Error Inconsistent(const std::string& what) {
   return Error{ErrorCode::kInvalidInput, "terrain fields are inconsistent: " + what};
 }
 
-// The eight corners of a trilinear sample: value indices (−1 outside the band) and weights.
-struct Corners {
-  std::int64_t index[8];  // (x, y, z) bits: corner k is at offset (k & 1, k >> 1 & 1, k >> 2).
-  double t[3];
-  bool clamped[3];
-  int cell[3];  // The block's lower cell centre (TerrainFields::BlockKey).
-};
-
-template <typename Decode>
-double Interpolate(const Corners& c, const Decode& decode, double inv_r,
+template <typename Value>
+double Interpolate(const double t[3], const bool clamped[3], const Value& value, double inv_r,
                    Eigen::Vector3d* gradient) {
   double v[8];
-  for (int k = 0; k < 8; ++k) v[k] = decode(c.index[k]);
-  const double tx = c.t[0], ty = c.t[1], tz = c.t[2];
+  for (int k = 0; k < 8; ++k) v[k] = value(k);
+  const double tx = t[0], ty = t[1], tz = t[2];
   const double c00 = v[0] + tx * (v[1] - v[0]);
   const double c10 = v[2] + tx * (v[3] - v[2]);
   const double c01 = v[4] + tx * (v[5] - v[4]);
@@ -37,69 +30,163 @@ double Interpolate(const Corners& c, const Decode& decode, double inv_r,
                       tz * ((1.0 - ty) * (v[5] - v[4]) + ty * (v[7] - v[6]));
     const double dy = (1.0 - tz) * (c10 - c00) + tz * (c11 - c01);
     const double dz = c1 - c0;
-    *gradient = Eigen::Vector3d(c.clamped[0] ? 0.0 : dx * inv_r, c.clamped[1] ? 0.0 : dy * inv_r,
-                                c.clamped[2] ? 0.0 : dz * inv_r);
+    *gradient = Eigen::Vector3d(clamped[0] ? 0.0 : dx * inv_r, clamped[1] ? 0.0 : dy * inv_r,
+                                clamped[2] ? 0.0 : dz * inv_r);
   }
   return c0 + tz * (c1 - c0);
+}
+
+// Why `runs`, the fields of `columns` columns of a grid of `layers` layers, are inconsistent,
+// or empty when they are not.
+std::string Inconsistency(const TerrainFields::Runs& runs, std::int64_t columns, int layers) {
+  if (static_cast<std::int64_t>(runs.column_begin.size()) != columns + 1 ||
+      runs.column_begin.front() != 0 ||
+      runs.column_begin.back() + std::size_t{1} != runs.intervals.size()) {
+    return "column index does not match the grid and the intervals";
+  }
+  if (runs.distance.size() != runs.safety.size() ||
+      runs.intervals.back().offset != runs.distance.size()) {
+    return "value arrays do not match the intervals";
+  }
+  for (std::int64_t c = 0; c < columns; ++c) {
+    const std::uint32_t begin = runs.column_begin[c], end = runs.column_begin[c + 1];
+    // Past the last entry, intervals[k + 1] below would read beyond the intervals.
+    if (end < begin || end > runs.column_begin.back()) return "column index is not monotone";
+    std::int64_t previous_end = -1;
+    for (std::uint32_t k = begin; k < end; ++k) {
+      const TerrainFields::Interval& interval = runs.intervals[k];
+      const std::int64_t count =
+          std::int64_t{runs.intervals[k + 1].offset} - std::int64_t{interval.offset};
+      if (count < 1 || interval.first_layer <= previous_end ||
+          std::int64_t{interval.first_layer} + count > layers) {
+        return "an interval is empty, unsorted or outside the grid's layers";
+      }
+      previous_end = interval.first_layer + count - 1;
+    }
+  }
+  return {};
+}
+
+// Why `scalars` cannot be fields' scalars, or empty.
+std::string Inconsistency(const TerrainFields::Scalars& scalars) {
+  const GridGeometry& g = scalars.geometry;
+  if (!(g.resolution_m > 0) || (g.size.array() < 1).any()) return "empty grid";
+  if (!(scalars.distance_cap_m > 0 && scalars.distance_cap_m <= TerrainFields::kMaxDistanceM)) {
+    return "distance cap out of (0, 32] m";
+  }
+  if (!(std::isfinite(scalars.safety_step) && scalars.safety_step >= 0) ||
+      !(std::isfinite(scalars.safety_background) && scalars.safety_background >= 0)) {
+    return "safety step or background not finite and >= 0";
+  }
+  return {};
 }
 
 }  // namespace
 
 Expected<TerrainFields> TerrainFields::FromParts(Parts parts) {
   const GridGeometry& g = parts.geometry;
-  if (!(g.resolution_m > 0) || (g.size.array() < 1).any()) return Inconsistent("empty grid");
-  if (!(parts.distance_cap_m > 0 && parts.distance_cap_m <= kMaxDistanceM)) {
-    return Inconsistent("distance cap out of (0, 32] m");
+  if (std::string why = Inconsistency(static_cast<const Scalars&>(parts)); !why.empty()) {
+    return Inconsistent(why);
   }
-  if (!(std::isfinite(parts.safety_step) && parts.safety_step >= 0) ||
-      !(std::isfinite(parts.safety_background) && parts.safety_background >= 0)) {
-    return Inconsistent("safety step or background not finite and >= 0");
+  if (std::string why = Inconsistency(static_cast<const Runs&>(parts), g.LayerCellCount(),
+                                      g.size.z());
+      !why.empty()) {
+    return Inconsistent(why);
   }
-  const std::int64_t columns = g.LayerCellCount();
-  if (static_cast<std::int64_t>(parts.column_begin.size()) != columns + 1 ||
-      parts.column_begin.front() != 0 ||
-      parts.column_begin.back() + std::size_t{1} != parts.intervals.size()) {
-    return Inconsistent("column index does not match the grid and the intervals");
-  }
-  if (parts.distance.size() != parts.safety.size() ||
-      parts.intervals.back().offset != parts.distance.size()) {
-    return Inconsistent("value arrays do not match the intervals");
-  }
-  for (std::int64_t c = 0; c < columns; ++c) {
-    const std::uint32_t begin = parts.column_begin[c], end = parts.column_begin[c + 1];
-    // Past the last entry, intervals[k + 1] below would read beyond the intervals.
-    if (end < begin || end > parts.column_begin.back()) {
-      return Inconsistent("column index is not monotone");
+  TerrainFields fields;
+  fields.scalars_ = parts;
+  fields.cell_count_ = parts.distance.size();
+  fields.chunks_.reserve(ChunkCount(g));
+  const std::int64_t nx = g.size.x();
+  for (int k = 0; k < ChunkCount(g); ++k) {
+    const std::int64_t first = nx * k * kChunkRows;
+    const std::int64_t end = first + nx * ChunkRowCount(g, k);
+    const std::uint32_t run_base = parts.column_begin[first];
+    const std::uint32_t run_end = parts.column_begin[end];
+    const std::uint32_t value_base = parts.intervals[run_base].offset;
+    const std::uint32_t value_end = parts.intervals[run_end].offset;
+    Runs chunk;
+    chunk.column_begin.reserve(end - first + 1);
+    for (std::int64_t c = first; c <= end; ++c) {
+      chunk.column_begin.push_back(parts.column_begin[c] - run_base);
     }
-    std::int64_t previous_end = -1;
-    for (std::uint32_t k = begin; k < end; ++k) {
-      const Interval& interval = parts.intervals[k];
-      const std::int64_t count =
-          std::int64_t{parts.intervals[k + 1].offset} - std::int64_t{interval.offset};
-      if (count < 1 || interval.first_layer <= previous_end ||
-          std::int64_t{interval.first_layer} + count > g.size.z()) {
-        return Inconsistent("an interval is empty, unsorted or outside the grid's layers");
-      }
-      previous_end = interval.first_layer + count - 1;
+    chunk.intervals.reserve(run_end - run_base + 1);
+    for (std::uint32_t r = run_base; r < run_end; ++r) {
+      chunk.intervals.push_back(
+          {parts.intervals[r].first_layer, parts.intervals[r].offset - value_base});
+    }
+    chunk.intervals.push_back({0, value_end - value_base});
+    chunk.distance.assign(parts.distance.begin() + value_base, parts.distance.begin() + value_end);
+    chunk.safety.assign(parts.safety.begin() + value_base, parts.safety.begin() + value_end);
+    fields.chunks_.push_back(std::make_shared<const Runs>(std::move(chunk)));
+  }
+  return fields;
+}
+
+Expected<TerrainFields> TerrainFields::FromChunks(const Scalars& scalars,
+                                                  std::vector<Chunk> chunks,
+                                                  const TerrainFields* checked) {
+  if (std::string why = Inconsistency(scalars); !why.empty()) return Inconsistent(why);
+  const GridGeometry& g = scalars.geometry;
+  if (static_cast<int>(chunks.size()) != ChunkCount(g)) {
+    return Inconsistent("the chunks do not cover the grid's rows");
+  }
+  const bool same_grid = checked != nullptr && checked->geometry().size == g.size;
+  TerrainFields fields;
+  fields.scalars_ = scalars;
+  for (int k = 0; k < ChunkCount(g); ++k) {
+    if (chunks[k] == nullptr) return Inconsistent("a chunk is missing");
+    fields.cell_count_ += chunks[k]->distance.size();
+    if (same_grid && checked->chunks_[k] == chunks[k]) continue;
+    if (std::string why = Inconsistency(*chunks[k], g.size.x() * std::int64_t{ChunkRowCount(g, k)},
+                                        g.size.z());
+        !why.empty()) {
+      return Inconsistent(why);
     }
   }
-  return TerrainFields(std::move(parts));
+  if (fields.cell_count_ > std::numeric_limits<std::uint32_t>::max()) {
+    return Inconsistent("more than 2^32 stored cells");
+  }
+  fields.chunks_ = std::move(chunks);
+  return fields;
+}
+
+TerrainFields::Parts TerrainFields::ToParts() const {
+  Parts parts;
+  static_cast<Scalars&>(parts) = scalars_;
+  parts.column_begin.push_back(0);
+  for (const Chunk& chunk : chunks_) {
+    const auto run_base = static_cast<std::uint32_t>(parts.intervals.size());
+    const auto value_base = static_cast<std::uint32_t>(parts.distance.size());
+    for (std::size_t c = 1; c < chunk->column_begin.size(); ++c) {
+      parts.column_begin.push_back(chunk->column_begin[c] + run_base);
+    }
+    for (std::size_t r = 0; r + 1 < chunk->intervals.size(); ++r) {
+      parts.intervals.push_back(
+          {chunk->intervals[r].first_layer, chunk->intervals[r].offset + value_base});
+    }
+    parts.distance.insert(parts.distance.end(), chunk->distance.begin(), chunk->distance.end());
+    parts.safety.insert(parts.safety.end(), chunk->safety.begin(), chunk->safety.end());
+  }
+  parts.intervals.push_back({0, static_cast<std::uint32_t>(parts.distance.size())});
+  return parts;
 }
 
 namespace {
 
-// The value indices of cells (column, iz) and (column, iz + 1) of `parts`, from one pass over
-// the column's intervals, into *at_iz and *above (-1 where not stored).
-void FindPair(const TerrainFields::Parts& parts, std::int64_t column, int iz, std::int64_t* at_iz,
+// The value indices of cells (column, iz) and (column, iz + 1) of `runs` (column: its index
+// there), from one pass over the column's intervals, into *at_iz and *above (-1 where not
+// stored).
+void FindPair(const TerrainFields::Runs& runs, std::int64_t column, int iz, std::int64_t* at_iz,
               std::int64_t* above) {
   *at_iz = -1;
   *above = -1;
-  const std::uint32_t end = parts.column_begin[column + 1];
-  for (std::uint32_t k = parts.column_begin[column]; k < end; ++k) {
-    const TerrainFields::Interval& interval = parts.intervals[k];
+  const std::uint32_t end = runs.column_begin[column + 1];
+  for (std::uint32_t k = runs.column_begin[column]; k < end; ++k) {
+    const TerrainFields::Interval& interval = runs.intervals[k];
     if (iz + 1 < interval.first_layer) break;
     const std::int64_t count =
-        std::int64_t{parts.intervals[k + 1].offset} - std::int64_t{interval.offset};
+        std::int64_t{runs.intervals[k + 1].offset} - std::int64_t{interval.offset};
     const std::int64_t layer = iz - std::int64_t{interval.first_layer};
     if (layer >= 0 && layer < count) *at_iz = std::int64_t{interval.offset} + layer;
     if (layer + 1 >= 0 && layer + 1 < count) *above = std::int64_t{interval.offset} + layer + 1;
@@ -136,9 +223,19 @@ AxisCell LocateOnAxis(const GridGeometry& g, double inv_r, const Eigen::Vector3d
   return {i, u - i, clamped};
 }
 
-// The corners of the sample at p.
-Corners Locate(const TerrainFields::Parts& parts, const Eigen::Vector3d& p) {
-  const GridGeometry& g = parts.geometry;
+}  // namespace
+
+// The eight corners of a trilinear sample: where their values are stored (runs == nullptr
+// outside the band) and the weights.
+struct TerrainFields::Corners {
+  CellRef at[8];  // (x, y, z) bits: corner k is at offset (k & 1, k >> 1 & 1, k >> 2).
+  double t[3];
+  bool clamped[3];
+  int cell[3];  // The block's lower cell centre (TerrainFields::BlockKey).
+};
+
+TerrainFields::Corners TerrainFields::Locate(const Eigen::Vector3d& p) const {
+  const GridGeometry& g = scalars_.geometry;
   Corners c;
   const int* i = c.cell;
   int step[3];
@@ -152,59 +249,68 @@ Corners Locate(const TerrainFields::Parts& parts, const Eigen::Vector3d& p) {
   }
   for (int k = 0; k < 4; ++k) {
     const int ix = i[0] + (k & 1) * step[0], iy = i[1] + (k >> 1) * step[1];
-    const std::int64_t column = ix + std::int64_t{g.size.x()} * iy;
-    std::int64_t above = -1;
-    FindPair(parts, column, i[2], &c.index[k], &above);
-    c.index[k + 4] = step[2] != 0 ? above : c.index[k];  // A one-layer grid: both at layer 0.
+    const Runs* runs = chunks_[iy / kChunkRows].get();
+    const std::int64_t column = ix + std::int64_t{g.size.x()} * (iy % kChunkRows);
+    std::int64_t at_iz = -1, above = -1;
+    FindPair(*runs, column, i[2], &at_iz, &above);
+    c.at[k] = at_iz < 0 ? CellRef{} : CellRef{runs, at_iz};
+    // A one-layer grid: both at layer 0.
+    if (step[2] == 0) {
+      c.at[k + 4] = c.at[k];
+    } else {
+      c.at[k + 4] = above < 0 ? CellRef{} : CellRef{runs, above};
+    }
   }
   return c;
 }
 
-}  // namespace
-
-std::int64_t TerrainFields::FindCell(const Eigen::Vector3i& cell) const {
-  if (!parts_.geometry.Contains(cell)) return -1;
+TerrainFields::CellRef TerrainFields::FindCell(const Eigen::Vector3i& cell) const {
+  const GridGeometry& g = scalars_.geometry;
+  if (!g.Contains(cell)) return {};
+  const Runs* runs = chunks_[cell.y() / kChunkRows].get();
   std::int64_t at_cell = -1, above = -1;
-  FindPair(parts_, cell.x() + std::int64_t{parts_.geometry.size.x()} * cell.y(), cell.z(), &at_cell,
-           &above);
-  return at_cell;
+  FindPair(*runs, cell.x() + std::int64_t{g.size.x()} * (cell.y() % kChunkRows), cell.z(),
+           &at_cell, &above);
+  return at_cell < 0 ? CellRef{} : CellRef{runs, at_cell};
 }
 
 double TerrainFields::Distance(const Eigen::Vector3d& p, Eigen::Vector3d* gradient) const {
-  const GridGeometry& g = parts_.geometry;
-  const Corners c = Locate(parts_, p);
+  const Corners c = Locate(p);
   return Interpolate(
-      c, [this](std::int64_t i) { return DistanceValue(i); }, 1.0 / g.resolution_m, gradient);
+      c.t, c.clamped, [&](int k) { return DistanceValue(c.at[k]); },
+      1.0 / scalars_.geometry.resolution_m, gradient);
 }
 
 double TerrainFields::SafetyPenalty(const Eigen::Vector3d& p, Eigen::Vector3d* gradient) const {
-  const GridGeometry& g = parts_.geometry;
-  const Corners c = Locate(parts_, p);
+  const Corners c = Locate(p);
   return Interpolate(
-      c, [this](std::int64_t i) { return SafetyValue(i); }, 1.0 / g.resolution_m, gradient);
+      c.t, c.clamped, [&](int k) { return SafetyValue(c.at[k]); },
+      1.0 / scalars_.geometry.resolution_m, gradient);
 }
 
 void TerrainFields::Sample(const Eigen::Vector3d& p, FieldSample* sample, FieldBlock* block) const {
-  const GridGeometry& g = parts_.geometry;
-  const Corners c = Locate(parts_, p);
+  const GridGeometry& g = scalars_.geometry;
+  const Corners c = Locate(p);
   const double inv_r = 1.0 / g.resolution_m;
   sample->distance_m = Interpolate(
-      c, [this](std::int64_t i) { return DistanceValue(i); }, inv_r, &sample->distance_gradient);
+      c.t, c.clamped, [&](int k) { return DistanceValue(c.at[k]); }, inv_r,
+      &sample->distance_gradient);
   sample->safety = Interpolate(
-      c, [this](std::int64_t i) { return SafetyValue(i); }, inv_r, &sample->safety_gradient);
+      c.t, c.clamped, [&](int k) { return SafetyValue(c.at[k]); }, inv_r,
+      &sample->safety_gradient);
   if (block == nullptr) return;
   block->key = BlockKeyOf(g, c.cell);
-  block->max_safety = SafetyValue(c.index[0]);
-  block->min_distance = DistanceValue(c.index[0]);
+  block->max_safety = SafetyValue(c.at[0]);
+  block->min_distance = DistanceValue(c.at[0]);
   for (int k = 1; k < 8; ++k) {
-    block->max_safety = std::max(block->max_safety, SafetyValue(c.index[k]));
-    block->min_distance = std::min(block->min_distance, DistanceValue(c.index[k]));
+    block->max_safety = std::max(block->max_safety, SafetyValue(c.at[k]));
+    block->min_distance = std::min(block->min_distance, DistanceValue(c.at[k]));
   }
 }
 
 TerrainFields::DistanceBounds TerrainFields::DistanceBoundsIn(
     const Eigen::AlignedBox3d& box) const {
-  const GridGeometry& g = parts_.geometry;
+  const GridGeometry& g = scalars_.geometry;
   const double inv_r = 1.0 / g.resolution_m;
   // The corners of the blocks of the box's two extreme points and of every block between.
   int low[3], count[3];
@@ -243,7 +349,7 @@ TerrainFields::DistanceBounds TerrainFields::DistanceBoundsIn(
 }
 
 std::int64_t TerrainFields::BlockKey(const Eigen::Vector3d& p) const {
-  const GridGeometry& g = parts_.geometry;
+  const GridGeometry& g = scalars_.geometry;
   const double inv_r = 1.0 / g.resolution_m;
   int cell[3];
   for (int a = 0; a < 3; ++a) cell[a] = LocateOnAxis(g, inv_r, p, a).i;
@@ -251,22 +357,26 @@ std::int64_t TerrainFields::BlockKey(const Eigen::Vector3d& p) const {
 }
 
 std::optional<double> TerrainFields::DistanceAt(const Eigen::Vector3i& cell) const {
-  const std::int64_t i = FindCell(cell);
-  if (i < 0) return std::nullopt;
-  return DistanceValue(i);
+  const CellRef at = FindCell(cell);
+  if (at.runs == nullptr) return std::nullopt;
+  return DistanceValue(at);
 }
 
 std::optional<double> TerrainFields::SafetyAt(const Eigen::Vector3i& cell) const {
-  const std::int64_t i = FindCell(cell);
-  if (i < 0) return std::nullopt;
-  return SafetyValue(i);
+  const CellRef at = FindCell(cell);
+  if (at.runs == nullptr) return std::nullopt;
+  return SafetyValue(at);
 }
 
 std::size_t TerrainFields::MemoryBytes() const {
-  return parts_.column_begin.capacity() * sizeof(std::uint32_t) +
-         parts_.intervals.capacity() * sizeof(Interval) +
-         parts_.distance.capacity() * sizeof(std::int16_t) +
-         parts_.safety.capacity() * sizeof(std::uint16_t);
+  std::size_t bytes = chunks_.capacity() * sizeof(Chunk);
+  for (const Chunk& chunk : chunks_) {
+    bytes += chunk->column_begin.capacity() * sizeof(std::uint32_t) +
+             chunk->intervals.capacity() * sizeof(Interval) +
+             chunk->distance.capacity() * sizeof(std::int16_t) +
+             chunk->safety.capacity() * sizeof(std::uint16_t);
+  }
+  return bytes;
 }
 
 }  // namespace strata

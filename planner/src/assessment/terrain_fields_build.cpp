@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <utility>
 #include <vector>
 
@@ -19,6 +20,11 @@ namespace {
 constexpr int kTileColumns = 64;
 
 using LayerRange = std::pair<int, int>;  // [first, last] layers, inclusive.
+
+Error TooManyCells() {
+  return Error{ErrorCode::kResourceExhausted,
+               "the map's field band needs more than 2^32 cells: use a coarser resolution"};
+}
 
 int LayerOf(const GridGeometry& g, double z) {
   const double layer = std::floor((z - g.origin_m.z()) / g.resolution_m);
@@ -140,10 +146,7 @@ Expected<TerrainFields::Parts> BuildFieldParts(const SurfaceMap& surfaces, const
   std::uint64_t cells = 0;
   for (TerrainFields::Interval& interval : parts.intervals) {
     const std::uint64_t count = interval.offset;
-    if (cells > std::numeric_limits<std::uint32_t>::max()) {
-      return Error{ErrorCode::kResourceExhausted,
-                   "the map's field band needs more than 2^32 cells: use a coarser resolution"};
-    }
+    if (cells > std::numeric_limits<std::uint32_t>::max()) return TooManyCells();
     interval.offset = static_cast<std::uint32_t>(cells);
     cells += count;
   }
@@ -157,8 +160,6 @@ Expected<TerrainFields::Parts> BuildFieldParts(const SurfaceMap& surfaces, const
   const int halo_d = FieldReachOf(field, grid, g.resolution_m).points;
   const int tiles_x = (wx + kTileColumns - 1) / kTileColumns;
   const int tiles_y = (wy + kTileColumns - 1) / kTileColumns;
-  if (progress != nullptr)
-    progress->BeginStage(AssessmentStage::kFields, std::int64_t{tiles_x} * tiles_y);
 #pragma omp parallel num_threads(num_threads)
   {
     std::vector<LayerRange> layers;
@@ -231,13 +232,35 @@ Expected<TerrainFields::Parts> BuildFieldParts(const SurfaceMap& surfaces, const
   return parts;
 }
 
+std::int64_t FieldTileCount(const CellBox& window) {
+  const Eigen::Vector3i size = window.size();
+  return std::int64_t{(size.x() + kTileColumns - 1) / kTileColumns} *
+         ((size.y() + kTileColumns - 1) / kTileColumns);
+}
+
 Expected<TerrainFields> BuildTerrainFields(const SurfaceMap& surfaces, const ColumnCloud& cloud,
                                            const FieldConfig& field, const GridConfig& grid,
                                            int num_threads, ProgressReporter* progress) {
-  Expected<TerrainFields::Parts> parts = BuildFieldParts(
-      surfaces, cloud, CellBox::Whole(surfaces.geometry()), field, grid, num_threads, progress);
-  if (!parts) return parts.error();
-  return TerrainFields::FromParts(std::move(parts).value());
+  // Chunk by chunk: a column's values do not depend on the window.
+  const GridGeometry& g = surfaces.geometry();
+  std::int64_t tiles = 0;
+  for (int k = 0; k < ChunkCount(g); ++k) tiles += FieldTileCount(ChunkColumns(g, k));
+  if (progress != nullptr) progress->BeginStage(AssessmentStage::kFields, tiles);
+  TerrainFields::Scalars scalars;
+  std::vector<TerrainFields::Chunk> chunks;
+  chunks.reserve(ChunkCount(g));
+  std::uint64_t cells = 0;
+  for (int k = 0; k < ChunkCount(g); ++k) {
+    Expected<TerrainFields::Parts> parts = BuildFieldParts(
+        surfaces, cloud, ChunkColumns(g, k), field, grid, num_threads, progress);
+    if (!parts) return parts.error();
+    cells += parts->distance.size();
+    if (cells > std::numeric_limits<std::uint32_t>::max()) return TooManyCells();
+    scalars = *parts;
+    chunks.push_back(std::make_shared<const TerrainFields::Runs>(
+        std::move(static_cast<TerrainFields::Runs&>(*parts))));
+  }
+  return TerrainFields::FromChunks(scalars, std::move(chunks));
 }
 
 }  // namespace strata::internal

@@ -26,14 +26,18 @@ FieldReach FieldReachOf(const FieldConfig& field, const GridConfig& grid, double
 /// (inside the grid). The parts' column_begin covers the window's columns only (x fastest).
 /// A column's values do not depend on the window (each value reads only cells within the
 /// reaches above): tile by tile with `num_threads` threads, peak scratch is one tile's dense
-/// block per thread. `progress` (may be null) counts tiles (stage kFields) and may stop the
-/// work: kCancelled. kResourceExhausted when the band would exceed 2^32 cells.
+/// block per thread. `progress` (may be null) counts tiles (FieldTileCount of the window; the
+/// caller begins the stage) and may stop the work: kCancelled. kResourceExhausted when the
+/// band would exceed 2^32 cells.
 Expected<TerrainFields::Parts> BuildFieldParts(const SurfaceMap& surfaces, const ColumnCloud& cloud,
                                                const CellBox& window, const FieldConfig& field,
                                                const GridConfig& grid, int num_threads,
                                                ProgressReporter* progress);
 
-/// BuildFieldParts over the whole grid, as TerrainFields.
+/// The tiles BuildFieldParts counts over `window`.
+std::int64_t FieldTileCount(const CellBox& window);
+
+/// BuildFieldParts over the whole grid, chunk by chunk, as TerrainFields.
 Expected<TerrainFields> BuildTerrainFields(const SurfaceMap& surfaces, const ColumnCloud& cloud,
                                            const FieldConfig& field, const GridConfig& grid,
                                            int num_threads, ProgressReporter* progress);

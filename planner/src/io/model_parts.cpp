@@ -50,23 +50,53 @@ bool ReadGeometry(binary_file::Reader& reader, GridGeometry* g) {
          (g->size.array() >= 1).all();
 }
 
-Expected<std::shared_ptr<const TerrainModel>> BuildModel(Payload payload, const std::string& noun,
-                                                         const std::string& name) {
+namespace {
+
+// The model of `config`, `summary` and its parts, each made by FromParts or FromChunks
+// (kMapLoadFailed: "<noun> <name> ...").
+Expected<std::shared_ptr<const TerrainModel>> ModelOf(const AssessmentConfig& config,
+                                                      const AssessmentSummary& summary,
+                                                      Expected<SurfaceMap> surfaces,
+                                                      Expected<TerrainFields> fields,
+                                                      const std::string& noun,
+                                                      const std::string& name) {
   const auto fail = [&](const std::string& what) {
     return Error{ErrorCode::kMapLoadFailed, noun + " " + name + " " + what};
   };
-  if (Status s = payload.config.Validate(); !s) {
+  if (Status s = config.Validate(); !s) {
     return fail("holds invalid assessment parameters: " + s.error().message);
   }
-  Expected<SurfaceMap> surfaces = SurfaceMap::FromParts(
-      payload.surface_geometry, std::move(payload.column_begin), std::move(payload.surfaces));
   if (!surfaces) return fail("is inconsistent: " + surfaces.error().message);
-  Expected<TerrainFields> fields = TerrainFields::FromParts(std::move(payload.fields));
   if (!fields) return fail("is inconsistent: " + fields.error().message);
   Expected<std::shared_ptr<const TerrainModel>> model = TerrainModel::FromParts(
-      payload.config, payload.summary, std::move(surfaces).value(), std::move(fields).value());
+      config, summary, std::move(surfaces).value(), std::move(fields).value());
   if (!model) return fail("is inconsistent: " + model.error().message);
   return model;
+}
+
+}  // namespace
+
+Expected<std::shared_ptr<const TerrainModel>> BuildModel(Payload payload, const std::string& noun,
+                                                         const std::string& name) {
+  Expected<SurfaceMap> surfaces = SurfaceMap::FromParts(
+      payload.surface_geometry, std::move(payload.column_begin), std::move(payload.surfaces));
+  Expected<TerrainFields> fields = TerrainFields::FromParts(std::move(payload.fields));
+  return ModelOf(payload.config, payload.summary, std::move(surfaces), std::move(fields), noun,
+                 name);
+}
+
+Expected<std::shared_ptr<const TerrainModel>> BuildModelFromChunks(
+    const Payload& payload, std::vector<SurfaceMap::Chunk> surface_chunks,
+    std::vector<TerrainFields::Chunk> field_chunks, const TerrainModel* checked,
+    const std::string& noun, const std::string& name) {
+  Expected<SurfaceMap> surfaces =
+      SurfaceMap::FromChunks(payload.surface_geometry, std::move(surface_chunks),
+                             checked != nullptr ? &checked->surfaces() : nullptr);
+  Expected<TerrainFields> fields =
+      TerrainFields::FromChunks(payload.fields, std::move(field_chunks),
+                                checked != nullptr ? &checked->fields() : nullptr);
+  return ModelOf(payload.config, payload.summary, std::move(surfaces), std::move(fields), noun,
+                 name);
 }
 
 }  // namespace strata::model_parts

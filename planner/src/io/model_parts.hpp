@@ -42,4 +42,12 @@ struct Payload {
 Expected<std::shared_ptr<const TerrainModel>> BuildModel(Payload payload, const std::string& noun,
                                                          const std::string& name);
 
+// The model of `payload`'s parameters, summary and scalars (its arrays unused) and of the
+// chunks of its surfaces and fields, checked as BuildModel checks, but for the chunks it shares
+// with `checked` (may be null), which were checked when that model was made.
+Expected<std::shared_ptr<const TerrainModel>> BuildModelFromChunks(
+    const Payload& payload, std::vector<SurfaceMap::Chunk> surface_chunks,
+    std::vector<TerrainFields::Chunk> field_chunks, const TerrainModel* checked,
+    const std::string& noun, const std::string& name);
+
 }  // namespace strata::model_parts

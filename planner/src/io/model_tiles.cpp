@@ -12,7 +12,7 @@
 
 #include "binary_file.hpp"
 #include "model_parts.hpp"
-#include "prefault_internal.hpp"
+#include "column_chunks_internal.hpp"
 #include "strata/io/saved_model.hpp"
 
 namespace strata {
@@ -63,24 +63,30 @@ void Append(std::string* out, T value) {
   out->append(bytes, sizeof(T));
 }
 
+// The chunk that holds `block`'s columns (a row of blocks is one chunk), and the index
+// there of column (x, y) of the block.
+int ChunkOf(const Block& block) { return block.y0 / kChunkRows; }
+std::int64_t ColumnInChunk(const GridGeometry& g, int x, int y) {
+  return x + std::int64_t{g.size.x()} * (y % kChunkRows);
+}
+
 std::string CutTile(const TerrainModel& model, const Block& block) {
-  const SurfaceMap& surfaces = model.surfaces();
-  const TerrainFields::Parts& f = model.fields().parts();
-  const std::int64_t nx = model.grid().size.x();
+  const ColumnSurfaces& surfaces = *model.surfaces().chunks()[ChunkOf(block)];
+  const TerrainFields::Runs& f = *model.fields().chunks()[ChunkOf(block)];
   const auto for_each_column = [&](const auto& visit) {
     for (int y = block.y0; y < block.y1; ++y) {
-      for (int x = block.x0; x < block.x1; ++x) visit(x + nx * y);
+      for (int x = block.x0; x < block.x1; ++x) visit(ColumnInChunk(model.grid(), x, y));
     }
   };
   std::string tile;
-  const std::vector<std::uint32_t>& surface_begin = surfaces.column_begin();
+  const std::vector<std::uint32_t>& surface_begin = surfaces.column_begin;
   for_each_column([&](std::int64_t c) {
     Append<std::uint32_t>(&tile, surface_begin[c + 1] - surface_begin[c]);
   });
   for_each_column([&](std::int64_t c) {
     for (std::uint32_t i = surface_begin[c]; i < surface_begin[c + 1]; ++i) {
       char bytes[kSurfaceRecordBytes];
-      model_parts::EncodeSurface(surfaces.all_surfaces()[i], bytes);
+      model_parts::EncodeSurface(surfaces.surfaces[i], bytes);
       tile.append(bytes, sizeof(bytes));
     }
   });
@@ -113,7 +119,7 @@ std::string CutTile(const TerrainModel& model, const Block& block) {
 // What the header holds besides the arrays.
 struct Header {
   model_parts::Payload payload;  // Arrays empty.
-  std::int32_t sentinel_layer = 0;
+  std::int32_t sentinel_layer = 0;  // Read, of no meaning (WriteHeaderWith).
   // What the tiles hold together, so that the arrays are allocated once.
   std::uint64_t surface_total = 0, run_total = 0, value_total = 0;
 };
@@ -125,11 +131,11 @@ void WriteHeaderWith(binary_file::Sink& sink, const TerrainModel& model,
   binary_file::WriteFields(sink, model.config());
   binary_file::WriteFields(sink, model.summary());
   model_parts::WriteGeometry(sink, model.grid());
-  const TerrainFields::Parts& f = model.fields().parts();
+  const TerrainFields::Scalars& f = model.fields().scalars();
   sink.Value(f.distance_cap_m);
   sink.Value(f.safety_step);
   sink.Value(f.safety_background);
-  sink.Value(f.intervals.back().first_layer);
+  sink.Value(std::int32_t{0});  // The runs' sentinel's first layer (of no meaning).
   sink.Value(static_cast<std::uint32_t>(kTileColumns));
   sink.Value(surface_total);
   sink.Value(run_total);
@@ -137,10 +143,12 @@ void WriteHeaderWith(binary_file::Sink& sink, const TerrainModel& model,
 }
 
 void WriteHeader(binary_file::Sink& sink, const TerrainModel& model) {
-  const TerrainFields::Parts& f = model.fields().parts();
-  WriteHeaderWith(sink, model, model.surfaces().all_surfaces().size(),
-                  f.intervals.size() - 1,  // The sentinel aside.
-                  f.distance.size());
+  std::uint64_t runs = 0;
+  for (const TerrainFields::Chunk& chunk : model.fields().chunks()) {
+    runs += chunk->intervals.size() - 1;  // The sentinel aside.
+  }
+  WriteHeaderWith(sink, model, model.surfaces().surface_count(), runs,
+                  model.fields().cell_count());
 }
 
 bool ReadHeader(binary_file::Reader& reader, Header* h, std::string* problem) {
@@ -214,28 +222,32 @@ struct TileReader {
     return {};
   }
 
-  // Appends the next column's surfaces and fields to `p`; false for a bad surface record.
-  // The values of a column's runs lie together: they are copied at once.
-  bool NextColumn(model_parts::Payload* p, std::uint64_t* value_offset) {
+  // Appends the next column's surfaces and fields, with their offsets, to `surfaces_out` and
+  // `fields_out`; false for a bad surface record. The values of a column's runs lie together:
+  // they are copied at once.
+  bool NextColumn(ColumnSurfaces* surfaces_out, TerrainFields::Runs* fields_out) {
+    std::vector<ColumnSurface>& out = surfaces_out->surfaces;
+    surfaces_out->column_begin.push_back(static_cast<std::uint32_t>(out.size()));
     const auto surfaces_here = Decode<std::uint32_t>(surface_counts + column * kCountBytes);
-    const std::size_t first_surface = p->surfaces.size();
-    p->surfaces.resize(first_surface + surfaces_here);
+    const std::size_t first_surface = out.size();
+    out.resize(first_surface + surfaces_here);
     for (std::uint32_t i = 0; i < surfaces_here; ++i, ++surface) {
       if (!model_parts::DecodeSurface(surfaces + surface * kSurfaceRecordBytes,
-                                      &p->surfaces[first_surface + i])) {
+                                      &out[first_surface + i])) {
         return false;
       }
     }
+    TerrainFields::Runs& f = *fields_out;
+    f.column_begin.push_back(static_cast<std::uint32_t>(f.intervals.size()));
     const auto runs_here = Decode<std::uint32_t>(run_counts + column * kCountBytes);
-    TerrainFields::Parts& f = p->fields;
+    const std::size_t first_value = f.distance.size();
     std::uint64_t layers_here = 0;
     for (std::uint32_t k = 0; k < runs_here; ++k, ++run) {
       const char* at = runs + run * kRunBytes;
       f.intervals.push_back(
-          {Decode<std::int32_t>(at), static_cast<std::uint32_t>(*value_offset + layers_here)});
+          {Decode<std::int32_t>(at), static_cast<std::uint32_t>(first_value + layers_here)});
       layers_here += Decode<std::uint32_t>(at + 4);
     }
-    const std::size_t first_value = f.distance.size();
     f.distance.resize(first_value + layers_here);
     f.safety.resize(first_value + layers_here);
     std::memcpy(f.distance.data() + first_value, distance + value * sizeof(std::int16_t),
@@ -243,7 +255,6 @@ struct TileReader {
     std::memcpy(f.safety.data() + first_value, safety + value * sizeof(std::uint16_t),
                 layers_here * sizeof(std::uint16_t));
     value += layers_here;
-    *value_offset += layers_here;
     ++column;
     return true;
   }
@@ -254,47 +265,19 @@ struct HeldTile {
   std::uint64_t surface_total = 0, run_total = 0, value_total = 0;
 
   HeldTile(const TerrainModel& model, const Block& block) {
-    const std::vector<std::uint32_t>& surface_begin = model.surfaces().column_begin();
-    const TerrainFields::Parts& f = model.fields().parts();
-    const std::int64_t nx = model.grid().size.x();
+    const ColumnSurfaces& s = *model.surfaces().chunks()[ChunkOf(block)];
+    const TerrainFields::Runs& f = *model.fields().chunks()[ChunkOf(block)];
     // A block's columns of one grid row lie together.
     for (int y = block.y0; y < block.y1; ++y) {
-      const std::int64_t first = block.x0 + nx * y, end = block.x1 + nx * y;
-      surface_total += surface_begin[end] - surface_begin[first];
+      const std::int64_t first = ColumnInChunk(model.grid(), block.x0, y);
+      const std::int64_t end = ColumnInChunk(model.grid(), block.x1, y);
+      surface_total += s.column_begin[end] - s.column_begin[first];
       run_total += f.column_begin[end] - f.column_begin[first];
       value_total +=
           f.intervals[f.column_begin[end]].offset - f.intervals[f.column_begin[first]].offset;
     }
   }
 };
-
-// Appends columns [first, end) of `model` to `p`, with their offsets, as TileReader::NextColumn
-// does column by column from its bytes: a run of each array copied at once.
-void AppendHeldColumns(const TerrainModel& model, std::int64_t first, std::int64_t end,
-                       model_parts::Payload* p, std::uint64_t* value_offset) {
-  const std::vector<std::uint32_t>& surface_begin = model.surfaces().column_begin();
-  const std::vector<ColumnSurface>& surfaces = model.surfaces().all_surfaces();
-  const auto surface_shift = static_cast<std::uint32_t>(p->surfaces.size()) - surface_begin[first];
-  for (std::int64_t c = first; c < end; ++c)
-    p->column_begin.push_back(surface_begin[c] + surface_shift);
-  p->surfaces.insert(p->surfaces.end(), surfaces.begin() + surface_begin[first],
-                     surfaces.begin() + surface_begin[end]);
-  const TerrainFields::Parts& f = model.fields().parts();
-  TerrainFields::Parts& out = p->fields;
-  const auto run_shift = static_cast<std::uint32_t>(out.intervals.size()) - f.column_begin[first];
-  for (std::int64_t c = first; c < end; ++c)
-    out.column_begin.push_back(f.column_begin[c] + run_shift);
-  const std::uint32_t first_value = f.intervals[f.column_begin[first]].offset;
-  const std::uint32_t end_value = f.intervals[f.column_begin[end]].offset;
-  const auto value_shift = static_cast<std::uint32_t>(*value_offset) - first_value;
-  for (std::uint32_t k = f.column_begin[first]; k < f.column_begin[end]; ++k) {
-    out.intervals.push_back({f.intervals[k].first_layer, f.intervals[k].offset + value_shift});
-  }
-  out.distance.insert(out.distance.end(), f.distance.begin() + first_value,
-                      f.distance.begin() + end_value);
-  out.safety.insert(out.safety.end(), f.safety.begin() + first_value, f.safety.begin() + end_value);
-  *value_offset += end_value - first_value;
-}
 
 }  // namespace
 
@@ -366,8 +349,8 @@ Expected<std::shared_ptr<const TerrainModel>> JoinTiles(
   };
   Expected<Header> parsed = ParseHeader(header_bytes, name);
   if (!parsed) return parsed.error();
-  Header& header = *parsed;
-  model_parts::Payload& p = header.payload;
+  const Header& header = *parsed;
+  const model_parts::Payload& p = header.payload;
   const GridGeometry& g = p.surface_geometry;
   if (tile_count != TileCount(g)) {
     return fail("has " + std::to_string(tile_count) + " tiles; its grid of " +
@@ -387,118 +370,134 @@ Expected<std::shared_ptr<const TerrainModel>> JoinTiles(
     return fail("counts more surfaces, runs or layers than its " + std::to_string(tile_bytes) +
                 " bytes of tiles can hold");
   }
-  const std::int64_t columns = g.LayerCellCount();
-  p.column_begin.reserve(columns + 1);
-  p.fields.column_begin.reserve(columns + 1);
-  // A window holds what its tiles' bytes can (the header counts the whole model's).
-  p.surfaces.reserve(window ? tile_bytes / kSurfaceRecordBytes : header.surface_total);
-  p.fields.intervals.reserve((window ? tile_bytes / kRunBytes : header.run_total) + 1);
-  p.fields.distance.reserve(window ? tile_bytes / kValueBytes : header.value_total);
-  p.fields.safety.reserve(p.fields.distance.capacity());
-  const std::array<internal::PageRegion, 6> filled = {
-      internal::CapacityOf(p.column_begin),        internal::CapacityOf(p.surfaces),
-      internal::CapacityOf(p.fields.column_begin), internal::CapacityOf(p.fields.intervals),
-      internal::CapacityOf(p.fields.distance),     internal::CapacityOf(p.fields.safety)};
-  // The arrays are filled on this thread; their pages are faulted in on another.
-  std::optional<Error> failed =
-      internal::FillWithPagesFaultedAhead(filled, [&]() -> std::optional<Error> {
-        // One row of blocks at a time: the columns of a grid row lie in every block of its row.
-        const int blocks_x = BlocksAlong(g.size.x());
-        std::vector<std::string> row(blocks_x);
-        std::vector<TileReader> readers(blocks_x);
-        // Whether each tile of the row is the held model's (its block is then copied from it).
-        std::vector<bool> from_held(blocks_x, false);
-        std::vector<bool> in_window(blocks_x, true);  // Outside a window: empty columns.
-        const TerrainModel* held_model =
-            held != nullptr && held->model != nullptr && held->same &&
-                    held->model->grid().size.head<2>() == g.size.head<2>()
-                ? held->model
-                : nullptr;
-        std::uint64_t surfaces = 0, runs = 0, values = 0, value_offset = 0, bytes_read = 0;
-        for (int y0 = 0; y0 < g.size.y(); y0 += kTileColumns) {
-          for (int bx = 0; bx < blocks_x; ++bx) {
-            const std::size_t t = std::size_t(y0 / kTileColumns) * blocks_x + bx;
-            in_window[bx] = window == nullptr || (*window)[t];
-            if (!in_window[bx]) continue;
-            from_held[bx] = held_model != nullptr && held->same(t);
-            if (from_held[bx]) {
-              const HeldTile tile(*held_model, BlockOf(g, t));
-              surfaces += tile.surface_total;
-              runs += tile.run_total;
-              values += tile.value_total;
-              if (surfaces > header.surface_total || runs > header.run_total ||
-                  values > header.value_total) {
-                return fail("tile " + std::to_string(t) + " holds more than its header counts");
-              }
-              continue;
-            }
-            Expected<std::string> bytes = source(t);
-            if (!bytes) return bytes.error();
-            bytes_read += bytes->size();
-            if (bytes_read > tile_bytes) {
-              return fail("tile " + std::to_string(t) + " goes past the " +
-                          std::to_string(tile_bytes) + " bytes its tiles were said to hold");
-            }
-            row[bx] = std::move(bytes).value();
-            readers[bx] = TileReader{};
-            if (std::string why = readers[bx].Open(row[bx], BlockOf(g, t).columns());
-                !why.empty()) {
-              return fail("tile " + std::to_string(t) + " " + why);
-            }
-            surfaces += readers[bx].surface_total;
-            runs += readers[bx].run_total;
-            values += readers[bx].value_total;
-            if (surfaces > header.surface_total || runs > header.run_total ||
-                values > header.value_total) {
-              return fail("tile " + std::to_string(t) + " holds more than its header counts");
-            }
-          }
-          for (int y = y0; y < std::min(g.size.y(), y0 + kTileColumns); ++y) {
-            for (int x = 0; x < g.size.x();) {
-              if (from_held[x / kTileColumns]) {
-                // The held blocks next to each other in this row: one run of the held model's.
-                const int end = EndOfBlockRun(from_held, x, g.size.x());
-                const std::int64_t row = std::int64_t{g.size.x()} * y;
-                AppendHeldColumns(*held_model, row + x, row + end, &p, &value_offset);
-                x = end;
-                continue;
-              }
-              if (!in_window[x / kTileColumns]) {
-                // The blocks outside the window next to each other in this row: empty columns,
-                // appended at once (a 1 km site's window holds a few of its 25 M columns).
-                const int end = EndOfBlockRun(in_window, x, g.size.x());
-                p.column_begin.insert(p.column_begin.end(), end - x,
-                                      static_cast<std::uint32_t>(p.surfaces.size()));
-                p.fields.column_begin.insert(p.fields.column_begin.end(), end - x,
-                                             static_cast<std::uint32_t>(p.fields.intervals.size()));
-                x = end;
-                continue;
-              }
-              p.column_begin.push_back(static_cast<std::uint32_t>(p.surfaces.size()));
-              p.fields.column_begin.push_back(
-                  static_cast<std::uint32_t>(p.fields.intervals.size()));
-              if (!readers[x / kTileColumns].NextColumn(&p, &value_offset)) {
-                return fail("tile " +
-                            std::to_string(std::size_t(y0 / kTileColumns) * blocks_x +
-                                           std::size_t(x / kTileColumns)) +
-                            " holds a surface with a bad valid flag");
-              }
-              ++x;
-            }
-          }
+  const TerrainModel* held_model = held != nullptr && held->model != nullptr && held->same &&
+                                           held->model->grid().size.head<2>() == g.size.head<2>()
+                                       ? held->model
+                                       : nullptr;
+  std::vector<SurfaceMap::Chunk> surface_chunks;
+  std::vector<TerrainFields::Chunk> field_chunks;
+  // The chunks of a window's rows that hold no tile of it: all empty, one pair of them shared
+  // (the last chunk's rows may be fewer: a pair of its own).
+  SurfaceMap::Chunk empty_surfaces;
+  TerrainFields::Chunk empty_fields;
+  const int blocks_x = BlocksAlong(g.size.x());
+  std::vector<std::string> row(blocks_x);
+  std::vector<TileReader> readers(blocks_x);
+  // Whether each tile of the row is the held model's (its block is then taken from it).
+  std::vector<bool> from_held(blocks_x, false);
+  std::vector<bool> in_window(blocks_x, true);  // Outside a window: empty columns.
+  std::uint64_t surfaces = 0, runs = 0, values = 0, bytes_read = 0;
+  for (int k = 0; k < ChunkCount(g); ++k) {
+    const int y0 = k * kChunkRows;
+    // What this row's tiles hold, so that its chunk is allocated once.
+    std::uint64_t row_surfaces = 0, row_runs = 0, row_values = 0;
+    for (int bx = 0; bx < blocks_x; ++bx) {
+      const std::size_t t = std::size_t(k) * blocks_x + bx;
+      in_window[bx] = window == nullptr || (*window)[t];
+      from_held[bx] = in_window[bx] && held_model != nullptr && held->same(t);
+      if (!in_window[bx]) continue;
+      if (from_held[bx]) {
+        const HeldTile tile(*held_model, BlockOf(g, t));
+        row_surfaces += tile.surface_total;
+        row_runs += tile.run_total;
+        row_values += tile.value_total;
+      } else {
+        Expected<std::string> bytes = source(t);
+        if (!bytes) return bytes.error();
+        bytes_read += bytes->size();
+        if (bytes_read > tile_bytes) {
+          return fail("tile " + std::to_string(t) + " goes past the " +
+                      std::to_string(tile_bytes) + " bytes its tiles were said to hold");
         }
-        if (window == nullptr && (surfaces != header.surface_total || runs != header.run_total ||
-                                  values != header.value_total)) {
-          return fail("holds fewer surfaces, runs or layers than its header counts");
+        row[bx] = std::move(bytes).value();
+        readers[bx] = TileReader{};
+        if (std::string why = readers[bx].Open(row[bx], BlockOf(g, t).columns()); !why.empty()) {
+          return fail("tile " + std::to_string(t) + " " + why);
         }
-        p.column_begin.push_back(static_cast<std::uint32_t>(p.surfaces.size()));
-        p.fields.column_begin.push_back(static_cast<std::uint32_t>(p.fields.intervals.size()));
-        p.fields.intervals.push_back(
-            {header.sentinel_layer, static_cast<std::uint32_t>(value_offset)});
-        return std::nullopt;
-      });
-  if (failed) return *std::move(failed);
-  return model_parts::BuildModel(std::move(p), "tiled model", name);
+        row_surfaces += readers[bx].surface_total;
+        row_runs += readers[bx].run_total;
+        row_values += readers[bx].value_total;
+      }
+      if (surfaces + row_surfaces > header.surface_total || runs + row_runs > header.run_total ||
+          values + row_values > header.value_total) {
+        return fail("tile " + std::to_string(t) + " holds more than its header counts");
+      }
+    }
+    surfaces += row_surfaces;
+    runs += row_runs;
+    values += row_values;
+    const std::int64_t columns = std::int64_t{g.size.x()} * ChunkRowCount(g, k);
+    if (std::find(from_held.begin(), from_held.end(), false) == from_held.end()) {
+      // Every tile of the row is the held model's: so is its chunk, shared.
+      surface_chunks.push_back(held_model->surfaces().chunks()[k]);
+      field_chunks.push_back(held_model->fields().chunks()[k]);
+      continue;
+    }
+    if (std::find(in_window.begin(), in_window.end(), true) == in_window.end()) {
+      if (empty_surfaces == nullptr || std::ssize(empty_surfaces->column_begin) != columns + 1) {
+        ColumnSurfaces none;
+        none.column_begin.assign(columns + 1, 0);
+        empty_surfaces = std::make_shared<const ColumnSurfaces>(std::move(none));
+        TerrainFields::Runs no_runs;
+        no_runs.column_begin.assign(columns + 1, 0);
+        no_runs.intervals.push_back({0, 0});
+        empty_fields = std::make_shared<const TerrainFields::Runs>(std::move(no_runs));
+      }
+      surface_chunks.push_back(empty_surfaces);
+      field_chunks.push_back(empty_fields);
+      continue;
+    }
+    ColumnSurfaces chunk_surfaces;
+    chunk_surfaces.column_begin.reserve(columns + 1);
+    chunk_surfaces.surfaces.reserve(row_surfaces);
+    TerrainFields::Runs chunk_fields;
+    chunk_fields.column_begin.reserve(columns + 1);
+    chunk_fields.intervals.reserve(row_runs + 1);
+    chunk_fields.distance.reserve(row_values);
+    chunk_fields.safety.reserve(row_values);
+    for (int y = y0; y < y0 + ChunkRowCount(g, k); ++y) {
+      for (int x = 0; x < g.size.x();) {
+        if (from_held[x / kTileColumns]) {
+          // The held blocks next to each other in this row: one run of the held chunk's columns.
+          const int end = EndOfBlockRun(from_held, x, g.size.x());
+          const std::int64_t first = ColumnInChunk(g, x, y);
+          const std::int64_t last = first + (end - x);
+          internal::AppendColumns(*held_model->surfaces().chunks()[k], first, last,
+                                  &chunk_surfaces);
+          internal::AppendColumns(*held_model->fields().chunks()[k], first, last, &chunk_fields);
+          x = end;
+          continue;
+        }
+        if (!in_window[x / kTileColumns]) {
+          // The blocks outside the window next to each other in this row: empty columns.
+          const int end = EndOfBlockRun(in_window, x, g.size.x());
+          chunk_surfaces.column_begin.insert(
+              chunk_surfaces.column_begin.end(), end - x,
+              static_cast<std::uint32_t>(chunk_surfaces.surfaces.size()));
+          chunk_fields.column_begin.insert(chunk_fields.column_begin.end(), end - x,
+                                           static_cast<std::uint32_t>(chunk_fields.intervals.size()));
+          x = end;
+          continue;
+        }
+        if (!readers[x / kTileColumns].NextColumn(&chunk_surfaces, &chunk_fields)) {
+          return fail("tile " +
+                      std::to_string(std::size_t(k) * blocks_x + std::size_t(x / kTileColumns)) +
+                      " holds a surface with a bad valid flag");
+        }
+        ++x;
+      }
+    }
+    internal::FinishColumns(&chunk_surfaces);
+    internal::FinishColumns(&chunk_fields);
+    surface_chunks.push_back(std::make_shared<const ColumnSurfaces>(std::move(chunk_surfaces)));
+    field_chunks.push_back(std::make_shared<const TerrainFields::Runs>(std::move(chunk_fields)));
+  }
+  if (window == nullptr && (surfaces != header.surface_total || runs != header.run_total ||
+                            values != header.value_total)) {
+    return fail("holds fewer surfaces, runs or layers than its header counts");
+  }
+  return model_parts::BuildModelFromChunks(p, std::move(surface_chunks), std::move(field_chunks),
+                                           held_model, "tiled model", name);
 }
 
 }  // namespace

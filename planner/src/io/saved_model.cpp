@@ -30,29 +30,81 @@ const binary_file::FileKind kSavedModelKind{kSavedModelMagic, kSavedModelFormatV
                                             "saved model",
                                             "assess the map again and save it with this build"};
 
+// The column offsets of `chunks` as one array over the whole grid, as Sink::Array writes it:
+// each chunk's offsets moved by `held(chunk)` of every chunk before it.
+template <typename Chunk, typename Held>
+void WriteJoinedOffsets(Sink& sink, const std::vector<Chunk>& chunks, const Held& held) {
+  std::uint64_t count = 1;
+  for (const Chunk& chunk : chunks) count += chunk->column_begin.size() - 1;
+  sink.Value(count);
+  sink.Value(std::uint32_t{0});
+  std::uint32_t base = 0;
+  std::vector<std::uint32_t> moved;
+  for (const Chunk& chunk : chunks) {
+    moved.assign(chunk->column_begin.begin() + 1, chunk->column_begin.end());
+    for (std::uint32_t& offset : moved) offset += base;
+    sink.Bytes(moved.data(), moved.size() * sizeof(std::uint32_t));
+    base += static_cast<std::uint32_t>(held(*chunk));
+  }
+}
+
+// The fields' values of every chunk, one after another, as Sink::Array writes one array.
+template <typename Values>
+void WriteJoinedValues(Sink& sink, const TerrainFields& fields, const Values& values) {
+  sink.Value(static_cast<std::uint64_t>(fields.cell_count()));
+  for (const TerrainFields::Chunk& chunk : fields.chunks()) {
+    const auto& v = values(*chunk);
+    sink.Bytes(v.data(), v.size() * sizeof(v[0]));
+  }
+}
+
+// The model's arrays are written as whole-grid arrays, chunk after chunk (the format predates
+// the chunks and does not depend on them).
 void WritePayload(Sink& sink, const TerrainModel& model) {
   WriteFields(sink, model.config());
   WriteFields(sink, model.summary());
   const SurfaceMap& surfaces = model.surfaces();
   WriteGeometry(sink, surfaces.geometry());
-  sink.Array(surfaces.column_begin());
+  WriteJoinedOffsets(sink, surfaces.chunks(),
+                     [](const ColumnSurfaces& chunk) { return chunk.surfaces.size(); });
   // Records field by field (the structs' padding would make the bytes depend on the
   // compiler), gathered into chunks so that the checksum sees large writes.
-  sink.Value(static_cast<std::uint64_t>(surfaces.all_surfaces().size()));
-  sink.Records<kSurfaceRecordBytes>(surfaces.all_surfaces(), EncodeSurface);
-  const TerrainFields::Parts& f = model.fields().parts();
+  sink.Value(static_cast<std::uint64_t>(surfaces.surface_count()));
+  for (const SurfaceMap::Chunk& chunk : surfaces.chunks()) {
+    sink.Records<kSurfaceRecordBytes>(chunk->surfaces, EncodeSurface);
+  }
+  const TerrainFields& fields = model.fields();
+  const TerrainFields::Scalars& f = fields.scalars();
   WriteGeometry(sink, f.geometry);
   sink.Value(f.distance_cap_m);
   sink.Value(f.safety_step);
   sink.Value(f.safety_background);
-  sink.Array(f.column_begin);
-  sink.Value(static_cast<std::uint64_t>(f.intervals.size()));
-  sink.Records<kIntervalRecordBytes>(f.intervals, [](const TerrainFields::Interval& i, char* b) {
+  WriteJoinedOffsets(sink, fields.chunks(), [](const TerrainFields::Runs& chunk) {
+    return chunk.intervals.size() - 1;  // The sentinel aside.
+  });
+  std::uint64_t runs = 1;  // The final sentinel.
+  for (const TerrainFields::Chunk& chunk : fields.chunks()) runs += chunk->intervals.size() - 1;
+  sink.Value(runs);
+  const auto encode = [](const TerrainFields::Interval& i, char* b) {
     Encode(b, i.first_layer);
     Encode(b + 4, i.offset);
+  };
+  std::uint32_t value_base = 0;
+  std::vector<TerrainFields::Interval> moved;
+  for (const TerrainFields::Chunk& chunk : fields.chunks()) {
+    moved.assign(chunk->intervals.begin(), chunk->intervals.end() - 1);
+    for (TerrainFields::Interval& interval : moved) interval.offset += value_base;
+    sink.Records<kIntervalRecordBytes>(moved, encode);
+    value_base += static_cast<std::uint32_t>(chunk->distance.size());
+  }
+  sink.Records<kIntervalRecordBytes>(std::vector<TerrainFields::Interval>{{0, value_base}},
+                                     encode);
+  WriteJoinedValues(sink, fields, [](const TerrainFields::Runs& chunk) -> const auto& {
+    return chunk.distance;
   });
-  sink.Array(f.distance);
-  sink.Array(f.safety);
+  WriteJoinedValues(sink, fields, [](const TerrainFields::Runs& chunk) -> const auto& {
+    return chunk.safety;
+  });
 }
 
 bool ReadPayload(Reader& reader, Payload* p, std::string* problem) {

@@ -3,6 +3,7 @@
 /// Cell (ix, iy, iz) spans [origin + i·r, origin + (i+1)·r) on each axis; values live at cell
 /// centres. Storage is x-fastest, so one horizontal layer is contiguous.
 
+#include <algorithm>
 #include <cstdint>
 #include <vector>
 
@@ -83,6 +84,26 @@ struct CellBox {
     return g;
   }
 };
+
+/// Grid rows per chunk of an assessed model's column arrays (SurfaceMap, TerrainFields): a
+/// chunk holds the columns of its rows with offsets from its own start, so that the versions
+/// of a map share every chunk an edit did not touch instead of copying it (docs/design.md,
+/// "Map edits"). A row of a tiled model's tiles (strata/io/model_tiles.hpp) is one chunk.
+inline constexpr int kChunkRows = 64;
+/// The chunks of kChunkRows grid rows that cover `geometry`'s rows (the last may hold fewer).
+inline int ChunkCount(const GridGeometry& geometry) {
+  return (geometry.size.y() + kChunkRows - 1) / kChunkRows;
+}
+/// The grid rows of chunk `chunk` of `geometry`: [chunk · kChunkRows, that + the count).
+inline int ChunkRowCount(const GridGeometry& geometry, int chunk) {
+  return std::min(kChunkRows, geometry.size.y() - chunk * kChunkRows);
+}
+/// The columns of chunk `chunk` of `geometry`, over the grid's whole height.
+inline CellBox ChunkColumns(const GridGeometry& geometry, int chunk) {
+  return {{0, chunk * kChunkRows, 0},
+          {geometry.size.x() - 1, chunk * kChunkRows + ChunkRowCount(geometry, chunk) - 1,
+           geometry.size.z() - 1}};
+}
 
 /// A grid covering `bounds` grown by `padding_m` on every side. Fails with kResourceExhausted
 /// when it would need more than `max_columns` columns (x × y cells; e.g. absurd coordinates)

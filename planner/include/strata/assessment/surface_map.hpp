@@ -5,6 +5,7 @@
 /// point projects onto the highest surface below it in its column.
 
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <vector>
 
@@ -31,9 +32,20 @@ struct ColumnSurface {
   bool valid = false;             ///< The top cell holds Valid-Ground-Filter points.
 };
 
-/// Surfaces of every column, stored compactly (columns in x-fastest order).
+/// The surfaces of some columns: `column_begin` holds one offset into `surfaces` per column
+/// (x fastest) plus the total, each column's surfaces lowest first.
+struct ColumnSurfaces {
+  std::vector<std::uint32_t> column_begin;
+  std::vector<ColumnSurface> surfaces;
+};
+
+/// Surfaces of every column, stored compactly: in chunks of kChunkRows grid rows (grid.hpp),
+/// each the ColumnSurfaces of its rows' columns, held by shared pointer so that an edited
+/// version shares the chunks its edit did not touch.
 class SurfaceMap {
  public:
+  using Chunk = std::shared_ptr<const ColumnSurfaces>;
+
   SurfaceMap() = default;
 
   /// Extracts the surfaces of `cloud` (all points, finite, inside `geometry`) on `geometry`,
@@ -52,26 +64,36 @@ class SurfaceMap {
                                                const FieldConfig& field, int num_threads,
                                                internal::ProgressReporter* progress);
 
-  /// A map from its arrays, as a saved model stores them: `column_begin` holds one offset per
-  /// column (x fastest) plus the total, each column's surfaces lowest first with layers inside
-  /// the grid and ground heights that do not descend. kInvalidInput naming the first
-  /// inconsistency.
+  /// A map from its arrays over the whole grid, as a saved model stores them: `column_begin`
+  /// holds one offset per column (x fastest) plus the total, each column's surfaces lowest
+  /// first with layers inside the grid and ground heights that do not descend. kInvalidInput
+  /// naming the first inconsistency.
   static Expected<SurfaceMap> FromParts(const GridGeometry& geometry,
                                         std::vector<std::uint32_t> column_begin,
                                         std::vector<ColumnSurface> surfaces);
-  /// The arrays FromParts takes.
-  const std::vector<std::uint32_t>& column_begin() const { return column_begin_; }
-  const std::vector<ColumnSurface>& all_surfaces() const { return surfaces_; }
+  /// A map from its chunks (ChunkCount(geometry) of them, chunk k the ColumnSurfaces of its
+  /// ChunkRowCount rows), checked as FromParts checks, but for the chunks `checked` (may be
+  /// null; a map on the same grid) holds at the same place: they were checked when it was made.
+  static Expected<SurfaceMap> FromChunks(const GridGeometry& geometry, std::vector<Chunk> chunks,
+                                         const SurfaceMap* checked = nullptr);
+  const std::vector<Chunk>& chunks() const { return chunks_; }
+  /// The whole grid's arrays (a copy of every chunk's, offsets from the grid's start): what
+  /// FromParts takes. For tests and tools.
+  ColumnSurfaces ToParts() const;
 
   const GridGeometry& geometry() const { return geometry_; }
-  std::size_t surface_count() const { return surfaces_.size(); }
+  std::size_t surface_count() const { return surface_count_; }
   std::size_t valid_surface_count() const;
 
   /// Surfaces of column (ix, iy), lowest first (their ground heights ascend). Precondition:
   /// inside the grid.
   std::span<const ColumnSurface> Column(int ix, int iy) const {
-    const auto c = static_cast<std::size_t>(ix + geometry_.size.x() * std::int64_t{iy});
-    return {surfaces_.data() + column_begin_[c], surfaces_.data() + column_begin_[c + 1]};
+    const auto row = static_cast<unsigned>(iy);
+    const ColumnSurfaces& chunk = *chunks_[row / kChunkRows];
+    const auto c = static_cast<std::size_t>(ix + geometry_.size.x() *
+                                                     std::int64_t{row % kChunkRows});
+    return {chunk.surfaces.data() + chunk.column_begin[c],
+            chunk.surfaces.data() + chunk.column_begin[c + 1]};
   }
 
   /// Where cell (ix, iy, iz) projects down to: the highest surface whose top cell is at or
@@ -79,15 +101,13 @@ class SurfaceMap {
   /// nothing is below it.
   const ColumnSurface* SurfaceBelow(int ix, int iy, int iz) const;
 
-  std::size_t MemoryBytes() const {
-    return column_begin_.capacity() * sizeof(std::uint32_t) +
-           surfaces_.capacity() * sizeof(ColumnSurface);
-  }
+  /// Bytes held, chunks shared with other maps included.
+  std::size_t MemoryBytes() const;
 
  private:
   GridGeometry geometry_;
-  std::vector<std::uint32_t> column_begin_;  // CellCount()/nz + 1 offsets into surfaces_.
-  std::vector<ColumnSurface> surfaces_;
+  std::vector<Chunk> chunks_;
+  std::size_t surface_count_ = 0;
 };
 
 }  // namespace strata

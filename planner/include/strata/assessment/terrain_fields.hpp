@@ -22,6 +22,7 @@
 /// d (far from everything) and FieldConfig::VoidPenalty() for S' (unknown is unsafe).
 
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <vector>
 
@@ -67,27 +68,48 @@ class TerrainFields {
     std::uint32_t offset = 0;
   };
 
-  /// Everything the fields hold: what BuildTerrainFields makes and a saved model stores.
-  struct Parts {
+  /// The fields of some columns: per column (x fastest) + 1, the first of its intervals; the
+  /// intervals, with a final sentinel whose offset is the count of values; per stored cell, the
+  /// values.
+  struct Runs {
+    std::vector<std::uint32_t> column_begin;
+    std::vector<Interval> intervals;     ///< Including the final sentinel.
+    std::vector<std::int16_t> distance;  ///< d / kDistanceStepM per stored cell.
+    std::vector<std::uint16_t> safety;   ///< S' / safety_step per stored cell.
+  };
+  /// What the fields hold besides their runs.
+  struct Scalars {
     GridGeometry geometry;
     double distance_cap_m = 0;
-    double safety_step = 0;                   ///< S' per unit of a stored value.
-    double safety_background = 0;             ///< S' outside the band.
-    std::vector<std::uint32_t> column_begin;  ///< Per column (x fastest) + 1: intervals.
-    std::vector<Interval> intervals;          ///< Including the final sentinel.
-    std::vector<std::int16_t> distance;       ///< d / kDistanceStepM per stored cell.
-    std::vector<std::uint16_t> safety;        ///< S' / safety_step per stored cell.
+    double safety_step = 0;        ///< S' per unit of a stored value.
+    double safety_background = 0;  ///< S' outside the band.
   };
+  /// The scalars and the runs of a window of columns: what BuildFieldParts makes, and over the
+  /// whole grid what a saved model stores.
+  struct Parts : Scalars, Runs {};
+  /// The runs of kChunkRows grid rows (grid.hpp), shared between the versions of a map that
+  /// did not change them.
+  using Chunk = std::shared_ptr<const Runs>;
 
   TerrainFields() = default;
 
-  /// Validates `parts` (sizes, offsets, layers inside the grid, steps) and takes them;
-  /// kInvalidInput naming the inconsistency.
+  /// Validates `parts` over the whole grid (sizes, offsets, layers inside the grid, steps) and
+  /// takes them, cut into chunks; kInvalidInput naming the inconsistency.
   static Expected<TerrainFields> FromParts(Parts parts);
-  const Parts& parts() const { return parts_; }
+  /// The fields of `scalars` and `chunks` (ChunkCount(geometry) of them, chunk k the runs of
+  /// its ChunkRowCount rows), checked as FromParts checks, but for the chunks `checked` (may be
+  /// null; fields on the same grid) holds at the same place: they were checked when it was
+  /// made.
+  static Expected<TerrainFields> FromChunks(const Scalars& scalars, std::vector<Chunk> chunks,
+                                            const TerrainFields* checked = nullptr);
+  /// The whole grid's parts (a copy of every chunk's runs, offsets from the grid's start): what
+  /// FromParts takes. For tests and tools.
+  Parts ToParts() const;
+  const Scalars& scalars() const { return scalars_; }
+  const std::vector<Chunk>& chunks() const { return chunks_; }
 
-  const GridGeometry& geometry() const { return parts_.geometry; }
-  double distance_cap_m() const { return parts_.distance_cap_m; }
+  const GridGeometry& geometry() const { return scalars_.geometry; }
+  double distance_cap_m() const { return scalars_.distance_cap_m; }
 
   /// d(p) [m], trilinear over cell centres; gradient optional [-]. Outside the hull of cell
   /// centres p is clamped onto it (those gradient components are then zero), as ScalarGrid.
@@ -118,23 +140,34 @@ class TerrainFields {
   std::optional<double> SafetyAt(const Eigen::Vector3i& cell) const;
 
   /// Cells stored (in the band).
-  std::size_t cell_count() const { return parts_.distance.size(); }
-  /// Bytes held, not counting the object itself.
+  std::size_t cell_count() const { return cell_count_; }
+  /// Bytes held, not counting the object itself, chunks shared with other fields included.
   std::size_t MemoryBytes() const;
 
  private:
-  explicit TerrainFields(Parts parts) : parts_(std::move(parts)) {}
-  // Index of the value of cell (ix, iy, iz), or -1 outside the band or the grid.
-  std::int64_t FindCell(const Eigen::Vector3i& cell) const;
-  // The value of stored cell i, or the field's background (outside the band) where i < 0.
-  double DistanceValue(std::int64_t i) const {
-    return i < 0 ? parts_.distance_cap_m : parts_.distance[i] * kDistanceStepM;
+  // A stored cell: its chunk's runs and the index of its values there; runs == nullptr
+  // outside the band or the grid.
+  struct CellRef {
+    const Runs* runs = nullptr;
+    std::int64_t index = 0;
+  };
+  CellRef FindCell(const Eigen::Vector3i& cell) const;
+  // The value of a stored cell, or the field's background (outside the band).
+  double DistanceValue(const CellRef& at) const {
+    return at.runs == nullptr ? scalars_.distance_cap_m
+                              : at.runs->distance[at.index] * kDistanceStepM;
   }
-  double SafetyValue(std::int64_t i) const {
-    return i < 0 ? parts_.safety_background : parts_.safety[i] * parts_.safety_step;
+  double SafetyValue(const CellRef& at) const {
+    return at.runs == nullptr ? scalars_.safety_background
+                              : at.runs->safety[at.index] * scalars_.safety_step;
   }
+  // The corners of the sample at p (terrain_fields.cpp).
+  struct Corners;
+  Corners Locate(const Eigen::Vector3d& p) const;
 
-  Parts parts_;
+  Scalars scalars_;
+  std::vector<Chunk> chunks_;
+  std::size_t cell_count_ = 0;
 };
 
 }  // namespace strata

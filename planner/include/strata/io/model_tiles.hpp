@@ -32,8 +32,10 @@
 namespace strata {
 
 /// Grid columns along each side of a tile: 64 columns are 12.8 m at 0.2 m, so a 10 m scan
-/// touches 4 to 9 of them with its reassessed margin, and a 400 m site has 1024.
-inline constexpr int kTileColumns = 64;
+/// touches 4 to 9 of them with its reassessed margin, and a 400 m site has 1024. A row of
+/// tiles is one chunk of the model's arrays (grid.hpp), so a join takes the chunks of the rows
+/// whose tiles it holds already as they are.
+inline constexpr int kTileColumns = kChunkRows;
 
 /// The first bytes of a tiled model's header.
 inline constexpr std::string_view kTiledModelMagic = "STRATAMT";
