@@ -155,6 +155,41 @@ TEST_F(ModelTiles, AJoinTakesTheTilesItHoldsFromTheModelInMemoryAndReadsTheRest)
   EXPECT_EQ(asked, changed);
 }
 
+// Whether `a` holds the very chunks of `b` (not copies) in the row of chunks `k`.
+bool SharesChunk(const TerrainModel& a, const TerrainModel& b, std::size_t k) {
+  return a.surfaces().chunks()[k] == b.surfaces().chunks()[k] &&
+         a.fields().chunks()[k] == b.fields().chunks()[k];
+}
+
+TEST_F(ModelTiles, AnEditAndAJoinShareTheChunksOfTheRowsTheyDidNotChange) {
+  const auto [edited, reassessed] = Edited();
+  ASSERT_NE(reassessed.model, nullptr);
+  const TiledModel before = CutModel(model());
+  const TiledModel after = CutModel(*reassessed.model);
+  const GridGeometry& g = model().grid();
+  const std::size_t blocks_x = (g.size.x() + kTileColumns - 1) / kTileColumns;
+  ASSERT_EQ(static_cast<std::size_t>(ChunkCount(g)), before.tiles.size() / blocks_x);
+  ASSERT_GE(ChunkCount(g), 3);
+  std::vector<std::size_t> asked;
+  const auto joined = JoinHolding(
+      after, HeldTiles{&model(), [&](std::size_t t) { return before.tiles[t] == after.tiles[t]; }},
+      &asked);
+  ASSERT_TRUE(joined.ok()) << joined.error().message;
+  int shared = 0;
+  for (std::size_t k = 0; k < static_cast<std::size_t>(ChunkCount(g)); ++k) {
+    bool row_changed = false;
+    for (std::size_t t = k * blocks_x; t < (k + 1) * blocks_x; ++t) {
+      row_changed = row_changed || before.tiles[t] != after.tiles[t];
+    }
+    // The edit's model and a replica's join of it, holding the base, share the base's chunks
+    // of every row of tiles the edit left alone, and make new ones of the others.
+    EXPECT_EQ(SharesChunk(*reassessed.model, model(), k), !row_changed) << "chunk " << k;
+    EXPECT_EQ(SharesChunk(**joined, model(), k), !row_changed) << "chunk " << k;
+    shared += !row_changed;
+  }
+  EXPECT_GE(shared, 2) << "the edit lies in one row of tiles";
+}
+
 TEST_F(ModelTiles, AHeldModelOfAnotherGridIsNotTakenFrom) {
   // The garage's model at 0.4 m: the same site, other columns under every tile number.
   AssessmentConfig config;
