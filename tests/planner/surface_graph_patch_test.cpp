@@ -121,8 +121,8 @@ void ExpectSameGraph(const SurfaceGraph& patched, const SurfaceGraph& built) {
   const GridGeometry& g = built.grid();
   for (int iy = 0; iy < g.size.y(); ++iy) {
     for (int ix = 0; ix < g.size.x(); ++ix) {
-      const std::span<const std::int32_t> p = patched.ColumnNodes(ix, iy);
-      const std::span<const std::int32_t> q = built.ColumnNodes(ix, iy);
+      const SurfaceGraph::NodeRange p = patched.ColumnNodes(ix, iy);
+      const SurfaceGraph::NodeRange q = built.ColumnNodes(ix, iy);
       ASSERT_TRUE(std::equal(p.begin(), p.end(), q.begin(), q.end()))
           << "column (" << ix << ", " << iy << ")";
     }

@@ -50,7 +50,7 @@ bool SurfaceGraph::CollectNodes(const std::function<bool()>& stopped, bool measu
     for (int ix = 0; ix < g.size.x(); ++ix) {
       AppendColumnNodes(ix, iy, measure_clearance);
       column_begin_[ix + std::int64_t{g.size.x()} * iy + 1] =
-          static_cast<std::uint32_t>(column_nodes_.size());
+          static_cast<std::uint32_t>(nodes_.size());
     }
   }
   return true;
@@ -74,7 +74,6 @@ void SurfaceGraph::AppendColumnNodes(int ix, int iy, bool measure_clearance) {
     }
     const Eigen::Vector3d p(g.origin_m.x() + (ix + 0.5) * g.resolution_m,
                             g.origin_m.y() + (iy + 0.5) * g.resolution_m, reference_z);
-    column_nodes_.push_back(static_cast<std::int32_t>(nodes_.size()));
     nodes_.push_back(Node{ix, iy, static_cast<std::int16_t>(k),
                           static_cast<std::int16_t>(this_level), static_cast<float>(reference_z),
                           measure_clearance ? static_cast<float>(model.Distance(p)) : 0.0f});
@@ -96,7 +95,6 @@ Expected<SurfaceGraph> SurfaceGraph::FromParts(const TerrainModel& model, Parts 
   // The parts' size is what a right graph has (their arrays came from a file of that size):
   // reserved, the node arrays grow without copies.
   graph.nodes_.reserve(parts.clearance_m.size());
-  graph.column_nodes_.reserve(parts.clearance_m.size());
   graph.CollectNodes([] { return false; }, /*measure_clearance=*/false);
   const std::size_t n = graph.nodes_.size();
   const auto fail = [](const std::string& what) {
@@ -170,7 +168,6 @@ Expected<SurfaceGraph> SurfaceGraph::Build(const TerrainModel& model,
   if (!graph.ComputeLandmarks(should_stop)) return Cancelled();
   // The node arrays grew by push_back: give back what they reserved beyond their size.
   graph.nodes_.shrink_to_fit();
-  graph.column_nodes_.shrink_to_fit();
   return graph;
 }
 

@@ -146,8 +146,8 @@ bool SurfaceGraph::PatchLandmarks(const SurfaceGraph& base, const CellBox& chang
   std::vector<std::int32_t> new_node(static_cast<std::size_t>(base.node_count()), -1);
   for (int iy = 0; iy < g.size.y(); ++iy) {
     for (int ix = 0; ix < g.size.x(); ++ix) {
-      const std::span<const std::int32_t> now = ColumnNodes(ix, iy);
-      const std::span<const std::int32_t> then = base.ColumnNodes(ix, iy);
+      const NodeRange now = ColumnNodes(ix, iy);
+      const NodeRange then = base.ColumnNodes(ix, iy);
       if (now.size() != then.size()) continue;
       for (std::size_t k = 0; k < now.size(); ++k) {
         base_node[now[k]] = then[k];
@@ -160,8 +160,8 @@ bool SurfaceGraph::PatchLandmarks(const SurfaceGraph& base, const CellBox& chang
   // next: a move reads its ends and the columns it passes between, all next to both ends, so
   // every move that changed has both ends among them.
   const auto differs = [&](int ix, int iy) {
-    const std::span<const std::int32_t> now = ColumnNodes(ix, iy);
-    const std::span<const std::int32_t> then = base.ColumnNodes(ix, iy);
+    const NodeRange now = ColumnNodes(ix, iy);
+    const NodeRange then = base.ColumnNodes(ix, iy);
     if (now.size() != then.size()) return true;
     for (std::size_t k = 0; k < now.size(); ++k) {
       const Node& a = nodes_[now[k]];
@@ -196,7 +196,7 @@ bool SurfaceGraph::PatchLandmarks(const SurfaceGraph& base, const CellBox& chang
     for (int iy = box.min.y(); iy <= box.max.y(); ++iy) {
       for (int ix = box.min.x(); ix <= box.max.x(); ++ix) {
         if (!near[at(ix, iy)]) continue;
-        const std::span<const std::int32_t> nodes = ColumnNodes(ix, iy);
+        const NodeRange nodes = ColumnNodes(ix, iy);
         changed.insert(changed.end(), nodes.begin(), nodes.end());
       }
     }

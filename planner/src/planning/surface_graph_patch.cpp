@@ -121,7 +121,6 @@ Expected<SurfaceGraph> SurfaceGraph::Patch(const SurfaceGraph& base, const Terra
   // multi-storey one has more), so that the arrays rarely grow.
   const std::size_t room = base.nodes_.size() + 4 * static_cast<std::size_t>(renewed.CellCount());
   graph.nodes_.reserve(room);
-  graph.column_nodes_.reserve(room);
   graph.edge_distance_.reserve(room);
   graph.components_.reserve(room);
   const auto cap = static_cast<float>(EdgeDistanceCap(g.resolution_m));
@@ -129,9 +128,6 @@ Expected<SurfaceGraph> SurfaceGraph::Patch(const SurfaceGraph& base, const Terra
   const auto copy_columns = [&](std::int64_t first, std::int64_t last) {  // [first, last)
     const std::uint32_t from = base.column_begin_[first], to = base.column_begin_[last];
     const auto shift = static_cast<std::int64_t>(graph.nodes_.size()) - from;
-    for (std::uint32_t k = from; k < to; ++k) {
-      graph.column_nodes_.push_back(static_cast<std::int32_t>(k + shift));
-    }
     graph.nodes_.insert(graph.nodes_.end(), base.nodes_.begin() + from, base.nodes_.begin() + to);
     graph.edge_distance_.insert(graph.edge_distance_.end(), base.edge_distance_.begin() + from,
                                 base.edge_distance_.begin() + to);
@@ -150,9 +146,9 @@ Expected<SurfaceGraph> SurfaceGraph::Patch(const SurfaceGraph& base, const Terra
       base.open_ground_clearance_m_,
       std::min(4 * static_cast<std::size_t>(renewed.CellCount()) + 64, kMostKept));
   // The arrays are filled on this thread; their pages are faulted in on another.
-  const std::array<internal::PageRegion, 4> filled = {
-      internal::CapacityOf(graph.nodes_), internal::CapacityOf(graph.column_nodes_),
-      internal::CapacityOf(graph.edge_distance_), internal::CapacityOf(graph.components_)};
+  const std::array<internal::PageRegion, 3> filled = {internal::CapacityOf(graph.nodes_),
+                                                      internal::CapacityOf(graph.edge_distance_),
+                                                      internal::CapacityOf(graph.components_)};
   const bool copied = internal::FillWithPagesFaultedAhead(filled, [&] {
     for (int iy = 0; iy < g.size.y(); ++iy) {
       if (stopped()) return false;
@@ -166,8 +162,7 @@ Expected<SurfaceGraph> SurfaceGraph::Patch(const SurfaceGraph& base, const Terra
           graph.AppendColumnNodes(ix, iy, /*measure_clearance=*/true);
           graph.edge_distance_.resize(graph.nodes_.size(), cap);
           graph.components_.resize(graph.nodes_.size(), -1);
-          graph.column_begin_[row + ix + 1] =
-              static_cast<std::uint32_t>(graph.column_nodes_.size());
+          graph.column_begin_[row + ix + 1] = static_cast<std::uint32_t>(graph.nodes_.size());
         }
         copy_columns(row + renewed.max.x() + 1, row + nx);
       }
@@ -253,7 +248,6 @@ Expected<SurfaceGraph> SurfaceGraph::Patch(const SurfaceGraph& base, const Terra
   if (!graph.PatchLandmarks(base, window, should_stop)) return Cancelled();
   if (graph.nodes_.size() > room) {  // They grew, doubling: give back what is not used.
     graph.nodes_.shrink_to_fit();
-    graph.column_nodes_.shrink_to_fit();
     graph.edge_distance_.shrink_to_fit();
   }
   return graph;

@@ -80,9 +80,10 @@ struct HeldTiles {
 
 /// The model of a header and its `tile_count` tiles of `tile_bytes` bytes together, read from
 /// `source` one row of blocks at a time (memory: the model and one row of tiles); `name` is
-/// what messages call it. With `held` (may be null), the tiles it holds are copied from its
+/// what messages call it. With `held` (may be null), the tiles it holds are taken from its
 /// model, not asked of `source`, when its grid has the header's columns (else it is not
-/// used). kMapLoadFailed naming it for a header that is not one, of another format version,
+/// used): a row of tiles it holds all is its model's chunk (grid.hpp), shared, and the
+/// others' columns are copied into the new chunks. kMapLoadFailed naming it for a header that is not one, of another format version,
 /// truncated or corrupted (its checksum), a count of tiles other than the header's grid
 /// needs, totals the tiles' bytes cannot hold, tiles past `tile_bytes`, and a tile whose
 /// contents do not fit its block or the header's totals (which tile, and why). Never
@@ -108,7 +109,8 @@ Expected<TiledModelHeader> ReadTiledModelHeader(std::string_view header, const s
 /// A window of a tiled model, for an edit that reads only the model around it: a model on the
 /// header's grid, with its config and summary (whose counts are the whole model's), holding
 /// the tiles `which` (ascending, read from `source`) as JoinModel would, and no surface and no
-/// field run in any other column. Its memory is the grid's column offsets and those tiles.
+/// field run in any other column. Its memory is the chunks (grid.hpp) of those tiles' rows,
+/// and one chunk of empty columns shared by every other row.
 /// Fails as JoinModel does for the tiles it reads, and kMapLoadFailed for a tile number past
 /// the header's grid.
 Expected<std::shared_ptr<const TerrainModel>> JoinModelWindow(std::string_view header,

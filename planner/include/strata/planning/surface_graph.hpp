@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <functional>
 #include <numbers>
+#include <ranges>
 #include <span>
 #include <string>
 #include <string_view>
@@ -170,12 +171,15 @@ class SurfaceGraph {
   /// Obstacle distance d at the reference point (TerrainModel::Distance) [m].
   double clearance(int node) const { return nodes_[node].clearance_m; }
 
+  /// The node indices of one column: consecutive, since nodes are stored column by column.
+  using NodeRange = std::ranges::iota_view<std::int32_t, std::int32_t>;
   /// Node indices of column (ix, iy), lowest first; empty outside the grid.
-  std::span<const std::int32_t> ColumnNodes(int ix, int iy) const {
+  NodeRange ColumnNodes(int ix, int iy) const {
     const GridGeometry& g = grid();
     if (ix < 0 || iy < 0 || ix >= g.size.x() || iy >= g.size.y()) return {};
     const auto c = static_cast<std::size_t>(ix + std::int64_t{g.size.x()} * iy);
-    return {column_nodes_.data() + column_begin_[c], column_nodes_.data() + column_begin_[c + 1]};
+    return {static_cast<std::int32_t>(column_begin_[c]),
+            static_cast<std::int32_t>(column_begin_[c + 1])};
   }
 
   /// Calls f(neighbour_node) for every node adjacent to `node` (see the class comment).
@@ -290,7 +294,6 @@ class SurfaceGraph {
   /// Bytes held by the graph, not counting the object itself.
   std::size_t MemoryBytes() const {
     return nodes_.capacity() * sizeof(Node) + column_begin_.capacity() * sizeof(std::uint32_t) +
-           column_nodes_.capacity() * sizeof(std::int32_t) +
            components_.capacity() * sizeof(std::int32_t) +
            edge_distance_.capacity() * sizeof(float) +
            landmark_distance_.capacity() * sizeof(float) +
@@ -301,10 +304,10 @@ class SurfaceGraph {
   SurfaceGraph(const TerrainModel& model, const TraversabilityParams& params);
   // kInvalidConfig when `params` are invalid or steeper than the map's ground filter allows.
   static Status CheckParams(const TerrainModel& model, const TraversabilityParams& params);
-  // Finds the nodes of model_ for params_ (nodes_, column_begin_, column_nodes_), each with
+  // Finds the nodes of model_ for params_ (nodes_, column_begin_), each with
   // its clearance measured or 0; false when `stopped` fired.
   bool CollectNodes(const std::function<bool()>& stopped, bool measure_clearance);
-  // Appends the nodes of column (ix, iy) to nodes_ and column_nodes_ (CollectNodes).
+  // Appends the nodes of column (ix, iy) to nodes_ (CollectNodes).
   void AppendColumnNodes(int ix, int iy, bool measure_clearance);
   // The 10th percentile of the nodes' clearances (open_ground_clearance_m).
   double ClearanceTenthPercentile() const;
@@ -358,8 +361,7 @@ class SurfaceGraph {
   float step_limit_axis_ = 0;
   float step_limit_diagonal_ = 0;
   std::vector<Node> nodes_;
-  std::vector<std::uint32_t> column_begin_;  // Columns + 1 offsets into column_nodes_.
-  std::vector<std::int32_t> column_nodes_;
+  std::vector<std::uint32_t> column_begin_;  // Columns + 1: each column's first node.
   std::vector<std::int32_t> components_;
   int component_count_ = 0;
   std::vector<float> edge_distance_;
