@@ -324,9 +324,7 @@ Result<MapUpdate> MapEditor::UpdateOnce(const MapEditRequest& request, const Cal
     map.raw_point_count = built.edit->cloud_points + map.dropped_nonfinite_point_count;
   }
   map.grid = model.grid();
-  // Zones alone keep the base's model, and its count (a pass over every column: 8 ms on a
-  // 400 m site, most of such a version's time).
-  if (!base_planning) map.max_levels = MaxLevels(model);
+  map.max_levels = model.surfaces().max_valid_levels();
   map.done_time = std::chrono::system_clock::now();
   std::shared_ptr<const PlanningMap> planning =
       base_planning ? base_planning->WithKeepOut(std::move(keep_out))

@@ -522,7 +522,7 @@ void MapRegistry::Assess(const std::shared_ptr<Entry>& entry) {
       Finish(entry, std::move(admitted).error(), {});
       return;
     }
-    const int max_levels = MaxLevels(planning->model());
+    const int max_levels = planning->model().surfaces().max_valid_levels();
     {
       std::lock_guard lock(mutex_);
       entry->max_levels = max_levels;

@@ -1,7 +1,5 @@
 #include "maps/map_snapshot.hpp"
 
-#include <algorithm>
-
 namespace strata::server {
 
 double MapSnapshot::progress() const {
@@ -22,21 +20,6 @@ double MapSnapshot::progress() const {
     case CreationStage::kDone: return 1.0;
   }
   return 0.0;
-}
-
-int MaxLevels(const TerrainModel& model) {
-  const SurfaceMap& surfaces = model.surfaces();
-  const Eigen::Vector3i size = model.grid().size;
-  int most = 0;
-  for (int iy = 0; iy < size.y(); ++iy) {
-    for (int ix = 0; ix < size.x(); ++ix) {
-      const auto column = surfaces.Column(ix, iy);
-      const auto valid = std::count_if(column.begin(), column.end(),
-                                       [](const ColumnSurface& s) { return s.valid; });
-      most = std::max(most, static_cast<int>(valid));
-    }
-  }
-  return most;
 }
 
 }  // namespace strata::server

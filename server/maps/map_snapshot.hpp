@@ -68,9 +68,6 @@ struct MapSnapshot {
   double progress() const;
 };
 
-/// Most valid surfaces stacked in one column of `model` (MapSnapshot::max_levels).
-int MaxLevels(const TerrainModel& model);
-
 /// A planning map and the version it is.
 struct ActiveMap {
   std::shared_ptr<const PlanningMap> map;

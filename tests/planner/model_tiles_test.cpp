@@ -155,6 +155,19 @@ TEST_F(ModelTiles, AJoinTakesTheTilesItHoldsFromTheModelInMemoryAndReadsTheRest)
   EXPECT_EQ(asked, changed);
 }
 
+// The most valid surfaces in one column of `model`, counted column by column.
+int MostLevelsCounted(const TerrainModel& model) {
+  int most = 0;
+  for (int iy = 0; iy < model.grid().size.y(); ++iy) {
+    for (int ix = 0; ix < model.grid().size.x(); ++ix) {
+      int valid = 0;
+      for (const ColumnSurface& s : model.surfaces().Column(ix, iy)) valid += s.valid;
+      most = std::max(most, valid);
+    }
+  }
+  return most;
+}
+
 // Whether `a` holds the very chunks of `b` (not copies) in the row of chunks `k`.
 bool SharesChunk(const TerrainModel& a, const TerrainModel& b, std::size_t k) {
   return a.surfaces().chunks()[k] == b.surfaces().chunks()[k] &&
@@ -188,6 +201,12 @@ TEST_F(ModelTiles, AnEditAndAJoinShareTheChunksOfTheRowsTheyDidNotChange) {
     shared += !row_changed;
   }
   EXPECT_GE(shared, 2) << "the edit lies in one row of tiles";
+  // The levels' count comes with a shared chunk and is counted for a new one.
+  EXPECT_GE(model().surfaces().max_valid_levels(), 2) << "the garage has decks";
+  EXPECT_EQ(model().surfaces().max_valid_levels(), MostLevelsCounted(model()));
+  EXPECT_EQ((*joined)->surfaces().max_valid_levels(), MostLevelsCounted(**joined));
+  EXPECT_EQ(reassessed.model->surfaces().max_valid_levels(),
+            MostLevelsCounted(*reassessed.model));
 }
 
 TEST_F(ModelTiles, AHeldModelOfAnotherGridIsNotTakenFrom) {

@@ -108,23 +108,6 @@ SurfaceMap SurfaceMap::Build(const GridGeometry& geometry, const PointCloud& clo
   return std::move(BuildFromColumns(geometry, sorted, field, num_threads, nullptr)).value();
 }
 
-Expected<SurfaceMap> SurfaceMap::BuildFromColumns(const GridGeometry& geometry,
-                                                  const internal::ColumnCloud& sorted,
-                                                  const FieldConfig& field, int num_threads,
-                                                  internal::ProgressReporter* progress) {
-  SurfaceMap map;
-  map.geometry_ = geometry;
-  map.chunks_.reserve(ChunkCount(geometry));
-  for (int k = 0; k < ChunkCount(geometry); ++k) {
-    Expected<ColumnSurfaces> built = internal::BuildColumnSurfaces(
-        geometry, sorted, ChunkColumns(geometry, k), field, num_threads, progress);
-    if (!built) return built.error();
-    map.surface_count_ += built->surfaces.size();
-    map.chunks_.push_back(std::make_shared<const ColumnSurfaces>(std::move(built).value()));
-  }
-  return map;
-}
-
 namespace {
 
 // Why `s`, the surfaces of `columns` columns of a grid of `layers` layers, are inconsistent,
@@ -169,11 +152,40 @@ Error InconsistentSurfaces(const std::string& what) {
   return Error{ErrorCode::kInvalidInput, "surfaces are inconsistent: " + what};
 }
 
+int MostValidLevels(const ColumnSurfaces& s) {
+  int most = 0;
+  for (std::size_t c = 0; c + 1 < s.column_begin.size(); ++c) {
+    int valid = 0;
+    for (std::uint32_t k = s.column_begin[c]; k < s.column_begin[c + 1]; ++k) {
+      valid += s.surfaces[k].valid;
+    }
+    most = std::max(most, valid);
+  }
+  return most;
+}
+
 bool IsEmptyGrid(const GridGeometry& geometry) {
   return !(geometry.resolution_m > 0) || (geometry.size.array() < 1).any();
 }
 
 }  // namespace
+
+Expected<SurfaceMap> SurfaceMap::BuildFromColumns(const GridGeometry& geometry,
+                                                  const internal::ColumnCloud& sorted,
+                                                  const FieldConfig& field, int num_threads,
+                                                  internal::ProgressReporter* progress) {
+  SurfaceMap map;
+  map.geometry_ = geometry;
+  for (int k = 0; k < ChunkCount(geometry); ++k) {
+    Expected<ColumnSurfaces> built = internal::BuildColumnSurfaces(
+        geometry, sorted, ChunkColumns(geometry, k), field, num_threads, progress);
+    if (!built) return built.error();
+    const int levels = MostValidLevels(*built);
+    map.Append(std::make_shared<const ColumnSurfaces>(std::move(built).value()), levels);
+  }
+  return map;
+}
+
 
 Expected<SurfaceMap> SurfaceMap::FromParts(const GridGeometry& geometry,
                                            std::vector<std::uint32_t> column_begin,
@@ -186,8 +198,6 @@ Expected<SurfaceMap> SurfaceMap::FromParts(const GridGeometry& geometry,
   }
   SurfaceMap map;
   map.geometry_ = geometry;
-  map.surface_count_ = whole.surfaces.size();
-  map.chunks_.reserve(ChunkCount(geometry));
   const std::int64_t nx = geometry.size.x();
   for (int k = 0; k < ChunkCount(geometry); ++k) {
     const std::int64_t first = nx * k * kChunkRows;
@@ -200,7 +210,8 @@ Expected<SurfaceMap> SurfaceMap::FromParts(const GridGeometry& geometry,
     }
     chunk.surfaces.assign(whole.surfaces.begin() + base,
                           whole.surfaces.begin() + whole.column_begin[end]);
-    map.chunks_.push_back(std::make_shared<const ColumnSurfaces>(std::move(chunk)));
+    const int levels = MostValidLevels(chunk);
+    map.Append(std::make_shared<const ColumnSurfaces>(std::move(chunk)), levels);
   }
   return map;
 }
@@ -217,17 +228,34 @@ Expected<SurfaceMap> SurfaceMap::FromChunks(const GridGeometry& geometry,
   map.geometry_ = geometry;
   for (int k = 0; k < ChunkCount(geometry); ++k) {
     if (chunks[k] == nullptr) return InconsistentSurfaces("a chunk is missing");
-    map.surface_count_ += chunks[k]->surfaces.size();
-    if (same_grid && checked->chunks_[k] == chunks[k]) continue;
+    if (same_grid && checked->chunks_[k] == chunks[k]) {
+      map.Append(std::move(chunks[k]), checked->chunk_levels_[k]);
+      continue;
+    }
     if (std::string why =
             Inconsistency(*chunks[k], geometry.size.x() * std::int64_t{ChunkRowCount(geometry, k)},
                           geometry.size.z());
         !why.empty()) {
       return InconsistentSurfaces(why);
     }
+    const int levels = MostValidLevels(*chunks[k]);
+    map.Append(std::move(chunks[k]), levels);
   }
-  map.chunks_ = std::move(chunks);
   return map;
+}
+
+void SurfaceMap::Append(Chunk chunk, int levels) {
+  if (chunks_.empty()) {
+    chunks_.reserve(ChunkCount(geometry_));
+    chunk_levels_.reserve(ChunkCount(geometry_));
+  }
+  surface_count_ += chunk->surfaces.size();
+  chunks_.push_back(std::move(chunk));
+  chunk_levels_.push_back(levels);
+}
+
+int SurfaceMap::max_valid_levels() const {
+  return chunk_levels_.empty() ? 0 : *std::max_element(chunk_levels_.begin(), chunk_levels_.end());
 }
 
 ColumnSurfaces SurfaceMap::ToParts() const {
@@ -253,7 +281,7 @@ std::size_t SurfaceMap::valid_surface_count() const {
 }
 
 std::size_t SurfaceMap::MemoryBytes() const {
-  std::size_t bytes = chunks_.capacity() * sizeof(Chunk);
+  std::size_t bytes = chunks_.capacity() * sizeof(Chunk) + chunk_levels_.capacity() * sizeof(int);
   for (const Chunk& chunk : chunks_) {
     bytes += chunk->column_begin.capacity() * sizeof(std::uint32_t) +
              chunk->surfaces.capacity() * sizeof(ColumnSurface);

@@ -84,6 +84,9 @@ class SurfaceMap {
   const GridGeometry& geometry() const { return geometry_; }
   std::size_t surface_count() const { return surface_count_; }
   std::size_t valid_surface_count() const;
+  /// The most valid surfaces one column holds (the levels a map has). Counted per chunk when the
+  /// map is made (a shared chunk's count comes with it), so this costs no pass over the columns.
+  int max_valid_levels() const;
 
   /// Surfaces of column (ix, iy), lowest first (their ground heights ascend). Precondition:
   /// inside the grid.
@@ -105,8 +108,12 @@ class SurfaceMap {
   std::size_t MemoryBytes() const;
 
  private:
+  // Appends `chunk`, whose most valid surfaces in a column are `levels`.
+  void Append(Chunk chunk, int levels);
+
   GridGeometry geometry_;
   std::vector<Chunk> chunks_;
+  std::vector<int> chunk_levels_;  // Per chunk: the most valid surfaces of one of its columns.
   std::size_t surface_count_ = 0;
 };
 
