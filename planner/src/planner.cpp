@@ -458,6 +458,23 @@ std::size_t PlanningMap::MemoryBytes() const {
   return bytes;
 }
 
+std::size_t PlanningMap::MemoryBytesBeyond(const PlanningMap& other) const {
+  if (&other == this) return 0;
+  std::size_t bytes = model_->MemoryBytesBeyond(*other.model_);
+  std::scoped_lock lock(mutex_, other.mutex_);
+  // A graph is read once built (its entry's flag), as Bytes reads it.
+  const auto built = [](const GraphEntry& entry) {
+    return entry.built.load(std::memory_order_acquire) ? entry.graph : nullptr;
+  };
+  for (const auto& [key, entry] : graphs_) {
+    const auto theirs = other.graphs_.find(key);
+    const bool shared = built(*entry) != nullptr && theirs != other.graphs_.end() &&
+                        built(*theirs->second) == built(*entry);
+    if (!shared) bytes += entry->Bytes();
+  }
+  return bytes;
+}
+
 std::size_t PlanningMap::GraphCount() const {
   std::lock_guard lock(mutex_);
   return graphs_.size();

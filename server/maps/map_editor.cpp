@@ -113,11 +113,12 @@ Result<MapUpdate> MapEditor::Update(const MapEditRequest& request, const CallCon
   if (request.edits.empty()) return UpdateRetrying(request, call);
   Result<MapUpdate> update =
       request.base_version.empty() ? UpdateInBatch(request, call) : UpdateRetrying(request, call);
-  // An edit of the cloud let go of a whole model's worth of scratch, and its version of the
-  // base's model and graphs once the plans on it end. Room for the next version's arrays, the
-  // size of this one's, stays free for them; the rest goes back (free_memory.hpp).
+  // An edit of the cloud let go of its scratch, and of what its version does not share with
+  // the base's model and graphs once the plans on the base end. Room for the next version's
+  // new arrays, the size of this one's, stays free for them; the rest goes back
+  // (free_memory.hpp).
   if (options_.free_memory != nullptr) {
-    options_.free_memory->Request(update.ok() ? update.value().map.memory_bytes : 0);
+    options_.free_memory->Request(update.ok() ? update.value().new_bytes : 0);
   }
   return update;
 }
@@ -399,6 +400,9 @@ Result<MapUpdate> MapEditor::UpdateOnce(const MapEditRequest& request, const Cal
   update.graphs_s = graphs_s;
   update.writes = writes;
   map.memory_bytes = planning->MemoryBytes();
+  const PlanningMap* made_from = base_planning ? base_planning.get() : base.get();
+  update.new_bytes =
+      made_from != nullptr ? planning->MemoryBytesBeyond(*made_from) : map.memory_bytes;
   update.map = std::move(map);
   update.edit = built.edit.value_or(EditFigures{});
   update.load_s = built.load_s;

@@ -58,6 +58,9 @@ struct MapUpdate {
   /// one is published [s].
   double graphs_s = 0;
   TileWrites writes;       ///< The terrain's tiles written and shared (none for zones alone).
+  /// What the version allocated beyond the one it was made from: the model's chunks and the
+  /// graphs they do not share (MapSnapshot::memory_bytes counts them all) [bytes].
+  std::size_t new_bytes = 0;
   double total_s = 0;      ///< All of it, waiting for a slot and loading the base included [s].
   int merged_updates = 1;  ///< Update calls whose edits the version holds, this one included.
 };

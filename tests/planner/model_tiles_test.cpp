@@ -201,12 +201,17 @@ TEST_F(ModelTiles, AnEditAndAJoinShareTheChunksOfTheRowsTheyDidNotChange) {
     shared += !row_changed;
   }
   EXPECT_GE(shared, 2) << "the edit lies in one row of tiles";
+  // What making them allocated beyond the base: the changed row's chunks alone.
+  EXPECT_LT(model().MemoryBytesBeyond(model()), 1024u) << "the chunks' pointers";
+  for (const TerrainModel* made : {reassessed.model.get(), joined->get()}) {
+    EXPECT_GT(made->MemoryBytesBeyond(model()), made->MemoryBytes() / 10);
+    EXPECT_LT(made->MemoryBytesBeyond(model()), made->MemoryBytes() / 2);
+  }
   // The levels' count comes with a shared chunk and is counted for a new one.
   EXPECT_GE(model().surfaces().max_valid_levels(), 2) << "the garage has decks";
   EXPECT_EQ(model().surfaces().max_valid_levels(), MostLevelsCounted(model()));
   EXPECT_EQ((*joined)->surfaces().max_valid_levels(), MostLevelsCounted(**joined));
-  EXPECT_EQ(reassessed.model->surfaces().max_valid_levels(),
-            MostLevelsCounted(*reassessed.model));
+  EXPECT_EQ(reassessed.model->surfaces().max_valid_levels(), MostLevelsCounted(*reassessed.model));
 }
 
 TEST_F(ModelTiles, AHeldModelOfAnotherGridIsNotTakenFrom) {

@@ -19,8 +19,8 @@
 #include "assessment/surface_map_build.hpp"
 #include "assessment/terrain_fields_build.hpp"
 #include "assessment/terrain_model_internal.hpp"
-#include "format_internal.hpp"
 #include "column_chunks_internal.hpp"
+#include "format_internal.hpp"
 
 namespace strata {
 namespace {
@@ -388,20 +388,30 @@ std::vector<std::shared_ptr<const Arrays>> SpliceChunks(
   const std::int64_t wx = window.size().x();
   for (int k = window.min.y() / kChunkRows; k <= window.max.y() / kChunkRows; ++k) {
     const Arrays& from = *base[k];
-    Arrays chunk;
-    chunk.column_begin.reserve(from.column_begin.size());
-    for (int row = 0; row < ChunkRowCount(g, k); ++row) {
-      const int y = k * kChunkRows + row;
-      const std::int64_t start = nx * row;
-      if (y < window.min.y() || y > window.max.y()) {
-        internal::AppendColumns(from, start, start + nx, &chunk);
-        continue;
+    // Calls take(source, first, end) for each run of columns of the new chunk, in order.
+    const auto for_each_run = [&](const auto& take) {
+      for (int row = 0; row < ChunkRowCount(g, k); ++row) {
+        const int y = k * kChunkRows + row;
+        const std::int64_t start = nx * row;
+        if (y < window.min.y() || y > window.max.y()) {
+          take(from, start, start + nx);
+          continue;
+        }
+        const std::int64_t local_start = wx * (y - window.min.y());
+        take(from, start, start + window.min.x());
+        take(local, local_start, local_start + wx);
+        take(from, start + window.max.x() + 1, start + nx);
       }
-      const std::int64_t local_start = wx * (y - window.min.y());
-      internal::AppendColumns(from, start, start + window.min.x(), &chunk);
-      internal::AppendColumns(local, local_start, local_start + wx, &chunk);
-      internal::AppendColumns(from, start + window.max.x() + 1, start + nx, &chunk);
-    }
+    };
+    internal::ColumnsSize size;
+    for_each_run([&](const Arrays& source, std::int64_t first, std::int64_t end) {
+      size += internal::SizeOfColumns(source, first, end);
+    });
+    Arrays chunk;
+    internal::Reserve(size, &chunk);
+    for_each_run([&](const Arrays& source, std::int64_t first, std::int64_t end) {
+      internal::AppendColumns(source, first, end, &chunk);
+    });
     internal::FinishColumns(&chunk);
     out[k] = std::make_shared<const Arrays>(std::move(chunk));
   }
@@ -418,11 +428,10 @@ Expected<SurfaceMap> SpliceSurfaces(const SurfaceMap& base, const CellBox& windo
 // The fields of `base` with those of `window`'s columns replaced by `local`'s.
 Expected<TerrainFields> SpliceFields(const TerrainFields& base, const CellBox& window,
                                      const TerrainFields::Parts& local) {
-  return TerrainFields::FromChunks(
-      base.scalars(),
-      SpliceChunks(base.geometry(), base.chunks(), window,
-                   static_cast<const TerrainFields::Runs&>(local)),
-      &base);
+  return TerrainFields::FromChunks(base.scalars(),
+                                   SpliceChunks(base.geometry(), base.chunks(), window,
+                                                static_cast<const TerrainFields::Runs&>(local)),
+                                   &base);
 }
 
 std::size_t ValidPointsIn(const internal::ColumnCloud& sorted, const CellBox& columns) {

@@ -186,7 +186,6 @@ Expected<SurfaceMap> SurfaceMap::BuildFromColumns(const GridGeometry& geometry,
   return map;
 }
 
-
 Expected<SurfaceMap> SurfaceMap::FromParts(const GridGeometry& geometry,
                                            std::vector<std::uint32_t> column_begin,
                                            std::vector<ColumnSurface> surfaces) {
@@ -216,8 +215,7 @@ Expected<SurfaceMap> SurfaceMap::FromParts(const GridGeometry& geometry,
   return map;
 }
 
-Expected<SurfaceMap> SurfaceMap::FromChunks(const GridGeometry& geometry,
-                                            std::vector<Chunk> chunks,
+Expected<SurfaceMap> SurfaceMap::FromChunks(const GridGeometry& geometry, std::vector<Chunk> chunks,
                                             const SurfaceMap* checked) {
   if (IsEmptyGrid(geometry)) return InconsistentSurfaces("empty grid");
   if (static_cast<int>(chunks.size()) != ChunkCount(geometry)) {
@@ -274,17 +272,32 @@ ColumnSurfaces SurfaceMap::ToParts() const {
 std::size_t SurfaceMap::valid_surface_count() const {
   std::size_t count = 0;
   for (const Chunk& chunk : chunks_) {
-    count += static_cast<std::size_t>(std::count_if(
-        chunk->surfaces.begin(), chunk->surfaces.end(), [](const auto& s) { return s.valid; }));
+    count += static_cast<std::size_t>(std::count_if(chunk->surfaces.begin(), chunk->surfaces.end(),
+                                                    [](const auto& s) { return s.valid; }));
   }
   return count;
 }
 
+namespace {
+
+std::size_t ChunkBytes(const ColumnSurfaces& chunk) {
+  return chunk.column_begin.capacity() * sizeof(std::uint32_t) +
+         chunk.surfaces.capacity() * sizeof(ColumnSurface);
+}
+
+}  // namespace
+
 std::size_t SurfaceMap::MemoryBytes() const {
   std::size_t bytes = chunks_.capacity() * sizeof(Chunk) + chunk_levels_.capacity() * sizeof(int);
-  for (const Chunk& chunk : chunks_) {
-    bytes += chunk->column_begin.capacity() * sizeof(std::uint32_t) +
-             chunk->surfaces.capacity() * sizeof(ColumnSurface);
+  for (const Chunk& chunk : chunks_) bytes += ChunkBytes(*chunk);
+  return bytes;
+}
+
+std::size_t SurfaceMap::MemoryBytesBeyond(const SurfaceMap& other) const {
+  if (other.chunks_.size() != chunks_.size()) return MemoryBytes();
+  std::size_t bytes = chunks_.capacity() * sizeof(Chunk) + chunk_levels_.capacity() * sizeof(int);
+  for (std::size_t k = 0; k < chunks_.size(); ++k) {
+    if (chunks_[k] != other.chunks_[k]) bytes += ChunkBytes(*chunks_[k]);
   }
   return bytes;
 }

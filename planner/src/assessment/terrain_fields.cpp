@@ -88,8 +88,8 @@ Expected<TerrainFields> TerrainFields::FromParts(Parts parts) {
   if (std::string why = Inconsistency(static_cast<const Scalars&>(parts)); !why.empty()) {
     return Inconsistent(why);
   }
-  if (std::string why = Inconsistency(static_cast<const Runs&>(parts), g.LayerCellCount(),
-                                      g.size.z());
+  if (std::string why =
+          Inconsistency(static_cast<const Runs&>(parts), g.LayerCellCount(), g.size.z());
       !why.empty()) {
     return Inconsistent(why);
   }
@@ -123,8 +123,7 @@ Expected<TerrainFields> TerrainFields::FromParts(Parts parts) {
   return fields;
 }
 
-Expected<TerrainFields> TerrainFields::FromChunks(const Scalars& scalars,
-                                                  std::vector<Chunk> chunks,
+Expected<TerrainFields> TerrainFields::FromChunks(const Scalars& scalars, std::vector<Chunk> chunks,
                                                   const TerrainFields* checked) {
   if (std::string why = Inconsistency(scalars); !why.empty()) return Inconsistent(why);
   const GridGeometry& g = scalars.geometry;
@@ -138,8 +137,8 @@ Expected<TerrainFields> TerrainFields::FromChunks(const Scalars& scalars,
     if (chunks[k] == nullptr) return Inconsistent("a chunk is missing");
     fields.cell_count_ += chunks[k]->distance.size();
     if (same_grid && checked->chunks_[k] == chunks[k]) continue;
-    if (std::string why = Inconsistency(*chunks[k], g.size.x() * std::int64_t{ChunkRowCount(g, k)},
-                                        g.size.z());
+    if (std::string why =
+            Inconsistency(*chunks[k], g.size.x() * std::int64_t{ChunkRowCount(g, k)}, g.size.z());
         !why.empty()) {
       return Inconsistent(why);
     }
@@ -269,8 +268,8 @@ TerrainFields::CellRef TerrainFields::FindCell(const Eigen::Vector3i& cell) cons
   if (!g.Contains(cell)) return {};
   const Runs* runs = chunks_[cell.y() / kChunkRows].get();
   std::int64_t at_cell = -1, above = -1;
-  FindPair(*runs, cell.x() + std::int64_t{g.size.x()} * (cell.y() % kChunkRows), cell.z(),
-           &at_cell, &above);
+  FindPair(*runs, cell.x() + std::int64_t{g.size.x()} * (cell.y() % kChunkRows), cell.z(), &at_cell,
+           &above);
   return at_cell < 0 ? CellRef{} : CellRef{runs, at_cell};
 }
 
@@ -296,8 +295,7 @@ void TerrainFields::Sample(const Eigen::Vector3d& p, FieldSample* sample, FieldB
       c.t, c.clamped, [&](int k) { return DistanceValue(c.at[k]); }, inv_r,
       &sample->distance_gradient);
   sample->safety = Interpolate(
-      c.t, c.clamped, [&](int k) { return SafetyValue(c.at[k]); }, inv_r,
-      &sample->safety_gradient);
+      c.t, c.clamped, [&](int k) { return SafetyValue(c.at[k]); }, inv_r, &sample->safety_gradient);
   if (block == nullptr) return;
   block->key = BlockKeyOf(g, c.cell);
   block->max_safety = SafetyValue(c.at[0]);
@@ -368,13 +366,28 @@ std::optional<double> TerrainFields::SafetyAt(const Eigen::Vector3i& cell) const
   return SafetyValue(at);
 }
 
+namespace {
+
+std::size_t ChunkBytes(const TerrainFields::Runs& chunk) {
+  return chunk.column_begin.capacity() * sizeof(std::uint32_t) +
+         chunk.intervals.capacity() * sizeof(TerrainFields::Interval) +
+         chunk.distance.capacity() * sizeof(std::int16_t) +
+         chunk.safety.capacity() * sizeof(std::uint16_t);
+}
+
+}  // namespace
+
 std::size_t TerrainFields::MemoryBytes() const {
   std::size_t bytes = chunks_.capacity() * sizeof(Chunk);
-  for (const Chunk& chunk : chunks_) {
-    bytes += chunk->column_begin.capacity() * sizeof(std::uint32_t) +
-             chunk->intervals.capacity() * sizeof(Interval) +
-             chunk->distance.capacity() * sizeof(std::int16_t) +
-             chunk->safety.capacity() * sizeof(std::uint16_t);
+  for (const Chunk& chunk : chunks_) bytes += ChunkBytes(*chunk);
+  return bytes;
+}
+
+std::size_t TerrainFields::MemoryBytesBeyond(const TerrainFields& other) const {
+  if (other.chunks_.size() != chunks_.size()) return MemoryBytes();
+  std::size_t bytes = chunks_.capacity() * sizeof(Chunk);
+  for (std::size_t k = 0; k < chunks_.size(); ++k) {
+    if (chunks_[k] != other.chunks_[k]) bytes += ChunkBytes(*chunks_[k]);
   }
   return bytes;
 }

@@ -251,8 +251,8 @@ Expected<TerrainFields> BuildTerrainFields(const SurfaceMap& surfaces, const Col
   chunks.reserve(ChunkCount(g));
   std::uint64_t cells = 0;
   for (int k = 0; k < ChunkCount(g); ++k) {
-    Expected<TerrainFields::Parts> parts = BuildFieldParts(
-        surfaces, cloud, ChunkColumns(g, k), field, grid, num_threads, progress);
+    Expected<TerrainFields::Parts> parts =
+        BuildFieldParts(surfaces, cloud, ChunkColumns(g, k), field, grid, num_threads, progress);
     if (!parts) return parts.error();
     cells += parts->distance.size();
     if (cells > std::numeric_limits<std::uint32_t>::max()) return TooManyCells();

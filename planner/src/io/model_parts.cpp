@@ -54,12 +54,9 @@ namespace {
 
 // The model of `config`, `summary` and its parts, each made by FromParts or FromChunks
 // (kMapLoadFailed: "<noun> <name> ...").
-Expected<std::shared_ptr<const TerrainModel>> ModelOf(const AssessmentConfig& config,
-                                                      const AssessmentSummary& summary,
-                                                      Expected<SurfaceMap> surfaces,
-                                                      Expected<TerrainFields> fields,
-                                                      const std::string& noun,
-                                                      const std::string& name) {
+Expected<std::shared_ptr<const TerrainModel>> ModelOf(
+    const AssessmentConfig& config, const AssessmentSummary& summary, Expected<SurfaceMap> surfaces,
+    Expected<TerrainFields> fields, const std::string& noun, const std::string& name) {
   const auto fail = [&](const std::string& what) {
     return Error{ErrorCode::kMapLoadFailed, noun + " " + name + " " + what};
   };
@@ -92,9 +89,8 @@ Expected<std::shared_ptr<const TerrainModel>> BuildModelFromChunks(
   Expected<SurfaceMap> surfaces =
       SurfaceMap::FromChunks(payload.surface_geometry, std::move(surface_chunks),
                              checked != nullptr ? &checked->surfaces() : nullptr);
-  Expected<TerrainFields> fields =
-      TerrainFields::FromChunks(payload.fields, std::move(field_chunks),
-                                checked != nullptr ? &checked->fields() : nullptr);
+  Expected<TerrainFields> fields = TerrainFields::FromChunks(
+      payload.fields, std::move(field_chunks), checked != nullptr ? &checked->fields() : nullptr);
   return ModelOf(payload.config, payload.summary, std::move(surfaces), std::move(fields), noun,
                  name);
 }

@@ -11,8 +11,8 @@
 #include <utility>
 
 #include "binary_file.hpp"
-#include "model_parts.hpp"
 #include "column_chunks_internal.hpp"
+#include "model_parts.hpp"
 #include "strata/io/saved_model.hpp"
 
 namespace strata {
@@ -118,7 +118,7 @@ std::string CutTile(const TerrainModel& model, const Block& block) {
 
 // What the header holds besides the arrays.
 struct Header {
-  model_parts::Payload payload;  // Arrays empty.
+  model_parts::Payload payload;     // Arrays empty.
   std::int32_t sentinel_layer = 0;  // Read, of no meaning (WriteHeaderWith).
   // What the tiles hold together, so that the arrays are allocated once.
   std::uint64_t surface_total = 0, run_total = 0, value_total = 0;
@@ -147,8 +147,7 @@ void WriteHeader(binary_file::Sink& sink, const TerrainModel& model) {
   for (const TerrainFields::Chunk& chunk : model.fields().chunks()) {
     runs += chunk->intervals.size() - 1;  // The sentinel aside.
   }
-  WriteHeaderWith(sink, model, model.surfaces().surface_count(), runs,
-                  model.fields().cell_count());
+  WriteHeaderWith(sink, model, model.surfaces().surface_count(), runs, model.fields().cell_count());
 }
 
 bool ReadHeader(binary_file::Reader& reader, Header* h, std::string* problem) {
@@ -406,8 +405,8 @@ Expected<std::shared_ptr<const TerrainModel>> JoinTiles(
         if (!bytes) return bytes.error();
         bytes_read += bytes->size();
         if (bytes_read > tile_bytes) {
-          return fail("tile " + std::to_string(t) + " goes past the " +
-                      std::to_string(tile_bytes) + " bytes its tiles were said to hold");
+          return fail("tile " + std::to_string(t) + " goes past the " + std::to_string(tile_bytes) +
+                      " bytes its tiles were said to hold");
         }
         row[bx] = std::move(bytes).value();
         readers[bx] = TileReader{};
@@ -474,8 +473,9 @@ Expected<std::shared_ptr<const TerrainModel>> JoinTiles(
           chunk_surfaces.column_begin.insert(
               chunk_surfaces.column_begin.end(), end - x,
               static_cast<std::uint32_t>(chunk_surfaces.surfaces.size()));
-          chunk_fields.column_begin.insert(chunk_fields.column_begin.end(), end - x,
-                                           static_cast<std::uint32_t>(chunk_fields.intervals.size()));
+          chunk_fields.column_begin.insert(
+              chunk_fields.column_begin.end(), end - x,
+              static_cast<std::uint32_t>(chunk_fields.intervals.size()));
           x = end;
           continue;
         }

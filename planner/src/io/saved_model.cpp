@@ -97,14 +97,11 @@ void WritePayload(Sink& sink, const TerrainModel& model) {
     sink.Records<kIntervalRecordBytes>(moved, encode);
     value_base += static_cast<std::uint32_t>(chunk->distance.size());
   }
-  sink.Records<kIntervalRecordBytes>(std::vector<TerrainFields::Interval>{{0, value_base}},
-                                     encode);
-  WriteJoinedValues(sink, fields, [](const TerrainFields::Runs& chunk) -> const auto& {
-    return chunk.distance;
-  });
-  WriteJoinedValues(sink, fields, [](const TerrainFields::Runs& chunk) -> const auto& {
-    return chunk.safety;
-  });
+  sink.Records<kIntervalRecordBytes>(std::vector<TerrainFields::Interval>{{0, value_base}}, encode);
+  WriteJoinedValues(
+      sink, fields, [](const TerrainFields::Runs& chunk) -> const auto& { return chunk.distance; });
+  WriteJoinedValues(
+      sink, fields, [](const TerrainFields::Runs& chunk) -> const auto& { return chunk.safety; });
 }
 
 bool ReadPayload(Reader& reader, Payload* p, std::string* problem) {

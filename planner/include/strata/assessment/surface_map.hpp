@@ -93,8 +93,8 @@ class SurfaceMap {
   std::span<const ColumnSurface> Column(int ix, int iy) const {
     const auto row = static_cast<unsigned>(iy);
     const ColumnSurfaces& chunk = *chunks_[row / kChunkRows];
-    const auto c = static_cast<std::size_t>(ix + geometry_.size.x() *
-                                                     std::int64_t{row % kChunkRows});
+    const auto c =
+        static_cast<std::size_t>(ix + geometry_.size.x() * std::int64_t{row % kChunkRows});
     return {chunk.surfaces.data() + chunk.column_begin[c],
             chunk.surfaces.data() + chunk.column_begin[c + 1]};
   }
@@ -106,6 +106,9 @@ class SurfaceMap {
 
   /// Bytes held, chunks shared with other maps included.
   std::size_t MemoryBytes() const;
+  /// The bytes of the chunks `other` (a map on the same grid, e.g. the base of an edit) does
+  /// not hold at the same place: what making this map allocated beyond it.
+  std::size_t MemoryBytesBeyond(const SurfaceMap& other) const;
 
  private:
   // Appends `chunk`, whose most valid surfaces in a column are `levels`.

@@ -143,6 +143,9 @@ class TerrainFields {
   std::size_t cell_count() const { return cell_count_; }
   /// Bytes held, not counting the object itself, chunks shared with other fields included.
   std::size_t MemoryBytes() const;
+  /// The bytes of the chunks `other` (fields on the same grid, e.g. the base of an edit) does
+  /// not hold at the same place: what making these fields allocated beyond it.
+  std::size_t MemoryBytesBeyond(const TerrainFields& other) const;
 
  private:
   // A stored cell: its chunk's runs and the index of its values there; runs == nullptr

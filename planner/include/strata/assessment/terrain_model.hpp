@@ -125,6 +125,11 @@ class TerrainModel {
 
   /// Bytes held by the model (surfaces and fields), not counting the object itself.
   std::size_t MemoryBytes() const { return surfaces_.MemoryBytes() + fields_.MemoryBytes(); }
+  /// The bytes of the arrays `other` (a model on the same grid, e.g. the base of an edit) does
+  /// not share with this one: what making this model allocated beyond it.
+  std::size_t MemoryBytesBeyond(const TerrainModel& other) const {
+    return surfaces_.MemoryBytesBeyond(other.surfaces_) + fields_.MemoryBytesBeyond(other.fields_);
+  }
 
  private:
   TerrainModel() = default;

@@ -83,11 +83,11 @@ struct HeldTiles {
 /// what messages call it. With `held` (may be null), the tiles it holds are taken from its
 /// model, not asked of `source`, when its grid has the header's columns (else it is not
 /// used): a row of tiles it holds all is its model's chunk (grid.hpp), shared, and the
-/// others' columns are copied into the new chunks. kMapLoadFailed naming it for a header that is not one, of another format version,
-/// truncated or corrupted (its checksum), a count of tiles other than the header's grid
-/// needs, totals the tiles' bytes cannot hold, tiles past `tile_bytes`, and a tile whose
-/// contents do not fit its block or the header's totals (which tile, and why). Never
-/// allocates more than `tile_bytes` plus the header's grid of column offsets.
+/// others' columns are copied into the new chunks. kMapLoadFailed naming it for a header that is
+/// not one, of another format version, truncated or corrupted (its checksum), a count of tiles
+/// other than the header's grid needs, totals the tiles' bytes cannot hold, tiles past
+/// `tile_bytes`, and a tile whose contents do not fit its block or the header's totals (which tile,
+/// and why). Never allocates more than `tile_bytes` plus the header's grid of column offsets.
 Expected<std::shared_ptr<const TerrainModel>> JoinModel(
     std::string_view header, std::size_t tile_count, std::uint64_t tile_bytes,
     const TileSource& source, const std::string& name, const HeldTiles* held = nullptr);
