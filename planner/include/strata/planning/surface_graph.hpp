@@ -7,8 +7,8 @@
 #include <cmath>
 #include <cstdint>
 #include <functional>
+#include <iterator>
 #include <numbers>
-#include <ranges>
 #include <span>
 #include <string>
 #include <string_view>
@@ -171,8 +171,47 @@ class SurfaceGraph {
   /// Obstacle distance d at the reference point (TerrainModel::Distance) [m].
   double clearance(int node) const { return nodes_[node].clearance_m; }
 
-  /// The node indices of one column: consecutive, since nodes are stored column by column.
-  using NodeRange = std::ranges::iota_view<std::int32_t, std::int32_t>;
+  /// The node indices of one column, [first, end): consecutive, since nodes are stored column
+  /// by column. (std::ranges::iota_view would do, but clang 14, which runs the project's
+  /// clang-tidy, cannot compile libstdc++ 12's ranges.)
+  class NodeRange {
+   public:
+    class Iterator {
+     public:
+      using iterator_category = std::forward_iterator_tag;
+      using value_type = std::int32_t;
+      using difference_type = std::ptrdiff_t;
+      using pointer = const std::int32_t*;
+      using reference = std::int32_t;
+      Iterator() = default;
+      explicit Iterator(std::int32_t node) : node_(node) {}
+      std::int32_t operator*() const { return node_; }
+      Iterator& operator++() {
+        ++node_;
+        return *this;
+      }
+      Iterator operator++(int) {
+        const Iterator before = *this;
+        ++node_;
+        return before;
+      }
+      bool operator==(const Iterator& other) const = default;
+
+     private:
+      std::int32_t node_ = 0;
+    };
+    NodeRange() = default;
+    NodeRange(std::int32_t first, std::int32_t end) : first_(first), end_(end) {}
+    Iterator begin() const { return Iterator(first_); }
+    Iterator end() const { return Iterator(end_); }
+    std::size_t size() const { return static_cast<std::size_t>(end_ - first_); }
+    bool empty() const { return first_ == end_; }
+    std::int32_t operator[](std::size_t k) const { return first_ + static_cast<std::int32_t>(k); }
+
+   private:
+    std::int32_t first_ = 0;
+    std::int32_t end_ = 0;
+  };
   /// Node indices of column (ix, iy), lowest first; empty outside the grid.
   NodeRange ColumnNodes(int ix, int iy) const {
     const GridGeometry& g = grid();
