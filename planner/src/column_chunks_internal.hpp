@@ -62,8 +62,7 @@ struct ColumnsSize {
     return *this;
   }
 };
-inline ColumnsSize SizeOfColumns(const ColumnSurfaces& from, std::int64_t first,
-                                 std::int64_t end) {
+inline ColumnsSize SizeOfColumns(const ColumnSurfaces& from, std::int64_t first, std::int64_t end) {
   return {static_cast<std::uint64_t>(end - first),
           from.column_begin[end] - from.column_begin[first], 0};
 }

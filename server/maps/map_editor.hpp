@@ -57,7 +57,7 @@ struct MapUpdate {
   /// Building the graphs of the robots that planned on the base version here, before the new
   /// one is published [s].
   double graphs_s = 0;
-  TileWrites writes;       ///< The terrain's tiles written and shared (none for zones alone).
+  TileWrites writes;  ///< The terrain's tiles written and shared (none for zones alone).
   /// What the version allocated beyond the one it was made from: the model's chunks and the
   /// graphs they do not share (MapSnapshot::memory_bytes counts them all) [bytes].
   std::size_t new_bytes = 0;
