@@ -247,12 +247,15 @@ struct TileReader {
           {Decode<std::int32_t>(at), static_cast<std::uint32_t>(first_value + layers_here)});
       layers_here += Decode<std::uint32_t>(at + 4);
     }
-    f.distance.resize(first_value + layers_here);
-    f.safety.resize(first_value + layers_here);
-    std::memcpy(f.distance.data() + first_value, distance + value * sizeof(std::int16_t),
-                layers_here * sizeof(std::int16_t));
-    std::memcpy(f.safety.data() + first_value, safety + value * sizeof(std::uint16_t),
-                layers_here * sizeof(std::uint16_t));
+    // A chunk's arrays may still be empty, their data null, which memcpy may not be given.
+    if (layers_here > 0) {
+      f.distance.resize(first_value + layers_here);
+      f.safety.resize(first_value + layers_here);
+      std::memcpy(f.distance.data() + first_value, distance + value * sizeof(std::int16_t),
+                  layers_here * sizeof(std::int16_t));
+      std::memcpy(f.safety.data() + first_value, safety + value * sizeof(std::uint16_t),
+                  layers_here * sizeof(std::uint16_t));
+    }
     value += layers_here;
     ++column;
     return true;
