@@ -9,6 +9,7 @@
 #include "assessment/assessment_progress.hpp"
 #include "assessment/column_cloud.hpp"
 #include "assessment/surface_map_build.hpp"
+#include "column_chunks_internal.hpp"
 #include "parallel_internal.hpp"
 #include "strata/assessment/plane_fit.hpp"
 
@@ -201,14 +202,10 @@ Expected<SurfaceMap> SurfaceMap::FromParts(const GridGeometry& geometry,
   for (int k = 0; k < ChunkCount(geometry); ++k) {
     const std::int64_t first = nx * k * kChunkRows;
     const std::int64_t end = first + nx * ChunkRowCount(geometry, k);
-    const std::uint32_t base = whole.column_begin[first];
     ColumnSurfaces chunk;
-    chunk.column_begin.reserve(end - first + 1);
-    for (std::int64_t c = first; c <= end; ++c) {
-      chunk.column_begin.push_back(whole.column_begin[c] - base);
-    }
-    chunk.surfaces.assign(whole.surfaces.begin() + base,
-                          whole.surfaces.begin() + whole.column_begin[end]);
+    internal::Reserve(internal::SizeOfColumns(whole, first, end), &chunk);
+    internal::AppendColumns(whole, first, end, &chunk);
+    internal::FinishColumns(&chunk);
     const int levels = MostValidLevels(chunk);
     map.Append(std::make_shared<const ColumnSurfaces>(std::move(chunk)), levels);
   }
@@ -258,14 +255,10 @@ int SurfaceMap::max_valid_levels() const {
 
 ColumnSurfaces SurfaceMap::ToParts() const {
   ColumnSurfaces whole;
-  whole.column_begin.push_back(0);
   for (const Chunk& chunk : chunks_) {
-    const auto base = static_cast<std::uint32_t>(whole.surfaces.size());
-    for (std::size_t c = 1; c < chunk->column_begin.size(); ++c) {
-      whole.column_begin.push_back(chunk->column_begin[c] + base);
-    }
-    whole.surfaces.insert(whole.surfaces.end(), chunk->surfaces.begin(), chunk->surfaces.end());
+    internal::AppendColumns(*chunk, 0, std::ssize(chunk->column_begin) - 1, &whole);
   }
+  internal::FinishColumns(&whole);
   return whole;
 }
 

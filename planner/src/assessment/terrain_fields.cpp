@@ -6,6 +6,8 @@
 #include <string>
 #include <vector>
 
+#include "column_chunks_internal.hpp"
+
 namespace strata {
 namespace {
 
@@ -101,23 +103,10 @@ Expected<TerrainFields> TerrainFields::FromParts(Parts parts) {
   for (int k = 0; k < ChunkCount(g); ++k) {
     const std::int64_t first = nx * k * kChunkRows;
     const std::int64_t end = first + nx * ChunkRowCount(g, k);
-    const std::uint32_t run_base = parts.column_begin[first];
-    const std::uint32_t run_end = parts.column_begin[end];
-    const std::uint32_t value_base = parts.intervals[run_base].offset;
-    const std::uint32_t value_end = parts.intervals[run_end].offset;
     Runs chunk;
-    chunk.column_begin.reserve(end - first + 1);
-    for (std::int64_t c = first; c <= end; ++c) {
-      chunk.column_begin.push_back(parts.column_begin[c] - run_base);
-    }
-    chunk.intervals.reserve(run_end - run_base + 1);
-    for (std::uint32_t r = run_base; r < run_end; ++r) {
-      chunk.intervals.push_back(
-          {parts.intervals[r].first_layer, parts.intervals[r].offset - value_base});
-    }
-    chunk.intervals.push_back({0, value_end - value_base});
-    chunk.distance.assign(parts.distance.begin() + value_base, parts.distance.begin() + value_end);
-    chunk.safety.assign(parts.safety.begin() + value_base, parts.safety.begin() + value_end);
+    internal::Reserve(internal::SizeOfColumns(parts, first, end), &chunk);
+    internal::AppendColumns(parts, first, end, &chunk);
+    internal::FinishColumns(&chunk);
     fields.chunks_.push_back(std::make_shared<const Runs>(std::move(chunk)));
   }
   return fields;
@@ -153,21 +142,10 @@ Expected<TerrainFields> TerrainFields::FromChunks(const Scalars& scalars, std::v
 TerrainFields::Parts TerrainFields::ToParts() const {
   Parts parts;
   static_cast<Scalars&>(parts) = scalars_;
-  parts.column_begin.push_back(0);
   for (const Chunk& chunk : chunks_) {
-    const auto run_base = static_cast<std::uint32_t>(parts.intervals.size());
-    const auto value_base = static_cast<std::uint32_t>(parts.distance.size());
-    for (std::size_t c = 1; c < chunk->column_begin.size(); ++c) {
-      parts.column_begin.push_back(chunk->column_begin[c] + run_base);
-    }
-    for (std::size_t r = 0; r + 1 < chunk->intervals.size(); ++r) {
-      parts.intervals.push_back(
-          {chunk->intervals[r].first_layer, chunk->intervals[r].offset + value_base});
-    }
-    parts.distance.insert(parts.distance.end(), chunk->distance.begin(), chunk->distance.end());
-    parts.safety.insert(parts.safety.end(), chunk->safety.begin(), chunk->safety.end());
+    internal::AppendColumns(*chunk, 0, std::ssize(chunk->column_begin) - 1, &parts);
   }
-  parts.intervals.push_back({0, static_cast<std::uint32_t>(parts.distance.size())});
+  internal::FinishColumns(&parts);
   return parts;
 }
 
