@@ -85,7 +85,7 @@ std::string Inconsistency(const TerrainFields::Scalars& scalars) {
 
 }  // namespace
 
-Expected<TerrainFields> TerrainFields::FromParts(Parts parts) {
+Expected<TerrainFields> TerrainFields::FromParts(const Parts& parts) {
   const GridGeometry& g = parts.geometry;
   if (std::string why = Inconsistency(static_cast<const Scalars&>(parts)); !why.empty()) {
     return Inconsistent(why);

@@ -77,7 +77,7 @@ Expected<std::shared_ptr<const TerrainModel>> BuildModel(Payload payload, const 
                                                          const std::string& name) {
   Expected<SurfaceMap> surfaces = SurfaceMap::FromParts(
       payload.surface_geometry, std::move(payload.column_begin), std::move(payload.surfaces));
-  Expected<TerrainFields> fields = TerrainFields::FromParts(std::move(payload.fields));
+  Expected<TerrainFields> fields = TerrainFields::FromParts(payload.fields);
   return ModelOf(payload.config, payload.summary, std::move(surfaces), std::move(fields), noun,
                  name);
 }

@@ -95,7 +95,7 @@ class TerrainFields {
 
   /// Validates `parts` over the whole grid (sizes, offsets, layers inside the grid, steps) and
   /// takes them, cut into chunks; kInvalidInput naming the inconsistency.
-  static Expected<TerrainFields> FromParts(Parts parts);
+  static Expected<TerrainFields> FromParts(const Parts& parts);
   /// The fields of `scalars` and `chunks` (ChunkCount(geometry) of them, chunk k the runs of
   /// its ChunkRowCount rows), checked as FromParts checks, but for the chunks `checked` (may be
   /// null; fields on the same grid) holds at the same place: they were checked when it was
