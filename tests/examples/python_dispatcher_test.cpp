@@ -1,6 +1,7 @@
 // examples/python/dispatcher.py against a real strata-server: it creates its map, estimates
 // the costs, assigns greedily, plans the assignments in a batch among each other's
-// reservations, and checks those with its own sampling. It runs with Debian's
+// reservations, and checks those with its own sampling; then an urgent order has a robot that
+// follows replans replanned, which the example sees on the schedule's watch. It runs with Debian's
 // /usr/bin/python3 and python3-grpcio (scripts/install-test-tools.sh) on the code the build
 // generated from proto/; without python3-grpcio the test skips and says so.
 #include <gmock/gmock.h>
@@ -19,7 +20,7 @@ using ::testing::HasSubstr;
 
 constexpr const char* kPython = "/usr/bin/python3";
 
-TEST(PythonDispatcher, CreatesAMapEstimatesAssignsAndPlansInABatch) {
+TEST(PythonDispatcher, CreatesAMapEstimatesAssignsPlansInABatchAndFollowsAReplan) {
   const CommandResult probe = RunCommand({kPython, "-c", "import grpc, google.protobuf"});
   if (probe.exit_code != 0) {
     GTEST_SKIP() << "Debian's python3-grpcio or python3-protobuf is missing (run "
@@ -42,6 +43,12 @@ TEST(PythonDispatcher, CreatesAMapEstimatesAssignsAndPlansInABatch) {
   // Planned among each other's reservations, and checked by the example's own sampling.
   EXPECT_THAT(run.out, HasSubstr("checked 3 pairs of 3 reservations every 5 ms: 0 meet"));
   EXPECT_THAT(run.out, HasSubstr("released 3 reservations"));
+  // The urgent order: r3 comes down at once and has r1, which follows replans, replanned to let
+  // it pass; the schedule's watch saw r1's new trajectory, and the two keep r3's 2 m.
+  EXPECT_THAT(run.out, HasSubstr("1 robot(s) replanned to let it pass first"));
+  EXPECT_THAT(run.out, HasSubstr("r1 replanned to let r3 pass: follows the new trajectory"));
+  EXPECT_THAT(run.out, HasSubstr("checked 1 pairs of 2 reservations every 5 ms: 0 meet"));
+  EXPECT_THAT(run.out, HasSubstr("released 2 reservations"));
   // The server saw the three kinds of call.
   EXPECT_THAT(server->Log(), HasSubstr("rpc=EstimateCosts"));
   EXPECT_THAT(server->Log(), HasSubstr("rpc=PlanBatch"));

@@ -9,7 +9,8 @@ dotted until the deck's storey is hidden or cut away, the hover naming the groun
 the map in the 3D view and hides the deck's storey, or cuts the deck away, there; refits the
 views and the profile when the window shrinks; shows an impossible goal's error with the
 nearest valid point without any console error; draws two robots' reservations at the traffic
-slider's times; and names a garage's decks and rugged terrain's one storey.
+slider's times, and marks a robot the server replanned to let another pass first; and names a
+garage's decks and rugged terrain's one storey.
 Exits 77 (CTest's skip) only when the browser cannot run here."""
 
 import argparse
@@ -138,6 +139,14 @@ def grpc_plan_length(cli, address):
          "--goal", GOAL, "--time-budget", "30"],
         check=True, capture_output=True, text=True, timeout=120).stdout
     return json.loads(out)["stats"]["length_m"]
+
+
+def cli(binary, address, *command):
+    """The strata CLI's output for `command` on the server (raises when it fails)."""
+    done = subprocess.run([binary, "--server", address, *command], capture_output=True,
+                          text=True, timeout=120)
+    assert done.returncode == 0, f"strata {' '.join(command)}: {done.stdout}{done.stderr}"
+    return done.stdout
 
 
 def main():
@@ -314,6 +323,40 @@ def main():
                 disc = driver.find_element("css selector", f'#traffic circle[data-robot-id="{robot}"]')
                 cx, cy = float(disc.get_attribute("cx")), float(disc.get_attribute("cy"))
                 assert math.hypot(cx - x, cy - y) < 0.5, (end, robot, cx, cy)
+            conflicts = driver.find_element("id", "traffic").get_attribute("data-conflicts")
+            assert conflicts == "0", f"{conflicts} robots drawn in conflict at the slider's {end}"
+
+        # A robot replanned to let another pass first (server_fleet_test's scenario, by the CLI:
+        # "up" climbs the ramp following replans; "down", on the deck, must come down at once,
+        # 2 m clear of it, and may replan one robot): "up"'s disc and route are marked, with the
+        # robot it let pass, "down"'s are not; still nothing drawn in conflict.
+        for robot in ("r1", "r2"):
+            cli(args.cli, server.address, "reservations", "release", "--map", "demo", "--robot-id", robot)
+        cli(args.cli, server.address, "plan", "--map", "demo", "--start", "1,5.25,0.3",
+            "--goal", "7,9.25,3.3", "--robot-id", "up", "--reserve", "--follows-replans",
+            "--time-budget", "30")
+        down = json.loads(cli(args.cli, server.address, "--json", "plan", "--map", "demo",
+                              "--start", "10,9.25,3.3", "--goal", "10,9.5,0.3", "--robot-id", "down",
+                              "--reserve", "--max-wait", "0", "--separation", "2.0",
+                              "--replan-robots", "1", "--time-budget", "30"))
+        assert [r["robot_id"] for r in down.get("replanned", [])] == ["up"], \
+            f"the scenario replanned {down.get('replanned')}, not up: it tests nothing"
+        driver.find_element("id", "refresh-traffic").click()
+        browser.wait("document.querySelector('#traffic circle[data-robot-id=\"down\"]')"
+                     " && document.querySelectorAll('#traffic circle.robot').length === 2", 20,
+                     "the robots up and down drawn")
+        for end in ("min", "max"):
+            driver.execute_script(slide.format(end))
+            up = driver.find_element("css selector", '#traffic circle[data-robot-id="up"]')
+            assert "replanned" in up.get_attribute("class").split(), (end, up.get_attribute("class"))
+            assert up.get_attribute("data-replanned-for") == "down", (end, up.get_attribute("data-replanned-for"))
+            title = up.find_element("css selector", "title").get_attribute("textContent")
+            assert title.endswith("replanned to let down pass first"), (end, title)
+            down_disc = driver.find_element("css selector", '#traffic circle[data-robot-id="down"]')
+            assert "replanned" not in down_disc.get_attribute("class").split(), (end, down_disc.get_attribute("class"))
+            assert down_disc.get_attribute("data-replanned-for") is None, end
+            routes = driver.find_elements("css selector", "#traffic polyline.route.replanned")
+            assert [r.get_attribute("data-robot-id") for r in routes] == ["up"], end
             conflicts = driver.find_element("id", "traffic").get_attribute("data-conflicts")
             assert conflicts == "0", f"{conflicts} robots drawn in conflict at the slider's {end}"
 

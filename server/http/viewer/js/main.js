@@ -171,8 +171,10 @@ function showTrafficAt(time) {
   const traffic = state.traffic;
   traffic.draw($('traffic'), time);
   const conflicts = Number($('traffic').dataset.conflicts);
+  const replanned = traffic.robots.filter((r) => r.replannedFor).length;
   $('traffic-note').textContent = `${new Date(time * 1000).toISOString()}: ${traffic.robots.length} `
-    + `robot(s)${conflicts ? `, ${conflicts} in conflict` : ''}`;
+    + `robot(s)${conflicts ? `, ${conflicts} in conflict` : ''}`
+    + `${replanned ? `, ${replanned} replanned to let another pass first (dashed)` : ''}`;
 }
 
 async function loadTraffic(id) {

@@ -3,7 +3,10 @@
 // leaves, at its goal once it has arrived), its whole route a thin line. Two discs closer
 // horizontally than their radii plus the server's separation, with their bodies overlapping in
 // height, are marked as a conflict: the rule the server checks exactly (proto/README.md,
-// "Fleets"), so a marked pair is a schedule to look into.
+// "Fleets"), so a marked pair is a schedule to look into. A reservation the server replanned to
+// let another robot pass first (Reservation.replanned_for) has its route dashed and its disc
+// marked, so a robot that changed its way without its own request stands out; a robot that
+// follows replans (and so may be replanned) has its disc outlined dashed.
 
 const SVG_NS = 'http://www.w3.org/2000/svg';
 
@@ -32,6 +35,21 @@ function stateAt(trajectory, t) {
   return [0, 0, 0];
 }
 
+// A disc's classes: the robot, whether it is in conflict, replanned, or follows replans.
+function discClasses(robot, inConflict) {
+  const classes = ['robot'];
+  if (inConflict) classes.push('conflict');
+  if (robot.replannedFor) classes.push('replanned');
+  if (robot.followsReplans) classes.push('follows-replans');
+  return classes.join(' ');
+}
+
+// What a disc's title adds about replanning: why the robot's way changed, or that it may.
+function replanNote(robot) {
+  if (robot.replannedFor) return `, replanned to let ${robot.replannedFor} pass first`;
+  return robot.followsReplans ? ', follows replans' : '';
+}
+
 export class Traffic {
   // `listing`: a ListReservationsResponse.
   constructor(listing) {
@@ -42,6 +60,9 @@ export class Traffic {
       expiry: seconds(r.expiry_time),
       trajectory: r.trajectory,
       body: r.body,
+      // The JSON API prints every field, but a listing made elsewhere may leave defaults out.
+      followsReplans: Boolean(r.follows_replans),
+      replannedFor: r.replanned_for || '',
     }));
     this.from = Math.min(...this.robots.map((r) => r.start));
     this.until = Math.max(...this.robots.map((r) => Math.min(r.expiry, r.start + r.trajectory.duration_s + 5)));
@@ -88,21 +109,24 @@ export class Traffic {
         points.push(`${p[0]},${p[1]}`);
       }
       const route = document.createElementNS(SVG_NS, 'polyline');
-      route.setAttribute('class', 'route');
+      route.setAttribute('class', r.replannedFor ? 'route replanned' : 'route');
+      route.dataset.robotId = r.id;
       route.setAttribute('vector-effect', 'non-scaling-stroke');
       route.setAttribute('points', points.join(' '));
       group.appendChild(route);
     }
     positions.forEach((p, index) => {
       const disc = document.createElementNS(SVG_NS, 'circle');
-      disc.setAttribute('class', inConflict.has(index) ? 'robot conflict' : 'robot');
+      disc.setAttribute('class', discClasses(p.robot, inConflict.has(index)));
       disc.setAttribute('cx', p.x);
       disc.setAttribute('cy', p.y);
       disc.setAttribute('r', p.robot.body.radius_m);
       disc.setAttribute('vector-effect', 'non-scaling-stroke');
       disc.dataset.robotId = p.robot.id;
+      if (p.robot.replannedFor) disc.dataset.replannedFor = p.robot.replannedFor;
       const title = document.createElementNS(SVG_NS, 'title');
-      title.textContent = `${p.robot.id} (${p.x.toFixed(2)}, ${p.y.toFixed(2)}, ${p.z.toFixed(2)}) m`;
+      title.textContent = `${p.robot.id} (${p.x.toFixed(2)}, ${p.y.toFixed(2)}, ${p.z.toFixed(2)}) m`
+        + replanNote(p.robot);
       disc.appendChild(title);
       group.appendChild(disc);
     });
