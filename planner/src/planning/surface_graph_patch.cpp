@@ -7,12 +7,14 @@
 #include <functional>
 #include <optional>
 #include <queue>
+#include <span>
 #include <unordered_map>
 #include <utility>
 #include <vector>
 
 #include <fmt/format.h>
 
+#include "planning/clearance_ranks.hpp"
 #include "planning/surface_graph_internal.hpp"
 #include "prefault_internal.hpp"
 #include "strata/planning/surface_graph.hpp"
@@ -33,58 +35,6 @@ constexpr int kJoinedRingColumns[] = {16, 128, 512};
 constexpr int kAxisSteps[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
 
 Error Cancelled() { return Error{ErrorCode::kCancelled, "patching the surface graph was stopped"}; }
-
-// The clearances of a graph's nodes around one value: how many lie below and at it, and the
-// nearest `kept` on either side, which give the value at any rank near its own exactly (a
-// patched graph's 10th percentile, from its base's, without sorting 25 M clearances again:
-// 0.2-0.4 s on a 1 km site).
-class ClearancesAround {
- public:
-  ClearancesAround(double value, std::size_t kept) : value_(value), kept_(kept) {}
-
-  void Add(double c) {
-    if (c == value_) {
-      ++at_;
-    } else if (c < value_) {
-      ++below_;
-      Keep(c, below_nearest_, std::greater<>());  // A min-heap: its top is the farthest kept.
-    } else {
-      Keep(c, above_nearest_, std::less<>());
-    }
-  }
-
-  // The value at `rank` in ascending order, when it is `value` or among the nearest kept.
-  std::optional<double> AtRank(std::size_t rank) {
-    if (rank >= below_ && rank < below_ + at_) return value_;
-    if (rank >= below_ + at_ && rank - below_ - at_ < above_nearest_.size()) {
-      std::sort(above_nearest_.begin(), above_nearest_.end());
-      return above_nearest_[rank - below_ - at_];
-    }
-    if (rank < below_ && below_ - 1 - rank < below_nearest_.size()) {
-      std::sort(below_nearest_.begin(), below_nearest_.end(), std::greater<>());
-      return below_nearest_[below_ - 1 - rank];
-    }
-    return std::nullopt;
-  }
-
- private:
-  template <typename FartherFirst>
-  void Keep(double c, std::vector<double>& heap, FartherFirst farther_first) const {
-    if (heap.size() < kept_) {
-      heap.push_back(c);
-      std::push_heap(heap.begin(), heap.end(), farther_first);
-    } else if (farther_first(c, heap.front())) {  // Nearer than the farthest kept.
-      std::pop_heap(heap.begin(), heap.end(), farther_first);
-      heap.back() = c;
-      std::push_heap(heap.begin(), heap.end(), farther_first);
-    }
-  }
-
-  double value_;
-  std::size_t kept_;
-  std::size_t below_ = 0, at_ = 0;
-  std::vector<double> below_nearest_, above_nearest_;
-};
 
 bool SameGrid(const GridGeometry& a, const GridGeometry& b) {
   return a.size == b.size && a.origin_m == b.origin_m && a.resolution_m == b.resolution_m;
@@ -116,58 +66,54 @@ Expected<SurfaceGraph> SurfaceGraph::Patch(const SurfaceGraph& base, const Terra
   // 1. The nodes: those of the renewed columns found again, the rest (with their clearance and
   // rim distance) copied from the base, a row's run of columns at a time.
   const std::int64_t nx = g.size.x();
-  graph.column_begin_.assign(static_cast<std::size_t>(g.LayerCellCount()) + 1, 0);
   // Room for a few more nodes per renewed column than the base holds (no column but a
   // multi-storey one has more), so that the arrays rarely grow.
   const std::size_t room = base.nodes_.size() + 4 * static_cast<std::size_t>(renewed.CellCount());
   graph.nodes_.reserve(room);
   graph.edge_distance_.reserve(room);
   graph.components_.reserve(room);
+  graph.column_begin_.reserve(base.column_begin_.size());
+  graph.column_begin_.push_back(0);
   const auto cap = static_cast<float>(EdgeDistanceCap(g.resolution_m));
+  // Without ranks of its own, the base's clearances are counted around its 10th percentile as
+  // they are copied: they give the patched graph's (step 2).
+  std::optional<graph_internal::ClearanceRanks> counted;
+  if (!base.open_ranks_) counted.emplace(static_cast<float>(base.open_ground_clearance_m_));
   // The base's components go with its nodes, for step 2 (-1 for the renewed nodes).
   const auto copy_columns = [&](std::int64_t first, std::int64_t last) {  // [first, last)
     const std::uint32_t from = base.column_begin_[first], to = base.column_begin_[last];
     const auto shift = static_cast<std::int64_t>(graph.nodes_.size()) - from;
+    if (counted) counted->Add(std::span(base.nodes_).subspan(from, to - from));
     graph.nodes_.insert(graph.nodes_.end(), base.nodes_.begin() + from, base.nodes_.begin() + to);
     graph.edge_distance_.insert(graph.edge_distance_.end(), base.edge_distance_.begin() + from,
                                 base.edge_distance_.begin() + to);
     graph.components_.insert(graph.components_.end(), base.components_.begin() + from,
                              base.components_.begin() + to);
     for (std::int64_t c = first; c < last; ++c) {
-      graph.column_begin_[c + 1] = static_cast<std::uint32_t>(base.column_begin_[c + 1] + shift);
+      graph.column_begin_.push_back(static_cast<std::uint32_t>(base.column_begin_[c + 1] + shift));
     }
   };
-  // The clearances around the base's 10th percentile, counted row by row while the row's nodes
-  // are in the cache: they give the patched graph's (step 2). Its rank moves by about as many
-  // places as the renewed columns have nodes (a few per column), and it is looked for that far
-  // (up to a bound: a larger edit sorts them all again).
-  constexpr std::size_t kMostKept = 1 << 16;
-  ClearancesAround near_open(
-      base.open_ground_clearance_m_,
-      std::min(4 * static_cast<std::size_t>(renewed.CellCount()) + 64, kMostKept));
   // The arrays are filled on this thread; their pages are faulted in on another.
-  const std::array<internal::PageRegion, 3> filled = {internal::CapacityOf(graph.nodes_),
-                                                      internal::CapacityOf(graph.edge_distance_),
-                                                      internal::CapacityOf(graph.components_)};
+  const std::array<internal::PageRegion, 4> filled = {
+      internal::CapacityOf(graph.nodes_), internal::CapacityOf(graph.edge_distance_),
+      internal::CapacityOf(graph.components_), internal::CapacityOf(graph.column_begin_)};
   const bool copied = internal::FillWithPagesFaultedAhead(filled, [&] {
     for (int iy = 0; iy < g.size.y(); ++iy) {
       if (stopped()) return false;
-      const std::size_t row_first_node = graph.nodes_.size();
       const std::int64_t row = nx * iy;
       if (renewed.empty() || iy < renewed.min.y() || iy > renewed.max.y()) {
         copy_columns(row, row + nx);
       } else {
         copy_columns(row, row + renewed.min.x());
         for (int ix = renewed.min.x(); ix <= renewed.max.x(); ++ix) {
+          const std::size_t column_first_node = graph.nodes_.size();
           graph.AppendColumnNodes(ix, iy, /*measure_clearance=*/true);
+          if (counted) counted->Add(std::span(graph.nodes_).subspan(column_first_node));
           graph.edge_distance_.resize(graph.nodes_.size(), cap);
           graph.components_.resize(graph.nodes_.size(), -1);
-          graph.column_begin_[row + ix + 1] = static_cast<std::uint32_t>(graph.nodes_.size());
+          graph.column_begin_.push_back(static_cast<std::uint32_t>(graph.nodes_.size()));
         }
         copy_columns(row + renewed.max.x() + 1, row + nx);
-      }
-      for (std::size_t k = row_first_node; k < graph.nodes_.size(); ++k) {
-        near_open.Add(graph.nodes_[k].clearance_m);
       }
     }
     return true;
@@ -193,9 +139,7 @@ Expected<SurfaceGraph> SurfaceGraph::Patch(const SurfaceGraph& base, const Terra
     }
     graph.components_ = components.Labels(&graph.component_count_);
   }
-  // The value at rank n / 10 in ascending order, as ClearanceTenthPercentile finds it.
-  const std::optional<double> open = n > 0 ? near_open.AtRank(graph.nodes_.size() / 10) : 0.0;
-  graph.open_ground_clearance_m_ = open ? *open : graph.ClearanceTenthPercentile();
+  graph.PatchOpenGroundClearance(base, renewed, counted ? &*counted : nullptr);
 
   // 3. The rim distances. A path shorter than the cap spans fewer than cap / r columns, so
   // outside `window` every node's distance is the base's: its paths to the rim and the rim
@@ -406,6 +350,49 @@ bool SurfaceGraph::LabelComponentsAcross(const SurfaceGraph& base, const CellBox
   }
   component_count_ = count;
   return true;
+}
+
+void SurfaceGraph::PatchOpenGroundClearance(const SurfaceGraph& base, const CellBox& renewed,
+                                            graph_internal::ClearanceRanks* counted) {
+  if (nodes_.empty()) {
+    open_ground_clearance_m_ = 0;
+    open_ranks_ = nullptr;
+    return;
+  }
+  std::optional<graph_internal::ClearanceRanks> ranks;
+  if (counted != nullptr) {
+    counted->Finish();
+    ranks.emplace(std::move(*counted));
+  } else if (base.open_ranks_) {
+    // Only the renewed columns' nodes changed: outside them the nodes are the base's.
+    std::vector<float> removed, added;
+    if (!renewed.empty()) {
+      for (int iy = renewed.min.y(); iy <= renewed.max.y(); ++iy) {
+        for (int ix = renewed.min.x(); ix <= renewed.max.x(); ++ix) {
+          for (const std::int32_t m : base.ColumnNodes(ix, iy)) {
+            removed.push_back(base.nodes_[m].clearance_m);
+          }
+          for (const std::int32_t m : ColumnNodes(ix, iy)) added.push_back(nodes_[m].clearance_m);
+        }
+      }
+    }
+    ranks.emplace(*base.open_ranks_);
+    ranks->Update(std::move(removed), std::move(added));
+  }
+  // The value at rank n / 10 in ascending order, as ClearanceTenthPercentile finds it.
+  std::optional<float> open = ranks ? ranks->AtRank(nodes_.size() / 10) : std::nullopt;
+  if (!open) {  // Too far from where the ranks were counted: counted again around the value.
+    open = static_cast<float>(ClearanceTenthPercentile());
+    ranks.emplace(*open);
+    ranks->Add(nodes_);
+    ranks->Finish();
+  }
+  open_ground_clearance_m_ = *open;
+  open_ranks_ = std::make_shared<const graph_internal::ClearanceRanks>(std::move(*ranks));
+}
+
+std::size_t SurfaceGraph::OpenRanksBytes() const {
+  return open_ranks_ ? open_ranks_->MemoryBytes() : 0;
 }
 
 }  // namespace strata

@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <functional>
 #include <iterator>
+#include <memory>
 #include <numbers>
 #include <span>
 #include <string>
@@ -21,6 +22,10 @@
 #include "strata/status.hpp"
 
 namespace strata {
+
+namespace graph_internal {
+class ClearanceRanks;
+}  // namespace graph_internal
 
 /// What a move between adjacent nodes costs beyond its length (SurfaceGraph::MoveCost): extra
 /// near obstacles and near the rim, so that paths leave the optimiser room. The search's terms
@@ -336,7 +341,7 @@ class SurfaceGraph {
            components_.capacity() * sizeof(std::int32_t) +
            edge_distance_.capacity() * sizeof(float) +
            landmark_distance_.capacity() * sizeof(float) +
-           seed_distance_.capacity() * sizeof(float);
+           seed_distance_.capacity() * sizeof(float) + OpenRanksBytes();
   }
 
  private:
@@ -350,6 +355,13 @@ class SurfaceGraph {
   void AppendColumnNodes(int ix, int iy, bool measure_clearance);
   // The 10th percentile of the nodes' clearances (open_ground_clearance_m).
   double ClearanceTenthPercentile() const;
+  // Sets open_ground_clearance_m_ and open_ranks_ from the base's ranks, updated for the
+  // clearances of the nodes of `renewed` in the base and here, or from `counted` (the ranks
+  // of every node, counted around the base's value; null when the base has ranks), or else
+  // from a count of every node (surface_graph_patch.cpp).
+  void PatchOpenGroundClearance(const SurfaceGraph& base, const CellBox& renewed,
+                                graph_internal::ClearanceRanks* counted);
+  std::size_t OpenRanksBytes() const;
   // Into *pieces, the parts the nodes of each component with nodes in `columns` fall into
   // without them, but for one part each that keeps the component's label (the one that may go
   // on far from `columns`): each part a list of its nodes. They are found within a ring of
@@ -407,6 +419,9 @@ class SurfaceGraph {
   double open_ground_clearance_m_ = 0;
   int landmark_count_ = 0;
   std::vector<float> landmark_distance_;  // Node-major: landmark_count_ floats per node.
+  // The ranks of the clearances around open_ground_clearance_m_, which the next Patch updates
+  // (null until a patch counts them: Build and FromParts do not).
+  std::shared_ptr<const graph_internal::ClearanceRanks> open_ranks_;
   // The distances from the node the landmarks were chosen from (the first of the largest
   // component), which Patch updates to choose the first landmark again. Not saved: a patch of
   // a loaded graph searches them again.
