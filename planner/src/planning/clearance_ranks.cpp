@@ -85,7 +85,7 @@ void ClearanceRanks::Finish() {
   std::sort(above_.begin(), above_.end(), std::less<>());
 }
 
-void ClearanceRanks::Update(std::vector<float> removed, std::vector<float> added) {
+void ClearanceRanks::Update(std::span<const float> removed, std::span<const float> added) {
   std::vector<float> removed_below, removed_above, added_below, added_above;
   for (const float c : removed) {
     if (c == centre_) {

@@ -29,7 +29,7 @@ class ClearanceRanks {
 
   /// The ranks after a graph lost the nodes of clearances `removed` and gained those of
   /// `added` (their order does not matter).
-  void Update(std::vector<float> removed, std::vector<float> added);
+  void Update(std::span<const float> removed, std::span<const float> added);
 
   /// The clearance at `rank` in ascending order, when the counts and the values kept tell it
   /// (it is the centre, or one of the kept values).

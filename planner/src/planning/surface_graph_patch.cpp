@@ -377,7 +377,7 @@ void SurfaceGraph::PatchOpenGroundClearance(const SurfaceGraph& base, const Cell
       }
     }
     ranks.emplace(*base.open_ranks_);
-    ranks->Update(std::move(removed), std::move(added));
+    ranks->Update(removed, added);
   }
   // The value at rank n / 10 in ascending order, as ClearanceTenthPercentile finds it.
   std::optional<float> open = ranks ? ranks->AtRank(nodes_.size() / 10) : std::nullopt;
