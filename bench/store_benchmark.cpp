@@ -23,6 +23,7 @@
 #include <cstdio>
 #include <deque>
 #include <filesystem>
+#include <fstream>
 #include <future>
 #include <limits>
 #include <mutex>
@@ -34,6 +35,7 @@
 #include <CLI/CLI.hpp>
 
 #include "common/free_memory.hpp"
+#include "common/log.hpp"
 #include "maps/map_registry.hpp"
 #include "maps/map_worker.hpp"
 #include "rpc/proto_convert.hpp"
@@ -157,12 +159,24 @@ MapSnapshot CreateAndWait(MapRegistry& registry, const std::string& id, const st
 // What glibc's allocator holds [MB]: in use by live blocks, free inside its arenas (resident
 // until trimmed), and mapped for large blocks. Tells a growth of live memory from memory the
 // allocator keeps after it was freed.
+// The resident anonymous memory in transparent huge pages [bytes] (/proc/self/smaps_rollup).
+double HugePagesResidentBytes() {
+  std::ifstream rollup("/proc/self/smaps_rollup");
+  std::string line;
+  while (std::getline(rollup, line)) {
+    double kb = 0;
+    if (std::sscanf(line.c_str(), "AnonHugePages: %lf kB", &kb) == 1) return kb * 1e3;
+  }
+  return 0;
+}
+
 std::string AllocatorFigures() {
   const struct mallinfo2 info = mallinfo2();
-  return fmt::format("in use {:.0f} MB, free in arenas {:.0f} MB, mapped {:.0f} MB",
-                     static_cast<double>(info.uordblks) / 1e6,
-                     static_cast<double>(info.fordblks) / 1e6,
-                     static_cast<double>(info.hblkhd) / 1e6);
+  return fmt::format(
+      "in use {:.0f} MB, free in arenas {:.0f} MB, mapped {:.0f} MB; resident in huge pages "
+      "{:.0f} MB",
+      static_cast<double>(info.uordblks) / 1e6, static_cast<double>(info.fordblks) / 1e6,
+      static_cast<double>(info.hblkhd) / 1e6, HugePagesResidentBytes() / 1e6);
 }
 
 // A valid ground point near the middle of the map, and one a few metres away on the same
@@ -229,7 +243,17 @@ int Measure(int argc, char** argv) {
   app.add_option("--max-memory-gb", max_memory_gb,
                  "memory budget of each replica [GB], as strata-server's --max-memory (a 1 km "
                  "site's versions and graphs outgrow the machine without one); 0: none");
+  std::string log_level = "info";
+  app.add_option("--log-level", log_level,
+                 "how much the replicas log (debug, info, warning, error)")
+      ->check([](const std::string& text) {
+        LogLevel level;
+        return ParseLogLevel(text, &level) ? std::string() : "'" + text + "' is not a log level";
+      });
   CLI11_PARSE(app, argc, argv);
+  LogLevel level = LogLevel::kInfo;
+  ParseLogLevel(log_level, &level);
+  SetLogLevel(level);
   replica_budget = static_cast<std::uint64_t>(max_memory_gb * 1e9);
 
   AssessmentConfig config;
@@ -383,6 +407,12 @@ int Measure(int argc, char** argv) {
       if (timings != nullptr && plan) *timings = plan->stats.timings;
       if (planned != nullptr) {
         *planned = static_cast<bool>(plan);
+        // The soak's first failures say why (a scan may cut the plans' line; anything else is
+        // a defect to look into).
+        static std::atomic<int> told{0};
+        if (!plan && told++ < 3) {
+          std::printf("  a soak's plan failed: %s\n", plan.error().message.c_str());
+        }
       } else if (!plan) {
         std::printf("  the plan after the edit failed: %s\n", plan.error().message.c_str());
       }
@@ -553,12 +583,16 @@ int Measure(int argc, char** argv) {
         // for a moment (the new model and graphs beside the old), so growth shows in the lows.
         std::array<double, 4> rss_low;
         rss_low.fill(std::numeric_limits<double>::infinity());
+        std::array<double, 4> huge_at_low{};  // Of it, in transparent huge pages.
         auto next = start;
         while (SecondsSince(start) < soak_s) {
           const double rss = static_cast<double>(ResidentBytes());
           phase.rss_max = std::max(phase.rss_max, rss);
           const auto quarter = std::min<std::size_t>(3, SecondsSince(start) / soak_s * 4);
-          rss_low[quarter] = std::min(rss_low[quarter], rss);
+          if (rss < rss_low[quarter]) {
+            rss_low[quarter] = rss;
+            huge_at_low[quarter] = HugePagesResidentBytes();
+          }
           if (scanning) {
             const Eigen::Vector3d mid = soak_spot(sent % kSpots);
             const Prism region = scan_area(mid);
@@ -595,8 +629,11 @@ int Measure(int argc, char** argv) {
             slow.graph_s, slow.snap_s, slow.search_s, slow.optimize_s, slow.verify_s, slow.total_s);
         std::printf("  allocator at the start: %s; at the end: %s\n", allocator_start.c_str(),
                     AllocatorFigures().c_str());
-        std::printf("  resident at its least in each quarter: %.0f, %.0f, %.0f, %.0f MB\n",
-                    rss_low[0] / 1e6, rss_low[1] / 1e6, rss_low[2] / 1e6, rss_low[3] / 1e6);
+        std::printf(
+            "  resident at its least in each quarter: %.0f, %.0f, %.0f, %.0f MB (in huge pages "
+            "%.0f, %.0f, %.0f, %.0f MB)\n",
+            rss_low[0] / 1e6, rss_low[1] / 1e6, rss_low[2] / 1e6, rss_low[3] / 1e6,
+            huge_at_low[0] / 1e6, huge_at_low[1] / 1e6, huge_at_low[2] / 1e6, huge_at_low[3] / 1e6);
         if (scanning) {
           double versions = 0;  // Each version's merged calls each count 1/merged of it.
           for (const int m : merged) versions += 1.0 / m;

@@ -114,11 +114,14 @@ void FreeMemoryReturner::Run() {
     returning_ = true;
     lock.unlock();
     const auto start = std::chrono::steady_clock::now();
+    const std::size_t resident_before = ResidentBytes();
     const bool returned = malloc_trim(0) != 0;
+    const std::size_t resident = ResidentBytes();
     LogRecord(LogLevel::kDebug, "free_memory_returned")
         .Add("any", returned ? "yes" : "no")
-        .Add("s", common::SecondsSince(start));
-    const std::size_t resident = ResidentBytes();
+        .Add("s", common::SecondsSince(start))
+        .Add("resident_before_mb", static_cast<double>(resident_before) / 1e6)
+        .Add("resident_after_mb", static_cast<double>(resident) / 1e6);
     lock.lock();
     resident_after_return_ = resident;
     returning_ = false;
