@@ -156,9 +156,6 @@ MapSnapshot CreateAndWait(MapRegistry& registry, const std::string& id, const st
   return done.value();
 }
 
-// What glibc's allocator holds [MB]: in use by live blocks, free inside its arenas (resident
-// until trimmed), and mapped for large blocks. Tells a growth of live memory from memory the
-// allocator keeps after it was freed.
 // The resident anonymous memory in transparent huge pages [bytes] (/proc/self/smaps_rollup).
 double HugePagesResidentBytes() {
   std::ifstream rollup("/proc/self/smaps_rollup");
@@ -170,6 +167,10 @@ double HugePagesResidentBytes() {
   return 0;
 }
 
+// What glibc's allocator holds [MB]: in use by live blocks, free inside its arenas (resident
+// until trimmed), and mapped for large blocks; and what of the process is in huge pages. Tells
+// a growth of live memory from memory the allocator keeps after it was freed, and that from
+// huge pages faulted in again where a trim left holes.
 std::string AllocatorFigures() {
   const struct mallinfo2 info = mallinfo2();
   return fmt::format(
@@ -243,16 +244,15 @@ int Measure(int argc, char** argv) {
   app.add_option("--max-memory-gb", max_memory_gb,
                  "memory budget of each replica [GB], as strata-server's --max-memory (a 1 km "
                  "site's versions and graphs outgrow the machine without one); 0: none");
-  std::string log_level = "info";
+  std::string log_level = LogLevelName(LogLevel::kInfo);
   app.add_option("--log-level", log_level,
-                 "how much the replicas log (debug, info, warning, error)")
-      ->check([](const std::string& text) {
-        LogLevel level;
-        return ParseLogLevel(text, &level) ? std::string() : "'" + text + "' is not a log level";
-      });
+                 "how much the replicas log (debug, info, warning, error)");
   CLI11_PARSE(app, argc, argv);
-  LogLevel level = LogLevel::kInfo;
-  ParseLogLevel(log_level, &level);
+  LogLevel level;
+  if (!ParseLogLevel(log_level, &level)) {
+    std::fprintf(stderr, "--log-level: '%s' is not a log level\n", log_level.c_str());
+    return 2;
+  }
   SetLogLevel(level);
   replica_budget = static_cast<std::uint64_t>(max_memory_gb * 1e9);
 
@@ -396,6 +396,7 @@ int Measure(int argc, char** argv) {
     // A plan across the edited spot on the new version, right after the update: what a robot
     // sees of the change (a cloud edit makes a new model, whose graph this plan builds).
     // With `timings`, a successful plan's stages go there.
+    std::atomic<int> soak_failures_told{0};
     const auto plan_after = [&](bool* planned = nullptr, PlanTimings* timings = nullptr) {
       const Result<ActiveMap> active = editor.GetActive("m");
       const PlanRequest request = ShortPlan(*query);
@@ -409,8 +410,7 @@ int Measure(int argc, char** argv) {
         *planned = static_cast<bool>(plan);
         // The soak's first failures say why (a scan may cut the plans' line; anything else is
         // a defect to look into).
-        static std::atomic<int> told{0};
-        if (!plan && told++ < 3) {
+        if (!plan && soak_failures_told++ < 3) {
           std::printf("  a soak's plan failed: %s\n", plan.error().message.c_str());
         }
       } else if (!plan) {

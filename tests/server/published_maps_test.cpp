@@ -24,10 +24,14 @@ namespace fs = std::filesystem;
 using ::testing::ElementsAre;
 using ::testing::HasSubstr;
 
-// A flat 3 m x 3 m floor sampled every 5 cm, `height` m up: assessed in milliseconds.
-std::shared_ptr<const PlanningMap> FloorAt(float height, PointCloud* cloud) {
+// A flat floor 3 m wide and `rows` x 5 cm long (3 m by default) sampled every 5 cm, `height` m
+// up, with a 0.5 m x 0.5 m hole at its origin when `hole`: assessed in milliseconds.
+std::shared_ptr<const PlanningMap> FloorAt(float height, PointCloud* cloud, int rows = 60,
+                                           bool hole = false) {
   for (int i = 0; i < 60; ++i) {
-    for (int j = 0; j < 60; ++j) cloud->emplace_back(0.05f * i, 0.05f * j, height);
+    for (int j = 0; j < rows; ++j) {
+      if (!(hole && i < 10 && j < 10)) cloud->emplace_back(0.05f * i, 0.05f * j, height);
+    }
   }
   AssessmentConfig config;
   config.num_threads = 1;
@@ -78,15 +82,16 @@ class PublishedMapsTest : public ::testing::TestWithParam<bool> {
     if (!root_.empty()) fs::remove_all(root_);
   }
 
-  // Publishes map `id` at `version` (a floor `height` m up).
-  ServiceStatus Publish(const std::string& id, const std::string& version, float height) {
+  // Publishes map `id` at `version` (a floor `height` m up, `rows` samples long: FloorAt).
+  ServiceStatus Publish(const std::string& id, const std::string& version, float height,
+                        int rows = 60) {
     MapSnapshot map;
     map.id = id;
     map.state = MapState::kActive;
     map.version = version;
     map.versions = {version};
     PointCloud cloud;
-    const auto planning = FloorAt(height, &cloud);
+    const auto planning = FloorAt(height, &cloud, rows);
     return published_->PublishNew(map, planning, cloud);
   }
 
@@ -279,24 +284,8 @@ TEST_P(PublishedMapsTest, AReplicaFollowingEditsKeepsRoomForWhatALoadAddsNotTheW
   if (!GetParam()) GTEST_SKIP() << "only a store's maps are loaded";
   // A floor 3 m x 16 m: two chunks of grid rows, of which the edit below (a hole) changes the
   // first.
-  const auto floor = [](bool hole, PointCloud* cloud) {
-    for (int i = 0; i < 60; ++i) {
-      for (int j = 0; j < 320; ++j) {
-        if (!(hole && i < 10 && j < 10)) cloud->emplace_back(0.05f * i, 0.05f * j, 0.0f);
-      }
-    }
-    AssessmentConfig config;
-    config.num_threads = 1;
-    return std::make_shared<PlanningMap>(TerrainModel::Assess(*cloud, config).value(),
-                                         std::vector<Prism>{}, 0);
-  };
-  MapSnapshot map;
-  map.id = "floor";
-  map.state = MapState::kActive;
-  map.version = kV1;
-  map.versions = {kV1};
-  PointCloud cloud;
-  ASSERT_TRUE(published_->PublishNew(map, floor(false, &cloud), cloud).ok());
+  constexpr int kRows = 320;
+  ASSERT_TRUE(Publish("floor", kV1, 0, kRows).ok());
 
   FreeMemoryReturner returner;
   FreeMemoryReturner::Room room(returner);
@@ -308,9 +297,9 @@ TEST_P(PublishedMapsTest, AReplicaFollowingEditsKeepsRoomForWhatALoadAddsNotTheW
 
   MapSnapshot next = published_->Describe("floor").value();
   next.version = kV2;
-  PointCloud bumped;
-  const std::shared_ptr<const PlanningMap> edited = floor(true, &bumped);
-  const CutTerrain tiles = CutIntoTiles(edited->model(), bumped);
+  PointCloud holed;
+  const std::shared_ptr<const PlanningMap> edited = FloorAt(0, &holed, kRows, /*hole=*/true);
+  const CutTerrain tiles = CutIntoTiles(edited->model(), holed);
   ASSERT_TRUE(published_->PublishEdit(kV1, next, kV2, edited, &tiles, nullptr).ok());
   const ActiveMap second = follower.Get("floor", "").value();
   ASSERT_EQ(second.version, kV2);
