@@ -24,8 +24,8 @@ std::unique_ptr<v1::TrafficService::Stub> Stub(const Context& ctx) {
 void PrintReservation(std::ostream& out, const v1::Reservation& r) {
   out << fmt::format("{:<17} ", r.robot_id()) << FormatTime(r.start_time()) << "  "
       << FormatTime(r.expiry_time())
-      << fmt::format("  {:>6}  {:>9.1f}  ", r.trajectory().pieces_size(),
-                     r.trajectory().duration_s())
+      << fmt::format("  {:>6}  {:>10.1f}  {:>12.2f}  ", r.trajectory().pieces_size(),
+                     r.trajectory().duration_s(), r.separation_m())
       << r.revision() << "\n";
 }
 
@@ -46,7 +46,7 @@ int List(const Context& ctx, const std::string& map) {
       << response.reservations_size() << " reservation(s)\n";
   if (response.reservations_size() == 0) return kExitOk;
   out << "ROBOT             START                     EXPIRY                    PIECES  "
-         "DURATION_S  REVISION\n";
+         "DURATION_S  SEPARATION_M  REVISION\n";
   for (const v1::Reservation& r : response.reservations()) PrintReservation(out, r);
   return kExitOk;
 }

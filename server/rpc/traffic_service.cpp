@@ -200,10 +200,8 @@ ServiceStatus TrafficServiceImpl::Report(const v1::ReportProgressRequest& reques
   if (Result<std::string> map = CurrentVersion(request.map_id()); !map.ok()) {
     return std::move(map).error();
   }
-  Result<SeparationRule> rule = SeparationFrom(std::nullopt, schedule_->limits(), "");
-  if (!rule.ok()) return std::move(rule).error();
   Result<ReservationSchedule::Moved> moved =
-      schedule_->Shift(request.map_id(), request.robot_id(), request.delay_s(), rule.value(),
+      schedule_->Shift(request.map_id(), request.robot_id(), request.delay_s(),
                        CallerOf(tokens_, call.authorization));
   if (!moved.ok()) return std::move(moved).error();
   ToProto(moved.value().reservation, response->mutable_reservation());

@@ -269,6 +269,7 @@ Result<std::vector<Reservation>> ReservationSchedule::CommitReplanning(
         Result<Reservation> own = Continued(schedule, reservation, caller);
         if (!own.ok()) return std::move(own).error();
         committed.push_back(std::move(own).value());
+        committed.back().separation_m = rule.separation_m;
         for (const ReservedMotion& next : replanned) {
           const auto existing = schedule.by_robot.find(next.robot_id);
           if (existing == schedule.by_robot.end() || !existing->second.replan_profile ||
@@ -287,6 +288,7 @@ Result<std::vector<Reservation>> ReservationSchedule::CommitReplanning(
           Reservation changed = existing->second;
           changed.map_version = reservation.map_version;
           changed.replanned_for = robot_id;
+          changed.separation_m = rule.separation_m;
           changed.reserved.motion =
               ContinuedBy(existing->second.reserved.motion, next.motion, now_ns_());
           planned.push_back(next);
@@ -332,6 +334,7 @@ Result<Reservation> ReservationSchedule::Renew(const std::string& map_id,
         if (Status clear = CheckSeparation(motion, others, rule); !clear) {
           return ServiceError::FromPlanner(clear.error());
         }
+        renewed.separation_m = rule.separation_m;
         Result<std::optional<std::uint64_t>> stored = Store(schedule, map_id, robot_id, &renewed);
         if (!stored.ok()) return std::move(stored).error();
         if (!stored.value()) return std::optional<Reservation>();
@@ -342,7 +345,6 @@ Result<Reservation> ReservationSchedule::Renew(const std::string& map_id,
 Result<ReservationSchedule::Moved> ReservationSchedule::Shift(const std::string& map_id,
                                                               const std::string& robot_id,
                                                               double delay_s,
-                                                              const SeparationRule& rule,
                                                               const Caller& caller) {
   if (!(std::isfinite(delay_s) && std::abs(delay_s) <= limits_.max_horizon_s)) {
     return MakeError(ErrorCode::kInvalidInput,
@@ -363,6 +365,8 @@ Result<ReservationSchedule::Moved> ReservationSchedule::Shift(const std::string&
     if (!stored.ok()) return std::move(stored).error();
     if (!stored.value()) return std::optional<Moved>();
     const PreparedMotion moved_motion(motion);  // Checked against every other robot.
+    SeparationRule rule;
+    rule.separation_m = moved.reservation.separation_m;
     for (const auto& [robot, other] : schedule.by_robot) {
       if (robot == robot_id) continue;
       if (std::optional<MotionConflict> meeting =

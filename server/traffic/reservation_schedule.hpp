@@ -51,6 +51,9 @@ struct Reservation {
   /// The robot whose plan last replanned this one to pass first; empty when its own robot
   /// made this reservation.
   std::string replanned_for;
+  /// The separation [m] it was last checked against the others with (set by the schedule on
+  /// every commit and renewal): of two reservations, the later revision's holds for the pair.
+  double separation_m = 0;
 };
 
 /// Who is asking to change a reservation.
@@ -135,11 +138,11 @@ class ReservationSchedule {
   };
   /// Moves robot_id's reservation by `delay_s` (its start and its expiry alike): the robot is
   /// late (> 0) or early. Committed even when it then meets others (the robot is where it is);
-  /// returns it with its first meeting with each other robot under `rule`. kInvalidInput for a
-  /// delay that is not finite or longer than the horizon, kReservationNotFound,
-  /// kPermissionDenied.
+  /// returns it with its first meeting with each other robot under its own separation_m.
+  /// kInvalidInput for a delay that is not finite or longer than the horizon,
+  /// kReservationNotFound, kPermissionDenied.
   Result<Moved> Shift(const std::string& map_id, const std::string& robot_id, double delay_s,
-                      const SeparationRule& rule, const Caller& caller);
+                      const Caller& caller);
 
   /// Removes robot_id's reservation; returns the map's revision after it.
   /// kReservationNotFound, kPermissionDenied.

@@ -510,8 +510,11 @@ TEST_F(StrataCliTest, PlansAsAFleetRobotReservesListsAndReleases) {
   ASSERT_EQ(result.exit_code, 0) << result.err;
   EXPECT_THAT(result.out, HasSubstr("1 reservation(s)"));
   EXPECT_THAT(result.out, HasSubstr("cli-r1"));
+  EXPECT_THAT(result.out, HasSubstr("SEPARATION_M"));
   result = Strata({"--json", "reservations", "list", "--map", "demo"});
-  EXPECT_EQ(Parse<v1::ListReservationsResponse>(result.out).reservations(0).robot_id(), "cli-r1");
+  const v1::Reservation listed = Parse<v1::ListReservationsResponse>(result.out).reservations(0);
+  EXPECT_EQ(listed.robot_id(), "cli-r1");
+  EXPECT_EQ(listed.separation_m(), 0.1);  // The plan kept the server's default.
 
   // A watch prints the schedule as it is, then its changes, until its deadline: exit 0.
   result = Strata({"--deadline", "2", "reservations", "watch", "--map", "demo"});

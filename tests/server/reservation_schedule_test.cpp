@@ -221,8 +221,7 @@ TEST_F(ReservationScheduleTest, ALateRobotMovesItsReservationAndIsToldWhomItNowM
   // North crosses the origin 12 s after east: clear. East reports 12 s late: now they meet.
   ASSERT_TRUE(schedule_.Commit(EastBound("east"), rule_, anyone_).ok());
   ASSERT_TRUE(schedule_.Commit(NorthBound("north", 12), rule_, anyone_).ok());
-  const Result<ReservationSchedule::Moved> late =
-      schedule_.Shift("site", "east", 12, rule_, anyone_);
+  const Result<ReservationSchedule::Moved> late = schedule_.Shift("site", "east", 12, anyone_);
   ASSERT_TRUE(late.ok()) << late.error().message;
   EXPECT_EQ(late.value().reservation.reserved.motion.start_ns, AddSeconds(kEpoch, 12));
   EXPECT_EQ(late.value().reservation.reserved.motion.end_ns, AddSeconds(kEpoch, 42));
@@ -237,9 +236,35 @@ TEST_F(ReservationScheduleTest, ALateRobotMovesItsReservationAndIsToldWhomItNowM
       EXPECT_EQ(r.reserved.motion.start_ns, AddSeconds(kEpoch, 12));
   }
   // Back on time: no meeting.
-  EXPECT_TRUE(schedule_.Shift("site", "east", -12, rule_, anyone_).value().meetings.empty());
-  EXPECT_FALSE(schedule_.Shift("site", "east", std::nan(""), rule_, anyone_).ok());
-  EXPECT_FALSE(schedule_.Shift("site", "ghost", 1, rule_, anyone_).ok());
+  EXPECT_TRUE(schedule_.Shift("site", "east", -12, anyone_).value().meetings.empty());
+  EXPECT_FALSE(schedule_.Shift("site", "east", std::nan(""), anyone_).ok());
+  EXPECT_FALSE(schedule_.Shift("site", "ghost", 1, anyone_).ok());
+}
+
+TEST_F(ReservationScheduleTest, EachReservationKeepsItsSeparationAndAMoveIsJudgedByIt) {
+  // East asks for 1 m between bodies; north, crossing the origin 3 s after it, for the default
+  // (their closest approach, 2.12 m, clears both: 0.6 m of radii plus 1 m or plus 0.1 m).
+  SeparationRule wide = rule_;
+  wide.separation_m = 1.0;
+  ASSERT_TRUE(schedule_.Commit(EastBound("east"), wide, anyone_).ok());
+  ASSERT_TRUE(schedule_.Commit(NorthBound("north", 3), rule_, anyone_).ok());
+  for (const Reservation& r : schedule_.List("site").reservations) {
+    EXPECT_EQ(r.separation_m, r.reserved.robot_id == "east" ? 1.0 : rule_.separation_m);
+  }
+  // East 1 s late: 1.41 m apart at the closest, clear of north's 0.7 m limit but not of the
+  // 1.6 m east's reservation keeps, so the move names north.
+  const Result<ReservationSchedule::Moved> late = schedule_.Shift("site", "east", 1, anyone_);
+  ASSERT_TRUE(late.ok()) << late.error().message;
+  ASSERT_EQ(late.value().meetings.size(), 1u);
+  EXPECT_EQ(late.value().meetings[0].robot_id, "north");
+  EXPECT_NEAR(late.value().meetings[0].conflict.limit_m, 1.6, 1e-9);
+  EXPECT_EQ(late.value().reservation.separation_m, 1.0);
+  // A renewal is checked, and kept, with its own separation.
+  const Result<Reservation> renewed = schedule_.Renew("site", "north", 100, rule_, anyone_);
+  ASSERT_TRUE(renewed.ok()) << renewed.error().message;
+  SeparationRule none = rule_;
+  none.separation_m = 0;
+  EXPECT_EQ(schedule_.Renew("site", "north", 200, none, anyone_).value().separation_m, 0.0);
 }
 
 // Robots racing into the same crossing at the same moment: exactly one commits; the schedule
