@@ -395,7 +395,7 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"parking_garage", "spiral"}));
   app.add_option("--replan-robots", replan_robots,
                  "Robots in the way a plan may replan, in all (ReplanOptions::max_robots)")
-      ->check(CLI::Range(0, 3));
+      ->check(CLI::Range(0, strata::kMaxReplannedRobots));
   app.add_option("--max-wait", max_wait_s, "Longest the robots wait, in all [s]")
       ->check(CLI::Range(0.0, 3600.0));
   CLI11_PARSE(app, argc, argv);

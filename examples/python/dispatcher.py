@@ -185,22 +185,20 @@ def first_meeting(a, b, separation_m):
     return None
 
 
-def pair_separation(a, b, separations, default_m):
-    """The separation the server kept between two reservations: that of the plan which committed
-    the later one (it was checked against the other; two committed together share it), from
-    `separations` (robot id -> fleet.separation_m it was committed with), else the server's."""
-    later = a if a.revision >= b.revision else b
-    return separations.get(later.robot_id, default_m)
+def pair_separation(a, b):
+    """The separation the server kept between two reservations: the later one's (it was checked
+    against the other; two committed together share it), Reservation.separation_m."""
+    return (a if a.revision >= b.revision else b).separation_m
 
 
-def check_reservations(traffic, map_id, separations, deadline_s):
+def check_reservations(traffic, map_id, deadline_s):
     """Lists the map's reservations and checks every pair; returns how many pairs meet."""
     listed = traffic.ListReservations(
         traffic_service_pb2.ListReservationsRequest(map_id=map_id), timeout=deadline_s)
     meetings = 0
     pairs = list(itertools.combinations(listed.reservations, 2))
     for a, b in pairs:
-        when = first_meeting(a, b, pair_separation(a, b, separations, listed.separation_m))
+        when = first_meeting(a, b, pair_separation(a, b))
         if when is not None:
             meetings += 1
             say(f"  {a.robot_id} and {b.robot_id} meet {when:.3f} s into their common time")
@@ -327,10 +325,10 @@ def plan_assignments(planner, args, assigned):
     return planned
 
 
-def urgent_order(planner, args, watch, separations, held):
+def urgent_order(planner, args, watch, held):
     """The second phase: r1 climbs the ramp, then r3's urgent descent may replan it to pass
-    first. Adds the robots reserved to `held`, the separations they were committed with to
-    `separations`; returns whether r1 was replanned for r3 and the watch saw it."""
+    first. Adds the robots reserved to `held`; returns whether r1 was replanned for r3 and the
+    watch saw it."""
     climber, climb_start, climb_goal = URGENT_CLIMB
     urgent, urgent_start, urgent_goal = URGENT_DESCENT
     departure = departure_ahead()
@@ -344,13 +342,10 @@ def urgent_order(planner, args, watch, separations, held):
         args, URGENT_PROFILE, urgent, urgent_start, urgent_goal, departure, max_wait_s=0,
         separation_m=URGENT_SEPARATION_M, replan_robots=1), timeout=args.deadline)
     held.append(urgent)
-    separations[urgent] = URGENT_SEPARATION_M
     say(f"urgent {urgent} down the ramp: {response.stats.duration_s:.2f} s, waits "
         f"{response.wait_s:.1f} s, reserved at revision {response.reservation.revision}, "
         f"{len(response.replanned)} robot(s) replanned to let it pass first")
     for replanned in response.replanned:
-        # Committed with this plan, checked by its separation.
-        separations[replanned.robot_id] = URGENT_SEPARATION_M
         say(f"  replanned {replanned.robot_id} for {replanned.replanned_for}: its new "
             f"trajectory ({replanned.trajectory.duration_s:.2f} s from "
             f"{replanned.start_time.ToJsonString()}) at revision {replanned.revision}")
@@ -406,19 +401,16 @@ def dispatch(planner, traffic, watch, args, assigned):
         planned = plan_assignments(planner, args, assigned)
     except grpc.RpcError as error:
         return call_error("PlanBatch", error)
-    # Robot -> the fleet.separation_m its reservation was committed with; the others were
-    # committed with the server's.
-    separations = {}
     try:
-        meetings = check_reservations(traffic, args.map, separations, args.deadline)
+        meetings = check_reservations(traffic, args.map, args.deadline)
         release(traffic, args.map, [robot for robot, _, _ in assigned], args.deadline)
     except grpc.RpcError as error:
         return call_error("TrafficService", error)
 
     held = []  # The robots the urgent order reserved: released however it ends.
     try:
-        replanned = urgent_order(planner, args, watch, separations, held)
-        meetings += check_reservations(traffic, args.map, separations, args.deadline)
+        replanned = urgent_order(planner, args, watch, held)
+        meetings += check_reservations(traffic, args.map, args.deadline)
     except grpc.RpcError as error:
         call_error("urgent order", error)  # Its plans' or its check's call.
         replanned = False
