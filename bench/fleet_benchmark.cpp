@@ -123,7 +123,8 @@ RunFigures RunFleet(const Site& site, int robots, double minutes, unsigned seed,
   std::uniform_int_distribution<std::size_t> pick(0, site.nodes.size() - 1);
   const std::int64_t end_ns = strata::AddSeconds(kStartNs, minutes * 60);
   const strata::FleetBody body = strata::FleetBody::FromProfile(profile);
-  const double limit_m = 2 * body.radius_m + strata::SeparationRule{}.separation_m;
+  const double separation_m = strata::SeparationRule{}.separation_m;  // Every robot's.
+  const double limit_m = 2 * body.radius_m + separation_m;
 
   // Each robot's current motion (an index into figures.committed), starting parked.
   std::vector<std::size_t> current(robots);
@@ -160,6 +161,7 @@ RunFigures RunFleet(const Site& site, int robots, double minutes, unsigned seed,
     parked.motion.trajectory.pieces.push_back(stand);
     parked.motion.body = body;
     parked.motion.end_ns = strata::AddSeconds(kStartNs, kLeaseS);
+    parked.motion.separation_m = separation_m;
     current[r] = figures.committed.size();
     figures.committed.push_back(std::move(parked));
   }
@@ -303,6 +305,7 @@ RunFigures RunFleet(const Site& site, int robots, double minutes, unsigned seed,
     next.motion.trajectory = std::move(*trajectory);
     next.motion.body = body;
     next.motion.end_ns = strata::AddSeconds(now, kLeaseS);
+    next.motion.separation_m = separation_m;  // What each robot asks, as a server keeps it.
     const std::int64_t arrival = strata::AddSeconds(now, arrival_s);
     arrival_at_goal[robot] = arrival;
     if (arrival <= end_ns) ++figures.tasks_completed;

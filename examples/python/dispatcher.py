@@ -17,7 +17,7 @@ real dispatcher would send it to the robot. A second phase makes that happen: an
 (r3 must come down from the deck at once, 2 m clear of every robot, while r1 climbs the ramp)
 plans r3 with fleet.replan_robots, prints the reservations the server replanned for it, and
 checks that the watch saw r1's new trajectory; then it checks the reservations again, each
-pair by the separation it was planned with, and releases them.
+pair by the larger separation the two asked, and releases them.
 
 The gRPC code comes from proto/ through Debian's protoc and grpc_python_plugin (the build
 writes it to build/examples/python/gen; README.md beside this file says how); run it with
@@ -186,9 +186,9 @@ def first_meeting(a, b, separation_m):
 
 
 def pair_separation(a, b):
-    """The separation the server kept between two reservations: the later one's (it was checked
-    against the other; two committed together share it), Reservation.separation_m."""
-    return (a if a.revision >= b.revision else b).separation_m
+    """The separation the server keeps between two reservations: the larger of the two they
+    ask (Reservation.separation_m)."""
+    return max(a.separation_m, b.separation_m)
 
 
 def check_reservations(traffic, map_id, deadline_s):

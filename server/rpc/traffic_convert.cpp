@@ -61,7 +61,7 @@ void ToProto(const Reservation& reservation, v1::Reservation* message) {
   message->set_revision(reservation.revision);
   message->set_follows_replans(reservation.replan_profile.has_value());
   message->set_replanned_for(reservation.replanned_for);
-  message->set_separation_m(reservation.separation_m);
+  message->set_separation_m(motion.separation_m);
 }
 
 Result<Reservation> FromProto(const v1::Reservation& message) {
@@ -71,13 +71,6 @@ Result<Reservation> FromProto(const v1::Reservation& message) {
   reservation.reserved.robot_id = message.robot_id();
   reservation.revision = message.revision();
   reservation.replanned_for = message.replanned_for();
-  reservation.separation_m = message.separation_m();
-  if (!(std::isfinite(reservation.separation_m) && reservation.separation_m >= 0)) {
-    return MakeError(
-               ErrorCode::kInvalidInput,
-               fmt::format("separation_m = {:g} must be finite and >= 0", reservation.separation_m))
-        .Blame("separation_m");
-  }
   FleetMotion& motion = reservation.reserved.motion;
   Result<std::int64_t> start = FromProto(message.start_time(), "start_time");
   if (!start.ok()) return std::move(start).error();
@@ -91,6 +84,7 @@ Result<Reservation> FromProto(const v1::Reservation& message) {
   Result<FleetBody> body = FromProto(message.body(), "body");
   if (!body.ok()) return std::move(body).error();
   motion.body = body.value();
+  motion.separation_m = message.separation_m();
   if (Status valid = motion.Validate("reservation"); !valid) {
     return ServiceError::FromPlanner(valid.error(), valid.error().field);
   }

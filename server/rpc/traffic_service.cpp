@@ -122,6 +122,7 @@ ServiceStatus TrafficServiceImpl::Reserve(const v1::ReserveTrajectoryRequest& re
   motion.trajectory = std::move(trajectory).value();
   motion.body = body.value();
   motion.end_ns = std::max(AddSeconds(schedule_->NowNs(), lease_s), motion.ArrivalNs());
+  motion.separation_m = rule.value().separation_m;
   if (Status valid = motion.Validate("trajectory"); !valid) {
     return ServiceError::FromPlanner(valid.error(), valid.error().field);
   }

@@ -260,6 +260,11 @@ Result<std::vector<Reservation>> ReservationSchedule::CommitReplanning(
     Reservation reservation, const std::vector<ReservedMotion>& replanned,
     std::uint64_t planned_revision, const SeparationRule& rule, const Caller& caller) {
   const std::string& robot_id = reservation.reserved.robot_id;
+  // This robot asks the rule's separation; the robots replanned keep theirs. Each pair is then
+  // checked with the larger of its two motions' (PairSeparationM), as they were planned.
+  reservation.reserved.motion.separation_m = rule.separation_m;
+  SeparationRule pairs_rule = rule;
+  pairs_rule.separation_m = 0;
   return Retrying<std::vector<Reservation>>(
       reservation.map_id,
       [&](MapSchedule& schedule) -> Result<std::optional<std::vector<Reservation>>> {
@@ -269,7 +274,6 @@ Result<std::vector<Reservation>> ReservationSchedule::CommitReplanning(
         Result<Reservation> own = Continued(schedule, reservation, caller);
         if (!own.ok()) return std::move(own).error();
         committed.push_back(std::move(own).value());
-        committed.back().separation_m = rule.separation_m;
         for (const ReservedMotion& next : replanned) {
           const auto existing = schedule.by_robot.find(next.robot_id);
           if (existing == schedule.by_robot.end() || !existing->second.replan_profile ||
@@ -288,7 +292,6 @@ Result<std::vector<Reservation>> ReservationSchedule::CommitReplanning(
           Reservation changed = existing->second;
           changed.map_version = reservation.map_version;
           changed.replanned_for = robot_id;
-          changed.separation_m = rule.separation_m;
           changed.reserved.motion =
               ContinuedBy(existing->second.reserved.motion, next.motion, now_ns_());
           planned.push_back(next);
@@ -307,7 +310,7 @@ Result<std::vector<Reservation>> ReservationSchedule::CommitReplanning(
           for (std::size_t j = 0; j < committed.size(); ++j) {
             if (j != i) around.push_back(committed[j].reserved);
           }
-          if (Status clear = CheckSeparation(planned[i].motion, around, rule); !clear) {
+          if (Status clear = CheckSeparation(planned[i].motion, around, pairs_rule); !clear) {
             return ServiceError::FromPlanner(clear.error());
           }
         }
@@ -330,11 +333,11 @@ Result<Reservation> ReservationSchedule::Renew(const std::string& map_id,
         Reservation renewed = changeable.value()->second;
         FleetMotion& motion = renewed.reserved.motion;
         motion.end_ns = std::max(motion.end_ns, AddSeconds(now_ns_(), lease_s));
+        motion.separation_m = rule.separation_m;
         const std::vector<ReservedMotion> others = Others(schedule, robot_id);
         if (Status clear = CheckSeparation(motion, others, rule); !clear) {
           return ServiceError::FromPlanner(clear.error());
         }
-        renewed.separation_m = rule.separation_m;
         Result<std::optional<std::uint64_t>> stored = Store(schedule, map_id, robot_id, &renewed);
         if (!stored.ok()) return std::move(stored).error();
         if (!stored.value()) return std::optional<Reservation>();
@@ -366,7 +369,7 @@ Result<ReservationSchedule::Moved> ReservationSchedule::Shift(const std::string&
     if (!stored.value()) return std::optional<Moved>();
     const PreparedMotion moved_motion(motion);  // Checked against every other robot.
     SeparationRule rule;
-    rule.separation_m = moved.reservation.separation_m;
+    rule.separation_m = 0;  // The pair's separation is the larger of the two motions'.
     for (const auto& [robot, other] : schedule.by_robot) {
       if (robot == robot_id) continue;
       if (std::optional<MotionConflict> meeting =

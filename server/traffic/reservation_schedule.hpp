@@ -51,9 +51,6 @@ struct Reservation {
   /// The robot whose plan last replanned this one to pass first; empty when its own robot
   /// made this reservation.
   std::string replanned_for;
-  /// The separation [m] it was last checked against the others with (set by the schedule on
-  /// every commit and renewal): of two reservations, the later revision's holds for the pair.
-  double separation_m = 0;
 };
 
 /// Who is asking to change a reservation.
@@ -96,7 +93,8 @@ class ReservationSchedule {
   /// kInvalidInput naming --max-lease-s unless `lease_s` is in (0, max_lease_s].
   ServiceStatus CheckLease(double lease_s) const;
 
-  /// Commits `reservation` (its revision is set here) as its robot's, replacing the robot's
+  /// Commits `reservation` (its revision is set here, and its motion's separation_m to the
+  /// rule's: what the robot asks of the others) as its robot's, replacing the robot's
   /// own earlier one from its departure on (ContinuedBy: the rest of the earlier one, from
   /// now, begins the committed motion), when its motion meets no other live reservation on its
   /// map under `rule` (CheckSeparation, exact); otherwise kReservationConflict naming the
@@ -122,8 +120,8 @@ class ReservationSchedule {
                                                     const Caller& caller);
 
   /// Extends robot_id's lease to now + lease_s (never shortening it), when the longer stay
-  /// meets no other reservation under `rule`. kReservationNotFound, kPermissionDenied,
-  /// kReservationConflict (the lease stays as it was).
+  /// meets no other reservation under `rule`, whose separation the robot then asks.
+  /// kReservationNotFound, kPermissionDenied, kReservationConflict (the lease stays as it was).
   Result<Reservation> Renew(const std::string& map_id, const std::string& robot_id, double lease_s,
                             const SeparationRule& rule, const Caller& caller);
 
@@ -138,7 +136,8 @@ class ReservationSchedule {
   };
   /// Moves robot_id's reservation by `delay_s` (its start and its expiry alike): the robot is
   /// late (> 0) or early. Committed even when it then meets others (the robot is where it is);
-  /// returns it with its first meeting with each other robot under its own separation_m.
+  /// returns it with its first meeting with each other robot (the larger of the two motions'
+  /// separations).
   /// kInvalidInput for a delay that is not finite or longer than the horizon,
   /// kReservationNotFound, kPermissionDenied.
   Result<Moved> Shift(const std::string& map_id, const std::string& robot_id, double delay_s,

@@ -226,6 +226,25 @@ TEST(FleetPlan, AtAFourWayCrossingTheLaterRobotLetsTheOtherPass) {
   EXPECT_LT(b.wait_s, 10);
 }
 
+TEST(FleetPlan, ARobotThatAskedForMoreSeparationIsGivenItByARobotPlannedAfterIt) {
+  // The crossing above, A's reservation asking 1 m between bodies: B, planned with the default
+  // 0.1 m, keeps 1 m from it. Planned as if A asked nothing, B comes closer than that.
+  ReservedMotion a = Committed("A", Between({0.5, 2.5, 0.3}, {5.5, 2.5, 0.3}));
+  const PlanRequest b_plan = Between({3, 0.5, 0.3}, {3, 4.5, 0.3});
+  const double wide_limit_m = 2 * Profile().footprint_radius_m + 1.0;
+  Expected<FleetPlanResult> narrow = PlanAmongTraffic(Site(), AmongOthers(b_plan, {a}));
+  ASSERT_TRUE(narrow) << narrow.error().message;
+  ASSERT_TRUE(SampleEveryMillisecond(narrow.value().motion, a.motion, wide_limit_m).conflict)
+      << "with A asking nothing more, B keeps 1 m anyway: the case tests nothing";
+  a.motion.separation_m = 1.0;
+  Expected<FleetPlanResult> wide = PlanAmongTraffic(Site(), AmongOthers(b_plan, {a}));
+  ASSERT_TRUE(wide) << wide.error().message;
+  EXPECT_FALSE(SampleEveryMillisecond(wide.value().motion, a.motion, wide_limit_m).conflict);
+  EXPECT_GT(wide.value().wait_s, narrow.value().wait_s);
+  // B's own motion asks what its plan's rule says.
+  EXPECT_EQ(wide.value().motion.separation_m, SeparationRule{}.separation_m);
+}
+
 TEST(FleetPlan, ARobotUnderADeckPassesOneOnTheDeckWithoutWaiting) {
   // A crosses the deck along x while B crosses the floor under it along y, at the same time.
   const std::vector<ReservedMotion> others = {

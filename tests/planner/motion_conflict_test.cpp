@@ -3,6 +3,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <optional>
 #include <random>
 
@@ -209,6 +210,27 @@ TEST(MotionConflict, ReportsTheFirstOfTwoMeetings) {
   EXPECT_NEAR(conflict->point_b.x(), 2.0, 1e-12);
 }
 
+TEST(MotionConflict, ThePairKeepsTheLargerOfTheRulesAndEachMotionsSeparation) {
+  // a drives along y = 0 past b, standing 1 m off its line: 0.3 + 0.3 m of radii plus the
+  // rule's 0.1 m is clear, plus 0.5 m asked by either motion is not.
+  const SeparationRule rule;
+  FleetMotion a = Moving(kEpoch, {0, 0, 0.3}, {1, 0, 0}, 6.0);
+  FleetMotion b = Moving(kEpoch, {3, 1, 0.3}, {0, 0, 0}, 6.0);
+  EXPECT_FALSE(FirstConflict(a, b, rule));
+  b.separation_m = 0.5;
+  std::optional<MotionConflict> conflict = FirstConflict(a, b, rule);
+  ASSERT_TRUE(conflict);
+  EXPECT_DOUBLE_EQ(conflict->limit_m, 1.1);
+  EXPECT_DOUBLE_EQ(PairSeparationM(rule, a, b), 0.5);
+  b.separation_m = 0;
+  a.separation_m = 0.5;
+  conflict = FirstConflict(a, b, rule);
+  ASSERT_TRUE(conflict);
+  EXPECT_DOUBLE_EQ(conflict->limit_m, 1.1);
+  // a passes x = 3 - sqrt(1.1^2 - 1^2) first within the limit.
+  EXPECT_NEAR(SecondsBetween(kEpoch, conflict->time_ns), 3 - std::sqrt(1.1 * 1.1 - 1), 2e-3);
+}
+
 TEST(MotionConflict, BodiesAtDifferentHeightsPassOverEachOther) {
   const SeparationRule rule;
   // a drives along x on the ground (reference point 0.3 m up, body 0.5 m tall: 0 to 0.5 m);
@@ -279,6 +301,11 @@ TEST(MotionConflict, BadMotionsAndRulesAreBlamedByTheirField) {
   bad = m;
   bad.trajectory.pieces.clear();
   EXPECT_EQ(bad.Validate("reservation").error().field, "reservation.trajectory.pieces");
+  for (const double separation : {-0.1, std::nan(""), std::numeric_limits<double>::infinity()}) {
+    bad = m;
+    bad.separation_m = separation;
+    EXPECT_EQ(bad.Validate("reservation").error().field, "reservation.separation_m");
+  }
   SeparationRule rule;
   rule.separation_m = -0.1;
   const auto error = rule.Validate("fleet").error();

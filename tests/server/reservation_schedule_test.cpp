@@ -241,30 +241,34 @@ TEST_F(ReservationScheduleTest, ALateRobotMovesItsReservationAndIsToldWhomItNowM
   EXPECT_FALSE(schedule_.Shift("site", "ghost", 1, anyone_).ok());
 }
 
-TEST_F(ReservationScheduleTest, EachReservationKeepsItsSeparationAndAMoveIsJudgedByIt) {
-  // East asks for 1 m between bodies; north, crossing the origin 3 s after it, for the default
-  // (their closest approach, 2.12 m, clears both: 0.6 m of radii plus 1 m or plus 0.1 m).
+TEST_F(ReservationScheduleTest, ARobotThatAsksMoreSeparationIsGivenItByTheRobotsAfterIt) {
+  // East asks for 1 m between bodies; north, planned after it with the default 0.1 m, crossing
+  // the origin 1 s after east passes 1.41 m from it: clear of 0.6 m of radii plus 0.1 m, not of
+  // plus east's 1 m, so it is refused. 3 s after, it passes 2.12 m from east and commits.
   SeparationRule wide = rule_;
   wide.separation_m = 1.0;
   ASSERT_TRUE(schedule_.Commit(EastBound("east"), wide, anyone_).ok());
+  const Result<Reservation> close = schedule_.Commit(NorthBound("north", 1), rule_, anyone_);
+  ASSERT_FALSE(close.ok());
+  EXPECT_TRUE(HasCode(close.error(), ErrorCode::kReservationConflict));
+  EXPECT_THAT(close.error().message, HasSubstr("need 1.600 m"));
   ASSERT_TRUE(schedule_.Commit(NorthBound("north", 3), rule_, anyone_).ok());
   for (const Reservation& r : schedule_.List("site").reservations) {
-    EXPECT_EQ(r.separation_m, r.reserved.robot_id == "east" ? 1.0 : rule_.separation_m);
+    EXPECT_EQ(r.reserved.motion.separation_m,
+              r.reserved.robot_id == "east" ? 1.0 : rule_.separation_m);
   }
-  // East 1 s late: 1.41 m apart at the closest, clear of north's 0.7 m limit but not of the
-  // 1.6 m east's reservation keeps, so the move names north.
+  // A renewal asks its own separation from then on.
+  SeparationRule none = rule_;
+  none.separation_m = 0;
+  const Result<Reservation> renewed = schedule_.Renew("site", "north", 100, none, anyone_);
+  ASSERT_TRUE(renewed.ok()) << renewed.error().message;
+  EXPECT_EQ(renewed.value().reserved.motion.separation_m, 0.0);
+  // East 1 s late: 1.41 m from north again (east still asks 1 m), so the move names north.
   const Result<ReservationSchedule::Moved> late = schedule_.Shift("site", "east", 1, anyone_);
   ASSERT_TRUE(late.ok()) << late.error().message;
   ASSERT_EQ(late.value().meetings.size(), 1u);
   EXPECT_EQ(late.value().meetings[0].robot_id, "north");
   EXPECT_NEAR(late.value().meetings[0].conflict.limit_m, 1.6, 1e-9);
-  EXPECT_EQ(late.value().reservation.separation_m, 1.0);
-  // A renewal is checked, and kept, with its own separation.
-  const Result<Reservation> renewed = schedule_.Renew("site", "north", 100, rule_, anyone_);
-  ASSERT_TRUE(renewed.ok()) << renewed.error().message;
-  SeparationRule none = rule_;
-  none.separation_m = 0;
-  EXPECT_EQ(schedule_.Renew("site", "north", 200, none, anyone_).value().separation_m, 0.0);
 }
 
 // Robots racing into the same crossing at the same moment: exactly one commits; the schedule

@@ -360,13 +360,13 @@ def main():
             conflicts = driver.find_element("id", "traffic").get_attribute("data-conflicts")
             assert conflicts == "0", f"{conflicts} robots drawn in conflict at the slider's {end}"
 
-        # A pair is judged by the separation of the reservation the server checked it with, the
-        # later one (Reservation.separation_m): two robots parked 0.75 m apart, radii 0.3 m,
-        # conflict under 0.2 m and not under 0.1 m, whatever the server's default.
+        # A pair is judged by the larger separation its reservations ask (Reservation.
+        # separation_m): two robots parked 0.75 m apart, radii 0.3 m, conflict when either asks
+        # 0.2 m and not when both ask 0.1 m, whatever the server's default.
         pair_conflicts = driver.execute_async_script("""
             const done = arguments[arguments.length - 1];
-            const parked = (id, x, revision, separation) => ({
-              robot_id: id, revision: String(revision), separation_m: separation,
+            const parked = (id, x, separation) => ({
+              robot_id: id, separation_m: separation,
               start_time: '2026-12-05T00:00:00Z', expiry_time: '2026-12-05T00:01:00Z',
               body: {radius_m: 0.3, reference_height_m: 0.3, height_m: 1.0},
               trajectory: {duration_s: 1, pieces: [{duration_s: 1, axes: [
@@ -377,10 +377,11 @@ def main():
                 const traffic = new Traffic({separation_m: 0.1, reservations: [a, b]});
                 return traffic.conflictsAt(traffic.positionsAt(Date.parse('2026-12-05T00:00:30Z') / 1000)).length;
               };
-              done([count(parked('a', 0, 5, 0.1), parked('b', 0.75, 7, 0.2)),
-                    count(parked('a', 0, 9, 0.1), parked('b', 0.75, 7, 0.2))]);
+              done([count(parked('a', 0, 0.1), parked('b', 0.75, 0.2)),
+                    count(parked('a', 0, 0.2), parked('b', 0.75, 0.1)),
+                    count(parked('a', 0, 0.1), parked('b', 0.75, 0.1))]);
             }, (e) => done(String(e)));""")
-        assert pair_conflicts == [1, 0], pair_conflicts
+        assert pair_conflicts == [1, 1, 0], pair_conflicts
 
         # Other maps' storeys: parking_garage's four decks 2.8 m apart (scenes/src/garage.cpp),
         # uneven_terrain's hills one storey.

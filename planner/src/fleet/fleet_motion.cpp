@@ -86,6 +86,10 @@ Status FleetMotion::Validate(std::string_view path) const {
                                     "least as long as its trajectory",
                                     SecondsBetween(end_ns, ArrivalNs())));
   }
+  if (!(std::isfinite(separation_m) && separation_m >= 0)) {
+    return InvalidField(path, "separation_m",
+                        fmt::format("is {:g}; must be finite and >= 0", separation_m));
+  }
   return Status::Ok();
 }
 

@@ -113,13 +113,14 @@ std::vector<Trajectory> SplitAtStops(const PlanResult& plan, const std::vector<R
 }
 
 /// A zone around where `other` stays parked: a polygon around the disc of its radius plus
-/// the separation (a robot whose footprint stays out of it keeps the limit), over the height
-/// its body takes there.
+/// the pair's separation (a robot whose footprint stays out of it keeps the limit), over the
+/// height its body takes there.
 Prism ParkedZone(const FleetMotion& other, const SeparationRule& rule) {
   const Eigen::Vector3d at = other.ReferencePointAt(other.end_ns);
   const VerticalExtent extent = other.ExtentAt(other.end_ns);
   // The polygon's edges lie this far from its centre.
-  const double inner = other.body.radius_m + rule.separation_m + kParkedZoneMarginM;
+  const double inner =
+      other.body.radius_m + std::max(rule.separation_m, other.separation_m) + kParkedZoneMarginM;
   const double corner = inner / std::cos(std::numbers::pi / kParkedZoneCorners);
   Prism zone;
   for (int k = 0; k < kParkedZoneCorners; ++k) {
@@ -223,9 +224,9 @@ ParkedInWay ParkedInTheWay(const FleetMotion& motion, const Traffic& traffic, do
       continue;
     }
     // The other robot standing where it parks for as long as the route could take.
-    const FleetMotion standing =
-        Standing(other.StateAt(other.ArrivalNs()), other.trajectory.dimension, other.body,
-                 motion.start_ns, latest_passage_ns);
+    FleetMotion standing = Standing(other.StateAt(other.ArrivalNs()), other.trajectory.dimension,
+                                    other.body, motion.start_ns, latest_passage_ns);
+    standing.separation_m = other.separation_m + reach_m;  // The pair's, widened as the rule.
     if (const std::optional<MotionConflict> near =
             FirstConflict(route, PreparedMotion(standing), rule)) {
       parked.robots.push_back(i);
@@ -255,8 +256,8 @@ std::optional<AddedStop> StopBefore(
     const Traffic& traffic,
     const std::function<std::optional<Eigen::Vector3d>(const Eigen::Vector3d&)>& stands) {
   const FleetMotion& other = traffic.others[met.other].motion;
-  const double clear_m =
-      traffic.body.radius_m + other.body.radius_m + traffic.rule.separation_m + kStopClearanceM;
+  const double clear_m = traffic.body.radius_m + other.body.radius_m +
+                         std::max(traffic.rule.separation_m, other.separation_m) + kStopClearanceM;
   std::vector<std::pair<Eigen::Vector3d, VerticalExtent>> passing;
   const std::int64_t from_ns = std::max(other.start_ns, departure_ns);
   const std::int64_t until_ns = std::max(from_ns, other.ArrivalNs());

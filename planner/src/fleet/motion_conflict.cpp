@@ -249,6 +249,10 @@ std::optional<MotionConflict> FirstConflict(const FleetMotion& a, const FleetMot
   return FirstConflict(PreparedMotion(a), PreparedMotion(b), rule);
 }
 
+double PairSeparationM(const SeparationRule& rule, const FleetMotion& a, const FleetMotion& b) {
+  return std::max({rule.separation_m, a.separation_m, b.separation_m});
+}
+
 std::optional<MotionConflict> FirstConflict(const PreparedMotion& prepared_a,
                                             const PreparedMotion& prepared_b,
                                             const SeparationRule& rule) {
@@ -258,7 +262,7 @@ std::optional<MotionConflict> FirstConflict(const PreparedMotion& prepared_a,
   const std::int64_t until_ns = std::min(a.end_ns, b.end_ns);
   if (until_ns < origin_ns) return std::nullopt;  // Never both present.
   const double until_s = SecondsBetween(origin_ns, until_ns);
-  const double limit_m = a.body.radius_m + b.body.radius_m + rule.separation_m;
+  const double limit_m = a.body.radius_m + b.body.radius_m + PairSeparationM(rule, a, b);
   const double reach_m = limit_m + rule.distance_tolerance_m;
   const double closeness_tolerance = reach_m * reach_m - limit_m * limit_m;
 

@@ -132,6 +132,8 @@ Expected<FleetPlanResult> PlanReplanningOthers(const FleetPlanRequest& request, 
     again.departure_ns = notice_ns;
     again.parked_until_ns = committed.end_ns;
     again.fleet.rule = request.fleet.rule;
+    // It keeps asking what it asked (the pair's separation is the larger of the two's).
+    again.fleet.rule.separation_m = committed.separation_m;
     again.fleet.max_wait_s = options.max_wait_s;
     std::vector<ReservedMotion> around;
     around.reserve(others.size() - 1);

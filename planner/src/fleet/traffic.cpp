@@ -14,6 +14,7 @@ FleetMotion Traffic::MotionOf(const Trajectory& trajectory) const {
   motion.trajectory = trajectory;
   motion.body = body;
   motion.end_ns = std::max(parked_until_ns, motion.ArrivalNs());
+  motion.separation_m = rule.separation_m;
   return motion;
 }
 

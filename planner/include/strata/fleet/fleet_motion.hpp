@@ -49,6 +49,10 @@ struct FleetMotion {
   /// Absolute time until which the robot stays parked at the trajectory's end [ns], at least
   /// start_ns + the trajectory's duration.
   std::int64_t end_ns = 0;
+  /// The free distance this robot asks every other to keep from its body [m], >= 0, finite:
+  /// its plan's separation (SeparationRule::separation_m; Traffic::MotionOf sets it). Two
+  /// motions keep the larger of their two and the check's rule's (PairSeparationM).
+  double separation_m = 0;
 
   /// When the trajectory ends and the parked time begins [ns].
   std::int64_t ArrivalNs() const;
@@ -66,8 +70,8 @@ struct FleetMotion {
   VerticalExtent ExtentOf(const StateVector& state) const;
 
   /// kInvalidInput blaming the first bad field, `path`.<field>: a dimension other than 3 or 4,
-  /// pieces Trajectory::ValidatePieces refuses (at most kMaxTrajectoryPieces), a bad body, or
-  /// end_ns before the arrival.
+  /// pieces Trajectory::ValidatePieces refuses (at most kMaxTrajectoryPieces), a bad body,
+  /// end_ns before the arrival, or a separation that is negative or not finite.
   Status Validate(std::string_view path) const;
 };
 

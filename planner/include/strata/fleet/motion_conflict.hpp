@@ -2,9 +2,9 @@
 /// Whether two robots' motions ever come too close, decided over continuous time.
 ///
 /// Two bodies conflict at time t when their reference points are closer horizontally than
-/// the sum of their radii plus a separation, while their vertical extents (ground to top of
-/// body) overlap. A robot on a deck and one under it, or robots on two floors of a garage,
-/// never conflict.
+/// the sum of their radii plus a separation (the larger of what each motion asks and the
+/// check's rule), while their vertical extents (ground to top of body) overlap. A robot on a deck
+/// and one under it, or robots on two floors of a garage, never conflict.
 ///
 /// Exact, not sampled: over each stretch of time on which both motions follow one polynomial
 /// piece (or stand parked), the squared horizontal distance is a polynomial of degree 10 and
@@ -29,8 +29,9 @@
 namespace strata {
 
 struct SeparationRule {
-  /// Free horizontal distance kept between two bodies [m], >= 0, finite: they conflict when
-  /// their reference points are closer than the sum of their radii plus this.
+  /// Free horizontal distance kept between two bodies [m], >= 0, finite, at least: they
+  /// conflict when their reference points are closer than the sum of their radii plus this, or
+  /// plus a motion's own FleetMotion::separation_m where that is larger.
   double separation_m = 0.1;
   /// How far beyond the limit a reported conflict may be [m], > 0 (see the file comment).
   double distance_tolerance_m = 1e-3;
@@ -41,13 +42,17 @@ struct SeparationRule {
   Status Validate(std::string_view path) const;
 };
 
+/// The free distance [m] two motions keep under `rule`: the largest of the rule's and the two
+/// motions' own separations.
+double PairSeparationM(const SeparationRule& rule, const FleetMotion& a, const FleetMotion& b);
+
 /// The earliest moment (within the rule's tolerance) at which two motions conflict.
 struct MotionConflict {
   std::int64_t time_ns = 0;          ///< Absolute time [ns].
   Eigen::Vector3d point_a;           ///< First motion's reference point then [m].
   Eigen::Vector3d point_b;           ///< Second motion's reference point then [m].
   double horizontal_distance_m = 0;  ///< Between the two reference points [m].
-  double limit_m = 0;                ///< Sum of the radii plus the separation [m].
+  double limit_m = 0;                ///< Sum of the radii plus the pair's separation [m].
 };
 
 namespace fleet_internal {

@@ -3,9 +3,8 @@
 // leaves, at its goal once it has arrived), its whole route a thin line. Two discs closer
 // horizontally than their radii plus the pair's separation, with their bodies overlapping in
 // height, are marked as a conflict: the rule the server checks exactly (proto/README.md,
-// "Fleets"), so a marked pair is a schedule to look into. A pair's separation is the one the
-// server checked it with: that of the reservation committed or changed later (the higher
-// revision), which was checked against the other (Reservation.separation_m). A reservation the server replanned to
+// "Fleets"), so a marked pair is a schedule to look into. A pair's separation is the larger of
+// the two its reservations ask (Reservation.separation_m), as the server keeps it. A reservation the server replanned to
 // let another robot pass first (Reservation.replanned_for) has its route dashed and its disc
 // marked, so a robot that changed its way without its own request stands out; a robot that
 // follows replans (and so may be replanned) has its disc outlined dashed.
@@ -65,8 +64,6 @@ export class Traffic {
       // The JSON API prints every field, but a listing made elsewhere may leave defaults out.
       followsReplans: Boolean(r.follows_replans),
       replannedFor: r.replanned_for || '',
-      // Revisions are uint64, which the JSON mapping writes as text.
-      revision: BigInt(r.revision || 0),
       separation: r.separation_m ?? serverSeparation,
     }));
     this.from = Math.min(...this.robots.map((r) => r.start));
@@ -91,8 +88,8 @@ export class Traffic {
       for (let j = i + 1; j < positions.length; ++j) {
         const a = positions[i];
         const b = positions[j];
-        const later = a.robot.revision >= b.robot.revision ? a.robot : b.robot;
-        const limit = a.robot.body.radius_m + b.robot.body.radius_m + later.separation;
+        const separation = Math.max(a.robot.separation, b.robot.separation);
+        const limit = a.robot.body.radius_m + b.robot.body.radius_m + separation;
         if (Math.hypot(a.x - b.x, a.y - b.y) < limit && a.top > b.bottom && b.top > a.bottom) {
           pairs.push([i, j]);
         }
