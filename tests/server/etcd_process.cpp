@@ -3,6 +3,7 @@
 #include <fcntl.h>
 #include <netinet/in.h>
 #include <signal.h>
+#include <sys/prctl.h>
 #include <sys/socket.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -81,6 +82,9 @@ bool EtcdProcess::Launch() {
   }
   pid_ = fork();
   if (pid_ == 0) {
+    // Dies with the test: a test that crashes must not leave it running, holding ctest's
+    // output pipe open until the suite's timeout.
+    prctl(PR_SET_PDEATHSIG, SIGKILL);
     dup2(fds[1], STDERR_FILENO);
     dup2(fds[1], STDOUT_FILENO);
     close(fds[0]);

@@ -123,6 +123,30 @@ TEST_F(ServerFleetTest, ASecondRobotIntoTheSameCrossingWaitsOrGoesAroundAndBothA
   ExpectNoTwoMeet();
 }
 
+TEST_F(ServerFleetTest, ARobotReservedWithAWideSeparationIsGivenItByTheRobotsPlannedAfterIt) {
+  // The crossing above; a asks 1.5 m between bodies, b the server's default.
+  v1::PlanRequest wide = FleetPlan("a", 3, 5, 13, 10, departure_ns_);
+  wide.mutable_fleet()->set_separation_m(1.5);
+  v1::PlanResponse first;
+  const grpc::Status a = Plan(wide, &first, 120);
+  ASSERT_TRUE(a.ok()) << a.error_message();
+  EXPECT_EQ(first.reservation().separation_m(), 1.5);
+  v1::PlanResponse second;
+  const grpc::Status b = Plan(FleetPlan("b", 3, 10, 13, 5, departure_ns_), &second, 120);
+  ASSERT_TRUE(b.ok()) << b.error_message();
+  EXPECT_EQ(second.reservation().separation_m(), SeparationRule{}.separation_m);
+  // b keeps a's 1.5 m, not only its own 0.1 m: checked with a rule of 1.5 m for both.
+  SeparationRule a_asks;
+  a_asks.separation_m = 1.5;
+  const std::vector<ReservedMotion> first_only = {{"a", MotionOf(first.reservation())}};
+  EXPECT_FALSE(
+      FirstTrafficConflict(MotionOf(second.reservation()), first_only, a_asks).has_value());
+  const v1::ListReservationsResponse all = List();
+  for (const v1::Reservation& listed : all.reservations()) {
+    EXPECT_EQ(listed.separation_m(), listed.robot_id() == "a" ? 1.5 : 0.1) << listed.robot_id();
+  }
+}
+
 TEST_F(ServerFleetTest, TwoRobotsPlanningIntoOneCrossingAtOnceAreBothServedAndNeverMeet) {
   auto plan = [this](const std::string& robot, double sx, double sy, double gx, double gy) {
     auto stub = v1::PlannerService::NewStub(channel_);

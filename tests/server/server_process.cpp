@@ -4,6 +4,7 @@
 #include <fcntl.h>
 #include <netinet/in.h>
 #include <signal.h>
+#include <sys/prctl.h>
 #include <sys/socket.h>
 #include <sys/time.h>
 #include <sys/wait.h>
@@ -41,6 +42,9 @@ std::unique_ptr<ServerProcess> ServerProcess::Start(const std::vector<std::strin
   std::unique_ptr<ServerProcess> process(new ServerProcess());
   process->pid_ = fork();
   if (process->pid_ == 0) {
+    // Dies with the test: a test that crashes must not leave it running, holding ctest's
+    // output pipe open until the suite's timeout.
+    prctl(PR_SET_PDEATHSIG, SIGKILL);
     dup2(fds[1], STDERR_FILENO);
     close(fds[0]);
     close(fds[1]);
