@@ -4,10 +4,11 @@
 // horizontally than their radii plus the pair's separation, with their bodies overlapping in
 // height, are marked as a conflict: the rule the server checks exactly (proto/README.md,
 // "Fleets"), so a marked pair is a schedule to look into. A pair's separation is the larger of
-// the two its reservations ask (Reservation.separation_m), as the server keeps it. A reservation the server replanned to
-// let another robot pass first (Reservation.replanned_for) has its route dashed and its disc
-// marked, so a robot that changed its way without its own request stands out; a robot that
-// follows replans (and so may be replanned) has its disc outlined dashed.
+// the two its reservations ask (Reservation.separation_m), as the server keeps it. A
+// reservation the server replanned to let another robot pass first (Reservation.replanned_for)
+// has its route dashed and its disc marked, so a robot that changed its way without its own
+// request stands out; a robot that follows replans (and so may be replanned) has its disc
+// outlined dashed.
 
 const SVG_NS = 'http://www.w3.org/2000/svg';
 
