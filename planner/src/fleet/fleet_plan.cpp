@@ -119,8 +119,7 @@ Prism ParkedZone(const FleetMotion& other, const SeparationRule& rule) {
   const Eigen::Vector3d at = other.ReferencePointAt(other.end_ns);
   const VerticalExtent extent = other.ExtentAt(other.end_ns);
   // The polygon's edges lie this far from its centre.
-  const double inner =
-      other.body.radius_m + std::max(rule.separation_m, other.separation_m) + kParkedZoneMarginM;
+  const double inner = other.body.radius_m + PairSeparationM(rule, other) + kParkedZoneMarginM;
   const double corner = inner / std::cos(std::numbers::pi / kParkedZoneCorners);
   Prism zone;
   for (int k = 0; k < kParkedZoneCorners; ++k) {
@@ -214,7 +213,6 @@ struct ParkedInWay {
 ParkedInWay ParkedInTheWay(const FleetMotion& motion, const Traffic& traffic, double max_wait_s,
                            const std::vector<bool>& zoned, double reach_m = 0) {
   SeparationRule rule = traffic.rule;
-  rule.separation_m += reach_m;
   const std::int64_t latest_passage_ns = AddSeconds(motion.ArrivalNs(), max_wait_s);
   const PreparedMotion route(motion);
   ParkedInWay parked;
@@ -226,7 +224,7 @@ ParkedInWay ParkedInTheWay(const FleetMotion& motion, const Traffic& traffic, do
     // The other robot standing where it parks for as long as the route could take.
     FleetMotion standing = Standing(other.StateAt(other.ArrivalNs()), other.trajectory.dimension,
                                     other.body, motion.start_ns, latest_passage_ns);
-    standing.separation_m = other.separation_m + reach_m;  // The pair's, widened as the rule.
+    rule.separation_m = PairSeparationM(traffic.rule, other) + reach_m;
     if (const std::optional<MotionConflict> near =
             FirstConflict(route, PreparedMotion(standing), rule)) {
       parked.robots.push_back(i);
@@ -257,7 +255,7 @@ std::optional<AddedStop> StopBefore(
     const std::function<std::optional<Eigen::Vector3d>(const Eigen::Vector3d&)>& stands) {
   const FleetMotion& other = traffic.others[met.other].motion;
   const double clear_m = traffic.body.radius_m + other.body.radius_m +
-                         std::max(traffic.rule.separation_m, other.separation_m) + kStopClearanceM;
+                         PairSeparationM(traffic.rule, other) + kStopClearanceM;
   std::vector<std::pair<Eigen::Vector3d, VerticalExtent>> passing;
   const std::int64_t from_ns = std::max(other.start_ns, departure_ns);
   const std::int64_t until_ns = std::max(from_ns, other.ArrivalNs());

@@ -249,8 +249,12 @@ std::optional<MotionConflict> FirstConflict(const FleetMotion& a, const FleetMot
   return FirstConflict(PreparedMotion(a), PreparedMotion(b), rule);
 }
 
+double PairSeparationM(const SeparationRule& rule, const FleetMotion& other) {
+  return std::max(rule.separation_m, other.separation_m);
+}
+
 double PairSeparationM(const SeparationRule& rule, const FleetMotion& a, const FleetMotion& b) {
-  return std::max({rule.separation_m, a.separation_m, b.separation_m});
+  return std::max(PairSeparationM(rule, a), b.separation_m);
 }
 
 std::optional<MotionConflict> FirstConflict(const PreparedMotion& prepared_a,

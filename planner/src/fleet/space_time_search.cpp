@@ -50,8 +50,7 @@ class OthersWays {
     for (const ReservedMotion& reserved : traffic.others) {
       const FleetMotion& other = reserved.motion;
       const double reach_m = traffic.body.radius_m + other.body.radius_m +
-                             std::max(traffic.rule.separation_m, other.separation_m) +
-                             options.margin_m;
+                             PairSeparationM(traffic.rule, other) + options.margin_m;
       const double begin_s = std::max(0.0, SecondsBetween(traffic.departure_ns, other.start_ns));
       const double arrival_s = SecondsBetween(traffic.departure_ns, other.ArrivalNs());
       const double end_s =

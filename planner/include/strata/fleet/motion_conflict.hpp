@@ -45,6 +45,9 @@ struct SeparationRule {
 /// The free distance [m] two motions keep under `rule`: the largest of the rule's and the two
 /// motions' own separations.
 double PairSeparationM(const SeparationRule& rule, const FleetMotion& a, const FleetMotion& b);
+/// The free distance [m] a robot planned under `rule` keeps from `other`: the pair's, for a
+/// robot that asks the rule's own separation (as Traffic::MotionOf sets it).
+double PairSeparationM(const SeparationRule& rule, const FleetMotion& other);
 
 /// The earliest moment (within the rule's tolerance) at which two motions conflict.
 struct MotionConflict {
