@@ -458,7 +458,9 @@ std::size_t PlanningMap::MemoryBytes() const {
   return bytes;
 }
 
-std::size_t PlanningMap::MemoryBytesBeyond(const PlanningMap& other) const {
+std::size_t PlanningMap::MemoryBytesBeyond(const PlanningMap* made_from) const {
+  if (made_from == nullptr) return MemoryBytes();
+  const PlanningMap& other = *made_from;
   if (&other == this) return 0;
   std::size_t bytes = model_->MemoryBytesBeyond(*other.model_);
   std::scoped_lock lock(mutex_, other.mutex_);

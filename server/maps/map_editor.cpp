@@ -401,8 +401,7 @@ Result<MapUpdate> MapEditor::UpdateOnce(const MapEditRequest& request, const Cal
   update.writes = writes;
   map.memory_bytes = planning->MemoryBytes();
   const PlanningMap* made_from = base_planning ? base_planning.get() : base.get();
-  update.new_bytes =
-      made_from != nullptr ? planning->MemoryBytesBeyond(*made_from) : map.memory_bytes;
+  update.new_bytes = planning->MemoryBytesBeyond(made_from);
   update.map = std::move(map);
   update.edit = built.edit.value_or(EditFigures{});
   update.load_s = built.load_s;

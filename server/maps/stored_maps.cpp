@@ -82,12 +82,7 @@ Result<ActiveMap> StoredMaps::Get(const std::string& id, const std::string& vers
     // (a replica following another's edits) is new only where it does not share that one's
     // parts: counting it whole kept a 1 km site's 2.7 GB free for a load that wants 0.8 GB.
     if (options_.free_memory != nullptr) {
-      std::size_t next_bytes = 0;
-      if (map.ok()) {
-        next_bytes =
-            made_from ? map.value()->MemoryBytesBeyond(*made_from) : map.value()->MemoryBytes();
-      }
-      options_.free_memory->Request(next_bytes);
+      options_.free_memory->Request(map.ok() ? map.value()->MemoryBytesBeyond(made_from.get()) : 0);
     }
   }
   if (!map.ok()) return std::move(map).error();

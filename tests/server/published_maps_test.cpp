@@ -303,7 +303,7 @@ TEST_P(PublishedMapsTest, AReplicaFollowingEditsKeepsRoomForWhatALoadAddsNotTheW
   ASSERT_TRUE(published_->PublishEdit(kV1, next, kV2, edited, &tiles, nullptr).ok());
   const ActiveMap second = follower.Get("floor", "").value();
   ASSERT_EQ(second.version, kV2);
-  const std::size_t added = second.map->MemoryBytesBeyond(*first.map);
+  const std::size_t added = second.map->MemoryBytesBeyond(first.map.get());
   EXPECT_GT(added, 0u);
   EXPECT_LT(added, second.map->MemoryBytes());  // The second chunk shared.
   EXPECT_EQ(returner.RoomBytes(), added);

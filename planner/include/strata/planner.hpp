@@ -81,9 +81,10 @@ class PlanningMap {
                               const std::function<bool()>& should_stop = {}) const;
   /// Bytes held by the model and the graphs kept.
   std::size_t MemoryBytes() const;
-  /// The bytes of the model's arrays and the graphs that `other` (e.g. the version this one
-  /// was made from) does not share with this map: what making it allocated beyond `other`.
-  std::size_t MemoryBytesBeyond(const PlanningMap& other) const;
+  /// The bytes of the model's arrays and the graphs that `made_from` (the version this one
+  /// was made from) does not share with this map: what making it allocated; all of
+  /// MemoryBytes when `made_from` is null (made from nothing).
+  std::size_t MemoryBytesBeyond(const PlanningMap* made_from) const;
   /// Graphs kept (built, or being built).
   std::size_t GraphCount() const;
   /// The params of the graphs built and kept, most recently used first: the robots that plan
