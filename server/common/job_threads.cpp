@@ -1,13 +1,19 @@
 #include "common/job_threads.hpp"
 
+#include <sys/resource.h>
+#include <unistd.h>
+
+#include <algorithm>
 #include <climits>
 #include <system_error>
 #include <utility>
 
 namespace strata::server {
 
-JobThreads::JobThreads(int threads, std::size_t stack_bytes, std::size_t max_queued)
-    : stack_bytes_(std::max<std::size_t>(stack_bytes, PTHREAD_STACK_MIN)), max_queued_(max_queued) {
+JobThreads::JobThreads(int threads, std::size_t stack_bytes, std::size_t max_queued, int niceness)
+    : stack_bytes_(std::max<std::size_t>(stack_bytes, PTHREAD_STACK_MIN)),
+      max_queued_(max_queued),
+      niceness_(niceness) {
   pthread_attr_t attributes;
   pthread_attr_init(&attributes);
   pthread_attr_setstacksize(&attributes, stack_bytes_);
@@ -53,6 +59,8 @@ void JobThreads::Stop() {
 
 void* JobThreads::Run(void* data) {
   auto* self = static_cast<JobThreads*>(data);
+  // Linux gives each thread a nice value of its own (the process's is its first thread's).
+  if (self->niceness_ != 0) setpriority(PRIO_PROCESS, static_cast<id_t>(gettid()), self->niceness_);
   while (true) {
     std::function<void()> job;
     {

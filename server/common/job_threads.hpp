@@ -3,8 +3,8 @@
 /// the environment picks, that run queued jobs in the order they arrive. The HTTP server
 /// answers its requests on them (http_server.hpp): the work behind an API call (loading a map
 /// from the store, planning) needs the stack a gRPC thread has, which an event loop's or a web
-/// library's threads do not promise. A map store's graphs are written on one
-/// (maps/stored_graphs.hpp).
+/// library's threads do not promise. A map store's graphs are written on one, at the least CPU
+/// priority (maps/graph_writer.hpp).
 #include <pthread.h>
 #include <condition_variable>
 #include <cstddef>
@@ -18,9 +18,11 @@ namespace strata::server {
 class JobThreads {
  public:
   /// Starts `threads` (>= 1) threads with stacks of `stack_bytes` each (at least
-  /// PTHREAD_STACK_MIN); at most `max_queued` jobs wait for one. Throws std::system_error when
-  /// a thread cannot be started.
-  JobThreads(int threads, std::size_t stack_bytes, std::size_t max_queued);
+  /// PTHREAD_STACK_MIN); at most `max_queued` jobs wait for one. Each thread runs at nice value
+  /// `niceness` (setpriority; 0: the process's own, up to 19: the least CPU priority, for work
+  /// that nothing waits for); a value the process may not take leaves the thread as it was.
+  /// Throws std::system_error when a thread cannot be started.
+  JobThreads(int threads, std::size_t stack_bytes, std::size_t max_queued, int niceness = 0);
   /// Stop().
   ~JobThreads();
   JobThreads(const JobThreads&) = delete;
@@ -45,6 +47,7 @@ class JobThreads {
 
   std::size_t stack_bytes_;
   std::size_t max_queued_;
+  int niceness_;
   std::mutex mutex_;
   std::condition_variable changed_;
   std::deque<std::function<void()>> queue_;

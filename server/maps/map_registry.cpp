@@ -87,7 +87,7 @@ MapRegistry::MapRegistry(RegistryOptions options, DoneListener on_done)
     return NewPlanningMap(std::move(model), std::move(keep_out), id, terrain);
   };
   if (options_.store) {
-    graph_writer_ = MakeGraphWriter();
+    graph_writer_ = std::make_shared<GraphWriter>();
     StoredMapsOptions stored;
     stored.store = options_.store;
     stored.versions_kept = options_.versions_kept;

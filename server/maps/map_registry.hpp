@@ -32,6 +32,7 @@
 #include "common/free_memory.hpp"
 #include "common/service_error.hpp"
 #include "maps/assessment_queue.hpp"
+#include "maps/graph_writer.hpp"
 #include "maps/map_build.hpp"
 #include "maps/map_editor.hpp"
 #include "maps/map_snapshot.hpp"
@@ -210,7 +211,7 @@ class MapRegistry {
   DoneListener on_done_;
   // Writes graphs to the store (with one); declared before what holds planning maps, so that it
   // is destroyed after them.
-  std::shared_ptr<JobThreads> graph_writer_;
+  std::shared_ptr<GraphWriter> graph_writer_;
   // Asked by the editor and the published maps when versions are let go (options_.free_memory
   // or the registry's own); declared before them, so that it outlives them.
   std::shared_ptr<FreeMemoryReturner> free_memory_;

@@ -1,9 +1,11 @@
 #include "maps/stored_graphs.hpp"
 
 #include <chrono>
+#include <string>
 #include <utility>
 
 #include "common/log.hpp"
+#include "strata/io/saved_graph.hpp"
 
 namespace strata::server {
 namespace {
@@ -14,13 +16,7 @@ double SecondsSince(std::chrono::steady_clock::time_point start) {
 
 }  // namespace
 
-std::shared_ptr<JobThreads> MakeGraphWriter() {
-  // Writing a graph needs little stack: its records go out in chunks of a few hundred KB.
-  constexpr std::size_t kStackBytes = 2 << 20;
-  return std::make_shared<JobThreads>(1, kStackBytes, kMaxGraphWritesWaiting);
-}
-
-StoredGraphs::StoredGraphs(std::shared_ptr<MapStore> store, std::shared_ptr<JobThreads> writer,
+StoredGraphs::StoredGraphs(std::shared_ptr<MapStore> store, std::shared_ptr<GraphWriter> writer,
                            std::string id, std::string terrain)
     : store_(std::move(store)),
       writer_(std::move(writer)),
@@ -54,8 +50,10 @@ bool StoredGraphs::Holds(const TraversabilityParams& params) const {
 
 void StoredGraphs::Keep(std::shared_ptr<const TerrainModel> model,
                         std::shared_ptr<const SurfaceGraph> graph) const {
-  const bool queued = writer_->Post([store = store_, id = id_, terrain = terrain_,
-                                     model = std::move(model), graph = std::move(graph)] {
+  // One key per map and robot: a newer terrain's graph takes the place of one still waiting.
+  const std::string key = id_ + "/" + SavedGraphKey(graph->params());
+  const bool queued = writer_->Keep(key, [store = store_, id = id_, terrain = terrain_,
+                                          model = std::move(model), graph = std::move(graph)] {
     const auto start = std::chrono::steady_clock::now();
     if (ServiceStatus put = store->PutGraph(id, terrain, *graph); !put.ok()) {
       LogWarning("graph_not_kept").Add("map", id).Add("reason", put.error().message);

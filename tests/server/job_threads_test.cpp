@@ -3,6 +3,8 @@
 #include "common/job_threads.hpp"
 
 #include <pthread.h>
+#include <sys/resource.h>
+#include <unistd.h>
 
 #include <atomic>
 #include <cstring>
@@ -76,6 +78,22 @@ TEST(JobThreadsTest, WaitIdleReturnsOnceEveryQueuedJobHasRun) {
   threads.WaitIdle();
   EXPECT_EQ(ran.load(), 8);
   threads.WaitIdle();  // Idle already: returns at once.
+}
+
+TEST(JobThreadsTest, ThreadsRunAtTheNiceValueAsked) {
+  const int own = getpriority(PRIO_PROCESS, static_cast<id_t>(gettid()));
+  JobThreads background(1, 1 << 20, 1, 19);
+  JobThreads plain(1, 1 << 20, 1);
+  std::atomic<int> background_nice{-100}, plain_nice{-100};
+  ASSERT_TRUE(background.Post(
+      [&] { background_nice = getpriority(PRIO_PROCESS, static_cast<id_t>(gettid())); }));
+  ASSERT_TRUE(
+      plain.Post([&] { plain_nice = getpriority(PRIO_PROCESS, static_cast<id_t>(gettid())); }));
+  background.WaitIdle();
+  plain.WaitIdle();
+  EXPECT_EQ(background_nice.load(), 19);
+  EXPECT_EQ(plain_nice.load(), own);  // Left as the thread that started it was.
+  EXPECT_EQ(getpriority(PRIO_PROCESS, static_cast<id_t>(gettid())), own);
 }
 
 }  // namespace

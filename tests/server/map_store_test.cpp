@@ -1083,7 +1083,7 @@ TEST_F(MapStoreTest, AGraphOneReplicaBuiltIsLoadedByAnotherInsteadOfBuilt) {
   ASSERT_TRUE(other_store.ok()) << Why(other_store);
   std::shared_ptr<MapStore> here(std::move(store_));
   std::shared_ptr<MapStore> there(std::move(*other_store));
-  const std::shared_ptr<JobThreads> writer = MakeGraphWriter();
+  const auto writer = std::make_shared<GraphWriter>();
   const auto model_here = std::make_shared<const TerrainModel>(model());
   const PlanningMap first(model_here, {}, 0,
                           std::make_shared<StoredGraphs>(here, writer, "shared", terrain));
