@@ -460,8 +460,8 @@ std::size_t PlanningMap::MemoryBytes() const {
 
 std::size_t PlanningMap::MemoryBytesBeyond(const PlanningMap* made_from) const {
   if (made_from == nullptr) return MemoryBytes();
+  if (made_from == this) return 0;
   const PlanningMap& other = *made_from;
-  if (&other == this) return 0;
   std::size_t bytes = model_->MemoryBytesBeyond(*other.model_);
   std::scoped_lock lock(mutex_, other.mutex_);
   // A graph is read once built (its entry's flag), as Bytes reads it.

@@ -4,7 +4,6 @@
 /// built instead of building it again (a kilometre's graph: seconds to build, a fraction of
 /// that to load). Graphs are written by a GraphWriter: no plan waits for a write, and of a
 /// map's graphs for one robot only the newest waits to be written. No gRPC here.
-#include <cstddef>
 #include <memory>
 #include <optional>
 #include <string>
