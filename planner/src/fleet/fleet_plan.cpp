@@ -605,9 +605,10 @@ std::optional<FleetPlanResult> MakeWayAtGoal(const PlanningMap& map, const PlanR
 }
 
 /// PlanAmongTraffic without replanning anyone: the robot keeps out of the way of every motion
-/// committed before it.
+/// committed before it. Its legs go through `legs` (CommitOrderPlanner), or a cache of its own.
 Expected<FleetPlanResult> PlanInCommitOrder(const PlanningMap& map, const FleetPlanRequest& request,
-                                            const std::function<bool()>& should_stop) {
+                                            const std::function<bool()>& should_stop,
+                                            LegCache* legs) {
   if (Status s = request.plan.Validate(); !s) return s.error();
   if (Status s = request.fleet.Validate("fleet"); !s) return s.error();
   Traffic traffic;
@@ -702,12 +703,13 @@ Expected<FleetPlanResult> PlanInCommitOrder(const PlanningMap& map, const FleetP
   int make_way_rounds = 0;
   // The rounds replan the same legs but for the one a stop splits (and all of them when a zone
   // is added, which the cache compares).
-  LegCache legs;
+  LegCache own_legs;
+  if (legs == nullptr) legs = &own_legs;
   std::optional<TrafficConflict> first_at_departure;
   for (int round = 0; round < kMaxPlanRounds; ++round) {
     plan_request.via.clear();
     for (const RoutePoint& point : route) plan_request.via.push_back(point.via);
-    Expected<PlanResult> plan = Plan(map, plan_request, should_stop, &legs);
+    Expected<PlanResult> plan = Plan(map, plan_request, should_stop, legs);
     if (!plan && (stops_added > 0 || space_time_tried) &&
         plan.error().code != ErrorCode::kCancelled &&
         plan.error().code != ErrorCode::kDeadlineExceeded) {
@@ -892,14 +894,19 @@ Expected<FleetPlanResult> PlanAmongTraffic(const PlanningMap& map, const FleetPl
     }
     if (Status s = robot.profile.Validate(path + ".profile"); !s) return s.error();
   }
-  Expected<FleetPlanResult> planned = PlanInCommitOrder(map, request, should_stop);
+  // The robot's tries going first, replanning others, plan again the legs its try in commit
+  // order planned (the first plan, without the others, at least).
+  LegCache legs;
+  Expected<FleetPlanResult> planned = PlanInCommitOrder(map, request, should_stop, &legs);
   if (planned || planned.error().code != ErrorCode::kReservationConflict ||
       request.fleet.replan.max_robots == 0 || request.replannable.empty()) {
     return planned;
   }
   return fleet_internal::PlanReplanningOthers(
-      request, std::move(planned).error(),
-      [&](const FleetPlanRequest& r) { return PlanInCommitOrder(map, r, should_stop); });
+      request, std::move(planned).error(), &legs,
+      [&](const FleetPlanRequest& r, LegCache* cache) {
+        return PlanInCommitOrder(map, r, should_stop, cache);
+      });
 }
 
 }  // namespace strata

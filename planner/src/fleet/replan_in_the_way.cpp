@@ -84,6 +84,7 @@ bool Joins(const FleetMotion& committed, const Trajectory& next, std::int64_t no
 }  // namespace
 
 Expected<FleetPlanResult> PlanReplanningOthers(const FleetPlanRequest& request, Error refusal,
+                                               LegCache* legs,
                                                const CommitOrderPlanner& plan_in_order) {
   const ReplanOptions& options = request.fleet.replan;
   const std::int64_t notice_ns = AddSeconds(request.departure_ns, options.notice_s);
@@ -105,7 +106,7 @@ Expected<FleetPlanResult> PlanReplanningOthers(const FleetPlanRequest& request, 
     FleetPlanRequest going_first = request;
     going_first.others = others;
     going_first.replannable = {};
-    Expected<FleetPlanResult> planned = plan_in_order(going_first);
+    Expected<FleetPlanResult> planned = plan_in_order(going_first, legs);
     if (planned) {
       first = std::move(planned).value();
     } else if (Stopped(planned.error())) {
@@ -142,7 +143,7 @@ Expected<FleetPlanResult> PlanReplanningOthers(const FleetPlanRequest& request, 
       if (i != robot->other) around.push_back(others[i]);
     }
     again.others = around;
-    Expected<FleetPlanResult> replanned = plan_in_order(again);
+    Expected<FleetPlanResult> replanned = plan_in_order(again, nullptr);
     if (!replanned) {
       if (Stopped(replanned.error())) return std::move(replanned).error();
       return refusal;
