@@ -57,8 +57,8 @@ struct ReplanningOthers : ::testing::Test {
   }
 
   /// Records each call; going first it is refused the first time for
-  /// `going_first_refused_for` (when not empty) and planned otherwise; a robot replanned behind it is refused (enough to see the
-  /// legs it was given).
+  /// `going_first_refused_for` (when not empty) and planned otherwise; a robot replanned behind it
+  /// is refused (enough to see the legs it was given).
   CommitOrderPlanner Recording(const std::string& going_first_refused_for) {
     return [this, going_first_refused_for](const FleetPlanRequest& r,
                                            LegCache* legs) -> Expected<FleetPlanResult> {
@@ -86,14 +86,14 @@ TEST_F(ReplanningOthers, TheTryGoingFirstSharesTheRefusedTrysLegsAndTheReplanned
 
 TEST_F(ReplanningOthers, EveryTryGoingFirstSharesTheSameLegs) {
   LegCache refused_try;
-  const auto planned =
-      PlanReplanningOthers(request, RefusedFor("a"), &refused_try, Recording("b"));
+  const auto planned = PlanReplanningOthers(request, RefusedFor("a"), &refused_try, Recording("b"));
   ASSERT_EQ(calls.size(), 3U) << "going first twice (refused for b), then a behind it";
   EXPECT_TRUE(calls[0].going_first && calls[1].going_first);
   EXPECT_EQ(calls[0].legs, &refused_try);
   EXPECT_EQ(calls[1].legs, &refused_try);
   EXPECT_FALSE(calls[2].going_first);
   EXPECT_EQ(calls[2].legs, nullptr);
+  EXPECT_FALSE(planned) << "robot a found no way behind it: the first refusal stands";
 }
 
 }  // namespace

@@ -903,8 +903,7 @@ Expected<FleetPlanResult> PlanAmongTraffic(const PlanningMap& map, const FleetPl
     return planned;
   }
   return fleet_internal::PlanReplanningOthers(
-      request, std::move(planned).error(), &legs,
-      [&](const FleetPlanRequest& r, LegCache* cache) {
+      request, std::move(planned).error(), &legs, [&](const FleetPlanRequest& r, LegCache* cache) {
         return PlanInCommitOrder(map, r, should_stop, cache);
       });
 }
