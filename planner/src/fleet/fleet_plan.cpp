@@ -894,8 +894,8 @@ Expected<FleetPlanResult> PlanAmongTraffic(const PlanningMap& map, const FleetPl
     }
     if (Status s = robot.profile.Validate(path + ".profile"); !s) return s.error();
   }
-  // The robot's tries going first, replanning others, plan again the legs its try in commit
-  // order planned (the first plan, without the others, at least).
+  // Should this try be refused, the tries going first (replanning others) take its legs from
+  // here: at least the first plan, made without the others, comes out the same in each.
   LegCache legs;
   Expected<FleetPlanResult> planned = PlanInCommitOrder(map, request, should_stop, &legs);
   if (planned || planned.error().code != ErrorCode::kReservationConflict ||
