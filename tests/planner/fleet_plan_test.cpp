@@ -285,6 +285,24 @@ TEST(FleetPlan, AGoalOrStartWhereAnotherRobotIsParkedIsRefusedNamingIt) {
   EXPECT_THAT(from_c.error().message, HasSubstr("robot 'C'"));
 }
 
+// A start 1 cm clear of the limit from a robot parked across the way: exactly clear, but
+// inside the zone the planner puts around that robot (2 cm wider than the limit). The zone
+// turns an edge towards the start and narrows, so the robot leaves round it. Parked for the
+// whole lease (found by the rounds) and for longer than any trip (zoned before the first plan).
+TEST(FleetPlan, AStartExactlyClearOfARobotParkedInTheWayIsNotRefused) {
+  for (const double parked_s : {kLeaseS, 2 * kLeaseS}) {
+    std::vector<ReservedMotion> others = {Parked("C", {3, 2.5, 0.3})};
+    others[0].motion.end_ns = AddSeconds(kDeparture, parked_s);
+    const Eigen::Vector3d start(3, 2.5 - Limit() - 0.01, 0.3);
+    FleetPlanRequest request = AmongOthers(Between(start, {3, 4.5, 0.3}), others);
+    request.parked_until_ns = AddSeconds(kDeparture, parked_s);
+    Expected<FleetPlanResult> b = PlanAmongTraffic(Site(), request);
+    ASSERT_TRUE(b) << "parked for " << parked_s << " s: " << b.error().message;
+    EXPECT_EQ(b.value().parked_robots_avoided, 1);
+    ExpectClearOfAll(b.value().motion, others);
+  }
+}
+
 /// test_util::TwoLanes at 0.1 m.
 const PlanningMap& TwoLaneSite() {
   static const PlanningMap* map = [] {

@@ -114,21 +114,39 @@ std::vector<Trajectory> SplitAtStops(const PlanResult& plan, const std::vector<R
 
 /// A zone around where `other` stays parked: a polygon around the disc of its radius plus
 /// the pair's separation (a robot whose footprint stays out of it keeps the limit), over the
-/// height its body takes there.
-Prism ParkedZone(const FleetMotion& other, const SeparationRule& rule) {
+/// height its body takes there. Where the robot's footprint at one of its `ends` (start, goal)
+/// is clear of that disc but not of the polygon, the polygon turns the middle of an edge
+/// towards that end and keeps half the room left as its margin: the end stays outside and the
+/// disc inside. (Refusing such a start as if the other robot stood on it refused a robot
+/// replanned on its way that had passed a parked one 1 cm clear.)
+Prism ParkedZone(const FleetMotion& other, const SeparationRule& rule,
+                 const RobotProfile& profile, std::span<const Eigen::Vector3d> ends) {
   const Eigen::Vector3d at = other.ReferencePointAt(other.end_ns);
   const VerticalExtent extent = other.ExtentAt(other.end_ns);
-  // The polygon's edges lie this far from its centre.
-  const double inner = other.body.radius_m + PairSeparationM(rule, other) + kParkedZoneMarginM;
-  const double corner = inner / std::cos(std::numbers::pi / kParkedZoneCorners);
-  Prism zone;
-  for (int k = 0; k < kParkedZoneCorners; ++k) {
-    const double angle = 2 * std::numbers::pi * (k + 0.5) / kParkedZoneCorners;
-    zone.polygon_m.emplace_back(at.x() + corner * std::cos(angle),
-                                at.y() + corner * std::sin(angle));
+  const double disc = other.body.radius_m + PairSeparationM(rule, other);
+  const auto polygon = [&](double margin_m, double facing_rad) {
+    Prism zone;
+    // The polygon's edges lie `inner` from its centre, the middle of one facing `facing_rad`.
+    const double inner = disc + margin_m;
+    const double corner = inner / std::cos(std::numbers::pi / kParkedZoneCorners);
+    for (int k = 0; k < kParkedZoneCorners; ++k) {
+      const double angle = facing_rad + 2 * std::numbers::pi * (k + 0.5) / kParkedZoneCorners;
+      zone.polygon_m.emplace_back(at.x() + corner * std::cos(angle),
+                                  at.y() + corner * std::sin(angle));
+    }
+    zone.z_min_m = extent.bottom_m;
+    zone.z_max_m = std::max(extent.top_m, extent.bottom_m);
+    return zone;
+  };
+  Prism zone = polygon(kParkedZoneMarginM, 0);
+  for (const Eigen::Vector3d& end : ends) {
+    const Eigen::Vector2d towards = (end - at).head<2>();
+    const double room_m = towards.norm() - profile.footprint_radius_m - disc;
+    if (room_m > 0 && ViolatesKeepOut(zone, profile, end)) {
+      zone = polygon(std::min(kParkedZoneMarginM, room_m / 2),
+                     std::atan2(towards.y(), towards.x()));
+    }
   }
-  zone.z_min_m = extent.bottom_m;
-  zone.z_max_m = std::max(extent.top_m, extent.bottom_m);
   return zone;
 }
 
@@ -639,8 +657,9 @@ Expected<FleetPlanResult> PlanInCommitOrder(const PlanningMap& map, const FleetP
         plan_request.keep_out.size() >= static_cast<std::size_t>(kMaxRequestKeepOutZones)) {
       continue;
     }
-    Prism zone = ParkedZone(other, traffic.rule);
     const RobotProfile& profile = request.plan.profile;
+    const std::array ends = {request.plan.start.position_m, request.plan.goal.position_m};
+    Prism zone = ParkedZone(other, traffic.rule, profile, ends);
     if (ViolatesKeepOut(zone, profile, request.plan.start.position_m) ||
         ViolatesKeepOut(zone, profile, request.plan.goal.position_m)) {
       continue;
@@ -659,8 +678,9 @@ Expected<FleetPlanResult> PlanInCommitOrder(const PlanningMap& map, const FleetP
     }
     for (const std::size_t i : parked) {
       const ReservedMotion& other = request.others[i];
-      Prism zone = ParkedZone(other.motion, traffic.rule);
       const RobotProfile& profile = request.plan.profile;
+      const std::array ends = {plan.start.position_m, plan.goal.position_m};
+      Prism zone = ParkedZone(other.motion, traffic.rule, profile, ends);
       if (ViolatesKeepOut(zone, profile, plan.goal.position_m)) {
         zone_error = ParkedOnEnd(other, request, "goal");
         return true;
