@@ -119,8 +119,8 @@ std::vector<Trajectory> SplitAtStops(const PlanResult& plan, const std::vector<R
 /// towards that end and keeps half the room left as its margin: the end stays outside and the
 /// disc inside. (Refusing such a start as if the other robot stood on it refused a robot
 /// replanned on its way that had passed a parked one 1 cm clear.)
-Prism ParkedZone(const FleetMotion& other, const SeparationRule& rule,
-                 const RobotProfile& profile, std::span<const Eigen::Vector3d> ends) {
+Prism ParkedZone(const FleetMotion& other, const SeparationRule& rule, const RobotProfile& profile,
+                 std::span<const Eigen::Vector3d> ends) {
   const Eigen::Vector3d at = other.ReferencePointAt(other.end_ns);
   const VerticalExtent extent = other.ExtentAt(other.end_ns);
   const double disc = other.body.radius_m + PairSeparationM(rule, other);
@@ -143,8 +143,8 @@ Prism ParkedZone(const FleetMotion& other, const SeparationRule& rule,
     const Eigen::Vector2d towards = (end - at).head<2>();
     const double room_m = towards.norm() - profile.footprint_radius_m - disc;
     if (room_m > 0 && ViolatesKeepOut(zone, profile, end)) {
-      zone = polygon(std::min(kParkedZoneMarginM, room_m / 2),
-                     std::atan2(towards.y(), towards.x()));
+      zone =
+          polygon(std::min(kParkedZoneMarginM, room_m / 2), std::atan2(towards.y(), towards.x()));
     }
   }
   return zone;
