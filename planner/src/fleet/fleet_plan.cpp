@@ -651,15 +651,15 @@ Expected<FleetPlanResult> PlanInCommitOrder(const PlanningMap& map, const FleetP
   // (One on the start or the goal is left to the rounds, which refuse it by name.)
   const std::int64_t long_parked_ns =
       AddSeconds(request.departure_ns, request.fleet.max_wait_s + kLongestTripS);
+  const RobotProfile& profile = request.plan.profile;
+  const std::array request_ends = {request.plan.start.position_m, request.plan.goal.position_m};
   for (std::size_t i = 0; i < request.others.size(); ++i) {
     const FleetMotion& other = request.others[i].motion;
     if (other.ArrivalNs() > request.departure_ns || other.end_ns < long_parked_ns ||
         plan_request.keep_out.size() >= static_cast<std::size_t>(kMaxRequestKeepOutZones)) {
       continue;
     }
-    const RobotProfile& profile = request.plan.profile;
-    const std::array ends = {request.plan.start.position_m, request.plan.goal.position_m};
-    Prism zone = ParkedZone(other, traffic.rule, profile, ends);
+    Prism zone = ParkedZone(other, traffic.rule, profile, request_ends);
     if (ViolatesKeepOut(zone, profile, request.plan.start.position_m) ||
         ViolatesKeepOut(zone, profile, request.plan.goal.position_m)) {
       continue;
@@ -676,10 +676,9 @@ Expected<FleetPlanResult> PlanInCommitOrder(const PlanningMap& map, const FleetP
         static_cast<std::size_t>(kMaxRequestKeepOutZones)) {
       return false;
     }
+    const std::array ends = {plan.start.position_m, plan.goal.position_m};
     for (const std::size_t i : parked) {
       const ReservedMotion& other = request.others[i];
-      const RobotProfile& profile = request.plan.profile;
-      const std::array ends = {plan.start.position_m, plan.goal.position_m};
       Prism zone = ParkedZone(other.motion, traffic.rule, profile, ends);
       if (ViolatesKeepOut(zone, profile, plan.goal.position_m)) {
         zone_error = ParkedOnEnd(other, request, "goal");
@@ -696,7 +695,7 @@ Expected<FleetPlanResult> PlanInCommitOrder(const PlanningMap& map, const FleetP
       return point.added &&
              std::any_of(plan_request.keep_out.begin(), plan_request.keep_out.end(),
                          [&](const Prism& zone) {
-                           return ViolatesKeepOut(zone, request.plan.profile, point.via.position_m);
+                           return ViolatesKeepOut(zone, profile, point.via.position_m);
                          });
     });
     stops_added = CountStops(route);
