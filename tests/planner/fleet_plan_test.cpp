@@ -303,6 +303,20 @@ TEST(FleetPlan, AStartExactlyClearOfARobotParkedInTheWayIsNotRefused) {
   }
 }
 
+// A robot on its way, replanned, may start where another robot parks only later: it must leave
+// before that one arrives, which the waits check, and is not refused as if that robot stood
+// there already.
+TEST(FleetPlan, AStartAnotherRobotParksOnOnlyLaterIsLeftInTime) {
+  const Eigen::Vector3d start(3, 2.5, 0.3);
+  const std::vector<ReservedMotion> others = {Committed("C", Between({0.7, 0.7, 0.3}, start))};
+  ASSERT_GT(others[0].motion.ArrivalNs(), kDeparture);
+  Expected<FleetPlanResult> b =
+      PlanAmongTraffic(Site(), AmongOthers(Between(start, {5.5, 6.0, 0.3}), others));
+  ASSERT_TRUE(b) << b.error().message;
+  EXPECT_EQ(b.value().parked_robots_avoided, 0);
+  ExpectClearOfAll(b.value().motion, others);
+}
+
 /// test_util::TwoLanes at 0.1 m.
 const PlanningMap& TwoLaneSite() {
   static const PlanningMap* map = [] {

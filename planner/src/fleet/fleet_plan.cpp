@@ -223,20 +223,20 @@ struct ParkedInWay {
   std::int64_t first_near_ns = std::numeric_limits<std::int64_t>::max();
 };
 
-/// The robots, none already `zoned`, that stand parked where `motion` (the route without
+/// The robots, none already `settled`, that stand parked where `motion` (the route without
 /// waits) passes, from before the robot could have passed with any wait up to `max_wait_s`
 /// until after: waiting cannot clear them, going around can. (Where the route passes before
 /// such a robot arrives, it is planned around it all the same.) `reach_m` widens the separation
 /// for a way the trajectory will not follow closely.
 ParkedInWay ParkedInTheWay(const FleetMotion& motion, const Traffic& traffic, double max_wait_s,
-                           const std::vector<bool>& zoned, double reach_m = 0) {
+                           const std::vector<bool>& settled, double reach_m = 0) {
   SeparationRule rule = traffic.rule;
   const std::int64_t latest_passage_ns = AddSeconds(motion.ArrivalNs(), max_wait_s);
   const PreparedMotion route(motion);
   ParkedInWay parked;
   for (std::size_t i = 0; i < traffic.others.size(); ++i) {
     const FleetMotion& other = traffic.others[i].motion;
-    if (zoned[i] || other.end_ns < latest_passage_ns || other.ArrivalNs() > latest_passage_ns) {
+    if (settled[i] || other.end_ns < latest_passage_ns || other.ArrivalNs() > latest_passage_ns) {
       continue;
     }
     // The other robot standing where it parks for as long as the route could take.
@@ -643,6 +643,9 @@ Expected<FleetPlanResult> PlanInCommitOrder(const PlanningMap& map, const FleetP
       std::min(kMaxAddedStops, kMaxVias - static_cast<int>(request.plan.via.size()));
   int stops_added = 0;
   std::vector<bool> zoned(request.others.size(), false);
+  // Zoned, or parked on the start only after the departure: this robot must leave before that
+  // one arrives, which the waits' exact checks see; ParkedInTheWay looks at neither again.
+  std::vector<bool> settled(request.others.size(), false);
   const auto zoned_count = [&] {
     return static_cast<int>(std::count(zoned.begin(), zoned.end(), true));
   };
@@ -666,10 +669,12 @@ Expected<FleetPlanResult> PlanInCommitOrder(const PlanningMap& map, const FleetP
     }
     plan_request.keep_out.push_back(std::move(zone));
     zoned[i] = true;
+    settled[i] = true;
   }
   // Makes every robot of `parked` a keep-out zone, to plan around them all at once, and drops
   // the points added to the route that a zone covers. False when that is more zones than a
-  // request may have; sets zone_error when one stands on the start or the goal of `plan`.
+  // request may have; sets zone_error when one stands on the goal of `plan`, or on its start
+  // from the departure on (one that arrives there later is left to the waits: settled).
   std::optional<Error> zone_error;
   const auto zone_parked = [&](const std::vector<std::size_t>& parked, const PlanResult& plan) {
     if (plan_request.keep_out.size() + parked.size() >
@@ -685,11 +690,16 @@ Expected<FleetPlanResult> PlanInCommitOrder(const PlanningMap& map, const FleetP
         return true;
       }
       if (ViolatesKeepOut(zone, profile, plan.start.position_m)) {
-        zone_error = ParkedOnEnd(other, request, "start");
-        return true;
+        if (other.motion.ArrivalNs() <= request.departure_ns) {
+          zone_error = ParkedOnEnd(other, request, "start");
+          return true;
+        }
+        settled[i] = true;
+        continue;
       }
       plan_request.keep_out.push_back(std::move(zone));
       zoned[i] = true;
+      settled[i] = true;
     }
     std::erase_if(route, [&](const RoutePoint& point) {
       return point.added &&
@@ -714,7 +724,7 @@ Expected<FleetPlanResult> PlanInCommitOrder(const PlanningMap& map, const FleetP
     route = std::move(guides->points);
     stops_added = CountStops(route);
     const ParkedInWay parked_on_way = ParkedInTheWay(
-        guides->unwaited, traffic, request.fleet.max_wait_s, zoned, kParkedOnWayReachM);
+        guides->unwaited, traffic, request.fleet.max_wait_s, settled, kParkedOnWayReachM);
     if (!parked_on_way.robots.empty()) zone_parked(parked_on_way.robots, plain);
     return true;
   };
@@ -756,7 +766,7 @@ Expected<FleetPlanResult> PlanInCommitOrder(const PlanningMap& map, const FleetP
             FirstTrafficConflict(unwaited, traffic.others, traffic.rule)) {
       first_at_departure = met;
     }
-    const ParkedInWay parked = ParkedInTheWay(unwaited, traffic, request.fleet.max_wait_s, zoned);
+    const ParkedInWay parked = ParkedInTheWay(unwaited, traffic, request.fleet.max_wait_s, settled);
     if (!parked.robots.empty()) {
       // Where no waits clear the robots that move on this route before it nears the parked
       // ones, going around those clears nothing: the route is searched in space and time at
