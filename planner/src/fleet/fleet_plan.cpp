@@ -3,10 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <limits>
-#include <numbers>
 #include <optional>
-#include <span>
 #include <string>
 #include <utility>
 #include <variant>
@@ -16,17 +13,24 @@
 
 #include "format_internal.hpp"
 #include "hold_schedule.hpp"
+#include "parked_robots.hpp"
 #include "replan_in_the_way.hpp"
 #include "route_guides.hpp"
 #include "space_time_search.hpp"
+#include "stop_places.hpp"
 
 namespace strata {
 namespace {
 
-// Another robot parked in the way becomes a zone this much wider than the limit, so that the
-// optimiser's footprint, kept out of the polygon, clears the exact check's tolerance.
-constexpr double kParkedZoneMarginM = 0.02;
-constexpr int kParkedZoneCorners = 12;
+using fleet_internal::AddedStop;
+using fleet_internal::kMinStopSpacingM;
+using fleet_internal::ParkedInTheWay;
+using fleet_internal::ParkedInWay;
+using fleet_internal::ParkedZone;
+using fleet_internal::Standing;
+using fleet_internal::StandingPoint;
+using fleet_internal::StopBefore;
+
 // Plans made for one request at most: the first, and one more each time robots parked in the
 // way are found (all that the trajectory meets at once), a route is searched in space and
 // time, or a stop is added.
@@ -37,17 +41,6 @@ constexpr int kMaxAddedStops = 3;
 // Departures checked against the traffic per route at most (each an exact check of a leg
 // against every motion).
 constexpr int kMaxDeparturesChecked = 200;
-// An added stop keeps this much more than the limit from the way of the robot it waits for,
-// and at least kMinStopSpacingM from the ends of its leg (two route points on one graph node
-// are refused). Both ways are walked in steps of kStopSearchStepS.
-constexpr double kStopClearanceM = 0.3;
-constexpr double kStopSearchStepS = 0.1;
-constexpr double kMinStopSpacingM = 0.5;
-// Beside the route, an added stop is looked for at these offsets to either side [m] (a bay
-// off an aisle where the robot lets another pass), snapped onto the ground within
-// kStandingSnapM.
-constexpr std::array<double, 3> kStopSideOffsetsM = {0.8, 1.2, 1.6};
-constexpr double kStandingSnapM = 0.3;
 // Longer than any trip a robot makes on a site [s]: a robot parked from the departure until
 // max_wait_s plus this after it is in the way of no plan's passage but as a standing body.
 constexpr double kLongestTripS = 600;
@@ -112,44 +105,6 @@ std::vector<Trajectory> SplitAtStops(const PlanResult& plan, const std::vector<R
   return legs;
 }
 
-/// A zone around where `other` stays parked: a polygon around the disc of its radius plus
-/// the pair's separation (a robot whose footprint stays out of it keeps the limit), over the
-/// height its body takes there. Where the robot's footprint at one of its `ends` (start, goal)
-/// is clear of that disc but not of the polygon, the polygon turns the middle of an edge
-/// towards that end and keeps half the room left as its margin: the end stays outside and the
-/// disc inside. (Refusing such a start as if the other robot stood on it refused a robot
-/// replanned on its way that had passed a parked one 1 cm clear.)
-Prism ParkedZone(const FleetMotion& other, const SeparationRule& rule, const RobotProfile& profile,
-                 std::span<const Eigen::Vector3d> ends) {
-  const Eigen::Vector3d at = other.ReferencePointAt(other.end_ns);
-  const VerticalExtent extent = other.ExtentAt(other.end_ns);
-  const double disc = other.body.radius_m + PairSeparationM(rule, other);
-  const auto polygon = [&](double margin_m, double facing_rad) {
-    Prism zone;
-    // The polygon's edges lie `inner` from its centre, the middle of one facing `facing_rad`.
-    const double inner = disc + margin_m;
-    const double corner = inner / std::cos(std::numbers::pi / kParkedZoneCorners);
-    for (int k = 0; k < kParkedZoneCorners; ++k) {
-      const double angle = facing_rad + 2 * std::numbers::pi * (k + 0.5) / kParkedZoneCorners;
-      zone.polygon_m.emplace_back(at.x() + corner * std::cos(angle),
-                                  at.y() + corner * std::sin(angle));
-    }
-    zone.z_min_m = extent.bottom_m;
-    zone.z_max_m = std::max(extent.top_m, extent.bottom_m);
-    return zone;
-  };
-  Prism zone = polygon(kParkedZoneMarginM, 0);
-  for (const Eigen::Vector3d& end : ends) {
-    const Eigen::Vector2d towards = (end - at).head<2>();
-    const double room_m = towards.norm() - profile.footprint_radius_m - disc;
-    if (room_m > 0 && ViolatesKeepOut(zone, profile, end)) {
-      zone =
-          polygon(std::min(kParkedZoneMarginM, room_m / 2), std::atan2(towards.y(), towards.x()));
-    }
-  }
-  return zone;
-}
-
 std::string TimeText(std::int64_t from_ns, std::int64_t time_ns) {
   return fmt::format("{:.2f} s after the departure", SecondsBetween(from_ns, time_ns));
 }
@@ -171,18 +126,6 @@ Error ParkedOnEnd(const ReservedMotion& other, const FleetPlanRequest& request,
 /// after the departure [s]: the space-time search's horizon, past every wait and detour it
 /// tries, and the stops' waits on the plain route.
 double LatestArrivalS(double max_wait_s, double plain_s) { return max_wait_s + 2 * plain_s + 10; }
-
-/// A body standing at `state` (its trajectory's `dimension`) from `from_ns` until `until_ns`.
-FleetMotion Standing(const StateVector& state, int dimension, const FleetBody& body,
-                     std::int64_t from_ns, std::int64_t until_ns) {
-  FleetMotion standing;
-  standing.start_ns = from_ns;
-  standing.trajectory.dimension = dimension;
-  standing.trajectory.pieces = {RestAt(state, SecondsBetween(from_ns, until_ns))};
-  standing.body = body;
-  standing.end_ns = until_ns;
-  return standing;
-}
 
 /// The first meeting of this robot, standing at the end of `plain` from `latest_s` after the
 /// departure (the latest arrival any of its plans may have, LatestArrivalS) until it is
@@ -214,128 +157,6 @@ Error GoalTaken(const TrafficConflict& met, const FleetPlanRequest& request, dou
               "goal.position_m"};
   error.details = ConflictDetails(other.robot_id, c);
   return error;
-}
-
-/// Robots parked in the way of a route (ParkedInTheWay).
-struct ParkedInWay {
-  std::vector<std::size_t> robots;  ///< Indices into the traffic's others.
-  /// When the route first comes within reach of one of them [ns]; max when there are none.
-  std::int64_t first_near_ns = std::numeric_limits<std::int64_t>::max();
-};
-
-/// The robots, none already `settled`, that stand parked where `motion` (the route without
-/// waits) passes, from before the robot could have passed with any wait up to `max_wait_s`
-/// until after: waiting cannot clear them, going around can. (Where the route passes before
-/// such a robot arrives, it is planned around it all the same.) `reach_m` widens the separation
-/// for a way the trajectory will not follow closely.
-ParkedInWay ParkedInTheWay(const FleetMotion& motion, const Traffic& traffic, double max_wait_s,
-                           const std::vector<bool>& settled, double reach_m = 0) {
-  SeparationRule rule = traffic.rule;
-  const std::int64_t latest_passage_ns = AddSeconds(motion.ArrivalNs(), max_wait_s);
-  const PreparedMotion route(motion);
-  ParkedInWay parked;
-  for (std::size_t i = 0; i < traffic.others.size(); ++i) {
-    const FleetMotion& other = traffic.others[i].motion;
-    if (settled[i] || other.end_ns < latest_passage_ns || other.ArrivalNs() > latest_passage_ns) {
-      continue;
-    }
-    // The other robot standing where it parks for as long as the route could take.
-    FleetMotion standing = Standing(other.StateAt(other.ArrivalNs()), other.trajectory.dimension,
-                                    other.body, motion.start_ns, latest_passage_ns);
-    rule.separation_m = PairSeparationM(traffic.rule, other) + reach_m;
-    if (const std::optional<MotionConflict> near =
-            FirstConflict(route, PreparedMotion(standing), rule)) {
-      parked.robots.push_back(i);
-      parked.first_near_ns = std::min(parked.first_near_ns, near->time_ns);
-    }
-  }
-  return parked;
-}
-
-bool ExtentsOverlap(const VerticalExtent& a, const VerticalExtent& b) {
-  return a.top_m > b.bottom_m && b.top_m > a.bottom_m;
-}
-
-/// A stop to add to a route, found beside or on one of its legs.
-struct AddedStop {
-  double leg_time_s = 0;  ///< When the leg, without waits, is where the stop was found [s].
-  Eigen::Vector3d position_m = Eigen::Vector3d::Zero();
-};
-
-/// A place to wait at before `leg` (leaving at `departure_ns`) meets another robot as `met`
-/// says, for that robot to pass: the leg's latest point before the meeting, or a point beside
-/// it (kStopSideOffsetsM, where `stands` finds ground), that keeps more than the limit plus
-/// kStopClearanceM from the whole of that robot's way from the departure on; at least
-/// kMinStopSpacingM from both ends of the leg. None when there is no such place.
-std::optional<AddedStop> StopBefore(
-    const Trajectory& leg, std::int64_t departure_ns, const TrafficConflict& met,
-    const Traffic& traffic,
-    const std::function<std::optional<Eigen::Vector3d>(const Eigen::Vector3d&)>& stands) {
-  const FleetMotion& other = traffic.others[met.other].motion;
-  const double clear_m = traffic.body.radius_m + other.body.radius_m +
-                         PairSeparationM(traffic.rule, other) + kStopClearanceM;
-  std::vector<std::pair<Eigen::Vector3d, VerticalExtent>> passing;
-  const std::int64_t from_ns = std::max(other.start_ns, departure_ns);
-  const std::int64_t until_ns = std::max(from_ns, other.ArrivalNs());
-  for (std::int64_t t = from_ns; t <= until_ns; t = AddSeconds(t, kStopSearchStepS)) {
-    passing.emplace_back(other.ReferencePointAt(t), other.ExtentAt(t));
-  }
-  passing.emplace_back(other.ReferencePointAt(until_ns), other.ExtentAt(until_ns));
-  const Eigen::Vector3d first = leg.Position(0).head<3>();
-  const Eigen::Vector3d last = leg.Position(leg.TotalDuration()).head<3>();
-  const double met_s =
-      std::min(SecondsBetween(departure_ns, met.conflict.time_ns), leg.TotalDuration());
-  // Whether a body standing with its reference point at `p` keeps clear of that robot's way.
-  const auto out_of_the_way = [&](const Eigen::Vector3d& p, double body_height_m) {
-    VerticalExtent own;
-    own.bottom_m = p.z() - traffic.body.reference_height_m;
-    own.top_m = own.bottom_m + body_height_m;
-    return std::all_of(
-        passing.begin(), passing.end(), [&](const std::pair<Eigen::Vector3d, VerticalExtent>& q) {
-          return (p - q.first).head<2>().norm() > clear_m || !ExtentsOverlap(own, q.second);
-        });
-  };
-  for (double t = met_s; t > 0; t -= kStopSearchStepS) {
-    const StateVector state = leg.Position(t);
-    const Eigen::Vector3d on_route = state.head<3>();
-    if ((on_route - first).norm() < kMinStopSpacingM) return std::nullopt;
-    if ((on_route - last).norm() < kMinStopSpacingM) continue;
-    const double body_height_m = state.size() > 3 ? state(3) : traffic.body.height_m;
-    if (out_of_the_way(on_route, body_height_m)) return AddedStop{t, on_route};
-    // Points beside the route: a bay off an aisle where the robot lets the other pass.
-    const Eigen::Vector2d heading = leg.Velocity(t).head<2>();
-    if (heading.norm() < 1e-6) continue;
-    const Eigen::Vector3d side(-heading.y() / heading.norm(), heading.x() / heading.norm(), 0);
-    for (const double side_m : kStopSideOffsetsM) {
-      for (const double offset_m : {side_m, -side_m}) {
-        const Eigen::Vector3d beside = on_route + offset_m * side;
-        if (!out_of_the_way(beside, body_height_m)) continue;
-        std::optional<Eigen::Vector3d> stand = stands(beside);
-        if (stand && out_of_the_way(*stand, body_height_m)) return AddedStop{t, *stand};
-      }
-    }
-  }
-  return std::nullopt;
-}
-
-/// Where a robot of `profile` would stand when stopped at `p`: p snapped onto its `graph`
-/// (as a goal is, within kStandingSnapM, also in height), connected to node `route_node`,
-/// outside `zones` (the map's and the request's, CollectKeepOut). None when it cannot stand
-/// there.
-std::optional<Eigen::Vector3d> StandingPoint(const SurfaceGraph& graph,
-                                             std::span<const KeepOutZone> zones,
-                                             const RobotProfile& profile, int route_node,
-                                             const Eigen::Vector3d& p) {
-  const Expected<SnapResult> snapped =
-      SnapEndpoint(graph, p, kStandingSnapM, ErrorCode::kGoalOffGround);
-  if (!snapped || std::abs(snapped.value().position_m.z() - p.z()) > kStandingSnapM ||
-      graph.component(snapped.value().node) != graph.component(route_node)) {
-    return std::nullopt;
-  }
-  for (const KeepOutZone& zone : zones) {
-    if (ViolatesKeepOut(zone.prism, profile, snapped.value().position_m)) return std::nullopt;
-  }
-  return snapped.value().position_m;
 }
 
 /// `route` with a stop at `position`, which `plan` (planned through `route`) passes at
