@@ -470,6 +470,12 @@ Expected<FleetPlanResult> PlanInCommitOrder(const PlanningMap& map, const FleetP
   const auto zoned_count = [&] {
     return static_cast<int>(std::count(zoned.begin(), zoned.end(), true));
   };
+  // Plans around robot `i`, parked inside `zone`, from the next plan on.
+  const auto add_zone = [&](std::size_t i, Prism zone) {
+    plan_request.keep_out.push_back(std::move(zone));
+    zoned[i] = true;
+    settled[i] = true;
+  };
   // Robots parked from the departure for longer than any trip this plan could make are
   // planned around from the first plan on, which saves the plan that would find them.
   // (One on the start or the goal is left to the rounds, which refuse it by name.)
@@ -488,9 +494,7 @@ Expected<FleetPlanResult> PlanInCommitOrder(const PlanningMap& map, const FleetP
         ViolatesKeepOut(zone, profile, request.plan.goal.position_m)) {
       continue;
     }
-    plan_request.keep_out.push_back(std::move(zone));
-    zoned[i] = true;
-    settled[i] = true;
+    add_zone(i, std::move(zone));
   }
   // Makes every robot of `parked` a keep-out zone, to plan around them all at once, and drops
   // the points added to the route that a zone covers. False when that is more zones than a
@@ -518,9 +522,7 @@ Expected<FleetPlanResult> PlanInCommitOrder(const PlanningMap& map, const FleetP
         settled[i] = true;
         continue;
       }
-      plan_request.keep_out.push_back(std::move(zone));
-      zoned[i] = true;
-      settled[i] = true;
+      add_zone(i, std::move(zone));
     }
     std::erase_if(route, [&](const RoutePoint& point) {
       return point.added &&
