@@ -697,7 +697,8 @@ Expected<FleetPlanResult> PlanInCommitOrder(const PlanningMap& map, const FleetP
       fmt::format("{} robot {}'s reservation at ({:.2f}, {:.2f}, {:.2f}) m, {} (the "
                   "robots come within {:.3f} m, the limit is {:.3f} m), and no waits up to "
                   "{:g} s in all, at the start or at up to {} stops on the way, clear every "
-                  "reservation",
+                  "reservation; ask again in a few seconds, once the robots in the way have "
+                  "moved on, or plan to another goal",
                   at_start ? "the start is already in conflict with" : "the trajectory meets",
                   internal::Quote(other.robot_id), c.point_a.x(), c.point_a.y(), c.point_a.z(),
                   TimeText(request.departure_ns, c.time_ns), c.horizontal_distance_m, c.limit_m,
