@@ -10,13 +10,15 @@
 //
 // The spiral is the shared map spiral0.3_2 at 0.2 m, read from STRATA_MAPS_DIR. A robot's
 // goal is drawn at least 1.5 m from every other robot's position and goal; on arrival it
-// gets the next one. A refused task (RESERVATION_CONFLICT) is counted, and the robot is given
-// another 5 simulated seconds later. Every planned trajectory also goes through the
-// benchmark's independent check against the map (oracle/independent_check.hpp). A robot
-// refused again and again shows as a stall (from its first refusal to its next plan, or to the
-// end); a deadlock would be robots stalled to the end. With --replan-robots N a plan may replan
-// up to N robots in its way (ReplanOptions): every simulated robot follows the new trajectories
-// it is sent, from the notice on. Prints a markdown table;
+// gets the next one. A refused request (RESERVATION_CONFLICT) is counted, and 5 simulated
+// seconds later the robot asks again: for the same task, up to --retries times (a dispatcher
+// that keeps the task while the robots in the way move on), then for another. A task is planned
+// when any of its requests is; its delay counts the time it was asked again. Every planned
+// trajectory also goes through the benchmark's independent check against the map
+// (oracle/independent_check.hpp). A robot refused again and again shows as a stall (from its first
+// refusal to its next plan, or to the end); a deadlock would be robots stalled to the end. With
+// --replan-robots N a plan may replan up to N robots in its way (ReplanOptions): every simulated
+// robot follows the new trajectories it is sent, from the notice on. Prints a markdown table;
 // STRATA_FLEET_VERBOSE=1 also prints every refusal (which robot, when, and what the robot it
 // names is doing then), every other failure and every conflict the check finds to stderr.
 #include <algorithm>
@@ -60,6 +62,7 @@ constexpr double kLeaseS = 3600;  // Robots stay parked until their next plan re
 constexpr double kHorizontalSpeedSlack = 1.01;              // The verifier's limit tolerance.
 double max_wait_s = strata::FleetPlanOptions{}.max_wait_s;  // --max-wait
 int replan_robots = strata::ReplanOptions{}.max_robots;     // --replan-robots
+int task_retries = 0;    // --retries: times a refused task is asked again.
 int benchmark_sink = 0;  // Keeps the timed checks' results alive.
 
 using Site = strata::bench::FleetSite;
@@ -70,9 +73,11 @@ struct Committed {
 };
 
 struct RunFigures {
-  int tasks_asked = 0;
+  int tasks_asked = 0;  // Each task once, however often it is asked again.
   int tasks_planned = 0;
-  int refused_conflict = 0;              // RESERVATION_CONFLICT
+  int tasks_refused = 0;  // Refused (RESERVATION_CONFLICT) every time it was asked.
+  int requests_refused = 0;
+  int planned_when_asked_again = 0;
   int failed_other = 0;                  // Any other error.
   int tasks_completed = 0;               // Arrived within the simulated time.
   std::vector<double> latency_ms;        // Plan (+ checks) per task.
@@ -134,6 +139,10 @@ RunFigures RunFleet(const Site& site, int robots, double minutes, unsigned seed,
   std::vector<Eigen::Vector3d> goals(robots);
   // When each robot's current run of refusals began (none: nullopt).
   std::vector<std::optional<std::int64_t>> refused_since(robots);
+  // Each robot's task: its goal, when it was first asked, and how often it has been refused.
+  std::vector<Eigen::Vector3d> task_goal(robots);
+  std::vector<std::int64_t> task_asked_ns(robots, kStartNs);
+  std::vector<int> task_refusals(robots, 0);
   // When each robot is next asked for a task: events for any other time are dropped (a
   // robot replanned for another arrives at another time).
   std::vector<std::int64_t> next_event(robots, kStartNs);
@@ -190,9 +199,10 @@ RunFigures RunFleet(const Site& site, int robots, double minutes, unsigned seed,
     events.pop();
     if (now >= end_ns || now != next_event[robot]) continue;
     const Eigen::Vector3d at = figures.committed[current[robot]].motion.ReferencePointAt(now);
-    // A goal apart from every other robot's position now and its goal.
-    Eigen::Vector3d goal = at;
-    for (int tries = 0; tries < 1000; ++tries) {
+    const bool asked_again = task_refusals[robot] > 0;
+    // A new task: a goal apart from every other robot's position now and its goal.
+    Eigen::Vector3d goal = asked_again ? task_goal[robot] : at;
+    for (int tries = 0; tries < 1000 && !asked_again; ++tries) {
       goal = site.nodes[pick(rng)];
       bool apart = (goal - at).norm() >= kMinTaskLengthM;
       for (int k = 0; k < robots && apart; ++k) {
@@ -203,7 +213,11 @@ RunFigures RunFleet(const Site& site, int robots, double minutes, unsigned seed,
       }
       if (apart) break;
     }
-    ++figures.tasks_asked;
+    if (!asked_again) {
+      ++figures.tasks_asked;
+      task_goal[robot] = goal;
+      task_asked_ns[robot] = now;
+    }
     strata::PlanRequest request;
     request.start.position_m = at;
     request.goal.position_m = goal;
@@ -242,7 +256,11 @@ RunFigures RunFleet(const Site& site, int robots, double minutes, unsigned seed,
         figures.parked_avoided += planned.value().parked_robots_avoided;
         figures.waits_s.push_back(planned.value().wait_s);
       } else if (planned.error().code == strata::ErrorCode::kReservationConflict) {
-        ++figures.refused_conflict;
+        ++figures.requests_refused;
+        if (++task_refusals[robot] > task_retries) {
+          ++figures.tasks_refused;
+          task_refusals[robot] = 0;
+        }
         if (std::getenv("STRATA_FLEET_VERBOSE")) {
           std::string in_the_way;
           const auto& details = planned.error().details;
@@ -256,6 +274,7 @@ RunFigures RunFleet(const Site& site, int robots, double minutes, unsigned seed,
         }
       } else {
         ++figures.failed_other;
+        task_refusals[robot] = 0;  // The next request is for another task.
         if (std::getenv("STRATA_FLEET_VERBOSE"))
           std::fprintf(stderr, "failed: %s\n", planned.error().message.c_str());
       }
@@ -265,7 +284,8 @@ RunFigures RunFleet(const Site& site, int robots, double minutes, unsigned seed,
       figures.plain_latency_ms.push_back(Ms(std::chrono::steady_clock::now() - t1));
       if (alone && trajectory) {
         const double plain = alone.value().trajectory.TotalDuration();
-        figures.delay_ratio.push_back((arrival_s - plain) / plain);
+        const double asked_s = strata::SecondsBetween(task_asked_ns[robot], now);
+        figures.delay_ratio.push_back((asked_s + arrival_s - plain) / plain);
       }
     } else {
       auto alone = strata::Plan(*site.map, request);
@@ -293,6 +313,8 @@ RunFigures RunFleet(const Site& site, int robots, double minutes, unsigned seed,
     }
     end_stall(robot, now);
     ++figures.tasks_planned;
+    figures.planned_when_asked_again += asked_again ? 1 : 0;
+    task_refusals[robot] = 0;
     figures.map_check.Add(strata::bench::CheckTrajectory(
         site.map->model(), profile, *trajectory,
         strata::bench::CheckConfigFor(request.options.verifier, site.map->keep_out())));
@@ -399,6 +421,9 @@ int main(int argc, char** argv) {
   app.add_option("--replan-robots", replan_robots,
                  "Robots in the way a plan may replan, in all (ReplanOptions::max_robots)")
       ->check(CLI::Range(0, strata::kMaxReplannedRobots));
+  app.add_option("--retries", task_retries,
+                 "Times a refused task is asked again, 5 s later each, before the next task")
+      ->check(CLI::Range(0, 1000));
   app.add_option("--max-wait", max_wait_s, "Longest the robots wait, in all [s]")
       ->check(CLI::Range(0.0, 3600.0));
   CLI11_PARSE(app, argc, argv);
@@ -426,14 +451,15 @@ int main(int argc, char** argv) {
 
   std::printf(
       "Fleets of differential robots (radius 0.3 m, separation 0.1 m), %.0f simulated "
-      "minutes, seed %u.\n\n",
-      minutes, seed);
+      "minutes, seed %u; a refused task is asked again up to %d times.\n\n",
+      minutes, seed, task_retries);
   std::printf(
-      "| site | robots | reservations | tasks planned | refused (conflict) | failed "
-      "(other) | conflicting pairs (robots) | plan p50 / p95 [ms] | alone p50 / p95 "
+      "| site | robots | reservations | tasks planned | refused (conflict): tasks "
+      "(requests) | planned when asked again | failed (other) | conflicting pairs (robots) | plan "
+      "p50 / p95 [ms] | alone p50 / p95 "
       "[ms] | mean delay | waits | parked robots avoided | robots replanned (for tasks) | exact "
       "checks/s | map check | longest stall (stalled at the end) |\n");
-  std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const Site& site : sites) {
     for (const int robots : fleet_sizes) {
       for (const bool with : {false, true}) {
@@ -447,10 +473,12 @@ int main(int argc, char** argv) {
         const auto among = [with](const std::string& text) { return with ? text : "-"; };
         std::fputs(
             fmt::format(
-                "| {} | {} | {} | {} of {} ({}) | {} | {} | {} ({}) | {:.1f} / {:.1f} | {} | {} | "
+                "| {} | {} | {} | {} of {} ({}) | {} ({}) | {} | {} | {} ({}) | {:.1f} / {:.1f} | "
+                "{} | {} | "
                 "{} | {} | {} | {:.0f} | {} | {:.0f} s ({}) |\n",
                 site.name, robots, with ? "yes" : "no", f.tasks_planned, f.tasks_asked,
-                Percent(f.tasks_planned, f.tasks_asked), f.refused_conflict, f.failed_other,
+                Percent(f.tasks_planned, f.tasks_asked), f.tasks_refused, f.requests_refused,
+                among(std::to_string(f.planned_when_asked_again)), f.failed_other,
                 f.conflicting_pairs, f.robots_in_conflict, Median(f.latency_ms),
                 Quantile(f.latency_ms, 0.95),
                 among(fmt::format("{:.1f} / {:.1f}", Median(f.plain_latency_ms),

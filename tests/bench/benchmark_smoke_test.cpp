@@ -60,7 +60,7 @@ TEST(TravelCostBenchmark, SmokeRun) {
 }
 
 TEST(FleetBenchmark, SmokeRun) {
-  ExpectRuns(STRATA_FLEET_BENCHMARK, "--minutes 0.25 --robots 3 --sites parking_garage",
+  ExpectRuns(STRATA_FLEET_BENCHMARK, "--minutes 0.25 --robots 3 --sites parking_garage --retries 1",
              "| parking_garage | 3 | yes |");
 }
 
