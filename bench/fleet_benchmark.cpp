@@ -6,7 +6,7 @@
 // (oracle/sampled_separation.hpp, 1 ms), never by the planner's. Not part of the test path.
 //
 //   build/bench/fleet_benchmark [--minutes 10] [--seed 1] [--robots 10 25 50]
-//                               [--sites parking_garage spiral] [--replan-robots 0]
+//                               [--sites parking_garage spiral] [--replan-robots 0] [--retries 0]
 //
 // The spiral is the shared map spiral0.3_2 at 0.2 m, read from STRATA_MAPS_DIR. A robot's
 // goal is drawn at least 1.5 m from every other robot's position and goal; on arrival it
@@ -80,9 +80,9 @@ struct RunFigures {
   int planned_when_asked_again = 0;
   int failed_other = 0;                  // Any other error.
   int tasks_completed = 0;               // Arrived within the simulated time.
-  std::vector<double> latency_ms;        // Plan (+ checks) per task.
+  std::vector<double> latency_ms;        // Plan (+ checks) per request.
   std::vector<double> plain_latency_ms;  // The same task planned alone (fleet runs only).
-  std::vector<double> delay_ratio;       // (fleet duration − alone duration) / alone duration.
+  std::vector<double> delay_ratio;       // (time asked again + fleet − alone duration) / alone.
   std::vector<double> waits_s;
   int parked_avoided = 0;
   int made_way = 0;            // Tasks whose robot makes way at its goal for a robot passing later.
