@@ -225,6 +225,7 @@ RunFigures RunFleet(const Site& site, int robots, double minutes, unsigned seed,
 
     const auto t0 = std::chrono::steady_clock::now();
     std::optional<strata::Trajectory> trajectory;
+    bool refused = false;  // RESERVATION_CONFLICT
     double arrival_s = 0;  // When the trajectory first reaches the goal.
     if (with_reservations) {
       std::vector<strata::ReservedMotion> others;
@@ -256,11 +257,9 @@ RunFigures RunFleet(const Site& site, int robots, double minutes, unsigned seed,
         figures.parked_avoided += planned.value().parked_robots_avoided;
         figures.waits_s.push_back(planned.value().wait_s);
       } else if (planned.error().code == strata::ErrorCode::kReservationConflict) {
+        refused = true;
         ++figures.requests_refused;
-        if (++task_refusals[robot] > task_retries) {
-          ++figures.tasks_refused;
-          task_refusals[robot] = 0;
-        }
+        ++task_refusals[robot];
         if (std::getenv("STRATA_FLEET_VERBOSE")) {
           std::string in_the_way;
           const auto& details = planned.error().details;
@@ -274,7 +273,6 @@ RunFigures RunFleet(const Site& site, int robots, double minutes, unsigned seed,
         }
       } else {
         ++figures.failed_other;
-        task_refusals[robot] = 0;  // The next request is for another task.
         if (std::getenv("STRATA_FLEET_VERBOSE"))
           std::fprintf(stderr, "failed: %s\n", planned.error().message.c_str());
       }
@@ -299,6 +297,11 @@ RunFigures RunFleet(const Site& site, int robots, double minutes, unsigned seed,
           std::fprintf(stderr, "failed alone: %s\n", alone.error().message.c_str());
       }
     }
+    // The next request is for this task again only after a refusal within --retries.
+    if (!refused || task_refusals[robot] > task_retries) {
+      figures.tasks_refused += refused ? 1 : 0;
+      task_refusals[robot] = 0;
+    }
     if (!trajectory) {
       if (!refused_since[robot]) refused_since[robot] = now;
       // A robot making way at its goal is asked again at rest: holding, or back at the goal.
@@ -314,7 +317,6 @@ RunFigures RunFleet(const Site& site, int robots, double minutes, unsigned seed,
     end_stall(robot, now);
     ++figures.tasks_planned;
     figures.planned_when_asked_again += asked_again ? 1 : 0;
-    task_refusals[robot] = 0;
     figures.map_check.Add(strata::bench::CheckTrajectory(
         site.map->model(), profile, *trajectory,
         strata::bench::CheckConfigFor(request.options.verifier, site.map->keep_out())));
