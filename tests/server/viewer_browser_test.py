@@ -170,7 +170,16 @@ def main():
         driver.get(server.url)
         browser.wait("document.querySelector('#maps tr[data-map-id=\"demo\"]')", 30,
                      "the map list to show demo")
-        server.wait_active(LONG_ID, 60)
+        # Every map assessed, and the list showing them so, before anything is clicked: while
+        # a map is being made the list is rebuilt every 2 s, and its columns re-flow as the map
+        # turns active (the long id wraps on fewer lines), moving the controls below it by some
+        # 150 px; a click in flight then lands beside its box (the deck's storey once stayed
+        # hidden so, under a parallel ctest).
+        for map_id in (LONG_ID, "garage", "terrain"):
+            server.wait_active(map_id, 240)
+        browser.wait("[...document.querySelectorAll('#maps td[class^=\"state-\"]')]"
+                     ".filter((c) => c.className === 'state-MAP_STATE_ACTIVE').length === 4", 30,
+                     "the map list to show every map active")
         row = driver.find_element("css selector", '#maps tr[data-map-id="demo"]')
         assert "active" in row.text, row.text
         # Before a map is picked the view says what to do, and not after.
@@ -387,7 +396,6 @@ def main():
         # uneven_terrain's hills one storey.
         for map_id, names in (("garage", ["ground 0.0 m", "deck 2.8 m", "deck 5.6 m", "deck 8.4 m"]),
                               ("terrain", None)):
-            server.wait_active(map_id, 60)
             # As a click on its row does (the list, rebuilt as it reloads, would race a click).
             driver.execute_script("window.strataViewer.selectMap(arguments[0]);", map_id)
             browser.wait(f"document.body.dataset.mapDrawn === '{map_id}'", 60, f"{map_id} drawn")
