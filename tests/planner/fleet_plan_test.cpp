@@ -327,17 +327,22 @@ const PlanningMap& TwoLaneSite() {
   return *map;
 }
 
-/// Robot A driving the two-lane site's south lane west from the departure, gone on arrival.
-ReservedMotion SouthLaneWestbound() {
-  Expected<PlanResult> a = Plan(TwoLaneSite(), Between({10.5, 0.6, 0.3}, {1.2, 0.6, 0.3}));
-  EXPECT_TRUE(a) << a.error().message;
+/// Robot `id` driving `plan` on the two-lane site from the departure, gone on arrival.
+ReservedMotion GoneOnArrival(const std::string& id, const PlanRequest& plan) {
+  Expected<PlanResult> planned = Plan(TwoLaneSite(), plan);
+  EXPECT_TRUE(planned) << planned.error().message;
   ReservedMotion other;
-  other.robot_id = "A";
+  other.robot_id = id;
   other.motion.start_ns = kDeparture;
-  if (a) other.motion.trajectory = a.value().trajectory;
+  if (planned) other.motion.trajectory = planned.value().trajectory;
   other.motion.body = FleetBody::FromProfile(Profile());
   other.motion.end_ns = other.motion.ArrivalNs();
   return other;
+}
+
+/// Robot A driving the two-lane site's south lane west from the departure, gone on arrival.
+ReservedMotion SouthLaneWestbound() {
+  return GoneOnArrival("A", Between({10.5, 0.6, 0.3}, {1.2, 0.6, 0.3}));
 }
 
 /// Whether `trajectory` passes through the two-lane site's north lane.
@@ -370,6 +375,61 @@ TEST(FleetPlan, ARobotComingDownTheShorterLaneLongerThanTheRobotMayWaitIsAvoided
   ExpectClearOfAll(result.value().motion, others);
   EXPECT_TRUE(TakesTheNorthLane(result.value().plan.trajectory)) << "B did not take the north lane";
   EXPECT_LE(result.value().wait_s, 5);
+}
+
+// B goes east through the two lanes while A and A2 come west along the south lane, and C drives
+// south past B's start at the departure, 0.85 m from it: clear of B standing there (the limit
+// is 0.7 m), but within the space-time search's reach of B's start node (0.95 m), so that the
+// search at the departure finds the start busy and no route (without C, B takes the north lane
+// at once). Nothing planned at the departure clears A and A2; 5 s later C has gone, and the
+// route searched then takes the north lane. B holds at its start for those 5 s, its whole wait.
+/// A and A2 driving the two-lane site's south lane west, A2 6 s after A (B waits 5 s at most:
+/// neither a wait nor a stop clears both), and C driving south at `c_x` past B's start (0.7,
+/// 3.0) from the departure.
+std::vector<ReservedMotion> TwoInTheSouthLaneAndOnePassingBsStartAt(double c_x) {
+  ReservedMotion a2 = SouthLaneWestbound();
+  a2.robot_id = "A2";
+  a2.motion.start_ns = AddSeconds(kDeparture, 6);
+  a2.motion.end_ns = a2.motion.ArrivalNs();
+  return {SouthLaneWestbound(), a2, GoneOnArrival("C", Between({c_x, 4.4, 0.3}, {c_x, 1.9, 0.3}))};
+}
+
+TEST(FleetPlan, ARobotNothingClearsAtItsDepartureHoldsAtItsStartAndLeavesLater) {
+  const std::vector<ReservedMotion> others = TwoInTheSouthLaneAndOnePassingBsStartAt(1.55);
+  FleetPlanRequest request = AmongOthers(Between({0.7, 3.0, 0.3}, {11.3, 3.0, 0.3}), others);
+  // Less than the 5 s a later departure takes: refused at the departure.
+  request.fleet.max_wait_s = 4.9;
+  Expected<FleetPlanResult> now = PlanAmongTraffic(TwoLaneSite(), request);
+  ASSERT_FALSE(now) << "planned at the departure: the case tests nothing";
+  EXPECT_EQ(now.error().code, ErrorCode::kReservationConflict);
+
+  request.fleet.max_wait_s = 5;
+  Expected<FleetPlanResult> later = PlanAmongTraffic(TwoLaneSite(), request);
+  ASSERT_TRUE(later) << later.error().message;
+  const FleetPlanResult& b = later.value();
+  ExpectClearOfAll(b.motion, others);
+  EXPECT_TRUE(TakesTheNorthLane(b.plan.trajectory)) << "B did not take the north lane";
+  ASSERT_EQ(b.holds.size(), 1U);
+  EXPECT_EQ(b.holds.front().start_s, 0);
+  EXPECT_DOUBLE_EQ(b.holds.front().duration_s, 5);
+  EXPECT_DOUBLE_EQ(b.wait_s, 5);
+  EXPECT_DOUBLE_EQ(b.plan.trajectory.pieces.front().duration_s, 5);
+  EXPECT_TRUE(b.plan.trajectory.EvaluatePiece(0, 2.5, 1).isZero(1e-12)) << "B moves while it holds";
+  EXPECT_EQ(b.motion.start_ns, kDeparture);
+  EXPECT_NEAR(b.plan.stats.duration_s, b.plan.trajectory.TotalDuration(), 1e-9);
+  EXPECT_NEAR(b.arrival_s, b.plan.stats.duration_s, 1e-9);
+}
+
+// As above, with C passing 0.6 m from B's start, within the limit: B may not hold there while C
+// passes, so it may not leave later either (nor now).
+TEST(FleetPlan, ARobotThatMayNotHoldAtItsStartIsNotPlannedToLeaveLater) {
+  const std::vector<ReservedMotion> others = TwoInTheSouthLaneAndOnePassingBsStartAt(1.3);
+  FleetPlanRequest request = AmongOthers(Between({0.7, 3.0, 0.3}, {11.3, 3.0, 0.3}), others);
+  request.fleet.max_wait_s = 5;
+  Expected<FleetPlanResult> refused = PlanAmongTraffic(TwoLaneSite(), request);
+  if (refused) ExpectClearOfAll(refused.value().motion, others);
+  ASSERT_FALSE(refused);
+  EXPECT_EQ(refused.error().code, ErrorCode::kReservationConflict);
 }
 
 /// B through the two lanes as above (A in the south lane, B waiting 5 s at most) with one more

@@ -59,6 +59,12 @@ constexpr double kParkedOnWayReachM = 0.4;
 // Rounds of one request that try making way at the goal at most (each plans two short legs and
 // searches the waits again).
 constexpr int kMaxMakeWayRounds = 2;
+// Later departures tried when no plan fits at the request's [s after it]: the robot holds at its
+// start until then (a wait within max_wait_s) and is planned from there. The plans made for a
+// later departure meet the others elsewhere, and so add other stops, search another route or
+// replan other robots: on fleet_benchmark most of the requests refused at the departure fitted
+// 5 s later (docs/design.md, "Fleets", step 8).
+constexpr std::array kLaterDeparturesS = {5.0, 10.0};
 
 /// A point the route passes through: one of the request's vias, or one added (a stop to wait
 /// at, or a point of a space-time route).
@@ -70,6 +76,17 @@ struct RoutePoint {
 bool StartsAtRest(const Trajectory& trajectory) {
   return trajectory.EvaluatePiece(0, 0, 1).isZero(1e-9) &&
          trajectory.EvaluatePiece(0, 0, 2).isZero(1e-9);
+}
+
+/// The traffic `request`'s robot is planned among: its departure, lease, body and the others.
+Traffic TrafficOf(const FleetPlanRequest& request) {
+  Traffic traffic;
+  traffic.departure_ns = request.departure_ns;
+  traffic.parked_until_ns = request.parked_until_ns;
+  traffic.body = FleetBody::FromProfile(request.plan.profile);
+  traffic.rule = request.fleet.rule;
+  traffic.others = request.others;
+  return traffic;
 }
 
 /// The index of the piece that begins at `time_s` into `trajectory` (its nearest boundary).
@@ -450,12 +467,7 @@ Expected<FleetPlanResult> PlanInCommitOrder(const PlanningMap& map, const FleetP
                                             LegCache* legs) {
   if (Status s = request.plan.Validate(); !s) return s.error();
   if (Status s = request.fleet.Validate("fleet"); !s) return s.error();
-  Traffic traffic;
-  traffic.departure_ns = request.departure_ns;
-  traffic.parked_until_ns = request.parked_until_ns;
-  traffic.body = FleetBody::FromProfile(request.plan.profile);
-  traffic.rule = request.fleet.rule;
-  traffic.others = request.others;
+  const Traffic traffic = TrafficOf(request);
 
   PlanRequest plan_request = request.plan;
   std::vector<RoutePoint> route;
@@ -707,6 +719,58 @@ Expected<FleetPlanResult> PlanInCommitOrder(const PlanningMap& map, const FleetP
   return error;
 }
 
+/// `request` planned at its departure: in commit order, then, when refused and allowed,
+/// replanning the robots in the way (replan_in_the_way.hpp). Legs through `legs`.
+Expected<FleetPlanResult> PlanAtDeparture(const PlanningMap& map, const FleetPlanRequest& request,
+                                          const std::function<bool()>& should_stop,
+                                          LegCache* legs) {
+  Expected<FleetPlanResult> planned = PlanInCommitOrder(map, request, should_stop, legs);
+  if (planned || planned.error().code != ErrorCode::kReservationConflict ||
+      request.fleet.replan.max_robots == 0 || request.replannable.empty()) {
+    return planned;
+  }
+  return fleet_internal::PlanReplanningOthers(
+      request, std::move(planned).error(), legs, [&](const FleetPlanRequest& r, LegCache* cache) {
+        return PlanInCommitOrder(map, r, should_stop, cache);
+      });
+}
+
+/// `later`, planned for a departure `held_s` after `request`'s, with the robot holding at its
+/// start from `request`'s departure until then: the hold joins a wait `later` begins with.
+/// None when the hold meets another robot (checked exactly against the others' committed
+/// motions, which every robot follows until then: those `later` replans take their new ones
+/// from a notice after its departure).
+std::optional<FleetPlanResult> HeldAtStart(FleetPlanResult later, double held_s,
+                                           const FleetPlanRequest& request) {
+  const Traffic traffic = TrafficOf(request);
+  Trajectory& trajectory = later.plan.trajectory;
+  FleetMotion hold;
+  hold.start_ns = request.departure_ns;
+  hold.trajectory.dimension = trajectory.dimension;
+  hold.trajectory.pieces = {fleet_internal::RestAtStart(trajectory, held_s)};
+  hold.body = traffic.body;
+  hold.end_ns = hold.ArrivalNs();
+  if (FirstTrafficConflict(hold, traffic.others, traffic.rule)) return std::nullopt;
+  const bool waits_at_start = !later.holds.empty() && later.holds.front().start_s == 0;
+  for (std::size_t k = waits_at_start ? 1 : 0; k < later.holds.size(); ++k) {
+    later.holds[k].start_s += held_s;
+  }
+  if (waits_at_start) {
+    trajectory.pieces.front().duration_s += held_s;
+    later.holds.front().duration_s += held_s;
+  } else {
+    trajectory.pieces.insert(trajectory.pieces.begin(), hold.trajectory.pieces.front());
+    later.holds.insert(later.holds.begin(), FleetHold{0, held_s, trajectory.Position(0).head<3>()});
+    ++later.plan.stats.pieces;
+  }
+  later.plan.stats.duration_s += held_s;
+  for (double& via_s : later.plan.via_times_s) via_s += held_s;
+  later.wait_s += held_s;
+  later.arrival_s += held_s;
+  later.motion = traffic.MotionOf(trajectory);
+  return later;
+}
+
 }  // namespace
 
 Status ReplanOptions::Validate(std::string_view path) const {
@@ -747,18 +811,35 @@ Expected<FleetPlanResult> PlanAmongTraffic(const PlanningMap& map, const FleetPl
     }
     if (Status s = robot.profile.Validate(path + ".profile"); !s) return s.error();
   }
-  // Should this try be refused, the tries going first (replanning others) take its legs from
-  // here: at least the first plan, made without the others, comes out the same in each.
+  // Every try (replanning others, departing later) takes its legs from here: at least the first
+  // plan, made without the others, comes out the same in each.
   LegCache legs;
-  Expected<FleetPlanResult> planned = PlanInCommitOrder(map, request, should_stop, &legs);
+  Expected<FleetPlanResult> planned = PlanAtDeparture(map, request, should_stop, &legs);
+  const RobotState& start = request.plan.start;
   if (planned || planned.error().code != ErrorCode::kReservationConflict ||
-      request.fleet.replan.max_robots == 0 || request.replannable.empty()) {
+      !start.velocity_mps.isZero() || !start.acceleration_mps2.isZero()) {
     return planned;
   }
-  return fleet_internal::PlanReplanningOthers(
-      request, std::move(planned).error(), &legs, [&](const FleetPlanRequest& r, LegCache* cache) {
-        return PlanInCommitOrder(map, r, should_stop, cache);
-      });
+  for (const double held_s : kLaterDeparturesS) {
+    if (held_s > request.fleet.max_wait_s) break;
+    FleetPlanRequest later = request;
+    later.departure_ns = AddSeconds(request.departure_ns, held_s);
+    later.fleet.max_wait_s -= held_s;
+    Expected<FleetPlanResult> again = PlanAtDeparture(map, later, should_stop, &legs);
+    if (again) {
+      std::optional<FleetPlanResult> held = HeldAtStart(std::move(again).value(), held_s, request);
+      // A robot passes the start meanwhile: holding there longer meets it too.
+      if (!held) break;
+      return std::move(*held);
+    }
+    // Out of time: the refusal at the departure stands.
+    if (again.error().code == ErrorCode::kCancelled ||
+        again.error().code == ErrorCode::kDeadlineExceeded) {
+      break;
+    }
+  }
+  // The refusal at the departure names what is in the way now.
+  return planned;
 }
 
 }  // namespace strata

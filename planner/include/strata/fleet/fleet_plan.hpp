@@ -13,7 +13,9 @@
 /// route is planned again through it. The trajectory returned is Plan's verified one with the waits
 /// inserted as pieces at rest at verified points, checked exactly against every motion. Where
 /// nothing clears a robot still on its way, and that robot follows new trajectories it is sent,
-/// it may be planned again to let this one pass first (ReplanOptions).
+/// it may be planned again to let this one pass first (ReplanOptions). Where nothing fits at
+/// the departure, the robot holds at its start a few seconds (within max_wait_s) and is
+/// planned as above from then.
 #include <cstdint>
 #include <functional>
 #include <span>
@@ -128,7 +130,8 @@ struct FleetPlanResult {
 /// kReservationConflict naming the robot in the way, when and where: the start is already
 /// within reach of a robot parked there, the goal is where another robot stays parked, or no
 /// waits up to max_wait_s in all clear every motion (and replanning the robots in the way,
-/// when allowed, did not clear it either). `should_stop` as for Plan.
+/// when allowed, did not clear it either, at the departure or a few seconds after it with the
+/// robot holding at its start until then). `should_stop` as for Plan.
 Expected<FleetPlanResult> PlanAmongTraffic(const PlanningMap& map, const FleetPlanRequest& request,
                                            const std::function<bool()>& should_stop = {});
 
