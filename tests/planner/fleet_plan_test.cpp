@@ -382,7 +382,8 @@ TEST(FleetPlan, ARobotComingDownTheShorterLaneLongerThanTheRobotMayWaitIsAvoided
 // is 0.7 m), but within the space-time search's reach of B's start node (0.95 m), so that the
 // search at the departure finds the start busy and no route (without C, B takes the north lane
 // at once). Nothing planned at the departure clears A and A2; 5 s later C has gone, and the
-// route searched then takes the north lane. B holds at its start for those 5 s, its whole wait.
+// route searched then takes the north lane. B, whose request may replan others, holds at its
+// start for those 5 s, its whole wait.
 /// A and A2 driving the two-lane site's south lane west, A2 6 s after A (B waits 5 s at most:
 /// neither a wait nor a stop clears both), and C driving south at `c_x` past B's start (0.7,
 /// 3.0) from the departure.
@@ -397,13 +398,20 @@ std::vector<ReservedMotion> TwoInTheSouthLaneAndOnePassingBsStartAt(double c_x) 
 TEST(FleetPlan, ARobotNothingClearsAtItsDepartureHoldsAtItsStartAndLeavesLater) {
   const std::vector<ReservedMotion> others = TwoInTheSouthLaneAndOnePassingBsStartAt(1.55);
   FleetPlanRequest request = AmongOthers(Between({0.7, 3.0, 0.3}, {11.3, 3.0, 0.3}), others);
+  // A request that may replan others (none here) tries later departures, within max_wait_s.
+  request.fleet.replan.max_robots = 1;
   // Less than the 5 s a later departure takes: refused at the departure.
   request.fleet.max_wait_s = 4.9;
   Expected<FleetPlanResult> now = PlanAmongTraffic(TwoLaneSite(), request);
   ASSERT_FALSE(now) << "planned at the departure: the case tests nothing";
   EXPECT_EQ(now.error().code, ErrorCode::kReservationConflict);
-
+  // In commit order: no later departures.
   request.fleet.max_wait_s = 5;
+  request.fleet.replan.max_robots = 0;
+  Expected<FleetPlanResult> in_order = PlanAmongTraffic(TwoLaneSite(), request);
+  ASSERT_FALSE(in_order) << "planned at the departure in commit order";
+
+  request.fleet.replan.max_robots = 1;
   Expected<FleetPlanResult> later = PlanAmongTraffic(TwoLaneSite(), request);
   ASSERT_TRUE(later) << later.error().message;
   const FleetPlanResult& b = later.value();
@@ -425,6 +433,7 @@ TEST(FleetPlan, ARobotNothingClearsAtItsDepartureHoldsAtItsStartAndLeavesLater) 
 TEST(FleetPlan, ARobotThatMayNotHoldAtItsStartIsNotPlannedToLeaveLater) {
   const std::vector<ReservedMotion> others = TwoInTheSouthLaneAndOnePassingBsStartAt(1.3);
   FleetPlanRequest request = AmongOthers(Between({0.7, 3.0, 0.3}, {11.3, 3.0, 0.3}), others);
+  request.fleet.replan.max_robots = 1;
   request.fleet.max_wait_s = 5;
   Expected<FleetPlanResult> refused = PlanAmongTraffic(TwoLaneSite(), request);
   if (refused) ExpectClearOfAll(refused.value().motion, others);

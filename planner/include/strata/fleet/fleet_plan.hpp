@@ -13,8 +13,8 @@
 /// route is planned again through it. The trajectory returned is Plan's verified one with the waits
 /// inserted as pieces at rest at verified points, checked exactly against every motion. Where
 /// nothing clears a robot still on its way, and that robot follows new trajectories it is sent,
-/// it may be planned again to let this one pass first (ReplanOptions). Where nothing fits at
-/// the departure, the robot holds at its start a few seconds (within max_wait_s) and is
+/// it may be planned again to let this one pass first (ReplanOptions); then, where nothing fits
+/// at the departure, the robot holds at its start a few seconds (within max_wait_s) and is
 /// planned as above from then.
 #include <cstdint>
 #include <functional>
@@ -37,7 +37,9 @@ namespace strata {
 /// that robot's motion up to a little after `notice_s` from the departure, and that robot is
 /// then planned again from where it is at notice_s, to its goal, among the others and this
 /// plan. Repeated for the next robot the plan is then refused for, up to max_robots; all of
-/// them plan, or nothing changes and the first refusal stands.
+/// them plan, or nothing changes and the first refusal stands. A request that may replan
+/// others, refused so at its departure, is also planned a few seconds later, the robot holding
+/// at its start until then (PlanAmongTraffic): more plans per request, fewer refusals.
 inline constexpr int kMaxReplannedRobots = 3;    ///< ReplanOptions::max_robots's bound.
 inline constexpr double kMaxReplanNoticeS = 10;  ///< ReplanOptions::notice_s's bound [s].
 
@@ -130,8 +132,8 @@ struct FleetPlanResult {
 /// kReservationConflict naming the robot in the way, when and where: the start is already
 /// within reach of a robot parked there, the goal is where another robot stays parked, or no
 /// waits up to max_wait_s in all clear every motion (and replanning the robots in the way,
-/// when allowed, did not clear it either, at the departure or a few seconds after it with the
-/// robot holding at its start until then). `should_stop` as for Plan.
+/// when allowed, did not clear it either, at the departure nor, then, a few seconds after it
+/// with the robot holding at its start until then). `should_stop` as for Plan.
 Expected<FleetPlanResult> PlanAmongTraffic(const PlanningMap& map, const FleetPlanRequest& request,
                                            const std::function<bool()>& should_stop = {});
 
