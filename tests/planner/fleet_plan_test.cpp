@@ -377,13 +377,6 @@ TEST(FleetPlan, ARobotComingDownTheShorterLaneLongerThanTheRobotMayWaitIsAvoided
   EXPECT_LE(result.value().wait_s, 5);
 }
 
-// B goes east through the two lanes while A and A2 come west along the south lane, and C drives
-// south past B's start at the departure, 0.85 m from it: clear of B standing there (the limit
-// is 0.7 m), but within the space-time search's reach of B's start node (0.95 m), so that the
-// search at the departure finds the start busy and no route (without C, B takes the north lane
-// at once). Nothing planned at the departure clears A and A2; 5 s later C has gone, and the
-// route searched then takes the north lane. B, whose request may replan others, holds at its
-// start for those 5 s, its whole wait.
 /// A and A2 driving the two-lane site's south lane west, A2 6 s after A (B waits 5 s at most:
 /// neither a wait nor a stop clears both), and C driving south at `c_x` past B's start (0.7,
 /// 3.0) from the departure.
@@ -395,11 +388,25 @@ std::vector<ReservedMotion> TwoInTheSouthLaneAndOnePassingBsStartAt(double c_x) 
   return {SouthLaneWestbound(), a2, GoneOnArrival("C", Between({c_x, 4.4, 0.3}, {c_x, 1.9, 0.3}))};
 }
 
+/// B going east through the two lanes among `others`, waiting 5 s at most, in a request that
+/// may replan others (none of them may be): such a request tries later departures.
+FleetPlanRequest BEastThroughTheLanesMayReplan(const std::vector<ReservedMotion>& others) {
+  FleetPlanRequest request = AmongOthers(Between({0.7, 3.0, 0.3}, {11.3, 3.0, 0.3}), others);
+  request.fleet.replan.max_robots = 1;
+  request.fleet.max_wait_s = 5;
+  return request;
+}
+
+// B goes east through the two lanes while A and A2 come west along the south lane, and C drives
+// south past B's start at the departure, 0.85 m from it: clear of B standing there (the limit
+// is 0.7 m), but within the space-time search's reach of B's start node (0.95 m), so that the
+// search at the departure finds the start busy and no route (without C, B takes the north lane
+// at once). Nothing planned at the departure clears A and A2; 5 s later C has gone, and the
+// route searched then takes the north lane. B, whose request may replan others, holds at its
+// start for those 5 s, its whole wait.
 TEST(FleetPlan, ARobotNothingClearsAtItsDepartureHoldsAtItsStartAndLeavesLater) {
   const std::vector<ReservedMotion> others = TwoInTheSouthLaneAndOnePassingBsStartAt(1.55);
-  FleetPlanRequest request = AmongOthers(Between({0.7, 3.0, 0.3}, {11.3, 3.0, 0.3}), others);
-  // A request that may replan others (none here) tries later departures, within max_wait_s.
-  request.fleet.replan.max_robots = 1;
+  FleetPlanRequest request = BEastThroughTheLanesMayReplan(others);
   // Less than the 5 s a later departure takes: refused at the departure.
   request.fleet.max_wait_s = 4.9;
   Expected<FleetPlanResult> now = PlanAmongTraffic(TwoLaneSite(), request);
@@ -432,10 +439,8 @@ TEST(FleetPlan, ARobotNothingClearsAtItsDepartureHoldsAtItsStartAndLeavesLater) 
 // passes, so it may not leave later either (nor now).
 TEST(FleetPlan, ARobotThatMayNotHoldAtItsStartIsNotPlannedToLeaveLater) {
   const std::vector<ReservedMotion> others = TwoInTheSouthLaneAndOnePassingBsStartAt(1.3);
-  FleetPlanRequest request = AmongOthers(Between({0.7, 3.0, 0.3}, {11.3, 3.0, 0.3}), others);
-  request.fleet.replan.max_robots = 1;
-  request.fleet.max_wait_s = 5;
-  Expected<FleetPlanResult> refused = PlanAmongTraffic(TwoLaneSite(), request);
+  Expected<FleetPlanResult> refused =
+      PlanAmongTraffic(TwoLaneSite(), BEastThroughTheLanesMayReplan(others));
   if (refused) ExpectClearOfAll(refused.value().motion, others);
   ASSERT_FALSE(refused);
   EXPECT_EQ(refused.error().code, ErrorCode::kReservationConflict);

@@ -745,13 +745,11 @@ std::optional<FleetPlanResult> HeldAtStart(FleetPlanResult later, double held_s,
                                            const FleetPlanRequest& request) {
   const Traffic traffic = TrafficOf(request);
   Trajectory& trajectory = later.plan.trajectory;
-  FleetMotion hold;
-  hold.start_ns = request.departure_ns;
-  hold.trajectory.dimension = trajectory.dimension;
-  hold.trajectory.pieces = {fleet_internal::RestAtStart(trajectory, held_s)};
-  hold.body = traffic.body;
-  hold.end_ns = hold.ArrivalNs();
-  if (FirstTrafficConflict(hold, traffic.others, traffic.rule)) return std::nullopt;
+  if (FirstTrafficConflict(Standing(trajectory.Position(0), trajectory.dimension, traffic.body,
+                                    request.departure_ns, later.motion.start_ns),
+                           traffic.others, traffic.rule)) {
+    return std::nullopt;
+  }
   const bool waits_at_start = !later.holds.empty() && later.holds.front().start_s == 0;
   for (std::size_t k = waits_at_start ? 1 : 0; k < later.holds.size(); ++k) {
     later.holds[k].start_s += held_s;
@@ -760,7 +758,8 @@ std::optional<FleetPlanResult> HeldAtStart(FleetPlanResult later, double held_s,
     trajectory.pieces.front().duration_s += held_s;
     later.holds.front().duration_s += held_s;
   } else {
-    trajectory.pieces.insert(trajectory.pieces.begin(), hold.trajectory.pieces.front());
+    trajectory.pieces.insert(trajectory.pieces.begin(),
+                             fleet_internal::RestAtStart(trajectory, held_s));
     later.holds.insert(later.holds.begin(), FleetHold{0, held_s, trajectory.Position(0).head<3>()});
     ++later.plan.stats.pieces;
   }
