@@ -3,12 +3,14 @@
 // distance, and SnapToSurface.
 #include "strata/planning/surface_graph.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <map>
 #include <memory>
 #include <numbers>
 #include <queue>
+#include <random>
 #include <set>
 #include <utility>
 #include <vector>
@@ -370,6 +372,39 @@ TEST(SnapToSurface, PicksTheLevelTheHeightPointsAtAndNamesTheNearestWhenNoneIsNe
   snap = SnapToSurface(graph, {0.3, 0.3, ref}, -1, ErrorCode::kStartOffGround);
   ASSERT_FALSE(snap.ok());
   EXPECT_EQ(snap.error().code, ErrorCode::kInvalidInput);
+}
+
+// The nearest node a failed snap names is the nearest of all nodes, by the level distance the
+// header defines (read here off every node, as a brute force), for points in the map's walls
+// and holes, above and below it, beside it and far out of it.
+TEST(SnapToSurface, NamesTheNearestOfAllNodesWhereverThePointIs) {
+  const SurfaceGraph& graph = Graph();
+  const GridGeometry& g = graph.grid();
+  const auto level_distance = [&](int node, const Eigen::Vector3d& p) {
+    const double ground = graph.ground_z(node);
+    const double ceiling = ground + std::min<double>(graph.ceiling_clearance(node), 2.5);
+    const double outside =
+        std::max(0.0, ground - 0.5 * g.resolution_m - p.z()) + std::max(0.0, p.z() - ceiling);
+    return std::hypot((graph.position(node) - p).head<2>().norm(), outside);
+  };
+  std::vector<Eigen::Vector3d> points = {
+      {-100, 2, 0.3}, {3, 250, 1}, {-40, -40, -5}, {2.4, 0.4, 0}};
+  std::mt19937 random(7);
+  std::uniform_real_distribution<double> x(-3, 9), y(-3, 7), z(-1, 4);
+  for (int k = 0; k < 300; ++k) points.emplace_back(x(random), y(random), z(random));
+  int named = 0;
+  for (const Eigen::Vector3d& p : points) {
+    const auto snap = SnapToSurface(graph, p, 0.05, ErrorCode::kGoalOffGround);
+    if (snap.ok()) continue;
+    double nearest = std::numeric_limits<double>::infinity();
+    for (int m = 0; m < graph.node_count(); ++m) nearest = std::min(nearest, level_distance(m, p));
+    ASSERT_EQ(snap.error().details.count("nearest_distance_m"), 1u) << p.transpose();
+    EXPECT_NEAR(std::stod(snap.error().details.at("nearest_distance_m")), nearest,
+                1e-5 * std::max(1.0, nearest))
+        << p.transpose();
+    ++named;
+  }
+  EXPECT_GT(named, 100);
 }
 
 // A node `accept` turns down is never snapped to: the nearest accepted one within tolerance

@@ -19,6 +19,32 @@ using graph_internal::kNodesPerPoll;
 
 Error Cancelled() { return Error{ErrorCode::kCancelled, "building the surface graph was stopped"}; }
 
+/// Calls visit(node) for the nodes of the grid's columns around column `c`, ring by ring (ring
+/// k: the columns k cells away along x or y, at least (k - 1) cells from `c`'s cell), up to
+/// `max_ring`, and stops before a ring when done(ring) says so. Only columns inside the grid
+/// are visited, so a ring costs at most the grid's side even far from it.
+template <typename Done, typename Visit>
+void VisitRings(const SurfaceGraph& graph, const Eigen::Vector3i& c, int max_ring, Done&& done,
+                Visit&& visit) {
+  const Eigen::Vector3i& size = graph.grid().size;
+  for (int ring = 0; ring <= max_ring && !done(ring); ++ring) {
+    const int dy_low = std::max(-ring, -c.y());
+    const int dy_high = std::min(ring, size.y() - 1 - c.y());
+    for (int dy = dy_low; dy <= dy_high; ++dy) {
+      const auto visit_column = [&](int dx) {
+        for (const std::int32_t m : graph.ColumnNodes(c.x() + dx, c.y() + dy)) visit(m);
+      };
+      if (std::abs(dy) == ring) {
+        const int dx_high = std::min(ring, size.x() - 1 - c.x());
+        for (int dx = std::max(-ring, -c.x()); dx <= dx_high; ++dx) visit_column(dx);
+      } else {
+        visit_column(-ring);
+        visit_column(ring);
+      }
+    }
+  }
+}
+
 }  // namespace
 
 Status SurfaceGraph::CheckParams(const TerrainModel& model, const TraversabilityParams& params) {
@@ -292,29 +318,22 @@ Expected<SnapResult> SnapToSurface(const SurfaceGraph& graph, const Eigen::Vecto
   int best = -1;
   bool turned_down = false;  // A node within tolerance that `accept` refused.
   double best_score = std::numeric_limits<double>::infinity();
-  for (int ring = 0; ring <= max_ring; ++ring) {
-    // Columns of this ring lie at least (ring - 1) · r horizontally from p.
-    if (best >= 0 && best_score <= (ring - 1) * r) break;
-    for (int dy = -ring; dy <= ring; ++dy) {
-      const bool edge_row = std::abs(dy) == ring;
-      for (int dx = -ring; dx <= ring; dx += edge_row ? 1 : 2 * std::max(ring, 1)) {
-        for (const std::int32_t m : graph.ColumnNodes(c.x() + dx, c.y() + dy)) {
-          const double d = level_distance(m);
-          if (d > tolerance_m) continue;
-          if (accept && !accept(m)) {
-            turned_down = true;
-            continue;
-          }
-          const double score = d + (graph.ground_z(m) > p.z() + slack ? above_penalty : 0.0);
-          if (score < best_score) {
-            best_score = score;
-            best = m;
-          }
+  // Columns of a ring lie at least (ring - 1) · r horizontally from p.
+  VisitRings(
+      graph, c, max_ring, [&](int ring) { return best >= 0 && best_score <= (ring - 1) * r; },
+      [&](int m) {
+        const double d = level_distance(m);
+        if (d > tolerance_m) return;
+        if (accept && !accept(m)) {
+          turned_down = true;
+          return;
         }
-        if (ring == 0) break;
-      }
-    }
-  }
+        const double score = d + (graph.ground_z(m) > p.z() + slack ? above_penalty : 0.0);
+        if (score < best_score) {
+          best_score = score;
+          best = m;
+        }
+      });
   if (best >= 0) return make(best);
   if (turned_down) {
     return Error{off_ground_code,
@@ -323,17 +342,22 @@ Expected<SnapResult> SnapToSurface(const SurfaceGraph& graph, const Eigen::Vecto
                              what, internal::FormatPoint(p), tolerance_m, refusal)};
   }
 
-  // 3. Nothing within tolerance: name the nearest node anywhere (a linear scan, only on
-  // this failure path).
+  // 3. Nothing within tolerance: name the nearest node anywhere, ring by ring out to the
+  // grid's far corner. Callers that try many points come here often (a fleet plan looking for
+  // a stop beside its route tries points in walls): a scan of every node for each made one
+  // fleet plan on the garage take 30 s.
   int nearest = -1;
   double nearest_d = std::numeric_limits<double>::infinity();
-  for (int m = 0; m < graph.node_count(); ++m) {
-    const double d = level_distance(m);
-    if (d < nearest_d) {
-      nearest_d = d;
-      nearest = m;
-    }
-  }
+  const int far_ring = std::max({c.x(), g.size.x() - 1 - c.x(), c.y(), g.size.y() - 1 - c.y()});
+  VisitRings(
+      graph, c, far_ring, [&](int ring) { return nearest >= 0 && nearest_d <= (ring - 1) * r; },
+      [&](int m) {
+        const double d = level_distance(m);
+        if (d < nearest_d) {
+          nearest_d = d;
+          nearest = m;
+        }
+      });
   std::string message = fmt::format("{} {} m has no traversable ground within {:.2f} m", what,
                                     internal::FormatPoint(p), tolerance_m);
   std::map<std::string, std::string> details;
