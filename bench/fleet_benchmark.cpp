@@ -458,7 +458,7 @@ int main(int argc, char** argv) {
   std::printf(
       "| site | robots | reservations | tasks planned | refused (conflict): tasks "
       "(requests) | planned when asked again | failed (other) | conflicting pairs (robots) | plan "
-      "p50 / p95 [ms] | alone p50 / p95 "
+      "p50 / p95 / max [ms] | alone p50 / p95 "
       "[ms] | mean delay | waits | parked robots avoided | robots replanned (for tasks) | exact "
       "checks/s | map check | longest stall (stalled at the end) |\n");
   std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
@@ -475,14 +475,14 @@ int main(int argc, char** argv) {
         const auto among = [with](const std::string& text) { return with ? text : "-"; };
         std::fputs(
             fmt::format(
-                "| {} | {} | {} | {} of {} ({}) | {} ({}) | {} | {} | {} ({}) | {:.1f} / {:.1f} | "
+                "| {} | {} | {} | {} of {} ({}) | {} ({}) | {} | {} | {} ({}) | {:.1f} / {:.1f} / {:.0f} | "
                 "{} | {} | "
                 "{} | {} | {} | {:.0f} | {} | {:.0f} s ({}) |\n",
                 site.name, robots, with ? "yes" : "no", f.tasks_planned, f.tasks_asked,
                 Percent(f.tasks_planned, f.tasks_asked), f.tasks_refused, f.requests_refused,
                 among(std::to_string(f.planned_when_asked_again)), f.failed_other,
                 f.conflicting_pairs, f.robots_in_conflict, Median(f.latency_ms),
-                Quantile(f.latency_ms, 0.95),
+                Quantile(f.latency_ms, 0.95), Quantile(f.latency_ms, 1.0),
                 among(fmt::format("{:.1f} / {:.1f}", Median(f.plain_latency_ms),
                                   Quantile(f.plain_latency_ms, 0.95))),
                 among(fmt::format("{:.1f}%", 100 * mean_delay)),
