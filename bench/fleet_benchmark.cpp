@@ -475,7 +475,8 @@ int main(int argc, char** argv) {
         const auto among = [with](const std::string& text) { return with ? text : "-"; };
         std::fputs(
             fmt::format(
-                "| {} | {} | {} | {} of {} ({}) | {} ({}) | {} | {} | {} ({}) | {:.1f} / {:.1f} / {:.0f} | "
+                "| {} | {} | {} | {} of {} ({}) | {} ({}) | {} | {} | {} ({}) | {:.1f} / {:.1f} / "
+                "{:.0f} | "
                 "{} | {} | "
                 "{} | {} | {} | {:.0f} | {} | {:.0f} s ({}) |\n",
                 site.name, robots, with ? "yes" : "no", f.tasks_planned, f.tasks_asked,
