@@ -63,6 +63,24 @@ canvas.dispatchEvent(new PointerEvent('pointermove', { clientX: box.left + sx, c
 return document.getElementById('cursor').textContent;
 """
 
+# The map list's row heights, column widths and bottom edge: as shown, with map arguments[0]
+# drawn as a map still being made (95% done, none of its figures known yet), and as shown again.
+LIST_WHILE_A_MAP_IS_MADE = """
+const viewer = window.strataViewer;
+const table = document.getElementById('maps');
+const layout = () => [[...table.rows].map((r) => r.offsetHeight),
+                      [...table.tHead.rows[0].cells].map((c) => c.offsetWidth),
+                      table.getBoundingClientRect().bottom];
+const shown = viewer.state.maps;
+const before = layout();
+viewer.showMaps(shown.map((m) => (m.id !== arguments[0] ? m : {
+  ...m, state: 'MAP_STATE_CREATING', progress: 0.95, valid_ground_point_count: '0', max_levels: 0,
+  memory_bytes: '0', version: '' })));
+const made = layout();
+viewer.showMaps(shown);
+return [before, made, layout()];
+"""
+
 # Each storey box's label and tooltip.
 STOREYS = """
 return [...document.querySelectorAll('#storeys input[data-storey]')].map(
@@ -170,16 +188,20 @@ def main():
         driver.get(server.url)
         browser.wait("document.querySelector('#maps tr[data-map-id=\"demo\"]')", 30,
                      "the map list to show demo")
-        # Every map assessed, and the list showing them so, before anything is clicked: while
-        # a map is being made the list is rebuilt every 2 s, and its columns re-flow as the map
-        # turns active (the long id wraps on fewer lines), moving the controls below it by some
-        # 150 px; a click in flight then lands beside its box (the deck's storey once stayed
-        # hidden so, under a parallel ctest).
+        # Every map assessed, and the list showing them so, before anything is clicked (the
+        # list is rebuilt every 2 s while a map is being made; later steps open each map).
         for map_id in (LONG_ID, "garage", "terrain"):
             server.wait_active(map_id, 240)
-        browser.wait("[...document.querySelectorAll('#maps td[class^=\"state-\"]')]"
-                     ".filter((c) => c.className === 'state-MAP_STATE_ACTIVE').length === 4", 30,
+        browser.wait("[...document.querySelectorAll('#maps td.state')]"
+                     ".filter((c) => c.classList.contains('state-MAP_STATE_ACTIVE')).length === 4", 30,
                      "the map list to show every map active")
+        # A map turning active leaves the list's rows and columns as they were, so nothing below
+        # it moves: the list drawn with the garage still being made (95% done, no figures yet)
+        # against the list as it is.
+        layouts = driver.execute_script(LIST_WHILE_A_MAP_IS_MADE, "garage")
+        assert layouts[0] == layouts[1] == layouts[2], layouts
+        garage_state = driver.find_element("css selector", '#maps tr[data-map-id="garage"] td.state')
+        assert garage_state.text == "active", garage_state.text
         row = driver.find_element("css selector", '#maps tr[data-map-id="demo"]')
         assert "active" in row.text, row.text
         # Before a map is picked the view says what to do, and not after.

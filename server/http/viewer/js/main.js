@@ -95,23 +95,36 @@ function parsePoint(value) {
 
 async function loadMaps() {
   const error = $('maps-error');
+  let maps = [];
   try {
-    const response = await call('strata.v1.MapService/ListMaps', { page_size: 1000 });
-    state.maps = response.maps;
+    maps = (await call('strata.v1.MapService/ListMaps', { page_size: 1000 })).maps;
     error.hidden = true;
   } catch (e) {
-    state.maps = [];
     error.hidden = false;
     error.textContent = plainWords(e);
   }
+  showMaps(maps);
+  // Poll while a map is being made.
+  if (maps.some((m) => m.state === 'MAP_STATE_CREATING')) setTimeout(loadMaps, 2000);
+}
+
+// The list of maps. A row keeps its size as its map is made (viewer.css reserves the columns'
+// widths; the progress is a bar behind "creating", its figure in the tooltip), so that nothing
+// below the list moves under a click when a map turns active.
+function showMaps(maps) {
+  state.maps = maps;
   const body = $('maps').tBodies[0];
   body.replaceChildren();
-  for (const map of state.maps) {
+  for (const map of maps) {
     const row = text('tr', undefined, { 'data-map-id': map.id });
     row.appendChild(breakable('td', map.id, { class: 'id', title: map.id }));
-    const stateName = map.state.replace('MAP_STATE_', '').toLowerCase();
-    const stateCell = text('td', map.state === 'MAP_STATE_CREATING'
-      ? `${stateName} ${Math.round(100 * map.progress)}%` : stateName, { class: `state-${map.state}` });
+    const stateCell = text('td', map.state.replace('MAP_STATE_', '').toLowerCase(),
+      { class: `state state-${map.state}` });
+    if (map.state === 'MAP_STATE_CREATING') {
+      const done = Math.round(100 * (map.progress || 0));
+      stateCell.style.setProperty('--done', `${done}%`);
+      stateCell.title = `being made: ${done}% done`;
+    }
     if (map.failure && map.failure.reason) stateCell.title = `${map.failure.reason}: ${map.failure.message}`;
     row.appendChild(stateCell);
     row.appendChild(text('td', Number(map.valid_ground_point_count).toLocaleString('en')));
@@ -122,9 +135,7 @@ async function loadMaps() {
     row.addEventListener('click', () => selectMap(map.id));
     body.appendChild(row);
   }
-  $('server-note').textContent = `${state.maps.length} map${state.maps.length === 1 ? '' : 's'}`;
-  // Poll while a map is being made.
-  if (state.maps.some((m) => m.state === 'MAP_STATE_CREATING')) setTimeout(loadMaps, 2000);
+  $('server-note').textContent = `${maps.length} map${maps.length === 1 ? '' : 's'}`;
 }
 
 async function selectMap(id) {
@@ -638,6 +649,7 @@ async function start() {
 window.strataViewer = {
   ready: start(),
   selectMap,
+  showMaps,
   loadTraffic,
   measureFrames: (view, seconds) => (view === 'orbit' ? orbitView : topView).measureFrames(seconds),
   state,
