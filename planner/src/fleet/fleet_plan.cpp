@@ -13,6 +13,7 @@
 
 #include "format_internal.hpp"
 #include "hold_schedule.hpp"
+#include "later_departures.hpp"
 #include "parked_robots.hpp"
 #include "replan_in_the_way.hpp"
 #include "route_guides.hpp"
@@ -59,13 +60,6 @@ constexpr double kParkedOnWayReachM = 0.4;
 // Rounds of one request that try making way at the goal at most (each plans two short legs and
 // searches the waits again).
 constexpr int kMaxMakeWayRounds = 2;
-// Later departures tried when no plan fits at the request's [s after it], by a request that may
-// replan others: the robot holds at its start until then (a wait within max_wait_s) and is
-// planned from there. The plans made for a later departure meet the others elsewhere, and so add
-// other stops, search another route or replan other robots: on fleet_benchmark most of the
-// requests refused at the departure fitted 5 or 10 s later. In commit order they doubled the plan
-// p95 at 50 robots for a few more tasks planned (docs/design.md, "Fleets", step 8).
-constexpr std::array kLaterDeparturesS = {5.0, 10.0};
 
 /// A point the route passes through: one of the request's vias, or one added (a stop to wait
 /// at, or a point of a space-time route).
@@ -736,41 +730,6 @@ Expected<FleetPlanResult> PlanAtDeparture(const PlanningMap& map, const FleetPla
       });
 }
 
-/// `later`, planned for a departure `held_s` after `request`'s, with the robot holding at its
-/// start from `request`'s departure until then: the hold joins a wait `later` begins with.
-/// None when the hold meets another robot (checked exactly against the others' committed
-/// motions, which every robot follows until then: those `later` replans take their new ones
-/// from a notice after its departure).
-std::optional<FleetPlanResult> HeldAtStart(FleetPlanResult later, double held_s,
-                                           const FleetPlanRequest& request) {
-  const Traffic traffic = TrafficOf(request);
-  Trajectory& trajectory = later.plan.trajectory;
-  if (FirstTrafficConflict(Standing(trajectory.Position(0), trajectory.dimension, traffic.body,
-                                    request.departure_ns, later.motion.start_ns),
-                           traffic.others, traffic.rule)) {
-    return std::nullopt;
-  }
-  const bool waits_at_start = !later.holds.empty() && later.holds.front().start_s == 0;
-  for (std::size_t k = waits_at_start ? 1 : 0; k < later.holds.size(); ++k) {
-    later.holds[k].start_s += held_s;
-  }
-  if (waits_at_start) {
-    trajectory.pieces.front().duration_s += held_s;
-    later.holds.front().duration_s += held_s;
-  } else {
-    trajectory.pieces.insert(trajectory.pieces.begin(),
-                             fleet_internal::RestAtStart(trajectory, held_s));
-    later.holds.insert(later.holds.begin(), FleetHold{0, held_s, trajectory.Position(0).head<3>()});
-    ++later.plan.stats.pieces;
-  }
-  later.plan.stats.duration_s += held_s;
-  for (double& via_s : later.plan.via_times_s) via_s += held_s;
-  later.wait_s += held_s;
-  later.arrival_s += held_s;
-  later.motion = traffic.MotionOf(trajectory);
-  return later;
-}
-
 }  // namespace
 
 Status ReplanOptions::Validate(std::string_view path) const {
@@ -815,32 +774,12 @@ Expected<FleetPlanResult> PlanAmongTraffic(const PlanningMap& map, const FleetPl
   // plan, made without the others, comes out the same in each.
   LegCache legs;
   Expected<FleetPlanResult> planned = PlanAtDeparture(map, request, should_stop, &legs);
-  const RobotState& start = request.plan.start;
-  if (planned || planned.error().code != ErrorCode::kReservationConflict ||
-      request.fleet.replan.max_robots == 0 || !start.velocity_mps.isZero() ||
-      !start.acceleration_mps2.isZero()) {
-    return planned;
-  }
-  for (const double held_s : kLaterDeparturesS) {
-    if (held_s > request.fleet.max_wait_s) break;
-    FleetPlanRequest later = request;
-    later.departure_ns = AddSeconds(request.departure_ns, held_s);
-    later.fleet.max_wait_s -= held_s;
-    Expected<FleetPlanResult> again = PlanAtDeparture(map, later, should_stop, &legs);
-    if (again) {
-      std::optional<FleetPlanResult> held = HeldAtStart(std::move(again).value(), held_s, request);
-      // A robot passes the start meanwhile: holding there longer meets it too.
-      if (!held) break;
-      return std::move(*held);
-    }
-    // Out of time: the refusal at the departure stands.
-    if (again.error().code == ErrorCode::kCancelled ||
-        again.error().code == ErrorCode::kDeadlineExceeded) {
-      break;
-    }
-  }
-  // The refusal at the departure names what is in the way now.
-  return planned;
+  if (planned) return planned;
+  return fleet_internal::PlanLeavingLater(request, TrafficOf(request), std::move(planned).error(),
+                                          &legs,
+                                          [&](const FleetPlanRequest& later, LegCache* cache) {
+                                            return PlanAtDeparture(map, later, should_stop, cache);
+                                          });
 }
 
 }  // namespace strata
