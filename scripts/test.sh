@@ -32,6 +32,17 @@ stage_done "the sanitised build"
  echo "test.sh: clang-tidy finished at total $SECONDS s") &
 tidy=$!
 trap 'kill $tidy 2>/dev/null || true' EXIT
+# libomp, the sanitised tree's OpenMP, registers each process that loads it in
+# /dev/shm/__KMP_REGISTERED_LIB_<pid>_<uid> and removes the file at exit. A process killed while
+# it registers (the tests kill map workers and servers) leaves the file empty, and any later
+# process given that pid aborts as it starts ("OMP: Error #15: ... found unknown library
+# already initialized"): on a machine that runs the suite again and again, a test failed so.
+# The files of processes no longer running are removed before the suite.
+for registration in /dev/shm/__KMP_REGISTERED_LIB_*_"$(id -u)"; do
+  pid=${registration#/dev/shm/__KMP_REGISTERED_LIB_}
+  pid=${pid%_*}
+  [ ! -e "$registration" ] || [ -d "/proc/$pid" ] || rm -f "$registration"
+done
 skip_fuzz=()
 [ "${STRATA_SKIP_FUZZ:-0}" != 1 ] || skip_fuzz=(-LE fuzz)
 # Sanitiser settings: tests/sanitize_defaults.cpp, server/map_worker_sanitizers.cpp.
