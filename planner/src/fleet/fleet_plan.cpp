@@ -775,8 +775,7 @@ Expected<FleetPlanResult> PlanAmongTraffic(const PlanningMap& map, const FleetPl
   LegCache legs;
   Expected<FleetPlanResult> planned = PlanAtDeparture(map, request, should_stop, &legs);
   if (planned) return planned;
-  return fleet_internal::PlanLeavingLater(request, TrafficOf(request), std::move(planned).error(),
-                                          &legs,
+  return fleet_internal::PlanLeavingLater(request, std::move(planned).error(), &legs,
                                           [&](const FleetPlanRequest& later, LegCache* cache) {
                                             return PlanAtDeparture(map, later, should_stop, cache);
                                           });

@@ -24,12 +24,11 @@ constexpr std::array kLaterDeparturesS = {5.0, 10.0};
 /// motions, which every robot follows until then: those `later` replans take their new ones
 /// from a notice after its departure).
 std::optional<FleetPlanResult> HeldAtStart(FleetPlanResult later, double held_s,
-                                           const FleetPlanRequest& request,
-                                           const Traffic& traffic) {
+                                           const FleetPlanRequest& request) {
   Trajectory& trajectory = later.plan.trajectory;
-  if (FirstTrafficConflict(Standing(trajectory.Position(0), trajectory.dimension, traffic.body,
+  if (FirstTrafficConflict(Standing(trajectory.Position(0), trajectory.dimension, later.motion.body,
                                     request.departure_ns, later.motion.start_ns),
-                           traffic.others, traffic.rule)) {
+                           request.others, request.fleet.rule)) {
     return std::nullopt;
   }
   const bool waits_at_start = !later.holds.empty() && later.holds.front().start_s == 0;
@@ -48,15 +47,17 @@ std::optional<FleetPlanResult> HeldAtStart(FleetPlanResult later, double held_s,
   for (double& via_s : later.plan.via_times_s) via_s += held_s;
   later.wait_s += held_s;
   later.arrival_s += held_s;
-  later.motion = traffic.MotionOf(trajectory);
+  // The same motion from the request's departure on: its body, rule and end (its arrival and
+  // the lease) stay as they were.
+  later.motion.start_ns = request.departure_ns;
+  later.motion.trajectory = trajectory;
   return later;
 }
 
 }  // namespace
 
-Expected<FleetPlanResult> PlanLeavingLater(const FleetPlanRequest& request, const Traffic& traffic,
-                                           Error refusal, LegCache* legs,
-                                           const DeparturePlanner& plan_at) {
+Expected<FleetPlanResult> PlanLeavingLater(const FleetPlanRequest& request, Error refusal,
+                                           LegCache* legs, const DeparturePlanner& plan_at) {
   const RobotState& start = request.plan.start;
   if (refusal.code != ErrorCode::kReservationConflict || request.fleet.replan.max_robots == 0 ||
       !start.velocity_mps.isZero() || !start.acceleration_mps2.isZero()) {
@@ -69,8 +70,7 @@ Expected<FleetPlanResult> PlanLeavingLater(const FleetPlanRequest& request, cons
     later.fleet.max_wait_s -= held_s;
     Expected<FleetPlanResult> again = plan_at(later, legs);
     if (again) {
-      std::optional<FleetPlanResult> held =
-          HeldAtStart(std::move(again).value(), held_s, request, traffic);
+      std::optional<FleetPlanResult> held = HeldAtStart(std::move(again).value(), held_s, request);
       // A robot passes the start meanwhile: holding there longer meets it too.
       if (!held) break;
       return std::move(*held);

@@ -4,7 +4,6 @@
 #include <functional>
 
 #include "strata/fleet/fleet_plan.hpp"
-#include "strata/fleet/traffic.hpp"
 #include "strata/status.hpp"
 
 namespace strata::fleet_internal {
@@ -17,13 +16,12 @@ using DeparturePlanner =
 /// `request`, refused with `refusal` at its departure, planned by `plan_at` for a departure 5 s
 /// later, then 10 s later (within fleet.max_wait_s, which the hold counts against), the robot
 /// holding at its start from its departure until then: the hold is checked exactly against
-/// `traffic.others` (`traffic` is the request's) and joins the wait the later plan begins with.
+/// `request.others` and joins the wait the later plan begins with.
 /// Tried only for a refusal for a conflict (kReservationConflict), a request that may replan
 /// others (fleet.replan.max_robots > 0) and a start at rest. `refusal` itself otherwise, and
 /// when every try is refused, a robot passes the start during the hold, or a try is cancelled
 /// or runs out of time. Tries share `legs`.
-Expected<FleetPlanResult> PlanLeavingLater(const FleetPlanRequest& request, const Traffic& traffic,
-                                           Error refusal, LegCache* legs,
-                                           const DeparturePlanner& plan_at);
+Expected<FleetPlanResult> PlanLeavingLater(const FleetPlanRequest& request, Error refusal,
+                                           LegCache* legs, const DeparturePlanner& plan_at);
 
 }  // namespace strata::fleet_internal
