@@ -307,16 +307,17 @@ FleetPlanResult WithWaits(PlanResult plan, const std::vector<Trajectory>& legs,
 /// before `last_leg`'s end is (StopBefore). None when there is none.
 std::optional<Eigen::Vector3d> PlaceToMakeWay(const PlanningMap& map, const PlanRequest& request,
                                               const PlanResult& plan, const Trajectory& last_leg,
-                                              const TrafficConflict& taken,
-                                              const Traffic& traffic) {
+                                              const TrafficConflict& taken, const Traffic& traffic,
+                                              const std::function<bool()>& should_stop) {
   const auto graph = map.Graph(request.profile.Traversability());
   if (!graph) return std::nullopt;
   const std::vector<KeepOutZone> zones = CollectKeepOut(map, request.keep_out);
-  const std::optional<AddedStop> place =
-      StopBefore(last_leg, traffic.departure_ns, taken, traffic,
-                 [&](const Eigen::Vector3d& p) -> std::optional<Eigen::Vector3d> {
-                   return StandingPoint(*graph.value(), zones, request.profile, plan.goal.node, p);
-                 });
+  const std::optional<AddedStop> place = StopBefore(
+      last_leg, traffic.departure_ns, taken, traffic,
+      [&](const Eigen::Vector3d& p) -> std::optional<Eigen::Vector3d> {
+        return StandingPoint(*graph.value(), zones, request.profile, plan.goal.node, p);
+      },
+      should_stop);
   if (!place) return std::nullopt;
   return place->position_m;
 }
@@ -412,7 +413,7 @@ std::optional<FleetPlanResult> MakeWayAtGoal(const PlanningMap& map, const PlanR
     return std::nullopt;
   }
   const std::optional<Eigen::Vector3d> place =
-      PlaceToMakeWay(map, request, plan, legs.back(), taken, traffic);
+      PlaceToMakeWay(map, request, plan, legs.back(), taken, traffic, should_stop);
   if (!place) return std::nullopt;
   StateVector aside = goal;
   aside.head<3>() = *place;
@@ -677,13 +678,17 @@ Expected<FleetPlanResult> PlanInCommitOrder(const PlanningMap& map, const FleetP
     // Looked up once for every place the stop search tries (Plan has just built the graph).
     const auto graph = map.Graph(request.plan.profile.Traversability());
     const std::vector<KeepOutZone> zones = CollectKeepOut(map, plan_request.keep_out);
-    const std::optional<AddedStop> stop =
-        StopBefore(legs[failure.leg], failure.departure_ns, *failure.conflict, traffic,
-                   [&](const Eigen::Vector3d& p) -> std::optional<Eigen::Vector3d> {
-                     if (!graph) return std::nullopt;
-                     return StandingPoint(*graph.value(), zones, request.plan.profile,
-                                          plan.value().start.node, p);
-                   });
+    const std::optional<AddedStop> stop = StopBefore(
+        legs[failure.leg], failure.departure_ns, *failure.conflict, traffic,
+        [&](const Eigen::Vector3d& p) -> std::optional<Eigen::Vector3d> {
+          if (!graph) return std::nullopt;
+          return StandingPoint(*graph.value(), zones, request.plan.profile, plan.value().start.node,
+                               p);
+        },
+        should_stop);
+    if (!stop && should_stop && should_stop()) {
+      return Error{ErrorCode::kCancelled, "the plan was cancelled while stops were looked for"};
+    }
     if (!stop) break;
     double leg_start_s = 0;
     for (std::size_t k = 0; k < failure.leg; ++k) leg_start_s += legs[k].TotalDuration();

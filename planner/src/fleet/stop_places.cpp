@@ -30,7 +30,8 @@ bool ExtentsOverlap(const VerticalExtent& a, const VerticalExtent& b) {
 std::optional<AddedStop> StopBefore(
     const Trajectory& leg, std::int64_t departure_ns, const TrafficConflict& met,
     const Traffic& traffic,
-    const std::function<std::optional<Eigen::Vector3d>(const Eigen::Vector3d&)>& stands) {
+    const std::function<std::optional<Eigen::Vector3d>(const Eigen::Vector3d&)>& stands,
+    const std::function<bool()>& should_stop) {
   const FleetMotion& other = traffic.others[met.other].motion;
   const double clear_m = traffic.body.radius_m + other.body.radius_m +
                          PairSeparationM(traffic.rule, other) + kStopClearanceM;
@@ -56,6 +57,8 @@ std::optional<AddedStop> StopBefore(
         });
   };
   for (double t = met_s; t > 0; t -= kStopSearchStepS) {
+    // Each point may snap up to 2 * kStopSideOffsetsM.size() places beside the route.
+    if (should_stop && should_stop()) return std::nullopt;
     const StateVector state = leg.Position(t);
     const Eigen::Vector3d on_route = state.head<3>();
     if ((on_route - first).norm() < kMinStopSpacingM) return std::nullopt;

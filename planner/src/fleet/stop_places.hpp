@@ -32,11 +32,13 @@ struct AddedStop {
 /// says, for that robot to pass: the leg's latest point before the meeting, or a point beside
 /// it (kStopSideOffsetsM to either side, where `stands` finds ground), that keeps
 /// kStopClearanceM more than the limit from the whole of that robot's way from the departure
-/// on; at least kMinStopSpacingM from both ends of the leg. None when there is no such place.
+/// on; at least kMinStopSpacingM from both ends of the leg. None when there is no such place,
+/// or `should_stop` (may be empty; polled at every point of the leg tried) says stop.
 std::optional<AddedStop> StopBefore(
     const Trajectory& leg, std::int64_t departure_ns, const TrafficConflict& met,
     const Traffic& traffic,
-    const std::function<std::optional<Eigen::Vector3d>(const Eigen::Vector3d&)>& stands);
+    const std::function<std::optional<Eigen::Vector3d>(const Eigen::Vector3d&)>& stands,
+    const std::function<bool()>& should_stop);
 
 /// Where a robot of `profile` would stand when stopped at `p`: p snapped onto its `graph`
 /// (as a goal is, within kStandingSnapM, also in height), connected to node `route_node`, outside
