@@ -217,6 +217,31 @@ TEST(FleetPlan, ARobotThatCannotWaitAtItsStartWaitsOnItsWayForTheLaneToClear) {
   EXPECT_DOUBLE_EQ(b.plan.stats.duration_s, b.plan.trajectory.TotalDuration());
 }
 
+// The case above stopped by its caller at every poll in turn (every few polls): each answer is
+// kCancelled, never a refusal or a plan, whatever step the plan had reached (the optimiser, the
+// exact checks, the stop search along the leg).
+TEST(FleetPlan, APlanStoppedByItsCallerAtAnyStepIsCancelled) {
+  const std::vector<ReservedMotion> others = {
+      Committed("A", Between({2, 4.5, 0.3}, {14.5, 4.5, 0.8})),
+      Committed("C", Between({13.5, 1.0, 0.8}, {13.5, 8.5, 0.8}))};
+  const FleetPlanRequest request = AmongOthers(Between({13, 7.5, 0.8}, {2, 1.5, 0.3}), others);
+  int polls = 0;
+  const Expected<FleetPlanResult> whole = PlanAmongTraffic(Site(), request, [&] {
+    ++polls;
+    return false;
+  });
+  ASSERT_TRUE(whole) << whole.error().message;
+  ASSERT_GE(whole.value().stops_added, 1) << "the case tests no stop search";
+  for (int stop_at = 1; stop_at <= polls; ++stop_at) {
+    int calls = 0;
+    const Expected<FleetPlanResult> stopped =
+        PlanAmongTraffic(Site(), request, [&] { return ++calls >= stop_at; });
+    ASSERT_FALSE(stopped) << "planned though stopped at poll " << stop_at << " of " << polls;
+    EXPECT_EQ(stopped.error().code, ErrorCode::kCancelled)
+        << "stopped at poll " << stop_at << " of " << polls << ": " << stopped.error().message;
+  }
+}
+
 TEST(FleetPlan, AtAFourWayCrossingTheLaterRobotLetsTheOtherPass) {
   const std::vector<ReservedMotion> others = {
       Committed("A", Between({0.5, 2.5, 0.3}, {5.5, 2.5, 0.3}))};
