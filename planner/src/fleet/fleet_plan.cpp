@@ -637,6 +637,9 @@ Expected<FleetPlanResult> PlanInCommitOrder(const PlanningMap& map, const FleetP
       made.plan_rounds = round + 1;
       return made;
     };
+    const auto make_way_cancelled = [] {
+      return Error{ErrorCode::kCancelled, "the plan was cancelled while making way was tried"};
+    };
     // The route reached the goal and was met there, parked: the robot makes way there.
     bool make_way_tried = false;
     if (MetWhenParked(failure, legs) && make_way_rounds < kMaxMakeWayRounds) {
@@ -647,6 +650,7 @@ Expected<FleetPlanResult> PlanInCommitOrder(const PlanningMap& map, const FleetP
                             traffic, request.fleet.max_wait_s, should_stop, &departures_checked)) {
         return made_way(std::move(*made));
       }
+      if (should_stop && should_stop()) return make_way_cancelled();
     }
     if (!space_time_tried && request.plan.via.empty()) {
       // No waits clear the route. Where this robot, parked at its goal, is met by another even
@@ -663,9 +667,7 @@ Expected<FleetPlanResult> PlanInCommitOrder(const PlanningMap& map, const FleetP
         std::optional<FleetPlanResult> made =
             MakeWayAtGoal(map, plan_request, plan.value(), route, legs, *taken, traffic,
                           request.fleet.max_wait_s, should_stop, &departures_checked);
-        if (!made && should_stop && should_stop()) {
-          return Error{ErrorCode::kCancelled, "the plan was cancelled while making way was tried"};
-        }
+        if (!made && should_stop && should_stop()) return make_way_cancelled();
         if (!made) return GoalTaken(*taken, request, latest_s);
         return made_way(std::move(*made));
       }
