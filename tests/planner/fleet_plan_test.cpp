@@ -235,7 +235,7 @@ TEST(FleetPlan, ARobotThatCannotWaitAtItsStartWaitsOnItsWayForTheLaneToClear) {
   EXPECT_DOUBLE_EQ(waited_s, b.wait_s);
   EXPECT_LE(b.wait_s, FleetPlanOptions{}.max_wait_s);
   EXPECT_DOUBLE_EQ(b.plan.stats.duration_s, b.plan.trajectory.TotalDuration());
-  // 182 polls, those of the stop search among them.
+  // Among its polls are the stop search's.
   ExpectCancelledWhereverStopped(AmongOthers(Between({13, 7.5, 0.8}, {2, 1.5, 0.3}), others));
 }
 
