@@ -5,6 +5,7 @@
 #include <cmath>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <variant>
 #include <vector>
@@ -119,6 +120,11 @@ std::vector<Trajectory> SplitAtStops(const PlanResult& plan, const std::vector<R
 
 std::string TimeText(std::int64_t from_ns, std::int64_t time_ns) {
   return fmt::format("{:.2f} s after the departure", SecondsBetween(from_ns, time_ns));
+}
+
+/// What a plan stopped by its caller answers: kCancelled, saying at which `step`.
+Error CancelledWhile(std::string_view step) {
+  return Error{ErrorCode::kCancelled, fmt::format("the plan was cancelled while {}", step)};
 }
 
 Error ParkedOnEnd(const ReservedMotion& other, const FleetPlanRequest& request,
@@ -561,6 +567,7 @@ Expected<FleetPlanResult> PlanInCommitOrder(const PlanningMap& map, const FleetP
   };
   int departures_checked = 0;
   int make_way_rounds = 0;
+  const auto stopped = [&] { return should_stop && should_stop(); };
   // The rounds replan the same legs but for the one a stop splits (and all of them when a zone
   // is added, which the cache compares).
   LegCache own_legs;
@@ -589,9 +596,7 @@ Expected<FleetPlanResult> PlanInCommitOrder(const PlanningMap& map, const FleetP
       }
       return plan.error();
     }
-    if (should_stop && should_stop()) {
-      return Error{ErrorCode::kCancelled, "the plan was cancelled while waits were tried"};
-    }
+    if (stopped()) return CancelledWhile("waits were tried");
     const FleetMotion unwaited = traffic.MotionOf(plan.value().trajectory);
     if (std::optional<TrafficConflict> met =
             FirstTrafficConflict(unwaited, traffic.others, traffic.rule)) {
@@ -637,9 +642,6 @@ Expected<FleetPlanResult> PlanInCommitOrder(const PlanningMap& map, const FleetP
       made.plan_rounds = round + 1;
       return made;
     };
-    const auto make_way_cancelled = [] {
-      return Error{ErrorCode::kCancelled, "the plan was cancelled while making way was tried"};
-    };
     // The route reached the goal and was met there, parked: the robot makes way there.
     bool make_way_tried = false;
     if (MetWhenParked(failure, legs) && make_way_rounds < kMaxMakeWayRounds) {
@@ -650,7 +652,7 @@ Expected<FleetPlanResult> PlanInCommitOrder(const PlanningMap& map, const FleetP
                             traffic, request.fleet.max_wait_s, should_stop, &departures_checked)) {
         return made_way(std::move(*made));
       }
-      if (should_stop && should_stop()) return make_way_cancelled();
+      if (stopped()) return CancelledWhile("making way was tried");
     }
     if (!space_time_tried && request.plan.via.empty()) {
       // No waits clear the route. Where this robot, parked at its goal, is met by another even
@@ -667,7 +669,7 @@ Expected<FleetPlanResult> PlanInCommitOrder(const PlanningMap& map, const FleetP
         std::optional<FleetPlanResult> made =
             MakeWayAtGoal(map, plan_request, plan.value(), route, legs, *taken, traffic,
                           request.fleet.max_wait_s, should_stop, &departures_checked);
-        if (!made && should_stop && should_stop()) return make_way_cancelled();
+        if (!made && stopped()) return CancelledWhile("making way was tried");
         if (!made) return GoalTaken(*taken, request, latest_s);
         return made_way(std::move(*made));
       }
@@ -688,9 +690,7 @@ Expected<FleetPlanResult> PlanInCommitOrder(const PlanningMap& map, const FleetP
                                p);
         },
         should_stop);
-    if (!stop && should_stop && should_stop()) {
-      return Error{ErrorCode::kCancelled, "the plan was cancelled while stops were looked for"};
-    }
+    if (!stop && stopped()) return CancelledWhile("stops were looked for");
     if (!stop) break;
     double leg_start_s = 0;
     for (std::size_t k = 0; k < failure.leg; ++k) leg_start_s += legs[k].TotalDuration();
