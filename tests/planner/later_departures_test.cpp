@@ -42,11 +42,11 @@ auto SecondsAre(std::vector<double> expected_s) {
 }
 
 /// Stands in for planning at a departure: refuses every departure earlier than `plans_from_s`
-/// after the request's, and plans the others straight to the goal. Records each try.
+/// after the request's, and plans the later ones straight to the goal. Records each try.
 struct PlansFrom {
   double plans_from_s = 0;
-  std::vector<double> tried_s;       ///< Each try's departure, after the request's [s].
-  std::vector<double> max_waits_s;   ///< Each try's fleet.max_wait_s.
+  std::vector<double> tried_s;      ///< Each try's departure, after the request's [s].
+  std::vector<double> max_waits_s;  ///< Each try's fleet.max_wait_s.
 
   Expected<FleetPlanResult> operator()(const FleetPlanRequest& later, LegCache* /*legs*/) {
     const double held_s = SecondsBetween(kDeparture, later.departure_ns);
@@ -54,8 +54,8 @@ struct PlansFrom {
     max_waits_s.push_back(later.fleet.max_wait_s);
     if (held_s < plans_from_s) return Refused("refused later");
     FleetPlanResult planned;
-    planned.plan.trajectory = test_util::MinimumJerk(later.plan.start.position_m,
-                                                     later.plan.goal.position_m, kTripS);
+    planned.plan.trajectory =
+        test_util::MinimumJerk(later.plan.start.position_m, later.plan.goal.position_m, kTripS);
     planned.plan.stats.duration_s = kTripS;
     planned.arrival_s = kTripS;
     planned.motion.start_ns = later.departure_ns;
@@ -97,10 +97,10 @@ TEST(PlanLeavingLater, APlanFoundTwentySecondsLaterHoldsTheRobotAtItsStartUntilT
   EXPECT_EQ(held.motion.start_ns, kDeparture);
   EXPECT_NEAR(held.motion.trajectory.TotalDuration(), 20 + kTripS, 1e-9);
   EXPECT_TRUE(held.motion.trajectory.Velocity(19.9).isZero(1e-12)) << "moves while it holds";
-  EXPECT_NEAR((held.motion.ReferencePointAt(AddSeconds(kDeparture, 19.9)) -
-               Eigen::Vector3d(0, 0, kZ))
-                  .norm(),
-              0, 1e-12);
+  EXPECT_NEAR(
+      (held.motion.ReferencePointAt(AddSeconds(kDeparture, 19.9)) - Eigen::Vector3d(0, 0, kZ))
+          .norm(),
+      0, 1e-12);
   EXPECT_GT(held.motion.trajectory.Velocity(25).norm(), 0.1) << "not under way after the hold";
 }
 
