@@ -17,9 +17,9 @@ namespace {
 // later, and 20 and 30 s planned most of the rest (garage, 50 robots: 97.7-98.2% of the
 // requests planned with 5 and 10 s, 99.4-99.7% with all four). Only requests refused at every
 // earlier try reach the later ones, so the plan p95 stayed as it was on most runs; a request
-// they all refuse costs the more (up to 6.5 s). In commit order the tries doubled that p95 at
-// 50 robots for a few more tasks planned, so only a request that may replan others tries them
-// (docs/design.md, "Fleets", step 8).
+// they all refuse costs the more (up to 6 s on fleet_benchmark). In commit order the tries
+// doubled that p95 at 50 robots for a few more tasks planned, so only a request that may
+// replan others tries them (docs/design.md, "Fleets", step 8).
 constexpr std::array kLaterDeparturesS = {5.0, 10.0, 20.0, 30.0};
 
 /// `later`, planned for a departure `held_s` after `request`'s, with the robot holding at its
