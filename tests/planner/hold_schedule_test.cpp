@@ -11,8 +11,12 @@
 
 #include <gtest/gtest.h>
 
+#include "test_util/reserved_motions.hpp"
+
 namespace strata::fleet_internal {
 namespace {
+
+using test_util::Reserved;
 
 constexpr std::int64_t kDeparture = 1'795'000'000'000'000'000;  // A time in 2026 [ns].
 constexpr double kZ = 0.3;                                      // Reference height on a floor.
@@ -38,15 +42,6 @@ Trajectory Of(std::vector<TrajectoryPiece> pieces) {
   return trajectory;
 }
 
-ReservedMotion Other(const std::string& robot, std::int64_t start_ns, Trajectory trajectory) {
-  ReservedMotion other;
-  other.robot_id = robot;
-  other.motion.start_ns = start_ns;
-  other.motion.trajectory = std::move(trajectory);
-  other.motion.end_ns = AddSeconds(other.motion.ArrivalNs(), 600);
-  return other;
-}
-
 /// The route: (0, 0) to a stop at (5, 0), then on to (10, 0), 5 s each. Robot "passer"
 /// crosses the start 3.5 s after the departure; robot "stander" stands at (7.5, 0) for 15 s,
 /// then leaves to (7.5, 10). Leaving at once meets the stander; waiting at the start meets the
@@ -55,9 +50,9 @@ struct Crossing {
   std::vector<Trajectory> legs = {Of({Straight({0, 0}, {5, 0}, 5)}),
                                   Of({Straight({5, 0}, {10, 0}, 5)})};
   std::vector<ReservedMotion> others = {
-      Other("passer", AddSeconds(kDeparture, 0.5), Of({Straight({0, -6}, {0, 6}, 6)})),
-      Other("stander", kDeparture,
-            Of({RestAt(Eigen::Vector3d(7.5, 0, kZ), 15), Straight({7.5, 0}, {7.5, 10}, 10)}))};
+      Reserved("passer", AddSeconds(kDeparture, 0.5), Of({Straight({0, -6}, {0, 6}, 6)})),
+      Reserved("stander", kDeparture,
+               Of({RestAt(Eigen::Vector3d(7.5, 0, kZ), 15), Straight({7.5, 0}, {7.5, 10}, 10)}))};
   Traffic traffic;
   Crossing() {
     traffic.departure_ns = kDeparture;
@@ -129,7 +124,7 @@ TEST(HoldSchedule, ARobotAlreadyMovingLeavesItsStartAtOnce) {
   Crossing c;
   // The passer crosses just ahead of the start 1.2 s in: only a wait at the start clears it.
   c.others[0] =
-      Other("passer", AddSeconds(kDeparture, -1.8), Of({Straight({0.8, -6}, {0.8, 6}, 6)}));
+      Reserved("passer", AddSeconds(kDeparture, -1.8), Of({Straight({0.8, -6}, {0.8, 6}, 6)}));
   c.others.pop_back();
   c.traffic.others = c.others;
   EXPECT_TRUE(

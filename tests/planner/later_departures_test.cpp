@@ -12,6 +12,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "test_util/reserved_motions.hpp"
 #include "test_util/trajectory_builders.hpp"
 
 namespace strata::fleet_internal {
@@ -106,13 +107,9 @@ TEST(PlanLeavingLater, APlanFoundTwentySecondsLaterHoldsTheRobotAtItsStartUntilT
 
 TEST(PlanLeavingLater, ARobotPassingTheStartDuringTheHoldEndsTheTries) {
   // A robot drives along x = 0 across the start, at y = 0 about 15 s after the departure.
-  ReservedMotion crosser;
-  crosser.robot_id = "crosser";
-  crosser.motion.start_ns = AddSeconds(kDeparture, 10);
-  crosser.motion.trajectory =
-      test_util::MinimumJerk(Eigen::Vector3d(0, -10, kZ), Eigen::Vector3d(0, 10, kZ), 10);
-  crosser.motion.end_ns = AddSeconds(crosser.motion.ArrivalNs(), 600);
-  const std::vector<ReservedMotion> others = {crosser};
+  const std::vector<ReservedMotion> others = {test_util::Reserved(
+      "crosser", AddSeconds(kDeparture, 10),
+      test_util::MinimumJerk(Eigen::Vector3d(0, -10, kZ), Eigen::Vector3d(0, 10, kZ), 10))};
   FleetPlanRequest request = Request(60);
   request.others = others;
 

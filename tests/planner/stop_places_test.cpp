@@ -10,6 +10,7 @@
 
 #include <gtest/gtest.h>
 
+#include "test_util/reserved_motions.hpp"
 #include "test_util/trajectory_builders.hpp"
 
 namespace strata::fleet_internal {
@@ -28,13 +29,10 @@ struct Crossed {
   Traffic traffic;
   std::optional<TrafficConflict> met;
   Crossed() {
-    ReservedMotion crosser;
-    crosser.robot_id = "crosser";
-    crosser.motion.start_ns = kDeparture;
-    crosser.motion.trajectory = test_util::MinimumJerk(Eigen::Vector3d(kCrossingX, -10, kZ),
-                                                       Eigen::Vector3d(kCrossingX, 10, kZ), 13.2);
-    crosser.motion.end_ns = AddSeconds(crosser.motion.ArrivalNs(), 600);
-    others = {crosser};
+    others = {
+        test_util::Reserved("crosser", kDeparture,
+                            test_util::MinimumJerk(Eigen::Vector3d(kCrossingX, -10, kZ),
+                                                   Eigen::Vector3d(kCrossingX, 10, kZ), 13.2))};
     traffic.departure_ns = kDeparture;
     traffic.parked_until_ns = AddSeconds(kDeparture, 600);
     traffic.others = others;

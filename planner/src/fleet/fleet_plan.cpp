@@ -636,23 +636,30 @@ Expected<FleetPlanResult> PlanInCommitOrder(const PlanningMap& map, const FleetP
     }
     const auto& failure = std::get<fleet_internal::HoldFailure>(scheduled);
     departures_checked += failure.departures_checked;
-    const auto made_way = [&](FleetPlanResult made) {
-      made.parked_robots_avoided = zoned_count();
-      made.departures_checked = departures_checked;
-      made.plan_rounds = round + 1;
-      return made;
+    // Makes way at the goal for the robot that meets this one there (`taken`), one of
+    // kMaxMakeWayRounds: the plan that does, the answer to a caller that stopped it, or none.
+    const auto make_way =
+        [&](const TrafficConflict& taken) -> std::optional<Expected<FleetPlanResult>> {
+      ++make_way_rounds;
+      std::optional<FleetPlanResult> made =
+          MakeWayAtGoal(map, plan_request, plan.value(), route, legs, taken, traffic,
+                        request.fleet.max_wait_s, should_stop, &departures_checked);
+      if (!made) {
+        if (stopped()) return Expected<FleetPlanResult>(CancelledWhile("making way was tried"));
+        return std::nullopt;
+      }
+      made->parked_robots_avoided = zoned_count();
+      made->departures_checked = departures_checked;
+      made->plan_rounds = round + 1;
+      return Expected<FleetPlanResult>(std::move(*made));
     };
     // The route reached the goal and was met there, parked: the robot makes way there.
     bool make_way_tried = false;
     if (MetWhenParked(failure, legs) && make_way_rounds < kMaxMakeWayRounds) {
-      ++make_way_rounds;
       make_way_tried = true;
-      if (std::optional<FleetPlanResult> made =
-              MakeWayAtGoal(map, plan_request, plan.value(), route, legs, *failure.conflict,
-                            traffic, request.fleet.max_wait_s, should_stop, &departures_checked)) {
-        return made_way(std::move(*made));
+      if (std::optional<Expected<FleetPlanResult>> answer = make_way(*failure.conflict)) {
+        return std::move(*answer);
       }
-      if (stopped()) return CancelledWhile("making way was tried");
     }
     if (!space_time_tried && request.plan.via.empty()) {
       // No waits clear the route. Where this robot, parked at its goal, is met by another even
@@ -662,16 +669,12 @@ Expected<FleetPlanResult> PlanInCommitOrder(const PlanningMap& map, const FleetP
       if (std::optional<TrafficConflict> taken =
               GoalTakenLater(plan.value().trajectory, traffic, latest_s)) {
         // A robot that passes the goal later: this one arrives, and makes way for it there.
-        if (make_way_tried || make_way_rounds >= kMaxMakeWayRounds) {
-          return GoalTaken(*taken, request, latest_s);
+        if (!make_way_tried && make_way_rounds < kMaxMakeWayRounds) {
+          if (std::optional<Expected<FleetPlanResult>> answer = make_way(*taken)) {
+            return std::move(*answer);
+          }
         }
-        ++make_way_rounds;
-        std::optional<FleetPlanResult> made =
-            MakeWayAtGoal(map, plan_request, plan.value(), route, legs, *taken, traffic,
-                          request.fleet.max_wait_s, should_stop, &departures_checked);
-        if (!made && stopped()) return CancelledWhile("making way was tried");
-        if (!made) return GoalTaken(*taken, request, latest_s);
-        return made_way(std::move(*made));
+        return GoalTaken(*taken, request, latest_s);
       }
       if (search_route(plan.value())) {
         if (zone_error) return *zone_error;
