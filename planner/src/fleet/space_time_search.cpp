@@ -8,6 +8,8 @@
 #include <unordered_map>
 #include <utility>
 
+#include <Eigen/Geometry>
+
 namespace strata::fleet_internal {
 namespace {
 
@@ -28,6 +30,11 @@ struct Sweep {
   double reach_m = 0;  ///< The two bodies' radii, the separation and the margin [m].
   double bottom_m = 0;
   double top_m = 0;
+
+  /// The segment's box widened by its reach: the points it may reach lie inside.
+  Eigen::AlignedBox2d ReachBox() const {
+    return {p0.cwiseMin(p1).array() - reach_m, p0.cwiseMax(p1).array() + reach_m};
+  }
 };
 
 struct SafeInterval {
@@ -107,8 +114,9 @@ class OthersWays {
   }
 
   void File(const Sweep& sweep) {
-    const Eigen::Vector2d lo = sweep.p0.cwiseMin(sweep.p1).array() - sweep.reach_m;
-    const Eigen::Vector2d hi = sweep.p0.cwiseMax(sweep.p1).array() + sweep.reach_m;
+    const Eigen::AlignedBox2d box = sweep.ReachBox();
+    const Eigen::Vector2d& lo = box.min();
+    const Eigen::Vector2d& hi = box.max();
     const auto k = static_cast<std::int32_t>(sweeps_.size());
     sweeps_.push_back(sweep);
     for (std::int64_t bz = Bucket(sweep.bottom_m); bz <= Bucket(sweep.top_m); ++bz) {
@@ -132,13 +140,8 @@ bool Reaches(const Sweep& sweep, const Eigen::Vector2d& c) {
   // Most stretches filed with a node's bucket pass out of its reach (about four in five on the
   // spiral at 50 robots): the segment's box, widened by the reach, turns them away before the
   // projection and its division (the space-time search 16% faster, the same routes).
+  if (!sweep.ReachBox().contains(c)) return false;
   const double r = sweep.reach_m;
-  if (c.x() < std::min(sweep.p0.x(), sweep.p1.x()) - r ||
-      c.x() > std::max(sweep.p0.x(), sweep.p1.x()) + r ||
-      c.y() < std::min(sweep.p0.y(), sweep.p1.y()) - r ||
-      c.y() > std::max(sweep.p0.y(), sweep.p1.y()) + r) {
-    return false;
-  }
   const Eigen::Vector2d ab = sweep.p1 - sweep.p0;
   const double ab2 = ab.squaredNorm();
   const double u = ab2 > 0 ? std::clamp((c - sweep.p0).dot(ab) / ab2, 0.0, 1.0) : 0.0;
